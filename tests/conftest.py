@@ -1,0 +1,29 @@
+"""Shared pytest options and fixtures.
+
+Hardware tests skip unless the address of real hardware is given on the
+command line (the pymeasure convention): ``--robot-host`` for a Universal
+Robots controller, ``--tracker-url`` for a laser tracker (any pyserial URL).
+"""
+
+import pytest
+
+
+def pytest_addoption(parser):
+    parser.addoption("--robot-host", default=None, help="IP of a real UR controller")
+    parser.addoption("--tracker-url", default=None, help="pyserial URL of a real tracker")
+
+
+@pytest.fixture
+def robot_host(request):
+    host = request.config.getoption("--robot-host")
+    if not host:
+        pytest.skip("needs --robot-host")
+    return host
+
+
+@pytest.fixture
+def tracker_url(request):
+    url = request.config.getoption("--tracker-url")
+    if not url:
+        pytest.skip("needs --tracker-url")
+    return url
