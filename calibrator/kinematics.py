@@ -1,0 +1,193 @@
+"""Hayati-modified DH (MDH) kinematics, batched over poses and parameter sets.
+
+One link of the MDH model (seed 003, eq. 1) is::
+
+    A_i = Rz(theta_i + q_i) . Tz(d_i) . Tx(a_i) . Rx(alpha_i) . Ry(beta_i)
+
+and the flange pose in the robot base frame is ``base2flange = A_1 ... A_6``.
+A parameter table has shape ``(..., 6, 5)`` with columns
+``[a_mm, alpha_rad, theta_rad, d_mm, beta_rad]`` (see :data:`COLUMNS`);
+the leading ``...`` is any batch of parameter sets (e.g. a particle swarm).
+Joint angles have shape ``(N, 6)`` in radians. Lengths are millimetres.
+
+Every function here is a plain function on numpy arrays with no loop over
+poses or parameter sets: the only Python loop is over the six links.
+"""
+
+import numpy as np
+
+#: Column order of an MDH parameter table.
+COLUMNS = ("a", "alpha", "theta", "d", "beta")
+#: Units of the columns of an MDH parameter table, in :data:`COLUMNS` order.
+UNITS = ("mm", "rad", "rad", "mm", "rad")
+A, ALPHA, THETA, D, BETA = range(5)
+N_JOINTS = 6
+
+
+def check_mdh(mdh):
+    """Return ``mdh`` as a float array of shape ``(..., 6, 5)`` or raise ValueError."""
+    mdh = np.asarray(mdh, dtype=float)
+    if mdh.ndim < 2 or mdh.shape[-2:] != (N_JOINTS, 5):
+        raise ValueError(f"MDH table must have shape (..., 6, 5), got {mdh.shape}")
+    return mdh
+
+
+def check_joints(q):
+    """Return ``q`` as a float array of shape ``(N, 6)`` (rad) or raise ValueError."""
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        q = q[np.newaxis]
+    if q.ndim != 2 or q.shape[1] != N_JOINTS:
+        raise ValueError(f"joint angles must have shape (N, 6), got {q.shape}")
+    return q
+
+
+def link_constants(mdh):
+    """The pose-independent part of each link, ``Tz(d) Tx(a) Rx(alpha) Ry(beta)``.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (..., 6, 5)
+        MDH tables (mm, rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 6, 4, 4)
+        Homogeneous transforms (mm) from the frame after ``Rz(theta_i + q_i)``
+        to link frame i.
+    """
+    mdh = check_mdh(mdh)
+    ca, sa = np.cos(mdh[..., ALPHA]), np.sin(mdh[..., ALPHA])
+    cb, sb = np.cos(mdh[..., BETA]), np.sin(mdh[..., BETA])
+    out = np.zeros(mdh.shape[:-1] + (4, 4))
+    # Rx(alpha) @ Ry(beta), written out.
+    out[..., 0, 0] = cb
+    out[..., 0, 2] = sb
+    out[..., 1, 0] = sa * sb
+    out[..., 1, 1] = ca
+    out[..., 1, 2] = -sa * cb
+    out[..., 2, 0] = -ca * sb
+    out[..., 2, 1] = sa
+    out[..., 2, 2] = ca * cb
+    out[..., 0, 3] = mdh[..., A]
+    out[..., 2, 3] = mdh[..., D]
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def joint_phases(mdh, q):
+    """``exp(-1j * (theta_i + q_i))`` for every parameter set, pose and joint.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (..., 6, 5)
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+
+    Returns
+    -------
+    ndarray of complex, shape (..., N, 6)
+    """
+    mdh = check_mdh(mdh)
+    q = check_joints(q)
+    angle = mdh[..., np.newaxis, :, THETA] + q
+    return np.exp(-1j * angle)
+
+
+def _rotate_z_right(t, phase):
+    """In place, ``t <- t @ Rz(phi)`` for stacked 4x4 ``t``, given ``exp(-1j*phi)``.
+
+    ``t @ Rz(phi)`` mixes only columns 0 and 1; with the pair stored side by
+    side, ``col0 + 1j*col1`` times ``exp(-1j*phi)`` is exactly that rotation.
+    One complex multiply replaces building and multiplying a 4x4 matrix.
+    """
+    t.view(np.complex128)[..., 0] *= phase[..., np.newaxis]
+
+
+def chain(mdh, q, *, all_frames=False):
+    """Forward kinematics of the arm, base to flange.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (..., 6, 5)
+        MDH tables (mm, rad); ``...`` is a batch of parameter sets.
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+    all_frames : bool
+        Also return the frame of every link.
+
+    Returns
+    -------
+    base2flange : ndarray, shape (..., N, 4, 4)
+        Flange pose in the robot base frame (mm).
+    frames : ndarray, shape (..., N, 7, 4, 4)
+        Only with ``all_frames``: ``frames[..., i, :, :]`` is ``A_1 ... A_i``
+        (index 0 is the identity, index 6 the flange).
+    """
+    mdh = check_mdh(mdh)
+    q = check_joints(q)
+    consts = link_constants(mdh)
+    phases = joint_phases(mdh, q)
+    batch = mdh.shape[:-2] + (q.shape[0],)
+    t = np.broadcast_to(np.eye(4), batch + (4, 4)).copy()
+    frames = [t.copy()] if all_frames else None
+    for i in range(N_JOINTS):
+        _rotate_z_right(t, phases[..., i])
+        t = t @ consts[..., np.newaxis, i, :, :]
+        if all_frames:
+            frames.append(t)
+    if all_frames:
+        return t, np.stack(frames, axis=-3)
+    return t
+
+
+def forward(mdh, q, flange2tool=None, base2tracker=None):
+    """Tool pose for each parameter set and pose: ``base2tracker . A_1...A_6 . flange2tool``.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (..., 6, 5)
+        MDH tables (mm, rad).
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+    flange2tool : array_like, shape (..., 4, 4), optional
+        Tool frame in the flange frame (mm); identity if omitted.
+    base2tracker : array_like, shape (..., 4, 4), optional
+        Robot base frame in the tracker frame (mm); identity if omitted.
+
+    Returns
+    -------
+    ndarray, shape (..., N, 4, 4)
+        Tool pose in the tracker frame (the base frame without ``base2tracker``).
+    """
+    t = chain(mdh, q)
+    if flange2tool is not None:
+        t = t @ np.asarray(flange2tool, dtype=float)[..., np.newaxis, :, :]
+    if base2tracker is not None:
+        t = np.asarray(base2tracker, dtype=float)[..., np.newaxis, :, :] @ t
+    return t
+
+
+def parallel_axes(mdh, tol=1e-6):
+    """Which consecutive joint axes are parallel in a nominal table.
+
+    Axis i+1 is parallel to axis i when ``alpha_i`` (and ``beta_i``) is 0 or
+    pi; there ``d_i`` slides the common normal along parallel axes and is not
+    identifiable, and Hayati's ``beta_i`` is identified instead.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (6, 5)
+    tol : float
+        Tolerance on the angle between the axes (rad).
+
+    Returns
+    -------
+    ndarray of bool, shape (5,)
+        Element i-1 tells whether axes i and i+1 are parallel (i = 1..5).
+    """
+    mdh = check_mdh(mdh)
+    consts = link_constants(mdh[..., :5, :])
+    # z axis of link frame i expressed in the frame after Rz: third column.
+    cos_angle = np.abs(consts[..., 2, 2])
+    return cos_angle > np.cos(tol)

@@ -1,0 +1,103 @@
+"""Named robot models: nominal MDH tables and joint limits.
+
+Tables use the columns of :data:`calibrator.kinematics.COLUMNS`
+(``a_mm, alpha_rad, theta_rad, d_mm, beta_rad``), the robot base frame at
+joint 1 and the flange frame at the end of link 6.
+
+Sources
+-------
+``er10l-c10``
+    Seed 003, the ER10L-C10 nominal table (a, alpha, theta, d). Its joint
+    range is the seed's simulation range, [-pi, pi] on every joint (the
+    manufacturer's limits are not in the paper).
+``ur5e``, ``ur10e``
+    Universal Robots' published DH parameters (standard DH, which is MDH with
+    beta = 0); joint limits and speeds from UR's ROS 2 description
+    (``shared/reference/*_joint_limits.yaml``).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibrator.errors import CalibrationError
+
+_DEG = np.pi / 180.0
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A named arm.
+
+    Attributes
+    ----------
+    name : str
+    mdh : ndarray, shape (6, 5)
+        Nominal MDH table (mm, rad).
+    joint_limits_rad : ndarray, shape (6, 2)
+        ``[min, max]`` joint angle per joint (rad).
+    max_joint_speed_rad_s : ndarray, shape (6,)
+        Joint speed limits (rad/s).
+    """
+
+    name: str
+    mdh: np.ndarray
+    joint_limits_rad: np.ndarray
+    max_joint_speed_rad_s: np.ndarray
+
+    def __post_init__(self):
+        for field in ("mdh", "joint_limits_rad", "max_joint_speed_rad_s"):
+            value = np.array(getattr(self, field), dtype=float)
+            value.setflags(write=False)
+            object.__setattr__(self, field, value)
+
+
+def _mdh(a, alpha_deg, theta_deg, d):
+    table = np.zeros((6, 5))
+    table[:, 0] = a
+    table[:, 1] = np.asarray(alpha_deg) * _DEG
+    table[:, 2] = np.asarray(theta_deg) * _DEG
+    table[:, 3] = d
+    return table
+
+
+def _ur(d1, a2, a3, d4, d5, d6, speeds_deg):
+    return dict(
+        mdh=_mdh([0, a2, a3, 0, 0, 0], [90, 0, 0, 90, -90, 0], [0] * 6, [d1, 0, 0, d4, d5, d6]),
+        # Elbow limited to +-pi by construction; the other joints turn +-2 pi.
+        joint_limits_rad=np.array([[-2, 2], [-2, 2], [-1, 1], [-2, 2], [-2, 2], [-2, 2]]) * np.pi,
+        max_joint_speed_rad_s=np.asarray(speeds_deg) * _DEG,
+    )
+
+
+_MODELS = {
+    "er10l-c10": dict(
+        mdh=_mdh(
+            [170, 780, 140, 0, 0, 0],
+            [-90, 0, -90, 90, -90, 0],
+            [0, -90, 0, 0, 0, 0],
+            [0, 0, 0, 1060, 0, 125],
+        ),
+        joint_limits_rad=np.tile([-np.pi, np.pi], (6, 1)),
+        max_joint_speed_rad_s=np.full(6, 180 * _DEG),
+    ),
+    "ur5e": _ur(162.5, -425.0, -392.2, 133.3, 99.7, 99.6, [180] * 6),
+    "ur10e": _ur(180.7, -612.7, -571.55, 174.15, 119.85, 116.55, [120, 120, 180, 180, 180, 180]),
+}
+
+#: Names accepted by :func:`get_model`.
+MODEL_NAMES = tuple(sorted(_MODELS))
+
+
+def get_model(name):
+    """Return the :class:`RobotModel` called ``name`` (case-insensitive).
+
+    Raises
+    ------
+    CalibrationError
+        If no model has that name.
+    """
+    key = str(name).strip().lower()
+    if key not in _MODELS:
+        raise CalibrationError(f"unknown model {name!r}; known: {', '.join(MODEL_NAMES)}")
+    return RobotModel(name=key, **_MODELS[key])
