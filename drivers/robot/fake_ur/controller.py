@@ -1,0 +1,369 @@
+"""The fake controller's state: a 6-joint arm, safety flags and the control script's register loop.
+
+One :class:`FakeController` is shared by the RTDE, dashboard and script servers
+of the fake. :meth:`FakeController.tick` runs at the controller period
+(2 ms) and does what ``rtde_control.script`` does each ``sync()``: it reads
+the command register the client wrote, executes the command and answers on the
+output registers. Motion is simulated time; ``time_scale`` makes it run faster
+than the wall clock so tests stay short.
+
+Register protocol (ur-rtde 1.6.5): ``output_int_register_0`` is 1 when the script
+is ready for a command and 2 when it has finished one; the client then writes
+NO_CMD (0) and the script answers ready again.
+"""
+
+import threading
+import time
+
+import numpy as np
+
+# runtime_state values (UR RTDE guide)
+RUNTIME_STOPPED = 1
+RUNTIME_PLAYING = 2
+
+# safety_status_bits
+SAFETY_NORMAL = 1 << 0
+SAFETY_PROTECTIVE_STOPPED = 1 << 2
+SAFETY_EMERGENCY_STOPPED = 1 << 7
+
+# robot_status_bits: bit 0 power on, bit 1 program running
+STATUS_POWER_ON = 1 << 0
+STATUS_PROGRAM_RUNNING = 1 << 1
+
+# control script commands (RTDE::RobotCommand::Type in ur-rtde)
+CMD_NO_CMD = 0
+CMD_MOVEJ = 1
+CMD_PROTECTIVE_STOP = 31
+CMD_STOPL = 33
+CMD_STOPJ = 34
+CMD_IS_STEADY = 47
+CMD_STOP_SCRIPT = 255
+# commands the script treats as real-time: processed without the done handshake
+REALTIME_CMDS = {24, 11, 9, 10, 6, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71}
+
+READY = 1
+DONE = 2
+
+# A plausible UR5e pose away from singularities (rad).
+HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
+
+# UR5e nominal DH (metres, rad) for actual_TCP_pose, so clients that read it get
+# a consistent, non-zero pose.
+_UR5E_DH = np.array([
+    # a, d, alpha
+    [0.0, 0.1625, np.pi / 2],
+    [-0.425, 0.0, 0.0],
+    [-0.3922, 0.0, 0.0],
+    [0.0, 0.1333, np.pi / 2],
+    [0.0, 0.0997, -np.pi / 2],
+    [0.0, 0.0996, 0.0],
+])
+
+
+def tcp_pose(q):
+    """Flange pose of a nominal UR5e as UR reports it: ``[x, y, z, rx, ry, rz]`` (m, rot. vector).
+
+    Parameters
+    ----------
+    q : ndarray, shape (6,)
+        Joint angles, rad.
+    """
+    t = np.eye(4)
+    for (a, d, alpha), theta in zip(_UR5E_DH, q, strict=True):
+        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+        t = t @ np.array([[ct, -st * ca, st * sa, a * ct],
+                          [st, ct * ca, -ct * sa, a * st],
+                          [0.0, sa, ca, d],
+                          [0.0, 0.0, 0.0, 1.0]])
+    r = t[:3, :3]
+    angle = np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
+    if angle < 1e-9:
+        rotvec = np.zeros(3)
+    elif np.pi - angle < 1e-6:
+        # near pi the antisymmetric part vanishes; take the axis from the diagonal
+        axis = np.sqrt(np.clip((np.diag(r) + 1.0) / 2.0, 0.0, None))
+        rotvec = axis * angle
+    else:
+        axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+        rotvec = axis / (2.0 * np.sin(angle)) * angle
+    return np.concatenate([t[:3, 3], rotvec])
+
+
+class _JointMove:
+    """A synchronised joint move: trapezoidal profile on the leading joint, others scaled.
+
+    Like URScript ``movej``: every joint starts and stops together, the joint
+    with the largest travel moves at ``speed``/``accel``.
+    """
+
+    def __init__(self, q0, q1, speed, accel):
+        self.q0 = np.asarray(q0, float)
+        self.delta = np.asarray(q1, float) - self.q0
+        self.length = float(np.max(np.abs(self.delta)))
+        speed = max(float(speed), 1e-6)
+        accel = max(float(accel), 1e-6)
+        t_acc = speed / accel
+        if accel * t_acc**2 >= self.length:  # never reaches full speed: triangular
+            t_acc = np.sqrt(self.length / accel) if self.length > 0 else 0.0
+            speed = accel * t_acc
+        self.speed, self.accel, self.t_acc = speed, accel, t_acc
+        cruise = (self.length - accel * t_acc**2) / speed if self.length > 0 else 0.0
+        self.duration = 2 * t_acc + max(cruise, 0.0)
+        self.t = 0.0
+
+    @property
+    def finished(self):
+        return self.t >= self.duration
+
+    def advance(self, dt):
+        """Advance by ``dt`` seconds of simulated time; returns ``(q, qd)`` in rad, rad/s."""
+        self.t = min(self.t + dt, self.duration)
+        if self.length == 0:
+            return self.q0 + self.delta, np.zeros(6)
+        t, a, ta, v, dur = self.t, self.accel, self.t_acc, self.speed, self.duration
+        if t < ta:
+            s, sd = 0.5 * a * t**2, a * t
+        elif t <= dur - ta:
+            s, sd = 0.5 * a * ta**2 + v * (t - ta), v
+        else:
+            rest = dur - t
+            s, sd = self.length - 0.5 * a * rest**2, a * rest
+        direction = self.delta / self.length
+        return self.q0 + direction * s, direction * sd
+
+
+class FakeController:
+    """State of the fake UR controller, advanced by :meth:`tick`.
+
+    Parameters
+    ----------
+    time_scale : float
+        Simulated seconds per wall-clock second for motion (10 = moves run ten
+        times faster than on a robot).
+    initial_q : array_like, shape (6,), optional
+        Starting joint angles, rad. Default :data:`HOME_Q`.
+    """
+
+    period_s = 0.002  # 500 Hz, as an e-Series controller
+
+    def __init__(self, time_scale=1.0, initial_q=None):
+        if time_scale <= 0:
+            raise ValueError(f"time_scale must be > 0, got {time_scale}")
+        self.time_scale = float(time_scale)
+        self.lock = threading.RLock()
+        self.q = np.array(HOME_Q if initial_q is None else initial_q, dtype=float)
+        self.qd = np.zeros(6)
+        self.target_q = self.q.copy()
+        self._move = None
+        self._move_is_sync = False  # a sync movej holds the script until it ends
+        self._busy = False
+        self._executing_cmd = False
+        self.runtime_state = RUNTIME_STOPPED
+        self.safety_bits = SAFETY_NORMAL
+        self.reg_offset = 0
+        self.out_int = np.zeros(48, dtype=np.int64)
+        self.out_double = np.zeros(48)
+        self.in_int = np.zeros(48, dtype=np.int64)
+        self.in_double = np.zeros(48)
+        self._async_wr_count = 0
+        self._async_op_id = 0
+        self._t0 = time.monotonic()
+        self.stalled = False  # test hook: stop streaming, keep sockets open
+        self.log = []  # commands executed, for the fake's own tests
+
+    # ----------------------------------------------------------------- state
+    def timestamp(self):
+        """Controller time since start, s (the RTDE ``timestamp``)."""
+        return time.monotonic() - self._t0
+
+    def snapshot(self):
+        """Values of the outputs a client may request, by RTDE name (units as UR: m, rad)."""
+        with self.lock:
+            playing = self.runtime_state == RUNTIME_PLAYING
+            values = {
+                "timestamp": self.timestamp(),
+                "actual_q": tuple(self.q),
+                "target_q": tuple(self.target_q),
+                "actual_qd": tuple(self.qd),
+                "target_qd": tuple(self.qd),
+                "actual_TCP_pose": tuple(tcp_pose(self.q)),
+                "target_TCP_pose": tuple(tcp_pose(self.target_q)),
+                "runtime_state": self.runtime_state,
+                "robot_mode": 7,  # RUNNING
+                "joint_mode": (253,) * 6,  # JOINT_RUNNING_MODE
+                "safety_mode": self._safety_mode(),
+                "safety_status": self._safety_mode(),
+                "safety_status_bits": self.safety_bits,
+                "robot_status_bits": STATUS_POWER_ON | (STATUS_PROGRAM_RUNNING if playing else 0),
+                "speed_scaling": 1.0,
+                "target_speed_fraction": 1.0,
+            }
+            for i in range(48):
+                values[f"output_int_register_{i}"] = int(self.out_int[i])
+                values[f"output_double_register_{i}"] = float(self.out_double[i])
+                values[f"input_int_register_{i}"] = int(self.in_int[i])
+                values[f"input_double_register_{i}"] = float(self.in_double[i])
+        return values
+
+    def _safety_mode(self):
+        if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
+            return 7  # ROBOT_EMERGENCY_STOP
+        if self.safety_bits & SAFETY_PROTECTIVE_STOPPED:
+            return 3  # PROTECTIVE_STOP
+        return 1  # NORMAL
+
+    @property
+    def moving(self):
+        return self._move is not None
+
+    def write_inputs(self, values):
+        """Store input registers the client sent (``{"input_int_register_3": 7, ...}``)."""
+        with self.lock:
+            for name, value in values.items():
+                kind, _, index = name.rpartition("_")
+                if not index.isdigit() or int(index) >= 48:
+                    continue
+                if kind == "input_int_register":
+                    self.in_int[int(index)] = value
+                elif kind == "input_double_register":
+                    self.in_double[int(index)] = value
+
+    # ------------------------------------------------------------- programs
+    def start_program(self, reg_offset=0):
+        """A ``def rtde_control():`` program arrived on the script port: start its loop."""
+        with self.lock:
+            self._halt()
+            self.reg_offset = int(reg_offset)
+            self._executing_cmd = False
+            self._busy = False
+            self.runtime_state = RUNTIME_PLAYING
+            self._write_async_progress(-1)
+            self._out_int(0, READY)
+            self.log.append("program started")
+
+    def stop_program(self):
+        """Dashboard ``stop`` or STOP_SCRIPT: the program ends and the arm halts."""
+        with self.lock:
+            self._halt()
+            self.runtime_state = RUNTIME_STOPPED
+            self._busy = False
+            self._executing_cmd = False
+            self.log.append("program stopped")
+
+    def protective_stop(self):
+        """Safety system trips: the arm halts, the program stops, bit 2 is raised."""
+        with self.lock:
+            self.stop_program()
+            self.safety_bits = (self.safety_bits | SAFETY_PROTECTIVE_STOPPED) & ~SAFETY_NORMAL
+            self.log.append("protective stop")
+
+    def emergency_stop(self):
+        """E-stop pressed: like a protective stop, flagged with bit 7."""
+        with self.lock:
+            self.stop_program()
+            self.safety_bits = (self.safety_bits | SAFETY_EMERGENCY_STOPPED) & ~SAFETY_NORMAL
+            self.log.append("emergency stop")
+
+    def release_emergency_stop(self):
+        with self.lock:
+            self.safety_bits &= ~SAFETY_EMERGENCY_STOPPED
+            if not self.safety_bits & SAFETY_PROTECTIVE_STOPPED:
+                self.safety_bits |= SAFETY_NORMAL
+
+    def unlock_protective_stop(self):
+        """Dashboard ``unlock protective stop``; refused while e-stopped. Returns the reply line."""
+        with self.lock:
+            if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
+                return "Cannot unlock protective stop, safetymode is not PROTECTIVE_STOP"
+            self.safety_bits = (self.safety_bits & ~SAFETY_PROTECTIVE_STOPPED) | SAFETY_NORMAL
+            return "Protective stop releasing"
+
+    # ----------------------------------------------------------- the loop
+    def tick(self, dt_wall):
+        """One controller cycle: motion advances ``dt_wall * time_scale``, then the script runs."""
+        with self.lock:
+            self._advance(dt_wall * self.time_scale)
+            if self.runtime_state == RUNTIME_PLAYING:
+                self._script_cycle()
+
+    def _advance(self, dt):
+        if self._move is None:
+            self.qd = np.zeros(6)
+            return
+        self.q, self.qd = self._move.advance(dt)
+        if self._move.finished:
+            self._move = None
+            self.qd = np.zeros(6)
+            self._write_async_progress(-1)
+            if self._busy:  # a sync movej returns now
+                self._busy = False
+                self._out_int(0, DONE)
+
+    def _script_cycle(self):
+        if self._busy:
+            return  # the script is inside a blocking movej
+        cmd = int(self.in_int[self.reg_offset])
+        if cmd in REALTIME_CMDS:
+            self._out_int(0, READY)
+        elif cmd == CMD_NO_CMD:
+            self._executing_cmd = False
+            self._out_int(0, READY)
+        elif not self._executing_cmd:
+            self._executing_cmd = True
+            self._process(cmd)
+
+    def _process(self, cmd):
+        self.log.append(f"cmd {cmd}")
+        if cmd == CMD_MOVEJ:
+            target = np.array([self._in_double(i) for i in range(6)])
+            speed, accel = self._in_double(6), self._in_double(7)
+            is_async = self._in_int(1) == 1
+            self._move = _JointMove(self.q, target, speed, accel)
+            self.target_q = target
+            if is_async:
+                self._write_async_progress(0)
+                self._out_int(0, DONE)
+            else:
+                self._busy = True
+        elif cmd in (CMD_STOPJ, CMD_STOPL):
+            # the fake freezes at once: a deceleration ramp adds nothing the tests need
+            self._halt()
+            self._out_int(0, DONE)
+        elif cmd == CMD_IS_STEADY:
+            self._out_int(1, 0 if self.moving else 1)
+            self._out_int(0, DONE)
+        elif cmd == CMD_PROTECTIVE_STOP:
+            self.protective_stop()
+        elif cmd == CMD_STOP_SCRIPT:
+            self.stop_program()
+        else:
+            # unsupported commands complete without effect, as a no-op script branch
+            self._out_int(0, DONE)
+
+    def _halt(self):
+        if self._move is not None:
+            self._move = None
+            self._write_async_progress(-1)
+        self.qd = np.zeros(6)
+        self.target_q = self.q.copy()
+
+    # ------------------------------------------------------------ registers
+    def _in_double(self, i):
+        return float(self.in_double[i + self.reg_offset])
+
+    def _in_int(self, i):
+        return int(self.in_int[i + self.reg_offset])
+
+    def _out_int(self, i, value):
+        self.out_int[i + self.reg_offset] = value
+
+    def _write_async_progress(self, value):
+        # layout of the script's write_async_progress_register(): op id in bits
+        # 24-30, write count in 16-23, bit 15 "running" plus 15-bit progress
+        self._async_wr_count = (self._async_wr_count + 1) % 128
+        if value == 0:
+            self._async_op_id = (self._async_op_id + 1) % 128
+        reg = self._async_wr_count * 65536 + self._async_op_id * 16777216
+        if value >= 0:
+            reg += value + 32768
+        self._out_int(2, reg)

@@ -1,0 +1,329 @@
+"""Socket servers of the fake controller: RTDE (30004), dashboard (29999), script (30003).
+
+All three listen on 127.0.0.1 only, with ``SO_REUSEADDR`` so a fake can start
+right after another one died. Each client connection gets its own thread; the
+shared :class:`~drivers.robot.fake_ur.controller.FakeController` holds the state.
+"""
+
+import re
+import socket
+import struct
+import threading
+import time
+
+from drivers.robot.fake_ur import wire
+
+HOST = "127.0.0.1"
+RTDE_PORT = 30004
+DASHBOARD_PORT = 29999
+SCRIPT_PORT = 30003
+
+CONTROLLER_VERSION = (5, 11, 1, 108318)
+POLYSCOPE_VERSION = "URSoftware 5.11.1.108318 (Mar 22 2021)"
+SERIAL_NUMBER = "20185500020"
+GREETING = "Connected: Universal Robots Dashboard Server"
+
+_REG_OFFSET = re.compile(r"global reg_offset_int\s*=\s*(?:#[^\n]*\n\s*)?(\d+)")
+
+
+def listen(port):
+    """A listening socket on 127.0.0.1:``port`` that can rebind over TIME_WAIT leftovers."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind((HOST, port))
+    sock.listen(8)
+    return sock
+
+
+def _read_exact(conn, n):
+    data = b""
+    while len(data) < n:
+        chunk = conn.recv(n - len(data))
+        if not chunk:
+            raise ConnectionError("peer closed")
+        data += chunk
+    return data
+
+
+class FakeUr:
+    """The three servers plus the controller clock, all in this process.
+
+    Parameters
+    ----------
+    controller : FakeController
+        State shared by all servers.
+    """
+
+    def __init__(self, controller):
+        self.controller = controller
+        self.stopped = threading.Event()
+        self._conns = set()
+        self._conns_lock = threading.Lock()
+        self._listeners = []
+
+    # ------------------------------------------------------------ lifecycle
+    def start(self):
+        """Bind all ports, then start the clock and accept loops (returns at once)."""
+        handlers = [(RTDE_PORT, self._serve_rtde), (DASHBOARD_PORT, self._serve_dashboard),
+                    (SCRIPT_PORT, self._serve_script)]
+        for port, handler in handlers:
+            sock = listen(port)
+            self._listeners.append(sock)
+            threading.Thread(target=self._accept_loop, args=(sock, handler), daemon=True).start()
+        threading.Thread(target=self._clock, daemon=True).start()
+
+    def drop(self):
+        """Hang up: close every connection and stop listening (the controller is gone)."""
+        self.stopped.set()
+        for sock in self._listeners:
+            _close(sock)
+        with self._conns_lock:
+            conns = list(self._conns)
+        for conn in conns:
+            _close(conn)
+
+    def _clock(self):
+        period = self.controller.period_s
+        last = time.monotonic()
+        next_at = last + period
+        while not self.stopped.is_set():
+            delay = next_at - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            now = time.monotonic()
+            self.controller.tick(now - last)
+            last = now
+            # if we fell behind, do not burst to catch up
+            next_at = max(next_at + period, now)
+
+    def _accept_loop(self, sock, handler):
+        while not self.stopped.is_set():
+            try:
+                conn, _ = sock.accept()
+            except OSError:
+                return
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            with self._conns_lock:
+                self._conns.add(conn)
+            threading.Thread(target=self._run_handler, args=(handler, conn), daemon=True).start()
+
+    def _run_handler(self, handler, conn):
+        try:
+            handler(conn)
+        except OSError:
+            pass  # the client went away (or we dropped it): nothing to report
+        finally:
+            with self._conns_lock:
+                self._conns.discard(conn)
+            _close(conn)
+
+    # ------------------------------------------------------------------ RTDE
+    def _serve_rtde(self, conn):
+        session = _RtdeSession(conn, self)
+        session.run()
+
+    # ------------------------------------------------------------- dashboard
+    def _serve_dashboard(self, conn):
+        conn.sendall((GREETING + "\n").encode())
+        buffer = b""
+        while not self.stopped.is_set():
+            chunk = conn.recv(1024)
+            if not chunk:
+                return
+            buffer += chunk
+            while b"\n" in buffer:
+                line, buffer = buffer.split(b"\n", 1)
+                reply = self._dashboard_reply(line.decode("ascii", "replace").strip())
+                if reply is None:
+                    return
+                conn.sendall((reply + "\n").encode())
+                if reply == "Disconnected":
+                    return
+
+    def _dashboard_reply(self, command):
+        c = self.controller
+        lower = command.lower()
+        if lower == "polyscopeversion":
+            return POLYSCOPE_VERSION
+        if lower == "get serial number":
+            return SERIAL_NUMBER
+        if lower == "stop":
+            c.stop_program()
+            return "Stopped"
+        if lower == "unlock protective stop":
+            return c.unlock_protective_stop()
+        if lower == "is in remote control":
+            return "true"
+        if lower == "robotmode":
+            return "Robotmode: RUNNING"
+        if lower in ("safetystatus", "safetymode"):
+            mode = {1: "NORMAL", 3: "PROTECTIVE_STOP", 7: "ROBOT_EMERGENCY_STOP"}
+            return f"Safety{lower[6:]}: {mode[c.snapshot()['safety_mode']]}"
+        if lower == "programstate":
+            playing = c.runtime_state == 2
+            return "PLAYING rtde_control" if playing else "STOPPED <unnamed>"
+        if lower == "quit":
+            return "Disconnected"
+        if lower.startswith("fake "):
+            return self._test_command(lower[5:].strip())
+        return f"could not understand: '{command}'"
+
+    def _test_command(self, command):
+        """Test-only dashboard commands (``fake ...``); not part of any real controller."""
+        c = self.controller
+        if command == "protective stop":
+            c.protective_stop()
+            return "fake: protective stop"
+        if command == "estop":
+            c.emergency_stop()
+            return "fake: emergency stop"
+        if command == "release estop":
+            c.release_emergency_stop()
+            return "fake: emergency stop released"
+        if command == "stall":
+            c.stalled = True
+            return "fake: stalled"
+        if command == "joints":
+            with c.lock:
+                return "fake: joints " + " ".join(f"{v:.9f}" for v in c.q)
+        if command == "moving":
+            return f"fake: moving {str(c.moving).lower()}"
+        if command in ("drop", "shutdown"):
+            # reply first, then hang up everything from another thread
+            threading.Timer(0.05, self.drop).start()
+            return f"fake: {command}"
+        return f"fake: unknown test command '{command}'"
+
+    # ---------------------------------------------------------------- script
+    def _serve_script(self, conn):
+        buffer = ""
+        while not self.stopped.is_set():
+            chunk = conn.recv(65536)
+            if not chunk:
+                return
+            buffer += chunk.decode("utf-8", "replace")
+            # a control program is complete once its closing "end" line arrived
+            if "def rtde_control():" in buffer and buffer.rstrip().endswith("end"):
+                match = _REG_OFFSET.search(buffer)
+                self.controller.start_program(int(match.group(1)) if match else 0)
+                buffer = ""
+
+
+class _RtdeSession:
+    """One RTDE connection: answers setup requests in order, then streams outputs."""
+
+    def __init__(self, conn, server):
+        self.conn = conn
+        self.server = server
+        self.controller = server.controller
+        self.send_lock = threading.Lock()
+        self.output_names = []
+        self.output_struct = None
+        self.frequency = 500.0
+        self.inputs = {}  # recipe id -> (names, struct)
+        self.streaming = threading.Event()
+        self.closed = False
+
+    def send(self, package_type, payload=b""):
+        with self.send_lock:
+            self.conn.sendall(wire.pack(package_type, payload))
+
+    def run(self):
+        threading.Thread(target=self._stream, daemon=True).start()
+        try:
+            while not self.server.stopped.is_set():
+                size, package_type = wire.HEADER.unpack(_read_exact(self.conn, wire.HEADER.size))
+                payload = _read_exact(self.conn, size - wire.HEADER.size)
+                self._handle(package_type, payload)
+        finally:
+            self.closed = True
+
+    def _handle(self, package_type, payload):
+        if package_type == wire.REQUEST_PROTOCOL_VERSION:
+            self.send(package_type, b"\x01")
+        elif package_type == wire.GET_URCONTROL_VERSION:
+            self.send(package_type, struct.pack(">IIII", *CONTROLLER_VERSION))
+        elif package_type == wire.SETUP_OUTPUTS:
+            (frequency,) = struct.unpack(">d", payload[:8])
+            self.frequency = frequency if frequency > 0 else 500.0
+            self.output_names = wire.split_names(payload[8:])
+            types = [wire.type_of(n) for n in self.output_names]
+            self.output_types = types
+            self.output_struct = wire.recipe_struct(types)
+            self.send(package_type, b"\x01" + ",".join(types).encode())
+        elif package_type == wire.SETUP_INPUTS:
+            names = wire.split_names(payload)
+            types = [wire.type_of(n) for n in names]
+            recipe_id = len(self.inputs) + 1
+            counts = [wire.count_of(t) for t in types]
+            self.inputs[recipe_id] = (names, counts, wire.recipe_struct(types))
+            self.send(package_type, bytes([recipe_id]) + ",".join(types).encode())
+        elif package_type == wire.START:
+            self.streaming.set()
+            self.send(package_type, b"\x01")
+        elif package_type == wire.PAUSE:
+            self.streaming.clear()
+            self.send(package_type, b"\x01")
+        elif package_type == wire.DATA_PACKAGE:
+            self._receive_inputs(payload)
+        # anything else (text messages) needs no answer
+
+    def _receive_inputs(self, payload):
+        recipe = self.inputs.get(payload[0])
+        if recipe is None:
+            return
+        names, counts, recipe_struct = recipe
+        body = payload[1:]
+        if len(body) < recipe_struct.size:
+            return  # a short package cannot be trusted; the real controller drops it too
+        values = recipe_struct.unpack_from(body)
+        fields, at = {}, 0
+        for name, count in zip(names, counts, strict=True):
+            fields[name] = values[at] if count == 1 else values[at:at + count]
+            at += count
+        self.controller.write_inputs(fields)
+
+    def _stream(self):
+        """Stream ``U`` packages at the negotiated rate until the connection ends."""
+        next_at = None
+        while not (self.server.stopped.is_set() or self.closed):
+            if not self.streaming.wait(0.05):
+                next_at = None
+                continue
+            if self.controller.stalled:
+                time.sleep(0.01)
+                continue
+            period = 1.0 / self.frequency
+            now = time.monotonic()
+            next_at = now if next_at is None else next_at
+            if next_at > now:
+                time.sleep(next_at - now)
+            next_at = max(next_at + period, time.monotonic() - period)
+            try:
+                self.send(wire.DATA_PACKAGE, b"\x01" + self._pack_outputs())
+            except OSError:
+                return
+
+    def _pack_outputs(self):
+        snapshot = self.controller.snapshot()
+        flat = []
+        for name, type_name in zip(self.output_names, self.output_types, strict=True):
+            value = snapshot.get(name)
+            if value is None:
+                flat.extend(wire.zero_of(type_name))
+            elif isinstance(value, tuple):
+                flat.extend(value)
+            else:
+                flat.append(value)
+        return self.output_struct.pack(*flat)
+
+
+def _close(sock):
+    try:
+        sock.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass
+    try:
+        sock.close()
+    except OSError:
+        pass
