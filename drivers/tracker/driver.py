@@ -1,0 +1,355 @@
+"""Laser-tracker driver on pyserial: connect, initialise, single readings, stop.
+
+The same code runs on ``/dev/ttyUSB0``, ``socket://host:port`` and
+``rfc2217://host:port`` because the transport comes from
+``serial.serial_for_url``; or the caller hands in an already-open
+serial-like object. All quantities are mm and rad in the tracker frame.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import serial
+
+from drivers.tracker.errors import (
+    ConnectionLost,
+    FrameError,
+    IdentityChanged,
+    TrackerTimeout,
+)
+from drivers.tracker.link import TRANSPORT_ERRORS, Link, SerialLike
+from drivers.tracker.protocol import Reading, Reply, format_number, parse_reading
+from drivers.tracker.recording import Recorder
+
+
+@dataclass(frozen=True)
+class Identity:
+    """What ``ID?`` reports; vendor, model and serial must survive a reconnect."""
+
+    vendor: str
+    model: str
+    serial: str
+    firmware: str
+
+    @property
+    def key(self) -> tuple[str, str, str]:
+        return (self.vendor, self.model, self.serial)
+
+
+@dataclass(frozen=True)
+class Status:
+    """What ``STAT?`` reports.
+
+    Attributes
+    ----------
+    state : str
+        ``READY``, ``NOT_READY`` or ``BUSY``.
+    initialised : bool
+    beam_locked : bool
+        The beam is on a target.
+    probe_6dof : bool
+        Readings carry orientation.
+    mode : str
+        Measurement profile (``FAST``, ``STANDARD``, ``PRECISE``).
+    """
+
+    state: str
+    initialised: bool
+    beam_locked: bool
+    probe_6dof: bool
+    mode: str
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Meteo data the tracker needs for its refractive index correction."""
+
+    temperature_c: float = 20.0
+    pressure_hpa: float = 1013.25
+    humidity_pct: float = 50.0
+
+
+class LaserTracker:
+    """Driver for a tracker speaking the protocol in ``docs/tracker-protocol.md``.
+
+    Parameters
+    ----------
+    port : str or SerialLike
+        A pyserial URL (opened by :meth:`connect`, reopened by reconnects) or an
+        already-open serial-like object (reconnect then uses its ``close``/``open``).
+    timeout_s : float
+        Deadline of ordinary commands, s.
+    measure_timeout_s : float
+        Deadline of ``MEAS``, s (a stationary reading may average for a while).
+    init_timeout_s : float
+        Deadline of ``INIT``, s (a real tracker moves its head for tens of seconds).
+    record : str, Path or text file, optional
+        Log every raw exchange there as JSON lines (see :mod:`drivers.tracker.recording`).
+    reconnect_attempts : int
+        Bounded reconnects after the transport fails (0 disables reconnecting).
+    reconnect_delay_s : float
+        Pause before each reconnect attempt, s.
+    on_event : callable, optional
+        Called with each unsolicited ``EV`` frame.
+    """
+
+    def __init__(
+        self,
+        port: str | SerialLike,
+        *,
+        timeout_s: float = 1.0,
+        measure_timeout_s: float = 2.0,
+        init_timeout_s: float = 120.0,
+        record: str | Path | TextIO | None = None,
+        reconnect_attempts: int = 3,
+        reconnect_delay_s: float = 0.2,
+        on_event: Callable[[Reply], None] | None = None,
+    ):
+        self._url = port if isinstance(port, str) else None
+        self._port: SerialLike | None = None if isinstance(port, str) else port
+        self.timeout_s = timeout_s
+        self.measure_timeout_s = measure_timeout_s
+        self.init_timeout_s = init_timeout_s
+        self.reconnect_attempts = reconnect_attempts
+        self.reconnect_delay_s = reconnect_delay_s
+        self._recorder = Recorder(record) if record is not None else None
+        self._on_event = on_event
+        self._link: Link | None = None
+        self._lost = False
+        self.identity: Identity | None = None
+        self.last_status: Status | None = None
+        # Settings re-applied after a reconnect, in order: (command, args).
+        self._settings: dict[str, tuple[str, ...]] = {}
+
+    # ------------------------------------------------------------ lifecycle
+
+    def connect(
+        self, environment: Environment | None = None, mode: str | None = None
+    ) -> tuple[Identity, Status]:
+        """Open the transport, identify, set units (mm, rad), environment and mode, read status.
+
+        Never initialises: call :meth:`initialise` when :attr:`Status.initialised` is False.
+
+        Returns
+        -------
+        identity : Identity
+        status : Status
+        """
+        self._open()
+        self.identity = self.identify()
+        self._apply("UNITS", "MM", "RAD")
+        if environment is not None:
+            self.set_environment(environment)
+        if mode is not None:
+            self.set_mode(mode)
+        return self.identity, self.status()
+
+    def close(self) -> None:
+        """Close the transport if we opened it, and the recording."""
+        if self._url is not None and self._port is not None:
+            try:
+                self._port.close()
+            except TRANSPORT_ERRORS:
+                pass  # closing a vanished port: nothing left to release
+        self._link = None
+        if self._recorder is not None:
+            self._recorder.close()
+            self._recorder = None
+
+    def __enter__(self) -> LaserTracker:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def events(self):
+        """Unsolicited ``EV`` frames received so far (most recent last, at most 256)."""
+        return self._link.events if self._link is not None else ()
+
+    @property
+    def link(self) -> Link:
+        """The transaction layer (for simulator-only commands and diagnostics)."""
+        if self._link is None:
+            raise ConnectionLost("not connected: call connect() first")
+        return self._link
+
+    # ------------------------------------------------------------ commands
+
+    def identify(self) -> Identity:
+        """``ID?``: vendor, model, serial number, firmware."""
+        reply = self._query("ID?", idempotent=True)
+        if len(reply.fields) != 4:
+            raise FrameError(f"ID? reply has {len(reply.fields)} fields, expected 4")
+        return Identity(*reply.fields)
+
+    def status(self) -> Status:
+        """``STAT?``: readiness, initialisation, beam lock, probe type, mode."""
+        reply = self._query("STAT?", idempotent=True)
+        self.last_status = _parse_status(reply)
+        return self.last_status
+
+    def set_environment(self, environment: Environment) -> None:
+        """``ENV,T,P,H``: temperature degC, pressure hPa, relative humidity %."""
+        self._apply(
+            "ENV",
+            format_number(environment.temperature_c, 2),
+            format_number(environment.pressure_hpa, 2),
+            format_number(environment.humidity_pct, 1),
+        )
+
+    def set_mode(self, mode: str) -> None:
+        """``MODE,<FAST|STANDARD|PRECISE>``: stationary measurement profile."""
+        self._apply("MODE", mode)
+
+    def initialise(self, timeout_s: float | None = None) -> None:
+        """``INIT``: home and initialise the tracker head (slow; moves the head).
+
+        Only ever sent when the caller asks; reconnects never do it.
+        """
+        self._query("INIT", idempotent=False, timeout_s=timeout_s or self.init_timeout_s)
+
+    def measure(self, timeout_s: float | None = None) -> Reading:
+        """``MEAS``: one stationary reading with its status flag.
+
+        Returns
+        -------
+        Reading
+            ``point_mm`` shape (3,) in the tracker frame, mm; ``rotvec_rad``
+            shape (3,) for a 6-DoF probe, else None.
+
+        Raises
+        ------
+        BeamBroken, NotInitialised, TargetUnstable, TrackerError
+            The tracker refused (typed by its error code).
+        TrackerTimeout, FrameError, ChecksumError
+            No usable reply; the reading is lost and never re-requested here.
+        ConnectionLost
+            The transport failed; if a reconnect succeeded the next call works,
+            but this reading is not repeated.
+        """
+        reply = self._query("MEAS", idempotent=False, timeout_s=timeout_s or self.measure_timeout_s)
+        return parse_reading(reply.fields)
+
+    def stop(self) -> None:
+        """``STOP``: abort any measurement in progress."""
+        self._query("STOP", idempotent=True)
+
+    def send(self, command: str, *args: str, timeout_s: float | None = None) -> Reply:
+        """Send any command (e.g. simulator-only ``SIM,...``) and return the ``OK`` reply.
+
+        Not retried and not re-applied after a reconnect.
+        """
+        return self._query(command, *args, idempotent=False, timeout_s=timeout_s)
+
+    # ------------------------------------------------------------ machinery
+
+    def _apply(self, command: str, *args: str) -> None:
+        """Send a setting and remember it for re-applying after a reconnect."""
+        self._query(command, *args, idempotent=True)
+        self._settings[command] = args
+
+    def _query(
+        self, command: str, *args: str, idempotent: bool, timeout_s: float | None = None
+    ) -> Reply:
+        """One transaction with the recovery policy.
+
+        A garbled reply or a lost connection is retried once for idempotent
+        commands; for others (MEAS, INIT) the error is raised, so a reading is
+        never silently replaced by a second one.
+        """
+        timeout_s = timeout_s or self.timeout_s
+        for attempt in (0, 1):
+            if self._lost or self._link is None:
+                self._reconnect()
+            try:
+                return self.link.transact(command, *args, timeout_s=timeout_s)
+            except FrameError:
+                if not idempotent or attempt:
+                    raise
+            except ConnectionLost as exc:
+                if isinstance(exc, IdentityChanged):
+                    raise
+                self._lost = True
+                self._reconnect()  # raises ConnectionLost when it cannot
+                if not idempotent or attempt:
+                    raise ConnectionLost(
+                        f"connection lost during {command}; reconnected, command not repeated"
+                    ) from exc
+        raise AssertionError("unreachable")
+
+    def _open(self) -> None:
+        if self._url is not None:
+            if self._port is not None:
+                try:
+                    self._port.close()
+                except TRANSPORT_ERRORS:
+                    pass  # the old port is already gone
+                self._port = None
+            try:
+                self._port = serial.serial_for_url(self._url, timeout=self.timeout_s)
+            except (TRANSPORT_ERRORS, ValueError) as exc:
+                raise ConnectionLost(f"cannot open {self._url}: {exc}") from exc
+        elif self._port is None:
+            raise ConnectionLost("no transport")
+        self._link = Link(self._port, recorder=self._recorder, on_event=self._on_event)
+        self._link.discard_input()  # bytes from an earlier session are not ours
+        self._lost = False
+
+    def _reopen_handed_port(self) -> None:
+        """Reopen a transport we were handed (pyserial objects keep their port name)."""
+        port = self._port
+        if port is None or not hasattr(port, "open"):
+            raise ConnectionLost("transport lost and it cannot be reopened")
+        try:
+            port.close()
+            port.open()
+        except (TRANSPORT_ERRORS, ValueError) as exc:
+            raise ConnectionLost(f"cannot reopen transport: {exc}") from exc
+        self._link = Link(port, recorder=self._recorder, on_event=self._on_event)
+        self._link.discard_input()
+        self._lost = False
+
+    def _reconnect(self) -> None:
+        """Bounded reconnect: reopen, check identity, re-apply settings, read status.
+
+        Never sends INIT. Raises ConnectionLost (or IdentityChanged) when it fails.
+        """
+        if self.identity is None:
+            raise ConnectionLost("not connected: call connect() first")
+        last: Exception | None = None
+        for _ in range(self.reconnect_attempts):
+            time.sleep(self.reconnect_delay_s)
+            try:
+                self._open() if self._url is not None else self._reopen_handed_port()
+                link = self.link
+                ident = Identity(*link.transact("ID?", timeout_s=self.timeout_s).fields)
+                if ident.key != self.identity.key:
+                    self._lost = True
+                    raise IdentityChanged(
+                        f"reconnected to {ident.key}, expected {self.identity.key}"
+                    )
+                for command, args in self._settings.items():
+                    link.transact(command, *args, timeout_s=self.timeout_s)
+                self.last_status = _parse_status(link.transact("STAT?", timeout_s=self.timeout_s))
+                return
+            except IdentityChanged:
+                raise
+            except (ConnectionLost, TrackerTimeout, FrameError, TypeError) as exc:
+                last = exc
+                self._lost = True
+        raise ConnectionLost(
+            f"connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
+        ) from last
+
+
+def _parse_status(reply: Reply) -> Status:
+    f = reply.fields
+    if len(f) != 5 or f[1] not in "01" or f[2] not in "01" or f[3] not in ("P3", "P6"):
+        raise FrameError(f"bad STAT? reply fields {f!r}")
+    return Status(f[0], f[1] == "1", f[2] == "1", f[3] == "P6", f[4])

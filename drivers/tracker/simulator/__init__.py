@@ -1,0 +1,33 @@
+"""Simulated laser tracker speaking the product's tracker protocol.
+
+Independent of the ``calibrator`` package: it imports only numpy (scipy for
+6-DoF orientation noise) and :mod:`drivers.tracker.protocol`.
+
+In-process::
+
+    sim = TrackerSimulator(seed=1, initialised=True)
+    sim.set_target([2000.0, 0.0, 0.0])
+    server = SimulatorServer(sim)
+    url = server.open_pty()          # or f"socket://127.0.0.1:{server.open_tcp()}"
+    server.start()
+
+As a process: ``python -m drivers.tracker.simulator --pty`` (see ``--help``).
+"""
+
+from drivers.tracker.simulator.engine import HangUp, Send, TrackerSimulator
+from drivers.tracker.simulator.faults import Fault, parse_fault, parse_script
+from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.simulator.replay import ReplaySimulator
+from drivers.tracker.simulator.server import SimulatorServer
+
+__all__ = [
+    "Fault",
+    "HangUp",
+    "NoiseModel",
+    "ReplaySimulator",
+    "Send",
+    "SimulatorServer",
+    "TrackerSimulator",
+    "parse_fault",
+    "parse_script",
+]
