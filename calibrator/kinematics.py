@@ -75,33 +75,80 @@ def link_constants(mdh):
     return out
 
 
-def joint_phases(mdh, q):
-    """``exp(-1j * (theta_i + q_i))`` for every parameter set, pose and joint.
+def joint_phases(angles):
+    """``exp(-1j * angles)``: the form in which :func:`chain_parts` takes rotations about z.
 
     Parameters
     ----------
-    mdh : array_like, shape (..., 6, 5)
-    q : array_like, shape (N, 6)
-        Joint angles (rad).
+    angles : array_like, shape (...)
+        Joint angles or joint offsets theta (rad).
 
     Returns
     -------
-    ndarray of complex, shape (..., N, 6)
+    ndarray of complex, same shape
     """
-    mdh = check_mdh(mdh)
-    q = check_joints(q)
-    angle = mdh[..., np.newaxis, :, THETA] + q
-    return np.exp(-1j * angle)
+    return np.exp(-1j * np.asarray(angles, dtype=float))
 
 
-def _rotate_z_right(t, phase):
-    """In place, ``t <- t @ Rz(phi)`` for stacked 4x4 ``t``, given ``exp(-1j*phi)``.
+def chain_parts(consts, theta_phase, q_phase, *, all_frames=False):
+    """Forward kinematics from precomputed parts; the fast path of :func:`chain`.
 
-    ``t @ Rz(phi)`` mixes only columns 0 and 1; with the pair stored side by
-    side, ``col0 + 1j*col1`` times ``exp(-1j*phi)`` is exactly that rotation.
-    One complex multiply replaces building and multiplying a 4x4 matrix.
+    A caller that evaluates many parameter sets on the same poses (the
+    identifier) computes ``q_phase`` once and passes it every time.
+
+    Parameters
+    ----------
+    consts : ndarray, shape (..., 6, 4, 4)
+        :func:`link_constants` of the tables.
+    theta_phase : ndarray of complex, shape (..., 6)
+        ``joint_phases(mdh[..., THETA])``.
+    q_phase : ndarray of complex, shape (N, 6)
+        ``joint_phases(q)``.
+    all_frames : bool
+        Also return the frame of every link.
+
+    Notes
+    -----
+    ``t @ Rz(phi)`` mixes only columns 0 and 1 of ``t``; they sit side by
+    side in memory, so viewed as complex numbers ``col0 + 1j*col1`` the
+    rotation is one multiply by ``exp(-1j*phi)`` instead of a 4x4 product.
+
+    Returns
+    -------
+    base2flange : ndarray, shape (..., N, 3, 4)
+        Top three rows of the flange pose in the base frame (mm).
+    frames : ndarray, shape (..., N, 7, 3, 4)
+        Only with ``all_frames``: top rows of ``A_1 ... A_i`` for i = 0..6.
     """
-    t.view(np.complex128)[..., 0] *= phase[..., np.newaxis]
+    batch = consts.shape[:-3]
+    n = q_phase.shape[0]
+    flat = int(np.prod(batch, dtype=int))
+    consts = consts.reshape((flat, 6, 4, 4))
+    # (6, sets, N), contiguous per joint: the phase of theta_i + q_i.
+    phases = theta_phase.reshape(flat, 6).T[:, :, np.newaxis] * q_phase.T[:, np.newaxis, :]
+    phases = phases[..., np.newaxis]
+    t = np.broadcast_to(np.eye(4)[:3], (flat, n, 3, 4)).copy()
+    # The rotation below works in place, so stored frames must be copies.
+    frames = [t.copy()] if all_frames else None
+    for i in range(N_JOINTS):
+        t.view(np.complex128)[..., 0] *= phases[i]
+        # One matrix product per parameter set over all poses' rows at once:
+        # numpy then makes a few large products instead of N*sets tiny ones.
+        t = np.matmul(t.reshape(flat, n * 3, 4), consts[:, i]).reshape(flat, n, 3, 4)
+        if all_frames:
+            frames.append(t.copy())
+    shape = batch + (n, 3, 4)
+    if all_frames:
+        return t.reshape(shape), np.stack(frames, axis=-3).reshape(batch + (n, 7, 3, 4))
+    return t.reshape(shape)
+
+
+def _homogeneous(top):
+    """Append the row ``[0, 0, 0, 1]`` to stacked 3x4 transforms."""
+    out = np.zeros(top.shape[:-2] + (4, 4))
+    out[..., :3, :] = top
+    out[..., 3, 3] = 1.0
+    return out
 
 
 def chain(mdh, q, *, all_frames=False):
@@ -126,19 +173,12 @@ def chain(mdh, q, *, all_frames=False):
     """
     mdh = check_mdh(mdh)
     q = check_joints(q)
-    consts = link_constants(mdh)
-    phases = joint_phases(mdh, q)
-    batch = mdh.shape[:-2] + (q.shape[0],)
-    t = np.broadcast_to(np.eye(4), batch + (4, 4)).copy()
-    frames = [t.copy()] if all_frames else None
-    for i in range(N_JOINTS):
-        _rotate_z_right(t, phases[..., i])
-        t = t @ consts[..., np.newaxis, i, :, :]
-        if all_frames:
-            frames.append(t)
+    out = chain_parts(
+        link_constants(mdh), joint_phases(mdh[..., THETA]), joint_phases(q), all_frames=all_frames
+    )
     if all_frames:
-        return t, np.stack(frames, axis=-3)
-    return t
+        return _homogeneous(out[0]), _homogeneous(out[1])
+    return _homogeneous(out)
 
 
 def forward(mdh, q, flange2tool=None, base2tracker=None):
@@ -187,7 +227,7 @@ def parallel_axes(mdh, tol=1e-6):
         Element i-1 tells whether axes i and i+1 are parallel (i = 1..5).
     """
     mdh = check_mdh(mdh)
-    consts = link_constants(mdh[..., :5, :])
-    # z axis of link frame i expressed in the frame after Rz: third column.
-    cos_angle = np.abs(consts[..., 2, 2])
+    # z axis of link frame i in the frame after Rz(theta_i + q_i): its z
+    # component is the cosine of the angle between axes i and i+1.
+    cos_angle = np.abs(link_constants(mdh)[..., :5, 2, 2])
     return cos_angle > np.cos(tol)

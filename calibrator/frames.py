@@ -1,0 +1,129 @@
+"""Rigid-transform helpers on stacked arrays (mm, rad).
+
+Frames are named ``a2b``: ``base2tracker`` maps coordinates in the robot base
+frame to coordinates in the tracker frame (the pose of the base in the
+tracker frame).
+"""
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def check_transform(t, name="transform"):
+    """Return ``t`` as a float (4, 4) homogeneous transform or raise ValueError."""
+    t = np.asarray(t, dtype=float)
+    if t.shape != (4, 4):
+        raise ValueError(f"{name} must have shape (4, 4), got {t.shape}")
+    if not np.allclose(t[3], [0, 0, 0, 1]):
+        raise ValueError(f"{name} must have a last row [0, 0, 0, 1]")
+    r = t[:3, :3]
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+        raise ValueError(f"{name} rotation part is not a proper rotation")
+    return t
+
+
+def rotations_xyz(angles):
+    """``Rx(rx) @ Ry(ry) @ Rz(rz)`` for stacked angle triples.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        ``(rx, ry, rz)`` in rad, applied about the moving frame's x, then y, then z.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    angles = np.asarray(angles, dtype=float)
+    c, s = np.cos(angles), np.sin(angles)
+    cx, cy, cz = c[..., 0], c[..., 1], c[..., 2]
+    sx, sy, sz = s[..., 0], s[..., 1], s[..., 2]
+    out = np.empty(angles.shape[:-1] + (3, 3))
+    out[..., 0, 0] = cy * cz
+    out[..., 0, 1] = -cy * sz
+    out[..., 0, 2] = sy
+    out[..., 1, 0] = cx * sz + sx * sy * cz
+    out[..., 1, 1] = cx * cz - sx * sy * sz
+    out[..., 1, 2] = -sx * cy
+    out[..., 2, 0] = sx * sz - cx * sy * cz
+    out[..., 2, 1] = sx * cz + cx * sy * sz
+    out[..., 2, 2] = cx * cy
+    return out
+
+
+def angles_xyz(rotation):
+    """Inverse of :func:`rotations_xyz` for one rotation matrix (3, 3) -> (3,) rad."""
+    return Rotation.from_matrix(rotation).as_euler("XYZ")
+
+
+def transform(rotation=None, translation=None):
+    """Stack rotations (..., 3, 3) and translations (..., 3) into (..., 4, 4) transforms."""
+    rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    translation = np.zeros(3) if translation is None else np.asarray(translation, dtype=float)
+    batch = np.broadcast_shapes(rotation.shape[:-2], translation.shape[:-1])
+    out = np.zeros(batch + (4, 4))
+    out[..., :3, :3] = rotation
+    out[..., :3, 3] = translation
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def invert(t):
+    """Inverse of stacked rigid transforms (..., 4, 4)."""
+    t = np.asarray(t, dtype=float)
+    r_t = np.swapaxes(t[..., :3, :3], -1, -2)
+    return transform(r_t, -(r_t @ t[..., :3, 3:4])[..., 0])
+
+
+def rotvec_to_matrix(rotvec):
+    """Rotation vectors (..., 3) rad to rotation matrices (..., 3, 3)."""
+    rotvec = np.asarray(rotvec, dtype=float)
+    flat = Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_matrix()
+    return flat.reshape(rotvec.shape[:-1] + (3, 3))
+
+
+def matrix_to_rotvec(matrix):
+    """Rotation matrices (..., 3, 3) to rotation vectors (..., 3) rad."""
+    matrix = np.asarray(matrix, dtype=float)
+    flat = Rotation.from_matrix(matrix.reshape(-1, 3, 3)).as_rotvec()
+    return flat.reshape(matrix.shape[:-2] + (3,))
+
+
+def rotation_error(model, measured):
+    """Rotation vector (rad) of ``model @ measured.T``: how far the model is turned.
+
+    Parameters
+    ----------
+    model, measured : array_like, shape (..., 3, 3)
+        Orientations in the same frame.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Components along that frame's x, y, z axes (rad).
+    """
+    return matrix_to_rotvec(np.asarray(model) @ np.swapaxes(np.asarray(measured), -1, -2))
+
+
+def fit_rigid(source, target):
+    """Best-fit rigid transform mapping ``source`` points onto ``target`` (Kabsch).
+
+    Parameters
+    ----------
+    source, target : array_like, shape (N, 3)
+        Corresponding points (mm), N >= 3 and not all on a line.
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+        ``source2target`` minimising the summed squared distances.
+    """
+    source = np.asarray(source, dtype=float)
+    target = np.asarray(target, dtype=float)
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    h = (source - cs).T @ (target - ct)
+    u, _, vt = np.linalg.svd(h)
+    # The sign fix keeps a proper rotation when the best orthogonal fit is a reflection.
+    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))])
+    r = vt.T @ fix @ u.T
+    return transform(r, ct - r @ cs)

@@ -1,0 +1,294 @@
+"""Which parameters are identified, and how they map to one vector.
+
+The full candidate set is the 6 x 5 MDH table, the pose of the robot base in
+the tracker frame (6) and the tool point in the flange frame (3). A
+:class:`ParameterSpace` fixes the nominal values and a boolean mask over the
+candidates (the pybotics pattern); :meth:`ParameterSpace.unpack` turns a vector
+of *deltas* (or a swarm of them) into MDH tables and frames.
+
+Parameter names
+---------------
+``a1 .. beta6``
+    MDH deltas (mm or rad), ``<column><joint>``.
+``base_tx, base_ty, base_tz, base_rx, base_ry, base_rz``
+    ``base2tracker = base0 . Trans(tx, ty, tz) . Rx(rx) . Ry(ry) . Rz(rz)``
+    around the closed-form first guess ``base0`` (mm, rad).
+``tool_x, tool_y, tool_z``
+    The tool point in the flange frame minus its first guess (mm).
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from calibrator import frames, kinematics
+from calibrator.errors import IdentifiabilityError
+
+MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMNS)
+BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
+TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
+ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES
+N_MDH, N_BASE = len(MDH_NAMES), len(BASE_NAMES)
+_INDEX = {name: i for i, name in enumerate(ALL_NAMES)}
+
+
+def unit(name):
+    """Unit of a parameter, ``'mm'`` or ``'rad'``."""
+    i = _INDEX[name]
+    if i < N_MDH:
+        return kinematics.UNITS[i % 5]
+    if i < N_MDH + N_BASE:
+        return "mm" if name[-2] == "t" else "rad"
+    return "mm"
+
+
+@dataclass(frozen=True)
+class ParameterSpace:
+    """Nominal values plus the names of the free parameters, in vector order.
+
+    Attributes
+    ----------
+    nominal_mdh : ndarray, shape (6, 5)
+        MDH table the deltas are added to (mm, rad).
+    base0 : ndarray, shape (4, 4)
+        ``base2tracker`` first guess (identity in the base frame).
+    tool0 : ndarray, shape (4, 4)
+        ``flange2tool`` first guess; only its translation is ever identified.
+    free : tuple of str
+        Names of the free parameters, in :data:`ALL_NAMES` order.
+    """
+
+    nominal_mdh: np.ndarray
+    base0: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool0: np.ndarray = field(default_factory=lambda: np.eye(4))
+    free: tuple = ()
+
+    def __post_init__(self):
+        unknown = [n for n in self.free if n not in _INDEX]
+        if unknown:
+            raise ValueError(f"unknown parameter names: {unknown}")
+        order = tuple(sorted(set(self.free), key=_INDEX.__getitem__))
+        object.__setattr__(self, "free", order)
+        object.__setattr__(self, "nominal_mdh", kinematics.check_mdh(self.nominal_mdh))
+        object.__setattr__(self, "base0", frames.check_transform(self.base0, "base0"))
+        object.__setattr__(self, "tool0", frames.check_transform(self.tool0, "tool0"))
+
+    @property
+    def size(self):
+        """Number of free parameters."""
+        return len(self.free)
+
+    @property
+    def index(self):
+        """Positions of the free parameters in :data:`ALL_NAMES`, shape (size,)."""
+        return np.array([_INDEX[n] for n in self.free], dtype=int)
+
+    @property
+    def units(self):
+        """Unit of each free parameter."""
+        return tuple(unit(n) for n in self.free)
+
+    def with_free(self, free):
+        """The same space with another free set."""
+        return ParameterSpace(self.nominal_mdh, self.base0, self.tool0, tuple(free))
+
+    def expand(self, x):
+        """Deltas of every candidate parameter, zeros where not free.
+
+        Parameters
+        ----------
+        x : array_like, shape (..., size)
+
+        Returns
+        -------
+        ndarray, shape (..., 39)
+        """
+        x = np.asarray(x, dtype=float)
+        if x.shape[-1] != self.size:
+            raise ValueError(f"parameter vector must end in {self.size}, got {x.shape}")
+        full = np.zeros(x.shape[:-1] + (len(ALL_NAMES),))
+        full[..., self.index] = x
+        return full
+
+    def unpack(self, x):
+        """MDH tables and frames for a vector (or a swarm) of deltas.
+
+        Parameters
+        ----------
+        x : array_like, shape (..., size)
+
+        Returns
+        -------
+        mdh : ndarray, shape (..., 6, 5)
+        base2tracker : ndarray, shape (..., 4, 4)
+        flange2tool : ndarray, shape (..., 4, 4)
+        """
+        full = self.expand(x)
+        mdh = self.nominal_mdh + full[..., :N_MDH].reshape(full.shape[:-1] + (6, 5))
+        b = full[..., N_MDH : N_MDH + N_BASE]
+        delta = frames.transform(frames.rotations_xyz(b[..., 3:]), b[..., :3])
+        base2tracker = self.base0 @ delta
+        flange2tool = np.broadcast_to(self.tool0, full.shape[:-1] + (4, 4)).copy()
+        flange2tool[..., :3, 3] += full[..., N_MDH + N_BASE :]
+        return mdh, base2tracker, flange2tool
+
+    def pack(self, mdh=None, base2tracker=None, flange2tool=None):
+        """Inverse of :meth:`unpack` for one parameter set.
+
+        Parameters
+        ----------
+        mdh : array_like, shape (6, 5), optional
+            Defaults to the nominal table.
+        base2tracker, flange2tool : array_like, shape (4, 4), optional
+            Default to the first guesses.
+
+        Returns
+        -------
+        ndarray, shape (size,)
+            Deltas of the free parameters. Differences in parameters that
+            are not free are dropped.
+        """
+        full = np.zeros(len(ALL_NAMES))
+        if mdh is not None:
+            full[:N_MDH] = (kinematics.check_mdh(mdh) - self.nominal_mdh).ravel()
+        if base2tracker is not None:
+            delta = frames.invert(self.base0) @ base2tracker
+            full[N_MDH : N_MDH + 3] = delta[:3, 3]
+            full[N_MDH + 3 : N_MDH + N_BASE] = frames.angles_xyz(delta[:3, :3])
+        if flange2tool is not None:
+            full[N_MDH + N_BASE :] = np.asarray(flange2tool)[:3, 3] - self.tool0[:3, 3]
+        return full[self.index]
+
+    def bounds(self, mm=1.0, rad=0.02, frame_mm=5.0, frame_rad=0.02):
+        """Symmetric search box around zero deltas for the swarm.
+
+        Defaults cover the seed's error sizes (|da| < 0.5 mm, |dtheta| <
+        0.01 rad) with a factor two of room, and a base frame and tool point
+        a few millimetres off their closed-form first guesses.
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (size,)
+        """
+        half = []
+        for name in self.free:
+            is_frame = _INDEX[name] >= N_MDH
+            if unit(name) == "mm":
+                half.append(frame_mm if is_frame else mm)
+            else:
+                half.append(frame_rad if is_frame else rad)
+        half = np.array(half)
+        return -half, half
+
+
+def structural_candidates(nominal_mdh, frame, tool_known):
+    """Candidate free set before looking at data, and why the rest is left out.
+
+    Hayati's rule: where axes i and i+1 are parallel, ``d_i`` slides along
+    both and is replaced by ``beta_i``; elsewhere ``beta_i`` duplicates the
+    four DH parameters and is left out. ``beta6`` has no next axis: a turn
+    about the flange's y axis belongs to the tool frame.
+
+    Parameters
+    ----------
+    nominal_mdh : array_like, shape (6, 5)
+    frame : {'base', 'tracker'}
+        Whether ``base2tracker`` is identified.
+    tool_known : bool
+        Whether the tool point is known (not identified).
+
+    Returns
+    -------
+    candidates : list of str
+    dropped : list of dict
+        ``{"name": ..., "reason": ...}`` for every parameter left out.
+    """
+    parallel = kinematics.parallel_axes(nominal_mdh)
+    candidates, dropped = [], []
+    for j in range(6):
+        for col in kinematics.COLUMNS:
+            name = f"{col}{j + 1}"
+            if col == "d" and j < 5 and parallel[j]:
+                dropped.append(_drop(name, f"axes {j + 1} and {j + 2} are parallel: "
+                                           f"beta{j + 1} is identified instead (Hayati)"))
+            elif col == "beta" and j == 5:
+                dropped.append(_drop(name, "no axis after joint 6: a turn about the "
+                                           "flange y axis belongs to the tool frame"))
+            elif col == "beta" and not parallel[j]:
+                dropped.append(_drop(name, f"axes {j + 1} and {j + 2} are not parallel: "
+                                           "the DH parameters already describe them"))
+            else:
+                candidates.append(name)
+    if frame == "tracker":
+        candidates.extend(BASE_NAMES)
+    if not tool_known:
+        candidates.extend(TOOL_NAMES)
+    return candidates, dropped
+
+
+def _drop(name, reason):
+    return {"name": name, "reason": reason}
+
+
+def prune(candidates, jacobian, tol=1e-6):
+    """Drop candidates the data cannot separate from the ones kept before them.
+
+    Columns of the Jacobian are scaled to unit length and visited frames
+    first (base, then tool), then joint by joint; a column whose component
+    outside the span of the kept columns is below ``tol`` is dropped as
+    redundant, naming the kept parameters it is a combination of.
+
+    Parameters
+    ----------
+    candidates : sequence of str
+        Names in :data:`ALL_NAMES`.
+    jacobian : ndarray, shape (M, len(candidates))
+        Residual Jacobian with respect to the candidates, at the first guess.
+    tol : float
+        Relative size under which a scaled column counts as redundant.
+
+    Returns
+    -------
+    kept : list of str
+    dropped : list of dict
+        ``{"name": ..., "reason": ...}``.
+    """
+    jacobian = np.asarray(jacobian, dtype=float)
+    norms = np.linalg.norm(jacobian, axis=0)
+    order = sorted(range(len(candidates)), key=lambda k: _priority(candidates[k]))
+    kept, dropped, basis = [], [], np.zeros((jacobian.shape[0], 0))
+    for k in order:
+        name = candidates[k]
+        if norms[k] == 0.0:
+            dropped.append(_drop(name, "has no effect on any measured pose"))
+            continue
+        col = jacobian[:, k] / norms[k]
+        rest = col - basis @ (basis.T @ col)
+        rest -= basis @ (basis.T @ rest)  # second pass keeps Gram-Schmidt orthogonal
+        size = np.linalg.norm(rest)
+        if size < tol:
+            kept_idx = [candidates.index(n) for n in kept]
+            lstsq = np.linalg.lstsq(jacobian[:, kept_idx] / norms[kept_idx], col, rcond=None)[0]
+            partners = [kept[i] for i in np.argsort(-np.abs(lstsq))[:3] if abs(lstsq[i]) > 1e-3]
+            dropped.append(_drop(name, f"redundant with {', '.join(partners)} for these poses"))
+            continue
+        kept.append(name)
+        basis = np.column_stack([basis, rest / size])
+    kept.sort(key=_INDEX.__getitem__)
+    return kept, dropped
+
+
+def _priority(name):
+    # Frames first: a base frame or tool point absorbs what joint 1 and
+    # joint 6 duplicate, and the MDH table keeps its nominal meaning there.
+    i = _INDEX[name]
+    return i - len(ALL_NAMES) if i >= N_MDH else i
+
+
+def require_enough(n_residuals, n_free, what="poses"):
+    """Raise if there are fewer residuals than free parameters."""
+    if n_residuals < n_free:
+        raise IdentifiabilityError(
+            f"{n_residuals} measured values from the fitting {what} cannot identify "
+            f"{n_free} free parameters; measure more poses"
+        )

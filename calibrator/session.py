@@ -1,0 +1,301 @@
+"""Session file v1: one Parquet row per measured pose, metadata in the footer.
+
+Columns (units in the names):
+
+=================== ========= ==================================================
+column              required  meaning
+=================== ========= ==================================================
+``pose``            yes       pose number (int, unique)
+``q1_rad..q6_rad``  yes       joint angles read back from the robot
+``x_mm y_mm z_mm``  yes       mean tool point over the readings, tracker frame
+``rx_rad ry_rad     no        rotation vector of the probe frame in the tracker
+rz_rad``                      frame (6-DoF probes); all three or none
+``sx_mm sy_mm       no        standard deviation of the readings per axis
+sz_mm``
+``n_readings``      no        readings averaged into the row
+``timestamp``       no        when the pose was measured
+=================== ========= ==================================================
+
+The file metadata key ``calibrator`` holds JSON::
+
+    {"format": "calibrator.session", "version": 1,
+     "frame": "base" | "tracker",          # frame of x/y/z: is base2tracker unknown?
+     "model": NAME,                        # and/or
+     "nominal_mdh": [[a_mm, alpha_rad, theta_rad, d_mm, beta_rad] x 6],
+     "flange2tool": 4x4 row-major,         # optional first guess (identity if absent)
+     "tool_known": false, ...}             # optional: true fixes the tool point
+
+One of ``model`` and ``nominal_mdh`` is required; ``nominal_mdh`` wins when
+both are present. Other keys are kept and ignored.
+"""
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from calibrator import frames, kinematics
+from calibrator.errors import CalibrationError, SessionError
+from calibrator.measurement import Observations
+from calibrator.models import get_model
+
+FORMAT = "calibrator.session"
+VERSION = 1
+META_KEY = b"calibrator"
+JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
+POINT_COLUMNS = ("x_mm", "y_mm", "z_mm")
+ROTVEC_COLUMNS = ("rx_rad", "ry_rad", "rz_rad")
+SPREAD_COLUMNS = ("sx_mm", "sy_mm", "sz_mm")
+FRAMES = ("base", "tracker")
+
+
+@dataclass
+class SessionMeta:
+    """What the footer says about a session.
+
+    Attributes
+    ----------
+    frame : {'base', 'tracker'}
+        ``base``: points are in the robot base frame (base2tracker is the
+        identity and not identified); ``tracker``: base2tracker is unknown.
+    nominal_mdh : ndarray, shape (6, 5)
+    model : str or None
+    flange2tool : ndarray, shape (4, 4)
+        First guess of the tool frame in the flange frame (mm).
+    tool_known : bool
+        Whether the tool point is known exactly (not identified).
+    extra : dict
+        Other keys, kept as they were.
+    """
+
+    frame: str
+    nominal_mdh: np.ndarray
+    model: str | None = None
+    flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool_known: bool = False
+    extra: dict = field(default_factory=dict)
+
+    def to_json(self):
+        out = dict(self.extra)
+        out.update(
+            format=FORMAT,
+            version=VERSION,
+            frame=self.frame,
+            nominal_mdh=np.asarray(self.nominal_mdh).tolist(),
+            flange2tool=np.asarray(self.flange2tool).tolist(),
+            tool_known=bool(self.tool_known),
+        )
+        if self.model:
+            out["model"] = self.model
+        return out
+
+
+@dataclass
+class Session:
+    """A loaded session.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        The rows as stored, in pose order.
+    meta : SessionMeta
+    """
+
+    table: pd.DataFrame
+    meta: SessionMeta
+
+    @property
+    def observations(self):
+        """The rows as :class:`calibrator.measurement.Observations`."""
+        t = self.table
+        rot = None
+        if all(c in t for c in ROTVEC_COLUMNS):
+            rot = frames.rotvec_to_matrix(t[list(ROTVEC_COLUMNS)].to_numpy(float))
+        return Observations(
+            t[list(JOINT_COLUMNS)].to_numpy(float), t[list(POINT_COLUMNS)].to_numpy(float), rot
+        )
+
+
+def load(path, model=None):
+    """Read and validate a session file.
+
+    Parameters
+    ----------
+    path : str or Path
+    model : str, optional
+        Named model to use instead of what the file says.
+
+    Raises
+    ------
+    SessionError
+        With a one-line message naming the problem.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SessionError(f"session file not found: {path}")
+    try:
+        pf = pq.ParquetFile(path)
+        table = pf.read().to_pandas()
+    except (pa.ArrowException, OSError) as exc:
+        raise SessionError(f"{path} is not a readable Parquet file ({_first_line(exc)})") from None
+    meta_raw = (pf.schema_arrow.metadata or {}).get(META_KEY)
+    meta = _parse_meta(meta_raw, path, model)
+    return Session(_validate_table(table, path, meta), meta)
+
+
+def _first_line(exc):
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+
+
+def _parse_meta(raw, path, model):
+    if raw is None:
+        raise SessionError(f"{path} has no '{META_KEY.decode()}' metadata (not a session file v1)")
+    try:
+        meta = json.loads(raw)
+    except ValueError:
+        raise SessionError(f"{path}: the '{META_KEY.decode()}' metadata is not JSON") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise SessionError(f"{path}: metadata format is not '{FORMAT}'")
+    if meta.get("version") != VERSION:
+        raise SessionError(f"{path}: session version {meta.get('version')!r} is not supported "
+                           f"(this program reads version {VERSION})")
+    if meta.get("frame") not in FRAMES:
+        raise SessionError(f"{path}: metadata 'frame' must be 'base' or 'tracker', "
+                           f"got {meta.get('frame')!r}")
+    extra = {k: v for k, v in meta.items() if k not in _KNOWN_KEYS}
+    name = model or meta.get("model")
+    try:
+        if model is not None or "nominal_mdh" not in meta:
+            if name is None:
+                raise SessionError(f"{path}: metadata names neither 'model' nor 'nominal_mdh'")
+            nominal = get_model(name).mdh
+        else:
+            nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
+        tool = meta.get("flange2tool")
+        tool = np.eye(4) if tool is None else frames.check_transform(
+            _matrix(tool, (4, 4), "flange2tool", path), "flange2tool")
+    except SessionError:
+        raise
+    except (CalibrationError, ValueError) as exc:
+        raise SessionError(f"{path}: {exc}") from None
+    return SessionMeta(meta["frame"], nominal, name, tool, bool(meta.get("tool_known", False)),
+                       extra)
+
+
+_KNOWN_KEYS = {"format", "version", "frame", "model", "nominal_mdh", "flange2tool", "tool_known"}
+
+
+def _matrix(value, shape, what, path):
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SessionError(f"{path}: metadata '{what}' is not a numeric table") from None
+    if arr.shape != shape:
+        if what == "nominal_mdh" and arr.ndim == 2 and arr.shape[1] == 5:
+            raise SessionError(f"{path}: 'nominal_mdh' has {arr.shape[0]} joints; "
+                               "this program calibrates 6-axis arms")
+        raise SessionError(f"{path}: metadata '{what}' must be {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise SessionError(f"{path}: metadata '{what}' has NaN or infinite entries")
+    return arr
+
+
+def _validate_table(table, path, meta):
+    extra_joints = sorted(c for c in table.columns if c.startswith("q") and c.endswith("_rad")
+                          and c not in JOINT_COLUMNS)
+    if extra_joints:
+        raise SessionError(f"{path}: columns {extra_joints} imply more than 6 joints; "
+                           "this program calibrates 6-axis arms")
+    required = ("pose",) + JOINT_COLUMNS + POINT_COLUMNS
+    missing = [c for c in required if c not in table.columns]
+    if missing:
+        raise SessionError(f"{path}: missing column(s) {', '.join(missing)}")
+    rot_present = [c for c in ROTVEC_COLUMNS if c in table.columns]
+    if rot_present and len(rot_present) != 3:
+        raise SessionError(f"{path}: orientation needs all of {', '.join(ROTVEC_COLUMNS)}, "
+                           f"found only {', '.join(rot_present)}")
+    numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in table.columns]
+    for col in numeric:
+        if not pd.api.types.is_numeric_dtype(table[col]) or pd.api.types.is_bool_dtype(table[col]):
+            raise SessionError(f"{path}: column {col} is not numeric ({table[col].dtype})")
+        values = table[col].to_numpy(dtype=float, na_value=np.nan)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            rows = table["pose"].to_numpy()[bad][:5].tolist() if col != "pose" else "?"
+            raise SessionError(f"{path}: column {col} has NaN or infinite values (pose {rows})")
+    poses = table["pose"].to_numpy(dtype=float)
+    if np.any(poses != np.round(poses)):
+        raise SessionError(f"{path}: column pose must hold whole numbers")
+    dup = table["pose"][table["pose"].duplicated()].unique()
+    if len(dup):
+        raise SessionError(f"{path}: duplicate pose number(s) {sorted(dup.tolist())[:5]}")
+    if len(table) == 0:
+        raise SessionError(f"{path}: the session has no poses")
+    return table.sort_values("pose", kind="stable").reset_index(drop=True)
+
+
+def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=None):
+    """Build the rows of a session from arrays.
+
+    Parameters
+    ----------
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+    points : array_like, shape (N, 3)
+        Tool points, tracker frame (mm).
+    rotvecs : array_like, shape (N, 3), optional
+        Probe orientation as rotation vectors (rad).
+    spread : array_like, shape (N, 3), optional
+        Standard deviation of the readings (mm).
+    n_readings : array_like, shape (N,), optional
+    timestamps : array_like, shape (N,), optional
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    q = kinematics.check_joints(q)
+    data = {"pose": np.arange(len(q), dtype=np.int64)}
+    data.update(zip(JOINT_COLUMNS, q.T, strict=True))
+    data.update(zip(POINT_COLUMNS, np.asarray(points, dtype=float).T, strict=True))
+    if rotvecs is not None:
+        data.update(zip(ROTVEC_COLUMNS, np.asarray(rotvecs, dtype=float).T, strict=True))
+    if spread is not None:
+        data.update(zip(SPREAD_COLUMNS, np.asarray(spread, dtype=float).T, strict=True))
+    if n_readings is not None:
+        data["n_readings"] = np.asarray(n_readings, dtype=np.int64)
+    if timestamps is not None:
+        data["timestamp"] = timestamps
+    return pd.DataFrame(data)
+
+
+def write(path, table, meta):
+    """Write a session atomically (a temporary file renamed into place).
+
+    Parameters
+    ----------
+    path : str or Path
+    table : pandas.DataFrame
+        Rows following the schema above.
+    meta : SessionMeta
+    """
+    path = Path(path)
+    arrow = pa.Table.from_pandas(table, preserve_index=False)
+    metadata = dict(arrow.schema.metadata or {})
+    metadata[META_KEY] = json.dumps(meta.to_json()).encode()
+    arrow = arrow.replace_schema_metadata(metadata)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        pq.write_table(arrow, tmp)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
