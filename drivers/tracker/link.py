@@ -38,6 +38,9 @@ class SerialLike(Protocol):
 
     timeout: float | None
 
+    @property
+    def in_waiting(self) -> int: ...
+    def read(self, size: int = ...) -> bytes: ...
     def write(self, data: bytes) -> int | None: ...
     def read_until(self, expected: bytes = ..., size: int | None = ...) -> bytes: ...
     def reset_input_buffer(self) -> None: ...
@@ -170,10 +173,21 @@ class Link:
         current = port.timeout
         if current is None or current > remaining or current < 0.5 * remaining:
             port.timeout = remaining
-        # A CR already buffered means the LF alone ends the line.
-        expected = b"\n" if self._buf.endswith(b"\r") else TERMINATOR
+        room = MAX_FRAME - len(self._buf)
         try:
-            chunk = port.read_until(expected, MAX_FRAME - len(self._buf))
+            # pyserial's read_until reads one byte per call, which alone would cap us
+            # near 1000 readings/s; so take what is already waiting in one read, and
+            # wait for a reply to begin with read(1). Both honour the port timeout.
+            waiting = port.in_waiting
+            if waiting > 1:  # socket:// reports only 0/1 here, so 1 proves nothing
+                chunk = port.read(min(waiting, room))
+            elif not self._buf:
+                chunk = port.read(1)
+            else:
+                # A line has begun: finish it with read_until, bounded by the deadline.
+                # A CR already buffered means the LF alone ends the line.
+                expected = b"\n" if self._buf.endswith(b"\r") else TERMINATOR
+                chunk = port.read_until(expected, room)
         except TRANSPORT_ERRORS as exc:
             raise ConnectionLost(f"transport failed while reading: {exc}") from exc
         if chunk and self.recorder is not None:
