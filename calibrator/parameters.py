@@ -159,12 +159,14 @@ class ParameterSpace:
             full[N_MDH + N_BASE :] = np.asarray(flange2tool)[:3, 3] - self.tool0[:3, 3]
         return full[self.index]
 
-    def bounds(self, mm=1.0, rad=0.02, frame_mm=5.0, frame_rad=0.02):
+    def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):
         """Symmetric search box around zero deltas for the swarm.
 
-        Defaults cover the seed's error sizes (|da| < 0.5 mm, |dtheta| <
-        0.01 rad) with a factor two of room, and a base frame and tool point
-        a few millimetres off their closed-form first guesses.
+        The seed starts its swarm within +-0.5 mm and +-0.01 rad, just
+        covering its injected errors; the box is four times that so that
+        particles are not pinned against its walls (pinned particles lose
+        their velocity and the swarm stalls). The base frame and tool point
+        start from closed-form guesses a few millimetres off.
 
         Returns
         -------

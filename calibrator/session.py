@@ -115,9 +115,11 @@ class Session:
         t = self.table
         rot = None
         if all(c in t for c in ROTVEC_COLUMNS):
-            rot = frames.rotvec_to_matrix(t[list(ROTVEC_COLUMNS)].to_numpy(float))
+            rot = frames.rotvec_to_matrix(t[list(ROTVEC_COLUMNS)].to_numpy(float, copy=True))
         return Observations(
-            t[list(JOINT_COLUMNS)].to_numpy(float), t[list(POINT_COLUMNS)].to_numpy(float), rot
+            t[list(JOINT_COLUMNS)].to_numpy(float, copy=True),
+            t[list(POINT_COLUMNS)].to_numpy(float, copy=True),
+            rot,
         )
 
 

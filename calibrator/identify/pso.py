@@ -44,7 +44,7 @@ def constriction(c1, c2):
 
 
 def ipso(objective, lower, upper, *, particles=20, generations=2000, c1=2.05, c2=2.05,
-         init_fraction=0.5, seed=0):
+         init_fraction=0.25, seed=0):
     """Minimise ``objective`` over the box ``[lower, upper]``.
 
     Parameters
@@ -58,7 +58,8 @@ def ipso(objective, lower, upper, *, particles=20, generations=2000, c1=2.05, c2
         Cognitive and social coefficients (the seed uses 2.05 each).
     init_fraction : float
         The initial swarm fills this fraction of the box around its centre
-        (the seed starts within +-0.01 rad and +-0.5 mm, half its box here).
+        (with :meth:`ParameterSpace.bounds` a quarter is the seed's start,
+        +-0.01 rad and +-0.5 mm).
     seed : int or numpy.random.Generator
         Source of the Halton scrambling and of r1, r2.
 

@@ -1,0 +1,61 @@
+"""Closed-form first guesses of the base frame and the tool point."""
+
+import numpy as np
+
+from calibrator import frames, kinematics
+
+
+def tool_point(base2flange, base2tracker, points):
+    """Least-squares tool point in the flange frame for a known base frame.
+
+    Parameters
+    ----------
+    base2flange : ndarray, shape (N, 4, 4)
+        Flange poses in the base frame (mm).
+    base2tracker : ndarray, shape (4, 4)
+    points : ndarray, shape (N, 3)
+        Measured points, tracker frame (mm).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    rot = base2tracker[:3, :3] @ base2flange[:, :3, :3]  # (N, 3, 3)
+    rhs = points - (base2flange[:, :3, 3] @ base2tracker[:3, :3].T + base2tracker[:3, 3])
+    return np.linalg.lstsq(rot.reshape(-1, 3), rhs.ravel(), rcond=None)[0]
+
+
+def first_guess(nominal_mdh, obs, flange2tool, frame, tool_known, iterations=20):
+    """``base2tracker`` and ``flange2tool`` to start the identification from.
+
+    In the base frame, ``base2tracker`` is the identity. In the tracker frame
+    it is the best-fit rigid transform between the nominal model's tool
+    points and the measured points (Kabsch); with an unknown tool point the
+    fit alternates with a linear least-squares fit of the tool point.
+
+    Parameters
+    ----------
+    nominal_mdh : ndarray, shape (6, 5)
+    obs : calibrator.measurement.Observations
+    flange2tool : ndarray, shape (4, 4)
+        The session's first guess of the tool.
+    frame : {'base', 'tracker'}
+    tool_known : bool
+    iterations : int
+        Alternations of the base and tool fits.
+
+    Returns
+    -------
+    base2tracker, flange2tool : ndarray, shape (4, 4)
+    """
+    base2flange = kinematics.chain(nominal_mdh, obs.q)
+    tool = np.array(flange2tool, dtype=float)
+    base = np.eye(4)
+    for _ in range(iterations if not tool_known else 1):
+        if frame == "tracker":
+            model = base2flange[:, :3, :3] @ tool[:3, 3] + base2flange[:, :3, 3]
+            base = frames.fit_rigid(model, obs.points)
+        if tool_known:
+            break
+        tool[:3, 3] = tool_point(base2flange, base, obs.points)
+    return base, tool

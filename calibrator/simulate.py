@@ -1,0 +1,204 @@
+"""Synthetic sessions from a "true" arm with known errors.
+
+The true arm is a named model plus MDH errors, a base frame somewhere in
+front of the tracker and a tool; the session records what a tracker would
+see of it, and the truth is written beside the session so tests and users
+can check what ``identify`` recovers.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibrator import frames, kinematics, parameters
+from calibrator.models import get_model
+
+#: Seed 003, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
+SEED_ERRORS = np.array([
+    [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
+    [0.2565, 0.0092, -0.0003, 0.0, -0.0028],
+    [-0.3366, 0.0031, 0.0060, 0.3409, 0.0],
+    [-0.1827, -0.0093, -0.0072, 0.1420, 0.0],
+    [-0.1117, 0.0070, -0.0016, 0.1753, 0.0],
+    [-0.2536, 0.0087, 0.0083, 0.1531, 0.0],
+])
+#: A tool point on a bracket off the flange (mm), the default probe position.
+DEFAULT_TOOL_POINT = np.array([0.0, 0.0, 100.0])
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The true arm behind a simulated session.
+
+    Attributes
+    ----------
+    mdh : ndarray, shape (6, 5)
+    base2tracker : ndarray, shape (4, 4)
+    flange2tool : ndarray, shape (4, 4)
+    """
+
+    mdh: np.ndarray
+    base2tracker: np.ndarray
+    flange2tool: np.ndarray
+
+    def to_json(self):
+        return {k: np.asarray(getattr(self, k)).tolist()
+                for k in ("mdh", "base2tracker", "flange2tool")}
+
+
+def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
+    """MDH errors of the seed's size on the parameters an identification can see.
+
+    Uniform in +-``mm`` for lengths and +-``rad`` for angles, on Hayati's
+    parameter set (``beta_i`` only where axes i and i+1 are parallel, no
+    ``d_i`` there, no ``beta6``), so the truth is representable exactly.
+
+    Returns
+    -------
+    ndarray, shape (6, 5)
+    """
+    candidates, _ = parameters.structural_candidates(nominal_mdh, "base", True)
+    mask = np.isin(np.array(parameters.MDH_NAMES), candidates).reshape(6, 5)
+    scale = np.array([mm if u == "mm" else rad for u in kinematics.UNITS])
+    return rng.uniform(-1, 1, (6, 5)) * scale * mask
+
+
+def sample_joints(limits, n, rng):
+    """``n`` joint vectors uniform in [-pi, pi] within ``limits`` (6, 2), rad."""
+    lo = np.maximum(limits[:, 0], -np.pi)
+    hi = np.minimum(limits[:, 1], np.pi)
+    return rng.uniform(lo, hi, (n, 6))
+
+
+def tracker_readings(points, n_readings, sigma_mm, rng):
+    """Readings of a tracker at the tracker-frame origin: anisotropic noise.
+
+    Along the beam the noise is ``sigma_mm``; across it, ``sigma_mm`` plus
+    6 um/m of range over 2 (Leica's transverse MPE grows with range, the
+    along-beam one hardly does).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        True points, tracker frame (mm).
+    n_readings : int
+    sigma_mm : float
+        Standard deviation along the beam of one reading (mm).
+
+    Returns
+    -------
+    ndarray, shape (N, n_readings, 3)
+    """
+    rng_m = np.linalg.norm(points, axis=1, keepdims=True)
+    beam = points / np.maximum(rng_m, 1e-9)
+    transverse = sigma_mm + 0.5 * 6e-3 * rng_m / 1000.0 if sigma_mm else 0.0 * rng_m
+    noise = rng.standard_normal((len(points), n_readings, 3))
+    along = np.einsum("nrj,nj->nr", noise, beam)[..., None] * beam[:, None]
+    across = noise - along
+    return points[:, None] + along * sigma_mm + across * transverse[:, None]
+
+
+def simulate(model="er10l-c10", poses=32, seed=3, frame="base", orientation=True,
+             noise_mm=0.0, orientation_noise_rad=0.0, joint_noise_rad=0.0, errors="seed",
+             tool_offset_mm=0.0, n_readings=10):
+    """Simulate a measured session.
+
+    Parameters
+    ----------
+    model : str
+        Named model of the nominal arm.
+    poses : int
+    seed : int
+    frame : {'base', 'tracker'}
+        ``base``: points are given in the robot base frame; ``tracker``: in
+        the frame of a tracker standing about 3 m away, turned arbitrarily.
+    orientation : bool
+        Record the probe orientation (6-DoF probe).
+    noise_mm : float
+        RMS 3-D error of a recorded (averaged) point (mm).
+    orientation_noise_rad : float
+        RMS rotation angle error of a recorded orientation (rad).
+    joint_noise_rad : float
+        Standard deviation of the encoder error per joint (rad): the joint
+        angles read back differ from the true ones by this.
+    errors : {'seed', 'random', 'none'}
+        ``seed``: Table 2 of seed 003 (ER10L-C10 only); ``random``: errors
+        of the same size, drawn with ``seed``.
+    tool_offset_mm : float
+        If non-zero, the true tool point differs from the session's first
+        guess by a random vector of this length and the tool is unknown;
+        otherwise the tool is known exactly.
+    n_readings : int
+        Readings averaged per pose.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+    meta : calibrator.session.SessionMeta
+    truth : Truth
+    """
+    from calibrator import session  # the session module imports the model layer
+
+    rng = np.random.default_rng(seed)
+    robot = get_model(model)
+    if errors == "seed":
+        if robot.name != "er10l-c10":
+            raise ValueError("the seed's error table is for er10l-c10; use errors='random'")
+        delta = SEED_ERRORS
+    elif errors == "random":
+        delta = random_errors(robot.mdh, rng)
+    elif errors == "none":
+        delta = np.zeros((6, 5))
+    else:
+        raise ValueError(f"errors must be 'seed', 'random' or 'none', got {errors!r}")
+    true_mdh = robot.mdh + delta
+
+    tool_guess = frames.transform(translation=DEFAULT_TOOL_POINT)
+    if errors == "seed" and not tool_offset_mm:
+        tool_guess = np.eye(4)  # the seed measures the flange itself
+    true_tool = tool_guess.copy()
+    if tool_offset_mm:
+        direction = rng.standard_normal(3)
+        true_tool[:3, 3] += tool_offset_mm * direction / np.linalg.norm(direction)
+
+    # The tracker stands about 3 m from the robot, turned arbitrarily.
+    base2tracker = frames.transform(frames.rotvec_to_matrix(rng.uniform(-np.pi, np.pi, 3) / 2),
+                                    rng.uniform(-1, 1, 3) * 1000 + [3000.0, 0, 0])
+
+    q_true = sample_joints(robot.joint_limits_rad, poses, rng)
+    q_read = q_true + rng.normal(0.0, joint_noise_rad, q_true.shape) if joint_noise_rad else q_true
+    pose = kinematics.forward(true_mdh, q_true, true_tool, base2tracker)  # tracker frame
+    sigma = noise_mm * np.sqrt(n_readings / 3.0)  # per axis, per reading
+    readings = tracker_readings(pose[:, :3, 3], n_readings, sigma, rng)
+    points, spread = readings.mean(axis=1), readings.std(axis=1, ddof=1)
+    rotations = pose[:, :3, :3]
+    if orientation_noise_rad:
+        tilt = rng.normal(0.0, orientation_noise_rad / np.sqrt(3.0), (poses, 3))
+        rotations = frames.rotvec_to_matrix(tilt) @ rotations
+
+    if frame == "base":
+        # The user aligned the tracker to the base: express everything there.
+        tracker2base = frames.invert(base2tracker)
+        points = points @ tracker2base[:3, :3].T + tracker2base[:3, 3]
+        spread = np.abs(spread @ tracker2base[:3, :3].T)
+        rotations = tracker2base[:3, :3] @ rotations
+        recorded_base = np.eye(4)
+    elif frame == "tracker":
+        recorded_base = base2tracker
+    else:
+        raise ValueError(f"frame must be 'base' or 'tracker', got {frame!r}")
+
+    table = session.to_table(
+        q_read, points,
+        rotvecs=frames.matrix_to_rotvec(rotations) if orientation else None,
+        spread=spread if noise_mm else None,
+        n_readings=np.full(poses, n_readings),
+    )
+    meta = session.SessionMeta(
+        frame=frame, nominal_mdh=robot.mdh, model=robot.name, flange2tool=tool_guess,
+        tool_known=not tool_offset_mm,
+        extra={"simulated": {"seed": seed, "noise_mm": noise_mm,
+                             "orientation_noise_rad": orientation_noise_rad,
+                             "joint_noise_rad": joint_noise_rad, "errors": errors}},
+    )
+    return table, meta, Truth(true_mdh, recorded_base, true_tool)
