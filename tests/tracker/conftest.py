@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
+from tracker_testkit import REPO
 
 from drivers.tracker.simulator import SimulatorServer, TrackerSimulator
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture

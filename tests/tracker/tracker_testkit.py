@@ -9,9 +9,12 @@ unused pairs or on reply bytes the driver never read.
 from __future__ import annotations
 
 import contextlib
+from pathlib import Path
 
 from drivers.tracker import LaserTracker
 from drivers.tracker.protocol import encode_frame
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def host(seq: int, *fields: str) -> bytes:
