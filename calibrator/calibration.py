@@ -81,15 +81,19 @@ def load(path):
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise CalibrationError(f"{path} is not a calibrator calibration file")
     if doc.get("version") != VERSION:
-        raise CalibrationError(f"{path}: calibration version {doc.get('version')!r} "
-                               f"is not supported (this program reads version {VERSION})")
+        raise CalibrationError(
+            f"{path}: calibration version {doc.get('version')!r} "
+            f"is not supported (this program reads version {VERSION})"
+        )
     try:
         mdh = mdh_from_records(doc["mdh"])
         nominal = np.asarray(doc["nominal_mdh"], dtype=float)
         if mdh.shape != (6, 5) or nominal.shape != (6, 5):
             raise ValueError
     except (KeyError, TypeError, ValueError):
-        raise CalibrationError(f"{path}: 'mdh'/'nominal_mdh' are not six joints of "
-                               "a_mm, alpha_rad, theta_rad, d_mm, beta_rad") from None
+        raise CalibrationError(
+            f"{path}: 'mdh'/'nominal_mdh' are not six joints of "
+            "a_mm, alpha_rad, theta_rad, d_mm, beta_rad"
+        ) from None
     doc["mdh_array"], doc["nominal_array"] = mdh, nominal
     return doc

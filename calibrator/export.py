@@ -19,9 +19,11 @@ def to_json(doc):
         "model": doc.get("model"),
         "convention": "A_i = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i)",
         "joints": [
-            {"joint": j + 1,
-             **{f: float(mdh[j, c]) for c, f in enumerate(_FIELDS)},
-             "nominal": {f: float(nominal[j, c]) for c, f in enumerate(_FIELDS)}}
+            {
+                "joint": j + 1,
+                **{f: float(mdh[j, c]) for c, f in enumerate(_FIELDS)},
+                "nominal": {f: float(nominal[j, c]) for c, f in enumerate(_FIELDS)},
+            }
             for j in range(6)
         ],
         "base2tracker": doc["base2tracker"],
@@ -35,11 +37,18 @@ def to_csv(doc):
     mdh, nominal = doc["mdh_array"], doc["nominal_array"]
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["joint", *_FIELDS, *(f"nominal_{f}" for f in _FIELDS),
-                     *(f"delta_{f}" for f in _FIELDS)])
+    writer.writerow(
+        ["joint", *_FIELDS, *(f"nominal_{f}" for f in _FIELDS), *(f"delta_{f}" for f in _FIELDS)]
+    )
     for j in range(6):
-        writer.writerow([j + 1, *(_num(v) for v in mdh[j]), *(_num(v) for v in nominal[j]),
-                         *(_num(v) for v in mdh[j] - nominal[j])])
+        writer.writerow(
+            [
+                j + 1,
+                *(_num(v) for v in mdh[j]),
+                *(_num(v) for v in nominal[j]),
+                *(_num(v) for v in mdh[j] - nominal[j]),
+            ]
+        )
     return buf.getvalue()
 
 

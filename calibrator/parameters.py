@@ -211,14 +211,29 @@ def structural_candidates(nominal_mdh, frame, tool_known):
         for col in kinematics.COLUMNS:
             name = f"{col}{j + 1}"
             if col == "d" and j < 5 and parallel[j]:
-                dropped.append(_drop(name, f"axes {j + 1} and {j + 2} are parallel: "
-                                           f"beta{j + 1} is identified instead (Hayati)"))
+                dropped.append(
+                    _drop(
+                        name,
+                        f"axes {j + 1} and {j + 2} are parallel: "
+                        f"beta{j + 1} is identified instead (Hayati)",
+                    )
+                )
             elif col == "beta" and j == 5:
-                dropped.append(_drop(name, "no axis after joint 6: a turn about the "
-                                           "flange y axis belongs to the tool frame"))
+                dropped.append(
+                    _drop(
+                        name,
+                        "no axis after joint 6: a turn about the "
+                        "flange y axis belongs to the tool frame",
+                    )
+                )
             elif col == "beta" and not parallel[j]:
-                dropped.append(_drop(name, f"axes {j + 1} and {j + 2} are not parallel: "
-                                           "the DH parameters already describe them"))
+                dropped.append(
+                    _drop(
+                        name,
+                        f"axes {j + 1} and {j + 2} are not parallel: "
+                        "the DH parameters already describe them",
+                    )
+                )
             else:
                 candidates.append(name)
     if frame == "tracker":

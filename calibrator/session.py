@@ -164,11 +164,14 @@ def _parse_meta(raw, path, model):
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SessionError(f"{path}: metadata format is not '{FORMAT}'")
     if meta.get("version") != VERSION:
-        raise SessionError(f"{path}: session version {meta.get('version')!r} is not supported "
-                           f"(this program reads version {VERSION})")
+        raise SessionError(
+            f"{path}: session version {meta.get('version')!r} is not supported "
+            f"(this program reads version {VERSION})"
+        )
     if meta.get("frame") not in FRAMES:
-        raise SessionError(f"{path}: metadata 'frame' must be 'base' or 'tracker', "
-                           f"got {meta.get('frame')!r}")
+        raise SessionError(
+            f"{path}: metadata 'frame' must be 'base' or 'tracker', got {meta.get('frame')!r}"
+        )
     extra = {k: v for k, v in meta.items() if k not in _KNOWN_KEYS}
     name = model or meta.get("model")
     try:
@@ -179,14 +182,18 @@ def _parse_meta(raw, path, model):
         else:
             nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
         tool = meta.get("flange2tool")
-        tool = np.eye(4) if tool is None else frames.check_transform(
-            _matrix(tool, (4, 4), "flange2tool", path), "flange2tool")
+        tool = (
+            np.eye(4)
+            if tool is None
+            else frames.check_transform(_matrix(tool, (4, 4), "flange2tool", path), "flange2tool")
+        )
     except SessionError:
         raise
     except (CalibrationError, ValueError) as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return SessionMeta(meta["frame"], nominal, name, tool, bool(meta.get("tool_known", False)),
-                       extra)
+    return SessionMeta(
+        meta["frame"], nominal, name, tool, bool(meta.get("tool_known", False)), extra
+    )
 
 
 _KNOWN_KEYS = {"format", "version", "frame", "model", "nominal_mdh", "flange2tool", "tool_known"}
@@ -199,8 +206,10 @@ def _matrix(value, shape, what, path):
         raise SessionError(f"{path}: metadata '{what}' is not a numeric table") from None
     if arr.shape != shape:
         if what == "nominal_mdh" and arr.ndim == 2 and arr.shape[1] == 5:
-            raise SessionError(f"{path}: 'nominal_mdh' has {arr.shape[0]} joints; "
-                               "this program calibrates 6-axis arms")
+            raise SessionError(
+                f"{path}: 'nominal_mdh' has {arr.shape[0]} joints; "
+                "this program calibrates 6-axis arms"
+            )
         raise SessionError(f"{path}: metadata '{what}' must be {shape}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise SessionError(f"{path}: metadata '{what}' has NaN or infinite entries")
@@ -208,19 +217,26 @@ def _matrix(value, shape, what, path):
 
 
 def _validate_table(table, path, meta):
-    extra_joints = sorted(c for c in table.columns if c.startswith("q") and c.endswith("_rad")
-                          and c not in JOINT_COLUMNS)
+    extra_joints = sorted(
+        c
+        for c in table.columns
+        if c.startswith("q") and c.endswith("_rad") and c not in JOINT_COLUMNS
+    )
     if extra_joints:
-        raise SessionError(f"{path}: columns {extra_joints} imply more than 6 joints; "
-                           "this program calibrates 6-axis arms")
+        raise SessionError(
+            f"{path}: columns {extra_joints} imply more than 6 joints; "
+            "this program calibrates 6-axis arms"
+        )
     required = ("pose",) + JOINT_COLUMNS + POINT_COLUMNS
     missing = [c for c in required if c not in table.columns]
     if missing:
         raise SessionError(f"{path}: missing column(s) {', '.join(missing)}")
     rot_present = [c for c in ROTVEC_COLUMNS if c in table.columns]
     if rot_present and len(rot_present) != 3:
-        raise SessionError(f"{path}: orientation needs all of {', '.join(ROTVEC_COLUMNS)}, "
-                           f"found only {', '.join(rot_present)}")
+        raise SessionError(
+            f"{path}: orientation needs all of {', '.join(ROTVEC_COLUMNS)}, "
+            f"found only {', '.join(rot_present)}"
+        )
     numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in table.columns]
     for col in numeric:
         if not pd.api.types.is_numeric_dtype(table[col]) or pd.api.types.is_bool_dtype(table[col]):
@@ -300,4 +316,3 @@ def write(path, table, meta):
     finally:
         if tmp.exists():
             tmp.unlink()
-

@@ -14,14 +14,16 @@ from calibrator import frames, kinematics, parameters
 from calibrator.models import get_model
 
 #: Seed 003, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
-SEED_ERRORS = np.array([
-    [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
-    [0.2565, 0.0092, -0.0003, 0.0, -0.0028],
-    [-0.3366, 0.0031, 0.0060, 0.3409, 0.0],
-    [-0.1827, -0.0093, -0.0072, 0.1420, 0.0],
-    [-0.1117, 0.0070, -0.0016, 0.1753, 0.0],
-    [-0.2536, 0.0087, 0.0083, 0.1531, 0.0],
-])
+SEED_ERRORS = np.array(
+    [
+        [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
+        [0.2565, 0.0092, -0.0003, 0.0, -0.0028],
+        [-0.3366, 0.0031, 0.0060, 0.3409, 0.0],
+        [-0.1827, -0.0093, -0.0072, 0.1420, 0.0],
+        [-0.1117, 0.0070, -0.0016, 0.1753, 0.0],
+        [-0.2536, 0.0087, 0.0083, 0.1531, 0.0],
+    ]
+)
 #: A tool point on a bracket off the flange (mm), the default probe position.
 DEFAULT_TOOL_POINT = np.array([0.0, 0.0, 100.0])
 
@@ -42,8 +44,9 @@ class Truth:
     flange2tool: np.ndarray
 
     def to_json(self):
-        return {k: np.asarray(getattr(self, k)).tolist()
-                for k in ("mdh", "base2tracker", "flange2tool")}
+        return {
+            k: np.asarray(getattr(self, k)).tolist() for k in ("mdh", "base2tracker", "flange2tool")
+        }
 
 
 def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
@@ -98,9 +101,19 @@ def tracker_readings(points, n_readings, sigma_mm, rng):
     return points[:, None] + along * sigma_mm + across * transverse[:, None]
 
 
-def simulate(model="er10l-c10", poses=32, seed=3, frame="base", orientation=True,
-             noise_mm=0.0, orientation_noise_rad=0.0, joint_noise_rad=0.0, errors="seed",
-             tool_offset_mm=0.0, n_readings=10):
+def simulate(
+    model="er10l-c10",
+    poses=32,
+    seed=3,
+    frame="base",
+    orientation=True,
+    noise_mm=0.0,
+    orientation_noise_rad=0.0,
+    joint_noise_rad=0.0,
+    errors="seed",
+    tool_offset_mm=0.0,
+    n_readings=10,
+):
     """Simulate a measured session.
 
     Parameters
@@ -162,8 +175,10 @@ def simulate(model="er10l-c10", poses=32, seed=3, frame="base", orientation=True
         true_tool[:3, 3] += tool_offset_mm * direction / np.linalg.norm(direction)
 
     # The tracker stands about 3 m from the robot, turned arbitrarily.
-    base2tracker = frames.transform(frames.rotvec_to_matrix(rng.uniform(-np.pi, np.pi, 3) / 2),
-                                    rng.uniform(-1, 1, 3) * 1000 + [3000.0, 0, 0])
+    base2tracker = frames.transform(
+        frames.rotvec_to_matrix(rng.uniform(-np.pi, np.pi, 3) / 2),
+        rng.uniform(-1, 1, 3) * 1000 + [3000.0, 0, 0],
+    )
 
     q_true = sample_joints(robot.joint_limits_rad, poses, rng)
     q_read = q_true + rng.normal(0.0, joint_noise_rad, q_true.shape) if joint_noise_rad else q_true
@@ -189,16 +204,26 @@ def simulate(model="er10l-c10", poses=32, seed=3, frame="base", orientation=True
         raise ValueError(f"frame must be 'base' or 'tracker', got {frame!r}")
 
     table = session.to_table(
-        q_read, points,
+        q_read,
+        points,
         rotvecs=frames.matrix_to_rotvec(rotations) if orientation else None,
         spread=spread if noise_mm else None,
         n_readings=np.full(poses, n_readings),
     )
     meta = session.SessionMeta(
-        frame=frame, nominal_mdh=robot.mdh, model=robot.name, flange2tool=tool_guess,
+        frame=frame,
+        nominal_mdh=robot.mdh,
+        model=robot.name,
+        flange2tool=tool_guess,
         tool_known=not tool_offset_mm,
-        extra={"simulated": {"seed": seed, "noise_mm": noise_mm,
-                             "orientation_noise_rad": orientation_noise_rad,
-                             "joint_noise_rad": joint_noise_rad, "errors": errors}},
+        extra={
+            "simulated": {
+                "seed": seed,
+                "noise_mm": noise_mm,
+                "orientation_noise_rad": orientation_noise_rad,
+                "joint_noise_rad": joint_noise_rad,
+                "errors": errors,
+            }
+        },
     )
     return table, meta, Truth(true_mdh, recorded_base, true_tool)

@@ -101,10 +101,10 @@ def identify(session, options=Options()):
     if len(fit) < 3:
         raise IdentifiabilityError(f"{len(fit)} fitting poses: at least 3 are needed")
 
-    base0, tool0 = initial.first_guess(meta.nominal_mdh, fit, meta.flange2tool, meta.frame,
-                                       tool_known)
-    candidates, dropped = parameters.structural_candidates(meta.nominal_mdh, meta.frame,
-                                                           tool_known)
+    base0, tool0 = initial.first_guess(
+        meta.nominal_mdh, fit, meta.flange2tool, meta.frame, tool_known
+    )
+    candidates, dropped = parameters.structural_candidates(meta.nominal_mdh, meta.frame, tool_known)
     space = parameters.ParameterSpace(meta.nominal_mdh, base0, tool0, candidates)
     zero = np.zeros(space.size)
     jac = measurement.jacobian(space, zero, fit, k, names=candidates)
@@ -118,20 +118,34 @@ def identify(session, options=Options()):
     if options.method in ("pso", "hybrid"):
         lower, upper = space.bounds()
         swarm = objective.SwarmObjective(space, fit, k)
-        found = pso.ipso(swarm, lower, upper, particles=options.particles,
-                         generations=options.generations, seed=options.seed)
+        found = pso.ipso(
+            swarm,
+            lower,
+            upper,
+            particles=options.particles,
+            generations=options.generations,
+            seed=options.seed,
+        )
         x = found.x
-        details["pso"] = {"objective": found.f, "particles": options.particles,
-                          "generations": options.generations}
+        details["pso"] = {
+            "objective": found.f,
+            "particles": options.particles,
+            "generations": options.generations,
+        }
     if options.method in ("lm", "hybrid"):
         refined = refine.refine(space, fit, x, k)
         x = refined.x
-        details["least_squares"] = {"objective": refined.cost,
-                                    "evaluations": refined.evaluations,
-                                    "message": refined.message}
+        details["least_squares"] = {
+            "objective": refined.cost,
+            "evaluations": refined.evaluations,
+            "message": refined.message,
+        }
 
     stats = {
-        part: {"before": report.error_stats(space, zero, o), "after": report.error_stats(space, x, o)}
+        part: {
+            "before": report.error_stats(space, zero, o),
+            "after": report.error_stats(space, x, o),
+        }
         for part, o in (("fit", fit), ("validation", val))
     }
     return Result(space, x, dropped + pruned, stats, options, k, fit_idx, val_idx, details)

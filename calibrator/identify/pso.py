@@ -43,8 +43,18 @@ def constriction(c1, c2):
     return 2.0 / abs(2.0 - phi - np.sqrt(phi * phi - 4.0 * phi))
 
 
-def ipso(objective, lower, upper, *, particles=20, generations=2000, c1=2.05, c2=2.05,
-         init_fraction=0.25, seed=0):
+def ipso(
+    objective,
+    lower,
+    upper,
+    *,
+    particles=20,
+    generations=2000,
+    c1=2.05,
+    c2=2.05,
+    init_fraction=0.25,
+    seed=0,
+):
     """Minimise ``objective`` over the box ``[lower, upper]``.
 
     Parameters

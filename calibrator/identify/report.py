@@ -63,8 +63,11 @@ def format_table(stats):
         lines.append(f"{title} poses ({before['n']})")
         lines += _rows("position (mm)", before["position_mm"], after["position_mm"])
         for axis in _AXES if "orientation_deg" in before else ():
-            lines += _rows(f"orientation {axis.upper()} (deg)", before["orientation_deg"][axis],
-                           after["orientation_deg"][axis])
+            lines += _rows(
+                f"orientation {axis.upper()} (deg)",
+                before["orientation_deg"][axis],
+                after["orientation_deg"][axis],
+            )
     return "\n".join(lines)
 
 
