@@ -110,7 +110,7 @@ def test_init_required_then_initialise(sim_process):
 
 
 def test_target_set_over_the_wire_from_a_second_connection(sim_process):
-    """A simulated robot in another process moves the target over TCP; the driver sees it on the pty."""
+    """A simulated robot moves the target over TCP; the driver sees it on the pty."""
     _, (path, port) = sim_process("--pty", "--tcp", "0", "--initialised", "--no-noise")
     with LaserTracker(path) as tracker, LaserTracker(f"socket://127.0.0.1:{port}") as robot_side:
         tracker.connect()
