@@ -18,6 +18,7 @@ from drivers.tracker import (
     LaserTracker,
     NotInitialised,
     TrackerError,
+    TrackerTimeout,
     measure_average,
 )
 from drivers.tracker.simulator import NoiseModel, SimulatorServer, TrackerSimulator
@@ -154,3 +155,22 @@ def test_command_line_needs_an_endpoint():
         timeout=30,
     )
     assert out.returncode == 2 and "--pty" in out.stderr
+
+
+def test_fault_script_file_and_wire_armed_fault(sim_process, tmp_path):
+    script = tmp_path / "faults.txt"
+    script.write_text("# second reading is lost\nMEAS@2 drop\n")
+    _, (port,) = sim_process(
+        "--tcp", "0", "--initialised", "--target", "2000,0,0", "--faults", str(script)
+    )
+    with LaserTracker(f"socket://127.0.0.1:{port}", measure_timeout_s=0.2) as tracker:
+        tracker.connect()
+        assert tracker.measure().accurate
+        with pytest.raises(TrackerTimeout):
+            tracker.measure()
+        tracker.send("SIM", "FAULT", "MEAS+1 error code=NOT_WARMED_UP")
+        with pytest.raises(TrackerError, match="NOT_WARMED_UP"):
+            tracker.measure()
+        with pytest.raises(TrackerError, match="BAD_PARAMETER"):
+            tracker.send("SIM", "FAULT", "MEAS+1 explode")
+        assert tracker.measure().accurate
