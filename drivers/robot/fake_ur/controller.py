@@ -232,6 +232,9 @@ class FakeController:
     def start_program(self, reg_offset=0):
         """A ``def rtde_control():`` program arrived on the script port: start its loop."""
         with self.lock:
+            if self.safety_bits & (SAFETY_PROTECTIVE_STOPPED | SAFETY_EMERGENCY_STOPPED):
+                self.log.append("program refused: safety stop")
+                return  # a real controller will not run a program while safety-stopped
             self._halt()
             self.reg_offset = int(reg_offset)
             self._executing_cmd = False

@@ -1,0 +1,124 @@
+"""Start and stop the fake controller in its own process, and send it test-only commands.
+
+The ``ur-rtde`` client deadlocks against a server in its own interpreter, so
+tests run the fake with :class:`FakeUrProcess` (a child process). The ports are
+fixed, so only one fake can run at a time: :meth:`FakeUrProcess.start` first
+shuts down a fake left over from a crashed run, and every fake is started with
+``--parent-pid`` so it exits on its own when the process that started it dies.
+"""
+
+import os
+import selectors
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+from drivers.robot.fake_ur.servers import DASHBOARD_PORT, GREETING, HOST, RTDE_PORT, SCRIPT_PORT
+
+
+def dashboard_command(command, timeout_s=2.0):
+    """Send one dashboard line to the fake on 127.0.0.1 and return its reply line.
+
+    Parameters
+    ----------
+    command : str
+        E.g. ``"fake protective stop"`` (see ``docs/robot-link.md`` for the list).
+    timeout_s : float
+        Connect and read deadline, s.
+    """
+    with socket.create_connection((HOST, DASHBOARD_PORT), timeout=timeout_s) as sock:
+        reader = sock.makefile("rb")
+        reader.readline()  # greeting
+        sock.sendall((command + "\n").encode())
+        return reader.readline().decode().strip()
+
+
+def _port_open(port):
+    try:
+        with socket.create_connection((HOST, port), timeout=0.2):
+            return True
+    except OSError:
+        return False
+
+
+def shutdown_leftover(timeout_s=5.0):
+    """Stop a fake still serving 127.0.0.1 from an earlier run; wait until its ports are free."""
+    try:
+        with socket.create_connection((HOST, DASHBOARD_PORT), timeout=0.5) as sock:
+            greeting = sock.makefile("rb").readline().decode().strip()
+            if greeting == GREETING:
+                sock.sendall(b"fake shutdown\n")
+    except OSError:
+        pass
+    deadline = time.monotonic() + timeout_s
+    while any(_port_open(p) for p in (RTDE_PORT, DASHBOARD_PORT, SCRIPT_PORT)):
+        if time.monotonic() > deadline:
+            raise RuntimeError("ports 30004/29999/30003 on 127.0.0.1 are still in use")
+        time.sleep(0.05)
+
+
+class FakeUrProcess:
+    """The fake controller as a child process (context manager).
+
+    Parameters
+    ----------
+    time_scale : float
+        Passed to ``--time-scale``: simulated motion seconds per wall second.
+    startup_timeout_s : float
+        How long to wait for the fake to report that it is listening, s.
+    """
+
+    def __init__(self, time_scale=10.0, startup_timeout_s=10.0):
+        self.time_scale = time_scale
+        self.startup_timeout_s = startup_timeout_s
+        self.process = None
+
+    def start(self):
+        shutdown_leftover()
+        cmd = [sys.executable, "-m", "drivers.robot.fake_ur", "--time-scale", str(self.time_scale),
+               "--parent-pid", str(os.getpid())]
+        # stderr to a file: a pipe nobody reads would block the fake once full
+        self._stderr = tempfile.TemporaryFile()
+        # own session: signals meant for the test runner's group do not reach it
+        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self._stderr,
+                                        start_new_session=True)
+        selector = selectors.DefaultSelector()
+        selector.register(self.process.stdout, selectors.EVENT_READ)
+        ready = selector.select(self.startup_timeout_s)
+        selector.close()
+        line = self.process.stdout.readline() if ready else b""
+        if b"ready" not in line:
+            self.stop()
+            self._stderr.seek(0)
+            err = self._stderr.read().decode(errors="replace")
+            raise RuntimeError(f"fake UR controller did not start: {err.strip()[-500:]}")
+        return self
+
+    def command(self, text):
+        """A dashboard command to this fake, e.g. ``"fake estop"``; returns the reply line."""
+        return dashboard_command(text)
+
+    @property
+    def running(self):
+        return self.process is not None and self.process.poll() is None
+
+    def stop(self):
+        """Terminate the fake (kill it if it does not exit within 3 s)."""
+        if self.process is None:
+            return
+        if self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(3)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(3)
+        self.process.stdout.close()
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()

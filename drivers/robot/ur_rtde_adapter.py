@@ -1,0 +1,260 @@
+"""The robot interface on a Universal Robots controller, through the ``ur-rtde`` client.
+
+Built on ``rtde_control.RTDEControlInterface`` (moveJ, stopJ, isSteady),
+``rtde_receive.RTDEReceiveInterface`` (actual joints, safety bits, timestamp)
+and ``dashboard_client.DashboardClient`` (unlock protective stop). ur-rtde
+speaks radians for joints, so no unit conversion is needed for joint moves;
+Cartesian values (metres) are not used here.
+
+How a move is followed (and why)
+--------------------------------
+``moveJ`` is sent *asynchronously* and the adapter polls, instead of the
+client's blocking ``moveJ``: the blocking call only notices a dead link after
+its own 300 s execution timeout, while polling lets us check, every few
+milliseconds, that the RTDE stream is alive (timestamp advancing), that no
+protective or emergency stop appeared, and that the move's own deadline holds.
+The move is over when the control script reports its async operation finished;
+then ``isSteady`` must be true and ``getActualQ`` must be within tolerance of
+the target, else :class:`~drivers.robot.errors.MotionFailed`.
+"""
+
+import threading
+import time
+
+import numpy as np
+
+from drivers.robot.errors import (
+    ConnectionLost,
+    DriverTimeout,
+    EmergencyStop,
+    MotionFailed,
+    NotReady,
+    ProtectiveStop,
+)
+from drivers.robot.interface import Robot, SafetyState, check_move_args
+
+
+def expected_move_time(q0, q1, speed_rad_s, accel_rad_s2):
+    """Duration of a synchronised trapezoidal joint move (as URScript ``movej``), s.
+
+    Parameters
+    ----------
+    q0, q1 : array_like, shape (6,)
+        Start and target joint angles, rad.
+    speed_rad_s, accel_rad_s2 : float
+        Leading-joint speed (rad/s) and acceleration (rad/s^2).
+    """
+    travel = float(np.max(np.abs(np.asarray(q1, float) - np.asarray(q0, float))))
+    if travel * accel_rad_s2 <= speed_rad_s**2:  # triangular profile
+        return 2.0 * np.sqrt(travel / accel_rad_s2)
+    return travel / speed_rad_s + speed_rad_s / accel_rad_s2
+
+
+class UrRtdeRobot(Robot):
+    """A UR arm over RTDE.
+
+    Parameters
+    ----------
+    host : str
+        Controller address, given by the caller (no default: a driver never
+        picks an address on its own).
+    tolerance_rad : float
+        Largest joint error accepted at the end of a move, rad.
+    stale_after_s : float
+        The link counts as lost when the RTDE timestamp has not advanced for
+        this long (the controller streams at 500 Hz).
+    timeout_margin_s : float
+        Added to the expected move time to make a move's deadline, s.
+    poll_s : float
+        Polling period while a move runs, s.
+    """
+
+    #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
+    start_grace_s = 0.1
+    #: Seconds to wait for ``actual_q`` to catch up once steady (it lags ~1 period).
+    settle_s = 0.25
+
+    def __init__(self, host, *, tolerance_rad=1e-3, stale_after_s=0.5, timeout_margin_s=5.0,
+                 poll_s=0.002):
+        if not host:
+            raise ValueError("host is required")
+        self.host = host
+        self.tolerance_rad = float(tolerance_rad)
+        self.stale_after_s = float(stale_after_s)
+        self.timeout_margin_s = float(timeout_margin_s)
+        self.poll_s = float(poll_s)
+        self._control = None
+        self._receive = None
+        self._dashboard = None
+        # commands on the control interface are register handshakes: one at a time
+        self._cmd_lock = threading.Lock()
+        self._stop_latch = False
+        self._last_stamp = None
+
+    # ------------------------------------------------------------ lifecycle
+    def connect(self):
+        import dashboard_client
+        import rtde_control
+        import rtde_receive
+
+        try:
+            self._receive = rtde_receive.RTDEReceiveInterface(self.host)
+            self._control = rtde_control.RTDEControlInterface(self.host)
+            self._dashboard = dashboard_client.DashboardClient(self.host)
+            self._dashboard.connect()
+        except RuntimeError as exc:
+            stopped = self._receive is not None and not self.safety_state().ok
+            self.close()
+            if stopped:
+                raise NotReady(f"UR controller at {self.host} is safety-stopped: {exc}") from exc
+            raise ConnectionLost(f"could not connect to {self.host}: {exc}") from exc
+        self._last_stamp = (self._receive.getTimestamp(), time.monotonic())
+        # a robot that is stopped at connect time must be cleared explicitly too
+        self._stop_latch = not self.safety_state().ok
+
+    def close(self):
+        for name in ("_control", "_receive", "_dashboard"):
+            client = getattr(self, name)
+            setattr(self, name, None)
+            if client is None:
+                continue
+            try:
+                if name == "_control" and client.isConnected():
+                    client.stopScript()
+                client.disconnect()
+            except RuntimeError:
+                pass  # closing a dead link: nothing more to do
+
+    # --------------------------------------------------------------- state
+    def actual_joints(self):
+        self._check_link()
+        return np.array(self._receive.getActualQ(), dtype=float)
+
+    def safety_state(self):
+        self._check_link()
+        return SafetyState(
+            protective_stopped=bool(self._receive.isProtectiveStopped()),
+            emergency_stopped=bool(self._receive.isEmergencyStopped()),
+        )
+
+    # -------------------------------------------------------------- motion
+    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
+        target = check_move_args(q_rad, speed_rad_s, accel_rad_s2)
+        self._check_link()
+        self._raise_for_safety()
+        if self._stop_latch:
+            raise ProtectiveStop("the arm was safety-stopped; call clear_protective_stop() first")
+        if not self._control.isProgramRunning():
+            raise NotReady("the rtde_control script is not running on the controller")
+        start = self.actual_joints()
+        with self._cmd_lock:
+            accepted = self._control.moveJ(target.tolist(), float(speed_rad_s),
+                                           float(accel_rad_s2), True)
+        if not accepted:
+            self._check_link()
+            self._raise_for_safety()
+            raise MotionFailed(f"controller refused moveJ to {target.tolist()}")
+        deadline = expected_move_time(start, target, speed_rad_s, accel_rad_s2)
+        self._wait_move(deadline + self.timeout_margin_s)
+        return self._verify_reached(target)
+
+    def stop(self, decel_rad_s2=2.0):
+        """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2)."""
+        self._check_link()
+        with self._cmd_lock:
+            self._control.stopJ(float(decel_rad_s2))
+
+    def clear_protective_stop(self, timeout_s=6.0):
+        """Unlock the protective stop (dashboard), restart the control script, lift the latch.
+
+        A real controller refuses the unlock for 5 s after the stop; that
+        refusal surfaces as :class:`~drivers.errors.NotReady`.
+        """
+        self._check_link()
+        if self._receive.isEmergencyStopped():
+            raise EmergencyStop("emergency stop engaged: an operator must release it")
+        if self._receive.isProtectiveStopped():
+            try:
+                self._dashboard.unlockProtectiveStop()
+            except RuntimeError as exc:
+                raise NotReady(f"controller refused to unlock the protective stop: {exc}") from exc
+            self._wait_for(lambda: not self._receive.isProtectiveStopped(), timeout_s,
+                           "protective stop to clear")
+        if not self._control.isProgramRunning():
+            with self._cmd_lock:
+                self._control.reuploadScript()
+            # reuploadScript returns before the program runs; a moveJ sent now would fail
+            self._wait_for(self._control.isProgramRunning, timeout_s, "control script to start")
+        self._stop_latch = False
+
+    # ------------------------------------------------------------ internals
+    def _wait_move(self, timeout_s):
+        """Poll until the async move finished; raise on stop, lost link or deadline."""
+        t0 = time.monotonic()
+        seen_running = False
+        while True:
+            self._check_link()
+            self._raise_for_safety()
+            running = self._control.getAsyncOperationProgress() >= 0
+            seen_running = seen_running or running
+            elapsed = time.monotonic() - t0
+            # right after moveJ a real script may not have started its move thread yet
+            if not running and (seen_running or elapsed > self.start_grace_s):
+                return
+            if elapsed > timeout_s:
+                self.stop()
+                raise DriverTimeout(f"move did not finish within {timeout_s:.1f} s; stopped")
+            time.sleep(self.poll_s)
+
+    def _verify_reached(self, target):
+        with self._cmd_lock:
+            steady = self._control.isSteady()
+        t0 = time.monotonic()
+        while True:
+            q = self.actual_joints()
+            error = np.abs(q - target)
+            if steady and np.max(error) <= self.tolerance_rad:
+                return q
+            if time.monotonic() - t0 > self.settle_s:
+                break
+            time.sleep(self.poll_s)
+            if not steady:
+                with self._cmd_lock:
+                    steady = self._control.isSteady()
+        # a stop that ended the move may reach us a period later than the move's end
+        self._raise_for_safety()
+        joint = int(np.argmax(error))
+        raise MotionFailed(
+            f"move ended away from its target: joint {joint + 1} off by {error[joint]:.4g} rad "
+            f"(tolerance {self.tolerance_rad:g} rad, steady={steady})")
+
+    def _check_link(self):
+        if self._receive is None or self._control is None:
+            raise NotReady("not connected; call connect() first")
+        if not (self._receive.isConnected() and self._control.isConnected()):
+            raise ConnectionLost(f"lost the RTDE connection to {self.host}")
+        stamp, now = self._receive.getTimestamp(), time.monotonic()
+        last_stamp, last_seen = self._last_stamp
+        if stamp != last_stamp:
+            self._last_stamp = (stamp, now)
+        elif now - last_seen > self.stale_after_s:
+            raise ConnectionLost(
+                f"no RTDE data from {self.host} for {now - last_seen:.2f} s (controller hung up?)")
+
+    def _raise_for_safety(self):
+        if self._receive is None:
+            return
+        if self._receive.isEmergencyStopped():
+            self._stop_latch = True
+            raise EmergencyStop("emergency stop engaged")
+        if self._receive.isProtectiveStopped():
+            self._stop_latch = True
+            raise ProtectiveStop("protective stop: the controller stopped the arm")
+
+    def _wait_for(self, condition, timeout_s, what):
+        deadline = time.monotonic() + timeout_s
+        while not condition():
+            if time.monotonic() > deadline:
+                raise DriverTimeout(f"timed out after {timeout_s:.1f} s waiting for {what}")
+            self._check_link()
+            time.sleep(self.poll_s)
