@@ -53,7 +53,6 @@ class ErrorCode(enum.IntEnum):
     METEO_OUT_OF_RANGE = 9
     NOT_WARMED_UP = 10
     BAD_FRAME = 11
-    NO_PROBE = 12
     BEAM_RESTORED = 20  # event only
     REPLAY_MISMATCH = 90  # simulator replay only
 
