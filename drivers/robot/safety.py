@@ -1,0 +1,174 @@
+"""Safety checks before motion: joint limits and a user-set speed/acceleration cap.
+
+A plan is checked whole before the first move (:func:`check_plan`): if any
+target is outside the joint limits, or the requested speed or acceleration
+exceeds the cap, nothing moves and :class:`~drivers.robot.errors.LimitsViolation`
+names the first offending pose and joint. :class:`GuardedRobot` wraps any
+:class:`~drivers.robot.interface.Robot` so that single moves are checked too.
+
+Limits come from the caller (e.g. ``calibrator.models.get_model(name)``); this
+module never picks a robot model itself.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.robot.errors import LimitsViolation
+from drivers.robot.interface import N_JOINTS, Robot
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """What a plan may ask of the arm.
+
+    Attributes
+    ----------
+    joint_limits_rad : ndarray, shape (6, 2)
+        ``[min, max]`` angle of each joint, rad.
+    max_speed_rad_s : float
+        User cap on the leading-joint speed of a move, rad/s.
+    max_accel_rad_s2 : float
+        User cap on the leading-joint acceleration, rad/s^2.
+    max_joint_speed_rad_s : ndarray, shape (6,), optional
+        The arm's own speed limit per joint, rad/s. ``movej`` can make any
+        joint the leading one, so a speed above the smallest of these is refused.
+    """
+
+    joint_limits_rad: np.ndarray
+    max_speed_rad_s: float
+    max_accel_rad_s2: float
+    max_joint_speed_rad_s: np.ndarray | None = None
+
+    def __post_init__(self):
+        limits = np.array(self.joint_limits_rad, dtype=float)
+        if limits.shape != (N_JOINTS, 2):
+            raise ValueError(f"joint_limits_rad must have shape (6, 2), got {limits.shape}")
+        if not np.all(limits[:, 0] < limits[:, 1]):
+            raise ValueError(f"joint limits need min < max on every joint, got {limits.tolist()}")
+        for name in ("max_speed_rad_s", "max_accel_rad_s2"):
+            value = float(getattr(self, name))
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {value}")
+            object.__setattr__(self, name, value)
+        limits.setflags(write=False)
+        object.__setattr__(self, "joint_limits_rad", limits)
+        if self.max_joint_speed_rad_s is not None:
+            speeds = np.array(self.max_joint_speed_rad_s, dtype=float)
+            if speeds.shape != (N_JOINTS,):
+                raise ValueError(f"max_joint_speed_rad_s must have shape (6,), got {speeds.shape}")
+            speeds.setflags(write=False)
+            object.__setattr__(self, "max_joint_speed_rad_s", speeds)
+
+    @classmethod
+    def from_model(cls, model, max_speed_rad_s, max_accel_rad_s2):
+        """Limits from a ``calibrator.models.RobotModel`` plus the user's caps."""
+        return cls(model.joint_limits_rad, max_speed_rad_s, max_accel_rad_s2,
+                   model.max_joint_speed_rad_s)
+
+
+def check_motion(limits, speed_rad_s, accel_rad_s2):
+    """Refuse a speed or acceleration above the caps (or not > 0).
+
+    Raises
+    ------
+    LimitsViolation
+    """
+    if not (np.isfinite(speed_rad_s) and 0 < speed_rad_s <= limits.max_speed_rad_s):
+        raise LimitsViolation(
+            f"speed {speed_rad_s} rad/s outside (0, {limits.max_speed_rad_s}] (user cap)")
+    if limits.max_joint_speed_rad_s is not None:
+        slowest = float(np.min(limits.max_joint_speed_rad_s))
+        if speed_rad_s > slowest:
+            raise LimitsViolation(
+                f"speed {speed_rad_s} rad/s above the arm's slowest joint ({slowest:.4g} rad/s)")
+    if not (np.isfinite(accel_rad_s2) and 0 < accel_rad_s2 <= limits.max_accel_rad_s2):
+        raise LimitsViolation(
+            f"acceleration {accel_rad_s2} rad/s^2 outside (0, {limits.max_accel_rad_s2}] "
+            "(user cap)")
+
+
+def check_plan(q_plan_rad, limits, speed_rad_s, accel_rad_s2):
+    """Check every target of a plan, and the motion parameters, before any move.
+
+    Parameters
+    ----------
+    q_plan_rad : array_like, shape (N, 6)
+        Joint targets, rad, in the order they will be visited.
+    limits : MotionLimits
+    speed_rad_s, accel_rad_s2 : float
+        The speed and acceleration the plan will be run with.
+
+    Returns
+    -------
+    ndarray, shape (N, 6)
+        The plan as a float array (rad).
+
+    Raises
+    ------
+    LimitsViolation
+        Naming the first pose (0-based plan row) and joint (``J1``..``J6``)
+        out of limits; the whole plan is refused.
+    ValueError
+        The plan has the wrong shape.
+    """
+    plan = np.asarray(q_plan_rad, dtype=float)
+    if plan.ndim != 2 or plan.shape[1] != N_JOINTS:
+        raise ValueError(f"plan must have shape (N, 6), got {plan.shape}")
+    check_motion(limits, speed_rad_s, accel_rad_s2)
+    low, high = limits.joint_limits_rad[:, 0], limits.joint_limits_rad[:, 1]
+    # NaN compares False both ways, so test "inside" and negate
+    bad = ~((plan >= low) & (plan <= high))
+    if bad.any():
+        pose, joint = np.argwhere(bad)[0]
+        n_bad = int(bad.any(axis=1).sum())
+        raise LimitsViolation(
+            f"pose {pose} (plan row, 0-based) joint J{joint + 1}: {plan[pose, joint]:.6g} rad "
+            f"outside [{low[joint]:.6g}, {high[joint]:.6g}] rad; whole plan of {len(plan)} "
+            f"poses refused ({n_bad} out of limits)",
+            pose_index=int(pose), joint_index=int(joint))
+    return plan
+
+
+class GuardedRobot(Robot):
+    """Any robot, with every move checked against :class:`MotionLimits` first.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot that actually moves.
+    limits : MotionLimits
+    """
+
+    def __init__(self, robot, limits):
+        self.robot = robot
+        self.limits = limits
+
+    def check_plan(self, q_plan_rad, speed_rad_s, accel_rad_s2):
+        """:func:`check_plan` with this robot's limits; call it before the first move."""
+        return check_plan(q_plan_rad, self.limits, speed_rad_s, accel_rad_s2)
+
+    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
+        target = np.asarray(q_rad, dtype=float)
+        if target.shape != (N_JOINTS,):
+            raise ValueError(f"joint target must have shape (6,), got {target.shape}")
+        check_plan(target[np.newaxis], self.limits, speed_rad_s, accel_rad_s2)
+        return self.robot.move_joints(target, speed_rad_s, accel_rad_s2)
+
+    def connect(self):
+        self.robot.connect()
+
+    def close(self):
+        self.robot.close()
+
+    def actual_joints(self):
+        return self.robot.actual_joints()
+
+    def safety_state(self):
+        return self.robot.safety_state()
+
+    def stop(self):
+        self.robot.stop()
+
+    def clear_protective_stop(self):
+        self.robot.clear_protective_stop()
