@@ -6,7 +6,6 @@ tracker frame).
 """
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def check_transform(t, name="transform"):
@@ -52,8 +51,12 @@ def rotations_xyz(angles):
 
 
 def angles_xyz(rotation):
-    """Inverse of :func:`rotations_xyz` for one rotation matrix (3, 3) -> (3,) rad."""
-    return Rotation.from_matrix(rotation).as_euler("XYZ")
+    """Inverse of :func:`rotations_xyz`: (..., 3, 3) -> (..., 3) rad, ``ry`` in [-pi/2, pi/2]."""
+    r = np.asarray(rotation, dtype=float)
+    rx = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
+    ry = np.arctan2(r[..., 0, 2], np.hypot(r[..., 0, 0], r[..., 0, 1]))
+    rz = np.arctan2(-r[..., 0, 1], r[..., 0, 0])
+    return np.stack([rx, ry, rz], axis=-1)
 
 
 def transform(rotation=None, translation=None):
@@ -76,17 +79,59 @@ def invert(t):
 
 
 def rotvec_to_matrix(rotvec):
-    """Rotation vectors (..., 3) rad to rotation matrices (..., 3, 3)."""
+    """Rotation vectors (..., 3) rad to rotation matrices (..., 3, 3) (Rodrigues)."""
     rotvec = np.asarray(rotvec, dtype=float)
-    flat = Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_matrix()
-    return flat.reshape(rotvec.shape[:-1] + (3, 3))
+    angle = np.linalg.norm(rotvec, axis=-1)[..., np.newaxis, np.newaxis]
+    k = _skew(rotvec)
+    small = angle < 1e-6
+    safe = np.where(small, 1.0, angle)
+    # Taylor series below 1e-6 rad, where sin(t)/t and (1-cos t)/t^2 lose digits.
+    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    return np.eye(3) + a * k + b * (k @ k)
 
 
 def matrix_to_rotvec(matrix):
-    """Rotation matrices (..., 3, 3) to rotation vectors (..., 3) rad."""
-    matrix = np.asarray(matrix, dtype=float)
-    flat = Rotation.from_matrix(matrix.reshape(-1, 3, 3)).as_rotvec()
-    return flat.reshape(matrix.shape[:-2] + (3,))
+    """Rotation matrices (..., 3, 3) to rotation vectors (..., 3) rad, angle in [0, pi].
+
+    Goes through a unit quaternion (Shepperd's choice of the largest
+    component), which stays accurate near 0 and near pi.
+    """
+    r = np.asarray(matrix, dtype=float)
+    trace = np.trace(r, axis1=-2, axis2=-1)
+    diag = np.diagonal(r, axis1=-2, axis2=-1)
+    choice = np.argmax(np.concatenate([trace[..., None], diag], axis=-1), axis=-1)
+    quat = np.empty(r.shape[:-2] + (4,))  # (x, y, z, w)
+    w_case = choice == 0
+    t = np.sqrt(np.maximum(1.0 + trace, 1e-300))
+    quat[..., 3] = np.where(w_case, 0.5 * t, 0.0)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        quat[..., i] = np.where(w_case, 0.5 * (r[..., k, j] - r[..., j, k]) / t, 0.0)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        case = choice == i + 1
+        s = np.sqrt(np.maximum(1.0 + 2.0 * r[..., i, i] - trace, 1e-300))
+        quat[..., i] = np.where(case, 0.5 * s, quat[..., i])
+        quat[..., j] = np.where(case, 0.5 * (r[..., j, i] + r[..., i, j]) / s, quat[..., j])
+        quat[..., k] = np.where(case, 0.5 * (r[..., k, i] + r[..., i, k]) / s, quat[..., k])
+        quat[..., 3] = np.where(case, 0.5 * (r[..., k, j] - r[..., j, k]) / s, quat[..., 3])
+    quat *= np.where(quat[..., 3:] < 0, -1.0, 1.0)
+    quat /= np.linalg.norm(quat, axis=-1, keepdims=True)
+    v = np.linalg.norm(quat[..., :3], axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(v, quat[..., 3:])
+    scale = np.where(
+        v < 1e-12, 2.0 / np.maximum(quat[..., 3:], 1e-300), angle / np.maximum(v, 1e-300)
+    )
+    return quat[..., :3] * scale
+
+
+def _skew(v):
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
 
 
 def rotation_error(model, measured):

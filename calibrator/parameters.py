@@ -247,7 +247,7 @@ def _drop(name, reason):
     return {"name": name, "reason": reason}
 
 
-def prune(candidates, jacobian, tol=1e-6):
+def prune(candidates, jacobian, tol=1e-6, context="for these poses"):
     """Drop candidates the data cannot separate from the ones kept before them.
 
     Columns of the Jacobian are scaled to unit length and visited frames
@@ -263,6 +263,8 @@ def prune(candidates, jacobian, tol=1e-6):
         Residual Jacobian with respect to the candidates, at the first guess.
     tol : float
         Relative size under which a scaled column counts as redundant.
+    context : str
+        Ends each reason, e.g. whether the redundancy is the model's or the data's.
 
     Returns
     -------
@@ -287,7 +289,7 @@ def prune(candidates, jacobian, tol=1e-6):
             kept_idx = [candidates.index(n) for n in kept]
             lstsq = np.linalg.lstsq(jacobian[:, kept_idx] / norms[kept_idx], col, rcond=None)[0]
             partners = [kept[i] for i in np.argsort(-np.abs(lstsq))[:3] if abs(lstsq[i]) > 1e-3]
-            dropped.append(_drop(name, f"redundant with {', '.join(partners)} for these poses"))
+            dropped.append(_drop(name, f"redundant with {', '.join(partners)} {context}"))
             continue
         kept.append(name)
         basis = np.column_stack([basis, rest / size])

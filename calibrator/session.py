@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
@@ -101,26 +100,25 @@ class Session:
 
     Attributes
     ----------
-    table : pandas.DataFrame
-        The rows as stored, in pose order.
+    table : pyarrow.Table
+        The rows as stored, sorted by pose (``table.to_pandas()`` for a frame).
     meta : SessionMeta
     """
 
-    table: pd.DataFrame
+    table: pa.Table
     meta: SessionMeta
+
+    def array(self, columns):
+        """Columns as one float array, shape (N, len(columns))."""
+        return np.column_stack([self.table[c].to_numpy().astype(float) for c in columns])
 
     @property
     def observations(self):
         """The rows as :class:`calibrator.measurement.Observations`."""
-        t = self.table
         rot = None
-        if all(c in t for c in ROTVEC_COLUMNS):
-            rot = frames.rotvec_to_matrix(t[list(ROTVEC_COLUMNS)].to_numpy(float, copy=True))
-        return Observations(
-            t[list(JOINT_COLUMNS)].to_numpy(float, copy=True),
-            t[list(POINT_COLUMNS)].to_numpy(float, copy=True),
-            rot,
-        )
+        if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
+            rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
+        return Observations(self.array(JOINT_COLUMNS), self.array(POINT_COLUMNS), rot)
 
 
 def load(path, model=None):
@@ -142,7 +140,7 @@ def load(path, model=None):
         raise SessionError(f"session file not found: {path}")
     try:
         pf = pq.ParquetFile(path)
-        table = pf.read().to_pandas()
+        table = pf.read()
     except (pa.ArrowException, OSError) as exc:
         raise SessionError(f"{path} is not a readable Parquet file ({_first_line(exc)})") from None
     meta_raw = (pf.schema_arrow.metadata or {}).get(META_KEY)
@@ -217,10 +215,9 @@ def _matrix(value, shape, what, path):
 
 
 def _validate_table(table, path, meta):
+    names = table.column_names
     extra_joints = sorted(
-        c
-        for c in table.columns
-        if c.startswith("q") and c.endswith("_rad") and c not in JOINT_COLUMNS
+        c for c in names if c.startswith("q") and c.endswith("_rad") and c not in JOINT_COLUMNS
     )
     if extra_joints:
         raise SessionError(
@@ -228,33 +225,40 @@ def _validate_table(table, path, meta):
             "this program calibrates 6-axis arms"
         )
     required = ("pose",) + JOINT_COLUMNS + POINT_COLUMNS
-    missing = [c for c in required if c not in table.columns]
+    missing = [c for c in required if c not in names]
     if missing:
         raise SessionError(f"{path}: missing column(s) {', '.join(missing)}")
-    rot_present = [c for c in ROTVEC_COLUMNS if c in table.columns]
+    rot_present = [c for c in ROTVEC_COLUMNS if c in names]
     if rot_present and len(rot_present) != 3:
         raise SessionError(
             f"{path}: orientation needs all of {', '.join(ROTVEC_COLUMNS)}, "
             f"found only {', '.join(rot_present)}"
         )
-    numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in table.columns]
+    if table.num_rows == 0:
+        raise SessionError(f"{path}: the session has no poses")
+    numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in names]
     for col in numeric:
-        if not pd.api.types.is_numeric_dtype(table[col]) or pd.api.types.is_bool_dtype(table[col]):
-            raise SessionError(f"{path}: column {col} is not numeric ({table[col].dtype})")
-        values = table[col].to_numpy(dtype=float, na_value=np.nan)
+        kind = table.schema.field(col).type
+        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
+            raise SessionError(f"{path}: column {col} is not numeric ({kind})")
+        values = table[col].to_numpy(zero_copy_only=False).astype(float)  # nulls become NaN
         bad = ~np.isfinite(values)
         if bad.any():
-            rows = table["pose"].to_numpy()[bad][:5].tolist() if col != "pose" else "?"
-            raise SessionError(f"{path}: column {col} has NaN or infinite values (pose {rows})")
-    poses = table["pose"].to_numpy(dtype=float)
+            where = "" if col == "pose" else f" (pose {_poses(table, bad)})"
+            raise SessionError(f"{path}: column {col} has NaN or infinite values{where}")
+    poses = table["pose"].to_numpy(zero_copy_only=False).astype(float)
     if np.any(poses != np.round(poses)):
         raise SessionError(f"{path}: column pose must hold whole numbers")
-    dup = table["pose"][table["pose"].duplicated()].unique()
-    if len(dup):
-        raise SessionError(f"{path}: duplicate pose number(s) {sorted(dup.tolist())[:5]}")
-    if len(table) == 0:
-        raise SessionError(f"{path}: the session has no poses")
-    return table.sort_values("pose", kind="stable").reset_index(drop=True)
+    unique, counts = np.unique(poses, return_counts=True)
+    if np.any(counts > 1):
+        raise SessionError(
+            f"{path}: duplicate pose number(s) {unique[counts > 1][:5].astype(int).tolist()}"
+        )
+    return table.take(np.argsort(poses, kind="stable"))
+
+
+def _poses(table, mask):
+    return table["pose"].to_numpy(zero_copy_only=False)[mask][:5].tolist()
 
 
 def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=None):
@@ -275,7 +279,7 @@ def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=N
 
     Returns
     -------
-    pandas.DataFrame
+    pyarrow.Table
     """
     q = kinematics.check_joints(q)
     data = {"pose": np.arange(len(q), dtype=np.int64)}
@@ -289,7 +293,7 @@ def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=N
         data["n_readings"] = np.asarray(n_readings, dtype=np.int64)
     if timestamps is not None:
         data["timestamp"] = timestamps
-    return pd.DataFrame(data)
+    return pa.table(data)
 
 
 def write(path, table, meta):
@@ -298,12 +302,14 @@ def write(path, table, meta):
     Parameters
     ----------
     path : str or Path
-    table : pandas.DataFrame
+    table : pyarrow.Table or pandas.DataFrame
         Rows following the schema above.
     meta : SessionMeta
     """
     path = Path(path)
-    arrow = pa.Table.from_pandas(table, preserve_index=False)
+    arrow = (
+        table if isinstance(table, pa.Table) else pa.Table.from_pandas(table, preserve_index=False)
+    )
     metadata = dict(arrow.schema.metadata or {})
     metadata[META_KEY] = json.dumps(meta.to_json()).encode()
     arrow = arrow.replace_schema_metadata(metadata)

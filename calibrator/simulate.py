@@ -146,7 +146,7 @@ def simulate(
 
     Returns
     -------
-    table : pandas.DataFrame
+    table : pyarrow.Table
     meta : calibrator.session.SessionMeta
     truth : Truth
     """

@@ -106,14 +106,20 @@ def identify(session, options=Options()):
     )
     candidates, dropped = parameters.structural_candidates(meta.nominal_mdh, meta.frame, tool_known)
     space = parameters.ParameterSpace(meta.nominal_mdh, base0, tool0, candidates)
-    zero = np.zeros(space.size)
-    jac = measurement.jacobian(space, zero, fit, k, names=candidates)
-    parameters.require_enough(jac.shape[0], 1, "fitting poses")
-    kept, pruned = parameters.prune(candidates, jac)
-    parameters.require_enough(jac.shape[0], len(kept), f"{len(fit)} fitting poses")
+    # What the model itself cannot separate (any poses), then what these
+    # poses cannot: too few poses is an error, not a reason to drop.
+    generic = measurement.Observations(*_generic_poses(space, fit.has_orientation))
+    jac = measurement.jacobian(space, np.zeros(space.size), generic, k, names=candidates)
+    kept, redundant = parameters.prune(candidates, jac, context="(for any poses)")
+    rows = len(fit) * (6 if measurement.uses_orientation(fit, k) else 3)
+    parameters.require_enough(rows, len(kept), f"{len(fit)} fitting poses")
+    jac = measurement.jacobian(space.with_free(kept), np.zeros(len(kept)), fit, k)
+    kept, weak = parameters.prune(kept, jac, context="with these poses")
     space = space.with_free(kept)
+    dropped += redundant + weak
 
-    x = np.zeros(space.size)
+    zero = np.zeros(space.size)
+    x = zero
     details = {}
     if options.method in ("pso", "hybrid"):
         lower, upper = space.bounds()
@@ -148,4 +154,18 @@ def identify(session, options=Options()):
         }
         for part, o in (("fit", fit), ("validation", val))
     }
-    return Result(space, x, dropped + pruned, stats, options, k, fit_idx, val_idx, details)
+    return Result(space, x, dropped, stats, options, k, fit_idx, val_idx, details)
+
+
+def _generic_poses(space, orientation, n=64):
+    """Well-spread poses of the nominal arm, to tell the model's redundancies.
+
+    Returns
+    -------
+    q : ndarray, shape (n, 6)
+    points : ndarray, shape (n, 3)
+    rotations : ndarray, shape (n, 3, 3) or None
+    """
+    q = np.random.default_rng(0).uniform(-np.pi, np.pi, (n, 6))
+    pose = measurement.predict(space, np.zeros(space.size), q)
+    return q, pose[:, :3, 3], pose[:, :3, :3] if orientation else None

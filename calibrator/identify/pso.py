@@ -13,7 +13,8 @@ The whole swarm moves as arrays; the objective takes all particles at once.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
+
+from calibrator.identify.halton import halton
 
 
 @dataclass(frozen=True)
@@ -82,7 +83,7 @@ def ipso(
     dim = lower.size
     rng = np.random.default_rng(seed)
     centre, half = (upper + lower) / 2, (upper - lower) / 2
-    start = qmc.Halton(d=2 * dim, scramble=True, seed=rng).random(particles) * 2 - 1
+    start = halton(particles, 2 * dim, rng) * 2 - 1
     x = centre + init_fraction * half * start[:, :dim]
     # Velocities start small and are capped at the half-width: with the
     # constriction factor this only tames the first few generations.

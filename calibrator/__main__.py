@@ -1,0 +1,5 @@
+"""``python -m calibrator``: the same as the ``calibrator`` command."""
+
+from calibrator.cli import main
+
+main()
