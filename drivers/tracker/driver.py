@@ -9,6 +9,7 @@ serial-like object. All quantities are mm and rad in the tracker frame.
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -120,6 +121,7 @@ class LaserTracker:
         self._recorder = Recorder(record) if record is not None else None
         self._on_event = on_event
         self._link: Link | None = None
+        self._events: deque[Reply] = deque(maxlen=256)  # survives reconnects
         self._lost = False
         self.identity: Identity | None = None
         self.last_status: Status | None = None
@@ -142,7 +144,9 @@ class LaserTracker:
         """
         self._open()
         self.identity = self.identify()
-        self._apply("UNITS", "MM", "RAD")
+        reply = self._apply("UNITS", "MM", "RAD")
+        if reply.fields != ("MM", "RAD"):  # every reading is parsed as mm and rad
+            raise FrameError(f"tracker did not confirm UNITS,MM,RAD: {reply.fields!r}")
         if environment is not None:
             self.set_environment(environment)
         if mode is not None:
@@ -170,7 +174,7 @@ class LaserTracker:
     @property
     def events(self):
         """Unsolicited ``EV`` frames received so far (most recent last, at most 256)."""
-        return self._link.events if self._link is not None else ()
+        return self._events
 
     @property
     def link(self) -> Link:
@@ -183,10 +187,7 @@ class LaserTracker:
 
     def identify(self) -> Identity:
         """``ID?``: vendor, model, serial number, firmware."""
-        reply = self._query("ID?", idempotent=True)
-        if len(reply.fields) != 4:
-            raise FrameError(f"ID? reply has {len(reply.fields)} fields, expected 4")
-        return Identity(*reply.fields)
+        return _parse_identity(self._query("ID?", idempotent=True))
 
     def status(self) -> Status:
         """``STAT?``: readiness, initialisation, beam lock, probe type, mode."""
@@ -249,10 +250,11 @@ class LaserTracker:
 
     # ------------------------------------------------------------ machinery
 
-    def _apply(self, command: str, *args: str) -> None:
+    def _apply(self, command: str, *args: str) -> Reply:
         """Send a setting and remember it for re-applying after a reconnect."""
-        self._query(command, *args, idempotent=True)
+        reply = self._query(command, *args, idempotent=True)
         self._settings[command] = args
+        return reply
 
     def _query(
         self, command: str, *args: str, idempotent: bool, timeout_s: float | None = None
@@ -293,13 +295,16 @@ class LaserTracker:
                 self._port = None
             try:
                 self._port = serial.serial_for_url(self._url, timeout=self.timeout_s)
-            except (TRANSPORT_ERRORS, ValueError) as exc:
+            except (*TRANSPORT_ERRORS, ValueError) as exc:
                 raise ConnectionLost(f"cannot open {self._url}: {exc}") from exc
         elif self._port is None:
             raise ConnectionLost("no transport")
-        self._link = Link(self._port, recorder=self._recorder, on_event=self._on_event)
+        self._link = self._new_link(self._port)
         self._link.discard_input()  # bytes from an earlier session are not ours
         self._lost = False
+
+    def _new_link(self, port: SerialLike) -> Link:
+        return Link(port, recorder=self._recorder, on_event=self._on_event, events=self._events)
 
     def _reopen_handed_port(self) -> None:
         """Reopen a transport we were handed (pyserial objects keep their port name)."""
@@ -309,9 +314,9 @@ class LaserTracker:
         try:
             port.close()
             port.open()
-        except (TRANSPORT_ERRORS, ValueError) as exc:
+        except (*TRANSPORT_ERRORS, ValueError) as exc:
             raise ConnectionLost(f"cannot reopen transport: {exc}") from exc
-        self._link = Link(port, recorder=self._recorder, on_event=self._on_event)
+        self._link = self._new_link(port)
         self._link.discard_input()
         self._lost = False
 
@@ -328,7 +333,7 @@ class LaserTracker:
             try:
                 self._open() if self._url is not None else self._reopen_handed_port()
                 link = self.link
-                ident = Identity(*link.transact("ID?", timeout_s=self.timeout_s).fields)
+                ident = _parse_identity(link.transact("ID?", timeout_s=self.timeout_s))
                 if ident.key != self.identity.key:
                     self._lost = True
                     raise IdentityChanged(
@@ -340,7 +345,7 @@ class LaserTracker:
                 return
             except IdentityChanged:
                 raise
-            except (ConnectionLost, TrackerTimeout, FrameError, TypeError) as exc:
+            except (ConnectionLost, TrackerTimeout, FrameError) as exc:
                 last = exc
                 self._lost = True
         raise ConnectionLost(
@@ -348,8 +353,15 @@ class LaserTracker:
         ) from last
 
 
+def _parse_identity(reply: Reply) -> Identity:
+    if len(reply.fields) != 4:
+        raise FrameError(f"ID? reply has {len(reply.fields)} fields, expected 4")
+    return Identity(*reply.fields)
+
+
 def _parse_status(reply: Reply) -> Status:
     f = reply.fields
-    if len(f) != 5 or f[1] not in "01" or f[2] not in "01" or f[3] not in ("P3", "P6"):
+    flags = ("0", "1")
+    if len(f) != 5 or f[1] not in flags or f[2] not in flags or f[3] not in ("P3", "P6"):
         raise FrameError(f"bad STAT? reply fields {f!r}")
     return Status(f[0], f[1] == "1", f[2] == "1", f[3] == "P6", f[4])

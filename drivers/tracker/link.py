@@ -62,6 +62,8 @@ class Link:
         Receives every written frame and every chunk read.
     on_event : callable, optional
         Called with each ``EV`` :class:`Reply` as it arrives.
+    events : deque, optional
+        Where to keep events (lets them outlive a reconnect); a new one by default.
     clock : callable
         Monotonic clock in seconds (deadlines).
     """
@@ -72,12 +74,13 @@ class Link:
         *,
         recorder: Recorder | None = None,
         on_event: Callable[[Reply], None] | None = None,
+        events: deque[Reply] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ):
         self.port = port
         self.recorder = recorder
         self.on_event = on_event
-        self.events: deque[Reply] = deque(maxlen=256)
+        self.events: deque[Reply] = deque(maxlen=256) if events is None else events
         self.stale_replies = 0  # replies dropped for a wrong sequence number
         self._clock = clock
         self._seq = 0
@@ -168,13 +171,13 @@ class Link:
 
     def _read_chunk(self, remaining: float) -> bytes:
         port = self.port
-        # Changing the timeout reconfigures a tty (a syscall): only shrink it to the
-        # deadline, or grow it when it is far too short for the time left.
-        current = port.timeout
-        if current is None or current > remaining or current < 0.5 * remaining:
-            port.timeout = remaining
         room = MAX_FRAME - len(self._buf)
         try:
+            # Changing the timeout reconfigures a tty (a syscall): only shrink it to the
+            # deadline, or grow it when it is far too short for the time left.
+            current = port.timeout
+            if current is None or current > remaining or current < 0.5 * remaining:
+                port.timeout = remaining
             # pyserial's read_until reads one byte per call, which alone would cap us
             # near 1000 readings/s; so take what is already waiting in one read, and
             # wait for a reply to begin with read(1). Both honour the port timeout.

@@ -1,7 +1,8 @@
 """Command line: ``python -m drivers.tracker.simulator (--pty | --tcp PORT) [options]``.
 
 Prints one line per endpoint on stdout, in this order, then serves until
-SIGTERM/SIGINT (or until a pty hang-up leaves no endpoint):
+SIGTERM/SIGINT, until its parent process exits (unless ``--outlive-parent``),
+or until a pty hang-up leaves no endpoint:
 
 - ``--pty``: the slave device path (line 1), e.g. ``/dev/pts/7``;
 - ``--tcp PORT``: the port number (0 picks a free one).
@@ -10,8 +11,11 @@ SIGTERM/SIGINT (or until a pty hang-up leaves no endpoint):
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
+import threading
+import time
 from pathlib import Path
 
 from drivers.tracker.simulator.engine import TrackerSimulator
@@ -49,11 +53,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--serial", default="SIM-0001", help="serial number reported by ID?")
     p.add_argument("--faults", type=Path, metavar="FILE", help="fault script (see faults.py)")
     p.add_argument("--replay", type=Path, metavar="LOG", help="answer from a recorded log")
+    p.add_argument(
+        "--outlive-parent",
+        action="store_true",
+        help="keep serving after the parent process exits (default: exit with it)",
+    )
     return p
 
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
+
+
+def _exit_with_parent(parent: int) -> None:
+    """SIGTERM ourselves once the parent is gone, so crashed test runs leave no simulators."""
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os.kill(os.getpid(), signal.SIGTERM)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         print(server.open_tcp(args.tcp), flush=True)
     # SIGTERM ends the loop like Ctrl-C so the endpoints are closed cleanly.
     signal.signal(signal.SIGTERM, _interrupt)
+    if not args.outlive_parent:
+        threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
     try:
         server.serve_forever()
     except KeyboardInterrupt:
