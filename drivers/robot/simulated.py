@@ -166,6 +166,14 @@ class SimulatedRobot(Robot):
         """Simulation control: the safety system trips (as a collision would)."""
         self._protective = self._latched = True
 
+    def unlock_from_pendant(self):
+        """Simulation control: an operator unlocks the protective stop on the pendant.
+
+        The arm's safety flag clears, but this driver still refuses moves until
+        :meth:`clear_protective_stop` is called, as the ``ur-rtde`` adapter does.
+        """
+        self._protective = False
+
     def inject_emergency_stop(self):
         """Simulation control: someone presses the e-stop."""
         self._emergency = self._latched = True

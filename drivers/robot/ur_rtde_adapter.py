@@ -113,17 +113,18 @@ class UrRtdeRobot(Robot):
         self._stop_latch = not self.safety_state().ok
 
     def close(self):
-        for name in ("_control", "_receive", "_dashboard"):
-            client = getattr(self, name)
-            setattr(self, name, None)
-            if client is None:
-                continue
+        control = self._control
+        self._control = self._receive = self._dashboard = None
+        if control is not None:
             try:
-                if name == "_control" and client.isConnected():
-                    client.stopScript()
-                client.disconnect()
+                if control.isConnected():
+                    control.stopScript()  # leave no control script running on the robot
             except RuntimeError:
                 pass  # closing a dead link: nothing more to do
+        # Dropping the last reference disconnects: the clients' destructors call
+        # disconnect() themselves, and each disconnect blocks ~0.5 s, so an
+        # explicit disconnect() first would only double the wait.
+        del control
 
     # --------------------------------------------------------------- state
     def actual_joints(self):
@@ -132,10 +133,13 @@ class UrRtdeRobot(Robot):
 
     def safety_state(self):
         self._check_link()
-        return SafetyState(
+        state = SafetyState(
             protective_stopped=bool(self._receive.isProtectiveStopped()),
             emergency_stopped=bool(self._receive.isEmergencyStopped()),
         )
+        # a stop seen here must be cleared through us even if unlocked elsewhere
+        self._stop_latch = self._stop_latch or not state.ok
+        return state
 
     # -------------------------------------------------------------- motion
     def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
@@ -145,7 +149,8 @@ class UrRtdeRobot(Robot):
         if self._stop_latch:
             raise ProtectiveStop("the arm was safety-stopped; call clear_protective_stop() first")
         if not self._control.isProgramRunning():
-            raise NotReady("the rtde_control script is not running on the controller")
+            raise NotReady("the rtde_control script is not running (stopped on the pendant or by "
+                           "a safety stop); call clear_protective_stop() to restart it")
         start = self.actual_joints()
         with self._cmd_lock:
             accepted = self._control.moveJ(target.tolist(), float(speed_rad_s),

@@ -186,6 +186,13 @@ class FakeUr:
         if command == "joints":
             with c.lock:
                 return "fake: joints " + " ".join(f"{v:.9f}" for v in c.q)
+        if command == "status":
+            # "normal" only when nothing a test injected is still in effect
+            with c.lock:
+                flags = [name for name, on in (
+                    ("protective_stop", c.safety_bits & 4), ("emergency_stop", c.safety_bits & 128),
+                    ("stalled", c.stalled), ("moving", c.moving)) if on]
+            return "fake: status " + (" ".join(flags) or "normal")
         if command == "moving":
             return f"fake: moving {str(c.moving).lower()}"
         if command in ("drop", "shutdown"):

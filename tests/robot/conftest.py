@@ -1,0 +1,155 @@
+"""Fixtures for the robot-link tests: the fake UR controller process and robot harnesses.
+
+The fake listens on fixed ports (30004/29999/30003 on 127.0.0.1), so one fake
+serves the whole session and is replaced only when a test broke it (dropped,
+stalled, still stopped) or needs another time scale. ``FakeUrProcess.start``
+shuts down a fake left over from a crashed run, and every fake exits by
+itself when the test process dies (``--parent-pid``).
+"""
+
+import time
+
+import numpy as np
+import pytest
+
+from drivers.robot.fake_ur.launcher import FakeUrProcess
+from drivers.robot.simulated import SimulatedRobot
+
+FAST = 10.0  # time scale of the fake: moves run ten times faster than on a robot
+
+
+class FakeManager:
+    """Keeps at most one fake controller process alive for the session."""
+
+    def __init__(self):
+        self.fake = None
+
+    def running(self, time_scale=FAST):
+        """A healthy fake with this time scale (reused when possible)."""
+        if self.fake is not None and (not self.fake.running or
+                                      self.fake.time_scale != time_scale or
+                                      not self.healthy()):
+            self.discard()
+        if self.fake is None:
+            self.fake = FakeUrProcess(time_scale=time_scale).start()
+        return self.fake
+
+    def healthy(self):
+        try:
+            return self.fake.command("fake status") == "fake: status normal"
+        except OSError:
+            return False
+
+    def discard(self):
+        if self.fake is not None:
+            self.fake.stop()
+            self.fake = None
+
+
+@pytest.fixture(scope="session")
+def fake_manager():
+    manager = FakeManager()
+    yield manager
+    manager.discard()
+
+
+@pytest.fixture
+def fake_ur(fake_manager):
+    """A running fake controller (time scale 10); replaced after a test that broke it."""
+    fake = fake_manager.running()
+    yield fake
+    if not (fake.running and fake_manager.healthy()):
+        fake_manager.discard()
+
+
+@pytest.fixture
+def ur_robot(fake_ur):
+    """The ur-rtde adapter connected to the fake controller."""
+    from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+
+    robot = UrRtdeRobot("127.0.0.1")
+    robot.connect()
+    yield robot
+    robot.close()
+
+
+def wait_until(condition, timeout_s=2.0, what="condition"):
+    """Poll ``condition`` until true; fail the test after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out waiting for {what}")
+        time.sleep(0.002)
+
+
+class SimulatedHarness:
+    """The simulated robot plus its simulation controls, for the shared suite."""
+
+    name = "simulated"
+
+    def __init__(self):
+        self.robot = SimulatedRobot.from_model(
+            "ur5e", np.random.default_rng(20241122), joint_noise_rad=1e-5,
+            initial_q=[0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
+        self.tolerance_rad = 1e-4
+
+    def inject_protective_stop(self):
+        self.robot.inject_protective_stop()
+
+    def unlock_from_pendant(self):
+        self.robot.unlock_from_pendant()
+
+    def inject_emergency_stop(self):
+        self.robot.inject_emergency_stop()
+
+    def release_emergency_stop(self):
+        self.robot.release_emergency_stop()
+
+    def close(self):
+        self.robot.close()
+
+
+class FakeControllerHarness:
+    """The ur-rtde adapter on the fake controller, faults injected over the dashboard."""
+
+    name = "ur_rtde_fake"
+
+    def __init__(self, fake):
+        from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+
+        self.fake = fake
+        self.robot = UrRtdeRobot("127.0.0.1")
+        self.tolerance_rad = self.robot.tolerance_rad
+
+    def _flag(self, attribute):
+        return lambda: getattr(self.robot.safety_state(), attribute)
+
+    def inject_protective_stop(self):
+        assert self.fake.command("fake protective stop") == "fake: protective stop"
+        wait_until(self._flag("protective_stopped"), what="protective stop over RTDE")
+
+    def unlock_from_pendant(self):
+        assert self.fake.command("unlock protective stop") == "Protective stop releasing"
+        wait_until(lambda: not self.robot.safety_state().protective_stopped, what="unlock")
+
+    def inject_emergency_stop(self):
+        assert self.fake.command("fake estop") == "fake: emergency stop"
+        wait_until(self._flag("emergency_stopped"), what="e-stop over RTDE")
+
+    def release_emergency_stop(self):
+        self.fake.command("fake release estop")
+        wait_until(lambda: not self.robot.safety_state().emergency_stopped, what="e-stop release")
+
+    def close(self):
+        self.robot.close()
+
+
+@pytest.fixture(params=["simulated", "ur_rtde_fake"])
+def harness(request):
+    """Each implementation of the robot interface, not yet connected."""
+    if request.param == "simulated":
+        h = SimulatedHarness()
+    else:
+        h = FakeControllerHarness(request.getfixturevalue("fake_ur"))
+    yield h
+    h.close()
