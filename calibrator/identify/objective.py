@@ -57,7 +57,8 @@ class SwarmObjective:
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
-        mdh = np.tile(self.space.nominal_mdh.ravel(), (len(x), 1))
+        mdh = np.empty((len(x), 30))
+        mdh[:] = self.space.nominal_mdh.ravel()
         mdh[:, self.mdh_index] += x[:, self.mdh_cols]
         mdh = mdh.reshape(len(x), 6, 5)
         if self.base_free or self.tool_free:

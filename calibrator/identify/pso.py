@@ -55,6 +55,7 @@ def ipso(
     c2=2.05,
     init_fraction=0.25,
     seed=0,
+    quasi_random=True,
 ):
     """Minimise ``objective`` over the box ``[lower, upper]``.
 
@@ -73,6 +74,9 @@ def ipso(
         +-0.01 rad and +-0.5 mm).
     seed : int or numpy.random.Generator
         Source of the Halton scrambling and of r1, r2.
+    quasi_random : bool
+        Start from Halton points (IPSO); False starts from pseudo-random
+        points, the plain constriction PSO the seed improves on.
 
     Returns
     -------
@@ -83,7 +87,10 @@ def ipso(
     dim = lower.size
     rng = np.random.default_rng(seed)
     centre, half = (upper + lower) / 2, (upper - lower) / 2
-    start = halton(particles, 2 * dim, rng) * 2 - 1
+    if quasi_random:
+        start = halton(particles, 2 * dim, rng) * 2 - 1
+    else:
+        start = rng.uniform(-1, 1, (particles, 2 * dim))
     x = centre + init_fraction * half * start[:, :dim]
     # Velocities start small and are capped at the half-width: with the
     # constriction factor this only tames the first few generations.
@@ -95,16 +102,22 @@ def ipso(
     g = int(np.argmin(best_f))
     history = np.empty(generations + 1)
     history[0] = best_f[g]
+    # Constants folded once: v <- K v + K c1 r1 (pbest - x) + K c2 r2 (gbest - x).
+    kc1, kc2 = k * c1, k * c2
     for gen in range(1, generations + 1):
         r = rng.random((2, particles, dim))
-        v = k * (v + c1 * r[0] * (best_x - x) + c2 * r[1] * (best_x[g] - x))
-        np.clip(v, -v_max, v_max, out=v)
-        x = x + v
-        np.clip(x, lower, upper, out=x)
+        v *= k
+        v += kc1 * r[0] * (best_x - x)
+        v += kc2 * r[1] * (best_x[g] - x)
+        np.minimum(v, v_max, out=v)
+        np.maximum(v, -v_max, out=v)
+        x += v
+        np.minimum(x, upper, out=x)
+        np.maximum(x, lower, out=x)
         f = objective(x)
         better = f < best_f
-        best_x[better] = x[better]
-        best_f[better] = f[better]
+        np.copyto(best_x, x, where=better[:, np.newaxis])
+        np.copyto(best_f, f, where=better)
         g = int(np.argmin(best_f))
         history[gen] = best_f[g]
     return PSOResult(best_x[g].copy(), float(best_f[g]), history)
