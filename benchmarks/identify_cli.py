@@ -27,20 +27,26 @@ def main():
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         session = Path(tmp) / "session.parquet"
-        subprocess.run([*CLI, "simulate", "-o", session, "--poses", "30"], check=True,
-                       capture_output=True)
+        subprocess.run(
+            [*CLI, "simulate", "-o", session, "--poses", "30"], check=True, capture_output=True
+        )
         times = []
         for _ in range(args.repeats):
             t = time.perf_counter()
-            subprocess.run([*CLI, "identify", session, "-o", Path(tmp) / "cal.json"],
-                           check=True, capture_output=True)
+            subprocess.run(
+                [*CLI, "identify", session, "-o", Path(tmp) / "cal.json"],
+                check=True,
+                capture_output=True,
+            )
             times.append(time.perf_counter() - t)
         t = time.perf_counter()
         subprocess.run([sys.executable, "-c", "pass"], check=True)
         bare = time.perf_counter() - t
-    print(f"calibrator identify, 30 poses, hybrid 20 x 2000: median {statistics.median(times):.2f} s,"
-          f" min {min(times):.2f} s, max {max(times):.2f} s over {args.repeats} runs"
-          f" (bare interpreter start {bare:.2f} s)")
+    print(
+        f"calibrator identify, 30 poses, hybrid 20 x 2000: median {statistics.median(times):.2f} s,"
+        f" min {min(times):.2f} s, max {max(times):.2f} s over {args.repeats} runs"
+        f" (bare interpreter start {bare:.2f} s)"
+    )
 
 
 if __name__ == "__main__":

@@ -25,8 +25,15 @@ from calibrator.simulate import simulate
 
 
 def seed_case(seed):
-    table, meta, truth = simulate(model="er10l-c10", poses=32, seed=seed, frame="base",
-                                  orientation=True, noise_mm=0.0, errors="seed")
+    table, meta, truth = simulate(
+        model="er10l-c10",
+        poses=32,
+        seed=seed,
+        frame="base",
+        orientation=True,
+        noise_mm=0.0,
+        errors="seed",
+    )
     obs = Session(table, meta).observations
     fit_idx, val_idx = pipeline.split(len(obs), 0.2, seed)
     candidates, _ = parameters.structural_candidates(meta.nominal_mdh, "base", True)
@@ -41,13 +48,16 @@ def held_out(space, x, val):
 def run_pyswarms(swarm, lower, upper, particles, generations, seed, per_particle):
     import pyswarms
 
-    np.random.seed(seed)  # pyswarms draws from numpy's global generator
+    np.random.seed(seed)  # noqa: NPY002 - pyswarms draws from numpy's global generator
     # Clerc's constriction written as inertia weights: w = K, c = K * 2.05.
     k = pso.constriction(2.05, 2.05)
     opt = pyswarms.single.GlobalBestPSO(
-        n_particles=particles, dimensions=len(lower),
+        n_particles=particles,
+        dimensions=len(lower),
         options={"c1": k * 2.05, "c2": k * 2.05, "w": k},
-        bounds=(lower, upper), init_pos=None)
+        bounds=(lower, upper),
+        init_pos=None,
+    )
     if per_particle:
         # pyswarms' documented pattern: a cost over the swarm that loops over particles.
         def cost(x):
@@ -80,37 +90,58 @@ def main():
 
         t = time.perf_counter()
         best = pso.ipso(swarm, lower, upper, particles=p, generations=g, seed=seed)
-        record("IPSO (Halton + constriction), calibrator", time.perf_counter() - t,
-               held_out(space, best.x, val))
+        record(
+            "IPSO (Halton + constriction), calibrator",
+            time.perf_counter() - t,
+            held_out(space, best.x, val),
+        )
 
         t = time.perf_counter()
-        plain = pso.ipso(swarm, lower, upper, particles=p, generations=g, seed=seed,
-                         quasi_random=False)
-        record("plain constriction PSO (pseudo-random start)", time.perf_counter() - t,
-               held_out(space, plain.x, val))
+        plain = pso.ipso(
+            swarm, lower, upper, particles=p, generations=g, seed=seed, quasi_random=False
+        )
+        record(
+            "plain constriction PSO (pseudo-random start)",
+            time.perf_counter() - t,
+            held_out(space, plain.x, val),
+        )
 
         t = time.perf_counter()
         x = run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=False)
-        record("pyswarms GlobalBestPSO, same swarm objective", time.perf_counter() - t,
-               held_out(space, x, val))
+        record(
+            "pyswarms GlobalBestPSO, same swarm objective",
+            time.perf_counter() - t,
+            held_out(space, x, val),
+        )
 
         if not args.skip_per_particle:
             t = time.perf_counter()
             x = run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=True)
-            record("pyswarms GlobalBestPSO, per-particle cost", time.perf_counter() - t,
-                   held_out(space, x, val))
+            record(
+                "pyswarms GlobalBestPSO, per-particle cost",
+                time.perf_counter() - t,
+                held_out(space, x, val),
+            )
 
         t = time.perf_counter()
         hybrid = refine.refine(space, fit, best.x, pipeline.DEFAULT_K)
-        record("hybrid: IPSO then least squares (LM part)", time.perf_counter() - t,
-               held_out(space, hybrid.x, val))
+        record(
+            "hybrid: IPSO then least squares (LM part)",
+            time.perf_counter() - t,
+            held_out(space, hybrid.x, val),
+        )
         lm = refine.refine(space, fit, np.zeros(space.size), pipeline.DEFAULT_K)
-        record("least squares from nominal (reference optimum)", float("nan"),
-               held_out(space, lm.x, val))
+        record(
+            "least squares from nominal (reference optimum)",
+            float("nan"),
+            held_out(space, lm.x, val),
+        )
         assert abs(hybrid.cost - lm.cost) <= 1e-9 + 1e-6 * lm.cost, (hybrid.cost, lm.cost)
 
-    print(f"seed 003 case, {p} particles x {g} generations, {args.repeats} seeds, "
-          f"{platform.processor() or platform.machine()}, numpy {np.__version__}")
+    print(
+        f"seed 003 case, {p} particles x {g} generations, {args.repeats} seeds, "
+        f"{platform.processor() or platform.machine()}, numpy {np.__version__}"
+    )
     print(f"{'optimiser':50s}{'time s (median)':>17s}{'held-out mean mm (median / worst)':>36s}")
     for name, values in rows.items():
         secs = np.array([v[0] for v in values])

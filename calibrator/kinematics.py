@@ -14,6 +14,8 @@ Every function here is a plain function on numpy arrays with no loop over
 poses or parameter sets: the only Python loop is over the six links.
 """
 
+import math
+
 import numpy as np
 
 #: Column order of an MDH parameter table.
@@ -22,6 +24,7 @@ COLUMNS = ("a", "alpha", "theta", "d", "beta")
 UNITS = ("mm", "rad", "rad", "mm", "rad")
 A, ALPHA, THETA, D, BETA = range(5)
 N_JOINTS = 6
+_EYE_TOP = np.eye(4)[:3]
 
 
 def check_mdh(mdh):
@@ -122,12 +125,13 @@ def chain_parts(consts, theta_phase, q_phase, *, all_frames=False):
     """
     batch = consts.shape[:-3]
     n = q_phase.shape[0]
-    flat = int(np.prod(batch, dtype=int))
+    flat = math.prod(batch)
     consts = consts.reshape((flat, 6, 4, 4))
     # (6, sets, N), contiguous per joint: the phase of theta_i + q_i.
     phases = theta_phase.reshape(flat, 6).T[:, :, np.newaxis] * q_phase.T[:, np.newaxis, :]
     phases = phases[..., np.newaxis]
-    t = np.broadcast_to(np.eye(4)[:3], (flat, n, 3, 4)).copy()
+    t = np.empty((flat, n, 3, 4))
+    t[...] = _EYE_TOP
     # The rotation below works in place, so stored frames must be copies.
     frames = [t.copy()] if all_frames else None
     for i in range(N_JOINTS):

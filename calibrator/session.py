@@ -110,7 +110,7 @@ class Session:
 
     def array(self, columns):
         """Columns as one float array, shape (N, len(columns))."""
-        return np.column_stack([self.table[c].to_numpy().astype(float) for c in columns])
+        return np.column_stack([_floats(self.table, c) for c in columns])
 
     @property
     def observations(self):
@@ -241,12 +241,12 @@ def _validate_table(table, path, meta):
         kind = table.schema.field(col).type
         if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
             raise SessionError(f"{path}: column {col} is not numeric ({kind})")
-        values = table[col].to_numpy(zero_copy_only=False).astype(float)  # nulls become NaN
+        values = _floats(table, col)
         bad = ~np.isfinite(values)
         if bad.any():
             where = "" if col == "pose" else f" (pose {_poses(table, bad)})"
             raise SessionError(f"{path}: column {col} has NaN or infinite values{where}")
-    poses = table["pose"].to_numpy(zero_copy_only=False).astype(float)
+    poses = _floats(table, "pose")
     if np.any(poses != np.round(poses)):
         raise SessionError(f"{path}: column pose must hold whole numbers")
     unique, counts = np.unique(poses, return_counts=True)
@@ -254,11 +254,21 @@ def _validate_table(table, path, meta):
         raise SessionError(
             f"{path}: duplicate pose number(s) {unique[counts > 1][:5].astype(int).tolist()}"
         )
-    return table.take(np.argsort(poses, kind="stable"))
+    return table.sort_by("pose")
+
+
+def _floats(table, column):
+    """A column as float64, nulls as NaN.
+
+    Through Python lists on purpose: pyarrow's numpy conversions import
+    pandas (a third of a second), and sessions have hundreds of rows, not
+    millions.
+    """
+    return np.array(table[column].to_pylist(), dtype=float)
 
 
 def _poses(table, mask):
-    return table["pose"].to_numpy(zero_copy_only=False)[mask][:5].tolist()
+    return np.array(table["pose"].to_pylist())[mask][:5].tolist()
 
 
 def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=None):

@@ -12,8 +12,14 @@ def test_rotvec_conversions_match_scipy_including_tiny_and_half_turns():
     rng = np.random.default_rng(0)
     axes = rng.normal(0, 1, (20, 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    rotvecs = np.concatenate([rng.normal(0, 1, (200, 3)), rng.normal(0, 1e-9, (5, 3)),
-                              axes * (np.pi - 1e-7), np.zeros((1, 3))])
+    rotvecs = np.concatenate(
+        [
+            rng.normal(0, 1, (200, 3)),
+            rng.normal(0, 1e-9, (5, 3)),
+            axes * (np.pi - 1e-7),
+            np.zeros((1, 3)),
+        ]
+    )
     matrices = frames.rotvec_to_matrix(rotvecs)
     np.testing.assert_allclose(matrices, Rotation.from_rotvec(rotvecs).as_matrix(), atol=1e-14)
     back = frames.matrix_to_rotvec(matrices)
@@ -39,8 +45,9 @@ def test_rigid_fit_recovers_a_transform_and_inverts():
 
 
 def test_halton_is_scipys_sequence_and_scrambling_is_seeded():
-    np.testing.assert_array_equal(halton(64, 48, scramble=False),
-                                  qmc.Halton(d=48, scramble=False).random(64))
+    np.testing.assert_array_equal(
+        halton(64, 48, scramble=False), qmc.Halton(d=48, scramble=False).random(64)
+    )
     a = halton(20, 10, np.random.default_rng(3))
     b = halton(20, 10, np.random.default_rng(3))
     np.testing.assert_array_equal(a, b)
