@@ -21,7 +21,12 @@ from drivers.tracker import (
     TrackerTimeout,
     measure_average,
 )
-from drivers.tracker.simulator import NoiseModel, SimulatorServer, TrackerSimulator
+from drivers.tracker.simulator import (
+    NoiseModel,
+    SimulatorProcess,
+    SimulatorServer,
+    TrackerSimulator,
+)
 from drivers.tracker.simulator.noise import beam_frame
 
 TARGET = np.array([3000.0, 1000.0, 500.0])  # ~3.2 m from the tracker
@@ -174,3 +179,18 @@ def test_fault_script_file_and_wire_armed_fault(sim_process, tmp_path):
         with pytest.raises(TrackerError, match="BAD_PARAMETER"):
             tracker.send("SIM", "FAULT", "MEAS+1 explode")
         assert tracker.measure().accurate
+
+
+def test_simulator_process_entry_point_steers_the_target():
+    with SimulatorProcess(seed=2, noise=False, initialised=True) as sim:
+        with LaserTracker(sim.url) as tracker:
+            tracker.connect()
+            sim.set_target([1500.123456, -250.5, 80.25])
+            np.testing.assert_array_equal(tracker.measure().point_mm, [1500.1235, -250.5, 80.25])
+            sim.arm_fault("MEAS+1 beam_break")
+            with pytest.raises(BeamBroken):
+                tracker.measure()
+            assert tracker.measure().accurate  # count=1: the beam re-locks by itself
+            sim.clear_target()
+            with pytest.raises(BeamBroken):
+                tracker.measure()

@@ -11,11 +11,18 @@ In-process::
     url = server.open_pty()          # or f"socket://127.0.0.1:{server.open_tcp()}"
     server.start()
 
-As a process: ``python -m drivers.tracker.simulator --pty`` (see ``--help``).
+As a child process, target steered over a loopback control link::
+
+    with SimulatorProcess(seed=1, initialised=True) as sim:
+        sim.set_target([2000.0, 0.0, 0.0])
+        tracker = LaserTracker(sim.url)
+
+From a shell: ``python -m drivers.tracker.simulator --pty`` (see ``--help``).
 """
 
 from drivers.tracker.simulator.engine import HangUp, Send, TrackerSimulator
 from drivers.tracker.simulator.faults import Fault, parse_fault, parse_script
+from drivers.tracker.simulator.launch import SimulatorControl, SimulatorProcess
 from drivers.tracker.simulator.noise import NoiseModel
 from drivers.tracker.simulator.replay import ReplaySimulator
 from drivers.tracker.simulator.server import SimulatorServer
@@ -26,6 +33,8 @@ __all__ = [
     "NoiseModel",
     "ReplaySimulator",
     "Send",
+    "SimulatorControl",
+    "SimulatorProcess",
     "SimulatorServer",
     "TrackerSimulator",
     "parse_fault",
