@@ -182,8 +182,13 @@ class Link:
             # near 1000 readings/s; so take what is already waiting in one read, and
             # wait for a reply to begin with read(1). Both honour the port timeout.
             waiting = port.in_waiting
-            if waiting > 1:  # socket:// reports only 0/1 here, so 1 proves nothing
+            if waiting > 1:
                 chunk = port.read(min(waiting, room))
+            elif waiting == 1 and self._buf:
+                # socket:// only reports 0/1 ("readable"); a zero timeout makes one read
+                # return everything that has arrived without waiting for more.
+                port.timeout = 0
+                chunk = port.read(room)
             elif not self._buf:
                 chunk = port.read(1)
             else:

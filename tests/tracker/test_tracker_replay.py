@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tracker_testkit import REPO
+from tracker_testkit import REPO, live_tracker
 
 from drivers.errors import DriverError
-from drivers.tracker import Environment, LaserTracker, measure_average, read_log
+from drivers.tracker import Environment, measure_average, read_log
 from drivers.tracker.protocol import ReplyKind, decode_frame, parse_reading, parse_reply
 from drivers.tracker.simulator import (
     ReplaySimulator,
@@ -39,7 +39,7 @@ def _outcome(func):
 def scenario_session_3dof(tracker):
     """Connect with meteo data, initialise, one 10-reading set, stop."""
     tracker.connect(Environment(20.5, 1012.0, 45.0), mode="STANDARD")
-    tracker.initialise(timeout_s=5.0)
+    tracker.initialise()
     readings = list(measure_average(tracker, 10).readings)
     tracker.stop()
     return readings
@@ -55,7 +55,9 @@ def scenario_faults(tracker):
     """Single readings through unstable readings, a beam break, a bad checksum, a dropped
     and a split reply."""
     tracker.connect()
-    return [_outcome(tracker.measure) for _ in range(13)]
+    # Only the two replies that never come complete get the short deadline.
+    timeouts = [MEAS_TIMEOUT_S if i in (8, 10) else None for i in range(13)]
+    return [_outcome(lambda t=t: tracker.measure(timeout_s=t)) for t in timeouts]
 
 
 FAULT_OUTCOMES = [
@@ -105,7 +107,7 @@ def record_fixture(name: str, path: Path) -> list:
     with SimulatorServer(sim) as server:
         url = server.open_pty()
         server.start()
-        with LaserTracker(url, record=path, measure_timeout_s=MEAS_TIMEOUT_S) as tracker:
+        with live_tracker(url, record=path) as tracker:
             return scenario(tracker)
 
 
@@ -149,7 +151,7 @@ def test_replay_reproduces_recorded_readings(name, sim_process, tmp_path):
     assert len(expected) >= 5
     _, (path,) = sim_process("--pty", "--replay", str(fixture))
     replay_log = tmp_path / "replay.jsonl"
-    with LaserTracker(path, record=replay_log, measure_timeout_s=MEAS_TIMEOUT_S) as tracker:
+    with live_tracker(path, record=replay_log) as tracker:
         outcomes = SCENARIOS[name][0](tracker)
     got = [o for o in outcomes if not isinstance(o, str)]
     # The readings the driver returned are exactly the recorded ones, in order.
@@ -171,7 +173,7 @@ def test_replay_refuses_a_different_command_sequence(tmp_path):
     with SimulatorServer(ReplaySimulator(fixture)) as server:
         url = server.open_pty()
         server.start()
-        with LaserTracker(url) as tracker:
+        with live_tracker(url) as tracker:
             tracker.connect()
             tracker.send("SIM", "TARGET", "1", "2", "3")  # control frames are accepted, not matched
             with pytest.raises(DriverError, match="REPLAY_MISMATCH"):

@@ -11,11 +11,10 @@ import sys
 
 import numpy as np
 import pytest
-from tracker_testkit import REPO
+from tracker_testkit import REPO, live_tracker
 
 from drivers.tracker import (
     BeamBroken,
-    LaserTracker,
     NotInitialised,
     TrackerError,
     TrackerTimeout,
@@ -50,7 +49,7 @@ def test_noise_statistics_through_the_wire(sim_process, transport):
         "--pty", "--tcp", "0", "--seed", "3", "--initialised", "--target", "3000,1000,500"
     )
     url = path if transport == "pty" else f"socket://127.0.0.1:{port}"
-    with LaserTracker(url) as tracker:
+    with live_tracker(url) as tracker:
         identity, status = tracker.connect()
         assert identity.model == "TRACKER-SIM" and status.state == "READY"
         readings = [tracker.measure() for _ in range(N_READINGS)]
@@ -61,7 +60,7 @@ def test_noise_statistics_through_the_wire(sim_process, transport):
 def test_noise_grows_across_the_beam_with_range(served):
     sim, path, _ = served
     spreads = []
-    with LaserTracker(path) as tracker:
+    with live_tracker(path) as tracker:
         tracker.connect()
         for range_mm in (2000.0, 20000.0):
             sim.set_target([0.0, range_mm, 0.0])  # beam along y
@@ -81,7 +80,7 @@ def test_same_seed_same_readings():
         with SimulatorServer(sim) as server:
             path = server.open_pty()
             server.start()
-            with LaserTracker(path) as tracker:
+            with live_tracker(path) as tracker:
                 tracker.connect()
                 return np.array([tracker.measure().point_mm for _ in range(20)])
 
@@ -93,7 +92,7 @@ def test_6dof_probe_orientation(sim_process):
     _, (path,) = sim_process(
         "--pty", "--probe-6dof", "--initialised", "--target", "2500,0,400,0.1,-0.2,0.3"
     )
-    with LaserTracker(path) as tracker:
+    with live_tracker(path) as tracker:
         _, status = tracker.connect()
         assert status.probe_6dof
         avg = measure_average(tracker, n=50)
@@ -105,12 +104,12 @@ def test_6dof_probe_orientation(sim_process):
 
 def test_init_required_then_initialise(sim_process):
     _, (path,) = sim_process("--pty", "--init-time", "0.3", "--target", "2000,0,0")
-    with LaserTracker(path) as tracker:
+    with live_tracker(path) as tracker:
         _, status = tracker.connect()
         assert not status.initialised and status.state == "NOT_READY"
         with pytest.raises(NotInitialised):
             tracker.measure()
-        tracker.initialise(timeout_s=5.0)
+        tracker.initialise()
         assert tracker.status().state == "READY"
         assert np.linalg.norm(tracker.measure().point_mm - [2000, 0, 0]) < 0.1
 
@@ -118,7 +117,7 @@ def test_init_required_then_initialise(sim_process):
 def test_target_set_over_the_wire_from_a_second_connection(sim_process):
     """A simulated robot moves the target over TCP; the driver sees it on the pty."""
     _, (path, port) = sim_process("--pty", "--tcp", "0", "--initialised", "--no-noise")
-    with LaserTracker(path) as tracker, LaserTracker(f"socket://127.0.0.1:{port}") as robot_side:
+    with live_tracker(path) as tracker, live_tracker(f"socket://127.0.0.1:{port}") as robot_side:
         tracker.connect()
         robot_side.connect()
         with pytest.raises(BeamBroken):  # no target yet
@@ -134,7 +133,7 @@ def test_target_set_over_the_wire_from_a_second_connection(sim_process):
 def test_out_of_range_target_is_refused(served):
     sim, path, _ = served
     sim.set_target([100.0, 0.0, 0.0])
-    with LaserTracker(path) as tracker:
+    with live_tracker(path) as tracker:
         tracker.connect()
         with pytest.raises(TrackerError, match="OUT_OF_RANGE"):
             tracker.measure()
@@ -168,11 +167,11 @@ def test_fault_script_file_and_wire_armed_fault(sim_process, tmp_path):
     _, (port,) = sim_process(
         "--tcp", "0", "--initialised", "--target", "2000,0,0", "--faults", str(script)
     )
-    with LaserTracker(f"socket://127.0.0.1:{port}", measure_timeout_s=0.2) as tracker:
+    with live_tracker(f"socket://127.0.0.1:{port}") as tracker:
         tracker.connect()
         assert tracker.measure().accurate
         with pytest.raises(TrackerTimeout):
-            tracker.measure()
+            tracker.measure(timeout_s=0.2)
         tracker.send("SIM", "FAULT", "MEAS+1 error code=NOT_WARMED_UP")
         with pytest.raises(TrackerError, match="NOT_WARMED_UP"):
             tracker.measure()
@@ -183,7 +182,7 @@ def test_fault_script_file_and_wire_armed_fault(sim_process, tmp_path):
 
 def test_simulator_process_entry_point_steers_the_target():
     with SimulatorProcess(seed=2, noise=False, initialised=True) as sim:
-        with LaserTracker(sim.url) as tracker:
+        with live_tracker(sim.url) as tracker:
             tracker.connect()
             sim.set_target([1500.123456, -250.5, 80.25])
             np.testing.assert_array_equal(tracker.measure().point_mm, [1500.1235, -250.5, 80.25])

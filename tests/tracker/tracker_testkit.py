@@ -92,6 +92,23 @@ def expected_exchange(pairs, **tracker_kwargs):
     transport.verify()
 
 
+LIVE_TIMEOUT_S = 10.0
+"""Deadline for commands that should succeed against a live simulator. Generous because
+it costs nothing when replies come, and the test machine may be heavily loaded."""
+
+
+def live_tracker(url, **kwargs) -> LaserTracker:
+    """A :class:`LaserTracker` for a live simulator, with generous deadlines unless overridden."""
+    opts = dict(
+        timeout_s=LIVE_TIMEOUT_S,
+        measure_timeout_s=LIVE_TIMEOUT_S,
+        init_timeout_s=LIVE_TIMEOUT_S,
+        reconnect_delay_s=0.05,
+    )
+    opts.update(kwargs)
+    return LaserTracker(url, **opts)
+
+
 CONNECT_PAIRS = [
     (host(1, "ID?"), trk("OK,1,ACME,AT-X,123,2.1")),
     (host(2, "UNITS", "MM", "RAD"), trk("OK,2,MM,RAD")),

@@ -137,6 +137,9 @@ class TrackerSimulator:
             raise ValueError("target position and orientation must be finite")
         self._target, self._target_rotvec = point, rot
         self._beam_broken_left = 0
+        # Per-target constants, computed once: a reading must cost microseconds.
+        self._range_mm = float(np.linalg.norm(point))
+        self._noise_scale = self.noise.scale_matrix(point) if self._range_mm > 0 else None
 
     def clear_target(self) -> None:
         """Remove the target (the beam has nothing to lock on)."""
@@ -282,10 +285,9 @@ class TrackerSimulator:
             if not self._beam_broken_left:  # the tracker re-locks on its own afterwards
                 post.append(Send(encode_frame(error_body(EVENT_SEQ, ErrorCode.BEAM_RESTORED))))
             return error_body(cmd.seq, ErrorCode.BEAM_BROKEN)
-        range_mm = float(np.linalg.norm(self._target))
-        if not MIN_RANGE_MM <= range_mm <= MAX_RANGE_MM:
-            return error_body(cmd.seq, ErrorCode.OUT_OF_RANGE, f"{range_mm:.1f} mm")
-        point = self.noise.sample_point(self._target, self._rng)
+        if not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
+            return error_body(cmd.seq, ErrorCode.OUT_OF_RANGE, f"{self._range_mm:.1f} mm")
+        point = self.noise.sample_point(self._target, self._rng, self._noise_scale)
         status = ReadingStatus.ACCURATE
         if self._unstable_left:
             self._unstable_left -= 1

@@ -24,7 +24,7 @@ import serial
 from drivers.tracker.link import Link
 from drivers.tracker.protocol import format_number
 
-CONTROL_TIMEOUT_S = 2.0
+CONTROL_TIMEOUT_S = 5.0  # control replies are immediate; generous for loaded machines
 
 
 class SimulatorControl:

@@ -53,17 +53,32 @@ class NoiseModel:
         trans_um = self.transverse_mpe_um[0] + self.transverse_mpe_um[1] * range_m
         return along_um / self.mpe_over_sigma / 1000.0, trans_um / self.mpe_over_sigma / 1000.0
 
-    def sample_point(self, point_mm: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """One noisy reading of a target at ``point_mm`` (shape (3,), mm, tracker frame)."""
+    def scale_matrix(self, point_mm: np.ndarray) -> np.ndarray:
+        """Rows: the beam and two transverse unit vectors, each times its sigma (mm).
+
+        A reading is ``point_mm + rng.standard_normal(3) @ scale_matrix(point_mm)``.
+        Depends only on the target, so callers may cache it (np.cross is slow on 3-vectors).
+
+        Returns
+        -------
+        numpy.ndarray, shape (3, 3)
+        """
+        s_along, s_trans = self.sigmas_mm(point_mm)
+        return np.array(beam_frame(point_mm)) * np.array([[s_along], [s_trans], [s_trans]])
+
+    def sample_point(
+        self, point_mm: np.ndarray, rng: np.random.Generator, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        """One noisy reading of a target at ``point_mm`` (shape (3,), mm, tracker frame).
+
+        ``scale`` is :meth:`scale_matrix` of the same point, if the caller cached it.
+        """
         point_mm = np.asarray(point_mm, dtype=float)
         if not self.enabled:
             return point_mm.copy()
-        beam, side1, side2 = beam_frame(point_mm)
-        s_along, s_trans = self.sigmas_mm(point_mm)
-        n = rng.standard_normal(3)
-        return (
-            point_mm + beam * (s_along * n[0]) + side1 * (s_trans * n[1]) + side2 * (s_trans * n[2])
-        )
+        if scale is None:
+            scale = self.scale_matrix(point_mm)
+        return point_mm + rng.standard_normal(3) @ scale
 
     def sample_rotvec(self, rotvec_rad: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One noisy probe orientation (rotation vector, shape (3,), rad).
