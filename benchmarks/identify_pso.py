@@ -68,6 +68,74 @@ def run_pyswarms(swarm, lower, upper, particles, generations, seed, per_particle
     return x
 
 
+def run_case(seed, args, record):
+    """One seed of the comparison; ``record(name, seconds, held_out_mm)`` collects rows."""
+    p, g = args.particles, args.generations
+    space, fit, val, _ = seed_case(seed)
+    swarm = objective.SwarmObjective(space, fit, pipeline.DEFAULT_K)
+    lower, upper = space.bounds()
+    # The seed's own box: the start box (+-0.5 mm, +-0.01 rad) is also the bound.
+    seed_lower, seed_upper = space.bounds(mm=0.5, rad=0.01)
+
+    def timed(name, run):
+        t = time.perf_counter()
+        x = run()
+        record(name, time.perf_counter() - t, held_out(space, x, val))
+        return x
+
+    best = timed(
+        "IPSO (Halton + constriction), calibrator",
+        lambda: pso.ipso(swarm, lower, upper, particles=p, generations=g, seed=seed).x,
+    )
+    timed(
+        "plain constriction PSO (pseudo-random start)",
+        lambda: (
+            pso.ipso(
+                swarm, lower, upper, particles=p, generations=g, seed=seed, quasi_random=False
+            ).x
+        ),
+    )
+    timed(
+        "pyswarms GlobalBestPSO, same swarm objective",
+        lambda: run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=False),
+    )
+    if not args.skip_per_particle:
+        timed(
+            "pyswarms GlobalBestPSO, per-particle cost",
+            lambda: run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=True),
+        )
+    timed(
+        "IPSO in the seed's box (bound = start box)",
+        lambda: (
+            pso.ipso(
+                swarm,
+                seed_lower,
+                seed_upper,
+                particles=p,
+                generations=g,
+                seed=seed,
+                init_fraction=1.0,
+            ).x
+        ),
+    )
+    timed(
+        "pyswarms in the seed's box",
+        lambda: run_pyswarms(swarm, seed_lower, seed_upper, p, g, seed, per_particle=False),
+    )
+    hybrid = refine.refine(space, fit, best, pipeline.DEFAULT_K)
+    timed(
+        "hybrid: IPSO, then least squares (LM part)",
+        lambda: refine.refine(space, fit, best, pipeline.DEFAULT_K).x,
+    )
+    lm = refine.refine(space, fit, np.zeros(space.size), pipeline.DEFAULT_K)
+    record(
+        "least squares from nominal (reference optimum)",
+        float("nan"),
+        held_out(space, lm.x, val),
+    )
+    assert abs(hybrid.cost - lm.cost) <= 1e-9 + 1e-6 * lm.cost, (hybrid.cost, lm.cost)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -83,60 +151,7 @@ def main():
         rows.setdefault(name, []).append((seconds, value))
 
     for rep in range(args.repeats):
-        seed = 3 + rep
-        space, fit, val, _ = seed_case(seed)
-        swarm = objective.SwarmObjective(space, fit, pipeline.DEFAULT_K)
-        lower, upper = space.bounds()
-
-        t = time.perf_counter()
-        best = pso.ipso(swarm, lower, upper, particles=p, generations=g, seed=seed)
-        record(
-            "IPSO (Halton + constriction), calibrator",
-            time.perf_counter() - t,
-            held_out(space, best.x, val),
-        )
-
-        t = time.perf_counter()
-        plain = pso.ipso(
-            swarm, lower, upper, particles=p, generations=g, seed=seed, quasi_random=False
-        )
-        record(
-            "plain constriction PSO (pseudo-random start)",
-            time.perf_counter() - t,
-            held_out(space, plain.x, val),
-        )
-
-        t = time.perf_counter()
-        x = run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=False)
-        record(
-            "pyswarms GlobalBestPSO, same swarm objective",
-            time.perf_counter() - t,
-            held_out(space, x, val),
-        )
-
-        if not args.skip_per_particle:
-            t = time.perf_counter()
-            x = run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=True)
-            record(
-                "pyswarms GlobalBestPSO, per-particle cost",
-                time.perf_counter() - t,
-                held_out(space, x, val),
-            )
-
-        t = time.perf_counter()
-        hybrid = refine.refine(space, fit, best.x, pipeline.DEFAULT_K)
-        record(
-            "hybrid: IPSO then least squares (LM part)",
-            time.perf_counter() - t,
-            held_out(space, hybrid.x, val),
-        )
-        lm = refine.refine(space, fit, np.zeros(space.size), pipeline.DEFAULT_K)
-        record(
-            "least squares from nominal (reference optimum)",
-            float("nan"),
-            held_out(space, lm.x, val),
-        )
-        assert abs(hybrid.cost - lm.cost) <= 1e-9 + 1e-6 * lm.cost, (hybrid.cost, lm.cost)
+        run_case(3 + rep, args, record)
 
     print(
         f"seed 003 case, {p} particles x {g} generations, {args.repeats} seeds, "
