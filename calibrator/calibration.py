@@ -23,7 +23,7 @@ from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
-_FIELDS = tuple(f"{c}_{u}" for c, u in zip(kinematics.COLUMNS, kinematics.UNITS, strict=True))
+_FIELDS = kinematics.FIELDS
 
 
 def mdh_records(mdh):

@@ -9,7 +9,7 @@ import numpy as np
 from calibrator import kinematics
 
 FORMATS = ("json", "csv")
-_FIELDS = tuple(f"{c}_{u}" for c, u in zip(kinematics.COLUMNS, kinematics.UNITS, strict=True))
+_FIELDS = kinematics.FIELDS
 
 
 def to_json(doc):

@@ -22,6 +22,8 @@ import numpy as np
 COLUMNS = ("a", "alpha", "theta", "d", "beta")
 #: Units of the columns of an MDH parameter table, in :data:`COLUMNS` order.
 UNITS = ("mm", "rad", "rad", "mm", "rad")
+#: Field names of the columns with their units, as in files: ``a_mm, alpha_rad, ...``.
+FIELDS = tuple(f"{c}_{u}" for c, u in zip(COLUMNS, UNITS, strict=True))
 A, ALPHA, THETA, D, BETA = range(5)
 N_JOINTS = 6
 _EYE_TOP = np.eye(4)[:3]
