@@ -331,7 +331,10 @@ class LaserTracker:
         for _ in range(self.reconnect_attempts):
             time.sleep(self.reconnect_delay_s)
             try:
-                self._open() if self._url is not None else self._reopen_handed_port()
+                if self._url is not None:
+                    self._open()
+                else:
+                    self._reopen_handed_port()
                 link = self.link
                 ident = _parse_identity(link.transact("ID?", timeout_s=self.timeout_s))
                 if ident.key != self.identity.key:
