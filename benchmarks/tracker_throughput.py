@@ -37,7 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         line = sim.stdout.readline().strip()
         url = f"socket://127.0.0.1:{line}" if args.tcp else line
-        with LaserTracker(url) as tracker:
+        # Generous deadlines: a loaded machine should slow the figure, not abort the run.
+        with LaserTracker(url, timeout_s=30.0, measure_timeout_s=30.0) as tracker:
             tracker.connect()
             for _ in range(500):  # warm up caches and the simulator's imports
                 tracker.measure()
