@@ -327,24 +327,24 @@ def parse_reading(fields: tuple[str, ...], length_scale: float = 1.0, angle_scal
     FrameError
         If the field count, tag, numbers or status flag are wrong.
     """
+    n_values = _READING_VALUES.get(fields[0]) if fields else None
+    if n_values is None or len(fields) != n_values + 3:
+        raise FrameError(f"bad reading fields {fields!r}")
     try:
-        tag = fields[0]
-        if tag == "P3" and len(fields) == 6:
-            point = np.array([float(v) for v in fields[1:4]]) * length_scale
-            rotvec = None
-        elif tag == "P6" and len(fields) == 9:
-            point = np.array([float(v) for v in fields[1:4]]) * length_scale
-            rotvec = np.array([float(v) for v in fields[4:7]]) * angle_scale
-        else:
-            raise FrameError(f"bad reading fields {fields!r}")
-        status = ReadingStatus(fields[-2])
+        values = [float(v) for v in fields[1 : 1 + n_values]]
+        status = _STATUS_BY_TEXT[fields[-2]]
         device_time_us = int(fields[-1])
-    except (ValueError, IndexError):
+    except (ValueError, KeyError):
         raise FrameError(f"bad reading fields {fields!r}") from None
-    if not np.all(np.isfinite(point)):
+    if not all(map(math.isfinite, values)):
         raise FrameError(f"non-finite reading {fields!r}")
+    point = np.array(values[:3]) * length_scale
+    rotvec = np.array(values[3:]) * angle_scale if n_values == 6 else None
     return Reading(point, rotvec, status, device_time_us)
 
+
+_READING_VALUES = {"P3": 3, "P6": 6}  # tag -> number of values after it
+_STATUS_BY_TEXT = {s.value: s for s in ReadingStatus}
 
 LENGTH_UNITS = {"MM": 1.0, "M": 1000.0}  # wire unit -> mm
 ANGLE_UNITS = {"RAD": 1.0, "DEG": math.pi / 180.0}  # wire unit -> rad

@@ -214,6 +214,8 @@ def test_dropped_reply_times_out():
         "OK,4,P3,1.0,2.0,x,ACC,5",  # not a number
         "OK,4,P3,1.0,2.0,3.0,GOOD,5",  # unknown flag
         "OK,4,P6,1.0,2.0,3.0,ACC,5",  # 6-DoF tag without orientation
+        "OK,4,P3,nan,2.0,3.0,ACC,5",  # not finite
+        "OK,4,P3,1.0,2.0,3.0,ACC,5.5",  # timestamp not an integer
     ],
 )
 def test_malformed_reading_is_a_frame_error(body):
