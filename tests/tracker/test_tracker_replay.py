@@ -16,7 +16,13 @@ from tracker_testkit import REPO, live_tracker
 
 from drivers.errors import DriverError
 from drivers.tracker import Environment, measure_average, read_log
-from drivers.tracker.protocol import ReplyKind, decode_frame, parse_reading, parse_reply
+from drivers.tracker.protocol import (
+    ReplyKind,
+    decode_frame,
+    encode_frame,
+    parse_reading,
+    parse_reply,
+)
 from drivers.tracker.simulator import (
     ReplaySimulator,
     SimulatorServer,
@@ -190,3 +196,24 @@ def main() -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def test_replay_renumbers_replies_for_a_shifted_sequence():
+    """A host that numbers its frames differently still gets the recorded values."""
+    fixture = FIXTURES / "session_6dof.jsonl"
+    replay = ReplaySimulator(fixture)
+    recorded = recorded_readings(fixture)
+    tx = [e.data for e in read_log(fixture) if e.direction == "tx"]
+    got = []
+    for frame in tx:
+        seq, rest = frame.split(b",", 1)
+        shifted = encode_frame(f"{int(seq) + 100},{rest.decode()[: rest.index(b'*')]}")
+        out = b"".join(o.data for o in replay.handle_line(shifted))
+        reply = parse_reply(decode_frame(out.split(b"\r\n")[0]))
+        assert reply.seq == int(seq) + 100
+        if reply.fields[:1] == ("P6",):
+            got.append(parse_reading(reply.fields))
+    assert len(got) == len(recorded) and all(map(same_reading, got, recorded))
+    assert replay.remaining == 0
+    end = parse_reply(decode_frame(replay.handle_line(encode_frame("1,MEAS"))[0].data))
+    assert end.code == 90 and "end of recording" in end.detail
