@@ -51,7 +51,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--initialised", action="store_true", help="start already initialised")
     p.add_argument("--init-time", type=float, default=0.2, metavar="S", help="INIT duration, s")
     p.add_argument("--serial", default="SIM-0001", help="serial number reported by ID?")
-    p.add_argument("--faults", type=Path, metavar="FILE", help="fault script (see faults.py)")
+    p.add_argument(
+        "--faults",
+        type=Path,
+        metavar="FILE",
+        help="fault script; syntax in docs/tracker-protocol.md",
+    )
     p.add_argument("--replay", type=Path, metavar="LOG", help="answer from a recorded log")
     p.add_argument(
         "--outlive-parent",
