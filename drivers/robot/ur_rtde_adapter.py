@@ -67,6 +67,9 @@ class UrRtdeRobot(Robot):
         Added to the expected move time to make a move's deadline, s.
     poll_s : float
         Polling period while a move runs, s.
+    command_timeout_s : float
+        Deadline of one control command (moveJ, stopJ, isSteady, ...), s; a
+        command without an answer by then means the link is lost.
     """
 
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
@@ -74,8 +77,8 @@ class UrRtdeRobot(Robot):
     #: Seconds to wait for ``actual_q`` to catch up once steady (it lags ~1 period).
     settle_s = 0.25
 
-    def __init__(self, host, *, tolerance_rad=1e-3, stale_after_s=0.5, timeout_margin_s=5.0,
-                 poll_s=0.002):
+    def __init__(self, host, *, tolerance_rad=1e-3, stale_after_s=1.0, timeout_margin_s=5.0,
+                 poll_s=0.002, command_timeout_s=5.0):
         if not host:
             raise ValueError("host is required")
         self.host = host
@@ -83,6 +86,7 @@ class UrRtdeRobot(Robot):
         self.stale_after_s = float(stale_after_s)
         self.timeout_margin_s = float(timeout_margin_s)
         self.poll_s = float(poll_s)
+        self.command_timeout_s = float(command_timeout_s)
         self._control = None
         self._receive = None
         self._dashboard = None
@@ -90,6 +94,7 @@ class UrRtdeRobot(Robot):
         self._cmd_lock = threading.Lock()
         self._stop_latch = False
         self._last_stamp = None
+        self._lost = None  # why the link was declared lost; no client call after that
 
     # ------------------------------------------------------------ lifecycle
     def connect(self):
@@ -97,6 +102,7 @@ class UrRtdeRobot(Robot):
         import rtde_control
         import rtde_receive
 
+        self._lost = None
         try:
             self._receive = rtde_receive.RTDEReceiveInterface(self.host)
             self._control = rtde_control.RTDEControlInterface(self.host)
@@ -113,14 +119,14 @@ class UrRtdeRobot(Robot):
         self._stop_latch = not self.safety_state().ok
 
     def close(self):
+        if self._control is not None and not self._lost:
+            try:
+                # leave no control script running on the robot
+                self._command(self._control.stopScript)
+            except (ConnectionLost, NotReady):
+                pass  # closing a dead link: nothing more to do
         control = self._control
         self._control = self._receive = self._dashboard = None
-        if control is not None:
-            try:
-                if control.isConnected():
-                    control.stopScript()  # leave no control script running on the robot
-            except RuntimeError:
-                pass  # closing a dead link: nothing more to do
         # Dropping the last reference disconnects: the clients' destructors call
         # disconnect() themselves, and each disconnect blocks ~0.5 s, so an
         # explicit disconnect() first would only double the wait.
@@ -152,9 +158,8 @@ class UrRtdeRobot(Robot):
             raise NotReady("the rtde_control script is not running (stopped on the pendant or by "
                            "a safety stop); call clear_protective_stop() to restart it")
         start = self.actual_joints()
-        with self._cmd_lock:
-            accepted = self._control.moveJ(target.tolist(), float(speed_rad_s),
-                                           float(accel_rad_s2), True)
+        accepted = self._command(self._control.moveJ, target.tolist(), float(speed_rad_s),
+                                 float(accel_rad_s2), True)
         if not accepted:
             self._check_link()
             self._raise_for_safety()
@@ -166,8 +171,7 @@ class UrRtdeRobot(Robot):
     def stop(self, decel_rad_s2=2.0):
         """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2)."""
         self._check_link()
-        with self._cmd_lock:
-            self._control.stopJ(float(decel_rad_s2))
+        self._command(self._control.stopJ, float(decel_rad_s2))
 
     def clear_protective_stop(self, timeout_s=6.0):
         """Unlock the protective stop (dashboard), restart the control script, lift the latch.
@@ -186,8 +190,7 @@ class UrRtdeRobot(Robot):
             self._wait_for(lambda: not self._receive.isProtectiveStopped(), timeout_s,
                            "protective stop to clear")
         if not self._control.isProgramRunning():
-            with self._cmd_lock:
-                self._control.reuploadScript()
+            self._command(self._control.reuploadScript)
             # reuploadScript returns before the program runs; a moveJ sent now would fail
             self._wait_for(self._control.isProgramRunning, timeout_s, "control script to start")
         self._stop_latch = False
@@ -212,8 +215,7 @@ class UrRtdeRobot(Robot):
             time.sleep(self.poll_s)
 
     def _verify_reached(self, target):
-        with self._cmd_lock:
-            steady = self._control.isSteady()
+        steady = self._command(self._control.isSteady)
         t0 = time.monotonic()
         while True:
             q = self.actual_joints()
@@ -224,8 +226,7 @@ class UrRtdeRobot(Robot):
                 break
             time.sleep(self.poll_s)
             if not steady:
-                with self._cmd_lock:
-                    steady = self._control.isSteady()
+                steady = self._command(self._control.isSteady)
         # a stop that ended the move may reach us a period later than the move's end
         self._raise_for_safety()
         joint = int(np.argmax(error))
@@ -233,16 +234,52 @@ class UrRtdeRobot(Robot):
             f"move ended away from its target: joint {joint + 1} off by {error[joint]:.4g} rad "
             f"(tolerance {self.tolerance_rad:g} rad, steady={steady})")
 
+    def _command(self, method, *args):
+        """Run a control-interface command with a deadline, one command at a time.
+
+        Commands are register handshakes with the control script. On a link
+        that died without the client noticing (no data, sockets open) the client
+        keeps waiting on its stale state for up to its 300 s execution timeout,
+        so the call runs in a daemon thread and is abandoned after
+        ``command_timeout_s``: the link is then declared lost.
+        """
+        result, error = [], []
+
+        def call():
+            try:
+                result.append(method(*args))
+            except Exception as exc:  # re-raised in the caller's thread below
+                error.append(exc)
+
+        with self._cmd_lock:
+            self._check_link()
+            worker = threading.Thread(target=call, daemon=True, name="ur-rtde command")
+            worker.start()
+            worker.join(self.command_timeout_s)
+        if worker.is_alive():
+            self._lost = f"command {method.__name__} got no answer in {self.command_timeout_s} s"
+            raise ConnectionLost(f"UR controller at {self.host}: {self._lost}")
+        if error:
+            if isinstance(error[0], RuntimeError):
+                self._lost = str(error[0])
+                raise ConnectionLost(f"UR controller at {self.host}: {error[0]}") from error[0]
+            raise error[0]
+        return result[0]
+
     def _check_link(self):
         if self._receive is None or self._control is None:
             raise NotReady("not connected; call connect() first")
+        if self._lost:
+            raise ConnectionLost(f"link to {self.host} lost earlier ({self._lost}); reconnect")
         if not (self._receive.isConnected() and self._control.isConnected()):
+            self._lost = "RTDE connection closed"
             raise ConnectionLost(f"lost the RTDE connection to {self.host}")
         stamp, now = self._receive.getTimestamp(), time.monotonic()
         last_stamp, last_seen = self._last_stamp
         if stamp != last_stamp:
             self._last_stamp = (stamp, now)
         elif now - last_seen > self.stale_after_s:
+            self._lost = f"no RTDE data for {now - last_seen:.2f} s"
             raise ConnectionLost(
                 f"no RTDE data from {self.host} for {now - last_seen:.2f} s (controller hung up?)")
 

@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from drivers.robot.fake_ur.launcher import FakeUrProcess
+from drivers.robot.fake_ur.launcher import FakeUrProcess, acquire_ports, release_ports
 from drivers.robot.simulated import SimulatedRobot
 
 FAST = 10.0  # time scale of the fake: moves run ten times faster than on a robot
@@ -48,9 +48,14 @@ class FakeManager:
 
 @pytest.fixture(scope="session")
 def fake_manager():
+    # hold the ports for the whole session: another test run on this machine waits
+    acquire_ports()
     manager = FakeManager()
-    yield manager
-    manager.discard()
+    try:
+        yield manager
+    finally:
+        manager.discard()
+        release_ports()
 
 
 @pytest.fixture

@@ -7,15 +7,57 @@ shuts down a fake left over from a crashed run, and every fake is started with
 ``--parent-pid`` so it exits on its own when the process that started it dies.
 """
 
+import fcntl
 import os
 import selectors
 import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 from drivers.robot.fake_ur.servers import DASHBOARD_PORT, GREETING, HOST, RTDE_PORT, SCRIPT_PORT
+
+_LOCK_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.lock")
+_lock_state = {"fd": None, "depth": 0}
+_lock_mutex = threading.Lock()
+
+
+def acquire_ports(timeout_s=600.0):
+    """Take the machine-wide lock on the fake's fixed ports (reentrant within a process).
+
+    Two test sessions on one machine would otherwise start fakes on the same
+    ports and talk to each other's controller; with the lock the second one
+    waits. The lock is an ``flock``, so the kernel drops it when its holder dies.
+    """
+    with _lock_mutex:
+        if _lock_state["depth"] == 0:
+            fd = os.open(_LOCK_PATH, os.O_RDWR | os.O_CREAT, 0o666)
+            deadline = time.monotonic() + timeout_s
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if time.monotonic() > deadline:
+                        os.close(fd)
+                        raise RuntimeError(f"another process holds {_LOCK_PATH}") from None
+                    time.sleep(0.1)
+            _lock_state["fd"] = fd
+        _lock_state["depth"] += 1
+
+
+def release_ports():
+    """Undo one :func:`acquire_ports`."""
+    with _lock_mutex:
+        if _lock_state["depth"] == 0:
+            return
+        _lock_state["depth"] -= 1
+        if _lock_state["depth"] == 0:
+            fcntl.flock(_lock_state["fd"], fcntl.LOCK_UN)
+            os.close(_lock_state["fd"])
+            _lock_state["fd"] = None
 
 
 def dashboard_command(command, timeout_s=2.0):
@@ -70,12 +112,23 @@ class FakeUrProcess:
         How long to wait for the fake to report that it is listening, s.
     """
 
-    def __init__(self, time_scale=10.0, startup_timeout_s=10.0):
+    def __init__(self, time_scale=10.0, startup_timeout_s=30.0):
         self.time_scale = time_scale
         self.startup_timeout_s = startup_timeout_s
         self.process = None
+        self._holds_lock = False
 
     def start(self):
+        acquire_ports()
+        self._holds_lock = True
+        try:
+            self._start()
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _start(self):
         shutdown_leftover()
         cmd = [sys.executable, "-m", "drivers.robot.fake_ur", "--time-scale", str(self.time_scale),
                "--parent-pid", str(os.getpid())]
@@ -90,11 +143,11 @@ class FakeUrProcess:
         selector.close()
         line = self.process.stdout.readline() if ready else b""
         if b"ready" not in line:
-            self.stop()
+            self.process.kill()
+            self.process.wait(3)
             self._stderr.seek(0)
             err = self._stderr.read().decode(errors="replace")
             raise RuntimeError(f"fake UR controller did not start: {err.strip()[-500:]}")
-        return self
 
     def command(self, text):
         """A dashboard command to this fake, e.g. ``"fake estop"``; returns the reply line."""
@@ -105,7 +158,15 @@ class FakeUrProcess:
         return self.process is not None and self.process.poll() is None
 
     def stop(self):
-        """Terminate the fake (kill it if it does not exit within 3 s)."""
+        """Terminate the fake (kill it if it does not exit within 3 s) and free the ports."""
+        try:
+            self._terminate()
+        finally:
+            if self._holds_lock:
+                self._holds_lock = False
+                release_ports()
+
+    def _terminate(self):
         if self.process is None:
             return
         if self.process.poll() is None:
@@ -116,6 +177,7 @@ class FakeUrProcess:
                 self.process.kill()
                 self.process.wait(3)
         self.process.stdout.close()
+        self._stderr.close()
 
     def __enter__(self):
         return self.start()

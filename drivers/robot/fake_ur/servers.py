@@ -181,7 +181,11 @@ class FakeUr:
             c.release_emergency_stop()
             return "fake: emergency stop released"
         if command == "stall":
+            # a frozen controller: open connections stay open but go silent, and
+            # nothing new is accepted (else the client would reconnect forever)
             c.stalled = True
+            for sock in self._listeners:
+                _close(sock)
             return "fake: stalled"
         if command == "joints":
             with c.lock:

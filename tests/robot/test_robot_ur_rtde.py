@@ -1,0 +1,233 @@
+"""The real ``ur-rtde`` client (not a mock) against the fake controller in its own process.
+
+First the bare client (``rtde_control`` / ``rtde_receive`` as shipped in the
+wheel), then the adapter's semantics: stop mid-move, protective stop during a
+move, e-stop, hang-up and a frozen controller, deadlines.
+"""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from drivers.errors import ConnectionLost, DriverTimeout
+from drivers.robot.errors import EmergencyStop, MotionFailed, ProtectiveStop
+from drivers.robot.ur_rtde_adapter import UrRtdeRobot, expected_move_time
+
+rtde_control = pytest.importorskip("rtde_control")
+rtde_receive = pytest.importorskip("rtde_receive")
+
+HOST = "127.0.0.1"
+TOL = 1e-3  # rad
+
+
+def wait_until(condition, timeout_s=3.0, what="condition"):
+    """Poll ``condition`` until true; fail the test after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out waiting for {what}")
+        time.sleep(0.002)
+
+
+def fake_is_moving(fake):
+    return fake.command("fake moving") == "fake: moving true"
+
+
+def in_background(action):
+    """Run ``action`` in a thread; returns a join function that re-raises its error."""
+    errors = []
+
+    def run():
+        try:
+            action()
+        except Exception as exc:  # surfaced in the test thread by join()
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+
+    def join():
+        thread.join(10)
+        assert not thread.is_alive()
+        if errors:
+            raise errors[0]
+
+    return join
+
+
+# ------------------------------------------------------------- bare client
+@pytest.fixture
+def clients(fake_ur):
+    receive = rtde_receive.RTDEReceiveInterface(HOST)
+    control = rtde_control.RTDEControlInterface(HOST)
+    yield control, receive
+    control.stopScript()
+
+
+def test_client_movej_reads_back_target(clients):
+    control, receive = clients
+    start = np.array(receive.getActualQ())
+    target = start + np.array([0.2, -0.1, 0.1, 0.05, -0.05, 0.3])
+    assert control.moveJ(target.tolist(), 1.0, 2.0) is True
+    # actual_q may lag the move's end by one output period: poll with a tolerance
+    wait_until(lambda: np.max(np.abs(np.array(receive.getActualQ()) - target)) < TOL,
+               what="actual_q to reach the target")
+    assert control.isSteady() is True
+    assert not receive.isProtectiveStopped()
+    assert not receive.isEmergencyStopped()
+    control.moveJ(start.tolist(), 1.0, 2.0)
+
+
+def test_client_issteady_false_while_moving_and_stopj_halts(clients, fake_ur):
+    control, receive = clients
+    start = np.array(receive.getActualQ())
+    target = start + np.array([1.0, 0, 0, 0, 0, 0])
+    assert control.moveJ(target.tolist(), 0.3, 1.0, True) is True  # async
+    assert control.isSteady() is False
+    assert control.getAsyncOperationProgress() >= 0
+    control.stopJ(2.0)
+    assert control.isSteady() is True
+    assert control.getAsyncOperationProgress() < 0
+    time.sleep(0.05)  # two RTDE periods for actual_q to catch up
+    q = np.array(receive.getActualQ())
+    assert start[0] < q[0] < target[0] - 0.1  # stopped partway
+    assert not fake_is_moving(fake_ur)
+
+
+def test_client_timestamps_increase(clients):
+    _, receive = clients
+    stamps = []
+    for _ in range(5):
+        stamps.append(receive.getTimestamp())
+        time.sleep(0.01)
+    assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False))
+
+
+# ----------------------------------------------------------------- adapter
+def test_adapter_connect_refused_without_controller(fake_manager):
+    fake_manager.discard()  # nothing listens on 127.0.0.1:30004 now
+    robot = UrRtdeRobot(HOST)
+    with pytest.raises(ConnectionLost, match="could not connect"):
+        robot.connect()
+
+
+def test_adapter_requires_a_host():
+    with pytest.raises(ValueError):
+        UrRtdeRobot("")
+
+
+def test_stop_mid_move_reports_motion_failed(ur_robot, fake_ur):
+    start = ur_robot.actual_joints()
+    target = start + np.array([1.0, 0, 0, 0, 0, 0])
+
+    def stop_when_moving():
+        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        ur_robot.stop()
+
+    join = in_background(stop_when_moving)
+    with pytest.raises(MotionFailed, match="joint 1"):
+        ur_robot.move_joints(target, 0.3, 1.0)
+    join()
+    q = ur_robot.actual_joints()
+    assert start[0] < q[0] < target[0]
+    # a stop is not a safety stop: the next move is accepted
+    np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+
+
+def test_protective_stop_during_move_is_typed_and_latched(ur_robot, fake_ur):
+    start = ur_robot.actual_joints()
+    target = start + np.array([0, 0.8, 0, 0, 0, 0])
+
+    def trip_when_moving():
+        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        fake_ur.command("fake protective stop")
+
+    join = in_background(trip_when_moving)
+    with pytest.raises(ProtectiveStop):
+        ur_robot.move_joints(target, 0.3, 1.0)
+    join()
+    stopped_at = ur_robot.actual_joints()
+    assert start[1] < stopped_at[1] < target[1]
+    # unlocked on the "pendant": the adapter still refuses until cleared through it
+    assert fake_ur.command("unlock protective stop") == "Protective stop releasing"
+    wait_until(lambda: not ur_robot.safety_state().protective_stopped, what="unlock")
+    with pytest.raises(ProtectiveStop):
+        ur_robot.move_joints(start, 1.0, 2.0)
+    np.testing.assert_allclose(ur_robot.actual_joints(), stopped_at, atol=TOL)
+    ur_robot.clear_protective_stop()
+    np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+
+
+def test_emergency_stop_during_move(ur_robot, fake_ur):
+    start = ur_robot.actual_joints()
+
+    def estop_when_moving():
+        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        fake_ur.command("fake estop")
+
+    join = in_background(estop_when_moving)
+    with pytest.raises(EmergencyStop):
+        ur_robot.move_joints(start + np.array([0, 0, 0.8, 0, 0, 0]), 0.3, 1.0)
+    join()
+    assert ur_robot.safety_state().emergency_stopped
+    fake_ur.command("fake release estop")
+    wait_until(lambda: ur_robot.safety_state().ok, what="e-stop release")
+    ur_robot.clear_protective_stop()
+    np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+
+
+def test_triggered_protective_stop_from_client(ur_robot):
+    # the client's own triggerProtectiveStop (command 31) goes through the script loop
+    ur_robot._control.triggerProtectiveStop()
+    wait_until(lambda: ur_robot.safety_state().protective_stopped, what="protective stop")
+    with pytest.raises(ProtectiveStop):
+        ur_robot.move_joints(ur_robot.actual_joints(), 1.0, 2.0)
+    ur_robot.clear_protective_stop()
+    assert ur_robot.safety_state().ok
+
+
+@pytest.mark.parametrize("fault", ["fake drop", "fake stall"])
+def test_controller_hangup_during_move_is_connection_lost(ur_robot, fake_ur, fault):
+    # "drop": the controller closes every socket; "stall": sockets stay open, data stops
+    start = ur_robot.actual_joints()
+
+    def fault_when_moving():
+        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        fake_ur.command(fault)
+
+    join = in_background(fault_when_moving)
+    t0 = time.monotonic()
+    with pytest.raises(ConnectionLost):
+        ur_robot.move_joints(start + np.array([0, 0, 0, 0, 0, 2.0]), 0.2, 1.0)
+    elapsed = time.monotonic() - t0
+    join()
+    # the deadline that matters: the client alone would wait out its 300 s timeout
+    assert elapsed < ur_robot.stale_after_s + 5.0
+    with pytest.raises(ConnectionLost):
+        ur_robot.actual_joints()
+
+
+def test_move_overrunning_its_deadline_times_out_and_stops(fake_manager):
+    # at time scale 0.2 the fake moves 5x slower than the adapter expects
+    fake = fake_manager.running(time_scale=0.2)
+    robot = UrRtdeRobot(HOST, timeout_margin_s=0.2)
+    with robot:
+        start = robot.actual_joints()
+        target = start + np.array([0.3, 0, 0, 0, 0, 0])
+        expected = expected_move_time(start, target, 3.0, 10.0)
+        with pytest.raises(DriverTimeout):
+            robot.move_joints(target, 3.0, 10.0)
+        assert not fake_is_moving(fake)  # the adapter stopped the arm
+        q = robot.actual_joints()
+        assert start[0] < q[0] < target[0]
+        assert expected < 0.5
+    fake_manager.discard()
+
+
+def test_expected_move_time_matches_trapezoid_and_triangle():
+    # 1 rad at 0.5 rad/s, 1 rad/s^2: two 0.5 s ramps (0.125 rad each), 0.75 rad cruise (1.5 s)
+    assert expected_move_time(np.zeros(6), np.r_[1.0, np.zeros(5)], 0.5, 1.0) == pytest.approx(2.5)
+    # 0.01 rad never reaches 0.5 rad/s: triangle, 2 * sqrt(0.01 / 1)
+    assert expected_move_time(np.zeros(6), np.r_[0.01, np.zeros(5)], 0.5, 1.0) == pytest.approx(0.2)
