@@ -35,6 +35,18 @@ def fake_is_moving(fake):
     return fake.command("fake moving") == "fake: moving true"
 
 
+def fake_joints(fake):
+    reply = fake.command("fake joints")
+    assert reply.startswith("fake: joints ")
+    return np.array([float(v) for v in reply.split()[2:]])
+
+
+def wait_until_moved(fake, start, min_rad=0.05):
+    """Wait until the fake's arm has travelled ``min_rad`` from ``start`` (on any joint)."""
+    wait_until(lambda: np.max(np.abs(fake_joints(fake) - start)) > min_rad,
+               what=f"the arm to move {min_rad} rad")
+
+
 def in_background(action):
     """Run ``action`` in a thread; returns a join function that re-raises its error."""
     errors = []
@@ -87,12 +99,13 @@ def test_client_issteady_false_while_moving_and_stopj_halts(clients, fake_ur):
     assert control.moveJ(target.tolist(), 0.3, 1.0, True) is True  # async
     assert control.isSteady() is False
     assert control.getAsyncOperationProgress() >= 0
+    wait_until_moved(fake_ur, start)
     control.stopJ(2.0)
     assert control.isSteady() is True
     assert control.getAsyncOperationProgress() < 0
     time.sleep(0.05)  # two RTDE periods for actual_q to catch up
     q = np.array(receive.getActualQ())
-    assert start[0] < q[0] < target[0] - 0.1  # stopped partway
+    assert start[0] + 0.05 < q[0] < target[0] - 0.1  # stopped partway
     assert not fake_is_moving(fake_ur)
 
 
@@ -123,7 +136,7 @@ def test_stop_mid_move_reports_motion_failed(ur_robot, fake_ur):
     target = start + np.array([1.0, 0, 0, 0, 0, 0])
 
     def stop_when_moving():
-        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        wait_until_moved(fake_ur, start)
         ur_robot.stop()
 
     join = in_background(stop_when_moving)
@@ -141,7 +154,7 @@ def test_protective_stop_during_move_is_typed_and_latched(ur_robot, fake_ur):
     target = start + np.array([0, 0.8, 0, 0, 0, 0])
 
     def trip_when_moving():
-        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        wait_until_moved(fake_ur, start)
         fake_ur.command("fake protective stop")
 
     join = in_background(trip_when_moving)
@@ -164,7 +177,7 @@ def test_emergency_stop_during_move(ur_robot, fake_ur):
     start = ur_robot.actual_joints()
 
     def estop_when_moving():
-        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        wait_until_moved(fake_ur, start)
         fake_ur.command("fake estop")
 
     join = in_background(estop_when_moving)
@@ -194,7 +207,7 @@ def test_controller_hangup_during_move_is_connection_lost(ur_robot, fake_ur, fau
     start = ur_robot.actual_joints()
 
     def fault_when_moving():
-        wait_until(lambda: fake_is_moving(fake_ur), what="the move to start")
+        wait_until_moved(fake_ur, start)
         fake_ur.command(fault)
 
     join = in_background(fault_when_moving)
