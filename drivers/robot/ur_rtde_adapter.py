@@ -109,7 +109,8 @@ class UrRtdeRobot(Robot):
             self._dashboard = dashboard_client.DashboardClient(self.host)
             self._dashboard.connect()
         except RuntimeError as exc:
-            stopped = self._receive is not None and not self.safety_state().ok
+            stopped = self._receive is not None and (self._receive.isProtectiveStopped() or
+                                                     self._receive.isEmergencyStopped())
             self.close()
             if stopped:
                 raise NotReady(f"UR controller at {self.host} is safety-stopped: {exc}") from exc
