@@ -1,7 +1,7 @@
 """Fixtures for the robot-link tests: the fake UR controller process and robot harnesses.
 
 The fake listens on fixed ports (30004/29999/30003 on 127.0.0.1), so one fake
-serves the whole session and is replaced only when a test broke it (dropped,
+serves a whole test module and is replaced only when a test broke it (dropped,
 stalled, still stopped) or needs another time scale. ``FakeUrProcess.start``
 shuts down a fake left over from a crashed run, and every fake exits by
 itself when the test process dies (``--parent-pid``).
@@ -46,9 +46,9 @@ class FakeManager:
             self.fake = None
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def fake_manager():
-    # hold the ports for the whole session: another test run on this machine waits
+    # hold the ports while this module runs: another test run on this machine waits
     acquire_ports()
     manager = FakeManager()
     try:

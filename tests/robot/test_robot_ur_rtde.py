@@ -13,6 +13,7 @@ import pytest
 
 from drivers.errors import ConnectionLost, DriverTimeout
 from drivers.robot.errors import EmergencyStop, MotionFailed, ProtectiveStop
+from drivers.robot.fake_ur.launcher import shutdown_leftover
 from drivers.robot.ur_rtde_adapter import UrRtdeRobot, expected_move_time
 
 rtde_control = pytest.importorskip("rtde_control")
@@ -120,7 +121,8 @@ def test_client_timestamps_increase(clients):
 
 # ----------------------------------------------------------------- adapter
 def test_adapter_connect_refused_without_controller(fake_manager):
-    fake_manager.discard()  # nothing listens on 127.0.0.1:30004 now
+    fake_manager.discard()
+    shutdown_leftover()  # nothing listens on 127.0.0.1:30004 now
     robot = UrRtdeRobot(HOST)
     with pytest.raises(ConnectionLost, match="could not connect"):
         robot.connect()
