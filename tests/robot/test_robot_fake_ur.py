@@ -241,3 +241,24 @@ def test_launcher_replaces_a_leftover_fake(fake_manager):
     finally:
         fresh.stop()
         fake_manager.discard()
+
+
+def test_launcher_kills_a_hung_leftover(fake_manager):
+    # a frozen fake still completes TCP handshakes but never answers "fake shutdown"
+    import os
+    import signal
+
+    from drivers.robot.fake_ur.launcher import FakeUrProcess
+
+    fake_manager.discard()
+    hung = FakeUrProcess(time_scale=10.0).start()
+    os.kill(hung.process.pid, signal.SIGSTOP)
+    try:
+        fresh = FakeUrProcess(time_scale=10.0).start()
+        try:
+            assert hung.process.wait(5) == -signal.SIGKILL
+            assert fresh.command("fake status") == "fake: status normal"
+        finally:
+            fresh.stop()
+    finally:
+        hung.stop()

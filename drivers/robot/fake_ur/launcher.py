@@ -10,6 +10,7 @@ shuts down a fake left over from a crashed run, and every fake is started with
 import fcntl
 import os
 import selectors
+import signal
 import socket
 import subprocess
 import sys
@@ -20,6 +21,7 @@ import time
 from drivers.robot.fake_ur.servers import DASHBOARD_PORT, GREETING, HOST, RTDE_PORT, SCRIPT_PORT
 
 _LOCK_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.lock")
+_PID_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.pid")
 _lock_state = {"fd": None, "depth": 0}
 _lock_mutex = threading.Lock()
 
@@ -95,10 +97,30 @@ def shutdown_leftover(timeout_s=5.0):
     except OSError:
         pass
     deadline = time.monotonic() + timeout_s
+    killed = False
     while any(_port_open(p) for p in (RTDE_PORT, DASHBOARD_PORT, SCRIPT_PORT)):
+        if not killed and time.monotonic() > deadline - timeout_s / 2:
+            killed = _kill_recorded_fake()  # it did not answer "fake shutdown": hung
         if time.monotonic() > deadline:
             raise RuntimeError("ports 30004/29999/30003 on 127.0.0.1 are still in use")
         time.sleep(0.05)
+
+
+def _kill_recorded_fake():
+    """SIGKILL the fake whose pid the last launcher recorded, if it is still a fake."""
+    try:
+        with open(_PID_PATH) as f:
+            pid = int(f.read().strip())
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            cmdline = f.read()
+    except (OSError, ValueError):
+        return True  # no record, or the process is gone
+    if b"drivers.robot.fake_ur" in cmdline:  # the pid was not reused by something else
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return True
 
 
 class FakeUrProcess:
@@ -137,6 +159,8 @@ class FakeUrProcess:
         # own session: signals meant for the test runner's group do not reach it
         self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self._stderr,
                                         start_new_session=True)
+        with open(_PID_PATH, "w") as f:
+            f.write(str(self.process.pid))
         selector = selectors.DefaultSelector()
         selector.register(self.process.stdout, selectors.EVENT_READ)
         ready = selector.select(self.startup_timeout_s)
