@@ -37,6 +37,16 @@ def test_move_reaches_target_and_reads_back(harness):
         np.testing.assert_allclose(back, start, atol=harness.tolerance_rad)
 
 
+def test_stop_when_idle_keeps_the_arm_and_reconnect_works(harness):
+    with harness.robot as robot:
+        start = robot.move_joints(robot.actual_joints() + STEP, SPEED, ACCEL)
+        robot.stop()
+        np.testing.assert_allclose(robot.actual_joints(), start, atol=harness.tolerance_rad)
+    with harness.robot as robot:  # a closed robot connects again where it was left
+        np.testing.assert_allclose(robot.actual_joints(), start, atol=harness.tolerance_rad)
+        robot.move_joints(start - STEP, SPEED, ACCEL)
+
+
 def test_protective_stop_refuses_moves_until_cleared(harness):
     with harness.robot as robot:
         start = robot.actual_joints()

@@ -229,6 +229,7 @@ class _RtdeSession:
         self.controller = server.controller
         self.send_lock = threading.Lock()
         self.output_names = []
+        self.output_types = []
         self.output_struct = None
         self.frequency = 500.0
         self.inputs = {}  # recipe id -> (names, struct)
