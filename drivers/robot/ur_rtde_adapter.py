@@ -177,17 +177,15 @@ class UrRtdeRobot(Robot):
     def clear_protective_stop(self, timeout_s=6.0):
         """Unlock the protective stop (dashboard), restart the control script, lift the latch.
 
-        A real controller refuses the unlock for 5 s after the stop; that
-        refusal surfaces as :class:`~drivers.errors.NotReady`.
+        A real controller refuses the unlock for 5 s after the stop, so the
+        unlock is retried until ``timeout_s``; a refusal that lasts longer is
+        :class:`~drivers.errors.NotReady`.
         """
         self._check_link()
         if self._receive.isEmergencyStopped():
             raise EmergencyStop("emergency stop engaged: an operator must release it")
         if self._receive.isProtectiveStopped():
-            try:
-                self._dashboard.unlockProtectiveStop()
-            except RuntimeError as exc:
-                raise NotReady(f"controller refused to unlock the protective stop: {exc}") from exc
+            self._unlock(timeout_s)
             self._wait_for(lambda: not self._receive.isProtectiveStopped(), timeout_s,
                            "protective stop to clear")
         if not self._control.isProgramRunning():
@@ -197,6 +195,19 @@ class UrRtdeRobot(Robot):
         self._stop_latch = False
 
     # ------------------------------------------------------------ internals
+    def _unlock(self, timeout_s):
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                self._dashboard.unlockProtectiveStop()
+                return
+            except RuntimeError as exc:  # the dashboard's refusal, e.g. "until 5s after"
+                if time.monotonic() > deadline:
+                    raise NotReady(f"controller refused to unlock the protective stop: {exc}") \
+                        from exc
+            self._check_link()
+            time.sleep(0.5)
+
     def _wait_move(self, timeout_s):
         """Poll until the async move finished; raise on stop, lost link or deadline."""
         t0 = time.monotonic()

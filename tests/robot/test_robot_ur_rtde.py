@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from drivers.errors import ConnectionLost, DriverTimeout
+from drivers.errors import ConnectionLost, DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, MotionFailed, ProtectiveStop
 from drivers.robot.fake_ur.launcher import shutdown_leftover
 from drivers.robot.ur_rtde_adapter import UrRtdeRobot, expected_move_time
@@ -173,6 +173,24 @@ def test_protective_stop_during_move_is_typed_and_latched(ur_robot, fake_ur):
     np.testing.assert_allclose(ur_robot.actual_joints(), stopped_at, atol=TOL)
     ur_robot.clear_protective_stop()
     np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+
+
+def test_clear_waits_out_the_controllers_unlock_delay(ur_robot, fake_ur):
+    # a real controller refuses "unlock protective stop" for 5 s after the stop
+    assert fake_ur.command("fake unlock delay 1.0") == "fake: unlock delay 1"
+    try:
+        fake_ur.command("fake protective stop")
+        wait_until(lambda: ur_robot.safety_state().protective_stopped, what="protective stop")
+        with pytest.raises(NotReady, match="refused to unlock"):
+            ur_robot.clear_protective_stop(timeout_s=0.1)
+        assert ur_robot.safety_state().protective_stopped
+        ur_robot.clear_protective_stop(timeout_s=5.0)  # retries until the delay has passed
+        assert ur_robot.safety_state().ok
+        start = ur_robot.actual_joints()
+        np.testing.assert_allclose(ur_robot.move_joints(start + 0.01, 1.0, 2.0), start + 0.01,
+                                   atol=TOL)
+    finally:
+        fake_ur.command("fake unlock delay 0")
 
 
 def test_emergency_stop_during_move(ur_robot, fake_ur):

@@ -169,6 +169,8 @@ class FakeController:
         self._async_op_id = 0
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
+        self.unlock_delay_s = 0.0  # test hook: refuse unlocks this long after a stop, as UR does
+        self._protective_since = None
         self.log = []  # commands executed, for the fake's own tests
 
     # ----------------------------------------------------------------- state
@@ -258,6 +260,7 @@ class FakeController:
         with self.lock:
             self.stop_program()
             self.safety_bits = (self.safety_bits | SAFETY_PROTECTIVE_STOPPED) & ~SAFETY_NORMAL
+            self._protective_since = time.monotonic()
             self.log.append("protective stop")
 
     def emergency_stop(self):
@@ -278,6 +281,10 @@ class FakeController:
         with self.lock:
             if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
                 return "Cannot unlock protective stop, safetymode is not PROTECTIVE_STOP"
+            since = self._protective_since
+            if since is not None and time.monotonic() - since < self.unlock_delay_s:
+                return ("Cannot unlock protective stop until 5s after occurrence. "
+                        "Always inspect cause of protective stop before unlocking")
             self.safety_bits = (self.safety_bits & ~SAFETY_PROTECTIVE_STOPPED) | SAFETY_NORMAL
             return "Protective stop releasing"
 

@@ -190,6 +190,9 @@ class FakeUr:
         if command == "joints":
             with c.lock:
                 return "fake: joints " + " ".join(f"{v:.9f}" for v in c.q)
+        if command.startswith("unlock delay "):
+            c.unlock_delay_s = float(command.split()[-1])
+            return f"fake: unlock delay {c.unlock_delay_s:g}"
         if command == "status":
             # "normal" only when nothing a test injected is still in effect
             with c.lock:
