@@ -7,18 +7,16 @@ shared :class:`~drivers.robot.fake_ur.controller.FakeController` holds the state
 
 import re
 import socket
-import struct
 import threading
 import time
 
-from drivers.robot.fake_ur import wire
+from drivers.robot.fake_ur.rtde_session import RtdeSession
 
 HOST = "127.0.0.1"
 RTDE_PORT = 30004
 DASHBOARD_PORT = 29999
 SCRIPT_PORT = 30003
 
-CONTROLLER_VERSION = (5, 11, 1, 108318)
 POLYSCOPE_VERSION = "URSoftware 5.11.1.108318 (Mar 22 2021)"
 SERIAL_NUMBER = "20185500020"
 GREETING = "Connected: Universal Robots Dashboard Server"
@@ -33,16 +31,6 @@ def listen(port):
     sock.bind((HOST, port))
     sock.listen(8)
     return sock
-
-
-def _read_exact(conn, n):
-    data = b""
-    while len(data) < n:
-        chunk = conn.recv(n - len(data))
-        if not chunk:
-            raise ConnectionError("peer closed")
-        data += chunk
-    return data
 
 
 class FakeUr:
@@ -119,8 +107,7 @@ class FakeUr:
 
     # ------------------------------------------------------------------ RTDE
     def _serve_rtde(self, conn):
-        session = _RtdeSession(conn, self)
-        session.run()
+        RtdeSession(conn, self.controller, self.stopped).run()
 
     # ------------------------------------------------------------- dashboard
     def _serve_dashboard(self, conn):
@@ -221,116 +208,6 @@ class FakeUr:
                 match = _REG_OFFSET.search(buffer)
                 self.controller.start_program(int(match.group(1)) if match else 0)
                 buffer = ""
-
-
-class _RtdeSession:
-    """One RTDE connection: answers setup requests in order, then streams outputs."""
-
-    def __init__(self, conn, server):
-        self.conn = conn
-        self.server = server
-        self.controller = server.controller
-        self.send_lock = threading.Lock()
-        self.output_names = []
-        self.output_types = []
-        self.output_struct = None
-        self.frequency = 500.0
-        self.inputs = {}  # recipe id -> (names, struct)
-        self.streaming = threading.Event()
-        self.closed = False
-
-    def send(self, package_type, payload=b""):
-        with self.send_lock:
-            self.conn.sendall(wire.pack(package_type, payload))
-
-    def run(self):
-        threading.Thread(target=self._stream, daemon=True).start()
-        try:
-            while not self.server.stopped.is_set():
-                size, package_type = wire.HEADER.unpack(_read_exact(self.conn, wire.HEADER.size))
-                payload = _read_exact(self.conn, size - wire.HEADER.size)
-                self._handle(package_type, payload)
-        finally:
-            self.closed = True
-
-    def _handle(self, package_type, payload):
-        if package_type == wire.REQUEST_PROTOCOL_VERSION:
-            self.send(package_type, b"\x01")
-        elif package_type == wire.GET_URCONTROL_VERSION:
-            self.send(package_type, struct.pack(">IIII", *CONTROLLER_VERSION))
-        elif package_type == wire.SETUP_OUTPUTS:
-            (frequency,) = struct.unpack(">d", payload[:8])
-            self.frequency = frequency if frequency > 0 else 500.0
-            self.output_names = wire.split_names(payload[8:])
-            types = [wire.type_of(n) for n in self.output_names]
-            self.output_types = types
-            self.output_struct = wire.recipe_struct(types)
-            self.send(package_type, b"\x01" + ",".join(types).encode())
-        elif package_type == wire.SETUP_INPUTS:
-            names = wire.split_names(payload)
-            types = [wire.type_of(n) for n in names]
-            recipe_id = len(self.inputs) + 1
-            counts = [wire.count_of(t) for t in types]
-            self.inputs[recipe_id] = (names, counts, wire.recipe_struct(types))
-            self.send(package_type, bytes([recipe_id]) + ",".join(types).encode())
-        elif package_type == wire.START:
-            self.streaming.set()
-            self.send(package_type, b"\x01")
-        elif package_type == wire.PAUSE:
-            self.streaming.clear()
-            self.send(package_type, b"\x01")
-        elif package_type == wire.DATA_PACKAGE:
-            self._receive_inputs(payload)
-        # anything else (text messages) needs no answer
-
-    def _receive_inputs(self, payload):
-        recipe = self.inputs.get(payload[0])
-        if recipe is None:
-            return
-        names, counts, recipe_struct = recipe
-        body = payload[1:]
-        if len(body) < recipe_struct.size:
-            return  # a short package cannot be trusted; the real controller drops it too
-        values = recipe_struct.unpack_from(body)
-        fields, at = {}, 0
-        for name, count in zip(names, counts, strict=True):
-            fields[name] = values[at] if count == 1 else values[at:at + count]
-            at += count
-        self.controller.write_inputs(fields)
-
-    def _stream(self):
-        """Stream ``U`` packages at the negotiated rate until the connection ends."""
-        next_at = None
-        while not (self.server.stopped.is_set() or self.closed):
-            if not self.streaming.wait(0.05):
-                next_at = None
-                continue
-            if self.controller.stalled:
-                time.sleep(0.01)
-                continue
-            period = 1.0 / self.frequency
-            now = time.monotonic()
-            next_at = now if next_at is None else next_at
-            if next_at > now:
-                time.sleep(next_at - now)
-            next_at = max(next_at + period, time.monotonic() - period)
-            try:
-                self.send(wire.DATA_PACKAGE, b"\x01" + self._pack_outputs())
-            except OSError:
-                return
-
-    def _pack_outputs(self):
-        snapshot = self.controller.snapshot()
-        flat = []
-        for name, type_name in zip(self.output_names, self.output_types, strict=True):
-            value = snapshot.get(name)
-            if value is None:
-                flat.extend(wire.zero_of(type_name))
-            elif isinstance(value, tuple):
-                flat.extend(value)
-            else:
-                flat.append(value)
-        return self.output_struct.pack(*flat)
 
 
 def _close(sock):
