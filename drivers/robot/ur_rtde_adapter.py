@@ -75,7 +75,9 @@ class UrRtdeRobot(Robot):
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
     start_grace_s = 0.1
     #: Seconds to wait for ``actual_q`` to catch up once steady (it lags ~1 period).
-    settle_s = 0.25
+    settle_s = 0.1
+    #: Seconds after a move's end for ``isSteady`` to become true.
+    steady_timeout_s = 2.0
 
     def __init__(self, host, *, tolerance_rad=1e-3, stale_after_s=1.0, timeout_margin_s=5.0,
                  poll_s=0.002, command_timeout_s=5.0):
@@ -227,24 +229,28 @@ class UrRtdeRobot(Robot):
             time.sleep(self.poll_s)
 
     def _verify_reached(self, target):
-        steady = self._command(self._control.isSteady)
+        # a real arm reports steady only once fully at rest, a moment after the move
+        deadline = time.monotonic() + self.steady_timeout_s
+        while not self._command(self._control.isSteady):
+            if time.monotonic() > deadline:
+                self._raise_for_safety()
+                raise MotionFailed(f"arm not steady {self.steady_timeout_s} s after the move")
+            time.sleep(0.01)
         t0 = time.monotonic()
         while True:
             q = self.actual_joints()
             error = np.abs(q - target)
-            if steady and np.max(error) <= self.tolerance_rad:
+            if np.max(error) <= self.tolerance_rad:
                 return q
             if time.monotonic() - t0 > self.settle_s:
                 break
             time.sleep(self.poll_s)
-            if not steady:
-                steady = self._command(self._control.isSteady)
         # a stop that ended the move may reach us a period later than the move's end
         self._raise_for_safety()
         joint = int(np.argmax(error))
         raise MotionFailed(
             f"move ended away from its target: joint {joint + 1} off by {error[joint]:.4g} rad "
-            f"(tolerance {self.tolerance_rad:g} rad, steady={steady})")
+            f"(tolerance {self.tolerance_rad:g} rad)")
 
     def _command(self, method, *args):
         """Run a control-interface command with a deadline, one command at a time.
