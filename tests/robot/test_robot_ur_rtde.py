@@ -112,10 +112,15 @@ def test_client_issteady_false_while_moving_and_stopj_halts(clients, fake_ur):
 
 def test_client_timestamps_increase(clients):
     _, receive = clients
-    stamps = []
-    for _ in range(5):
-        stamps.append(receive.getTimestamp())
-        time.sleep(0.01)
+    stamps = [receive.getTimestamp()]
+
+    def five_distinct():
+        stamp = receive.getTimestamp()
+        if stamp != stamps[-1]:
+            stamps.append(stamp)
+        return len(stamps) >= 5
+
+    wait_until(five_distinct, what="five RTDE packages")
     assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False))
 
 
