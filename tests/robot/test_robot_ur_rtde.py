@@ -148,7 +148,7 @@ def test_stop_mid_move_reports_motion_failed(ur_robot, fake_ur):
 
     join = in_background(stop_when_moving)
     with pytest.raises(MotionFailed, match="joint 1"):
-        ur_robot.move_joints(target, 0.3, 1.0)
+        ur_robot.move_joints(target, 0.1, 1.0)  # slow: seconds of margin for the stop
     join()
     q = ur_robot.actual_joints()
     assert start[0] < q[0] < target[0]
@@ -166,7 +166,7 @@ def test_protective_stop_during_move_is_typed_and_latched(ur_robot, fake_ur):
 
     join = in_background(trip_when_moving)
     with pytest.raises(ProtectiveStop):
-        ur_robot.move_joints(target, 0.3, 1.0)
+        ur_robot.move_joints(target, 0.1, 1.0)
     join()
     stopped_at = ur_robot.actual_joints()
     assert start[1] < stopped_at[1] < target[1]
@@ -207,7 +207,7 @@ def test_emergency_stop_during_move(ur_robot, fake_ur):
 
     join = in_background(estop_when_moving)
     with pytest.raises(EmergencyStop):
-        ur_robot.move_joints(start + np.array([0, 0, 0.8, 0, 0, 0]), 0.3, 1.0)
+        ur_robot.move_joints(start + np.array([0, 0, 0.8, 0, 0, 0]), 0.1, 1.0)
     join()
     assert ur_robot.safety_state().emergency_stopped
     fake_ur.command("fake release estop")
@@ -238,7 +238,7 @@ def test_controller_hangup_during_move_is_connection_lost(ur_robot, fake_ur, fau
     join = in_background(fault_when_moving)
     t0 = time.monotonic()
     with pytest.raises(ConnectionLost):
-        ur_robot.move_joints(start + np.array([0, 0, 0, 0, 0, 2.0]), 0.2, 1.0)
+        ur_robot.move_joints(start + np.array([0, 0, 0, 0, 0, 2.0]), 0.1, 1.0)
     elapsed = time.monotonic() - t0
     join()
     # the deadline that matters: the client alone would wait out its 300 s timeout
