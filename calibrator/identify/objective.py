@@ -46,6 +46,7 @@ class SwarmObjective:
         if self.base_fixed is not None and np.array_equal(self.base_fixed, np.eye(4)):
             self.base_fixed = None  # the base frame: nothing to apply
         self.tool_h = space.tool0[:, 3]  # homogeneous tool point in the flange frame
+        self.nominal_flat = space.nominal_mdh.ravel().copy()
         if self.k:
             # trace(R_meas^T B R_flange R_tool) = sum(R_flange * (B^T R_meas R_tool^T));
             # padded to 3x4 with a zero column so it lines up with base2flange.
@@ -58,7 +59,7 @@ class SwarmObjective:
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
         mdh = np.empty((len(x), 30))
-        mdh[:] = self.space.nominal_mdh.ravel()
+        mdh[:] = self.nominal_flat
         mdh[:, self.mdh_index] += x[:, self.mdh_cols]
         mdh = mdh.reshape(len(x), 6, 5)
         if self.base_free or self.tool_free:
