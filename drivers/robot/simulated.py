@@ -1,7 +1,7 @@
 """A simulated arm behind the robot interface: no network, for the embedded default.
 
 :class:`SimulatedRobot` is a "true" arm: its MDH table (usually a named model
-plus hidden parameter errors, see :func:`perturbed_mdh`), its base in the
+plus hidden errors from :func:`calibrator.simulate.random_errors`), its base in the
 tracker frame and its tool on the flange are what the real world would be.
 It reports joint angles like an encoder (optionally with seeded noise) and
 knows where its probe really is (:meth:`SimulatedRobot.true_tool_pose`), which
@@ -13,45 +13,11 @@ The dependency runs drivers -> calibrator (kinematics, models) only.
 
 import numpy as np
 
-from calibrator.kinematics import check_mdh, forward, parallel_axes
+from calibrator.kinematics import check_mdh, forward
 from calibrator.models import get_model
+from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop
 from drivers.robot.interface import N_JOINTS, Robot, SafetyState, check_move_args
-
-
-def perturbed_mdh(nominal_mdh, rng, length_sigma_mm=0.5, angle_sigma_rad=1e-3):
-    """Nominal MDH table plus Gaussian parameter errors: a "true" arm.
-
-    ``a``, ``alpha`` and ``theta`` are perturbed on every link. Where the next
-    axis is parallel (see :func:`calibrator.kinematics.parallel_axes`),
-    Hayati's ``beta`` is perturbed instead of ``d``, as in the identification
-    model; elsewhere ``d`` is perturbed and ``beta`` stays 0.
-
-    Parameters
-    ----------
-    nominal_mdh : array_like, shape (6, 5)
-        Columns ``[a_mm, alpha_rad, theta_rad, d_mm, beta_rad]``.
-    rng : numpy.random.Generator
-        Source of the errors (explicit, so runs are reproducible).
-    length_sigma_mm, angle_sigma_rad : float
-        Standard deviation of the length (mm) and angle (rad) errors.
-
-    Returns
-    -------
-    ndarray, shape (6, 5)
-    """
-    mdh = check_mdh(nominal_mdh).copy()
-    if mdh.shape != (N_JOINTS, 5):
-        raise ValueError(f"nominal_mdh must have shape (6, 5), got {mdh.shape}")
-    parallel = np.append(parallel_axes(mdh), False)  # link 6 has no next axis
-    mdh[:, 0] += rng.normal(0.0, length_sigma_mm, N_JOINTS)  # a
-    mdh[:, 1] += rng.normal(0.0, angle_sigma_rad, N_JOINTS)  # alpha
-    mdh[:, 2] += rng.normal(0.0, angle_sigma_rad, N_JOINTS)  # theta
-    d_err = rng.normal(0.0, length_sigma_mm, N_JOINTS)
-    beta_err = rng.normal(0.0, angle_sigma_rad, N_JOINTS)
-    mdh[:, 3] += np.where(parallel, 0.0, d_err)
-    mdh[:, 4] += np.where(parallel, beta_err, 0.0)
-    return mdh
 
 
 class SimulatedRobot(Robot):
@@ -104,13 +70,16 @@ class SimulatedRobot(Robot):
 
     @classmethod
     def from_model(cls, name, rng, *, base2tracker=None, flange2tool=None,
-                   length_sigma_mm=0.5, angle_sigma_rad=1e-3, **kwargs):
+                   error_mm=0.5, error_rad=1e-3, **kwargs):
         """A true arm: the named model (``calibrator.models``) with hidden errors from ``rng``.
 
+        The errors are :func:`calibrator.simulate.random_errors` (uniform
+        within +-``error_mm`` and +-``error_rad`` on Hayati's parameter set).
         ``base2tracker`` and ``flange2tool`` default to identity; other keyword
         arguments go to the constructor.
         """
-        true_mdh = perturbed_mdh(get_model(name).mdh, rng, length_sigma_mm, angle_sigma_rad)
+        nominal = get_model(name).mdh
+        true_mdh = nominal + random_errors(nominal, rng, mm=error_mm, rad=error_rad)
         eye = np.eye(4)
         return cls(true_mdh, eye if base2tracker is None else base2tracker,
                    eye if flange2tool is None else flange2tool, rng=rng, **kwargs)

@@ -5,7 +5,8 @@ import pytest
 
 from calibrator.kinematics import forward, parallel_axes
 from calibrator.models import get_model
-from drivers.robot.simulated import SimulatedRobot, perturbed_mdh
+from calibrator.simulate import random_errors
+from drivers.robot.simulated import SimulatedRobot
 
 
 def transform(rotvec_z, xyz):
@@ -23,7 +24,7 @@ FLANGE2TOOL = transform(0.0, [10.0, 0.0, 120.0])
 @pytest.mark.parametrize("name", ["ur5e", "ur10e", "er10l-c10"])
 def test_hidden_errors_respect_parallel_axes(name):
     nominal = get_model(name).mdh
-    true = perturbed_mdh(nominal, np.random.default_rng(5))
+    true = nominal + random_errors(nominal, np.random.default_rng(5))
     delta = true - nominal
     parallel = np.append(parallel_axes(nominal), False)
     assert np.all(delta[:, [0, 1, 2]] != 0)
@@ -48,7 +49,8 @@ def test_same_seed_same_arm_other_seed_other_arm():
 
 
 def test_true_tool_pose_is_forward_kinematics_of_the_true_arm():
-    true = perturbed_mdh(get_model("ur10e").mdh, np.random.default_rng(3))
+    nominal = get_model("ur10e").mdh
+    true = nominal + random_errors(nominal, np.random.default_rng(3))
     seen = []
     robot = SimulatedRobot(true, BASE2TRACKER, FLANGE2TOOL, listener=seen.append)
     q = np.random.default_rng(4).uniform(-2, 2, size=(3, 6))
