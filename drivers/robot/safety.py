@@ -63,8 +63,9 @@ class MotionLimits:
     @classmethod
     def from_model(cls, model, max_speed_rad_s, max_accel_rad_s2):
         """Limits from a ``calibrator.models.RobotModel`` plus the user's caps."""
-        return cls(model.joint_limits_rad, max_speed_rad_s, max_accel_rad_s2,
-                   model.max_joint_speed_rad_s)
+        return cls(
+            model.joint_limits_rad, max_speed_rad_s, max_accel_rad_s2, model.max_joint_speed_rad_s
+        )
 
 
 def check_motion(limits, speed_rad_s, accel_rad_s2):
@@ -76,16 +77,18 @@ def check_motion(limits, speed_rad_s, accel_rad_s2):
     """
     if not (np.isfinite(speed_rad_s) and 0 < speed_rad_s <= limits.max_speed_rad_s):
         raise LimitsViolation(
-            f"speed {speed_rad_s} rad/s outside (0, {limits.max_speed_rad_s}] (user cap)")
+            f"speed {speed_rad_s} rad/s outside (0, {limits.max_speed_rad_s}] (user cap)"
+        )
     if limits.max_joint_speed_rad_s is not None:
         slowest = float(np.min(limits.max_joint_speed_rad_s))
         if speed_rad_s > slowest:
             raise LimitsViolation(
-                f"speed {speed_rad_s} rad/s above the arm's slowest joint ({slowest:.4g} rad/s)")
+                f"speed {speed_rad_s} rad/s above the arm's slowest joint ({slowest:.4g} rad/s)"
+            )
     if not (np.isfinite(accel_rad_s2) and 0 < accel_rad_s2 <= limits.max_accel_rad_s2):
         raise LimitsViolation(
-            f"acceleration {accel_rad_s2} rad/s^2 outside (0, {limits.max_accel_rad_s2}] "
-            "(user cap)")
+            f"acceleration {accel_rad_s2} rad/s^2 outside (0, {limits.max_accel_rad_s2}] (user cap)"
+        )
 
 
 def check_plan(q_plan_rad, limits, speed_rad_s, accel_rad_s2):
@@ -126,7 +129,9 @@ def check_plan(q_plan_rad, limits, speed_rad_s, accel_rad_s2):
             f"pose {pose} (plan row, 0-based) joint J{joint + 1}: {plan[pose, joint]:.6g} rad "
             f"outside [{low[joint]:.6g}, {high[joint]:.6g}] rad; whole plan of {len(plan)} "
             f"poses refused ({n_bad} out of limits)",
-            pose_index=int(pose), joint_index=int(joint))
+            pose_index=int(pose),
+            joint_index=int(joint),
+        )
     return plan
 
 

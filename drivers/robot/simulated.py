@@ -44,8 +44,17 @@ class SimulatedRobot(Robot):
         tracker frame) after every completed move.
     """
 
-    def __init__(self, true_mdh, base2tracker, flange2tool, *, initial_q=None,
-                 joint_noise_rad=0.0, rng=None, listener=None):
+    def __init__(
+        self,
+        true_mdh,
+        base2tracker,
+        flange2tool,
+        *,
+        initial_q=None,
+        joint_noise_rad=0.0,
+        rng=None,
+        listener=None,
+    ):
         self._mdh = check_mdh(true_mdh).copy()
         if self._mdh.shape != (N_JOINTS, 5):
             raise ValueError(f"true_mdh must have shape (6, 5), got {self._mdh.shape}")
@@ -69,8 +78,17 @@ class SimulatedRobot(Robot):
         self._latched = False
 
     @classmethod
-    def from_model(cls, name, rng, *, base2tracker=None, flange2tool=None,
-                   error_mm=0.5, error_rad=1e-3, **kwargs):
+    def from_model(
+        cls,
+        name,
+        rng,
+        *,
+        base2tracker=None,
+        flange2tool=None,
+        error_mm=0.5,
+        error_rad=1e-3,
+        **kwargs,
+    ):
         """A true arm: the named model (``calibrator.models``) with hidden errors from ``rng``.
 
         The errors are :func:`calibrator.simulate.random_errors` (uniform
@@ -81,8 +99,13 @@ class SimulatedRobot(Robot):
         nominal = get_model(name).mdh
         true_mdh = nominal + random_errors(nominal, rng, mm=error_mm, rad=error_rad)
         eye = np.eye(4)
-        return cls(true_mdh, eye if base2tracker is None else base2tracker,
-                   eye if flange2tool is None else flange2tool, rng=rng, **kwargs)
+        return cls(
+            true_mdh,
+            eye if base2tracker is None else base2tracker,
+            eye if flange2tool is None else flange2tool,
+            rng=rng,
+            **kwargs,
+        )
 
     # ------------------------------------------------------------ lifecycle
     def connect(self):
@@ -102,8 +125,9 @@ class SimulatedRobot(Robot):
 
     def true_tool_pose(self):
         """Where the probe really is: tool pose in the tracker frame, shape (4, 4), mm."""
-        return forward(self._mdh, self._q_true[np.newaxis], self._flange2tool,
-                       self._base2tracker)[0]
+        return forward(self._mdh, self._q_true[np.newaxis], self._flange2tool, self._base2tracker)[
+            0
+        ]
 
     # -------------------------------------------------------------- motion
     def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):

@@ -79,8 +79,16 @@ class UrRtdeRobot(Robot):
     #: Seconds after a move's end for ``isSteady`` to become true.
     steady_timeout_s = 2.0
 
-    def __init__(self, host, *, tolerance_rad=1e-3, stale_after_s=1.0, timeout_margin_s=5.0,
-                 poll_s=0.002, command_timeout_s=5.0):
+    def __init__(
+        self,
+        host,
+        *,
+        tolerance_rad=1e-3,
+        stale_after_s=1.0,
+        timeout_margin_s=5.0,
+        poll_s=0.002,
+        command_timeout_s=5.0,
+    ):
         if not host:
             raise ValueError("host is required")
         self.host = host
@@ -111,8 +119,9 @@ class UrRtdeRobot(Robot):
             self._dashboard = dashboard_client.DashboardClient(self.host)
             self._dashboard.connect()
         except RuntimeError as exc:
-            stopped = self._receive is not None and (self._receive.isProtectiveStopped() or
-                                                     self._receive.isEmergencyStopped())
+            stopped = self._receive is not None and (
+                self._receive.isProtectiveStopped() or self._receive.isEmergencyStopped()
+            )
             self.close()
             if stopped:
                 raise NotReady(f"UR controller at {self.host} is safety-stopped: {exc}") from exc
@@ -158,11 +167,14 @@ class UrRtdeRobot(Robot):
         if self._stop_latch:
             raise ProtectiveStop("the arm was safety-stopped; call clear_protective_stop() first")
         if not self._control.isProgramRunning():
-            raise NotReady("the rtde_control script is not running (stopped on the pendant or by "
-                           "a safety stop); call clear_protective_stop() to restart it")
+            raise NotReady(
+                "the rtde_control script is not running (stopped on the pendant or by "
+                "a safety stop); call clear_protective_stop() to restart it"
+            )
         start = self.actual_joints()
-        accepted = self._command(self._control.moveJ, target.tolist(), float(speed_rad_s),
-                                 float(accel_rad_s2), True)
+        accepted = self._command(
+            self._control.moveJ, target.tolist(), float(speed_rad_s), float(accel_rad_s2), True
+        )
         if not accepted:
             self._check_link()
             self._raise_for_safety()
@@ -188,8 +200,11 @@ class UrRtdeRobot(Robot):
             raise EmergencyStop("emergency stop engaged: an operator must release it")
         if self._receive.isProtectiveStopped():
             self._unlock(timeout_s)
-            self._wait_for(lambda: not self._receive.isProtectiveStopped(), timeout_s,
-                           "protective stop to clear")
+            self._wait_for(
+                lambda: not self._receive.isProtectiveStopped(),
+                timeout_s,
+                "protective stop to clear",
+            )
         if not self._control.isProgramRunning():
             self._command(self._control.reuploadScript)
             # reuploadScript returns before the program runs; a moveJ sent now would fail
@@ -205,8 +220,9 @@ class UrRtdeRobot(Robot):
                 return
             except RuntimeError as exc:  # the dashboard's refusal, e.g. "until 5s after"
                 if time.monotonic() > deadline:
-                    raise NotReady(f"controller refused to unlock the protective stop: {exc}") \
-                        from exc
+                    raise NotReady(
+                        f"controller refused to unlock the protective stop: {exc}"
+                    ) from exc
             self._check_link()
             time.sleep(0.5)
 
@@ -250,7 +266,8 @@ class UrRtdeRobot(Robot):
         joint = int(np.argmax(error))
         raise MotionFailed(
             f"move ended away from its target: joint {joint + 1} off by {error[joint]:.4g} rad "
-            f"(tolerance {self.tolerance_rad:g} rad)")
+            f"(tolerance {self.tolerance_rad:g} rad)"
+        )
 
     def _command(self, method, *args):
         """Run a control-interface command with a deadline, one command at a time.
@@ -299,7 +316,8 @@ class UrRtdeRobot(Robot):
         elif now - last_seen > self.stale_after_s:
             self._lost = f"no RTDE data for {now - last_seen:.2f} s"
             raise ConnectionLost(
-                f"no RTDE data from {self.host} for {now - last_seen:.2f} s (controller hung up?)")
+                f"no RTDE data from {self.host} for {now - last_seen:.2f} s (controller hung up?)"
+            )
 
     def _raise_for_safety(self):
         if self._receive is None:

@@ -26,9 +26,9 @@ class FakeManager:
 
     def running(self, time_scale=FAST):
         """A healthy fake with this time scale (reused when possible)."""
-        if self.fake is not None and (not self.fake.running or
-                                      self.fake.time_scale != time_scale or
-                                      not self.healthy()):
+        if self.fake is not None and (
+            not self.fake.running or self.fake.time_scale != time_scale or not self.healthy()
+        ):
             self.discard()
         if self.fake is None:
             self.fake = FakeUrProcess(time_scale=time_scale).start()
@@ -94,8 +94,11 @@ class SimulatedHarness:
 
     def __init__(self):
         self.robot = SimulatedRobot.from_model(
-            "ur5e", np.random.default_rng(20241122), joint_noise_rad=1e-5,
-            initial_q=[0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
+            "ur5e",
+            np.random.default_rng(20241122),
+            joint_noise_rad=1e-5,
+            initial_q=[0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0],
+        )
         self.tolerance_rad = 1e-4
 
     def inject_protective_stop(self):

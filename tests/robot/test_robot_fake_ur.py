@@ -73,8 +73,15 @@ def test_protocol_and_controller_version(raw):
 
 
 def test_outputs_typed_unknown_names_zero_and_stream_rising(raw):
-    names = ["timestamp", "actual_q", "joint_mode", "runtime_state", "actual_digital_input_bits",
-             "output_int_register_0", "no_such_variable"]
+    names = [
+        "timestamp",
+        "actual_q",
+        "joint_mode",
+        "runtime_state",
+        "actual_digital_input_bits",
+        "output_int_register_0",
+        "no_such_variable",
+    ]
     body = raw.request(ord("O"), struct.pack(">d", 125.0) + (",".join(names) + ",").encode())
     types = body[1:].decode().split(",")
     assert types == ["DOUBLE", "VECTOR6D", "VECTOR6INT32", "UINT32", "UINT64", "INT32", "DOUBLE"]
@@ -128,8 +135,12 @@ def test_dashboard_commands(fake_ur):
 
 
 def test_runs_as_a_module_with_help():
-    out = subprocess.run([sys.executable, "-m", "drivers.robot.fake_ur", "--help"],
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "drivers.robot.fake_ur", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 0
     assert "--time-scale" in out.stdout
 

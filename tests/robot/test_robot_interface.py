@@ -89,12 +89,15 @@ def test_emergency_stop_needs_release_before_clear(harness):
         np.testing.assert_allclose(reached, start + STEP, atol=harness.tolerance_rad)
 
 
-@pytest.mark.parametrize("bad", [
-    dict(q=np.zeros(5), speed=SPEED, accel=ACCEL),
-    dict(q=np.full(6, np.nan), speed=SPEED, accel=ACCEL),
-    dict(q=None, speed=0.0, accel=ACCEL),
-    dict(q=None, speed=SPEED, accel=-1.0),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(q=np.zeros(5), speed=SPEED, accel=ACCEL),
+        dict(q=np.full(6, np.nan), speed=SPEED, accel=ACCEL),
+        dict(q=None, speed=0.0, accel=ACCEL),
+        dict(q=None, speed=SPEED, accel=-1.0),
+    ],
+)
 def test_bad_arguments_raise_before_moving(harness, bad):
     with harness.robot as robot:
         start = robot.actual_joints()
@@ -117,8 +120,9 @@ def test_not_connected_is_not_ready(harness):
 
 
 def test_guarded_robot_refuses_out_of_limit_target_without_moving(harness):
-    limits = MotionLimits(np.tile([-np.pi, np.pi], (6, 1)), max_speed_rad_s=1.5,
-                          max_accel_rad_s2=3.0)
+    limits = MotionLimits(
+        np.tile([-np.pi, np.pi], (6, 1)), max_speed_rad_s=1.5, max_accel_rad_s2=3.0
+    )
     with GuardedRobot(harness.robot, limits) as robot:
         start = robot.actual_joints()
         target = start.copy()

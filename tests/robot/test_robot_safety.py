@@ -8,8 +8,7 @@ from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
 from drivers.robot.simulated import SimulatedRobot
 
-LIMITS = MotionLimits(np.tile([-np.pi, np.pi], (6, 1)), max_speed_rad_s=1.0,
-                      max_accel_rad_s2=2.0)
+LIMITS = MotionLimits(np.tile([-np.pi, np.pi], (6, 1)), max_speed_rad_s=1.0, max_accel_rad_s2=2.0)
 
 
 def plan(n, rng):
@@ -40,10 +39,16 @@ def test_limits_are_inclusive_and_nan_is_refused():
         check_plan(q, LIMITS, 0.5, 1.0)
 
 
-@pytest.mark.parametrize("speed, accel, word", [
-    (1.5, 1.0, "speed"), (0.0, 1.0, "speed"), (np.inf, 1.0, "speed"),
-    (0.5, 2.5, "acceleration"), (0.5, -1.0, "acceleration"),
-])
+@pytest.mark.parametrize(
+    "speed, accel, word",
+    [
+        (1.5, 1.0, "speed"),
+        (0.0, 1.0, "speed"),
+        (np.inf, 1.0, "speed"),
+        (0.5, 2.5, "acceleration"),
+        (0.5, -1.0, "acceleration"),
+    ],
+)
 def test_speed_and_acceleration_caps(speed, accel, word):
     with pytest.raises(LimitsViolation, match=word) as info:
         check_plan(np.zeros((3, 6)), LIMITS, speed, accel)
@@ -81,8 +86,9 @@ def test_bad_limits_rejected():
 
 def test_guarded_plan_refused_whole_before_any_move():
     moves = []
-    robot = SimulatedRobot(get_model("ur5e").mdh, np.eye(4), np.eye(4),
-                           listener=lambda pose: moves.append(pose))
+    robot = SimulatedRobot(
+        get_model("ur5e").mdh, np.eye(4), np.eye(4), listener=lambda pose: moves.append(pose)
+    )
     guarded = GuardedRobot(robot, LIMITS)
     q = plan(10, np.random.default_rng(2))
     q[9, 5] = 4.0  # only the last pose is bad

@@ -67,8 +67,13 @@ def test_true_tool_pose_is_forward_kinematics_of_the_true_arm():
 
 def test_encoder_noise_is_seeded_and_stable_per_pose():
     def run(seed):
-        robot = SimulatedRobot(get_model("ur5e").mdh, np.eye(4), np.eye(4),
-                               joint_noise_rad=1e-4, rng=np.random.default_rng(seed))
+        robot = SimulatedRobot(
+            get_model("ur5e").mdh,
+            np.eye(4),
+            np.eye(4),
+            joint_noise_rad=1e-4,
+            rng=np.random.default_rng(seed),
+        )
         with robot:
             reported = robot.move_joints(np.full(6, 0.3), 1.0, 1.0)
             np.testing.assert_array_equal(robot.actual_joints(), reported)  # stable at a pose
@@ -91,16 +96,20 @@ def test_noise_needs_an_explicit_generator():
         SimulatedRobot(get_model("ur5e").mdh, np.eye(4), np.eye(4), joint_noise_rad=1e-4)
 
 
-@pytest.mark.parametrize("kwargs, word", [
-    (dict(true_mdh=np.zeros((5, 5))), "MDH"),
-    (dict(base2tracker=np.eye(3)), "base2tracker"),
-    (dict(flange2tool=np.eye(3)), "flange2tool"),
-    (dict(initial_q=np.zeros(7)), "initial_q"),
-])
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        (dict(true_mdh=np.zeros((5, 5))), "MDH"),
+        (dict(base2tracker=np.eye(3)), "base2tracker"),
+        (dict(flange2tool=np.eye(3)), "flange2tool"),
+        (dict(initial_q=np.zeros(7)), "initial_q"),
+    ],
+)
 def test_constructor_checks_shapes(kwargs, word):
     args = dict(true_mdh=get_model("ur5e").mdh, base2tracker=np.eye(4), flange2tool=np.eye(4))
     args.update(kwargs)
-    true_mdh, base2tracker, flange2tool = (args.pop(k) for k in
-                                           ("true_mdh", "base2tracker", "flange2tool"))
+    true_mdh, base2tracker, flange2tool = (
+        args.pop(k) for k in ("true_mdh", "base2tracker", "flange2tool")
+    )
     with pytest.raises(ValueError, match=word):
         SimulatedRobot(true_mdh, base2tracker, flange2tool, **args)

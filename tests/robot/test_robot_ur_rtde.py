@@ -44,8 +44,10 @@ def fake_joints(fake):
 
 def wait_until_moved(fake, start, min_rad=0.05):
     """Wait until the fake's arm has travelled ``min_rad`` from ``start`` (on any joint)."""
-    wait_until(lambda: np.max(np.abs(fake_joints(fake) - start)) > min_rad,
-               what=f"the arm to move {min_rad} rad")
+    wait_until(
+        lambda: np.max(np.abs(fake_joints(fake) - start)) > min_rad,
+        what=f"the arm to move {min_rad} rad",
+    )
 
 
 def in_background(action):
@@ -85,8 +87,10 @@ def test_client_movej_reads_back_target(clients):
     target = start + np.array([0.2, -0.1, 0.1, 0.05, -0.05, 0.3])
     assert control.moveJ(target.tolist(), 1.0, 2.0) is True
     # actual_q may lag the move's end by one output period: poll with a tolerance
-    wait_until(lambda: np.max(np.abs(np.array(receive.getActualQ()) - target)) < TOL,
-               what="actual_q to reach the target")
+    wait_until(
+        lambda: np.max(np.abs(np.array(receive.getActualQ()) - target)) < TOL,
+        what="actual_q to reach the target",
+    )
     assert control.isSteady() is True
     assert not receive.isProtectiveStopped()
     assert not receive.isEmergencyStopped()
@@ -192,8 +196,9 @@ def test_clear_waits_out_the_controllers_unlock_delay(ur_robot, fake_ur):
         ur_robot.clear_protective_stop(timeout_s=5.0)  # retries until the delay has passed
         assert ur_robot.safety_state().ok
         start = ur_robot.actual_joints()
-        np.testing.assert_allclose(ur_robot.move_joints(start + 0.01, 1.0, 2.0), start + 0.01,
-                                   atol=TOL)
+        np.testing.assert_allclose(
+            ur_robot.move_joints(start + 0.01, 1.0, 2.0), start + 0.01, atol=TOL
+        )
     finally:
         fake_ur.command("fake unlock delay 0")
 

@@ -12,11 +12,20 @@ from drivers.robot.fake_ur.servers import FakeUr
 def main(argv=None):
     parser = argparse.ArgumentParser(
         prog="python -m drivers.robot.fake_ur",
-        description="Loopback fake UR controller on 127.0.0.1 ports 30004, 29999, 30003.")
-    parser.add_argument("--time-scale", type=float, default=1.0,
-                        help="simulated seconds of motion per wall-clock second (default 1)")
-    parser.add_argument("--parent-pid", type=int, default=None,
-                        help="exit when this process is gone (a crashed test run leaves no fake)")
+        description="Loopback fake UR controller on 127.0.0.1 ports 30004, 29999, 30003.",
+    )
+    parser.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        help="simulated seconds of motion per wall-clock second (default 1)",
+    )
+    parser.add_argument(
+        "--parent-pid",
+        type=int,
+        default=None,
+        help="exit when this process is gone (a crashed test run leaves no fake)",
+    )
     args = parser.parse_args(argv)
 
     server = FakeUr(FakeController(time_scale=args.time_scale))

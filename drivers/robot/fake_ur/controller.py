@@ -49,15 +49,17 @@ HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
 
 # UR5e nominal DH (metres, rad) for actual_TCP_pose, so clients that read it get
 # a consistent, non-zero pose.
-_UR5E_DH = np.array([
-    # a, d, alpha
-    [0.0, 0.1625, np.pi / 2],
-    [-0.425, 0.0, 0.0],
-    [-0.3922, 0.0, 0.0],
-    [0.0, 0.1333, np.pi / 2],
-    [0.0, 0.0997, -np.pi / 2],
-    [0.0, 0.0996, 0.0],
-])
+_UR5E_DH = np.array(
+    [
+        # a, d, alpha
+        [0.0, 0.1625, np.pi / 2],
+        [-0.425, 0.0, 0.0],
+        [-0.3922, 0.0, 0.0],
+        [0.0, 0.1333, np.pi / 2],
+        [0.0, 0.0997, -np.pi / 2],
+        [0.0, 0.0996, 0.0],
+    ]
+)
 
 
 def tcp_pose(q):
@@ -71,10 +73,14 @@ def tcp_pose(q):
     t = np.eye(4)
     for (a, d, alpha), theta in zip(_UR5E_DH, q, strict=True):
         ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-        t = t @ np.array([[ct, -st * ca, st * sa, a * ct],
-                          [st, ct * ca, -ct * sa, a * st],
-                          [0.0, sa, ca, d],
-                          [0.0, 0.0, 0.0, 1.0]])
+        t = t @ np.array(
+            [
+                [ct, -st * ca, st * sa, a * ct],
+                [st, ct * ca, -ct * sa, a * st],
+                [0.0, sa, ca, d],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        )
     r = t[:3, :3]
     angle = np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
     if angle < 1e-9:
@@ -283,8 +289,10 @@ class FakeController:
                 return "Cannot unlock protective stop, safetymode is not PROTECTIVE_STOP"
             since = self._protective_since
             if since is not None and time.monotonic() - since < self.unlock_delay_s:
-                return ("Cannot unlock protective stop until 5s after occurrence. "
-                        "Always inspect cause of protective stop before unlocking")
+                return (
+                    "Cannot unlock protective stop until 5s after occurrence. "
+                    "Always inspect cause of protective stop before unlocking"
+                )
             self.safety_bits = (self.safety_bits & ~SAFETY_PROTECTIVE_STOPPED) | SAFETY_NORMAL
             return "Protective stop releasing"
 

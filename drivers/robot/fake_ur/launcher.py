@@ -152,13 +152,21 @@ class FakeUrProcess:
 
     def _start(self):
         shutdown_leftover()
-        cmd = [sys.executable, "-m", "drivers.robot.fake_ur", "--time-scale", str(self.time_scale),
-               "--parent-pid", str(os.getpid())]
+        cmd = [
+            sys.executable,
+            "-m",
+            "drivers.robot.fake_ur",
+            "--time-scale",
+            str(self.time_scale),
+            "--parent-pid",
+            str(os.getpid()),
+        ]
         # stderr to a file: a pipe nobody reads would block the fake once full
         self._stderr = tempfile.TemporaryFile()
         # own session: signals meant for the test runner's group do not reach it
-        self.process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=self._stderr,
-                                        start_new_session=True)
+        self.process = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=self._stderr, start_new_session=True
+        )
         with open(_PID_PATH, "w") as f:
             f.write(str(self.process.pid))
         selector = selectors.DefaultSelector()

@@ -97,7 +97,7 @@ class RtdeSession:
         values = recipe_struct.unpack_from(body)
         fields, at = {}, 0
         for name, count in zip(names, counts, strict=True):
-            fields[name] = values[at] if count == 1 else values[at:at + count]
+            fields[name] = values[at] if count == 1 else values[at : at + count]
             at += count
         self.controller.write_inputs(fields)
 

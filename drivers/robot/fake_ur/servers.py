@@ -52,8 +52,11 @@ class FakeUr:
     # ------------------------------------------------------------ lifecycle
     def start(self):
         """Bind all ports, then start the clock and accept loops (returns at once)."""
-        handlers = [(RTDE_PORT, self._serve_rtde), (DASHBOARD_PORT, self._serve_dashboard),
-                    (SCRIPT_PORT, self._serve_script)]
+        handlers = [
+            (RTDE_PORT, self._serve_rtde),
+            (DASHBOARD_PORT, self._serve_dashboard),
+            (SCRIPT_PORT, self._serve_script),
+        ]
         for port, handler in handlers:
             sock = listen(port)
             self._listeners.append(sock)
@@ -183,9 +186,16 @@ class FakeUr:
         if command == "status":
             # "normal" only when nothing a test injected is still in effect
             with c.lock:
-                flags = [name for name, on in (
-                    ("protective_stop", c.safety_bits & 4), ("emergency_stop", c.safety_bits & 128),
-                    ("stalled", c.stalled), ("moving", c.moving)) if on]
+                flags = [
+                    name
+                    for name, on in (
+                        ("protective_stop", c.safety_bits & 4),
+                        ("emergency_stop", c.safety_bits & 128),
+                        ("stalled", c.stalled),
+                        ("moving", c.moving),
+                    )
+                    if on
+                ]
             return "fake: status " + (" ".join(flags) or "normal")
         if command == "moving":
             return f"fake: moving {str(c.moving).lower()}"

@@ -83,11 +83,18 @@ _PATTERN_TYPES = [
     (re.compile(r"(input|output)_double_register_\d+$"), "DOUBLE"),
     (re.compile(r"(input|output)_bit_register_\d+$"), "BOOL"),
     # every joint- or Cartesian-space vector the guide lists is six doubles
-    (re.compile(r"^(target|actual)_(q|qd|qdd|current|moment|TCP_pose|TCP_speed|TCP_force)$"),
-     "VECTOR6D"),
-    (re.compile(r"^(target_current|actual_current_as_torque|actual_current_window"
-                r"|joint_control_output|joint_temperatures|actual_joint_voltage"
-                r"|ft_raw_wrench|joint_position_deviation_ratio)$"), "VECTOR6D"),
+    (
+        re.compile(r"^(target|actual)_(q|qd|qdd|current|moment|TCP_pose|TCP_speed|TCP_force)$"),
+        "VECTOR6D",
+    ),
+    (
+        re.compile(
+            r"^(target_current|actual_current_as_torque|actual_current_window"
+            r"|joint_control_output|joint_temperatures|actual_joint_voltage"
+            r"|ft_raw_wrench|joint_position_deviation_ratio)$"
+        ),
+        "VECTOR6D",
+    ),
 ]
 
 
