@@ -159,11 +159,7 @@ class TrackerSimulator:
             try:
                 cmd = parse_command(decode_frame(line))
             except FrameError as exc:
-                return [
-                    Send(
-                        encode_frame(error_body(_leading_seq(line), ErrorCode.BAD_FRAME, str(exc)))
-                    )
-                ]
+                return [bad_frame_reply(line, exc)]
             if cmd.name == "SIM":
                 return [Send(encode_frame(self._sim(cmd)))]
             faults = self._faults.next_command(cmd.name)
@@ -333,6 +329,11 @@ _HANDLERS = {
     "MEAS": TrackerSimulator._meas,
     "STOP": TrackerSimulator._stop,
 }
+
+
+def bad_frame_reply(line: bytes, exc: FrameError) -> Send:
+    """The ``ER`` reply to a line that is not a valid frame (shared with replay)."""
+    return Send(encode_frame(error_body(_leading_seq(line), ErrorCode.BAD_FRAME, str(exc))))
 
 
 def _leading_seq(line: bytes) -> int:

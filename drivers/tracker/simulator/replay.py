@@ -23,7 +23,7 @@ from drivers.tracker.protocol import (
     parse_reply,
 )
 from drivers.tracker.recording import group_exchanges, read_log
-from drivers.tracker.simulator.engine import Output, Send, _leading_seq
+from drivers.tracker.simulator.engine import Output, Send, bad_frame_reply
 
 
 class ReplaySimulator:
@@ -50,11 +50,7 @@ class ReplaySimulator:
             try:
                 cmd = parse_command(decode_frame(line))
             except FrameError as exc:
-                return [
-                    Send(
-                        encode_frame(error_body(_leading_seq(line), ErrorCode.BAD_FRAME, str(exc)))
-                    )
-                ]
+                return [bad_frame_reply(line, exc)]
             expected = None
             if self._next < len(self._exchanges):
                 tx, chunks = self._exchanges[self._next]
