@@ -11,6 +11,7 @@ Connection problems are :class:`~drivers.errors.ConnectionLost`, missed deadline
 :class:`~drivers.errors.DriverTimeout`, wrong state :class:`~drivers.errors.NotReady`.
 """
 
+from calibrator.acquire.ports import RobotHalted
 from drivers.errors import ConnectionLost, DriverError, DriverTimeout, NotReady, ProtocolError
 
 __all__ = [
@@ -26,11 +27,11 @@ __all__ = [
 ]
 
 
-class ProtectiveStop(NotReady):
+class ProtectiveStop(NotReady, RobotHalted):
     """The arm is protective-stopped; no move is accepted until it is cleared."""
 
 
-class EmergencyStop(NotReady):
+class EmergencyStop(NotReady, RobotHalted):
     """An emergency stop is engaged; an operator must release it."""
 
 

@@ -1,6 +1,7 @@
 """Tracker-specific errors, derived from the one tree in :mod:`drivers.errors`.
 
-Which error means what:
+Which error means what (those the measure loop retries also derive from
+:class:`calibrator.acquire.ports.ReadingLost`):
 
 - :class:`TrackerTimeout` -- no complete reply line by the command's deadline.
 - :class:`FrameError` / :class:`ChecksumError` -- a reply line that is not a
@@ -13,6 +14,7 @@ Which error means what:
   bounded reconnect did not bring it back (or the in-flight command was lost).
 """
 
+from calibrator.acquire.ports import ReadingLost
 from drivers.errors import ConnectionLost, DriverError, DriverTimeout, NotReady, ProtocolError
 
 __all__ = [
@@ -30,11 +32,11 @@ __all__ = [
 ]
 
 
-class TrackerTimeout(DriverTimeout):
+class TrackerTimeout(DriverTimeout, ReadingLost):
     """No complete reply line arrived before the command's deadline."""
 
 
-class FrameError(ProtocolError):
+class FrameError(ProtocolError, ReadingLost):
     """A received line is not a frame of the tracker protocol (garbled, too long, bad fields)."""
 
 
@@ -72,7 +74,7 @@ class TrackerError(DriverError):
         super().__init__(msg)
 
 
-class BeamBroken(TrackerError):
+class BeamBroken(TrackerError, ReadingLost):
     """The laser beam is interrupted or not locked on a target (codes BEAM_BROKEN, NO_TARGET)."""
 
 
@@ -80,7 +82,7 @@ class NotInitialised(TrackerError, NotReady):
     """The tracker must be initialised (``INIT``) before it measures. Never done automatically."""
 
 
-class TargetUnstable(TrackerError):
+class TargetUnstable(TrackerError, ReadingLost):
     """The target moved during a stationary measurement, or too few stable readings were left."""
 
 

@@ -1,0 +1,31 @@
+"""``calibrator export-params``: the compensated parameters in robot users' formats."""
+
+import sys
+from enum import StrEnum
+from pathlib import Path
+
+import typer
+
+from calibrator.cli._app import app
+
+
+class ExportFormat(StrEnum):
+    json = "json"
+    csv = "csv"
+
+
+@app.command("export-params")
+def export_params(
+    calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
+    fmt: ExportFormat = typer.Option(ExportFormat.json, "--format"),
+    output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
+):
+    """Write the compensated parameters in a format robot users load."""
+    from calibrator import calibration, export
+
+    text = export.export(calibration.load(calibration_path), fmt.value)
+    if output is None:
+        sys.stdout.write(text)
+    else:
+        output.write_text(text)
+        typer.echo(f"wrote {output}")
