@@ -101,7 +101,7 @@ def test_jacobian_matches_finite_differences(orientation):
             for e in np.eye(space.size)
         ]
     )
-    assert jac.shape == numeric.shape == (len(q) * (6 if orientation else 3), 39)
+    assert jac.shape == numeric.shape == (len(q) * (6 if orientation else 3), len(ALL_NAMES))
     np.testing.assert_allclose(jac, numeric, atol=1e-5 * np.abs(numeric).max())
 
 
