@@ -9,7 +9,15 @@
      "free_parameters": [names], "deltas": {name: value},
      "dropped_parameters": [{"name", "reason"}],
      "stats": {"fit"|"validation": {"before"|"after": {...}}},
-     "method": ..., "seed": ..., "k": ..., "session": path, ...}
+     "method": ..., "seed": ..., "k": ..., "session": path,
+     "loss": "lsq"|"huber"|"trimmed"|"minimax", "warnings": [str],
+     "outlier_poses": [pose numbers],
+     "uncertainty": {"standard_errors": {name: mm or rad},
+                     "correlation": {"names", "matrix"},
+                     "strong_correlations": [{"a", "b", "r"}],
+                     "residual_sigma": {"position_mm", "orientation_rad"},
+                     "predicted_validation_mm": {"model_rms_mean", "model_rms_max",
+                                                 "error_mean"}}, ...}
 """
 
 import json
@@ -58,6 +66,13 @@ def to_json(result, session_path, model):
         "validation_fraction": opts.validation_fraction,
         "validation_poses": [int(i) for i in result.validation_index],
         "solver": result.details,
+        # Issue 9: loss, uncertainty, warnings and outliers of the fit.
+        "loss": result.options.loss,
+        "warnings": list(result.warnings),
+        "outlier_poses": list(result.outliers),
+        "uncertainty": {
+            key: value for key, value in result.uncertainty.items() if key != "covariance"
+        },
     }
 
 
