@@ -18,6 +18,7 @@ import numpy as np
 
 from calibrator import measurement, parameters
 from calibrator.errors import IdentifiabilityError
+from calibrator.identify import uncertainty
 
 #: Largest standard error, as a fraction of the plausible range, of a kept parameter.
 SE_THRESHOLD = 0.3
@@ -49,7 +50,7 @@ def scaled_information(jacobian, names, noise):
     """
     scale = np.array([parameters.plausible_range(n) for n in names])
     js = jacobian * scale / noise
-    return js.T @ js
+    return uncertainty.gram(js)
 
 
 def relative_errors(info):

@@ -43,7 +43,7 @@ DEFAULT_K = 1.0e4
 #: well-spread subset does not give).
 MAX_POSES = 50_000
 #: Most fitting poses the swarm sees (see the module docstring).
-SWARM_POSES = 64
+SWARM_POSES = 32
 #: Most points of the swarm's convergence curve kept in ``details``.
 CONVERGENCE_POINTS = 500
 
