@@ -255,7 +255,8 @@ def _check_options(options):
 def _pose_numbers(session, n):
     table = getattr(session, "table", None)
     if table is not None and "pose" in table.column_names:
-        return np.asarray(table["pose"].to_numpy(zero_copy_only=False), dtype=np.int64)
+        # Through a list: pyarrow's numpy conversion imports pandas (a third of a second).
+        return np.array(table["pose"].to_pylist(), dtype=np.int64)
     return np.arange(n)
 
 
