@@ -45,7 +45,8 @@ def identify(
         0.05, min=1e-9, help="Measurement noise assumed when deciding what the poses identify."
     ),
     tool_known: bool = typer.Option(
-        None, "--tool-known/--tool-free", help="Fix or identify the tool point [default: session]."
+        None, "--tool-known/--tool-free",
+        help="Fix or identify the tool frame (point; rotation with 6-DoF data) [default: session].",
     ),
 ):
     """Identify MDH parameters from a session and write calibration.json."""

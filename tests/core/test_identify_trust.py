@@ -258,3 +258,33 @@ def test_the_default_loss_is_least_squares_and_the_cli_writes_the_new_keys(tmp_p
     assert set(doc["uncertainty"]["standard_errors"]) == set(doc["free_parameters"])
     assert doc["outlier_poses"] == [] and isinstance(doc["warnings"], list)
     assert "standard errors" in run.stdout and "predicted held-out" in run.stdout
+
+
+@pytest.mark.parametrize("frame", ["base", "tracker"])
+def test_swarm_objective_with_the_full_tool_frame_matches_the_residuals(frame):
+    from calibrator import measurement, parameters
+    from calibrator.identify import objective
+
+    robot, true = arms.truth_arm("ur10e", seed=3)
+    q = arms.joints(robot, 12, seed=4)
+    mount = frames.rotations_xyz([np.pi / 2, 0.3, np.pi / 2])
+    tool = frames.transform(mount, [5.0, 1.0, 90.0])
+    base = np.eye(4)
+    if frame == "tracker":
+        base = frames.transform(frames.rotvec_to_matrix([0.4, -1.0, 2.0]), [3000.0, 200.0, -50.0])
+    data = arms.loaded(robot, q, arms.measure(true, q, tool, base), noise_mm=0.05, noise_rad=1e-4)
+    obs = data.observations
+    names, _ = parameters.structural_candidates(robot.mdh, frame, False, True)
+    assert {"tool_rx", "tool_ry", "tool_rz"} <= set(names)
+    space = parameters.ParameterSpace(robot.mdh, base, tool, names)
+    swarm = np.random.default_rng(0).normal(0, 0.002, (5, space.size))
+    k = 1e4
+    per_pose = [
+        (measurement.residuals(space, x, obs, k) ** 2).reshape(2, len(obs), 3).sum(axis=(0, 2))
+        for x in swarm
+    ]
+    # The swarm's chordal orientation term equals theta^2 to fourth order.
+    lsq = objective.SwarmObjective(space, obs, k)(swarm)
+    np.testing.assert_allclose(lsq, [p.sum() for p in per_pose], rtol=1e-5)
+    worst = objective.SwarmObjective(space, obs, k, "minimax")(swarm)
+    np.testing.assert_allclose(worst, [p.max() for p in per_pose], rtol=1e-5)
