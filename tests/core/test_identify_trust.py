@@ -112,12 +112,23 @@ def test_identical_poses_are_refused_and_repeats_are_warned_about():
     assert any("5 pose(s) repeat" in w for w in result.warnings)
 
 
-def test_a_session_above_the_pose_limit_is_refused_with_the_limit():
+def test_a_session_above_the_pose_limit_is_one_line_and_exit_2(tmp_path):
+    # Issue 8, item 9: a 1,000,000-row session ran past 600 s and 8 GB.
     robot, true = arms.truth_arm("ur5e", seed=1)
     q = arms.joints(robot, pipeline.MAX_POSES + 1, seed=1)
     data = arms.loaded(robot, q, arms.measure(true, q, np.eye(4)), orientation=False)
-    with pytest.raises(IdentifiabilityError, match=f"at most {pipeline.MAX_POSES}"):
-        pipeline.identify(data, pipeline.Options(method="lm"))
+    path = tmp_path / "big.parquet"
+    session.write(path, data.table, data.meta)
+    run = subprocess.run(
+        [sys.executable, "-m", "calibrator", "identify", path, "-o", tmp_path / "c.json"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"at most {pipeline.MAX_POSES}" in lines[0], run.stderr
+    assert not (tmp_path / "c.json").exists()
 
 
 # --- uncertainty -----------------------------------------------------------------------
