@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli._app import app
+from calibrator.errors import CalibrationError
 
 
 @app.command()
@@ -25,7 +26,7 @@ def compensate(
     from calibrator import compensate as comp
 
     if output.resolve() in (calibration_path.resolve(), targets_path.resolve()):
-        raise calibration.CalibrationError(f"refusing to overwrite an input with {output}")
+        raise CalibrationError(f"refusing to overwrite an input with {output}")
     cal = calibration.load(calibration_path)
     report = comp.run(cal, targets_path, output)
     for line in report.lines:

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli._app import app
+from calibrator.errors import CalibrationError
 from calibrator.export import REGISTRY
 
 #: The ``--format`` choices, generated from the exporter registry.
@@ -31,7 +32,7 @@ def export_params(
 
     fmt = export.choose(None if fmt is None else fmt.value, output)
     if output is not None and output.resolve() == calibration_path.resolve():
-        raise export.CalibrationError(f"refusing to overwrite the input {calibration_path}")
+        raise CalibrationError(f"refusing to overwrite the input {calibration_path}")
     result = export.export(calibration.load(calibration_path), fmt)
     for note in result.notes:
         typer.echo(f"note: {note}", err=True)

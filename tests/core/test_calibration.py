@@ -1,12 +1,11 @@
 """calibration.json: strict JSON out, validated in, extra keys kept."""
 
 import json
-import subprocess
-import sys
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from test_cli import run  # the CLI as a user runs it: a real process
 
 from calibrator import calibration, parameters
 from calibrator.calibration import Calibration
@@ -134,12 +133,6 @@ def test_load_refuses_bad_files(tmp_path, how):
 
 def test_export_params_refuses_bad_file_in_one_line(tmp_path):
     (tmp_path / "c.json").write_text(corrupt(good_doc(), "nan"))
-    out = subprocess.run(
-        [sys.executable, "-m", "calibrator", "export-params", "c.json", "-o", "p.csv"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    out = run("export-params", "c.json", "-o", "p.csv", cwd=tmp_path)
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "NaN" in out.stderr
     assert not (tmp_path / "p.csv").exists()

@@ -1,11 +1,9 @@
 """Compensation on a simulated arm with hidden errors, through identify."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pandas as pd
 import pytest
+from test_cli import run  # the CLI as a user runs it: a real process
 
 from calibrator import compensate, frames, kinematics, session, simulate
 from calibrator.calibration import Calibration
@@ -98,13 +96,7 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
         zip(("rx_rad", "ry_rad", "rz_rad"), frames.matrix_to_rotvec(pose[:, :3, :3]).T, strict=True)
     )
     pd.DataFrame(data).to_csv(tmp_path / "t.csv", index=False)
-    run = subprocess.run(
-        [sys.executable, "-m", "calibrator", "compensate", "cal.json", "t.csv", "-o", "out.csv"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    done = run("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     out = pd.read_csv(tmp_path / "out.csv")
     expected = compensate.compensate(cal, pose, q_nom + 0.01)
     ok = expected.solution.ok
@@ -113,8 +105,8 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
     np.testing.assert_allclose(
         out.loc[ok, [f"q{i}_rad" for i in range(1, 7)]].to_numpy(), expected.q[ok], atol=1e-8
     )
-    assert run.returncode == 1
-    assert "target 1: not reached" in run.stderr
+    assert done.returncode == 1
+    assert "target 1: not reached" in done.stderr
     assert out.loc[0, ["q1_rad", "x_mm"]].isna().all()  # reported, not clipped
 
 
@@ -122,12 +114,6 @@ def test_bad_targets_file(identified, tmp_path):
     cal, _, _ = identified
     cal.save(tmp_path / "cal.json")
     (tmp_path / "t.csv").write_text("q1_rad,q2_rad\n0,0\n")
-    run = subprocess.run(
-        [sys.executable, "-m", "calibrator", "compensate", "cal.json", "t.csv", "-o", "o.csv"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert run.returncode == 2 and "missing column(s) q3_rad" in run.stderr
+    done = run("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
+    assert done.returncode == 2 and "missing column(s) q3_rad" in done.stderr
     assert not (tmp_path / "o.csv").exists()

@@ -1,14 +1,13 @@
 """Every export format, read back by an independent reader, gives the calibrated arm."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
 import yaml
 import yourdfpy
+from test_cli import run  # the CLI as a user runs it: a real process
 
 from calibrator import export, frames, kinematics, parameters, simulate
 from calibrator.calibration import Calibration
@@ -177,16 +176,6 @@ def test_format_choice():
         export.choose("json", "out.xml")
     with pytest.raises(CalibrationError, match="cannot tell the format"):
         export.choose(None, "out.xml")
-
-
-def run(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "calibrator", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
 
 
 def test_cli_export_formats(tmp_path):
