@@ -4,7 +4,7 @@ A controller keeps its nominal model. To make the real (calibrated) arm
 reach a desired tool pose ``T`` (robot base frame):
 
 1. solve the calibrated model's inverse kinematics, ``FK_cal(q) = T``, by
-   Newton's method started from the nominal solution ``q_nom``;
+   damped Newton steps started from the nominal solution ``q_nom``;
 2. the corrected target is ``FK_nom(q)``: sent to the controller, its
    nominal inverse kinematics returns ``q`` and the real arm lands on ``T``.
 
@@ -16,8 +16,7 @@ is kept only if it lowers the error, else the damping grows), error = position
 (mm) and rotation vector (rad, weighted :data:`ROT_WEIGHT_MM`) in the base
 frame; converged when the position error is below :data:`TOL_MM` and the
 rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
-A result outside the joint limits is
-reported, never clipped.
+A result outside the joint limits is reported, never clipped.
 """
 
 from dataclasses import dataclass

@@ -43,6 +43,11 @@ def to_json(cal):
         ],
         "base2tracker": cal.base2tracker.tolist(),
         "flange2tool": cal.flange2tool.tolist(),
+        "nominal_frames": {"base2tracker": cal.base0.tolist(), "flange2tool": cal.tool0.tolist()},
+        "free_frames": {
+            "base2tracker": [n for n in _FRAME_NAMES["base_"] if n in free],
+            "flange2tool": [n for n in _FRAME_NAMES["tool_"] if n in free],
+        },
         "frames": "base2tracker maps base to tracker coordinates; flange2tool flange to tool",
     }
     return Exported(json.dumps(out, indent=2, allow_nan=False) + "\n")

@@ -147,6 +147,7 @@ def test_json_and_csv_hold_the_whole_model():
     np.testing.assert_array_equal(mdh, cal.mdh)
     np.testing.assert_array_equal(doc["flange2tool"], cal.flange2tool)
     assert doc["joints"][1]["free"]["beta_rad"] and not doc["joints"][1]["free"]["d_mm"]
+    assert doc["free_frames"] == {"base2tracker": [], "flange2tool": ["tool_x"]}
 
     from io import StringIO
 
