@@ -242,3 +242,26 @@ def test_identify_with_factory_nominal(tmp_path):
     doc = json.loads((tmp_path / "c.json").read_text())
     np.testing.assert_allclose(doc["nominal_mdh"], factory, atol=1e-9)
     assert doc["stats"]["fit"]["before"]["position_mm"]["max"] < 1e-6
+
+
+@pytest.mark.parametrize("model", ["ur5e", "ur10e", "ur10"])
+def test_ur_published_kinematics_yaml(model):
+    """UR's own files: our catalogue table, our import and our export agree with them."""
+    from pathlib import Path
+
+    from calibrator import nominal
+
+    path = Path(__file__).parents[2] / "fixtures" / "ur" / "description"
+    path = path / f"{model}_default_kinematics.yaml"
+    q = poses()
+    theirs = yaml_fk(yaml.safe_load(path.read_text()), q)
+    catalogue = get_model(model).mdh
+    np.testing.assert_allclose(
+        kinematics.chain(catalogue, q)[:, :3, 3], theirs[:, :3, 3] * 1000.0, rtol=0, atol=1e-6
+    )
+    imported = nominal.load(path, model=model)
+    np.testing.assert_allclose(imported.mdh, catalogue, atol=1e-9)
+    ours = Calibration(nominal_mdh=catalogue, mdh=catalogue, model=model)
+    exported = yaml_fk(yaml.safe_load(export.export(ours, "ros-kinematics").text), q)
+    np.testing.assert_allclose(exported[:, :3, 3], theirs[:, :3, 3], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(exported[:, :3, :3], theirs[:, :3, :3], rtol=0, atol=1e-9)
