@@ -45,8 +45,14 @@ def identify(
         0.05, min=1e-9, help="Measurement noise assumed when deciding what the poses identify."
     ),
     tool_known: bool = typer.Option(
-        None, "--tool-known/--tool-free",
+        None,
+        "--tool-known/--tool-free",
         help="Fix or identify the tool frame (point; rotation with 6-DoF data) [default: session].",
+    ),
+    nominal_file: Path = typer.Option(
+        None,
+        "--nominal",
+        help="Start from a factory calibration: UR DH deltas or a ROS kinematics YAML.",
     ),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
@@ -57,6 +63,10 @@ def identify(
     # Progress goes to a terminal only: piped stderr stays one line on errors.
     show = sys.stderr.isatty()
     loaded = session.load(session_path, model=model)
+    if nominal_file is not None:
+        from calibrator import nominal
+
+        typer.echo(nominal.apply(loaded.meta, nominal_file))
     options = pipeline.Options(
         method=method.value,
         particles=particles,
@@ -71,8 +81,9 @@ def identify(
         progress=(lambda text: typer.echo(f"... {text}", err=True)) if show else None,
     )
     result = pipeline.identify(loaded, options)
-    doc = calibration.to_json(result, session_path, loaded.meta.model)
-    calibration.write(output, doc)
+    calibration.Calibration.from_result(
+        result, session_path, loaded.meta.model, loaded.meta.frame
+    ).save(output)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
         f"{result.space.size} free parameters, method {method.value}, loss {loss.value}"

@@ -63,8 +63,8 @@ def analyse(space, x, obs, k, validation=None):
     Returns
     -------
     dict
-        ``standard_errors`` {name: value (mm or rad)}, ``covariance`` (D, D)
-        ndarray, ``correlation`` {"names", "matrix"}, ``strong_correlations``
+        ``standard_errors`` {name: value (mm or rad)}, ``correlation``
+        {"names", "matrix"} (with the standard errors, the covariance), ``strong_correlations``
         [{"a", "b", "r"}], ``residual_sigma`` {"position_mm",
         "orientation_rad"}, ``predicted_validation_mm`` (with validation).
     """
@@ -96,7 +96,6 @@ def analyse(space, x, obs, k, validation=None):
     strong.sort(key=lambda p: -abs(p["r"]))
     out = {
         "standard_errors": dict(zip(names, map(float, se), strict=True)),
-        "covariance": cov,
         "correlation": {"names": names, "matrix": np.round(corr, 6).tolist()},
         "strong_correlations": strong,
         "residual_sigma": {

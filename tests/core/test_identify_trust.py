@@ -267,7 +267,7 @@ def test_the_default_loss_is_least_squares_and_the_cli_writes_the_new_keys(tmp_p
     doc = json.loads(out.read_text())
     assert doc["loss"] == "lsq"
     assert set(doc["uncertainty"]["standard_errors"]) == set(doc["free_parameters"])
-    assert doc["outlier_poses"] == [] and isinstance(doc["warnings"], list)
+    assert doc["outliers"] == [] and isinstance(doc["warnings"], list)
     assert "standard errors" in run.stdout and "predicted held-out" in run.stdout
 
 
