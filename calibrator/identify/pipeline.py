@@ -203,8 +203,11 @@ def identify(session, options=Options()):
     x, details, outlier_idx = _fit(space, fit, k, options, say)
     inliers = fit.subset(np.setdiff1d(np.arange(len(fit)), outlier_idx))
     if options.loss in ("lsq", "minimax"):
-        res = measurement.residuals(space, x, fit, k)
-        suspects = robust.outliers(res, len(fit), robust.robust_scales(res, len(fit)))
+        suspects = np.array([], dtype=int)
+        # Without redundancy the residuals are too few and too small to judge poses by.
+        if rows >= identifiability.MIN_VALUES_PER_PARAMETER * space.size:
+            res = measurement.residuals(space, x, fit, k)
+            suspects = robust.outliers(res, len(fit), robust.robust_scales(res, len(fit)))
         if len(suspects):
             warnings.append(
                 f"pose(s) {_names(pose_numbers[fit_idx[suspects]])} fit far worse than the "
