@@ -44,6 +44,8 @@ DEFAULT_K = 1.0e4
 MAX_POSES = 50_000
 #: Most fitting poses the swarm sees (see the module docstring).
 SWARM_POSES = 32
+#: A residual noise above this multiple of ``Options.noise_mm`` gives a warning.
+NOISE_WARNING = 2.0
 #: Most points of the swarm's convergence curve kept in ``details``.
 CONVERGENCE_POINTS = 500
 
@@ -218,6 +220,13 @@ def identify(session, options=Options()):
 
     say("uncertainty")
     unc = uncertainty.analyse(space, x, inliers, k, val)
+    sigma = unc["residual_sigma"]["position_mm"]
+    if sigma > NOISE_WARNING * options.noise_mm:
+        warnings.append(
+            f"the fit's residual noise {sigma:.3g} mm per axis is over {NOISE_WARNING:g} times "
+            f"the {options.noise_mm:g} mm assumed when choosing the free parameters; "
+            f"rerun with --noise-mm {sigma:.2g} to judge them against it"
+        )
     zero = np.zeros(space.size)
     stats = {
         part: {

@@ -98,6 +98,16 @@ def test_ten_position_only_poses_for_27_parameters_warn():
     assert any("measured values for" in w and "per parameter" in w for w in result.warnings)
 
 
+def test_noise_above_the_assumed_level_is_warned_about():
+    table, meta, _ = simulate(poses=30, noise_mm=0.5, seed=3)
+    result = pipeline.identify(session.Session(table, meta), pipeline.Options(method="lm"))
+    assert any("--noise-mm" in w for w in result.warnings)
+    quiet = pipeline.identify(
+        session.Session(table, meta), pipeline.Options(method="lm", noise_mm=0.5)
+    )
+    assert not any("--noise-mm" in w for w in quiet.warnings)
+
+
 def test_identical_poses_are_refused_and_repeats_are_warned_about():
     table, meta, _ = simulate(orientation=False, poses=30, seed=3)
     same = pa.concat_tables([table.slice(0, 1)] * 30)
