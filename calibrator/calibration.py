@@ -13,12 +13,11 @@
 """
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
-from calibrator import kinematics
+from calibrator import kinematics, outputs
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.calibration"
@@ -61,12 +60,16 @@ def to_json(result, session_path, model):
     }
 
 
-def write(path, document):
-    """Write a calibration document atomically."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(document, indent=2) + "\n")
-    os.replace(tmp, path)
+def write(path, document, batch=None):
+    """Write a calibration document atomically (:mod:`calibrator.outputs`).
+
+    With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
+    """
+    text = json.dumps(document, indent=2) + "\n"
+    if batch is None:
+        outputs.write_text(path, text)
+    else:
+        batch.text(path, text)
 
 
 def load(path):

@@ -308,6 +308,6 @@ def require_enough(n_residuals, n_free, what="poses"):
     """Raise if there are fewer residuals than free parameters."""
     if n_residuals < n_free:
         raise IdentifiabilityError(
-            f"{n_residuals} measured values from the fitting {what} cannot identify "
+            f"{n_residuals} measured values from {what} cannot identify "
             f"{n_free} free parameters; measure more poses"
         )

@@ -17,15 +17,17 @@ class ExportFormat(StrEnum):
 @app.command("export-params")
 def export_params(
     calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
-    fmt: ExportFormat = typer.Option(ExportFormat.json, "--format"),
+    fmt: ExportFormat = typer.Option(ExportFormat.json, "--format", help="Output format."),
     output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
 ):
     """Write the compensated parameters in a format robot users load."""
-    from calibrator import calibration, export
+    from calibrator import calibration, export, outputs
 
+    if output is not None:
+        outputs.check(output, inputs=[calibration_path])
     text = export.export(calibration.load(calibration_path), fmt.value)
     if output is None:
         sys.stdout.write(text)
     else:
-        output.write_text(text)
+        outputs.write_text(output, text, inputs=[calibration_path])
         typer.echo(f"wrote {output}")

@@ -70,13 +70,15 @@ def split(n_poses, fraction, seed):
     return np.sort(order[n_val:]), np.sort(order[:n_val])
 
 
-def identify(session, options=Options()):
+def identify(session, options=Options(), on_generation=None):
     """Identify the free parameters of a session.
 
     Parameters
     ----------
     session : calibrator.session.Session
     options : Options
+    on_generation : callable, optional
+        Passed to the swarm: ``on_generation(generation, best_cost)``.
 
     Returns
     -------
@@ -99,7 +101,9 @@ def identify(session, options=Options()):
     fit_idx, val_idx = split(len(obs), options.validation_fraction, options.seed)
     fit, val = obs.subset(fit_idx), obs.subset(val_idx)
     if len(fit) < 3:
-        raise IdentifiabilityError(f"{len(fit)} fitting poses: at least 3 are needed")
+        raise IdentifiabilityError(
+            f"{len(fit)} fitting pose{'' if len(fit) == 1 else 's'}: at least 3 are needed"
+        )
 
     base0, tool0 = initial.first_guess(
         meta.nominal_mdh, fit, meta.flange2tool, meta.frame, tool_known
@@ -131,6 +135,7 @@ def identify(session, options=Options()):
             particles=options.particles,
             generations=options.generations,
             seed=options.seed,
+            on_generation=on_generation,
         )
         x = found.x
         details["pso"] = {
@@ -138,6 +143,7 @@ def identify(session, options=Options()):
             "particles": options.particles,
             "generations": options.generations,
         }
+        details["convergence"] = found.history.tolist()
     if options.method in ("lm", "hybrid"):
         refined = refine.refine(space, fit, x, k)
         x = refined.x

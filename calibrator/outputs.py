@@ -1,0 +1,281 @@
+"""Output files that never surprise: checked first, written atomically, all or nothing.
+
+Every file a command writes goes through here, so that
+
+- a bad output path is refused before any work, in one line naming the
+  user's path (a missing folder, a folder given as a file, an input of the
+  command, a folder without write permission);
+- a file appears whole or not at all: it is written to a hidden temporary
+  file beside the target, flushed to disk, then renamed over it;
+- nothing is left behind after a failure, not even when the second of
+  several outputs fails: a :class:`Outputs` batch renames its files only
+  once all of them are written, and puts back what it replaced if a rename
+  fails.
+
+API::
+
+    from calibrator import outputs
+
+    outputs.check(path, inputs=[session_path])     # before the work; returns the Path
+    outputs.write_text(path, text, inputs=[...])   # one file
+    outputs.write_with(path, lambda tmp: pq.write_table(table, tmp))
+
+    with outputs.Outputs(inputs=[session_path]) as out:   # several, all or nothing
+        out.text(path_a, text)
+        out.file(path_b, writer)        # writer(tmp_path) writes the whole file
+        out.bytes(folder / "x.png", data)
+        out.folder(report_dir)          # created if missing, removed again on failure
+    # committed here; an exception inside the block leaves no trace of it
+
+Errors are :class:`OutputError` (a :class:`~calibrator.errors.CalibrationError`):
+the CLI prints them as one line and exits with code 2.
+"""
+
+import os
+import tempfile
+from pathlib import Path
+
+from calibrator.errors import CalibrationError
+
+__all__ = ["OutputError", "Outputs", "check", "check_folder", "write_text", "write_with"]
+
+
+class OutputError(CalibrationError):
+    """An output path that cannot or must not be written."""
+
+
+def check(path, inputs=()):
+    """Refuse an output path that cannot or must not be written.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file as the user gave it.
+    inputs : iterable of str or Path
+        Files the command reads; none of them may be overwritten.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError
+        One line naming ``path``.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"cannot write {path}: it is a folder; give a file name")
+    if path.exists() and not path.is_file():
+        raise OutputError(f"cannot write {path}: it exists and is not a regular file")
+    for source in inputs:
+        if source is not None and _same_file(path, Path(source)):
+            raise OutputError(
+                f"refusing to overwrite {path}: it is an input of this command; "
+                "choose another output"
+            )
+    _check_parent(path)
+    return path
+
+
+def check_folder(path, inputs=()):
+    """Refuse an output folder that cannot be used (its parent is checked as for a file).
+
+    An existing folder is fine (its files are replaced one by one); a missing
+    one is created by :meth:`Outputs.folder`.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OutputError(f"cannot write into {path}: it exists and is not a folder")
+    for source in inputs:
+        if source is not None and _same_file(path, Path(source)):
+            raise OutputError(f"refusing to write into {path}: it is an input of this command")
+    if path.is_dir():
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise OutputError(f"cannot write into {path}: no permission to write there")
+    else:
+        _check_parent(path)
+    return path
+
+
+def _check_parent(path):
+    parent = path.parent
+    if not parent.exists():
+        raise OutputError(f"cannot write {path}: folder {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"cannot write {path}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write {path}: no permission to write in {parent}")
+
+
+def _same_file(a, b):
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def write_text(path, text, inputs=()):
+    """Write one text file (UTF-8) atomically; see :class:`Outputs`."""
+    with Outputs(inputs) as out:
+        out.text(path, text)
+    return Path(path)
+
+
+def write_with(path, writer, inputs=()):
+    """Write one file atomically with ``writer(tmp_path)``; see :class:`Outputs`."""
+    with Outputs(inputs) as out:
+        out.file(path, writer)
+    return Path(path)
+
+
+class Outputs:
+    """A batch of output files that appear together or not at all.
+
+    Each file is checked (:func:`check`) and written to a hidden temporary
+    file in its target folder when added, so most failures happen before
+    anything is renamed. Leaving the ``with`` block normally renames every
+    file into place; an exception (or a failed rename) removes every
+    temporary file, restores any file the batch had replaced, and removes
+    folders it created.
+
+    Parameters
+    ----------
+    inputs : iterable of str or Path
+        Files the command reads; none of them may be an output.
+    """
+
+    def __init__(self, inputs=()):
+        self.inputs = [Path(p) for p in inputs if p is not None]
+        self._pending = []  # (temporary, target, user's path)
+        self._created = []  # folders this batch made
+        self._done = False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if kind is None:
+            self.commit()
+        else:
+            self.discard()
+        return False
+
+    def folder(self, path):
+        """Make sure the output folder ``path`` exists (created now, removed on failure)."""
+        path = check_folder(path, self.inputs)
+        if not path.is_dir():
+            try:
+                path.mkdir()
+            except OSError as exc:
+                raise OutputError(f"cannot create folder {path}: {_reason(exc)}") from None
+            self._created.append(path)
+        return path
+
+    def text(self, path, text):
+        """Add a UTF-8 text file."""
+        return self.bytes(path, text.encode("utf-8"))
+
+    def bytes(self, path, data):
+        """Add a file holding ``data``."""
+
+        def save(tmp):
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+
+        return self.file(path, save)
+
+    def file(self, path, writer):
+        """Add a file written by ``writer(tmp_path)`` (it must write the whole file there).
+
+        Returns
+        -------
+        Path
+            The user's path.
+        """
+        path = check(path, self.inputs)
+        target = path.resolve()  # through a symlink, never over it
+        if any(target == t for _, t, _ in self._pending):
+            raise OutputError(f"cannot write {path} twice in one command")
+        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+        tmp = Path(name)
+        self._pending.append((tmp, target, path))
+        try:
+            writer(tmp)
+            _make_readable(tmp)
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            self.discard()
+            raise OutputError(f"cannot write {path}: {_reason(exc)}") from None
+        except BaseException:
+            self.discard()
+            raise
+        return path
+
+    def commit(self):
+        """Rename every file into place; on any failure undo the renames done."""
+        if self._done:
+            return
+        backups, placed = [], []
+        try:
+            for tmp, target, _ in self._pending:
+                if target.exists():
+                    fd, name = tempfile.mkstemp(
+                        prefix=f".{target.name}.", suffix=".old", dir=target.parent
+                    )
+                    os.close(fd)
+                    backup = Path(name)
+                    try:
+                        os.replace(target, backup)
+                    except OSError:
+                        _unlink(backup)
+                        raise
+                    backups.append((backup, target))
+                os.replace(tmp, target)
+                placed.append(target)
+        except OSError as exc:
+            failed = next(p for t, tg, p in self._pending if tg not in placed)
+            for target in placed:
+                _unlink(target)
+            for backup, target in backups:
+                os.replace(backup, target)
+            self.discard()
+            raise OutputError(f"cannot write {failed}: {_reason(exc)}") from None
+        for backup, _ in backups:
+            _unlink(backup)
+        self._pending = []
+        self._done = True
+
+    def discard(self):
+        """Remove every temporary file and every folder this batch created."""
+        for tmp, _, _ in self._pending:
+            _unlink(tmp)
+        self._pending = []
+        for folder in reversed(self._created):
+            try:
+                folder.rmdir()  # only if still empty: never remove the user's files
+            except OSError:
+                pass
+        self._created = []
+        self._done = True
+
+
+def _make_readable(tmp):
+    # mkstemp makes 0600 files; outputs get the permissions of any new file.
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+
+
+def _unlink(path):
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
+def _reason(exc):
+    text = str(exc).strip()
+    return exc.strerror or (text.splitlines()[0] if text else type(exc).__name__)
