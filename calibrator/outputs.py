@@ -63,7 +63,7 @@ def check(path, inputs=()):
     OutputError
         One line naming ``path``.
     """
-    path = Path(path)
+    path = _no_nul(path)
     if path.is_dir():
         raise OutputError(f"cannot write {path}: it is a folder; give a file name")
     if path.exists() and not path.is_file():
@@ -84,7 +84,7 @@ def check_folder(path, inputs=()):
     An existing folder is fine (its files are replaced one by one); a missing
     one is created by :meth:`Outputs.folder`.
     """
-    path = Path(path)
+    path = _no_nul(path)
     if path.exists() and not path.is_dir():
         raise OutputError(f"cannot write into {path}: it exists and is not a folder")
     for source in inputs:
@@ -95,6 +95,13 @@ def check_folder(path, inputs=()):
             raise OutputError(f"cannot write into {path}: no permission to write there")
     else:
         _check_parent(path)
+    return path
+
+
+def _no_nul(path):
+    path = Path(path)
+    if "\0" in str(path):
+        raise OutputError(f"cannot write {str(path)!r}: a file name cannot hold a NUL character")
     return path
 
 
@@ -197,7 +204,10 @@ class Outputs:
         target = path.resolve()  # through a symlink, never over it
         if any(target == t for _, t, _ in self._pending):
             raise OutputError(f"cannot write {path} twice in one command")
-        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        # A short prefix: a temporary name must fit wherever the target's name fits.
+        fd, name = tempfile.mkstemp(
+            prefix=f".{target.name[:40]}.", suffix=".tmp", dir=target.parent
+        )
         os.close(fd)
         tmp = Path(name)
         self._pending.append((tmp, target, path))
@@ -223,7 +233,7 @@ class Outputs:
             for tmp, target, _ in self._pending:
                 if target.exists():
                     fd, name = tempfile.mkstemp(
-                        prefix=f".{target.name}.", suffix=".old", dir=target.parent
+                        prefix=f".{target.name[:40]}.", suffix=".old", dir=target.parent
                     )
                     os.close(fd)
                     backup = Path(name)

@@ -16,7 +16,9 @@ class ExportFormat(StrEnum):
 
 @app.command("export-params")
 def export_params(
-    calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
+    calibration_path: Path = typer.Argument(
+        ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
+    ),
     fmt: ExportFormat = typer.Option(ExportFormat.json, "--format", help="Output format."),
     output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
 ):
