@@ -13,7 +13,8 @@ Sources
 ``ur5e``, ``ur10e``
     Universal Robots' published DH parameters (standard DH, which is MDH with
     beta = 0); joint limits and speeds from UR's ROS 2 description
-    (``shared/reference/*_joint_limits.yaml``).
+    (UniversalRobots/Universal_Robots_ROS2_Description, tag 2.4.5,
+    ``config/<model>/joint_limits.yaml``).
 """
 
 from dataclasses import dataclass
