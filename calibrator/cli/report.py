@@ -29,4 +29,6 @@ def report(
     doc = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
     written = write(output, doc, loaded, None, calibration_path, session_path)
-    typer.echo(f"wrote {len(written)} files into {output}: {', '.join(p.name for p in written)}")
+    names = ", ".join(p.name for p in written)
+    files = "1 file" if len(written) == 1 else f"{len(written)} files"
+    typer.echo(f"wrote {files} into {output}: {names}")

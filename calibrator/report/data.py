@@ -70,6 +70,16 @@ def collect(doc, session=None, calibration_path=None, session_path=None):
     CalibrationError
         If ``session`` cannot be the session ``doc`` was identified from.
     """
+    name = calibration_path or "the calibration"
+    try:
+        return _collect(doc, session, calibration_path, session_path)
+    except KeyError as exc:
+        raise CalibrationError(f"{name}: no {exc} entry, needed for the report") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise CalibrationError(f"{name}: malformed for the report ({exc})") from None
+
+
+def _collect(doc, session, calibration_path, session_path):
     solver = doc.get("solver") or {}
     errors = doc.get("standard_errors", solver.get("standard_errors"))
     curve = solver.get("convergence", doc.get("convergence"))
@@ -86,8 +96,8 @@ def collect(doc, session=None, calibration_path=None, session_path=None):
         title=f"Calibration of {doc.get('model') or 'a robot arm'}",
         facts=facts,
         stats=doc.get("stats") or {},
-        deltas=dict(doc.get("deltas") or {}),
-        standard_errors=dict(errors) if errors else None,
+        deltas={str(k): float(v) for k, v in (doc.get("deltas") or {}).items()},
+        standard_errors={str(k): float(v) for k, v in errors.items()} if errors else None,
         dropped=list(doc.get("dropped_parameters") or []),
         convergence=np.asarray(curve, dtype=float) if curve else None,
         poses=None,

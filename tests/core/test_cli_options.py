@@ -148,7 +148,7 @@ _RULES = {
 }
 
 
-_INTS = ("--particles", "--generations", "--seed")
+_INTS = ("--particles", "--generations", "--seed", "--poses")
 
 
 def _canonical(option, value):
@@ -175,4 +175,32 @@ def test_fuzz_numeric_options(tmp_path, option, value):
         assert f"error: {option}: " in line, line
     if _canonical(option, value):
         assert accepted == _RULES[option](float(value)), (option, value, line)
+    assert list(tmp_path.iterdir()) == []
+
+
+_SIMULATE_RULES = {
+    "--poses": lambda v: float(v) == int(float(v)) and int(float(v)) >= 1,
+    "--seed": lambda v: float(v) == int(float(v)) and int(float(v)) >= 0,
+    "--noise-mm": lambda v: math.isfinite(v) and v >= 0,
+    "--orientation-noise-deg": lambda v: math.isfinite(v) and v >= 0,
+    "--joint-noise-rad": lambda v: math.isfinite(v) and v >= 0,
+    "--tool-offset-mm": lambda v: math.isfinite(v) and v >= 0,
+}
+
+
+@settings(
+    max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(option=st.sampled_from(sorted(_SIMULATE_RULES)), value=_NUMBERS)
+def test_fuzz_simulate_options(tmp_path, option, value):
+    # Valid options reach the output check, which refuses the missing folder.
+    result = cli("simulate", f"{option}={value}", "-o", "nodir/s.parquet", cwd=tmp_path)
+    line = one_line_error(result)
+    accepted = "folder nodir does not exist" in line
+    if accepted:
+        assert _SIMULATE_RULES[option](float(value)), (option, value)
+    else:
+        assert f"error: {option}: " in line, line
+    if _canonical(option, value):
+        assert accepted == _SIMULATE_RULES[option](float(value)), (option, value, line)
     assert list(tmp_path.iterdir()) == []

@@ -148,3 +148,23 @@ def test_identify_writes_the_report_with_the_calibration(tmp_path):
     page = Page((tmp_path / "rep" / "index.html").read_text())
     assert page.sections["pose_errors"]["images"]  # the session was at hand
     assert "not recorded" in page.sections["convergence"]["text"]  # lm runs no swarm
+
+
+def test_a_minimal_or_malformed_calibration_file(identified, tmp_path):
+    folder, doc, _ = identified
+    minimal = {k: doc[k] for k in ("format", "version", "mdh", "nominal_mdh")}
+    (tmp_path / "min.json").write_text(json.dumps(minimal))
+    (tmp_path / "bad.json").write_text(json.dumps({**doc, "deltas": {"a1": "x"}}))
+    (tmp_path / "s.parquet").write_bytes((folder / "s.parquet").read_bytes())
+    before = listing(tmp_path)
+    line = one_line_error(cli("report", "min.json", "s.parquet", "-o", "rep", cwd=tmp_path))
+    assert line.startswith("calibrator: error: min.json: no 'flange2tool' entry")
+    assert "bad.json: malformed" in one_line_error(
+        cli("report", "bad.json", "-o", "rep", cwd=tmp_path)
+    )
+    assert listing(tmp_path) == before
+    done = cli("report", "min.json", "-o", "rep", cwd=tmp_path)
+    assert done.code == 0 and "wrote 1 file into rep" in done.stdout
+    page = Page((tmp_path / "rep" / "index.html").read_text())
+    assert "none" in page.sections["dropped"]["text"]
+    assert "not recorded" in page.sections["convergence"]["text"]
