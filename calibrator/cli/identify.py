@@ -68,7 +68,9 @@ def identify(
     weight = orientation_weight if orientation_weight is not None else k
     outputs.check(output, inputs=[session_path])
     if report_dir is not None:
-        outputs.check_folder(report_dir, inputs=[session_path, output])
+        outputs.check_folder(report_dir, inputs=[session_path])
+        if report_dir.resolve() == output.resolve():
+            raise CalibrationError(f"--report {report_dir} is the output file itself")
     loaded = session.load(session_path, model=model)
     options = pipeline.Options(
         method=method.value,
