@@ -32,6 +32,7 @@ the CLI prints them as one line and exits with code 2.
 """
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -64,9 +65,10 @@ def check(path, inputs=()):
         One line naming ``path``.
     """
     path = _no_nul(path)
-    if path.is_dir():
+    kind = _kind(path)
+    if kind == "folder":
         raise OutputError(f"cannot write {path}: it is a folder; give a file name")
-    if path.exists() and not path.is_file():
+    if kind == "other":
         raise OutputError(f"cannot write {path}: it exists and is not a regular file")
     for source in inputs:
         if source is not None and _same_file(path, Path(source)):
@@ -85,17 +87,29 @@ def check_folder(path, inputs=()):
     one is created by :meth:`Outputs.folder`.
     """
     path = _no_nul(path)
-    if path.exists() and not path.is_dir():
+    kind = _kind(path)
+    if kind not in (None, "folder"):
         raise OutputError(f"cannot write into {path}: it exists and is not a folder")
     for source in inputs:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(f"refusing to write into {path}: it is an input of this command")
-    if path.is_dir():
+    if kind == "folder":
         if not os.access(path, os.W_OK | os.X_OK):
             raise OutputError(f"cannot write into {path}: no permission to write there")
     else:
         _check_parent(path)
     return path
+
+
+def _kind(path):
+    """``'file'``, ``'folder'``, ``'other'`` or None (nothing there yet)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None  # a parent that is not a folder is reported by _check_parent
+    except OSError as exc:  # a name too long, a loop of links, no permission...
+        raise OutputError(f"cannot write {path}: {_reason(exc)}") from None
+    return "folder" if stat.S_ISDIR(mode) else "file" if stat.S_ISREG(mode) else "other"
 
 
 def _no_nul(path):

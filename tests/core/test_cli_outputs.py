@@ -59,6 +59,14 @@ def test_simulate_leaves_nothing_when_the_truth_cannot_be_written(folder):
     assert listing(folder) == before and not (folder / "t.parquet").exists()
 
 
+def test_simulate_refuses_a_truth_name_too_long_before_writing(tmp_path):
+    # 253 characters fit a file name, the truth's 256 do not.
+    stem = "x" * 245
+    line = one_line_error(cli("simulate", "-o", f"{stem}.parquet", "--poses", "3", cwd=tmp_path))
+    assert f"cannot write {stem}.truth.json: File name too long" in line
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     "args, input_name",
     [
