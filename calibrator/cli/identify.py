@@ -1,6 +1,7 @@
 """``calibrator identify``: MDH parameters from a session, written to calibration.json."""
 
 import time
+from dataclasses import replace
 from enum import StrEnum
 from pathlib import Path
 
@@ -88,9 +89,8 @@ def identify(
             result = pipeline.identify(loaded, options)
         else:
             with reporter.task("swarm", generations, "generations") as task:
-                result = pipeline.identify(
-                    loaded, options, on_generation=lambda g, best: task.update(g, best=best)
-                )
+                shown = replace(options, on_generation=lambda g, best: task.update(g, best=best))
+                result = pipeline.identify(loaded, shown)
     except IdentifiabilityError as exc:
         raise CalibrationError(
             _too_few_hint(session_path, exc, len(loaded.table), options)

@@ -14,7 +14,7 @@ def report(
     ),
     session_path: Path = typer.Argument(
         None,
-        metavar="[SESSION]",
+        metavar="SESSION",
         help="Session it was identified from (Parquet); needed for the per-pose plots.",
     ),
     output: Path = typer.Option(

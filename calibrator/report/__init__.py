@@ -23,10 +23,11 @@ file                         content                                     needs
 
 What a document or the session does not hold is said on the page ("not
 recorded", "give the session file"), never drawn from guesses. Optional
-keys of calibration.json that are read when present: ``standard_errors``
-(``{name: value}``, same units as ``deltas``; also under ``solver``) and
-``solver.convergence`` (best cost after the initial swarm and after each
-generation).
+keys of calibration.json that are read when present:
+``uncertainty.standard_errors`` (``{name: value}``, same units as
+``deltas``; also accepted at the top level), ``solver.convergence``
+(``[[generation, best cost], ...]``, or one best cost per generation),
+``warnings`` and ``outlier_poses``.
 
 matplotlib is imported only here, with its non-interactive Agg backend.
 """

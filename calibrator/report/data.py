@@ -46,8 +46,9 @@ class Content:
     deltas: dict  # name -> value (mm or rad)
     standard_errors: dict | None
     dropped: list
-    convergence: np.ndarray | None
+    convergence: np.ndarray | None  # (G, 2): generation, best cost
     poses: PoseErrors | None
+    warnings: list = field(default_factory=list)
     notes: dict = field(default_factory=dict)  # plot name -> why it is missing
 
 
@@ -81,8 +82,12 @@ def collect(doc, session=None, calibration_path=None, session_path=None):
 
 def _collect(doc, session, calibration_path, session_path):
     solver = doc.get("solver") or {}
-    errors = doc.get("standard_errors", solver.get("standard_errors"))
-    curve = solver.get("convergence", doc.get("convergence"))
+    errors = (
+        (doc.get("uncertainty") or {}).get("standard_errors")
+        or doc.get("standard_errors")
+        or solver.get("standard_errors")
+    )
+    curve = _curve(solver.get("convergence", doc.get("convergence")))
     facts = [
         ("calibration", calibration_path or "(in memory)"),
         ("session", session_path or doc.get("session") or "not recorded"),
@@ -99,9 +104,12 @@ def _collect(doc, session, calibration_path, session_path):
         deltas={str(k): float(v) for k, v in (doc.get("deltas") or {}).items()},
         standard_errors={str(k): float(v) for k, v in errors.items()} if errors else None,
         dropped=list(doc.get("dropped_parameters") or []),
-        convergence=np.asarray(curve, dtype=float) if curve else None,
+        convergence=curve,
         poses=None,
+        warnings=[str(w) for w in doc.get("warnings") or []],
     )
+    if doc.get("outlier_poses"):
+        facts.append(("outlier poses set aside", ", ".join(map(str, doc["outlier_poses"]))))
     if content.convergence is None:
         content.notes["convergence"] = "not recorded (no swarm, or an older calibration file)"
     if session is None:
@@ -111,6 +119,22 @@ def _collect(doc, session, calibration_path, session_path):
     else:
         content.poses = pose_errors(doc, session, session_path)
     return content
+
+
+def _curve(curve):
+    """The convergence curve as (G, 2) generation/best-cost rows.
+
+    Accepts ``[[generation, cost], ...]`` (possibly thinned) or a plain list
+    of costs, one per generation from 0.
+    """
+    if not curve:
+        return None
+    values = np.asarray(curve, dtype=float)
+    if values.ndim == 1:
+        return np.column_stack([np.arange(values.size), values])
+    if values.ndim != 2 or values.shape[1] != 2:
+        raise ValueError("'convergence' is neither costs nor [generation, cost] pairs")
+    return values
 
 
 def pose_errors(doc, session, session_path=None):

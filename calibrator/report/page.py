@@ -19,6 +19,7 @@ th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 img { max-width: 100%; }
 .note { color: #666; font-style: italic; }
+.warning { color: #a40; }
 """
 
 
@@ -39,7 +40,9 @@ def html(content, images):
         f"<h1>{esc(content.title)}</h1>",
         '<section id="summary"><h2>Summary</h2><table>',
         *(f"<tr><th>{esc(k)}</th><td>{esc(str(v))}</td></tr>" for k, v in content.facts),
-        "</table></section>",
+        "</table>",
+        *(f'<p class="warning">warning: {esc(w)}</p>' for w in content.warnings),
+        "</section>",
         '<section id="accuracy"><h2>Accuracy</h2>',
         _stats_table(content.stats),
         "</section>",

@@ -116,8 +116,8 @@ def _distance(fig, poses):
 
 def _convergence(fig, curve):
     ax = fig.add_subplot()
-    ax.plot(np.arange(curve.size), curve)
-    _log_if_positive(ax, curve)
+    ax.plot(curve[:, 0], curve[:, 1])
+    _log_if_positive(ax, curve[:, 1])
     ax.set(xlabel="generation", ylabel="best cost (mm^2)", title="Swarm convergence")
 
 

@@ -93,7 +93,8 @@ def test_identify_shows_progress_when_piped_and_not_when_quiet(tmp_path):
     last = parse(run.stderr.strip().splitlines()[-1])
     assert last["task"] == "swarm" and last["done"] == last["total"] == "40"
     assert run.stdout.strip().splitlines()[-1].startswith("identified in ")
-    curve = json.loads((tmp_path / "c.json").read_text())["solver"]["convergence"]
-    assert len(curve) == 41 and np.all(np.diff(curve) <= 0)
+    curve = np.array(json.loads((tmp_path / "c.json").read_text())["solver"]["convergence"])
+    assert curve[0, 0] == 0 and curve[-1, 0] == 40  # [generation, best cost] rows
+    assert np.all(np.diff(curve[:, 0]) > 0) and np.all(np.diff(curve[:, 1]) <= 0)
     quiet = cli("identify", "s.parquet", "--generations", "40", "-q", "-o", "d.json", cwd=tmp_path)
     assert quiet.code == 0 and quiet.stderr == ""

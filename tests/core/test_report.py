@@ -106,12 +106,18 @@ def test_per_pose_errors_match_the_recorded_statistics(identified):
 def test_standard_errors_and_convergence_when_recorded_and_not(identified, tmp_path):
     _, doc, _ = identified
     full = copy.deepcopy(doc)
-    full["standard_errors"] = {name: 0.001 * (i + 1) for i, name in enumerate(doc["deltas"])}
+    errors = {name: 0.001 * (i + 1) for i, name in enumerate(doc["deltas"])}
+    full["uncertainty"] = {"standard_errors": errors}  # as issue 9 records them
+    full["solver"]["convergence"] = [5.0, 2.0, 1.0]  # one cost per generation, older form
+    full["warnings"] = ["poses 3 and 4 are the same pose"]
     content = data.collect(full)
-    assert content.standard_errors == full["standard_errors"]
+    assert content.standard_errors == errors
+    np.testing.assert_array_equal(content.convergence, [[0, 5.0], [1, 2.0], [2, 1.0]])
     text = report.page.html(content, report.plots.draw(content))
     page = Page(text)
     assert "not recorded" not in page.sections["deltas"]["text"]
+    assert "warning: poses 3 and 4 are the same pose" in page.sections["summary"]["text"]
+    assert page.sections["convergence"]["images"]
     assert f"{0.001 * len(doc['deltas']):.3g}" in page.sections["deltas"]["text"]
     for plot in ("pose_errors", "error_cdf", "error_vs_distance"):  # no session given
         assert page.sections[plot]["images"] == []
