@@ -180,3 +180,24 @@ def test_fuzz_export_output_paths(work, path, fmt):
             line = one_line_error(result)
             assert str(Path(path)) in line or repr(str(Path(path))) in line, line
             assert after == before
+
+
+@settings(max_examples=40, deadline=None)
+@given(path=_PATHS)
+def test_fuzz_simulate_output_paths_both_files_or_neither(path):
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        (folder / "adir").mkdir()
+        before = listing(folder)
+        result = cli("simulate", "--poses", "3", "-o", path, cwd=folder)
+        after = listing(folder)
+        if result.code == 0:
+            session_file = (folder / path).resolve()
+            truth = session_file.with_suffix(".truth.json")
+            assert session_file.is_file() and truth.is_file()
+            assert len(after) == len(before) + 2  # the session and its truth, nothing else
+            assert not [k for k in after if k.endswith((".tmp", ".old"))]
+        else:
+            line = one_line_error(result)
+            assert str(Path(path)) in line or repr(str(Path(path))) in line or ".truth.json" in line
+            assert after == before
