@@ -67,13 +67,13 @@ def check(path, inputs=()):
     path = _no_nul(path)
     kind = _kind(path)
     if kind == "folder":
-        raise OutputError(f"cannot write {path}: it is a folder; give a file name")
+        raise OutputError(f"cannot write {_show(path)}: it is a folder; give a file name")
     if kind == "other":
-        raise OutputError(f"cannot write {path}: it exists and is not a regular file")
+        raise OutputError(f"cannot write {_show(path)}: it exists and is not a regular file")
     for source in inputs:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(
-                f"refusing to overwrite {path}: it is an input of this command; "
+                f"refusing to overwrite {_show(path)}: it is an input of this command; "
                 "choose another output"
             )
     _check_parent(path)
@@ -89,13 +89,15 @@ def check_folder(path, inputs=()):
     path = _no_nul(path)
     kind = _kind(path)
     if kind not in (None, "folder"):
-        raise OutputError(f"cannot write into {path}: it exists and is not a folder")
+        raise OutputError(f"cannot write into {_show(path)}: it exists and is not a folder")
     for source in inputs:
         if source is not None and _same_file(path, Path(source)):
-            raise OutputError(f"refusing to write into {path}: it is an input of this command")
+            raise OutputError(
+                f"refusing to write into {_show(path)}: it is an input of this command"
+            )
     if kind == "folder":
         if not os.access(path, os.W_OK | os.X_OK):
-            raise OutputError(f"cannot write into {path}: no permission to write there")
+            raise OutputError(f"cannot write into {_show(path)}: no permission to write there")
     else:
         _check_parent(path)
     return path
@@ -108,25 +110,25 @@ def _kind(path):
     except (FileNotFoundError, NotADirectoryError):
         return None  # a parent that is not a folder is reported by _check_parent
     except OSError as exc:  # a name too long, a loop of links, no permission...
-        raise OutputError(f"cannot write {path}: {_reason(exc)}") from None
+        raise OutputError(f"cannot write {_show(path)}: {_reason(exc)}") from None
     return "folder" if stat.S_ISDIR(mode) else "file" if stat.S_ISREG(mode) else "other"
 
 
 def _no_nul(path):
     path = Path(path)
     if "\0" in str(path):
-        raise OutputError(f"cannot write {str(path)!r}: a file name cannot hold a NUL character")
+        raise OutputError(f"cannot write {_show(path)}: a file name cannot hold a NUL character")
     return path
 
 
 def _check_parent(path):
     parent = path.parent
     if not parent.exists():
-        raise OutputError(f"cannot write {path}: folder {parent} does not exist")
+        raise OutputError(f"cannot write {_show(path)}: folder {_show(parent)} does not exist")
     if not parent.is_dir():
-        raise OutputError(f"cannot write {path}: {parent} is not a folder")
+        raise OutputError(f"cannot write {_show(path)}: {_show(parent)} is not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"cannot write {path}: no permission to write in {parent}")
+        raise OutputError(f"cannot write {_show(path)}: no permission to write in {_show(parent)}")
 
 
 def _same_file(a, b):
@@ -189,7 +191,7 @@ class Outputs:
             try:
                 path.mkdir()
             except OSError as exc:
-                raise OutputError(f"cannot create folder {path}: {_reason(exc)}") from None
+                raise OutputError(f"cannot create folder {_show(path)}: {_reason(exc)}") from None
             self._created.append(path)
         return path
 
@@ -217,7 +219,7 @@ class Outputs:
         path = check(path, self.inputs)
         target = path.resolve()  # through a symlink, never over it
         if any(target == t for _, t, _ in self._pending):
-            raise OutputError(f"cannot write {path} twice in one command")
+            raise OutputError(f"cannot write {_show(path)} twice in one command")
         # A short prefix: a temporary name must fit wherever the target's name fits.
         fd, name = tempfile.mkstemp(
             prefix=f".{target.name[:40]}.", suffix=".tmp", dir=target.parent
@@ -232,7 +234,7 @@ class Outputs:
                 os.fsync(fh.fileno())
         except OSError as exc:
             self.discard()
-            raise OutputError(f"cannot write {path}: {_reason(exc)}") from None
+            raise OutputError(f"cannot write {_show(path)}: {_reason(exc)}") from None
         except BaseException:
             self.discard()
             raise
@@ -266,7 +268,7 @@ class Outputs:
             for backup, target in backups:
                 os.replace(backup, target)
             self.discard()
-            raise OutputError(f"cannot write {failed}: {_reason(exc)}") from None
+            raise OutputError(f"cannot write {_show(failed)}: {_reason(exc)}") from None
         for backup, _ in backups:
             _unlink(backup)
         self._pending = []
@@ -284,6 +286,12 @@ class Outputs:
                 pass
         self._created = []
         self._done = True
+
+
+def _show(path):
+    """A path for a one-line message: as typed, or quoted if it holds control characters."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)
 
 
 def _make_readable(tmp):

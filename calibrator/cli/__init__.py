@@ -25,6 +25,7 @@ __all__ = ["app", "main"]
 
 
 def _fail(message, code=2):
+    message = " ".join(str(message).replace("\r", "\n").split("\n"))  # one line, always
     typer.echo(f"calibrator: error: {message}", err=True)
     sys.exit(code)
 
@@ -47,13 +48,13 @@ def main(argv=None):
     except _click_errors.UsageError as exc:
         _fail(_checks.one_line(exc))
     except _click_errors.ClickException as exc:
-        _fail(" ".join(exc.format_message().split()), exc.exit_code)
+        _fail(exc.format_message(), exc.exit_code)
     except typer.Abort:
         _fail("interrupted", 130)
     except KeyboardInterrupt:
         _fail("interrupted", 130)
     except CalibrationError as exc:
-        _fail(" ".join(str(exc).split()))
+        _fail(exc)
     except OSError as exc:
         _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
     # Without standalone mode typer returns the exit code of ``typer.Exit``.

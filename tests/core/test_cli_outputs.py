@@ -154,17 +154,27 @@ def test_written_files_get_ordinary_permissions(tmp_path):
 _PARTS = st.sampled_from(
     ["", ".", "..", "adir", "nodir", "c.json", "out.csv", "a b.csv", "é.csv", "x" * 250, "y" * 300]
 )
+
+
+def _inside(path):
+    # Relative paths that stay inside the test's folder: a fuzz test must
+    # never write anywhere else (an absolute "/x" or "../x" would).
+    normal = os.path.normpath(path)
+    return not os.path.isabs(path) and normal != ".." and not normal.startswith("../")
+
+
 _PATHS = st.one_of(
     st.lists(_PARTS, min_size=1, max_size=3).map("/".join),
     st.text(st.characters(blacklist_categories=["Cs"]), min_size=1, max_size=12),
-)
+).filter(_inside)
 
 
 @settings(max_examples=120, deadline=None)
 @given(path=_PATHS, fmt=st.sampled_from(["csv", "json"]))
 def test_fuzz_export_output_paths(work, path, fmt):
     with tempfile.TemporaryDirectory() as name:
-        folder = Path(name)
+        folder = Path(name) / "a" / "b"  # a stray "../" would still land in the temporary tree
+        folder.mkdir(parents=True)
         (folder / "c.json").write_bytes(work["c.json"])
         (folder / "adir").mkdir()
         before = listing(folder)
@@ -186,7 +196,8 @@ def test_fuzz_export_output_paths(work, path, fmt):
 @given(path=_PATHS)
 def test_fuzz_simulate_output_paths_both_files_or_neither(path):
     with tempfile.TemporaryDirectory() as name:
-        folder = Path(name)
+        folder = Path(name) / "a" / "b"
+        folder.mkdir(parents=True)
         (folder / "adir").mkdir()
         before = listing(folder)
         result = cli("simulate", "--poses", "3", "-o", path, cwd=folder)
