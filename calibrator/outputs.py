@@ -32,6 +32,7 @@ the CLI prints them as one line and exits with code 2.
 """
 
 import os
+import shutil
 import stat
 import tempfile
 from pathlib import Path
@@ -221,9 +222,13 @@ class Outputs:
         if any(target == t for _, t, _ in self._pending):
             raise OutputError(f"cannot write {_show(path)} twice in one command")
         # A short prefix: a temporary name must fit wherever the target's name fits.
-        fd, name = tempfile.mkstemp(
-            prefix=f".{target.name[:40]}.", suffix=".tmp", dir=target.parent
-        )
+        try:
+            fd, name = tempfile.mkstemp(
+                prefix=f".{target.name[:40]}.", suffix=".tmp", dir=target.parent
+            )
+        except OSError as exc:
+            self.discard()
+            raise OutputError(f"cannot write {_show(path)}: {_reason(exc)}") from None
         os.close(fd)
         tmp = Path(name)
         self._pending.append((tmp, target, path))
@@ -241,36 +246,34 @@ class Outputs:
         return path
 
     def commit(self):
-        """Rename every file into place; on any failure undo the renames done."""
+        """Rename every file into place; on any failure put back what was there.
+
+        Each rename is atomic, so a target always holds either its old or
+        its new content; an old file is kept under a second (hard-linked)
+        name until every file of the batch is in place.
+        """
         if self._done:
             return
-        backups, placed = [], []
+        kept, placed = {}, []
         try:
             for tmp, target, _ in self._pending:
                 if target.exists():
-                    fd, name = tempfile.mkstemp(
-                        prefix=f".{target.name[:40]}.", suffix=".old", dir=target.parent
-                    )
-                    os.close(fd)
-                    backup = Path(name)
-                    try:
-                        os.replace(target, backup)
-                    except OSError:
-                        _unlink(backup)
-                        raise
-                    backups.append((backup, target))
+                    kept[target] = _second_name(target)
                 os.replace(tmp, target)
                 placed.append(target)
         except OSError as exc:
-            failed = next(p for t, tg, p in self._pending if tg not in placed)
+            failed = next(p for _, t, p in self._pending if t not in placed)
             for target in placed:
-                _unlink(target)
-            for backup, target in backups:
-                os.replace(backup, target)
+                if target in kept:
+                    os.replace(kept.pop(target), target)
+                else:
+                    _unlink(target)
+            for old in kept.values():
+                _unlink(old)
             self.discard()
             raise OutputError(f"cannot write {_show(failed)}: {_reason(exc)}") from None
-        for backup, _ in backups:
-            _unlink(backup)
+        for old in kept.values():
+            _unlink(old)
         self._pending = []
         self._done = True
 
@@ -286,6 +289,22 @@ class Outputs:
                 pass
         self._created = []
         self._done = True
+
+
+def _second_name(target):
+    """A hidden second name for the file at ``target``, to put it back from."""
+    fd, name = tempfile.mkstemp(prefix=f".{target.name[:40]}.", suffix=".old", dir=target.parent)
+    os.close(fd)
+    try:
+        os.unlink(name)
+        os.link(target, name)
+    except OSError:  # no hard links here (some network or FAT file systems): copy
+        try:
+            shutil.copy2(target, name)
+        except OSError:
+            _unlink(name)
+            raise
+    return Path(name)
 
 
 def _show(path):
