@@ -50,6 +50,11 @@ def html(content, images):
     for key, title, name in _SECTIONS:
         parts.append(f'<section id="{key}"><h2>{title}</h2>')
         parts.append(_image(images, name, title, content.notes.get(key)))
+        if key == "error_vs_distance" and content.poses and content.poses.origin != "tracker":
+            parts.append(
+                '<p class="note">The session is in the robot base frame, where the '
+                "tracker's position is not recorded: distances are from the robot base.</p>"
+            )
         parts.append("</section>")
     parts.append('<section id="deltas"><h2>Identified parameters</h2>')
     if content.standard_errors is None:
