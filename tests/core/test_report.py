@@ -83,6 +83,7 @@ def test_report_renders_from_a_simulated_session(identified, tmp_path):
     deltas = page.sections["deltas"]["text"]
     assert all(name in deltas for name in doc["free_parameters"])
     assert "standard errors: not recorded" in deltas
+    assert "robot base" not in page.sections["error_vs_distance"]["text"]  # tracker frame
     assert "held-out" in page.sections["accuracy"]["text"]
 
 
@@ -153,6 +154,7 @@ def test_identify_writes_the_report_with_the_calibration(tmp_path):
     assert (tmp_path / "calibration.json").is_file()
     page = Page((tmp_path / "rep" / "index.html").read_text())
     assert page.sections["pose_errors"]["images"]  # the session was at hand
+    assert "distances are from the robot base" in page.sections["error_vs_distance"]["text"]
     assert "not recorded" in page.sections["convergence"]["text"]  # lm runs no swarm
 
 
