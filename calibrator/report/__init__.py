@@ -32,7 +32,19 @@ keys of calibration.json that are read when present:
 matplotlib is imported only here, with its non-interactive Agg backend.
 """
 
-__all__ = ["write"]
+from pathlib import Path
+
+__all__ = ["FILES", "write"]
+
+#: Every file the report may write into its folder.
+FILES = (
+    "pose_errors.png",
+    "error_cdf.png",
+    "error_vs_distance.png",
+    "convergence.png",
+    "deltas.png",
+    "index.html",
+)
 
 
 def write(folder, doc, session=None, batch=None, calibration_path=None, session_path=None):
@@ -50,7 +62,8 @@ def write(folder, doc, session=None, batch=None, calibration_path=None, session_
     batch : calibrator.outputs.Outputs, optional
         Write as part of this batch; otherwise a batch of its own.
     calibration_path, session_path : str or Path, optional
-        Shown on the page.
+        Shown on the page; never overwritten (with ``batch``, its own
+        ``inputs`` count).
 
     Returns
     -------
@@ -60,11 +73,15 @@ def write(folder, doc, session=None, batch=None, calibration_path=None, session_
     from calibrator import outputs
     from calibrator.report import data, page, plots
 
+    own = batch is None
+    batch = outputs.Outputs(inputs=[calibration_path, session_path]) if own else batch
+    # Refuse a file of the report that is an input before drawing anything.
+    if Path(folder).is_dir():
+        for name in FILES:
+            outputs.check(Path(folder) / name, batch.inputs)
     content = data.collect(doc, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
-    own = batch is None
-    batch = outputs.Outputs() if own else batch
     try:
         folder = batch.folder(folder)
         written = [batch.bytes(folder / name, png) for name, png in images.items()]

@@ -75,9 +75,11 @@ def test_simulate_refuses_a_truth_name_too_long_before_writing(tmp_path):
         (["export-params", "c.json", "-o", "c.json"], "c.json"),
         (["export-params", "c.json", "--format", "csv", "-o", "adir/../c.json"], "c.json"),
         (["report", "c.json", "s.parquet", "-o", "s.parquet"], "s.parquet"),
+        (["report", "adir/index.html", "-o", "adir"], "adir/index.html"),
     ],
 )
 def test_no_command_overwrites_its_input(folder, args, input_name):
+    (folder / "adir" / "index.html").write_bytes((folder / "c.json").read_bytes())
     before = listing(folder)
     line = one_line_error(cli(*args, cwd=folder))
     assert input_name in line
