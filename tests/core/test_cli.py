@@ -3,6 +3,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -114,3 +115,13 @@ def test_an_unwritable_output_is_one_line_from_a_real_process(tmp_path):
         "calibrator: error: cannot write no/such/dir/cal.json: folder no/such/dir does not exist"
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.parquet", "s.truth.json"]
+
+
+def test_docs_and_code_cite_no_file_outside_the_repository():
+    repo = Path(__file__).resolve().parents[2]
+    texts = [repo / "README.md", *(repo / "docs").glob("*.md")]
+    texts += [*(repo / "calibrator").rglob("*.py"), *(repo / "drivers").rglob("*.py")]
+    for path in texts:
+        text = path.read_text()
+        for outside in ("shared/docs", "shared/reference", "shared/seeds", "../shared"):
+            assert outside not in text, f"{path.relative_to(repo)} cites {outside}"
