@@ -38,8 +38,10 @@ def _png(draw_on, *args, size=(7, 4)):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=size, dpi=100, layout="constrained")
+    fig = Figure(figsize=size, dpi=100)
     FigureCanvasAgg(fig)
+    # Fixed margins: matplotlib's automatic layouts cost as much as the drawing.
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.9, wspace=0.45)
     draw_on(fig, *args)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", metadata={"Software": None})
