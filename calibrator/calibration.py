@@ -20,13 +20,12 @@ consistency of the fixed parameters before anything uses the file.
 
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames, kinematics, parameters
+from calibrator import frames, kinematics, outputs, parameters
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.calibration"
@@ -214,8 +213,10 @@ class Calibration:
         )
         return _jsonable(doc)
 
-    def save(self, path):
+    def save(self, path, batch=None):
         """Write strict JSON atomically; refuses NaN or infinity anywhere.
+
+        With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
 
         Raises
         ------
@@ -229,7 +230,7 @@ class Calibration:
                 f"refusing to write {path}: {bad} is not a finite number "
                 "(calibration files are strict JSON)"
             )
-        write(path, doc)
+        write(path, doc, batch=batch)
 
     @classmethod
     def load(cls, path):
@@ -247,21 +248,16 @@ def mdh_from_records(records):
     return np.array([[float(r[f]) for f in _FIELDS] for r in records])
 
 
-def write(path, document):
-    """Write a JSON document atomically (strict JSON: ValueError on NaN/inf)."""
-    write_text(path, json.dumps(document, indent=2, allow_nan=False) + "\n")
+def write(path, document, batch=None):
+    """Write a JSON document atomically (strict JSON: ValueError on NaN/inf).
 
-
-def write_text(path, text):
-    """Write text atomically: a temporary file renamed into place, never a partial file."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
+    """
+    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    if batch is None:
+        outputs.write_text(path, text)
+    else:
+        batch.text(path, text)
 
 
 def load(path):

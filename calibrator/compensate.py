@@ -275,7 +275,7 @@ def run(calibration, targets_path, output):
     """
     import pandas as pd
 
-    from calibrator.calibration import write_text
+    from calibrator import outputs
     from calibrator.models import get_model
 
     q_nom, desired = read_targets(targets_path)
@@ -297,7 +297,11 @@ def run(calibration, targets_path, output):
         data[col] = np.where(sol.ok, corrected[:, k], np.nan)
     data["iterations"] = sol.iterations
     data["error_mm"] = sol.error_mm
-    write_text(output, pd.DataFrame(data).to_csv(index=False, float_format="%.12g"))
+    outputs.write_text(
+        output,
+        pd.DataFrame(data).to_csv(index=False, float_format="%.12g"),
+        inputs=[targets_path],
+    )
     failed = np.flatnonzero(~sol.ok)
     lines = [
         f"{len(status) - len(failed)} of {len(status)} targets compensated"

@@ -12,8 +12,9 @@ Sources
     manufacturer's limits are not in the paper).
 ``ur5e``, ``ur10e``, ``ur10``
     Universal Robots' published DH parameters (``ur10``: the CB3 UR10;
-    standard DH, which is MDH with beta = 0); joint limits and speeds from UR's ROS 2 description
-    (``shared/reference/*_joint_limits.yaml``).
+    standard DH, which is MDH with beta = 0); joint limits and speeds from
+    UR's ROS 2 description (UniversalRobots/Universal_Robots_ROS2_Description,
+    tag 2.4.5, ``config/<model>/joint_limits.yaml``).
 """
 
 from dataclasses import dataclass

@@ -5,12 +5,13 @@ from pathlib import Path
 import typer
 
 from calibrator.cli._app import app
-from calibrator.errors import CalibrationError
 
 
 @app.command()
 def compensate(
-    calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
+    calibration_path: Path = typer.Argument(
+        ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
+    ),
     targets_path: Path = typer.Argument(..., metavar="TARGETS", help="CSV of targets."),
     output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
 ):
@@ -22,11 +23,10 @@ def compensate(
     frame, rotation vector); with a pose the joints are the nominal solution to
     start from. Exit code 1 if any target cannot be reached within the joint limits.
     """
-    from calibrator import calibration
+    from calibrator import calibration, outputs
     from calibrator import compensate as comp
 
-    if output.resolve() in (calibration_path.resolve(), targets_path.resolve()):
-        raise CalibrationError(f"refusing to overwrite an input with {output}")
+    outputs.check(output, inputs=[calibration_path, targets_path])
     cal = calibration.load(calibration_path)
     report = comp.run(cal, targets_path, output)
     for line in report.lines:

@@ -7,7 +7,6 @@ from pathlib import Path
 import typer
 
 from calibrator.cli._app import app
-from calibrator.errors import CalibrationError
 from calibrator.export import REGISTRY
 
 #: The ``--format`` choices, generated from the exporter registry.
@@ -19,25 +18,23 @@ _FORMAT_HELP = "Output format [default: from the output's extension, else json].
 
 @app.command("export-params")
 def export_params(
-    calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
-    fmt: ExportFormat = typer.Option(
-        None,
-        "--format",
-        help=_FORMAT_HELP,
+    calibration_path: Path = typer.Argument(
+        ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
     ),
+    fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
 ):
     """Write the calibrated model in a format robot users load."""
-    from calibrator import calibration, export
+    from calibrator import calibration, export, outputs
 
     fmt = export.choose(None if fmt is None else fmt.value, output)
-    if output is not None and output.resolve() == calibration_path.resolve():
-        raise CalibrationError(f"refusing to overwrite the input {calibration_path}")
+    if output is not None:
+        outputs.check(output, inputs=[calibration_path])
     result = export.export(calibration.load(calibration_path), fmt)
     for note in result.notes:
         typer.echo(f"note: {note}", err=True)
     if output is None:
         sys.stdout.write(result.text)
         return
-    calibration.write_text(output, result.text)
+    outputs.write_text(output, result.text, inputs=[calibration_path])
     typer.echo(f"wrote {output} ({fmt})")

@@ -10,6 +10,7 @@ imports every format module, which registers its functions.
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from calibrator import outputs
 from calibrator.errors import CalibrationError
 
 
@@ -85,7 +86,8 @@ def choose(fmt=None, output=None):
         if output is not None and by_suffix != fmt:
             want = " or ".join(REGISTRY[fmt].suffixes)
             raise CalibrationError(
-                f"output {output} does not end in {want}, the extension of format {fmt}"
+                f"output {outputs.show(output)} does not end in {want}, "
+                f"the extension of format {fmt}"
             )
         return fmt
     if output is None:
@@ -93,7 +95,8 @@ def choose(fmt=None, output=None):
     if by_suffix is None:
         known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
         raise CalibrationError(
-            f"cannot tell the format from {output}: give --format or end the name in one of {known}"
+            f"cannot tell the format from {outputs.show(output)}: "
+            f"give --format or end the name in one of {known}"
         )
     return by_suffix
 

@@ -164,7 +164,9 @@ def identify(session, options=Options()):
     fit_idx, val_idx = split(len(obs), options.validation_fraction, options.seed)
     fit, val = obs.subset(fit_idx), obs.subset(val_idx)
     if len(fit) < 3:
-        raise IdentifiabilityError(f"{len(fit)} fitting poses: at least 3 are needed")
+        raise IdentifiabilityError(
+            f"{len(fit)} fitting pose{'' if len(fit) == 1 else 's'}: at least 3 are needed"
+        )
     duplicates = identifiability.duplicate_poses(fit.q)
     if len(fit) - len(duplicates) < 3:
         raise IdentifiabilityError(

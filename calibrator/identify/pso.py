@@ -79,8 +79,8 @@ def ipso(
         Start from Halton points (IPSO); False starts from pseudo-random
         points, the plain constriction PSO the seed improves on.
     on_generation : callable, optional
-        ``on_generation(generation: int, best_cost: float)`` after each
-        generation (1..generations), e.g. for a progress display.
+        Called as ``on_generation(generation, best_cost)`` after each
+        generation (1-based), e.g. to show progress.
 
     Returns
     -------
@@ -125,5 +125,5 @@ def ipso(
         g = int(np.argmin(best_f))
         history[gen] = best_f[g]
         if on_generation is not None:
-            on_generation(gen, float(best_f[g]))
+            on_generation(gen, float(history[gen]))
     return PSOResult(best_x[g].copy(), float(best_f[g]), history)
