@@ -150,16 +150,6 @@ def craig_arm(table, pose_rad, name="craig"):
     return PosedArm(links=links, tail=trans(0.0, 0.0, 0.0), name=name)
 
 
-def paper_arm(d3_mm=None, pose_deg=None):
-    """The misalignment paper's arm (Table 2) at its pose, optionally with another d_3."""
-    table = PAPER_CRAIG.copy()
-    if d3_mm is not None:
-        table[2, 2] = d3_mm
-    table[:, 0] *= _DEG
-    pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
-    return craig_arm(table, pose * _DEG, name="paper arm (seed 000, Table 2)")
-
-
 def mdh_arm(mdh, pose_rad, name="mdh"):
     """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.kinematics`).
 
@@ -189,3 +179,59 @@ def _check_pose(pose):
     if pose.shape != (6,) or not np.all(np.isfinite(pose)):
         raise CalibrationError(f"a pose is six finite joint angles, got shape {pose.shape}")
     return pose
+
+
+#: Name of the built-in arm in :func:`build`.
+PAPER = "paper"
+
+
+def length_names(model):
+    """Link lengths :func:`build` can set, by name, for a model (``'paper'`` or a named model)."""
+    if model == PAPER:
+        return tuple(f"a{i}" for i in range(6)) + tuple(f"d{i + 1}" for i in range(6))
+    return tuple(f"a{i + 1}" for i in range(6)) + tuple(f"d{i + 1}" for i in range(6))
+
+
+def build(model=PAPER, pose_deg=None, lengths=None):
+    """A posed arm by name, optionally with some link lengths changed.
+
+    Parameters
+    ----------
+    model : str
+        ``'paper'`` (the misalignment paper's arm, Craig DH: lengths ``a0..a5``
+        are ``a_{i-1}``, ``d1..d6`` are ``d_i``) or a name known to
+        :func:`calibrator.models.get_model` (Hayati MDH: ``a1..a6``, ``d1..d6``).
+    pose_deg : array_like, shape (6,), optional
+        Joint angles (deg); the paper's pose for ``'paper'``, zeros otherwise.
+    lengths : dict of str to float, optional
+        Link lengths to override (mm), e.g. ``{"d3": 1200.0}``.
+
+    Returns
+    -------
+    PosedArm
+    """
+    from calibrator import models
+
+    lengths = dict(lengths or {})
+    key = (model or PAPER).strip().lower()
+    unknown = sorted(set(lengths) - set(length_names(key)))
+    if unknown:
+        raise CalibrationError(
+            f"unknown link length {unknown[0]!r} for {key}; known: {', '.join(length_names(key))}"
+        )
+    if key == PAPER:
+        table = PAPER_CRAIG.copy()
+        for name, value in lengths.items():
+            i = int(name[1:])
+            if name[0] == "a":
+                table[i, 1] = value
+            else:
+                table[i - 1, 2] = value
+        table[:, 0] *= _DEG
+        pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
+        return craig_arm(table, pose * _DEG, name="paper arm (seed 000, Table 2)")
+    mdh = models.get_model(key).mdh.copy()
+    for name, value in lengths.items():
+        mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value
+    pose = np.zeros(6) if pose_deg is None else np.asarray(pose_deg, dtype=float)
+    return mdh_arm(mdh, pose * _DEG, name=key)
