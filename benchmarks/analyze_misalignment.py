@@ -1,0 +1,91 @@
+"""Speed and memory of the misalignment Monte Carlo (paper arm, R0 = 0.05 mm).
+
+Run::
+
+    nice .venv/bin/python benchmarks/analyze_misalignment.py [--repeats 5] [--big 10000000]
+
+1. 20,000 trials in-process (``engine.run`` + ``statistics``, the grid's
+   pilot block included): median wall time of ``--repeats`` runs.
+2. 1,000,000 trials in-process in a fresh process: wall time and peak
+   resident memory (``ru_maxrss``), next to the same process running 10,000
+   trials (interpreter + imports + one block) as the baseline.
+3. ``--big`` trials (10^7 by default) on a Dask LocalCluster of 1 and of 2
+   single-threaded worker processes (cluster start-up included): wall
+   times and the speed-up; the statistics must be identical, to the bit.
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+
+from calibrator.analysis import arm, engine
+from calibrator.analysis import misalignment as mc
+
+_CHILD = """
+import json, resource, sys, time
+from calibrator.analysis import arm, engine, misalignment as mc
+trials = int(sys.argv[1])
+t = time.perf_counter()
+summary, grid = engine.run(mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, trials, 0))
+mc.statistics(summary, grid)
+wall = time.perf_counter() - t
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps({"wall": wall, "maxrss_mb": rss}))
+"""
+
+
+def study(trials):
+    return mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, trials, seed=0)
+
+
+def timed(trials, **kwargs):
+    t = time.perf_counter()
+    summary, grid = engine.run(study(trials), **kwargs)
+    stats = mc.statistics(summary, grid)
+    return time.perf_counter() - t, stats
+
+
+def child(trials):
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(trials)], check=True, capture_output=True, text=True
+    )
+    return json.loads(out.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--big", type=int, default=10_000_000)
+    ap.add_argument("--skip-big", action="store_true")
+    args = ap.parse_args()
+
+    times = [timed(20_000)[0] for _ in range(args.repeats)]
+    print(
+        f"20,000 trials in-process: median {statistics.median(times):.3f} s "
+        f"(min {min(times):.3f}, max {max(times):.3f}, {args.repeats} runs)"
+    )
+
+    base = child(10_000)
+    big = child(1_000_000)
+    print(
+        f"1,000,000 trials in-process: {big['wall']:.2f} s, peak RSS {big['maxrss_mb']:.0f} MB "
+        f"(10,000 trials in the same kind of process: {base['maxrss_mb']:.0f} MB)"
+    )
+    if args.skip_big:
+        return
+    rows = {}
+    for workers in (1, 2):
+        rows[workers] = timed(args.big, workers=workers)
+        print(f"{args.big:,} trials, LocalCluster {workers} worker(s): {rows[workers][0]:.1f} s")
+    same = rows[1][1] == rows[2][1]
+    print(
+        f"speed-up 2 workers / 1 worker: {rows[1][0] / rows[2][0]:.2f}x; "
+        f"statistics identical: {same}"
+    )
+
+
+if __name__ == "__main__":
+    main()
