@@ -101,7 +101,13 @@ def _run_dask(study, grid, plan, workers, scheduler, progress):
         sizes = {f.key: _trials(study, blocks) for f, blocks in zip(futures, plan, strict=True)}
         total, done = mc.Summary(), 0
         for future in as_completed(futures):
-            total.merge(future.result())
+            try:
+                result = future.result()
+            except ModuleNotFoundError as exc:
+                raise CalibrationError(
+                    f"a Dask worker cannot import {exc.name!r}: install calibrator on every worker"
+                ) from None
+            total.merge(result)
             done += sizes[future.key]
             future.release()
             if progress:

@@ -47,7 +47,7 @@ BLOCK = 10_000
 N_RADIAL_BINS = 1 << 16
 #: Bins per axis of the density maps and the orientation densities.
 N_GRID = 160
-N_ANGLE_BINS = 400
+N_ANGLE_BINS = 200
 #: Distance between the end faces (mm) used for the paper's arm, which does
 #: not give it: the value at which the median |dP| at R0 = 0.05 mm equals the
 #: paper's 0.44 mm (fitted on 200,000 trials, seed 0, by

@@ -47,10 +47,12 @@ def _assignment(text, what):
     return name.strip(), _floats(values, f"{what} {name.strip()}")
 
 
-def _check_output(path, what):
-    """An output path whose folder exists; never overwrite an input."""
+def _check_output(path, what, inputs=()):
+    """An output path whose folder exists and that is none of the inputs."""
     if path is None:
         return None
+    if any(i is not None and path.resolve() == i.resolve() for i in inputs):
+        raise CalibrationError(f"{what}: {path} is an input; choose another output")
     if not path.parent.is_dir():
         raise CalibrationError(f"{what}: folder {path.parent} does not exist")
     if path.is_dir():
@@ -254,7 +256,7 @@ def tolerance(
         raise CalibrationError("give exactly one of --model and --calibration")
     if poses < 1 or samples < 1 or top < 0:
         raise CalibrationError("--poses and --samples must be >= 1, --top >= 0")
-    _check_output(json_out, "--json")
+    _check_output(json_out, "--json", inputs=(calibration,))
     if calibration is not None:
         from calibrator import calibration as cal
 

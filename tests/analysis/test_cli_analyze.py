@@ -79,6 +79,7 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
         (["tolerance"], "exactly one of --model and --calibration"),
         (["tolerance", "--model", "ur5e", "--tol", "zz=1"], "unknown parameter 'zz'"),
         (["tolerance", "--calibration", "missing.json"], "calibration file not found"),
+        (["tolerance", "--calibration", "c.json", "--json", "c.json"], "c.json is an input"),
     ],
 )
 def test_bad_options_give_one_line_and_exit_2(args, message, capsys, tmp_path, monkeypatch):
