@@ -3,6 +3,7 @@
 Run::
 
     nice .venv/bin/python benchmarks/analyze_misalignment.py [--repeats 5] [--big 10000000]
+        [--rounds 1] [--workers-only]
 
 1. 20,000 trials in-process (``engine.run`` + ``statistics``, the grid's
    pilot block included): median wall time of ``--repeats`` runs.
@@ -59,9 +60,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--big", type=int, default=10_000_000)
-    ap.add_argument("--skip-big", action="store_true")
+    ap.add_argument("--rounds", type=int, default=1, help="Alternate 1 and 2 workers this often.")
+    ap.add_argument("--workers-only", action="store_true", help="Only the 1-vs-2 worker part.")
     args = ap.parse_args()
+    if not args.workers_only:
+        in_process(args)
+    workers(args)
 
+
+def in_process(args):
     times = [timed(20_000)[0] for _ in range(args.repeats)]
     print(
         f"20,000 trials in-process: median {statistics.median(times):.3f} s "
@@ -74,16 +81,21 @@ def main():
         f"1,000,000 trials in-process: {big['wall']:.2f} s, peak RSS {big['maxrss_mb']:.0f} MB "
         f"(10,000 trials in the same kind of process: {base['maxrss_mb']:.0f} MB)"
     )
-    if args.skip_big:
-        return
-    rows = {}
-    for workers in (1, 2):
-        rows[workers] = timed(args.big, workers=workers)
-        print(f"{args.big:,} trials, LocalCluster {workers} worker(s): {rows[workers][0]:.1f} s")
-    same = rows[1][1] == rows[2][1]
+
+
+def workers(args):
+    # Alternating the two settings spreads drifts in the machine's load over both.
+    times, results = {1: [], 2: []}, []
+    for _ in range(args.rounds):
+        for n in (1, 2):
+            wall, stats = timed(args.big, workers=n)
+            times[n].append(wall)
+            results.append(stats)
+            print(f"{args.big:,} trials, LocalCluster {n} worker(s): {wall:.1f} s", flush=True)
+    one, two = statistics.median(times[1]), statistics.median(times[2])
+    same = all(r == results[0] for r in results)
     print(
-        f"speed-up 2 workers / 1 worker: {rows[1][0] / rows[2][0]:.2f}x; "
-        f"statistics identical: {same}"
+        f"speed-up 2 workers / 1 worker (medians): {one / two:.2f}x; statistics identical: {same}"
     )
 
 
