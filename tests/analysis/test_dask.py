@@ -17,3 +17,18 @@ def test_local_cluster_matches_in_process():
     assert seen[-1] == (study.trials, study.trials) and len(seen) == 3
     # The cluster's worker processes are gone once the run returns.
     assert multiprocessing.active_children() == []
+
+
+def test_existing_scheduler_gets_the_chunks():
+    from dask.distributed import LocalCluster
+
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, mc.BLOCK + 10, seed=4)
+    local, grid = engine.run(study)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        remote, _ = engine.run(study, scheduler=cluster.scheduler_address, chunk_trials=1)
+        # The run closes its own client but leaves the user's cluster running.
+        assert len(cluster.scheduler_info["workers"]) == 1
+    assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    assert multiprocessing.active_children() == []
