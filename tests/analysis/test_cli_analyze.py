@@ -105,3 +105,15 @@ def test_misalignment_json_is_atomic_and_numbers_match_the_api(tmp_path, capsys,
     expected = mc.statistics(summary, grid)
     assert doc["cases"][0]["position"] == json.loads(json.dumps(expected["position"]))
     assert np.isfinite(doc["cases"][0]["position"]["cdf98"])
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_long_runs_report_progress_on_stderr_unless_quiet(quiet, capsys):
+    args = ["analyze", "misalignment", "--trials", "100000", "--chunk", "50000"]
+    with pytest.raises(SystemExit) as exit_info:
+        main(args + (["--quiet"] if quiet else []))
+    assert exit_info.value.code == 0
+    out, err = capsys.readouterr()
+    assert "CDF 50%" in out and "trials (" not in out
+    assert ("base: 100000/100000 trials (100 %" in err) is not quiet
+    assert (err == "") is quiet
