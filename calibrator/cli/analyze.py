@@ -268,12 +268,10 @@ def tolerance(
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
     overrides = {}
     for item in tol or []:
-        name, (value,) = _assignment(item, "--tol")
-        if name not in tl.NAMES:
-            raise CalibrationError(
-                f"--tol: unknown parameter {name!r}; known: {' '.join(tl.NAMES)}"
-            )
-        overrides[name] = value if tl.is_length(name) else np.radians(value)
+        name, values = _assignment(item, "--tol")
+        if len(values) != 1:
+            raise CalibrationError(f"--tol {name} takes one value, got {len(values)}")
+        overrides[name] = values[0] if tl.is_length(name) else np.radians(values[0])
     tols = tl.Tolerances.build(
         length_tol, np.radians(angle_tol), np.radians(joint_tol), overrides, distribution.value
     )

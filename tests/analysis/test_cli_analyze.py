@@ -78,6 +78,8 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
         (["misalignment", "--model", "abb"], "unknown model 'abb'"),
         (["tolerance"], "exactly one of --model and --calibration"),
         (["tolerance", "--model", "ur5e", "--tol", "zz=1"], "unknown parameter 'zz'"),
+        (["tolerance", "--model", "ur5e", "--tol", "a2=1,2"], "--tol a2 takes one value"),
+        (["tolerance", "--model", "ur5e", "--length-tol", "-1"], "tolerances must be"),
         (["tolerance", "--calibration", "missing.json"], "calibration file not found"),
         (["tolerance", "--calibration", "c.json", "--json", "c.json"], "c.json is an input"),
     ],
