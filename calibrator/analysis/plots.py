@@ -70,8 +70,10 @@ def pdf_cdf(path, runs):
         centres, dens = mc.radial_density(summary, grid, stats["kernel"])
         keep = centres <= top
         ax_pdf.plot(centres[keep], dens[keep], label=label)
+        edges = np.linspace(0.0, grid.r_max, mc.N_RADIAL_BINS + 1)[1:]
         cdf = np.cumsum(summary.hist_r) / summary.count
-        ax_cdf.plot(centres[keep] + 0.5 * centres[0], cdf[keep], label=label)
+        shown = edges <= top
+        ax_cdf.plot(edges[shown], cdf[shown], label=label)
     for p in (0.5, 0.9, 0.98):
         ax_cdf.axhline(p, color="0.7", linewidth=0.8)
     ax_pdf.set_xlabel("|dP| (mm)")
