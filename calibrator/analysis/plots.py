@@ -1,11 +1,10 @@
-"""PNG figures of a misalignment study, written atomically (never a partial file).
+"""PNG figures of a misalignment study, as bytes (matplotlib's Agg canvas, no pyplot).
 
-matplotlib is imported inside the functions (Agg backend), so importing this
-module costs nothing for the other commands.
+The command writes them through :mod:`calibrator.outputs`, so they appear
+whole or not at all. matplotlib is imported inside the functions.
 """
 
-import os
-from pathlib import Path
+import io
 
 import numpy as np
 
@@ -13,28 +12,23 @@ from calibrator.analysis import misalignment as mc
 
 
 def _figure(ncols, width=4.2, height=3.8):
-    import matplotlib
-
-    matplotlib.use("Agg")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width * ncols, height), layout="constrained")
-    return fig, fig.subplots(1, ncols, squeeze=False)[0]
+    fig = Figure(figsize=(width * ncols, height), dpi=100)
+    FigureCanvasAgg(fig)
+    # Fixed margins: matplotlib's automatic layouts cost as much as the drawing.
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.13, top=0.88, wspace=0.3)
+    return fig, [fig.add_subplot(1, ncols, i + 1) for i in range(ncols)]
 
 
-def save(fig, path):
-    """Write ``fig`` to ``path`` as PNG via a temporary file in the same folder."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        fig.savefig(tmp, format="png", dpi=110)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+def _png(fig):
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    return buf.getvalue()
 
 
-def cloud(path, summary, grid, title=""):
+def cloud(summary, grid, title=""):
     """Density maps of the hand-error cloud projected on the XY, XZ and YZ planes.
 
     The ideal point (origin) is a cross, the density centre (mean error) a dot.
@@ -51,11 +45,12 @@ def cloud(path, summary, grid, title=""):
         ax.set_title(f"{'XYZ'[a]}-{'XYZ'[b]} projection")
     axes[0].legend(loc="upper right", fontsize="small")
     if title:
+        fig.subplots_adjust(top=0.8)
         fig.suptitle(title)
-    return save(fig, path)
+    return _png(fig)
 
 
-def pdf_cdf(path, runs):
+def pdf_cdf(runs):
     """PDF and CDF of |dP| for one or several runs.
 
     Parameters
@@ -81,10 +76,10 @@ def pdf_cdf(path, runs):
     ax_cdf.set_xlabel("|dP| (mm)")
     ax_cdf.set_ylabel("cumulative probability")
     ax_pdf.legend(fontsize="small")
-    return save(fig, path)
+    return _png(fig)
 
 
-def orientation(path, summary, grid):
+def orientation(summary, grid):
     """Densities of the orientation error: rotation about hand x, y, z and axis angles (deg)."""
     fig, (ax_rot, ax_axis) = _figure(2, width=5.0)
     for j, name in enumerate("xyz"):
@@ -99,10 +94,10 @@ def orientation(path, summary, grid):
     for ax in (ax_rot, ax_axis):
         ax.set_ylabel("probability density (1/deg)")
         ax.legend(fontsize="small")
-    return save(fig, path)
+    return _png(fig)
 
 
-def sweep(path, xlabel, xs, rows):
+def sweep(xlabel, xs, rows):
     """Statistics of |dP| against a swept input (R0 or a link length)."""
     fig, (ax,) = _figure(1, width=5.5)
     for key, label in (
@@ -116,4 +111,4 @@ def sweep(path, xlabel, xs, rows):
     ax.set_ylabel("|dP| (mm)")
     ax.set_ylim(bottom=0.0)
     ax.legend(fontsize="small")
-    return save(fig, path)
+    return _png(fig)

@@ -1,13 +1,13 @@
 """``calibrator analyze``: accuracy studies (misalignment Monte Carlo, tolerance budget)."""
 
 import json
-import os
 import time
 from enum import StrEnum
 from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
@@ -47,47 +47,6 @@ def _assignment(text, what):
     return name.strip(), _floats(values, f"{what} {name.strip()}")
 
 
-def _check_output(path, what, inputs=()):
-    """An output path whose folder exists and that is none of the inputs."""
-    if path is None:
-        return None
-    if any(i is not None and path.resolve() == i.resolve() for i in inputs):
-        raise CalibrationError(f"{what}: {path} is an input; choose another output")
-    if not path.parent.is_dir():
-        raise CalibrationError(f"{what}: folder {path.parent} does not exist")
-    if path.is_dir():
-        raise CalibrationError(f"{what}: {path} is a folder")
-    return path
-
-
-def _write_json(path, doc):
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(json.dumps(doc, indent=2) + "\n")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-class _Progress:
-    """Plain progress lines on stderr, at most one a second (and the last)."""
-
-    def __init__(self, label, quiet):
-        self.label, self.quiet = label, quiet
-        self.start = self.last = time.perf_counter()
-
-    def __call__(self, done, total):
-        now = time.perf_counter()
-        if self.quiet or (now - self.last < 1.0 and done < total):
-            return
-        self.last = now
-        typer.echo(
-            f"{self.label}: {done}/{total} trials ({100.0 * done / total:.0f} %, "
-            f"{now - self.start:.1f} s)",
-            err=True,
-        )
-
-
 _HEADER = f"{'case':24s} {'PDF peak':>9s} {'CDF 50%':>9s} {'CDF 90%':>9s} {'CDF 98%':>9s} "
 _HEADER += f"{'max':>9s} {'|mean|':>9s}"
 
@@ -111,30 +70,38 @@ def misalignment(
     h: str = typer.Option(
         None, "--h", help="End-face distance h (mm), one value or six [default: 267, see docs]."
     ),
-    trials: int = typer.Option(20000, help="Monte Carlo trials."),
+    trials: int = typer.Option(20000, callback=checks.at_least(1), help="Monte Carlo trials."),
     seed: int = typer.Option(0, help="Seed; results depend only on seed and trials."),
     sweep_r0: str = typer.Option(None, help="Also run with every joint's R0 at each value (mm)."),
     sweep_length: str = typer.Option(
         None, help="Also run with one link length at each value, e.g. d3=800,1000,1200 (mm)."
     ),
-    plots: Path = typer.Option(None, help="Folder to write the PNG figures into."),
+    plots: Path = typer.Option(
+        None, metavar="DIR", help="Folder to write the PNG figures into (created if missing)."
+    ),
     json_out: Path = typer.Option(None, "--json", help="Write all statistics to this JSON file."),
-    chunk: int = typer.Option(None, help="Trials per chunk (rounded to blocks of 10,000)."),
-    workers: int = typer.Option(None, help="Run on a Dask LocalCluster of N worker processes."),
+    chunk: int = typer.Option(
+        None, callback=checks.at_least(1), help="Trials per chunk (rounded to blocks of 10,000)."
+    ),
+    workers: int = typer.Option(
+        None, callback=checks.at_least(1), help="Run on a Dask LocalCluster of N worker processes."
+    ),
     scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress lines on stderr."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
+    from calibrator import outputs, progress
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
 
-    if trials < 1:
-        raise CalibrationError(f"--trials must be >= 1, got {trials}")
-    if plots is not None and not plots.is_dir():
-        raise CalibrationError(f"--plots: folder {plots} does not exist")
-    _check_output(json_out, "--json")
+    if workers is not None and scheduler is not None:
+        raise CalibrationError("give --workers or --scheduler, not both")
+    if json_out is not None:
+        outputs.check(json_out)
+    if plots is not None:
+        outputs.check_folder(plots)
     pose_deg = None if pose is None else _floats(pose, "--pose", 6)
     r0_mm = np.array(_floats(r0, "--r0", 6))
     h_mm = np.array(_floats(h, "--h", 6) if h is not None else [mc.PAPER_H_MM] * 6)
@@ -155,15 +122,17 @@ def misalignment(
     )
     typer.echo("|dP| (mm)")
     typer.echo(_HEADER)
+    reporter = progress.Reporter.for_cli(quiet)
     results, started = [], time.perf_counter()
     for label, study in studies:
-        summary, grid = engine.run(
-            study,
-            chunk_trials=chunk,
-            workers=workers,
-            scheduler=scheduler,
-            progress=_Progress(label, quiet) if trials >= 10 * mc.BLOCK else None,
-        )
+        with reporter.task(f"misalignment {label}", trials, "trials") as task:
+            summary, grid = engine.run(
+                study,
+                chunk_trials=chunk,
+                workers=workers,
+                scheduler=scheduler,
+                progress=lambda done, _total, task=task: task.update(done),
+            )
         stats = mc.statistics(summary, grid)
         results.append((label, study, summary, grid, stats))
         typer.echo(_row(label, stats))
@@ -182,46 +151,48 @@ def misalignment(
     if outside:
         typer.echo(f"note: {outside} values fell outside the figure ranges (statistics exact)")
     typer.echo(f"done in {time.perf_counter() - started:.2f} s")
-    if plots is not None:
-        _misalignment_plots(plots, results)
+    document = {
+        "model": model,
+        "trials": trials,
+        "seed": seed,
+        "h_mm": h_mm.tolist(),
+        "cases": [
+            {"case": label, "r0_mm": s.r0_mm.tolist(), **stats} for label, s, _, _, stats in results
+        ],
+    }
+    with outputs.Outputs() as batch:
+        if plots is not None:
+            _misalignment_plots(batch, plots, results)
+        if json_out is not None:
+            batch.text(json_out, json.dumps(document, indent=2) + "\n")
     if json_out is not None:
-        _write_json(
-            json_out,
-            {
-                "model": model,
-                "trials": trials,
-                "seed": seed,
-                "h_mm": h_mm.tolist(),
-                "cases": [
-                    {"case": label, "r0_mm": s.r0_mm.tolist(), **stats}
-                    for label, s, _, _, stats in results
-                ],
-            },
-        )
         typer.echo(f"wrote {json_out}")
 
 
-def _misalignment_plots(folder, results):
+def _misalignment_plots(batch, folder, results):
+    """Add every figure of the runs to an output batch."""
     from calibrator.analysis import plots
 
-    label, _, summary, grid, _ = results[0]
-    written = [
-        plots.cloud(folder / "cloud.png", summary, grid, "hand error, ideal point at origin"),
-        plots.orientation(folder / "orientation.png", summary, grid),
-    ]
+    folder = batch.folder(folder)
+    _, _, summary, grid, _ = results[0]
+    figures = {
+        "cloud.png": plots.cloud(summary, grid, "hand error, ideal point at origin"),
+        "orientation.png": plots.orientation(summary, grid),
+    }
     r0_runs = [r for r in results if r[0].startswith("R0=")] or results[:1]
-    written.append(plots.pdf_cdf(folder / "pdf_cdf.png", [(r[0], r[2], r[3]) for r in r0_runs]))
-    for prefix, name in (("R0=", "sweep_r0.png"), (None, "sweep_length.png")):
-        runs = [r for r in results[1:] if (r[0].startswith("R0=") == (prefix is not None))]
+    figures["pdf_cdf.png"] = plots.pdf_cdf([(r[0], r[2], r[3]) for r in r0_runs])
+    r0_sweep = [r for r in results[1:] if r[0].startswith("R0=")]
+    length_sweep = [r for r in results[1:] if not r[0].startswith("R0=")]
+    for name, runs in (("sweep_r0.png", r0_sweep), ("sweep_length.png", length_sweep)):
         if len(runs) > 1:
+            xlabel = "R0 (mm)" if runs is r0_sweep else f"{runs[0][0].split('=')[0]} (mm)"
             xs = [float(r[0].split("=")[1]) for r in runs]
-            xlabel = "R0 (mm)" if prefix else f"{runs[0][0].split('=')[0]} (mm)"
-            written.append(plots.sweep(folder / name, xlabel, xs, [r[4] for r in runs]))
-        if prefix is None:
-            for r in runs:
-                safe = r[0].replace("=", "-")
-                written.append(plots.cloud(folder / f"cloud_{safe}.png", r[2], r[3], r[0]))
-    typer.echo("wrote " + ", ".join(str(p) for p in written))
+            figures[name] = plots.sweep(xlabel, xs, [r[4] for r in runs])
+    for label, _, summary, grid, _ in length_sweep:
+        figures[f"cloud_{label.replace('=', '-')}.png"] = plots.cloud(summary, grid, label)
+    for name, png in figures.items():
+        batch.bytes(folder / name, png)
+    typer.echo(f"wrote {len(figures)} figures into {folder}: {', '.join(figures)}")
 
 
 @analyze_app.command("tolerance")
@@ -230,9 +201,19 @@ def tolerance(
     calibration: Path = typer.Option(
         None, help="calibration.json whose identified table is the nominal."
     ),
-    length_tol: float = typer.Option(0.05, help="Tolerance of every a and d (+- mm)."),
-    angle_tol: float = typer.Option(0.01, help="Tolerance of every alpha, theta, beta (+- deg)."),
-    joint_tol: float = typer.Option(0.01, help="Tolerance of every joint coordinate (+- deg)."),
+    length_tol: float = typer.Option(
+        0.05, callback=checks.finite(minimum=0.0), help="Tolerance of every a and d (+- mm)."
+    ),
+    angle_tol: float = typer.Option(
+        0.01,
+        callback=checks.finite(minimum=0.0),
+        help="Tolerance of every alpha, theta, beta (+- deg).",
+    ),
+    joint_tol: float = typer.Option(
+        0.01,
+        callback=checks.finite(minimum=0.0),
+        help="Tolerance of every joint coordinate (+- deg).",
+    ),
     tol: list[str] = typer.Option(
         None, help="Override one tolerance, NAME=VALUE (mm or deg), e.g. a2=0.02. Repeatable."
     ),
@@ -240,29 +221,34 @@ def tolerance(
         Distribution.uniform, help="Inside the band: uniform, or normal with tolerance = 3 sigma."
     ),
     pose: str = typer.Option(None, help="One pose, six joint angles (deg) [default: random]."),
-    poses: int = typer.Option(100, help="Random poses within the joint limits."),
-    samples: int = typer.Option(2000, help="Deviation sets for the nonlinear check."),
+    poses: int = typer.Option(
+        100, callback=checks.at_least(1), help="Random poses within the joint limits."
+    ),
+    samples: int = typer.Option(
+        2000, callback=checks.at_least(1), help="Deviation sets for the nonlinear check."
+    ),
     seed: int = typer.Option(0),
-    top: int = typer.Option(10, help="Rows of the sensitivity ranking to print."),
+    top: int = typer.Option(
+        10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
+    ),
     json_out: Path = typer.Option(None, "--json", help="Write the budget to this JSON file."),
 ):
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models
+    from calibrator import models, outputs
     from calibrator.analysis import tolerance as tl
 
     if (model is None) == (calibration is None):
         raise CalibrationError("give exactly one of --model and --calibration")
-    if poses < 1 or samples < 1 or top < 0:
-        raise CalibrationError("--poses and --samples must be >= 1, --top >= 0")
-    _check_output(json_out, "--json", inputs=(calibration,))
+    if json_out is not None:
+        outputs.check(json_out, inputs=[calibration])
     if calibration is not None:
         from calibrator import calibration as cal
 
-        doc = cal.load(calibration)
-        nominal, source = doc["mdh_array"], f"{calibration} (identified table)"
-        limits = models.get_model(doc["model"]).joint_limits_rad if doc.get("model") else None
+        loaded = cal.load(calibration)
+        nominal, source = loaded.mdh, f"{calibration} (identified table)"
+        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
     else:
         m = models.get_model(model)
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
@@ -310,5 +296,6 @@ def tolerance(
             f"{row['rms_mm']:8.4f} {row['worst_mm']:9.4f}"
         )
     if json_out is not None:
-        _write_json(json_out, {"nominal": source, **result})
+        text = json.dumps({"nominal": source, **result}, indent=2) + "\n"
+        outputs.write_text(json_out, text, inputs=[calibration])
         typer.echo(f"wrote {json_out}")

@@ -21,6 +21,18 @@ def run(*args, cwd):
     )
 
 
+def write_calibration(path, model, **deltas):
+    """A calibration.json as ``identify`` writes it: the model with some deltas identified."""
+    nominal = models.get_model(model).mdh
+    mdh = nominal.copy()
+    for name, value in deltas.items():
+        mdh[int(name[-1]) - 1, "a alpha theta d beta".split().index(name[:-1])] += value
+    cal = calibration.Calibration(
+        nominal_mdh=nominal, mdh=mdh, free=tuple(deltas), deltas=deltas, model=model
+    )
+    cal.save(path)
+
+
 def test_misalignment_writes_figures_and_statistics(tmp_path):
     (tmp_path / "figs").mkdir()
     out = run(
@@ -54,11 +66,7 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
     assert doc["ranking"][0]["name"] == "a2"  # the loosened tolerance comes out on top
     assert "tighten first" in out.stdout and "linearisation error" in out.stdout
 
-    mdh = models.get_model("er10l-c10").mdh.copy()
-    mdh[1, 0] += 0.3
-    cal = {"format": calibration.FORMAT, "version": calibration.VERSION, "model": "er10l-c10",
-           "mdh": calibration.mdh_records(mdh), "nominal_mdh": mdh.tolist()}  # fmt: skip
-    calibration.write(tmp_path / "cal.json", cal)
+    write_calibration(tmp_path / "cal.json", "er10l-c10", a2=0.3)
     out = run("tolerance", "--calibration", "cal.json", "--pose", "0,10,20,30,40,50", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert "cal.json (identified table); 1 poses" in out.stdout
@@ -71,17 +79,16 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
         (["misalignment", "--h", "0"], "h must be finite and > 0"),
         (["misalignment", "--r0", "1,2"], "--r0 needs 1 or 6 values"),
         (["misalignment", "--sweep-length", "x3=1"], "unknown link length 'x3'"),
-        (["misalignment", "--plots", "no/such/dir"], "--plots: folder no/such/dir does not exist"),
+        (["misalignment", "--plots", "no/such/dir"], "folder no/such does not exist"),
         (["misalignment", "--workers", "2", "--scheduler", "tcp://x:1"], "not both"),
-        (["misalignment", "--workers", "0"], "--workers must be >= 1"),
-        (["misalignment", "--trials", "0"], "--trials must be >= 1"),
+        (["misalignment", "--workers", "0"], "--workers: must be a whole number >= 1, got 0"),
+        (["misalignment", "--trials", "0"], "--trials: must be a whole number >= 1, got 0"),
         (["misalignment", "--model", "abb"], "unknown model 'abb'"),
         (["tolerance"], "exactly one of --model and --calibration"),
         (["tolerance", "--model", "ur5e", "--tol", "zz=1"], "unknown parameter 'zz'"),
         (["tolerance", "--model", "ur5e", "--tol", "a2=1,2"], "--tol a2 takes one value"),
-        (["tolerance", "--model", "ur5e", "--length-tol", "-1"], "tolerances must be"),
+        (["tolerance", "--model", "ur5e", "--length-tol", "-1"], "--length-tol: must be >= 0"),
         (["tolerance", "--calibration", "missing.json"], "calibration file not found"),
-        (["tolerance", "--calibration", "c.json", "--json", "c.json"], "c.json is an input"),
     ],
 )
 def test_bad_options_give_one_line_and_exit_2(args, message, capsys, tmp_path, monkeypatch):
@@ -110,12 +117,24 @@ def test_misalignment_json_is_atomic_and_numbers_match_the_api(tmp_path, capsys,
 
 
 @pytest.mark.parametrize("quiet", [False, True])
-def test_long_runs_report_progress_on_stderr_unless_quiet(quiet, capsys):
-    args = ["analyze", "misalignment", "--trials", "100000", "--chunk", "50000"]
+def test_progress_on_stderr_unless_quiet(quiet, capsys):
+    args = ["analyze", "misalignment", "--trials", "20000", "--chunk", "10000"]
     with pytest.raises(SystemExit) as exit_info:
         main(args + (["--quiet"] if quiet else []))
     assert exit_info.value.code == 0
     out, err = capsys.readouterr()
-    assert "CDF 50%" in out and "trials (" not in out
-    assert ("base: 100000/100000 trials (100 %" in err) is not quiet
+    assert "CDF 50%" in out and "task=" not in out
+    assert ("task=misalignment base done=20000 total=20000 unit=trials" in err) is not quiet
     assert (err == "") is quiet
+
+
+def test_tolerance_json_never_overwrites_its_calibration(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_calibration(tmp_path / "c.json", "ur5e", a2=0.1)
+    before = (tmp_path / "c.json").read_bytes()
+    with pytest.raises(SystemExit) as exit_info:
+        main(["analyze", "tolerance", "--calibration", "c.json", "--json", "c.json"])
+    assert exit_info.value.code == 2
+    assert "it is an input of this command" in capsys.readouterr().err
+    assert (tmp_path / "c.json").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
