@@ -137,6 +137,8 @@ class Calibration:
             diagnostics.update(
                 method=opts.method, seed=opts.seed, validation_fraction=opts.validation_fraction
             )
+            if hasattr(opts, "loss"):
+                diagnostics["loss"] = opts.loss
         known = {"space", "x", "dropped", "options", "fit_index", "validation_index", "details"}
         for key, value in vars(result).items():
             if key not in known and not key.startswith("_"):
@@ -166,8 +168,9 @@ class Calibration:
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
         and ``Rx Ry Rz`` angles (rad, :func:`calibrator.frames.angles_xyz`)
-        of ``base2tracker`` (nominal: of ``base0``); ``tool_*`` the tool
-        point in the flange frame (nominal: of ``tool0``).
+        of ``base2tracker`` (nominal: of ``base0``); ``tool_x/y/z`` the tool
+        point in the flange frame and ``tool_rx/ry/rz`` the angles of its
+        rotation (nominal: of ``tool0``).
 
         Returns
         -------
@@ -423,7 +426,9 @@ def _reject_constant(name):
 
 def _flat_values(mdh, base2tracker, tool):
     base = np.concatenate([base2tracker[:3, 3], frames.angles_xyz(base2tracker[:3, :3])])
-    return np.concatenate([np.asarray(mdh).ravel(), base, tool[:3, 3]])
+    # Tool rotation as Rx Ry Rz angles of flange2tool, like the base frame's (issue 9).
+    turn = frames.angles_xyz(tool[:3, :3])
+    return np.concatenate([np.asarray(mdh).ravel(), base, tool[:3, 3], turn])
 
 
 def _jsonable(value):

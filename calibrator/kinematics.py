@@ -129,18 +129,23 @@ def chain_parts(consts, theta_phase, q_phase, *, all_frames=False):
     n = q_phase.shape[0]
     flat = math.prod(batch)
     consts = consts.reshape((flat, 6, 4, 4))
-    # (6, sets, N), contiguous per joint: the phase of theta_i + q_i.
-    phases = theta_phase.reshape(flat, 6).T[:, :, np.newaxis] * q_phase.T[:, np.newaxis, :]
-    phases = phases[..., np.newaxis]
+    theta_phase = theta_phase.reshape(flat, 6)
     t = np.empty((flat, n, 3, 4))
     t[...] = _EYE_TOP
+    spare = np.empty_like(t)
     # The rotation below works in place, so stored frames must be copies.
     frames = [t.copy()] if all_frames else None
     for i in range(N_JOINTS):
-        t.view(np.complex128)[..., 0] *= phases[i]
+        # The phase of theta_i + q_i for every set and pose, (sets, N, 1),
+        # one outer product per joint (cheaper than one strided (6, sets, N)
+        # product up front, measured).
+        phase = np.multiply.outer(theta_phase[:, i], q_phase[:, i])[..., np.newaxis]
+        t.view(np.complex128)[..., 0] *= phase
         # One matrix product per parameter set over all poses' rows at once:
         # numpy then makes a few large products instead of N*sets tiny ones.
-        t = np.matmul(t.reshape(flat, n * 3, 4), consts[:, i]).reshape(flat, n, 3, 4)
+        # Into a preallocated buffer: the loop allocates nothing per joint.
+        np.matmul(t.reshape(flat, n * 3, 4), consts[:, i], out=spare.reshape(flat, n * 3, 4))
+        t, spare = spare, t
         if all_frames:
             frames.append(t.copy())
     shape = batch + (n, 3, 4)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calibrator import frames, kinematics
-from calibrator.parameters import ALL_NAMES, N_BASE, N_MDH
+from calibrator.parameters import ALL_NAMES, N_MDH, TOOL_ROTATION_START, TOOL_START
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def jacobian(space, x, obs, k=0.0, names=None):
 
     # Base frame: base2tracker = base0 Trans(t) Rx Ry Rz, turns about moving axes.
     b0_r = space.base0[:3, :3]
-    angles = full[N_MDH + 3 : N_MDH + N_BASE]
+    angles = full[N_MDH + 3 : TOOL_START]
     rx = frames.rotations_xyz([angles[0], 0.0, 0.0])
     rxy = frames.rotations_xyz([angles[0], angles[1], 0.0])
     turn_axes = np.column_stack([b0_r[:, 0], b0_r @ rx[:, 1], b0_r @ rxy[:, 2]])  # (3, 3)
@@ -180,12 +180,19 @@ def jacobian(space, x, obs, k=0.0, names=None):
 
     # Tool point: a slide along the flange axes.
     pos_tool = b_r @ link[:, 6, :3, :3]
-    rot_tool = np.zeros((n, 3, 3))
+    none = np.zeros((n, 3, 3))  # the tool point does not turn; the tool's turns do not move it
+    # Tool rotation R(tool0) Rx Ry Rz: turns about the tool frame's moving
+    # axes, which leave the tool point where it is.
+    t_angles = full[TOOL_ROTATION_START:]
+    t_rx = frames.rotations_xyz([t_angles[0], 0.0, 0.0])
+    t_rxy = frames.rotations_xyz([t_angles[0], t_angles[1], 0.0])
+    local = space.tool0[:3, :3] @ np.column_stack([[1.0, 0.0, 0.0], t_rx[:, 1], t_rxy[:, 2]])
+    rot_tool_turn = b_r @ link[:, 6, :3, :3] @ local  # (N, 3, 3), tracker-frame axes
 
-    pos_all = np.concatenate([pos_mdh, pos_base, pos_tool], axis=-1)  # (N, 3, 39)
+    pos_all = np.concatenate([pos_mdh, pos_base, pos_tool, none], axis=-1)  # (N, 3, 42)
     cols = [ALL_NAMES.index(name) for name in names]
     jac = pos_all[..., cols].reshape(3 * n, len(cols))
     if uses_orientation(obs, k):
-        rot_all = np.concatenate([rot_mdh, rot_base, rot_tool], axis=-1)
+        rot_all = np.concatenate([rot_mdh, rot_base, none, rot_tool_turn], axis=-1)
         jac = np.vstack([jac, np.sqrt(k) * rot_all[..., cols].reshape(3 * n, len(cols))])
     return jac

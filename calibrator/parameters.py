@@ -1,7 +1,8 @@
 """Which parameters are identified, and how they map to one vector.
 
 The full candidate set is the 6 x 5 MDH table, the pose of the robot base in
-the tracker frame (6) and the tool point in the flange frame (3). A
+the tracker frame (6) and the tool frame in the flange frame (point 3,
+rotation 3). A
 :class:`ParameterSpace` fixes the nominal values and a boolean mask over the
 candidates (the pybotics pattern); :meth:`ParameterSpace.unpack` turns a vector
 of *deltas* (or a swarm of them) into MDH tables and frames.
@@ -15,6 +16,9 @@ Parameter names
     around the closed-form first guess ``base0`` (mm, rad).
 ``tool_x, tool_y, tool_z``
     The tool point in the flange frame minus its first guess (mm).
+``tool_rx, tool_ry, tool_rz``
+    Rotation of the tool frame: ``R(flange2tool) = R(tool0) . Rx(rx) . Ry(ry) . Rz(rz)``
+    around the closed-form first guess ``tool0`` (rad). Only with orientation data.
 """
 
 from dataclasses import dataclass, field
@@ -27,8 +31,12 @@ from calibrator.errors import IdentifiabilityError
 MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMNS)
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
 TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
-ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES
-N_MDH, N_BASE = len(MDH_NAMES), len(BASE_NAMES)
+TOOL_ROTATION_NAMES = ("tool_rx", "tool_ry", "tool_rz")
+ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES + TOOL_ROTATION_NAMES
+N_MDH, N_BASE, N_TOOL = len(MDH_NAMES), len(BASE_NAMES), len(TOOL_NAMES)
+#: Offsets of the blocks in :data:`ALL_NAMES`.
+TOOL_START = N_MDH + N_BASE
+TOOL_ROTATION_START = TOOL_START + N_TOOL
 _INDEX = {name: i for i, name in enumerate(ALL_NAMES)}
 
 
@@ -37,9 +45,21 @@ def unit(name):
     i = _INDEX[name]
     if i < N_MDH:
         return kinematics.UNITS[i % 5]
-    if i < N_MDH + N_BASE:
+    if i < TOOL_START:
         return "mm" if name[-2] == "t" else "rad"
-    return "mm"
+    return "mm" if i < TOOL_ROTATION_START else "rad"
+
+
+#: Plausible size of a delta (one standard deviation of a prior), by block and
+#: unit: MDH errors of a machined arm are a fraction of a millimetre and about
+#: 10 mrad at most (the seed's injected errors); the frames start from
+#: closed-form guesses a few millimetres and milliradians off.
+PLAUSIBLE = {("mdh", "mm"): 1.0, ("mdh", "rad"): 0.01, ("frame", "mm"): 5.0, ("frame", "rad"): 0.02}
+
+
+def plausible_range(name):
+    """Plausible size of the delta of a parameter (mm or rad), see :data:`PLAUSIBLE`."""
+    return PLAUSIBLE[("mdh" if _INDEX[name] < N_MDH else "frame", unit(name))]
 
 
 @dataclass(frozen=True)
@@ -53,7 +73,8 @@ class ParameterSpace:
     base0 : ndarray, shape (4, 4)
         ``base2tracker`` first guess (identity in the base frame).
     tool0 : ndarray, shape (4, 4)
-        ``flange2tool`` first guess; only its translation is ever identified.
+        ``flange2tool`` first guess (its point and, with orientation data,
+        its rotation are identified around it).
     free : tuple of str
         Names of the free parameters, in :data:`ALL_NAMES` order.
     """
@@ -101,7 +122,7 @@ class ParameterSpace:
 
         Returns
         -------
-        ndarray, shape (..., 39)
+        ndarray, shape (..., len(ALL_NAMES))
         """
         x = np.asarray(x, dtype=float)
         if x.shape[-1] != self.size:
@@ -125,11 +146,14 @@ class ParameterSpace:
         """
         full = self.expand(x)
         mdh = self.nominal_mdh + full[..., :N_MDH].reshape(full.shape[:-1] + (6, 5))
-        b = full[..., N_MDH : N_MDH + N_BASE]
+        b = full[..., N_MDH:TOOL_START]
         delta = frames.transform(frames.rotations_xyz(b[..., 3:]), b[..., :3])
         base2tracker = self.base0 @ delta
         flange2tool = np.broadcast_to(self.tool0, full.shape[:-1] + (4, 4)).copy()
-        flange2tool[..., :3, 3] += full[..., N_MDH + N_BASE :]
+        flange2tool[..., :3, 3] += full[..., TOOL_START:TOOL_ROTATION_START]
+        turn = full[..., TOOL_ROTATION_START:]
+        if np.any(turn):
+            flange2tool[..., :3, :3] = self.tool0[:3, :3] @ frames.rotations_xyz(turn)
         return mdh, base2tracker, flange2tool
 
     def pack(self, mdh=None, base2tracker=None, flange2tool=None):
@@ -154,9 +178,13 @@ class ParameterSpace:
         if base2tracker is not None:
             delta = frames.invert(self.base0) @ base2tracker
             full[N_MDH : N_MDH + 3] = delta[:3, 3]
-            full[N_MDH + 3 : N_MDH + N_BASE] = frames.angles_xyz(delta[:3, :3])
+            full[N_MDH + 3 : TOOL_START] = frames.angles_xyz(delta[:3, :3])
         if flange2tool is not None:
-            full[N_MDH + N_BASE :] = np.asarray(flange2tool)[:3, 3] - self.tool0[:3, 3]
+            flange2tool = np.asarray(flange2tool, dtype=float)
+            full[TOOL_START:TOOL_ROTATION_START] = flange2tool[:3, 3] - self.tool0[:3, 3]
+            full[TOOL_ROTATION_START:] = frames.angles_xyz(
+                self.tool0[:3, :3].T @ flange2tool[:3, :3]
+            )
         return full[self.index]
 
     def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):
@@ -183,7 +211,7 @@ class ParameterSpace:
         return -half, half
 
 
-def structural_candidates(nominal_mdh, frame, tool_known):
+def structural_candidates(nominal_mdh, frame, tool_known, orientation=False):
     """Candidate free set before looking at data, and why the rest is left out.
 
     Hayati's rule: where axes i and i+1 are parallel, ``d_i`` slides along
@@ -191,13 +219,21 @@ def structural_candidates(nominal_mdh, frame, tool_known):
     four DH parameters and is left out. ``beta6`` has no next axis: a turn
     about the flange's y axis belongs to the tool frame.
 
+    With orientation data and an unknown tool, the whole tool frame (point
+    and rotation) is identified; everything of joint 6 after its joint
+    angle (``theta6, d6, a6, alpha6``) is then a constant transform before
+    the tool frame and duplicates it, so those stay nominal. This makes the
+    parameterisation unique: joint 6 is the bare rotation ``Rz(q6)``.
+
     Parameters
     ----------
     nominal_mdh : array_like, shape (6, 5)
     frame : {'base', 'tracker'}
         Whether ``base2tracker`` is identified.
     tool_known : bool
-        Whether the tool point is known (not identified).
+        Whether the tool frame is known (not identified).
+    orientation : bool
+        Whether orientation rows take part (6-DoF data and ``k > 0``).
 
     Returns
     -------
@@ -206,11 +242,20 @@ def structural_candidates(nominal_mdh, frame, tool_known):
         ``{"name": ..., "reason": ...}`` for every parameter left out.
     """
     parallel = kinematics.parallel_axes(nominal_mdh)
+    full_tool = orientation and not tool_known
     candidates, dropped = [], []
     for j in range(6):
         for col in kinematics.COLUMNS:
             name = f"{col}{j + 1}"
-            if col == "d" and j < 5 and parallel[j]:
+            if full_tool and j == 5 and col != "beta":
+                dropped.append(
+                    _drop(
+                        name,
+                        "the tool frame (point and rotation) is identified: "
+                        "joint 6's constant part belongs to it",
+                    )
+                )
+            elif col == "d" and j < 5 and parallel[j]:
                 dropped.append(
                     _drop(
                         name,
@@ -240,6 +285,8 @@ def structural_candidates(nominal_mdh, frame, tool_known):
         candidates.extend(BASE_NAMES)
     if not tool_known:
         candidates.extend(TOOL_NAMES)
+    if full_tool:
+        candidates.extend(TOOL_ROTATION_NAMES)
     return candidates, dropped
 
 

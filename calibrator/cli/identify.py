@@ -18,6 +18,13 @@ class Method(StrEnum):
     lm = "lm"
 
 
+class Loss(StrEnum):
+    lsq = "lsq"
+    huber = "huber"
+    trimmed = "trimmed"
+    minimax = "minimax"
+
+
 @app.command()
 def identify(
     session_path: Path = typer.Argument(..., metavar="SESSION", help="Session file (Parquet)."),
@@ -28,6 +35,11 @@ def identify(
     method: Method = typer.Option(
         Method.hybrid,
         help="hybrid: swarm, then least squares; pso: swarm only; lm: least squares only.",
+    ),
+    loss: Loss = typer.Option(
+        Loss.lsq,
+        help="lsq: least squares; huber/trimmed: robust to outlier poses; "
+        "minimax: smallest worst-pose error.",
     ),
     particles: int = typer.Option(
         20, callback=checks.at_least(2), help="Swarm size (particles, >= 2)."
@@ -52,8 +64,15 @@ def identify(
     seed: int = typer.Option(
         0, callback=checks.at_least(0), help="Random seed of the hold-out split and the swarm."
     ),
+    noise_mm: float = typer.Option(
+        0.05,
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Measurement noise (mm per axis) assumed when deciding what the poses identify.",
+    ),
     tool_known: bool = typer.Option(
-        None, "--tool-known/--tool-free", help="Fix or identify the tool point [default: session]."
+        None,
+        "--tool-known/--tool-free",
+        help="Fix or identify the tool frame (point; rotation with 6-DoF data) [default: session].",
     ),
     nominal_file: Path = typer.Option(
         None,
@@ -67,7 +86,7 @@ def identify(
 ):
     """Identify MDH parameters from a session and write calibration.json."""
     from calibrator import calibration, outputs, progress, session
-    from calibrator.identify import pipeline, report
+    from calibrator.identify import pipeline, report, uncertainty
 
     if k is not None and orientation_weight is not None:
         raise CalibrationError("give --orientation-weight only (--k is its old name)")
@@ -91,6 +110,8 @@ def identify(
         validation_fraction=validation_fraction,
         seed=seed,
         tool_known=tool_known,
+        loss=loss.value,
+        noise_mm=noise_mm,
     )
     reporter = progress.Reporter.for_cli(quiet)
     started = time.perf_counter()
@@ -117,11 +138,17 @@ def identify(
             write_report(report_dir, cal.to_json(), loaded, batch, output, session_path)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
-        f"{result.space.size} free parameters, method {method.value}"
+        f"{result.space.size} free parameters, method {method.value}, loss {loss.value}"
     )
     for item in result.dropped:
         typer.echo(f"  not identified: {item['name']:8s} {item['reason']}")
+    for text in result.warnings:
+        typer.echo(f"warning: {text}")
+    if result.outliers and loss.value in ("huber", "trimmed"):
+        typer.echo(f"outlier poses set aside: {', '.join(map(str, result.outliers))}")
     typer.echo(report.format_table(result.stats))
+    for line in uncertainty.summary_lines(result.uncertainty):
+        typer.echo(line)
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
 

@@ -15,7 +15,7 @@ FRAME_FIELDS = ("x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad")
 _FRAME_PARAMS = {"base2tracker": "base_", "flange2tool": "tool_"}
 _FRAME_NAMES = {
     "base_": ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz"),
-    "tool_": ("tool_x", "tool_y", "tool_z", None, None, None),
+    "tool_": ("tool_x", "tool_y", "tool_z", "tool_rx", "tool_ry", "tool_rz"),
 }
 
 

@@ -1,4 +1,4 @@
-"""Closed-form first guesses of the base frame and the tool point."""
+"""Closed-form first guesses of the base frame and the tool frame."""
 
 import numpy as np
 
@@ -25,13 +25,41 @@ def tool_point(base2flange, base2tracker, points):
     return np.linalg.lstsq(rot.reshape(-1, 3), rhs.ravel(), rcond=None)[0]
 
 
+def tool_rotation(base2flange, base2tracker, rotations):
+    """Least-squares (chordal) tool rotation in the flange frame.
+
+    Each pose gives one estimate ``(B R_flange)^T R_measured``; the rotation
+    nearest to their sum (projected with an SVD) maximises the summed
+    ``trace`` agreement, so a probe mounted at any angle is found in one step.
+
+    Parameters
+    ----------
+    base2flange : ndarray, shape (N, 4, 4)
+        Nominal flange poses in the base frame.
+    base2tracker : ndarray, shape (4, 4)
+    rotations : ndarray, shape (N, 3, 3)
+        Measured probe orientations, tracker frame.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
+    model = base2tracker[:3, :3] @ base2flange[:, :3, :3]
+    total = np.einsum("nji,njk->ik", model, rotations)
+    u, _, vt = np.linalg.svd(total)
+    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    return u @ fix @ vt
+
+
 def first_guess(nominal_mdh, obs, flange2tool, frame, tool_known, iterations=20):
     """``base2tracker`` and ``flange2tool`` to start the identification from.
 
     In the base frame, ``base2tracker`` is the identity. In the tracker frame
     it is the best-fit rigid transform between the nominal model's tool
     points and the measured points (Kabsch); with an unknown tool point the
-    fit alternates with a linear least-squares fit of the tool point.
+    fit alternates with a linear least-squares fit of the tool point. With
+    orientation data and an unknown tool, the tool rotation is then
+    :func:`tool_rotation` (the session's guess of it is not used).
 
     Parameters
     ----------
@@ -58,4 +86,6 @@ def first_guess(nominal_mdh, obs, flange2tool, frame, tool_known, iterations=20)
         if tool_known:
             break
         tool[:3, 3] = tool_point(base2flange, base, obs.points)
+    if obs.has_orientation and not tool_known:
+        tool[:3, :3] = tool_rotation(base2flange, base, obs.rotations)
     return base, tool

@@ -101,7 +101,7 @@ def test_jacobian_matches_finite_differences(orientation):
             for e in np.eye(space.size)
         ]
     )
-    assert jac.shape == numeric.shape == (len(q) * (6 if orientation else 3), 39)
+    assert jac.shape == numeric.shape == (len(q) * (6 if orientation else 3), len(ALL_NAMES))
     np.testing.assert_allclose(jac, numeric, atol=1e-5 * np.abs(numeric).max())
 
 
@@ -157,3 +157,17 @@ def test_orientation_makes_the_last_joints_turns_identifiable():
 def test_too_few_poses_is_refused():
     with pytest.raises(parameters.IdentifiabilityError, match="24 free parameters"):
         parameters.require_enough(18, 24)
+
+
+def test_full_tool_frame_replaces_joint_6_constant_part():
+    nominal = get_model("ur10e").mdh
+    with_rot, dropped = parameters.structural_candidates(nominal, "tracker", False, True)
+    assert {"tool_rx", "tool_ry", "tool_rz", "tool_x"} <= set(with_rot)
+    assert not {"a6", "alpha6", "theta6", "d6", "beta6"} & set(with_rot)
+    reasons = {d["name"]: d["reason"] for d in dropped}
+    assert "tool frame" in reasons["theta6"]
+    # Without orientation, or with the tool known, the tool rotation is not identified.
+    points_only, _ = parameters.structural_candidates(nominal, "tracker", False, False)
+    known, _ = parameters.structural_candidates(nominal, "tracker", True, True)
+    assert "tool_rx" not in points_only and "theta6" in points_only
+    assert not any(n.startswith("tool_") for n in known) and "theta6" in known

@@ -83,7 +83,8 @@ def test_report_renders_from_a_simulated_session(identified, tmp_path):
     assert all(d["name"] in dropped for d in doc["dropped_parameters"])
     deltas = page.sections["deltas"]["text"]
     assert all(name in deltas for name in doc["free_parameters"])
-    assert "standard errors: not recorded" in deltas
+    # identify records standard errors (issue 9): the table shows them.
+    assert "standard error" in deltas and "standard errors: not recorded" not in deltas
     assert "robot base" not in page.sections["error_vs_distance"]["text"]  # tracker frame
     assert "held-out" in page.sections["accuracy"]["text"]
 
