@@ -285,7 +285,10 @@ def error_body(seq: int, code: ErrorCode, detail: str = "") -> str:
     kind = "EV" if seq == EVENT_SEQ else "ER"
     fields = [kind, str(seq), str(int(code)), code.name]
     if detail:
-        fields.append(detail.replace(",", ";").replace("*", "x"))
+        # Printable ASCII without ',' or '*', cut so the frame stays within MAX_FRAME.
+        room = MAX_FRAME - len(",".join(fields)) - len(",*HHHH\r\n")
+        text = "".join(c if " " <= c <= "~" else "?" for c in detail)
+        fields.append(text.replace(",", ";").replace("*", "x")[:room])
     return ",".join(fields)
 
 
