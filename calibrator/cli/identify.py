@@ -38,6 +38,8 @@ def identify(
 
     started = time.perf_counter()
     loaded = session.load(session_path, model=model)
+    for doubt in loaded.warnings:
+        typer.echo(f"warning: {doubt}", err=True)
     options = pipeline.Options(
         method=method.value,
         particles=particles,
