@@ -13,7 +13,8 @@ Before fitting:
   :data:`MAX_ABS_RAD` (absurd, not merely out of range);
 - **joints against the model's joint limits**; values that cannot be
   radians on this arm but fit its limits as degrees are named as degrees;
-- **points against the model's reach**: the distance between two measured
+- **points against the model's reach**: no point further from the cloud's
+  median centre than :data:`EXTENT_FACTOR` times the reach; and the distance between two measured
   points, divided by the distance the nominal model gives for the same two
   joint vectors, is about 1 whatever the frame (distances do not depend on
   ``base2tracker``). A median ratio far from 1 names the unit that explains
@@ -37,6 +38,7 @@ LIMIT_TOL_RAD = 1e-6  # a joint read back exactly on its limit is inside
 SCALE_WARN = 1.5  # measured/nominal distance ratio beyond 1.5x either way: warn
 SCALE_REFUSE = 3.0  # beyond 3x: refuse (a tool or model mistake stays well inside)
 MAX_SCALE_POSES = 2000  # poses used for the ratio (evenly spaced), bounds the cost
+EXTENT_FACTOR = 3.0  # no point further than this x reach from the cloud's median centre
 MIN_PAIR_MM = 20.0  # pairs of poses closer than this in the model say little about scale
 
 #: Units a length may have been written in by mistake, as the factor to mm.
@@ -92,9 +94,10 @@ def check_observations(
     _check_joint_limits(q, joint_limits_rad, names)
     _check_degenerate(q, points)
     ratio, reach = scale_ratio(q, points, nominal_mdh, flange2tool)
-    if ratio is None:
-        return []
-    return _judge_scale(ratio, reach)
+    # The scale first: when every point is off by a unit factor, that is the message.
+    warnings = [] if ratio is None else _judge_scale(ratio, reach)
+    _check_extent(points, reach)
+    return warnings
 
 
 def _check_magnitudes(q, points, names):
@@ -141,6 +144,24 @@ def _check_degenerate(q, points):
         )
     if len(points) > 1 and np.all(points == points[0]):
         raise SessionError(f"all {len(points)} poses have the same measured point")
+
+
+def _check_extent(points, reach):
+    """Every point within reach of the others: the arm cannot put its tool further."""
+    if len(points) < 3:
+        return
+    centre = np.median(points, axis=0)
+    distance = np.linalg.norm(points - centre, axis=1)
+    # All points lie in a ball of radius `reach` around the base; the median centre is
+    # within reach * sqrt(3) of the base, so no point is more than 2.8 reach from it.
+    far = distance > EXTENT_FACTOR * reach
+    if far.any():
+        row = int(np.argmax(distance))
+        raise SessionError(
+            f"row {row}: the point is {distance[row]:.6g} mm from the middle of the point "
+            f"cloud, beyond the arm's reach of about {reach:.0f} mm "
+            f"({int(far.sum())} of {len(points)} points)"
+        )
 
 
 def scale_ratio(q, points, nominal_mdh, flange2tool=None):
