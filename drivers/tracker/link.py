@@ -317,7 +317,8 @@ class Link:
                 # return everything that has arrived without waiting for more.
                 port.timeout = 0
                 chunk = port.read(room)
-            elif not self._buf:
+            elif not self._buf or self._skipping:
+                # Skipping a line with no end: read_until would take it byte by byte.
                 chunk = port.read(1)
             else:
                 # A line has begun: finish it with read_until, bounded by the deadline.

@@ -215,3 +215,49 @@ def test_sequence_wraps_but_the_wrapped_number_is_not_ambiguous():
         truth = _pose(sim, k)
         np.testing.assert_allclose(tracker.measure().point_mm, truth)
     assert tracker.link.last_seq == 2
+
+
+def test_one_megabyte_burst_over_a_real_pty_costs_at_most_one_reading():
+    """The same burst through pyserial on a pty: the device sends 1 MiB of junk, then replies."""
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    sim = _exact_sim()
+    burst = threading.Event()
+    stop = threading.Event()
+
+    def device():
+        buf = b""
+        while not stop.is_set():
+            try:
+                buf += os.read(master, 4096)
+            except OSError:
+                return
+            while b"\r\n" in buf:
+                line, buf = buf.split(b"\r\n", 1)
+                if b"MEAS" in line and burst.is_set():
+                    burst.clear()
+                    os.write(master, b"\x7f" * (1 << 20))  # blocks until the driver reads it
+                for out in sim.handle_line(line + b"\r\n"):
+                    os.write(master, out.data)
+
+    thread = threading.Thread(target=device, daemon=True)
+    thread.start()
+    tracker = LaserTracker(os.ttyname(slave), timeout_s=5.0, measure_timeout_s=5.0)
+    try:
+        tracker.connect()
+        burst.set()
+        failures = 0
+        for k in range(4):
+            truth = _pose(sim, k)
+            try:
+                np.testing.assert_allclose(tracker.measure().point_mm, truth, atol=1e-9)
+            except FrameError:
+                failures += 1
+        assert failures <= 1
+        assert tracker.discarded_bytes >= 1 << 20
+    finally:
+        tracker.close()
+        stop.set()
+        os.close(slave)
+        os.close(master)
+        thread.join(timeout=5)
