@@ -17,13 +17,16 @@ Before fitting:
   median centre than :data:`EXTENT_FACTOR` times the reach; and the distance between two measured
   points, divided by the distance the nominal model gives for the same two
   joint vectors, is about 1 whatever the frame (distances do not depend on
-  ``base2tracker``). A median ratio far from 1 names the unit that explains
-  it (m, cm, inch, um) or, failing that, says the points do not fit the
-  model (joints in degrees, wrong model);
+  ``base2tracker``). A median ratio far from 1 is explained if possible:
+  joints in degrees (the ratio is about 1 with the joints read as degrees),
+  or points in m, cm, inch or um; failing that, the points do not fit the
+  model;
 - **degenerate poses**: every pose with the same joints, or every point the same.
 
-Ambiguous cases (a ratio off by less than :data:`SCALE_REFUSE`) give a
-warning string instead of an error.
+A ratio off 1 is refused when reading the joints as degrees explains it
+(a ratio near 1 and far less scattered over the poses than in radians), or
+when a unit in :data:`LENGTH_UNITS` does (to 25 %), or when it is off by more
+than :data:`SCALE_REFUSE`; otherwise (ambiguous) it gives a warning string.
 """
 
 import numpy as np
@@ -36,7 +39,7 @@ MAX_ABS_RAD = 100.0  # 16 turns: beyond any joint, whatever the unit mistake
 GENERIC_JOINT_LIMIT_RAD = 2.0 * np.pi  # when the session names no model: any revolute joint
 LIMIT_TOL_RAD = 1e-6  # a joint read back exactly on its limit is inside
 SCALE_WARN = 1.5  # measured/nominal distance ratio beyond 1.5x either way: warn
-SCALE_REFUSE = 3.0  # beyond 3x: refuse (a tool or model mistake stays well inside)
+SCALE_REFUSE = 5.0  # beyond 5x: refuse (an unknown tool or a wrong arm size stays inside)
 MAX_SCALE_POSES = 2000  # poses used for the ratio (evenly spaced), bounds the cost
 EXTENT_FACTOR = 3.0  # no point further than this x reach from the cloud's median centre
 MIN_PAIR_MM = 20.0  # pairs of poses closer than this in the model say little about scale
@@ -93,9 +96,17 @@ def check_observations(
     _check_magnitudes(q, points, names)
     _check_joint_limits(q, joint_limits_rad, names)
     _check_degenerate(q, points)
-    ratio, reach = scale_ratio(q, points, nominal_mdh, flange2tool)
+    ratio, scatter, reach = scale_ratio(q, points, nominal_mdh, flange2tool)
     # The scale first: when every point is off by a unit factor, that is the message.
-    warnings = [] if ratio is None else _judge_scale(ratio, reach)
+    warnings = []
+    if ratio is not None and not _plausible_scale(ratio):
+        as_degrees = scale_ratio(np.deg2rad(q), points, nominal_mdh, flange2tool)
+        degrees_fit = (
+            as_degrees[0] is not None
+            and _plausible_scale(as_degrees[0])
+            and as_degrees[1] < 0.5 * scatter  # consistent over the poses, unlike radians
+        )
+        warnings = _judge_scale(ratio, as_degrees[0] if degrees_fit else None, reach)
     _check_extent(points, reach)
     return warnings
 
@@ -181,6 +192,10 @@ def scale_ratio(q, points, nominal_mdh, flange2tool=None):
     ratio : float or None
         About 1 for consistent units; None when too few pairs of poses are
         far enough apart in the model to tell.
+    scatter : float or None
+        Median absolute deviation of the log ratios: small when one factor
+        explains every pair (a unit mistake), large when the joints are read
+        wrongly (each pair is off differently).
     reach : float
         Upper bound of the arm's reach with this tool, mm.
     """
@@ -189,7 +204,7 @@ def scale_ratio(q, points, nominal_mdh, flange2tool=None):
     reach = float(np.abs(mdh[:, 0]).sum() + np.abs(mdh[:, 3]).sum() + np.linalg.norm(tool[:3, 3]))
     n = len(q)
     if n < 3:
-        return None, reach
+        return None, None, reach
     take = np.unique(np.linspace(0, n - 1, min(n, MAX_SCALE_POSES)).astype(int))
     q, points = q[take], points[take]
     model = kinematics.forward(mdh, q, tool)[:, :3, 3]
@@ -202,26 +217,39 @@ def scale_ratio(q, points, nominal_mdh, flange2tool=None):
         keep = d_model > MIN_PAIR_MM
         ratios.append(d_meas[keep] / d_model[keep])
     ratios = np.concatenate(ratios)
+    ratios = ratios[ratios > 0]
     if len(ratios) < 3:
-        return None, reach
-    return float(np.median(ratios)), reach
+        return None, None, reach
+    logs = np.log(ratios)
+    centre = np.median(logs)
+    return float(np.exp(centre)), float(np.median(np.abs(logs - centre))), reach
 
 
-def _judge_scale(ratio, reach):
-    if 1.0 / SCALE_WARN <= ratio <= SCALE_WARN:
-        return []
+def _plausible_scale(ratio):
+    return 1.0 / SCALE_WARN <= ratio <= SCALE_WARN
+
+
+def _judge_scale(ratio, ratio_if_degrees, reach):
+    """Refuse (naming the likely mistake) or warn about a measured/nominal ratio off 1.
+
+    ``ratio_if_degrees`` is given only when reading the joints as degrees fits.
+    """
     describe = (
         f"distances between measured points are {ratio:.4g} times those the model gives for "
         f"the same joints (arm reach about {reach:.0f} mm)"
     )
+    if ratio_if_degrees is not None:
+        raise SessionError(
+            f"{describe}, but {ratio_if_degrees:.3g} times if the joints are read as degrees: "
+            "the joints look like degrees; convert them to radians"
+        )
     unit = likely_length_unit(ratio)
     if unit is not None:
-        message = f"{describe}: the points look like {unit}, not mm"
-    else:
-        message = (
-            f"{describe}: the points do not fit the model; are the joints in degrees, "
-            "or is it the wrong model?"
-        )
+        raise SessionError(f"{describe}: the points look like {unit}, not mm")
+    message = (
+        f"{describe}: the points do not fit the model; are the joints in degrees, "
+        "or is it the wrong model?"
+    )
     if ratio < 1.0 / SCALE_REFUSE or ratio > SCALE_REFUSE:
         raise SessionError(message)
     return [message]

@@ -157,7 +157,7 @@ def load(path, model=None):
     meta_raw = (pf.schema_arrow.metadata or {}).get(META_KEY)
     meta = _parse_meta(meta_raw, path, model)
     loaded = Session(_validate_table(table, path, meta), meta)
-    limits = get_model(meta.model).joint_limits_rad if meta.model else None
+    limits = _model_limits(meta.model)
     try:
         loaded.warnings = plausibility.check_observations(
             loaded.array(JOINT_COLUMNS),
@@ -170,6 +170,16 @@ def load(path, model=None):
     except SessionError as exc:
         raise SessionError(f"{path}: {exc}") from None
     return loaded
+
+
+def _model_limits(name):
+    """Joint limits of a named model; None for a name only ``nominal_mdh`` describes."""
+    if name is None:
+        return None
+    try:
+        return get_model(name).joint_limits_rad
+    except CalibrationError:
+        return None
 
 
 def _first_line(exc):
@@ -218,8 +228,6 @@ def _parse_meta(raw, path, model):
             name = get_model(name).name
         else:
             nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
-            if name is not None:
-                name = get_model(name).name
         tool = meta.get("flange2tool")
         tool = (
             np.eye(4)
@@ -309,8 +317,13 @@ def _validate_table(table, path, meta):
         values = _floats(table, col)
         bad = ~np.isfinite(values)
         if bad.any():
-            where = "" if col == "pose" else f" (pose {_poses(table, bad)})"
-            raise SessionError(f"{path}: column {col} has NaN or infinite values{where}")
+            raise SessionError(
+                f"{path}: column {col} has NaN or infinite values (pose {_poses(table, bad)})"
+            )
+        if col in ROTVEC_COLUMNS and np.any(np.abs(values) > plausibility.MAX_ABS_RAD):
+            raise SessionError(f"{path}: column {col} has absurd values (beyond 100 rad)")
+        if col in SPREAD_COLUMNS and np.any(values < 0):
+            raise SessionError(f"{path}: column {col} (a standard deviation) has negative values")
     poses = table["pose"].to_pylist()
     if any(p is None or (isinstance(p, float) and not np.isfinite(p)) for p in poses):
         raise SessionError(f"{path}: column pose has NaN, infinite or null values")

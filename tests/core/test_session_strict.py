@@ -248,3 +248,29 @@ def test_cli_identify_gives_one_line_and_exit_2_for_a_bad_session(tmp_path):
     assert "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "metres" in result.stderr
     assert not (tmp_path / "c.json").exists()
+
+
+def test_a_custom_arm_named_only_by_its_nominal_table_loads(tmp_path):
+    table, meta = _simulated()
+    meta["model"] = "my-custom-arm"  # unknown name; nominal_mdh describes the arm
+    loaded = session.load(_write(tmp_path / "s.parquet", table, meta))
+    assert loaded.meta.model == "my-custom-arm" and loaded.warnings == []
+
+
+@pytest.mark.parametrize(("column", "value"), [("sx_mm", -0.01), ("rx_rad", 1e200)])
+def test_absurd_optional_columns_are_refused(tmp_path, column, value):
+    table, meta = _simulated()
+    if column not in table.column_names:
+        table = table.append_column(column, pa.array(np.full(table.num_rows, 0.01)))
+    values = np.asarray(table[column].to_pylist(), dtype=float)
+    values[2] = value
+    table = table.set_column(table.column_names.index(column), column, pa.array(values))
+    with pytest.raises(SessionError, match=column):
+        session.load(_write(tmp_path / "s.parquet", table, meta))
+
+
+def test_a_scale_off_by_less_than_a_unit_is_a_warning(tmp_path):
+    table, meta = _simulated()
+    path = _write(tmp_path / "s.parquet", _scaled(table, POINTS, 2.0), meta)
+    (warning,) = session.load(path).warnings
+    assert "do not fit the model" in warning

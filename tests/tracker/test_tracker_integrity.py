@@ -13,6 +13,7 @@ import tty
 
 import numpy as np
 import pytest
+import serial
 from tracker_testkit import DevicePort, engine_responder
 
 from drivers.tracker import ConnectionLost, FrameError, LaserTracker, TrackerTimeout
@@ -261,3 +262,29 @@ def test_one_megabyte_burst_over_a_real_pty_costs_at_most_one_reading():
         os.close(slave)
         os.close(master)
         thread.join(timeout=5)
+
+
+def test_after_a_write_timeout_the_next_frame_ends_the_part_written_line():
+    sim = _exact_sim()
+    port = DevicePort(engine_responder(sim))
+    tracker = LaserTracker(port, reconnect_attempts=0)
+    tracker.connect()
+    written = []
+    real_write = port.write
+
+    def stuck_write(data):
+        port.write = recording_write
+        real_write(data[:4])  # part of the frame went out, then the device stopped reading
+        raise serial.SerialTimeoutException("Write timeout")
+
+    def recording_write(data):
+        written.append(data)
+        return real_write(data)
+
+    port.write = stuck_write
+    with pytest.raises(TrackerTimeout, match="not reading"):
+        tracker.measure(timeout_s=0.5)
+    truth = _pose(sim, 1)
+    np.testing.assert_allclose(tracker.measure().point_mm, truth)
+    assert written[0].startswith(b"\r\n")  # the device answered BAD_FRAME to the fragment
+    assert tracker.link.port.write_timeout is not None
