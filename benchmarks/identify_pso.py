@@ -33,7 +33,7 @@ def seed_case(seed):
         frame="base",
         orientation=True,
         noise_mm=0.0,
-        errors="seed",
+        errors="ref003",
     )
     obs = Session(table, meta).observations
     fit_idx, val_idx = pipeline.split(len(obs), 0.2, seed)

@@ -304,10 +304,10 @@ def _priority(name):
     return i - len(ALL_NAMES) if i >= N_MDH else i
 
 
-def require_enough(n_residuals, n_free, what="poses"):
+def require_enough(n_residuals, n_free, what="the poses"):
     """Raise if there are fewer residuals than free parameters."""
     if n_residuals < n_free:
         raise IdentifiabilityError(
-            f"{n_residuals} measured values from the fitting {what} cannot identify "
+            f"{n_residuals} measured values from {what} cannot identify "
             f"{n_free} free parameters; measure more poses"
         )

@@ -36,7 +36,6 @@ is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
 
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,7 +43,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from calibrator import frames, kinematics, plausibility
+from calibrator import frames, kinematics, outputs, plausibility
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.measurement import Observations
 from calibrator.models import get_model
@@ -387,8 +386,8 @@ def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=N
     return pa.table(data)
 
 
-def write(path, table, meta):
-    """Write a session atomically (a temporary file renamed into place).
+def write(path, table, meta, batch=None):
+    """Write a session atomically (:mod:`calibrator.outputs`).
 
     Parameters
     ----------
@@ -396,20 +395,16 @@ def write(path, table, meta):
     table : pyarrow.Table or pandas.DataFrame
         Rows following the schema above.
     meta : SessionMeta
+    batch : calibrator.outputs.Outputs, optional
+        Write as part of this batch (all of its files or none).
     """
-    path = Path(path)
     arrow = (
         table if isinstance(table, pa.Table) else pa.Table.from_pandas(table, preserve_index=False)
     )
     metadata = dict(arrow.schema.metadata or {})
     metadata[META_KEY] = json.dumps(meta.to_json()).encode()
     arrow = arrow.replace_schema_metadata(metadata)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        pq.write_table(arrow, tmp)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    if batch is None:
+        outputs.write_with(path, lambda tmp: pq.write_table(arrow, tmp))
+    else:
+        batch.file(path, lambda tmp: pq.write_table(arrow, tmp))

@@ -110,7 +110,7 @@ def simulate(
     noise_mm=0.0,
     orientation_noise_rad=0.0,
     joint_noise_rad=0.0,
-    errors="seed",
+    errors="ref003",
     tool_offset_mm=0.0,
     n_readings=10,
 ):
@@ -134,9 +134,10 @@ def simulate(
     joint_noise_rad : float
         Standard deviation of the encoder error per joint (rad): the joint
         angles read back differ from the true ones by this.
-    errors : {'seed', 'random', 'none'}
-        ``seed``: Table 2 of seed 003 (ER10L-C10 only); ``random``: errors
-        of the same size, drawn with ``seed``.
+    errors : {'ref003', 'random', 'none'}
+        ``ref003``: Table 2 of reference paper 003 (ER10L-C10 only; ``'seed'``
+        is its old name); ``random``: errors of the same size, drawn with
+        ``seed``.
     tool_offset_mm : float
         If non-zero, the true tool point differs from the session's first
         guess by a random vector of this length and the tool is unknown;
@@ -154,20 +155,24 @@ def simulate(
 
     rng = np.random.default_rng(seed)
     robot = get_model(model)
-    if errors == "seed":
+    errors = "ref003" if errors == "seed" else errors  # its old name
+    if errors == "ref003":
         if robot.name != "er10l-c10":
-            raise ValueError("the seed's error table is for er10l-c10; use errors='random'")
+            raise ValueError(
+                "the ref003 error table (paper 003, Table 2) is for er10l-c10; "
+                "use random errors for other models"
+            )
         delta = SEED_ERRORS
     elif errors == "random":
         delta = random_errors(robot.mdh, rng)
     elif errors == "none":
         delta = np.zeros((6, 5))
     else:
-        raise ValueError(f"errors must be 'seed', 'random' or 'none', got {errors!r}")
+        raise ValueError(f"errors must be 'ref003', 'random' or 'none', got {errors!r}")
     true_mdh = robot.mdh + delta
 
     tool_guess = frames.transform(translation=DEFAULT_TOOL_POINT)
-    if errors == "seed" and not tool_offset_mm:
+    if errors == "ref003" and not tool_offset_mm:
         tool_guess = np.eye(4)  # the seed measures the flange itself
     true_tool = tool_guess.copy()
     if tool_offset_mm:

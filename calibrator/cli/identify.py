@@ -1,12 +1,15 @@
 """``calibrator identify``: MDH parameters from a session, written to calibration.json."""
 
 import time
+from dataclasses import replace
 from enum import StrEnum
 from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
+from calibrator.errors import CalibrationError, IdentifiabilityError
 
 
 class Method(StrEnum):
@@ -18,40 +21,102 @@ class Method(StrEnum):
 @app.command()
 def identify(
     session_path: Path = typer.Argument(..., metavar="SESSION", help="Session file (Parquet)."),
-    output: Path = typer.Option(Path("calibration.json"), "-o", "--output"),
-    model: str = typer.Option(None, help="Named model instead of the session's."),
-    method: Method = typer.Option(Method.hybrid),
-    particles: int = typer.Option(20, min=2),
-    generations: int = typer.Option(2000, min=0),
-    k: float = typer.Option(None, "--k", help="Orientation weight (mm^2/rad^2) [default: 1e4]."),
-    validation_fraction: float = typer.Option(
-        0.2, min=0.0, max=0.95, help="Share of poses held out (0 = fit all)."
+    output: Path = typer.Option(
+        Path("calibration.json"), "-o", "--output", help="Calibration file to write (JSON)."
     ),
-    seed: int = typer.Option(0),
+    model: str = typer.Option(None, help="Named model instead of the session's."),
+    method: Method = typer.Option(
+        Method.hybrid,
+        help="hybrid: swarm, then least squares; pso: swarm only; lm: least squares only.",
+    ),
+    particles: int = typer.Option(
+        20, callback=checks.at_least(2), help="Swarm size (particles, >= 2)."
+    ),
+    generations: int = typer.Option(
+        2000, callback=checks.at_least(0), help="Swarm generations (>= 0)."
+    ),
+    orientation_weight: float = typer.Option(
+        None,
+        "--orientation-weight",
+        callback=checks.finite(minimum=0.0),
+        help="Weight k of orientation errors (mm^2/rad^2, >= 0) [default: 1e4].",
+    ),
+    k: float = typer.Option(
+        None, "--k", hidden=True, callback=checks.finite(minimum=0.0), help="Old name."
+    ),
+    validation_fraction: float = typer.Option(
+        0.2,
+        callback=checks.fraction(),
+        help="Share of poses held out for checking, in [0, 1) (0 = fit all).",
+    ),
+    seed: int = typer.Option(
+        0, callback=checks.at_least(0), help="Random seed of the hold-out split and the swarm."
+    ),
     tool_known: bool = typer.Option(
         None, "--tool-known/--tool-free", help="Fix or identify the tool point [default: session]."
     ),
+    nominal_file: Path = typer.Option(
+        None,
+        "--nominal",
+        help="Start from a factory calibration: UR DH deltas or a ROS kinematics YAML.",
+    ),
+    report_dir: Path = typer.Option(
+        None, "--report", metavar="DIR", help="Also write the calibration report into DIR."
+    ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
-    from calibrator import calibration, session
+    from calibrator import calibration, outputs, progress, session
     from calibrator.identify import pipeline, report
 
-    started = time.perf_counter()
+    if k is not None and orientation_weight is not None:
+        raise CalibrationError("give --orientation-weight only (--k is its old name)")
+    weight = orientation_weight if orientation_weight is not None else k
+    inputs = [session_path, nominal_file]
+    outputs.check(output, inputs=inputs)
+    if report_dir is not None:
+        outputs.check_folder(report_dir, inputs=inputs)
+        if report_dir.resolve() == output.resolve():
+            raise CalibrationError(f"--report {report_dir} is the output file itself")
     loaded = session.load(session_path, model=model)
     for doubt in loaded.warnings:
         typer.echo(f"warning: {doubt}", err=True)
+    if nominal_file is not None:
+        from calibrator import nominal
+
+        typer.echo(nominal.apply(loaded.meta, nominal_file))
     options = pipeline.Options(
         method=method.value,
         particles=particles,
         generations=generations,
-        k=k,
+        k=weight,
         validation_fraction=validation_fraction,
         seed=seed,
         tool_known=tool_known,
     )
-    result = pipeline.identify(loaded, options)
-    doc = calibration.to_json(result, session_path, loaded.meta.model)
-    calibration.write(output, doc)
+    reporter = progress.Reporter.for_cli(quiet)
+    started = time.perf_counter()
+    try:
+        if method is Method.lm:
+            result = pipeline.identify(loaded, options)
+        else:
+            with reporter.task("swarm", generations, "generations") as task:
+                shown = replace(options, on_generation=lambda g, best: task.update(g, best=best))
+                result = pipeline.identify(loaded, shown)
+    except IdentifiabilityError as exc:
+        raise CalibrationError(
+            _too_few_hint(session_path, exc, len(loaded.table), options)
+        ) from None
+    took = time.perf_counter() - started
+    cal = calibration.Calibration.from_result(
+        result, session_path, loaded.meta.model, loaded.meta.frame
+    )
+    with outputs.Outputs(inputs=inputs) as batch:
+        cal.save(output, batch=batch)
+        if report_dir is not None:
+            from calibrator.report import write as write_report
+
+            write_report(report_dir, cal.to_json(), loaded, batch, output, session_path)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
         f"{result.space.size} free parameters, method {method.value}"
@@ -59,4 +124,17 @@ def identify(
     for item in result.dropped:
         typer.echo(f"  not identified: {item['name']:8s} {item['reason']}")
     typer.echo(report.format_table(result.stats))
-    typer.echo(f"wrote {output} in {time.perf_counter() - started:.2f} s")
+    also = f" and the report in {report_dir}" if report_dir is not None else ""
+    typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+
+
+def _too_few_hint(path, exc, n_poses, options):
+    """The identification error, naming the file and, if poses are held out, the option."""
+    message = f"{path}: {exc}"
+    held_out = int(round(options.validation_fraction * n_poses))
+    if held_out:
+        message += (
+            f" ({held_out} of {n_poses} poses held out by "
+            f"--validation-fraction {options.validation_fraction:g}; lower it to fit more)"
+        )
+    return message

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
@@ -15,43 +16,60 @@ class Frame(StrEnum):
     tracker = "tracker"
 
 
-class Errors(StrEnum):
-    seed = "seed"
-    random = "random"
-    none = "none"
+#: Values of ``--errors``; "seed" is the old name of "ref003", still accepted.
+ERRORS = ("ref003", "random", "none")
+
+
+def _errors_choice(value: str | None):
+    if value is None or value in ERRORS:
+        return value
+    if value == "seed":
+        return "ref003"
+    raise typer.BadParameter(f"must be one of {', '.join(ERRORS)}, got {value!r}")
 
 
 @app.command()
 def simulate(
     output: Path = typer.Option(
-        Path("session.parquet"), "-o", "--output", help="Session to write."
+        Path("session.parquet"),
+        "-o",
+        "--output",
+        help="Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
     model: str = typer.Option("er10l-c10", help="Named nominal model."),
-    poses: int = typer.Option(32, min=1, help="Number of poses."),
-    seed: int = typer.Option(3, help="Seed of every random draw."),
+    poses: int = typer.Option(32, callback=checks.at_least(1), help="Number of poses (>= 1)."),
+    seed: int = typer.Option(3, callback=checks.at_least(0), help="Seed of every random draw."),
     frame: Frame = typer.Option(Frame.base, help="Frame of the recorded points."),
     orientation: bool = typer.Option(True, help="Record probe orientation (6-DoF probe)."),
-    noise_mm: float = typer.Option(0.02, min=0.0, help="RMS 3-D error of a recorded point (mm)."),
-    orientation_noise_deg: float = typer.Option(
-        0.005, min=0.0, help="RMS orientation error (deg)."
+    noise_mm: float = typer.Option(
+        0.02, callback=checks.finite(minimum=0.0), help="RMS 3-D error of a recorded point (mm)."
     ),
-    joint_noise_rad: float = typer.Option(0.0, min=0.0, help="Encoder noise per joint (rad)."),
-    errors: Errors = typer.Option(
-        None, help="True MDH errors [default: seed for er10l-c10, else random]."
+    orientation_noise_deg: float = typer.Option(
+        0.005, callback=checks.finite(minimum=0.0), help="RMS orientation error (deg)."
+    ),
+    joint_noise_rad: float = typer.Option(
+        0.0, callback=checks.finite(minimum=0.0), help="Encoder noise per joint (rad)."
+    ),
+    errors: str = typer.Option(
+        None,
+        metavar="ref003|random|none",
+        callback=_errors_choice,
+        help="True MDH errors: ref003 = Table 2 of paper 003 (er10l-c10 only), random, "
+        "or none [default: ref003 for er10l-c10, else random].",
     ),
     tool_offset_mm: float = typer.Option(
-        0.0, min=0.0, help="Unknown tool offset (mm); 0 = tool known."
+        0.0, callback=checks.finite(minimum=0.0), help="Unknown tool offset (mm); 0 = tool known."
     ),
 ):
     """Write a session measured on a simulated arm, and its truth beside it."""
     import numpy as np
 
-    from calibrator import session
+    from calibrator import outputs, session
     from calibrator import simulate as sim
 
-    errors_value = (
-        errors.value if errors else ("seed" if model.lower() == "er10l-c10" else "random")
-    )
+    outputs.check(output)
+    truth_path = outputs.check(output.with_suffix(".truth.json"))
+    errors_value = errors or ("ref003" if model.lower() == "er10l-c10" else "random")
     try:
         table, meta, truth = sim.simulate(
             model=model,
@@ -67,9 +85,10 @@ def simulate(
         )
     except ValueError as exc:
         raise CalibrationError(str(exc)) from None
-    session.write(output, table, meta)
-    truth_path = output.with_suffix(".truth.json")
-    truth_path.write_text(json.dumps(truth.to_json(), indent=2) + "\n")
+    with outputs.Outputs() as batch:  # both files or neither
+        session.write(output, table, meta, batch=batch)
+        batch.text(truth_path, json.dumps(truth.to_json(), indent=2) + "\n")
     typer.echo(
-        f"wrote {output} ({poses} poses, model {meta.model}, frame {frame.value}) and {truth_path}"
+        f"wrote {output} ({poses} pose{'' if poses == 1 else 's'}, model {meta.model}, "
+        f"frame {frame.value}) and {truth_path}"
     )

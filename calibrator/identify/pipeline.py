@@ -1,5 +1,6 @@
 """``identify``: from a session to identified parameters and their accuracy."""
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -12,11 +13,17 @@ METHODS = ("hybrid", "pso", "lm")
 #: Default orientation weight (mm^2/rad^2): 1 mrad weighs as 0.1 mm, about
 #: the ratio of a 6-DoF probe's angular noise to a tracker's point noise.
 DEFAULT_K = 1.0e4
+#: Most points of the swarm's convergence curve kept in ``details``.
+CONVERGENCE_POINTS = 500
 
 
 @dataclass(frozen=True)
 class Options:
-    """Settings of one identification (CLI flags of ``calibrator identify``)."""
+    """Settings of one identification (CLI flags of ``calibrator identify``).
+
+    ``on_generation(generation, best_cost)`` is called after each swarm
+    generation, for progress displays.
+    """
 
     method: str = "hybrid"
     particles: int = 20
@@ -25,6 +32,7 @@ class Options:
     validation_fraction: float = 0.2
     seed: int = 0
     tool_known: bool | None = None
+    on_generation: Callable | None = field(default=None, compare=False)
 
 
 @dataclass
@@ -99,7 +107,9 @@ def identify(session, options=Options()):
     fit_idx, val_idx = split(len(obs), options.validation_fraction, options.seed)
     fit, val = obs.subset(fit_idx), obs.subset(val_idx)
     if len(fit) < 3:
-        raise IdentifiabilityError(f"{len(fit)} fitting poses: at least 3 are needed")
+        raise IdentifiabilityError(
+            f"{len(fit)} fitting pose{'' if len(fit) == 1 else 's'}: at least 3 are needed"
+        )
 
     base0, tool0 = initial.first_guess(
         meta.nominal_mdh, fit, meta.flange2tool, meta.frame, tool_known
@@ -131,6 +141,7 @@ def identify(session, options=Options()):
             particles=options.particles,
             generations=options.generations,
             seed=options.seed,
+            on_generation=options.on_generation,
         )
         x = found.x
         details["pso"] = {
@@ -138,6 +149,10 @@ def identify(session, options=Options()):
             "particles": options.particles,
             "generations": options.generations,
         }
+        keep = np.unique(
+            np.linspace(0, len(found.history) - 1, CONVERGENCE_POINTS).round().astype(int)
+        )
+        details["convergence"] = [[int(g), float(found.history[g])] for g in keep]
     if options.method in ("lm", "hybrid"):
         refined = refine.refine(space, fit, x, k)
         x = refined.x

@@ -56,6 +56,7 @@ def ipso(
     init_fraction=0.25,
     seed=0,
     quasi_random=True,
+    on_generation=None,
 ):
     """Minimise ``objective`` over the box ``[lower, upper]``.
 
@@ -77,6 +78,9 @@ def ipso(
     quasi_random : bool
         Start from Halton points (IPSO); False starts from pseudo-random
         points, the plain constriction PSO the seed improves on.
+    on_generation : callable, optional
+        Called as ``on_generation(generation, best_cost)`` after each
+        generation (1-based), e.g. to show progress.
 
     Returns
     -------
@@ -120,4 +124,6 @@ def ipso(
         np.copyto(best_f, f, where=better)
         g = int(np.argmin(best_f))
         history[gen] = best_f[g]
+        if on_generation is not None:
+            on_generation(gen, float(history[gen]))
     return PSOResult(best_x[g].copy(), float(best_f[g]), history)

@@ -3,10 +3,12 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_testkit import cli, one_line_error
 
 from calibrator import calibration
 
@@ -35,6 +37,12 @@ def test_simulate_identify_export(tmp_path):
     assert sim.returncode == 0, sim.stderr
     ident = run("identify", "s.parquet", "-o", "cal.json", cwd=tmp_path)
     assert ident.returncode == 0, ident.stderr
+    # Piped: the swarm's progress is plain key=value lines on stderr.
+    assert (
+        ident.stderr.strip()
+        .splitlines()[-1]
+        .startswith("progress task=swarm done=2000 total=2000 unit=generations")
+    )
     assert "24 free parameters" in ident.stdout
     assert "not identified: d2" in ident.stdout and "held-out poses (6)" in ident.stdout
     doc = json.loads((tmp_path / "cal.json").read_text())
@@ -48,8 +56,10 @@ def test_simulate_identify_export(tmp_path):
     csv_out = run("export-params", "cal.json", "--format", "csv", "-o", "p.csv", cwd=tmp_path)
     assert csv_out.returncode == 0, csv_out.stderr
     table = pd.read_csv(tmp_path / "p.csv")
+    joints = table[table.element.str.startswith("joint")]
+    mdh = joints.pivot(index="element", columns="parameter", values="identified")
     np.testing.assert_allclose(
-        table[["a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad"]], truth["mdh"], atol=1e-6
+        mdh[["a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad"]], truth["mdh"], atol=1e-6
     )
     json_out = run("export-params", "cal.json", "--format", "json", cwd=tmp_path)
     joints = json.loads(json_out.stdout)["joints"]
@@ -78,37 +88,42 @@ def test_tracker_frame_session_with_unknown_tool(tmp_path):
     assert "not identified: theta1" in out.stdout and "base_rz" in out.stdout
 
 
-def one_line_error(result):
-    assert result.returncode == 2
-    assert "Traceback" not in result.stderr
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    return lines[0]
-
-
 def test_bad_input_gives_one_line_and_exit_2(tmp_path):
-    assert "not found" in one_line_error(run("identify", "missing.parquet", cwd=tmp_path))
+    # In-process (the console entry point itself); one real process below.
+    assert "not found" in one_line_error(cli("identify", "missing.parquet", cwd=tmp_path))
     (tmp_path / "junk.parquet").write_bytes(b"PAR1 nope")
-    assert "not a readable Parquet" in one_line_error(run("identify", "junk.parquet", cwd=tmp_path))
-    run("simulate", "-o", "few.parquet", "--poses", "6", "--no-orientation", cwd=tmp_path)
-    assert "cannot identify" in one_line_error(run("identify", "few.parquet", cwd=tmp_path))
-    run("simulate", "-o", "ok.parquet", "--poses", "10", cwd=tmp_path)
+    assert "not a readable Parquet" in one_line_error(cli("identify", "junk.parquet", cwd=tmp_path))
+    cli("simulate", "-o", "few.parquet", "--poses", "6", "--no-orientation", cwd=tmp_path)
+    assert "cannot identify" in one_line_error(cli("identify", "few.parquet", cwd=tmp_path))
+    cli("simulate", "-o", "ok.parquet", "--poses", "10", cwd=tmp_path)
     assert "unknown model" in one_line_error(
-        run("identify", "ok.parquet", "--model", "kr16", cwd=tmp_path)
+        cli("identify", "ok.parquet", "--model", "kr16", cwd=tmp_path)
     )
-    assert "unknown model" in one_line_error(run("simulate", "--model", "kr16", cwd=tmp_path))
+    assert "unknown model" in one_line_error(cli("simulate", "--model", "kr16", cwd=tmp_path))
     (tmp_path / "cal.json").write_text("{}")
     assert "not a calibrator calibration" in one_line_error(
-        run("export-params", "cal.json", cwd=tmp_path)
+        cli("export-params", "cal.json", cwd=tmp_path)
     )
-    assert "seed's error table" in one_line_error(
-        run("simulate", "--model", "ur5e", "--errors", "seed", cwd=tmp_path)
+    assert "ref003 error table" in one_line_error(
+        cli("simulate", "--model", "ur5e", "--errors", "ref003", cwd=tmp_path)
     )
 
 
-def test_an_unwritable_output_is_one_line(tmp_path):
-    run("simulate", "-o", "s.parquet", "--poses", "30", cwd=tmp_path)
-    line = one_line_error(
-        run("identify", "s.parquet", "-o", "no/such/dir/cal.json", "--method", "lm", cwd=tmp_path)
+def test_an_unwritable_output_is_one_line_from_a_real_process(tmp_path):
+    cli("simulate", "-o", "s.parquet", "--poses", "30", cwd=tmp_path)
+    result = run("identify", "s.parquet", "-o", "no/such/dir/cal.json", cwd=tmp_path)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.strip() == (
+        "calibrator: error: cannot write no/such/dir/cal.json: folder no/such/dir does not exist"
     )
-    assert "No such file" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.parquet", "s.truth.json"]
+
+
+def test_docs_and_code_cite_no_file_outside_the_repository():
+    repo = Path(__file__).resolve().parents[2]
+    texts = [repo / "README.md", *(repo / "docs").glob("*.md")]
+    texts += [*(repo / "calibrator").rglob("*.py"), *(repo / "drivers").rglob("*.py")]
+    for path in texts:
+        text = path.read_text()
+        for outside in ("shared/docs", "shared/reference", "shared/seeds", "../shared"):
+            assert outside not in text, f"{path.relative_to(repo)} cites {outside}"

@@ -1,0 +1,34 @@
+"""``calibrator report``: plots and one HTML page from calibration.json (and its session)."""
+
+from pathlib import Path
+
+import typer
+
+from calibrator.cli._app import app
+
+
+@app.command()
+def report(
+    calibration_path: Path = typer.Argument(
+        ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
+    ),
+    session_path: Path = typer.Argument(
+        None,
+        metavar="SESSION",
+        help="Session it was identified from (Parquet); needed for the per-pose plots.",
+    ),
+    output: Path = typer.Option(
+        Path("report"), "-o", "--output", help="Folder to write the PNGs and index.html into."
+    ),
+):
+    """Write the calibration report: PNG plots and one self-contained HTML page."""
+    from calibrator import calibration, outputs, session
+    from calibrator.report import write
+
+    outputs.check_folder(output, inputs=[calibration_path, session_path])
+    doc = calibration.load(calibration_path).to_json()
+    loaded = None if session_path is None else session.load(session_path)
+    written = write(output, doc, loaded, None, calibration_path, session_path)
+    names = ", ".join(p.name for p in written)
+    files = "1 file" if len(written) == 1 else f"{len(written)} files"
+    typer.echo(f"wrote {files} into {output}: {names}")

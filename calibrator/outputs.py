@@ -1,0 +1,332 @@
+"""Output files that never surprise: checked first, written atomically, all or nothing.
+
+Every file a command writes goes through here, so that
+
+- a bad output path is refused before any work, in one line naming the
+  user's path (a missing folder, a folder given as a file, an input of the
+  command, a folder without write permission);
+- a file appears whole or not at all: it is written to a hidden temporary
+  file beside the target, flushed to disk, then renamed over it;
+- nothing is left behind after a failure, not even when the second of
+  several outputs fails: a :class:`Outputs` batch renames its files only
+  once all of them are written, and puts back what it replaced if a rename
+  fails.
+
+API::
+
+    from calibrator import outputs
+
+    outputs.check(path, inputs=[session_path])     # before the work; returns the Path
+    outputs.write_text(path, text, inputs=[...])   # one file
+    outputs.write_with(path, lambda tmp: pq.write_table(table, tmp))
+
+    with outputs.Outputs(inputs=[session_path]) as out:   # several, all or nothing
+        out.text(path_a, text)
+        out.file(path_b, writer)        # writer(tmp_path) writes the whole file
+        out.bytes(folder / "x.png", data)
+        out.folder(report_dir)          # created if missing, removed again on failure
+    # committed here; an exception inside the block leaves no trace of it
+
+Errors are :class:`OutputError` (a :class:`~calibrator.errors.CalibrationError`):
+the CLI prints them as one line and exits with code 2.
+"""
+
+import os
+import shutil
+import stat
+import tempfile
+from pathlib import Path
+
+from calibrator.errors import CalibrationError
+
+__all__ = ["OutputError", "Outputs", "check", "check_folder", "show", "write_text", "write_with"]
+
+
+class OutputError(CalibrationError):
+    """An output path that cannot or must not be written."""
+
+
+def check(path, inputs=()):
+    """Refuse an output path that cannot or must not be written.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file as the user gave it.
+    inputs : iterable of str or Path
+        Files the command reads; none of them may be overwritten.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError
+        One line naming ``path``.
+    """
+    path = _no_nul(path)
+    kind = _kind(path)
+    if kind == "folder":
+        raise OutputError(f"cannot write {show(path)}: it is a folder; give a file name")
+    if kind == "other":
+        raise OutputError(f"cannot write {show(path)}: it exists and is not a regular file")
+    for source in inputs:
+        if source is not None and _same_file(path, Path(source)):
+            raise OutputError(
+                f"refusing to overwrite {show(path)}: it is an input of this command; "
+                "choose another output"
+            )
+    _check_parent(path)
+    return path
+
+
+def check_folder(path, inputs=()):
+    """Refuse an output folder that cannot be used (its parent is checked as for a file).
+
+    An existing folder is fine (its files are replaced one by one); a missing
+    one is created by :meth:`Outputs.folder`.
+    """
+    path = _no_nul(path)
+    kind = _kind(path)
+    if kind not in (None, "folder"):
+        raise OutputError(f"cannot write into {show(path)}: it exists and is not a folder")
+    for source in inputs:
+        if source is not None and _same_file(path, Path(source)):
+            raise OutputError(
+                f"refusing to write into {show(path)}: it is an input of this command"
+            )
+    if kind == "folder":
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise OutputError(f"cannot write into {show(path)}: no permission to write there")
+    else:
+        _check_parent(path)
+    return path
+
+
+def _kind(path):
+    """``'file'``, ``'folder'``, ``'other'`` or None (nothing there yet)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None  # a parent that is not a folder is reported by _check_parent
+    except OSError as exc:  # a name too long, a loop of links, no permission...
+        raise OutputError(f"cannot write {show(path)}: {_reason(exc)}") from None
+    return "folder" if stat.S_ISDIR(mode) else "file" if stat.S_ISREG(mode) else "other"
+
+
+def _no_nul(path):
+    path = Path(path)
+    if "\0" in str(path):
+        raise OutputError(f"cannot write {show(path)}: a file name cannot hold a NUL character")
+    return path
+
+
+def _check_parent(path):
+    parent = path.parent
+    if not parent.exists():
+        raise OutputError(f"cannot write {show(path)}: folder {show(parent)} does not exist")
+    if not parent.is_dir():
+        raise OutputError(f"cannot write {show(path)}: {show(parent)} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write {show(path)}: no permission to write in {show(parent)}")
+
+
+def _same_file(a, b):
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def write_text(path, text, inputs=()):
+    """Write one text file (UTF-8) atomically; see :class:`Outputs`."""
+    with Outputs(inputs) as out:
+        out.text(path, text)
+    return Path(path)
+
+
+def write_with(path, writer, inputs=()):
+    """Write one file atomically with ``writer(tmp_path)``; see :class:`Outputs`."""
+    with Outputs(inputs) as out:
+        out.file(path, writer)
+    return Path(path)
+
+
+class Outputs:
+    """A batch of output files that appear together or not at all.
+
+    Each file is checked (:func:`check`) and written to a hidden temporary
+    file in its target folder when added, so most failures happen before
+    anything is renamed. Leaving the ``with`` block normally renames every
+    file into place; an exception (or a failed rename) removes every
+    temporary file, restores any file the batch had replaced, and removes
+    folders it created.
+
+    Parameters
+    ----------
+    inputs : iterable of str or Path
+        Files the command reads; none of them may be an output.
+    """
+
+    def __init__(self, inputs=()):
+        self.inputs = [Path(p) for p in inputs if p is not None]
+        self._pending = []  # (temporary, target, user's path)
+        self._created = []  # folders this batch made
+        self._done = False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if kind is None:
+            self.commit()
+        else:
+            self.discard()
+        return False
+
+    def folder(self, path):
+        """Make sure the output folder ``path`` exists (created now, removed on failure)."""
+        path = check_folder(path, self.inputs)
+        if not path.is_dir():
+            try:
+                path.mkdir()
+            except OSError as exc:
+                raise OutputError(f"cannot create folder {show(path)}: {_reason(exc)}") from None
+            self._created.append(path)
+        return path
+
+    def text(self, path, text):
+        """Add a UTF-8 text file."""
+        return self.bytes(path, text.encode("utf-8"))
+
+    def bytes(self, path, data):
+        """Add a file holding ``data``."""
+
+        def save(tmp):
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+
+        return self.file(path, save)
+
+    def file(self, path, writer):
+        """Add a file written by ``writer(tmp_path)`` (it must write the whole file there).
+
+        Returns
+        -------
+        Path
+            The user's path.
+        """
+        path = check(path, self.inputs)
+        target = path.resolve()  # through a symlink, never over it
+        if any(target == t for _, t, _ in self._pending):
+            raise OutputError(f"cannot write {show(path)} twice in one command")
+        # A short prefix: a temporary name must fit wherever the target's name fits.
+        try:
+            fd, name = tempfile.mkstemp(
+                prefix=f".{target.name[:40]}.", suffix=".tmp", dir=target.parent
+            )
+        except OSError as exc:
+            self.discard()
+            raise OutputError(f"cannot write {show(path)}: {_reason(exc)}") from None
+        os.close(fd)
+        tmp = Path(name)
+        self._pending.append((tmp, target, path))
+        try:
+            writer(tmp)
+            _make_readable(tmp)
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
+        except OSError as exc:
+            self.discard()
+            raise OutputError(f"cannot write {show(path)}: {_reason(exc)}") from None
+        except BaseException:
+            self.discard()
+            raise
+        return path
+
+    def commit(self):
+        """Rename every file into place; on any failure put back what was there.
+
+        Each rename is atomic, so a target always holds either its old or
+        its new content; an old file is kept under a second (hard-linked)
+        name until every file of the batch is in place.
+        """
+        if self._done:
+            return
+        kept, placed = {}, []
+        try:
+            for tmp, target, _ in self._pending:
+                if target.exists():
+                    kept[target] = _second_name(target)
+                os.replace(tmp, target)
+                placed.append(target)
+        except OSError as exc:
+            failed = next(p for _, t, p in self._pending if t not in placed)
+            for target in placed:
+                if target in kept:
+                    os.replace(kept.pop(target), target)
+                else:
+                    _unlink(target)
+            for old in kept.values():
+                _unlink(old)
+            self.discard()
+            raise OutputError(f"cannot write {show(failed)}: {_reason(exc)}") from None
+        for old in kept.values():
+            _unlink(old)
+        self._pending = []
+        self._done = True
+
+    def discard(self):
+        """Remove every temporary file and every folder this batch created."""
+        for tmp, _, _ in self._pending:
+            _unlink(tmp)
+        self._pending = []
+        for folder in reversed(self._created):
+            try:
+                folder.rmdir()  # only if still empty: never remove the user's files
+            except OSError:
+                pass
+        self._created = []
+        self._done = True
+
+
+def _second_name(target):
+    """A hidden second name for the file at ``target``, to put it back from."""
+    fd, name = tempfile.mkstemp(prefix=f".{target.name[:40]}.", suffix=".old", dir=target.parent)
+    os.close(fd)
+    try:
+        os.unlink(name)
+        os.link(target, name)
+    except OSError:  # no hard links here (some network or FAT file systems): copy
+        try:
+            shutil.copy2(target, name)
+        except OSError:
+            _unlink(name)
+            raise
+    return Path(name)
+
+
+def show(path):
+    """A path for a one-line message: as typed, or quoted if it holds control characters."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)
+
+
+def _make_readable(tmp):
+    # mkstemp makes 0600 files; outputs get the permissions of any new file.
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+
+
+def _unlink(path):
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
+def _reason(exc):
+    text = str(exc).strip()
+    return exc.strerror or (text.splitlines()[0] if text else type(exc).__name__)

@@ -1,0 +1,124 @@
+"""The report's HTML page: one file, images embedded, no scripts, no outside links."""
+
+import base64
+import html as _html
+
+from calibrator.report.data import unit_of
+
+_SECTIONS = (
+    ("pose_errors", "Error per pose", "pose_errors.png"),
+    ("error_cdf", "Error distribution", "error_cdf.png"),
+    ("error_vs_distance", "Error against distance", "error_vs_distance.png"),
+    ("convergence", "Swarm convergence", "convergence.png"),
+)
+
+_STYLE = """
+body { font-family: sans-serif; max-width: 60em; margin: 2em auto; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0 1.5em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+img { max-width: 100%; }
+.note { color: #666; font-style: italic; }
+.warning { color: #a40; }
+"""
+
+
+def html(content, images):
+    """The page as text.
+
+    Parameters
+    ----------
+    content : calibrator.report.data.Content
+    images : dict
+        PNG name -> bytes, as :func:`calibrator.report.plots.draw` returns.
+    """
+    esc = _html.escape
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{esc(content.title)}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{esc(content.title)}</h1>",
+        '<section id="summary"><h2>Summary</h2><table>',
+        *(f"<tr><th>{esc(k)}</th><td>{esc(str(v))}</td></tr>" for k, v in content.facts),
+        "</table>",
+        *(f'<p class="warning">warning: {esc(w)}</p>' for w in content.warnings),
+        "</section>",
+        '<section id="accuracy"><h2>Accuracy</h2>',
+        _stats_table(content.stats),
+        "</section>",
+    ]
+    for key, title, name in _SECTIONS:
+        parts.append(f'<section id="{key}"><h2>{title}</h2>')
+        parts.append(_image(images, name, title, content.notes.get(key)))
+        if key == "error_vs_distance" and content.poses and content.poses.origin != "tracker":
+            parts.append(
+                '<p class="note">The session is in the robot base frame, where the '
+                "tracker's position is not recorded: distances are from the robot base.</p>"
+            )
+        parts.append("</section>")
+    parts.append('<section id="deltas"><h2>Identified parameters</h2>')
+    if content.standard_errors is None:
+        parts.append('<p class="note">standard errors: not recorded</p>')
+    parts.append(_image(images, "deltas.png", "Identified deltas", "no free parameters"))
+    parts.append(_deltas_table(content.deltas, content.standard_errors))
+    parts.append("</section>")
+    parts.append('<section id="dropped"><h2>Parameters not identified</h2>')
+    if content.dropped:
+        parts.append("<table><tr><th>parameter</th><th>reason</th></tr>")
+        parts += [
+            f'<tr><td>{esc(d["name"])}</td><td style="text-align:left">{esc(d["reason"])}</td></tr>'
+            for d in content.dropped
+        ]
+        parts.append("</table>")
+    else:
+        parts.append('<p class="note">none</p>')
+    parts.append("</section></body></html>")
+    return "\n".join(parts) + "\n"
+
+
+def _image(images, name, alt, note):
+    if name not in images:
+        return f'<p class="note">{_html.escape(note or "not available")}</p>'
+    data = base64.b64encode(images[name]).decode("ascii")
+    return f'<img src="data:image/png;base64,{data}" alt="{_html.escape(alt)}">'
+
+
+def _stats_table(stats):
+    rows = ["<table><tr><th></th><th>poses</th><th>mean</th><th>std</th><th>max</th></tr>"]
+    for part, title in (("fit", "fitted"), ("validation", "held-out")):
+        entry = stats.get(part) or {}
+        before, after = entry.get("before") or {}, entry.get("after") or {}
+        if not before.get("n"):
+            rows.append(f"<tr><td>{title} poses</td><td>0</td><td colspan=3>none</td></tr>")
+            continue
+        for label, key, sub in _quantities(before):
+            for when, s in (("nominal", before), ("identified", after)):
+                values = s[key] if sub is None else s[key][sub]
+                rows.append(
+                    f"<tr><td>{title}: {label}, {when}</td><td>{s['n']}</td>"
+                    + "".join(f"<td>{values[q]:.4f}</td>" for q in ("mean", "std", "max"))
+                    + "</tr>"
+                )
+    rows.append("</table>")
+    return "\n".join(rows)
+
+
+def _quantities(entry):
+    yield "position (mm)", "position_mm", None
+    for axis in ("x", "y", "z") if "orientation_deg" in entry else ():
+        yield f"orientation {axis.upper()} (deg)", "orientation_deg", axis
+
+
+def _deltas_table(deltas, errors):
+    if not deltas:
+        return ""
+    rows = ["<table><tr><th>parameter</th><th>delta</th><th>standard error</th><th>unit</th></tr>"]
+    for name, value in deltas.items():
+        err = (errors or {}).get(name)
+        err_text = "not recorded" if err is None else f"{err:.3g}"
+        rows.append(
+            f"<tr><td>{name}</td><td>{value:.6g}</td><td>{err_text}</td>"
+            f"<td>{unit_of(name)}</td></tr>"
+        )
+    rows.append("</table>")
+    return "\n".join(rows)
