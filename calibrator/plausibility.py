@@ -32,6 +32,7 @@ than :data:`SCALE_REFUSE`; otherwise (ambiguous) it gives a warning string.
 import numpy as np
 
 from calibrator import kinematics
+from calibrator.calibration import PLAUSIBLE_DELTA
 from calibrator.errors import CalibrationError, SessionError
 
 MAX_ABS_MM = 1.0e9  # 1000 km: no unit mistake explains it (um are named by the scale check)
@@ -55,9 +56,10 @@ LENGTH_UNITS = {
 #: Identified-minus-nominal MDH deltas beyond these are reported (mm, rad).
 DELTA_WARN_MM = 20.0
 DELTA_WARN_RAD = np.deg2rad(5.0)
-#: ... and beyond these refused: no real arm is that far from its drawing.
-DELTA_REFUSE_MM = 200.0
-DELTA_REFUSE_RAD = np.deg2rad(30.0)
+#: ... and beyond these refused: no real arm is that far from its drawing. The same
+#: bounds as calibration.json validation, so a result that passes here also loads.
+DELTA_REFUSE_MM = PLAUSIBLE_DELTA["mm"]
+DELTA_REFUSE_RAD = PLAUSIBLE_DELTA["rad"]
 
 
 def check_observations(
