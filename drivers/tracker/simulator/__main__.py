@@ -69,6 +69,15 @@ def _seed(text: str) -> int:
     return int(text)
 
 
+def _serial(text: str) -> str:
+    # It goes into every ID? reply: one field of printable ASCII.
+    if not (0 < len(text) <= 40 and text.isascii() and text.isprintable()) or set(text) & set(",*"):
+        raise argparse.ArgumentTypeError(
+            f"serial must be 1..40 printable ASCII characters without ',' or '*', got {text!r}"
+        )
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="python -m drivers.tracker.simulator",
@@ -87,7 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--initialised", action="store_true", help="start already initialised")
     p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
-    p.add_argument("--serial", default="SIM-0001", help="serial number reported by ID?")
+    p.add_argument(
+        "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
+    )
     p.add_argument(
         "--faults",
         type=Path,
@@ -138,7 +149,13 @@ def main(argv: list[str] | None = None) -> int:
 def _build_server(args) -> SimulatorServer:
     """Engine and endpoints from the options; endpoints printed only once all opened."""
     if args.replay:
-        engine = ReplaySimulator(args.replay)
+        try:
+            engine = ReplaySimulator(args.replay)
+        except ValueError as exc:
+            message = str(exc)
+            if str(args.replay) not in message:  # json's own errors do not name the file
+                message = f"{args.replay}: {message}"
+            raise ValueError(message) from None
     else:
         faults = None
         if args.faults:
