@@ -41,6 +41,7 @@ from drivers.tracker.protocol import (
     encode_frame,
     error_from_reply,
     next_seq,
+    parse_command,
     parse_reply,
 )
 from drivers.tracker.recording import Recorder
@@ -175,7 +176,13 @@ class Link:
             body = self._decode(self._read_line(deadline, command))
             if body is None:
                 continue
-            reply = parse_reply(body)
+            try:
+                reply = parse_reply(body)
+            except FrameError:
+                if not _is_host_frame(body):
+                    raise
+                counters.stale_replies += 1  # our own frame echoed back: not a reply
+                continue
             if reply.kind is ReplyKind.EV:
                 self.events.append(reply)
                 if self.on_event is not None:
@@ -341,3 +348,12 @@ def _frame_starts(line: bytes) -> list[int]:
             found.append(at)
             at = line.find(tag, at + 1)
     return sorted(found)
+
+
+def _is_host_frame(body: str) -> bool:
+    """Whether a valid frame is a host command (an echo), not a garbled reply."""
+    try:
+        parse_command(body)
+    except FrameError:
+        return False
+    return True

@@ -288,3 +288,14 @@ def test_after_a_write_timeout_the_next_frame_ends_the_part_written_line():
     np.testing.assert_allclose(tracker.measure().point_mm, truth)
     assert written[0].startswith(b"\r\n")  # the device answered BAD_FRAME to the fragment
     assert tracker.link.port.write_timeout is not None
+
+
+def test_an_echo_of_our_own_frames_is_dropped_and_counted():
+    sim = _exact_sim()
+    respond = engine_responder(sim)
+    port = DevicePort(lambda line: [(0.0, line), *respond(line)])  # a device that echoes
+    tracker = LaserTracker(port)
+    tracker.connect()
+    truth = _pose(sim, 2)
+    np.testing.assert_allclose(tracker.measure().point_mm, truth)
+    assert tracker.stale_replies == tracker.link.last_seq  # one echo per command sent
