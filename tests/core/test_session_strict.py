@@ -209,6 +209,8 @@ def test_odd_extra_columns_are_kept_and_ignored(tmp_path):
 )
 def test_absurd_values_are_refused(tmp_path, column, value):
     table, meta = _simulated()
+    if column not in table.column_names:
+        table = table.append_column(column, pa.array(np.full(table.num_rows, 0.01)))
     values = np.asarray(table[column].to_pylist(), dtype=float)
     values[5] = value
     table = table.set_column(table.column_names.index(column), column, pa.array(values))
