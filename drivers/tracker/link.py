@@ -217,21 +217,29 @@ class Link:
         try:
             if self._write_timeout_works:
                 self._bound_write(deadline)
-            port.write(frame)
+            written = port.write(frame)
         except serial.SerialTimeoutException as exc:
-            self._unterminated_write = True
-            reset = getattr(port, "reset_output_buffer", None)
-            if reset is not None:
-                try:
-                    reset()
-                except TRANSPORT_ERRORS:
-                    pass  # the next write reports a vanished port
+            self._write_cut_short()
             raise TrackerTimeout(
                 f"could not send {command} within the deadline: the device is not reading"
             ) from exc
         except TRANSPORT_ERRORS as exc:
             raise ConnectionLost(f"transport failed while writing: {exc}") from exc
+        if written is not None and written < len(frame):
+            # A zero write timeout (deadline already past) makes pyserial write what fits.
+            self._write_cut_short()
+            raise TrackerTimeout(f"could not send {command} within the deadline (partial write)")
         self._unterminated_write = False
+
+    def _write_cut_short(self) -> None:
+        """A frame went out in part: drop what is still queued, end that line next time."""
+        self._unterminated_write = True
+        reset = getattr(self.port, "reset_output_buffer", None)
+        if reset is not None:
+            try:
+                reset()
+            except TRANSPORT_ERRORS:
+                pass  # the next write reports a vanished port
 
     def _bound_write(self, deadline: float) -> None:
         """Make the port's write give up at ``deadline``."""

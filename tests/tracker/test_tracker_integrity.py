@@ -299,3 +299,21 @@ def test_an_echo_of_our_own_frames_is_dropped_and_counted():
     truth = _pose(sim, 2)
     np.testing.assert_allclose(tracker.measure().point_mm, truth)
     assert tracker.stale_replies == tracker.link.last_seq  # one echo per command sent
+
+
+def test_a_partial_write_is_a_timeout_and_the_next_command_works():
+    sim = _exact_sim()
+    port = DevicePort(engine_responder(sim))
+    tracker = LaserTracker(port, reconnect_attempts=0)
+    tracker.connect()
+    real_write = port.write
+
+    def short_write(data):  # what pyserial does with write_timeout=0 on a full buffer
+        port.write = real_write
+        return real_write(data[:3])
+
+    port.write = short_write
+    with pytest.raises(TrackerTimeout, match="partial"):
+        tracker.measure()
+    truth = _pose(sim, 1)
+    np.testing.assert_allclose(tracker.measure().point_mm, truth)
