@@ -249,3 +249,37 @@ def test_link_returns_only_the_reply_to_its_own_command_or_a_driver_error(data):
     assert reply.seq == 4
     assert parse_reading(reply.fields).point_mm.tolist() == [2500.0051, 399.9896, -300.0042]
     assert len(link._buf) <= MAX_FRAME
+
+
+def _reading_frame(seq: int, x: float) -> bytes:
+    return _frame(f"OK,{seq},P3,{x:.4f},1.0000,2.0000,ACC,{seq}")
+
+
+junk = st.one_of(
+    st.binary(max_size=300),
+    st.sampled_from([b"\x7f" * 700, b"OK,3,P3*0000\r\n", b"\r\n", b"ER,2,6,BEAM_BROKEN"]),
+    st.sampled_from([1, 2, 3]).map(lambda s: _reading_frame(s, 999.0)),  # stale replies
+)
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(junk, st.booleans()), min_size=1, max_size=5))
+def test_over_many_commands_a_reading_is_always_its_own(script):
+    """Junk, stale replies and missing replies between commands: whatever a call returns
+    is the reply to that call (its x is 100 + seq), and the buffer stays bounded."""
+    pairs = []
+    for k, (noise, answered) in enumerate(script):
+        seq = 4 + k
+        pairs.append(
+            (host(seq, "MEAS"), noise + (_reading_frame(seq, 100.0 + seq) if answered else b""))
+        )
+    link = Link(ScriptedTransport(pairs))
+    link.counters.seq = 3
+    for k in range(len(script)):
+        try:
+            reply = link.transact("MEAS", timeout_s=0.005)
+        except DriverError:
+            continue
+        assert reply.seq == 4 + k
+        assert parse_reading(reply.fields).point_mm[0] == 100.0 + reply.seq
+        assert len(link._buf) <= MAX_FRAME
