@@ -21,6 +21,7 @@ from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
 from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
 from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip
 from calibrator.cli import report as _report  # noqa: E402,F401  isort: skip
+from calibrator.cli import analyze as _analyze  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]
 

@@ -1,0 +1,103 @@
+"""Speed and memory of the misalignment Monte Carlo (paper arm, R0 = 0.05 mm).
+
+Run::
+
+    nice .venv/bin/python benchmarks/analyze_misalignment.py [--repeats 5] [--big 10000000]
+        [--rounds 1] [--workers-only]
+
+1. 20,000 trials in-process (``engine.run`` + ``statistics``, the grid's
+   pilot block included): median wall time of ``--repeats`` runs.
+2. 1,000,000 trials in-process in a fresh process: wall time and peak
+   resident memory (``ru_maxrss``), next to the same process running 10,000
+   trials (interpreter + imports + one block) as the baseline.
+3. ``--big`` trials (10^7 by default) on a Dask LocalCluster of 1 and of 2
+   single-threaded worker processes (cluster start-up included): wall
+   times and the speed-up; the statistics must be identical, to the bit.
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+
+from calibrator.analysis import arm, engine
+from calibrator.analysis import misalignment as mc
+
+_CHILD = """
+import json, resource, sys, time
+from calibrator.analysis import arm, engine, misalignment as mc
+trials = int(sys.argv[1])
+t = time.perf_counter()
+summary, grid = engine.run(mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, trials, 0))
+mc.statistics(summary, grid)
+wall = time.perf_counter() - t
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps({"wall": wall, "maxrss_mb": rss}))
+"""
+
+
+def study(trials):
+    return mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, trials, seed=0)
+
+
+def timed(trials, **kwargs):
+    t = time.perf_counter()
+    summary, grid = engine.run(study(trials), **kwargs)
+    stats = mc.statistics(summary, grid)
+    return time.perf_counter() - t, stats
+
+
+def child(trials):
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(trials)], check=True, capture_output=True, text=True
+    )
+    return json.loads(out.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--big", type=int, default=10_000_000)
+    ap.add_argument("--rounds", type=int, default=1, help="Alternate 1 and 2 workers this often.")
+    ap.add_argument("--workers-only", action="store_true", help="Only the 1-vs-2 worker part.")
+    args = ap.parse_args()
+    if not args.workers_only:
+        in_process(args)
+    workers(args)
+
+
+def in_process(args):
+    times = [timed(20_000)[0] for _ in range(args.repeats)]
+    print(
+        f"20,000 trials in-process: median {statistics.median(times):.3f} s "
+        f"(min {min(times):.3f}, max {max(times):.3f}, {args.repeats} runs)"
+    )
+
+    base = child(10_000)
+    big = child(1_000_000)
+    print(
+        f"1,000,000 trials in-process: {big['wall']:.2f} s, peak RSS {big['maxrss_mb']:.0f} MB "
+        f"(10,000 trials in the same kind of process: {base['maxrss_mb']:.0f} MB)"
+    )
+
+
+def workers(args):
+    # Alternating the two settings spreads drifts in the machine's load over both.
+    times, results = {1: [], 2: []}, []
+    for _ in range(args.rounds):
+        for n in (1, 2):
+            wall, stats = timed(args.big, workers=n)
+            times[n].append(wall)
+            results.append(stats)
+            print(f"{args.big:,} trials, LocalCluster {n} worker(s): {wall:.1f} s", flush=True)
+    one, two = statistics.median(times[1]), statistics.median(times[2])
+    same = all(r == results[0] for r in results)
+    print(
+        f"speed-up 2 workers / 1 worker (medians): {one / two:.2f}x; statistics identical: {same}"
+    )
+
+
+if __name__ == "__main__":
+    main()

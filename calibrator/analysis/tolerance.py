@@ -1,0 +1,237 @@
+"""Tolerance budget (seed 001): hand error from link-parameter and joint deviations.
+
+To first order the hand's small displacement ``dS`` (three rotations, then
+three translations, in the hand frame) is linear in the deviations::
+
+    dS ~ J dp     (dp: deviations of the 30 MDH parameters a, alpha, theta, d, beta)
+    dS ~ J* dq    (dq: joint-coordinate deviations; J* is J's theta columns)
+
+J is the identification Jacobian of calibration
+(:func:`calibrator.measurement.jacobian`) used forwards. Given a tolerance
+``+-t_j`` per parameter and a distribution inside it (uniform, or normal with
+``t = 3 sigma``) this module gives
+
+* the worst case: ``sum_j |J_kj| t_j`` per component and the bound
+  ``sum_j |J_pos,j| t_j`` on the position error's length;
+* the statistical error: covariance ``J diag(sigma^2) J^T``, so RMS |dP|;
+* a check against the nonlinear model: deviations drawn from the same
+  distributions, pushed through the full forward kinematics;
+* a sensitivity ranking: each parameter's share of the position variance,
+  the tolerance to tighten first at the top.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibrator import kinematics, measurement
+from calibrator.errors import CalibrationError
+from calibrator.parameters import MDH_NAMES, ParameterSpace
+
+JOINT_NAMES = tuple(f"q{i + 1}" for i in range(6))
+#: Every toleranced quantity: the 30 MDH parameters, then the 6 joints.
+NAMES = MDH_NAMES + JOINT_NAMES
+DISTRIBUTIONS = ("uniform", "normal")
+_THETA_COLS = [MDH_NAMES.index(f"theta{i + 1}") for i in range(6)]
+
+
+def is_length(name):
+    """Whether a toleranced quantity is a length (mm) rather than an angle (rad)."""
+    return name[0] in "ad" and not name.startswith("alpha")
+
+
+def hand_jacobian(mdh, q):
+    """J: hand displacement per unit deviation of each toleranced quantity.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (6, 5)
+        Nominal MDH table (mm, rad).
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+
+    Returns
+    -------
+    ndarray, shape (N, 6, 36)
+        Rows: rotations about the hand's x, y, z (rad), then translations along
+        them (mm); columns: :data:`NAMES` (per mm or per rad).
+    """
+    mdh = kinematics.check_mdh(mdh)
+    q = kinematics.check_joints(q)
+    n = len(q)
+    space = ParameterSpace(mdh, free=MDH_NAMES)
+    hand = kinematics.chain(mdh, q)
+    obs = measurement.Observations(q, hand[:, :3, 3], hand[:, :3, :3])
+    jac = measurement.jacobian(space, np.zeros(space.size), obs, k=1.0)
+    pos, rot = jac[: 3 * n].reshape(n, 3, -1), jac[3 * n :].reshape(n, 3, -1)
+    to_hand = np.swapaxes(hand[:, :3, :3], 1, 2)  # base-frame vectors into the hand frame
+    ds = np.concatenate([to_hand @ rot, to_hand @ pos], axis=1)  # (N, 6, 30)
+    return np.concatenate([ds, ds[..., _THETA_COLS]], axis=-1)
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Symmetric tolerances ``+-t`` and the distribution inside them.
+
+    Attributes
+    ----------
+    t : ndarray, shape (36,)
+        Per :data:`NAMES` (mm or rad), >= 0.
+    distribution : str
+        ``'uniform'`` over ``[-t, t]`` or ``'normal'`` with ``sigma = t / 3``.
+    """
+
+    t: np.ndarray
+    distribution: str = "uniform"
+
+    def __post_init__(self):
+        t = np.asarray(self.t, dtype=float)
+        if t.shape != (len(NAMES),) or not np.all(np.isfinite(t)) or np.any(t < 0):
+            raise CalibrationError("tolerances must be 36 finite values >= 0")
+        if self.distribution not in DISTRIBUTIONS:
+            raise CalibrationError(
+                f"unknown distribution {self.distribution!r}; known: {', '.join(DISTRIBUTIONS)}"
+            )
+        object.__setattr__(self, "t", t)
+
+    @classmethod
+    def build(cls, length_mm, angle_rad, joint_rad, overrides=None, distribution="uniform"):
+        """Tolerances from one value per kind plus per-name overrides (mm or rad)."""
+        t = np.array(
+            [
+                joint_rad if n in JOINT_NAMES else length_mm if is_length(n) else angle_rad
+                for n in NAMES
+            ]
+        )
+        for name, value in (overrides or {}).items():
+            if name not in NAMES:
+                raise CalibrationError(f"unknown parameter {name!r}; known: {', '.join(NAMES)}")
+            t[NAMES.index(name)] = value
+        return cls(t, distribution)
+
+    @property
+    def sigma(self):
+        """Standard deviation of each deviation, shape (36,)."""
+        return self.t / np.sqrt(3.0) if self.distribution == "uniform" else self.t / 3.0
+
+    def sample(self, rng, m):
+        """``m`` deviation vectors, shape (m, 36)."""
+        if self.distribution == "uniform":
+            return rng.uniform(-1.0, 1.0, (m, len(NAMES))) * self.t
+        return rng.standard_normal((m, len(NAMES))) * self.sigma
+
+
+def perturbed_hand(mdh, q, dp):
+    """Hand poses with deviations applied, by the full (nonlinear) kinematics.
+
+    Parameters
+    ----------
+    mdh : ndarray, shape (6, 5)
+    q : ndarray, shape (N, 6)
+    dp : ndarray, shape (M, 36)
+        Deviations in :data:`NAMES` order; joint deviations add to theta.
+
+    Returns
+    -------
+    ndarray, shape (M, N, 4, 4)
+    """
+    tables = mdh + dp[:, :30].reshape(-1, 6, 5)
+    tables[..., kinematics.THETA] += dp[:, 30:]
+    return kinematics.chain(tables, q)
+
+
+def nonlinear_displacement(mdh, q, dp):
+    """Hand displacement ``dS`` by the full kinematics, in the hand frame.
+
+    Returns
+    -------
+    ndarray, shape (M, N, 6)
+        Rotation vector of ``R_nom^T R`` (rad), then ``R_nom^T (p - p_nom)`` (mm),
+        directly comparable with ``J dp``.
+    """
+    from calibrator import frames
+
+    nominal = kinematics.chain(mdh, q)
+    real = perturbed_hand(mdh, q, dp)
+    to_hand = np.swapaxes(nominal[:, :3, :3], 1, 2)
+    rot = frames.rotation_error(to_hand @ real[..., :3, :3], np.eye(3))
+    pos = np.einsum("nij,mnj->mni", to_hand, real[..., :3, 3] - nominal[:, :3, 3])
+    return np.concatenate([rot, pos], axis=-1)
+
+
+def budget(mdh, q, tol, *, samples=2000, seed=0):
+    """The tolerance budget at a set of poses.
+
+    Parameters
+    ----------
+    mdh : ndarray, shape (6, 5)
+        Nominal table (mm, rad).
+    q : ndarray, shape (N, 6)
+        Poses (rad).
+    tol : Tolerances
+    samples : int
+        Deviation sets drawn for the nonlinear check.
+    seed : int
+
+    Returns
+    -------
+    dict
+        ``worst_case_mm`` (max over poses of the bound on |dP|),
+        ``worst_case_axis_mm`` (largest per-axis worst case), ``rms_mm``
+        (linear statistical RMS |dP|, over poses), ``joint_only_rms_mm`` and
+        ``link_only_rms_mm``, ``orientation_rms_deg``; ``nonlinear``:
+        ``rms_mm``, ``p95_mm``, ``max_mm`` of the sampled |dP| and
+        ``linearisation_error`` (RMS |dS_lin - dS| / RMS |dS|, position);
+        ``ranking``: list of ``{name, tolerance, unit, share, worst_mm,
+        rms_mm}`` by decreasing share of the position variance.
+    """
+    jac = hand_jacobian(mdh, q)  # (N, 6, 36)
+    jpos, jrot = jac[:, 3:], jac[:, :3]
+    col_norm = np.linalg.norm(jpos, axis=1)  # (N, 36): mm per unit deviation
+    worst = col_norm @ tol.t
+    worst_axis = np.abs(jpos) @ tol.t  # (N, 3)
+    var = tol.sigma**2
+    contrib = (col_norm**2 * var).mean(axis=0)  # (36,) mean over poses, mm^2
+    rms = np.sqrt(contrib.sum())
+    is_joint = np.array([n in JOINT_NAMES for n in NAMES])
+    rot_var = (np.sum(jrot**2, axis=1) * var).sum(axis=1).mean()
+
+    rng = np.random.default_rng(seed)
+    dp = tol.sample(rng, samples)
+    ds = nonlinear_displacement(mdh, q, dp)  # (M, N, 6)
+    lin = np.einsum("nkj,mj->mnk", jac, dp)
+    r = np.linalg.norm(ds[..., 3:], axis=-1)
+    lin_err = np.sqrt(np.mean(np.sum((lin[..., 3:] - ds[..., 3:]) ** 2, axis=-1)))
+    order = np.argsort(-contrib, kind="stable")
+    total = contrib.sum()
+    ranking = [
+        {
+            "name": NAMES[j],
+            "tolerance": float(tol.t[j]),
+            "unit": "mm" if is_length(NAMES[j]) else "rad",
+            "share": float(contrib[j] / total) if total > 0 else 0.0,
+            "worst_mm": float((col_norm[:, j] * tol.t[j]).mean()),
+            "rms_mm": float(np.sqrt(contrib[j])),
+        }
+        for j in order
+    ]
+    return {
+        "poses": len(q),
+        "distribution": tol.distribution,
+        "worst_case_mm": float(worst.max()),
+        "worst_case_axis_mm": float(worst_axis.max()),
+        "rms_mm": float(rms),
+        "link_only_rms_mm": float(np.sqrt(contrib[~is_joint].sum())),
+        "joint_only_rms_mm": float(np.sqrt(contrib[is_joint].sum())),
+        "orientation_rms_deg": float(np.degrees(np.sqrt(rot_var))),
+        "nonlinear": {
+            "samples": samples,
+            "rms_mm": float(np.sqrt(np.mean(r**2))),
+            "p95_mm": float(np.quantile(r, 0.95)),
+            "max_mm": float(r.max()),
+            "linearisation_error": float(lin_err / np.sqrt(np.mean(r**2)))
+            if np.any(r > 0)
+            else 0.0,
+        },
+        "ranking": ranking,
+    }

@@ -1,0 +1,301 @@
+"""``calibrator analyze``: accuracy studies (misalignment Monte Carlo, tolerance budget)."""
+
+import json
+import time
+from enum import StrEnum
+from pathlib import Path
+
+import typer
+
+from calibrator.cli import _checks as checks
+from calibrator.cli._app import app
+from calibrator.errors import CalibrationError
+
+analyze_app = typer.Typer(
+    no_args_is_help=True,
+    help="Accuracy analysis: how accurate can this arm be, which tolerances matter.",
+)
+app.add_typer(analyze_app, name="analyze")
+
+
+class Distribution(StrEnum):
+    uniform = "uniform"
+    normal = "normal"
+
+
+def _floats(text, what, n=None):
+    """Comma-separated numbers; one value is repeated to ``n`` when ``n`` is given."""
+    try:
+        values = [float(v) for v in str(text).split(",") if v.strip()]
+    except ValueError:
+        raise CalibrationError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if not values or not all(v == v and abs(v) != float("inf") for v in values):
+        raise CalibrationError(f"{what} must be finite numbers, got {text!r}")
+    if n is not None:
+        if len(values) == 1:
+            values = values * n
+        if len(values) != n:
+            raise CalibrationError(f"{what} needs 1 or {n} values, got {len(values)}")
+    return values
+
+
+def _assignment(text, what):
+    """``NAME=VALUE[,VALUE...]`` -> (name, [values])."""
+    name, sep, values = str(text).partition("=")
+    if not sep or not name.strip():
+        raise CalibrationError(f"{what} must look like NAME=VALUE, got {text!r}")
+    return name.strip(), _floats(values, f"{what} {name.strip()}")
+
+
+_HEADER = f"{'case':24s} {'PDF peak':>9s} {'CDF 50%':>9s} {'CDF 90%':>9s} {'CDF 98%':>9s} "
+_HEADER += f"{'max':>9s} {'|mean|':>9s}"
+
+
+def _row(label, stats):
+    p = stats["position"]
+    centre = sum(v * v for v in p["mean_vector"]) ** 0.5
+    values = [p[k] for k in ("pdf_peak", "cdf50", "cdf90", "cdf98", "max")] + [centre]
+    return f"{label:24s} " + " ".join(f"{v:9.4f}" for v in values)
+
+
+@analyze_app.command("misalignment")
+def misalignment(
+    model: str = typer.Option(
+        "paper", help="'paper' (the seed's arm, Craig DH) or a named model (er10l-c10, ur5e, ...)."
+    ),
+    pose: str = typer.Option(
+        None, help="Six joint angles, deg [default: the paper's pose; zeros for a named model]."
+    ),
+    r0: str = typer.Option("0.05", "--r0", help="Radial clearance R0 (mm), one value or six."),
+    h: str = typer.Option(
+        None, "--h", help="End-face distance h (mm), one value or six [default: 267, see docs]."
+    ),
+    trials: int = typer.Option(20000, callback=checks.at_least(1), help="Monte Carlo trials."),
+    seed: int = typer.Option(0, help="Seed; results depend only on seed and trials."),
+    sweep_r0: str = typer.Option(None, help="Also run with every joint's R0 at each value (mm)."),
+    sweep_length: str = typer.Option(
+        None, help="Also run with one link length at each value, e.g. d3=800,1000,1200 (mm)."
+    ),
+    plots: Path = typer.Option(
+        None, metavar="DIR", help="Folder to write the PNG figures into (created if missing)."
+    ),
+    json_out: Path = typer.Option(None, "--json", help="Write all statistics to this JSON file."),
+    chunk: int = typer.Option(
+        None, callback=checks.at_least(1), help="Trials per chunk (rounded to blocks of 10,000)."
+    ),
+    workers: int = typer.Option(
+        None, callback=checks.at_least(1), help="Run on a Dask LocalCluster of N worker processes."
+    ),
+    scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+):
+    """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
+    import numpy as np
+
+    from calibrator import outputs, progress
+    from calibrator.analysis import arm, engine
+    from calibrator.analysis import misalignment as mc
+
+    if workers is not None and scheduler is not None:
+        raise CalibrationError("give --workers or --scheduler, not both")
+    if json_out is not None:
+        outputs.check(json_out)
+    if plots is not None:
+        outputs.check_folder(plots)
+    pose_deg = None if pose is None else _floats(pose, "--pose", 6)
+    r0_mm = np.array(_floats(r0, "--r0", 6))
+    h_mm = np.array(_floats(h, "--h", 6) if h is not None else [mc.PAPER_H_MM] * 6)
+    cases = [("base", {}, r0_mm)]
+    if sweep_r0 is not None:
+        cases += [(f"R0={v:g}", {}, np.full(6, v)) for v in _floats(sweep_r0, "--sweep-r0")]
+    if sweep_length is not None:
+        name, values = _assignment(sweep_length, "--sweep-length")
+        cases += [(f"{name}={v:g}", {name: v}, r0_mm) for v in values]
+    # Build every arm and study first: a bad option fails before any work.
+    studies = [
+        (label, mc.Study(arm.build(model, pose_deg, lengths), r, h_mm, trials, seed))
+        for label, lengths, r in cases
+    ]
+    typer.echo(
+        f"{studies[0][1].arm.name}: {trials} trials, seed {seed}, "
+        f"R0 {', '.join(f'{v:g}' for v in r0_mm)} mm, h {', '.join(f'{v:g}' for v in h_mm)} mm"
+    )
+    typer.echo("|dP| (mm)")
+    typer.echo(_HEADER)
+    reporter = progress.Reporter.for_cli(quiet)
+    results, started = [], time.perf_counter()
+    for label, study in studies:
+        with reporter.task(f"misalignment {label}", trials, "trials") as task:
+            summary, grid = engine.run(
+                study,
+                chunk_trials=chunk,
+                workers=workers,
+                scheduler=scheduler,
+                progress=lambda done, _total, task=task: task.update(done),
+            )
+        stats = mc.statistics(summary, grid)
+        results.append((label, study, summary, grid, stats))
+        typer.echo(_row(label, stats))
+    base = results[0][4]
+    typer.echo(
+        "density centre (mean dP, base frame, mm): "
+        + ", ".join(f"{v:+.4f}" for v in base["position"]["mean_vector"])
+    )
+    typer.echo("orientation error (deg)   mean       std   max |.|  axis-angle median / max")
+    for axis, o in base["orientation_deg"].items():
+        typer.echo(
+            f"  about {axis}            {o['mean']:+.5f}  {o['std']:.5f}  {o['max_abs']:.5f}"
+            f"  {o['axis_angle_median']:.5f} / {o['axis_angle_max']:.5f}"
+        )
+    outside = sum(base["outside"].values())
+    if outside:
+        typer.echo(f"note: {outside} values fell outside the figure ranges (statistics exact)")
+    typer.echo(f"done in {time.perf_counter() - started:.2f} s")
+    document = {
+        "model": model,
+        "trials": trials,
+        "seed": seed,
+        "h_mm": h_mm.tolist(),
+        "cases": [
+            {"case": label, "r0_mm": s.r0_mm.tolist(), **stats} for label, s, _, _, stats in results
+        ],
+    }
+    with outputs.Outputs() as batch:
+        if plots is not None:
+            _misalignment_plots(batch, plots, results)
+        if json_out is not None:
+            batch.text(json_out, json.dumps(document, indent=2) + "\n")
+    if json_out is not None:
+        typer.echo(f"wrote {json_out}")
+
+
+def _misalignment_plots(batch, folder, results):
+    """Add every figure of the runs to an output batch."""
+    from calibrator.analysis import plots
+
+    folder = batch.folder(folder)
+    _, _, summary, grid, _ = results[0]
+    figures = {
+        "cloud.png": plots.cloud(summary, grid, "hand error, ideal point at origin"),
+        "orientation.png": plots.orientation(summary, grid),
+    }
+    r0_runs = [r for r in results if r[0].startswith("R0=")] or results[:1]
+    figures["pdf_cdf.png"] = plots.pdf_cdf([(r[0], r[2], r[3]) for r in r0_runs])
+    r0_sweep = [r for r in results[1:] if r[0].startswith("R0=")]
+    length_sweep = [r for r in results[1:] if not r[0].startswith("R0=")]
+    for name, runs in (("sweep_r0.png", r0_sweep), ("sweep_length.png", length_sweep)):
+        if len(runs) > 1:
+            xlabel = "R0 (mm)" if runs is r0_sweep else f"{runs[0][0].split('=')[0]} (mm)"
+            xs = [float(r[0].split("=")[1]) for r in runs]
+            figures[name] = plots.sweep(xlabel, xs, [r[4] for r in runs])
+    for label, _, summary, grid, _ in length_sweep:
+        figures[f"cloud_{label.replace('=', '-')}.png"] = plots.cloud(summary, grid, label)
+    for name, png in figures.items():
+        batch.bytes(folder / name, png)
+    typer.echo(f"wrote {len(figures)} figures into {folder}: {', '.join(figures)}")
+
+
+@analyze_app.command("tolerance")
+def tolerance(
+    model: str = typer.Option(None, help="Named model giving the nominal table."),
+    calibration: Path = typer.Option(
+        None, help="calibration.json whose identified table is the nominal."
+    ),
+    length_tol: float = typer.Option(
+        0.05, callback=checks.finite(minimum=0.0), help="Tolerance of every a and d (+- mm)."
+    ),
+    angle_tol: float = typer.Option(
+        0.01,
+        callback=checks.finite(minimum=0.0),
+        help="Tolerance of every alpha, theta, beta (+- deg).",
+    ),
+    joint_tol: float = typer.Option(
+        0.01,
+        callback=checks.finite(minimum=0.0),
+        help="Tolerance of every joint coordinate (+- deg).",
+    ),
+    tol: list[str] = typer.Option(
+        None, help="Override one tolerance, NAME=VALUE (mm or deg), e.g. a2=0.02. Repeatable."
+    ),
+    distribution: Distribution = typer.Option(
+        Distribution.uniform, help="Inside the band: uniform, or normal with tolerance = 3 sigma."
+    ),
+    pose: str = typer.Option(None, help="One pose, six joint angles (deg) [default: random]."),
+    poses: int = typer.Option(
+        100, callback=checks.at_least(1), help="Random poses within the joint limits."
+    ),
+    samples: int = typer.Option(
+        2000, callback=checks.at_least(1), help="Deviation sets for the nonlinear check."
+    ),
+    seed: int = typer.Option(0),
+    top: int = typer.Option(
+        10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
+    ),
+    json_out: Path = typer.Option(None, "--json", help="Write the budget to this JSON file."),
+):
+    """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
+    import numpy as np
+
+    from calibrator import models, outputs
+    from calibrator.analysis import tolerance as tl
+
+    if (model is None) == (calibration is None):
+        raise CalibrationError("give exactly one of --model and --calibration")
+    if json_out is not None:
+        outputs.check(json_out, inputs=[calibration])
+    if calibration is not None:
+        from calibrator import calibration as cal
+
+        loaded = cal.load(calibration)
+        nominal, source = loaded.mdh, f"{calibration} (identified table)"
+        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
+    else:
+        m = models.get_model(model)
+        nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
+    overrides = {}
+    for item in tol or []:
+        name, values = _assignment(item, "--tol")
+        if len(values) != 1:
+            raise CalibrationError(f"--tol {name} takes one value, got {len(values)}")
+        overrides[name] = values[0] if tl.is_length(name) else np.radians(values[0])
+    tols = tl.Tolerances.build(
+        length_tol, np.radians(angle_tol), np.radians(joint_tol), overrides, distribution.value
+    )
+    if pose is not None:
+        q = np.radians([_floats(pose, "--pose", 6)])
+    else:
+        lim = np.tile([-np.pi, np.pi], (6, 1)) if limits is None else limits
+        lo, hi = np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi)
+        q = np.random.default_rng(seed).uniform(lo, hi, (poses, 6))
+    result = tl.budget(nominal, q, tols, samples=samples, seed=seed)
+    nl = result["nonlinear"]
+    typer.echo(f"nominal: {source}; {len(q)} poses; {distribution.value} deviations")
+    typer.echo(f"worst case |dP| (linear bound, worst pose)   {result['worst_case_mm']:9.4f} mm")
+    typer.echo(
+        f"worst case along one axis (worst pose)       {result['worst_case_axis_mm']:9.4f} mm"
+    )
+    typer.echo(f"statistical RMS |dP| (linear)                {result['rms_mm']:9.4f} mm")
+    typer.echo(
+        f"  from link parameters / from joints         {result['link_only_rms_mm']:9.4f}"
+        f" / {result['joint_only_rms_mm']:.4f} mm"
+    )
+    typer.echo(
+        f"statistical RMS orientation (linear)         {result['orientation_rms_deg']:9.5f} deg"
+    )
+    typer.echo(
+        f"nonlinear model, {nl['samples']} draws: RMS {nl['rms_mm']:.4f}, 95 % {nl['p95_mm']:.4f},"
+        f" max {nl['max_mm']:.4f} mm; linearisation error {100 * nl['linearisation_error']:.3f} %"
+    )
+    typer.echo("tighten first (share of position variance):")
+    typer.echo(f"  {'param':8s} {'tolerance':>12s} {'share':>7s} {'RMS mm':>8s} {'worst mm':>9s}")
+    for row in result["ranking"][:top]:
+        t = row["tolerance"] if row["unit"] == "mm" else np.degrees(row["tolerance"])
+        unit = "mm" if row["unit"] == "mm" else "deg"
+        typer.echo(
+            f"  {row['name']:8s} {t:8.4f} {unit:3s} {100 * row['share']:6.1f}% "
+            f"{row['rms_mm']:8.4f} {row['worst_mm']:9.4f}"
+        )
+    if json_out is not None:
+        text = json.dumps({"nominal": source, **result}, indent=2) + "\n"
+        outputs.write_text(json_out, text, inputs=[calibration])
+        typer.echo(f"wrote {json_out}")

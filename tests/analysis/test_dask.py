@@ -1,0 +1,34 @@
+"""The same study on a real Dask LocalCluster gives the in-process result, to the bit."""
+
+import multiprocessing
+
+from calibrator.analysis import arm, engine
+from calibrator.analysis import misalignment as mc
+
+
+def test_local_cluster_matches_in_process():
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 2 * mc.BLOCK + 500, seed=3)
+    local, grid = engine.run(study)
+    seen = []
+    remote, _ = engine.run(
+        study, workers=2, chunk_trials=mc.BLOCK, progress=lambda d, t: seen.append((d, t))
+    )
+    assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    assert seen[-1] == (study.trials, study.trials) and len(seen) == 3
+    # The cluster's worker processes are gone once the run returns.
+    assert multiprocessing.active_children() == []
+
+
+def test_existing_scheduler_gets_the_chunks():
+    from dask.distributed import LocalCluster
+
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, mc.BLOCK + 10, seed=4)
+    local, grid = engine.run(study)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        remote, _ = engine.run(study, scheduler=cluster.scheduler_address, chunk_trials=1)
+        # The run closes its own client but leaves the user's cluster running.
+        assert len(cluster.scheduler_info["workers"]) == 1
+    assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    assert multiprocessing.active_children() == []
