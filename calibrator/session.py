@@ -36,6 +36,7 @@ is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
 
 import json
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -208,9 +209,8 @@ def _parse_meta(raw, path, model):
         raise SessionError(
             f"{path}: metadata 'frame' must be 'base' or 'tracker', got {meta.get('frame')!r}"
         )
-    for key in ("model",):
-        if key in meta and meta[key] is not None and not isinstance(meta[key], str):
-            raise SessionError(f"{path}: metadata '{key}' must be a string, got {meta[key]!r}")
+    if meta.get("model") is not None and not isinstance(meta["model"], str):
+        raise SessionError(f"{path}: metadata 'model' must be a string, got {meta['model']!r}")
     tool_known = meta.get("tool_known", False)
     if not isinstance(tool_known, bool):
         raise SessionError(
@@ -328,10 +328,7 @@ def _validate_table(table, path, meta):
         raise SessionError(f"{path}: column pose has NaN, infinite or null values")
     if any(isinstance(p, float) and (p != int(p) or abs(p) > 2**53) for p in poses):
         raise SessionError(f"{path}: column pose must hold whole numbers")
-    counts = {}
-    for p in poses:
-        counts[int(p)] = counts.get(int(p), 0) + 1
-    duplicates = sorted(p for p, c in counts.items() if c > 1)
+    duplicates = sorted(p for p, c in Counter(int(p) for p in poses).items() if c > 1)
     if duplicates:
         raise SessionError(f"{path}: duplicate pose number(s) {duplicates[:5]}")
     return table.sort_by("pose")
