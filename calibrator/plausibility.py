@@ -14,13 +14,13 @@ Before fitting:
 - **joints against the model's joint limits**; values that cannot be
   radians on this arm but fit its limits as degrees are named as degrees;
 - **points against the model's reach**: no point further from the cloud's
-  median centre than :data:`EXTENT_FACTOR` times the reach; and the distance between two measured
-  points, divided by the distance the nominal model gives for the same two
-  joint vectors, is about 1 whatever the frame (distances do not depend on
-  ``base2tracker``). A median ratio far from 1 is explained if possible:
-  joints in degrees (the ratio is about 1 with the joints read as degrees),
-  or points in m, cm, inch or um; failing that, the points do not fit the
-  model;
+  median centre than :data:`EXTENT_FACTOR` times the reach; and the distance
+  between two measured points, divided by the distance the nominal model
+  gives for the same two joint vectors, is about 1 whatever the frame
+  (distances do not depend on ``base2tracker``). A median ratio far from 1
+  is explained if possible: joints in degrees (the ratio is about 1 with the
+  joints read as degrees), or points in m, cm, inch or um; failing that, the
+  points do not fit the model;
 - **degenerate poses**: every pose with the same joints, or every point the same.
 
 A ratio off 1 is refused when reading the joints as degrees explains it
