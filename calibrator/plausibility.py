@@ -9,8 +9,8 @@ model first (:func:`check_observations`, called by
 
 Before fitting:
 
-- **magnitudes**: no coordinate beyond :data:`MAX_ABS_MM`, no joint beyond
-  :data:`MAX_ABS_RAD` (absurd, not merely out of range);
+- **magnitudes**: no coordinate beyond :data:`MAX_ABS_MM` (absurd, not
+  merely out of reach);
 - **joints against the model's joint limits**; values that cannot be
   radians on this arm but fit its limits as degrees are named as degrees;
 - **points against the model's reach**: no point further from the cloud's
@@ -36,7 +36,7 @@ from calibrator.calibration import PLAUSIBLE_DELTA
 from calibrator.errors import CalibrationError, SessionError
 
 MAX_ABS_MM = 1.0e9  # 1000 km: no unit mistake explains it (um are named by the scale check)
-MAX_ABS_RAD = 100.0  # 16 turns: beyond any joint, whatever the unit mistake
+MAX_ABS_RAD = 100.0  # 16 turns: an absurd angle (rotation vectors; joints meet their limits)
 GENERIC_JOINT_LIMIT_RAD = 2.0 * np.pi  # when the session names no model: any revolute joint
 LIMIT_TOL_RAD = 1e-6  # a joint read back exactly on its limit is inside
 SCALE_WARN = 1.5  # measured/nominal distance ratio beyond 1.5x either way: warn
@@ -95,8 +95,8 @@ def check_observations(
     q = np.asarray(q, dtype=float)
     points = np.asarray(points, dtype=float)
     names = list(joint_names or (f"q{i + 1}_rad" for i in range(6)))
-    _check_magnitudes(q, points, names)
-    _check_joint_limits(q, joint_limits_rad, names)
+    _check_magnitudes(points)
+    _check_joint_limits(q, joint_limits_rad, names)  # absurd joints fail here, degrees named
     _check_degenerate(q, points)
     ratio, scatter, reach = scale_ratio(q, points, nominal_mdh, flange2tool)
     # The scale first: when every point is off by a unit factor, that is the message.
@@ -113,18 +113,14 @@ def check_observations(
     return warnings
 
 
-def _check_magnitudes(q, points, names):
-    for values, cols, bound, unit in (
-        (points, ("x_mm", "y_mm", "z_mm"), MAX_ABS_MM, "mm"),
-        (q, names, MAX_ABS_RAD, "rad"),
-    ):
-        bad = np.abs(values) > bound
-        if bad.any():
-            row, col = np.argwhere(bad)[0]
-            raise SessionError(
-                f"column {cols[col]} has an absurd value {values[row, col]:.6g} at row {row} "
-                f"(more than {bound:g} {unit} from zero)"
-            )
+def _check_magnitudes(points):
+    bad = np.abs(points) > MAX_ABS_MM
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise SessionError(
+            f"column {'xyz'[col]}_mm has an absurd value {points[row, col]:.6g} at row {row} "
+            f"(more than {MAX_ABS_MM:g} mm from zero)"
+        )
 
 
 def _check_joint_limits(q, limits, names):

@@ -69,9 +69,10 @@ def test_points_in_another_unit_are_refused_naming_it(tmp_path, factor, unit, fr
         session.load(path)
 
 
-@pytest.mark.parametrize("model", ["er10l-c10", "ur5e"])
-def test_joints_in_degrees_are_refused_naming_degrees(tmp_path, model):
-    table, meta = _simulated(model)
+@pytest.mark.parametrize("model", ["er10l-c10", "ur5e", "ur10e"])
+@pytest.mark.parametrize("seed", [3, 4])
+def test_joints_in_degrees_are_refused_naming_degrees(tmp_path, model, seed):
+    table, meta = _simulated(model, seed=seed)  # UR joints span +-360 deg
     path = _write(tmp_path / "s.parquet", _scaled(table, JOINTS, RAD2DEG), meta)
     with pytest.raises(SessionError, match="degrees"):
         session.load(path)
