@@ -26,10 +26,17 @@ The file metadata key ``calibrator`` holds JSON::
      "tool_known": false, ...}             # optional: true fixes the tool point
 
 One of ``model`` and ``nominal_mdh`` is required; ``nominal_mdh`` wins when
-both are present. Other keys are kept and ignored.
+both are present. Other keys are kept and ignored. Every known key must have
+its JSON type (``"false"`` is not ``false``).
+
+Loading also checks the data against the model
+(:func:`calibrator.plausibility.check_observations`): joints against the
+joint limits, the point cloud against the arm's reach. A likely unit mistake
+is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
 
 import json
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +44,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from calibrator import frames, kinematics, outputs
+from calibrator import frames, kinematics, outputs, plausibility
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.measurement import Observations
 from calibrator.models import get_model
@@ -102,10 +109,13 @@ class Session:
     table : pyarrow.Table
         The rows as stored, sorted by pose (``table.to_pandas()`` for a frame).
     meta : SessionMeta
+    warnings : list of str
+        Doubts about the data that did not justify refusing it (one line each).
     """
 
     table: pa.Table
     meta: SessionMeta
+    warnings: list = field(default_factory=list)
 
     def array(self, columns):
         """Columns as one float array, shape (N, len(columns))."""
@@ -132,7 +142,9 @@ def load(path, model=None):
     Raises
     ------
     SessionError
-        With a one-line message naming the problem.
+        With a one-line message naming the problem: unreadable file, missing
+        or mistyped metadata or columns, absurd values, or data implausible
+        for the model (likely unit mistakes are named).
     """
     path = Path(path)
     if not path.is_file():
@@ -144,7 +156,30 @@ def load(path, model=None):
         raise SessionError(f"{path} is not a readable Parquet file ({_first_line(exc)})") from None
     meta_raw = (pf.schema_arrow.metadata or {}).get(META_KEY)
     meta = _parse_meta(meta_raw, path, model)
-    return Session(_validate_table(table, path, meta), meta)
+    loaded = Session(_validate_table(table, path, meta), meta)
+    limits = _model_limits(meta.model)
+    try:
+        loaded.warnings = plausibility.check_observations(
+            loaded.array(JOINT_COLUMNS),
+            loaded.array(POINT_COLUMNS),
+            meta.nominal_mdh,
+            limits,
+            meta.flange2tool,
+            JOINT_COLUMNS,
+        )
+    except SessionError as exc:
+        raise SessionError(f"{path}: {exc}") from None
+    return loaded
+
+
+def _model_limits(name):
+    """Joint limits of a named model; None for a name only ``nominal_mdh`` describes."""
+    if name is None:
+        return None
+    try:
+        return get_model(name).joint_limits_rad
+    except CalibrationError:
+        return None
 
 
 def _first_line(exc):
@@ -156,18 +191,31 @@ def _parse_meta(raw, path, model):
         raise SessionError(f"{path} has no '{META_KEY.decode()}' metadata (not a session file v1)")
     try:
         meta = json.loads(raw)
+    except RecursionError:
+        raise SessionError(
+            f"{path}: the '{META_KEY.decode()}' metadata is nested too deeply"
+        ) from None
     except ValueError:
         raise SessionError(f"{path}: the '{META_KEY.decode()}' metadata is not JSON") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SessionError(f"{path}: metadata format is not '{FORMAT}'")
-    if meta.get("version") != VERSION:
+    version = meta.get("version")
+    if type(version) is not int or version != VERSION:  # true == 1 and 1.0 == 1 in Python
         raise SessionError(
-            f"{path}: session version {meta.get('version')!r} is not supported "
-            f"(this program reads version {VERSION})"
+            f"{path}: session version {version!r} is not supported "
+            f"(this program reads version {VERSION}, a JSON integer)"
         )
-    if meta.get("frame") not in FRAMES:
+    if not isinstance(meta.get("frame"), str) or meta["frame"] not in FRAMES:
         raise SessionError(
             f"{path}: metadata 'frame' must be 'base' or 'tracker', got {meta.get('frame')!r}"
+        )
+    if meta.get("model") is not None and not isinstance(meta["model"], str):
+        raise SessionError(f"{path}: metadata 'model' must be a string, got {meta['model']!r}")
+    tool_known = meta.get("tool_known", False)
+    if not isinstance(tool_known, bool):
+        raise SessionError(
+            f"{path}: metadata 'tool_known' must be true or false (JSON booleans), "
+            f"got {tool_known!r}"
         )
     extra = {k: v for k, v in meta.items() if k not in _KNOWN_KEYS}
     name = model or meta.get("model")
@@ -176,6 +224,7 @@ def _parse_meta(raw, path, model):
             if name is None:
                 raise SessionError(f"{path}: metadata names neither 'model' nor 'nominal_mdh'")
             nominal = get_model(name).mdh
+            name = get_model(name).name
         else:
             nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
         tool = meta.get("flange2tool")
@@ -188,18 +237,20 @@ def _parse_meta(raw, path, model):
         raise
     except (CalibrationError, ValueError) as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return SessionMeta(
-        meta["frame"], nominal, name, tool, bool(meta.get("tool_known", False)), extra
-    )
+    return SessionMeta(meta["frame"], nominal, name, tool, tool_known, extra)
 
 
 _KNOWN_KEYS = {"format", "version", "frame", "model", "nominal_mdh", "flange2tool", "tool_known"}
 
 
 def _matrix(value, shape, what, path):
+    if not _is_number_table(value):
+        raise SessionError(
+            f"{path}: metadata '{what}' must be a table (list of lists) of JSON numbers"
+        )
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise SessionError(f"{path}: metadata '{what}' is not a numeric table") from None
     if arr.shape != shape:
         if what == "nominal_mdh" and arr.ndim == 2 and arr.shape[1] == 5:
@@ -213,8 +264,22 @@ def _matrix(value, shape, what, path):
     return arr
 
 
+def _is_number_table(value):
+    """A list of lists of int/float (not bool, not text): what JSON gives for a table."""
+    return isinstance(value, list) and all(
+        isinstance(row, list)
+        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in row)
+        for row in value
+    )
+
+
 def _validate_table(table, path, meta):
     names = table.column_names
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise SessionError(f"{path}: column {name} appears more than once")
+        seen.add(name)
     extra_joints = sorted(
         c for c in names if c.startswith("q") and c.endswith("_rad") and c not in JOINT_COLUMNS
     )
@@ -240,19 +305,32 @@ def _validate_table(table, path, meta):
         kind = table.schema.field(col).type
         if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
             raise SessionError(f"{path}: column {col} is not numeric ({kind})")
+        if pa.types.is_float16(kind):
+            # 11 significant bits: 2500.3 mm reads back as 2500, 1.2345 rad as 1.234.
+            raise SessionError(
+                f"{path}: column {col} is float16 (about 3 significant digits); "
+                "store float32 or float64"
+            )
+        if col == "pose":
+            continue  # checked exactly below: large integers do not survive float64
         values = _floats(table, col)
         bad = ~np.isfinite(values)
         if bad.any():
-            where = "" if col == "pose" else f" (pose {_poses(table, bad)})"
-            raise SessionError(f"{path}: column {col} has NaN or infinite values{where}")
-    poses = _floats(table, "pose")
-    if np.any(poses != np.round(poses)):
+            raise SessionError(
+                f"{path}: column {col} has NaN or infinite values (pose {_poses(table, bad)})"
+            )
+        if col in ROTVEC_COLUMNS and np.any(np.abs(values) > plausibility.MAX_ABS_RAD):
+            raise SessionError(f"{path}: column {col} has absurd values (beyond 100 rad)")
+        if col in SPREAD_COLUMNS and np.any(values < 0):
+            raise SessionError(f"{path}: column {col} (a standard deviation) has negative values")
+    poses = table["pose"].to_pylist()
+    if any(p is None or (isinstance(p, float) and not np.isfinite(p)) for p in poses):
+        raise SessionError(f"{path}: column pose has NaN, infinite or null values")
+    if any(isinstance(p, float) and (p != int(p) or abs(p) > 2**53) for p in poses):
         raise SessionError(f"{path}: column pose must hold whole numbers")
-    unique, counts = np.unique(poses, return_counts=True)
-    if np.any(counts > 1):
-        raise SessionError(
-            f"{path}: duplicate pose number(s) {unique[counts > 1][:5].astype(int).tolist()}"
-        )
+    duplicates = sorted(p for p, c in Counter(int(p) for p in poses).items() if c > 1)
+    if duplicates:
+        raise SessionError(f"{path}: duplicate pose number(s) {duplicates[:5]}")
     return table.sort_by("pose")
 
 

@@ -98,6 +98,8 @@ def identify(
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
     loaded = session.load(session_path, model=model)
+    for doubt in loaded.warnings:
+        typer.echo(f"warning: {doubt}", err=True)
     if nominal_file is not None:
         from calibrator import nominal
 

@@ -10,6 +10,7 @@ Failures are exceptions from :mod:`drivers.robot.errors`, never return codes.
 """
 
 import abc
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -113,6 +114,37 @@ class Robot(abc.ABC):
         self.close()
 
 
+def real_array(value, name):
+    """``value`` as a float array, refusing anything that is not real numbers.
+
+    ``np.asarray(value, dtype=float)`` alone drops the imaginary part of a
+    complex target (with only a warning), turns booleans into 0/1 and parses
+    strings: each of those would move the arm somewhere nobody asked for.
+
+    Raises
+    ------
+    ValueError
+        If the values are complex, boolean, text, objects or otherwise not
+        integer or floating point.
+    """
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must hold real numbers, got {arr.dtype} values: {value!r}")
+    return arr.astype(float)
+
+
+def real_scalar(value, name):
+    """``value`` as a float, refusing bools, complex numbers, text and arrays.
+
+    Raises
+    ------
+    ValueError
+    """
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a real number, got {value!r}")
+    return float(value)
+
+
 def check_move_args(q_rad, speed_rad_s, accel_rad_s2):
     """Validate the arguments of :meth:`Robot.move_joints`.
 
@@ -124,14 +156,16 @@ def check_move_args(q_rad, speed_rad_s, accel_rad_s2):
     Raises
     ------
     ValueError
-        Wrong shape, non-finite values or non-positive speed/acceleration.
+        Wrong shape, values that are not real numbers (complex, bool, text),
+        non-finite values or non-positive speed/acceleration.
     """
-    q = np.asarray(q_rad, dtype=float)
+    q = real_array(q_rad, "joint target")
     if q.shape != (N_JOINTS,):
         raise ValueError(f"joint target must have shape (6,), got {q.shape}")
     if not np.all(np.isfinite(q)):
         raise ValueError(f"joint target must be finite, got {q}")
     for name, value in (("speed_rad_s", speed_rad_s), ("accel_rad_s2", accel_rad_s2)):
-        if not (np.isfinite(value) and value > 0):
+        number = real_scalar(value, name)
+        if not (np.isfinite(number) and number > 0):
             raise ValueError(f"{name} must be finite and > 0, got {value}")
     return q

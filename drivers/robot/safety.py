@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.robot.errors import LimitsViolation
-from drivers.robot.interface import N_JOINTS, Robot
+from drivers.robot.interface import N_JOINTS, Robot, real_array, real_scalar
 
 
 @dataclass(frozen=True)
@@ -41,22 +41,28 @@ class MotionLimits:
     max_joint_speed_rad_s: np.ndarray | None = None
 
     def __post_init__(self):
-        limits = np.array(self.joint_limits_rad, dtype=float)
+        # Every limit must be a finite real number: a NaN compares False both ways and
+        # would silently turn its check off.
+        limits = real_array(self.joint_limits_rad, "joint_limits_rad")
         if limits.shape != (N_JOINTS, 2):
             raise ValueError(f"joint_limits_rad must have shape (6, 2), got {limits.shape}")
         if not np.all(limits[:, 0] < limits[:, 1]):
             raise ValueError(f"joint limits need min < max on every joint, got {limits.tolist()}")
         for name in ("max_speed_rad_s", "max_accel_rad_s2"):
-            value = float(getattr(self, name))
+            value = real_scalar(getattr(self, name), name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
             object.__setattr__(self, name, value)
         limits.setflags(write=False)
         object.__setattr__(self, "joint_limits_rad", limits)
         if self.max_joint_speed_rad_s is not None:
-            speeds = np.array(self.max_joint_speed_rad_s, dtype=float)
+            speeds = real_array(self.max_joint_speed_rad_s, "max_joint_speed_rad_s")
             if speeds.shape != (N_JOINTS,):
                 raise ValueError(f"max_joint_speed_rad_s must have shape (6,), got {speeds.shape}")
+            if not np.all(np.isfinite(speeds) & (speeds > 0)):
+                raise ValueError(
+                    f"max_joint_speed_rad_s must be finite and > 0, got {speeds.tolist()}"
+                )
             speeds.setflags(write=False)
             object.__setattr__(self, "max_joint_speed_rad_s", speeds)
 
@@ -74,7 +80,11 @@ def check_motion(limits, speed_rad_s, accel_rad_s2):
     Raises
     ------
     LimitsViolation
+    ValueError
+        The speed or acceleration is not a real number (bool, complex, text).
     """
+    speed_rad_s = real_scalar(speed_rad_s, "speed_rad_s")
+    accel_rad_s2 = real_scalar(accel_rad_s2, "accel_rad_s2")
     if not (np.isfinite(speed_rad_s) and 0 < speed_rad_s <= limits.max_speed_rad_s):
         raise LimitsViolation(
             f"speed {speed_rad_s} rad/s outside (0, {limits.max_speed_rad_s}] (user cap)"
@@ -113,9 +123,9 @@ def check_plan(q_plan_rad, limits, speed_rad_s, accel_rad_s2):
         Naming the first pose (0-based plan row) and joint (``J1``..``J6``)
         out of limits; the whole plan is refused.
     ValueError
-        The plan has the wrong shape.
+        The plan has the wrong shape or holds anything but real numbers.
     """
-    plan = np.asarray(q_plan_rad, dtype=float)
+    plan = real_array(q_plan_rad, "plan")
     if plan.ndim != 2 or plan.shape[1] != N_JOINTS:
         raise ValueError(f"plan must have shape (N, 6), got {plan.shape}")
     check_motion(limits, speed_rad_s, accel_rad_s2)
@@ -154,7 +164,7 @@ class GuardedRobot(Robot):
         return check_plan(q_plan_rad, self.limits, speed_rad_s, accel_rad_s2)
 
     def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
-        target = np.asarray(q_rad, dtype=float)
+        target = real_array(q_rad, "joint target")
         if target.shape != (N_JOINTS,):
             raise ValueError(f"joint target must have shape (6,), got {target.shape}")
         check_plan(target[np.newaxis], self.limits, speed_rad_s, accel_rad_s2)

@@ -23,7 +23,7 @@ from drivers.tracker.errors import (
     IdentityChanged,
     TrackerTimeout,
 )
-from drivers.tracker.link import TRANSPORT_ERRORS, Link, SerialLike
+from drivers.tracker.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
 from drivers.tracker.protocol import Reading, Reply, format_number, parse_reading
 from drivers.tracker.recording import Recorder
 
@@ -122,6 +122,9 @@ class LaserTracker:
         self._on_event = on_event
         self._link: Link | None = None
         self._events: deque[Reply] = deque(maxlen=256)  # survives reconnects
+        # Sequence numbers continue across reconnects, so a late reply to a command
+        # lost in a reconnect can never match a command sent after it.
+        self._counters = LinkCounters()
         self._lost = False
         self.identity: Identity | None = None
         self.last_status: Status | None = None
@@ -143,7 +146,7 @@ class LaserTracker:
         status : Status
         """
         self._open()
-        self.identity = self.identify()
+        self.identity = self.query_identity()
         reply = self._apply("UNITS", "MM", "RAD")
         if reply.fields != ("MM", "RAD"):  # every reading is parsed as mm and rad
             raise FrameError(f"tracker did not confirm UNITS,MM,RAD: {reply.fields!r}")
@@ -177,6 +180,16 @@ class LaserTracker:
         return self._events
 
     @property
+    def stale_replies(self) -> int:
+        """Replies dropped because they answered an earlier command (late replies), all links."""
+        return self._counters.stale_replies
+
+    @property
+    def discarded_bytes(self) -> int:
+        """Received bytes thrown away (junk, over-long lines, input flushed at reconnects)."""
+        return self._counters.discarded_bytes
+
+    @property
     def link(self) -> Link:
         """The transaction layer (for simulator-only commands and diagnostics)."""
         if self._link is None:
@@ -185,7 +198,7 @@ class LaserTracker:
 
     # ------------------------------------------------------------ commands
 
-    def identify(self) -> Identity:
+    def query_identity(self) -> Identity:
         """``ID?``: vendor, model, serial number, firmware."""
         return _parse_identity(self._query("ID?", idempotent=True))
 
@@ -294,6 +307,7 @@ class LaserTracker:
                     pass  # the old port is already gone
                 self._port = None
             try:
+                # The link sets write_timeout before each write (from the deadline).
                 self._port = serial.serial_for_url(self._url, timeout=self.timeout_s)
             except (*TRANSPORT_ERRORS, ValueError) as exc:
                 raise ConnectionLost(f"cannot open {self._url}: {exc}") from exc
@@ -304,7 +318,13 @@ class LaserTracker:
         self._lost = False
 
     def _new_link(self, port: SerialLike) -> Link:
-        return Link(port, recorder=self._recorder, on_event=self._on_event, events=self._events)
+        return Link(
+            port,
+            recorder=self._recorder,
+            on_event=self._on_event,
+            events=self._events,
+            counters=self._counters,
+        )
 
     def _reopen_handed_port(self) -> None:
         """Reopen a transport we were handed (pyserial objects keep their port name)."""

@@ -3,9 +3,21 @@
 The link frames a command with the next sequence number, writes it, and
 reads lines until the reply with that sequence number arrives or the
 deadline passes. Stale replies (other sequence numbers, e.g. the late
-answer to a command that timed out) are dropped; ``EV`` frames are kept in
-:attr:`Link.events`. Bytes of an incomplete line stay buffered for the
-next read. Transport failures become :class:`ConnectionLost`.
+answer to a command that timed out) are dropped and counted; ``EV`` frames
+are kept in :attr:`Link.events`. Bytes of an incomplete line stay buffered
+for the next read. Transport failures become :class:`ConnectionLost`.
+
+Why a reading always belongs to its command:
+
+- The sequence counter lives in :class:`LinkCounters`, which the driver
+  keeps across reconnects, so a late reply to a command sent before a
+  reconnect never carries the number of a command sent after it (numbers
+  repeat only after :data:`~drivers.tracker.protocol.SEQ_MAX` commands).
+- A line longer than a frame is not kept: only its last bytes are, and when
+  its line end comes a valid frame is looked for at their end (junk glued
+  to the front of a reply). Memory stays bounded against an endless line.
+- Writes are bounded by the deadline too (``write_timeout``), so a device
+  that stops reading cannot block a call.
 """
 
 from __future__ import annotations
@@ -13,6 +25,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Protocol
 
 import serial
@@ -28,6 +41,7 @@ from drivers.tracker.protocol import (
     encode_frame,
     error_from_reply,
     next_seq,
+    parse_command,
     parse_reply,
 )
 from drivers.tracker.recording import Recorder
@@ -37,6 +51,7 @@ class SerialLike(Protocol):
     """The part of ``serial.Serial`` the driver uses."""
 
     timeout: float | None
+    write_timeout: float | None
 
     @property
     def in_waiting(self) -> int: ...
@@ -49,6 +64,31 @@ class SerialLike(Protocol):
 
 # pyserial raises SerialException (an IOError) or plain OSError when a port vanishes.
 TRANSPORT_ERRORS = (serial.SerialException, OSError)
+
+# Start of every tracker frame: where a reply glued behind junk may begin.
+_FRAME_STARTS = (b"OK,", b"ER,", b"EV,")
+# Bytes taken per read while an over-long line is being skipped (only its tail is kept).
+_SKIP_CHUNK = 65536
+
+
+@dataclass
+class LinkCounters:
+    """State that outlives one :class:`Link`: one per driver, kept across reconnects.
+
+    Attributes
+    ----------
+    seq : int
+        Sequence number of the last command sent (0 before the first).
+    stale_replies : int
+        Replies dropped because they answered another command (late replies).
+    discarded_bytes : int
+        Received bytes thrown away: junk before a frame, over-long lines,
+        input flushed at a reconnect.
+    """
+
+    seq: int = 0
+    stale_replies: int = 0
+    discarded_bytes: int = 0
 
 
 class Link:
@@ -64,6 +104,9 @@ class Link:
         Called with each ``EV`` :class:`Reply` as it arrives.
     events : deque, optional
         Where to keep events (lets them outlive a reconnect); a new one by default.
+    counters : LinkCounters, optional
+        Sequence counter and statistics; pass the same object to the link
+        that replaces this one after a reconnect (a new one by default).
     clock : callable
         Monotonic clock in seconds (deadlines).
     """
@@ -75,21 +118,30 @@ class Link:
         recorder: Recorder | None = None,
         on_event: Callable[[Reply], None] | None = None,
         events: deque[Reply] | None = None,
+        counters: LinkCounters | None = None,
         clock: Callable[[], float] = time.monotonic,
     ):
         self.port = port
         self.recorder = recorder
         self.on_event = on_event
         self.events: deque[Reply] = deque(maxlen=256) if events is None else events
-        self.stale_replies = 0  # replies dropped for a wrong sequence number
+        self.counters = LinkCounters() if counters is None else counters
         self._clock = clock
-        self._seq = 0
         self._buf = bytearray()
+        self._skipping = False  # inside a line longer than a frame: keep only its tail
+        self._skipped_line = False  # the last line returned was the tail of such a line
+        self._unterminated_write = False  # a write timed out part-way through a frame
+        self._write_timeout_works = True
 
     @property
     def last_seq(self) -> int:
         """Sequence number of the last command sent (0 before the first)."""
-        return self._seq
+        return self.counters.seq
+
+    @property
+    def stale_replies(self) -> int:
+        """Replies dropped because they answered another command (across reconnects)."""
+        return self.counters.stale_replies
 
     def transact(self, command: str, *args: str, timeout_s: float) -> Reply:
         """Send one command and return its ``OK`` reply.
@@ -106,7 +158,8 @@ class Link:
         Raises
         ------
         TrackerTimeout
-            No reply with our sequence number by the deadline.
+            The frame could not be written, or no reply with our sequence
+            number arrived, by the deadline.
         FrameError, ChecksumError
             A line arrived that is not a valid frame (raised at once).
         TrackerError
@@ -114,21 +167,29 @@ class Link:
         ConnectionLost
             The transport failed.
         """
-        self._seq = next_seq(self._seq)
-        seq = self._seq
+        counters = self.counters
+        counters.seq = seq = next_seq(counters.seq)
         frame = encode_frame(command_body(seq, command, *args))
         deadline = self._clock() + timeout_s
-        self._write(frame)
+        self._write(frame, deadline, command)
         while True:
-            line = self._read_line(deadline, command)
-            reply = parse_reply(decode_frame(line))
+            body = self._decode(self._read_line(deadline, command))
+            if body is None:
+                continue
+            try:
+                reply = parse_reply(body)
+            except FrameError:
+                if not _is_host_frame(body):
+                    raise
+                counters.stale_replies += 1  # our own frame echoed back: not a reply
+                continue
             if reply.kind is ReplyKind.EV:
                 self.events.append(reply)
                 if self.on_event is not None:
                     self.on_event(reply)
                 continue
             if reply.seq != seq:
-                self.stale_replies += 1
+                counters.stale_replies += 1
                 continue
             if reply.kind is ReplyKind.ER:
                 raise error_from_reply(reply, command)
@@ -136,42 +197,124 @@ class Link:
 
     def discard_input(self) -> None:
         """Forget buffered bytes and anything waiting in the transport (after a reconnect)."""
+        self.counters.discarded_bytes += len(self._buf)
         self._buf.clear()
+        self._skipping = False
         try:
+            self.counters.discarded_bytes += self.port.in_waiting
             self.port.reset_input_buffer()
         except TRANSPORT_ERRORS as exc:
             raise ConnectionLost(f"transport failed: {exc}") from exc
 
-    def _write(self, frame: bytes) -> None:
+    def _write(self, frame: bytes, deadline: float, command: str) -> None:
+        if self._unterminated_write:
+            # The device holds the start of a frame we could not finish: end that line
+            # first, so it answers BAD_FRAME to it instead of to this command.
+            frame = TERMINATOR + frame
         if self.recorder is not None:
             self.recorder.log("tx", frame)
+        port = self.port
         try:
-            self.port.write(frame)
+            if self._write_timeout_works:
+                self._bound_write(deadline)
+            written = port.write(frame)
+        except serial.SerialTimeoutException as exc:
+            self._write_cut_short()
+            raise TrackerTimeout(
+                f"could not send {command} within the deadline: the device is not reading"
+            ) from exc
         except TRANSPORT_ERRORS as exc:
             raise ConnectionLost(f"transport failed while writing: {exc}") from exc
+        if written is not None and written < len(frame):
+            # A zero write timeout (deadline already past) makes pyserial write what fits.
+            self._write_cut_short()
+            raise TrackerTimeout(f"could not send {command} within the deadline (partial write)")
+        self._unterminated_write = False
+
+    def _write_cut_short(self) -> None:
+        """A frame went out in part: drop what is still queued, end that line next time."""
+        self._unterminated_write = True
+        reset = getattr(self.port, "reset_output_buffer", None)
+        if reset is not None:
+            try:
+                reset()
+            except TRANSPORT_ERRORS:
+                pass  # the next write reports a vanished port
+
+    def _bound_write(self, deadline: float) -> None:
+        """Make the port's write give up at ``deadline``."""
+        port = self.port
+        remaining = max(deadline - self._clock(), 0.0)
+        # Like the read timeout: only touch it (a tty syscall) when it is too long for
+        # this deadline or far too short.
+        current = getattr(port, "write_timeout", None)
+        if current is None or current > remaining or current < 0.5 * remaining:
+            try:
+                port.write_timeout = remaining
+            except NotImplementedError:
+                # pyserial's rfc2217 client has no write timeout (and keeps the value it
+                # refused, which breaks every later reconfiguration: take it back).
+                # Its TCP send buffer must fill (megabytes) before a write can block.
+                port.write_timeout = None
+                self._write_timeout_works = False
+
+    def _decode(self, line: bytes) -> str | None:
+        """Body of the frame in ``line``, or of a valid frame at its end (after junk).
+
+        Junk in front of a frame (line noise, the tail of an over-long line) is
+        discarded and counted. A line with no valid frame raises as
+        ``decode_frame``, except the end of an over-long line (its error was
+        raised when it overflowed): that gives None.
+        """
+        try:
+            return decode_frame(line)
+        except FrameError:
+            for start in _frame_starts(line):
+                try:
+                    body = decode_frame(line[start:])
+                except FrameError:
+                    continue
+                self.counters.discarded_bytes += start
+                return body
+            self.counters.discarded_bytes += len(line)
+            if self._skipped_line:
+                return None
+            raise
 
     def _read_line(self, deadline: float, command: str) -> bytes:
-        """Next complete line (with ``\\r\\n``) by ``deadline``; partial bytes stay buffered."""
+        """Next complete line (with ``\\r\\n``) by ``deadline``; partial bytes stay buffered.
+
+        Of a line longer than a frame only the last ``MAX_FRAME`` bytes are
+        kept (the rest is discarded as it arrives), so memory stays bounded
+        and a reply glued to the end of junk can still be read.
+        """
+        buf = self._buf
         while True:
-            end = self._buf.find(TERMINATOR)
+            end = buf.find(TERMINATOR)
             if end >= 0:
-                line = bytes(self._buf[: end + 2])
-                del self._buf[: end + 2]
+                line = bytes(buf[: end + 2])
+                del buf[: end + 2]
+                self._skipped_line, self._skipping = self._skipping, False
                 return line
-            if len(self._buf) >= MAX_FRAME:
-                junk = bytes(self._buf[:60])
-                self._buf.clear()
-                raise FrameError(f"no line end within {MAX_FRAME} bytes: {junk!r}")
+            if len(buf) >= MAX_FRAME:  # no frame is this long without its line end
+                if not self._skipping:
+                    self._skipping = True  # from now on keep only the tail of this line
+                    raise FrameError(f"no line end within {MAX_FRAME} bytes: {bytes(buf[:60])!r}")
+                excess = len(buf) - MAX_FRAME
+                self.counters.discarded_bytes += excess
+                del buf[:excess]
             remaining = deadline - self._clock()
             if remaining <= 0:
+                skipping = ", skipping a line with no end" if self._skipping else ""
                 raise TrackerTimeout(
-                    f"no reply to {command} within the deadline ({len(self._buf)} bytes pending)"
+                    f"no reply to {command} within the deadline "
+                    f"({len(buf)} bytes pending{skipping})"
                 )
-            self._buf += self._read_chunk(remaining)
+            buf += self._read_chunk(remaining)
 
     def _read_chunk(self, remaining: float) -> bytes:
         port = self.port
-        room = MAX_FRAME - len(self._buf)
+        room = _SKIP_CHUNK if self._skipping else max(MAX_FRAME + 1 - len(self._buf), 1)
         try:
             # Changing the timeout reconfigures a tty (a syscall): only shrink it to the
             # deadline, or grow it when it is far too short for the time left.
@@ -189,7 +332,8 @@ class Link:
                 # return everything that has arrived without waiting for more.
                 port.timeout = 0
                 chunk = port.read(room)
-            elif not self._buf:
+            elif not self._buf or self._skipping:
+                # Skipping a line with no end: read_until would take it byte by byte.
                 chunk = port.read(1)
             else:
                 # A line has begun: finish it with read_until, bounded by the deadline.
@@ -201,3 +345,23 @@ class Link:
         if chunk and self.recorder is not None:
             self.recorder.log("rx", chunk)
         return chunk
+
+
+def _frame_starts(line: bytes) -> list[int]:
+    """Offsets after 0 where a tracker frame could begin in ``line``, in order."""
+    found = []
+    for tag in _FRAME_STARTS:
+        at = line.find(tag, 1)
+        while at >= 0:
+            found.append(at)
+            at = line.find(tag, at + 1)
+    return sorted(found)
+
+
+def _is_host_frame(body: str) -> bool:
+    """Whether a valid frame is a host command (an echo), not a garbled reply."""
+    try:
+        parse_command(body)
+    except FrameError:
+        return False
+    return True

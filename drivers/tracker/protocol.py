@@ -18,6 +18,7 @@ from __future__ import annotations
 import binascii
 import enum
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +38,18 @@ TERMINATOR = b"\r\n"
 MAX_FRAME = 256  # bytes including "*HHHH\r\n"; keeps a frame inside one small buffer
 SEQ_MAX = 9999  # sequence numbers run 1..SEQ_MAX and wrap; 0 marks events
 EVENT_SEQ = 0
+
+# The grammar of docs/tracker-protocol.md ("Numbers"). Python's float() and int()
+# take far more (exponents, '_', '+', spaces, 'inf', unicode digits, any length):
+# every number on the wire goes through these instead.
+_NUMBER = re.compile(r"-?(?:0|[1-9][0-9]{0,8})(?:\.[0-9]{1,9})?", re.ASCII)
+_SEQ = re.compile(r"[1-9][0-9]{0,3}", re.ASCII)
+_CODE = re.compile(r"0|[1-9][0-9]{0,2}", re.ASCII)
+_TIME_US = re.compile(r"0|[1-9][0-9]{0,14}", re.ASCII)
+_CRC = re.compile(rb"[0-9A-F]{4}")
+_PRINTABLE = re.compile(rb"[\x20-\x7e]*")
+MAX_INT_DIGITS = 9  # of a number: +-999999999.x mm is far beyond any tracker's range
+MAX_DECIMALS = 9
 
 
 class ErrorCode(enum.IntEnum):
@@ -114,11 +127,10 @@ def decode_frame(line: bytes) -> str:
     if star < 0 or len(line) - star != 5:
         raise FrameError(f"no '*HHHH' checksum in {line[:60]!r}")
     raw, crc_text = line[:star], line[star + 1 :]
-    try:
-        sent = int(crc_text, 16)
-        body = raw.decode("ascii")
-    except (ValueError, UnicodeDecodeError):
-        raise FrameError(f"garbled frame {line[:60]!r}") from None
+    if not _CRC.fullmatch(crc_text) or not _PRINTABLE.fullmatch(raw):
+        raise FrameError(f"garbled frame {line[:60]!r}")
+    sent = int(crc_text, 16)
+    body = raw.decode("ascii")
     if sent != crc16(raw):
         raise ChecksumError(f"checksum {sent:04X} != {crc16(raw):04X} for {line[:60]!r}")
     return body
@@ -133,11 +145,37 @@ def next_seq(seq: int) -> int:
 
 
 def format_number(value: float, decimals: int) -> str:
-    """Fixed-point text of a finite number (the protocol never sends exponents)."""
+    """Fixed-point text of a finite number in the protocol's grammar (never an exponent).
+
+    Raises
+    ------
+    ValueError
+        If the value is not finite, or needs more than 9 digits before or after the point.
+    """
     if not math.isfinite(value):
         raise ValueError(f"not a finite number: {value}")
+    if not 0 <= decimals <= MAX_DECIMALS:
+        raise ValueError(f"{decimals} decimals: the protocol carries 0..{MAX_DECIMALS}")
     text = f"{value:.{decimals}f}"
-    return "0." + "0" * decimals if text.lstrip("-").strip("0.") == "" else text
+    if text.lstrip("-").strip("0.") == "":
+        return "0." + "0" * decimals if decimals else "0"
+    if not _NUMBER.fullmatch(text):
+        raise ValueError(f"{value} needs more than {MAX_INT_DIGITS} digits before the point")
+    return text
+
+
+def parse_number(text: str) -> float:
+    """A decimal in the protocol's grammar: ``-?(0|[1-9][0-9]{0,8})(\\.[0-9]{1,9})?``.
+
+    Raises
+    ------
+    ValueError
+        If ``text`` has an exponent, ``+``, ``_``, spaces, leading zeros,
+        ``inf``/``nan``, or too many digits.
+    """
+    if not _NUMBER.fullmatch(text):
+        raise ValueError(f"not a protocol number: {text[:40]!r}")
+    return float(text)
 
 
 def command_body(seq: int, command: str, *args: object) -> str:
@@ -169,7 +207,7 @@ def parse_command(body: str) -> Command:
         If the sequence number is missing or not in 1..SEQ_MAX.
     """
     fields = body.split(",")
-    if len(fields) < 2 or not fields[0].isdigit() or not 1 <= int(fields[0]) <= SEQ_MAX:
+    if len(fields) < 2 or not _SEQ.fullmatch(fields[0]) or not fields[1]:
         raise FrameError(f"bad command frame {body[:60]!r}")
     return Command(int(fields[0]), fields[1], tuple(fields[2:]))
 
@@ -221,15 +259,18 @@ def parse_reply(body: str) -> Reply:
     Raises
     ------
     FrameError
-        If the kind is unknown, the sequence number is not an integer, or an
-        ER/EV frame lacks an integer code.
+        If the kind is unknown, the sequence number is not 1..9999 (``0`` for
+        an event, and only for it), or an ER/EV frame lacks a plain code.
     """
     fields = body.split(",")
-    if len(fields) < 2 or fields[0] not in ("OK", "ER", "EV") or not fields[1].isdigit():
+    if len(fields) < 2 or fields[0] not in ("OK", "ER", "EV"):
         raise FrameError(f"not a reply frame: {body[:60]!r}")
     kind = ReplyKind(fields[0])
+    seq_ok = fields[1] == "0" if kind is ReplyKind.EV else _SEQ.fullmatch(fields[1])
+    if not seq_ok:
+        raise FrameError(f"bad sequence number in {body[:60]!r}")
     rest = tuple(fields[2:])
-    if kind is not ReplyKind.OK and (not rest or not rest[0].lstrip("-").isdigit()):
+    if kind is not ReplyKind.OK and (not rest or not _CODE.fullmatch(rest[0])):
         raise FrameError(f"{kind.value} frame without code: {body[:60]!r}")
     return Reply(kind, int(fields[1]), rest)
 
@@ -244,7 +285,10 @@ def error_body(seq: int, code: ErrorCode, detail: str = "") -> str:
     kind = "EV" if seq == EVENT_SEQ else "ER"
     fields = [kind, str(seq), str(int(code)), code.name]
     if detail:
-        fields.append(detail.replace(",", ";").replace("*", "x"))
+        # Printable ASCII without ',' or '*', cut so the frame stays within MAX_FRAME.
+        room = MAX_FRAME - len(",".join(fields)) - len(",*HHHH\r\n")
+        text = "".join(c if " " <= c <= "~" else "?" for c in detail)
+        fields.append(text.replace(",", ";").replace("*", "x")[:room])
     return ",".join(fields)
 
 
@@ -331,13 +375,13 @@ def parse_reading(fields: tuple[str, ...], length_scale: float = 1.0, angle_scal
     if n_values is None or len(fields) != n_values + 3:
         raise FrameError(f"bad reading fields {fields!r}")
     try:
-        values = [float(v) for v in fields[1 : 1 + n_values]]
+        values = [parse_number(v) for v in fields[1 : 1 + n_values]]
         status = _STATUS_BY_TEXT[fields[-2]]
-        device_time_us = int(fields[-1])
     except (ValueError, KeyError):
         raise FrameError(f"bad reading fields {fields!r}") from None
-    if not all(map(math.isfinite, values)):
-        raise FrameError(f"non-finite reading {fields!r}")
+    if not _TIME_US.fullmatch(fields[-1]):
+        raise FrameError(f"bad device time in reading fields {fields!r}")
+    device_time_us = int(fields[-1])
     point = np.array(values[:3]) * length_scale
     rotvec = np.array(values[3:]) * angle_scale if n_values == 6 else None
     return Reading(point, rotvec, status, device_time_us)

@@ -164,7 +164,7 @@ def test_query_garbled_twice_raises():
     with expected_exchange(pairs) as tracker:
         tracker.connect()
         with pytest.raises(ChecksumError):
-            tracker.identify()
+            tracker.query_identity()
 
 
 def test_bad_checksum_on_measure_is_raised_and_not_retried():

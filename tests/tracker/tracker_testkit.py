@@ -9,10 +9,14 @@ unused pairs or on reply bytes the driver never read.
 from __future__ import annotations
 
 import contextlib
+import time
 from pathlib import Path
+
+import serial
 
 from drivers.tracker import LaserTracker
 from drivers.tracker.protocol import encode_frame
+from drivers.tracker.simulator.engine import Send
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -115,3 +119,120 @@ CONNECT_PAIRS = [
     (host(3, "STAT?"), trk("OK,3,READY,1,1,P3,STANDARD")),
 ]
 """What :meth:`LaserTracker.connect` exchanges with no environment or mode given."""
+
+
+class DevicePort:
+    """Serial-like fake of a port with a device behind it that answers on its own clock.
+
+    Unlike :class:`ScriptedTransport` it has no script: ``respond(line)`` returns
+    ``[(delay_s, bytes), ...]`` for each complete line written, and each reply
+    becomes readable ``delay_s`` after the write (so a reply can arrive late,
+    after a reconnect). Reads honour ``timeout`` like pyserial.
+
+    Parameters
+    ----------
+    respond : callable
+        ``respond(line: bytes) -> list[tuple[float, bytes]]``.
+    """
+
+    def __init__(self, respond):
+        self.respond = respond
+        self.timeout: float | None = 1.0
+        self.write_timeout: float | None = None
+        self.is_open = True
+        self.fail_reads = 0  # the next N reads raise SerialException (port vanished)
+        self.junk = b""  # served forever, instead of any reply, while endless_junk
+        self.endless_junk = False
+        self.rx = bytearray()
+        self._inbuf = bytearray()
+        self._pending: list[tuple[float, bytes]] = []
+
+    def _pump(self) -> None:
+        now = time.monotonic()
+        due = [p for p in self._pending if p[0] <= now]
+        self._pending = [p for p in self._pending if p[0] > now]
+        if self.endless_junk:  # a device stuck sending one line: no reply gets out
+            if len(self.rx) < 65536:
+                self.rx += self.junk
+            return
+        for _, data in sorted(due, key=lambda p: p[0]):
+            self.rx += data
+
+    def _check(self) -> None:
+        if not self.is_open:
+            raise serial.PortNotOpenError()
+        if self.fail_reads:
+            self.fail_reads -= 1
+            raise serial.SerialException("device reports readiness to read but returned no data")
+
+    def write(self, data: bytes) -> int:
+        if not self.is_open:
+            raise serial.PortNotOpenError()
+        self._inbuf += data
+        now = time.monotonic()
+        while (end := self._inbuf.find(b"\r\n")) >= 0:
+            line = bytes(self._inbuf[: end + 2])
+            del self._inbuf[: end + 2]
+            for delay, reply in self.respond(line):
+                self._pending.append((now + delay, reply))
+        return len(data)
+
+    @property
+    def in_waiting(self) -> int:
+        self._check()
+        self._pump()
+        return len(self.rx)
+
+    def read(self, size: int = 1) -> bytes:
+        self._check()
+        deadline = time.monotonic() + (self.timeout if self.timeout is not None else 3600.0)
+        while True:
+            self._pump()
+            if self.rx or time.monotonic() >= deadline:
+                chunk = bytes(self.rx[:size])
+                del self.rx[:size]
+                return chunk
+            time.sleep(0.001)
+
+    def read_until(self, expected: bytes = b"\n", size: int | None = None) -> bytes:
+        self._check()
+        deadline = time.monotonic() + (self.timeout if self.timeout is not None else 3600.0)
+        while True:
+            self._pump()
+            end = self.rx.find(expected)
+            if end >= 0 or (size is not None and len(self.rx) >= size):
+                n = len(self.rx) if end < 0 else end + len(expected)
+                n = n if size is None else min(n, size)
+                chunk = bytes(self.rx[:n])
+                del self.rx[:n]
+                return chunk
+            if time.monotonic() >= deadline:
+                chunk = bytes(self.rx)
+                self.rx.clear()
+                return chunk
+            time.sleep(0.001)
+
+    def reset_input_buffer(self) -> None:
+        self._check()
+        self._pump()
+        self.rx.clear()
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def open(self) -> None:
+        self.is_open = True
+
+
+def engine_responder(engine, meas_delay_s: float = 0.0):
+    """``respond`` for :class:`DevicePort` from a simulator engine; MEAS replies come late."""
+
+    def respond(line: bytes):
+        late = b",MEAS*" in line
+        return [
+            (out.delay_s + (meas_delay_s if late else 0.0), out.data)
+            for out in engine.handle_line(line)
+            if isinstance(out, Send)
+        ]
+
+    return respond

@@ -6,11 +6,15 @@ or until a pty hang-up leaves no endpoint:
 
 - ``--pty``: the slave device path (line 1), e.g. ``/dev/pts/7``;
 - ``--tcp PORT``: the port number (0 picks a free one).
+
+A bad option, fault script, replay log or port gives one line on stderr and
+exit status 2, and nothing on stdout.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -18,6 +22,7 @@ import threading
 import time
 from pathlib import Path
 
+from drivers.tracker.protocol import parse_number
 from drivers.tracker.simulator.engine import TrackerSimulator
 from drivers.tracker.simulator.faults import parse_script
 from drivers.tracker.simulator.noise import NoiseModel
@@ -25,21 +30,62 @@ from drivers.tracker.simulator.replay import ReplaySimulator
 from drivers.tracker.simulator.server import SimulatorServer
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors as one line (no usage block) and exit 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def _triple(text: str) -> list[float]:
-    values = [float(v) for v in text.split(",")]
+    try:
+        values = [parse_number(v.strip()) for v in text.split(",")]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
     if len(values) not in (3, 6):
         raise argparse.ArgumentTypeError("expected x,y,z or x,y,z,rx,ry,rz")
     return values
 
 
+def _port(text: str) -> int:
+    if not text.isascii() or not text.isdigit() or int(text) > 65535:
+        raise argparse.ArgumentTypeError(f"port must be 0..65535, got {text!r}")
+    return int(text)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 <= value <= 3600.0):
+        raise argparse.ArgumentTypeError(f"expected seconds in 0..3600, got {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    if not text.isascii() or not text.isdigit():
+        raise argparse.ArgumentTypeError(f"seed must be a whole number >= 0, got {text!r}")
+    return int(text)
+
+
+def _serial(text: str) -> str:
+    # It goes into every ID? reply: one field of printable ASCII.
+    if not (0 < len(text) <= 40 and text.isascii() and text.isprintable()) or set(text) & set(",*"):
+        raise argparse.ArgumentTypeError(
+            f"serial must be 1..40 printable ASCII characters without ',' or '*', got {text!r}"
+        )
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="python -m drivers.tracker.simulator",
         description="Simulated laser tracker over a pty and/or 127.0.0.1 TCP.",
     )
     p.add_argument("--pty", action="store_true", help="serve on a new pty; print its slave path")
-    p.add_argument("--tcp", type=int, metavar="PORT", help="serve on 127.0.0.1:PORT (0 = free)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--tcp", type=_port, metavar="PORT", help="serve on 127.0.0.1:PORT (0 = free)")
+    p.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact readings")
     p.add_argument("--probe-6dof", action="store_true", help="readings carry orientation (P6)")
     p.add_argument(
@@ -49,8 +95,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="initial true target, mm (and rad); default none",
     )
     p.add_argument("--initialised", action="store_true", help="start already initialised")
-    p.add_argument("--init-time", type=float, default=0.2, metavar="S", help="INIT duration, s")
-    p.add_argument("--serial", default="SIM-0001", help="serial number reported by ID?")
+    p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
+    p.add_argument(
+        "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
+    )
     p.add_argument(
         "--faults",
         type=Path,
@@ -78,13 +126,43 @@ def _exit_with_parent(parent: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     if not args.pty and args.tcp is None:
-        build_parser().error("give --pty and/or --tcp PORT")
+        parser.error("give --pty and/or --tcp PORT")
+    try:
+        server = _build_server(args)
+    except (OSError, ValueError) as exc:
+        # OSError: unreadable file, port taken; ValueError: a bad script or log (UnicodeError too)
+        parser.error(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    # SIGTERM ends the loop like Ctrl-C so the endpoints are closed cleanly.
+    signal.signal(signal.SIGTERM, _interrupt)
+    if not args.outlive_parent:
+        threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+def _build_server(args) -> SimulatorServer:
+    """Engine and endpoints from the options; endpoints printed only once all opened."""
     if args.replay:
-        engine = ReplaySimulator(args.replay)
+        try:
+            engine = ReplaySimulator(args.replay)
+        except ValueError as exc:
+            message = str(exc)
+            if str(args.replay) not in message:  # json's own errors do not name the file
+                message = f"{args.replay}: {message}"
+            raise ValueError(message) from None
     else:
-        faults = parse_script(args.faults.read_text()) if args.faults else None
+        faults = None
+        if args.faults:
+            try:
+                faults = parse_script(args.faults.read_text())
+            except ValueError as exc:
+                raise ValueError(f"{args.faults}: {exc}") from None
         engine = TrackerSimulator(
             seed=args.seed,
             noise=NoiseModel(enabled=not args.no_noise),
@@ -97,19 +175,18 @@ def main(argv: list[str] | None = None) -> int:
         if args.target:
             engine.set_target(args.target[:3], args.target[3:] or None)
     server = SimulatorServer(engine)
-    if args.pty:
-        print(server.open_pty(), flush=True)
-    if args.tcp is not None:
-        print(server.open_tcp(args.tcp), flush=True)
-    # SIGTERM ends the loop like Ctrl-C so the endpoints are closed cleanly.
-    signal.signal(signal.SIGTERM, _interrupt)
-    if not args.outlive_parent:
-        threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    lines = []
     try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        pass
-    return 0
+        if args.pty:
+            lines.append(server.open_pty())
+        if args.tcp is not None:
+            lines.append(str(server.open_tcp(args.tcp)))
+    except OSError:
+        server.stop()
+        raise
+    for line in lines:
+        print(line, flush=True)
+    return server
 
 
 if __name__ == "__main__":

@@ -28,6 +28,7 @@ from drivers.tracker.protocol import (
     error_body,
     ok_body,
     parse_command,
+    parse_number,
     reading_fields,
 )
 from drivers.tracker.simulator.faults import Fault, FaultSchedule, parse_fault
@@ -248,7 +249,7 @@ class TrackerSimulator:
         return ok_body(cmd.seq, length, angle)
 
     def _env_cmd(self, cmd, now, post):
-        t, p, h = (float(a) for a in cmd.args)
+        t, p, h = (parse_number(a) for a in cmd.args)
         for name, value in zip("TPH", (t, p, h), strict=True):
             lo, hi = METEO_LIMITS[name]
             if not lo <= value <= hi:
@@ -305,7 +306,7 @@ class TrackerSimulator:
         try:
             what, *args = cmd.args
             if what == "TARGET" and len(args) in (3, 6):
-                values = [float(a) for a in args]
+                values = [parse_number(a) for a in args]
                 self._set_target(values[:3], values[3:] or None)
             elif what == "NOTARGET" and not args:
                 self._target = None
@@ -334,6 +335,12 @@ _HANDLERS = {
 def bad_frame_reply(line: bytes, exc: FrameError) -> Send:
     """The ``ER`` reply to a line that is not a valid frame (shared with replay)."""
     return Send(encode_frame(error_body(_leading_seq(line), ErrorCode.BAD_FRAME, str(exc))))
+
+
+def internal_error_reply(line: bytes, exc: Exception) -> Send:
+    """The ``ER`` reply when handling a line failed unexpectedly (the server stays up)."""
+    detail = f"internal error: {type(exc).__name__}"
+    return Send(encode_frame(error_body(_leading_seq(line), ErrorCode.BAD_PARAMETER, detail)))
 
 
 def _leading_seq(line: bytes) -> int:

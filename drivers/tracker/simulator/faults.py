@@ -15,6 +15,10 @@ A script is text, one fault per line, ``#`` starts a comment::
     MEAS@12  error code=10        # any ErrorCode, by number or name
 
 The same line can be armed over the wire with ``SIM,FAULT,<line>``.
+Every value is checked here (a bad one is a ``ValueError`` naming it), so a
+fault line from the wire can never stop or stall the simulator: counts are
+1..999999, delays are protocol decimals in 0..:data:`MAX_DELAY_S` seconds,
+codes are :class:`~drivers.tracker.protocol.ErrorCode` names or numbers.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from drivers.tracker.protocol import ErrorCode
+from drivers.tracker.protocol import ErrorCode, parse_number
 
 KINDS = frozenset(
     {
@@ -40,7 +44,9 @@ KINDS = frozenset(
     }
 )
 
-_TRIGGER = re.compile(r"^(?P<cmd>[A-Z?*]+)(?P<op>[@+])(?P<n>\d+)$")
+_TRIGGER = re.compile(r"(?P<cmd>[A-Z?*]+)(?P<op>[@+])(?P<n>[1-9][0-9]{0,8})", re.ASCII)
+_COUNT = re.compile(r"[1-9][0-9]{0,5}", re.ASCII)
+MAX_DELAY_S = 60.0  # a longer delay is no fault any client could wait for
 
 
 @dataclass
@@ -85,8 +91,8 @@ def parse_fault(line: str) -> Fault:
     parts = line.split("#", 1)[0].split()  # '#' never appears in triggers or options
     if len(parts) < 2:
         raise ValueError(f"fault needs '<CMD>@<n>|<CMD>+<n> <kind> [key=value]': {line!r}")
-    m = _TRIGGER.match(parts[0])
-    if not m or int(m["n"]) < 1:
+    m = _TRIGGER.fullmatch(parts[0])
+    if not m:
         raise ValueError(f"bad trigger {parts[0]!r}; expected e.g. MEAS@5 or MEAS+1")
     kind = parts[1]
     if kind not in KINDS:
@@ -95,21 +101,55 @@ def parse_fault(line: str) -> Fault:
     for option in parts[2:]:
         key, _, value = option.partition("=")
         if key == "count":
+            if not _COUNT.fullmatch(value):
+                raise ValueError(f"count must be a whole number 1..999999: {line!r}")
             fault.count = int(value)
-            if fault.count < 1:
-                raise ValueError(f"count must be >= 1: {line!r}")
         elif key == "delay":
-            fault.delay_s = float(value)
+            fault.delay_s = _delay(value, line)
         elif key == "code":
-            fault.code = ErrorCode(int(value)) if value.isdigit() else ErrorCode[value]
+            fault.code = _code(value, line)
         else:
             raise ValueError(f"unknown fault option {key!r} in {line!r}")
     return fault
 
 
+def _delay(value: str, line: str) -> float:
+    """Seconds in 0..MAX_DELAY_S, written as a protocol decimal (no inf, nan, exponent)."""
+    delay = parse_number(value)  # ValueError for inf, nan, 1e3, ...
+    if not 0.0 <= delay <= MAX_DELAY_S:
+        raise ValueError(f"delay must be 0..{MAX_DELAY_S:g} s: {line!r}")
+    return delay
+
+
+def _code(value: str, line: str) -> ErrorCode:
+    """An ErrorCode by number or name."""
+    if value.isascii() and value.isdigit() and len(value) <= 3:
+        try:
+            return ErrorCode(int(value))
+        except ValueError:
+            pass
+    elif value in ErrorCode.__members__:
+        return ErrorCode[value]
+    known = ", ".join(ErrorCode.__members__)
+    raise ValueError(f"unknown error code {value!r} in {line!r}; known: {known}")
+
+
 def parse_script(text: str) -> list[Fault]:
-    """Parse a whole fault script (blank and comment lines ignored)."""
-    return [parse_fault(ln) for ln in text.splitlines() if ln.split("#", 1)[0].strip()]
+    """Parse a whole fault script (blank and comment lines ignored).
+
+    Raises
+    ------
+    ValueError
+        Naming the line number and the offending part.
+    """
+    faults = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        if line.split("#", 1)[0].strip():
+            try:
+                faults.append(parse_fault(line))
+            except ValueError as exc:
+                raise ValueError(f"line {number}: {exc}") from None
+    return faults
 
 
 class FaultSchedule:

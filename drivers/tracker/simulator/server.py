@@ -18,7 +18,7 @@ import tty
 from collections import deque
 
 from drivers.tracker.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.simulator.engine import HangUp, Send
+from drivers.tracker.simulator.engine import HangUp, Send, internal_error_reply
 
 
 class _Conn:
@@ -182,7 +182,13 @@ class SimulatorServer:
 
     def _answer(self, conn: _Conn, line: bytes) -> bool:
         """Queue the engine's outputs; False if the connection was hung up."""
-        for out in self.engine.handle_line(line):
+        try:
+            outputs = self.engine.handle_line(line)
+        except Exception as exc:  # noqa: BLE001 - one bad line must not stop a shared device
+            # The engine validates what it parses; this is the last line of defence,
+            # so a bug shows as an ER reply to that client, not a dead simulator.
+            outputs = [internal_error_reply(line, exc)]
+        for out in outputs:
             if isinstance(out, HangUp):
                 self._drop(conn)
                 return False
