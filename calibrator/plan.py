@@ -1,7 +1,7 @@
 """Pose plans: joint configurations to measure, checked whole before any motion.
 
 A plan is an array of joint targets, shape (N, 6), rad. It is made from a
-candidate set (Halton points from ``scipy.stats.qmc``, seeded random points,
+candidate set (scrambled Halton points, seeded random points,
 or the user's own CSV of joint angles), filtered by what a real cell needs,
 and reduced to the N most informative poses:
 
@@ -37,6 +37,7 @@ import numpy as np
 
 from calibrator import kinematics, measurement, parameters
 from calibrator.errors import CalibrationError
+from calibrator.identify.halton import halton
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
 ANGLE_SCALE_MM = 1000.0
@@ -93,9 +94,9 @@ def sample(box, n, method="halton", seed=0) -> np.ndarray:
     """``n`` joint vectors in ``box`` (6, 2): scrambled Halton or uniform random, seeded. Rad."""
     rng = np.random.default_rng(seed)
     if method == "halton":
-        from scipy.stats import qmc
-
-        unit = qmc.Halton(d=6, scramble=True, seed=rng).random(n)
+        # The project's scrambled Halton (scipy.stats.qmc.Halton's construction) keeps
+        # scipy.stats' half-second import out of measure's start-up.
+        unit = halton(n, 6, rng)
     elif method == "random":
         unit = rng.random((n, 6))
     else:
