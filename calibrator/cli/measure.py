@@ -158,8 +158,15 @@ def measure(
             session.write(output, rows.to_table(outcome.records.values()), meta)
         resume_hint = f"rerun the same command with --resume to continue ({jpath})"
         if outcome.stopped:
+            advice = ""
+            if outcome.stopped.startswith("robot halted"):
+                advice = (
+                    "clear the stop on the pendant (after an e-stop: release it, power on "
+                    "and release the brakes), then "
+                )
             typer.echo(
                 f"stopped: {outcome.stopped}; {len(measured)} of {len(q_plan)} poses kept; "
+                + advice
                 + resume_hint,
                 err=True,
             )
