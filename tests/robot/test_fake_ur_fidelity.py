@@ -122,3 +122,35 @@ def test_model_comes_from_calibrator_models(name):
     c.q = q
     expected = kinematics.forward(get_model(name).mdh, q[None])[0][:3, 3] / 1000
     np.testing.assert_allclose(c.snapshot()["actual_TCP_pose"][:3], expected, atol=1e-12)
+
+
+def test_fake_exits_on_its_own_when_its_parent_is_killed(fake_manager):
+    import subprocess
+    import sys
+
+    fake_manager.discard()  # free the fixed ports; this module still holds their lock
+    parent_code = (
+        "import os, subprocess, sys, time\n"
+        "fake = subprocess.Popen([sys.executable, '-m', 'drivers.robot.fake_ur', "
+        "'--parent-pid', str(os.getpid())], stdout=subprocess.PIPE)\n"
+        "print(fake.pid, flush=True)\n"
+        "print(fake.stdout.readline().decode().strip(), flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True)
+    try:
+        fake_pid = int(parent.stdout.readline())
+        assert "ready" in parent.stdout.readline()
+    finally:
+        parent.kill()  # SIGKILL: the parent gets no chance to stop its child
+        parent.wait()
+        parent.stdout.close()
+
+    def gone():
+        try:
+            with open(f"/proc/{fake_pid}/stat") as fh:
+                return fh.read().split(")")[-1].split()[0] == "Z"
+        except FileNotFoundError:
+            return True
+
+    wait_until(gone, timeout_s=5.0, what="the orphaned fake to exit")
