@@ -137,7 +137,9 @@ def test_fake_exits_on_its_own_when_its_parent_is_killed(fake_manager):
         "print(fake.stdout.readline().decode().strip(), flush=True)\n"
         "time.sleep(60)\n"
     )
-    parent = subprocess.Popen([sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True)
+    parent = subprocess.Popen(
+        [sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True
+    )
     try:
         fake_pid = int(parent.stdout.readline())
         assert "ready" in parent.stdout.readline()
