@@ -54,6 +54,7 @@ def measure(
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
+    sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
 ):
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     import contextlib
@@ -71,6 +72,9 @@ def measure(
     if plan_path is not None and output.resolve() == Path(plan_path).resolve():
         _fail(f"output {output} is the plan: choose another -o")
     jpath = journals.journal_path(output)
+    for given in (sim_faults, sim_replay):
+        if given is not None and not Path(given).is_file():
+            _fail(f"file not found: {given}")
     if not resume and output.exists():
         _fail(f"{output} exists: choose another -o, remove it, or pass --resume")
     if not resume and jpath.exists():
@@ -87,6 +91,7 @@ def measure(
         sim_noise=sim_noise,
         sim_faults=str(sim_faults) if sim_faults else None,
         sim_record=str(sim_record) if sim_record else None,
+        sim_replay=str(sim_replay) if sim_replay else None,
         max_speed_rad_s=max_speed,
         max_accel_rad_s2=max(accel, 2.0),
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
