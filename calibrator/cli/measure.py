@@ -55,9 +55,13 @@ def measure(
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
     sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
+    timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
 ):
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     import contextlib
+    import time
+
+    marks = [("start", time.perf_counter())]
 
     from calibrator import plan as plans
     from calibrator import session
@@ -98,6 +102,7 @@ def measure(
     )
     with contextlib.ExitStack() as stack:
         rig = _hardware.build(robot, tracker, options, stack)
+        marks.append(("connect (simulator start, links)", time.perf_counter()))
         # ---- the plan, checked whole before anything moves
         if plan_path is not None:
             q_plan = plans.read_csv(plan_path)
@@ -115,6 +120,7 @@ def measure(
                 rig.robot.check_plan(q_plan, speed, accel)
             except LimitsViolation as exc:
                 _fail(str(exc))
+        marks.append(("plan (make and check)", time.perf_counter()))
         settle_s = settle if settle is not None else (0.5 if rig.real_robot else 0.0)
         meta = session.SessionMeta(
             frame="tracker",
@@ -158,9 +164,14 @@ def measure(
             )
         reporter.finish()
         journal.close()
+        marks.append(("measure loop", time.perf_counter()))
         measured, failed = outcome.measured, outcome.failed
         if measured:
             session.write(output, rows.to_table(outcome.records.values()), meta)
+        marks.append(("write session", time.perf_counter()))
+        if timings:
+            for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
+                typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
         resume_hint = f"rerun the same command with --resume to continue ({jpath})"
         if outcome.stopped:
             advice = ""
