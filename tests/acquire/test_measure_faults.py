@@ -66,9 +66,8 @@ def test_resume_refuses_a_journal_of_another_run(tmp_path):
     assert done.returncode == 0 and "failed" in done.stdout  # the journal stays for --resume
     before = (tmp_path / "s.parquet.journal").read_bytes()
     for extra, what in (
-        (("--seed", "1"), "plan_sha256"),
+        (("--seed", "1"), "plan_sha256"),  # another plan (and simulated robot)
         (("--readings", "5"), "readings"),
-        (("--model", "ur5e"), "plan_sha256"),
     ):
         refused = run_cli(*BASE, "--resume", *extra, cwd=tmp_path)
         assert refused.returncode == 2, refused.stderr
