@@ -147,7 +147,6 @@ class Rig:
     after_move: Callable | None = None
     real_robot: bool = False
     sim_cell: SimCell | None = None
-    sim_process: object = None
 
 
 @dataclass(frozen=True)
@@ -216,7 +215,6 @@ def _sim_tracker(url, rig: Rig, options: RigOptions, stack) -> None:
             replay=options.sim_replay,
         )
     )
-    rig.sim_process = sim
     rig.tracker = LaserTrackerPort(sim.url, record=options.sim_record)
     cell = rig.sim_cell
 
