@@ -50,6 +50,9 @@ def measure(
     tracker_at: str = typer.Option(
         None, help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
     ),
+    tool: str = typer.Option(
+        "0,0,100", help="Reflector position on the flange X,Y,Z, mm (first guess; identified)."
+    ),
     seed: int = typer.Option(0, help="Seed of the plan and of the simulated cell."),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
@@ -101,12 +104,16 @@ def measure(
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
     )
     with contextlib.ExitStack() as stack:
+        tool_mm = _triple(tool, "--tool")
         rig = _hardware.build(robot, tracker, options, stack)
+        rig.flange2tool_guess[:3, 3] = tool_mm
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         # ---- the plan, checked whole before anything moves
         if plan_path is not None:
             q_plan = plans.read_csv(plan_path)
         else:
+            if rig.tracker_at_mm is None:
+                typer.echo("note: no --tracker-at: the plan ignores the acceptance angle", err=True)
             cell = plans.CellConstraints(
                 tracker_at_mm=rig.tracker_at_mm, flange2tool=rig.flange2tool_guess
             )

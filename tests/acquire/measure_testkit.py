@@ -27,8 +27,12 @@ def session_rows(path):
     return {int(n): (q[i], p[i]) for i, n in enumerate(table["pose"])}
 
 
-def assert_same_session(a, b):
-    """Two sessions hold the same poses, pose for pose, bit for bit."""
+def assert_same_session(a, b, readings=10):
+    """Two sessions hold the same poses, pose for pose, bit for bit, each a full average."""
+    for path in (a, b):
+        assert set(pq.read_table(path, columns=["n_readings"])["n_readings"].to_pylist()) == {
+            readings
+        }
     rows_a, rows_b = session_rows(a), session_rows(b)
     assert sorted(rows_a) == sorted(rows_b)
     for pose in rows_a:
