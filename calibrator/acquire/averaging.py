@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator import frames
 from calibrator.acquire.ports import ReadingLost
 
 
@@ -66,12 +67,11 @@ def average(readings, *, reject_flagged: bool = True, min_count: int | None = No
     ddof = 1 if len(accepted) > 1 else 0
     rot_mean = rot_std = None
     if accepted[0].rotvec_rad is not None:
-        from scipy.spatial.transform import Rotation  # only 6-DoF probes pay for the import
-
-        rots = Rotation.from_rotvec(np.array([r.rotvec_rad for r in accepted]))
-        mean_rot = rots.mean()
-        rot_mean = mean_rot.as_rotvec()
-        rot_std = (mean_rot.inv() * rots).as_rotvec().std(axis=0, ddof=ddof)
+        rots = frames.rotvec_to_matrix(np.array([r.rotvec_rad for r in accepted]))
+        mean_rot = _chordal_mean(rots)
+        rot_mean = frames.matrix_to_rotvec(mean_rot)
+        deviations = frames.matrix_to_rotvec(mean_rot.T @ rots)  # in the mean's frame
+        rot_std = deviations.std(axis=0, ddof=ddof)
     return AveragedReading(
         mean_mm=points.mean(axis=0),
         std_mm=points.std(axis=0, ddof=ddof),
@@ -81,6 +81,17 @@ def average(readings, *, reject_flagged: bool = True, min_count: int | None = No
         rotvec_std_rad=rot_std,
         readings=readings,
     )
+
+
+def _chordal_mean(rotations):
+    """Rotation nearest (Frobenius) to the mean of rotations (N, 3, 3): the chordal L2 mean.
+
+    Projects the arithmetic mean onto SO(3) with an SVD (the sign fix keeps a
+    proper rotation); for a probe's small spread it equals the geodesic mean
+    to far below the tracker's angular noise.
+    """
+    u, _, vt = np.linalg.svd(np.mean(rotations, axis=0))
+    return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
 
 
 def measure_average(

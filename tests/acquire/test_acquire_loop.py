@@ -169,3 +169,21 @@ def test_a_lost_reading_never_yields_a_partial_average():
     with pytest.raises(ReadingLost):
         measure_average(tracker, 10)
     assert tracker.n == 6  # stopped at the lost reading; nothing averaged
+
+
+def test_orientation_average_near_pi_agrees_with_scipy():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    centre = Rotation.from_rotvec([0.0, np.pi - 1e-4, 0.0])  # a probe turned half a turn
+    rots = centre * Rotation.from_rotvec(rng.normal(0.0, 2e-4, (10, 3)))
+    readings = [_Reading([0, 0, 0]) for _ in range(10)]
+    for r, rv in zip(readings, rots.as_rotvec(), strict=True):
+        r.rotvec_rad = rv
+    avg = average(readings)
+    expected = rots.mean()
+    np.testing.assert_allclose(
+        Rotation.from_rotvec(avg.rotvec_mean_rad).as_matrix(), expected.as_matrix(), atol=1e-10
+    )
+    spread = (expected.inv() * rots).as_rotvec().std(axis=0, ddof=1)
+    np.testing.assert_allclose(avg.rotvec_std_rad, spread, rtol=1e-4)
