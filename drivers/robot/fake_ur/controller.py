@@ -250,7 +250,10 @@ class FakeController:
                 return  # nor while powered off or with the brakes on
             self._halt()
             self.reg_offset = int(reg_offset)
-            self._executing_cmd = False
+            # A command left in the register by the previous program (or one the client
+            # wrote while none ran) is not executed again: a real program takes long
+            # enough to start that the client's NO_CMD arrives first.
+            self._executing_cmd = int(self.in_int[self.reg_offset]) != CMD_NO_CMD
             self._busy = False
             self.runtime_state = RUNTIME_PLAYING
             self._write_async_progress(-1)
