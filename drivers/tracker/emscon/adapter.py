@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drivers.errors import DriverError
 from drivers.tracker.driver import Environment
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.errors import (
@@ -220,7 +221,7 @@ class EmsconTracker:
         try:
             self.find_reflector(self.last_distance_mm)
             exc.add_note(f"FindReflector at {self.last_distance_mm:.0f} mm re-locked the beam")
-        except (BeamBroken, TrackerTimeout, FrameError, ConnectionLost) as search_exc:
+        except DriverError as search_exc:  # any failure of the search: the beam stays broken
             exc.add_note(f"FindReflector failed: {search_exc}")
 
     def _open(self) -> None:

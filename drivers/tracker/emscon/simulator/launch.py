@@ -13,14 +13,17 @@ import subprocess
 import sys
 from pathlib import Path
 
-from drivers.tracker.simulator.launch import SimulatorControl
+from drivers.tracker.simulator.launch import SimulatorProcess
 
 
-class EmsconSimulatorProcess:
+class EmsconSimulatorProcess(SimulatorProcess):
     """``python -m drivers.tracker.emscon.simulator`` as a child process.
 
     Parameters are those of :class:`~drivers.tracker.emscon.simulator.EmsconSimulator`;
-    ``faults`` is a fault-script file.
+    ``faults`` is a fault-script file. Steering (``set_target``, ``clear_target``,
+    ``arm_fault``, ``control``) and ``stop`` are :class:`SimulatorProcess`'s: the
+    control port speaks the same ``SIM,...`` commands. ``set_target``'s orientation
+    is ignored (reflectors only).
     """
 
     def __init__(
@@ -31,7 +34,7 @@ class EmsconSimulatorProcess:
         initialised: bool = False,
         init_time_s: float = 0.2,
         faults: str | Path | None = None,
-    ):
+    ):  # replaces SimulatorProcess.__init__: another program, two endpoint lines
         args = ["--seed", str(seed), "--init-time", str(init_time_s)]
         args += [] if noise else ["--no-noise"]
         args += ["--initialised"] if initialised else []
@@ -51,40 +54,4 @@ class EmsconSimulatorProcess:
         """``emscon://`` URL for :func:`drivers.tracker.emscon.open_tracker`."""
         self.control_url = f"socket://127.0.0.1:{control}"
         """Loopback URL for the simulator-only ``SIM,...`` commands."""
-        self._control: SimulatorControl | None = None
-
-    @property
-    def control(self) -> SimulatorControl:
-        if self._control is None:
-            self._control = SimulatorControl(self.control_url)
-        return self._control
-
-    def set_target(self, point_mm, rotvec_rad=None) -> None:
-        """True target (mm, tracker frame); the orientation is ignored (reflectors only)."""
-        self.control.set_target(point_mm, rotvec_rad)
-
-    def clear_target(self) -> None:
-        self.control.clear_target()
-
-    def arm_fault(self, line: str) -> None:
-        self.control.arm_fault(line)
-
-    def stop(self) -> None:
-        """Terminate the child and close the control link."""
-        if self._control is not None:
-            self._control.close()
-            self._control = None
-        if self._proc.poll() is None:
-            self._proc.terminate()
-            try:
-                self._proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self._proc.kill()
-                self._proc.wait()
-        self._proc.stdout.close()
-
-    def __enter__(self) -> EmsconSimulatorProcess:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
+        self._control = None
