@@ -1,0 +1,184 @@
+"""The measure loop: move, settle, read N times, average, read back joints, journal the pose.
+
+Domain logic over the two ports (:mod:`calibrator.acquire.ports`); the CLI
+hands in concrete drivers. What happens on each failure:
+
+- :class:`~calibrator.acquire.ports.ReadingLost` (beam break, unstable target,
+  lost or garbled reply, link dropped and re-established): the pose's readings
+  are all discarded and the pose is measured again, up to ``retries`` times;
+  then it is journalled as failed and the run goes on.
+- :class:`~calibrator.acquire.ports.RobotHalted` (protective stop, e-stop) or
+  :class:`~calibrator.acquire.ports.TrackerUnavailable`: the run ends cleanly;
+  every finished pose is already in the journal.
+- A stop request (SIGINT) is honoured between poses, never inside one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from calibrator.acquire import rows
+from calibrator.acquire.averaging import measure_average
+from calibrator.acquire.ports import ReadingLost, RobotHalted, TrackerUnavailable
+
+
+@dataclass(frozen=True)
+class LoopOptions:
+    """How each pose is measured.
+
+    Attributes
+    ----------
+    readings : int
+        Single readings per pose (10, the source paper's practice).
+    settle_s : float
+        Wait after the arm is steady before the first reading, s.
+    retries : int
+        Extra sets of readings after a lost one, per pose.
+    speed_rad_s, accel_rad_s2 : float
+        Leading-joint speed (rad/s) and acceleration (rad/s^2) of each move.
+    """
+
+    readings: int = 10
+    settle_s: float = 0.0
+    retries: int = 3
+    speed_rad_s: float = 0.5
+    accel_rad_s2: float = 1.0
+
+
+@dataclass
+class Progress:
+    """What the loop reports after each pose (for a progress bar or log lines).
+
+    Attributes
+    ----------
+    pose : int
+        Plan row just finished.
+    done : int
+        Poses finished in this plan so far (measured or failed, resumed ones included).
+    total : int
+        Poses in the plan.
+    record : dict
+        The journal record just written.
+    """
+
+    pose: int
+    done: int
+    total: int
+    record: dict
+
+
+@dataclass
+class Outcome:
+    """How the run ended.
+
+    Attributes
+    ----------
+    records : dict
+        ``{pose: record}`` of every finished pose, from the journal and this run.
+    stopped : str or None
+        Why the run ended before the plan did (robot halted, tracker gone,
+        interrupted); None when every pose was visited.
+    """
+
+    records: dict = field(default_factory=dict)
+    stopped: str | None = None
+
+    @property
+    def measured(self) -> list[int]:
+        return sorted(p for p, r in self.records.items() if r["status"] == "measured")
+
+    @property
+    def failed(self) -> list[int]:
+        return sorted(p for p, r in self.records.items() if r["status"] == "failed")
+
+
+def run(
+    plan_rad,
+    robot,
+    tracker,
+    journal,
+    options: LoopOptions = LoopOptions(),
+    *,
+    done: dict | None = None,
+    after_move: Callable[[np.ndarray], None] | None = None,
+    should_stop: Callable[[], bool] = lambda: False,
+    on_pose: Callable[[Progress], None] | None = None,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Outcome:
+    """Measure every pose of a plan that is not finished yet.
+
+    Parameters
+    ----------
+    plan_rad : array_like, shape (N, 6)
+        Joint targets, rad, already validated whole (limits, speed cap, count).
+    robot : calibrator.acquire.ports.Robot
+        Connected.
+    tracker : calibrator.acquire.ports.Tracker
+        Connected.
+    journal : calibrator.acquire.journal.Journal
+        Open for appending; each finished pose is fsynced before the next move.
+    options : LoopOptions
+    done : dict, optional
+        ``{pose: record}`` already in the journal (resume): measured poses are
+        skipped, failed ones are tried again.
+    after_move : callable, optional
+        Called with the actual joints (rad, shape (6,)) once the arm is steady
+        (a simulated world uses it to place the target).
+    should_stop : callable
+        Polled before each pose; True ends the run after the current pose.
+    on_pose : callable, optional
+        Called with a :class:`Progress` after each finished pose.
+
+    Returns
+    -------
+    Outcome
+    """
+    plan = np.asarray(plan_rad, dtype=float)
+    outcome = Outcome(records=dict(done or {}))
+    todo = [i for i in range(len(plan)) if _pending(outcome.records.get(i))]
+    for pose in todo:
+        if should_stop():
+            outcome.stopped = f"interrupted before pose {pose}"
+            break
+        try:
+            record = _measure_pose(pose, plan[pose], robot, tracker, options, after_move, sleep)
+        except RobotHalted as exc:
+            outcome.stopped = f"robot halted at pose {pose}: {exc}"
+            break
+        except TrackerUnavailable as exc:
+            outcome.stopped = f"tracker unavailable at pose {pose}: {exc}"
+            break
+        journal.append(record)
+        outcome.records[pose] = record
+        if on_pose is not None:
+            finished = sum(not _pending(r) for r in outcome.records.values())
+            on_pose(Progress(pose, finished, len(plan), record))
+    return outcome
+
+
+def _pending(record: dict | None) -> bool:
+    return record is None or record["status"] != "measured"
+
+
+def _measure_pose(pose, target, robot, tracker, options, after_move, sleep) -> dict:
+    """One pose: move, settle, a full set of readings (re-taken whole if lost), joints."""
+    actual = robot.move_joints(target, options.speed_rad_s, options.accel_rad_s2)
+    if after_move is not None:
+        after_move(np.asarray(actual, dtype=float))
+    if options.settle_s > 0:
+        sleep(options.settle_s)
+    lost: Iterable[str] = []
+    for attempt in range(1, options.retries + 2):
+        try:
+            avg = measure_average(tracker, options.readings)
+        except ReadingLost as exc:
+            lost = [*lost, f"{type(exc).__name__}: {exc}"]
+            continue
+        # Read back after the readings: these are the joints the arm held while measured.
+        q = robot.actual_joints()
+        return rows.measured_record(pose, q, avg, attempt)
+    return rows.failed_record(pose, "; ".join(lost), options.retries + 1)

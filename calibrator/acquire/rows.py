@@ -1,0 +1,77 @@
+"""One place that maps a measured pose to a journal record and records to session rows."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+
+import numpy as np
+import pyarrow as pa
+
+from calibrator import session
+from calibrator.acquire.averaging import AveragedReading
+
+
+def measured_record(pose: int, q_rad, avg: AveragedReading, attempts: int) -> dict:
+    """The journal record of a measured pose.
+
+    Parameters
+    ----------
+    pose : int
+        Plan row (0-based), the session's pose number.
+    q_rad : array_like, shape (6,)
+        Joint angles read back from the robot after the readings, rad.
+    avg : AveragedReading
+        Tracker frame, mm and rad.
+    attempts : int
+        Sets of readings taken (1 when nothing went wrong).
+    """
+    record = {
+        "pose": int(pose),
+        "status": "measured",
+        "q_rad": np.asarray(q_rad, float).tolist(),
+        "point_mm": avg.mean_mm.tolist(),
+        "std_mm": avg.std_mm.tolist(),
+        "n_readings": int(avg.count),
+        "rejected": int(avg.rejected),
+        "attempts": int(attempts),
+        "timestamp": datetime.now(UTC).isoformat(timespec="milliseconds"),
+    }
+    if avg.rotvec_mean_rad is not None:
+        record["rotvec_rad"] = avg.rotvec_mean_rad.tolist()
+    return record
+
+
+def failed_record(pose: int, reason: str, attempts: int) -> dict:
+    """The journal record of a pose given up after its retries."""
+    return {"pose": int(pose), "status": "failed", "reason": reason, "attempts": int(attempts)}
+
+
+def to_table(records) -> pa.Table:
+    """Session rows (v1) from measured records, sorted by pose.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Records from :func:`measured_record` (failed ones are skipped).
+
+    Returns
+    -------
+    pyarrow.Table
+        ``pose``, ``q1_rad..q6_rad``, ``x_mm..z_mm``, ``sx_mm..sz_mm``,
+        ``n_readings``, ``timestamp`` and, for a 6-DoF probe, ``rx_rad..rz_rad``.
+    """
+    rows = sorted((r for r in records if r["status"] == "measured"), key=lambda r: int(r["pose"]))
+    if not rows:
+        raise ValueError("no measured poses")
+    rot = [r.get("rotvec_rad") for r in rows]
+    table = session.to_table(
+        np.array([r["q_rad"] for r in rows]),
+        np.array([r["point_mm"] for r in rows]),
+        rotvecs=np.array(rot) if all(v is not None for v in rot) else None,
+        spread=np.array([r["std_mm"] for r in rows]),
+        n_readings=np.array([r["n_readings"] for r in rows]),
+        timestamps=pa.array([r["timestamp"] for r in rows], pa.string()),
+    )
+    # Pose numbers are plan rows, so a failed pose leaves a visible gap.
+    poses = pa.array([int(r["pose"]) for r in rows], pa.int64())
+    return table.set_column(table.column_names.index("pose"), "pose", poses)

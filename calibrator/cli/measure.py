@@ -1,0 +1,205 @@
+"""``calibrator measure``: drive the robot through a plan and record a session with the tracker."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+
+from calibrator.cli._app import app
+
+
+def _fail(message: str) -> None:
+    typer.echo(f"calibrator: error: {message}", err=True)
+    raise typer.Exit(2)
+
+
+def _triple(text: str | None, option: str):
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(abs(v) < float("inf") for v in values):
+        _fail(f"{option} needs X,Y,Z in mm, got {text!r}")
+    return values
+
+
+@app.command()
+def measure(
+    robot: str = typer.Option("sim", help="sim, or ur://HOST (a real UR controller)."),
+    tracker: str = typer.Option(
+        "sim", help="sim, a device path, or a pyserial URL (socket://, rfc2217://)."
+    ),
+    plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
+    poses: int = typer.Option(30, min=1, help="Poses of the plan made when --plan is not given."),
+    readings: int = typer.Option(10, min=1, help="Readings averaged per pose."),
+    output: Path = typer.Option(Path("session.parquet"), "-o", "--output"),
+    resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
+    yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
+    model: str = typer.Option("ur10e", help="Named model of the arm."),
+    settle: float = typer.Option(
+        None, min=0.0, help="Wait after each move, s [default: 0.5 for ur://, 0 for sim]."
+    ),
+    retries: int = typer.Option(3, min=0, help="Re-measurements of a pose after a lost reading."),
+    speed: float = typer.Option(0.5, help="Leading-joint speed, rad/s."),
+    accel: float = typer.Option(1.0, help="Leading-joint acceleration, rad/s^2."),
+    max_speed: float = typer.Option(1.0, help="Speed cap the plan is checked against, rad/s."),
+    tracker_at: str = typer.Option(
+        None, help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
+    ),
+    seed: int = typer.Option(0, help="Seed of the plan and of the simulated cell."),
+    sim_noise: bool = typer.Option(True, hidden=True),
+    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
+    sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
+):
+    """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
+    import contextlib
+
+    from calibrator import plan as plans
+    from calibrator import session
+    from calibrator.acquire import journal as journals
+    from calibrator.acquire import loop, rows
+    from calibrator.cli import _hardware
+    from calibrator.cli._progress import Reporter
+
+    output = Path(output)
+    if not output.parent.is_dir():
+        _fail(f"output directory does not exist: {output.parent}")
+    if plan_path is not None and output.resolve() == Path(plan_path).resolve():
+        _fail(f"output {output} is the plan: choose another -o")
+    jpath = journals.journal_path(output)
+    if not resume and output.exists():
+        _fail(f"{output} exists: choose another -o, remove it, or pass --resume")
+    if not resume and jpath.exists():
+        _fail(f"{jpath} exists (an unfinished run): pass --resume to continue it, or remove it")
+    if resume and not jpath.exists():
+        _fail(f"nothing to resume: {jpath} not found")
+    if not (0 < speed <= max_speed):
+        _fail(f"--speed {speed} rad/s outside (0, {max_speed}] (--max-speed)")
+    if accel <= 0:
+        _fail(f"--accel must be > 0, got {accel}")
+    options = _hardware.RigOptions(
+        model=model,
+        seed=seed,
+        sim_noise=sim_noise,
+        sim_faults=str(sim_faults) if sim_faults else None,
+        sim_record=str(sim_record) if sim_record else None,
+        max_speed_rad_s=max_speed,
+        max_accel_rad_s2=max(accel, 2.0),
+        tracker_at_mm=_triple(tracker_at, "--tracker-at"),
+    )
+    with contextlib.ExitStack() as stack:
+        rig = _hardware.build(robot, tracker, options, stack)
+        # ---- the plan, checked whole before anything moves
+        if plan_path is not None:
+            q_plan = plans.read_csv(plan_path)
+        else:
+            cell = plans.CellConstraints(
+                tracker_at_mm=rig.tracker_at_mm, flange2tool=rig.flange2tool_guess
+            )
+            q_plan = plans.make(rig.model.mdh, rig.model.joint_limits_rad, poses, cell, seed=seed)
+        need = plans.min_poses(rig.model.mdh)
+        q_plan = plans.validate(q_plan, rig.model.joint_limits_rad, need=need)
+        if hasattr(rig.robot, "check_plan"):
+            from drivers.robot.errors import LimitsViolation
+
+            try:
+                rig.robot.check_plan(q_plan, speed, accel)
+            except LimitsViolation as exc:
+                _fail(str(exc))
+        settle_s = settle if settle is not None else (0.5 if rig.real_robot else 0.0)
+        meta = session.SessionMeta(
+            frame="tracker",
+            nominal_mdh=rig.model.mdh,
+            model=rig.model.name,
+            flange2tool=rig.flange2tool_guess,
+            tool_known=False,
+            extra={"measured": {"robot": rig.robot_id, "tracker": rig.tracker_id}},
+        )
+        header = {
+            "plan_sha256": plans.digest(q_plan),
+            "robot": rig.robot_id,
+            "tracker": rig.tracker_id,
+            "readings": readings,
+            "poses": len(q_plan),
+            "meta": meta.to_json(),
+        }
+        if resume:
+            journal, done = journals.Journal.resume(jpath, header)
+            done = done.records
+        else:
+            if rig.real_robot and not yes:
+                _confirm(rig.robot_id, len(q_plan))
+            journal, done = journals.Journal.create(jpath, header), {}
+        stack.callback(journal.close)
+        if resume and rig.real_robot and not yes:
+            left = len(q_plan) - sum(r["status"] == "measured" for r in done.values())
+            _confirm(rig.robot_id, left)
+        reporter = Reporter(len(q_plan), stream=sys.stderr)
+        with _StopOnSigint() as interrupt:
+            outcome = loop.run(
+                q_plan,
+                rig.robot,
+                rig.tracker,
+                journal,
+                loop.LoopOptions(readings, settle_s, retries, speed, accel),
+                done=done,
+                after_move=rig.after_move,
+                should_stop=lambda: interrupt.requested,
+                on_pose=reporter.update,
+            )
+        reporter.finish()
+        journal.close()
+        measured, failed = outcome.measured, outcome.failed
+        if measured:
+            session.write(output, rows.to_table(outcome.records.values()), meta)
+        resume_hint = f"rerun the same command with --resume to continue ({jpath})"
+        if outcome.stopped:
+            typer.echo(
+                f"stopped: {outcome.stopped}; {len(measured)} of {len(q_plan)} poses kept; "
+                + resume_hint,
+                err=True,
+            )
+            raise typer.Exit(1)
+        if failed:
+            typer.echo(
+                f"{len(failed)} pose(s) failed after {retries} retries ({failed[:10]}); "
+                f"wrote {output} with {len(measured)} poses; " + resume_hint + " to retry them"
+            )
+            return
+        jpath.unlink()
+        typer.echo(f"wrote {output}: {len(measured)} poses x {readings} readings")
+
+
+def _confirm(robot_id: str, n: int) -> None:
+    if not sys.stdin.isatty():
+        _fail(f"the robot {robot_id} would move through {n} poses: pass --yes to confirm")
+    if not typer.confirm(f"Move the robot {robot_id} through {n} poses?", default=False):
+        _fail("not confirmed; nothing moved")
+
+
+class _StopOnSigint:
+    """SIGINT asks the loop to stop after the current pose; a second one interrupts at once."""
+
+    def __init__(self):
+        self.requested = False
+
+    def _handle(self, signum, frame):
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+        typer.echo("\nstopping after the current pose (Ctrl-C again to abort now)", err=True)
+
+    def __enter__(self):
+        import signal
+
+        self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        signal.signal(signal.SIGINT, self._previous)
