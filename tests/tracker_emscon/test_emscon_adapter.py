@@ -25,9 +25,11 @@ from drivers.tracker.emscon.errors import (
     NotInitialised,
     ReadingInterrupted,
     TargetUnstable,
+    TrackerReplaced,
     TrackerTimeout,
     UnknownStatus,
 )
+from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
 
 DEADLINE_SLACK_S = 0.5  # scheduling on a loaded 2-core machine
 
@@ -189,3 +191,24 @@ def test_open_tracker_parses_emscon_urls():
     for bad in ("socket://127.0.0.1:700", "emscon://", "emscon://h:99999", "emscon://h/x"):
         with pytest.raises(ValueError):
             open_tracker(bad)
+
+
+def test_another_tracker_after_a_reconnect_stops_the_run(served):
+    sim, server = served
+    trk = EmsconTracker("127.0.0.1", server.port, timeout_s=0.5, reconnect_delay_s=0.01)
+    trk.connect()
+    port = server.port
+    server.stop()  # the tracker goes away; another one answers on the same address
+    other = EmsconSimulator(seed=1, initialised=True, serial=sim.serial + 1)
+    other.set_target(TARGET_MM)
+    replacement = EmsconServer(other)
+    replacement.open(port)
+    replacement.start()
+    try:
+        with pytest.raises(TrackerReplaced) as err:
+            trk.measure()
+        assert isinstance(err.value, TrackerUnavailable)
+        assert other.measurements == 0  # nothing was measured on the wrong tracker
+    finally:
+        trk.close()
+        replacement.stop()

@@ -28,9 +28,9 @@ from drivers.tracker.emscon.errors import (
     BeamBroken,
     ConnectionLost,
     FrameError,
-    IdentityChanged,
     LinkDown,
     ReadingInterrupted,
+    TrackerReplaced,
     TrackerTimeout,
 )
 from drivers.tracker.emscon.link import EmsconLink
@@ -289,6 +289,8 @@ class EmsconTracker:
             link = self._usable_link()
             try:
                 return operation(link)
+            except TrackerReplaced:
+                raise
             except (ConnectionLost, FrameError):
                 if attempt:
                     raise
@@ -309,7 +311,7 @@ class EmsconTracker:
                 continue
             if status.serial != self.serial:
                 self.close()
-                raise IdentityChanged(f"reconnected to serial {status.serial}, not {self.serial}")
+                raise TrackerReplaced(f"reconnected to serial {status.serial}, not {self.serial}")
             return
         self.close()
         raise LinkDown(

@@ -19,7 +19,8 @@ a code not in the V3.6 header                         :class:`UnknownStatus`
 
 Transport failures use :class:`ReadingInterrupted` (a reconnect worked, the
 reading in flight is lost: retried) and :class:`LinkDown` (the reconnects
-failed: :class:`calibrator.acquire.ports.TrackerUnavailable`).
+failed: :class:`calibrator.acquire.ports.TrackerUnavailable`), and
+:class:`TrackerReplaced` (another serial number answered after a reconnect).
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ __all__ = [
     "TargetUnstable",
     "TrackerBusy",
     "TrackerError",
+    "TrackerReplaced",
     "TrackerTimeout",
     "UnknownStatus",
     "error_for_status",
@@ -72,6 +74,10 @@ class ReadingInterrupted(ConnectionLost, ReadingLost):
 
 class LinkDown(ConnectionLost, TrackerUnavailable):
     """The connection dropped and the bounded reconnects did not bring it back."""
+
+
+class TrackerReplaced(IdentityChanged, TrackerUnavailable):
+    """After a reconnect a tracker with another serial number answered: stop, never mix."""
 
 
 _BY_STATUS: dict[int, type[TrackerError]] = {
