@@ -97,6 +97,9 @@ def test_cesapi_scripted_session_against_the_simulator(exact_served):
 
         status = cmd.GetTrackerStatus()
         assert status.trackerStatus == cesapi_packet.ES_TS_Ready
+        system = cmd.GetSystemStatus()
+        assert system.trackerProcessorStatus == cesapi_packet.ES_TPS_Initialized
+        assert system.lTrackerSerialNumber == sim.serial
 
         result = cmd.StartMeasurement()
         assert isinstance(result, cesapi_packet.SingleMeasResultT)
