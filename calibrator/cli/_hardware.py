@@ -159,6 +159,7 @@ class RigOptions:
     sim_noise: bool = True
     sim_faults: str | None = None
     sim_record: str | None = None
+    sim_replay: str | None = None
     sim_control: str | None = None
     max_speed_rad_s: float = 1.0
     max_accel_rad_s2: float = 2.0
@@ -209,7 +210,11 @@ def _sim_tracker(url, rig: Rig, options: RigOptions, stack) -> None:
 
     sim = stack.enter_context(
         SimulatorProcess(
-            seed=options.seed, noise=options.sim_noise, initialised=True, faults=options.sim_faults
+            seed=options.seed,
+            noise=options.sim_noise,
+            initialised=True,
+            faults=options.sim_faults,
+            replay=options.sim_replay,
         )
     )
     rig.sim_process = sim

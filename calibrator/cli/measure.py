@@ -56,12 +56,17 @@ def measure(
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
+    sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
+    timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
     sim_control: str = typer.Option(
         None, hidden=True, help="Control URL of a tracker simulator the simulated robot steers."
     ),
 ):
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     import contextlib
+    import time
+
+    marks = [("start", time.perf_counter())]
 
     from calibrator import plan as plans
     from calibrator import session
@@ -76,6 +81,9 @@ def measure(
     if plan_path is not None and output.resolve() == Path(plan_path).resolve():
         _fail(f"output {output} is the plan: choose another -o")
     jpath = journals.journal_path(output)
+    for given in (sim_faults, sim_replay):
+        if given is not None and not Path(given).is_file():
+            _fail(f"file not found: {given}")
     if not resume and output.exists():
         _fail(f"{output} exists: choose another -o, remove it, or pass --resume")
     if not resume and jpath.exists():
@@ -92,6 +100,7 @@ def measure(
         sim_noise=sim_noise,
         sim_faults=str(sim_faults) if sim_faults else None,
         sim_record=str(sim_record) if sim_record else None,
+        sim_replay=str(sim_replay) if sim_replay else None,
         sim_control=sim_control,
         max_speed_rad_s=max_speed,
         max_accel_rad_s2=max(accel, 2.0),
@@ -99,6 +108,7 @@ def measure(
     )
     with contextlib.ExitStack() as stack:
         rig = _hardware.build(robot, tracker, options, stack)
+        marks.append(("connect (simulator start, links)", time.perf_counter()))
         # ---- the plan, checked whole before anything moves
         if plan_path is not None:
             q_plan = plans.read_csv(plan_path)
@@ -116,6 +126,7 @@ def measure(
                 rig.robot.check_plan(q_plan, speed, accel)
             except LimitsViolation as exc:
                 _fail(str(exc))
+        marks.append(("plan (make and check)", time.perf_counter()))
         settle_s = settle if settle is not None else (0.5 if rig.real_robot else 0.0)
         meta = session.SessionMeta(
             frame="tracker",
@@ -159,13 +170,25 @@ def measure(
             )
         reporter.finish()
         journal.close()
+        marks.append(("measure loop", time.perf_counter()))
         measured, failed = outcome.measured, outcome.failed
         if measured:
             session.write(output, rows.to_table(outcome.records.values()), meta)
+        marks.append(("write session", time.perf_counter()))
+        if timings:
+            for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
+                typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
         resume_hint = f"rerun the same command with --resume to continue ({jpath})"
         if outcome.stopped:
+            advice = ""
+            if outcome.stopped.startswith("robot halted"):
+                advice = (
+                    "clear the stop on the pendant (after an e-stop: release it, power on "
+                    "and release the brakes), then "
+                )
             typer.echo(
                 f"stopped: {outcome.stopped}; {len(measured)} of {len(q_plan)} poses kept; "
+                + advice
                 + resume_hint,
                 err=True,
             )

@@ -33,6 +33,9 @@ from drivers.robot.errors import (
 )
 from drivers.robot.interface import Robot, SafetyState, check_move_args
 
+#: ``robot_mode`` of an arm that is powered on with its brakes released (UR RTDE guide).
+ROBOT_MODE_RUNNING = 7
+
 
 def expected_move_time(q0, q1, speed_rad_s, accel_rad_s2):
     """Duration of a synchronised trapezoidal joint move (as URScript ``movej``), s.
@@ -115,6 +118,12 @@ class UrRtdeRobot(Robot):
         self._lost = None
         try:
             self._receive = rtde_receive.RTDEReceiveInterface(self.host)
+            if self._receive.getRobotMode() != ROBOT_MODE_RUNNING:
+                # The control script would never start (ur-rtde then waits 60 s): say why now.
+                try:
+                    self._require_running_mode()
+                finally:
+                    self.close()
             self._control = rtde_control.RTDEControlInterface(self.host)
             self._dashboard = dashboard_client.DashboardClient(self.host)
             self._dashboard.connect()
@@ -206,12 +215,26 @@ class UrRtdeRobot(Robot):
                 "protective stop to clear",
             )
         if not self._control.isProgramRunning():
+            self._require_running_mode()
             self._command(self._control.reuploadScript)
             # reuploadScript returns before the program runs; a moveJ sent now would fail
             self._wait_for(self._control.isProgramRunning, timeout_s, "control script to start")
         self._stop_latch = False
 
     # ------------------------------------------------------------ internals
+    def _require_running_mode(self):
+        """Refuse when the arm is powered off or braked (after an e-stop): no program can run."""
+        deadline = time.monotonic() + 0.2  # a brake release seen on the dashboard lags RTDE
+        while (mode := self._receive.getRobotMode()) != ROBOT_MODE_RUNNING:
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0.01)
+        if mode != ROBOT_MODE_RUNNING:
+            raise NotReady(
+                f"UR controller at {self.host} is not running (robot mode {mode}): power the "
+                "arm on and release the brakes (pendant or dashboard), then retry"
+            )
+
     def _unlock(self, timeout_s):
         deadline = time.monotonic() + timeout_s
         while True:

@@ -31,7 +31,8 @@ class FakeManager:
         ):
             self.discard()
         if self.fake is None:
-            self.fake = FakeUrProcess(time_scale=time_scale).start()
+            # Unlocks are refused 0 s after a stop here (5 s on a real controller).
+            self.fake = FakeUrProcess(time_scale=time_scale, unlock_delay_s=0.0).start()
         return self.fake
 
     def healthy(self):
@@ -147,6 +148,9 @@ class FakeControllerHarness:
     def release_emergency_stop(self):
         self.fake.command("fake release estop")
         wait_until(lambda: not self.robot.safety_state().emergency_stopped, what="e-stop release")
+        # An e-stop powers the arm off: the operator powers on and releases the brakes.
+        assert self.fake.command("power on") == "Powering on"
+        assert self.fake.command("brake release") == "Brake releasing"
 
     def close(self):
         self.robot.close()

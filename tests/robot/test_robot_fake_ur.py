@@ -208,7 +208,7 @@ def test_stop_script_and_upper_range_registers():
 
 
 def test_no_program_runs_while_safety_stopped():
-    c = FakeController()
+    c = FakeController(unlock_delay_s=0.0)
     c.protective_stop()
     c.start_program()
     assert c.runtime_state == RUNTIME_STOPPED

@@ -217,6 +217,16 @@ def test_emergency_stop_during_move(ur_robot, fake_ur):
     assert ur_robot.safety_state().emergency_stopped
     fake_ur.command("fake release estop")
     wait_until(lambda: ur_robot.safety_state().ok, what="e-stop release")
+    # The e-stop powered the arm off: nothing runs until power on and brake release.
+    with pytest.raises(NotReady, match="robot mode 3"):
+        ur_robot.clear_protective_stop()
+    assert fake_ur.command("robotmode") == "Robotmode: POWER_OFF"
+    assert fake_ur.command("power on") == "Powering on"
+    assert fake_ur.command("robotmode") == "Robotmode: IDLE"
+    with pytest.raises(NotReady, match="robot mode 5"):
+        ur_robot.clear_protective_stop()
+    assert fake_ur.command("brake release") == "Brake releasing"
+    assert fake_ur.command("robotmode") == "Robotmode: RUNNING"
     ur_robot.clear_protective_stop()
     np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
 

@@ -5,7 +5,7 @@ import os
 import sys
 import time
 
-from drivers.robot.fake_ur.controller import FakeController
+from drivers.robot.fake_ur.controller import UNLOCK_DELAY_S, FakeController
 from drivers.robot.fake_ur.servers import FakeUr
 
 
@@ -21,6 +21,15 @@ def main(argv=None):
         help="simulated seconds of motion per wall-clock second (default 1)",
     )
     parser.add_argument(
+        "--model", default="ur5e", help="named model of calibrator.models (default ur5e)"
+    )
+    parser.add_argument(
+        "--unlock-delay",
+        type=float,
+        default=UNLOCK_DELAY_S,
+        help="refuse 'unlock protective stop' this long after a stop, s (default 5, as UR)",
+    )
+    parser.add_argument(
         "--parent-pid",
         type=int,
         default=None,
@@ -28,7 +37,15 @@ def main(argv=None):
     )
     args = parser.parse_args(argv)
 
-    server = FakeUr(FakeController(time_scale=args.time_scale))
+    from calibrator.errors import CalibrationError
+
+    try:
+        controller = FakeController(
+            args.time_scale, model=args.model, unlock_delay_s=args.unlock_delay
+        )
+    except CalibrationError as exc:
+        parser.error(str(exc))
+    server = FakeUr(controller)
     server.start()
     print("fake UR controller ready on 127.0.0.1:30004/29999/30003", flush=True)
     try:

@@ -7,6 +7,19 @@ the command register the client wrote, executes the command and answers on the
 output registers. Motion is simulated time; ``time_scale`` makes it run faster
 than the wall clock so tests stay short.
 
+The arm is a named model from :mod:`calibrator.models` (UR5e by default);
+``actual_TCP_pose`` is its nominal forward kinematics with the TCP set by
+``setTcp``, the rotation as :func:`calibrator.frames.matrix_to_rotvec` gives it
+(the one conversion of the project, exact near pi).
+
+Power and brakes follow a real controller: an e-stop powers the arm off;
+the dashboard's ``power on`` (POWER_OFF -> IDLE), ``brake release``
+(IDLE -> RUNNING) and ``power off`` drive ``robot_mode``, and no program runs
+until the mode is RUNNING. ``unlock protective stop`` is refused for 5 s after
+the stop and whenever no protective stop is active. A control-script command
+the fake does not emulate stops the program (as a script error on a real
+controller), so the client's call fails visibly instead of reporting success.
+
 Register protocol (ur-rtde 1.6.5): ``output_int_register_0`` is 1 when the script
 is ready for a command and 2 when it has finished one; the client then writes
 NO_CMD (0) and the script answers ready again.
@@ -16,6 +29,9 @@ import threading
 import time
 
 import numpy as np
+
+from calibrator import frames, kinematics
+from calibrator.models import get_model
 
 # runtime_state values (UR RTDE guide)
 RUNTIME_STOPPED = 1
@@ -33,6 +49,7 @@ STATUS_PROGRAM_RUNNING = 1 << 1
 # control script commands (RTDE::RobotCommand::Type in ur-rtde)
 CMD_NO_CMD = 0
 CMD_MOVEJ = 1
+CMD_SET_TCP = 29
 CMD_PROTECTIVE_STOP = 31
 CMD_STOPL = 33
 CMD_STOPJ = 34
@@ -44,55 +61,31 @@ REALTIME_CMDS = {24, 11, 9, 10, 6, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71}
 READY = 1
 DONE = 2
 
+# robot_mode values (UR RTDE guide / dashboard "robotmode")
+ROBOT_MODES = {3: "POWER_OFF", 5: "IDLE", 7: "RUNNING"}
+MODE_POWER_OFF, MODE_IDLE, MODE_RUNNING = 3, 5, 7
+#: Seconds a real controller refuses "unlock protective stop" after the stop.
+UNLOCK_DELAY_S = 5.0
+
 # A plausible UR5e pose away from singularities (rad).
 HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
 
-# UR5e nominal DH (metres, rad) for actual_TCP_pose, so clients that read it get
-# a consistent, non-zero pose.
-_UR5E_DH = np.array(
-    [
-        # a, d, alpha
-        [0.0, 0.1625, np.pi / 2],
-        [-0.425, 0.0, 0.0],
-        [-0.3922, 0.0, 0.0],
-        [0.0, 0.1333, np.pi / 2],
-        [0.0, 0.0997, -np.pi / 2],
-        [0.0, 0.0996, 0.0],
-    ]
-)
 
-
-def tcp_pose(q):
-    """Flange pose of a nominal UR5e as UR reports it: ``[x, y, z, rx, ry, rz]`` (m, rot. vector).
+def tcp_pose(q, mdh=None, flange2tcp=None):
+    """TCP pose as UR reports it: ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad).
 
     Parameters
     ----------
-    q : ndarray, shape (6,)
+    q : array_like, shape (6,)
         Joint angles, rad.
+    mdh : array_like, shape (6, 5), optional
+        The arm's table (mm, rad); default the nominal UR5e.
+    flange2tcp : array_like, shape (4, 4), optional
+        TCP in the flange frame (mm), as set by ``setTcp``; default the flange.
     """
-    t = np.eye(4)
-    for (a, d, alpha), theta in zip(_UR5E_DH, q, strict=True):
-        ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-        t = t @ np.array(
-            [
-                [ct, -st * ca, st * sa, a * ct],
-                [st, ct * ca, -ct * sa, a * st],
-                [0.0, sa, ca, d],
-                [0.0, 0.0, 0.0, 1.0],
-            ]
-        )
-    r = t[:3, :3]
-    angle = np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
-    if angle < 1e-9:
-        rotvec = np.zeros(3)
-    elif np.pi - angle < 1e-6:
-        # near pi the antisymmetric part vanishes; take the axis from the diagonal
-        axis = np.sqrt(np.clip((np.diag(r) + 1.0) / 2.0, 0.0, None))
-        rotvec = axis * angle
-    else:
-        axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-        rotvec = axis / (2.0 * np.sin(angle)) * angle
-    return np.concatenate([t[:3, 3], rotvec])
+    mdh = get_model("ur5e").mdh if mdh is None else mdh
+    pose = kinematics.forward(mdh, np.asarray(q, float)[None], flange2tcp)[0]
+    return np.concatenate([pose[:3, 3] / 1000.0, frames.matrix_to_rotvec(pose[:3, :3])])
 
 
 class _JointMove:
@@ -148,11 +141,16 @@ class FakeController:
         times faster than on a robot).
     initial_q : array_like, shape (6,), optional
         Starting joint angles, rad. Default :data:`HOME_Q`.
+    model : str
+        Named model of :mod:`calibrator.models` (``ur5e``, ``ur10e``).
+    unlock_delay_s : float
+        Refuse ``unlock protective stop`` this long after a stop, s (5 on a
+        real controller; tests may shorten it).
     """
 
     period_s = 0.002  # 500 Hz, as an e-Series controller
 
-    def __init__(self, time_scale=1.0, initial_q=None):
+    def __init__(self, time_scale=1.0, initial_q=None, model="ur5e", unlock_delay_s=UNLOCK_DELAY_S):
         if time_scale <= 0:
             raise ValueError(f"time_scale must be > 0, got {time_scale}")
         self.time_scale = float(time_scale)
@@ -175,7 +173,10 @@ class FakeController:
         self._async_op_id = 0
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
-        self.unlock_delay_s = 0.0  # test hook: refuse unlocks this long after a stop, as UR does
+        self.unlock_delay_s = float(unlock_delay_s)
+        self.model = get_model(model)
+        self.flange2tcp = np.eye(4)  # setTcp changes it (mm)
+        self.robot_mode = MODE_RUNNING
         self._protective_since = None
         self.log = []  # commands executed, for the fake's own tests
 
@@ -194,15 +195,16 @@ class FakeController:
                 "target_q": tuple(self.target_q),
                 "actual_qd": tuple(self.qd),
                 "target_qd": tuple(self.qd),
-                "actual_TCP_pose": tuple(tcp_pose(self.q)),
-                "target_TCP_pose": tuple(tcp_pose(self.target_q)),
+                "actual_TCP_pose": tuple(tcp_pose(self.q, self.model.mdh, self.flange2tcp)),
+                "target_TCP_pose": tuple(tcp_pose(self.target_q, self.model.mdh, self.flange2tcp)),
                 "runtime_state": self.runtime_state,
-                "robot_mode": 7,  # RUNNING
+                "robot_mode": self.robot_mode,
                 "joint_mode": (253,) * 6,  # JOINT_RUNNING_MODE
                 "safety_mode": self._safety_mode(),
                 "safety_status": self._safety_mode(),
                 "safety_status_bits": self.safety_bits,
-                "robot_status_bits": STATUS_POWER_ON | (STATUS_PROGRAM_RUNNING if playing else 0),
+                "robot_status_bits": (STATUS_POWER_ON if self.robot_mode != MODE_POWER_OFF else 0)
+                | (STATUS_PROGRAM_RUNNING if playing else 0),
                 "speed_scaling": 1.0,
                 "target_speed_fraction": 1.0,
             }
@@ -243,6 +245,9 @@ class FakeController:
             if self.safety_bits & (SAFETY_PROTECTIVE_STOPPED | SAFETY_EMERGENCY_STOPPED):
                 self.log.append("program refused: safety stop")
                 return  # a real controller will not run a program while safety-stopped
+            if self.robot_mode != MODE_RUNNING:
+                self.log.append(f"program refused: robot mode {ROBOT_MODES[self.robot_mode]}")
+                return  # nor while powered off or with the brakes on
             self._halt()
             self.reg_offset = int(reg_offset)
             self._executing_cmd = False
@@ -270,11 +275,36 @@ class FakeController:
             self.log.append("protective stop")
 
     def emergency_stop(self):
-        """E-stop pressed: like a protective stop, flagged with bit 7."""
+        """E-stop pressed: the program stops, bit 7 is raised and the arm is powered off."""
         with self.lock:
             self.stop_program()
             self.safety_bits = (self.safety_bits | SAFETY_EMERGENCY_STOPPED) & ~SAFETY_NORMAL
+            self.robot_mode = MODE_POWER_OFF
             self.log.append("emergency stop")
+
+    def power_on(self):
+        """Dashboard ``power on``: POWER_OFF -> IDLE (brakes still on). Returns the reply."""
+        with self.lock:
+            if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
+                return "Cannot power on: the emergency stop is engaged"
+            if self.robot_mode == MODE_POWER_OFF:
+                self.robot_mode = MODE_IDLE
+            return "Powering on"
+
+    def brake_release(self):
+        """Dashboard ``brake release``: IDLE -> RUNNING. Returns the reply."""
+        with self.lock:
+            if self.robot_mode == MODE_POWER_OFF:
+                return "Cannot release brakes: the robot is powered off"
+            self.robot_mode = MODE_RUNNING
+            return "Brake releasing"
+
+    def power_off(self):
+        """Dashboard ``power off``: the program stops, the arm is powered off."""
+        with self.lock:
+            self.stop_program()
+            self.robot_mode = MODE_POWER_OFF
+            return "Powering off"
 
     def release_emergency_stop(self):
         with self.lock:
@@ -285,7 +315,9 @@ class FakeController:
     def unlock_protective_stop(self):
         """Dashboard ``unlock protective stop``; refused while e-stopped. Returns the reply line."""
         with self.lock:
-            if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
+            if self.safety_bits & SAFETY_EMERGENCY_STOPPED or not (
+                self.safety_bits & SAFETY_PROTECTIVE_STOPPED
+            ):
                 return "Cannot unlock protective stop, safetymode is not PROTECTIVE_STOP"
             since = self._protective_since
             if since is not None and time.monotonic() - since < self.unlock_delay_s:
@@ -354,9 +386,15 @@ class FakeController:
             self.protective_stop()
         elif cmd == CMD_STOP_SCRIPT:
             self.stop_program()
-        else:
-            # unsupported commands complete without effect, as a no-op script branch
+        elif cmd == CMD_SET_TCP:
+            pose = np.array([self._in_double(i) for i in range(6)])  # m, rotation vector
+            self.flange2tcp = frames.transform(frames.rotvec_to_matrix(pose[3:]), pose[:3] * 1000)
             self._out_int(0, DONE)
+        else:
+            # Not emulated (moveL, movePath, IK, ...): stop the program, as a script
+            # error would, so the client's call fails instead of reporting success.
+            self.log.append(f"unsupported command {cmd}: program stopped")
+            self.stop_program()
 
     def _halt(self):
         if self._move is not None:

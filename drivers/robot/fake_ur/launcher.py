@@ -132,10 +132,16 @@ class FakeUrProcess:
         Passed to ``--time-scale``: simulated motion seconds per wall second.
     startup_timeout_s : float
         How long to wait for the fake to report that it is listening, s.
+    model : str
+        Named model the fake's arm follows (``--model``).
+    unlock_delay_s : float, optional
+        ``--unlock-delay``; default the real controller's 5 s.
     """
 
-    def __init__(self, time_scale=10.0, startup_timeout_s=30.0):
+    def __init__(self, time_scale=10.0, startup_timeout_s=30.0, model="ur5e", unlock_delay_s=None):
         self.time_scale = time_scale
+        self.model = model
+        self.unlock_delay_s = unlock_delay_s
         self.startup_timeout_s = startup_timeout_s
         self.process = None
         self._holds_lock = False
@@ -160,7 +166,11 @@ class FakeUrProcess:
             str(self.time_scale),
             "--parent-pid",
             str(os.getpid()),
+            "--model",
+            self.model,
         ]
+        if self.unlock_delay_s is not None:
+            cmd += ["--unlock-delay", str(self.unlock_delay_s)]
         # stderr to a file: a pipe nobody reads would block the fake once full
         self._stderr = tempfile.TemporaryFile()
         # own session: signals meant for the test runner's group do not reach it

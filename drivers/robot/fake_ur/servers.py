@@ -10,6 +10,7 @@ import socket
 import threading
 import time
 
+from drivers.robot.fake_ur.controller import ROBOT_MODES
 from drivers.robot.fake_ur.rtde_session import RtdeSession
 
 HOST = "127.0.0.1"
@@ -145,7 +146,13 @@ class FakeUr:
         if lower == "is in remote control":
             return "true"
         if lower == "robotmode":
-            return "Robotmode: RUNNING"
+            return f"Robotmode: {ROBOT_MODES[c.robot_mode]}"
+        if lower == "power on":
+            return c.power_on()
+        if lower == "brake release":
+            return c.brake_release()
+        if lower == "power off":
+            return c.power_off()
         if lower in ("safetystatus", "safetymode"):
             mode = {1: "NORMAL", 3: "PROTECTIVE_STOP", 7: "ROBOT_EMERGENCY_STOP"}
             return f"Safety{lower[6:]}: {mode[c.snapshot()['safety_mode']]}"
@@ -193,6 +200,7 @@ class FakeUr:
                         ("emergency_stop", c.safety_bits & 128),
                         ("stalled", c.stalled),
                         ("moving", c.moving),
+                        ("not_running", c.robot_mode != 7),
                     )
                     if on
                 ]
