@@ -50,6 +50,18 @@ def test_our_server_packets_parse_in_cesapi_with_the_same_fields():
     assert (err.command, err.status) == (cesapi_packet.ES_C_StartMeasurement, 10004)
 
 
+def test_cesapi_result_packets_decode_in_ours():
+    for cls in (cesapi_packet.SingleMeasResultT, cesapi_packet.SingleMeasResult2T):
+        res = cls()
+        res.dVal1, res.dVal2, res.dVal3 = 1000.5, -20.25, 3.0
+        res.dStd1, res.dStd2, res.dStd3, res.dStdTotal = 0.001, 0.002, 0.003, 0.004
+        res.dTemperature, res.dPressure, res.dHumidity = 20.5, 1010.0, 48.0
+        got = pk.decode_server_packet(res.pack())
+        assert got.values == (1000.5, -20.25, 3.0)
+        assert got.std == (0.001, 0.002, 0.003, 0.004)
+        assert got.meteo == (20.5, 1010.0, 48.0) and got.status == 0
+
+
 def test_cesapi_command_packets_decode_in_ours():
     ct = cesapi_packet.SetUnitsCT()
     ct.unitsSettings.lenUnitType = cesapi_packet.ES_LU_Millimeter

@@ -130,6 +130,7 @@ LENGTH_UNIT_MM = {0: 1000.0, 1: 1.0, 2: 0.001, 3: 304.8, 4: 914.4, 5: 25.4}  # m
 _UNITS = struct.Struct("<5I")
 _ENV = struct.Struct("<3d")
 _RESULT = struct.Struct("<Ii17d")  # measMode, bIsTryMode, dVal1..dHumidity
+_RESULT2 = struct.Struct("<Ii23d")  # the same with covariances (statistic mode "extended")
 _SYSTEM_STATUS = struct.Struct("<4I3iIii")
 _CMD = struct.Struct("<I")
 _CMD_REPLY = struct.Struct("<II")
@@ -140,7 +141,7 @@ SIZE_COMMAND_REPLY = 16
 SIZE_ERROR = 16
 SIZE_STATUS_CHANGE = 12
 SIZE_SINGLE_MEAS_RESULT = 12 + _RESULT.size  # 156
-SIZE_SINGLE_MEAS_RESULT2 = 204
+SIZE_SINGLE_MEAS_RESULT2 = 12 + _RESULT2.size  # 204
 SIZE_NIVEL_RESULT = 40
 SIZE_REFLECTOR_POS_RESULT = 36
 
@@ -214,7 +215,7 @@ class ErrorResponse:
 
 @dataclass(frozen=True)
 class SingleMeasResult:
-    """``ES_DT_SingleMeasResult``: one stationary reading.
+    """``ES_DT_SingleMeasResult`` (or ``SingleMeasResult2``): one stationary reading.
 
     Attributes
     ----------
@@ -412,6 +413,10 @@ def decode_server_packet(data: bytes) -> Packet:
         (status,) = _CMD.unpack_from(data, HEADER.size)
         f = _RESULT.unpack_from(data, SIZE_COMMAND)
         return SingleMeasResult(status, f[0], bool(f[1]), f[2:5], f[5:9], f[16:19])
+    if dtype is DataType.SINGLE_MEAS_RESULT2:
+        (status,) = _CMD.unpack_from(data, HEADER.size)
+        f = _RESULT2.unpack_from(data, SIZE_COMMAND)
+        return SingleMeasResult(status, f[0], bool(f[1]), f[2:5], f[5:9], f[22:25])
     return OtherPacket(type_)
 
 
