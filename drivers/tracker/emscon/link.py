@@ -86,13 +86,18 @@ class EmsconLink:
         """
         deadline = self._clock() + timeout_s
         name = _name(command)
-        if self._unsettled:
-            self._fence(deadline, name)
-        self._send(pk.encode_command(command, params))
         try:
+            if self._unsettled:
+                self._fence(deadline, name)
+            self._send(pk.encode_command(command, params))
             return self._await(command, deadline, name, measure)
         except TrackerTimeout:
-            self._unsettled = True
+            if self._buf:
+                # Part of a packet is pending: if its size field lied, every later packet
+                # would be cut in the wrong place. Only a new connection is certain.
+                self._lose_framing()
+            else:
+                self._unsettled = True
             raise
 
     def _fence(self, deadline: float, name: str) -> None:
