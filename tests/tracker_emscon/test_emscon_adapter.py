@@ -212,3 +212,17 @@ def test_another_tracker_after_a_reconnect_stops_the_run(served):
     finally:
         trk.close()
         replacement.stop()
+
+
+def test_lost_initialisation_is_reported_and_never_repaired_even_across_reconnects(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 not_initialised")
+    with pytest.raises(NotInitialised):
+        trk.measure()
+    sim.arm_fault("MEAS+1 hangup")
+    with pytest.raises(ReadingInterrupted):
+        trk.measure()  # reconnected and re-applied its settings ...
+    assert not sim.initialised  # ... without initialising
+    assert not trk.last_status.initialised
+    with pytest.raises(NotInitialised):
+        trk.measure()
