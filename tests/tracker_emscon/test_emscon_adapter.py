@@ -188,7 +188,14 @@ def test_open_tracker_parses_emscon_urls():
     trk = open_tracker("emscon://10.0.0.5", timeout_s=3.0)
     assert (trk.host, trk.port, trk.timeout_s) == ("10.0.0.5", 700, 3.0)
     assert open_tracker("emscon://127.0.0.1:7001").port == 7001
-    for bad in ("socket://127.0.0.1:700", "emscon://", "emscon://h:99999", "emscon://h/x"):
+    trk = open_tracker("emscon://h?meteo=21.5,1002.5,41")
+    assert trk.environment == ENV
+    bad_urls = (
+        "socket://127.0.0.1:700", "emscon://", "emscon://h:99999", "emscon://h/x",
+        "emscon://h?meteo=21,1000", "emscon://h?meteo=a,b,c", "emscon://h?temp=20",
+        "emscon://h?meteo=nan,1000,40", "emscon://h?meteo=1,2,3&meteo=1,2,3",
+    )  # fmt: skip
+    for bad in bad_urls:
         with pytest.raises(ValueError):
             open_tracker(bad)
 

@@ -320,20 +320,39 @@ class EmsconTracker:
 
 
 def open_tracker(url: str, **options) -> EmsconTracker:
-    """An (unconnected) :class:`EmsconTracker` for ``emscon://HOST[:PORT]``.
+    """An (unconnected) :class:`EmsconTracker` for ``emscon://HOST[:PORT][?meteo=T,P,H]``.
+
+    ``meteo`` gives the environment sent on connect: temperature degC, pressure
+    hPa, relative humidity %; without it the server's own values stay. Other
+    keyword ``options`` go to :class:`EmsconTracker`.
 
     Raises
     ------
     ValueError
-        Not an ``emscon://`` URL, or a bad port.
+        Not an ``emscon://`` URL, a bad port, or a bad query.
     """
-    from urllib.parse import urlsplit
+    from urllib.parse import parse_qs, urlsplit
 
     parts = urlsplit(url)
     if parts.scheme != "emscon" or not parts.hostname or parts.path not in ("", "/"):
-        raise ValueError(f"expected emscon://HOST[:PORT], got {url!r}")
+        raise ValueError(f"expected emscon://HOST[:PORT][?meteo=T,P,H], got {url!r}")
     try:
         port = parts.port or DEFAULT_PORT
     except ValueError as exc:
         raise ValueError(f"bad port in {url!r}: {exc}") from None
+    query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
+    if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
+        raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
+    if "meteo" in query:
+        options["environment"] = _parse_meteo(query["meteo"][0])
     return EmsconTracker(parts.hostname, port, **options)
+
+
+def _parse_meteo(text: str) -> Environment:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(np.isfinite(values)):
+        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r}")
+    return Environment(*values)
