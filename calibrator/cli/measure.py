@@ -33,7 +33,7 @@ def measure(
     tracker: str = typer.Option(
         "sim",
         help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
-        "or emscon://HOST[:PORT] (a Leica tracker's emScon server).",
+        "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
     ),
     plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
     poses: int = typer.Option(30, min=1, help="Poses of the plan made when --plan is not given."),
