@@ -10,9 +10,9 @@ Sources
     Seed 003, the ER10L-C10 nominal table (a, alpha, theta, d). Its joint
     range is the seed's simulation range, [-pi, pi] on every joint (the
     manufacturer's limits are not in the paper).
-``ur5e``, ``ur10e``
-    Universal Robots' published DH parameters (standard DH, which is MDH with
-    beta = 0); joint limits and speeds from UR's ROS 2 description
+``ur5e``, ``ur10e``, ``ur10``
+    Universal Robots' published DH parameters (``ur10``: the CB3 UR10;
+    standard DH, which is MDH with beta = 0); joint limits and speeds from UR's ROS 2 description
     (``shared/reference/*_joint_limits.yaml``).
 """
 
@@ -82,6 +82,7 @@ _MODELS = {
         max_joint_speed_rad_s=np.full(6, 180 * _DEG),
     ),
     "ur5e": _ur(162.5, -425.0, -392.2, 133.3, 99.7, 99.6, [180] * 6),
+    "ur10": _ur(127.3, -612.0, -572.3, 163.941, 115.7, 92.2, [120, 120, 180, 180, 180, 180]),
     "ur10e": _ur(180.7, -612.7, -571.55, 174.15, 119.85, 116.55, [120, 120, 180, 180, 180, 180]),
 }
 

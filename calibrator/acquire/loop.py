@@ -7,9 +7,10 @@ hands in concrete drivers. What happens on each failure:
   lost or garbled reply, link dropped and re-established): the pose's readings
   are all discarded and the pose is measured again, up to ``retries`` times;
   then it is journalled as failed and the run goes on.
-- :class:`~calibrator.acquire.ports.RobotHalted` (protective stop, e-stop) or
-  :class:`~calibrator.acquire.ports.TrackerUnavailable`: the run ends cleanly;
-  every finished pose is already in the journal.
+- :class:`~calibrator.acquire.ports.RobotHalted` (protective stop, e-stop),
+  :class:`~calibrator.acquire.ports.TrackerUnavailable`, or any other
+  ``OSError`` (a lost robot link): the run ends cleanly; every finished pose
+  is already in the journal.
 - A stop request (SIGINT) is honoured between poses, never inside one.
 """
 
@@ -151,6 +152,9 @@ def run(
             break
         except TrackerUnavailable as exc:
             outcome.stopped = f"tracker unavailable at pose {pose}: {exc}"
+            break
+        except OSError as exc:  # any other link (the robot's) failed: same clean end
+            outcome.stopped = f"link lost at pose {pose}: {exc}"
             break
         journal.append(record)
         outcome.records[pose] = record

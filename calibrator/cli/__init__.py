@@ -18,6 +18,7 @@ from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
 from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
 from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
 from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
+from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]
 

@@ -147,7 +147,6 @@ class Rig:
     after_move: Callable | None = None
     real_robot: bool = False
     sim_cell: SimCell | None = None
-    sim_process: object = None
 
 
 @dataclass(frozen=True)
@@ -217,13 +216,21 @@ def _sim_tracker(url, rig: Rig, options: RigOptions, stack) -> None:
             replay=options.sim_replay,
         )
     )
-    rig.sim_process = sim
     rig.tracker = LaserTrackerPort(sim.url, record=options.sim_record)
     cell = rig.sim_cell
+
+    def place(point_mm):
+        from drivers.errors import DriverError
+
+        try:
+            sim.set_target(point_mm)
+        except (DriverError, OSError) as exc:  # the simulated tracker itself is gone
+            raise TrackerUnavailable(f"tracker simulator: {exc}") from exc
+
     if rig.robot is not None and hasattr(rig.robot, "listener"):
-        rig.robot.listener = lambda pose: sim.set_target(pose[:3, 3])
+        rig.robot.listener = lambda pose: place(pose[:3, 3])
     else:
-        rig.after_move = lambda q: sim.set_target(cell.tool_pose(q)[:3, 3])
+        rig.after_move = lambda q: place(cell.tool_pose(q)[:3, 3])
 
 
 def _line_tracker(url, rig: Rig, options: RigOptions, stack) -> None:

@@ -1,4 +1,4 @@
-"""``calibrator export-params``: the compensated parameters in robot users' formats."""
+"""``calibrator export-params``: the calibrated model in the formats robots and planners read."""
 
 import sys
 from enum import StrEnum
@@ -7,25 +7,37 @@ from pathlib import Path
 import typer
 
 from calibrator.cli._app import app
+from calibrator.errors import CalibrationError
+from calibrator.export import REGISTRY
 
-
-class ExportFormat(StrEnum):
-    json = "json"
-    csv = "csv"
+#: The ``--format`` choices, generated from the exporter registry.
+ExportFormat = StrEnum("ExportFormat", {name: name for name in REGISTRY})
+_FORMAT_HELP = "Output format [default: from the output's extension, else json]. " + "; ".join(
+    f"{f.name}: {f.help}" for f in REGISTRY.values()
+)
 
 
 @app.command("export-params")
 def export_params(
     calibration_path: Path = typer.Argument(..., metavar="CALIBRATION"),
-    fmt: ExportFormat = typer.Option(ExportFormat.json, "--format"),
+    fmt: ExportFormat = typer.Option(
+        None,
+        "--format",
+        help=_FORMAT_HELP,
+    ),
     output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
 ):
-    """Write the compensated parameters in a format robot users load."""
+    """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export
 
-    text = export.export(calibration.load(calibration_path), fmt.value)
+    fmt = export.choose(None if fmt is None else fmt.value, output)
+    if output is not None and output.resolve() == calibration_path.resolve():
+        raise CalibrationError(f"refusing to overwrite the input {calibration_path}")
+    result = export.export(calibration.load(calibration_path), fmt)
+    for note in result.notes:
+        typer.echo(f"note: {note}", err=True)
     if output is None:
-        sys.stdout.write(text)
-    else:
-        output.write_text(text)
-        typer.echo(f"wrote {output}")
+        sys.stdout.write(result.text)
+        return
+    calibration.write_text(output, result.text)
+    typer.echo(f"wrote {output} ({fmt})")

@@ -31,6 +31,11 @@ def identify(
     tool_known: bool = typer.Option(
         None, "--tool-known/--tool-free", help="Fix or identify the tool point [default: session]."
     ),
+    nominal_file: Path = typer.Option(
+        None,
+        "--nominal",
+        help="Start from a factory calibration: UR DH deltas or a ROS kinematics YAML.",
+    ),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
     from calibrator import calibration, session
@@ -38,6 +43,10 @@ def identify(
 
     started = time.perf_counter()
     loaded = session.load(session_path, model=model)
+    if nominal_file is not None:
+        from calibrator import nominal
+
+        typer.echo(nominal.apply(loaded.meta, nominal_file))
     options = pipeline.Options(
         method=method.value,
         particles=particles,
@@ -48,8 +57,9 @@ def identify(
         tool_known=tool_known,
     )
     result = pipeline.identify(loaded, options)
-    doc = calibration.to_json(result, session_path, loaded.meta.model)
-    calibration.write(output, doc)
+    calibration.Calibration.from_result(
+        result, session_path, loaded.meta.model, loaded.meta.frame
+    ).save(output)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
         f"{result.space.size} free parameters, method {method.value}"

@@ -21,11 +21,6 @@ class Selection(StrEnum):
     first = "first"
 
 
-def _fail(message: str) -> None:
-    typer.echo(f"calibrator: error: {message}", err=True)
-    raise typer.Exit(2)
-
-
 @app.command()
 def plan(
     output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
@@ -57,7 +52,7 @@ def plan(
 
     from calibrator import frames
     from calibrator import plan as plans
-    from calibrator.cli.measure import _triple
+    from calibrator.cli.measure import _fail, _triple
     from calibrator.models import get_model
 
     if not output.parent.is_dir():

@@ -13,7 +13,7 @@ The measure loop needs::
 The simulator lives in :mod:`drivers.tracker.simulator` (imported on demand).
 """
 
-from drivers.tracker.averaging import AveragedReading, measure_average
+from drivers.tracker.averaging import measure_average
 from drivers.tracker.driver import Environment, Identity, LaserTracker, Status
 from drivers.tracker.errors import (
     BeamBroken,
@@ -54,3 +54,12 @@ __all__ = [
     "measure_average",
     "read_log",
 ]
+
+
+def __getattr__(name):
+    # AveragedReading lives in calibrator.acquire; imported on demand (see averaging.py).
+    if name == "AveragedReading":
+        from drivers.tracker import averaging
+
+        return averaging.AveragedReading
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

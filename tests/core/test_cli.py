@@ -48,8 +48,10 @@ def test_simulate_identify_export(tmp_path):
     csv_out = run("export-params", "cal.json", "--format", "csv", "-o", "p.csv", cwd=tmp_path)
     assert csv_out.returncode == 0, csv_out.stderr
     table = pd.read_csv(tmp_path / "p.csv")
+    joints = table[table.element.str.startswith("joint")]
+    mdh = joints.pivot(index="element", columns="parameter", values="identified")
     np.testing.assert_allclose(
-        table[["a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad"]], truth["mdh"], atol=1e-6
+        mdh[["a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad"]], truth["mdh"], atol=1e-6
     )
     json_out = run("export-params", "cal.json", "--format", "json", cwd=tmp_path)
     joints = json.loads(json_out.stdout)["joints"]

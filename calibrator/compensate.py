@@ -1,0 +1,322 @@
+"""Target compensation: joint angles and corrected targets for a calibrated arm.
+
+A controller keeps its nominal model. To make the real (calibrated) arm
+reach a desired tool pose ``T`` (robot base frame):
+
+1. solve the calibrated model's inverse kinematics, ``FK_cal(q) = T``, by
+   damped Newton steps started from the nominal solution ``q_nom``;
+2. the corrected target is ``FK_nom(q)``: sent to the controller, its
+   nominal inverse kinematics returns ``q`` and the real arm lands on ``T``.
+
+Both models carry the calibration's ``flange2tool``: the controller's TCP is
+assumed to be the identified tool. Everything is vectorised over targets.
+
+IK: Levenberg-Marquardt steps on the geometric Jacobian, per target (a step
+is kept only if it lowers the error, else the damping grows), error = position
+(mm) and rotation vector (rad, weighted :data:`ROT_WEIGHT_MM`) in the base
+frame; converged when the position error is below :data:`TOL_MM` and the
+rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
+A result outside the joint limits is reported, never clipped.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibrator import frames, kinematics
+from calibrator.errors import CalibrationError
+
+#: Position tolerance of the IK (mm).
+TOL_MM = 1e-6
+#: Orientation tolerance of the IK (rad).
+TOL_RAD = 1e-9
+#: Iteration cap of the IK.
+MAX_ITER = 50
+#: Weight of a rotation error against a position error (mm/rad).
+ROT_WEIGHT_MM = 1000.0
+
+
+@dataclass(frozen=True)
+class Solution:
+    """IK results for N targets.
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, 6)
+        Joint angles (rad); for failed targets, the last iterate (not clipped).
+    converged : ndarray of bool, shape (N,)
+    within_limits : ndarray of bool, shape (N,)
+    iterations : ndarray of int, shape (N,)
+    error_mm, error_rad : ndarray, shape (N,)
+        Remaining position and rotation error.
+    """
+
+    q: np.ndarray
+    converged: np.ndarray
+    within_limits: np.ndarray
+    iterations: np.ndarray
+    error_mm: np.ndarray
+    error_rad: np.ndarray
+
+    @property
+    def ok(self):
+        """Targets reached within the joint limits, shape (N,)."""
+        return self.converged & self.within_limits
+
+
+def tool_poses(mdh, q, flange2tool):
+    """Tool poses in the base frame, shape (N, 4, 4)."""
+    return kinematics.chain(mdh, q) @ flange2tool
+
+
+def _jacobian_and_pose(mdh, q, flange2tool):
+    _, link_frames = kinematics.chain(mdh, q, all_frames=True)
+    pose = link_frames[:, 6] @ flange2tool
+    axes = link_frames[:, :6, :3, 2]  # joint i+1 turns about z of frame i
+    arms = pose[:, None, :3, 3] - link_frames[:, :6, :3, 3]
+    jac = np.empty((len(q), 6, 6))
+    jac[:, :3] = np.swapaxes(np.cross(axes, arms), 1, 2)
+    jac[:, 3:] = np.swapaxes(axes, 1, 2)
+    return jac, pose
+
+
+def _pose_error(target, pose):
+    dp = target[:, :3, 3] - pose[:, :3, 3]
+    dr = frames.rotation_error(target[:, :3, :3], pose[:, :3, :3])
+    return np.concatenate([dp, dr], axis=1)
+
+
+def inverse(mdh, targets, q0, flange2tool=None, limits=None):
+    """Joint angles reaching tool poses, by damped Newton (Levenberg-Marquardt) from ``q0``.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (6, 5)
+    targets : array_like, shape (N, 4, 4)
+        Desired tool poses, base frame (mm).
+    q0 : array_like, shape (N, 6)
+        Start (rad): the nominal solution.
+    flange2tool : array_like, shape (4, 4), optional
+    limits : array_like, shape (6, 2), optional
+        Joint limits (rad); all within when omitted.
+
+    Returns
+    -------
+    Solution
+    """
+    targets = np.asarray(targets, dtype=float)
+    q = kinematics.check_joints(q0).copy()
+    tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
+    n = len(q)
+    weight = np.array([1.0, 1.0, 1.0, ROT_WEIGHT_MM, ROT_WEIGHT_MM, ROT_WEIGHT_MM])
+    iterations = np.zeros(n, dtype=int)
+    lam = np.full(n, 1e-3)
+    jac, pose = _jacobian_and_pose(mdh, q, tool)
+    err = _pose_error(targets, pose)
+    active = ~_done(err)
+    for _ in range(MAX_ITER):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        j = jac[idx] * weight[:, None]
+        e = err[idx] * weight
+        jt = np.swapaxes(j, 1, 2)
+        jtj = jt @ j
+        # Marquardt's scaling: damping proportional to the diagonal.
+        damp = lam[idx, None, None] * (np.eye(6) * np.diagonal(jtj, axis1=1, axis2=2)[:, None, :])
+        dq = np.linalg.solve(jtj + damp, jt @ e[..., None])[..., 0]
+        trial_q = q[idx] + dq
+        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, tool)
+        trial_err = _pose_error(targets[idx], trial_pose)
+        better = np.sum((trial_err * weight) ** 2, axis=1) < np.sum(e**2, axis=1)
+        take = idx[better]
+        q[take], jac[take], err[take] = trial_q[better], trial_jac[better], trial_err[better]
+        lam[take] = np.maximum(lam[take] / 10.0, 1e-9)
+        lam[idx[~better]] *= 10.0
+        iterations[idx] += 1
+        active[take[_done(err[take])]] = False
+        active[idx[lam[idx] > 1e8]] = False  # stuck: no step lowers the error
+    e_mm = np.linalg.norm(err[:, :3], axis=1)
+    e_rad = np.linalg.norm(err[:, 3:], axis=1)
+    converged = _done(err)
+    if limits is None:
+        within = np.ones(n, dtype=bool)
+    else:
+        lim = np.asarray(limits, dtype=float)
+        within = np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
+    return Solution(q, converged, within, iterations, e_mm, e_rad)
+
+
+def _done(err):
+    return (np.linalg.norm(err[:, :3], axis=1) < TOL_MM) & (
+        np.linalg.norm(err[:, 3:], axis=1) < TOL_RAD
+    )
+
+
+@dataclass(frozen=True)
+class Compensation:
+    """What :func:`compensate` found.
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, 6)
+        Joint angles of the calibrated arm reaching the targets (rad).
+    corrected : ndarray, shape (N, 4, 4)
+        Targets to send to a controller keeping its nominal model (mm).
+    desired : ndarray, shape (N, 4, 4)
+    solution : Solution
+    """
+
+    q: np.ndarray
+    corrected: np.ndarray
+    desired: np.ndarray
+    solution: Solution
+
+
+def compensate(calibration, desired=None, q_nominal=None, limits=None):
+    """Compensate targets for a calibrated arm.
+
+    Parameters
+    ----------
+    calibration : calibrator.calibration.Calibration
+    desired : array_like, shape (N, 4, 4), optional
+        Desired tool poses (base frame, mm). Without them the desired poses are
+        the nominal model's poses at ``q_nominal`` (an existing program's
+        joint targets).
+    q_nominal : array_like, shape (N, 6)
+        Nominal joint solution of each target (rad): the IK's start. With
+        ``desired`` it is refined on the nominal model first.
+    limits : array_like, shape (6, 2), optional
+        Joint limits (rad).
+
+    Returns
+    -------
+    Compensation
+    """
+    tool = calibration.flange2tool
+    q_nominal = kinematics.check_joints(q_nominal)
+    if desired is None:
+        desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
+    else:
+        desired = np.asarray(desired, dtype=float)
+        q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
+    sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
+    corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
+    return Compensation(sol.q, corrected, desired, sol)
+
+
+JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
+POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad")
+
+
+@dataclass(frozen=True)
+class Report:
+    """Outcome of :func:`run`: whether every target was reached, and lines to print."""
+
+    ok: bool
+    lines: list
+
+
+def read_targets(path):
+    """Nominal joints (N, 6) and desired poses (N, 4, 4) or None from a targets CSV.
+
+    Raises
+    ------
+    CalibrationError
+        Missing columns, non-numeric or non-finite values, a partial pose.
+    """
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise CalibrationError(f"{path}: not a readable CSV ({str(exc).splitlines()[0]})") from None
+    missing = [c for c in JOINT_COLUMNS if c not in table.columns]
+    if missing:
+        raise CalibrationError(f"{path}: missing column(s) {', '.join(missing)}")
+    present = [c for c in POSE_COLUMNS if c in table.columns]
+    if present and len(present) != len(POSE_COLUMNS):
+        raise CalibrationError(f"{path}: a pose needs all of {', '.join(POSE_COLUMNS)}")
+    if table.columns.duplicated().any() or len(table) == 0:
+        raise CalibrationError(f"{path}: duplicate column names or no targets")
+
+    def numbers(cols):
+        try:
+            values = table[list(cols)].to_numpy(dtype=float)
+        except (TypeError, ValueError):
+            raise CalibrationError(f"{path}: columns {', '.join(cols)} must be numbers") from None
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise CalibrationError(
+                f"{path}: NaN or infinite value in row {int(np.argwhere(bad)[0, 0]) + 1}"
+            )
+        return values
+
+    q = numbers(JOINT_COLUMNS)
+    if not present:
+        return q, None
+    pose = numbers(POSE_COLUMNS)
+    desired = frames.transform(frames.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
+    return q, desired
+
+
+def run(calibration, targets_path, output):
+    """Compensate a targets CSV and write the result CSV atomically.
+
+    Output columns: ``target`` (row number, from 1), ``status`` (``ok``,
+    ``outside joint limits`` or ``not reached``), ``q1_rad..q6_rad`` (joints
+    of the calibrated arm; empty when not ok), ``x_mm .. rz_rad`` (corrected
+    target for a nominal controller, base frame, rotation vector; empty when
+    not ok), ``iterations``, ``error_mm``.
+
+    Returns
+    -------
+    Report
+    """
+    import pandas as pd
+
+    from calibrator.calibration import write_text
+    from calibrator.models import get_model
+
+    q_nom, desired = read_targets(targets_path)
+    limits = None
+    try:
+        limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
+    except CalibrationError:
+        limits = None
+    result = compensate(calibration, desired, q_nom, limits)
+    sol = result.solution
+    status = np.where(sol.ok, "ok", np.where(sol.converged, "outside joint limits", "not reached"))
+    corrected = np.concatenate(
+        [result.corrected[:, :3, 3], frames.matrix_to_rotvec(result.corrected[:, :3, :3])], axis=1
+    )
+    data = {"target": np.arange(1, len(status) + 1), "status": status}
+    for k, col in enumerate(JOINT_COLUMNS):
+        data[col] = np.where(sol.ok, sol.q[:, k], np.nan)
+    for k, col in enumerate(POSE_COLUMNS):
+        data[col] = np.where(sol.ok, corrected[:, k], np.nan)
+    data["iterations"] = sol.iterations
+    data["error_mm"] = sol.error_mm
+    write_text(output, pd.DataFrame(data).to_csv(index=False, float_format="%.12g"))
+    failed = np.flatnonzero(~sol.ok)
+    lines = [
+        f"{len(status) - len(failed)} of {len(status)} targets compensated"
+        + ("" if limits is not None else " (no joint limits known for this model)")
+        + f"; wrote {output}"
+    ]
+    for i in failed[:10]:
+        if sol.converged[i]:
+            lo, hi = limits[:, 0], limits[:, 1]
+            joints = [j + 1 for j in range(6) if not lo[j] <= sol.q[i, j] <= hi[j]]
+            lines.append(
+                f"target {i + 1}: unreachable within the joint limits "
+                f"(joint {', '.join(map(str, joints))})"
+            )
+        else:
+            lines.append(
+                f"target {i + 1}: not reached "
+                f"({sol.error_mm[i]:.3g} mm off after {sol.iterations[i]} iterations)"
+            )
+    if len(failed) > 10:
+        lines.append(f"... and {len(failed) - 10} more (see the status column)")
+    return Report(len(failed) == 0, lines)

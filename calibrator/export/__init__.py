@@ -1,0 +1,119 @@
+"""Exporters of a :class:`~calibrator.calibration.Calibration`, one function per format.
+
+A format is one function registered with :func:`exporter`: it takes a
+Calibration and returns an :class:`Exported` (the file's text and notes on
+what the format could not hold). The CLI's ``--format`` choices and the
+file-extension lookup come from :data:`REGISTRY`. Importing this package
+imports every format module, which registers its functions.
+"""
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from calibrator.errors import CalibrationError
+
+
+@dataclass(frozen=True)
+class Exported:
+    """What an exporter produced.
+
+    Attributes
+    ----------
+    text : str
+        The file's content.
+    notes : list of str
+        One line per thing the format cannot express, with the residual it
+        leaves (empty when the export is exact).
+    """
+
+    text: str
+    notes: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Format:
+    """A registered format: its name, file suffixes, one-line help and writer."""
+
+    name: str
+    suffixes: tuple
+    help: str
+    write: object
+
+
+#: name -> Format, in registration order.
+REGISTRY = {}
+
+
+def exporter(name, suffixes, help):
+    """Register ``func(calibration) -> Exported`` as format ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The ``--format`` value.
+    suffixes : tuple of str
+        Output file name endings that select this format (``".json"``).
+    help : str
+        One line for ``--help``.
+    """
+
+    def register(func):
+        REGISTRY[name] = Format(name, tuple(suffixes), help, func)
+        return func
+
+    return register
+
+
+def format_names():
+    """Registered format names, in registration order."""
+    return tuple(REGISTRY)
+
+
+def choose(fmt=None, output=None):
+    """The format to write: ``fmt`` if given, else from the output's name.
+
+    Raises
+    ------
+    CalibrationError
+        Unknown format, no way to tell, or a format that does not match the
+        output file's extension (``-o out.xml`` with ``--format json``).
+    """
+    by_suffix = _format_of(output) if output is not None else None
+    if fmt is not None:
+        if fmt not in REGISTRY:
+            raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+        if output is not None and by_suffix != fmt:
+            want = " or ".join(REGISTRY[fmt].suffixes)
+            raise CalibrationError(
+                f"output {output} does not end in {want}, the extension of format {fmt}"
+            )
+        return fmt
+    if output is None:
+        return "json"
+    if by_suffix is None:
+        known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
+        raise CalibrationError(
+            f"cannot tell the format from {output}: give --format or end the name in one of {known}"
+        )
+    return by_suffix
+
+
+def _format_of(output):
+    name = Path(output).name.lower()
+    # Longest suffix first: ".urcal.conf" before ".conf".
+    matches = [(len(s), f.name) for f in REGISTRY.values() for s in f.suffixes if name.endswith(s)]
+    return max(matches)[1] if matches else None
+
+
+def export(calibration, fmt):
+    """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
+    if fmt not in REGISTRY:
+        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+    return REGISTRY[fmt].write(calibration)
+
+
+# Importing the format modules registers them (order = order of --format choices).
+from calibrator.export import tables as _tables  # noqa: E402,F401  isort: skip
+from calibrator.export import ur as _ur  # noqa: E402,F401  isort: skip
+from calibrator.export import ros as _ros  # noqa: E402,F401  isort: skip
+from calibrator.export import urdf as _urdf  # noqa: E402,F401  isort: skip

@@ -1,0 +1,138 @@
+"""``ros-kinematics``: the kinematics parameters YAML that UR's ROS description reads.
+
+Per joint (``shoulder, upper_arm, forearm, wrist_1, wrist_2, wrist_3``) the
+joint origin relative to the previous joint's frame, ``x y z`` (metres) and
+``roll pitch yaw`` (radians, the URDF convention ``Rz(yaw) Ry(pitch)
+Rx(roll)``), after which the joint turns about its new z axis; ``hash``
+names the calibration. From an MDH table (the split ``ur_calibration``
+uses)::
+
+    origin_1 = Rz(theta_1) Tz(d_1)
+    origin_i = Tx(a_{i-1}) Rx(alpha_{i-1}) Ry(beta_{i-1}) Rz(theta_i) Tz(d_i)   (i = 2..6)
+
+so ``origin_1 Rz(q_1) ... origin_6 Rz(q_6) = A_1 ... A_6 . trailing^-1`` with
+``trailing = Tx(a_6) Rx(alpha_6) Ry(beta_6)``. The file has no place for the
+trailing transform (ROS puts the flange at wrist_3 with a fixed joint): the
+export prints it when it is not the identity.
+"""
+
+import hashlib
+import math
+
+import numpy as np
+
+from calibrator import chains, kinematics
+from calibrator.errors import CalibrationError
+from calibrator.export import Exported, exporter
+
+JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
+KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
+_M = 1000.0
+
+
+def origins(mdh):
+    """Joint origins of an MDH table (mm) and the trailing transform.
+
+    Returns
+    -------
+    origins : ndarray, shape (6, 4, 4)
+    trailing : ndarray, shape (4, 4)
+        ``A_1...A_6 (q) = origin_1 Rz(q_1) ... origin_6 Rz(q_6) . trailing``.
+    """
+    mdh = kinematics.check_mdh(mdh)
+    consts = kinematics.link_constants(mdh)  # Tz(d) Tx(a) Rx(alpha) Ry(beta)
+    tz = np.tile(np.eye(4), (6, 1, 1))
+    tz[:, 2, 3] = mdh[:, kinematics.D]
+    # Tx(a) Rx(alpha) Ry(beta) = Tz(-d) . consts
+    after = np.linalg.inv(tz) @ consts
+    out = np.empty((6, 4, 4))
+    prev = np.eye(4)
+    for i in range(6):
+        out[i] = prev @ chains.rz(mdh[i, kinematics.THETA]) @ tz[i]
+        prev = after[i]
+    return out, after[5]
+
+
+def origin_values(transform):
+    """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad) of a transform."""
+    from scipy.spatial.transform import Rotation
+
+    rpy = Rotation.from_matrix(transform[:3, :3]).as_euler("xyz")
+    return np.concatenate([transform[:3, 3], rpy])
+
+
+def origin_transform(values):
+    """Inverse of :func:`origin_values`: (x, y, z mm, roll, pitch, yaw) -> (4, 4)."""
+    from scipy.spatial.transform import Rotation
+
+    out = np.eye(4)
+    out[:3, :3] = Rotation.from_euler("xyz", values[3:]).as_matrix()
+    out[:3, 3] = values[:3]
+    return out
+
+
+def trailing_notes(trailing, fmt):
+    """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
+    mm, rad = chains.residual_size(trailing)
+    if mm < 1e-9 and rad < 1e-12:
+        return []
+    return [
+        f"{fmt} cannot hold a6, alpha6, beta6: the flange is {mm:.6g} mm and {rad:.6g} rad "
+        "from the wrist_3 frame (add it to the tool)"
+    ]
+
+
+@exporter("ros-kinematics", (".yaml", ".yml"), "ur_description kinematics parameters (m, rad)")
+def to_ros(cal):
+    """The calibrated arm as a ``kinematics:`` YAML with its ``hash``."""
+    frames, trailing = origins(cal.mdh)
+    lines = ["kinematics:"]
+    for name, origin in zip(JOINTS, frames, strict=True):
+        values = origin_values(origin)
+        values[:3] /= _M
+        lines.append(f"  {name}:")
+        lines += [f"    {k}: {float(v)!r}" for k, v in zip(KEYS, values, strict=True)]
+    digest = hashlib.sha256("\n".join(lines).encode()).digest()
+    lines.append(f"  hash: calib_{int.from_bytes(digest[:8], 'big') >> 1}")
+    return Exported("\n".join(lines) + "\n", trailing_notes(trailing, "ros-kinematics"))
+
+
+def read(path):
+    """Joint frames at the zero pose from a kinematics YAML.
+
+    Returns
+    -------
+    joints : ndarray, shape (6, 4, 4)
+        Frame of each joint (z = its axis) in the file's base frame (mm).
+    flange : ndarray, shape (4, 4)
+        The wrist_3 frame at the zero pose (mm).
+
+    Raises
+    ------
+    CalibrationError
+    """
+    import yaml
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = yaml.safe_load(fh)
+    except (yaml.YAMLError, UnicodeDecodeError, RecursionError) as exc:
+        raise CalibrationError(f"{path}: not YAML ({str(exc).splitlines()[0]})") from None
+    kin = doc.get("kinematics") if isinstance(doc, dict) else None
+    if not isinstance(kin, dict) or not all(isinstance(kin.get(j), dict) for j in JOINTS):
+        raise CalibrationError(f"{path}: no 'kinematics' with the joints {', '.join(JOINTS)}")
+    joints = np.empty((6, 4, 4))
+    frame = np.eye(4)
+    for i, name in enumerate(JOINTS):
+        raw = [kin[name].get(k) for k in KEYS]
+        if not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in raw
+        ):
+            raise CalibrationError(
+                f"{path}: kinematics.{name} needs finite numbers {', '.join(KEYS)}"
+            )
+        values = np.asarray(raw, dtype=float)
+        values[:3] *= _M
+        frame = frame @ origin_transform(values)
+        joints[i] = frame
+    return joints, frame.copy()
