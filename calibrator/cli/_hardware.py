@@ -159,6 +159,7 @@ class RigOptions:
     sim_faults: str | None = None
     sim_record: str | None = None
     sim_replay: str | None = None
+    sim_control: str | None = None
     max_speed_rad_s: float = 1.0
     max_accel_rad_s2: float = 2.0
     tracker_at_mm: tuple | None = None
@@ -236,6 +237,60 @@ def _line_tracker(url, rig: Rig, options: RigOptions, stack) -> None:
     rig.tracker = LaserTrackerPort(url)
 
 
+class EmsconPort:
+    """A Leica tracker through its emScon server (:mod:`drivers.tracker.emscon`) as a port.
+
+    The adapter already raises the port's errors; here a failed connect becomes
+    :class:`TrackerUnavailable` and an uninitialised tracker stops the run
+    (``Initialize`` moves the head: only on the user's request).
+    """
+
+    def __init__(self, url, **adapter_options):
+        from drivers.tracker.emscon import open_tracker
+
+        self.url = url
+        try:
+            self.driver = open_tracker(url, **adapter_options)
+        except ValueError as exc:
+            raise CalibrationError(f"--tracker: {exc}") from None
+        self.identity = None
+
+    def connect(self):
+        from drivers.errors import DriverError
+
+        try:
+            status = self.driver.connect()
+        except DriverError as exc:
+            raise TrackerUnavailable(f"tracker at {self.url}: {exc}") from exc
+        if not status.initialised:
+            raise CalibrationError(
+                f"tracker at {self.url} is not initialised: initialise it first (it moves "
+                "the head), then run measure again"
+            )
+        self.identity = f"emscon:serial={status.serial}"
+        return status
+
+    def measure(self, timeout_s=None):
+        return self.driver.measure(timeout_s)
+
+    def close(self):
+        self.driver.close()
+
+
+def _emscon_tracker(url, rig: Rig, options: RigOptions, stack) -> None:
+    rig.tracker = EmsconPort(url)
+    if options.sim_control is not None and hasattr(rig.robot, "listener"):
+        # An emScon simulator process: the simulated robot tells it where its probe is.
+        from drivers.tracker.simulator.launch import SimulatorControl
+
+        try:
+            control = SimulatorControl(options.sim_control)
+        except (OSError, ValueError) as exc:
+            raise CalibrationError(f"--sim-control {options.sim_control}: {exc}") from None
+        stack.callback(control.close)
+        rig.robot.listener = lambda pose: control.set_target(pose[:3, 3])
+
+
 #: Tracker adapters by URL scheme. pyserial's URL schemes and bare device paths
 #: go to the product's line-protocol driver.
 TRACKERS: dict[str, Callable] = {
@@ -244,6 +299,7 @@ TRACKERS: dict[str, Callable] = {
     "socket": _line_tracker,
     "rfc2217": _line_tracker,
     "loop": _line_tracker,
+    "emscon": _emscon_tracker,
 }
 
 

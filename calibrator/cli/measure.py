@@ -31,7 +31,9 @@ def _triple(text: str | None, option: str):
 def measure(
     robot: str = typer.Option("sim", help="sim, or ur://HOST (a real UR controller)."),
     tracker: str = typer.Option(
-        "sim", help="sim, a device path, or a pyserial URL (socket://, rfc2217://)."
+        "sim",
+        help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
+        "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
     ),
     plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
     poses: int = typer.Option(30, min=1, help="Poses of the plan made when --plan is not given."),
@@ -59,6 +61,9 @@ def measure(
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
     sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
     timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
+    sim_control: str = typer.Option(
+        None, hidden=True, help="Control URL of a tracker simulator the simulated robot steers."
+    ),
 ):
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     import contextlib
@@ -99,6 +104,7 @@ def measure(
         sim_faults=str(sim_faults) if sim_faults else None,
         sim_record=str(sim_record) if sim_record else None,
         sim_replay=str(sim_replay) if sim_replay else None,
+        sim_control=sim_control,
         max_speed_rad_s=max_speed,
         max_accel_rad_s2=max(accel, 2.0),
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),

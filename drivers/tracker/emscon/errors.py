@@ -1,0 +1,108 @@
+"""emScon result codes mapped onto the drivers' one exception tree.
+
+The adapter reuses the tracker errors of :mod:`drivers.tracker.errors` (so the
+measure loop treats both protocols alike); a Leica ``ES_ResultStatus`` picks
+the class, and the error keeps the number and Leica's name:
+
+===================================================  =====================================
+``ES_RS_MeasurementStatusNotReady`` (10004),          :class:`BeamBroken` (retried: re-measure)
+``ES_RS_SystemNotReadyForMeasurement`` (10014)
+``ES_RS_NoStationaryResult`` (10009),                 :class:`TargetUnstable` (retried)
+``ES_RS_SensorNotStable`` (10013)
+``ES_RS_ServerBusy`` (1), ``ES_RS_ADMStartUpBusy``    :class:`TrackerBusy` (a :class:`NotReady`)
+``ES_RS_TrackerNotInitialized`` (39)                  :class:`NotInitialised` (never auto-fixed)
+``ES_RS_InvalidInputData`` (98)                       :class:`FrameRejected` (the server could
+                                                      not read our packet)
+any other known code                                  :class:`EmsconRefused`
+a code not in the V3.6 header                         :class:`UnknownStatus`
+===================================================  =====================================
+
+Transport failures use :class:`ReadingInterrupted` (a reconnect worked, the
+reading in flight is lost: retried) and :class:`LinkDown` (the reconnects
+failed: :class:`calibrator.acquire.ports.TrackerUnavailable`), and
+:class:`TrackerReplaced` (another serial number answered after a reconnect).
+"""
+
+from __future__ import annotations
+
+from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
+from drivers.tracker.emscon.packets import KNOWN_STATUS, ResultStatus
+from drivers.tracker.errors import (
+    BeamBroken,
+    ConnectionLost,
+    FrameError,
+    FrameRejected,
+    IdentityChanged,
+    NotInitialised,
+    TargetUnstable,
+    TrackerBusy,
+    TrackerError,
+    TrackerTimeout,
+)
+
+__all__ = [
+    "BeamBroken",
+    "ConnectionLost",
+    "EmsconRefused",
+    "FrameError",
+    "FrameRejected",
+    "IdentityChanged",
+    "LinkDown",
+    "NotInitialised",
+    "ReadingInterrupted",
+    "TargetUnstable",
+    "TrackerBusy",
+    "TrackerError",
+    "TrackerReplaced",
+    "TrackerTimeout",
+    "UnknownStatus",
+    "error_for_status",
+]
+
+
+class EmsconRefused(TrackerError):
+    """The emScon server refused a command with a known code we have no special class for."""
+
+
+class UnknownStatus(TrackerError):
+    """The server answered with a status code that Leica's V3.6 header does not define."""
+
+
+class ReadingInterrupted(ConnectionLost, ReadingLost):
+    """The connection dropped during a command; a reconnect worked but the command is lost."""
+
+
+class LinkDown(ConnectionLost, TrackerUnavailable):
+    """The connection dropped and the bounded reconnects did not bring it back."""
+
+
+class TrackerReplaced(IdentityChanged, TrackerUnavailable):
+    """After a reconnect a tracker with another serial number answered: stop, never mix."""
+
+
+_BY_STATUS: dict[int, type[TrackerError]] = {
+    ResultStatus.MEASUREMENT_STATUS_NOT_READY: BeamBroken,
+    ResultStatus.SYSTEM_NOT_READY_FOR_MEASUREMENT: BeamBroken,
+    ResultStatus.NO_STATIONARY_RESULT: TargetUnstable,
+    ResultStatus.SENSOR_NOT_STABLE: TargetUnstable,
+    ResultStatus.SERVER_BUSY: TrackerBusy,
+    ResultStatus.ADM_STARTUP_BUSY: TrackerBusy,
+    ResultStatus.TRACKER_NOT_INITIALIZED: NotInitialised,
+    ResultStatus.INVALID_INPUT_DATA: FrameRejected,
+}
+
+
+def status_name(status: int) -> str:
+    """Leica's name for a result status (``ES_RS_...``), or ``UNKNOWN(<n>)``."""
+    try:
+        return "ES_RS_" + ResultStatus(status).name
+    except ValueError:
+        return f"ES_RS_{status}" if status in KNOWN_STATUS else f"UNKNOWN({status})"
+
+
+def error_for_status(status: int, command: str, detail: str = "") -> TrackerError:
+    """The typed error for a non-zero ``ES_ResultStatus`` answering ``command``."""
+    if status not in KNOWN_STATUS:
+        return UnknownStatus(status, status_name(status), detail, command)
+    cls = _BY_STATUS.get(status, EmsconRefused)
+    return cls(status, status_name(status), detail, command)

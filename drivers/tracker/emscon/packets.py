@@ -1,0 +1,442 @@
+"""Leica emScon TCP packets: the subset the adapter and simulator use, written with ``struct``.
+
+Layouts follow Leica's published C API header (``ES_C_API_Def.h``, TPI/SDK
+V3.6, AT4xx extract). That header sets ``#pragma pack(4)``: every field is a
+4-byte integer/enum or an 8-byte double, so with 4-byte packing there is no
+padding anywhere and the little-endian ``struct`` formats below (``<``, no
+alignment) reproduce the C layout byte for byte.
+
+Every packet starts with the 8-byte header ``int32 lPacketSize; uint32 type``
+(``lPacketSize`` counts the whole packet, header included). Commands carry
+``uint32 command`` next; command replies carry ``uint32 command; uint32 status``
+(``ES_ResultStatus``); result packets carry ``uint32 status`` then their data.
+"""
+
+from __future__ import annotations
+
+import enum
+import struct
+from dataclasses import dataclass
+
+HEADER = struct.Struct("<iI")  # lPacketSize, type
+MAX_PACKET = 4096  # far above the largest packet we know (SingleMeasResult2, 204 bytes)
+
+
+class DataType(enum.IntEnum):
+    """``ES_DataType``: the second header field."""
+
+    COMMAND = 0
+    ERROR = 1
+    SINGLE_MEAS_RESULT = 2
+    NIVEL_RESULT = 6
+    REFLECTOR_POS_RESULT = 7
+    SYSTEM_STATUS_CHANGE = 8
+    SINGLE_MEAS_RESULT2 = 9
+
+
+class Command(enum.IntEnum):
+    """``ES_Command`` values of the commands this package sends or simulates."""
+
+    EXIT_APPLICATION = 0
+    GET_SYSTEM_STATUS = 1
+    GET_TRACKER_STATUS = 2
+    SET_UNITS = 5
+    GET_UNITS = 6
+    INITIALIZE = 7
+    SET_ENVIRONMENT_PARAMS = 20
+    GET_ENVIRONMENT_PARAMS = 21
+    SET_MEASUREMENT_MODE = 24
+    GET_MEASUREMENT_MODE = 25
+    SET_COORDINATE_SYSTEM_TYPE = 26
+    GET_COORDINATE_SYSTEM_TYPE = 27
+    SET_STATIONARY_MODE_PARAMS = 28
+    START_MEASUREMENT = 49
+    STOP_MEASUREMENT = 52
+    FIND_REFLECTOR = 63
+    GET_MEASUREMENT_STATUS_INFO = 122
+
+
+class ResultStatus(enum.IntEnum):
+    """``ES_ResultStatus`` values the adapter distinguishes (others keep their number)."""
+
+    ALL_OK = 0
+    SERVER_BUSY = 1
+    NOT_IMPLEMENTED = 2
+    WRONG_PARAMETER = 3
+    UNKNOWN = 36
+    NO_TRACKER_CONNECTED = 38
+    TRACKER_NOT_INITIALIZED = 39
+    MODULE_TIMED_OUT = 41
+    METEO_DATA_OUT_OF_RANGE = 57
+    INVALID_INPUT_DATA = 98
+    MEASUREMENT_STATUS_NOT_READY = 10004
+    ADM_STARTUP_BUSY = 10005
+    NO_STATIONARY_RESULT = 10009
+    SENSOR_NOT_LEVELED = 10010
+    MULTI_CONNECTIONS_NOT_ALLOWED = 10011
+    SENSOR_NOT_STABLE = 10013
+    SYSTEM_NOT_READY_FOR_MEASUREMENT = 10014
+    COMMUNICATION_WITH_SENSOR_FAILED = 10015
+
+
+# Every ES_ResultStatus value of the V3.6 header: a code outside this set is "unknown".
+KNOWN_STATUS = frozenset(
+    [*range(0, 24), *range(26, 33), 35, 36, 37, 38, 39, 40, 41, 44, *range(47, 58)]
+    + [90, 94, 95, 96, 98, 10002, 10003, 10004, 10005, 10007, 10008, 10009, 10010, 10011]
+    + [*range(10013, 10022)]
+)
+
+
+class TrackerState(enum.IntEnum):
+    """``ES_TrackerStatus`` (``GetTrackerStatus``)."""
+
+    NOT_READY = 0
+    BUSY = 1
+    READY = 2
+
+
+class ProcessorStatus(enum.IntEnum):
+    """``ES_TrackerProcessorStatus`` (``GetSystemStatus``): initialised is the last stage."""
+
+    NO_TP_FOUND = 0
+    TP_FOUND = 1
+    BOOTED = 3
+    COMPENSATION_SET = 4
+    INITIALIZED = 5
+
+
+class StatusChange(enum.IntEnum):
+    """``ES_SystemStatusChange`` events the adapter acts on."""
+
+    UNITS_CHANGED = 6
+    COORDINATE_SYSTEM_TYPE_CHANGED = 12
+    MEAS_STATUS_NOT_READY = 25
+    MEAS_STATUS_BUSY = 26
+    MEAS_STATUS_READY = 27
+    SERVER_CLOSING = 998
+
+
+# ES_LengthUnit / ES_AngleUnit / ES_TemperatureUnit / ES_PressureUnit / ES_HumidityUnit
+LU_MILLIMETER = 1
+AU_RADIAN = 0
+TU_CELSIUS = 0
+PU_HPASCAL = 1
+HU_RH = 0
+CS_RHR = 0  # ES_CoordinateSystemType: right-handed Cartesian
+MM_STATIONARY = 0  # ES_MeasMode
+LENGTH_UNIT_MM = {0: 1000.0, 1: 1.0, 2: 0.001, 3: 304.8, 4: 914.4, 5: 25.4}  # mm per unit
+
+# Body formats after the header (and after ``command`` for commands).
+_UNITS = struct.Struct("<5I")
+_ENV = struct.Struct("<3d")
+_RESULT = struct.Struct("<Ii17d")  # measMode, bIsTryMode, dVal1..dHumidity
+_RESULT2 = struct.Struct("<Ii23d")  # the same with covariances (statistic mode "extended")
+_SYSTEM_STATUS = struct.Struct("<4I3iIii")
+_CMD = struct.Struct("<I")
+_CMD_REPLY = struct.Struct("<II")
+
+# Full sizes in bytes, from the layouts (header included).
+SIZE_COMMAND = 12
+SIZE_COMMAND_REPLY = 16
+SIZE_ERROR = 16
+SIZE_STATUS_CHANGE = 12
+SIZE_SINGLE_MEAS_RESULT = 12 + _RESULT.size  # 156
+SIZE_SINGLE_MEAS_RESULT2 = 12 + _RESULT2.size  # 204
+SIZE_NIVEL_RESULT = 40
+SIZE_REFLECTOR_POS_RESULT = 36
+
+FIXED_SIZES = {
+    DataType.ERROR: SIZE_ERROR,
+    DataType.SINGLE_MEAS_RESULT: SIZE_SINGLE_MEAS_RESULT,
+    DataType.NIVEL_RESULT: SIZE_NIVEL_RESULT,
+    DataType.REFLECTOR_POS_RESULT: SIZE_REFLECTOR_POS_RESULT,
+    DataType.SYSTEM_STATUS_CHANGE: SIZE_STATUS_CHANGE,
+    DataType.SINGLE_MEAS_RESULT2: SIZE_SINGLE_MEAS_RESULT2,
+}
+
+# Size of each command packet (client to server) by command, header included.
+COMMAND_SIZES = {
+    Command.SET_UNITS: SIZE_COMMAND + _UNITS.size,
+    Command.SET_ENVIRONMENT_PARAMS: SIZE_COMMAND + _ENV.size,
+    Command.SET_MEASUREMENT_MODE: SIZE_COMMAND + 4,
+    Command.SET_COORDINATE_SYSTEM_TYPE: SIZE_COMMAND + 4,
+    Command.SET_STATIONARY_MODE_PARAMS: SIZE_COMMAND + 8,
+    Command.FIND_REFLECTOR: SIZE_COMMAND + 8,
+}
+
+# Size of each command reply (server to client) by command; others are 16.
+REPLY_SIZES = {
+    Command.GET_SYSTEM_STATUS: SIZE_COMMAND_REPLY + _SYSTEM_STATUS.size,  # 56
+    Command.GET_TRACKER_STATUS: SIZE_COMMAND_REPLY + 4,
+    Command.GET_UNITS: SIZE_COMMAND_REPLY + _UNITS.size,
+    Command.GET_ENVIRONMENT_PARAMS: SIZE_COMMAND_REPLY + _ENV.size,
+    Command.GET_MEASUREMENT_MODE: SIZE_COMMAND_REPLY + 4,
+    Command.GET_COORDINATE_SYSTEM_TYPE: SIZE_COMMAND_REPLY + 4,
+    Command.GET_MEASUREMENT_STATUS_INFO: SIZE_COMMAND_REPLY + 8,
+}
+
+
+def command_size(command: int) -> int:
+    """Size of a command packet, header included (12 for commands without parameters)."""
+    return COMMAND_SIZES.get(command, SIZE_COMMAND)
+
+
+def reply_size(command: int) -> int:
+    """Size of the server's reply to ``command``, header included."""
+    return REPLY_SIZES.get(command, SIZE_COMMAND_REPLY)
+
+
+class PacketSizeError(ValueError):
+    """A packet's ``lPacketSize`` disagrees with its type (or is out of bounds)."""
+
+
+# ---------------------------------------------------------------- packets as values
+
+
+@dataclass(frozen=True)
+class CommandReply:
+    """``ES_DT_Command`` from the server: the answer to one command.
+
+    ``body`` holds the bytes after ``command`` and ``status`` (parsed by the caller).
+    """
+
+    command: int
+    status: int
+    body: bytes
+
+
+@dataclass(frozen=True)
+class ErrorResponse:
+    """``ES_DT_Error``: the server refused ``command`` with ``status``."""
+
+    command: int
+    status: int
+
+
+@dataclass(frozen=True)
+class SingleMeasResult:
+    """``ES_DT_SingleMeasResult`` (or ``SingleMeasResult2``): one stationary reading.
+
+    Attributes
+    ----------
+    status : int
+        ``ES_ResultStatus`` of the measurement.
+    try_mode : bool
+        ``bIsTryMode``: a simulated reading of emScon's own try mode.
+    values : tuple of float
+        ``dVal1..3``: X, Y, Z in the length unit set (Cartesian RHR).
+    std : tuple of float
+        ``dStd1..3`` and ``dStdTotal``, length unit.
+    meteo : tuple of float
+        ``dTemperature, dPressure, dHumidity`` used for the reading.
+    """
+
+    status: int
+    meas_mode: int
+    try_mode: bool
+    values: tuple[float, float, float]
+    std: tuple[float, float, float, float]
+    meteo: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class StatusChangeEvent:
+    """``ES_DT_SystemStatusChange``: an unsolicited event."""
+
+    change: int
+
+
+@dataclass(frozen=True)
+class OtherPacket:
+    """A well-sized packet of a type the adapter does not use (nivel, reflector position)."""
+
+    type: int
+
+
+Packet = CommandReply | ErrorResponse | SingleMeasResult | StatusChangeEvent | OtherPacket
+
+
+# ---------------------------------------------------------------- encoding
+
+
+def _with_header(type_: int, body: bytes) -> bytes:
+    return HEADER.pack(HEADER.size + len(body), type_) + body
+
+
+def encode_command(command: int, params: bytes = b"") -> bytes:
+    """A client command packet: header, ``command``, then its parameters."""
+    return _with_header(DataType.COMMAND, _CMD.pack(command) + params)
+
+
+def encode_reply(command: int, status: int, body: bytes = b"") -> bytes:
+    """A server command reply: header, ``command``, ``status``, then its data."""
+    return _with_header(DataType.COMMAND, _CMD_REPLY.pack(command, status) + body)
+
+
+def encode_error(command: int, status: int) -> bytes:
+    return _with_header(DataType.ERROR, _CMD_REPLY.pack(command, status))
+
+
+def encode_status_change(change: int) -> bytes:
+    return _with_header(DataType.SYSTEM_STATUS_CHANGE, _CMD.pack(change))
+
+
+def encode_single_meas_result(
+    values, std, meteo, *, status: int = 0, try_mode: bool = False
+) -> bytes:
+    """A ``SingleMeasResult``; ``std`` is ``(s1, s2, s3, total)``; pointing errors and
+    a-priori stds are sent as zero and the a-priori std total as ``std[3]``."""
+    fields = (*values, *std, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, std[3], *meteo)
+    body = _CMD.pack(status) + _RESULT.pack(MM_STATIONARY, int(try_mode), *fields)
+    return _with_header(DataType.SINGLE_MEAS_RESULT, body)
+
+
+def units_params(length=LU_MILLIMETER, angle=AU_RADIAN, temp=TU_CELSIUS, press=PU_HPASCAL):
+    """``SystemUnitsDataT``: length, angle, temperature, pressure, humidity units."""
+    return _UNITS.pack(length, angle, temp, press, HU_RH)
+
+
+def parse_units(body: bytes) -> tuple[int, int, int, int, int]:
+    return _UNITS.unpack_from(body)
+
+
+def env_params(temperature: float, pressure: float, humidity: float) -> bytes:
+    """``EnvironmentDataT``: temperature, pressure, humidity in the units set."""
+    return _ENV.pack(temperature, pressure, humidity)
+
+
+def parse_env(body: bytes) -> tuple[float, float, float]:
+    return _ENV.unpack_from(body)
+
+
+def uint_param(value: int) -> bytes:
+    return _CMD.pack(value)
+
+
+def parse_uint(body: bytes) -> int:
+    return _CMD.unpack_from(body)[0]
+
+
+def double_param(value: float) -> bytes:
+    return struct.pack("<d", value)
+
+
+def stationary_params(meas_time_ms: int, use_adm: bool) -> bytes:
+    """``StationaryModeDataT``: ``lMeasTime`` (ms), ``bUseADM``."""
+    return struct.pack("<ii", meas_time_ms, int(use_adm))
+
+
+def system_status_body(
+    processor: int, serial: int, version=(3, 6, 0), last_status: int = 0
+) -> bytes:
+    """Data of the ``GetSystemStatus`` reply (laser ready, ADM ready, no weather monitor)."""
+    return _SYSTEM_STATUS.pack(last_status, processor, 3, 2, *version, 0, 0, serial)
+
+
+@dataclass(frozen=True)
+class SystemStatus:
+    """``GetSystemStatus`` data."""
+
+    last_status: int
+    processor: int
+    laser: int
+    adm: int
+    version: tuple[int, int, int]
+    weather_monitor: int
+    flags: int
+    serial: int
+
+    @property
+    def initialised(self) -> bool:
+        return self.processor == ProcessorStatus.INITIALIZED
+
+
+def parse_system_status(body: bytes) -> SystemStatus:
+    f = _SYSTEM_STATUS.unpack_from(body)
+    return SystemStatus(f[0], f[1], f[2], f[3], (f[4], f[5], f[6]), f[7], f[8], f[9])
+
+
+# ---------------------------------------------------------------- framing and decoding
+
+
+def split_header(data: bytes) -> tuple[int, int]:
+    """``(lPacketSize, type)`` of a header, after bounds checks.
+
+    Raises
+    ------
+    PacketSizeError
+        Size below the smallest packet (12) or above :data:`MAX_PACKET`.
+    """
+    size, type_ = HEADER.unpack_from(data)
+    if not SIZE_COMMAND <= size <= MAX_PACKET:
+        raise PacketSizeError(f"lPacketSize {size} out of bounds (type {type_})")
+    return size, type_
+
+
+def decode_server_packet(data: bytes) -> Packet:
+    """Decode one complete server-to-client packet (``len(data) == lPacketSize``).
+
+    Raises
+    ------
+    PacketSizeError
+        The size disagrees with the type (or, for a command reply, with the command).
+    ValueError
+        Unknown packet type.
+    """
+    size, type_ = split_header(data)
+    if size != len(data):
+        raise PacketSizeError(f"lPacketSize {size} but {len(data)} bytes")
+    if type_ == DataType.COMMAND:
+        if size < SIZE_COMMAND_REPLY:
+            raise PacketSizeError(f"command reply of {size} bytes")
+        command, status = _CMD_REPLY.unpack_from(data, HEADER.size)
+        expected = reply_size(command)
+        # A refusal carries no data; a known command's OK reply must have its full size.
+        known = command in Command._value2member_map_
+        if known and size != expected and not (status != 0 and size == SIZE_COMMAND_REPLY):
+            msg = f"reply to command {command} has {size} bytes, expected {expected}"
+            raise PacketSizeError(msg)
+        return CommandReply(command, status, data[SIZE_COMMAND_REPLY:])
+    try:
+        dtype = DataType(type_)
+    except ValueError:
+        raise ValueError(f"unknown packet type {type_} ({size} bytes)") from None
+    if size != FIXED_SIZES[dtype]:
+        raise PacketSizeError(
+            f"{dtype.name} packet has lPacketSize {size}, expected {FIXED_SIZES[dtype]}"
+        )
+    if dtype is DataType.ERROR:
+        return ErrorResponse(*_CMD_REPLY.unpack_from(data, HEADER.size))
+    if dtype is DataType.SYSTEM_STATUS_CHANGE:
+        return StatusChangeEvent(_CMD.unpack_from(data, HEADER.size)[0])
+    if dtype is DataType.SINGLE_MEAS_RESULT:
+        (status,) = _CMD.unpack_from(data, HEADER.size)
+        f = _RESULT.unpack_from(data, SIZE_COMMAND)
+        return SingleMeasResult(status, f[0], bool(f[1]), f[2:5], f[5:9], f[16:19])
+    if dtype is DataType.SINGLE_MEAS_RESULT2:
+        (status,) = _CMD.unpack_from(data, HEADER.size)
+        f = _RESULT2.unpack_from(data, SIZE_COMMAND)
+        return SingleMeasResult(status, f[0], bool(f[1]), f[2:5], f[5:9], f[22:25])
+    return OtherPacket(type_)
+
+
+def decode_client_packet(data: bytes) -> tuple[int, bytes]:
+    """``(command, params)`` of one complete client-to-server command packet.
+
+    Raises
+    ------
+    PacketSizeError
+        Size disagrees with the command.
+    ValueError
+        Not a command packet.
+    """
+    size, type_ = split_header(data)
+    if type_ != DataType.COMMAND:
+        raise ValueError(f"client sent packet type {type_}, expected a command")
+    (command,) = _CMD.unpack_from(data, HEADER.size)
+    known = command in Command._value2member_map_
+    if size != len(data) or (known and size != command_size(command)):
+        raise PacketSizeError(
+            f"command {command} has {size} bytes, expected {command_size(command)}"
+        )
+    return command, data[SIZE_COMMAND:]

@@ -1,0 +1,395 @@
+"""The simulated emScon server: turns one received packet into the packets to send back.
+
+No I/O here (the servers in :mod:`drivers.tracker.emscon.simulator.server`
+feed it). The physics is today's simulator's: the same
+:class:`~drivers.tracker.simulator.noise.NoiseModel` and the same fault
+scripts (:mod:`drivers.tracker.simulator.faults`), with emScon commands
+counted under the line protocol's names (``ES_C_StartMeasurement`` is
+``MEAS``, ``ES_C_GetTrackerStatus`` is ``STAT?``, see :data:`FAULT_NAMES`),
+so ``MEAS@5 beam_break`` means the same on both simulators. How each fault
+looks in emScon:
+
+- ``beam_break count=n``: ``ES_SSC_MeasStatus_NotReady`` event, then ``n``
+  measurements answered ``ES_RS_MeasurementStatusNotReady``; a
+  ``FindReflector`` (or a new target) re-locks, as does the n-th refusal;
+- ``unstable count=n``: ``n`` measurements answered ``ES_RS_NoStationaryResult``;
+- ``inaccurate count=n``: results whose ``dStdTotal`` is 1 mm;
+- ``not_initialised``: the tracker forgets its initialisation;
+- ``error code=C``: the line protocol's code mapped to an ``ES_RS_`` status;
+- ``drop`` / ``hangup`` / ``delay`` / ``partial``: as on the line simulator,
+  applied to the last packet of the answer (the result of a measurement);
+- ``garble``: that packet replaced by junk whose size field is impossible;
+- ``bad_crc`` (emScon has no checksum): the packet's ``lPacketSize`` is 16,
+  disagreeing with its type.
+
+The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
+over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
+/ ``SIM,FAULT`` (so ``drivers.tracker.simulator.launch.SimulatorControl``
+drives it), plus ``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
+an arbitrary result status (e.g. one Leica never defined).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon.packets import Command, ResultStatus, StatusChange
+from drivers.tracker.errors import FrameError
+from drivers.tracker.protocol import (
+    ErrorCode,
+    decode_frame,
+    encode_frame,
+    error_body,
+    ok_body,
+    parse_command,
+)
+from drivers.tracker.simulator.engine import HangUp, Output, Send
+from drivers.tracker.simulator.faults import Fault, FaultSchedule, parse_fault
+from drivers.tracker.simulator.noise import NoiseModel
+
+MIN_RANGE_MM = 500.0
+MAX_RANGE_MM = 80_000.0
+METEO_LIMITS = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))  # degC, hPa, %RH
+INACCURATE_STD_MM = 1.0
+
+# emScon commands under the names the shared fault scripts count.
+FAULT_NAMES = {
+    Command.INITIALIZE: "INIT",
+    Command.GET_TRACKER_STATUS: "STAT?",
+    Command.GET_SYSTEM_STATUS: "SYS?",
+    Command.SET_UNITS: "UNITS",
+    Command.GET_UNITS: "UNITS?",
+    Command.SET_ENVIRONMENT_PARAMS: "ENV",
+    Command.GET_ENVIRONMENT_PARAMS: "ENV?",
+    Command.SET_MEASUREMENT_MODE: "MODE",
+    Command.SET_COORDINATE_SYSTEM_TYPE: "CSYS",
+    Command.SET_STATIONARY_MODE_PARAMS: "STATIONARY",
+    Command.START_MEASUREMENT: "MEAS",
+    Command.STOP_MEASUREMENT: "STOP",
+    Command.FIND_REFLECTOR: "FIND",
+    Command.GET_MEASUREMENT_STATUS_INFO: "MSI?",
+}
+
+# Line-protocol error codes (fault scripts) as emScon result statuses.
+STATUS_FOR_CODE = {
+    ErrorCode.UNKNOWN_COMMAND: ResultStatus.NOT_IMPLEMENTED,
+    ErrorCode.BAD_PARAMETER: ResultStatus.WRONG_PARAMETER,
+    ErrorCode.BUSY: ResultStatus.SERVER_BUSY,
+    ErrorCode.NOT_INITIALISED: ResultStatus.TRACKER_NOT_INITIALIZED,
+    ErrorCode.NO_TARGET: ResultStatus.MEASUREMENT_STATUS_NOT_READY,
+    ErrorCode.BEAM_BROKEN: ResultStatus.MEASUREMENT_STATUS_NOT_READY,
+    ErrorCode.TARGET_UNSTABLE: ResultStatus.NO_STATIONARY_RESULT,
+    ErrorCode.OUT_OF_RANGE: ResultStatus.NO_STATIONARY_RESULT,
+    ErrorCode.METEO_OUT_OF_RANGE: ResultStatus.METEO_DATA_OUT_OF_RANGE,
+    ErrorCode.NOT_WARMED_UP: ResultStatus.ADM_STARTUP_BUSY,
+    ErrorCode.BAD_FRAME: ResultStatus.INVALID_INPUT_DATA,
+}
+
+# ES_MeasurementStatusInfo bits: tracker, compensation, ADM, ADM compensation found.
+_MSI_BASE = 1 | 2 | 4 | 8
+_MSI_REFLECTOR, _MSI_INITIALISED = 2048, 65536
+
+
+class EmsconSimulator:
+    """A Leica tracker at the origin of the tracker frame, behind an emScon server.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the noise generator.
+    noise : NoiseModel
+        Shared noise model; ``NoiseModel(enabled=False)`` for exact readings.
+    faults : list of Fault, optional
+        Faults armed from the start.
+    init_time_s : float
+        Duration of ``Initialize``.
+    initialised : bool
+        Start already initialised.
+    serial : int
+        ``lTrackerSerialNumber`` of ``GetSystemStatus``.
+    clock : callable
+        Monotonic clock, s.
+    """
+
+    def __init__(
+        self,
+        *,
+        seed: int = 0,
+        noise: NoiseModel | None = None,
+        faults: list[Fault] | None = None,
+        init_time_s: float = 0.2,
+        initialised: bool = False,
+        serial: int = 390001,
+        clock: Callable[[], float] = time.monotonic,
+    ):
+        self._rng = np.random.default_rng(seed)
+        self.noise = noise if noise is not None else NoiseModel()
+        self.init_time_s = init_time_s
+        self.initialised = initialised
+        self.serial = serial
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._faults = FaultSchedule(faults)
+        self._forced: dict[str, int] = {}
+        self._target: np.ndarray | None = None
+        self._beam_broken_left = 0
+        self._unstable_left = 0
+        self._inaccurate_left = 0
+        self.units = pk.parse_units(pk.units_params(length=0, angle=0))  # emScon starts in m
+        self.env = (20.0, 1013.25, 50.0)
+        self.coordinate_system = pk.CS_RHR
+        self.measurements = 0  # results sent (diagnostics)
+
+    # ------------------------------------------------------------ in-process control
+
+    def set_target(self, point_mm, rotvec_rad=None) -> None:
+        """True target position (shape (3,), mm, tracker frame); re-locks a broken beam.
+
+        ``rotvec_rad`` is accepted for the shared control interface and ignored
+        (emScon's AT4xx packet set has reflectors only).
+        """
+        with self._lock:
+            self._set_target(point_mm)
+
+    def _set_target(self, point_mm) -> None:
+        point = np.asarray(point_mm, dtype=float).reshape(3)
+        if not np.all(np.isfinite(point)):
+            raise ValueError("target position must be finite")
+        self._target = point
+        self._beam_broken_left = 0
+        self._range_mm = float(np.linalg.norm(point))
+        self._scale = self.noise.scale_matrix(point) if self._range_mm > 0 else None
+
+    def clear_target(self) -> None:
+        with self._lock:
+            self._target = None
+
+    def arm_fault(self, fault: Fault | str) -> None:
+        """Arm one fault (a :class:`Fault` or a fault-script line)."""
+        with self._lock:
+            self._faults.arm(parse_fault(fault) if isinstance(fault, str) else fault)
+
+    def force_status(self, name: str, status: int) -> None:
+        """Answer the next command counted as ``name`` (e.g. ``"MEAS"``) with ``status``."""
+        with self._lock:
+            self._forced[name] = int(status)
+
+    # ------------------------------------------------------------ control port (line protocol)
+
+    def handle_line(self, line: bytes) -> list[Output]:
+        """A control-port line: ``SIM,TARGET|NOTARGET|FAULT|STATUS`` in the line protocol."""
+        try:
+            cmd = parse_command(decode_frame(line))
+        except FrameError as exc:
+            return [Send(encode_frame(error_body(0, ErrorCode.BAD_FRAME, str(exc))))]
+        try:
+            what, *args = cmd.args if cmd.name == "SIM" else ("",)
+            if what == "TARGET" and len(args) in (3, 6):
+                self.set_target([float(a) for a in args[:3]])
+            elif what == "NOTARGET" and not args:
+                self.clear_target()
+            elif what == "FAULT" and len(args) == 1:
+                self.arm_fault(args[0])
+            elif what == "STATUS" and len(args) == 2:
+                self.force_status(args[0], int(args[1]))
+            else:
+                body = error_body(cmd.seq, ErrorCode.UNKNOWN_COMMAND, ",".join([cmd.name, what]))
+                return [Send(encode_frame(body))]
+        except ValueError as exc:
+            return [Send(encode_frame(error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))))]
+        return [Send(encode_frame(ok_body(cmd.seq)))]
+
+    # ------------------------------------------------------------ emScon port
+
+    def handle_packet(self, data: bytes) -> list[Output]:
+        """One complete client packet (``len(data) == lPacketSize``); what to send back."""
+        with self._lock:
+            try:
+                command, params = pk.decode_client_packet(data)
+            except ValueError:
+                command = pk.parse_uint(data[pk.HEADER.size :]) if len(data) >= 12 else 0
+                return [Send(pk.encode_error(command, ResultStatus.INVALID_INPUT_DATA))]
+            name = FAULT_NAMES.get(command, "UNKNOWN")
+            faults = self._faults.next_command(name)
+            pre: list[bytes] = []
+            forced = self._forced.pop(name, None)
+            for fault in faults:
+                if fault.kind == "not_initialised":
+                    self.initialised = False
+                elif fault.kind == "beam_break":
+                    self._beam_broken_left = fault.count
+                    pre.append(pk.encode_status_change(StatusChange.MEAS_STATUS_NOT_READY))
+                elif fault.kind == "unstable":
+                    self._unstable_left = fault.count
+                elif fault.kind == "inaccurate":
+                    self._inaccurate_left = fault.count
+                elif fault.kind == "error":
+                    forced = STATUS_FOR_CODE.get(fault.code, ResultStatus.UNKNOWN)
+            if forced is not None:
+                answer = [pk.encode_reply(command, forced)]
+            else:
+                answer = self._dispatch(command, params)
+            return self._deliver(pre, answer, faults, command)
+
+    def _deliver(self, pre, answer, faults, command) -> list[Output]:
+        """Apply the reply-mangling faults to the last packet of the answer."""
+        head = [Send(p) for p in pre + answer[:-1]]
+        last = answer[-1]
+        delay = self.init_time_s if command == Command.INITIALIZE and _ok(last) else 0.0
+        for fault in faults:
+            if fault.kind == "drop":
+                return [Send(p) for p in pre]
+            if fault.kind == "hangup":
+                return [HangUp()]
+            if fault.kind == "garble":
+                junk = self._rng.integers(0, 256, size=len(last), dtype=np.uint8).tobytes()
+                last = pk.HEADER.pack(-1, 0xDEAD) + junk[pk.HEADER.size :]
+            elif fault.kind == "bad_crc":
+                last = pk.HEADER.pack(16, pk.HEADER.unpack_from(last)[1]) + last[8:16]
+            elif fault.kind == "delay":
+                delay += fault.delay_s
+            elif fault.kind == "partial":
+                cut = len(last) // 2
+                return [*head, Send(last[:cut], delay), Send(last[cut:], fault.delay_s)]
+        return [*head, Send(last, delay)]
+
+    def _dispatch(self, command: int, params: bytes) -> list[bytes]:
+        try:
+            handler = _HANDLERS[Command(command)]
+        except (ValueError, KeyError):
+            return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
+        return handler(self, command, params)
+
+    # ------------------------------------------------------------ commands
+
+    def _ok(self, command, params):
+        return [pk.encode_reply(command, ResultStatus.ALL_OK)]
+
+    def _initialize(self, command, params):
+        self.initialised = True  # the reply is held back for init_time_s (see _deliver)
+        return self._ok(command, params)
+
+    def _system_status(self, command, params):
+        processor = pk.ProcessorStatus.INITIALIZED if self.initialised else 4
+        body = pk.system_status_body(processor, self.serial)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
+
+    def _locked(self) -> bool:
+        return self._target is not None and not self._beam_broken_left
+
+    def _tracker_status(self, command, params):
+        ready = self.initialised and self._locked()
+        state = pk.TrackerState.READY if ready else pk.TrackerState.NOT_READY
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, pk.uint_param(state))]
+
+    def _measurement_status_info(self, command, params):
+        flags = _MSI_BASE | (_MSI_REFLECTOR if self._locked() else 0)
+        flags |= _MSI_INITIALISED if self.initialised else 0
+        body = pk.uint_param(0) + pk.uint_param(flags)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
+
+    def _set_units(self, command, params):
+        units = pk.parse_units(params)
+        if units[0] not in pk.LENGTH_UNIT_MM or units[1] not in (0, 1, 2):
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        # Meteo is simulated in degC and hPa (mbar is the same number) only.
+        if units[2] != pk.TU_CELSIUS or units[3] not in (0, pk.PU_HPASCAL) or units[4] != pk.HU_RH:
+            return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
+        self.units = units
+        return [*self._ok(command, params), pk.encode_status_change(StatusChange.UNITS_CHANGED)]
+
+    def _get_units(self, command, params):
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, pk.units_params(*self.units[:4]))]
+
+    def _set_env(self, command, params):
+        env = pk.parse_env(params)
+        for value, (lo, hi) in zip(env, METEO_LIMITS, strict=True):
+            if not lo <= value <= hi:
+                return [pk.encode_reply(command, ResultStatus.METEO_DATA_OUT_OF_RANGE)]
+        self.env = env
+        return self._ok(command, params)
+
+    def _get_env(self, command, params):
+        body = pk.env_params(*self.env)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
+
+    def _set_mode(self, command, params):
+        if pk.parse_uint(params) != pk.MM_STATIONARY:
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        return self._ok(command, params)
+
+    def _set_coordinates(self, command, params):
+        if pk.parse_uint(params) != pk.CS_RHR:  # only the Cartesian frame is simulated
+            return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
+        change = pk.encode_status_change(StatusChange.COORDINATE_SYSTEM_TYPE_CHANGED)
+        return [*self._ok(command, params), change]
+
+    def _find_reflector(self, command, params):
+        if not self.initialised:
+            return [pk.encode_reply(command, ResultStatus.TRACKER_NOT_INITIALIZED)]
+        if self._target is None:
+            return [pk.encode_reply(command, ResultStatus.MEASUREMENT_STATUS_NOT_READY)]
+        self._beam_broken_left = 0
+        ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
+        return [ready, *self._ok(command, params)]
+
+    def _start_measurement(self, command, params):
+        refuse = None
+        if not self.initialised:
+            refuse = ResultStatus.TRACKER_NOT_INITIALIZED
+        elif self._target is None:
+            refuse = ResultStatus.MEASUREMENT_STATUS_NOT_READY
+        elif self._beam_broken_left:
+            self._beam_broken_left -= 1
+            refuse = ResultStatus.MEASUREMENT_STATUS_NOT_READY
+            if not self._beam_broken_left:  # the tracker re-locks on its own afterwards
+                ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
+                return [pk.encode_reply(command, refuse), ready]
+        elif not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
+            refuse = ResultStatus.NO_STATIONARY_RESULT
+        elif self._unstable_left:
+            self._unstable_left -= 1
+            refuse = ResultStatus.NO_STATIONARY_RESULT
+        if refuse is not None:
+            return [pk.encode_reply(command, refuse)]
+        point = self.noise.sample_point(self._target, self._rng, self._scale)
+        if self.noise.enabled:
+            std_xyz = np.sqrt(np.sum(self._scale**2, axis=0))
+        else:
+            std_xyz = np.zeros(3)
+        total = float(np.linalg.norm(std_xyz))
+        if self._inaccurate_left:
+            self._inaccurate_left -= 1
+            total = INACCURATE_STD_MM
+        per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
+        std = (*(std_xyz / per_unit), total / per_unit)
+        result = pk.encode_single_meas_result(point / per_unit, std, self.env)
+        self.measurements += 1
+        return [pk.encode_reply(command, ResultStatus.ALL_OK), result]
+
+
+def _ok(packet: bytes) -> bool:
+    return len(packet) >= 16 and pk.parse_uint(packet[12:16]) == ResultStatus.ALL_OK
+
+
+_HANDLERS = {
+    Command.INITIALIZE: EmsconSimulator._initialize,
+    Command.GET_SYSTEM_STATUS: EmsconSimulator._system_status,
+    Command.GET_TRACKER_STATUS: EmsconSimulator._tracker_status,
+    Command.GET_MEASUREMENT_STATUS_INFO: EmsconSimulator._measurement_status_info,
+    Command.SET_UNITS: EmsconSimulator._set_units,
+    Command.GET_UNITS: EmsconSimulator._get_units,
+    Command.SET_ENVIRONMENT_PARAMS: EmsconSimulator._set_env,
+    Command.GET_ENVIRONMENT_PARAMS: EmsconSimulator._get_env,
+    Command.SET_MEASUREMENT_MODE: EmsconSimulator._set_mode,
+    Command.SET_COORDINATE_SYSTEM_TYPE: EmsconSimulator._set_coordinates,
+    Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._ok,
+    Command.START_MEASUREMENT: EmsconSimulator._start_measurement,
+    Command.STOP_MEASUREMENT: EmsconSimulator._ok,
+    Command.FIND_REFLECTOR: EmsconSimulator._find_reflector,
+}

@@ -1,0 +1,57 @@
+"""Start the emScon simulator as a child process and steer its target, like ``SimulatorProcess``.
+
+::
+
+    with EmsconSimulatorProcess(seed=7, initialised=True) as sim:
+        tracker = open_tracker(sim.url)          # emscon://127.0.0.1:PORT
+        sim.set_target([2500.0, 300.0, -200.0])  # what the simulated robot calls
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+from drivers.tracker.simulator.launch import SimulatorProcess
+
+
+class EmsconSimulatorProcess(SimulatorProcess):
+    """``python -m drivers.tracker.emscon.simulator`` as a child process.
+
+    Parameters are those of :class:`~drivers.tracker.emscon.simulator.EmsconSimulator`;
+    ``faults`` is a fault-script file. Steering (``set_target``, ``clear_target``,
+    ``arm_fault``, ``control``) and ``stop`` are :class:`SimulatorProcess`'s: the
+    control port speaks the same ``SIM,...`` commands. ``set_target``'s orientation
+    is ignored (reflectors only).
+    """
+
+    def __init__(
+        self,
+        *,
+        seed: int = 0,
+        noise: bool = True,
+        initialised: bool = False,
+        init_time_s: float = 0.2,
+        faults: str | Path | None = None,
+    ):  # replaces SimulatorProcess.__init__: another program, two endpoint lines
+        args = ["--seed", str(seed), "--init-time", str(init_time_s)]
+        args += [] if noise else ["--no-noise"]
+        args += ["--initialised"] if initialised else []
+        args += ["--faults", str(faults)] if faults else []
+        self._proc = subprocess.Popen(
+            [sys.executable, "-m", "drivers.tracker.emscon.simulator", *args],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        port, control = (self._proc.stdout.readline().strip() for _ in range(2))
+        if not port or not control:
+            self._proc.kill()
+            self._proc.wait()
+            raise RuntimeError("emScon simulator did not start")
+        self.port = int(port)
+        self.url = f"emscon://127.0.0.1:{self.port}"
+        """``emscon://`` URL for :func:`drivers.tracker.emscon.open_tracker`."""
+        self.control_url = f"socket://127.0.0.1:{control}"
+        """Loopback URL for the simulator-only ``SIM,...`` commands."""
+        self._control = None

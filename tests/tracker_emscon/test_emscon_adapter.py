@@ -1,0 +1,235 @@
+"""Our emScon adapter against the simulator over loopback TCP: results, faults, deadlines.
+
+Every failure must be a typed error raised within its deadline, and a reading
+is never handed to a command other than the one that asked for it.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from emscon_testkit import ENV, TARGET_MM
+
+from calibrator.acquire.ports import ReadingLost, Tracker, TrackerUnavailable
+from drivers.errors import DriverError
+from drivers.tracker.averaging import measure_average
+from drivers.tracker.emscon import EmsconTracker, open_tracker
+from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon.errors import (
+    BeamBroken,
+    EmsconRefused,
+    FrameError,
+    LinkDown,
+    NotInitialised,
+    ReadingInterrupted,
+    TargetUnstable,
+    TrackerReplaced,
+    TrackerTimeout,
+    UnknownStatus,
+)
+from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
+
+DEADLINE_SLACK_S = 0.5  # scheduling on a loaded 2-core machine
+
+
+class Timer:
+    def __enter__(self):
+        self.start = time.monotonic()
+        return self
+
+    def __exit__(self, *exc):
+        self.elapsed = time.monotonic() - self.start
+
+
+def test_connect_sets_units_frame_mode_environment_and_never_initialises(served):
+    sim, server = served
+    sim.initialised = False
+    trk = EmsconTracker("127.0.0.1", server.port, environment=ENV, timeout_s=1.0)
+    assert isinstance(trk, Tracker)
+    try:
+        status = trk.connect()
+        assert not status.initialised and status.state is pk.TrackerState.NOT_READY
+        assert status.serial == sim.serial and status.version == (3, 6, 0)
+        assert sim.units == pk.parse_units(pk.units_params())  # mm, rad, degC, hPa, %RH
+        assert sim.env == (ENV.temperature_c, ENV.pressure_hpa, ENV.humidity_pct)
+        assert not sim.initialised  # connect never moves the head
+        with pytest.raises(NotInitialised) as err:
+            trk.measure()
+        assert err.value.code == 39 and not isinstance(err.value, ReadingLost)
+        assert not sim.initialised
+        trk.initialise(timeout_s=2.0)  # only on request
+        assert sim.initialised and trk.status().state is pk.TrackerState.READY
+    finally:
+        trk.close()
+        trk.close()  # twice is fine
+
+
+def test_ten_reading_average_is_at_the_target_with_the_environment_passed_through(tracker):
+    sim, trk = tracker
+    avg = measure_average(trk, 10)
+    assert avg.count == 10 and avg.rejected == 0
+    # Noise at 2 m: about 5-13 um per axis; ten readings average well inside 20 um.
+    np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+    assert np.all(avg.std_mm > 0) and np.all(avg.std_mm < 0.05)
+    r = avg.readings[0]
+    assert r.rotvec_rad is None and r.accurate
+    assert r.meteo == (ENV.temperature_c, ENV.pressure_hpa, ENV.humidity_pct)
+    times = [x.device_time_us for x in avg.readings]
+    assert times == sorted(times)
+    assert sim.measurements == 10
+
+
+def test_beam_break_mid_average_runs_a_reflector_search_then_the_pose_measures(tracker):
+    sim, trk = tracker
+    trk.measure()  # gives the adapter a distance to search at
+    sim.arm_fault("MEAS+5 beam_break count=100")  # stays broken until a search
+    with Timer() as t, pytest.raises(BeamBroken) as err:
+        measure_average(trk, 10)
+    assert t.elapsed < trk.measure_timeout_s + trk.search_timeout_s
+    assert isinstance(err.value, ReadingLost) and err.value.code == 10004
+    assert trk.searches == 1 and "re-locked" in " ".join(err.value.__notes__)
+    assert any(e.change == pk.StatusChange.MEAS_STATUS_NOT_READY for e in trk.events)
+    assert any(e.change == pk.StatusChange.MEAS_STATUS_READY for e in trk.events)
+    avg = measure_average(trk, 10)  # the loop measures the pose again
+    np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+
+
+def test_dropped_connection_reconnects_without_repeating_the_reading(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 hangup")
+    before = sim.measurements
+    with Timer() as t, pytest.raises(ReadingInterrupted) as err:
+        trk.measure()
+    assert isinstance(err.value, ReadingLost) and isinstance(err.value, DriverError)
+    assert t.elapsed < trk.measure_timeout_s + DEADLINE_SLACK_S
+    # One measurement ran (its answer died with the connection); it was not re-requested.
+    assert sim.measurements == before + 1
+    reading = trk.measure()  # reconnected, settings re-applied
+    np.testing.assert_allclose(reading.point_mm, TARGET_MM, atol=0.1)
+    assert sim.measurements == before + 2
+    assert sim.units == pk.parse_units(pk.units_params())
+
+
+def test_server_gone_is_tracker_unavailable_within_bounded_reconnects(served):
+    sim, server = served
+    trk = EmsconTracker("127.0.0.1", server.port, timeout_s=0.5, reconnect_delay_s=0.01)
+    trk.connect()
+    server.stop()
+    with Timer() as t, pytest.raises(LinkDown) as err:
+        trk.measure(timeout_s=0.5)
+    assert isinstance(err.value, TrackerUnavailable)
+    assert t.elapsed < 0.5 + trk.reconnect_attempts * (0.5 + 0.01) + DEADLINE_SLACK_S
+    trk.close()
+
+
+def test_unknown_status_code_is_a_typed_error_and_the_link_stays_usable(tracker):
+    sim, trk = tracker
+    sim.force_status("MEAS", 4242)  # not an ES_ResultStatus of the V3.6 header
+    with pytest.raises(UnknownStatus) as err:
+        trk.measure()
+    assert err.value.code == 4242 and "UNKNOWN(4242)" in str(err.value)
+    sim.force_status("MEAS", 29)  # ES_RS_NoVideoCamera: known, nothing special
+    with pytest.raises(EmsconRefused):
+        trk.measure()
+    np.testing.assert_allclose(trk.measure().point_mm, TARGET_MM, atol=0.1)
+
+
+def test_packet_whose_size_disagrees_with_its_type_is_a_frame_error_then_resync(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 bad_crc")  # the result arrives with lPacketSize 16
+    with Timer() as t, pytest.raises(FrameError) as err:
+        trk.measure()
+    assert t.elapsed < trk.measure_timeout_s + DEADLINE_SLACK_S
+    assert "SINGLE_MEAS_RESULT" in str(err.value) and isinstance(err.value, ReadingLost)
+    sim.arm_fault("MEAS+1 garble")  # an impossible size field
+    with pytest.raises(FrameError):
+        trk.measure()
+    np.testing.assert_allclose(trk.measure().point_mm, TARGET_MM, atol=0.1)
+
+
+def test_delayed_result_times_out_and_is_never_taken_for_the_next_reading(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 delay delay=0.4")
+    with Timer() as t, pytest.raises(TrackerTimeout):
+        trk.measure(timeout_s=0.15)
+    assert t.elapsed < 0.15 + DEADLINE_SLACK_S
+    moved = np.array(TARGET_MM) + [0.0, 0.0, 250.0]
+    sim.set_target(moved)
+    # The late answer (old target) is still on its way; the next reading is the new target.
+    reading = trk.measure()
+    np.testing.assert_allclose(reading.point_mm, moved, atol=0.1)
+    assert trk._link.stale == 1  # the late result (old target) was discarded by the fence
+
+
+def test_dropped_reply_and_partial_packet(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 drop")
+    with pytest.raises(TrackerTimeout):
+        trk.measure(timeout_s=0.2)
+    sim.arm_fault("MEAS+1 partial delay=0.05")  # one packet in two TCP segments
+    np.testing.assert_allclose(trk.measure().point_mm, TARGET_MM, atol=0.1)
+
+
+def test_unstable_and_inaccurate_readings(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 unstable")
+    with pytest.raises(TargetUnstable) as err:
+        trk.measure()
+    assert isinstance(err.value, ReadingLost) and err.value.code == 10009
+    sim.arm_fault("MEAS+1 inaccurate")
+    reading = trk.measure()
+    assert not reading.accurate and reading.std_mm[3] == pytest.approx(1.0)
+    assert trk.measure().accurate
+
+
+def test_open_tracker_parses_emscon_urls():
+    trk = open_tracker("emscon://10.0.0.5", timeout_s=3.0)
+    assert (trk.host, trk.port, trk.timeout_s) == ("10.0.0.5", 700, 3.0)
+    assert open_tracker("emscon://127.0.0.1:7001").port == 7001
+    trk = open_tracker("emscon://h?meteo=21.5,1002.5,41")
+    assert trk.environment == ENV
+    bad_urls = (
+        "socket://127.0.0.1:700", "emscon://", "emscon://h:99999", "emscon://h/x",
+        "emscon://h?meteo=21,1000", "emscon://h?meteo=a,b,c", "emscon://h?temp=20",
+        "emscon://h?meteo=nan,1000,40", "emscon://h?meteo=1,2,3&meteo=1,2,3",
+    )  # fmt: skip
+    for bad in bad_urls:
+        with pytest.raises(ValueError):
+            open_tracker(bad)
+
+
+def test_another_tracker_after_a_reconnect_stops_the_run(served):
+    sim, server = served
+    trk = EmsconTracker("127.0.0.1", server.port, timeout_s=0.5, reconnect_delay_s=0.01)
+    trk.connect()
+    port = server.port
+    server.stop()  # the tracker goes away; another one answers on the same address
+    other = EmsconSimulator(seed=1, initialised=True, serial=sim.serial + 1)
+    other.set_target(TARGET_MM)
+    replacement = EmsconServer(other)
+    replacement.open(port)
+    replacement.start()
+    try:
+        with pytest.raises(TrackerReplaced) as err:
+            trk.measure()
+        assert isinstance(err.value, TrackerUnavailable)
+        assert other.measurements == 0  # nothing was measured on the wrong tracker
+    finally:
+        trk.close()
+        replacement.stop()
+
+
+def test_lost_initialisation_is_reported_and_never_repaired_even_across_reconnects(tracker):
+    sim, trk = tracker
+    sim.arm_fault("MEAS+1 not_initialised")
+    with pytest.raises(NotInitialised):
+        trk.measure()
+    sim.arm_fault("MEAS+1 hangup")
+    with pytest.raises(ReadingInterrupted):
+        trk.measure()  # reconnected and re-applied its settings ...
+    assert not sim.initialised  # ... without initialising
+    assert not trk.last_status.initialised
+    with pytest.raises(NotInitialised):
+        trk.measure()
