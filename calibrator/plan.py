@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import os
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -339,19 +339,16 @@ def read_csv(path) -> np.ndarray:
     return q
 
 
-def write_csv(path, q) -> None:
-    """Write a plan (``pose,q1_rad..q6_rad``) atomically: a temporary file renamed into place."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(("pose", *JOINT_COLUMNS))
-            for i, row in enumerate(np.asarray(q, dtype=float)):
-                writer.writerow((i, *(repr(float(v)) for v in row)))
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+def write_csv(path, q, inputs=()) -> None:
+    """Write a plan (``pose,q1_rad..q6_rad``) atomically (:mod:`calibrator.outputs`).
+
+    ``inputs`` are files the command read, which the plan must not overwrite.
+    """
+    from calibrator import outputs
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(("pose", *JOINT_COLUMNS))
+    for i, row in enumerate(np.asarray(q, dtype=float)):
+        writer.writerow((i, *(repr(float(v)) for v in row)))
+    outputs.write_text(path, buf.getvalue(), inputs=inputs)

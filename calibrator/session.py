@@ -23,7 +23,7 @@ The file metadata key ``calibrator`` holds JSON::
      "model": NAME,                        # and/or
      "nominal_mdh": [[a_mm, alpha_rad, theta_rad, d_mm, beta_rad] x 6],
      "flange2tool": 4x4 row-major,         # optional first guess (identity if absent)
-     "tool_known": false, ...}             # optional: true fixes the tool point
+     "tool_known": false, ...}             # optional: true fixes the tool frame
 
 One of ``model`` and ``nominal_mdh`` is required; ``nominal_mdh`` wins when
 both are present. Other keys are kept and ignored. Every known key must have
@@ -73,7 +73,8 @@ class SessionMeta:
     flange2tool : ndarray, shape (4, 4)
         First guess of the tool frame in the flange frame (mm).
     tool_known : bool
-        Whether the tool point is known exactly (not identified).
+        Whether the tool frame is known exactly: its point and, with
+        orientation data, its rotation are then fixed (not identified).
     extra : dict
         Other keys, kept as they were.
     """

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
 
 
@@ -36,26 +37,49 @@ def measure(
         "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
     ),
     plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
-    poses: int = typer.Option(30, min=1, help="Poses of the plan made when --plan is not given."),
-    readings: int = typer.Option(10, min=1, help="Readings averaged per pose."),
-    output: Path = typer.Option(Path("session.parquet"), "-o", "--output"),
+    poses: int = typer.Option(
+        30, callback=checks.at_least(1), help="Poses of the plan made when --plan is not given."
+    ),
+    readings: int = typer.Option(
+        10, callback=checks.at_least(1), help="Readings averaged per pose."
+    ),
+    output: Path = typer.Option(
+        Path("session.parquet"), "-o", "--output", help="Session file (Parquet) to write."
+    ),
     resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
     yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
     model: str = typer.Option("ur10e", help="Named model of the arm."),
     settle: float = typer.Option(
-        None, min=0.0, help="Wait after each move, s [default: 0.5 for ur://, 0 for sim]."
+        None,
+        callback=checks.finite(minimum=0.0),
+        help="Wait after each move, s [default: 0.5 for ur://, 0 for sim].",
     ),
-    retries: int = typer.Option(3, min=0, help="Re-measurements of a pose after a lost reading."),
-    speed: float = typer.Option(0.5, help="Leading-joint speed, rad/s."),
-    accel: float = typer.Option(1.0, help="Leading-joint acceleration, rad/s^2."),
-    max_speed: float = typer.Option(1.0, help="Speed cap the plan is checked against, rad/s."),
+    retries: int = typer.Option(
+        3, callback=checks.at_least(0), help="Re-measurements of a pose after a lost reading."
+    ),
+    speed: float = typer.Option(
+        0.5, callback=checks.finite(0.0, inclusive=False), help="Leading-joint speed, rad/s."
+    ),
+    accel: float = typer.Option(
+        1.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint acceleration, rad/s^2.",
+    ),
+    max_speed: float = typer.Option(
+        1.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Speed cap the plan is checked against, rad/s.",
+    ),
     tracker_at: str = typer.Option(
         None, help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
     ),
     tool: str = typer.Option(
         "0,0,100", help="Reflector position on the flange X,Y,Z, mm (first guess; identified)."
     ),
-    seed: int = typer.Option(0, help="Seed of the plan and of the simulated cell."),
+    seed: int = typer.Option(
+        0, callback=checks.at_least(0), help="Seed of the plan and of the simulated cell."
+    ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
@@ -71,18 +95,15 @@ def measure(
 
     marks = [("start", time.perf_counter())]
 
+    from calibrator import outputs, progress, session
     from calibrator import plan as plans
-    from calibrator import session
     from calibrator.acquire import journal as journals
     from calibrator.acquire import loop, rows
     from calibrator.cli import _hardware
-    from calibrator.cli._progress import Reporter
 
     output = Path(output)
-    if not output.parent.is_dir():
-        _fail(f"output directory does not exist: {output.parent}")
-    if plan_path is not None and output.resolve() == Path(plan_path).resolve():
-        _fail(f"output {output} is the plan: choose another -o")
+    inputs = [p for p in (plan_path, sim_faults, sim_replay) if p is not None]
+    outputs.check(output, inputs=inputs)
     jpath = journals.journal_path(output)
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
@@ -162,8 +183,13 @@ def measure(
         if resume and rig.real_robot and not yes:
             left = len(q_plan) - sum(r["status"] == "measured" for r in done.values())
             _confirm(rig.robot_id, left)
-        reporter = Reporter(len(q_plan), stream=sys.stderr)
-        with _StopOnSigint() as interrupt:
+        # A line per pose when piped: a measure run is slow enough to log each one.
+        reporter = progress.Reporter.for_cli(quiet)
+        reporter.interval_s = 0.0
+        with (
+            _StopOnSigint() as interrupt,
+            reporter.task("measure", len(q_plan), "poses") as task,
+        ):
             outcome = loop.run(
                 q_plan,
                 rig.robot,
@@ -173,9 +199,8 @@ def measure(
                 done=done,
                 after_move=rig.after_move,
                 should_stop=lambda: interrupt.requested,
-                on_pose=reporter.update,
+                on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
             )
-        reporter.finish()
         journal.close()
         marks.append(("measure loop", time.perf_counter()))
         measured, failed = outcome.measured, outcome.failed
@@ -208,6 +233,16 @@ def measure(
             return
         jpath.unlink()
         typer.echo(f"wrote {output}: {len(measured)} poses x {readings} readings")
+
+
+def _pose_fields(progress) -> dict:
+    """Fields of the progress line after a pose: its plan row and spread (um) or FAILED."""
+    record = progress.record
+    if record["status"] != "measured":
+        return {"pose": progress.pose, "spread_um": "FAILED"}
+    import numpy as np
+
+    return {"pose": progress.pose, "spread_um": float(np.linalg.norm(record["std_mm"]) * 1e3)}
 
 
 def _confirm(robot_id: str, n: int) -> None:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
 
 
@@ -25,9 +26,9 @@ class Selection(StrEnum):
 def plan(
     output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
     model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics)."),
-    poses: int = typer.Option(30, min=1, help="Poses in the plan."),
+    poses: int = typer.Option(30, callback=checks.at_least(1), help="Poses in the plan."),
     candidates: int = typer.Option(
-        None, min=1, help="Sampled candidates [default: max(60 N, 2000)]."
+        None, callback=checks.at_least(1), help="Sampled candidates [default: max(60 N, 2000)]."
     ),
     sampling: Sampling = typer.Option(Sampling.halton, help="How candidates are sampled."),
     joints: Path = typer.Option(
@@ -36,29 +37,33 @@ def plan(
     selection: Selection = typer.Option(
         Selection.d_optimal, help="How N poses are chosen among the feasible candidates."
     ),
-    margin_deg: float = typer.Option(5.0, min=0.0, help="Stay this far inside joint limits, deg."),
+    margin_deg: float = typer.Option(
+        5.0, callback=checks.finite(minimum=0.0), help="Stay this far inside joint limits, deg."
+    ),
     tracker_at: str = typer.Option(
         None, help="Tracker position X,Y,Z in the robot base frame, mm (acceptance check)."
     ),
     acceptance_deg: float = typer.Option(
-        30.0, min=0.0, max=90.0, help="Reflector acceptance half-angle, deg."
+        30.0, callback=checks.finite(0.0, 90.0), help="Reflector acceptance half-angle, deg."
     ),
-    floor_mm: float = typer.Option(0.0, help="Lowest z of tool and wrist in the base frame, mm."),
+    floor_mm: float = typer.Option(
+        0.0, callback=checks.finite(), help="Lowest z of tool and wrist in the base frame, mm."
+    ),
     tool: str = typer.Option("0,0,100", help="Reflector position on the flange X,Y,Z, mm."),
-    seed: int = typer.Option(0),
+    seed: int = typer.Option(
+        0, callback=checks.at_least(0), help="Seed of the random sampling and selection."
+    ),
 ):
     """Write a plan of joint configurations inside limits, facing the tracker, above the floor."""
     import numpy as np
 
-    from calibrator import frames
+    from calibrator import frames, outputs
     from calibrator import plan as plans
-    from calibrator.cli.measure import _fail, _triple
+    from calibrator.cli.measure import _triple
     from calibrator.models import get_model
 
-    if not output.parent.is_dir():
-        _fail(f"output directory does not exist: {output.parent}")
-    if joints is not None and output.resolve() == joints.resolve():
-        _fail(f"output {output} is the input: choose another -o")
+    inputs = [] if joints is None else [joints]
+    outputs.check(output, inputs=inputs)
     robot = get_model(model)
     at = _triple(tracker_at, "--tracker-at")
     cell = plans.CellConstraints(
@@ -81,7 +86,7 @@ def plan(
         seed=seed,
     )
     blocks = plans.observability(robot.mdh, q, cell.flange2tool).blocks
-    plans.write_csv(output, q)
+    plans.write_csv(output, q, inputs=inputs)
     typer.echo(
         f"wrote {output}: {len(q)} poses, {selection.value} selection, "
         f"log det(J^T J) {plans.log_det(blocks):.2f}, "

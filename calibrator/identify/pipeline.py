@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calibrator import measurement, parameters
+from calibrator import measurement, parameters, plausibility
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
     identifiability,
@@ -205,6 +205,8 @@ def identify(session, options=Options()):
     )
 
     x, details, outlier_idx = _fit(space, fit, k, options, say)
+    # A fit can absorb a unit or model mistake into huge deltas: refuse or warn.
+    warnings += plausibility.check_deltas(meta.nominal_mdh, space.unpack(x)[0])
     inliers = fit.subset(np.setdiff1d(np.arange(len(fit)), outlier_idx))
     if options.loss in ("lsq", "minimax"):
         suspects = np.array([], dtype=int)

@@ -139,7 +139,9 @@ def test_sigkill_loses_at_most_the_pose_in_progress_and_resume_completes(
     assert [r["pose"] for r in records] == list(range(len(records)))
     again = run_cli(*BASE, "--resume", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
-    assert f"pose {len(records) + 1}/12 (#{len(records)})" in again.stderr
+    first = next(line for line in again.stderr.splitlines() if line.startswith("progress "))
+    assert f"done={len(records) + 1} total=12 unit=poses" in first
+    assert f" pose={len(records)} " in first  # resumed at the first unfinished plan row
     assert_same_session(tmp_path / "s.parquet", reference_session)
 
 
@@ -163,7 +165,9 @@ def test_tracker_lost_for_good_ends_run_cleanly_then_resume(tmp_path, reference_
     # The tracker is back (a new simulator): resume measures only the rest.
     again = run_cli(*BASE, "--resume", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
-    assert f"pose {len(records) + 1}/12 (#{len(records)})" in again.stderr
+    first = next(line for line in again.stderr.splitlines() if line.startswith("progress "))
+    assert f"done={len(records) + 1} total=12 unit=poses" in first
+    assert f" pose={len(records)} " in first  # resumed at the first unfinished plan row
     assert_same_session(tmp_path / "s.parquet", reference_session)
     assert not (tmp_path / "s.parquet.journal").exists()
 
