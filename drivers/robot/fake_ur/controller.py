@@ -175,6 +175,7 @@ class FakeController:
         self._async_op_id = 0
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
+        self.frozen_timestamp = None  # test hook: keep streaming, repeat this timestamp
         self.unlock_delay_s = 0.0  # test hook: refuse unlocks this long after a stop, as UR does
         self._protective_since = None
         self.log = []  # commands executed, for the fake's own tests
@@ -182,6 +183,8 @@ class FakeController:
     # ----------------------------------------------------------------- state
     def timestamp(self):
         """Controller time since start, s (the RTDE ``timestamp``)."""
+        if self.frozen_timestamp is not None:
+            return self.frozen_timestamp
         return time.monotonic() - self._t0
 
     def snapshot(self):
