@@ -60,7 +60,10 @@ def test_csv_deltas_are_identified_minus_nominal(calibrated, capsys):
     tmp, cal, truth = calibrated
     out = tmp / "p.csv"
     assert cli("export-params", cal, "--format", "csv", "-o", out) == 0
+    text = out.read_text()
+    assert "\r" not in text and text.endswith("\n")  # one row per joint, Unix line ends
     frame = pd.read_csv(out)
+    assert frame["joint"].tolist() == [1, 2, 3, 4, 5, 6]
     value, nominal, delta = (table_by_role(frame, r) for r in ("value", "nominal", "delta"))
     np.testing.assert_allclose(nominal, NOMINAL, rtol=0, atol=1e-12)
     np.testing.assert_allclose(value, truth, rtol=0, atol=1e-6)
@@ -95,3 +98,42 @@ def test_a_calibration_of_another_version_is_refused(calibrated, capsys, version
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "version" in err[0]
     assert not (tmp / "x.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        (None, ["not found"]),
+        ("{not json", ["not JSON"]),
+        ("[1, 2]", ["not a calibrator calibration file"]),
+        ({"format": "calibrator.session", "version": 1}, ["not a calibrator calibration file"]),
+        ("version", ["version 7", "version 1"]),
+        ("mdh", ["'mdh'/'nominal_mdh'", "a_mm, alpha_rad, theta_rad, d_mm, beta_rad"]),
+        ("nominal", ["'mdh'/'nominal_mdh'"]),
+    ],
+)
+def test_a_bad_calibration_file_is_one_line_naming_the_file(calibrated, capsys, content, words):
+    tmp, cal, _ = calibrated
+    bad = tmp / "bad.json"
+    bad.unlink(missing_ok=True)
+    doc = json.loads(cal.read_text())
+    if content == "version":
+        doc["version"] = 7
+    elif content == "mdh":
+        del doc["mdh"][2]["d_mm"]
+    elif content == "nominal":
+        doc["nominal_mdh"] = doc["nominal_mdh"][:5]
+    if content in ("version", "mdh", "nominal"):
+        bad.write_text(json.dumps(doc))
+    elif isinstance(content, dict):
+        bad.write_text(json.dumps(content))
+    elif content is not None:
+        bad.write_text(content)
+    capsys.readouterr()
+    assert cli("export-params", bad, "--format", "json") == 2
+    out = capsys.readouterr()
+    assert out.out == ""
+    [line] = out.err.strip().splitlines()
+    assert str(bad) in line
+    for word in words:
+        assert word in line

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from calibrator import kinematics, session
-from calibrator.identify import pipeline
+from calibrator.identify import pipeline, pso
 from calibrator.models import get_model
 from calibrator.simulate import SEED_ERRORS, simulate
 
@@ -118,6 +118,12 @@ def test_search_box_contains_the_true_frames_a_few_mm_from_their_first_guess(tmp
     assert np.max(np.abs(true_deltas[frame])) > 2.0  # the case this test is about
     lower, upper = result.space.bounds()
     assert np.all(true_deltas >= lower) and np.all(true_deltas <= upper)
+
+
+def test_constriction_needs_phi_above_four():
+    with pytest.raises(ValueError, match="exceed 4"):
+        pso.constriction(2.0, 2.0)
+    assert pso.constriction(2.5, 2.5) == pytest.approx(2 / abs(2 - 5 - np.sqrt(5)))
 
 
 # ----------------------------------------------------------- held-out statistics

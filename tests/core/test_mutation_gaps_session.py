@@ -122,3 +122,12 @@ def test_an_empty_session_is_refused(tmp_path):
     poses, q, points, _ = raw_arrays()
     cols = foreign(poses[:0], q[:0], points[:0])
     refused(write(tmp_path / "e.parquet", cols))
+
+
+def test_an_unreadable_file_is_refused_with_the_readers_reason(tmp_path):
+    junk = tmp_path / "junk.parquet"
+    junk.write_bytes(b"PAR1" + bytes(range(256)) * 4)
+    message = refused(junk)
+    assert str(junk) in message and "not a readable Parquet file" in message
+    reason = message.split("(", 1)[1].rstrip(")")
+    assert len(reason.split()) > 2, reason  # the reader's own sentence, not a class name
