@@ -124,3 +124,23 @@ def test_exported_json_carries_the_calibrations_model_and_frames(identified, cap
     assert exported["flange2tool"] == doc["flange2tool"]
     text = cli(capsys, "export-params", cal, "--format", "csv", "-o", tmp / "p.csv")
     assert text.strip() == f"wrote {tmp / 'p.csv'}"
+
+
+def test_table_without_orientation_and_with_one_or_no_held_out_pose(tmp_path, capsys):
+    session = tmp_path / "p.parquet"
+    cli(capsys, "simulate", "-o", session, "--poses", 25, "--no-orientation")
+    for fraction, held_out in (("0.04", "held-out poses (1)"), ("0", "held-out poses: none")):
+        printed = cli(
+            capsys,
+            "identify",
+            session,
+            "-o",
+            tmp_path / "c.json",
+            "--method",
+            "lm",
+            "--validation-fraction",
+            fraction,
+        )
+        assert held_out in printed
+        assert "orientation X" not in printed
+        assert "  position (mm) after" in printed

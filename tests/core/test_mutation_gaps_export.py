@@ -60,8 +60,8 @@ def test_csv_deltas_are_identified_minus_nominal(calibrated, capsys):
     tmp, cal, truth = calibrated
     out = tmp / "p.csv"
     assert cli("export-params", cal, "--format", "csv", "-o", out) == 0
-    text = out.read_text()
-    assert "\r" not in text and text.endswith("\n")  # one row per joint, Unix line ends
+    text = out.read_bytes()
+    assert b"\r" not in text and text.endswith(b"\n")  # one row per joint, Unix line ends
     frame = pd.read_csv(out)
     assert frame["joint"].tolist() == [1, 2, 3, 4, 5, 6]
     value, nominal, delta = (table_by_role(frame, r) for r in ("value", "nominal", "delta"))

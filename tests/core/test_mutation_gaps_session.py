@@ -131,3 +131,12 @@ def test_an_unreadable_file_is_refused_with_the_readers_reason(tmp_path):
     assert str(junk) in message and "not a readable Parquet file" in message
     reason = message.split("(", 1)[1].rstrip(")")
     assert len(reason.split()) > 2, reason  # the reader's own sentence, not a class name
+
+
+def test_nan_rows_are_named_by_their_first_five_pose_numbers(tmp_path):
+    poses, q, points, _ = raw_arrays()
+    points = points.astype(np.float64)
+    points[:, 1] = np.nan  # every row bad: the message names the first five
+    message = refused(write(tmp_path / "n.parquet", foreign(poses, q, points)))
+    assert "y_mm" in message
+    assert str(poses[:5].tolist()) in message
