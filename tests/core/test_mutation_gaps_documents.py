@@ -109,7 +109,9 @@ def test_calibration_file_holds_the_documented_fields(identified):
         isinstance(i, int) for i in doc["validation_poses"]
     )
     assert doc["stats"]["validation"]["after"]["n"] == 5
-    assert doc["solver"]["least_squares"]["evaluations"] > 0
+    solver = doc["solver"]["least_squares"]
+    assert 0 < solver["evaluations"] < 200
+    assert "satisfied" in solver["message"]  # scipy's reason for stopping, kept as text
 
 
 def test_exported_json_carries_the_calibrations_model_and_frames(identified, capsys):
