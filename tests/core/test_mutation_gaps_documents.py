@@ -146,3 +146,9 @@ def test_table_without_orientation_and_with_one_or_no_held_out_pose(tmp_path, ca
         assert held_out in printed
         assert "orientation X" not in printed
         assert "  position (mm) after" in printed
+        validation = json.loads((tmp_path / "c.json").read_text())["stats"]["validation"]
+        if fraction == "0":
+            assert validation == {"before": {"n": 0}, "after": {"n": 0}}
+        else:  # one pose: no spread to speak of, not NaN
+            assert validation["after"]["n"] == 1
+            assert validation["after"]["position_mm"]["std"] == 0.0
