@@ -75,7 +75,9 @@ def test_round_trip_equals_the_arrays_written(tmp_path):
     q = rng.uniform(-3, 3, (N, 6))
     points = rng.normal(0, 800, (N, 3))
     rotvecs = rng.normal(0, 1, (N, 3))
-    meta = session.SessionMeta("base", get_model("er10l-c10").mdh, "er10l-c10")
+    # A nominal table of its own (not the named model's): the file must carry it.
+    nominal = get_model("er10l-c10").mdh + rng.normal(0, 0.1, (6, 5))
+    meta = session.SessionMeta("base", nominal, "er10l-c10")
     path = tmp_path / "s.parquet"
     session.write(path, session.to_table(q, points, rotvecs), meta)
     loaded = session.load(path)
@@ -83,7 +85,7 @@ def test_round_trip_equals_the_arrays_written(tmp_path):
     np.testing.assert_array_equal(obs.q, q)
     np.testing.assert_array_equal(obs.points, points)
     np.testing.assert_allclose(obs.rotations, Rotation.from_rotvec(rotvecs).as_matrix(), atol=1e-12)
-    np.testing.assert_array_equal(loaded.meta.nominal_mdh, get_model("er10l-c10").mdh)
+    np.testing.assert_array_equal(loaded.meta.nominal_mdh, nominal)
     assert loaded.meta.frame == "base"
 
 
@@ -140,3 +142,11 @@ def test_nan_rows_are_named_by_their_first_five_pose_numbers(tmp_path):
     message = refused(write(tmp_path / "n.parquet", foreign(poses, q, points)))
     assert "y_mm" in message
     assert str(poses[:5].tolist()) in message
+
+
+@pytest.mark.parametrize("bad", ["points", "rotvecs"])
+def test_rows_of_the_wrong_width_are_refused_when_building_a_table(bad):
+    q, good = np.zeros((4, 6)), np.zeros((4, 3))
+    arrays = {"points": good, "rotvecs": good, bad: np.zeros((4, 2))}
+    with pytest.raises(ValueError):
+        session.to_table(q, arrays["points"], arrays["rotvecs"])
