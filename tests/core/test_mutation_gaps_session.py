@@ -123,7 +123,7 @@ def test_fractional_pose_numbers_are_refused(tmp_path):
 def test_an_empty_session_is_refused(tmp_path):
     poses, q, points, _ = raw_arrays()
     cols = foreign(poses[:0], q[:0], points[:0])
-    refused(write(tmp_path / "e.parquet", cols))
+    assert "no poses" in refused(write(tmp_path / "e.parquet", cols))
 
 
 def test_an_unreadable_file_is_refused_with_the_readers_reason(tmp_path):
@@ -150,3 +150,49 @@ def test_rows_of_the_wrong_width_are_refused_when_building_a_table(bad):
     arrays = {"points": good, "rotvecs": good, bad: np.zeros((4, 2))}
     with pytest.raises(ValueError):
         session.to_table(q, arrays["points"], arrays["rotvecs"])
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        (lambda c, m: (c.pop("y_mm"), c.pop("z_mm")), ["missing column(s) y_mm, z_mm"]),
+        (
+            lambda c, m: c.update(rx_rad=np.zeros(N), ry_rad=np.zeros(N)),
+            ["needs all of rx_rad, ry_rad, rz_rad", "found only rx_rad, ry_rad"],
+        ),
+        (lambda c, m: c.update(q7_rad=np.zeros(N)), ["this program calibrates 6-axis arms"]),
+        (
+            lambda c, m: m.update(nominal_mdh=np.zeros((7, 5)).tolist()),
+            ["7 joints", "this program calibrates 6-axis arms"],
+        ),
+        (lambda c, m: m.update(nominal_mdh=np.zeros((6, 4)).tolist()), ["'nominal_mdh' must be"]),
+        (lambda c, m: m.update(flange2tool=np.zeros((3, 5)).tolist()), ["'flange2tool' must be"]),
+        (lambda c, m: m.update(nominal_mdh=[["a"] * 5] * 6), ["'nominal_mdh' is not a numeric"]),
+        (lambda c, m: c.update(x_mm=pa.array([None] + [1.0] * (N - 1))), ["x_mm has NaN"]),
+    ],
+)
+def test_refusals_name_what_is_wrong(tmp_path, change, words):
+    poses, q, points, _ = raw_arrays()
+    cols, meta = foreign(poses, q, points), dict(META)
+    change(cols, meta)
+    message = refused(write(tmp_path / "bad.parquet", cols, meta))
+    for word in words:
+        assert word in message
+
+
+def test_optional_columns_and_a_pandas_index_survive_a_round_trip(tmp_path):
+    rng = np.random.default_rng(9)
+    q, points = rng.uniform(-3, 3, (N, 6)), rng.normal(0, 800, (N, 3))
+    spread, n = rng.uniform(0, 0.01, (N, 3)), np.arange(N) + 5
+    stamps = [f"2026-01-01T00:00:{i:02d}" for i in range(N)]
+    table = session.to_table(q, points, spread=spread, n_readings=n, timestamps=stamps)
+    frame = table.to_pandas()
+    frame.index = np.arange(N) * 7 + 3  # an index a pandas user might carry along
+    meta = session.SessionMeta("tracker", get_model("ur5e").mdh, "ur5e")
+    path = tmp_path / "o.parquet"
+    session.write(path, frame, meta)
+    loaded = session.load(path).table
+    assert loaded.column_names == table.column_names
+    assert loaded["n_readings"].to_pylist() == n.tolist()
+    assert loaded["timestamp"].to_pylist() == stamps
+    np.testing.assert_array_equal(loaded.to_pandas()[["sx_mm", "sy_mm", "sz_mm"]], spread)
