@@ -219,3 +219,63 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
 def _tool_points(space, x, q):
     mdh, base2tracker, flange2tool = space.unpack(x)
     return kinematics.forward(mdh, q, flange2tool, base2tracker)[:, :3, 3]
+
+
+# --------------------------------------------------------------------- the swarm itself
+
+
+class Recorder:
+    """A bowl objective that remembers every swarm it was asked about."""
+
+    def __init__(self, target):
+        self.target, self.calls = np.asarray(target, float), []
+
+    def __call__(self, x):
+        self.calls.append(np.array(x))
+        return np.sum((x - self.target) ** 2, axis=1)
+
+
+def test_initial_swarm_fills_the_middle_of_the_box_and_the_best_is_returned():
+    lower, upper = np.array([0.0, 10.0, -5.0]), np.array([2.0, 30.0, -1.0])
+    bowl = Recorder([2.5, 0.0, -3.0])
+    found = pso.ipso(bowl, lower, upper, particles=12, generations=0, init_fraction=0.25)
+    assert len(bowl.calls) == 1 and bowl.calls[0].shape == (12, 3)
+    start = bowl.calls[0]
+    centre, half = (upper + lower) / 2, (upper - lower) / 2
+    assert np.all(np.abs(start - centre) <= 0.25 * half)
+    assert np.all(np.abs(start - centre).max(axis=0) > 0.1 * half)  # and spreads over it
+    f0 = bowl(start)
+    assert found.f == f0.min() and found.history.tolist() == [f0.min()]
+    np.testing.assert_array_equal(found.x, start[np.argmin(f0)])
+
+
+@pytest.mark.parametrize("quasi_random", [True, False])
+def test_swarm_pinned_against_the_lower_wall_stays_on_it(quasi_random):
+    lower, upper = np.array([-1.0, 0.0]), np.array([1.0, 4.0])
+    bowl = Recorder([0.3, -2.0])  # second coordinate's optimum is below the box
+    found = pso.ipso(bowl, lower, upper, generations=150, seed=3, quasi_random=quasi_random)
+    assert len(bowl.calls) == 151 and found.history.shape == (151,)
+    assert all(np.all((c >= lower) & (c <= upper)) for c in bowl.calls)
+    assert np.all(np.ptp(bowl.calls[0], axis=0) > 0.1 * (upper - lower) / 2)  # a spread start
+    assert found.x[1] == 0.0
+    assert found.x[0] == pytest.approx(0.3, abs=1e-4)
+
+
+def test_defaults_are_the_seeds_ipso():
+    # 20 particles, 2000 generations, Halton start, seed 0: what identify relies on.
+    bowl = Recorder(np.linspace(-0.5, 0.5, 4))
+    lower, upper = -np.ones(4), np.ones(4)
+    default = pso.ipso(bowl, lower, upper)
+    assert len(bowl.calls) == 2001 and bowl.calls[0].shape == (20, 4)
+    again = Recorder(bowl.target)
+    explicit = pso.ipso(
+        again,
+        lower,
+        upper,
+        particles=20,
+        generations=2000,
+        seed=0,
+        quasi_random=True,
+    )
+    np.testing.assert_array_equal(default.x, explicit.x)
+    np.testing.assert_array_equal(bowl.calls[0], again.calls[0])  # the same Halton start
