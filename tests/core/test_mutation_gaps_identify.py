@@ -213,7 +213,7 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
     jac = np.column_stack(columns)
     jac /= np.linalg.norm(jac, axis=0)
     assert np.linalg.svd(jac, compute_uv=False)[-1] > 1e-4
-    assert any("these poses" in d["reason"] for d in result.dropped)
+    assert any(d["reason"].endswith(" with these poses") for d in result.dropped)
 
 
 def _tool_points(space, x, q):
@@ -279,3 +279,63 @@ def test_defaults_are_the_seeds_ipso():
     )
     np.testing.assert_array_equal(default.x, explicit.x)
     np.testing.assert_array_equal(bowl.calls[0], again.calls[0])  # the same Halton start
+
+
+# ---------------------------------------------------------------- options and counts
+
+
+def small_session(tmp_path, poses, orientation, frame="base", tool_offset_mm=0.0):
+    table, meta, _ = simulate(
+        model="er10l-c10",
+        poses=poses,
+        seed=6,
+        frame=frame,
+        orientation=orientation,
+        errors="seed",
+        tool_offset_mm=tool_offset_mm,
+    )
+    return load(tmp_path, table, meta, name=f"s{poses}{orientation}{frame}.parquet")
+
+
+def lm(**kwargs):
+    return pipeline.Options(method="lm", validation_fraction=0, **kwargs)
+
+
+def test_bad_options_are_refused_naming_them(tmp_path):
+    loaded = small_session(tmp_path, 10, True)
+    with pytest.raises(pipeline.IdentifiabilityError, match="unknown method 'newton'"):
+        pipeline.identify(loaded, pipeline.Options(method="newton"))
+    with pytest.raises(pipeline.IdentifiabilityError, match="k must be >= 0, got -1"):
+        pipeline.identify(loaded, lm(k=-1.0))
+    for k in (0.0, 0.5):  # zero and small weights are fine
+        assert pipeline.identify(loaded, lm(k=k)).k == k
+
+
+def test_fitting_pose_counts_are_checked_with_the_counts_in_the_message(tmp_path):
+    two = small_session(tmp_path, 2, True)
+    with pytest.raises(pipeline.IdentifiabilityError, match="2 fitting poses: at least 3"):
+        pipeline.identify(two, lm())
+    # 3 poses with orientation: 18 values for 24 parameters.
+    with pytest.raises(
+        pipeline.IdentifiabilityError, match="^18 measured values from the fitting 3 fitting poses"
+    ):
+        pipeline.identify(small_session(tmp_path, 3, True), lm())
+    # 6 poses without orientation: 18 values for the 21 parameters seen without it.
+    with pytest.raises(
+        pipeline.IdentifiabilityError, match="^18 measured values from the fitting 6 fitting poses"
+    ):
+        pipeline.identify(small_session(tmp_path, 6, False), lm())
+    # 4 poses with orientation: exactly 24 values, enough to try.
+    assert pipeline.identify(small_session(tmp_path, 4, True), lm()).space.size > 0
+
+
+def test_tool_option_overrides_the_session_and_reasons_name_their_scope(tmp_path):
+    loaded = small_session(tmp_path, 30, False, frame="tracker", tool_offset_mm=5.0)
+    assert not loaded.meta.tool_known
+    free = pipeline.identify(loaded, lm()).space.free
+    assert {"tool_x", "tool_y", "tool_z"} <= set(free)
+    result = pipeline.identify(loaded, lm(tool_known=True))
+    assert not {"tool_x", "tool_y", "tool_z"} & set(result.space.free)
+    assert any(d["reason"].endswith("(for any poses)") for d in result.dropped)
+    # Without orientation data the orientation weight plays no part.
+    assert pipeline.identify(loaded, lm(k=5.0)).k == 0.0
