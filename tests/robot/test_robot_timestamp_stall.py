@@ -17,6 +17,9 @@ pytest.importorskip("rtde_receive")
 
 HOST = "127.0.0.1"
 STALE_S = 0.5
+# The client's receive thread may show the frozen packet a little late on a
+# loaded machine; 3 x STALE_S would still fail the bound.
+SLACK_S = 0.75
 
 
 def test_repeated_timestamp_during_a_move_is_connection_lost_within_the_stale_bound(fake_ur):
@@ -29,20 +32,22 @@ def test_repeated_timestamp_during_a_move_is_connection_lost_within_the_stale_bo
         with pytest.raises(ConnectionLost, match="no RTDE data"):
             robot.move_joints(start + np.array([0, 0, 0, 0, 0, 2.0]), 0.1, 1.0)
         elapsed = time.monotonic() - frozen_at
-        # The link counts as lost after STALE_S without a new timestamp, not before
-        # (allow the 0.1 s a controller streams in 50 packets of scheduling delay).
-        assert STALE_S - 0.05 <= elapsed <= STALE_S + 0.5, elapsed
+        # The link counts as lost after STALE_S without a new timestamp, not before.
+        assert STALE_S - 0.05 <= elapsed <= STALE_S + SLACK_S, elapsed
         assert "timestamp_frozen" in fake_ur.command("fake status")
         with pytest.raises(ConnectionLost):
             robot.actual_joints()
 
 
-def test_repeated_timestamp_while_idle_is_noticed_on_the_next_call(fake_ur):
+def test_repeated_timestamp_while_idle_is_noticed_by_polling(fake_ur):
     robot = UrRtdeRobot(HOST, stale_after_s=STALE_S)
     with robot:
         robot.actual_joints()
         fake_ur.command("fake freeze timestamp")
-        robot.actual_joints()  # within the bound: still fine
-        time.sleep(STALE_S + 0.1)
+        frozen_at = time.monotonic()
         with pytest.raises(ConnectionLost, match="no RTDE data"):
-            robot.actual_joints()
+            while time.monotonic() - frozen_at < STALE_S + 3.0:
+                robot.actual_joints()
+                time.sleep(0.02)
+        elapsed = time.monotonic() - frozen_at
+        assert STALE_S - 0.05 <= elapsed <= STALE_S + SLACK_S, elapsed
