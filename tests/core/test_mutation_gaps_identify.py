@@ -307,6 +307,8 @@ def test_bad_options_are_refused_naming_them(tmp_path):
         pipeline.identify(loaded, pipeline.Options(method="newton"))
     with pytest.raises(pipeline.IdentifiabilityError, match="k must be >= 0, got -1"):
         pipeline.identify(loaded, lm(k=-1.0))
+    with pytest.raises(pipeline.IdentifiabilityError, match=r"must be in \[0, 1\), got 1.0"):
+        pipeline.identify(loaded, pipeline.Options(method="lm", validation_fraction=1.0))
     for k in (0.0, 0.5):  # zero and small weights are fine
         assert pipeline.identify(loaded, lm(k=k)).k == k
 
