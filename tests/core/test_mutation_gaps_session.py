@@ -65,7 +65,9 @@ def test_a_foreign_file_loads_into_exactly_the_expected_observations(tmp_path):
 
 def test_a_foreign_file_without_orientation_has_none(tmp_path):
     poses, q, points, _ = raw_arrays(1)
-    obs = session.load(write(tmp_path / "p.parquet", foreign(poses, q, points))).observations
+    loaded = session.load(write(tmp_path / "p.parquet", foreign(poses, q, points)))
+    assert loaded.meta.tool_known is False  # not said: the tool point is identified
+    obs = loaded.observations
     assert obs.rotations is None
     np.testing.assert_array_equal(obs.points, points[np.argsort(poses)])
 
@@ -92,8 +94,9 @@ def test_round_trip_equals_the_arrays_written(tmp_path):
 def refused(path):
     with pytest.raises(SessionError) as info:
         session.load(path)
-    assert "\n" not in str(info.value)
-    return str(info.value)
+    message = str(info.value)
+    assert "\n" not in message and str(path) in message
+    return message
 
 
 @pytest.mark.parametrize("key", ["nominal_mdh", "flange2tool"])
@@ -196,3 +199,26 @@ def test_optional_columns_and_a_pandas_index_survive_a_round_trip(tmp_path):
     assert loaded["n_readings"].to_pylist() == n.tolist()
     assert loaded["timestamp"].to_pylist() == stamps
     np.testing.assert_array_equal(loaded.to_pandas()[["sx_mm", "sy_mm", "sz_mm"]], spread)
+
+
+@pytest.mark.parametrize(
+    ("raw", "words"),
+    [
+        (b"{not json", ["metadata is not JSON"]),
+        (b"[1, 2]", ["format is not"]),
+        (json.dumps(dict(META, format="other")).encode(), ["format is not"]),
+        (json.dumps(dict(META, frame="world")).encode(), ["'world'"]),
+        (
+            json.dumps(dict(META, flange2tool=np.diag([2.0, 1, 1, 1]).tolist())).encode(),
+            ["flange2tool", "rotation"],
+        ),
+    ],
+)
+def test_bad_metadata_is_refused_naming_it(tmp_path, raw, words):
+    poses, q, points, _ = raw_arrays()
+    table = pa.table(foreign(poses, q, points)).replace_schema_metadata({b"calibrator": raw})
+    path = tmp_path / "m.parquet"
+    pq.write_table(table, path)
+    message = refused(path)
+    for word in words:
+        assert word in message
