@@ -6,6 +6,8 @@ and scipy's rotations, never from the identifier's own helpers, so a result
 that reports one thing and returns another is caught.
 """
 
+import re
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -213,7 +215,7 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
     jac = np.column_stack(columns)
     jac /= np.linalg.norm(jac, axis=0)
     assert np.linalg.svd(jac, compute_uv=False)[-1] > 1e-4
-    assert any(d["reason"].endswith(" with these poses") for d in result.dropped)
+    assert any(re.search(r"\bthese poses\b", d["reason"]) for d in result.dropped)
 
 
 def _tool_points(space, x, q):
@@ -319,12 +321,12 @@ def test_fitting_pose_counts_are_checked_with_the_counts_in_the_message(tmp_path
         pipeline.identify(two, lm())
     # 3 poses with orientation: 18 values for 24 parameters.
     with pytest.raises(
-        pipeline.IdentifiabilityError, match="^18 measured values from the fitting 3 fitting poses"
+        pipeline.IdentifiabilityError, match="^18 measured values from .*3 fitting poses"
     ):
         pipeline.identify(small_session(tmp_path, 3, True), lm())
     # 6 poses without orientation: 18 values for the 21 parameters seen without it.
     with pytest.raises(
-        pipeline.IdentifiabilityError, match="^18 measured values from the fitting 6 fitting poses"
+        pipeline.IdentifiabilityError, match="^18 measured values from .*6 fitting poses"
     ):
         pipeline.identify(small_session(tmp_path, 6, False), lm())
     # 4 poses with orientation: exactly 24 values, enough to try.
