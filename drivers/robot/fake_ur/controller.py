@@ -173,9 +173,9 @@ class FakeController:
         self.in_double = np.zeros(48)
         self._async_wr_count = 0
         self._async_op_id = 0
+        self.frozen_timestamp = None  # test hook: keep streaming, repeat this timestamp
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
-        self.frozen_timestamp = None  # test hook: keep streaming, repeat this timestamp
         self.unlock_delay_s = 0.0  # test hook: refuse unlocks this long after a stop, as UR does
         self._protective_since = None
         self.log = []  # commands executed, for the fake's own tests
