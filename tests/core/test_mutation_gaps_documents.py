@@ -34,8 +34,7 @@ def cli(capsys, *args):
 def identified(tmp_path):
     # Function scope on purpose: mutmut credits a fixture's calls to the first
     # test that uses it, so each test must run identify itself to be chosen.
-    tmp = tmp_path
-    session, cal = tmp / "s.parquet", tmp / "cal.json"
+    session, cal = tmp_path / "s.parquet", tmp_path / "cal.json"
     # Captured by hand: the printed report is part of what is checked.
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
@@ -46,7 +45,7 @@ def identified(tmp_path):
             with pytest.raises(SystemExit) as info:
                 main([str(a) for a in args])
             assert info.value.code == 0
-    return tmp, session, json.loads(cal.read_text()), out.getvalue()
+    return tmp_path, session, json.loads(cal.read_text()), out.getvalue()
 
 
 def test_printed_table_shows_the_statistics_written(identified):
