@@ -171,6 +171,7 @@ class FakeController:
         self.in_double = np.zeros(48)
         self._async_wr_count = 0
         self._async_op_id = 0
+        self.frozen_timestamp = None  # test hook: keep streaming, repeat this timestamp
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
         self.unlock_delay_s = float(unlock_delay_s)
@@ -183,6 +184,8 @@ class FakeController:
     # ----------------------------------------------------------------- state
     def timestamp(self):
         """Controller time since start, s (the RTDE ``timestamp``)."""
+        if self.frozen_timestamp is not None:
+            return self.frozen_timestamp
         return time.monotonic() - self._t0
 
     def snapshot(self):

@@ -184,6 +184,10 @@ class FakeUr:
             for sock in self._listeners:
                 _close(sock)
             return "fake: stalled"
+        if command == "freeze timestamp":
+            # a hung controller that keeps its sockets and repeats its last packet
+            c.frozen_timestamp = c.timestamp()
+            return "fake: timestamp frozen"
         if command == "joints":
             with c.lock:
                 return "fake: joints " + " ".join(f"{v:.9f}" for v in c.q)
@@ -199,6 +203,7 @@ class FakeUr:
                         ("protective_stop", c.safety_bits & 4),
                         ("emergency_stop", c.safety_bits & 128),
                         ("stalled", c.stalled),
+                        ("timestamp_frozen", c.frozen_timestamp is not None),
                         ("moving", c.moving),
                         ("not_running", c.robot_mode != 7),
                     )
