@@ -294,6 +294,10 @@ def _drop(name, reason):
     return {"name": name, "reason": reason}
 
 
+#: Jacobian column norm, relative to the largest, below which a parameter has no effect.
+NEGLIGIBLE_COLUMN = 1e-9
+
+
 def prune(candidates, jacobian, tol=1e-6, context="for these poses"):
     """Drop candidates the data cannot separate from the ones kept before them.
 
@@ -323,9 +327,12 @@ def prune(candidates, jacobian, tol=1e-6, context="for these poses"):
     norms = np.linalg.norm(jacobian, axis=0)
     order = sorted(range(len(candidates)), key=lambda k: _priority(candidates[k]))
     kept, dropped, basis = [], [], np.zeros((jacobian.shape[0], 0))
+    # A column with no real effect comes out as round-off (~1e-13), not exactly 0;
+    # any real effect is within a few decades of the largest column.
+    negligible = NEGLIGIBLE_COLUMN * norms.max(initial=0.0)
     for k in order:
         name = candidates[k]
-        if norms[k] == 0.0:
+        if norms[k] <= negligible:
             dropped.append(_drop(name, "has no effect on any measured pose"))
             continue
         col = jacobian[:, k] / norms[k]

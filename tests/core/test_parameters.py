@@ -171,3 +171,14 @@ def test_full_tool_frame_replaces_joint_6_constant_part():
     known, _ = parameters.structural_candidates(nominal, "tracker", True, True)
     assert "tool_rx" not in points_only and "theta6" in points_only
     assert not any(n.startswith("tool_") for n in known) and "theta6" in known
+
+
+def test_a_round_off_column_has_no_effect_rather_than_being_kept():
+    # A parameter with no real effect comes out of the chain as round-off, not 0
+    # (e.g. theta4 when joint 5 never moves and the tool point is on axis 6).
+    rng = np.random.default_rng(0)
+    jac = rng.normal(size=(30, 3)) * [1.0, 500.0, 2.0]
+    jac[:, 1] = rng.normal(size=30) * 1e-13
+    kept, dropped = parameters.prune(["a1", "theta4", "d4"], jac)
+    assert kept == ["a1", "d4"]
+    assert dropped == [{"name": "theta4", "reason": "has no effect on any measured pose"}]
