@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
+
+from _readings import readings_per_second
 
 from drivers.tracker.emscon import open_tracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
@@ -30,17 +31,9 @@ def main(argv: list[str] | None = None) -> int:
         tracker = open_tracker(sim.url, timeout_s=30.0, measure_timeout_s=30.0)
         try:
             tracker.connect()
-            for _ in range(500):  # warm up caches and the simulator's imports
-                tracker.measure()
-            rates = []
-            for _ in range(args.repeats):
-                start = time.perf_counter()
-                for _ in range(args.readings):
-                    tracker.measure()
-                rates.append(args.readings / (time.perf_counter() - start))
+            rates = readings_per_second(tracker, args.readings, args.repeats)
         finally:
             tracker.close()
-    rates.sort()
     print(
         f"emScon single readings over 127.0.0.1 TCP: median {rates[len(rates) // 2]:.0f}/s, "
         f"best {rates[-1]:.0f}/s, worst {rates[0]:.0f}/s "

@@ -14,8 +14,9 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
-import time
 from pathlib import Path
+
+from _readings import readings_per_second
 
 from drivers.tracker import LaserTracker
 
@@ -40,18 +41,10 @@ def main(argv: list[str] | None = None) -> int:
         # Generous deadlines: a loaded machine should slow the figure, not abort the run.
         with LaserTracker(url, timeout_s=30.0, measure_timeout_s=30.0) as tracker:
             tracker.connect()
-            for _ in range(500):  # warm up caches and the simulator's imports
-                tracker.measure()
-            rates = []
-            for _ in range(args.repeats):
-                start = time.perf_counter()
-                for _ in range(args.readings):
-                    tracker.measure()
-                rates.append(args.readings / (time.perf_counter() - start))
+            rates = readings_per_second(tracker, args.readings, args.repeats)
     finally:
         sim.terminate()
         sim.wait(timeout=5)
-    rates.sort()
     transport = "socket://127.0.0.1" if args.tcp else "pty"
     print(
         f"tracker single readings over {transport}: median {rates[len(rates) // 2]:.0f}/s, "
