@@ -15,15 +15,16 @@ from typer._click import exceptions as _click_errors
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
-# Importing a command module registers its command on ``app``.
-from calibrator.cli import simulate as _simulate  # noqa: E402,F401  isort: skip
+# Importing a command module registers its command on ``app``; help lists them
+# in this order, the order of the workflow.
+from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
+from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
 from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
 from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
-from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
-from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
 from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip
 from calibrator.cli import report as _report  # noqa: E402,F401  isort: skip
 from calibrator.cli import analyze as _analyze  # noqa: E402,F401  isort: skip
+from calibrator.cli import simulate as _simulate  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]
 
