@@ -125,5 +125,6 @@ def test_docs_and_code_cite_no_file_outside_the_repository():
     texts += [*(repo / "calibrator").rglob("*.py"), *(repo / "drivers").rglob("*.py")]
     for path in texts:
         text = path.read_text()
-        for outside in ("shared/docs", "shared/reference", "shared/seeds", "../shared"):
+        # Spelled in parts so this test is not itself a citation.
+        for outside in ("shared/" + d for d in ("docs", "reference", "seeds", "")):
             assert outside not in text, f"{path.relative_to(repo)} cites {outside}"
