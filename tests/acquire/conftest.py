@@ -1,7 +1,7 @@
 """Fixtures of the measure tests."""
 
 import pytest
-from measure_testkit import run_cli
+from cli_process import run_cli
 
 
 @pytest.fixture(scope="session")

@@ -1,22 +1,7 @@
 """Helpers for the measure tests: run the CLI as a user does, read sessions back."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pyarrow.parquet as pq
-
-
-def run_cli(*args, cwd, timeout=120, **kwargs):
-    """``python -m calibrator ARGS`` in ``cwd``; the completed process."""
-    return subprocess.run(
-        [sys.executable, "-m", "calibrator", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        **kwargs,
-    )
 
 
 def session_rows(path):

@@ -12,7 +12,8 @@ import time
 
 import numpy as np
 import pytest
-from measure_testkit import run_cli, session_rows
+from cli_process import run_cli
+from measure_testkit import session_rows
 
 from drivers.robot.fake_ur.launcher import FakeUrProcess
 

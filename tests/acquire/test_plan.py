@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from measure_testkit import run_cli
+from cli_process import run_cli
 
 from calibrator import frames, kinematics, measurement, session
 from calibrator import plan as plans

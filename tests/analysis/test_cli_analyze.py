@@ -1,24 +1,17 @@
 """``calibrator analyze`` as a user runs it: output, files, and one line + exit 2 on bad input."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from cli_process import run_cli
 
 from calibrator import calibration, models
 from calibrator.cli import main
 
 
 def run(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "calibrator", "analyze", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_cli("analyze", *args, cwd=cwd)
 
 
 def write_calibration(path, model, **deltas):

@@ -1,26 +1,19 @@
 """The command line as a user runs it: a real process, its output and exit code."""
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_process import run_cli
 from cli_testkit import cli, one_line_error
 
 from calibrator import calibration
 
 
 def run(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "calibrator", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_cli(*args, cwd=cwd)
 
 
 def test_simulate_identify_export(tmp_path):

@@ -1,13 +1,12 @@
 """Issue 9: the full tool frame, identifiability, uncertainty, robust and minimax fits."""
 
 import json
-import subprocess
-import sys
 
 import identify_arms as arms
 import numpy as np
 import pyarrow as pa
 import pytest
+from cli_process import run_cli
 
 from calibrator import frames, session
 from calibrator.errors import IdentifiabilityError
@@ -131,12 +130,7 @@ def test_a_session_above_the_pose_limit_is_one_line_and_exit_2(tmp_path):
     data = arms.loaded(robot, q, arms.measure(true, q, np.eye(4)), orientation=False)
     path = tmp_path / "big.parquet"
     session.write(path, data.table, data.meta)
-    run = subprocess.run(
-        [sys.executable, "-m", "calibrator", "identify", path, "-o", tmp_path / "c.json"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    run = run_cli("identify", path, "-o", tmp_path / "c.json", timeout=60)
     assert run.returncode == 2
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and f"at most {pipeline.MAX_POSES}" in lines[0], run.stderr
@@ -270,11 +264,7 @@ def test_the_default_loss_is_least_squares_and_the_cli_writes_the_new_keys(tmp_p
     path = tmp_path / "s.parquet"
     session.write(path, table, meta)
     out = tmp_path / "c.json"
-    run = subprocess.run(
-        [sys.executable, "-m", "calibrator", "identify", path, "-o", out, "--method", "lm"],
-        capture_output=True,
-        text=True,
-    )
+    run = run_cli("identify", path, "-o", out, "--method", "lm")
     assert run.returncode == 0, run.stderr
     doc = json.loads(out.read_text())
     assert doc["loss"] == "lsq"

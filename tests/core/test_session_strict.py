@@ -7,13 +7,12 @@ traceback or a silently different meaning.
 """
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from cli_process import run_cli
 
 from calibrator import plausibility, session
 from calibrator.errors import CalibrationError, SessionError
@@ -248,12 +247,7 @@ def test_identical_poses_are_refused(tmp_path):
 def test_cli_identify_gives_one_line_and_exit_2_for_a_bad_session(tmp_path):
     table, meta = _simulated()
     path = _write(tmp_path / "s.parquet", _scaled(table, POINTS, 1e-3), dict(meta))
-    result = subprocess.run(
-        [sys.executable, "-m", "calibrator", "identify", str(path), "-o", str(tmp_path / "c.json")],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    result = run_cli("identify", path, "-o", tmp_path / "c.json")
     assert result.returncode == 2
     assert "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "metres" in result.stderr

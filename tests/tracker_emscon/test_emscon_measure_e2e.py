@@ -8,23 +8,16 @@ steers the embedded line-protocol simulator.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pyarrow.parquet as pq
+from cli_process import run_cli
 
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 
 
 def _cli(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "calibrator", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_cli(*args, cwd=cwd)
 
 
 def test_measure_over_emscon_records_a_session_identify_fits_to_the_noise_floor(tmp_path):
