@@ -71,8 +71,12 @@ def _ur(d1, a2, a3, d4, d5, d6, speeds_deg):
     )
 
 
+# Each entry builds its tables when asked, so that nothing here is computed
+# at import time (mutation testing cannot reach code run on import).
+_UR10_SPEEDS_DEG = (120, 120, 180, 180, 180, 180)
+
 _MODELS = {
-    "er10l-c10": dict(
+    "er10l-c10": lambda: dict(
         mdh=_mdh(
             [170, 780, 140, 0, 0, 0],
             [-90, 0, -90, 90, -90, 0],
@@ -82,9 +86,9 @@ _MODELS = {
         joint_limits_rad=np.tile([-np.pi, np.pi], (6, 1)),
         max_joint_speed_rad_s=np.full(6, 180 * _DEG),
     ),
-    "ur5e": _ur(162.5, -425.0, -392.2, 133.3, 99.7, 99.6, [180] * 6),
-    "ur10": _ur(127.3, -612.0, -572.3, 163.941, 115.7, 92.2, [120, 120, 180, 180, 180, 180]),
-    "ur10e": _ur(180.7, -612.7, -571.55, 174.15, 119.85, 116.55, [120, 120, 180, 180, 180, 180]),
+    "ur5e": lambda: _ur(162.5, -425.0, -392.2, 133.3, 99.7, 99.6, [180] * 6),
+    "ur10": lambda: _ur(127.3, -612.0, -572.3, 163.941, 115.7, 92.2, _UR10_SPEEDS_DEG),
+    "ur10e": lambda: _ur(180.7, -612.7, -571.55, 174.15, 119.85, 116.55, _UR10_SPEEDS_DEG),
 }
 
 #: Names accepted by :func:`get_model`.
@@ -102,4 +106,4 @@ def get_model(name):
     key = str(name).strip().lower()
     if key not in _MODELS:
         raise CalibrationError(f"unknown model {name!r}; known: {', '.join(MODEL_NAMES)}")
-    return RobotModel(name=key, **_MODELS[key])
+    return RobotModel(name=key, **_MODELS[key]())
