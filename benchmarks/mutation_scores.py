@@ -1,0 +1,98 @@
+"""Mutation scores per module and per package, from a mutmut run's results.
+
+Reads the ``*.meta`` files mutmut 3 writes under ``mutants/`` and prints a
+Markdown table: mutants, killed, survived, no tests, not yet checked, and the
+score (killed over checked, "no tests" counting as not killed). Timeouts and
+crashes of the test process count as killed, as mutmut counts them.
+
+Usage::
+
+    .venv/bin/python benchmarks/mutation_scores.py            # per package
+    .venv/bin/python benchmarks/mutation_scores.py --modules  # per module
+    .venv/bin/python benchmarks/mutation_scores.py --survivors calibrator.outputs
+
+Run it after ``mutmut run`` (see docs/mutation-testing.md).
+"""
+
+import argparse
+import json
+from collections import Counter, defaultdict
+from pathlib import Path
+
+KILLED = {1, 3, 36, 24, -24, 152, 255, -11, -9, 37}
+SURVIVED = {0}
+NO_TESTS = {5, 33}
+
+
+def outcomes(root):
+    """Yield ``(module, mutant, exit_code)`` for every mutant under ``root``."""
+    for meta in sorted(Path(root).rglob("*.py.meta")):
+        data = json.loads(meta.read_text())
+        for key, code in data.get("exit_code_by_key", {}).items():
+            module = key.split(".x_")[0].split(".xǁ")[0]
+            yield module, key, code
+
+
+def classify(code):
+    if code is None:
+        return "unchecked"
+    if code in KILLED:
+        return "killed"
+    if code in SURVIVED:
+        return "survived"
+    if code in NO_TESTS:
+        return "no tests"
+    return "other"
+
+
+def table(groups):
+    cols = ("killed", "survived", "no tests", "unchecked", "other")
+    lines = [
+        "| group | mutants | killed | survived | no tests | not checked | score |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    total = Counter()
+    for name in sorted(groups):
+        counts = groups[name]
+        total.update(counts)
+        lines.append(_row(f"`{name}`", counts, cols))
+    lines.append(_row("**all**", total, cols))
+    return "\n".join(lines)
+
+
+def _row(name, counts, cols):
+    mutants = sum(counts.values())
+    checked = mutants - counts["unchecked"]
+    killed = counts["killed"]
+    score = f"{100 * killed / checked:.1f} %" if checked else "-"
+    return (
+        f"| {name} | {mutants} | {killed} | {counts['survived']} | {counts['no tests']}"
+        f" | {counts['unchecked']} | {score} |"
+    )
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", default="mutants", help="mutmut's work folder")
+    parser.add_argument("--modules", action="store_true", help="one row per module")
+    parser.add_argument("--survivors", metavar="PREFIX", help="list surviving mutants")
+    args = parser.parse_args(argv)
+    if args.survivors is not None:
+        for module, key, code in outcomes(args.root):
+            if module.startswith(args.survivors) and classify(code) in ("survived", "no tests"):
+                print(key, classify(code))
+        return
+    groups = defaultdict(Counter)
+    for module, _key, code in outcomes(args.root):
+        if args.modules:
+            name = module
+        else:
+            parts = module.split(".")
+            # calibrator.identify.pso -> calibrator.identify; calibrator.session -> calibrator
+            name = ".".join(parts[:2]) if len(parts) > 2 else parts[0]
+        groups[name][classify(code)] += 1
+    print(table(groups))
+
+
+if __name__ == "__main__":
+    main()
