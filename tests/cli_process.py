@@ -14,8 +14,13 @@ def run_cli(*args, cwd=None, timeout=120, env=None, **kwargs):
     The child imports the same copy of the package as the test process: under
     mutation testing that copy is mutmut's mutated one (and the child inherits
     which mutant is active), so a command run this way can kill a mutant.
+    While mutmut only records which functions the tests call ("stats"), the
+    child runs unrecorded: mutmut's recorder cannot work outside its own
+    process.
     """
     env = dict(os.environ if env is None else env)
+    if env.get("MUTANT_UNDER_TEST") == "stats":
+        del env["MUTANT_UNDER_TEST"]
     package_root = str(Path(calibrator.__file__).resolve().parents[1])
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_root, env.get("PYTHONPATH")]))
     return subprocess.run(
