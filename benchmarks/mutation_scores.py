@@ -11,6 +11,14 @@ Usage::
     .venv/bin/python benchmarks/mutation_scores.py --modules  # per module
     .venv/bin/python benchmarks/mutation_scores.py --survivors calibrator.outputs
 
+Several runs can be combined: the first ``--root`` is the reference (its
+mutants are the ones counted); a later root's result for a mutant is used
+when it is better (killed over survived over no tests over not checked) and
+the mutated function's source hash is the same in both runs, so a result
+only ever counts for the code it was measured on::
+
+    .venv/bin/python benchmarks/mutation_scores.py --root mutants --root ../wtm3/mutants
+
 Run it after ``mutmut run`` (see docs/mutation-testing.md).
 """
 
@@ -24,13 +32,44 @@ SURVIVED = {0}
 NO_TESTS = {5, 33}
 
 
-def outcomes(root):
-    """Yield ``(module, mutant, exit_code)`` for every mutant under ``root``."""
+RANK = {"killed": 3, "survived": 2, "no tests": 1, "other": 1, "unchecked": 0}
+
+
+def _module_and_function(key):
+    """``pkg.mod.x_fn__mutmut_3`` -> (``pkg.mod``, ``x_fn``)."""
+    head = key.rsplit("__mutmut_", 1)[0]
+    for marker in (".x_", ".xǁ"):
+        if marker in head:
+            module, _, rest = head.partition(marker)
+            return module, marker[1:] + rest
+    return head, ""
+
+
+def _run(root):
+    """``{key: (exit_code, function_hash)}`` for every mutant under ``root``."""
+    found = {}
     for meta in sorted(Path(root).rglob("*.py.meta")):
         data = json.loads(meta.read_text())
+        hashes = data.get("hash_by_function_name", {})
         for key, code in data.get("exit_code_by_key", {}).items():
-            module = key.split(".x_")[0].split(".xǁ")[0]
-            yield module, key, code
+            found[key] = (code, hashes.get(_module_and_function(key)[1]))
+    return found
+
+
+def outcomes(roots):
+    """Yield ``(module, mutant, exit_code)`` for every mutant of ``roots[0]``.
+
+    Later roots contribute a better result for the same mutant of the same
+    function source (see the module docstring).
+    """
+    reference = _run(roots[0])
+    others = [_run(root) for root in roots[1:]]
+    for key, (code, digest) in reference.items():
+        for other in others:
+            other_code, other_digest = other.get(key, (None, None))
+            if other_digest == digest and RANK[classify(other_code)] > RANK[classify(code)]:
+                code = other_code
+        yield _module_and_function(key)[0], key, code
 
 
 def classify(code):
@@ -73,17 +112,20 @@ def _row(name, counts, cols):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--root", default="mutants", help="mutmut's work folder")
+    parser.add_argument(
+        "--root", action="append", help="mutmut's work folder (repeatable; default mutants)"
+    )
     parser.add_argument("--modules", action="store_true", help="one row per module")
     parser.add_argument("--survivors", metavar="PREFIX", help="list surviving mutants")
     args = parser.parse_args(argv)
+    roots = args.root or ["mutants"]
     if args.survivors is not None:
-        for module, key, code in outcomes(args.root):
+        for module, key, code in outcomes(roots):
             if module.startswith(args.survivors) and classify(code) in ("survived", "no tests"):
                 print(key, classify(code))
         return
     groups = defaultdict(Counter)
-    for module, _key, code in outcomes(args.root):
+    for module, _key, code in outcomes(roots):
         if args.modules:
             name = module
         else:
