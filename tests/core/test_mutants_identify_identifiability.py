@@ -6,6 +6,8 @@ condition number follow from a line of arithmetic, independent of the
 eigen-decomposition the module uses.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -75,6 +77,40 @@ def test_parameters_in_a_null_direction_are_undetermined_the_others_not():
     assert cov[2, 2] == pytest.approx(1 / 16, rel=1e-12)
 
 
+def test_the_null_part_of_the_covariance_is_the_pseudo_inverse_without_warnings():
+    # Columns 0 and 1 identical: the normalised information is [[1, 1], [1, 1]]
+    # there, whose pseudo-inverse is 1/4 everywhere; scaled back by the column
+    # norm squared (5), 0.05. No division by the zero eigenvalue, not even a warning.
+    jac = np.zeros((4, 3))
+    jac[0, :2] = 2.0
+    jac[1, :2] = 1.0
+    jac[2, 2] = 4.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        se, cov = idf.relative_errors(jac.T @ jac)
+    np.testing.assert_allclose(cov[:2, :2], np.full((2, 2), 0.05), rtol=1e-9)
+    np.testing.assert_allclose(cov[:2, 2], 0.0, atol=1e-15)
+    assert np.isinf(se[:2]).all()
+
+
+def test_the_null_threshold_is_relative_to_the_largest_eigenvalue():
+    # Unit diagonal, correlation c: eigenvalues 1 - c and 1 + c (about 2); the
+    # threshold is 1e-12 times the largest, so 2e-12.
+    def se_of(gap):
+        c = 1.0 - gap
+        return idf.relative_errors(np.array([[1.0, c], [c, 1.0]]))[0]
+
+    assert np.isinf(se_of(1.5e-12)).all()
+    assert np.isfinite(se_of(3e-12)).all()
+
+
+def test_a_parameter_with_tiny_but_regular_information_is_finite():
+    # Normalised by the diagonal, the information is the identity: nothing is null
+    # however small one parameter's information is in absolute terms.
+    se, cov = idf.relative_errors(np.diag([1.0, 1e-13]))
+    np.testing.assert_allclose(se, [1.0, np.sqrt(1e13)], rtol=1e-12)
+
+
 def test_a_column_with_no_effect_is_undetermined():
     jac = orthogonal_jacobian([3.0, 0.0, 2.0])
     se, _ = idf.relative_errors(jac.T @ jac)
@@ -137,6 +173,20 @@ def test_select_names_an_undetermined_parameter_and_one_with_no_effect():
     assert dropped[0]["reason"].endswith(", no effect on these poses")
 
 
+def test_select_keeps_an_error_exactly_at_the_threshold():
+    # Scaled information (1 mm x 1 / 0.5 mm)^2 = 4: the standard error is 0.5 exactly.
+    assert idf.select(["a1"], np.array([[1.0]]), 0.5, threshold=0.5) == (["a1"], [])
+    assert idf.select(["a1"], np.array([[1.0]]), 0.5, threshold=0.4999)[0] == []
+
+
+def test_select_calls_a_million_ranges_undetermined():
+    def reason(se):  # a1 alone, range 1 mm, noise 1 mm: se = 1 / column
+        return idf.select(["a1"], np.array([[1.0 / se]]), 1.0)[1][0]["reason"]
+
+    assert reason(0.999999e6).startswith("standard error 1e+06 mm with these poses")
+    assert reason(1.0000005e6).startswith("not determined by these poses")
+
+
 def test_select_drops_everything_when_nothing_is_seen():
     kept, dropped = idf.select(["a1"], np.zeros((3, 1)), 0.05)
     assert kept == []
@@ -161,7 +211,11 @@ def test_condition_number_is_that_of_the_range_scaled_jacobian():
     expected = np.linalg.cond(jac * RANGES / 0.05)
     assert idf.condition_number(info) == pytest.approx(expected, rel=1e-8)
     assert idf.condition_number(np.diag([4.0, 1.0])) == pytest.approx(2.0, rel=1e-12)
-    assert idf.condition_number(np.diag([4.0, 0.0])) == float("inf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert idf.condition_number(np.diag([4.0, 0.0])) == float("inf")
+        # Round-off can make a singular information's smallest eigenvalue negative.
+        assert idf.condition_number(np.diag([4.0, -1e-18])) == float("inf")
 
 
 def test_duplicate_poses_are_the_later_copies_within_the_grid():
@@ -193,22 +247,30 @@ def test_session_warnings_at_their_boundaries():
 
 def test_require_some_refuses_an_empty_free_set_only():
     idf.require_some(["a1"])
-    with pytest.raises(IdentifiabilityError, match="cannot identify any parameter"):
+    with pytest.raises(IdentifiabilityError) as err:
         idf.require_some([])
+    assert str(err.value) == (
+        "these poses cannot identify any parameter: measure distinct, well-spread poses"
+    )
 
 
-def test_jacobian_on_is_the_derivative_at_the_first_guess():
+@pytest.mark.parametrize("k", [0.0, 1.0e4])
+def test_jacobian_on_is_the_derivative_at_the_first_guess(k):
     robot = get_model("er10l-c10")
-    names = ("a2", "d3", "theta4", "base_tx")
-    space = parameters.ParameterSpace(robot.mdh, free=names)
+    free = ("a2", "d3", "theta4", "base_tx", "tool_rx")
+    names = ["a2", "theta4", "tool_rx"]  # the columns asked for, a subset of the free
+    space = parameters.ParameterSpace(robot.mdh, free=free)
     q = np.random.default_rng(4).uniform(-2, 2, (5, 6))
-    obs = measurement.Observations(q, np.zeros((5, 3)))
-    jac = idf.jacobian_on(space, list(names), obs, 0.0)
+    # Measured turns equal to the model's: the orientation rows' derivative is exact there.
+    rot = measurement.predict(space, np.zeros(len(free)), q)[:, :3, :3]
+    obs = measurement.Observations(q, np.zeros((5, 3)), rot)
+    jac = idf.jacobian_on(space, names, obs, k)
+    assert jac.shape == (30 if k else 15, 3)
     h = 1e-6
-    for i in range(len(names)):
-        step = np.zeros(len(names))
-        step[i] = h
+    for i, name in enumerate(names):
+        step = np.zeros(len(free))
+        step[free.index(name)] = h
         fd = (
-            measurement.residuals(space, step, obs) - measurement.residuals(space, -step, obs)
+            measurement.residuals(space, step, obs, k) - measurement.residuals(space, -step, obs, k)
         ) / (2 * h)
-        np.testing.assert_allclose(jac[:, i], fd, rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(jac[:, i], fd, rtol=1e-5, atol=1e-5)
