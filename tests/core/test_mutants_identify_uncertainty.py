@@ -182,8 +182,8 @@ def test_a_parameter_without_effect_gets_zero_error_and_no_nan():
 
 def test_summary_lines_name_the_worst_errors_relative_to_range_and_the_pairs():
     unc = {
-        # relative to range: a1 0.5, alpha1 0.8, d2 0.1, theta3 0.2
-        "standard_errors": {"a1": 0.5, "alpha1": 0.008, "d2": 0.1, "theta3": 0.002},
+        # relative to range: a1 0.5, alpha1 0.8, d2 0.12, theta3 0.2
+        "standard_errors": {"a1": 0.5, "alpha1": 0.008, "d2": 0.12345, "theta3": 0.002},
         "residual_sigma": {"position_mm": 0.01234, "orientation_rad": np.radians(0.5)},
         "strong_correlations": [
             {"a": "a1", "b": "d2", "r": 0.95},
@@ -205,7 +205,7 @@ def test_summary_lines_name_the_worst_errors_relative_to_range_and_the_pairs():
         "worst 0.0500 mm)",
     ]
     full = uncertainty.summary_lines(unc)
-    assert full[0].endswith("alpha1 458 mdeg, a1 500 um, theta3 115 mdeg, d2 100 um")
+    assert full[0].endswith("alpha1 458 mdeg, a1 500 um, theta3 115 mdeg, d2 123 um")
     assert full[2] == (
         "strongly correlated (|r| > 0.9): a1/d2 +0.95, alpha1/theta3 -0.93, a1/theta3 +0.91"
     )
@@ -218,3 +218,22 @@ def test_summary_lines_of_a_bare_position_fit():
         "strong_correlations": [],
     }
     assert uncertainty.summary_lines(unc) == ["residual sigma: 0.5000 mm per axis"]
+
+
+def test_summary_lines_show_six_by_default_and_count_only_what_is_left_out():
+    names = [f"a{i}" for i in range(1, 7)] + ["d1", "d2"]
+    unc = {
+        "standard_errors": {n: 0.01 * (i + 1) for i, n in enumerate(names)},
+        "residual_sigma": {"position_mm": 0.5, "orientation_rad": None},
+        "strong_correlations": [{"a": "a1", "b": n, "r": 0.95} for n in names[1:7]],
+    }
+    lines = uncertainty.summary_lines(unc)
+    assert lines[0] == (
+        "standard errors (largest relative to range): d2 80 um, d1 70 um, a6 60 um, "
+        "a5 50 um, a4 40 um, a3 30 um"
+    )
+    # Exactly six pairs: all shown, none "more".
+    assert lines[2] == (
+        "strongly correlated (|r| > 0.9): a1/a2 +0.95, a1/a3 +0.95, a1/a4 +0.95, "
+        "a1/a5 +0.95, a1/a6 +0.95, a1/d1 +0.95"
+    )

@@ -277,3 +277,89 @@ def test_check_deltas_warn_and_refuse_boundaries():
     bad[3, kinematics.THETA] += 0.5 + 1e-6
     with pytest.raises(CalibrationError, match="identified theta4 is 28.65 deg"):
         plausibility.check_deltas(nominal, bad)
+
+
+def test_joints_read_back_exactly_on_the_tolerance_edge_are_inside():
+    limits = ROBOT.joint_limits_rad
+    q = np.zeros((2, 6))
+    q[0] = limits[:, 1] + plausibility.LIMIT_TOL_RAD
+    q[1] = limits[:, 0] - plausibility.LIMIT_TOL_RAD
+    plausibility._check_joint_limits(q, limits, list("abcdef"))
+
+
+def test_check_observations_uses_the_model_limits_and_names_the_column():
+    q, points = session_data()
+    limits = ROBOT.joint_limits_rad.copy()
+    limits[1] = [-2.5, 2.5]
+    q[4, 1] = 2.6  # inside any revolute joint's limits, outside this model's
+    with pytest.raises(
+        SessionError, match=r"^pose 4 \(row\) column q2_rad: 2\.6 rad is outside the model's"
+    ):
+        plausibility.check_observations(q, points, ROBOT.mdh, limits)
+    with pytest.raises(SessionError, match=r"^pose 4 \(row\) column J2: 2\.6 rad"):
+        plausibility.check_observations(
+            q, points, ROBOT.mdh, limits, joint_names=list("J" + c for c in "123456")
+        )
+
+
+def test_the_scale_check_measures_with_the_tool():
+    q = np.random.default_rng(5).uniform(-2.0, 2.0, (20, 6))
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 600.0, 900.0]  # a long probe: the flange's distances are far off
+    points = kinematics.forward(ROBOT.mdh, q, tool)[:, :3, 3]
+    ratio, _, reach = plausibility.scale_ratio(q, points, ROBOT.mdh, tool)
+    assert ratio == pytest.approx(1.0, rel=1e-9)
+    assert plausibility.scale_ratio(q, points, ROBOT.mdh)[0] > 1.2
+    assert plausibility.check_observations(q, points, ROBOT.mdh, flange2tool=tool) == []
+
+
+def degrees_session(tool=None, n=30):
+    """Small joint moves (|q| < 0.1 rad) recorded in degrees: within +-2 pi as numbers."""
+    rng = np.random.default_rng(3)
+    q_rad = rng.uniform(-0.1, 0.1, (n, 6))
+    points = kinematics.forward(ROBOT.mdh, q_rad, tool)[:, :3, 3]
+    q_deg = np.degrees(q_rad)
+    assert np.abs(q_deg).max() < 2 * np.pi  # the joint limits cannot tell
+    return q_deg, points
+
+
+def test_joints_in_degrees_are_named_by_the_scale_check():
+    q_deg, points = degrees_session()
+    with pytest.raises(SessionError) as err:
+        plausibility.check_observations(q_deg, points, ROBOT.mdh)
+    assert ", but 1 times if the joints are read as degrees: the joints look like degrees" in str(
+        err.value
+    )
+
+
+def test_joints_in_degrees_with_a_long_tool_are_named_by_the_scale_check():
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 600.0, 900.0]
+    q_deg, points = degrees_session(tool)
+    with pytest.raises(SessionError, match=", but 1 times if the joints are read as degrees"):
+        plausibility.check_observations(q_deg, points, ROBOT.mdh, flange2tool=tool)
+
+
+def test_two_identical_poses_are_degenerate():
+    q, points = session_data(n=2)
+    with pytest.raises(SessionError, match="all 2 poses have the same joint values"):
+        plausibility._check_degenerate(np.repeat(q[:1], 2, axis=0), points)
+    with pytest.raises(SessionError, match="all 2 poses have the same measured point"):
+        plausibility._check_degenerate(q, np.repeat(points[:1], 2, axis=0))
+
+
+def test_extent_of_three_points_is_judged():
+    points = np.zeros((3, 3))
+    points[2, 1] = 3001.0
+    with pytest.raises(SessionError, match="row 2: the point is 3001 mm"):
+        plausibility._check_extent(points, 1000.0)
+
+
+def test_a_cloud_far_from_the_origin_is_judged_from_its_own_middle():
+    # Tracker frame: the points are 100 m from the tracker's origin, within reach of each other.
+    rng = np.random.default_rng(6)
+    points = [1.0e5, -1.0e5, 3.0e4] + rng.uniform(-1000, 1000, (20, 3))
+    plausibility._check_extent(points, 1000.0)
+    points[7] += [0.0, 0.0, 4000.0]
+    with pytest.raises(SessionError, match="^row 7: "):
+        plausibility._check_extent(points, 1000.0)
