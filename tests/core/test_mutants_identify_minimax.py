@@ -167,3 +167,39 @@ def test_active_fraction_picks_the_poses_near_the_worst(monkeypatch):
     monkeypatch.setattr(minimax, "ACTIVE_FRACTION", 2.0)  # unused up to ALL_POSES
     every = minimax.refine_minimax(space, obs, start, 0.0, rounds=1)
     assert every.worst == pytest.approx(2.0, abs=1e-5)
+
+
+def test_at_exactly_all_poses_every_pose_is_a_constraint_from_the_start(monkeypatch):
+    offsets = many_offsets()
+    space, obs = ball_problem(offsets, seed=4)
+    monkeypatch.setattr(minimax, "ALL_POSES", len(offsets))
+    one = minimax.refine_minimax(space, obs, np.array([-0.5, 0.0, 0.0]), 0.0, rounds=1)
+    assert one.worst == pytest.approx(2.0, abs=1e-5)
+
+
+def test_minimax_with_orientation_lowers_the_worst_pose_below_least_squares():
+    from calibrator.identify import refine
+
+    robot = get_model("er10l-c10")
+    space = parameters.ParameterSpace(robot.mdh, free=("a2", "alpha2", "theta3", "d4"))
+    rng = np.random.default_rng(6)
+    q = rng.uniform(-2, 2, (12, 6))
+    pose = measurement.predict(space, np.array([0.2, 0.003, -0.002, 0.3]), q)
+    obs = measurement.Observations(
+        q,
+        pose[:, :3, 3] + rng.normal(0, 0.05, (12, 3)),
+        frames.rotvec_to_matrix(rng.normal(0, 2e-4, (12, 3))) @ pose[:, :3, :3],
+    )
+    start = refine.refine(space, obs, np.zeros(4), K).x
+
+    def per_pose(x):  # |dp|^2 + k |delta|^2, via scipy's rotation vectors
+        model = measurement.predict(space, x, obs.q)
+        turn = Rotation.from_matrix(model[:, :3, :3] @ np.swapaxes(obs.rotations, 1, 2)).as_rotvec()
+        return np.sum((model[:, :3, 3] - obs.points) ** 2, axis=1) + K * np.sum(turn**2, axis=1)
+
+    out = minimax.refine_minimax(space, obs, start, K)
+    e = per_pose(out.x)
+    assert out.worst == pytest.approx(np.sqrt(e.max()), rel=1e-9)
+    assert out.worst < 0.95 * np.sqrt(per_pose(start).max())
+    # At a minimax optimum several poses share the worst error.
+    assert np.sum(e > e.max() * (1 - 1e-5)) >= 3

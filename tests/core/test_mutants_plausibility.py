@@ -363,3 +363,9 @@ def test_a_cloud_far_from_the_origin_is_judged_from_its_own_middle():
     points[7] += [0.0, 0.0, 4000.0]
     with pytest.raises(SessionError, match="^row 7: "):
         plausibility._check_extent(points, 1000.0)
+
+
+def test_three_poses_are_enough_for_a_scale_ratio():
+    q, points = session_data(n=3, scale=2.0)
+    ratio, scatter, _ = plausibility.scale_ratio(q, points, ROBOT.mdh)
+    assert ratio == pytest.approx(2.0, rel=1e-9) and scatter == pytest.approx(0.0, abs=1e-9)
