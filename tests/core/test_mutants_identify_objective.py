@@ -48,6 +48,10 @@ CASES = {
     "tool point free": MDH_FREE + ("tool_x", "tool_z"),
     "tool turn free": MDH_FREE + ("tool_y", "tool_rx", "tool_rz"),
     "everything": MDH_FREE + ("base_ty", "base_rx", "tool_x", "tool_ry"),
+    # The first parameter of each block alone: the block must still count as free.
+    "base_tx alone": MDH_FREE + ("base_tx",),
+    "tool_x alone": MDH_FREE + ("tool_x",),
+    "tool_rx alone": MDH_FREE + ("tool_rx",),
 }
 
 
@@ -81,6 +85,14 @@ def test_orientation_is_ignored_without_orientation_data():
     for loss in ("lsq", "minimax"):
         f = objective.SwarmObjective(space, bare, K, loss)(swarm)
         np.testing.assert_allclose(f, by_hand(space, swarm, bare, 0.0, loss == "minimax"))
+
+
+def test_defaults_are_least_squares_on_positions():
+    space = parameters.ParameterSpace(ROBOT.mdh, BASE0, TOOL0, CASES["everything"])
+    obs = observations(seed=4)
+    swarm = np.random.default_rng(2).uniform(-0.01, 0.01, (3, space.size))
+    f = objective.SwarmObjective(space, obs)(swarm)
+    np.testing.assert_allclose(f, by_hand(space, swarm, obs, 0.0, False), rtol=1e-9)
 
 
 def test_an_unknown_loss_is_refused():
