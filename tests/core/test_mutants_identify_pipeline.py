@@ -10,6 +10,7 @@ import identify_arms as arms
 import numpy as np
 import pyarrow as pa
 import pytest
+from scipy.spatial.transform import Rotation
 
 from calibrator import kinematics, measurement, parameters, session
 from calibrator.errors import IdentifiabilityError
@@ -271,3 +272,19 @@ def test_result_frames_are_those_of_its_deltas():
         result.stats["fit"]["before"]["position_mm"]["mean"]
         > 100 * result.stats["fit"]["after"]["position_mm"]["mean"]
     )
+
+
+def test_least_squares_with_orientation_reports_the_weighted_sum_of_squares():
+    data = small(n=10, noise_mm=0.05, orientation=True)
+    obs = data.observations
+    result = pipeline.identify(data, lm(k=400.0))
+    ls = result.details["least_squares"]
+    pose = kinematics.forward(result.mdh, obs.q, result.flange2tool, result.base2tracker)
+    turn = Rotation.from_matrix(pose[:, :3, :3] @ np.swapaxes(obs.rotations, 1, 2)).as_rotvec()
+    ssr = np.sum((pose[:, :3, 3] - obs.points) ** 2) + 400.0 * np.sum(turn**2)
+    assert ls["objective"] == pytest.approx(ssr, rel=1e-6)
+    assert isinstance(ls["message"], str) and ls["message"]
+    assert ls["evaluations"] > 0
+    # The orientation rows took part: the fit is not the position-only one.
+    bare = pipeline.identify(data, lm(k=0.0))
+    assert not np.allclose(bare.mdh, result.mdh, rtol=0, atol=1e-9)
