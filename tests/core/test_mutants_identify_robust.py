@@ -1,0 +1,198 @@
+"""Robust fits against their textbook definitions, on a small noisy problem with outliers.
+
+Huber: at the answer the gradient of ``sum rho_c(r_i / s_i)`` vanishes,
+with ``rho_c`` quadratic within ``c = 1.345`` and linear beyond, i.e. the
+textbook weights ``min(1, c / |z|)``. Trimmed: the answer is the plain
+least-squares fit (scipy, finite differences) of the poses it keeps, and
+it sets aside exactly the poses whose whitened error exceeds the chi-square
+99.9 % quantile.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+from scipy.optimize import least_squares
+
+from calibrator import frames, measurement, parameters
+from calibrator.identify import refine, robust
+from calibrator.models import get_model
+
+K = 1.0e4
+NAMES = ("a2", "alpha2", "d4", "theta5", "base_tx", "base_ty", "base_rz")
+
+
+def problem(orientation, n=24, seed=3):
+    """Small ER10L-C10 problem: noise 0.05 mm / 1 mrad, pose 5 off by 3 mm,
+    and with orientation data pose 11 turned by 20 mrad."""
+    space = parameters.ParameterSpace(get_model("er10l-c10").mdh, free=NAMES)
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-1.5, 1.5, (n, 6))
+    x = rng.normal(0, 0.02, len(NAMES))
+    pose = measurement.predict(space, x, q)
+    points = pose[:, :3, 3] + rng.normal(0, 0.05, (n, 3))
+    points[5] += [3.0, -1.0, 2.0]
+    rot = None
+    if orientation:
+        turn = rng.normal(0, 1e-3, (n, 3))  # weighted: 0.1, twice the position noise
+        turn[11] += [2e-2, 0.0, 0.0]
+        rot = frames.rotvec_to_matrix(turn) @ pose[:, :3, :3]
+    return space, x, measurement.Observations(q, points, rot)
+
+
+def lsq(space, obs, k, x0):
+    fit = least_squares(
+        lambda v: measurement.residuals(space, v, obs, k), x0, xtol=1e-13, ftol=1e-13, gtol=1e-13
+    )
+    return fit.x
+
+
+def test_chi_square_quantiles_are_the_99_9_percent_points():
+    assert robust.CHI2_999[3] == pytest.approx(stats.chi2.ppf(0.999, 3), abs=1e-3)
+    assert robust.CHI2_999[6] == pytest.approx(stats.chi2.ppf(0.999, 6), abs=1e-3)
+
+
+def test_robust_scales_are_1_4826_times_the_median_absolute_residual_per_block():
+    res = np.array([1.0, -2.0, 3.0, 4.0, -5.0, 6.0, 0.1, -0.1, 0.2, 0.3, 0.0, -0.4])
+    scale = robust.robust_scales(res, 2)
+    np.testing.assert_allclose(scale[:6], 1.4826 * 3.5, rtol=1e-12)
+    np.testing.assert_allclose(scale[6:], 1.4826 * 0.15, rtol=1e-12)
+    np.testing.assert_allclose(robust.robust_scales(res[:6], 2), 1.4826 * 3.5, rtol=1e-12)
+    # Noise-free data: the scales stop at their floor instead of zero.
+    np.testing.assert_array_equal(robust.robust_scales(np.zeros(12), 2), np.full(12, 1e-6))
+    tiny = np.r_[np.full(6, 1e-9), np.full(6, 1.0)]
+    np.testing.assert_array_equal(robust.robust_scales(tiny, 2)[:6], 1e-6)
+    # Position rows only: no orientation block to estimate (not even a warning).
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(robust.robust_scales(res[:6], 2), 1.4826 * 3.5)
+
+
+@pytest.mark.parametrize(("blocks", "limit"), [(1, 16.266), (2, 22.458)])
+def test_outlier_threshold_is_inclusive_just_at_the_quantile(blocks, limit):
+    n = 3
+    res = np.zeros(3 * n * blocks)
+    res[0] = np.sqrt(limit * 0.9999)  # pose 0 just inside
+    res[3] = np.sqrt(limit * 1.0001)  # pose 1 just outside
+    scale = np.ones_like(res)
+    assert robust.outliers(res, n, scale).tolist() == [1]
+    if blocks == 2:
+        # A pose's error sums over its position and orientation rows.
+        res[:] = 0.0
+        res[6] = res[3 * n + 6] = np.sqrt(limit * 0.5001)  # pose 2, half in each block
+        assert robust.outliers(res, n, scale).tolist() == [2]
+    # Whitened by the scale: the same residuals with twice the scale pass.
+    assert robust.outliers(res, n, 2 * scale).tolist() == []
+
+
+def fd_jacobian(space, x, obs, k, h=1e-7):
+    cols = []
+    for step in np.eye(len(x)) * h:
+        plus = measurement.residuals(space, x + step, obs, k)
+        minus = measurement.residuals(space, x - step, obs, k)
+        cols.append((plus - minus) / (2 * h))
+    return np.column_stack(cols)
+
+
+def huber_gradient(space, x, obs, k, scale):
+    """Gradient of sum rho_c(r_i / s_i), relative to the size of its terms, and z."""
+    z = measurement.residuals(space, x, obs, k) / scale
+    psi = np.clip(z, -1.345, 1.345)  # rho'(z) of Huber's loss with c = 1.345
+    js = fd_jacobian(space, x, obs, k) / scale[:, None]
+    return np.abs(js.T @ psi) / (np.abs(js).T @ np.abs(psi)), z
+
+
+def ssr(space, x, obs, k):
+    res = measurement.residuals(space, x, obs, k)
+    return res @ res
+
+
+def test_huber_answer_is_a_stationary_point_of_the_huber_loss():
+    space, truth, obs = problem(orientation=True)
+    x0 = lsq(space, obs, K, np.zeros(len(NAMES)))
+    # One round: whitened by the robust scale of the residuals at the start.
+    scale0 = robust.robust_scales(measurement.residuals(space, x0, obs, K), len(obs))
+    one = robust.huber(space, obs, x0, K, rounds=1)
+    grad, z = huber_gradient(space, one.x, obs, K, scale0)
+    assert np.all(grad < 1e-3)  # c = 1.2 or 1.5 give 3e-2
+    assert np.sum(np.abs(z) > 1.345) > 4  # enough rows beyond c that the corner matters
+    # Two rounds: the second is whitened at the first round's answer.
+    two = robust.huber(space, obs, x0, K, rounds=2)
+    scale1 = robust.robust_scales(measurement.residuals(space, one.x, obs, K), len(obs))
+    grad, _ = huber_gradient(space, two.x, obs, K, scale1)
+    assert np.all(grad < 1e-3)  # c = 1.2 or 1.5 give 3e-2
+    assert not np.allclose(two.x, one.x, rtol=0, atol=1e-6)
+    assert two.evaluations > one.evaluations > 1
+    # The two bad poses are named, judged at the answer's own robust scale.
+    assert two.outliers.tolist() == [5, 11]
+
+    # Least squares is dragged by the bad poses; Huber much less.
+    def err(x):
+        model = measurement.predict(space, x, obs.q)[:, :3, 3]
+        return np.abs(model - measurement.predict(space, truth, obs.q)[:, :3, 3]).max()
+
+    assert err(two.x) < 0.5 * err(x0)
+
+
+def test_huber_on_clean_data_is_close_to_least_squares_but_not_equal():
+    space, _, obs = problem(orientation=False)
+    clean = obs.subset(np.delete(np.arange(len(obs)), 5))
+    x_lsq = lsq(space, clean, 0.0, np.zeros(len(NAMES)))
+    out = robust.huber(space, clean, np.zeros(len(NAMES)), 0.0)
+    res = measurement.residuals(space, out.x, clean)
+    z = res / robust.robust_scales(res, len(clean))
+    assert np.abs(z).max() > 1.345  # some rows are in the linear part ...
+    # ... so Huber and least squares differ, but only a little on Gaussian noise.
+    assert ssr(space, x_lsq, clean, 0.0) < ssr(space, out.x, clean, 0.0)
+    assert ssr(space, out.x, clean, 0.0) < 1.05 * ssr(space, x_lsq, clean, 0.0)
+    assert out.outliers.tolist() == []
+
+
+def test_huber_stops_at_the_evaluation_cap_and_after_converging():
+    space, _, obs = problem(orientation=False)
+    capped = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1, max_evaluations=2)
+    assert capped.evaluations <= 2
+    full = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1)
+    assert full.evaluations > 2
+    # From its own converged answer the scale no longer changes: one short round.
+    settled = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=50)
+    again = robust.huber(space, obs, settled.x, 0.0, rounds=50)
+    assert again.evaluations < 0.5 * settled.evaluations
+    np.testing.assert_allclose(again.x, settled.x, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("orientation", [False, True])
+def test_trimmed_answer_is_least_squares_on_the_poses_it_keeps(orientation):
+    space, _, obs = problem(orientation=orientation)
+    k = K if orientation else 0.0
+    out = robust.trimmed(space, obs, np.zeros(len(NAMES)), k)
+    expected = [5, 11] if orientation else [5]
+    assert out.outliers.tolist() == expected
+    keep = np.setdiff1d(np.arange(len(obs)), expected)
+    x = lsq(space, obs.subset(keep), k, np.zeros(len(NAMES)))
+    kept = obs.subset(keep)
+    assert ssr(space, out.x, kept, k) == pytest.approx(ssr(space, x, kept, k), rel=1e-9)
+    np.testing.assert_allclose(out.x, x, rtol=0, atol=1e-5)
+    # The set it keeps is exactly what the chi-square test passes, with the
+    # scale of each block taken on the kept poses only.
+    n = len(obs)
+    res = measurement.residuals(space, out.x, obs, k).reshape(-1, n, 3)
+    kept_res = res[:, keep]
+    z = 0.0
+    for b in range(res.shape[0]):
+        s = 1.4826 * np.median(np.abs(kept_res[b]))
+        z = z + np.sum((res[b] / s) ** 2, axis=1)
+    limit = stats.chi2.ppf(0.999, 3 * res.shape[0])
+    assert np.flatnonzero(z > limit).tolist() == expected
+    assert out.evaluations > 2
+
+
+def test_trimmed_with_one_round_keeps_the_first_judgement():
+    space, _, obs = problem(orientation=False)
+    out = robust.trimmed(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1)
+    # One round: the fit is on every pose (dragged), then the poses are judged.
+    x_all = lsq(space, obs, 0.0, np.zeros(len(NAMES)))
+    assert out.evaluations == refine.refine(space, obs, np.zeros(len(NAMES))).evaluations
+    assert ssr(space, out.x, obs, 0.0) == pytest.approx(ssr(space, x_all, obs, 0.0), rel=1e-9)
+    assert 5 in out.outliers.tolist()
