@@ -91,6 +91,19 @@ def test_plots_show_each_case_and_the_sweeps(tmp_path, figures):
     "extra, names, pdf_runs",
     [
         ([], ["cloud.png", "orientation.png", "pdf_cdf.png"], ["base"]),
+        # A length sweep alone: the PDF/CDF figure shows the base case.
+        (
+            ["--sweep-length", "d3=900,1000"],
+            [
+                "cloud.png",
+                "cloud_d3-1000.png",
+                "cloud_d3-900.png",
+                "orientation.png",
+                "pdf_cdf.png",
+                "sweep_length.png",
+            ],
+            ["base"],
+        ),
         # One value per sweep: nothing to draw a curve through, but its cloud still comes.
         (
             ["--sweep-r0", "0.03", "--sweep-length", "a2=150"],
