@@ -120,3 +120,37 @@ def test_bad_run_options_are_refused_before_any_work(kwargs, message, monkeypatc
     with pytest.raises(CalibrationError) as info:
         engine.run(study(trials=10), **kwargs)
     assert str(info.value) == message
+
+
+@pytest.fixture
+def planned(monkeypatch):
+    """The chunks each run hands on, by path; the chunks themselves are not simulated."""
+    seen = {"local": [], "dask": []}
+
+    def local_chunk(study, grid, blocks):
+        seen["local"].append(list(blocks))
+        return mc.Summary()
+
+    def dask(study, grid, plan, workers, scheduler, progress):
+        seen["dask"].append((plan, workers, scheduler))
+        return mc.Summary()
+
+    monkeypatch.setattr(mc, "run_chunk", local_chunk)
+    monkeypatch.setattr(engine, "_run_dask", dask)
+    return seen
+
+
+def test_default_plan_gives_each_worker_about_four_chunks(planned):
+    s = study(trials=8 * mc.BLOCK)
+    engine.run(s)
+    assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
+    engine.run(s, workers=1)
+    engine.run(s, workers=2)
+    engine.run(s, scheduler="tcp://127.0.0.1:1")
+    engine.run(s, workers=2, chunk_trials=3 * mc.BLOCK)
+    assert planned["dask"] == [
+        ([[0, 1], [2, 3], [4, 5], [6, 7]], 1, None),
+        ([[k] for k in range(8)], 2, None),
+        ([[0, 1], [2, 3], [4, 5], [6, 7]], None, "tcp://127.0.0.1:1"),
+        ([[0, 1, 2], [3, 4, 5], [6, 7]], 2, None),
+    ]

@@ -81,6 +81,9 @@ def test_cloud_maps_are_the_2d_histograms_of_the_trials(figures):
             image.get_extent(), [grid.xyz_lo[a], grid.xyz_hi[a], grid.xyz_lo[b], grid.xyz_hi[b]]
         )
         marks = lines_by_label(ax)
+        # One point each: only a marker makes it visible.
+        assert marks["ideal point"].get_marker() not in ("None", "", None)
+        assert marks["density centre"].get_marker() not in ("None", "", None)
         np.testing.assert_array_equal(marks["ideal point"].get_xydata(), [[0.0, 0.0]])
         np.testing.assert_allclose(
             marks["density centre"].get_xydata(), [dp.mean(axis=0)[[a, b]]], rtol=1e-9
