@@ -130,7 +130,8 @@ def test_printed_rows_are_the_json_statistics(tmp_path):
     )  # fmt: skip
     assert out.code == 0, out.stderr
     doc = cases(json.loads((tmp_path / "s.json").read_text()))
-    rows = {line.split()[0]: line for line in out.stdout.splitlines() if line.split()[0] in doc}
+    rows = {line.split(" ")[0]: line for line in out.stdout.splitlines()}
+    rows = {case: line for case, line in rows.items() if case in doc}
     assert list(rows) == ["base", "R0=0.02"]
     for case, line in rows.items():
         p = doc[case]["position"]

@@ -133,6 +133,7 @@ def planned(monkeypatch):
 
     def dask(study, grid, plan, workers, scheduler, progress):
         seen["dask"].append((plan, workers, scheduler))
+        seen["progress"], seen["study"], seen["grid"] = progress, study, grid
         return mc.Summary()
 
     monkeypatch.setattr(mc, "run_chunk", local_chunk)
@@ -147,7 +148,9 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     engine.run(s, workers=1)
     engine.run(s, workers=2)
     engine.run(s, scheduler="tcp://127.0.0.1:1")
-    engine.run(s, workers=2, chunk_trials=3 * mc.BLOCK)
+    _, grid = engine.run(s, workers=2, chunk_trials=3 * mc.BLOCK, progress=print)
+    assert planned["progress"] is print
+    assert planned["study"] is s and planned["grid"] is grid
     assert planned["dask"] == [
         ([[0, 1], [2, 3], [4, 5], [6, 7]], 1, None),
         ([[k] for k in range(8)], 2, None),

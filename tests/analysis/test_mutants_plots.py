@@ -118,13 +118,13 @@ def test_pdf_and_cdf_are_those_of_the_trials_lengths(figures):
     pdf_lines, cdf_lines = lines_by_label(ax_pdf), lines_by_label(ax_cdf)
     for label, summary, grid, *_ in runs:
         x, cdf = cdf_lines[label].get_xydata().T
-        assert x.max() <= top * 1.02 and x.max() >= top * 0.98
+        assert top * 0.98 <= x.max() <= top * 1.02
         assert np.all(np.diff(x) > 0) and x[0] == pytest.approx(grid.r_max / mc.N_RADIAL_BINS)
         # The share of trials whose |dP| is below each plotted length.
         below = np.searchsorted(r[label], x, side="left") / len(r[label])
         np.testing.assert_allclose(cdf, below, atol=1.5 / len(r[label]))
         x, dens = pdf_lines[label].get_xydata().T
-        assert x.max() <= top and x.max() >= top * 0.98
+        assert top * 0.98 <= x.max() <= top * 1.02
         # A density: it integrates to the share of trials shown, its mean is the mean |dP|,
         # its mode is the statistics' PDF peak.
         width = x[1] - x[0]
