@@ -5,6 +5,7 @@ less than one bin, far below what the statistical tests can see; here every
 bin is 1 mm wide and the expected values are worked out in the comments.
 """
 
+import numpy as np
 import pytest
 
 from calibrator.analysis import misalignment as mc
@@ -32,3 +33,17 @@ EDGES = [0.0, 1.0, 2.0, 3.0, 4.0]
 )
 def test_quantile_interpolates_linearly_inside_the_bin(cdf, p, expected):
     assert mc._quantile(cdf, EDGES, p) == pytest.approx(expected, abs=1e-12)
+
+
+def test_bins_of_values_in_and_outside_the_range():
+    # Four 0.25-wide bins over [0, 1); the upper end itself is outside.
+    x = np.array([-0.1, 0.0, 0.26, 0.5, 0.999, 1.0, 1.5])
+    np.testing.assert_array_equal(mc._bin(x, 0.0, 1.0, 4), [-1, 0, 1, 2, 3, -1, -1])
+
+
+def test_each_block_draws_from_its_own_spawned_stream():
+    children = np.random.SeedSequence(42).spawn(3)
+    draws = [mc.block_rng(42, k).random(5) for k in range(3)]
+    for k, child in enumerate(children):
+        np.testing.assert_array_equal(draws[k], np.random.default_rng(child).random(5))
+    assert not np.array_equal(draws[0], draws[1])
