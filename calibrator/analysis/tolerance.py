@@ -101,7 +101,8 @@ class Tolerances:
             [
                 joint_rad if n in JOINT_NAMES else length_mm if is_length(n) else angle_rad
                 for n in NAMES
-            ]
+            ],
+            dtype=float,  # integer kind values must not truncate the overrides
         )
         for name, value in (overrides or {}).items():
             if name not in NAMES:

@@ -1,0 +1,159 @@
+"""The in-process engine: chunking never changes the result, which equals a direct computation.
+
+No Dask cluster here (worker processes per mutant would be far too slow);
+``test_dask.py`` compares the cluster paths with this in-process one.
+"""
+
+import numpy as np
+import pytest
+
+from calibrator.analysis import arm, engine
+from calibrator.analysis import misalignment as mc
+from calibrator.errors import CalibrationError
+
+TRIALS = 2 * mc.BLOCK + 7  # three blocks, the last one of 7 trials
+
+
+def study(trials=TRIALS, seed=11):
+    return mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, trials, seed)
+
+
+def direct(s):
+    """|dP| and the position errors of every trial, block after block, with numpy."""
+    dp = np.concatenate([mc.simulate_block(s, k)[0] for k in range(s.n_blocks)])
+    return dp, np.linalg.norm(dp, axis=1)
+
+
+def recorder():
+    """A progress callback and the list of its calls."""
+    seen = []
+    return seen, lambda done, total: seen.append((done, total))
+
+
+def test_every_chunking_gives_the_direct_result():
+    s = study()
+    dp, r = direct(s)
+    first = None
+    # chunk_trials -> chunks; the default: about four chunks per worker, here one block each.
+    for chunk_trials, n_chunks in ((None, 3), (1, 3), (mc.BLOCK + 1, 2), (10 * TRIALS, 1)):
+        seen, progress = recorder()
+        summary, grid = engine.run(s, chunk_trials=chunk_trials, progress=progress)
+        assert summary.count == TRIALS and sorted(summary.sums) == [0, 1, 2]
+        assert summary.max_r == r.max()
+        counts, _ = np.histogram(r, bins=mc.N_RADIAL_BINS, range=(0.0, grid.r_max))
+        assert np.abs(summary.hist_r - counts).sum() <= 2  # binning round-off at an edge, at most
+        totals = summary.totals()
+        np.testing.assert_allclose(totals[0:3], dp.sum(axis=0), rtol=1e-9, atol=1e-9)
+        assert totals[12] == pytest.approx(r.sum(), rel=1e-12)
+        # Progress after every chunk, counting whole blocks' trials, ending at the total.
+        done = [d for d, _ in seen]
+        assert len(seen) == n_chunks, chunk_trials
+        assert all(t == TRIALS for _, t in seen) and done[-1] == TRIALS
+        assert all(b > a for a, b in zip(done, done[1:], strict=False))
+        assert set(done[:-1]) <= {mc.BLOCK, 2 * mc.BLOCK}
+        # The statistics do not depend on the chunking, to the bit.
+        stats = mc.statistics(summary, grid)
+        first = first or stats
+        assert stats == first
+
+
+def test_without_progress_callback_the_result_is_the_same():
+    s = study(trials=mc.BLOCK + 3)
+    quiet, grid = engine.run(s, chunk_trials=1)
+    loud, _ = engine.run(s, chunk_trials=1, progress=lambda *a: None)
+    assert mc.statistics(quiet, grid) == mc.statistics(loud, grid)
+    assert quiet.count == mc.BLOCK + 3
+
+
+def test_grid_is_the_study_grid():
+    s = study(trials=500)
+    _, grid = engine.run(s)
+    expected = mc.make_grid(s)
+    assert grid.r_max == expected.r_max and grid.axis_hi == expected.axis_hi
+    np.testing.assert_array_equal(grid.xyz_lo, expected.xyz_lo)
+
+
+def test_chunks_are_consecutive_runs_of_whole_blocks():
+    assert engine.chunks(7, 3) == [[0, 1, 2], [3, 4, 5], [6]]
+    assert engine.chunks(6, 3) == [[0, 1, 2], [3, 4, 5]]
+    assert engine.chunks(2, 5) == [[0, 1]]
+    assert engine.chunks(3, 0) == [[0], [1], [2]]  # at least one block per chunk
+    assert engine.chunks(0, 4) == []
+
+
+@pytest.mark.parametrize("workers", [1, 2, 3, 8])
+def test_default_chunks_keep_the_workers_busy_but_stay_small(workers):
+    for n_blocks in range(1, 600):
+        b = engine.default_blocks_per_chunk(n_blocks, workers)
+        n_chunks = len(engine.chunks(n_blocks, b))
+        assert 1 <= b <= 50
+        if b < 50:
+            # No more than about four chunks per worker ...
+            assert n_chunks <= 4 * workers
+            # ... and each chunk as small as that allows.
+            if b > 1:
+                assert len(engine.chunks(n_blocks, b - 1)) > 4 * workers
+        else:
+            # The cap binds only for studies big enough to keep every worker busy anyway.
+            assert n_chunks >= 4 * workers
+    assert engine.default_blocks_per_chunk(10, 0) == engine.default_blocks_per_chunk(10, 1)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            {"workers": 2, "scheduler": "tcp://127.0.0.1:1"},
+            "give --workers or --scheduler, not both",
+        ),
+        ({"workers": 0}, "--workers must be >= 1, got 0"),
+        ({"chunk_trials": 0}, "--chunk must be >= 1 trial, got 0"),
+        ({"chunk_trials": -5}, "--chunk must be >= 1 trial, got -5"),
+    ],
+)
+def test_bad_run_options_are_refused_before_any_work(kwargs, message, monkeypatch):
+    def no_work(*args):
+        raise AssertionError("a chunk ran")
+
+    monkeypatch.setattr(mc, "run_chunk", no_work)
+    monkeypatch.setattr(mc, "make_grid", no_work)
+    with pytest.raises(CalibrationError) as info:
+        engine.run(study(trials=10), **kwargs)
+    assert str(info.value) == message
+
+
+@pytest.fixture
+def planned(monkeypatch):
+    """The chunks each run hands on, by path; the chunks themselves are not simulated."""
+    seen = {"local": [], "dask": []}
+
+    def local_chunk(study, grid, blocks):
+        seen["local"].append(list(blocks))
+        return mc.Summary()
+
+    def dask(study, grid, plan, workers, scheduler, progress):
+        seen["dask"].append((plan, workers, scheduler))
+        seen["progress"], seen["study"], seen["grid"] = progress, study, grid
+        return mc.Summary()
+
+    monkeypatch.setattr(mc, "run_chunk", local_chunk)
+    monkeypatch.setattr(engine, "_run_dask", dask)
+    return seen
+
+
+def test_default_plan_gives_each_worker_about_four_chunks(planned):
+    s = study(trials=8 * mc.BLOCK)
+    engine.run(s)
+    assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
+    engine.run(s, workers=1)
+    engine.run(s, workers=2)
+    engine.run(s, scheduler="tcp://127.0.0.1:1")
+    _, grid = engine.run(s, workers=2, chunk_trials=3 * mc.BLOCK, progress=print)
+    assert planned["progress"] is print
+    assert planned["study"] is s and planned["grid"] is grid
+    assert planned["dask"] == [
+        ([[0, 1], [2, 3], [4, 5], [6, 7]], 1, None),
+        ([[k] for k in range(8)], 2, None),
+        ([[0, 1], [2, 3], [4, 5], [6, 7]], None, "tcp://127.0.0.1:1"),
+        ([[0, 1, 2], [3, 4, 5], [6, 7]], 2, None),
+    ]
