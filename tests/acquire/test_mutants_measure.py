@@ -181,18 +181,27 @@ def test_progress_marks_a_failed_pose(tmp_path):
     assert "failed after 0 retries ([3])" in done.stdout
 
 
-def test_a_lost_tracker_stops_the_run_keeping_the_poses_then_resume_finishes(tmp_path):
-    # The pty of the simulator does not survive a hang-up: the tracker is gone at pose 8.
-    (tmp_path / "faults.txt").write_text("MEAS@25 hangup\n")
-    done = measure(*FAST, "--sim-faults", "faults.txt", cwd=tmp_path)
+def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
+    move = SimulatedRobot.move_joints
+    moves = []
+
+    def ctrl_c_during_pose_3(self, q, speed, accel):
+        if len(moves) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+        moves.append(q)
+        return move(self, q, speed, accel)
+
+    monkeypatch.setattr(SimulatedRobot, "move_joints", ctrl_c_during_pose_3)
+    done = measure(*FAST, cwd=tmp_path)
     assert done.code == 1
-    message = done.stderr.strip()
-    assert message.startswith("stopped: tracker unavailable at pose 8: ")
-    assert message.endswith(
-        "; 8 of 10 poses kept; rerun the same command with --resume to continue (s.parquet.journal)"
-    )
-    assert "pendant" not in message
-    assert sorted(session_rows(tmp_path / "s.parquet")) == list(range(8))
+    assert done.stderr.strip().splitlines() == [
+        "stopping after the current pose (Ctrl-C again to abort now)",
+        "stopped: interrupted before pose 4; 4 of 10 poses kept; rerun the same command with "
+        "--resume to continue (s.parquet.journal)",
+    ]
+    assert sorted(session_rows(tmp_path / "s.parquet")) == [0, 1, 2, 3]
+    assert len(moves) == 4  # the arm went no further than the pose it was measuring
+    monkeypatch.undo()
     again = measure(*FAST, "--resume", cwd=tmp_path)
     assert again.code == 0, again.stderr
     assert sorted(session_rows(tmp_path / "s.parquet")) == list(range(10))
