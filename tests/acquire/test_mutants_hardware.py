@@ -150,8 +150,12 @@ def test_an_uninitialised_tracker_is_refused_and_never_initialised():
     with SimulatorProcess(noise=False, initialised=False) as sim:
         port = hw.LaserTrackerPort(sim.url)
         try:
-            with pytest.raises(CalibrationError, match="is not initialised: initialise it first"):
+            with pytest.raises(CalibrationError) as exc:
                 port.connect()
+            assert str(exc.value) == (
+                f"tracker at {sim.url} is not initialised: initialise it first (INIT moves "
+                "the head), then run measure again"
+            )
             assert port.identity is None
         finally:
             port.close()
@@ -192,8 +196,12 @@ def test_a_ur_robot_is_guarded_by_the_models_limits_and_the_users_caps():
     np.testing.assert_array_equal(limits.joint_limits_rad, UR10E.joint_limits_rad)
     np.testing.assert_array_equal(limits.max_joint_speed_rad_s, UR10E.max_joint_speed_rad_s)
     assert rig.robot_id == "ur://10.0.0.5:ur10e" and rig.real_robot is True
-    with pytest.raises(CalibrationError, match="needs a host"):
+    with pytest.raises(CalibrationError) as exc:
         hw._ur_robot("ur:///", hw.Rig(model=UR10E), options, None)
+    assert str(exc.value) == "--robot ur:// needs a host, e.g. ur://192.168.1.10"
+    other = hw.Rig(model=UR10E)
+    hw._ur_robot("ur://Xarm.local", other, options, None)  # only slashes are trimmed
+    assert other.robot_id == "ur://Xarm.local:ur10e"
 
 
 def test_unknown_schemes_are_refused_before_anything_starts():
@@ -222,11 +230,16 @@ def test_an_uninitialised_emscon_tracker_is_refused():
     with EmsconSimulatorProcess(noise=False, initialised=False) as sim:
         port = hw.EmsconPort(sim.url)
         try:
-            with pytest.raises(CalibrationError, match="is not initialised: initialise it first"):
+            with pytest.raises(CalibrationError) as exc:
                 port.connect()
+            assert str(exc.value) == (
+                f"tracker at {sim.url} is not initialised: initialise it first (it moves "
+                "the head), then run measure again"
+            )
             assert port.identity is None
         finally:
             port.close()
+    assert hw.EmsconPort("emscon://h", timeout_s=0.25).driver.timeout_s == 0.25
 
 
 @pytest.mark.parametrize(

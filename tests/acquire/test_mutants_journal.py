@@ -44,6 +44,7 @@ def test_a_journal_reads_back_bit_for_bit_with_the_last_record_of_each_pose(tmp_
     path = tmp_path / "s.journal"
     third = 1.0 / 3.0
     with journals.Journal.create(path, HEADER) as journal:
+        assert journal.path == path
         journal.append({"pose": 2, "status": "failed", "reason": "x"})
         journal.append({"pose": 0, "status": "measured", "point_mm": [third, 1e-17, -2.5e300]})
         journal.append({"pose": 2, "status": "measured", "point_mm": [0.1, 0.2, 0.3]})
@@ -64,10 +65,12 @@ def test_a_journal_is_never_replaced_and_refuses_nan(tmp_path):
     journal.close()
     journal.close()  # twice is fine
     before = path.read_bytes()
-    with pytest.raises(
-        journals.JournalError, match="exists \\(an unfinished run\\): pass --resume"
-    ):
+    with pytest.raises(journals.JournalError) as exc:
         journals.Journal.create(path, HEADER)
+    assert str(exc.value) == (
+        f"{path} exists (an unfinished run): pass --resume to continue it, or remove it to "
+        "start over"
+    )
     assert path.read_bytes() == before
 
 
@@ -116,7 +119,7 @@ def test_resume_drops_a_line_cut_short_and_appends_after_the_last_whole_one(tmp_
     with open(path, "a") as fh:
         fh.write('{"pose": 1, "status": "meas')  # a crash in the middle of a write
     journal, done = journals.Journal.resume(path, {**HEADER, "poses": 99})  # not identity
-    assert sorted(done.records) == [0]
+    assert sorted(done.records) == [0] and journal.path == path
     with journal:
         journal.append({"pose": 1, "status": "measured"})
     assert sorted(journals.read(path).records) == [0, 1]
@@ -145,6 +148,11 @@ def test_a_measured_record_carries_the_average_joints_and_attempts():
         "attempts": 2,
     }
     assert type(record["pose"]) is int and json.dumps(record)  # JSON-ready
+
+
+def test_joints_are_recorded_as_floats_whatever_they_came_as():
+    record = rows.measured_record(0, [0, 1, 0, 0, 0, 0], averaged([[0, 0, 0]]), 1)
+    assert [type(v) for v in record["q_rad"]] == [float] * 6
 
 
 def test_a_record_keeps_the_probe_orientation_when_there_is_one():
@@ -191,7 +199,7 @@ def test_orientation_columns_only_when_every_pose_has_one():
 
 
 def test_no_measured_pose_makes_no_table():
-    with pytest.raises(ValueError, match="no measured poses"):
+    with pytest.raises(ValueError, match="^no measured poses$"):
         rows.to_table([rows.failed_record(0, "x", 1)])
 
 

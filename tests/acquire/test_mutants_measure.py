@@ -178,6 +178,7 @@ def test_progress_marks_a_failed_pose(tmp_path):
     assert done.code == 0, done.stderr
     spreads = [re.search(r"spread_um=(\S+)", x).group(1) for x in progress_lines(done.stderr)]
     assert spreads[3] == "FAILED" and spreads.count("FAILED") == 1
+    assert " pose=3 spread_um=FAILED" in progress_lines(done.stderr)[3]
     assert "failed after 0 retries ([3])" in done.stdout
 
 
