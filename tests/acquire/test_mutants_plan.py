@@ -43,6 +43,15 @@ def test_a_singular_design_scores_minus_infinity():
     assert plans.min_singular(blocks) == pytest.approx(0.0, abs=1e-12)
 
 
+def test_a_design_singular_up_to_rounding_scores_minus_infinity_too():
+    # Parameter 3 moves the point exactly as 0.1 p0 + 0.3 p1 would: J^T J is singular, and
+    # its rounded determinant comes out tiny and negative (slogdet's sign -1).
+    j = np.random.default_rng(0).normal(size=(18, 3))
+    blocks = np.column_stack([j, j[:, 0] * 0.1 + j[:, 1] * 0.3]).reshape(6, 3, 4)
+    assert np.linalg.slogdet(blocks.reshape(-1, 4).T @ blocks.reshape(-1, 4))[0] == -1
+    assert plans.log_det(blocks) == -np.inf
+
+
 def test_observability_names_the_free_parameters_and_scales_angles():
     rng = np.random.default_rng(1)
     q = rng.uniform(-np.pi, np.pi, (20, 6))
