@@ -146,14 +146,22 @@ def test_a_line_protocol_tracker_by_device_path_or_socket_url(endpoint):
         np.testing.assert_allclose(rig.tracker.measure().point_mm, [1000.0, -20.5, 300.25])
 
 
-def test_an_uninitialised_tracker_is_refused_and_never_initialised():
-    with SimulatorProcess(noise=False, initialised=False) as sim:
-        port = hw.LaserTrackerPort(sim.url)
+@pytest.mark.parametrize(
+    ("simulator", "port_class", "init"),
+    [
+        (SimulatorProcess, hw.LaserTrackerPort, "INIT"),
+        (EmsconSimulatorProcess, hw.EmsconPort, "it"),
+    ],
+    ids=["line", "emscon"],
+)
+def test_an_uninitialised_tracker_is_refused_and_never_initialised(simulator, port_class, init):
+    with simulator(noise=False, initialised=False) as sim:
+        port = port_class(sim.url)
         try:
             with pytest.raises(CalibrationError) as exc:
                 port.connect()
             assert str(exc.value) == (
-                f"tracker at {sim.url} is not initialised: initialise it first (INIT moves "
+                f"tracker at {sim.url} is not initialised: initialise it first ({init} moves "
                 "the head), then run measure again"
             )
             assert port.identity is None
@@ -226,19 +234,7 @@ def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_moves
         np.testing.assert_allclose(rig.tracker.measure().meteo, (21.5, 1000.0, 40.0))
 
 
-def test_an_uninitialised_emscon_tracker_is_refused():
-    with EmsconSimulatorProcess(noise=False, initialised=False) as sim:
-        port = hw.EmsconPort(sim.url)
-        try:
-            with pytest.raises(CalibrationError) as exc:
-                port.connect()
-            assert str(exc.value) == (
-                f"tracker at {sim.url} is not initialised: initialise it first (it moves "
-                "the head), then run measure again"
-            )
-            assert port.identity is None
-        finally:
-            port.close()
+def test_emscon_adapter_options_reach_the_adapter():
     assert hw.EmsconPort("emscon://h", timeout_s=0.25).driver.timeout_s == 0.25
 
 
