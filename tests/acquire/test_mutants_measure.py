@@ -13,6 +13,7 @@ import os
 import re
 import signal
 import sys
+from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -27,6 +28,7 @@ from calibrator.cli import measure as measure_cli
 from calibrator.cli._hardware import SIM_TRACKER_AT_MM, SimCell
 from calibrator.models import get_model
 from drivers.robot.simulated import SimulatedRobot
+from drivers.tracker import read_log
 
 UR10E = get_model("ur10e")
 FAST = ("--poses", "10", "--readings", "3", "--no-sim-noise", "-q", "-o", "s.parquet")
@@ -345,3 +347,18 @@ def test_first_ctrl_c_asks_for_a_stop_the_second_interrupts(capsys):
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is previous
+
+
+def test_a_replayed_exchange_gives_the_recorded_session_and_is_recorded_again(tmp_path):
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures" / "measure"
+    done = measure(
+        "--poses", "9", "--readings", "5", "--no-sim-noise", "-q", "-o", "s.parquet",
+        "--sim-replay", fixtures / "exchange.jsonl", "--sim-record", "again.jsonl",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    replayed, recorded = table(tmp_path / "s.parquet"), table(fixtures / "session.parquet")
+    for column in ("pose", "q1_rad", "q6_rad", "x_mm", "y_mm", "z_mm", "sx_mm", "n_readings"):
+        assert replayed[column] == recorded[column], column
+    sent = [e.data for e in read_log(tmp_path / "again.jsonl") if e.direction == "tx"]
+    assert sent == [e.data for e in read_log(fixtures / "exchange.jsonl") if e.direction == "tx"]
