@@ -99,6 +99,7 @@ def measure(
     from calibrator import plan as plans
     from calibrator.acquire import journal as journals
     from calibrator.acquire import loop, rows
+    from calibrator.acquire.ports import PortError
     from calibrator.cli import _hardware
 
     output = Path(output)
@@ -132,7 +133,10 @@ def measure(
     )
     with contextlib.ExitStack() as stack:
         tool_mm = _triple(tool, "--tool")
-        rig = _hardware.build(robot, tracker, options, stack)
+        try:
+            rig = _hardware.build(robot, tracker, options, stack)
+        except PortError as exc:  # a tracker that cannot be reached at the start: one line
+            _fail(str(exc))
         rig.flange2tool_guess[:3, 3] = tool_mm
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         # ---- the plan, checked whole before anything moves
