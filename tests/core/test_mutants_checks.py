@@ -13,6 +13,7 @@ from cli_testkit import cli, one_line_error
 from typer._click import exceptions as click_errors
 
 from calibrator.cli import _checks as checks
+from calibrator.errors import CalibrationError
 
 
 def refusal(check, value):
@@ -191,3 +192,61 @@ def test_input_of_reads_the_typed_value_or_nothing():
 )
 def test_command_line_errors_are_exact_single_lines(tmp_path, args, line):
     assert one_line_error(cli(*args, cwd=tmp_path)) == f"calibrator: error: {line}"
+
+
+# --- calibrator.cli.main: every way a command ends -------------------------------
+
+
+def _failing_load(monkeypatch, exc):
+    from calibrator import calibration
+
+    def load(path):
+        raise exc
+
+    monkeypatch.setattr(calibration, "load", load)
+
+
+@pytest.mark.parametrize(
+    ("exc", "code", "line"),
+    [
+        (typer.Abort(), 130, "interrupted"),
+        (OSError(13, "Permission denied", "c.json"), 2, "Permission denied: c.json"),
+        (OSError(5, "Input/output error"), 2, "Input/output error"),
+        (OSError("no code"), 2, "no code"),
+        (CalibrationError("c.json: bad\nsecond\r\nthird"), 2, "c.json: bad second  third"),
+        (click_errors.ClickException("broken pipe"), 1, "broken pipe"),
+    ],
+)
+def test_every_failure_is_one_line_with_its_exit_code(tmp_path, monkeypatch, exc, code, line):
+    _failing_load(monkeypatch, exc)
+    done = cli("report", "c.json", "-o", "rep", cwd=tmp_path)
+    assert (done.code, done.stdout, done.stderr) == (code, "", f"calibrator: error: {line}\n")
+
+
+def test_no_arguments_prints_help_and_succeeds(tmp_path):
+    done = cli(cwd=tmp_path)
+    assert (done.code, done.stderr) == (0, "")
+    assert done.stdout.startswith("Usage: calibrator [OPTIONS] COMMAND [ARGS]...")
+    assert "Calibrate 6-axis robot arms with a laser tracker in the loop." in done.stdout
+    for command in ("plan", "measure", "identify", "report", "simulate"):
+        assert f"  {command} " in done.stdout
+
+
+def test_version_installed_or_not(tmp_path, monkeypatch):
+    from importlib import metadata
+
+    done = cli("--version", cwd=tmp_path)
+    assert (done.code, done.stdout) == (0, f"calibrator {metadata.version('calibrator')}\n")
+
+    def not_installed(name):
+        raise metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(metadata, "version", not_installed)
+    done = cli("--version", "report", cwd=tmp_path)  # eager: the rest is not run
+    assert (done.code, done.stdout) == (0, "calibrator (version unknown: not installed)\n")
+
+
+def test_a_command_ending_with_its_own_exit_code_keeps_it(tmp_path, monkeypatch):
+    _failing_load(monkeypatch, typer.Exit(3))  # as compensate does for unreachable targets
+    done = cli("report", "c.json", "-o", "rep", cwd=tmp_path)
+    assert (done.code, done.stdout, done.stderr) == (3, "", "")

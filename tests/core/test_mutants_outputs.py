@@ -192,6 +192,18 @@ def test_a_writer_error_leaves_nothing_and_names_the_file(tmp_path):
     assert listing(tmp_path) == {}
 
 
+def test_a_writer_error_inside_a_batch_block_is_the_error_raised(tmp_path):
+    def full_disk(tmp):
+        raise OSError(28, "No space left on device")
+
+    # The failing file discards the batch, then leaving the block discards it again.
+    with pytest.raises(outputs.OutputError, match="^cannot write .*b.txt: No space left"):
+        with outputs.Outputs() as out:
+            out.text(out.folder(tmp_path / "rep") / "a.txt", "A")
+            out.file(tmp_path / "rep" / "b.txt", full_disk)
+    assert listing(tmp_path) == {}
+
+
 def test_any_other_writer_error_passes_through_and_leaves_nothing(tmp_path):
     def broken(tmp):
         Path(tmp).write_text("half")

@@ -1,6 +1,7 @@
 """Progress lines, exactly: a clock the test moves, every line and field checked."""
 
 import io
+import re
 import sys
 from types import SimpleNamespace
 
@@ -17,6 +18,13 @@ class Clock:
 
     def monotonic(self):
         return self.now
+
+
+# One frame of the bar: name, bar, count, unit, elapsed time, ETA, extra fields.
+FRAME = re.compile(
+    r"^swarm [━╸╺]+ +(?P<count>\d+)/10 generations \d:\d\d:\d\d "
+    r"ETA (-:--:--|\d:\d\d:\d\d) ?(?P<info>.*)$"
+)
 
 
 class Terminal(io.StringIO):
@@ -130,6 +138,9 @@ def test_reporter_defaults_and_bad_mode(capsys):
     assert progress.Reporter.for_cli(stream=no_tty).mode == "plain"
     assert progress.Reporter.for_cli(stream=Terminal()).mode == "rich"
     assert progress.Reporter.for_cli(quiet=True).mode == "off"
+    for quiet in (True, False):
+        stream = io.StringIO()
+        assert progress.Reporter.for_cli(quiet, stream).stream is stream
 
 
 def test_rich_bar_is_fed_at_most_twenty_times_a_second_and_shows_the_last_count(clock):
@@ -150,9 +161,14 @@ def test_rich_bar_is_fed_at_most_twenty_times_a_second_and_shows_the_last_count(
         assert bar.completed == 4
     assert bar.completed == 6 and bar.fields["info"] == "best 1.25  phase fit"
     assert not task._bar.live.is_started
+    # What the terminal showed, frame by frame (colours removed), then erased.
     text = stream.getvalue()
-    for shown in ("swarm", "6/10", "generations", "ETA", "best 1.25  phase fit"):
-        assert shown in text
+    assert text.endswith("\x1b[1A\x1b[2K")  # the bar leaves no trace when done
+    frames = [re.sub(r"\x1b\[[0-9;?]*[a-zA-Z]", "", f) for f in text.split("\r\x1b[2K")[1:]]
+    shown = [FRAME.match(f.strip()) for f in frames]
+    assert all(shown), frames
+    assert shown[0].group("count", "info") == ("0", "")
+    assert shown[-1].group("count", "info") == ("6", "best 1.25  phase fit")
 
 
 def test_a_failed_rich_task_stops_its_bar(clock):
@@ -161,3 +177,34 @@ def test_a_failed_rich_task_stops_its_bar(clock):
         with progress.Reporter("rich", stream).task("swarm", 10) as task:
             raise RuntimeError
     assert not task._bar.live.is_started
+
+
+def test_a_task_never_updated_closes_with_nothing_done(clock):
+    stream = io.StringIO()
+    with progress.Reporter("plain", stream).task("plan", 2) as task:
+        assert (task.done, task.fields) == (0, {})
+    assert stream.getvalue() == (
+        "progress task=plan done=0 total=2 unit=steps elapsed_s=0.00 stopped=1\n"
+    )
+
+
+class Pipe(io.StringIO):
+    """A stream that counts flushes: a line piped to another program must go out at once."""
+
+    flushes = 0
+
+    def flush(self):
+        self.flushes += 1
+        super().flush()
+
+
+def test_each_line_is_flushed_and_the_first_unit_already_has_an_eta(clock):
+    stream = Pipe()
+    with progress.Reporter("plain", stream, interval_s=0).task("swarm", 4) as task:
+        clock.now = 101.0
+        task.update(1)
+        assert stream.getvalue().splitlines() == [
+            "progress task=swarm done=1 total=4 unit=steps elapsed_s=1.00 eta_s=3.00"
+        ]
+        assert stream.flushes == 1
+    assert stream.flushes == 2
