@@ -346,3 +346,25 @@ def test_reason_is_the_system_message_or_the_first_line():
     assert outputs._reason(OSError("  first line\nsecond  ")) == "first line"
     assert outputs._reason(OSError("")) == "OSError"
     assert outputs._reason(PermissionError()) == "PermissionError"
+
+
+def test_a_batch_refuses_a_folder_that_is_one_of_its_inputs(tmp_path):
+    (tmp_path / "frames").mkdir()
+    out = outputs.Outputs(inputs=[tmp_path / "frames"])
+    assert refused(out.folder, tmp_path / "frames") == (
+        f"refusing to write into {tmp_path}/frames: it is an input of this command"
+    )
+
+
+def test_a_temporary_file_gone_before_the_rename_puts_everything_back(tmp_path):
+    (tmp_path / "a.txt").write_text("A-old")
+    (tmp_path / "b.txt").write_text("B-old")
+    before = listing(tmp_path)
+    batch = outputs.Outputs()
+    batch.text(tmp_path / "a.txt", "A-new")
+    batch.text(tmp_path / "b.txt", "B-new")
+    (temporary,) = tmp_path.glob(".b.txt.*.tmp")
+    temporary.unlink()  # removed by someone else: the second rename fails
+    with pytest.raises(outputs.OutputError, match="^cannot write .*b.txt: No such file"):
+        batch.commit()
+    assert listing(tmp_path) == before  # both old files, no second name left behind

@@ -253,13 +253,17 @@ def test_dropped_parameters_with_their_reasons_or_none():
     dropped = [
         {"name": "d1", "reason": "same effect as <base_z>"},
         {"name": "tool_z", "reason": "no effect"},
+        {"name": "<link 7>", "reason": "from an older & other model"},
     ]
-    parsed = Parsed(page.html(content(dropped=dropped), {}))
+    text = page.html(content(dropped=dropped), {})
+    assert "<link 7>" not in text and "older & other" not in text  # escaped
+    parsed = Parsed(text)
     assert parsed.sections["dropped"]["h2"] == "Parameters not identified"
     assert parsed.rows("dropped") == [
         ["parameter", "reason"],
         ["d1", "same effect as <base_z>"],
         ["tool_z", "no effect"],
+        ["<link 7>", "from an older & other model"],
     ]
     assert parsed.paras("dropped") == []
     none = Parsed(page.html(content(), {}))
