@@ -10,14 +10,20 @@ from calibrator.report import data, page
 
 
 class Parsed(HTMLParser):
-    """Per section: heading, table rows (cell texts), paragraphs (class, text), images."""
+    """Per section: heading, table rows (cell texts), paragraphs (class, text), images.
+
+    Text outside any of those (stray characters between elements) fails the parse.
+    """
 
     def __init__(self, text):
         super().__init__(convert_charrefs=True)
         self.head = {"title": "", "h1": "", "lang": None, "charset": None}
-        self.sections, self.order = {}, []
+        self.sections, self.order, stray = {}, [], []
         self._section = self._cell = self._para = self._in = None
+        self._stray = stray
         self.feed(text)
+        self.close()
+        assert stray == [], stray
 
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
@@ -25,7 +31,7 @@ class Parsed(HTMLParser):
             self.head["lang"] = attrs.get("lang")
         elif tag == "meta":
             self.head["charset"] = attrs.get("charset")
-        elif tag in ("title", "h1", "h2"):
+        elif tag in ("title", "h1", "h2", "style"):
             self._in = tag
         elif tag == "section":
             self._section = {"h2": "", "rows": [], "paras": [], "images": [], "spans": []}
@@ -44,7 +50,7 @@ class Parsed(HTMLParser):
             self._section["images"].append((attrs["src"], attrs["alt"]))
 
     def handle_endtag(self, tag):
-        if tag in ("title", "h1", "h2"):
+        if tag in ("title", "h1", "h2", "style"):
             self._in = None
         elif tag in ("td", "th"):
             self._cell = None
@@ -60,6 +66,8 @@ class Parsed(HTMLParser):
             self._cell[0] += text
         elif self._para is not None:
             self._para[1] += text
+        elif self._in != "style" and text.strip():
+            self._stray.append(text)
 
     def rows(self, section):
         return [[c[0] for c in row] for row in self.sections[section]["rows"]]
@@ -124,7 +132,16 @@ def test_head_summary_and_warnings_are_escaped_text():
         "deltas",
         "dropped",
     ]
-    assert parsed.sections["summary"]["h2"] == "Summary"
+    assert {k: parsed.sections[k]["h2"] for k in parsed.order} == {
+        "summary": "Summary",
+        "accuracy": "Accuracy",
+        "pose_errors": "Error per pose",
+        "error_cdf": "Error distribution",
+        "error_vs_distance": "Error against distance",
+        "convergence": "Swarm convergence",
+        "deltas": "Identified parameters",
+        "dropped": "Parameters not identified",
+    }
     assert parsed.rows("summary") == [
         ["calibration", "cal <1>.json"],
         ["seed", "7"],
