@@ -212,6 +212,7 @@ def _failing_load(monkeypatch, exc):
         (typer.Abort(), 130, "interrupted"),
         (OSError(13, "Permission denied", "c.json"), 2, "Permission denied: c.json"),
         (OSError(5, "Input/output error"), 2, "Input/output error"),
+        (OSError(5, "Input/output error", "MATRIX"), 2, "Input/output error: MATRIX"),
         (OSError("no code"), 2, "no code"),
         (CalibrationError("c.json: bad\nsecond\r\nthird"), 2, "c.json: bad second  third"),
         (click_errors.ClickException("broken pipe"), 1, "broken pipe"),

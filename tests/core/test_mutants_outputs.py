@@ -24,8 +24,8 @@ def no_write_permission(monkeypatch):
     real = os.access
 
     def access(path, mode, **kwargs):
-        if Path(path) in denied:
-            return False
+        if Path(path) in denied and mode & os.W_OK:
+            return False  # readable and searchable, not writable
         return real(path, mode, **kwargs)
 
     monkeypatch.setattr(os, "access", access)
@@ -368,3 +368,14 @@ def test_a_temporary_file_gone_before_the_rename_puts_everything_back(tmp_path):
     with pytest.raises(outputs.OutputError, match="^cannot write .*b.txt: No such file"):
         batch.commit()
     assert listing(tmp_path) == before  # both old files, no second name left behind
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o077])
+def test_written_files_get_the_permissions_of_any_new_file(tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        outputs.write_text(tmp_path / "x.txt", "x")
+        assert os.umask(old) == umask  # the process umask is left as it was
+    finally:
+        os.umask(old)
+    assert (tmp_path / "x.txt").stat().st_mode & 0o777 == 0o666 & ~umask

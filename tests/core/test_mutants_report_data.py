@@ -117,6 +117,7 @@ def test_standard_errors_and_convergence_from_their_other_places():
             "cal.json: malformed for the report "
             "('convergence' is neither costs nor [generation, cost] pairs)",
         ),
+        ({"convergence": [[0, "x"]]}, "cal.json: malformed for the report ("),
         ({"deltas": {"a1": None}}, "cal.json: malformed for the report ("),
         ({"deltas": {"a1": "x"}}, "cal.json: malformed for the report ("),
         ({"warnings": 5}, "cal.json: malformed for the report ("),

@@ -80,30 +80,34 @@ def legend(ax):
     return [t.get_text() for t in ax.get_legend().get_texts()]
 
 
-def test_draw_makes_each_plot_the_content_allows_in_page_order(rendered):
+def test_draw_makes_each_plot_the_content_allows_in_page_order(figures):
     full = content(
         poses=poses(),
         convergence=np.array([[0, 9.0], [1, 4.0]]),
         deltas={"a1": 0.1},
     )
-    images = plots.draw(full)
-    assert list(images) == [
+    assert list(plots.draw(full)) == [
         "pose_errors.png",
         "error_cdf.png",
         "error_vs_distance.png",
         "convergence.png",
         "deltas.png",
     ]
-    assert len(rendered) == 5
-    for name, png in images.items():
-        height = 100 * (0.5 + 0.2 * 1) if name == "deltas.png" else 400
-        assert png_size(png) == (700, height)
-        assert b"Software" not in png  # no matplotlib version stamp: same bytes every run
-    assert plots.draw(full) == images
+    assert len(figures) == 5
     assert plots.draw(content()) == {}
     assert list(plots.draw(content(deltas={"a1": 0.1}))) == ["deltas.png"]
     only_curve = content(convergence=np.array([[0, 1.0]]))
     assert list(plots.draw(only_curve)) == ["convergence.png"]
+
+
+def test_images_are_pngs_of_the_figure_size_and_the_same_every_time(rendered):
+    two = content(convergence=np.array([[0, 9.0], [1, 4.0]]), deltas={"a1": 0.1, "d2": 0.2})
+    images = plots.draw(two)
+    assert png_size(images["convergence.png"]) == (700, 400)  # 7 x 4 in at 100 dpi
+    assert png_size(images["deltas.png"]) == (700, 100 * (0.5 + 0.2 * 2))
+    for png in images.values():
+        assert b"Software" not in png  # no matplotlib version stamp: same bytes every run
+    assert plots.draw(two) == images
 
 
 def test_error_per_pose_plots_each_set_before_and_after(figures):
