@@ -5,6 +5,7 @@ from html.parser import HTMLParser
 
 import numpy as np
 import pytest
+import report_kit
 
 from calibrator.report import data, page
 
@@ -83,19 +84,14 @@ def stat(n, mean, std, peak, orientation=None):
     return entry
 
 
-def content(**kwargs):
-    fields = dict(
-        title="Calibration of <UR10e> & co",
-        facts=[("calibration", "cal <1>.json"), ("seed", 7), ("k", 2e4)],
-        stats={},
-        deltas={},
-        standard_errors=None,
-        dropped=[],
-        convergence=None,
-        poses=None,
+def content(**fields):
+    return report_kit.content(
+        **{
+            "title": "Calibration of <UR10e> & co",
+            "facts": [("calibration", "cal <1>.json"), ("seed", 7), ("k", 2e4)],
+            **fields,
+        }
     )
-    fields.update(kwargs)
-    return data.Content(**fields)
 
 
 IMAGES = {

@@ -8,6 +8,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.container import BarContainer
 from matplotlib.figure import Figure
 from matplotlib.markers import MarkerStyle
+from report_kit import content
 
 from calibrator.report import data, plots
 
@@ -49,21 +50,6 @@ def poses(origin="tracker", held=(False, True, False, False, True), scale=1.0):
         distance_mm=np.array([2500.0, 2600.0, 2700.0, 2800.0, 2900.0]),
         origin=origin,
     )
-
-
-def content(**kwargs):
-    fields = dict(
-        title="t",
-        facts=[],
-        stats={},
-        deltas={},
-        standard_errors=None,
-        dropped=[],
-        convergence=None,
-        poses=None,
-    )
-    fields.update(kwargs)
-    return data.Content(**fields)
 
 
 def png_size(png):
