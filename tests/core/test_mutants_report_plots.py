@@ -90,10 +90,22 @@ def test_images_are_pngs_of_the_figure_size_and_the_same_every_time(rendered):
     two = content(convergence=np.array([[0, 9.0], [1, 4.0]]), deltas={"a1": 0.1, "d2": 0.2})
     images = plots.draw(two)
     assert png_size(images["convergence.png"]) == (700, 400)  # 7 x 4 in at 100 dpi
-    assert png_size(images["deltas.png"]) == (700, 100 * (0.5 + 0.2 * 2))
+    assert png_size(images["deltas.png"]) == (700, 100 * (1.0 + 0.2 * 2))
     for png in images.values():
         assert b"Software" not in png  # no matplotlib version stamp: same bytes every run
     assert plots.draw(two) == images
+
+
+@pytest.mark.parametrize("n", [1, 2, 30])
+def test_nothing_drawn_falls_outside_the_image(rendered, n):
+    deltas = {f"theta{i + 1}": 0.001 * (i + 1) for i in range(n - 1)} | {"a2": 0.3}
+    full = content(poses=poses(), convergence=np.array([[0, 9.0], [1, 4.0]]), deltas=deltas)
+    plots.draw(full)
+    for fig in rendered:
+        drawn = fig.get_tightbbox(fig.canvas.get_renderer())  # inches, labels included
+        width, height = fig.get_size_inches()
+        assert 0 <= drawn.x0 and drawn.x1 <= width, (fig.get_suptitle(), drawn)
+        assert 0 <= drawn.y0 and drawn.y1 <= height, (fig.get_suptitle(), drawn)
 
 
 def test_error_per_pose_plots_each_set_before_and_after(figures):
@@ -231,7 +243,7 @@ def test_deltas_are_bars_in_mm_and_mrad_with_their_standard_errors(figures):
     errors = {"a1": 0.05, "theta2": 0.0004, "tool_rx": 0.0002}  # none for d3
     plots.draw(content(deltas=deltas, standard_errors=errors))
     (fig,) = figures
-    assert tuple(fig.get_size_inches()) == pytest.approx((7, 0.5 + 0.2 * 4))
+    assert tuple(fig.get_size_inches()) == pytest.approx((7, 1.0 + 0.2 * 4))
     assert fig.get_suptitle() == "Identified deltas with standard errors"
     lengths, angles = fig.axes
     for ax, names, scale, unit in (
@@ -266,4 +278,4 @@ def test_deltas_without_standard_errors_or_of_one_kind(figures):
     np.testing.assert_allclose(widths, [1.0, -3.0])
     assert ax.get_xlabel() == "delta (mrad)"
     assert bars.errorbar is None
-    assert tuple(fig.get_size_inches()) == pytest.approx((7, 0.9))
+    assert tuple(fig.get_size_inches()) == pytest.approx((7, 1.4))
