@@ -228,9 +228,10 @@ def test_convergence_curve_is_plotted_as_recorded(figures):
         "best cost (mm^2)",
         "Swarm convergence",
     )
-    figures.clear()
-    plots.draw(content(convergence=np.array([[0.0, 100.0], [1.0, 1.0]])))
-    assert figures[0].axes[0].get_yscale() == "linear"
+    for top, scale in ((100.0, "linear"), (100.5, "log")):  # log only past a factor 100
+        figures.clear()
+        plots.draw(content(convergence=np.array([[0.0, top], [1.0, 1.0]])))
+        assert figures[0].axes[0].get_yscale() == scale
 
 
 def _bars(ax):
