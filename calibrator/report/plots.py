@@ -29,7 +29,7 @@ def draw(content):
             _deltas,
             content.deltas,
             content.standard_errors,
-            size=(7, 0.5 + 0.2 * len(content.deltas)),
+            size=(7, 1.0 + 0.2 * len(content.deltas)),
         )
     return out
 
@@ -128,6 +128,10 @@ def _deltas(fig, deltas, errors):
     lengths = [n for n in names if unit_of(n) == "mm"]
     angles = [n for n in names if unit_of(n) == "rad"]
     groups = [(g, s, u) for g, s, u in ((lengths, 1.0, "mm"), (angles, 1e3, "mrad")) if g]
+    # Margins in inches, not shares of the height: a short figure (few
+    # parameters) must still hold the tick labels, the axis label and the title.
+    height = fig.get_figheight()
+    fig.subplots_adjust(bottom=0.55 / height, top=1 - 0.35 / height)
     axes = fig.subplots(1, len(groups), squeeze=False)[0]
     for ax, (group, scale, unit) in zip(axes, groups, strict=True):
         values = np.array([deltas[n] for n in group]) * scale
