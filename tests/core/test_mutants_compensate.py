@@ -36,6 +36,13 @@ def calibrated(seed=5, model="ur10e", tool_xy=(0.0, 0.0)):
     )
 
 
+def tool_on_axis_6(cal):
+    """The same arm with the flange on axis 6 (a6 = alpha6 = 0): the tool point
+    (on the flange's z axis) then stays put when joint 6 turns."""
+    cal.mdh[5, [kinematics.A, kinematics.ALPHA]] = 0.0
+    return cal
+
+
 def work_cell(n, seed=2):
     """Joint targets in front of the robot, away from its singularities (rad)."""
     rng = np.random.default_rng(seed)
@@ -96,7 +103,7 @@ def test_without_a_tool_the_flange_reaches_the_target():
 
 def test_a_turn_about_the_tool_axis_alone_is_still_solved():
     """Tool point on axis 6: a start off only in q6 has no position error."""
-    cal = calibrated(seed=8)
+    cal = tool_on_axis_6(calibrated(seed=8))
     q_true = work_cell(6, seed=9)
     targets = kinematics.chain(cal.mdh, q_true) @ cal.flange2tool
     start = q_true.copy()
@@ -107,6 +114,30 @@ def test_a_turn_about_the_tool_axis_alone_is_still_solved():
     assert angle_between(reached[:, :3, :3], targets[:, :3, :3]).max() < 2e-8
     np.testing.assert_allclose(sol.q, q_true, atol=1e-8)
     assert (sol.error_rad < compensate.TOL_RAD).all()
+
+
+def test_without_iterations_the_errors_are_those_of_the_start(monkeypatch):
+    """Tool point on axis 6, start off in q6 only: no position error, all rotation."""
+    cal = tool_on_axis_6(calibrated(seed=26))
+    q_true = work_cell(3, seed=27)
+    targets = kinematics.chain(cal.mdh, q_true) @ cal.flange2tool
+    start = q_true.copy()
+    start[:, 5] += [0.1, -0.2, 0.3]
+    monkeypatch.setattr(compensate, "MAX_ITER", 0)
+    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    assert not sol.converged.any() and sol.iterations.tolist() == [0, 0, 0]
+    np.testing.assert_array_equal(sol.q, start)
+    assert sol.error_mm.max() < 1e-9
+    np.testing.assert_allclose(sol.error_rad, [0.1, 0.2, 0.3], rtol=1e-9)
+
+
+def test_newton_steps_converge_in_a_few_iterations():
+    """From 0.1 rad off, damped Newton steps on the true Jacobian need a handful."""
+    cal = calibrated(seed=13)
+    targets, start = mixed_targets(cal)
+    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    assert sol.converged.tolist() == [True, True, False, True, True]
+    assert sol.iterations[sol.converged].max() <= 6
 
 
 def test_a_target_already_reached_takes_no_iteration():
@@ -283,52 +314,66 @@ def test_compensate_command_writes_every_target(tmp_path):
     assert (out["iterations"] >= 1).all() and (out["error_mm"] < compensate.TOL_MM).all()
 
 
-def test_compensate_command_reports_failures_on_stderr_with_exit_1(tmp_path):
+@pytest.mark.parametrize("n_out", [10, 11])
+def test_compensate_command_reports_failures_on_stderr_with_exit_1(tmp_path, n_out):
     cal = calibrated(seed=19)
     cal.save(tmp_path / "cal.json")
-    q = work_cell(14, seed=20)
+    q = work_cell(n_out + 2, seed=20)
     pose = kinematics.chain(cal.nominal_mdh, q) @ cal.flange2tool
-    pose[:12, 0, 3] += 5000.0  # twelve out of reach
+    pose[:n_out, 0, 3] += 5000.0  # out of reach
     targets_csv(tmp_path / "t.csv", q, pose)
     done = cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     assert done.code == 1 and done.stdout == ""
     lines = done.stderr.splitlines()
-    assert lines[0] == "2 of 14 targets compensated; wrote out.csv"
-    assert len(lines) == 12  # the summary, ten targets, and how many more
+    assert lines[0] == f"2 of {n_out + 2} targets compensated; wrote out.csv"
+    # The summary, at most ten targets, then how many more.
+    more = ["... and 1 more (see the status column)"] if n_out == 11 else []
+    assert len(lines) == 11 + len(more) and lines[11:] == more
     for i, line in enumerate(lines[1:11]):
         assert line.startswith(f"target {i + 1}: not reached (")
         assert line.endswith(" iterations)")
         count = int(line.rsplit(" after ", 1)[1].split()[0])
         assert 1 <= count <= compensate.MAX_ITER
-    assert lines[11] == "... and 2 more (see the status column)"
     out = pd.read_csv(tmp_path / "out.csv")
-    assert out["status"].tolist() == ["not reached"] * 12 + ["ok"] * 2
-    assert out.loc[:11, ["q1_rad", "x_mm", "rz_rad"]].isna().all().all()
-    assert out.loc[12:, ["q1_rad", "x_mm", "rz_rad"]].notna().all().all()
-    assert (out.loc[:11, "error_mm"] > 2000.0).all()
+    assert out["status"].tolist() == ["not reached"] * n_out + ["ok"] * 2
+    failed = out.loc[: n_out - 1]
+    assert failed[["q1_rad", "x_mm", "rz_rad"]].isna().all().all()
+    assert out.loc[n_out:, ["q1_rad", "x_mm", "rz_rad"]].notna().all().all()
+    assert (failed["error_mm"] > 2000.0).all()
     first = lines[1].split("(")[1]
     assert first.startswith(
         f"{out.loc[0, 'error_mm']:.3g} mm off after {out.loc[0, 'iterations']} "
     )
 
 
+def test_run_never_writes_over_its_targets(tmp_path):
+    cal = calibrated(seed=25)
+    path = targets_csv(tmp_path / "t.csv", work_cell(2))
+    before = path.read_bytes()
+    with pytest.raises(CalibrationError, match="t.csv"):
+        compensate.run(cal, path, path)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["t.csv"]
+
+
 def test_compensate_command_names_the_joints_past_their_limits(tmp_path):
     cal = calibrated(seed=21)
     cal.save(tmp_path / "cal.json")
     q = work_cell(3, seed=22)
-    # Joint 1 at one end of its travel, the end the compensation goes past.
-    for end in (2 * np.pi - 1e-7, -2 * np.pi + 1e-7):
-        q[1, 0] = end
+    # Joints 1 and 6 at the ends of their travel the compensation goes past.
+    ends = (2 * np.pi - 1e-7, -2 * np.pi + 1e-7)
+    for end1, end6 in ((a, b) for a in ends for b in ends):
+        q[1, [0, 5]] = end1, end6
         free = compensate.compensate(cal, q_nominal=q)
-        if abs(free.q[1, 0]) > 2 * np.pi:
+        if np.all(np.abs(free.q[1, [0, 5]]) > 2 * np.pi):
             break
-    assert abs(free.q[1, 0]) > 2 * np.pi and np.all(np.abs(free.q[:, 1:]) < np.pi)
+    assert np.all(np.abs(free.q[1, [0, 5]]) > 2 * np.pi)
+    assert np.all(np.abs(free.q[:, 1:5]) < np.pi)
     targets_csv(tmp_path / "t.csv", q)
     done = cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     assert done.code == 1
     assert done.stderr.splitlines() == [
         "2 of 3 targets compensated; wrote out.csv",
-        "target 2: unreachable within the joint limits (joint 1)",
+        "target 2: unreachable within the joint limits (joint 1, 6)",
     ]
     out = pd.read_csv(tmp_path / "out.csv")
     assert out["status"].tolist() == ["ok", "outside joint limits", "ok"]

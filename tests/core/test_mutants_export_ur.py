@@ -146,3 +146,40 @@ def test_exported_file_names_its_model_and_units(tmp_path):
     ):
         written = np.array(json.loads(parser.get("mounting", key))) * scale
         np.testing.assert_allclose(written, deltas[:, col], rtol=1e-14, atol=1e-15)
+
+
+def test_a_model_without_a_published_ur_table_is_refused():
+    cal = calibrated("er10l-c10", seed=34)
+    with pytest.raises(CalibrationError) as info:
+        export.export(cal, "ur-calibration")
+    assert str(info.value) == (
+        "the UR calibration form needs a UR model (ur10, ur10e, ur5e); got 'er10l-c10'"
+    )
+
+
+def test_exported_angle_deltas_lie_within_plus_minus_pi(tmp_path):
+    """UR's factory sets, one with a theta delta beyond 2 pi: exported back, every
+    angle delta is in (-pi, pi] and the chain is unchanged."""
+    from test_export_ur import SETS, write_ur_file
+
+    from calibrator import nominal
+
+    for i, delta_set in enumerate(SETS):
+        write_ur_file(tmp_path / "f.conf", delta_set)
+        imported = nominal.load(tmp_path / "f.conf")
+        deltas, _ = ur.deltas_from_mdh(imported.mdh, "ur10")
+        angles = deltas[:, [kinematics.THETA, kinematics.ALPHA]]
+        assert np.all(angles > -np.pi) and np.all(angles <= np.pi), i
+        if i == 0:  # within range already: the factory numbers come back as they were
+            np.testing.assert_allclose(angles[:, 0], delta_set["theta_rad"], atol=1e-9)
+            np.testing.assert_allclose(angles[:, 1], delta_set["alpha_rad"], atol=1e-9)
+    assert max(abs(v) for s in SETS for v in s["theta_rad"]) > 2 * np.pi
+
+
+def test_residual_notes_of_an_offset_alone():
+    shift = np.eye(4)
+    shift[2, 3] = 0.5
+    assert ur._residual_notes(shift, "ur-calibration", "beta6") == [
+        "ur-calibration cannot hold beta6: the flange is off by 0.5 mm and 0 rad"
+    ]
+    assert ur._residual_notes(np.eye(4), "ur-calibration", "beta6") == []

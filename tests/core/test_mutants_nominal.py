@@ -142,3 +142,20 @@ def test_apply_refuses_a_tilted_joint_1_axis_for_a_base_frame_session(tmp_path):
     path = ros_file(tmp_path, cal, shoulder=("roll", 1e-6))
     with pytest.raises(CalibrationError, match=r" mm, 1e-06 rad from its base frame"):
         nominal.apply(meta("base"), path)
+
+
+def test_apply_refuses_a_joint_1_axis_tilted_about_the_base_origin(tmp_path):
+    """Axis 1 through the base origin but tilted by 1 urad: nothing moves at the
+    origin, the direction alone is refused."""
+    cal = calibrated("ur10e", seed=49, trailing=False)
+    d1 = float(cal.mdh[0, kinematics.D]) / 1000.0
+    doc = yaml.safe_load(export.export(cal, "ros-kinematics").text)
+    kin = doc["kinematics"]
+    assert kin["shoulder"]["z"] == pytest.approx(d1)
+    kin["shoulder"].update(z=0.0, roll=1e-6)
+    kin["upper_arm"]["z"] += d1  # d1 now along the tilted axis, after joint 1
+    path = tmp_path / "kin.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(CalibrationError) as info:
+        nominal.apply(meta("base"), path)
+    assert f"{path} moves joint 1's axis by 0 mm, 1e-06 rad from its base frame" in str(info.value)
