@@ -104,3 +104,75 @@ def test_residual_size_of_a_half_turn_is_pi(axis):
     t[:3, :3] = Rotation.from_rotvec(np.pi * axis).as_matrix()
     mm, rad = chains.residual_size(t)  # the trace may round a hair below -1
     assert mm == 0.0 and rad == pytest.approx(np.pi, abs=1e-7)
+
+
+def round_trip_reproduces(mdh, reference):
+    """mdh -> standard DH -> MDH again: the same table, the same chain."""
+    dh, res_dh = chains.mdh_to_dh(mdh, reference)
+    back, res_back = chains.dh_to_mdh(dh, reference)
+    q = poses(30, seed=9)
+    want = kinematics.chain(mdh, q)
+    for table, residual in ((dh, res_dh), (back, res_back)):
+        got = kinematics.chain(table, q) @ residual
+        np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
+    return back, res_back
+
+
+def test_intersecting_axes_with_turned_links_convert_exactly():
+    """a = 0 where axes meet (joints 1-2, 4-5, 5-6 of a UR): the x axis lies along
+    the common perpendicular, wherever theta turned it."""
+    nominal = get_model("ur10e").mdh
+    mdh = nominal.copy()
+    mdh[:, THETA] += [0.02, -0.01, 0.015, 0.03, -0.025, 0.01]
+    mdh[:, ALPHA] += [0.001, 0.0, 0.0, -0.002, 0.0015, 0.0]
+    assert np.all(mdh[[0, 3, 4], A] == 0.0)
+    back, residual = round_trip_reproduces(mdh, nominal)
+    np.testing.assert_allclose(back, mdh, atol=1e-9)
+    np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
+
+
+def test_a_table_with_quarter_turn_thetas_comes_back_unchanged():
+    """The ER10L-C10 has theta2 = -90 deg: of the two equivalent x axes, the one
+    nearer the reference is kept, so the table comes back as it was."""
+    nominal = get_model("er10l-c10").mdh
+    mdh = calibrated("er10l-c10", seed=56, trailing=False).mdh
+    back, _ = round_trip_reproduces(mdh, nominal)
+    np.testing.assert_allclose(back, mdh, atol=1e-9)
+
+
+def test_a_flange_turned_half_way_round_is_read_off_exactly():
+    """alpha6 near pi (a flange mounted upside down): arcsin alone gives the wrong
+    branch; the table still holds alpha6 and beta6 exactly."""
+    reference = get_model("ur10e").mdh.copy()
+    reference[5, ALPHA] = np.pi
+    mdh = reference.copy()
+    mdh[5, ALPHA] = np.pi - 0.003
+    mdh[5, BETA] = 0.002
+    mdh[5, A] = 0.4
+    back, residual = chains.dh_to_mdh(mdh, reference)
+    np.testing.assert_allclose(back, mdh, atol=1e-9)
+    np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
+
+
+def test_a_first_axis_along_the_base_x_axis_gives_a_rigid_frame_0():
+    """A robot on a wall: joint 1 turns about the base x axis."""
+    arm = calibrated("ur10e", seed=57, trailing=False).mdh
+    joints, flange = chains.joint_frames(arm)
+    mount = np.eye(4)
+    mount[:3, :3] = rot("y", np.pi / 2)  # base z onto base x
+    mount[:3, 3] = [0.0, 50.0, 700.0]
+    joints, flange = mount @ joints, mount @ flange
+    mdh, base2frame0, residual = chains.fit_links(
+        joints, flange, arm, kinematics.parallel_axes(arm, tol=0.1), beta6=True
+    )
+    r = base2frame0[:3, :3]
+    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(r[:, 2], [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(base2frame0[:3, 3], [0.0, 50.0, 700.0], atol=1e-9)
+    q = poses(30, seed=10)
+    got = base2frame0 @ kinematics.chain(mdh, q) @ residual
+    want = mount @ kinematics.chain(arm, q)
+    np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
