@@ -153,6 +153,11 @@ def test_a_flange_turned_half_way_round_is_read_off_exactly():
     back, residual = chains.dh_to_mdh(mdh, reference)
     np.testing.assert_allclose(back, mdh, atol=1e-9)
     np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
+    # Standard DH (no beta6) of the same flange without beta6: exact as well.
+    mdh[5, BETA] = 0.0
+    dh, residual = chains.mdh_to_dh(mdh, reference)
+    np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
+    assert dh[5, ALPHA] == pytest.approx(np.pi - 0.003, abs=1e-9) and dh[5, BETA] == 0.0
 
 
 def test_a_first_axis_along_the_base_x_axis_gives_a_rigid_frame_0():
