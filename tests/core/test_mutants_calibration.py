@@ -256,6 +256,9 @@ def test_numbers_up_to_a_trillion_are_sane(tmp_path):
     d = doc()
     d["deltas"]["a2"] = -1e12
     assert calibration.load(write(tmp_path, d)).deltas["a2"] == -1e12
+    d["deltas"]["a2"] = 1e12 + 0.5
+    got, path = refused(tmp_path, d)
+    assert got == f"{path}: deltas.a2 is not a finite, sane number"
     d["deltas"]["a2"] = True
     got, path = refused(tmp_path, d)
     assert got == f"{path}: deltas.a2 must be a number, got True"
@@ -328,7 +331,13 @@ def test_save_in_a_batch_appears_with_the_batch(tmp_path):
 
 def result(**extra):
     nominal = NOMINAL
-    space = parameters.ParameterSpace(nominal, free=FREE)
+    free = FREE + ["base_tx", "base_rz", "tool_x"]
+    space = parameters.ParameterSpace(
+        nominal,
+        free=free,
+        base0=frames.transform(frames.rotations_xyz([0.0, 0.0, 0.4]), [1500.0, -20.0, 3.0]),
+        tool0=frames.transform(None, [0.0, 0.0, 120.0]),
+    )
     x = np.linspace(-1e-3, 1e-3, space.size)
     res = SimpleNamespace(
         space=space,
@@ -355,7 +364,9 @@ def test_from_result_keeps_the_solution_and_what_later_versions_add():
     np.testing.assert_array_equal(cal.mdh, mdh)
     np.testing.assert_array_equal(cal.base2tracker, base)
     np.testing.assert_array_equal(cal.flange2tool, tool)
-    assert cal.free == tuple(FREE) and cal.deltas == dict(zip(FREE, x.tolist(), strict=True))
+    assert cal.free == space.free and cal.deltas == dict(zip(space.free, x.tolist(), strict=True))
+    assert np.abs(cal.base2tracker - np.eye(4)).max() > 1.0  # a real base frame
+    assert np.abs(cal.base0 - np.eye(4)).max() > 1.0 and cal.tool0[2, 3] == 120.0
     assert cal.dropped == [{"name": "d2", "reason": "parallel"}]
     assert (cal.model, cal.frame, cal.session) == ("ur5e", "tracker", "s.parquet")
     np.testing.assert_array_equal(cal.base0, space.base0)
@@ -390,3 +401,11 @@ def test_from_result_without_options_or_details():
 def test_nested_objects_become_json_objects():
     res, _, _ = result(extra=SimpleNamespace(a=np.array([[1, 2]]), _hidden=3, b={1: None}))
     assert Calibration.from_result(res).diagnostics == {"extra": {"a": [[1, 2]], "b": {"1": None}}}
+
+
+def test_write_refuses_non_finite_json_and_leaves_nothing(tmp_path):
+    with pytest.raises(ValueError):
+        calibration.write(tmp_path / "d.json", {"a": [1.0, math.nan]})
+    assert list(tmp_path.iterdir()) == []
+    calibration.write(tmp_path / "d.json", {"a": [1.0, 2]})
+    assert (tmp_path / "d.json").read_text() == '{\n  "a": [\n    1.0,\n    2\n  ]\n}\n'
