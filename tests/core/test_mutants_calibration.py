@@ -409,3 +409,11 @@ def test_write_refuses_non_finite_json_and_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
     calibration.write(tmp_path / "d.json", {"a": [1.0, 2]})
     assert (tmp_path / "d.json").read_text() == '{\n  "a": [\n    1.0,\n    2\n  ]\n}\n'
+
+
+def test_a_file_without_base0_still_reads_its_tool0(tmp_path):
+    d = doc()
+    d.pop("base0")
+    cal = calibration.load(write(tmp_path, d))
+    np.testing.assert_array_equal(cal.base0, np.eye(4))
+    assert cal.tool0[2, 3] == 90.0
