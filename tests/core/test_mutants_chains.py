@@ -62,15 +62,16 @@ def test_a_calibrated_reference_keeps_hayati_where_its_axes_are_nearly_parallel(
     np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
 
 
-@pytest.mark.parametrize("tilt", [(0.02, 0.0), (0.0, 0.03), (0.01, -0.02)])
-def test_a_tilted_first_axis_gives_a_rigid_frame_0(tilt):
-    """Joint 1's axis tilted about x and y: frame 0 is a proper rigid frame with z
-    along that axis, and frame 0 followed by the table is the arm."""
-    arm = calibrated("ur10e", seed=55, trailing=False).mdh
+def mounted_fit(seed, rotation, origin):
+    """Fit an arm whose base sits at ``rotation``, ``origin``; check frame 0 and chain.
+
+    Frame 0 must be a proper rigid frame with z along joint 1's axis, and frame 0
+    followed by the fitted table must be the mounted arm. Returns frame 0.
+    """
+    arm = calibrated("ur10e", seed=seed, trailing=False).mdh
     joints, flange = chains.joint_frames(arm)
     mount = np.eye(4)
-    mount[:3, :3] = rot("x", tilt[0]) @ rot("y", tilt[1])
-    mount[:3, 3] = [10.0, -20.0, 5.0]
+    mount[:3, :3], mount[:3, 3] = rotation, origin
     joints, flange = mount @ joints, mount @ flange
     mdh, base2frame0, residual = chains.fit_links(
         joints, flange, arm, kinematics.parallel_axes(arm, tol=0.1), beta6=True
@@ -79,11 +80,18 @@ def test_a_tilted_first_axis_gives_a_rigid_frame_0(tilt):
     np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
     assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-12)
     np.testing.assert_allclose(r[:, 2], joints[0, :3, 2], atol=1e-12)
-    q = poses(30, seed=6)
+    q = poses(30, seed=seed)
     got = base2frame0 @ kinematics.chain(mdh, q) @ residual
     want = mount @ kinematics.chain(arm, q)
     np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
     np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
+    return base2frame0
+
+
+@pytest.mark.parametrize("tilt", [(0.02, 0.0), (0.0, 0.03), (0.01, -0.02)])
+def test_a_tilted_first_axis_gives_a_rigid_frame_0(tilt):
+    """Joint 1's axis tilted about x and y."""
+    mounted_fit(55, rot("x", tilt[0]) @ rot("y", tilt[1]), [10.0, -20.0, 5.0])
 
 
 @pytest.mark.parametrize("angle", [1e-4, 0.3, 2.0, 3.0])
@@ -162,22 +170,6 @@ def test_a_flange_turned_half_way_round_is_read_off_exactly():
 
 def test_a_first_axis_along_the_base_x_axis_gives_a_rigid_frame_0():
     """A robot on a wall: joint 1 turns about the base x axis."""
-    arm = calibrated("ur10e", seed=57, trailing=False).mdh
-    joints, flange = chains.joint_frames(arm)
-    mount = np.eye(4)
-    mount[:3, :3] = rot("y", np.pi / 2)  # base z onto base x
-    mount[:3, 3] = [0.0, 50.0, 700.0]
-    joints, flange = mount @ joints, mount @ flange
-    mdh, base2frame0, residual = chains.fit_links(
-        joints, flange, arm, kinematics.parallel_axes(arm, tol=0.1), beta6=True
-    )
-    r = base2frame0[:3, :3]
-    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
-    assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-12)
-    np.testing.assert_allclose(r[:, 2], [1.0, 0.0, 0.0], atol=1e-12)
+    base2frame0 = mounted_fit(57, rot("y", np.pi / 2), [0.0, 50.0, 700.0])
+    np.testing.assert_allclose(base2frame0[:3, 2], [1.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(base2frame0[:3, 3], [0.0, 50.0, 700.0], atol=1e-9)
-    q = poses(30, seed=10)
-    got = base2frame0 @ kinematics.chain(mdh, q) @ residual
-    want = mount @ kinematics.chain(arm, q)
-    np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
-    np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
