@@ -1,0 +1,54 @@
+"""Calibrated arms for the mutation tests of the exporters (not a test module)."""
+
+import numpy as np
+
+from calibrator import frames, kinematics, parameters, simulate
+from calibrator.calibration import Calibration
+from calibrator.models import get_model
+
+
+def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
+    """A named arm with hidden MDH errors (Hayati betas included), a tool and a base.
+
+    With ``trailing`` false, ``a6`` and ``alpha6`` keep their nominal values.
+    """
+    rng = np.random.default_rng(seed)
+    nominal = get_model(model).mdh
+    mdh = nominal + simulate.random_errors(nominal, rng, mm=mm, rad=rad)
+    if not trailing:
+        mdh[5, [kinematics.A, kinematics.ALPHA]] = nominal[5, [kinematics.A, kinematics.ALPHA]]
+    tool = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 0.3]), [5.0, -3.0, 120.0])
+    base = frames.transform(frames.rotvec_to_matrix([0.0, 0.0, 1.0]), [2500.0, 100.0, -300.0])
+    free = parameters.structural_candidates(nominal, "base", True)[0]
+    return Calibration(
+        nominal_mdh=nominal,
+        mdh=mdh,
+        base2tracker=base,
+        flange2tool=tool,
+        model=model,
+        free=free + ["tool_x"],
+        deltas={n: 0.0 for n in free + ["tool_x"]},
+    )
+
+
+def poses(n=100, seed=1):
+    """Joint angles spread over every joint's whole turn, (n, 6) rad."""
+    return np.random.default_rng(seed).uniform(-np.pi, np.pi, (n, 6))
+
+
+def rot(axis, angle):
+    """Elementary rotation about ``"x"``, ``"y"`` or ``"z"``, (3, 3), written out."""
+    c, s = np.cos(angle), np.sin(angle)
+    return {
+        "x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
+
+
+def urdf_origin(xyz, rpy):
+    """A URDF/ROS origin: ``Trans(xyz) . Rz(yaw) Ry(pitch) Rx(roll)``, (4, 4)."""
+    t = np.eye(4)
+    t[:3, :3] = rot("z", rpy[2]) @ rot("y", rpy[1]) @ rot("x", rpy[0])
+    t[:3, 3] = xyz
+    return t
