@@ -217,13 +217,23 @@ class Report:
     lines: list
 
 
+def _repeated_header_names(path):
+    """Column names the CSV header at ``path`` gives more than once, sorted."""
+    import csv
+
+    with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+        header = next(csv.reader(fh), [])
+    return sorted({name for name in header if header.count(name) > 1})
+
+
 def read_targets(path):
     """Nominal joints (N, 6) and desired poses (N, 4, 4) or None from a targets CSV.
 
     Raises
     ------
     CalibrationError
-        Missing columns, non-numeric or non-finite values, a partial pose.
+        Missing or repeated columns, non-numeric or non-finite values, a
+        partial pose, no targets.
     """
     import pandas as pd
 
@@ -237,8 +247,12 @@ def read_targets(path):
     present = [c for c in POSE_COLUMNS if c in table.columns]
     if present and len(present) != len(POSE_COLUMNS):
         raise CalibrationError(f"{path}: a pose needs all of {', '.join(POSE_COLUMNS)}")
-    if table.columns.duplicated().any() or len(table) == 0:
-        raise CalibrationError(f"{path}: duplicate column names or no targets")
+    repeated = _repeated_header_names(path)
+    if repeated:
+        # pandas renames a repeated "q1_rad" to "q1_rad.1" and would read the first.
+        raise CalibrationError(f"{path}: repeated column(s) {', '.join(repeated)}")
+    if len(table) == 0:
+        raise CalibrationError(f"{path}: no targets")
 
     def numbers(cols):
         try:

@@ -312,7 +312,8 @@ def read_csv(path) -> np.ndarray:
     Raises
     ------
     PlanError
-        Missing file or columns, non-numeric values, no rows.
+        Missing file or columns, repeated or ambiguous columns, a row longer
+        than the header, non-numeric values, no rows.
     """
     path = Path(path)
     try:
@@ -322,6 +323,15 @@ def read_csv(path) -> np.ndarray:
             rows = list(reader)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise PlanError(f"cannot read plan {path}: {exc}") from None
+    repeated = sorted({c for c in fields if fields.count(c) > 1})
+    if repeated:
+        # DictReader would silently keep the last of the repeated columns.
+        raise PlanError(f"{path}: repeated column(s) {', '.join(repeated)}")
+    if all(c in fields for c in JOINT_COLUMNS) and all(c in fields for c in DEG_COLUMNS):
+        raise PlanError(f"{path}: both q1_rad..q6_rad and q1_deg..q6_deg; keep one set")
+    if any(None in r for r in rows):
+        # DictReader files the values beyond the header under None.
+        raise PlanError(f"{path}: a row has more values than the header")
     if all(c in fields for c in JOINT_COLUMNS):
         columns, factor = JOINT_COLUMNS, 1.0
     elif all(c in fields for c in DEG_COLUMNS):

@@ -152,7 +152,8 @@ def test_a_plan_in_degrees_is_read_in_radians(tmp_path):
     )
     both = "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n"
     (tmp_path / "b.csv").write_text(both + "1,1,1,1,1,1,9,9,9,9,9,9\n")
-    np.testing.assert_array_equal(plans.read_csv(tmp_path / "b.csv"), np.ones((1, 6)))
+    with pytest.raises(plans.PlanError, match="both q1_rad..q6_rad and q1_deg..q6_deg"):
+        plans.read_csv(tmp_path / "b.csv")
 
 
 @pytest.mark.parametrize(

@@ -259,7 +259,12 @@ def test_read_targets_gives_joints_and_poses(tmp_path):
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,x_mm,y_mm\n0,0,0,0,0,0,1,2\n",
             "a pose needs all of x_mm, y_mm, z_mm, rx_rad, ry_rad, rz_rad",
         ),
-        ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n", "duplicate column names or no targets"),
+        ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n", "no targets"),
+        # pandas would read the first q1_rad and call the second "q1_rad.1".
+        (
+            "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,q1_rad,q6_rad\n0,0,0,0,0,0,1,1\n",
+            "repeated column(s) q1_rad, q6_rad",
+        ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0,0,0,0,0,0\n0,0,x,0,0,0\n",
             "columns q1_rad, q2_rad, q3_rad, q4_rad, q5_rad, q6_rad must be numbers",
