@@ -229,6 +229,9 @@ def test_random_errors_touch_only_identifiable_parameters_within_their_size():
     ]
     assert np.abs(lengths).max() <= 0.5 and np.abs(lengths).max() > 0.45
     assert np.abs(angles).max() <= 0.01 and np.abs(angles).max() > 0.009
+    # Uniform in +-size: both signs, about as often, and every entry its own draw.
+    assert 0.4 < np.mean(free > 0) < 0.6
+    assert len(np.unique(free)) == free.size
     small = sim.random_errors(nominal, np.random.default_rng(0), mm=0.1, rad=0.001)
     assert np.abs(small[:, [0, 3]]).max() <= 0.1 and np.abs(small[:, [1, 2, 4]]).max() <= 0.001
 
@@ -295,6 +298,14 @@ def test_cli_random_errors_are_the_default_off_the_seeds_arm(tmp_path):
     assert done.code == 0, done.stderr
     meta = json.loads(pq.read_schema(tmp_path / "u.parquet").metadata[b"calibrator"])
     assert meta["simulated"]["errors"] == "random" and meta["model"] == "ur10"
+    old_name = cli("simulate", "-o", "s.parquet", "--poses", "2", "--errors", "seed", cwd=tmp_path)
+    assert old_name.code == 0, old_name.stderr
+    meta = json.loads(pq.read_schema(tmp_path / "s.parquet").metadata[b"calibrator"])
+    assert meta["simulated"]["errors"] == "ref003"
+    truth = json.loads((tmp_path / "s.truth.json").read_text())
+    np.testing.assert_allclose(
+        np.array(truth["mdh"]) - get_model("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12
+    )
     line = one_line_error(cli("simulate", "--errors", "tiny", cwd=tmp_path))
     assert "must be one of ref003, random, none, got 'tiny'" in line
     assert "ref003 error table" in one_line_error(
