@@ -25,6 +25,7 @@ def test_every_name_has_its_unit_and_plausible_size():
     assert parameters.plausible_range("d3") == 1.0
     assert parameters.plausible_range("beta2") == 0.01
     assert parameters.plausible_range("base_ty") == 5.0
+    assert parameters.plausible_range("base_tx") == 5.0
     assert parameters.plausible_range("tool_z") == 5.0
     assert parameters.plausible_range("tool_ry") == 0.02
     assert parameters.plausible_range("base_rz") == 0.02
@@ -175,3 +176,68 @@ def test_enough_residuals_is_at_least_one_per_free_parameter():
         "23 measured values from the fitting poses cannot identify 24 free parameters; "
         "measure more poses"
     )
+
+
+def test_a_space_built_from_lists_holds_checked_arrays():
+    nominal = get_model("ur5e").mdh
+    base0 = frames.transform(translation=[3000.0, 0.0, 0.0])
+    space = ParameterSpace(nominal.tolist(), base0.tolist(), np.eye(4).tolist(), ("a1",))
+    for value, expected in ((space.nominal_mdh, nominal), (space.base0, base0)):
+        assert isinstance(value, np.ndarray) and value.dtype == np.float64
+        np.testing.assert_array_equal(value, expected)
+    assert isinstance(space.tool0, np.ndarray)
+    with pytest.raises(ValueError, match=r"^base0 must have a last row"):
+        ParameterSpace(nominal, np.zeros((4, 4)))
+    with pytest.raises(ValueError, match=r"^tool0 rotation part is not a proper rotation"):
+        ParameterSpace(nominal, np.eye(4), np.diag([1.0, 1.0, -1.0, 1.0]))
+
+
+def test_kept_names_come_back_in_table_order_not_by_spelling():
+    rng = np.random.default_rng(3)
+    kept, dropped = parameters.prune(["d1", "theta1", "beta2", "a2"], rng.normal(size=(20, 4)))
+    assert kept == ["theta1", "d1", "a2", "beta2"] and dropped == []
+
+
+def test_no_effect_is_judged_relative_to_the_largest_column():
+    rng = np.random.default_rng(4)
+    big = rng.normal(size=(30, 3)) * 1e4
+    big[:, 1] = rng.normal(size=30) * 1e-12  # round-off next to columns of 1e4
+    kept, dropped = parameters.prune(["a1", "theta4", "d4"], big)
+    assert kept == ["a1", "d4"]
+    assert dropped == [{"name": "theta4", "reason": "has no effect on any measured pose"}]
+    small = rng.normal(size=(30, 2)) * 1e-6
+    small[:, 1] *= 1e-4  # 1e-10: small, but a real effect among columns of 1e-6
+    assert parameters.prune(["a1", "d4"], small)[0] == ["a1", "d4"]
+    # Nothing measured at all: every candidate has no effect.
+    kept, dropped = parameters.prune(["a1", "d4"], np.zeros((12, 2)))
+    assert kept == [] and [d["name"] for d in dropped] == ["a1", "d4"]
+    assert parameters.prune([], np.zeros((12, 0))) == ([], [])
+
+
+def test_redundancy_is_judged_on_columns_scaled_to_unit_length():
+    rng = np.random.default_rng(5)
+    base = rng.normal(size=(40, 1))
+    other = rng.normal(size=(40, 1))
+    other -= base * (base.T @ other) / (base.T @ base)
+    # Long columns: 1e-8 relative out of the span is still redundant.
+    col = 1000.0 * (base / np.linalg.norm(base) + 1e-8 * other / np.linalg.norm(other))
+    kept, _ = parameters.prune(["a1", "a2"], np.column_stack([1000.0 * base, col]))
+    assert kept == ["a1"]
+
+
+def test_a_redundant_column_names_at_most_three_partners():
+    rng = np.random.default_rng(6)
+    jac = rng.normal(size=(40, 5))
+    jac[:, 4] = jac[:, 0] + 2 * jac[:, 1] + 3 * jac[:, 2] + 4 * jac[:, 3]
+    kept, dropped = parameters.prune(["a1", "alpha1", "theta1", "d1", "a2"], jac)
+    assert kept == ["a1", "alpha1", "theta1", "d1"]
+    reason = dropped[0]["reason"]
+    assert reason.startswith("redundant with ") and reason.endswith(" for these poses")
+    names = reason.removeprefix("redundant with ").removesuffix(" for these poses").split(", ")
+    assert len(names) == 3 and set(names) <= {"a1", "alpha1", "theta1", "d1"}
+    assert "a1" not in names  # the smallest share (scaled columns) is left out
+
+
+def test_the_default_wording_names_the_poses():
+    with pytest.raises(IdentifiabilityError, match=r"^5 measured values from the poses cannot"):
+        parameters.require_enough(5, 6)
