@@ -221,3 +221,32 @@ def test_written_sessions_keep_other_footer_keys_and_read_back(tmp_path):
     loaded = session.load(tmp_path / "w.parquet")
     np.testing.assert_array_equal(loaded.observations.points, points)
     assert loaded.table["timestamp"].to_pylist() == ["a", "b", "c"]
+
+
+def test_whole_float_pose_numbers_load_up_to_two_to_the_53(tmp_path):
+    cols = columns()
+    cols["pose"] = floats([1000.0, 250.0, 2.0**53, 7.0, 0.0, 12345.0])
+    loaded = session.load(write(tmp_path / "f.parquet", cols))
+    assert loaded.table["pose"].to_pylist() == [0.0, 7.0, 250.0, 1000.0, 12345.0, 2.0**53]
+
+
+def test_rotation_vectors_up_to_100_rad_are_accepted(tmp_path):
+    cols = columns()
+    cols.update(rx_rad=floats([100.0, -100.0, 0, 0, 0, 0]), ry_rad=np.zeros(N), rz_rad=np.zeros(N))
+    loaded = session.load(write(tmp_path / "r.parquet", cols))
+    assert sorted(loaded.table["rx_rad"].to_pylist()) == [-100.0, 0, 0, 0, 0, 100.0]
+
+
+def test_an_integer_nominal_table_is_read_as_floats(tmp_path):
+    table = np.rint(get_model("ur5e").mdh).astype(int).tolist()
+    meta = session.load(
+        write(tmp_path / "i.parquet", columns(), dict(META, nominal_mdh=table))
+    ).meta
+    assert meta.nominal_mdh.dtype == np.float64
+    np.testing.assert_array_equal(meta.nominal_mdh, table)
+
+
+def test_a_ragged_table_in_the_metadata_is_refused(tmp_path):
+    ragged = [[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+    path = write(tmp_path / "g.parquet", columns(), dict(META, flange2tool=ragged))
+    assert refusal(path) == f"{path}: metadata 'flange2tool' is not a numeric table"
