@@ -60,8 +60,12 @@ def test_seed_is_the_old_name_of_ref003_and_bad_choices_are_refused():
     b = sim.simulate(poses=4, errors="ref003")
     assert a[1].extra["simulated"]["errors"] == "ref003"
     np.testing.assert_array_equal(a[2].mdh, b[2].mdh)
-    with pytest.raises(ValueError, match=r"ref003 error table \(paper 003, Table 2\) is for er10l"):
+    with pytest.raises(ValueError) as info:
         sim.simulate(model="ur5e", poses=3)
+    assert str(info.value) == (
+        "the ref003 error table (paper 003, Table 2) is for er10l-c10; "
+        "use random errors for other models"
+    )
     with pytest.raises(ValueError, match="errors must be 'ref003', 'random' or 'none', got 'big'"):
         sim.simulate(poses=3, errors="big")
     with pytest.raises(ValueError, match="frame must be 'base' or 'tracker', got 'world'"):
@@ -92,12 +96,14 @@ def test_recorded_poses_are_the_true_arm_seen_in_the_recorded_frame(frame):
 
 
 def test_the_tracker_stands_about_three_metres_away_turned_arbitrarily():
-    offsets, angles = [], []
+    offsets, angles, rotvecs = [], [], []
     for seed in range(40):
         truth = sim.simulate(poses=1, seed=seed, frame="tracker", errors="none")[2]
         offsets.append(truth.base2tracker[:3, 3])
         angles.append(Rotation.from_matrix(truth.base2tracker[:3, :3]).magnitude())
+        rotvecs.append(Rotation.from_matrix(truth.base2tracker[:3, :3]).as_rotvec())
     offsets, angles = np.array(offsets), np.array(angles)
+    assert np.all(np.ptp(rotvecs, axis=0) > 1.0)
     # x in 3 m +- 1 m, y and z within +-1 m, each spread over its whole range.
     assert np.all(np.abs(offsets - [3000.0, 0.0, 0.0]) <= 1000.0)
     assert np.all(np.ptp(offsets, axis=0) > 1000.0)
@@ -120,25 +126,28 @@ def test_an_unknown_tool_lies_the_offset_away_from_the_guess():
     assert np.linalg.norm(truth.flange2tool[:3, 3] - [0, 0, 100]) == pytest.approx(2.0)
 
 
-def test_no_errors_is_the_nominal_arm():
-    _, _, truth = sim.simulate(model="ur10", poses=3, errors="none")
+def test_no_errors_is_the_nominal_arm_and_32_poses_the_default():
+    table, _, truth = sim.simulate(model="ur10", errors="none")
+    assert table.num_rows == 32
     np.testing.assert_array_equal(truth.mdh, get_model("ur10").mdh)
 
 
 def test_point_noise_has_the_rms_asked_for_and_spreads_of_single_readings():
     table, _, truth = sim.simulate(
-        model="ur5e", poses=3000, seed=1, frame="tracker", errors="none", noise_mm=0.3
+        model="ur5e", poses=3000, seed=1, frame="tracker", errors="none", noise_mm=3.0
     )
     q = joints(table)
     exact = kinematics.forward(truth.mdh, q, truth.flange2tool, truth.base2tracker)[:, :3, 3]
     error = columns(table, "x_mm", "y_mm", "z_mm") - exact
     rms_3d = np.sqrt(np.mean(np.sum(error**2, axis=1)))
-    assert rms_3d == pytest.approx(0.3, rel=0.04)
-    assert np.abs(error.mean(axis=0)).max() < 0.02
-    # One reading has sqrt(10) times the averaged point's per-axis error.
+    assert rms_3d == pytest.approx(3.0, rel=0.04)
+    assert np.abs(error.mean(axis=0)).max() < 0.2
+    # One reading has sqrt(10) times the averaged point's per-axis error; the
+    # spreads are sample standard deviations (ddof=1), so their squares average
+    # to its variance. (At 3 mm the 6 um/m range term is negligible.)
     spread = columns(table, "sx_mm", "sy_mm", "sz_mm")
-    per_reading = 0.3 / np.sqrt(3) * np.sqrt(10)
-    assert np.mean(spread) == pytest.approx(per_reading, rel=0.06)
+    per_reading = 3.0 / np.sqrt(3) * np.sqrt(10)
+    assert np.mean(spread**2) == pytest.approx(per_reading**2, rel=0.03)
 
 
 def test_spreads_in_the_base_frame_are_turned_and_positive():
@@ -169,6 +178,7 @@ def test_joint_noise_changes_the_read_angles_not_the_measured_points():
     noisy, _, _ = sim.simulate(**kwargs, joint_noise_rad=1e-3)
     dq = joints(noisy) - joints(clean)
     assert dq.std() == pytest.approx(1e-3, rel=0.03)
+    assert abs(dq.mean()) < 1e-4
     np.testing.assert_array_equal(
         columns(noisy, "x_mm", "y_mm", "z_mm"), columns(clean, "x_mm", "y_mm", "z_mm")
     )
