@@ -250,3 +250,21 @@ def test_a_ragged_table_in_the_metadata_is_refused(tmp_path):
     ragged = [[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
     path = write(tmp_path / "g.parquet", columns(), dict(META, flange2tool=ragged))
     assert refusal(path) == f"{path}: metadata 'flange2tool' is not a numeric table"
+
+
+def test_a_long_tool_in_the_metadata_is_part_of_the_plausibility_check(tmp_path):
+    # A 1.5 m tool triples the distances between points: consistent with the
+    # tool the file names, not with the bare flange.
+    tool = np.eye(4)
+    tool[:3, 3] = [1500.0, 0.0, 300.0]
+    q = np.random.default_rng(0).uniform(-3.0, 3.0, (20, 6))
+    points = kinematics.forward(get_model("ur5e").mdh, q, tool)[:, :3, 3]
+    cols = {"pose": pa.array(np.arange(20), pa.int64())}
+    cols.update({f"q{i + 1}_rad": q[:, i] for i in range(6)})
+    cols.update(x_mm=points[:, 0], y_mm=points[:, 1], z_mm=points[:, 2])
+    loaded = session.load(
+        write(tmp_path / "t.parquet", cols, dict(META, flange2tool=tool.tolist()))
+    )
+    assert loaded.warnings == []
+    bare = session.load(write(tmp_path / "b.parquet", cols))
+    assert len(bare.warnings) == 1 and "2.9" in bare.warnings[0]
