@@ -18,7 +18,7 @@ import pytest
 
 from calibrator.errors import CalibrationError
 from calibrator.kinematics import ALPHA, BETA, THETA, A, D
-from calibrator.models import MODEL_NAMES, get_model
+from calibrator.models import MODEL_NAMES, RobotModel, get_model
 
 # name: (d1, a2, a3, d4, d5, d6) in metres, from UR's DH article.
 UR_DH_M = {
@@ -104,3 +104,10 @@ def test_an_unknown_name_is_refused_with_the_known_ones():
     with pytest.raises(CalibrationError) as info:
         get_model("kr16")
     assert str(info.value) == "unknown model 'kr16'; known: er10l-c10, ur10, ur10e, ur5e"
+
+
+def test_a_model_built_from_integer_lists_holds_read_only_float_arrays():
+    m = RobotModel("arm", [[1, 0, 0, 2, 0]] * 6, [[-3, 3]] * 6, [2] * 6)
+    for value in (m.mdh, m.joint_limits_rad, m.max_joint_speed_rad_s):
+        assert value.dtype == np.float64 and not value.flags.writeable
+    assert (m.mdh / 4)[0, 0] == 0.25

@@ -268,3 +268,21 @@ def test_a_long_tool_in_the_metadata_is_part_of_the_plausibility_check(tmp_path)
     assert loaded.warnings == []
     bare = session.load(write(tmp_path / "b.parquet", cols))
     assert len(bare.warnings) == 1 and "2.9" in bare.warnings[0]
+
+
+def test_tables_built_from_integers_store_floats_and_counts():
+    q = np.zeros((2, 6), dtype=int)
+    ints = np.array([[100, 200, 300], [400, 500, 600]])
+    table = session.to_table(
+        q, ints, rotvecs=ints // 100, spread=ints // 100, n_readings=[3.0, 4.0]
+    )
+    for name in (*session.POINT_COLUMNS, *session.ROTVEC_COLUMNS, *session.SPREAD_COLUMNS):
+        assert table.schema.field(name).type == pa.float64(), name
+    assert table.schema.field("n_readings").type == pa.int64()
+    assert table["n_readings"].to_pylist() == [3, 4]
+    assert table["sz_mm"].to_pylist() == [3.0, 6.0]
+
+
+def test_spreads_of_the_wrong_width_are_refused():
+    with pytest.raises(ValueError):
+        session.to_table(np.zeros((2, 6)), np.zeros((2, 3)), spread=np.zeros((2, 2)))
