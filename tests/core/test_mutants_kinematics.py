@@ -41,3 +41,18 @@ def test_link_constants_are_tz_tx_rx_ry_written_with_scipy():
         ).as_matrix()
         expected[:3, 3] = [mdh[i, kinematics.A], 0.0, mdh[i, kinematics.D]]
         np.testing.assert_allclose(consts[i], expected, atol=1e-12)
+
+
+def test_the_fast_path_gives_the_flange_rows_only_unless_frames_are_asked():
+    rng = np.random.default_rng(4)
+    mdh = get_model("er10l-c10").mdh + rng.normal(0, 0.01, (2, 6, 5))
+    q = rng.uniform(-3, 3, (5, 6))
+    out = kinematics.chain_parts(
+        kinematics.link_constants(mdh),
+        kinematics.joint_phases(mdh[..., kinematics.THETA]),
+        kinematics.joint_phases(q),
+    )
+    assert isinstance(out, np.ndarray) and out.shape == (2, 5, 3, 4)
+    np.testing.assert_allclose(out, kinematics.chain(mdh, q)[..., :3, :], atol=1e-9)
+    # joint_phases is exp(-i angle): a quarter turn is -i.
+    np.testing.assert_allclose(kinematics.joint_phases([np.pi / 2, 0]), [-1j, 1], atol=1e-15)
