@@ -120,3 +120,19 @@ def test_xyz_angles_of_a_stack_and_of_a_gimbal_lock():
     r = Rotation.from_euler("XYZ", angles).as_matrix()
     np.testing.assert_allclose(frames.angles_xyz(r), angles, atol=1e-9)
     np.testing.assert_allclose(frames.rotations_xyz(angles), r, atol=1e-14)
+
+
+def test_integer_transforms_are_returned_as_floats_and_the_tolerance_is_1e_6():
+    checked = frames.check_transform([[0, -1, 0, 5], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    assert checked.dtype == np.float64
+    # 1e-7 of skew from rounding in a file is accepted.
+    nearly = np.eye(4)
+    nearly[0, 1] = 1e-7
+    frames.check_transform(nearly)
+
+
+def test_rotvec_of_one_matrix_and_of_a_grid_of_matrices():
+    vecs = np.random.default_rng(7).normal(0, 1, (2, 3, 3))
+    matrices = Rotation.from_rotvec(vecs.reshape(-1, 3)).as_matrix().reshape(2, 3, 3, 3)
+    np.testing.assert_allclose(frames.matrix_to_rotvec(matrices), vecs, atol=1e-12)
+    np.testing.assert_allclose(frames.matrix_to_rotvec(matrices[1, 2]), vecs[1, 2], atol=1e-12)

@@ -56,3 +56,8 @@ def test_the_fast_path_gives_the_flange_rows_only_unless_frames_are_asked():
     np.testing.assert_allclose(out, kinematics.chain(mdh, q)[..., :3, :], atol=1e-9)
     # joint_phases is exp(-i angle): a quarter turn is -i.
     np.testing.assert_allclose(kinematics.joint_phases([np.pi / 2, 0]), [-1j, 1], atol=1e-15)
+
+
+def test_tables_and_joints_are_returned_as_floats():
+    assert kinematics.check_mdh(np.zeros((6, 5), dtype=int)).dtype == np.float64
+    assert kinematics.check_joints([[0, 1, 2, 3, 4, 5]]).dtype == np.float64
