@@ -1,0 +1,63 @@
+"""Kinematics details the model tables alone do not reach."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from calibrator import kinematics
+from calibrator.models import get_model
+
+
+def test_parallel_axes_uses_a_tight_angle_tolerance():
+    mdh = np.zeros((6, 5))
+    # Angles between axes i and i+1: 0.1 rad, 1e-8 rad, pi - 1e-8, 1e-3 rad, 0.5 rad.
+    mdh[:5, kinematics.ALPHA] = [0.1, 1e-8, np.pi - 1e-8, 1e-3, 0.5]
+    assert kinematics.parallel_axes(mdh).tolist() == [False, True, True, False, False]
+    # A small beta tilts the next axis out of parallel too.
+    mdh[1, kinematics.BETA] = 1e-3
+    assert kinematics.parallel_axes(mdh).tolist() == [False, False, True, False, False]
+    assert kinematics.parallel_axes(mdh, tol=0.2).tolist() == [True, True, True, True, False]
+
+
+def test_a_single_pose_may_be_given_as_one_row():
+    mdh = get_model("ur5e").mdh
+    q = np.array([0.1, -0.5, 1.0, 0.3, -0.2, 0.7])
+    np.testing.assert_array_equal(kinematics.forward(mdh, q), kinematics.forward(mdh, q[None]))
+    assert kinematics.check_joints(q.tolist()).shape == (1, 6)
+    with pytest.raises(ValueError, match=r"\(N, 6\), got \(2, 3, 6\)"):
+        kinematics.check_joints(np.zeros((2, 3, 6)))
+    with pytest.raises(ValueError, match=r"\(\.\.\., 6, 5\), got \(30,\)"):
+        kinematics.check_mdh(np.zeros(30))
+
+
+def test_link_constants_are_tz_tx_rx_ry_written_with_scipy():
+    rng = np.random.default_rng(3)
+    mdh = rng.normal(0, 1, (6, 5)) * [300, 1, 1, 300, 0.2]
+    consts = kinematics.link_constants(mdh)
+    for i in range(6):
+        expected = np.eye(4)
+        expected[:3, :3] = Rotation.from_euler(
+            "XY", [mdh[i, kinematics.ALPHA], mdh[i, kinematics.BETA]]
+        ).as_matrix()
+        expected[:3, 3] = [mdh[i, kinematics.A], 0.0, mdh[i, kinematics.D]]
+        np.testing.assert_allclose(consts[i], expected, atol=1e-12)
+
+
+def test_the_fast_path_gives_the_flange_rows_only_unless_frames_are_asked():
+    rng = np.random.default_rng(4)
+    mdh = get_model("er10l-c10").mdh + rng.normal(0, 0.01, (2, 6, 5))
+    q = rng.uniform(-3, 3, (5, 6))
+    out = kinematics.chain_parts(
+        kinematics.link_constants(mdh),
+        kinematics.joint_phases(mdh[..., kinematics.THETA]),
+        kinematics.joint_phases(q),
+    )
+    assert isinstance(out, np.ndarray) and out.shape == (2, 5, 3, 4)
+    np.testing.assert_allclose(out, kinematics.chain(mdh, q)[..., :3, :], atol=1e-9)
+    # joint_phases is exp(-i angle): a quarter turn is -i.
+    np.testing.assert_allclose(kinematics.joint_phases([np.pi / 2, 0]), [-1j, 1], atol=1e-15)
+
+
+def test_tables_and_joints_are_returned_as_floats():
+    assert kinematics.check_mdh(np.zeros((6, 5), dtype=int)).dtype == np.float64
+    assert kinematics.check_joints([[0, 1, 2, 3, 4, 5]]).dtype == np.float64
