@@ -19,6 +19,12 @@ only ever counts for the code it was measured on::
 
     .venv/bin/python benchmarks/mutation_scores.py --root mutants --root ../wtm3/mutants
 
+Re-running named mutants (``mutmut run NAME...``) first clears their
+results; ``--survived-before FILE`` (one mutant name per line, the survivors
+handed to such a re-run) counts a mutant the re-run has not reached yet as
+survived rather than as not checked, so an unfinished re-run cannot raise the
+score.
+
 Run it after ``mutmut run`` (see docs/mutation-testing.md).
 """
 
@@ -56,11 +62,12 @@ def _run(root):
     return found
 
 
-def outcomes(roots):
+def outcomes(roots, survived_before=frozenset()):
     """Yield ``(module, mutant, exit_code)`` for every mutant of ``roots[0]``.
 
     Later roots contribute a better result for the same mutant of the same
-    function source (see the module docstring).
+    function source; a mutant in ``survived_before`` that no run has checked
+    since counts as survived (see the module docstring).
     """
     reference = _run(roots[0])
     others = [_run(root) for root in roots[1:]]
@@ -69,6 +76,8 @@ def outcomes(roots):
             other_code, other_digest = other.get(key, (None, None))
             if other_digest == digest and RANK[classify(other_code)] > RANK[classify(code)]:
                 code = other_code
+        if code is None and key in survived_before:
+            code = 0
         yield _module_and_function(key)[0], key, code
 
 
@@ -116,16 +125,22 @@ def main(argv=None):
         "--root", action="append", help="mutmut's work folder (repeatable; default mutants)"
     )
     parser.add_argument("--modules", action="store_true", help="one row per module")
+    parser.add_argument(
+        "--survived-before", metavar="FILE", help="survivors handed to an unfinished re-run"
+    )
     parser.add_argument("--survivors", metavar="PREFIX", help="list surviving mutants")
     args = parser.parse_args(argv)
     roots = args.root or ["mutants"]
+    before = frozenset()
+    if args.survived_before:
+        before = frozenset(Path(args.survived_before).read_text().split())
     if args.survivors is not None:
-        for module, key, code in outcomes(roots):
+        for module, key, code in outcomes(roots, before):
             if module.startswith(args.survivors) and classify(code) in ("survived", "no tests"):
                 print(key, classify(code))
         return
     groups = defaultdict(Counter)
-    for module, _key, code in outcomes(roots):
+    for module, _key, code in outcomes(roots, before):
         if args.modules:
             name = module
         else:
