@@ -2,6 +2,7 @@
 
 import json
 
+import mutants_export_kit as kit
 import numpy as np
 import pandas as pd
 import pytest
@@ -9,7 +10,7 @@ import yaml
 import yourdfpy
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import export, frames, kinematics, parameters, simulate
+from calibrator import export, frames, kinematics, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
@@ -17,24 +18,8 @@ from calibrator.models import get_model
 
 
 def calibrated(a6_alpha6=False, seed=4):
-    """A UR10e with hidden MDH errors (Hayati betas included) and a tool."""
-    rng = np.random.default_rng(seed)
-    nominal = get_model("ur10e").mdh
-    mdh = nominal + simulate.random_errors(nominal, rng, mm=0.5, rad=0.002)
-    if not a6_alpha6:
-        mdh[5, [kinematics.A, kinematics.ALPHA]] = nominal[5, [kinematics.A, kinematics.ALPHA]]
-    tool = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 0.3]), [5.0, -3.0, 120.0])
-    base = frames.transform(frames.rotvec_to_matrix([0.0, 0.0, 1.0]), [2500.0, 100.0, -300.0])
-    free = parameters.structural_candidates(nominal, "base", True)[0]
-    return Calibration(
-        nominal_mdh=nominal,
-        mdh=mdh,
-        base2tracker=base,
-        flange2tool=tool,
-        model="ur10e",
-        free=free + ["tool_x"],
-        deltas={n: 0.0 for n in free + ["tool_x"]},
-    )
+    """A UR10e with hidden MDH errors (Hayati betas included), a tool and a base."""
+    return kit.calibrated("ur10e", seed=seed, trailing=a6_alpha6)
 
 
 def poses(n=200, seed=1):
