@@ -221,8 +221,9 @@ def _repeated_header_names(path):
     """Column names the CSV header at ``path`` gives more than once, sorted."""
     import csv
 
-    with open(path, newline="", encoding="utf-8", errors="replace") as fh:
-        header = next(csv.reader(fh), [])
+    # Called once pandas has read the file: it is UTF-8 text with a header.
+    with open(path, newline="", encoding="utf-8") as fh:
+        header = next(csv.reader(fh))
     return sorted({name for name in header if header.count(name) > 1})
 
 
