@@ -33,11 +33,8 @@ import json
 from collections import Counter, defaultdict
 from pathlib import Path
 
-KILLED = {1, 3, 36, 24, -24, 152, 255, -11, -9, 37}
-SURVIVED = {0}
-NO_TESTS = {5, 33}
-
-
+#: mutmut's statuses that count as a kill (the test run failed, hung or crashed).
+KILLED = {"killed", "timeout", "segfault", "caught by type check"}
 RANK = {"killed": 3, "survived": 2, "no tests": 1, "other": 1, "unchecked": 0}
 
 
@@ -82,19 +79,18 @@ def outcomes(roots, survived_before=frozenset()):
 
 
 def classify(code):
+    """Our group of a mutmut exit code: killed, survived, no tests, unchecked or other."""
+    from mutmut.stats import status_by_exit_code  # mutmut's own table of exit codes
+
     if code is None:
         return "unchecked"
-    if code in KILLED:
+    status = status_by_exit_code[code]
+    if status in KILLED:
         return "killed"
-    if code in SURVIVED:
-        return "survived"
-    if code in NO_TESTS:
-        return "no tests"
-    return "other"
+    return status if status in ("survived", "no tests") else "other"
 
 
 def table(groups):
-    cols = ("killed", "survived", "no tests", "unchecked", "other")
     lines = [
         "| group | mutants | killed | survived | no tests | not checked | score |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -103,12 +99,12 @@ def table(groups):
     for name in sorted(groups):
         counts = groups[name]
         total.update(counts)
-        lines.append(_row(f"`{name}`", counts, cols))
-    lines.append(_row("**all**", total, cols))
+        lines.append(_row(f"`{name}`", counts))
+    lines.append(_row("**all**", total))
     return "\n".join(lines)
 
 
-def _row(name, counts, cols):
+def _row(name, counts):
     mutants = sum(counts.values())
     checked = mutants - counts["unchecked"]
     killed = counts["killed"]

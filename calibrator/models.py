@@ -71,10 +71,10 @@ def _ur(d1, a2, a3, d4, d5, d6, speeds_deg):
     )
 
 
-# Each entry builds its tables when asked, so that nothing here is computed
-# at import time (mutation testing cannot reach code run on import).
 _UR10_SPEEDS_DEG = (120, 120, 180, 180, 180, 180)
 
+# Each entry builds its tables when asked, so that nothing here is computed
+# at import time (mutation testing cannot reach code run on import).
 _MODELS = {
     "er10l-c10": lambda: dict(
         mdh=_mdh(

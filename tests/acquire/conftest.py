@@ -1,13 +1,7 @@
 """Fixtures of the measure tests."""
 
-import sys
-from pathlib import Path
-
 import pytest
 from cli_process import run_cli
-
-# The in-process command-line runner of tests/core (cli_testkit), for the mutation tests here.
-sys.path.append(str(Path(__file__).resolve().parents[1] / "core"))
 
 
 @pytest.fixture(scope="session")

@@ -10,7 +10,7 @@ import json
 
 import numpy as np
 import pytest
-from core.cli_testkit import cli, one_line_error
+from cli_testkit import cli, one_line_error
 
 from calibrator import models
 from calibrator.analysis import plots
