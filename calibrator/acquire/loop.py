@@ -153,8 +153,10 @@ def run(
         except TrackerUnavailable as exc:
             outcome.stopped = f"tracker unavailable at pose {pose}: {exc}"
             break
-        except OSError as exc:  # any other link (the robot's) failed: same clean end
-            outcome.stopped = f"link lost at pose {pose}: {exc}"
+        except OSError as exc:  # any other link or device failure: same clean end
+            # a refused or unfinished move is no lost link: say which it was
+            what = "link lost" if isinstance(exc, ConnectionError) else "failed"
+            outcome.stopped = f"{what} at pose {pose}: {exc}"
             break
         journal.append(record)
         outcome.records[pose] = record

@@ -2,7 +2,8 @@
 
 Built on ``rtde_control.RTDEControlInterface`` (moveJ, stopJ, isSteady),
 ``rtde_receive.RTDEReceiveInterface`` (actual joints, safety bits, timestamp)
-and ``dashboard_client.DashboardClient`` (unlock protective stop). ur-rtde
+and ``dashboard_client.DashboardClient`` (unlock protective stop, and the
+safety status when a move fails: the stream may show a stop late). ur-rtde
 speaks radians for joints, so no unit conversion is needed for joint moves;
 Cartesian values (metres) are not used here.
 
@@ -35,6 +36,8 @@ from drivers.robot.interface import Robot, SafetyState, check_move_args
 
 #: ``robot_mode`` of an arm that is powered on with its brakes released (UR RTDE guide).
 ROBOT_MODE_RUNNING = 7
+#: Dashboard ``safetystatus`` values under which the arm may move (any other one is a stop).
+SAFETY_MODES_RUNNING = frozenset({"NORMAL", "REDUCED", "RECOVERY"})
 
 
 def expected_move_time(q0, q1, speed_rad_s, accel_rad_s2):
@@ -176,6 +179,7 @@ class UrRtdeRobot(Robot):
         if self._stop_latch:
             raise ProtectiveStop("the arm was safety-stopped; call clear_protective_stop() first")
         if not self._control.isProgramRunning():
+            self._raise_for_reported_stop()
             raise NotReady(
                 "the rtde_control script is not running (stopped on the pendant or by "
                 "a safety stop); call clear_protective_stop() to restart it"
@@ -186,7 +190,7 @@ class UrRtdeRobot(Robot):
         )
         if not accepted:
             self._check_link()
-            self._raise_for_safety()
+            self._raise_for_reported_stop()
             raise MotionFailed(f"controller refused moveJ to {target.tolist()}")
         deadline = expected_move_time(start, target, speed_rad_s, accel_rad_s2)
         self._wait_move(deadline + self.timeout_margin_s)
@@ -272,7 +276,7 @@ class UrRtdeRobot(Robot):
         deadline = time.monotonic() + self.steady_timeout_s
         while not self._command(self._control.isSteady):
             if time.monotonic() > deadline:
-                self._raise_for_safety()
+                self._raise_for_reported_stop()
                 raise MotionFailed(f"arm not steady {self.steady_timeout_s} s after the move")
             time.sleep(0.01)
         t0 = time.monotonic()
@@ -284,8 +288,8 @@ class UrRtdeRobot(Robot):
             if time.monotonic() - t0 > self.settle_s:
                 break
             time.sleep(self.poll_s)
-        # a stop that ended the move may reach us a period later than the move's end
-        self._raise_for_safety()
+        # a stop that ended the move may reach the stream later than the move's end
+        self._raise_for_reported_stop()
         joint = int(np.argmax(error))
         raise MotionFailed(
             f"move ended away from its target: joint {joint + 1} off by {error[joint]:.4g} rad "
@@ -351,6 +355,29 @@ class UrRtdeRobot(Robot):
         if self._receive.isProtectiveStopped():
             self._stop_latch = True
             raise ProtectiveStop("protective stop: the controller stopped the arm")
+
+    def _raise_for_reported_stop(self):
+        """Raise the safety stop behind a failed move, asking the controller if need be.
+
+        A move refused or ended early is often a stop that the receive stream
+        has not shown yet: the control interface reads its own stream, which
+        may be periods ahead (more on a loaded host). The dashboard answers
+        from the controller's current state, so a stop that caused the failure
+        is reported as that stop, not as a generic motion failure. Without an
+        answer from the dashboard the caller's own error stands.
+        """
+        self._raise_for_safety()
+        try:
+            status = self._dashboard.safetystatus()
+        except (RuntimeError, OSError):
+            return
+        mode = status.partition(":")[2].strip().upper()
+        if "EMERGENCY_STOP" in mode:
+            self._stop_latch = True
+            raise EmergencyStop(f"emergency stop engaged (dashboard: {status.strip()})")
+        if mode and mode not in SAFETY_MODES_RUNNING:
+            self._stop_latch = True
+            raise ProtectiveStop(f"the controller stopped the arm (dashboard: {status.strip()})")
 
     def _wait_for(self, condition, timeout_s, what):
         deadline = time.monotonic() + timeout_s

@@ -336,6 +336,7 @@ def test_a_lost_set_is_taken_again_whole_and_given_up_after_the_retries():
         (RobotHalted("protective stop"), "robot halted at pose 2: protective stop"),
         (TrackerUnavailable("gone"), "tracker unavailable at pose 2: gone"),
         (ConnectionResetError("reset"), "link lost at pose 2: reset"),
+        (TimeoutError("move did not finish"), "failed at pose 2: move did not finish"),
     ],
 )
 def test_a_halt_or_a_lost_link_ends_the_run_keeping_the_finished_poses(error, stopped):

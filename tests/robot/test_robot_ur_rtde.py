@@ -11,6 +11,7 @@ import time
 import numpy as np
 import pytest
 
+from calibrator.acquire.ports import RobotHalted
 from drivers.errors import ConnectionLost, DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, MotionFailed, ProtectiveStop
 from drivers.robot.fake_ur.launcher import shutdown_leftover
@@ -229,6 +230,40 @@ def test_emergency_stop_during_move(ur_robot, fake_ur):
     assert fake_ur.command("robotmode") == "Robotmode: RUNNING"
     ur_robot.clear_protective_stop()
     np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+
+
+@pytest.mark.parametrize(
+    ("inject", "error"),
+    [
+        ("fake estop", EmergencyStop),  # pressed just before the move: script gone
+        ("fake estop at movej 1", EmergencyStop),  # pressed as the move arrives: refused
+        ("fake protective stop", ProtectiveStop),
+    ],
+)
+def test_stop_the_stream_shows_late_is_reported_as_that_stop(ur_robot, fake_ur, inject, error):
+    # The receive stream may show a stop periods after the control stream failed the
+    # move (two streams, a starved thread): the failure must still read as the stop.
+    assert fake_ur.command("fake safety lag 5") == "fake: safety lag 5"
+    start = ur_robot.actual_joints()
+    assert fake_ur.command(inject).startswith("fake:")
+    assert ur_robot.safety_state().ok  # the stream does not show it yet
+    with pytest.raises(error, match="dashboard"):
+        ur_robot.move_joints(start + 0.2, 1.0, 2.0)
+    np.testing.assert_array_equal(fake_joints(fake_ur), np.round(start, 9))
+    with pytest.raises(RobotHalted):  # latched: refused again, still nothing moves
+        ur_robot.move_joints(start + 0.2, 1.0, 2.0)
+    # (the fake is left stopped and lagging: the fixture replaces it)
+
+
+def test_refused_move_without_a_stop_stays_a_motion_failure(ur_robot, fake_ur):
+    # a program stopped on the pendant is no safety stop: not reported as one
+    start = ur_robot.actual_joints()
+    assert fake_ur.command("stop") == "Stopped"
+    with pytest.raises(MotionFailed, match="refused") as failed:
+        ur_robot.move_joints(start + 0.2, 1.0, 2.0)
+    assert not isinstance(failed.value, (EmergencyStop, ProtectiveStop))
+    ur_robot.clear_protective_stop()  # restarts the script
+    np.testing.assert_allclose(ur_robot.move_joints(start + 0.2, 1.0, 2.0), start + 0.2, atol=TOL)
 
 
 def test_triggered_protective_stop_from_client(ur_robot):

@@ -71,6 +71,15 @@ UNLOCK_DELAY_S = 5.0
 HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
 
 
+def safety_mode(bits):
+    """RTDE ``safety_mode`` of ``safety_status_bits``: 1 NORMAL, 3 PROTECTIVE_STOP, 7 E-STOP."""
+    if bits & SAFETY_EMERGENCY_STOPPED:
+        return 7
+    if bits & SAFETY_PROTECTIVE_STOPPED:
+        return 3
+    return 1
+
+
 def tcp_pose(q, mdh=None, flange2tcp=None):
     """TCP pose as UR reports it: ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad).
 
@@ -163,7 +172,12 @@ class FakeController:
         self._busy = False
         self._executing_cmd = False
         self.runtime_state = RUNTIME_STOPPED
+        # test hook: the RTDE stream reports the safety bits this late (two streams,
+        # or one starved thread, can show a stop at different moments)
+        self.safety_lag_s = 0.0
+        self._safety_log = []  # (monotonic time, bits), for the lagged report
         self.safety_bits = SAFETY_NORMAL
+        self.estop_at_movej = 0  # test hook: the n-th MOVEJ from now is an e-stop instead
         self.reg_offset = 0
         self.out_int = np.zeros(48, dtype=np.int64)
         self.out_double = np.zeros(48)
@@ -182,6 +196,24 @@ class FakeController:
         self.log = []  # commands executed, for the fake's own tests
 
     # ----------------------------------------------------------------- state
+    @property
+    def safety_bits(self):
+        """``safety_status_bits`` now (the dashboard's view)."""
+        return self._safety_bits
+
+    @safety_bits.setter
+    def safety_bits(self, bits):
+        self._safety_bits = bits
+        self._safety_log = [*self._safety_log[-15:], (time.monotonic(), bits)]
+
+    def streamed_safety_bits(self):
+        """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old."""
+        if self.safety_lag_s <= 0:
+            return self._safety_bits
+        seen = time.monotonic() - self.safety_lag_s
+        reported = [bits for t, bits in self._safety_log if t <= seen]
+        return reported[-1] if reported else self._safety_log[0][1]
+
     def timestamp(self):
         """Controller time since start, s (the RTDE ``timestamp``)."""
         if self.frozen_timestamp is not None:
@@ -192,6 +224,7 @@ class FakeController:
         """Values of the outputs a client may request, by RTDE name (units as UR: m, rad)."""
         with self.lock:
             playing = self.runtime_state == RUNTIME_PLAYING
+            streamed = self.streamed_safety_bits()
             values = {
                 "timestamp": self.timestamp(),
                 "actual_q": tuple(self.q),
@@ -203,9 +236,9 @@ class FakeController:
                 "runtime_state": self.runtime_state,
                 "robot_mode": self.robot_mode,
                 "joint_mode": (253,) * 6,  # JOINT_RUNNING_MODE
-                "safety_mode": self._safety_mode(),
-                "safety_status": self._safety_mode(),
-                "safety_status_bits": self.safety_bits,
+                "safety_mode": safety_mode(streamed),
+                "safety_status": safety_mode(streamed),
+                "safety_status_bits": streamed,
                 "robot_status_bits": (STATUS_POWER_ON if self.robot_mode != MODE_POWER_OFF else 0)
                 | (STATUS_PROGRAM_RUNNING if playing else 0),
                 "speed_scaling": 1.0,
@@ -217,13 +250,6 @@ class FakeController:
                 values[f"input_int_register_{i}"] = int(self.in_int[i])
                 values[f"input_double_register_{i}"] = float(self.in_double[i])
         return values
-
-    def _safety_mode(self):
-        if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
-            return 7  # ROBOT_EMERGENCY_STOP
-        if self.safety_bits & SAFETY_PROTECTIVE_STOPPED:
-            return 3  # PROTECTIVE_STOP
-        return 1  # NORMAL
 
     @property
     def moving(self):
@@ -370,6 +396,11 @@ class FakeController:
 
     def _process(self, cmd):
         self.log.append(f"cmd {cmd}")
+        if cmd == CMD_MOVEJ and self.estop_at_movej:
+            self.estop_at_movej -= 1
+            if not self.estop_at_movej:  # pressed as this move arrives: it never starts
+                self.emergency_stop()
+                return
         if cmd == CMD_MOVEJ:
             target = np.array([self._in_double(i) for i in range(6)])
             speed, accel = self._in_double(6), self._in_double(7)

@@ -10,7 +10,7 @@ import socket
 import threading
 import time
 
-from drivers.robot.fake_ur.controller import ROBOT_MODES
+from drivers.robot.fake_ur.controller import ROBOT_MODES, safety_mode
 from drivers.robot.fake_ur.rtde_session import RtdeSession
 
 HOST = "127.0.0.1"
@@ -155,7 +155,7 @@ class FakeUr:
             return c.power_off()
         if lower in ("safetystatus", "safetymode"):
             mode = {1: "NORMAL", 3: "PROTECTIVE_STOP", 7: "ROBOT_EMERGENCY_STOP"}
-            return f"Safety{lower[6:]}: {mode[c.snapshot()['safety_mode']]}"
+            return f"Safety{lower[6:]}: {mode[safety_mode(c.safety_bits)]}"
         if lower == "programstate":
             playing = c.runtime_state == 2
             return "PLAYING rtde_control" if playing else "STOPPED <unnamed>"
@@ -188,6 +188,12 @@ class FakeUr:
             # a hung controller that keeps its sockets and repeats its last packet
             c.frozen_timestamp = c.timestamp()
             return "fake: timestamp frozen"
+        if command.startswith("safety lag "):
+            c.safety_lag_s = float(command.split()[-1])
+            return f"fake: safety lag {c.safety_lag_s:g}"
+        if command.startswith("estop at movej "):
+            c.estop_at_movej = int(command.split()[-1])
+            return f"fake: estop at movej {c.estop_at_movej}"
         if command == "joints":
             with c.lock:
                 return "fake: joints " + " ".join(f"{v:.9f}" for v in c.q)
@@ -204,6 +210,8 @@ class FakeUr:
                         ("emergency_stop", c.safety_bits & 128),
                         ("stalled", c.stalled),
                         ("timestamp_frozen", c.frozen_timestamp is not None),
+                        ("safety_lag", c.safety_lag_s),
+                        ("estop_pending", c.estop_at_movej),
                         ("moving", c.moving),
                         ("not_running", c.robot_mode != 7),
                     )
