@@ -34,7 +34,7 @@ through that geometry:
 
 import numpy as np
 
-from calibrator import kinematics
+from calibrator import frames, kinematics
 from calibrator.kinematics import ALPHA, BETA, THETA
 
 #: Axes closer than this (rad) are treated as exactly parallel in standard DH:
@@ -211,8 +211,9 @@ def _ry(angle):
 def residual_size(transform):
     """Translation (mm) and rotation angle (rad) of a residual transform."""
     t = np.asarray(transform, dtype=float)
-    cos = np.clip((np.trace(t[:3, :3]) - 1.0) / 2.0, -1.0, 1.0)
-    return float(np.linalg.norm(t[:3, 3])), float(np.arccos(cos))
+    # through the rotation vector: arccos of the trace reads angles below ~2e-8 rad as 0
+    angle = np.linalg.norm(frames.matrix_to_rotvec(t[:3, :3]))
+    return float(np.linalg.norm(t[:3, 3])), float(angle)
 
 
 def mdh_to_dh(mdh, reference):

@@ -293,7 +293,7 @@ def check_deltas(nominal_mdh, identified_mdh):
     for joint in range(delta.shape[0]):
         for col, column in enumerate(kinematics.COLUMNS):
             value = delta[joint, col]
-            name = f"{column.split('_')[0]}{joint + 1}"
+            name = f"{column}{joint + 1}"
             is_length = kinematics.UNITS[col] == "mm"
             warn, refuse = (
                 (DELTA_WARN_MM, DELTA_REFUSE_MM)

@@ -18,17 +18,34 @@ def run_cli(*args, cwd=None, timeout=120, env=None, **kwargs):
     child runs unrecorded: mutmut's recorder cannot work outside its own
     process.
     """
-    env = dict(os.environ if env is None else env)
-    if env.get("MUTANT_UNDER_TEST") == "stats":
-        del env["MUTANT_UNDER_TEST"]
-    package_root = str(Path(calibrator.__file__).resolve().parents[1])
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_root, env.get("PYTHONPATH")]))
     return subprocess.run(
         [sys.executable, "-m", "calibrator", *map(str, args)],
         cwd=cwd,
         capture_output=True,
         text=True,
         timeout=timeout,
-        env=env,
+        env=child_env(env),
         **kwargs,
     )
+
+
+def start_cli(*args, cwd=None):
+    """``python -m calibrator ARGS`` started in ``cwd`` and left running (text pipes)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "calibrator", *map(str, args)],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=child_env(None),
+    )
+
+
+def child_env(env=None):
+    """The environment of a child ``calibrator``: this package copy first (see :func:`run_cli`)."""
+    env = dict(os.environ if env is None else env)
+    if env.get("MUTANT_UNDER_TEST") == "stats":
+        del env["MUTANT_UNDER_TEST"]
+    package_root = str(Path(calibrator.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_root, env.get("PYTHONPATH")]))
+    return env

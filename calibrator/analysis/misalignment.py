@@ -180,10 +180,11 @@ def hand_errors(arm, real):
     # angle / sin(angle) -> 1 as the rotation vanishes.
     scale = np.divide(angle, sin_a, out=np.ones_like(angle), where=sin_a > 0)
     rotvec = (v * scale).T
-    # |e_k x r_k| and e_k . r_k for the k-th column r_k of r.
+    # |e_k x r_k| and e_k . r_k for the k-th column r_k of r. The cross product's
+    # size is taken from the column's off-diagonal entries, not as sqrt(1 - r_kk^2),
+    # which cancels to 0 below ~1e-8 rad.
     diag = np.stack([r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]], axis=1)
-    col_sq = np.sum(r * r, axis=1)  # (n, 3): squared norms of the columns (= 1)
-    off = np.sqrt(np.maximum(col_sq - diag * diag, 0.0))
+    off = np.sqrt(np.einsum("nik,ik->nk", r * r, 1.0 - np.eye(3)))
     return dp, rotvec, np.arctan2(off, diag)
 
 

@@ -28,6 +28,9 @@ from calibrator.cli import simulate as _simulate  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]
 
+#: Exit code of an interrupted command (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+
 
 def _fail(message, code=2):
     message = " ".join(str(message).replace("\r", "\n").split("\n"))  # one line, always
@@ -54,13 +57,14 @@ def main(argv=None):
         _fail(_checks.one_line(exc))
     except _click_errors.ClickException as exc:
         _fail(exc.format_message(), exc.exit_code)
-    except typer.Abort:
-        _fail("interrupted", 130)
-    except KeyboardInterrupt:
-        _fail("interrupted", 130)
+    except typer.Abort:  # EOF at a prompt
+        _fail("interrupted", EXIT_INTERRUPTED)
     except CalibrationError as exc:
         _fail(exc)
     except OSError as exc:
         _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
-    # Without standalone mode typer returns the exit code of ``typer.Exit``.
+    # Without standalone mode typer returns the exit code of ``typer.Exit``, and
+    # 130 for Ctrl-C inside a command (it catches the KeyboardInterrupt itself).
+    if code == EXIT_INTERRUPTED:
+        _fail("interrupted", EXIT_INTERRUPTED)
     sys.exit(code if isinstance(code, int) else 0)

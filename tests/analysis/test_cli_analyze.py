@@ -1,10 +1,11 @@
 """``calibrator analyze`` as a user runs it: output, files, and one line + exit 2 on bad input."""
 
 import json
+import signal
 
 import numpy as np
 import pytest
-from cli_process import run_cli
+from cli_process import run_cli, start_cli
 
 from calibrator import calibration, models
 from calibrator.cli import main
@@ -131,3 +132,21 @@ def test_tolerance_json_never_overwrites_its_calibration(tmp_path, capsys, monke
     assert "it is an input of this command" in capsys.readouterr().err
     assert (tmp_path / "c.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
+
+
+def test_ctrl_c_ends_a_long_run_in_one_line_leaving_no_file(tmp_path):
+    # a real SIGINT to a real process, mid-computation (a run of minutes)
+    proc = start_cli(
+        "analyze", "misalignment", "--trials", "50000000", "-q", "--json", "s.json", cwd=tmp_path
+    )
+    try:
+        assert proc.stdout.readline()  # the run has begun: its first line is out
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130
+    assert err == "calibrator: error: interrupted\n"
+    assert "done in" not in out
+    assert list(tmp_path.iterdir()) == []  # no JSON, no temporary file

@@ -144,3 +144,35 @@ def test_smoothed_density_is_a_unit_gaussian_of_the_kernel_width(kernel_bins, me
     assert mean == pytest.approx((spike + 0.5) * width, abs=step)
     # A spike smoothed by a Gaussian of sigma = kernel, plus the bins' own width.
     assert spread == pytest.approx(math.hypot(kernel_mm, step / math.sqrt(12)), rel=0.02)
+
+
+@pytest.mark.parametrize("angle", [1e-9, 0.02, 1.0, 2.5])
+def test_hand_errors_of_a_known_rotation_and_offset(angle):
+    # Real hand = ideal hand turned by a known rotation (hand frame) and moved by a
+    # known offset (base frame): the errors are exactly those, checked with scipy.
+    from scipy.spatial.transform import Rotation
+
+    from calibrator.analysis import arm as arm_module
+
+    arm = arm_module.build()
+    ideal = arm.base2hand()
+    axes = np.array([[0.3, -0.5, 0.8], [1.0, 0.0, 0.0], [-0.2, 0.9, 0.4]])
+    turns = Rotation.from_rotvec(angle * axes / np.linalg.norm(axes, axis=1, keepdims=True))
+    offsets = np.array([[0.1, -0.2, 0.3], [0.0, 0.0, 0.0], [-1.5, 2.0, 0.25]])
+    real = np.empty((3, 3, 4))
+    real[:, :, :3] = ideal[:, :3] @ turns.as_matrix()
+    real[:, :, 3] = ideal[:, 3] + offsets
+    dp, rotvec, axis_angle = mc.hand_errors(arm, real)
+    np.testing.assert_allclose(dp, offsets, atol=1e-12)
+    np.testing.assert_allclose(rotvec, turns.as_rotvec(), rtol=1e-7, atol=1e-15)
+    # angle between real and ideal hand axis k: arccos of (R_ideal^T R_real)[k, k]
+    expected = np.array(
+        [
+            [
+                np.arctan2(np.linalg.norm(np.cross(e, m[:, k])), m[k, k])
+                for k, e in enumerate(np.eye(3))
+            ]
+            for m in turns.as_matrix()
+        ]
+    )
+    np.testing.assert_allclose(axis_angle, expected, rtol=1e-7, atol=1e-15)

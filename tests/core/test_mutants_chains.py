@@ -94,7 +94,7 @@ def test_a_tilted_first_axis_gives_a_rigid_frame_0(tilt):
     mounted_fit(55, rot("x", tilt[0]) @ rot("y", tilt[1]), [10.0, -20.0, 5.0])
 
 
-@pytest.mark.parametrize("angle", [1e-4, 0.3, 2.0, 3.0])
+@pytest.mark.parametrize("angle", [1e-10, 1e-4, 0.3, 2.0, 3.0])
 def test_residual_size_is_the_offset_and_the_rotation_angle(angle):
     axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     t = np.eye(4)

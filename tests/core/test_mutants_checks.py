@@ -210,6 +210,7 @@ def _failing_load(monkeypatch, exc):
     ("exc", "code", "line"),
     [
         (typer.Abort(), 130, "interrupted"),
+        (KeyboardInterrupt(), 130, "interrupted"),
         (OSError(13, "Permission denied", "c.json"), 2, "Permission denied: c.json"),
         (OSError(5, "Input/output error"), 2, "Input/output error"),
         (OSError(5, "Input/output error", "MATRIX"), 2, "Input/output error: MATRIX"),
