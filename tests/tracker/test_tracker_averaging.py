@@ -83,3 +83,22 @@ def test_orientation_mean_of_a_6dof_probe():
 def test_n_must_be_positive():
     with pytest.raises(ValueError):
         measure_average(object(), 0)
+
+
+def test_default_set_is_ten_readings_and_a_short_one_is_a_typed_tracker_error():
+    bodies = [f"P3,{i:.4f},0.0000,0.0000,ACC,{i}" for i in range(10)]
+    with expected_exchange([*CONNECT_PAIRS, *meas_pairs(bodies)]) as tracker:
+        tracker.connect()
+        avg = measure_average(tracker)  # exactly ten MEAS: an eleventh fails the script
+    assert avg.count == 10 and avg.mean_mm[0] == pytest.approx(4.5)
+    flagged = ["P3,1.0000,0.0000,0.0000,UNSTABLE,1"] + ["P3,1.0000,0.0000,0.0000,ACC,2"] * 2
+    with expected_exchange([*CONNECT_PAIRS, *meas_pairs(flagged)]) as tracker:
+        tracker.connect()
+        assert measure_average(tracker, 3, min_count=2).count == 2  # min_count passed on
+    with expected_exchange([*CONNECT_PAIRS, *meas_pairs(flagged)]) as tracker:
+        tracker.connect()
+        with pytest.raises(TargetUnstable) as short:
+            measure_average(tracker, 3, min_count=3)
+    error = short.value
+    assert (error.code, error.text, error.command) == (7, "TARGET_UNSTABLE", "MEAS")
+    assert "2 of 3" in error.detail
