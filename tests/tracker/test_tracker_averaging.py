@@ -102,3 +102,12 @@ def test_default_set_is_ten_readings_and_a_short_one_is_a_typed_tracker_error():
     error = short.value
     assert (error.code, error.text, error.command) == (7, "TARGET_UNSTABLE", "MEAS")
     assert "2 of 3" in error.detail
+
+
+def test_the_driver_module_hands_out_the_domain_result_type_and_nothing_else():
+    import drivers.tracker.averaging as driver_averaging
+    from calibrator.acquire.averaging import AveragedReading
+
+    assert driver_averaging.AveragedReading is AveragedReading
+    with pytest.raises(AttributeError, match="has no attribute 'averaged_reading'"):
+        driver_averaging.averaged_reading  # noqa: B018 (the lookup is the test)
