@@ -18,6 +18,8 @@ from drivers.robot.fake_ur.controller import (
     MODE_RUNNING,
     RUNTIME_PLAYING,
     RUNTIME_STOPPED,
+    SAFETY_NORMAL,
+    SAFETY_PROTECTIVE_STOPPED,
     UNLOCK_DELAY_S,
     FakeController,
     tcp_pose,
@@ -113,6 +115,27 @@ def test_e_stop_powers_off_and_programs_wait_for_power_and_brakes():
     assert c.runtime_state == RUNTIME_PLAYING
     assert c.power_off() == "Powering off"
     assert c.runtime_state == RUNTIME_STOPPED and c.robot_mode == MODE_POWER_OFF
+
+
+def test_safety_lag_delays_the_streamed_bits_but_never_replays_older_ones():
+    c = FakeController()
+    c.emergency_stop()
+    c.release_emergency_stop()
+    # as if the e-stop had begun 6 s ago and been released 1 s ago (by an earlier test)
+    (t0, start), (t1, stopped), *release = c._safety_log
+    c._safety_log = [(t0 - 10.0, start), (t1 - 6.0, stopped)] + [(t - 1.0, b) for t, b in release]
+    c.set_safety_lag(5.0)
+    assert c.snapshot()["safety_status_bits"] == SAFETY_NORMAL  # the old stop is not replayed
+    c.protective_stop()
+    assert c.snapshot()["safety_status_bits"] == SAFETY_NORMAL  # the stream lags ...
+    assert c.safety_bits & SAFETY_PROTECTIVE_STOPPED  # ... the controller (dashboard) does not
+    t3, bits = c._safety_log[-1]
+    c._safety_log[-1] = (t3 - 5.1, bits)  # as if 5.1 s had passed since the stop
+    c._lag_since -= 5.1
+    assert c.snapshot()["safety_status_bits"] & SAFETY_PROTECTIVE_STOPPED
+    assert c.snapshot()["safety_mode"] == 3
+    c.set_safety_lag(0)
+    assert c.snapshot()["safety_status_bits"] == c.safety_bits
 
 
 @pytest.mark.parametrize("name", ["ur5e", "ur10e"])

@@ -175,6 +175,7 @@ class FakeController:
         # test hook: the RTDE stream reports the safety bits this late (two streams,
         # or one starved thread, can show a stop at different moments)
         self.safety_lag_s = 0.0
+        self._lag_since = 0.0  # when the lag was set: the stream never reports older bits
         self._safety_log = []  # (monotonic time, bits), for the lagged report
         self.safety_bits = SAFETY_NORMAL
         self.estop_at_movej = 0  # test hook: the n-th MOVEJ from now is an e-stop instead
@@ -206,11 +207,21 @@ class FakeController:
         self._safety_bits = bits
         self._safety_log = [*self._safety_log[-15:], (time.monotonic(), bits)]
 
+    def set_safety_lag(self, lag_s):
+        """Test hook: from now on the stream shows safety changes ``lag_s`` late."""
+        with self.lock:
+            self.safety_lag_s = float(lag_s)
+            self._lag_since = time.monotonic()
+
     def streamed_safety_bits(self):
-        """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old."""
+        """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old.
+
+        Never older than the moment the lag was set, so changes from before
+        it (another test's stop) are not played again.
+        """
         if self.safety_lag_s <= 0:
             return self._safety_bits
-        seen = time.monotonic() - self.safety_lag_s
+        seen = max(time.monotonic() - self.safety_lag_s, self._lag_since)
         reported = [bits for t, bits in self._safety_log if t <= seen]
         return reported[-1] if reported else self._safety_log[0][1]
 

@@ -189,7 +189,7 @@ class FakeUr:
             c.frozen_timestamp = c.timestamp()
             return "fake: timestamp frozen"
         if command.startswith("safety lag "):
-            c.safety_lag_s = float(command.split()[-1])
+            c.set_safety_lag(command.split()[-1])
             return f"fake: safety lag {c.safety_lag_s:g}"
         if command.startswith("estop at movej "):
             c.estop_at_movej = int(command.split()[-1])
