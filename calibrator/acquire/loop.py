@@ -9,8 +9,8 @@ hands in concrete drivers. What happens on each failure:
   then it is journalled as failed and the run goes on.
 - :class:`~calibrator.acquire.ports.RobotHalted` (protective stop, e-stop),
   :class:`~calibrator.acquire.ports.TrackerUnavailable`, or any other
-  ``OSError`` (a lost robot link): the run ends cleanly; every finished pose
-  is already in the journal.
+  ``OSError`` (a lost robot link, a move that failed without a stop): the run
+  ends cleanly; every finished pose is already in the journal.
 - A stop request (SIGINT) is honoured between poses, never inside one.
 """
 
