@@ -15,6 +15,15 @@ Sources
     standard DH, which is MDH with beta = 0); joint limits and speeds from
     UR's ROS 2 description (UniversalRobots/Universal_Robots_ROS2_Description,
     tag 2.4.5, ``config/<model>/joint_limits.yaml``).
+
+Motion ceilings
+---------------
+Every model carries a fixed ceiling on the speed (1.0 rad/s) and acceleration
+(2.0 rad/s^2) of the moves a calibration run commands. They sit well below the
+data sheets (UR's slowest joints turn at 2.09 rad/s; URScript's default
+``movej`` acceleration is 1.4 rad/s^2 and ur-rtde accepts up to 40), because a
+calibration run gains nothing from fast moves and a tracker cell is crowded.
+Options such as ``--speed``, ``--accel`` and ``--max-speed`` can only lower them.
 """
 
 from dataclasses import dataclass
@@ -39,12 +48,20 @@ class RobotModel:
         ``[min, max]`` joint angle per joint (rad).
     max_joint_speed_rad_s : ndarray, shape (6,)
         Joint speed limits (rad/s).
+    move_speed_cap_rad_s : float
+        Ceiling on the leading-joint speed of any move ``calibrator`` commands,
+        rad/s. Fixed per model: options may lower it, never raise it.
+    move_accel_cap_rad_s2 : float
+        Ceiling on the leading-joint acceleration of any move, rad/s^2. Fixed
+        per model: options may lower it, never raise it.
     """
 
     name: str
     mdh: np.ndarray
     joint_limits_rad: np.ndarray
     max_joint_speed_rad_s: np.ndarray
+    move_speed_cap_rad_s: float = 1.0
+    move_accel_cap_rad_s2: float = 2.0
 
     def __post_init__(self):
         for field in ("mdh", "joint_limits_rad", "max_joint_speed_rad_s"):

@@ -160,8 +160,9 @@ class RigOptions:
     sim_record: str | None = None
     sim_replay: str | None = None
     sim_control: str | None = None
-    max_speed_rad_s: float = 1.0
-    max_accel_rad_s2: float = 2.0
+    # None: the model's fixed ceiling; a value may only lower it.
+    max_speed_rad_s: float | None = None
+    max_accel_rad_s2: float | None = None
     tracker_at_mm: tuple | None = None
 
 

@@ -58,17 +58,20 @@ def measure(
         3, callback=checks.at_least(0), help="Re-measurements of a pose after a lost reading."
     ),
     speed: float = typer.Option(
-        0.5, callback=checks.finite(0.0, inclusive=False), help="Leading-joint speed, rad/s."
+        0.5,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint speed, rad/s (at most the model's fixed ceiling, 1.0).",
     ),
     accel: float = typer.Option(
         1.0,
         callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint acceleration, rad/s^2.",
+        help="Leading-joint acceleration, rad/s^2 (at most the model's fixed ceiling, 2.0).",
     ),
     max_speed: float = typer.Option(
-        1.0,
+        None,
         callback=checks.finite(0.0, inclusive=False),
-        help="Speed cap the plan is checked against, rad/s.",
+        help="Lower the speed cap the plan is checked against, rad/s "
+        "[default: the model's fixed ceiling; it cannot be raised].",
     ),
     tracker_at: str = typer.Option(
         None, help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
@@ -115,10 +118,7 @@ def measure(
         _fail(f"{jpath} exists (an unfinished run): pass --resume to continue it, or remove it")
     if resume and not jpath.exists():
         _fail(f"nothing to resume: {jpath} not found")
-    if not (0 < speed <= max_speed):
-        _fail(f"--speed {speed} rad/s outside (0, {max_speed}] (--max-speed)")
-    if accel <= 0:
-        _fail(f"--accel must be > 0, got {accel}")
+    _check_motion_caps(model, speed, accel, max_speed)
     options = _hardware.RigOptions(
         model=model,
         seed=seed,
@@ -128,7 +128,9 @@ def measure(
         sim_replay=str(sim_replay) if sim_replay else None,
         sim_control=sim_control,
         max_speed_rad_s=max_speed,
-        max_accel_rad_s2=max(accel, 2.0),
+        # The acceleration cap stays the model's ceiling: --accel is checked
+        # against it above and never becomes its own limit.
+        max_accel_rad_s2=None,
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
     )
     with contextlib.ExitStack() as stack:
@@ -237,6 +239,35 @@ def measure(
             return
         jpath.unlink()
         typer.echo(f"wrote {output}: {len(measured)} poses x {readings} readings")
+
+
+def _check_motion_caps(model_name, speed, accel, max_speed):
+    """Refuse motion options above the model's fixed ceilings (exit 2).
+
+    The ceilings (:attr:`calibrator.models.RobotModel.move_speed_cap_rad_s` and
+    ``move_accel_cap_rad_s2``) are fixed per model; options can lower them only.
+    """
+    from calibrator.errors import CalibrationError
+    from calibrator.models import get_model
+
+    try:
+        arm = get_model(model_name)
+    except CalibrationError as exc:
+        _fail(str(exc))
+    speed_cap, accel_cap = arm.move_speed_cap_rad_s, arm.move_accel_cap_rad_s2
+    if max_speed is not None and max_speed > speed_cap:
+        _fail(
+            f"--max-speed {max_speed} rad/s above the {arm.name} ceiling {speed_cap} rad/s: "
+            "it can lower the cap, never raise it"
+        )
+    cap = speed_cap if max_speed is None else max_speed
+    if speed > cap:
+        _fail(f"--speed {speed} rad/s outside (0, {cap}] (the {arm.name} ceiling or --max-speed)")
+    if accel > accel_cap:
+        _fail(
+            f"--accel {accel} rad/s^2 outside (0, {accel_cap}] (the {arm.name} ceiling; "
+            "an option cannot raise it)"
+        )
 
 
 def _pose_fields(progress) -> dict:

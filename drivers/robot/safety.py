@@ -67,11 +67,36 @@ class MotionLimits:
             object.__setattr__(self, "max_joint_speed_rad_s", speeds)
 
     @classmethod
-    def from_model(cls, model, max_speed_rad_s, max_accel_rad_s2):
-        """Limits from a ``calibrator.models.RobotModel`` plus the user's caps."""
-        return cls(
-            model.joint_limits_rad, max_speed_rad_s, max_accel_rad_s2, model.max_joint_speed_rad_s
-        )
+    def from_model(cls, model, max_speed_rad_s=None, max_accel_rad_s2=None):
+        """Limits from a ``calibrator.models.RobotModel``, optionally lowered by the user.
+
+        The model's fixed ceilings (``move_speed_cap_rad_s``,
+        ``move_accel_cap_rad_s2``) are the caps; a user value may only lower
+        them. ``None`` keeps the ceiling.
+
+        Raises
+        ------
+        LimitsViolation
+            A user cap above the model's ceiling: an option cannot raise a
+            motion limit.
+        """
+        caps = []
+        for value, ceiling, what, unit in (
+            (max_speed_rad_s, model.move_speed_cap_rad_s, "speed", "rad/s"),
+            (max_accel_rad_s2, model.move_accel_cap_rad_s2, "acceleration", "rad/s^2"),
+        ):
+            if value is None:
+                caps.append(float(ceiling))
+                continue
+            value = real_scalar(value, f"max {what}")
+            # "not <=" so that NaN is refused too.
+            if not (value <= ceiling):
+                raise LimitsViolation(
+                    f"{what} cap {value} {unit} above the {model.name} ceiling {ceiling} {unit}: "
+                    "an option can lower a motion limit, never raise it"
+                )
+            caps.append(value)
+        return cls(model.joint_limits_rad, caps[0], caps[1], model.max_joint_speed_rad_s)
 
 
 def check_motion(limits, speed_rad_s, accel_rad_s2):

@@ -196,11 +196,11 @@ def test_a_hang_up_is_a_lost_reading_a_dead_tracker_is_unavailable():
 
 def test_a_ur_robot_is_guarded_by_the_models_limits_and_the_users_caps():
     rig = hw.Rig(model=UR10E)
-    options = hw.RigOptions(max_speed_rad_s=0.7, max_accel_rad_s2=3.0)
+    options = hw.RigOptions(max_speed_rad_s=0.7, max_accel_rad_s2=1.5)
     hw._ur_robot("ur://10.0.0.5/", rig, options, None)  # built, not connected
     assert isinstance(rig.robot, GuardedRobot) and rig.robot.robot.host == "10.0.0.5"
     limits = rig.robot.limits
-    assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (0.7, 3.0)
+    assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (0.7, 1.5)
     np.testing.assert_array_equal(limits.joint_limits_rad, UR10E.joint_limits_rad)
     np.testing.assert_array_equal(limits.max_joint_speed_rad_s, UR10E.max_joint_speed_rad_s)
     assert rig.robot_id == "ur://10.0.0.5:ur10e" and rig.real_robot is True

@@ -244,7 +244,21 @@ def write_plans(folder):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("--speed", "1.5"), "--speed 1.5 rad/s outside (0, 1.0] (--max-speed)"),
+        (
+            ("--speed", "1.5"),
+            "--speed 1.5 rad/s outside (0, 1.0] (the ur10e ceiling or --max-speed)",
+        ),
+        (
+            ("--speed", "0.5", "--max-speed", "0.4"),
+            "--speed 0.5 rad/s outside (0, 0.4] (the ur10e ceiling or --max-speed)",
+        ),
+        (
+            ("--max-speed", "1.5"),
+            "--max-speed 1.5 rad/s above the ur10e ceiling 1.0 rad/s: it can lower the cap",
+        ),
+        (("--accel", "39"), "--accel 39.0 rad/s^2 outside (0, 2.0] (the ur10e ceiling;"),
+        (("--accel", "1000", "--robot", "ur://127.0.0.1"), "--accel 1000.0 rad/s^2 outside"),
+        (("--model", "ur5x"), "unknown model 'ur5x'"),
         (("--tool", "1,2"), "--tool needs X,Y,Z in mm, got '1,2'"),
         (("--tool", "1,2,inf"), "--tool needs X,Y,Z in mm, got '1,2,inf'"),
         (("--tool", "1,x,3"), "--tool needs X,Y,Z in mm, got '1,x,3'"),

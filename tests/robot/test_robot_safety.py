@@ -57,8 +57,9 @@ def test_speed_and_acceleration_caps(speed, accel, word):
 
 def test_model_limits_and_joint_speed():
     ur10e = get_model("ur10e")
-    limits = MotionLimits.from_model(ur10e, max_speed_rad_s=3.0, max_accel_rad_s2=3.0)
-    np.testing.assert_array_equal(limits.joint_limits_rad, ur10e.joint_limits_rad)
+    limits = MotionLimits(
+        ur10e.joint_limits_rad, 3.0, 3.0, max_joint_speed_rad_s=ur10e.max_joint_speed_rad_s
+    )
     check_plan(np.zeros((1, 6)), limits, 2.0, 1.0)
     # UR10e base and shoulder turn at most 120 deg/s: a faster movej could exceed them
     with pytest.raises(LimitsViolation, match="slowest joint"):
@@ -67,6 +68,36 @@ def test_model_limits_and_joint_speed():
     q[0, 2] = 3.2  # the UR elbow is limited to +-pi
     with pytest.raises(LimitsViolation, match="J3"):
         check_plan(q, limits, 1.0, 1.0)
+
+
+def test_a_models_limits_are_its_fixed_ceilings_by_default():
+    ur10e = get_model("ur10e")
+    limits = MotionLimits.from_model(ur10e)
+    np.testing.assert_array_equal(limits.joint_limits_rad, ur10e.joint_limits_rad)
+    assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (1.0, 2.0)
+    check_plan(np.zeros((1, 6)), limits, 1.0, 2.0)
+    with pytest.raises(LimitsViolation, match="acceleration 2.5"):
+        check_plan(np.zeros((1, 6)), limits, 1.0, 2.5)
+
+
+@pytest.mark.parametrize(
+    ("caps", "word"),
+    [
+        (dict(max_speed_rad_s=1.0000001), "speed cap 1.0000001 rad/s above the ur10e ceiling"),
+        (dict(max_accel_rad_s2=39.0), "acceleration cap 39.0 rad/s\\^2 above the ur10e ceiling"),
+        (dict(max_accel_rad_s2=float("nan")), "acceleration cap nan"),
+    ],
+)
+def test_a_user_cap_cannot_raise_a_models_ceiling(caps, word):
+    with pytest.raises(LimitsViolation, match=word):
+        MotionLimits.from_model(get_model("ur10e"), **caps)
+
+
+def test_a_user_cap_lowers_a_models_ceiling():
+    limits = MotionLimits.from_model(get_model("ur5e"), max_speed_rad_s=0.2, max_accel_rad_s2=0.5)
+    assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (0.2, 0.5)
+    with pytest.raises(LimitsViolation, match="speed 0.3"):
+        check_plan(np.zeros((1, 6)), limits, 0.3, 0.5)
 
 
 @pytest.mark.parametrize("shape", [(6,), (3, 5), (2, 6, 1)])
