@@ -5,10 +5,13 @@ frame to coordinates in the tracker frame (the pose of the base in the
 tracker frame).
 """
 
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def check_transform(t, name="transform"):
+def check_transform(t: ArrayLike, name: str = "transform") -> np.ndarray:
     """Return ``t`` as a float (4, 4) homogeneous transform or raise ValueError."""
     t = np.asarray(t, dtype=float)
     if t.shape != (4, 4):
@@ -21,7 +24,7 @@ def check_transform(t, name="transform"):
     return t
 
 
-def rotations_xyz(angles):
+def rotations_xyz(angles: ArrayLike) -> np.ndarray:
     """``Rx(rx) @ Ry(ry) @ Rz(rz)`` for stacked angle triples.
 
     Parameters
@@ -50,7 +53,7 @@ def rotations_xyz(angles):
     return out
 
 
-def angles_xyz(rotation):
+def angles_xyz(rotation: ArrayLike) -> np.ndarray:
     """Inverse of :func:`rotations_xyz`: (..., 3, 3) -> (..., 3) rad, ``ry`` in [-pi/2, pi/2]."""
     r = np.asarray(rotation, dtype=float)
     rx = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
@@ -59,7 +62,9 @@ def angles_xyz(rotation):
     return np.stack([rx, ry, rz], axis=-1)
 
 
-def transform(rotation=None, translation=None):
+def transform(
+    rotation: ArrayLike | None = None, translation: ArrayLike | None = None
+) -> np.ndarray:
     """Stack rotations (..., 3, 3) and translations (..., 3) into (..., 4, 4) transforms."""
     rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
     translation = np.zeros(3) if translation is None else np.asarray(translation, dtype=float)
@@ -71,14 +76,14 @@ def transform(rotation=None, translation=None):
     return out
 
 
-def invert(t):
+def invert(t: ArrayLike) -> np.ndarray:
     """Inverse of stacked rigid transforms (..., 4, 4)."""
     t = np.asarray(t, dtype=float)
     r_t = np.swapaxes(t[..., :3, :3], -1, -2)
     return transform(r_t, -(r_t @ t[..., :3, 3:4])[..., 0])
 
 
-def rotvec_to_matrix(rotvec):
+def rotvec_to_matrix(rotvec: ArrayLike) -> np.ndarray:
     """Rotation vectors (..., 3) rad to rotation matrices (..., 3, 3) (Rodrigues)."""
     rotvec = np.asarray(rotvec, dtype=float)
     angle = np.linalg.norm(rotvec, axis=-1)[..., np.newaxis, np.newaxis]
@@ -91,7 +96,7 @@ def rotvec_to_matrix(rotvec):
     return np.eye(3) + a * k + b * (k @ k)
 
 
-def matrix_to_rotvec(matrix):
+def matrix_to_rotvec(matrix: ArrayLike) -> np.ndarray:
     """Rotation matrices (..., 3, 3) to rotation vectors (..., 3) rad, angle in [0, pi].
 
     Goes through a unit quaternion (Shepperd's choice of the largest
@@ -134,7 +139,7 @@ def _skew(v):
     return out
 
 
-def rotation_error(model, measured):
+def rotation_error(model: ArrayLike, measured: ArrayLike) -> np.ndarray:
     """Rotation vector (rad) of ``model @ measured.T``: how far the model is turned.
 
     Parameters
@@ -150,7 +155,7 @@ def rotation_error(model, measured):
     return matrix_to_rotvec(np.asarray(model) @ np.swapaxes(np.asarray(measured), -1, -2))
 
 
-def fit_rigid(source, target):
+def fit_rigid(source: ArrayLike, target: ArrayLike) -> np.ndarray:
     """Best-fit rigid transform mapping ``source`` points onto ``target`` (Kabsch).
 
     Parameters

@@ -14,9 +14,13 @@ Every function here is a plain function on numpy arrays with no loop over
 poses or parameter sets: the only Python loop is over the six links.
 """
 
+from __future__ import annotations
+
 import math
+from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: Column order of an MDH parameter table.
 COLUMNS = ("a", "alpha", "theta", "d", "beta")
@@ -29,7 +33,7 @@ N_JOINTS = 6
 _EYE_TOP = np.eye(4)[:3]
 
 
-def check_mdh(mdh):
+def check_mdh(mdh: ArrayLike) -> np.ndarray:
     """Return ``mdh`` as a float array of shape ``(..., 6, 5)`` or raise ValueError."""
     mdh = np.asarray(mdh, dtype=float)
     if mdh.ndim < 2 or mdh.shape[-2:] != (N_JOINTS, 5):
@@ -37,7 +41,7 @@ def check_mdh(mdh):
     return mdh
 
 
-def check_joints(q):
+def check_joints(q: ArrayLike) -> np.ndarray:
     """Return ``q`` as a float array of shape ``(N, 6)`` (rad) or raise ValueError."""
     q = np.asarray(q, dtype=float)
     if q.ndim == 1:
@@ -47,7 +51,7 @@ def check_joints(q):
     return q
 
 
-def link_constants(mdh):
+def link_constants(mdh: ArrayLike) -> np.ndarray:
     """The pose-independent part of each link, ``Tz(d) Tx(a) Rx(alpha) Ry(beta)``.
 
     Parameters
@@ -80,7 +84,7 @@ def link_constants(mdh):
     return out
 
 
-def joint_phases(angles):
+def joint_phases(angles: ArrayLike) -> np.ndarray:
     """``exp(-1j * angles)``: the form in which :func:`chain_parts` takes rotations about z.
 
     Parameters
@@ -95,7 +99,13 @@ def joint_phases(angles):
     return np.exp(-1j * np.asarray(angles, dtype=float))
 
 
-def chain_parts(consts, theta_phase, q_phase, *, all_frames=False):
+def chain_parts(
+    consts: np.ndarray,
+    theta_phase: np.ndarray,
+    q_phase: np.ndarray,
+    *,
+    all_frames: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Forward kinematics from precomputed parts; the fast path of :func:`chain`.
 
     A caller that evaluates many parameter sets on the same poses (the
@@ -134,7 +144,7 @@ def chain_parts(consts, theta_phase, q_phase, *, all_frames=False):
     t[...] = _EYE_TOP
     spare = np.empty_like(t)
     # The rotation below works in place, so stored frames must be copies.
-    frames = [t.copy()] if all_frames else None
+    frames = [t.copy()] if all_frames else []
     for i in range(N_JOINTS):
         # The phase of theta_i + q_i for every set and pose, (sets, N, 1),
         # one outer product per joint (cheaper than one strided (6, sets, N)
@@ -162,7 +172,15 @@ def _homogeneous(top):
     return out
 
 
-def chain(mdh, q, *, all_frames=False):
+@overload
+def chain(mdh: ArrayLike, q: ArrayLike, *, all_frames: Literal[False] = ...) -> np.ndarray: ...
+@overload
+def chain(
+    mdh: ArrayLike, q: ArrayLike, *, all_frames: Literal[True]
+) -> tuple[np.ndarray, np.ndarray]: ...
+def chain(
+    mdh: ArrayLike, q: ArrayLike, *, all_frames: bool = False
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Forward kinematics of the arm, base to flange.
 
     Parameters
@@ -192,7 +210,12 @@ def chain(mdh, q, *, all_frames=False):
     return _homogeneous(out)
 
 
-def forward(mdh, q, flange2tool=None, base2tracker=None):
+def forward(
+    mdh: ArrayLike,
+    q: ArrayLike,
+    flange2tool: ArrayLike | None = None,
+    base2tracker: ArrayLike | None = None,
+) -> np.ndarray:
     """Tool pose for each parameter set and pose: ``base2tracker . A_1...A_6 . flange2tool``.
 
     Parameters
@@ -219,7 +242,7 @@ def forward(mdh, q, flange2tool=None, base2tracker=None):
     return t
 
 
-def parallel_axes(mdh, tol=1e-6):
+def parallel_axes(mdh: ArrayLike, tol: float = 1e-6) -> np.ndarray:
     """Which consecutive joint axes are parallel in a nominal table.
 
     Axis i+1 is parallel to axis i when ``alpha_i`` (and ``beta_i``) is 0 or

@@ -112,7 +112,7 @@ _MODELS = {
 MODEL_NAMES = tuple(sorted(_MODELS))
 
 
-def get_model(name):
+def get_model(name: str) -> RobotModel:
     """Return the :class:`RobotModel` called ``name`` (case-insensitive).
 
     Raises

@@ -31,13 +31,20 @@ Errors are :class:`OutputError` (a :class:`~calibrator.errors.CalibrationError`)
 the CLI prints them as one line and exits with code 2.
 """
 
+from __future__ import annotations
+
+import builtins
 import os
 import shutil
 import stat
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from calibrator.errors import CalibrationError
+
+#: A file name as the commands take it.
+PathLike = str | os.PathLike
 
 __all__ = ["OutputError", "Outputs", "check", "check_folder", "show", "write_text", "write_with"]
 
@@ -46,7 +53,7 @@ class OutputError(CalibrationError):
     """An output path that cannot or must not be written."""
 
 
-def check(path, inputs=()):
+def check(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
     """Refuse an output path that cannot or must not be written.
 
     Parameters
@@ -78,10 +85,10 @@ def check(path, inputs=()):
                 "choose another output"
             )
     _check_parent(path)
-    return path
+    return Path(path)
 
 
-def check_folder(path, inputs=()):
+def check_folder(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
     """Refuse an output folder that cannot be used (its parent is checked as for a file).
 
     An existing folder is fine (its files are replaced one by one); a missing
@@ -101,7 +108,7 @@ def check_folder(path, inputs=()):
             raise OutputError(f"cannot write into {show(path)}: no permission to write there")
     else:
         _check_parent(path)
-    return path
+    return Path(path)
 
 
 def _kind(path):
@@ -139,14 +146,16 @@ def _same_file(a, b):
         return False
 
 
-def write_text(path, text, inputs=()):
+def write_text(path: PathLike, text: str, inputs: Iterable[PathLike] = ()) -> Path:
     """Write one text file (UTF-8) atomically; see :class:`Outputs`."""
     with Outputs(inputs) as out:
         out.text(path, text)
     return Path(path)
 
 
-def write_with(path, writer, inputs=()):
+def write_with(
+    path: PathLike, writer: Callable[[Path], object], inputs: Iterable[PathLike] = ()
+) -> Path:
     """Write one file atomically with ``writer(tmp_path)``; see :class:`Outputs`."""
     with Outputs(inputs) as out:
         out.file(path, writer)
@@ -169,10 +178,10 @@ class Outputs:
         Files the command reads; none of them may be an output.
     """
 
-    def __init__(self, inputs=()):
+    def __init__(self, inputs: Iterable[PathLike] = ()) -> None:
         self.inputs = [Path(p) for p in inputs if p is not None]
-        self._pending = []  # (temporary, target, user's path)
-        self._created = []  # folders this batch made
+        self._pending: list[tuple[Path, Path, Path]] = []  # (temporary, target, user's path)
+        self._created: list[Path] = []  # folders this batch made
         self._done = False
 
     def __enter__(self):
@@ -185,7 +194,7 @@ class Outputs:
             self.discard()
         return False
 
-    def folder(self, path):
+    def folder(self, path: PathLike) -> Path:
         """Make sure the output folder ``path`` exists (created now, removed on failure)."""
         path = check_folder(path, self.inputs)
         if not path.is_dir():
@@ -196,11 +205,11 @@ class Outputs:
             self._created.append(path)
         return path
 
-    def text(self, path, text):
+    def text(self, path: PathLike, text: str) -> Path:
         """Add a UTF-8 text file."""
         return self.bytes(path, text.encode("utf-8"))
 
-    def bytes(self, path, data):
+    def bytes(self, path: PathLike, data: builtins.bytes) -> Path:
         """Add a file holding ``data``."""
 
         def save(tmp):
@@ -209,7 +218,7 @@ class Outputs:
 
         return self.file(path, save)
 
-    def file(self, path, writer):
+    def file(self, path: PathLike, writer: Callable[[Path], object]) -> Path:
         """Add a file written by ``writer(tmp_path)`` (it must write the whole file there).
 
         Returns
@@ -245,7 +254,7 @@ class Outputs:
             raise
         return path
 
-    def commit(self):
+    def commit(self) -> None:
         """Rename every file into place; on any failure put back what was there.
 
         Each rename is atomic, so a target always holds either its old or
@@ -277,7 +286,7 @@ class Outputs:
         self._pending = []
         self._done = True
 
-    def discard(self):
+    def discard(self) -> None:
         """Remove every temporary file and every folder this batch created."""
         for tmp, _, _ in self._pending:
             _unlink(tmp)
@@ -307,7 +316,7 @@ def _second_name(target):
     return Path(name)
 
 
-def show(path):
+def show(path: PathLike) -> str:
     """A path for a one-line message: as typed, or quoted if it holds control characters."""
     text = str(path)
     return text if text.isprintable() else repr(text)

@@ -28,8 +28,11 @@ Modes:
     Nothing (``--quiet``).
 """
 
+from __future__ import annotations
+
 import sys
 import time
+from typing import Any, TextIO
 
 __all__ = ["Reporter", "Task"]
 
@@ -48,7 +51,9 @@ class Reporter:
         Plain mode: least time between two lines of one task (s).
     """
 
-    def __init__(self, mode="plain", stream=None, interval_s=2.0):
+    def __init__(
+        self, mode: str = "plain", stream: TextIO | None = None, interval_s: float = 2.0
+    ) -> None:
         if mode not in MODES:
             raise ValueError(f"progress mode must be one of {MODES}, got {mode!r}")
         self.mode = mode
@@ -56,7 +61,7 @@ class Reporter:
         self.interval_s = interval_s
 
     @classmethod
-    def for_cli(cls, quiet=False, stream=None):
+    def for_cli(cls, quiet: bool = False, stream: TextIO | None = None) -> Reporter:
         """``off`` when quiet, ``rich`` on a terminal, ``plain`` otherwise."""
         stream = stream if stream is not None else sys.stderr
         if quiet:
@@ -64,7 +69,7 @@ class Reporter:
         isatty = getattr(stream, "isatty", lambda: False)
         return cls("rich" if isatty() else "plain", stream)
 
-    def task(self, name, total, unit="steps"):
+    def task(self, name: str, total: int, unit: str = "steps") -> Task:
         """A :class:`Task` to use as a context manager."""
         return Task(self, name, total, unit)
 
@@ -72,13 +77,13 @@ class Reporter:
 class Task:
     """One piece of long work with a known number of units."""
 
-    def __init__(self, reporter, name, total, unit):
+    def __init__(self, reporter: Reporter, name: str, total: int, unit: str) -> None:
         self.reporter, self.name, self.total, self.unit = reporter, name, int(total), unit
         self.done = 0
-        self.fields = {}
-        self._started = None
-        self._last_shown = None
-        self._bar = None
+        self.fields: dict[str, object] = {}
+        self._started = 0.0  # set again on entering the task
+        self._last_shown = 0.0
+        self._bar: Any = None  # a rich Progress, made on entering in "rich" mode
 
     def __enter__(self):
         self._started = time.monotonic()
@@ -97,11 +102,11 @@ class Task:
         return False
 
     @property
-    def elapsed_s(self):
+    def elapsed_s(self) -> float:
         """Seconds since the task started."""
         return time.monotonic() - self._started
 
-    def update(self, done, **fields):
+    def update(self, done: int, **fields: object) -> None:
         """Record ``done`` units finished and any extra fields (shown as ``key=value``)."""
         self.done = int(done)
         self.fields.update(fields)
