@@ -10,9 +10,10 @@ Run::
 2. 1,000,000 trials in-process in a fresh process: wall time and peak
    resident memory (``ru_maxrss``), next to the same process running 10,000
    trials (interpreter + imports + one block) as the baseline.
-3. ``--big`` trials (10^7 by default) on a Dask LocalCluster of 1 and of 2
-   single-threaded worker processes (cluster start-up included): wall
-   times and the speed-up; the statistics must be identical, to the bit.
+3. ``--big`` trials (10^7 by default) in-process and on a Dask LocalCluster
+   of 1 and of 2 single-threaded worker processes (cluster start-up
+   included): wall times, one worker against in-process, and the speed-up;
+   the statistics must be identical, to the bit.
 """
 
 import argparse
@@ -84,17 +85,19 @@ def in_process(args):
 
 
 def workers(args):
-    # Alternating the two settings spreads drifts in the machine's load over both.
-    times, results = {1: [], 2: []}, []
+    # Alternating the three settings spreads drifts in the machine's load over all.
+    times, results = {0: [], 1: [], 2: []}, []
     for _ in range(args.rounds):
-        for n in (1, 2):
-            wall, stats = timed(args.big, workers=n)
+        for n in (0, 1, 2):
+            wall, stats = timed(args.big, workers=n or None)
             times[n].append(wall)
             results.append(stats)
-            print(f"{args.big:,} trials, LocalCluster {n} worker(s): {wall:.1f} s", flush=True)
-    one, two = statistics.median(times[1]), statistics.median(times[2])
+            where = f"LocalCluster {n} worker(s)" if n else "in-process"
+            print(f"{args.big:,} trials, {where}: {wall:.1f} s", flush=True)
+    here, one, two = (statistics.median(times[n]) for n in (0, 1, 2))
     same = all(r == results[0] for r in results)
     print(
+        f"1 worker / in-process: {one / here:.2f}x; "
         f"speed-up 2 workers / 1 worker (medians): {one / two:.2f}x; statistics identical: {same}"
     )
 

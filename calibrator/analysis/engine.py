@@ -76,8 +76,30 @@ def _run_local(study, grid, plan, progress):
     return total
 
 
+def local_cluster(workers):
+    """A Dask ``LocalCluster`` of ``workers`` single-threaded worker processes.
+
+    Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_`` in its workers. Setting any
+    malloc tunable turns off glibc's dynamic mmap threshold, so every array
+    above 128 kB of a block is mmap'ed and page-faulted afresh: a chunk ran
+    1.7-2x slower in a worker than in the calling process
+    (benchmarks/analyze_misalignment.py). These workers keep glibc's default.
+    """
+    import dask
+    from dask.distributed import LocalCluster
+
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+
+
 def _run_dask(study, grid, plan, workers, scheduler, progress):
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     if scheduler is not None:
         try:
@@ -86,13 +108,7 @@ def _run_dask(study, grid, plan, workers, scheduler, progress):
             raise CalibrationError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None
         cluster = None
     else:
-        cluster = LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        )
+        cluster = local_cluster(workers)
         client = Client(cluster)
     try:
         # One copy of the (small) study and grid per worker, not one per chunk.

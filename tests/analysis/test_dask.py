@@ -32,3 +32,21 @@ def test_existing_scheduler_gets_the_chunks():
         assert len(cluster.scheduler_info["workers"]) == 1
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
     assert multiprocessing.active_children() == []
+
+
+def test_local_workers_keep_glibcs_dynamic_malloc_thresholds(monkeypatch):
+    # Dask's nanny would set MALLOC_TRIM_THRESHOLD_, which turns off glibc's
+    # dynamic mmap threshold and made a chunk run about 2x slower in a worker.
+    import os
+
+    from dask.distributed import Client
+
+    # A plain LocalCluster earlier in this process leaves the variable in
+    # os.environ (Dask sets it in the nanny's process), and workers inherit it.
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    with engine.local_cluster(1) as cluster, Client(cluster) as client:
+        seen = client.submit(os.environ.get, "MALLOC_TRIM_THRESHOLD_", pure=False).result()
+        blas = client.submit(os.environ.get, "OPENBLAS_NUM_THREADS", pure=False).result()
+    assert seen is None
+    assert blas == "1"  # the rest of Dask's worker settings stay
+    assert multiprocessing.active_children() == []
