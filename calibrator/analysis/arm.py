@@ -17,9 +17,13 @@ joint i is inserted right there: ``L_1 E_1 L_2 E_2 ... L_6 E_6 F``.
 All transforms are stored as their top three rows, shape ``(..., 3, 4)`` (mm).
 """
 
+from __future__ import annotations
+
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from calibrator.errors import CalibrationError
@@ -42,7 +46,7 @@ PAPER_CRAIG = np.array(
 PAPER_POSE_DEG = np.array([100.0, 60.0, -10.0, -120.0, 90.0, 0.0])
 
 
-def rot_x(angle):
+def rot_x(angle: ArrayLike) -> np.ndarray:
     """Top rows of Rx(angle), shape ``angle.shape + (3, 4)``."""
     c, s = np.cos(angle), np.sin(angle)
     out = np.zeros(np.shape(angle) + (3, 4))
@@ -52,7 +56,7 @@ def rot_x(angle):
     return out
 
 
-def rot_y(angle):
+def rot_y(angle: ArrayLike) -> np.ndarray:
     """Top rows of Ry(angle)."""
     c, s = np.cos(angle), np.sin(angle)
     out = np.zeros(np.shape(angle) + (3, 4))
@@ -62,7 +66,7 @@ def rot_y(angle):
     return out
 
 
-def rot_z(angle):
+def rot_z(angle: ArrayLike) -> np.ndarray:
     """Top rows of Rz(angle)."""
     c, s = np.cos(angle), np.sin(angle)
     out = np.zeros(np.shape(angle) + (3, 4))
@@ -72,7 +76,7 @@ def rot_z(angle):
     return out
 
 
-def trans(x, y, z):
+def trans(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> np.ndarray:
     """Top rows of Trans(x, y, z) (mm); arguments broadcast."""
     x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
     out = np.zeros(x.shape + (3, 4))
@@ -81,7 +85,7 @@ def trans(x, y, z):
     return out
 
 
-def compose(a, b):
+def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a . b`` for stacked 3x4 rigid transforms (broadcast over leading axes).
 
     Written as elementwise multiply-adds rather than ``matmul`` on purpose:
@@ -114,14 +118,14 @@ class PosedArm:
     tail: np.ndarray
     name: str = ""
 
-    def base2hand(self):
+    def base2hand(self) -> np.ndarray:
         """The ideal hand pose, shape (3, 4) (mm)."""
         t = self.links[0]
         for link in self.links[1:]:
             t = compose(t, link)
         return compose(t, self.tail)
 
-    def joint_frames(self):
+    def joint_frames(self) -> np.ndarray:
         """Ideal base-to-joint-frame transforms, shape (6, 3, 4): ``L_1 ... L_i``."""
         out = [self.links[0]]
         for link in self.links[1:]:
@@ -129,7 +133,7 @@ class PosedArm:
         return np.stack(out)
 
 
-def craig_arm(table, pose_rad, name="craig"):
+def craig_arm(table: ArrayLike, pose_rad: ArrayLike, name: str = "craig") -> PosedArm:
     """A :class:`PosedArm` from a Craig modified-DH table.
 
     Parameters
@@ -150,7 +154,7 @@ def craig_arm(table, pose_rad, name="craig"):
     return PosedArm(links=links, tail=trans(0.0, 0.0, 0.0), name=name)
 
 
-def mdh_arm(mdh, pose_rad, name="mdh"):
+def mdh_arm(mdh: ArrayLike, pose_rad: ArrayLike, name: str = "mdh") -> PosedArm:
     """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.kinematics`).
 
     Parameters
@@ -185,14 +189,18 @@ def _check_pose(pose):
 PAPER = "paper"
 
 
-def length_names(model):
+def length_names(model: str) -> tuple[str, ...]:
     """Link lengths :func:`build` can set, by name, for a model (``'paper'`` or a named model)."""
     if model == PAPER:
         return tuple(f"a{i}" for i in range(6)) + tuple(f"d{i + 1}" for i in range(6))
     return tuple(f"a{i + 1}" for i in range(6)) + tuple(f"d{i + 1}" for i in range(6))
 
 
-def build(model=PAPER, pose_deg=None, lengths=None):
+def build(
+    model: str = PAPER,
+    pose_deg: ArrayLike | None = None,
+    lengths: Mapping[str, float] | None = None,
+) -> PosedArm:
     """A posed arm by name, optionally with some link lengths changed.
 
     Parameters

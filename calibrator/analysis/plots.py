@@ -4,7 +4,10 @@ The command writes them through :mod:`calibrator.outputs`, so they appear
 whole or not at all. matplotlib is imported inside the functions.
 """
 
+from __future__ import annotations
+
 import io
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -28,7 +31,7 @@ def _png(fig):
     return buf.getvalue()
 
 
-def cloud(summary, grid, title=""):
+def cloud(summary: mc.Summary, grid: mc.Grid, title: str = "") -> bytes:
     """Density maps of the hand-error cloud projected on the XY, XZ and YZ planes.
 
     The ideal point (origin) is a cross, the density centre (mean error) a dot.
@@ -50,7 +53,7 @@ def cloud(summary, grid, title=""):
     return _png(fig)
 
 
-def pdf_cdf(runs):
+def pdf_cdf(runs: Sequence[tuple[str, mc.Summary, mc.Grid]]) -> bytes:
     """PDF and CDF of |dP| for one or several runs.
 
     Parameters
@@ -79,7 +82,7 @@ def pdf_cdf(runs):
     return _png(fig)
 
 
-def orientation(summary, grid):
+def orientation(summary: mc.Summary, grid: mc.Grid) -> bytes:
     """Densities of the orientation error: rotation about hand x, y, z and axis angles (deg)."""
     fig, (ax_rot, ax_axis) = _figure(2, width=5.0)
     for j, name in enumerate("xyz"):
@@ -97,7 +100,7 @@ def orientation(summary, grid):
     return _png(fig)
 
 
-def sweep(xlabel, xs, rows):
+def sweep(xlabel: str, xs: Sequence[float], rows: Sequence[dict]) -> bytes:
     """Statistics of |dP| against a swept input (R0 or a link length)."""
     fig, (ax,) = _figure(1, width=5.5)
     for key, label in (
