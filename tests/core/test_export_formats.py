@@ -2,7 +2,7 @@
 
 import json
 
-import mutants_export_kit as kit
+import export_kit as kit
 import numpy as np
 import pandas as pd
 import pytest

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from cli_testkit import cli, one_line_error
-from mutants_export_kit import rot
+from export_kit import rot
 from scipy.spatial.transform import Rotation
 
 from calibrator import compensate, frames, kinematics, parameters, simulate

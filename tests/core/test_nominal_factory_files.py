@@ -4,8 +4,8 @@ the imported table keeps, and what :func:`nominal.apply` does to a session."""
 import numpy as np
 import pytest
 import yaml
-from mutants_export_kit import calibrated, poses
-from test_mutants_export_ur import ur_file
+from export_kit import calibrated, poses
+from test_export_ur_files import ur_file
 
 from calibrator import export, kinematics, nominal
 from calibrator.errors import CalibrationError

@@ -7,7 +7,7 @@ import json
 import pytest
 import yaml
 from cli_testkit import cli, one_line_error
-from mutants_export_kit import calibrated
+from export_kit import calibrated
 
 from calibrator import export
 from calibrator.errors import CalibrationError

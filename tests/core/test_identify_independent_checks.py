@@ -1,7 +1,7 @@
 """Identification checked through what it returns, recomputed by an independent route.
 
 Objectives and statistics are recomputed here from ``kinematics.forward``
-(itself checked against a scipy chain in ``test_mutation_gaps_kinematics``)
+(itself checked against a scipy chain in ``test_kinematics_independent``)
 and scipy's rotations, never from the identifier's own helpers, so a result
 that reports one thing and returns another is caught.
 """

@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 import yourdfpy
-from mutants_export_kit import calibrated, poses, rot, urdf_origin
+from export_kit import calibrated, poses, rot, urdf_origin
 
 from calibrator import export, kinematics
 from calibrator.models import get_model

@@ -3,7 +3,7 @@
 The figures are read back from the written files: a recorder stands in for
 ``plots._png`` and writes a token per figure, so each file name maps to the
 matplotlib figure that went into it (rendering is checked in
-``test_mutants_plots.py``).
+``test_misalignment_plots.py``).
 """
 
 import json

@@ -4,7 +4,7 @@ scipy's rotations."""
 
 import numpy as np
 import pytest
-from mutants_export_kit import calibrated, poses, rot
+from export_kit import calibrated, poses, rot
 from scipy.spatial.transform import Rotation
 
 from calibrator import chains, kinematics

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from mutants_export_kit import calibrated, poses
+from export_kit import calibrated, poses
 
 from calibrator import export, kinematics
 from calibrator.errors import CalibrationError

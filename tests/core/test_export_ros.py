@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 import yaml
-from mutants_export_kit import calibrated, rot, urdf_origin
+from export_kit import calibrated, rot, urdf_origin
 
 from calibrator import export, kinematics
 from calibrator.errors import CalibrationError
