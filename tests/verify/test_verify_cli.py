@@ -1,0 +1,137 @@
+"""``calibrator verify`` on the simulated cell: before and after calibration, outputs, faults."""
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from cli_testkit import cli, one_line_error
+
+SEED = "3"
+
+
+def recompute(parquet):
+    """AP and RP per test pose from verify.parquet, written out plainly (no project code)."""
+    table = pd.read_parquet(parquet)
+    out = {}
+    for pose, rows in table.groupby("test_pose"):
+        pts = rows[["x_mm", "y_mm", "z_mm"]].to_numpy()
+        cmd = rows[["cmd_x_mm", "cmd_y_mm", "cmd_z_mm"]].to_numpy()
+        assert (cmd == cmd[0]).all()  # one commanded position per test pose
+        n = len(pts)
+        bary = [sum(p[k] for p in pts) / n for k in range(3)]
+        ap = math.sqrt(sum((bary[k] - cmd[0][k]) ** 2 for k in range(3)))
+        dist = [math.sqrt(sum((p[k] - bary[k]) ** 2 for k in range(3))) for p in pts]
+        lbar = sum(dist) / n
+        s = math.sqrt(sum((d - lbar) ** 2 for d in dist) / (n - 1))
+        out[int(pose)] = (ap, lbar + 3 * s, [bary[k] - cmd[0][k] for k in range(3)])
+    return out
+
+
+def check_outputs(folder, name, cycles):
+    doc = json.loads((folder / f"{name}.json").read_text())
+    table = pd.read_parquet(folder / f"{name}.parquet")
+    assert list(table.columns) == [
+        "test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm",
+    ]  # fmt: skip
+    assert len(table) == 5 * cycles and doc["cycles"] == cycles
+    # Each cycle visits P5, P4, P3, P2, P1.
+    assert table["test_pose"].tolist()[:5] == [5, 4, 3, 2, 1]
+    assert sorted(set(table["cycle"])) == list(range(1, cycles + 1))
+    again = recompute(folder / f"{name}.parquet")
+    assert [p["test_pose"] for p in doc["poses"]] == [1, 2, 3, 4, 5]
+    for p in doc["poses"]:
+        ap, rp, comps = again[p["test_pose"]]
+        assert abs(p["AP_mm"] - ap) < 1e-9 and abs(p["RP_mm"] - rp) < 1e-9
+        for key, value in zip(("APx_mm", "APy_mm", "APz_mm"), comps, strict=True):
+            assert abs(p[key] - value) < 1e-9
+        assert p["RP_mm"] > 0
+    assert doc["frame"] == "robot base" and doc["registration"]["frame"] == "robot base"
+    assert doc["orientation"].startswith("not measured")
+    assert not (folder / f"{name}.json.journal").exists()
+    return doc
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """The hidden arm of SEED, measured and identified."""
+    folder = tmp_path_factory.mktemp("cell")
+    done = cli("measure", "-q", "--seed", SEED, "--poses", "60", "-o", "s.parquet", cwd=folder)
+    assert done.code == 0, done.stderr
+    done = cli("identify", "s.parquet", "-o", "cal.json", cwd=folder)
+    assert done.code == 0, done.stderr
+    return folder
+
+
+def test_calibration_cuts_ap_tenfold_and_leaves_rp_alone(calibrated):
+    folder = calibrated
+    before = cli("verify", "-q", "--seed", SEED, "-o", "before.json", cwd=folder)
+    assert before.code == 0, before.stderr
+    after = cli(
+        "verify", "-q", "--seed", SEED, "--calibration", "cal.json", "-o", "after.json", cwd=folder
+    )
+    assert after.code == 0, after.stderr
+    b = check_outputs(folder, "before", 30)  # 30 cycles by default
+    a = check_outputs(folder, "after", 30)
+    assert not b["compensated"] and a["compensated"]
+    assert b["registration"]["method"] == "surveyed"
+    assert a["registration"]["method"] == "calibration"
+    # The same test poses, before and after.
+    assert [p["commanded_mm"] for p in a["test_poses"]] == [
+        p["commanded_mm"] for p in b["test_poses"]
+    ]
+    for pb, pa in zip(b["poses"], a["poses"], strict=True):
+        assert pa["AP_mm"] <= 0.1 * pb["AP_mm"], (pb, pa)
+        assert abs(pa["RP_mm"] / pb["RP_mm"] - 1) <= 0.2, (pb, pa)
+    assert "robot base frame" in after.stdout and "P5" in after.stdout
+
+
+def test_before_in_the_calibration_frame_via_register(calibrated):
+    folder = calibrated
+    done = cli(
+        "verify", "-q", "--seed", SEED, "--cycles", "3", "--register", "cal.json",
+        "-o", "reg.json", cwd=folder,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    doc = check_outputs(folder, "reg", 3)
+    assert doc["registration"]["method"] == "calibration" and not doc["compensated"]
+    assert min(p["AP_mm"] for p in doc["poses"]) > 0.3  # the hidden errors show
+
+
+def test_a_failed_visit_stops_the_certificate_and_resume_completes_it(tmp_path):
+    (tmp_path / "faults.txt").write_text("MEAS@31 beam_break count=40\n")
+    args = ("verify", "-q", "--cycles", "2", "--retries", "1", "-o", "v.json")
+    done = cli(*args, "--sim-faults", "faults.txt", cwd=tmp_path)
+    assert done.code == 1 and "--resume" in done.stderr, done.stderr
+    assert not (tmp_path / "v.json").exists() and not (tmp_path / "v.parquet").exists()
+    records = (tmp_path / "v.json.journal").read_text().splitlines()[1:]
+    assert [json.loads(r)["status"] for r in records].count("failed") == 1
+    again = cli(*args, "--resume", cwd=tmp_path)
+    assert again.code == 0, again.stderr
+    check_outputs(tmp_path, "v", 2)
+
+
+def test_refuses_bad_options_in_one_line(tmp_path):
+    one_line_error(cli("verify", "--cube", "1,2,3", cwd=tmp_path))
+    one_line_error(cli("verify", "--cube", "800,0,100,5000", "--cycles", "2", cwd=tmp_path))
+    one_line_error(cli("verify", "--cycles", "1", cwd=tmp_path))
+    one_line_error(cli("verify", "-o", "v.parquet", cwd=tmp_path))
+    (tmp_path / "v.json").write_text("{}")
+    one_line_error(cli("verify", "-o", "v.json", cwd=tmp_path))
+    assert (tmp_path / "v.json").read_text() == "{}"
+    one_line_error(cli("verify", "--calibration", "missing.json", "-o", "w.json", cwd=tmp_path))
+    one_line_error(cli("verify", "--base-frame", "1,2,3", "-o", "w.json", cwd=tmp_path))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.json"]
+
+
+def test_given_cube_and_base_frame_are_used(tmp_path):
+    done = cli(
+        "verify", "-q", "--cycles", "2", "--cube", "700,100,300,200",
+        "--base-frame", "0,0,0,0,0,0", "-o", "v.json", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    doc = check_outputs(tmp_path, "v", 2)
+    assert doc["cube"] == {"centre_mm": [700.0, 100.0, 300.0], "side_mm": 200.0, "given": True}
+    np.testing.assert_allclose(doc["test_poses"][0]["commanded_mm"], [700, 100, 300])
+    assert doc["registration"]["method"] == "surveyed"
