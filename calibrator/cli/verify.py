@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -185,13 +186,16 @@ def verify(
             rig = _hardware.build(robot, tracker, options, stack)
         except PortError as exc:
             _fail(str(exc))
+        # The rig's fields are untyped today (drivers.robot.open_robot will type them).
+        arm: Any = rig.model
+        robot_port: Any = rig.robot
         _add_sim_repeatability(rig, seed, sim_repeatability)
         flange2tool = frames.transform(translation=tool_mm)
         # ---- the plan, checked whole before anything moves
-        vplan = run.make_plan(rig.model, flange2tool, cycles, given_cube, cal)
+        vplan = run.make_plan(arm, flange2tool, cycles, given_cube, cal)
         from calibrator import plan as plans
 
-        q_plan = plans.validate(vplan.plan, rig.model.joint_limits_rad)
+        q_plan = plans.validate(vplan.plan, arm.joint_limits_rad)
         if hasattr(rig.robot, "check_plan"):
             from drivers.robot.errors import LimitsViolation
 
@@ -212,11 +216,10 @@ def verify(
                 "compensated": cal is not None,
             },
         }
+        done: dict = {}
         if resume:
-            journal, done = journals.Journal.resume(jpath, header)
-            done = done.records
-        else:
-            done = {}
+            journal, resumed = journals.Journal.resume(jpath, header)
+            done = resumed.records
         todo = [i for i in range(len(q_plan)) if done.get(i, {}).get("status") != "measured"]
         if rig.real_robot and not yes:
             _confirm(rig.robot_id, len(todo) + 1)  # + the lead-in move
@@ -226,7 +229,7 @@ def verify(
         stopped = None
         if todo:
             try:
-                rig.robot.move_joints(run.lead_in(vplan, todo[0]), speed, accel)
+                robot_port.move_joints(run.lead_in(vplan, todo[0]), speed, accel)
             except OSError as exc:  # halted, refused or link lost: nothing measured yet
                 stopped = f"lead-in move before plan row {todo[0]} failed: {exc}"
         outcome = loop.Outcome(records=dict(done))
@@ -282,7 +285,7 @@ def verify(
             registration = run.fit(pts, vplan)
         poses, table = run.evaluate(pts, rotvecs, vplan, registration)
         info = {
-            "model": rig.model.name,
+            "model": arm.name,
             "robot": rig.robot_id,
             "tracker": rig.tracker_id,
             "readings": readings,

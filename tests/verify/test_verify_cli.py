@@ -18,17 +18,18 @@ def calibrated(tmp_path_factory):
     assert done.code == 0, done.stderr
     done = cli("identify", "s.parquet", "-o", "cal.json", cwd=folder)
     assert done.code == 0, done.stderr
-    return folder
-
-
-def test_calibration_cuts_ap_tenfold_and_leaves_rp_alone(calibrated):
-    folder = calibrated
     before = cli("verify", "-q", "--seed", SEED, "-o", "before.json", cwd=folder)
     assert before.code == 0, before.stderr
     after = cli(
         "verify", "-q", "--seed", SEED, "--calibration", "cal.json", "-o", "after.json", cwd=folder
     )
     assert after.code == 0, after.stderr
+    assert "robot base frame" in after.stdout and "P5" in after.stdout
+    return folder
+
+
+def test_calibration_cuts_ap_tenfold_and_leaves_rp_alone(calibrated):
+    folder = calibrated
     b = check_outputs(folder, "before", 30)  # 30 cycles by default
     a = check_outputs(folder, "after", 30)
     assert not b["compensated"] and a["compensated"]
@@ -41,7 +42,35 @@ def test_calibration_cuts_ap_tenfold_and_leaves_rp_alone(calibrated):
     for pb, pa in zip(b["poses"], a["poses"], strict=True):
         assert pa["AP_mm"] <= 0.1 * pb["AP_mm"], (pb, pa)
         assert abs(pa["RP_mm"] / pb["RP_mm"] - 1) <= 0.2, (pb, pa)
-    assert "robot base frame" in after.stdout and "P5" in after.stdout
+
+
+def test_report_shows_before_and_after_side_by_side(calibrated):
+    folder = calibrated
+    done = cli(
+        "report", "cal.json", "-o", "rep", "--verify", "before.json", "--verify", "after.json",
+        cwd=folder,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    page = (folder / "rep" / "index.html").read_text()
+    section = page[page.index('<section id="verify">') :]
+    assert "before (nominal): before.json" in section and "after (compensated)" in section
+    after = json.loads((folder / "after.json").read_text())
+    assert f"{after['poses'][4]['AP_mm']:.4f}" in section
+    assert (folder / "rep" / "verify_clouds.png").read_bytes()[:4] == b"\x89PNG"
+    # Without the parquet beside it: the table stays, the plot says what is missing.
+    (folder / "only").mkdir()
+    (folder / "only" / "after.json").write_text((folder / "after.json").read_text())
+    done = cli("report", "cal.json", "-o", "rep2", "--verify", "only/after.json", cwd=folder)
+    assert done.code == 0, done.stderr
+    assert "give the verify.parquet" in (folder / "rep2" / "index.html").read_text()
+    assert not (folder / "rep2" / "verify_clouds.png").exists()
+
+
+def test_report_refuses_a_file_that_is_not_a_verify_result(calibrated):
+    folder = calibrated
+    one_line_error(cli("report", "cal.json", "-o", "r3", "--verify", "cal.json", cwd=folder))
+    one_line_error(cli("report", "cal.json", "-o", "r3", "--verify", "none.json", cwd=folder))
+    assert not (folder / "r3").exists()
 
 
 def test_before_in_the_calibration_frame_via_register(calibrated):
