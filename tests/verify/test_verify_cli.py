@@ -121,3 +121,33 @@ def test_given_cube_and_base_frame_are_used(tmp_path):
     assert doc["cube"] == {"centre_mm": [700.0, 100.0, 300.0], "side_mm": 200.0, "given": True}
     np.testing.assert_allclose(doc["test_poses"][0]["commanded_mm"], [700, 100, 300])
     assert doc["registration"]["method"] == "surveyed"
+
+
+def test_ctrl_c_stops_after_the_current_pose_and_resume_finishes(tmp_path):
+    import signal
+    import time
+
+    from cli_process import run_cli, start_cli
+
+    args = ("verify", "--cycles", "4", "--settle", "0.1", "-o", "v.json")
+    proc = start_cli(*args, cwd=tmp_path)
+    journal = tmp_path / "v.json.journal"
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and len(journal.read_text().splitlines()) >= 4:
+                break
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1, err
+    assert "stopped: interrupted before pose" in err and "Traceback" not in err
+    kept = [json.loads(line)["pose"] for line in journal.read_text().splitlines()[1:]]
+    assert 3 <= len(kept) < 20 and kept == list(range(len(kept)))
+    assert not (tmp_path / "v.json").exists()
+    again = run_cli(*args, "--resume", "-q", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    check_outputs(tmp_path, "v", 4)
