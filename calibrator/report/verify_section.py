@@ -105,10 +105,10 @@ def section_html(runs: list[VerifyRun], images: dict) -> str:
     """The section as HTML (table, then the clouds plot or why it is missing)."""
     esc = _html.escape
     parts = ['<section id="verify"><h2>ISO 9283 pose accuracy and repeatability</h2>']
-    for run in runs:
+    for i, run in enumerate(runs):
         reg = run.doc.get("registration", {})
         parts.append(
-            f"<p>{esc(run.label)}: {run.doc.get('cycles')} cycles, frame "
+            f"<p>{i + 1}: {esc(run.label)}; {run.doc.get('cycles')} cycles, frame "
             f"{esc(str(run.doc.get('frame', 'robot base')))}, registration "
             f"{esc(str(reg.get('method')))} ({esc(str(reg.get('source')))}); orientation "
             f"{esc(str(run.doc.get('orientation', 'not measured')))}</p>"
@@ -116,7 +116,8 @@ def section_html(runs: list[VerifyRun], images: dict) -> str:
     keys = list(_KEYS)
     if all(_ORIENTATION[0] in run.doc["poses"][0] for run in runs):
         keys += _ORIENTATION
-    head = "".join(f"<th>{esc(k)}<br>{esc(run.label)}</th>" for k in keys for run in runs)
+    names = [f"{i + 1}: {run.label.split(':')[0]}" for i, run in enumerate(runs)]
+    head = "".join(f"<th>{esc(k)}<br>{esc(name)}</th>" for k in keys for name in names)
     parts.append(f"<table><tr><th>test pose</th>{head}</tr>")
     for k in range(5):
         cells = "".join(f"<td>{run.doc['poses'][k][key]:.4f}</td>" for key in keys for run in runs)
