@@ -22,6 +22,7 @@ from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
 from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
 from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
 from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip
+from calibrator.cli import verify as _verify  # noqa: E402,F401  isort: skip
 from calibrator.cli import report as _report  # noqa: E402,F401  isort: skip
 from calibrator.cli import analyze as _analyze  # noqa: E402,F401  isort: skip
 from calibrator.cli import simulate as _simulate  # noqa: E402,F401  isort: skip

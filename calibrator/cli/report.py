@@ -20,15 +20,23 @@ def report(
     output: Path = typer.Option(
         Path("report"), "-o", "--output", help="Folder to write the PNGs and index.html into."
     ),
+    verify_paths: list[Path] = typer.Option(
+        None, "--verify", help="ISO 9283 result (calibrator verify), repeatable: before, after."
+    ),
 ):
     """Write the calibration report: PNG plots and one self-contained HTML page."""
     from calibrator import calibration, outputs, session
-    from calibrator.report import write
+    from calibrator.report import verify_section, write
 
-    outputs.check_folder(output, inputs=[calibration_path, session_path])
+    verify_paths = list(verify_paths or [])
+    extra = verify_paths + verify_section.data_paths(verify_paths)
+    outputs.check_folder(output, inputs=[calibration_path, session_path, *extra])
     doc = calibration.load(calibration_path).to_json()
     loaded = None if session_path is None else session.load(session_path)
-    written = write(output, doc, loaded, None, calibration_path, session_path)
+    runs = verify_section.load(verify_paths)
+    batch = outputs.Outputs(inputs=[calibration_path, session_path, *extra])
+    with batch:
+        written = write(output, doc, loaded, batch, calibration_path, session_path, runs)
     names = ", ".join(p.name for p in written)
     files = "1 file" if len(written) == 1 else f"{len(written)} files"
     typer.echo(f"wrote {files} into {output}: {names}")

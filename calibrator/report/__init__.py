@@ -43,11 +43,14 @@ FILES = (
     "error_vs_distance.png",
     "convergence.png",
     "deltas.png",
+    "verify_clouds.png",
     "index.html",
 )
 
 
-def write(folder, doc, session=None, batch=None, calibration_path=None, session_path=None):
+def write(
+    folder, doc, session=None, batch=None, calibration_path=None, session_path=None, verify=()
+):
     """Render the report into ``folder`` (created if missing).
 
     Parameters
@@ -64,6 +67,8 @@ def write(folder, doc, session=None, batch=None, calibration_path=None, session_
     calibration_path, session_path : str or Path, optional
         Shown on the page; never overwritten (with ``batch``, its own
         ``inputs`` count).
+    verify : list of calibrator.report.verify_section.VerifyRun
+        ISO 9283 runs (``calibrator verify``): a section of their own.
 
     Returns
     -------
@@ -82,6 +87,11 @@ def write(folder, doc, session=None, batch=None, calibration_path=None, session_
     content = data.collect(doc, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
+    if verify:
+        from calibrator.report import verify_section
+
+        html, extra = verify_section.add(html, list(verify))
+        images.update(extra)
     try:
         folder = batch.folder(folder)
         written = [batch.bytes(folder / name, png) for name, png in images.items()]

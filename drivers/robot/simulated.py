@@ -8,8 +8,20 @@ knows where its probe really is (:meth:`SimulatedRobot.true_tool_pose`), which
 a listener receives after each completed move, so a tracker simulator can
 measure it. Moves complete at once: there is no time in the simulation.
 
+Opt-in repeatability (:class:`JointRepeatability`, off by default so every
+existing simulated result is unchanged): after each move every joint lands
+off its target by a fresh random positioning error (normal, per-joint
+standard deviation) plus a direction-dependent backlash (half the lost
+motion, against the direction the joint last moved in). Both sit on the load
+side of the gears: the encoders report the target (plus the encoder noise
+above), so the errors reach the probe but not the joint read-back, as on a
+real arm. Approached always from the same side, the backlash is a constant
+offset (it shifts AP); the random error spreads the attained poses (RP).
+
 The dependency runs drivers -> calibrator (kinematics, models) only.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,6 +30,44 @@ from calibrator.models import get_model
 from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop
 from drivers.robot.interface import N_JOINTS, Robot, SafetyState, check_move_args
+
+
+@dataclass(frozen=True)
+class JointRepeatability:
+    """The simulated arm's load-side joint errors (each a scalar or shape (6,)).
+
+    Attributes
+    ----------
+    positioning_std_rad : float or array_like
+        Standard deviation of the random positioning error of each joint, rad,
+        drawn afresh on every move.
+    backlash_rad : float or array_like
+        Lost motion of each joint, rad: a joint that last moved in the
+        positive direction stops ``backlash_rad / 2`` short of its target,
+        one that last moved negative ``backlash_rad / 2`` beyond it.
+    """
+
+    positioning_std_rad: float | np.ndarray = 0.0
+    backlash_rad: float | np.ndarray = 0.0
+
+    @classmethod
+    def typical(cls) -> "JointRepeatability":
+        """Values of a 10 kg-class collaborative arm (about 0.05 mm RP at 1 m reach).
+
+        Positioning 8 urad (base, shoulder, elbow) and 15 urad (wrist);
+        backlash 20 urad on every joint.
+        """
+        return cls(np.array([8, 8, 8, 15, 15, 15]) * 1e-6, np.full(N_JOINTS, 20e-6))
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Both values as (6,) arrays, checked finite and >= 0."""
+        out = []
+        for name in ("positioning_std_rad", "backlash_rad"):
+            value = np.broadcast_to(np.asarray(getattr(self, name), float), (N_JOINTS,))
+            if not np.all(np.isfinite(value) & (value >= 0)):
+                raise ValueError(f"{name} must be finite and >= 0, got {value}")
+            out.append(value.copy())
+        return out[0], out[1]
 
 
 class SimulatedRobot(Robot):
@@ -42,6 +92,8 @@ class SimulatedRobot(Robot):
     listener : callable, optional
         Called as ``listener(tool_pose)`` with :meth:`true_tool_pose` (4x4, mm,
         tracker frame) after every completed move.
+    repeatability : JointRepeatability, optional
+        Load-side joint errors (default: none). Needs ``rng`` when not zero.
     """
 
     def __init__(
@@ -54,6 +106,7 @@ class SimulatedRobot(Robot):
         joint_noise_rad=0.0,
         rng=None,
         listener=None,
+        repeatability=None,
     ):
         self._mdh = check_mdh(true_mdh).copy()
         if self._mdh.shape != (N_JOINTS, 5):
@@ -71,7 +124,13 @@ class SimulatedRobot(Robot):
         if q0.shape != (N_JOINTS,):
             raise ValueError(f"initial_q must have shape (6,), got {q0.shape}")
         self._q_true = q0.copy()
+        self._q_target = q0.copy()
         self._encoder_error = np.zeros(N_JOINTS)
+        self._position_std = np.zeros(N_JOINTS)
+        self._backlash = np.zeros(N_JOINTS)
+        self._direction = np.zeros(N_JOINTS)  # sign of each joint's last motion (0: none yet)
+        if repeatability is not None:
+            self.set_repeatability(repeatability, rng)
         self._connected = False
         self._protective = False
         self._emergency = False
@@ -107,6 +166,23 @@ class SimulatedRobot(Robot):
             **kwargs,
         )
 
+    def set_repeatability(self, repeatability: JointRepeatability, rng=None) -> None:
+        """Switch on (or change) the load-side joint errors; see :class:`JointRepeatability`.
+
+        Parameters
+        ----------
+        repeatability : JointRepeatability
+        rng : numpy.random.Generator, optional
+            Source of the positioning errors; required when they are not zero
+            (it replaces the generator given to the constructor).
+        """
+        std, backlash = repeatability.arrays()
+        if rng is not None:
+            self._rng = rng
+        if np.any(std > 0) and self._rng is None:
+            raise ValueError("a random positioning error needs an explicit rng (numpy Generator)")
+        self._position_std, self._backlash = std, backlash
+
     # ------------------------------------------------------------ lifecycle
     def connect(self):
         self._connected = True
@@ -117,7 +193,8 @@ class SimulatedRobot(Robot):
     # --------------------------------------------------------------- state
     def actual_joints(self):
         self._check_connected()
-        return self._q_true + self._encoder_error
+        # The encoders sit before the gears: they see the target, not the load-side errors.
+        return self._q_target + self._encoder_error
 
     def safety_state(self):
         self._check_connected()
@@ -137,9 +214,16 @@ class SimulatedRobot(Robot):
             raise EmergencyStop("emergency stop engaged (simulated)")
         if self._protective or self._latched:
             raise ProtectiveStop("the arm was safety-stopped; call clear_protective_stop() first")
+        moved = np.sign(target - self._q_target)
+        self._direction = np.where(moved != 0, moved, self._direction)
+        self._q_target = target.copy()
         self._q_true = target.copy()
         if self.joint_noise_rad > 0:
             self._encoder_error = self._rng.normal(0.0, self.joint_noise_rad, N_JOINTS)
+        if np.any(self._backlash > 0):
+            self._q_true -= 0.5 * self._backlash * self._direction
+        if np.any(self._position_std > 0):
+            self._q_true += self._rng.normal(0.0, 1.0, N_JOINTS) * self._position_std
         if self.listener is not None:
             self.listener(self.true_tool_pose())
         return self.actual_joints()

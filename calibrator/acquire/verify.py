@@ -1,0 +1,296 @@
+"""The ISO 9283 pose test run: its plan, the registration of the tracker, the figures.
+
+A thin layer over the measure loop (:func:`calibrator.acquire.loop.run`):
+the plan is ``cycles`` times P5, P4, P3, P2, P1 (:func:`make_plan`), measured
+with the same journal, resume, retries and stops as ``measure``; before the
+first pending pose the arm is led in from the pose that precedes it in the
+cycle (:func:`lead_in`), so that every test pose is approached from the same
+direction, also after a resume. The finished records become the figures
+(:func:`evaluate`) in the robot base frame, through one of three registrations
+of the tracker frame (:class:`Registration`):
+
+- ``calibration``: the base frame identified by a calibration
+  (``base2tracker`` of calibration.json);
+- ``surveyed``: a base frame measured apart from the arm's kinematics, e.g.
+  on the fiducials of the robot's base (``--base-frame``; the simulated cell
+  gives its own, surveyed with a small seeded error);
+- ``fit``: the rigid transform that best maps the barycentres of the attained
+  positions onto the commanded positions (least squares, Kabsch). It absorbs
+  any offset and turn common to the five poses, so AP is then a lower bound
+  of the accuracy in the true base frame; RP does not depend on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from calibrator import compensate, frames, iso9283
+from calibrator.errors import CalibrationError
+
+#: Columns of verify.parquet, in order (base frame, mm).
+COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")
+FORMAT = "calibrator.verify"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class VerifyPlan:
+    """What a verify run commands.
+
+    Attributes
+    ----------
+    cube : calibrator.iso9283.Cube
+    cube_given : bool
+        From ``--cube`` rather than :func:`calibrator.iso9283.largest_cube`.
+    desired : ndarray, shape (5, 4, 4)
+        Test poses P1..P5, tool in the robot base frame, mm.
+    q_test : ndarray, shape (5, 6)
+        Joint commands of P1..P5, rad (nominal IK, or compensated).
+    compensated : bool
+    plan : ndarray, shape (5 * cycles, 6)
+    test_pose, cycle : ndarray of int, shape (5 * cycles,)
+    """
+
+    cube: iso9283.Cube
+    cube_given: bool
+    desired: np.ndarray
+    q_test: np.ndarray
+    compensated: bool
+    plan: np.ndarray
+    test_pose: np.ndarray
+    cycle: np.ndarray
+
+    @property
+    def cycles(self) -> int:
+        return int(self.cycle[-1])
+
+
+def make_plan(model, flange2tool, cycles: int, cube=None, calibration=None) -> VerifyPlan:
+    """The test poses and the run's joint plan.
+
+    Parameters
+    ----------
+    model : calibrator.models.RobotModel
+        The controller's nominal model.
+    flange2tool : array_like, shape (4, 4)
+        Nominal TCP on the flange (mm): the cube and the test poses use it,
+        so the same poses are tested with and without a calibration.
+    cycles : int
+        At least 2 (a repeatability needs a spread).
+    cube : calibrator.iso9283.Cube, optional
+        Given cube; default the largest cube of the working space.
+    calibration : calibrator.calibration.Calibration, optional
+        With it the commands are compensated (:func:`calibrator.compensate.compensate`:
+        the calibrated arm's joints reaching the desired poses); without it
+        they are the nominal model's IK, what an uncalibrated controller does.
+
+    Raises
+    ------
+    CalibrationError
+        A cube out of reach, or a test pose the calibrated arm cannot reach.
+    """
+    if cycles < 2:
+        raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
+    limits = model.joint_limits_rad
+    given = cube is not None
+    if cube is None:
+        cube = iso9283.largest_cube(model.mdh, limits, flange2tool)
+    else:
+        iso9283.check_cube(model.mdh, limits, flange2tool, cube)
+    desired = iso9283.test_poses(cube.centre_mm, cube.side_mm)
+    q = iso9283.commanded_joints(model.mdh, limits, flange2tool, cube)
+    if calibration is not None:
+        result = compensate.compensate(calibration, desired=desired, q_nominal=q, limits=limits)
+        bad = np.flatnonzero(~result.solution.ok)
+        if bad.size:
+            raise CalibrationError(
+                f"the calibrated arm cannot reach test pose P{int(bad[0]) + 1} within its "
+                "joint limits: choose a smaller --cube"
+            )
+        q = result.q
+    plan, test_pose, cycle = iso9283.cycle_plan(q, cycles)
+    return VerifyPlan(cube, given, desired, q, calibration is not None, plan, test_pose, cycle)
+
+
+def lead_in(plan: VerifyPlan, first_pending: int) -> np.ndarray:
+    """Joints to move to before plan row ``first_pending``: the row before it in the cycle.
+
+    Row 0 (P5 of cycle 1) is approached from P1, as every later P5 is.
+    """
+    if first_pending > 0:
+        return plan.plan[first_pending - 1]
+    return plan.q_test[0]
+
+
+@dataclass(frozen=True)
+class Registration:
+    """How tracker-frame readings become robot base frame positions.
+
+    Attributes
+    ----------
+    method : {'calibration', 'surveyed', 'fit'}
+    tracker2base : ndarray, shape (4, 4)
+    source : str
+        The calibration file, or what the fit used.
+    rms_mm : float or None
+        Fit only: RMS of the barycentres about the commanded positions after the fit.
+    """
+
+    method: str
+    tracker2base: np.ndarray
+    source: str
+    rms_mm: float | None = None
+
+    def to_json(self) -> dict:
+        out = {
+            "method": self.method,
+            "frame": "robot base",
+            "source": self.source,
+            "tracker2base": np.asarray(self.tracker2base).tolist(),
+        }
+        if self.method == "calibration":
+            out["note"] = "base frame identified by the calibration (its base2tracker)"
+        elif self.method == "surveyed":
+            out["note"] = "base frame measured apart from the arm's kinematics (surveyed base)"
+        else:
+            out["note"] = (
+                "rigid least-squares fit of the attained barycentres onto the commanded "
+                "positions: a common offset and turn is absorbed, so AP is a lower bound"
+            )
+            out["rms_mm"] = self.rms_mm
+        return out
+
+
+def from_calibration(calibration, path) -> Registration:
+    """The base frame a calibration identified."""
+    return Registration("calibration", frames.invert(calibration.base2tracker), str(path))
+
+
+def surveyed(base2tracker, source: str) -> Registration:
+    """A base frame measured apart from the arm (base2tracker, (4, 4), mm)."""
+    t = frames.check_transform(np.asarray(base2tracker, float), "base2tracker")
+    return Registration("surveyed", frames.invert(t), source)
+
+
+def fit(points_tracker_mm, plan: VerifyPlan) -> Registration:
+    """Best-fit registration of the barycentres onto the commanded positions.
+
+    Parameters
+    ----------
+    points_tracker_mm : array_like, shape (5 * cycles, 3)
+        Attained positions of every plan row, tracker frame, mm.
+    """
+    pts = np.asarray(points_tracker_mm, float)
+    bary = np.array([pts[plan.test_pose == k].mean(axis=0) for k in range(1, 6)])
+    commanded = plan.desired[:, :3, 3]
+    t2b = frames.fit_rigid(bary, commanded)
+    moved = bary @ t2b[:3, :3].T + t2b[:3, 3]
+    rms = float(np.sqrt(np.mean(np.sum((moved - commanded) ** 2, axis=1))))
+    return Registration("fit", t2b, "barycentres of the 5 test poses", rms)
+
+
+def points(records: dict, plan: VerifyPlan) -> tuple[np.ndarray, np.ndarray | None]:
+    """Attained positions (N, 3) mm and rotation vectors (N, 3) rad or None, tracker frame.
+
+    Raises
+    ------
+    CalibrationError
+        A plan row without a measured record.
+    """
+    n = len(plan.plan)
+    missing = [i for i in range(n) if records.get(i, {}).get("status") != "measured"]
+    if missing:
+        raise CalibrationError(f"{len(missing)} test pose visit(s) not measured: {missing[:10]}")
+    pts = np.array([records[i]["point_mm"] for i in range(n)], float)
+    rot = [records[i].get("rotvec_rad") for i in range(n)]
+    rotvecs = np.array(rot, float) if all(r is not None for r in rot) else None
+    return pts, rotvecs
+
+
+def evaluate(pts_tracker, rotvecs, plan: VerifyPlan, registration: Registration):
+    """The figures per test pose and the attained-pose table, in the robot base frame.
+
+    Parameters
+    ----------
+    pts_tracker : ndarray, shape (5 * cycles, 3)
+        Tracker frame, mm.
+    rotvecs : ndarray, shape (5 * cycles, 3), or None
+        Probe orientation, tracker frame, rad (6-DoF probe only).
+
+    Returns
+    -------
+    poses : list of dict
+        One per test pose (1..5): ``test_pose``, ``AP_mm``, ``APx_mm``,
+        ``APy_mm``, ``APz_mm``, ``RP_mm``, and with orientations
+        ``APa_deg .. RPc_deg``.
+    table : pandas.DataFrame
+        :data:`COLUMNS`, one row per plan row (base frame, mm).
+    """
+    t2b = np.asarray(registration.tracker2base, float)
+    base = pts_tracker @ t2b[:3, :3].T + t2b[:3, 3]
+    commanded = plan.desired[plan.test_pose - 1, :3, 3]
+    table = pd.DataFrame(
+        {
+            "test_pose": plan.test_pose.astype("int64"),
+            "cycle": plan.cycle.astype("int64"),
+            "x_mm": base[:, 0],
+            "y_mm": base[:, 1],
+            "z_mm": base[:, 2],
+            "cmd_x_mm": commanded[:, 0],
+            "cmd_y_mm": commanded[:, 1],
+            "cmd_z_mm": commanded[:, 2],
+        }
+    )
+    order = [np.flatnonzero(plan.test_pose == k) for k in range(1, 6)]
+    # Figures from exactly the table's numbers, so anyone can recompute them from it.
+    clouds = np.stack([table[["x_mm", "y_mm", "z_mm"]].to_numpy()[i] for i in order])
+    cmds = np.stack([table[["cmd_x_mm", "cmd_y_mm", "cmd_z_mm"]].to_numpy()[i[0]] for i in order])
+    figures = iso9283.position_figures(clouds, cmds)
+    if rotvecs is not None:
+        attained = t2b[:3, :3] @ frames.rotvec_to_matrix(rotvecs)
+        angles = frames.angles_xyz(attained)
+        for name, k in (("a_rad", 0), ("b_rad", 1), ("c_rad", 2)):
+            table[name] = angles[:, k]
+        cmd_angles = frames.angles_xyz(plan.desired[:, :3, :3])
+        figures.update(
+            iso9283.orientation_figures(np.stack([angles[i] for i in order]), cmd_angles)
+        )
+    poses = []
+    for k in range(5):
+        entry: dict = {"test_pose": k + 1}
+        entry.update({name: float(values[k]) for name, values in figures.items()})
+        poses.append(entry)
+    return poses, table
+
+
+def document(plan: VerifyPlan, poses, registration: Registration, *, info: dict) -> dict:
+    """The verify.json document (see docs/verify.md)."""
+    measured = "APa_deg" in poses[0]
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "standard": "ISO 9283 pose accuracy (AP) and pose repeatability (RP)",
+        **info,
+        "cycles": plan.cycles,
+        "compensated": plan.compensated,
+        "frame": "robot base",
+        "registration": registration.to_json(),
+        "cube": {**plan.cube.to_json(), "given": plan.cube_given},
+        "test_poses": [
+            {
+                "test_pose": k + 1,
+                "commanded_mm": plan.desired[k, :3, 3].tolist(),
+                "rotation": plan.desired[k, :3, :3].tolist(),
+                "q_rad": plan.q_test[k].tolist(),
+            }
+            for k in range(5)
+        ],
+        "cycle_order": list(iso9283.CYCLE_ORDER),
+        "orientation": "measured (6-DoF probe)"
+        if measured
+        else "not measured: the probe gives positions only (APa..RPc need a 6-DoF probe)",
+        "poses": poses,
+    }

@@ -1,0 +1,183 @@
+"""The report's ISO 9283 verification section, from ``calibrator verify`` outputs.
+
+``calibrator report ... --verify before.json --verify after.json`` adds one
+section: the per-pose table (AP, APx, APy, APz, RP, and the orientation
+figures when measured), the runs side by side in the order given, and
+``verify_clouds.png``: the attained positions of each run around each
+commanded pose (x-y deviations, mm), read from the ``verify.parquet`` beside
+each JSON. A run without its parquet is tabled and the plot says so.
+"""
+
+from __future__ import annotations
+
+import html as _html
+import io
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from calibrator.errors import CalibrationError
+
+#: The section's plot, written into the report folder.
+CLOUDS_PNG = "verify_clouds.png"
+_KEYS = ("AP_mm", "APx_mm", "APy_mm", "APz_mm", "RP_mm")
+_ORIENTATION = ("APa_deg", "APb_deg", "APc_deg", "RPa_deg", "RPb_deg", "RPc_deg")
+_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd")
+
+
+@dataclass(frozen=True)
+class VerifyRun:
+    """One ``calibrator verify`` result.
+
+    Attributes
+    ----------
+    path : Path
+        The JSON file.
+    doc : dict
+        Its content (``poses``, ``cycles``, ``compensated``, ``registration``, ...).
+    table : pandas.DataFrame or None
+        The attained poses (``verify.parquet``), when beside it.
+    """
+
+    path: Path
+    doc: dict
+    table: pd.DataFrame | None
+
+    @property
+    def label(self) -> str:
+        state = "after (compensated)" if self.doc.get("compensated") else "before (nominal)"
+        return f"{state}: {self.path.name}"
+
+
+def data_paths(paths) -> list[Path]:
+    """The parquet files the JSON files name (inputs the report must not overwrite)."""
+    out = []
+    for path in paths or ():
+        out.append(Path(path).with_suffix(".parquet"))
+    return out
+
+
+def load(paths) -> list[VerifyRun]:
+    """Read verify.json files (and their parquet files when present).
+
+    Raises
+    ------
+    CalibrationError
+        A file that is missing, not JSON, or not a ``calibrator verify`` result.
+    """
+    runs = []
+    for path in paths or ():
+        path = Path(path)
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise CalibrationError(f"--verify {path}: file not found") from None
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            raise CalibrationError(f"--verify {path}: not a readable JSON file ({exc})") from None
+        poses = doc.get("poses") if isinstance(doc, dict) else None
+        if (
+            not isinstance(doc, dict)
+            or doc.get("format") != "calibrator.verify"
+            or not isinstance(poses, list)
+            or [p.get("test_pose") if isinstance(p, dict) else None for p in poses]
+            != [1, 2, 3, 4, 5]
+            or not all(isinstance(p.get(k), int | float) for p in poses for k in _KEYS)
+        ):
+            raise CalibrationError(
+                f"--verify {path}: not a calibrator verify result (needs format "
+                "'calibrator.verify' and poses 1..5 with AP_mm..RP_mm)"
+            )
+        table = None
+        data = path.parent / str(doc.get("data") or path.with_suffix(".parquet").name)
+        if data.is_file():
+            try:
+                table = pd.read_parquet(data)
+            except (OSError, ValueError) as exc:
+                raise CalibrationError(f"--verify {data}: unreadable ({exc})") from None
+        runs.append(VerifyRun(path, doc, table))
+    return runs
+
+
+def section_html(runs: list[VerifyRun], images: dict) -> str:
+    """The section as HTML (table, then the clouds plot or why it is missing)."""
+    esc = _html.escape
+    parts = ['<section id="verify"><h2>ISO 9283 pose accuracy and repeatability</h2>']
+    for i, run in enumerate(runs):
+        reg = run.doc.get("registration", {})
+        parts.append(
+            f"<p>{i + 1}: {esc(run.label)}; {run.doc.get('cycles')} cycles, frame "
+            f"{esc(str(run.doc.get('frame', 'robot base')))}, registration "
+            f"{esc(str(reg.get('method')))} ({esc(str(reg.get('source')))}); orientation "
+            f"{esc(str(run.doc.get('orientation', 'not measured')))}</p>"
+        )
+    keys = list(_KEYS)
+    if all(_ORIENTATION[0] in run.doc["poses"][0] for run in runs):
+        keys += _ORIENTATION
+    names = [f"{i + 1}: {run.label.split(':')[0]}" for i, run in enumerate(runs)]
+    head = "".join(f"<th>{esc(k)}<br>{esc(name)}</th>" for k in keys for name in names)
+    parts.append(f"<table><tr><th>test pose</th>{head}</tr>")
+    for k in range(5):
+        cells = "".join(f"<td>{run.doc['poses'][k][key]:.4f}</td>" for key in keys for run in runs)
+        parts.append(f"<tr><td>P{k + 1}</td>{cells}</tr>")
+    parts.append("</table>")
+    if CLOUDS_PNG in images:
+        import base64
+
+        data = base64.b64encode(images[CLOUDS_PNG]).decode("ascii")
+        parts.append(f'<img src="data:image/png;base64,{data}" alt="attained clouds">')
+    else:
+        parts.append(
+            '<p class="note">attained clouds: give the verify.parquet beside each JSON</p>'
+        )
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def clouds_png(runs: list[VerifyRun]) -> bytes:
+    """Attained x-y deviations from the commanded position, one panel per test pose."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 3.2), dpi=100)
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.85, wspace=0.4)
+    for k in range(5):
+        ax = fig.add_subplot(1, 5, k + 1)
+        for run, colour in zip(runs, _COLOURS, strict=False):
+            assert run.table is not None  # add() draws only when every run has its table
+            rows = run.table[run.table["test_pose"] == k + 1]
+            dx = rows["x_mm"].to_numpy() - rows["cmd_x_mm"].to_numpy()
+            dy = rows["y_mm"].to_numpy() - rows["cmd_y_mm"].to_numpy()
+            ax.scatter(dx, dy, s=6, color=colour, label=run.label)
+            ax.scatter([np.mean(dx)], [np.mean(dy)], marker="x", color=colour)
+        ax.scatter([0.0], [0.0], marker="+", s=80, color="black", label="commanded")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"P{k + 1}")
+        ax.set_xlabel("x deviation (mm)")
+        if k == 0:
+            ax.set_ylabel("y deviation (mm)")
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper center", ncol=len(labels), fontsize="small")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    return buf.getvalue()
+
+
+def add(html: str, runs: list[VerifyRun]) -> tuple[str, dict]:
+    """Insert the section at the end of a report page.
+
+    Returns
+    -------
+    html : str
+    images : dict
+        ``{CLOUDS_PNG: bytes}`` when every run has its parquet, else empty.
+    """
+    images = {}
+    if all(run.table is not None for run in runs):
+        images[CLOUDS_PNG] = clouds_png(runs)
+    section = section_html(runs, images)
+    end = html.rfind("</body>")
+    return html[:end] + section + "\n" + html[end:], images

@@ -1,0 +1,153 @@
+"""``calibrator verify`` on the simulated cell: before and after calibration, outputs, faults."""
+
+import json
+
+import numpy as np
+import pytest
+from cli_testkit import cli, one_line_error
+from verify_testkit import check_outputs
+
+SEED = "3"
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """The hidden arm of SEED, measured and identified."""
+    folder = tmp_path_factory.mktemp("cell")
+    done = cli("measure", "-q", "--seed", SEED, "--poses", "60", "-o", "s.parquet", cwd=folder)
+    assert done.code == 0, done.stderr
+    done = cli("identify", "s.parquet", "-o", "cal.json", cwd=folder)
+    assert done.code == 0, done.stderr
+    before = cli("verify", "-q", "--seed", SEED, "-o", "before.json", cwd=folder)
+    assert before.code == 0, before.stderr
+    after = cli(
+        "verify", "-q", "--seed", SEED, "--calibration", "cal.json", "-o", "after.json", cwd=folder
+    )
+    assert after.code == 0, after.stderr
+    assert "robot base frame" in after.stdout and "P5" in after.stdout
+    return folder
+
+
+def test_calibration_cuts_ap_tenfold_and_leaves_rp_alone(calibrated):
+    folder = calibrated
+    b = check_outputs(folder, "before", 30)  # 30 cycles by default
+    a = check_outputs(folder, "after", 30)
+    assert not b["compensated"] and a["compensated"]
+    assert b["registration"]["method"] == "surveyed"
+    assert a["registration"]["method"] == "calibration"
+    # The same test poses, before and after.
+    assert [p["commanded_mm"] for p in a["test_poses"]] == [
+        p["commanded_mm"] for p in b["test_poses"]
+    ]
+    for pb, pa in zip(b["poses"], a["poses"], strict=True):
+        assert pa["AP_mm"] <= 0.1 * pb["AP_mm"], (pb, pa)
+        assert abs(pa["RP_mm"] / pb["RP_mm"] - 1) <= 0.2, (pb, pa)
+
+
+def test_report_shows_before_and_after_side_by_side(calibrated):
+    folder = calibrated
+    done = cli(
+        "report", "cal.json", "-o", "rep", "--verify", "before.json", "--verify", "after.json",
+        cwd=folder,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    page = (folder / "rep" / "index.html").read_text()
+    section = page[page.index('<section id="verify">') :]
+    assert "before (nominal): before.json" in section and "after (compensated)" in section
+    after = json.loads((folder / "after.json").read_text())
+    assert f"{after['poses'][4]['AP_mm']:.4f}" in section
+    assert (folder / "rep" / "verify_clouds.png").read_bytes()[:4] == b"\x89PNG"
+    # Without the parquet beside it: the table stays, the plot says what is missing.
+    (folder / "only").mkdir()
+    (folder / "only" / "after.json").write_text((folder / "after.json").read_text())
+    done = cli("report", "cal.json", "-o", "rep2", "--verify", "only/after.json", cwd=folder)
+    assert done.code == 0, done.stderr
+    assert "give the verify.parquet" in (folder / "rep2" / "index.html").read_text()
+    assert not (folder / "rep2" / "verify_clouds.png").exists()
+
+
+def test_report_refuses_a_file_that_is_not_a_verify_result(calibrated):
+    folder = calibrated
+    one_line_error(cli("report", "cal.json", "-o", "r3", "--verify", "cal.json", cwd=folder))
+    one_line_error(cli("report", "cal.json", "-o", "r3", "--verify", "none.json", cwd=folder))
+    assert not (folder / "r3").exists()
+
+
+def test_before_in_the_calibration_frame_via_register(calibrated):
+    folder = calibrated
+    done = cli(
+        "verify", "-q", "--seed", SEED, "--cycles", "3", "--register", "cal.json",
+        "-o", "reg.json", cwd=folder,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    doc = check_outputs(folder, "reg", 3)
+    assert doc["registration"]["method"] == "calibration" and not doc["compensated"]
+    assert min(p["AP_mm"] for p in doc["poses"]) > 0.3  # the hidden errors show
+
+
+def test_a_failed_visit_stops_the_certificate_and_resume_completes_it(tmp_path):
+    (tmp_path / "faults.txt").write_text("MEAS@31 beam_break count=40\n")
+    args = ("verify", "-q", "--cycles", "2", "--retries", "1", "-o", "v.json")
+    done = cli(*args, "--sim-faults", "faults.txt", cwd=tmp_path)
+    assert done.code == 1 and "--resume" in done.stderr, done.stderr
+    assert not (tmp_path / "v.json").exists() and not (tmp_path / "v.parquet").exists()
+    records = (tmp_path / "v.json.journal").read_text().splitlines()[1:]
+    assert [json.loads(r)["status"] for r in records].count("failed") == 1
+    again = cli(*args, "--resume", cwd=tmp_path)
+    assert again.code == 0, again.stderr
+    check_outputs(tmp_path, "v", 2)
+
+
+def test_refuses_bad_options_in_one_line(tmp_path):
+    one_line_error(cli("verify", "--cube", "1,2,3", cwd=tmp_path))
+    one_line_error(cli("verify", "--cube", "800,0,100,5000", "--cycles", "2", cwd=tmp_path))
+    one_line_error(cli("verify", "--cycles", "1", cwd=tmp_path))
+    one_line_error(cli("verify", "-o", "v.parquet", cwd=tmp_path))
+    (tmp_path / "v.json").write_text("{}")
+    one_line_error(cli("verify", "-o", "v.json", cwd=tmp_path))
+    assert (tmp_path / "v.json").read_text() == "{}"
+    one_line_error(cli("verify", "--calibration", "missing.json", "-o", "w.json", cwd=tmp_path))
+    one_line_error(cli("verify", "--base-frame", "1,2,3", "-o", "w.json", cwd=tmp_path))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v.json"]
+
+
+def test_given_cube_and_base_frame_are_used(tmp_path):
+    done = cli(
+        "verify", "-q", "--cycles", "2", "--cube", "700,100,300,200",
+        "--base-frame", "0,0,0,0,0,0", "-o", "v.json", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    doc = check_outputs(tmp_path, "v", 2)
+    assert doc["cube"] == {"centre_mm": [700.0, 100.0, 300.0], "side_mm": 200.0, "given": True}
+    np.testing.assert_allclose(doc["test_poses"][0]["commanded_mm"], [700, 100, 300])
+    assert doc["registration"]["method"] == "surveyed"
+
+
+def test_ctrl_c_stops_after_the_current_pose_and_resume_finishes(tmp_path):
+    import signal
+    import time
+
+    from cli_process import run_cli, start_cli
+
+    args = ("verify", "--cycles", "4", "--settle", "0.1", "-o", "v.json")
+    proc = start_cli(*args, cwd=tmp_path)
+    journal = tmp_path / "v.json.journal"
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and len(journal.read_text().splitlines()) >= 4:
+                break
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1, err
+    assert "stopped: interrupted before pose" in err and "Traceback" not in err
+    kept = [json.loads(line)["pose"] for line in journal.read_text().splitlines()[1:]]
+    assert 3 <= len(kept) < 20 and kept == list(range(len(kept)))
+    assert not (tmp_path / "v.json").exists()
+    again = run_cli(*args, "--resume", "-q", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    check_outputs(tmp_path, "v", 4)

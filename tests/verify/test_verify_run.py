@@ -1,0 +1,75 @@
+"""The verify run's pieces: plan, lead-in, registrations and the orientation figures."""
+
+import numpy as np
+import pytest
+
+from calibrator import frames
+from calibrator.acquire import verify as run
+from calibrator.models import get_model
+
+TOOL = frames.transform(translation=[0, 0, 100.0])
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return run.make_plan(get_model("ur10e"), TOOL, 3)
+
+
+def records(points, rotvecs=None):
+    out = {}
+    for i, p in enumerate(points):
+        out[i] = {"pose": i, "status": "measured", "point_mm": list(p)}
+        if rotvecs is not None:
+            out[i]["rotvec_rad"] = list(rotvecs[i])
+    return out
+
+
+def test_plan_rows_follow_p5_to_p1_and_lead_in_comes_from_the_previous_pose(plan):
+    assert plan.plan.shape == (15, 6) and plan.cycles == 3
+    np.testing.assert_array_equal(plan.plan[0], plan.q_test[4])  # P5 first
+    np.testing.assert_array_equal(run.lead_in(plan, 0), plan.q_test[0])  # from P1
+    np.testing.assert_array_equal(run.lead_in(plan, 7), plan.plan[6])
+
+
+def test_fit_recovers_a_known_tracker_placement(plan):
+    base2tracker = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 2.5]), [2000, 300, -50])
+    commanded = plan.desired[plan.test_pose - 1, :3, 3]
+    rng = np.random.default_rng(0)
+    attained = commanded + rng.normal(0, 0.01, commanded.shape)
+    in_tracker = attained @ base2tracker[:3, :3].T + base2tracker[:3, 3]
+    reg = run.fit(in_tracker, plan)
+    truth = frames.invert(base2tracker)
+    np.testing.assert_allclose(reg.tracker2base[:3, :3], truth[:3, :3], atol=1e-4)
+    np.testing.assert_allclose(reg.tracker2base[:3, 3], truth[:3, 3], atol=0.1)  # 2 m lever
+    poses, table = run.evaluate(in_tracker, None, plan, reg)
+    assert max(p["AP_mm"] for p in poses) < 0.03
+    np.testing.assert_allclose(table[["x_mm", "y_mm", "z_mm"]], attained, atol=0.03)
+
+
+def test_orientation_figures_in_the_base_frame_of_a_six_dof_probe(plan):
+    commanded = plan.desired[plan.test_pose - 1]
+    # Every attained pose turned 0.01 deg about base x from the command, +-0.002 deg in turns.
+    turn = np.deg2rad(0.01 + 0.002 * np.where(plan.cycle % 2 == 0, 1.0, -1.0))
+    turn[plan.cycle == 3] = np.deg2rad(0.01)
+    r = frames.rotations_xyz(np.stack([turn, 0 * turn, 0 * turn], axis=1)) @ commanded[:, :3, :3]
+    rotvecs = frames.matrix_to_rotvec(r)
+    pts, rv = run.points(records(commanded[:, :3, 3], rotvecs), plan)
+    reg = run.surveyed(np.eye(4), "test")
+    poses, table = run.evaluate(pts, rv, plan, reg)
+    for p in poses:
+        assert p["AP_mm"] == pytest.approx(0.0, abs=1e-9)
+        # abar - a_c = 0.01 deg, S_a over (-0.002, +0.002, 0) deg = 0.002 deg
+        assert p["APa_deg"] == pytest.approx(0.01, abs=1e-9)
+        assert p["RPa_deg"] == pytest.approx(3 * 0.002, abs=1e-9)
+        assert p["APb_deg"] == pytest.approx(0.0, abs=1e-9)
+    doc = run.document(plan, poses, reg, info={})
+    assert doc["orientation"].startswith("measured")
+    assert {"a_rad", "b_rad", "c_rad"} <= set(table.columns)
+
+
+def test_a_missing_visit_gives_no_figures(plan):
+    commanded = plan.desired[plan.test_pose - 1, :3, 3]
+    partial = records(commanded)
+    partial[4]["status"] = "failed"
+    with pytest.raises(run.CalibrationError, match="not measured: \\[4\\]"):
+        run.points(partial, plan)
