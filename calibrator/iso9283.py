@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from calibrator import compensate, frames
 from calibrator.errors import CalibrationError
@@ -74,7 +75,7 @@ class Cube:
         return {"centre_mm": [float(v) for v in self.centre_mm], "side_mm": float(self.side_mm)}
 
 
-def test_positions(centre_mm, side_mm: float) -> np.ndarray:
+def test_positions(centre_mm: npt.ArrayLike, side_mm: float) -> np.ndarray:
     """Positions of the test poses P1..P5 in a cube.
 
     Parameters
@@ -101,12 +102,16 @@ def test_positions(centre_mm, side_mm: float) -> np.ndarray:
     return np.vstack([centre, inner])
 
 
-def test_poses(centre_mm, side_mm: float, rotation=TOOL_DOWN) -> np.ndarray:
+def test_poses(
+    centre_mm: npt.ArrayLike, side_mm: float, rotation: npt.ArrayLike = TOOL_DOWN
+) -> np.ndarray:
     """Tool poses P1..P5 with one constant orientation, shape (5, 4, 4), base frame, mm."""
     return frames.transform(np.asarray(rotation, float), test_positions(centre_mm, side_mm))
 
 
-def position_figures(attained_mm, commanded_mm) -> dict[str, np.ndarray]:
+def position_figures(
+    attained_mm: npt.ArrayLike, commanded_mm: npt.ArrayLike
+) -> dict[str, np.ndarray]:
     """Pose accuracy and repeatability of positions, per test pose.
 
     Parameters
@@ -140,7 +145,9 @@ def position_figures(attained_mm, commanded_mm) -> dict[str, np.ndarray]:
     }
 
 
-def orientation_figures(attained_rad, commanded_rad) -> dict[str, np.ndarray]:
+def orientation_figures(
+    attained_rad: npt.ArrayLike, commanded_rad: npt.ArrayLike
+) -> dict[str, np.ndarray]:
     """Orientation accuracy and repeatability, per test pose.
 
     Parameters
@@ -179,7 +186,13 @@ def orientation_figures(attained_rad, commanded_rad) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------- the cube
 
 
-def solve_poses(mdh, targets, flange2tool, limits_rad, q_start) -> compensate.Solution:
+def solve_poses(
+    mdh: npt.ArrayLike,
+    targets: npt.ArrayLike,
+    flange2tool: npt.ArrayLike,
+    limits_rad: npt.ArrayLike,
+    q_start: npt.ArrayLike,
+) -> compensate.Solution:
     """Nominal inverse kinematics of tool poses from one start, with the cube's checks.
 
     Parameters
@@ -251,7 +264,12 @@ def _fits(mdh, flange2tool, limits, centres, sides, q_centres, rotation) -> np.n
     return ok.all(axis=1) & np.isfinite(q_centres).all(axis=1)
 
 
-def largest_cube(mdh, limits_rad, flange2tool, rotation=TOOL_DOWN) -> Cube:
+def largest_cube(
+    mdh: npt.ArrayLike,
+    limits_rad: npt.ArrayLike,
+    flange2tool: npt.ArrayLike,
+    rotation: npt.ArrayLike = TOOL_DOWN,
+) -> Cube:
     """The largest test cube in the arm's working space with a constant tool orientation.
 
     The working space here is where the tool reaches ``rotation`` within the
@@ -301,7 +319,13 @@ def largest_cube(mdh, limits_rad, flange2tool, rotation=TOOL_DOWN) -> Cube:
     return Cube(centres[best], float(np.floor(lo[best])))
 
 
-def cube_fits(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOWN) -> bool:
+def cube_fits(
+    mdh: npt.ArrayLike,
+    limits_rad: npt.ArrayLike,
+    flange2tool: npt.ArrayLike,
+    cube: Cube,
+    rotation: npt.ArrayLike = TOOL_DOWN,
+) -> bool:
     """Whether ``cube`` lies in the regular working space (the test :func:`largest_cube` uses)."""
     rng = np.random.default_rng(9283)
     centre = np.asarray(cube.centre_mm, float)[None]
@@ -311,7 +335,13 @@ def cube_fits(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOWN) -> b
     return bool(_fits(mdh, flange2tool, limits_rad, centre, side, q_centre, rotation)[0])
 
 
-def check_cube(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOWN) -> None:
+def check_cube(
+    mdh: npt.ArrayLike,
+    limits_rad: npt.ArrayLike,
+    flange2tool: npt.ArrayLike,
+    cube: Cube,
+    rotation: npt.ArrayLike = TOOL_DOWN,
+) -> None:
     """Refuse a given cube whose test poses the arm cannot reach regularly.
 
     Raises
@@ -334,7 +364,13 @@ def check_cube(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOWN) -> 
         )
 
 
-def commanded_joints(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOWN) -> np.ndarray:
+def commanded_joints(
+    mdh: npt.ArrayLike,
+    limits_rad: npt.ArrayLike,
+    flange2tool: npt.ArrayLike,
+    cube: Cube,
+    rotation: npt.ArrayLike = TOOL_DOWN,
+) -> np.ndarray:
     """Nominal joint targets of P1..P5 (what an uncalibrated controller commands).
 
     Returns
@@ -355,7 +391,7 @@ def commanded_joints(mdh, limits_rad, flange2tool, cube: Cube, rotation=TOOL_DOW
     return sol.q
 
 
-def cycle_plan(q_test, cycles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cycle_plan(q_test: npt.ArrayLike, cycles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The run's joint plan: ``cycles`` times P5, P4, P3, P2, P1.
 
     Parameters

@@ -23,11 +23,14 @@ of the tracker frame (:class:`Registration`):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from calibrator import compensate, frames, iso9283
+from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 
 #: Columns of verify.parquet, in order (base frame, mm).
@@ -68,7 +71,13 @@ class VerifyPlan:
         return int(self.cycle[-1])
 
 
-def make_plan(model, flange2tool, cycles: int, cube=None, calibration=None) -> VerifyPlan:
+def make_plan(
+    model: Any,
+    flange2tool: npt.ArrayLike,
+    cycles: int,
+    cube: iso9283.Cube | None = None,
+    calibration: Calibration | None = None,
+) -> VerifyPlan:
     """The test poses and the run's joint plan.
 
     Parameters
@@ -164,18 +173,18 @@ class Registration:
         return out
 
 
-def from_calibration(calibration, path) -> Registration:
+def from_calibration(calibration: Calibration, path: object) -> Registration:
     """The base frame a calibration identified."""
     return Registration("calibration", frames.invert(calibration.base2tracker), str(path))
 
 
-def surveyed(base2tracker, source: str) -> Registration:
+def surveyed(base2tracker: npt.ArrayLike, source: str) -> Registration:
     """A base frame measured apart from the arm (base2tracker, (4, 4), mm)."""
     t = frames.check_transform(np.asarray(base2tracker, float), "base2tracker")
     return Registration("surveyed", frames.invert(t), source)
 
 
-def fit(points_tracker_mm, plan: VerifyPlan) -> Registration:
+def fit(points_tracker_mm: npt.ArrayLike, plan: VerifyPlan) -> Registration:
     """Best-fit registration of the barycentres onto the commanded positions.
 
     Parameters
@@ -210,7 +219,12 @@ def points(records: dict, plan: VerifyPlan) -> tuple[np.ndarray, np.ndarray | No
     return pts, rotvecs
 
 
-def evaluate(pts_tracker, rotvecs, plan: VerifyPlan, registration: Registration):
+def evaluate(
+    pts_tracker: np.ndarray,
+    rotvecs: np.ndarray | None,
+    plan: VerifyPlan,
+    registration: Registration,
+) -> tuple[list[dict], pd.DataFrame]:
     """The figures per test pose and the attained-pose table, in the robot base frame.
 
     Parameters
@@ -266,7 +280,9 @@ def evaluate(pts_tracker, rotvecs, plan: VerifyPlan, registration: Registration)
     return poses, table
 
 
-def document(plan: VerifyPlan, poses, registration: Registration, *, info: dict) -> dict:
+def document(
+    plan: VerifyPlan, poses: list[dict], registration: Registration, *, info: dict
+) -> dict:
     """The verify.json document (see docs/verify.md)."""
     measured = "APa_deg" in poses[0]
     return {

@@ -151,3 +151,17 @@ def test_ctrl_c_stops_after_the_current_pose_and_resume_finishes(tmp_path):
     again = run_cli(*args, "--resume", "-q", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
     check_outputs(tmp_path, "v", 4)
+
+
+def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrated):
+    folder = calibrated
+    other = cli(
+        "verify", "--model", "ur5e", "--calibration", "cal.json", "-o", "x.json", cwd=folder
+    )
+    assert "calibrates a ur10e" in one_line_error(other)
+    both = cli(
+        "verify", "--calibration", "cal.json", "--register", "cal.json", "-o", "x.json",
+        cwd=folder,
+    )  # fmt: skip
+    assert "--calibration already registers" in one_line_error(both)
+    assert not (folder / "x.json").exists() and not (folder / "x.json.journal").exists()
