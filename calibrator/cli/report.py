@@ -26,9 +26,9 @@ def report(
     from calibrator.report import write
 
     outputs.check_folder(output, inputs=[calibration_path, session_path])
-    doc = calibration.load(calibration_path).to_json()
+    cal = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
-    written = write(output, doc, loaded, None, calibration_path, session_path)
+    written = write(output, cal, loaded, None, calibration_path, session_path)
     names = ", ".join(p.name for p in written)
     files = "1 file" if len(written) == 1 else f"{len(written)} files"
     typer.echo(f"wrote {files} into {output}: {names}")

@@ -97,6 +97,7 @@ class Result:
     warnings: list = field(default_factory=list)
     outliers: list = field(default_factory=list)
     uncertainty: dict = field(default_factory=dict)
+    tool_known: bool = False
 
     @property
     def mdh(self):
@@ -252,6 +253,7 @@ def identify(session, options=Options()):
         warnings,
         [int(p) for p in pose_numbers[fit_idx[outlier_idx]]],
         unc,
+        bool(tool_known),
     )
 
 
