@@ -5,6 +5,7 @@ import pytest
 
 from calibrator import session
 from calibrator.identify import objective, pipeline, pso, refine, report
+from calibrator.identify.problem import Problem
 from calibrator.simulate import simulate
 
 
@@ -71,10 +72,8 @@ def test_unknown_base_and_tool_on_ur10e_matches_a_fit_started_from_the_truth(tmp
     obs = loaded.observations
     fit, val = obs.subset(result.fit_index), obs.subset(result.validation_index)
     from_truth = refine.refine(
-        result.space,
-        fit,
+        Problem.of(result.space, fit, result.k),
         result.space.pack(truth.mdh, truth.base2tracker, truth.flange2tool),
-        result.k,
     )
     ours = held_out_mean(result.space, result.x, val)
     reference = held_out_mean(result.space, from_truth.x, val)
