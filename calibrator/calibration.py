@@ -445,9 +445,7 @@ class Calibration:
         """
         nominal = _flat_values(self.nominal_mdh, self.base0, self.tool0)
         identified = _flat_values(self.mdh, self.base2tracker, self.flange2tool)
-        delta = parameters.all_deltas(
-            self.nominal_mdh, self.base0, self.tool0, self.mdh, self.base2tracker, self.flange2tool
-        )
+        delta = self.all_deltas()
         free = set(self.free)
         return [
             {
@@ -455,11 +453,30 @@ class Calibration:
                 "unit": parameters.unit(name),
                 "nominal": float(nominal[i]),
                 "identified": float(identified[i]),
-                "delta": float(delta[i]),
+                "delta": delta[name],
                 "free": name in free,
             }
             for i, name in enumerate(parameters.ALL_NAMES)
         ]
+
+    def all_deltas(self) -> dict[str, float]:
+        """The delta of every named parameter (:func:`calibrator.parameters.all_deltas`).
+
+        Free parameters give their recorded solver value (:attr:`deltas`), so
+        every reader shows the same number to the last bit; the others are
+        computed from the frames and tables (zero up to rounding).
+
+        Returns
+        -------
+        dict
+            ``{name: delta}`` in :data:`calibrator.parameters.ALL_NAMES` order (mm, rad).
+        """
+        values = parameters.all_deltas(
+            self.nominal_mdh, self.base0, self.tool0, self.mdh, self.base2tracker, self.flange2tool
+        )
+        out = dict(zip(parameters.ALL_NAMES, map(float, values), strict=True))
+        out.update({k: float(v) for k, v in self.deltas.items() if k in out})
+        return out
 
     def to_json(self) -> dict[str, Any]:
         """The calibration.json document (plain JSON values)."""

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from calibrator import frames, kinematics, parameters
+from calibrator import frames, kinematics
 from calibrator.export import Exported, exporter
 
 CONVENTION = "A_i = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i)"
@@ -65,7 +65,7 @@ def to_csv(cal):
     ``element`` is ``joint1``..``joint6``, ``base2tracker`` or ``flange2tool``;
     ``parameter`` carries its unit (``a_mm``, ``rx_rad``). A frame is
     ``Trans(x, y, z) . Rx(rx) . Ry(ry) . Rz(rz)``; its nominal is the first guess.
-    ``delta`` is :func:`calibrator.parameters.all_deltas`, as in the report and
+    ``delta`` is :meth:`calibrator.calibration.Calibration.all_deltas`, as in the report and
     calibration.json: a frame's delta is its move from nominal expressed in
     the nominal frame (``inv(nominal) @ identified``; for the tool point, in
     the flange frame), so for a rotated base it is not ``identified - nominal``.
@@ -87,15 +87,7 @@ def to_csv(cal):
                     int(f"{col}{j + 1}" in free),
                 ]
             )
-    delta = dict(
-        zip(
-            parameters.ALL_NAMES,
-            parameters.all_deltas(
-                cal.nominal_mdh, cal.base0, cal.tool0, cal.mdh, cal.base2tracker, cal.flange2tool
-            ),
-            strict=True,
-        )
-    )
+    delta = cal.all_deltas()
     for element, nominal in (("base2tracker", cal.base0), ("flange2tool", cal.tool0)):
         identified = frame_values(getattr(cal, element))
         nominal = frame_values(nominal)

@@ -31,7 +31,9 @@ def good_cal():
         base2tracker=frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0]),
         flange2tool=frames.transform(frames.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0]),
         free=FREE + ["tool_x"],
-        deltas={n: 0.0 for n in FREE + ["tool_x"]},
+        deltas={
+            n: {"a2": 0.25, "beta2": 0.001, "tool_x": 1.0}.get(n, 0.0) for n in FREE + ["tool_x"]
+        },
         dropped=[{"name": "d2", "reason": "parallel axes"}],
         model="ur5e",
         frame="tracker",
