@@ -285,3 +285,26 @@ def test_a_session_without_statistics_or_held_out_poses_is_taken_whole():
     assert not set(content.notes) & {"pose_errors", "error_cdf", "error_vs_distance"}
     last = dict(doc, validation_poses=[11])  # the last pose may be held out
     assert data.pose_errors(calibration_of(last), Session(table, meta)).held_out[11]
+
+
+def test_the_measurement_is_described_from_the_session():
+    """Date, robot and tracker, readings per pose: what an engineer checks first."""
+    from dataclasses import replace
+    from datetime import UTC, datetime, timedelta
+
+    table, meta, _, doc = known_arm()
+    start = datetime(2026, 11, 3, 9, 0, tzinfo=UTC)
+    stamps = pa.array([start + timedelta(minutes=i) for i in range(12)])
+    for name, values in (("timestamp", stamps), ("n_readings", pa.array([20] * 11 + [12]))):
+        if name in table.column_names:
+            table = table.drop_columns([name])
+        table = table.append_column(name, values)
+    measured = {"robot": "ur://10.0.0.5:ur10e", "tracker": "AT960 #12345"}
+    meta = replace(meta, extra={"measured": measured})
+    facts = dict(data.collect(calibration_of(doc), Session(table, meta)).facts)
+    assert facts["measured"] == f"{stamps[0].as_py()} to {stamps[11].as_py()}"
+    assert facts["robot"] == "ur://10.0.0.5:ur10e" and facts["tracker"] == "AT960 #12345"
+    assert facts["readings per pose"] == "12 to 20"
+    bare = dict(data.collect(calibration_of(doc), Session(*known_arm()[:2])).facts)
+    assert bare["robot"] == bare["tracker"] == "not recorded"
+    assert "measured" not in bare  # the simulation records no times
