@@ -76,28 +76,22 @@ def minimax_swarm(problem: Problem, x: np.ndarray, settings: Settings) -> FitRes
     return replace(found, x=x, message="kept the start: the swarm did not lower the worst error")
 
 
-def least_squares(problem: Problem, x: np.ndarray, settings: Settings) -> FitResult:
-    """Levenberg-Marquardt on every fitting pose."""
-    settings.say(f"least squares on {len(problem)} poses")
-    return refine.refine(problem, x)
+def _on_every_pose(what: str, run: Callable[[Problem, np.ndarray], FitResult]) -> Callable:
+    """A step running a local fitter on every fitting pose, saying so first."""
+
+    def step(problem: Problem, x: np.ndarray, settings: Settings) -> FitResult:
+        settings.say(f"{what} on {len(problem)} poses")
+        return run(problem, x)
+
+    step.__doc__ = f"{what[0].upper()}{what[1:]} on every fitting pose."
+    return step
 
 
-def huber(problem: Problem, x: np.ndarray, settings: Settings) -> FitResult:
-    """Huber M-estimate on every fitting pose."""
-    settings.say(f"Huber fit on {len(problem)} poses")
-    return robust.huber(problem, x)
-
-
-def trimmed(problem: Problem, x: np.ndarray, settings: Settings) -> FitResult:
-    """Trimmed least squares on every fitting pose."""
-    settings.say(f"trimmed least squares on {len(problem)} poses")
-    return robust.trimmed(problem, x)
-
-
-def minimax_refine(problem: Problem, x: np.ndarray, settings: Settings) -> FitResult:
-    """SLSQP in epigraph form on every fitting pose."""
-    settings.say(f"minimax refinement (SLSQP, epigraph form) on {len(problem)} poses")
-    return minimax.refine_minimax(problem, x)
+#: Levenberg-Marquardt; Huber M-estimate; trimmed least squares; SLSQP in epigraph form.
+least_squares = _on_every_pose("least squares", refine.refine)
+huber = _on_every_pose("Huber fit", robust.huber)
+trimmed = _on_every_pose("trimmed least squares", robust.trimmed)
+minimax_refine = _on_every_pose("minimax refinement (SLSQP, epigraph form)", minimax.refine_minimax)
 
 
 #: (loss, method) -> the steps, in order; each step's name is its key in ``solver``.
