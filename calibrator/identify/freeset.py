@@ -137,3 +137,40 @@ def decide(
     cols = [kept.index(n) for n in chosen]
     info = identifiability.scaled_information(jac[:, cols], chosen, noise_mm)
     return FreeSet(space.with_free(chosen), dropped + weak, info)
+
+
+def poses_for(
+    nominal_mdh: np.ndarray,
+    frame: str = "tracker",
+    tool_known: bool = False,
+    validation_fraction: float = 0.2,
+    per_parameter: float = identifiability.MIN_VALUES_PER_PARAMETER,
+    orientation: bool = False,
+) -> int:
+    """Poses to measure so the fit keeps ``per_parameter`` values per free parameter.
+
+    The free set is :func:`decide`'s without a session; the fitting poses
+    are what ``identify``'s hold-out (``round(fraction * n)`` poses) leaves.
+
+    Parameters
+    ----------
+    nominal_mdh : ndarray, shape (6, 5)
+    frame, tool_known, orientation
+        As for :func:`decide`; a position-only tracker gives 3 values per
+        pose, a 6-DoF probe 6.
+    validation_fraction : float
+        Share held out, as ``identify --validation-fraction``.
+    per_parameter : float
+        Measured values per free parameter wanted in the fit (identify warns
+        below :data:`identifiability.MIN_VALUES_PER_PARAMETER`).
+
+    Returns
+    -------
+    int
+    """
+    free = len(decide(nominal_mdh, frame, tool_known, orientation).names)
+    per_pose = 6 if orientation else 3
+    n = 1
+    while (n - int(round(validation_fraction * n))) * per_pose < per_parameter * free:
+        n += 1
+    return n
