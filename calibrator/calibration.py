@@ -62,6 +62,9 @@ class Provenance:
     ----------
     session_sha256 : str or None
         SHA-256 of the session file's bytes (hex).
+    nominal_source : {'session', 'model', 'file'} or None
+        Where the nominal table came from: the session's footer, a named
+        model given with ``--model``, or a factory calibration file.
     nominal_file, nominal_sha256 : str or None
         The factory calibration given with ``--nominal`` and its digest;
         ``None`` when the nominal table came from the session or the model.
@@ -88,6 +91,7 @@ class Provenance:
     """
 
     session_sha256: str | None = None
+    nominal_source: str | None = None
     nominal_file: str | None = None
     nominal_sha256: str | None = None
     method: str | None = None
@@ -118,6 +122,7 @@ class Provenance:
     )
     _TYPES = {
         "session_sha256": str,
+        "nominal_source": str,
         "nominal_file": str,
         "nominal_sha256": str,
         "method": str,
@@ -385,6 +390,7 @@ class Calibration:
         recorded = provenance or Provenance()
         provenance = Provenance(
             session_sha256=recorded.session_sha256,
+            nominal_source=recorded.nominal_source,
             nominal_file=recorded.nominal_file,
             nominal_sha256=recorded.nominal_sha256,
             method=opts.method,

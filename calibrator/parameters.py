@@ -180,6 +180,11 @@ class ParameterSpace:
             self.base0 if base2tracker is None else base2tracker,
             self.tool0 if flange2tool is None else flange2tool,
         )
+        # What is not given is exactly the first guess, not its round trip.
+        if base2tracker is None:
+            full[N_MDH:TOOL_START] = 0.0
+        if flange2tool is None:
+            full[TOOL_START:] = 0.0
         return full[self.index]
 
     def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):

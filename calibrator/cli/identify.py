@@ -144,6 +144,7 @@ def identify(
     took = time.perf_counter() - started
     provenance = calibration.Provenance(
         session_sha256=calibration.digest(session_path),
+        nominal_source="file" if nominal_file else "model" if model else "session",
         nominal_file=None if nominal_file is None else str(nominal_file),
         nominal_sha256=None if nominal_file is None else calibration.digest(nominal_file),
         versions=calibration.versions(),
@@ -226,8 +227,8 @@ def _recorded(ctx, like, session_path, options, model, nominal_file):
             "(its SHA-256 differs); the options are re-used all the same",
             err=True,
         )
-    if model is None:
-        model = cal.model
+    if model is None and cal.provenance.nominal_source == "model":
+        model = cal.model  # it was given with --model; else the session's own table
     recorded_nominal = cal.provenance.nominal_file
     if nominal_file is None and recorded_nominal is not None:
         nominal_file = Path(recorded_nominal)

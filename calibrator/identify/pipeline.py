@@ -175,41 +175,22 @@ def identify(session, options: Options = Options()) -> Result:
     cond = identifiability.condition_number(free.information)
     warnings = identifiability.session_warnings(problem.rows, len(free.names), cond, duplicates)
 
-    settings = fitters.Settings(
-        options.method,
-        options.particles,
-        options.generations,
-        options.swarm_poses,
-        options.seed,
-        options.on_generation,
-        say,
-    )
-    found, solver = fitters.fit(problem, options.loss, settings)
+    found, solver = fitters.fit(problem, options.loss, _settings(options, say))
     x = found.x
     # A fit can absorb a unit or model mistake into huge deltas: refuse or warn.
     warnings += plausibility.check_deltas(meta.nominal_mdh, problem.space.unpack(x)[0])
-    outlier_idx, inliers = (
-        found.outliers,
-        problem.subset(np.setdiff1d(np.arange(len(fit)), found.outliers)),
-    )
-    if options.loss in ("lsq", "minimax"):
-        # Nothing set aside: name the poses that fit far worse (lsq records them too).
-        suspects, inliers = _suspects(problem, x), problem
-        if len(suspects):
-            warnings.append(
-                f"pose(s) {_names(pose_numbers[fit_idx[suspects]])} fit far worse than the "
-                "rest (possible outliers); consider --loss huber or trimmed"
-            )
-        outlier_idx = suspects if options.loss == "lsq" else outlier_idx
+    outlier_idx, inliers, doubts = _outliers(problem, found, options.loss)
+    if len(doubts):
+        warnings.append(
+            f"pose(s) {_names(pose_numbers[fit_idx[doubts]])} fit far worse than the "
+            "rest (possible outliers); consider --loss huber or trimmed"
+        )
 
     say("uncertainty")
     unc = uncertainty.analyse(inliers, x, val)
     warnings += _noise_warning(unc, options.noise_mm)
     stats = {
-        part: {
-            "before": report.error_stats(problem.space, problem.zero(), o),
-            "after": report.error_stats(problem.space, x, o),
-        }
+        part: report.before_after(problem.space, x, o)
         for part, o in (("fit", fit), ("validation", val))
     }
     return Result(
@@ -250,6 +231,31 @@ def _check_fitting_poses(fit):
             "measure distinct, well-spread poses"
         )
     return duplicates
+
+
+def _settings(options, say):
+    return fitters.Settings(
+        options.method,
+        options.particles,
+        options.generations,
+        options.swarm_poses,
+        options.seed,
+        options.on_generation,
+        say,
+    )
+
+
+def _outliers(problem, found, loss):
+    """Outlier poses, the inlier problem, and poses to warn about (indices into the fit).
+
+    A robust loss sets its outliers aside; ``lsq`` and ``minimax`` set nothing
+    aside but name the poses that fit far worse (``lsq`` records them too).
+    """
+    if loss not in ("lsq", "minimax"):
+        keep = np.setdiff1d(np.arange(len(problem)), found.outliers)
+        return found.outliers, problem.subset(keep), np.array([], dtype=int)
+    suspects = _suspects(problem, found.x)
+    return (suspects if loss == "lsq" else found.outliers), problem, suspects
 
 
 def _suspects(problem, x):

@@ -35,6 +35,14 @@ def error_stats(space, x, obs):
     return out
 
 
+def before_after(space, x, obs) -> dict:
+    """``{"before": ..., "after": ...}``: :func:`error_stats` at the first guess and at ``x``."""
+    return {
+        "before": error_stats(space, np.zeros(space.size), obs),
+        "after": error_stats(space, x, obs),
+    }
+
+
 def _summary(values):
     # Sample standard deviation, as in the seed's tables.
     std = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0

@@ -16,9 +16,18 @@ file                         content                                     needs
                              position is not recorded)
 ``convergence.png``          the swarm's best cost per generation        ``solver.convergence``
 ``deltas.png``               identified parameter deltas, with standard  ``deltas``
-                             errors as bars when recorded
-``index.html``               all of the above, the accuracy table, the
-                             dropped parameters with their reasons
+                             errors as bars when recorded; joint lengths
+                             (mm), joint angles (mrad), frame offsets
+                             (mm) and frame turns (mrad) in panels of
+                             their own, so metre-scale base offsets do
+                             not flatten joint deltas
+``index.html``               all of the above, the summary (loss, residual
+                             sigma, predicted held-out error, correlated
+                             pairs, outliers, date, robot, tracker,
+                             readings per pose), the accuracy table, the
+                             parameters (nominal, identified, delta and
+                             standard error in mm and mrad), the dropped
+                             parameters with their reasons
 ============================ =========================================== =========
 
 What a calibration or the session does not hold is said on the page ("not

@@ -86,6 +86,7 @@ def test_calibration_json_records_the_session_digest_and_every_option(outlier_se
         "particles": 12,
     }
     assert set(doc["versions"]) == {"calibrator", "numpy", "scipy", "python"}
+    assert doc["nominal_source"] == "session" and "nominal_file" not in doc
 
 
 def test_a_huber_fit_shows_its_outlier_poses_in_the_report(outlier_session):
