@@ -149,7 +149,7 @@ class Provenance:
         return doc
 
     @classmethod
-    def from_json(cls, doc: dict[str, Any], where: str = "calibration") -> "Provenance":
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "Provenance":
         """The provenance keys of a parsed document; missing keys read as ``None``.
 
         Raises
@@ -220,7 +220,7 @@ class FitReport:
         return _jsonable({key: getattr(self, key) for key in self.KEYS})
 
     @classmethod
-    def from_json(cls, doc: dict[str, Any], where: str = "calibration") -> "FitReport":
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "FitReport":
         """The fit report keys of a parsed document; missing ones read as empty.
 
         Also reads ``outlier_poses`` (a name some readers used for ``outliers``).
@@ -431,7 +431,7 @@ class Calibration:
             fit=fit,
         )
 
-    def parameter_records(self):
+    def parameter_records(self) -> list[dict[str, Any]]:
         """One record per candidate parameter: nominal, identified, free or fixed.
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
@@ -555,7 +555,7 @@ def write(path, document, batch=None):
         batch.text(path, text)
 
 
-def load(path):
+def load(path: str | Path) -> Calibration:
     """Read and validate a calibration.json.
 
     Parameters
@@ -591,7 +591,7 @@ def load(path):
     return from_json(doc, path)
 
 
-def from_json(doc, where="calibration"):
+def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     """A :class:`Calibration` from a parsed document, validated like :func:`load`."""
     check = _Checker(where)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -167,7 +167,15 @@ def nonlinear_displacement(mdh, q, dp):
     return np.concatenate([rot, pos], axis=-1)
 
 
-def budget(mdh, q, tol, *, samples=2000, seed=0, structure=None):
+def budget(
+    mdh: np.ndarray,
+    q: np.ndarray,
+    tol: "Tolerances",
+    *,
+    samples: int = 2000,
+    seed: int = 0,
+    structure: np.ndarray | None = None,
+) -> dict:
     """The tolerance budget at a set of poses.
 
     Parameters

@@ -1,8 +1,14 @@
 """Accuracy statistics in the form of the seed's Table 3, and their text table."""
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import measurement
+
+if TYPE_CHECKING:
+    from calibrator.measurement import Observations
+    from calibrator.parameters import ParameterSpace
 
 _AXES = ("x", "y", "z")
 
@@ -35,7 +41,7 @@ def error_stats(space, x, obs):
     return out
 
 
-def before_after(space, x, obs) -> dict:
+def before_after(space: "ParameterSpace", x: np.ndarray, obs: "Observations") -> dict:
     """``{"before": ..., "after": ...}``: :func:`error_stats` at the first guess and at ``x``."""
     return {
         "before": error_stats(space, np.zeros(space.size), obs),

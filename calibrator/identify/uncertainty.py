@@ -11,9 +11,15 @@ held-out pose's predicted position error propagates ``C`` through its
 position rows and adds the point noise.
 """
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import measurement, parameters
+
+if TYPE_CHECKING:
+    from calibrator.identify.problem import Problem
+    from calibrator.measurement import Observations
 
 #: Pairs of free parameters with ``|correlation|`` above this are named.
 STRONG_CORRELATION = 0.9
@@ -47,7 +53,7 @@ def block_sigmas(res, n_poses, n_free):
     return sigma_p, float(np.sqrt(np.sum(rot**2) / (len(rot) * dof)))
 
 
-def analyse(problem, x, validation=None):
+def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None" = None) -> dict:
     """Uncertainty of the deltas ``x`` fitted on ``problem``'s poses.
 
     Parameters
