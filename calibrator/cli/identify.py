@@ -220,6 +220,13 @@ def _recorded(ctx, like, session_path, options, model, nominal_file):
         if key == "swarm_poses" or not (given_k if key == "k" else given(_OPTION_PARAMS[key]))
     }
     options = replace(options, **chosen)
+    missing = [k for k in calibration.Provenance.OPTION_KEYS if k not in recorded]
+    if missing:
+        typer.echo(
+            f"note: {like} does not record {', '.join(missing)}: "
+            "those take the values given here (or their defaults)",
+            err=True,
+        )
     digest = calibration.digest(session_path)
     if cal.provenance.session_sha256 not in (None, digest):
         typer.echo(

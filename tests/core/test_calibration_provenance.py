@@ -144,3 +144,20 @@ def test_like_with_a_calibration_that_records_no_options_is_one_line(outlier_ses
         )
     )
     assert not (tmp_path / "n.json").exists()
+
+
+def test_like_with_an_older_file_says_which_options_it_does_not_record(outlier_session, tmp_path):
+    folder, _ = outlier_session
+    doc = json.loads((folder / "c.json").read_text())
+    for key in ("noise_mm", "tool_known", "particles", "generations", "swarm_poses"):
+        doc.pop(key)  # what files written before provenance lack
+    (tmp_path / "old.json").write_text(json.dumps(doc))
+    (tmp_path / "s.parquet").write_bytes((folder / "s.parquet").read_bytes())
+    out = run("identify", "s.parquet", "-o", "n.json", "--like", "old.json", "-q", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert (
+        "note: old.json does not record noise_mm, tool_known, particles, generations, "
+        "swarm_poses: those take the values given here (or their defaults)"
+    ) in out.stderr
+    again = json.loads((tmp_path / "n.json").read_text())
+    assert (again["loss"], again["seed"], again["noise_mm"]) == ("huber", 3, 0.05)
