@@ -149,7 +149,8 @@ def _deltas(fig, deltas, errors):
     # Margins in inches, not shares of the height: a short figure (few
     # parameters) must still hold the tick labels, the axis label and the title.
     height = fig.get_figheight()
-    fig.subplots_adjust(bottom=0.55 / height, top=1 - 0.35 / height)
+    # Room above for the panel titles under the figure title.
+    fig.subplots_adjust(bottom=0.55 / height, top=1 - 0.6 / height)
     axes = fig.subplots(1, len(groups), squeeze=False)[0]
     for ax, (group, scale, unit, title) in zip(axes, groups, strict=True):
         values = np.array([deltas[n] for n in group]) * scale
