@@ -20,7 +20,8 @@ import numpy as np
 import pyswarms  # imported before any timing: its import is slow
 
 from calibrator import parameters
-from calibrator.identify import objective, pipeline, pso, refine, report
+from calibrator.identify import pipeline, pso, refine, report
+from calibrator.identify.problem import Problem
 from calibrator.session import Session
 from calibrator.simulate import simulate
 
@@ -71,7 +72,7 @@ def run_case(seed, args, record):
     """One seed of the comparison; ``record(name, seconds, held_out_mm)`` collects rows."""
     p, g = args.particles, args.generations
     space, fit, val, _ = seed_case(seed)
-    swarm = objective.SwarmObjective(space, fit, pipeline.DEFAULT_K)
+    swarm = Problem.of(space, fit, pipeline.DEFAULT_K).swarm_objective()
     lower, upper = space.bounds()
     # The seed's own box: the start box (+-0.5 mm, +-0.01 rad) is also the bound.
     seed_lower, seed_upper = space.bounds(mm=0.5, rad=0.01)
@@ -121,12 +122,12 @@ def run_case(seed, args, record):
         "pyswarms in the seed's box",
         lambda: run_pyswarms(swarm, seed_lower, seed_upper, p, g, seed, per_particle=False),
     )
-    hybrid = refine.refine(space, fit, best, pipeline.DEFAULT_K)
+    hybrid = refine.refine(Problem.of(space, fit, pipeline.DEFAULT_K), best)
     timed(
         "hybrid: IPSO, then least squares (LM part)",
-        lambda: refine.refine(space, fit, best, pipeline.DEFAULT_K).x,
+        lambda: refine.refine(Problem.of(space, fit, pipeline.DEFAULT_K), best).x,
     )
-    lm = refine.refine(space, fit, np.zeros(space.size), pipeline.DEFAULT_K)
+    lm = refine.refine(Problem.of(space, fit, pipeline.DEFAULT_K), np.zeros(space.size))
     record(
         "least squares from nominal (reference optimum)",
         float("nan"),

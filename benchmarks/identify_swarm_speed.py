@@ -27,7 +27,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the swarm use
 import numpy as np  # noqa: E402
 
 from calibrator import parameters  # noqa: E402
-from calibrator.identify import objective, pipeline, pso  # noqa: E402
+from calibrator.identify import pipeline, pso  # noqa: E402
+from calibrator.identify.problem import Problem
 from calibrator.session import Session  # noqa: E402
 from calibrator.simulate import simulate  # noqa: E402
 
@@ -68,7 +69,7 @@ def main():
     swarm = np.random.default_rng(1).normal(0, 1e-3, (20, space.size))
     rows, wall = [], []
     for loss in ("lsq", "minimax"):
-        f = objective.SwarmObjective(space, fit, pipeline.DEFAULT_K, loss)
+        f = Problem.of(space, fit, pipeline.DEFAULT_K).swarm_objective(loss)
         f(swarm)
         wall.clear()
         per = [
@@ -77,7 +78,7 @@ def main():
         ]
         rows.append((loss, statistics.median(per), statistics.median(wall) / args.evaluations))
     lower, upper = space.bounds()
-    f = objective.SwarmObjective(space, fit, pipeline.DEFAULT_K)
+    f = Problem.of(space, fit, pipeline.DEFAULT_K).swarm_objective()
     ipso_wall = []
     ipso = [
         _timed(

@@ -9,19 +9,32 @@ The file layout (``calibration.json``) is documented key by key in
   ``free_parameters``, ``deltas``, ``dropped_parameters``;
 - ``parameters``: one record per candidate parameter with its nominal and
   identified value and whether it was free (derived; rewritten on save);
-- every other key (``stats``, ``method``, ``seed``, ``solver``, and what
-  later versions of ``identify`` add) kept as it is in
-  :attr:`Calibration.diagnostics`.
+- the provenance keys of :class:`Provenance` (``session_sha256``,
+  ``method``, ``loss``, ``seed``, ``validation_fraction``, ``k``,
+  ``noise_mm``, ``tool_known``, ...): every option that changes the result,
+  so ``identify --like`` can re-run it;
+- the fit report keys of :class:`FitReport` (``stats``, ``uncertainty``,
+  ``warnings``, ``outliers``, ``validation_poses``, ``solver``);
+- every other key (what later versions of ``identify`` add) kept as it is
+  in :attr:`Calibration.diagnostics`.
+
+All keys sit at the top level of the document (the layout of version 1, so
+older files read unchanged); each typed part reads and writes its own keys
+explicitly. Reading happens in one place, :func:`from_json` (through
+:func:`load`), where consistency checks of a document belong.
 
 The file is strict JSON: a NaN or infinity anywhere refuses the save, and
 :func:`load` checks types, shapes, finiteness, rigidity of the frames and
 consistency of the fixed parameters before anything uses the file.
 """
 
+import hashlib
 import json
 import math
-from dataclasses import dataclass, field
+import platform
+from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,6 +45,239 @@ FORMAT = "calibrator.calibration"
 VERSION = 1
 FRAMES = ("base", "tracker")
 _FIELDS = kinematics.FIELDS
+#: Refuse files larger than this: a calibration is a few kB.
+MAX_BYTES = 16 * 2**20
+#: A fixed parameter may differ from its nominal value by this much (rounding).
+_FIXED_TOL = 1e-9
+#: Identified values further than this from nominal are not a calibration of
+#: that arm (a unit mistake or a wrong nominal): (mm, rad).
+PLAUSIBLE_DELTA = {"mm": 100.0, "rad": 0.5}
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a calibration came from: its session and every option that changes it.
+
+    Attributes
+    ----------
+    session_sha256 : str or None
+        SHA-256 of the session file's bytes (hex).
+    nominal_source : {'session', 'model', 'file'} or None
+        Where the nominal table came from: the session's footer, a named
+        model given with ``--model``, or a factory calibration file.
+    nominal_file, nominal_sha256 : str or None
+        The factory calibration given with ``--nominal`` and its digest;
+        ``None`` when the nominal table came from the session or the model.
+    method, loss : str or None
+        Fitter and loss (``calibrator.identify.pipeline.METHODS``, ``LOSSES``).
+    seed : int or None
+        Seed of the hold-out split and of the swarm.
+    validation_fraction : float or None
+        Share of the poses held out.
+    k : float or None
+        Orientation weight used (mm^2/rad^2; 0 without orientation data).
+    noise_mm : float or None
+        Measurement noise assumed when choosing the free parameters (mm per axis).
+    tool_known : bool or None
+        Whether the tool frame was fixed (the resolved value, not the option).
+    particles, generations, swarm_poses : int or None
+        Swarm settings.
+    versions : dict
+        ``{"calibrator", "numpy", "scipy", "python"}`` version strings.
+    created : str or None
+        UTC time the calibration was made (ISO 8601).
+
+    ``None`` means "not recorded" (a file written before this was recorded).
+    """
+
+    session_sha256: str | None = None
+    nominal_source: str | None = None
+    nominal_file: str | None = None
+    nominal_sha256: str | None = None
+    method: str | None = None
+    loss: str | None = None
+    seed: int | None = None
+    validation_fraction: float | None = None
+    k: float | None = None
+    noise_mm: float | None = None
+    tool_known: bool | None = None
+    particles: int | None = None
+    generations: int | None = None
+    swarm_poses: int | None = None
+    versions: dict = field(default_factory=dict)
+    created: str | None = None
+
+    #: Keys of the options that decide the identified parameters.
+    OPTION_KEYS = (
+        "method",
+        "loss",
+        "seed",
+        "validation_fraction",
+        "k",
+        "noise_mm",
+        "tool_known",
+        "particles",
+        "generations",
+        "swarm_poses",
+    )
+    _TYPES = {
+        "session_sha256": str,
+        "nominal_source": str,
+        "nominal_file": str,
+        "nominal_sha256": str,
+        "method": str,
+        "loss": str,
+        "seed": int,
+        "validation_fraction": float,
+        "k": float,
+        "noise_mm": float,
+        "tool_known": bool,
+        "particles": int,
+        "generations": int,
+        "swarm_poses": int,
+        "versions": dict,
+        "created": str,
+    }
+
+    def to_json(self) -> dict[str, Any]:
+        """The provenance keys of calibration.json; ``None`` values are left out."""
+        doc: dict[str, Any] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if value is not None and value != {}:
+                doc[f.name] = dict(value) if isinstance(value, dict) else value
+        return doc
+
+    @classmethod
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "Provenance":
+        """The provenance keys of a parsed document; missing keys read as ``None``.
+
+        Raises
+        ------
+        CalibrationError
+            A key present with the wrong JSON type.
+        """
+        values: dict[str, Any] = {}
+        for key, kind in cls._TYPES.items():
+            value = doc.get(key)
+            if value is None:
+                continue
+            ok = isinstance(value, kind) and not (kind is int and isinstance(value, bool))
+            if kind is float:
+                ok = isinstance(value, int | float) and not isinstance(value, bool)
+                value = float(value) if ok else value
+            if not ok:
+                raise CalibrationError(
+                    f"{where}: '{key}' must be a JSON {_JSON_TYPE[kind]}, got {value!r:.40}"
+                )
+            values[key] = value
+        return cls(**values)
+
+    def options(self) -> dict[str, Any]:
+        """The recorded options that were given (``{key: value}``, ``None`` left out)."""
+        return {k: getattr(self, k) for k in self.OPTION_KEYS if getattr(self, k) is not None}
+
+
+_JSON_TYPE = {str: "string", int: "integer", float: "number", bool: "boolean", dict: "object"}
+
+
+@dataclass
+class FitReport:
+    """How the fit went: statistics, uncertainty, warnings, outliers, solver.
+
+    Attributes
+    ----------
+    stats : dict
+        ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
+        :func:`calibrator.identify.report.error_stats` (mm, deg).
+    uncertainty : dict
+        :func:`calibrator.identify.uncertainty.analyse` (standard errors in
+        the units of ``deltas``, residual sigma, predicted held-out error,
+        correlations).
+    warnings : list of str
+        Sentences about the session and the fit.
+    outliers : list of int
+        Pose numbers a robust loss set aside (with ``lsq``: flagged).
+    validation_poses : list of int
+        Row indices (0-based, session order) of the held-out poses.
+    solver : dict
+        What each fitter reported (cost, evaluations, message), and the
+        swarm's ``convergence`` as ``[[generation, best cost], ...]``.
+    """
+
+    stats: dict = field(default_factory=dict)
+    uncertainty: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    outliers: list = field(default_factory=list)
+    validation_poses: list = field(default_factory=list)
+    solver: dict = field(default_factory=dict)
+
+    #: Keys of calibration.json this part reads and writes.
+    KEYS = ("stats", "uncertainty", "warnings", "outliers", "validation_poses", "solver")
+
+    def to_json(self) -> dict[str, Any]:
+        """The fit report keys of calibration.json (JSON values)."""
+        return _jsonable({key: getattr(self, key) for key in self.KEYS})
+
+    @classmethod
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "FitReport":
+        """The fit report keys of a parsed document; missing ones read as empty.
+
+        Also reads ``outlier_poses`` (a name some readers used for ``outliers``).
+
+        Raises
+        ------
+        CalibrationError
+            A key present with the wrong JSON type.
+        """
+        values: dict[str, Any] = {}
+        outliers = doc.get("outliers", doc.get("outlier_poses"))
+        for key, kind in (
+            ("stats", dict),
+            ("uncertainty", dict),
+            ("solver", dict),
+            ("warnings", list),
+            ("outliers", list),
+            ("validation_poses", list),
+        ):
+            value = outliers if key == "outliers" else doc.get(key)
+            if value is None:
+                continue
+            if not isinstance(value, kind):
+                raise CalibrationError(
+                    f"{where}: '{key}' must be a JSON {'object' if kind is dict else 'list'}"
+                )
+            values[key] = value
+        for key in ("outliers", "validation_poses"):
+            if not all(type(i) is int for i in values.get(key, [])):
+                raise CalibrationError(f"{where}: '{key}' must be a list of pose numbers")
+        values["warnings"] = [str(w) for w in values.get("warnings", [])]
+        return cls(**values)
+
+
+def digest(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex), for :attr:`Provenance.session_sha256`."""
+    sha = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            sha.update(block)
+    return sha.hexdigest()
+
+
+def versions() -> dict[str, str]:
+    """Versions of what computes a calibration: this program, numpy, scipy, Python."""
+    from importlib.metadata import version
+
+    from calibrator import __version__
+
+    return {
+        "calibrator": __version__,
+        "numpy": np.__version__,
+        "scipy": version("scipy"),
+        "python": platform.python_version(),
+    }
+
+
 #: Keys with a typed field in :class:`Calibration`; others go to ``diagnostics``.
 TYPED_KEYS = (
     "format",
@@ -49,14 +295,10 @@ TYPED_KEYS = (
     "deltas",
     "dropped_parameters",
     "parameters",
+    "outlier_poses",
+    *FitReport.KEYS,
+    *Provenance._TYPES,
 )
-#: Refuse files larger than this: a calibration is a few kB.
-MAX_BYTES = 16 * 2**20
-#: A fixed parameter may differ from its nominal value by this much (rounding).
-_FIXED_TOL = 1e-9
-#: Identified values further than this from nominal are not a calibration of
-#: that arm (a unit mistake or a wrong nominal): (mm, rad).
-PLAUSIBLE_DELTA = {"mm": 100.0, "rad": 0.5}
 
 
 @dataclass
@@ -89,8 +331,12 @@ class Calibration:
         "nominal" values).
     session : str or None
         Path of the session it came from.
+    provenance : Provenance
+        Session digest and every option that changes the result.
+    fit : FitReport
+        Statistics, uncertainty, warnings, outliers, solver.
     diagnostics : dict
-        Every other key of the file (statistics, solver details, ...), JSON values.
+        Every other key of the file (what later versions add), JSON values.
     """
 
     nominal_mdh: np.ndarray
@@ -105,9 +351,11 @@ class Calibration:
     base0: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool0: np.ndarray = field(default_factory=lambda: np.eye(4))
     session: str | None = None
+    provenance: Provenance = field(default_factory=Provenance)
+    fit: FitReport = field(default_factory=FitReport)
     diagnostics: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.nominal_mdh = kinematics.check_mdh(self.nominal_mdh).copy()
         self.mdh = kinematics.check_mdh(self.mdh).copy()
         for name in ("base2tracker", "flange2tool", "base0", "tool0"):
@@ -115,38 +363,57 @@ class Calibration:
         self.free = tuple(self.free)
 
     @classmethod
-    def from_result(cls, result, session_path=None, model=None, frame="base"):
+    def from_result(
+        cls,
+        result: Any,
+        session_path: str | Path | None = None,
+        model: str | None = None,
+        frame: str = "base",
+        provenance: Provenance | None = None,
+    ) -> "Calibration":
         """The calibration of an identification result.
 
         Parameters
         ----------
         result : calibrator.identify.pipeline.Result
-            Needs ``space``, ``x``, ``dropped``; every other public attribute
-            (``stats``, ``details``, ``options`` and whatever later versions add,
-            e.g. standard errors) goes to :attr:`diagnostics` as JSON values.
         session_path : str or Path, optional
         model : str, optional
         frame : {'base', 'tracker'}
+        provenance : Provenance, optional
+            What the caller knows beyond the result (session digest, nominal
+            file, versions, time); the options are filled in from ``result``.
         """
         space = result.space
         mdh, base2tracker, flange2tool = space.unpack(result.x)
         x = np.asarray(result.x, dtype=float)
-        diagnostics = {}
-        opts = getattr(result, "options", None)
-        if opts is not None:
-            diagnostics.update(
-                method=opts.method, seed=opts.seed, validation_fraction=opts.validation_fraction
-            )
-            if hasattr(opts, "loss"):
-                diagnostics["loss"] = opts.loss
-        known = {"space", "x", "dropped", "options", "fit_index", "validation_index", "details"}
-        for key, value in vars(result).items():
-            if key not in known and not key.startswith("_"):
-                diagnostics[key] = value
-        if hasattr(result, "validation_index"):
-            diagnostics["validation_poses"] = [int(i) for i in result.validation_index]
-        if getattr(result, "details", None) is not None:
-            diagnostics["solver"] = result.details
+        opts = result.options
+        recorded = provenance or Provenance()
+        provenance = Provenance(
+            session_sha256=recorded.session_sha256,
+            nominal_source=recorded.nominal_source,
+            nominal_file=recorded.nominal_file,
+            nominal_sha256=recorded.nominal_sha256,
+            method=opts.method,
+            loss=opts.loss,
+            seed=int(opts.seed),
+            validation_fraction=float(opts.validation_fraction),
+            k=float(result.k),
+            noise_mm=float(opts.noise_mm),
+            tool_known=bool(result.tool_known),
+            particles=int(opts.particles),
+            generations=int(opts.generations),
+            swarm_poses=int(opts.swarm_poses),
+            versions=dict(recorded.versions),
+            created=recorded.created,
+        )
+        fit = FitReport(
+            stats=_jsonable(result.stats),
+            uncertainty=_jsonable(result.uncertainty),
+            warnings=[str(w) for w in result.warnings],
+            outliers=[int(p) for p in result.outliers],
+            validation_poses=[int(i) for i in result.validation_index],
+            solver=_jsonable(result.details),
+        )
         return cls(
             nominal_mdh=space.nominal_mdh,
             mdh=mdh,
@@ -160,10 +427,11 @@ class Calibration:
             base0=space.base0,
             tool0=space.tool0,
             session=None if session_path is None else str(session_path),
-            diagnostics=_jsonable(diagnostics),
+            provenance=provenance,
+            fit=fit,
         )
 
-    def parameter_records(self):
+    def parameter_records(self) -> list[dict[str, Any]]:
         """One record per candidate parameter: nominal, identified, free or fixed.
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
@@ -172,13 +440,18 @@ class Calibration:
         point in the flange frame and ``tool_rx/ry/rz`` the angles of its
         rotation (nominal: of ``tool0``).
 
+        ``delta`` is :func:`calibrator.parameters.all_deltas`: for the base
+        frame the move in the nominal base frame (as the solver, the report
+        and the CSV export give it), not ``identified - nominal``.
+
         Returns
         -------
         list of dict
-            ``{"name", "unit", "nominal", "identified", "free"}``.
+            ``{"name", "unit", "nominal", "identified", "delta", "free"}``.
         """
         nominal = _flat_values(self.nominal_mdh, self.base0, self.tool0)
         identified = _flat_values(self.mdh, self.base2tracker, self.flange2tool)
+        delta = self.all_deltas()
         free = set(self.free)
         return [
             {
@@ -186,14 +459,36 @@ class Calibration:
                 "unit": parameters.unit(name),
                 "nominal": float(nominal[i]),
                 "identified": float(identified[i]),
+                "delta": delta[name],
                 "free": name in free,
             }
             for i, name in enumerate(parameters.ALL_NAMES)
         ]
 
-    def to_json(self):
+    def all_deltas(self) -> dict[str, float]:
+        """The delta of every named parameter (:func:`calibrator.parameters.all_deltas`).
+
+        Free parameters give their recorded solver value (:attr:`deltas`), so
+        every reader shows the same number to the last bit; the others are
+        computed from the frames and tables (zero up to rounding).
+
+        Returns
+        -------
+        dict
+            ``{name: delta}`` in :data:`calibrator.parameters.ALL_NAMES` order (mm, rad).
+        """
+        values = parameters.all_deltas(
+            self.nominal_mdh, self.base0, self.tool0, self.mdh, self.base2tracker, self.flange2tool
+        )
+        out = dict(zip(parameters.ALL_NAMES, map(float, values), strict=True))
+        out.update({k: float(v) for k, v in self.deltas.items() if k in out})
+        return out
+
+    def to_json(self) -> dict[str, Any]:
         """The calibration.json document (plain JSON values)."""
         doc = dict(self.diagnostics)
+        doc.update(self.fit.to_json())
+        doc.update(self.provenance.to_json())
         doc.update(
             format=FORMAT,
             version=VERSION,
@@ -260,7 +555,7 @@ def write(path, document, batch=None):
         batch.text(path, text)
 
 
-def load(path):
+def load(path: str | Path) -> Calibration:
     """Read and validate a calibration.json.
 
     Parameters
@@ -296,7 +591,7 @@ def load(path):
     return from_json(doc, path)
 
 
-def from_json(doc, where="calibration"):
+def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     """A :class:`Calibration` from a parsed document, validated like :func:`load`."""
     check = _Checker(where)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
@@ -354,6 +649,8 @@ def from_json(doc, where="calibration"):
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
     return Calibration(
+        provenance=Provenance.from_json(doc, where),
+        fit=FitReport.from_json(doc, where),
         nominal_mdh=nominal,
         mdh=mdh,
         free=tuple(free),

@@ -165,12 +165,15 @@ class Compensation:
         Targets to send to a controller keeping its nominal model (mm).
     desired : ndarray, shape (N, 4, 4)
     solution : Solution
+    q_nominal : ndarray, shape (N, 6)
+        Nominal model's joints for the desired poses (the IK's start).
     """
 
     q: np.ndarray
     corrected: np.ndarray
     desired: np.ndarray
     solution: Solution
+    q_nominal: np.ndarray
 
 
 def compensate(calibration, desired=None, q_nominal=None, limits=None):
@@ -202,7 +205,38 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None):
         q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
     sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
     corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
-    return Compensation(sol.q, corrected, desired, sol)
+    return Compensation(sol.q, corrected, desired, sol, q_nominal)
+
+
+def correction_sizes(result: Compensation, q_nominal: np.ndarray | None = None) -> dict:
+    """How big each target's correction is.
+
+    Parameters
+    ----------
+    result : Compensation
+    q_nominal : ndarray, shape (N, 6), optional
+        The program's nominal joints; defaults to the nominal model's IK of
+        the desired poses (what the solver started from).
+
+    Returns
+    -------
+    dict of ndarray, shape (N,)
+        ``correction_mm``: distance from the desired to the corrected
+        target (mm); ``correction_mrad``: turn between them (mrad);
+        ``joint_correction_mrad``: largest ``|q_calibrated - q_nominal|``
+        over the joints (mrad).
+    """
+    move = result.corrected[:, :3, 3] - result.desired[:, :3, 3]
+    turn = frames.rotation_error(result.corrected[:, :3, :3], result.desired[:, :3, :3])
+    out = {
+        "correction_mm": np.linalg.norm(move, axis=1),
+        "correction_mrad": 1e3 * np.linalg.norm(turn, axis=1),
+    }
+    if q_nominal is not None:
+        out["joint_correction_mrad"] = 1e3 * np.max(np.abs(result.q - q_nominal), axis=1)
+    else:
+        out["joint_correction_mrad"] = 1e3 * np.max(np.abs(result.q - result.q_nominal), axis=1)
+    return out
 
 
 JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
@@ -278,11 +312,15 @@ def read_targets(path):
 def run(calibration, targets_path, output):
     """Compensate a targets CSV and write the result CSV atomically.
 
-    Output columns: ``target`` (row number, from 1), ``status`` (``ok``,
-    ``outside joint limits`` or ``not reached``), ``q1_rad..q6_rad`` (joints
-    of the calibrated arm; empty when not ok), ``x_mm .. rz_rad`` (corrected
-    target for a nominal controller, base frame, rotation vector; empty when
-    not ok), ``iterations``, ``error_mm``.
+    Output columns: ``target`` (row number, from 0, as plans number their
+    poses), ``status`` (``ok``, ``outside joint limits`` or ``not
+    reached``), ``q1_rad..q6_rad`` (joints of the calibrated arm; empty
+    when not ok), ``x_mm .. rz_rad`` (corrected target for a nominal
+    controller, base frame, rotation vector; empty when not ok),
+    ``correction_mm`` and ``correction_mrad`` (how far the corrected target
+    is from the desired one: distance and turn), ``joint_correction_mrad``
+    (largest change of a joint from the nominal solution), ``iterations``,
+    ``error_mm``.
 
     Returns
     -------
@@ -305,11 +343,14 @@ def run(calibration, targets_path, output):
     corrected = np.concatenate(
         [result.corrected[:, :3, 3], frames.matrix_to_rotvec(result.corrected[:, :3, :3])], axis=1
     )
-    data = {"target": np.arange(1, len(status) + 1), "status": status}
+    size = correction_sizes(result, q_nom if desired is None else None)
+    data = {"target": np.arange(len(status)), "status": status}
     for k, col in enumerate(JOINT_COLUMNS):
         data[col] = np.where(sol.ok, sol.q[:, k], np.nan)
     for k, col in enumerate(POSE_COLUMNS):
         data[col] = np.where(sol.ok, corrected[:, k], np.nan)
+    for col, values in size.items():
+        data[col] = np.where(sol.ok, values, np.nan)
     data["iterations"] = sol.iterations
     data["error_mm"] = sol.error_mm
     outputs.write_text(
@@ -323,17 +364,24 @@ def run(calibration, targets_path, output):
         + ("" if limits is not None else " (no joint limits known for this model)")
         + f"; wrote {output}"
     ]
+    if sol.ok.any():
+        lines.append(
+            "corrections: up to "
+            f"{np.max(size['correction_mm'][sol.ok]):.3f} mm and "
+            f"{np.max(size['correction_mrad'][sol.ok]):.3f} mrad on the targets, "
+            f"{np.max(size['joint_correction_mrad'][sol.ok]):.3f} mrad on a joint"
+        )
     for i in failed[:10]:
         if sol.converged[i]:
             lo, hi = limits[:, 0], limits[:, 1]
             joints = [j + 1 for j in range(6) if not lo[j] <= sol.q[i, j] <= hi[j]]
             lines.append(
-                f"target {i + 1}: unreachable within the joint limits "
+                f"target {i}: unreachable within the joint limits "
                 f"(joint {', '.join(map(str, joints))})"
             )
         else:
             lines.append(
-                f"target {i + 1}: not reached "
+                f"target {i}: not reached "
                 f"({sol.error_mm[i]:.3g} mm off after {sol.iterations[i]} iterations)"
             )
     if len(failed) > 10:

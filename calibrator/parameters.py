@@ -172,19 +172,19 @@ class ParameterSpace:
             Deltas of the free parameters. Differences in parameters that
             are not free are dropped.
         """
-        full = np.zeros(len(ALL_NAMES))
-        if mdh is not None:
-            full[:N_MDH] = (kinematics.check_mdh(mdh) - self.nominal_mdh).ravel()
-        if base2tracker is not None:
-            delta = frames.invert(self.base0) @ base2tracker
-            full[N_MDH : N_MDH + 3] = delta[:3, 3]
-            full[N_MDH + 3 : TOOL_START] = frames.angles_xyz(delta[:3, :3])
-        if flange2tool is not None:
-            flange2tool = np.asarray(flange2tool, dtype=float)
-            full[TOOL_START:TOOL_ROTATION_START] = flange2tool[:3, 3] - self.tool0[:3, 3]
-            full[TOOL_ROTATION_START:] = frames.angles_xyz(
-                self.tool0[:3, :3].T @ flange2tool[:3, :3]
-            )
+        full = all_deltas(
+            self.nominal_mdh,
+            self.base0,
+            self.tool0,
+            self.nominal_mdh if mdh is None else kinematics.check_mdh(mdh),
+            self.base0 if base2tracker is None else base2tracker,
+            self.tool0 if flange2tool is None else flange2tool,
+        )
+        # What is not given is exactly the first guess, not its round trip.
+        if base2tracker is None:
+            full[N_MDH:TOOL_START] = 0.0
+        if flange2tool is None:
+            full[TOOL_START:] = 0.0
         return full[self.index]
 
     def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):
@@ -365,3 +365,51 @@ def require_enough(n_residuals, n_free, what="the poses"):
             f"{n_residuals} measured values from {what} cannot identify "
             f"{n_free} free parameters; measure more poses"
         )
+
+
+def all_deltas(
+    nominal_mdh: np.ndarray,
+    base0: np.ndarray,
+    tool0: np.ndarray,
+    mdh: np.ndarray,
+    base2tracker: np.ndarray,
+    flange2tool: np.ndarray,
+) -> np.ndarray:
+    """The delta of every named parameter from a nominal to an identified arm.
+
+    The one definition of a delta, shared by the solver
+    (:meth:`ParameterSpace.pack`), calibration.json's ``parameters``, the
+    report and the CSV export:
+
+    * MDH entries: identified minus nominal (mm, rad);
+    * ``base_tx..base_rz``: the move of the base frame expressed in the
+      nominal (first-guess) base frame, ``inv(base0) @ base2tracker`` as a
+      translation (mm) and ``Rx Ry Rz`` angles (rad); for a session in the
+      tracker frame this is *not* the difference of tracker-frame
+      coordinates, which mixes in the base's orientation;
+    * ``tool_x..tool_z``: identified minus nominal tool point, flange frame (mm);
+    * ``tool_rx..tool_rz``: ``Rx Ry Rz`` angles of ``R(tool0)^T R(flange2tool)`` (rad).
+
+    Parameters
+    ----------
+    nominal_mdh, mdh : ndarray, shape (6, 5)
+    base0, base2tracker : ndarray, shape (4, 4)
+        Nominal and identified robot base in the tracker frame (mm).
+    tool0, flange2tool : ndarray, shape (4, 4)
+        Nominal and identified tool frame in the flange frame (mm).
+
+    Returns
+    -------
+    ndarray, shape (len(ALL_NAMES),)
+        In the order of :data:`ALL_NAMES`.
+    """
+    full = np.zeros(len(ALL_NAMES))
+    full[:N_MDH] = (np.asarray(mdh, dtype=float) - np.asarray(nominal_mdh, dtype=float)).ravel()
+    move = frames.invert(np.asarray(base0, dtype=float)) @ np.asarray(base2tracker, dtype=float)
+    full[N_MDH : N_MDH + 3] = move[:3, 3]
+    full[N_MDH + 3 : TOOL_START] = frames.angles_xyz(move[:3, :3])
+    tool0 = np.asarray(tool0, dtype=float)
+    flange2tool = np.asarray(flange2tool, dtype=float)
+    full[TOOL_START:TOOL_ROTATION_START] = flange2tool[:3, 3] - tool0[:3, 3]
+    full[TOOL_ROTATION_START:] = frames.angles_xyz(tool0[:3, :3].T @ flange2tool[:3, :3])
+    return full

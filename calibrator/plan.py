@@ -149,26 +149,23 @@ class Observability:
 def observability(mdh, q, flange2tool=None, frame="tracker", tool_known=False) -> Observability:
     """Scaled identification Jacobian of each pose (position rows), nominal arm.
 
-    The free set is the one ``identify`` would use: Hayati's structural
-    candidates, less what these poses cannot separate.
+    The free set is the one ``identify`` starts from
+    (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
+    structural candidates less the model's own redundancies); which of them
+    the measured poses then pin down is decided at identification.
     """
+    from calibrator.identify import freeset
+
     q = np.atleast_2d(np.asarray(q, dtype=float))
     tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
-    candidates, _ = parameters.structural_candidates(mdh, frame, tool_known)
-    space = parameters.ParameterSpace(mdh, np.eye(4), tool, candidates)
+    free = freeset.decide(mdh, frame, tool_known, False, tool0=tool)
+    kept = free.names
+    space = free.space
     pose = measurement.predict(space, np.zeros(space.size), q)
     obs = measurement.Observations(q, pose[:, :3, 3])
-    jac = measurement.jacobian(space, np.zeros(space.size), obs, names=candidates)
-    # A column that is zero up to rounding (theta6 with the tool on the flange axis) is
-    # no parameter these poses can see; prune() only drops exact zeros.
-    norms = np.linalg.norm(jac, axis=0)
-    seen = [i for i, v in enumerate(norms) if v > 1e-9 * norms.max()]
-    jac = jac[:, seen]
-    candidates = [candidates[i] for i in seen]
-    kept, _ = parameters.prune(candidates, jac, context="(plan candidates)")
-    cols = [candidates.index(n) for n in kept]
+    jac = measurement.jacobian(space, np.zeros(space.size), obs)
     scale = np.array([1.0 / ANGLE_SCALE_MM if parameters.unit(n) == "rad" else 1.0 for n in kept])
-    blocks = (jac[:, cols] * scale).reshape(len(q), 3, len(kept))
+    blocks = (jac * scale).reshape(len(q), 3, len(kept))
     return Observability(tuple(kept), blocks)
 
 
@@ -268,9 +265,9 @@ def make(
 
 def min_poses(mdh, frame="tracker", tool_known=False) -> int:
     """Fewest poses whose position rows can determine the identifiable parameters."""
-    rng = np.random.default_rng(0)
-    names = observability(mdh, rng.uniform(-np.pi, np.pi, (64, 6)), None, frame, tool_known).names
-    return -(-len(names) // 3)
+    from calibrator.identify import freeset
+
+    return -(-len(freeset.decide(mdh, frame, tool_known, False).names) // 3)
 
 
 def validate(q, joint_limits_rad, *, need=0) -> np.ndarray:

@@ -18,13 +18,20 @@ J is the identification Jacobian of calibration
   distributions, pushed through the full forward kinematics;
 * a sensitivity ranking: each parameter's share of the position variance,
   the tolerance to tighten first at the top.
+
+Not every MDH entry is a physical quantity of a given arm: ``beta_i``
+between non-parallel axes (and ``beta6``, after the last axis) is a
+parameter the DH table already describes with the others
+(:func:`without_meaning`); it takes no tolerance and is never ranked. With
+a calibration, :func:`from_calibration` toleranced the identified
+parameters by their identified standard errors instead of a uniform band.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from calibrator import kinematics, measurement
+from calibrator import kinematics, measurement, parameters
 from calibrator.errors import CalibrationError
 from calibrator.parameters import MDH_NAMES, ParameterSpace
 
@@ -160,7 +167,15 @@ def nonlinear_displacement(mdh, q, dp):
     return np.concatenate([rot, pos], axis=-1)
 
 
-def budget(mdh, q, tol, *, samples=2000, seed=0):
+def budget(
+    mdh: np.ndarray,
+    q: np.ndarray,
+    tol: "Tolerances",
+    *,
+    samples: int = 2000,
+    seed: int = 0,
+    structure: np.ndarray | None = None,
+) -> dict:
     """The tolerance budget at a set of poses.
 
     Parameters
@@ -173,6 +188,11 @@ def budget(mdh, q, tol, *, samples=2000, seed=0):
     samples : int
         Deviation sets drawn for the nonlinear check.
     seed : int
+    structure : ndarray, shape (6, 5), optional
+        The nominal design whose axes decide which entries have a physical
+        meaning (:func:`without_meaning`); defaults to ``mdh``. An identified
+        table's axes are parallel only to within its deltas: give its
+        nominal design here.
 
     Returns
     -------
@@ -184,8 +204,15 @@ def budget(mdh, q, tol, *, samples=2000, seed=0):
         ``rms_mm``, ``p95_mm``, ``max_mm`` of the sampled |dP| and
         ``linearisation_error`` (RMS |dS_lin - dS| / RMS |dS|, position);
         ``ranking``: list of ``{name, tolerance, unit, share, worst_mm,
-        rms_mm}`` by decreasing share of the position variance.
+        rms_mm}`` by decreasing share of the position variance, without the
+        entries that have no physical meaning on this arm
+        (:func:`without_meaning`; their tolerance is taken as zero);
+        ``not_toleranced``: those names with their reason.
     """
+    # Entries with no physical meaning on this arm take no tolerance and no rank.
+    design = mdh if structure is None else structure
+    excluded = without_meaning(design)
+    tol = for_arm(tol, design)
     jac = hand_jacobian(mdh, q)  # (N, 6, 36)
     jpos, jrot = jac[:, 3:], jac[:, :3]
     col_norm = np.linalg.norm(jpos, axis=1)  # (N, 36): mm per unit deviation
@@ -215,6 +242,7 @@ def budget(mdh, q, tol, *, samples=2000, seed=0):
             "rms_mm": float(np.sqrt(contrib[j])),
         }
         for j in order
+        if NAMES[j] not in excluded
     ]
     return {
         "poses": len(q),
@@ -235,4 +263,77 @@ def budget(mdh, q, tol, *, samples=2000, seed=0):
             else 0.0,
         },
         "ranking": ranking,
+        "not_toleranced": [{"name": n, "reason": r} for n, r in excluded.items()],
     }
+
+
+def without_meaning(mdh: np.ndarray) -> dict[str, str]:
+    """MDH entries that are no physical quantity of this arm, with the reason.
+
+    These are the ``beta`` angles the structural rules leave out (Hayati's
+    ``beta`` only exists between parallel axes; ``beta6`` has no axis after
+    it): a tolerance on them would double-count what ``theta`` and ``alpha``
+    already describe.
+
+    Parameters
+    ----------
+    mdh : ndarray, shape (6, 5)
+
+    Returns
+    -------
+    dict
+        ``{name: reason}``.
+    """
+    _, dropped = parameters.structural_candidates(mdh, "base", True)
+    return {d["name"]: d["reason"] for d in dropped if d["name"].startswith("beta")}
+
+
+def for_arm(tol: "Tolerances", mdh: np.ndarray) -> "Tolerances":
+    """``tol`` with the entries :func:`without_meaning` on this arm set to zero."""
+    t = tol.t.copy()
+    for name in without_meaning(mdh):
+        t[NAMES.index(name)] = 0.0
+    return Tolerances(t, tol.distribution)
+
+
+#: Identified parameters are toleranced at this many standard errors.
+SIGMAS = 3.0
+
+
+def from_calibration(cal, joint_rad: float) -> tuple["Tolerances", list[str]]:
+    """Tolerances of a calibrated arm: what its identification left uncertain.
+
+    Each identified MDH parameter gets ``SIGMAS`` times its standard error
+    (normal deviations, so sigma is the standard error); parameters held at
+    nominal get none (the identified ones absorbed their effect); joints get
+    ``joint_rad``.
+
+    Parameters
+    ----------
+    cal : calibrator.calibration.Calibration
+    joint_rad : float
+        Tolerance of each joint coordinate (rad).
+
+    Returns
+    -------
+    tol : Tolerances
+    used : list of str
+        The MDH names toleranced from their standard error.
+
+    Raises
+    ------
+    CalibrationError
+        The calibration records no standard errors (an older file).
+    """
+    errors = (cal.fit.uncertainty or {}).get("standard_errors") or {}
+    if not errors:
+        raise CalibrationError(
+            "the calibration records no standard errors (written by an older identify): "
+            "give the tolerances with --length-tol/--angle-tol and --model"
+        )
+    t = np.zeros(len(NAMES))
+    used = [n for n in MDH_NAMES if n in errors]
+    for name in used:
+        t[NAMES.index(name)] = SIGMAS * float(errors[name])
+    t[len(MDH_NAMES) :] = joint_rad
+    return Tolerances(t, "normal"), used

@@ -199,7 +199,9 @@ def _misalignment_plots(batch, folder, results):
 def tolerance(
     model: str = typer.Option(None, help="Named model giving the nominal table."),
     calibration: Path = typer.Option(
-        None, help="calibration.json whose identified table is the nominal."
+        None,
+        help="calibration.json: its identified table is the nominal, and each identified "
+        "parameter's tolerance is 3 x its standard error (normal) unless set with --tol.",
     ),
     length_tol: float = typer.Option(
         0.05, callback=checks.finite(minimum=0.0), help="Tolerance of every a and d (+- mm)."
@@ -227,7 +229,7 @@ def tolerance(
     samples: int = typer.Option(
         2000, callback=checks.at_least(1), help="Deviation sets for the nonlinear check."
     ),
-    seed: int = typer.Option(0),
+    seed: int = typer.Option(0, help="Seed of the random poses and of the nonlinear draws."),
     top: int = typer.Option(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),
@@ -258,18 +260,44 @@ def tolerance(
         if len(values) != 1:
             raise CalibrationError(f"--tol {name} takes one value, got {len(values)}")
         overrides[name] = values[0] if tl.is_length(name) else np.radians(values[0])
+    # Which entries an arm has is the design's: an identified table is parallel only nearly.
+    design = loaded.nominal_mdh if calibration is not None else nominal
+    meaningless = tl.without_meaning(design)
+    for name in overrides:
+        if name in meaningless:
+            raise CalibrationError(
+                f"--tol {name}: no physical quantity of this arm ({meaningless[name]})"
+            )
     tols = tl.Tolerances.build(
         length_tol, np.radians(angle_tol), np.radians(joint_tol), overrides, distribution.value
     )
+    from_errors = None
+    if calibration is not None:
+        try:
+            tols, from_errors = tl.from_calibration(loaded, np.radians(joint_tol))
+        except CalibrationError as exc:
+            typer.echo(f"note: {exc}; using the uniform tolerances given")
+        else:
+            t = tols.t.copy()
+            for name, value in overrides.items():
+                t[tl.NAMES.index(name)] = value
+            tols = tl.Tolerances(t, tols.distribution)
     if pose is not None:
         q = np.radians([_floats(pose, "--pose", 6)])
     else:
         lim = np.tile([-np.pi, np.pi], (6, 1)) if limits is None else limits
         lo, hi = np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi)
         q = np.random.default_rng(seed).uniform(lo, hi, (poses, 6))
-    result = tl.budget(nominal, q, tols, samples=samples, seed=seed)
+    result = tl.budget(nominal, q, tols, samples=samples, seed=seed, structure=design)
     nl = result["nonlinear"]
-    typer.echo(f"nominal: {source}; {len(q)} poses; {distribution.value} deviations")
+    typer.echo(f"nominal: {source}; {len(q)} poses; {tols.distribution} deviations")
+    if from_errors is not None:
+        typer.echo(
+            f"tolerances of the {len(from_errors)} identified parameters: "
+            f"{tl.SIGMAS:g} x their standard errors; the others held at nominal"
+        )
+    if meaningless:
+        typer.echo("not toleranced (no physical quantity of this arm): " + ", ".join(meaningless))
     typer.echo(f"worst case |dP| (linear bound, worst pose)   {result['worst_case_mm']:9.4f} mm")
     typer.echo(
         f"worst case along one axis (worst pose)       {result['worst_case_axis_mm']:9.4f} mm"

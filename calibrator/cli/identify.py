@@ -2,6 +2,7 @@
 
 import time
 from dataclasses import replace
+from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
 
@@ -27,6 +28,7 @@ class Loss(StrEnum):
 
 @app.command()
 def identify(
+    ctx: typer.Context,
     session_path: Path = typer.Argument(..., metavar="SESSION", help="Session file (Parquet)."),
     output: Path = typer.Option(
         Path("calibration.json"), "-o", "--output", help="Calibration file to write (JSON)."
@@ -82,6 +84,13 @@ def identify(
     report_dir: Path = typer.Option(
         None, "--report", metavar="DIR", help="Also write the calibration report into DIR."
     ),
+    like: Path = typer.Option(
+        None,
+        "--like",
+        metavar="CALIBRATION",
+        help="Re-run with the options recorded in this calibration file "
+        "(options given here override them).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
@@ -91,7 +100,22 @@ def identify(
     if k is not None and orientation_weight is not None:
         raise CalibrationError("give --orientation-weight only (--k is its old name)")
     weight = orientation_weight if orientation_weight is not None else k
-    inputs = [session_path, nominal_file]
+    options = pipeline.Options(
+        method=method.value,
+        particles=particles,
+        generations=generations,
+        k=weight,
+        validation_fraction=validation_fraction,
+        seed=seed,
+        tool_known=tool_known,
+        loss=loss.value,
+        noise_mm=noise_mm,
+    )
+    if like is not None:
+        options, model, nominal_file = _recorded(
+            ctx, like, session_path, options, model, nominal_file
+        )
+    inputs = [session_path, nominal_file, like]
     outputs.check(output, inputs=inputs)
     if report_dir is not None:
         outputs.check_folder(report_dir, inputs=inputs)
@@ -104,24 +128,13 @@ def identify(
         from calibrator import nominal
 
         typer.echo(nominal.apply(loaded.meta, nominal_file))
-    options = pipeline.Options(
-        method=method.value,
-        particles=particles,
-        generations=generations,
-        k=weight,
-        validation_fraction=validation_fraction,
-        seed=seed,
-        tool_known=tool_known,
-        loss=loss.value,
-        noise_mm=noise_mm,
-    )
     reporter = progress.Reporter.for_cli(quiet)
     started = time.perf_counter()
     try:
-        if method is Method.lm:
+        if options.method == Method.lm.value:
             result = pipeline.identify(loaded, options)
         else:
-            with reporter.task("swarm", generations, "generations") as task:
+            with reporter.task("swarm", options.generations, "generations") as task:
                 shown = replace(options, on_generation=lambda g, best: task.update(g, best=best))
                 result = pipeline.identify(loaded, shown)
     except IdentifiabilityError as exc:
@@ -129,30 +142,114 @@ def identify(
             _too_few_hint(session_path, exc, len(loaded.table), options)
         ) from None
     took = time.perf_counter() - started
+    provenance = calibration.Provenance(
+        session_sha256=calibration.digest(session_path),
+        nominal_source="file" if nominal_file else "model" if model else "session",
+        nominal_file=None if nominal_file is None else str(nominal_file),
+        nominal_sha256=None if nominal_file is None else calibration.digest(nominal_file),
+        versions=calibration.versions(),
+        created=datetime.now(UTC).isoformat(timespec="seconds"),
+    )
     cal = calibration.Calibration.from_result(
-        result, session_path, loaded.meta.model, loaded.meta.frame
+        result, session_path, loaded.meta.model, loaded.meta.frame, provenance
     )
     with outputs.Outputs(inputs=inputs) as batch:
         cal.save(output, batch=batch)
         if report_dir is not None:
             from calibrator.report import write as write_report
 
-            write_report(report_dir, cal.to_json(), loaded, batch, output, session_path)
+            write_report(report_dir, cal, loaded, batch, output, session_path)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
-        f"{result.space.size} free parameters, method {method.value}, loss {loss.value}"
+        f"{result.space.size} free parameters, method {options.method}, loss {options.loss}"
     )
     for item in result.dropped:
         typer.echo(f"  not identified: {item['name']:8s} {item['reason']}")
     for text in result.warnings:
         typer.echo(f"warning: {text}")
-    if result.outliers and loss.value in ("huber", "trimmed"):
+    if result.outliers and options.loss in ("huber", "trimmed"):
         typer.echo(f"outlier poses set aside: {', '.join(map(str, result.outliers))}")
     typer.echo(report.format_table(result.stats))
     for line in uncertainty.summary_lines(result.uncertainty):
         typer.echo(line)
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+
+
+#: CLI parameter of each recorded option (``k`` is ``--orientation-weight``).
+_OPTION_PARAMS = {
+    "method": "method",
+    "loss": "loss",
+    "seed": "seed",
+    "validation_fraction": "validation_fraction",
+    "k": "orientation_weight",
+    "noise_mm": "noise_mm",
+    "tool_known": "tool_known",
+    "particles": "particles",
+    "generations": "generations",
+}
+
+
+def _recorded(ctx, like, session_path, options, model, nominal_file):
+    """Options, model and nominal file of ``--like``: recorded ones unless given here.
+
+    Raises
+    ------
+    CalibrationError
+        A calibration that records no options, or a recorded nominal file
+        that is gone or changed.
+    """
+    from calibrator import calibration
+
+    cal = calibration.load(like)
+    recorded = cal.provenance.options()
+    if not recorded:
+        raise CalibrationError(
+            f"--like {like}: the file records no options (written before they were recorded)"
+        )
+
+    def given(name):
+        # By name: typer may carry its own copy of click's ParameterSource.
+        source = ctx.get_parameter_source(name)
+        return source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
+
+    given_k = given("k") or given("orientation_weight")
+    chosen = {
+        key: value
+        for key, value in recorded.items()
+        if key == "swarm_poses" or not (given_k if key == "k" else given(_OPTION_PARAMS[key]))
+    }
+    options = replace(options, **chosen)
+    missing = [k for k in calibration.Provenance.OPTION_KEYS if k not in recorded]
+    if missing:
+        typer.echo(
+            f"note: {like} does not record {', '.join(missing)}: "
+            "those take the values given here (or their defaults)",
+            err=True,
+        )
+    digest = calibration.digest(session_path)
+    if cal.provenance.session_sha256 not in (None, digest):
+        typer.echo(
+            f"warning: {session_path} is not the session {like} was identified from "
+            "(its SHA-256 differs); the options are re-used all the same",
+            err=True,
+        )
+    if model is None and cal.provenance.nominal_source == "model":
+        model = cal.model  # it was given with --model; else the session's own table
+    recorded_nominal = cal.provenance.nominal_file
+    if nominal_file is None and recorded_nominal is not None:
+        nominal_file = Path(recorded_nominal)
+        if not nominal_file.is_file():
+            raise CalibrationError(
+                f"--like {like}: its nominal file {nominal_file} is not there; "
+                "give it with --nominal"
+            )
+        if calibration.digest(nominal_file) != cal.provenance.nominal_sha256:
+            raise CalibrationError(
+                f"--like {like}: its nominal file {nominal_file} has changed since "
+                "(SHA-256 differs); give the one it used with --nominal"
+            )
+    return options, model, nominal_file
 
 
 def _too_few_hint(path, exc, n_poses, options):

@@ -31,12 +31,12 @@ def report(
     verify_paths = list(verify_paths or [])
     extra = verify_paths + verify_section.data_paths(verify_paths)
     outputs.check_folder(output, inputs=[calibration_path, session_path, *extra])
-    doc = calibration.load(calibration_path).to_json()
+    cal = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
     runs = verify_section.load(verify_paths)
     batch = outputs.Outputs(inputs=[calibration_path, session_path, *extra])
     with batch:
-        written = write(output, doc, loaded, batch, calibration_path, session_path, runs)
+        written = write(output, cal, loaded, batch, calibration_path, session_path, runs)
     names = ", ".join(p.name for p in written)
     files = "1 file" if len(written) == 1 else f"{len(written)} files"
     typer.echo(f"wrote {files} into {output}: {names}")

@@ -65,6 +65,10 @@ def to_csv(cal):
     ``element`` is ``joint1``..``joint6``, ``base2tracker`` or ``flange2tool``;
     ``parameter`` carries its unit (``a_mm``, ``rx_rad``). A frame is
     ``Trans(x, y, z) . Rx(rx) . Ry(ry) . Rz(rz)``; its nominal is the first guess.
+    ``delta`` is :meth:`calibrator.calibration.Calibration.all_deltas`, as in the report and
+    calibration.json: a frame's delta is its move from nominal expressed in
+    the nominal frame (``inv(nominal) @ identified``; for the tool point, in
+    the flange frame), so for a rotated base it is not ``identified - nominal``.
     """
     free = set(cal.free)
     buf = io.StringIO()
@@ -83,6 +87,7 @@ def to_csv(cal):
                     int(f"{col}{j + 1}" in free),
                 ]
             )
+    delta = cal.all_deltas()
     for element, nominal in (("base2tracker", cal.base0), ("flange2tool", cal.tool0)):
         identified = frame_values(getattr(cal, element))
         nominal = frame_values(nominal)
@@ -94,7 +99,7 @@ def to_csv(cal):
                     field,
                     _num(nominal[k]),
                     _num(identified[k]),
-                    _num(identified[k] - nominal[k]),
+                    _num(delta[names[k]]),
                     int(names[k] in free),
                 ]
             )

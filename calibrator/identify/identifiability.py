@@ -16,7 +16,7 @@ number.
 
 import numpy as np
 
-from calibrator import measurement, parameters
+from calibrator import parameters
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import uncertainty
 
@@ -187,8 +187,3 @@ def require_some(kept):
         raise IdentifiabilityError(
             "these poses cannot identify any parameter: measure distinct, well-spread poses"
         )
-
-
-def jacobian_on(space, names, obs, k):
-    """The Jacobian for ``names`` at the first guess (zero deltas)."""
-    return measurement.jacobian(space, np.zeros(space.size), obs, k, names=names)

@@ -9,12 +9,11 @@ and any pose above ``t`` joins the set for another round, so the answer
 judges all poses without a dense constraint Jacobian over thousands.
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.optimize import minimize
 
-from calibrator import measurement, parameters
+from calibrator import parameters
+from calibrator.identify.problem import FitResult, Problem
 
 #: Up to this many poses, every pose is a constraint from the start.
 ALL_POSES = 500
@@ -23,66 +22,45 @@ ALL_POSES = 500
 ACTIVE_FRACTION = 0.25
 
 
-@dataclass(frozen=True)
-class MinimaxResult:
-    """Outcome of :func:`refine_minimax`.
-
-    Attributes
-    ----------
-    x : ndarray, shape (D,)
-    worst : float
-        Largest per-pose error ``sqrt(e_j)`` over all fitting poses (mm).
-    iterations : int
-    message : str
-    """
-
-    x: np.ndarray
-    worst: float
-    iterations: int
-    message: str
-
-
-def pose_errors(space, x, obs, k):
-    """``e_j``, shape (N,): squared per-pose error (mm^2)."""
-    res = measurement.residuals(space, x, obs, k)
-    return (res**2).reshape(-1, len(obs), 3).sum(axis=(0, 2))
-
-
-def _pose_error_jacobian(space, x, obs, k):
-    res = measurement.residuals(space, x, obs, k)
-    jac = measurement.jacobian(space, x, obs, k)
-    n = len(obs)
+def _pose_error_jacobian(problem, x):
+    res = problem.residuals(x)
+    jac = problem.jacobian(x)
+    n = len(problem)
     blocks = len(res) // (3 * n)
     r = res.reshape(blocks, n, 3)
     j = jac.reshape(blocks, n, 3, -1)
     return (r**2).sum(axis=(0, 2)), 2.0 * np.einsum("bni,bnid->nd", r, j)
 
 
-def refine_minimax(space, obs, x0, k, rounds=5, max_iterations=300):
+def refine_minimax(
+    problem: Problem, x0: np.ndarray, rounds: int = 5, max_iterations: int = 300
+) -> FitResult:
     """SLSQP on the epigraph form from ``x0``.
 
     Returns
     -------
-    MinimaxResult
-        The best point seen (never worse than ``x0`` over all poses).
+    FitResult
+        The best point seen (never worse than ``x0`` over all poses);
+        ``cost`` is the worst pose's squared error (mm^2), ``evaluations``
+        the SLSQP iterations, ``info`` holds ``worst_mm`` and ``iterations``.
     """
-    scale = np.array([parameters.plausible_range(n) for n in space.free])
+    scale = np.array([parameters.plausible_range(n) for n in problem.space.free])
     best = np.asarray(x0, dtype=float)
-    e_best = pose_errors(space, best, obs, k)
-    if len(obs) <= ALL_POSES:
-        active = np.arange(len(obs))
+    e_best = problem.pose_errors(best)
+    if len(problem) <= ALL_POSES:
+        active = np.arange(len(problem))
     else:
         active = np.flatnonzero(e_best >= ACTIVE_FRACTION * e_best.max())
     x, iterations, message = best, 0, ""
     for _ in range(rounds):
-        sub = obs.subset(active)
-        t0 = float(pose_errors(space, x, sub, k).max())
+        sub = problem.subset(active)
+        t0 = float(sub.pose_errors(x).max())
 
         def cons(v, sub=sub, t0=t0):
-            return v[-1] * t0 - pose_errors(space, v[:-1] * scale, sub, k)
+            return v[-1] * t0 - sub.pose_errors(v[:-1] * scale)
 
         def cons_jac(v, sub=sub, t0=t0):
-            _, grad = _pose_error_jacobian(space, v[:-1] * scale, sub, k)
+            _, grad = _pose_error_jacobian(sub, v[:-1] * scale)
             return np.column_stack([-grad * scale, np.full(len(grad), t0)])
 
         out = minimize(
@@ -96,11 +74,13 @@ def refine_minimax(space, obs, x0, k, rounds=5, max_iterations=300):
         iterations += int(out.nit)
         message = str(out.message)
         x = out.x[:-1] * scale
-        e = pose_errors(space, x, obs, k)
+        e = problem.pose_errors(x)
         if e.max() < e_best.max():
             best, e_best = x, e
         missing = np.setdiff1d(np.flatnonzero(e > e[active].max() * (1 + 1e-6)), active)
         if not len(missing):
             break
         active = np.union1d(active, missing)
-    return MinimaxResult(best, float(np.sqrt(e_best.max())), iterations, message)
+    worst = float(np.sqrt(e_best.max()))
+    info = {"worst_mm": worst, "iterations": iterations}
+    return FitResult(best, float(e_best.max()), iterations, message, info=info)

@@ -14,11 +14,15 @@ objective of a fit held to its worst pose, which least squares cannot
 minimise and the swarm can.
 """
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import kinematics
-from calibrator.measurement import uses_orientation
 from calibrator.parameters import N_MDH, TOOL_ROTATION_START, TOOL_START
+
+if TYPE_CHECKING:
+    from calibrator.identify.problem import Problem
 
 
 class SwarmObjective:
@@ -28,25 +32,25 @@ class SwarmObjective:
     computed once here, so a call costs one batched forward kinematics and a
     few reductions: the identifier calls it thousands of times.
 
+    Made by :meth:`calibrator.identify.problem.Problem.swarm_objective`.
+
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
-    obs : calibrator.measurement.Observations
-        The fitting poses.
-    k : float
-        Orientation weight (mm^2/rad^2); ignored without orientation data.
+    problem : calibrator.identify.problem.Problem
+        The fitting poses, free set and orientation weight (resolved there).
     loss : {'lsq', 'minimax'}
         Sum over the poses, or the worst pose.
     """
 
-    def __init__(self, space, obs, k=0.0, loss="lsq"):
+    def __init__(self, problem: "Problem", loss: str = "lsq") -> None:
         if loss not in ("lsq", "minimax"):
             raise ValueError(f"swarm loss must be 'lsq' or 'minimax', got {loss!r}")
+        space, obs = problem.space, problem.obs
         self.minimax = loss == "minimax"
         self.space = space
         self.points = obs.points
         self.q_phase = kinematics.joint_phases(obs.q)
-        self.k = float(k) if uses_orientation(obs, k) else 0.0
+        self.k = problem.k
         index = space.index
         self.mdh_cols = np.flatnonzero(index < N_MDH)
         self.mdh_index = index[self.mdh_cols]

@@ -1,57 +1,31 @@
 """Least-squares refinement of the identified deltas."""
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.optimize import least_squares
 
-from calibrator import measurement
+from calibrator.identify.problem import FitResult, Problem
 
 
-@dataclass(frozen=True)
-class RefineResult:
-    """Outcome of :func:`refine`.
-
-    Attributes
-    ----------
-    x : ndarray, shape (D,)
-        Refined deltas.
-    cost : float
-        Sum of squared residuals (the seed's objective f).
-    evaluations : int
-        Residual evaluations used.
-    message : str
-        The solver's reason for stopping.
-    """
-
-    x: np.ndarray
-    cost: float
-    evaluations: int
-    message: str
-
-
-def refine(space, obs, x0, k=0.0, max_evaluations=200):
+def refine(problem: Problem, x0: np.ndarray, max_evaluations: int = 200) -> FitResult:
     """Minimise the sum of squared residuals from ``x0`` (Levenberg-Marquardt).
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
-    obs : calibrator.measurement.Observations
-        Fitting poses.
+    problem : calibrator.identify.problem.Problem
+        Fitting poses, free set and orientation weight.
     x0 : array_like, shape (space.size,)
         Starting deltas (the swarm's best, or zeros).
-    k : float
-        Orientation weight (mm^2/rad^2).
     max_evaluations : int
 
     Returns
     -------
-    RefineResult
+    FitResult
+        ``cost`` is the sum of squared residuals (the seed's objective f).
     """
     result = least_squares(
-        lambda x: measurement.residuals(space, x, obs, k),
+        problem.residuals,
         np.asarray(x0, dtype=float),
-        jac=lambda x: measurement.jacobian(space, x, obs, k),
+        jac=problem.jacobian,
         method="lm",
         # Columns mix mm and rad and frames metres away: scale by the Jacobian.
         x_scale="jac",
@@ -60,4 +34,4 @@ def refine(space, obs, x0, k=0.0, max_evaluations=200):
         gtol=1e-14,
         max_nfev=max_evaluations,
     )
-    return RefineResult(result.x, float(2 * result.cost), int(result.nfev), str(result.message))
+    return FitResult(result.x, float(2 * result.cost), int(result.nfev), str(result.message))

@@ -1,8 +1,14 @@
 """Accuracy statistics in the form of the seed's Table 3, and their text table."""
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import measurement
+
+if TYPE_CHECKING:
+    from calibrator.measurement import Observations
+    from calibrator.parameters import ParameterSpace
 
 _AXES = ("x", "y", "z")
 
@@ -33,6 +39,14 @@ def error_stats(space, x, obs):
         deg = np.degrees(np.abs(orientation))
         out["orientation_deg"] = {a: _summary(deg[:, i]) for i, a in enumerate(_AXES)}
     return out
+
+
+def before_after(space: "ParameterSpace", x: np.ndarray, obs: "Observations") -> dict:
+    """``{"before": ..., "after": ...}``: :func:`error_stats` at the first guess and at ``x``."""
+    return {
+        "before": error_stats(space, np.zeros(space.size), obs),
+        "after": error_stats(space, x, obs),
+    }
 
 
 def _summary(values):

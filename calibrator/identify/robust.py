@@ -7,13 +7,11 @@ whitened by a robust scale, ``1.4826 * median(|residual|)`` over its rows,
 so the test is not blinded by the outliers it looks for.
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.optimize import least_squares
 
-from calibrator import measurement
 from calibrator.identify import refine
+from calibrator.identify.problem import FitResult, Problem
 
 #: Chi-square 99.9 % quantiles for 3 and 6 degrees of freedom.
 CHI2_999 = {3: 16.266, 6: 22.458}
@@ -21,23 +19,6 @@ CHI2_999 = {3: 16.266, 6: 22.458}
 HUBER_C = 1.345
 _MAD = 1.4826
 _FLOOR_MM = 1e-6  # robust scales never below a micrometre's fraction: noise-free data
-
-
-@dataclass(frozen=True)
-class RobustResult:
-    """Outcome of :func:`huber` or :func:`trimmed`.
-
-    Attributes
-    ----------
-    x : ndarray, shape (D,)
-    outliers : ndarray of int
-        Indices (into the fitting observations) of the poses judged outliers.
-    evaluations : int
-    """
-
-    x: np.ndarray
-    outliers: np.ndarray
-    evaluations: int
 
 
 def robust_scales(res, n_poses):
@@ -77,7 +58,9 @@ def outliers(res, n_poses, scale):
     return np.flatnonzero(per_pose > CHI2_999[3 * blocks])
 
 
-def huber(space, obs, x0, k, rounds=3, max_evaluations=200):
+def huber(
+    problem: Problem, x0: np.ndarray, rounds: int = 3, max_evaluations: int = 200
+) -> FitResult:
     """Huber M-estimate: quadratic within ``HUBER_C`` robust sigmas, linear beyond.
 
     The rows are whitened by their block's robust scale, re-estimated after
@@ -85,17 +68,19 @@ def huber(space, obs, x0, k, rounds=3, max_evaluations=200):
 
     Returns
     -------
-    RobustResult
+    FitResult
+        ``cost``: sum of squared residuals over every fitting pose;
+        ``outliers``: poses the outlier test rejects at the solution.
     """
     x = np.asarray(x0, dtype=float)
-    n = len(obs)
+    n = len(problem)
     evaluations = 0
     for _ in range(rounds):
-        scale = robust_scales(measurement.residuals(space, x, obs, k), n)
+        scale = robust_scales(problem.residuals(x), n)
         fit = least_squares(
-            lambda v, s=scale: measurement.residuals(space, v, obs, k) / s,
+            lambda v, s=scale: problem.residuals(v) / s,
             x,
-            jac=lambda v, s=scale: measurement.jacobian(space, v, obs, k) / s[:, None],
+            jac=lambda v, s=scale: problem.jacobian(v) / s[:, None],
             method="trf",
             loss="huber",
             f_scale=HUBER_C,
@@ -110,11 +95,12 @@ def huber(space, obs, x0, k, rounds=3, max_evaluations=200):
         x = fit.x
         if moved < 1e-9:
             break
-    res = measurement.residuals(space, x, obs, k)
-    return RobustResult(x, outliers(res, n, robust_scales(res, n)), evaluations)
+    res = problem.residuals(x)
+    found = outliers(res, n, robust_scales(res, n))
+    return FitResult(x, float(res @ res), evaluations, "", found, info={"outliers": len(found)})
 
 
-def trimmed(space, obs, x0, k, rounds=10):
+def trimmed(problem: Problem, x0: np.ndarray, rounds: int = 10) -> FitResult:
     """Least squares on the poses the outlier test keeps, until the set settles.
 
     Each round fits the current inliers from the last solution, then judges
@@ -122,18 +108,21 @@ def trimmed(space, obs, x0, k, rounds=10):
 
     Returns
     -------
-    RobustResult
+    FitResult
+        ``cost``: sum of squared residuals over every fitting pose;
+        ``outliers``: the poses left out of the last round.
     """
-    n = len(obs)
+    n = len(problem)
     x = np.asarray(x0, dtype=float)
     out = np.array([], dtype=int)
     evaluations = 0
     for _ in range(rounds):
         keep = np.setdiff1d(np.arange(n), out)
-        fitted = refine.refine(space, obs.subset(keep), x, k)
+        inliers = problem.subset(keep)
+        fitted = refine.refine(inliers, x)
         x, evaluations = fitted.x, evaluations + fitted.evaluations
-        res = measurement.residuals(space, x, obs, k)
-        scale = robust_scales(measurement.residuals(space, x, obs.subset(keep), k), len(keep))
+        res = problem.residuals(x)
+        scale = robust_scales(inliers.residuals(x), len(keep))
         # The scale per row of the whole set: each block's value repeated.
         full_scale = np.empty(len(res))
         full_scale[: 3 * n] = scale[0]
@@ -142,4 +131,5 @@ def trimmed(space, obs, x0, k, rounds=10):
         if np.array_equal(new, out):
             break
         out = new
-    return RobustResult(x, out, evaluations)
+    res = problem.residuals(x)
+    return FitResult(x, float(res @ res), evaluations, "", out, info={"outliers": len(out)})

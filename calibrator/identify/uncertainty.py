@@ -11,9 +11,15 @@ held-out pose's predicted position error propagates ``C`` through its
 position rows and adds the point noise.
 """
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import measurement, parameters
+
+if TYPE_CHECKING:
+    from calibrator.identify.problem import Problem
+    from calibrator.measurement import Observations
 
 #: Pairs of free parameters with ``|correlation|`` above this are named.
 STRONG_CORRELATION = 0.9
@@ -47,16 +53,14 @@ def block_sigmas(res, n_poses, n_free):
     return sigma_p, float(np.sqrt(np.sum(rot**2) / (len(rot) * dof)))
 
 
-def analyse(space, x, obs, k, validation=None):
-    """Uncertainty of the deltas ``x`` fitted on ``obs``.
+def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None" = None) -> dict:
+    """Uncertainty of the deltas ``x`` fitted on ``problem``'s poses.
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    problem : calibrator.identify.problem.Problem
+        The poses the fit used (inliers), free set and orientation weight.
     x : ndarray, shape (space.size,)
-    obs : calibrator.measurement.Observations
-        The poses the fit used (inliers).
-    k : float
     validation : calibrator.measurement.Observations, optional
         Held-out poses to predict the error at.
 
@@ -68,13 +72,14 @@ def analyse(space, x, obs, k, validation=None):
         [{"a", "b", "r"}], ``residual_sigma`` {"position_mm",
         "orientation_rad"}, ``predicted_validation_mm`` (with validation).
     """
+    space, k, n = problem.space, problem.k, len(problem)
     names = list(space.free)
-    res = measurement.residuals(space, x, obs, k)
-    jac = measurement.jacobian(space, x, obs, k)
-    sigma_p, sigma_o = block_sigmas(res, len(obs), len(names))
+    res = problem.residuals(x)
+    jac = problem.jacobian(x)
+    sigma_p, sigma_o = block_sigmas(res, n, len(names))
     row_var = np.full(len(res), sigma_p**2)
     if sigma_o is not None:
-        row_var[3 * len(obs) :] = sigma_o**2
+        row_var[3 * n :] = sigma_o**2
     # Columns scaled to unit length before inverting: mm and rad columns differ by 1e3.
     scale = np.linalg.norm(jac, axis=0)
     scale[scale == 0] = 1.0

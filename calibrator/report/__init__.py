@@ -16,23 +16,37 @@ file                         content                                     needs
                              position is not recorded)
 ``convergence.png``          the swarm's best cost per generation        ``solver.convergence``
 ``deltas.png``               identified parameter deltas, with standard  ``deltas``
-                             errors as bars when recorded
-``index.html``               all of the above, the accuracy table, the
-                             dropped parameters with their reasons
+                             errors as bars when recorded; joint lengths
+                             (mm), joint angles (mrad), frame offsets
+                             (mm) and frame turns (mrad) in panels of
+                             their own, so metre-scale base offsets do
+                             not flatten joint deltas
+``index.html``               all of the above, the summary (loss, residual
+                             sigma, predicted held-out error, correlated
+                             pairs, outliers, date, robot, tracker,
+                             readings per pose), the accuracy table, the
+                             parameters (nominal, identified, delta and
+                             standard error in mm and mrad), the dropped
+                             parameters with their reasons
 ============================ =========================================== =========
 
-What a document or the session does not hold is said on the page ("not
-recorded", "give the session file"), never drawn from guesses. Optional
-keys of calibration.json that are read when present:
-``uncertainty.standard_errors`` (``{name: value}``, same units as
-``deltas``; also accepted at the top level), ``solver.convergence``
-(``[[generation, best cost], ...]``, or one best cost per generation),
-``warnings`` and ``outlier_poses``.
+What a calibration or the session does not hold is said on the page ("not
+recorded", "give the session file"), never drawn from guesses. The page
+reads a :class:`calibrator.calibration.Calibration`: its provenance (loss,
+method, seed, ...), its fit report (statistics, standard errors, residual
+sigma, predicted held-out error, correlated pairs, warnings, outliers,
+convergence) and, from the session, the date, the robot and tracker and
+the readings per pose.
 
 matplotlib is imported only here, with its non-interactive Agg backend.
 """
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
 
 __all__ = ["FILES", "write"]
 
@@ -49,16 +63,20 @@ FILES = (
 
 
 def write(
-    folder, doc, session=None, batch=None, calibration_path=None, session_path=None, verify=()
-):
+    folder: str | Path,
+    cal: "Calibration",
+    session: Any = None,
+    batch: Any = None,
+    calibration_path: str | Path | None = None,
+    session_path: str | Path | None = None,
+    verify: Sequence = (),
+) -> list[Path]:
     """Render the report into ``folder`` (created if missing).
 
     Parameters
     ----------
     folder : str or Path
-    doc : dict
-        A calibration document (:func:`calibrator.calibration.to_json` or
-        :func:`calibrator.calibration.load`).
+    cal : calibrator.calibration.Calibration
     session : calibrator.session.Session, optional
         The session the calibration was identified from; without it the
         per-pose plots are left out (and the page says so).
@@ -84,7 +102,7 @@ def write(
     if Path(folder).is_dir():
         for name in FILES:
             outputs.check(Path(folder) / name, batch.inputs)
-    content = data.collect(doc, session, calibration_path, session_path)
+    content = data.collect(cal, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
     if verify:
@@ -93,9 +111,9 @@ def write(
         html, extra = verify_section.add(html, list(verify))
         images.update(extra)
     try:
-        folder = batch.folder(folder)
-        written = [batch.bytes(folder / name, png) for name, png in images.items()]
-        written.append(batch.text(folder / "index.html", html))
+        into = Path(batch.folder(folder))
+        written = [batch.bytes(into / name, png) for name, png in images.items()]
+        written.append(batch.text(into / "index.html", html))
     except BaseException:
         if own:
             batch.discard()

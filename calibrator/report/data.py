@@ -1,6 +1,8 @@
-"""What the report shows, gathered from a calibration document and its session."""
+"""What the report shows, gathered from a calibration and its session."""
 
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,6 +52,8 @@ class Content:
     poses: PoseErrors | None
     warnings: list = field(default_factory=list)
     notes: dict = field(default_factory=dict)  # plot name -> why it is missing
+    #: Records of the free parameters (:meth:`Calibration.parameter_records`).
+    parameters: list = field(default_factory=list)
 
 
 def unit_of(name):
@@ -63,62 +67,125 @@ def unit_of(name):
         return "rad" if rotation else "mm"
 
 
-def collect(doc, session=None, calibration_path=None, session_path=None):
+def collect(
+    cal: calibration.Calibration,
+    session: Any = None,
+    calibration_path: str | Path | None = None,
+    session_path: str | Path | None = None,
+) -> Content:
     """Gather the report's content.
+
+    Parameters
+    ----------
+    cal : calibrator.calibration.Calibration
+    session : calibrator.session.Session, optional
+        The session ``cal`` was identified from (for the per-pose plots and
+        what the measurement recorded: date, devices, readings per pose).
+    calibration_path, session_path : str or Path, optional
+        Shown on the page.
 
     Raises
     ------
     CalibrationError
-        If ``session`` cannot be the session ``doc`` was identified from.
+        If ``session`` cannot be the session ``cal`` was identified from, or
+        a recorded entry is malformed.
     """
     name = calibration_path or "the calibration"
     try:
-        return _collect(doc, session, calibration_path, session_path)
+        return _collect(cal, session, calibration_path, session_path)
     except KeyError as exc:
         raise CalibrationError(f"{name}: no {exc} entry, needed for the report") from None
     except (TypeError, ValueError, AttributeError) as exc:
         raise CalibrationError(f"{name}: malformed for the report ({exc})") from None
 
 
-def _collect(doc, session, calibration_path, session_path):
-    solver = doc.get("solver") or {}
-    errors = (
-        (doc.get("uncertainty") or {}).get("standard_errors")
-        or doc.get("standard_errors")
-        or solver.get("standard_errors")
-    )
-    curve = _curve(solver.get("convergence", doc.get("convergence")))
+def _collect(cal, session, calibration_path, session_path):
+    fit, origin = cal.fit, cal.provenance
+    solver = fit.solver
+    unc = fit.uncertainty
+    errors = unc.get("standard_errors") or cal.diagnostics.get("standard_errors")
+    errors = errors or solver.get("standard_errors")
+    curve = _curve(solver.get("convergence", cal.diagnostics.get("convergence")))
     facts = [
         ("calibration", calibration_path or "(in memory)"),
-        ("session", session_path or doc.get("session") or "not recorded"),
-        ("model", doc.get("model") or "nominal table in the session"),
-        ("method", doc.get("method", "not recorded")),
-        ("orientation weight k (mm^2/rad^2)", doc.get("k", "not recorded")),
-        ("validation fraction", doc.get("validation_fraction", "not recorded")),
-        ("seed", doc.get("seed", "not recorded")),
+        ("session", session_path or cal.session or "not recorded"),
+        ("model", cal.model or "nominal table in the session"),
+        ("method", _recorded(origin.method)),
+        ("loss", _recorded(origin.loss)),
+        ("orientation weight k (mm^2/rad^2)", _recorded(origin.k)),
+        ("validation fraction", _recorded(origin.validation_fraction)),
+        ("seed", _recorded(origin.seed)),
     ]
+    facts += _fit_facts(unc)
+    if fit.outliers:
+        facts.append(("outlier poses set aside", ", ".join(map(str, fit.outliers))))
+    if origin.created:
+        facts.append(("identified (UTC)", origin.created))
+    if session is not None:
+        facts += _session_facts(session)
     content = Content(
-        title=f"Calibration of {doc.get('model') or 'a robot arm'}",
+        title=f"Calibration of {cal.model or 'a robot arm'}",
         facts=facts,
-        stats=doc.get("stats") or {},
-        deltas={str(k): float(v) for k, v in (doc.get("deltas") or {}).items()},
+        stats=fit.stats,
+        deltas={str(k): float(v) for k, v in cal.deltas.items()},
         standard_errors={str(k): float(v) for k, v in errors.items()} if errors else None,
-        dropped=list(doc.get("dropped_parameters") or []),
+        dropped=list(cal.dropped),
         convergence=curve,
         poses=None,
-        warnings=[str(w) for w in doc.get("warnings") or []],
+        warnings=[str(w) for w in fit.warnings],
+        parameters=[r for r in cal.parameter_records() if r["free"]],
     )
-    if doc.get("outlier_poses"):
-        facts.append(("outlier poses set aside", ", ".join(map(str, doc["outlier_poses"]))))
     if content.convergence is None:
         content.notes["convergence"] = "not recorded (no swarm, or an older calibration file)"
     if session is None:
         why = "give the session file to draw per-pose errors"
-        for name in ("pose_errors", "error_cdf", "error_vs_distance"):
-            content.notes[name] = why
+        for plot in ("pose_errors", "error_cdf", "error_vs_distance"):
+            content.notes[plot] = why
     else:
-        content.poses = pose_errors(doc, session, session_path)
+        content.poses = pose_errors(cal, session, session_path)
     return content
+
+
+def _recorded(value):
+    return "not recorded" if value is None else value
+
+
+def _fit_facts(unc):
+    """Residual sigma, predicted held-out error and strongly correlated pairs."""
+    facts = []
+    sigma = unc.get("residual_sigma") or {}
+    if sigma.get("position_mm") is not None:
+        text = f"{sigma['position_mm']:.4f} mm per axis"
+        if sigma.get("orientation_rad") is not None:
+            text += f", {1000 * sigma['orientation_rad']:.4f} mrad"
+        facts.append(("residual sigma", text))
+    pred = unc.get("predicted_validation_mm")
+    if pred:
+        facts.append(("predicted held-out position error", f"{pred['error_mean']:.4f} mm mean"))
+    strong = unc.get("strong_correlations")
+    if strong is not None:
+        pairs = ", ".join(f"{p['a']}/{p['b']} {p['r']:+.2f}" for p in strong) or "none"
+        facts.append(("strongly correlated pairs (|r| > 0.9)", pairs))
+    return facts
+
+
+def _session_facts(session):
+    """Date, devices and readings per pose, as far as the session records them."""
+    facts = []
+    table = session.table
+    if "timestamp" in table.column_names:
+        stamps = [t for t in table["timestamp"].to_pylist() if t is not None]
+        if stamps:
+            facts.append(("measured", f"{min(stamps)} to {max(stamps)}"))
+    measured = session.meta.extra.get("measured") or {}
+    for device in ("robot", "tracker"):
+        facts.append((device, measured.get(device) or "not recorded"))
+    if "n_readings" in table.column_names:
+        counts = [n for n in table["n_readings"].to_pylist() if n is not None]
+        if counts:
+            low, high = min(counts), max(counts)
+            facts.append(("readings per pose", str(low) if low == high else f"{low} to {high}"))
+    return facts
 
 
 def _curve(curve):
@@ -137,12 +204,14 @@ def _curve(curve):
     return values
 
 
-def pose_errors(doc, session, session_path=None):
+def pose_errors(
+    cal: calibration.Calibration, session: Any, session_path: str | Path | None = None
+) -> PoseErrors:
     """Per-pose errors of the nominal and identified models on ``session``.
 
     The nominal model is placed with the same first guess of ``base2tracker``
     and ``flange2tool`` as the identification started from, so the
-    "before" numbers match the document's ``stats``.
+    "before" numbers match the calibration's ``stats``.
 
     Returns
     -------
@@ -152,9 +221,9 @@ def pose_errors(doc, session, session_path=None):
 
     obs = session.observations
     n = len(obs)
-    stats = doc.get("stats") or {}
+    stats = cal.fit.stats
     expected = sum(stats.get(p, {}).get("before", {}).get("n", 0) for p in ("fit", "validation"))
-    held = np.asarray(doc.get("validation_poses") or [], dtype=int)
+    held = np.asarray(cal.fit.validation_poses, dtype=int)
     name = session_path or "the session"
     if (expected and n != expected) or (held.size and held.max() >= n):
         raise CalibrationError(
@@ -163,23 +232,22 @@ def pose_errors(doc, session, session_path=None):
         )
     held_out = np.zeros(n, dtype=bool)
     held_out[held] = True
-    nominal = np.asarray(doc["nominal_mdh"], dtype=float)
-    mdh = calibration.mdh_from_records(doc["mdh"])
-    names = set(doc.get("free_parameters") or []) | {
-        d["name"] for d in doc.get("dropped_parameters") or []
-    }
-    tool_known = not names.intersection(parameters.TOOL_NAMES)
+    if cal.provenance.tool_known is not None:
+        tool_known = cal.provenance.tool_known
+    else:
+        names = set(cal.free) | {d["name"] for d in cal.dropped}
+        tool_known = not names.intersection(parameters.TOOL_NAMES)
     meta = session.meta
     base0, tool0 = initial.first_guess(
-        nominal, obs.subset(np.flatnonzero(~held_out)), meta.flange2tool, meta.frame, tool_known
+        cal.nominal_mdh,
+        obs.subset(np.flatnonzero(~held_out)),
+        meta.flange2tool,
+        meta.frame,
+        tool_known,
     )
-    before = kinematics.forward(nominal, obs.q, tool0, base0)[:, :3, 3] - obs.points
-    after = (
-        kinematics.forward(
-            mdh, obs.q, np.asarray(doc["flange2tool"]), np.asarray(doc["base2tracker"])
-        )[:, :3, 3]
-        - obs.points
-    )
+    before = kinematics.forward(cal.nominal_mdh, obs.q, tool0, base0)[:, :3, 3] - obs.points
+    after = kinematics.forward(cal.mdh, obs.q, cal.flange2tool, cal.base2tracker)[:, :3, 3]
+    after = after - obs.points
     origin = "tracker" if meta.frame == "tracker" else "robot base"
     return PoseErrors(
         pose=np.asarray(session.table["pose"].to_pylist(), dtype=int),

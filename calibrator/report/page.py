@@ -60,7 +60,7 @@ def html(content, images):
     if content.standard_errors is None:
         parts.append('<p class="note">standard errors: not recorded</p>')
     parts.append(_image(images, "deltas.png", "Identified deltas", "no free parameters"))
-    parts.append(_deltas_table(content.deltas, content.standard_errors))
+    parts.append(_parameters_table(content.parameters, content.deltas, content.standard_errors))
     parts.append("</section>")
     parts.append('<section id="dropped"><h2>Parameters not identified</h2>')
     if content.dropped:
@@ -109,16 +109,35 @@ def _quantities(entry):
         yield f"orientation {axis.upper()} (deg)", "orientation_deg", axis
 
 
-def _deltas_table(deltas, errors):
+def _parameters_table(records, deltas, errors):
+    """Nominal, identified, delta and standard error of each free parameter, mm and mrad.
+
+    ``records`` (:meth:`calibrator.calibration.Calibration.parameter_records`)
+    give nominal and identified values; a name without a record (a newer
+    parameter kind) still gets its delta.
+    """
     if not deltas:
         return ""
-    rows = ["<table><tr><th>parameter</th><th>delta</th><th>standard error</th><th>unit</th></tr>"]
+    known = {r["name"]: r for r in records}
+    rows = [
+        "<table><tr><th>parameter</th><th>unit</th><th>nominal</th><th>identified</th>"
+        "<th>delta</th><th>standard error</th></tr>"
+    ]
     for name, value in deltas.items():
+        scale, unit = (1e3, "mrad") if unit_of(name) == "rad" else (1.0, "mm")
+        rec = known.get(name)
+        nominal = "" if rec is None else f"{rec['nominal'] * scale:.6g}"
+        identified = "" if rec is None else f"{rec['identified'] * scale:.6g}"
         err = (errors or {}).get(name)
-        err_text = "not recorded" if err is None else f"{err:.3g}"
+        err_text = "not recorded" if err is None else f"{err * scale:.3g}"
         rows.append(
-            f"<tr><td>{name}</td><td>{value:.6g}</td><td>{err_text}</td>"
-            f"<td>{unit_of(name)}</td></tr>"
+            f"<tr><td>{name}</td><td>{unit}</td><td>{nominal}</td><td>{identified}</td>"
+            f"<td>{value * scale:.6g}</td><td>{err_text}</td></tr>"
         )
     rows.append("</table>")
+    rows.append(
+        '<p class="note">Angles in mrad, lengths in mm. A frame delta (base_*, tool_*) is '
+        "the move from the first guess expressed in the first-guess frame, as in "
+        "calibration.json and the CSV export.</p>"
+    )
     return "\n".join(rows)

@@ -4,6 +4,7 @@ import io
 
 import numpy as np
 
+from calibrator import parameters
 from calibrator.report.data import unit_of
 
 _FIT, _HELD = "#1f77b4", "#d62728"
@@ -29,7 +30,7 @@ def draw(content):
             _deltas,
             content.deltas,
             content.standard_errors,
-            size=(7, 1.0 + 0.2 * len(content.deltas)),
+            size=(9, 1.0 + 0.2 * len(content.deltas)),
         )
     return out
 
@@ -62,14 +63,14 @@ def _pose_errors(fig, poses):
                 marker="x",
                 color=colour,
                 alpha=0.5,
-                label=f"{label}, nominal",
+                label=f"{label}, nominal (mm)",
             )
             ax.scatter(
                 poses.pose[mask],
                 poses.after_mm[mask],
                 marker="o",
                 color=colour,
-                label=f"{label}, identified",
+                label=f"{label}, identified (mm)",
             )
     _log_if_positive(ax, np.concatenate([poses.before_mm, poses.after_mm]))
     ax.set(xlabel="pose", ylabel="position error (mm)", title="Error per pose")
@@ -91,7 +92,7 @@ def _cdf(fig, poses):
                     style,
                     where="post",
                     color=colour,
-                    label=f"{label}, {when}",
+                    label=f"{label}, {when} (mm)",
                 )
     _log_if_positive(ax, np.concatenate([poses.before_mm, poses.after_mm]), axis="x")
     ax.set(
@@ -107,7 +108,12 @@ def _distance(fig, poses):
     ax = fig.add_subplot()
     for label, mask, colour in _sets(poses):
         if mask.any():
-            ax.scatter(poses.distance_mm[mask], poses.after_mm[mask], color=colour, label=label)
+            ax.scatter(
+                poses.distance_mm[mask],
+                poses.after_mm[mask],
+                color=colour,
+                label=f"{label} (mm)",
+            )
     ax.set(
         xlabel=f"distance from the {poses.origin} (mm)",
         ylabel="position error, identified (mm)",
@@ -125,15 +131,28 @@ def _convergence(fig, curve):
 
 def _deltas(fig, deltas, errors):
     names = list(deltas)
-    lengths = [n for n in names if unit_of(n) == "mm"]
-    angles = [n for n in names if unit_of(n) == "rad"]
-    groups = [(g, s, u) for g, s, u in ((lengths, 1.0, "mm"), (angles, 1e3, "mrad")) if g]
+    # Joints and frames in panels of their own: a base offset of metres (a
+    # tracker frame) would flatten joint deltas of tenths of a millimetre.
+    frame = parameters.BASE_NAMES + parameters.TOOL_NAMES + parameters.TOOL_ROTATION_NAMES
+    joint = [n for n in names if n not in frame]
+    framed = [n for n in names if n in frame]
+    groups = [
+        (g, s, u, title)
+        for g, s, u, title in (
+            ([n for n in joint if unit_of(n) == "mm"], 1.0, "mm", "joint lengths"),
+            ([n for n in joint if unit_of(n) == "rad"], 1e3, "mrad", "joint angles"),
+            ([n for n in framed if unit_of(n) == "mm"], 1.0, "mm", "base and tool offsets"),
+            ([n for n in framed if unit_of(n) == "rad"], 1e3, "mrad", "base and tool turns"),
+        )
+        if g
+    ]
     # Margins in inches, not shares of the height: a short figure (few
     # parameters) must still hold the tick labels, the axis label and the title.
     height = fig.get_figheight()
-    fig.subplots_adjust(bottom=0.55 / height, top=1 - 0.35 / height)
+    # Room above for the panel titles under the figure title.
+    fig.subplots_adjust(bottom=0.55 / height, top=1 - 0.6 / height)
     axes = fig.subplots(1, len(groups), squeeze=False)[0]
-    for ax, (group, scale, unit) in zip(axes, groups, strict=True):
+    for ax, (group, scale, unit, title) in zip(axes, groups, strict=True):
         values = np.array([deltas[n] for n in group]) * scale
         xerr = None
         if errors:
@@ -143,7 +162,7 @@ def _deltas(fig, deltas, errors):
         ax.set_yticks(y, group, fontsize="small")
         ax.invert_yaxis()
         ax.axvline(0, color="grey", lw=0.5)
-        ax.set(xlabel=f"delta ({unit})")
+        ax.set(xlabel=f"delta ({unit})", title=title)
     fig.suptitle("Identified deltas" + (" with standard errors" if errors else ""))
 
 

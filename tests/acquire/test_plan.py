@@ -115,3 +115,18 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, args, message):
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and done.stderr.count("\n") == 1, done.stderr
     assert not list(tmp_path.glob("*.journal")) and not list(tmp_path.glob(".*tmp"))
+
+
+def test_the_plan_size_for_three_values_per_parameter_after_the_hold_out():
+    """30 poses of a UR10e in the tracker frame leave 2.9 values per parameter: 31 leave 3."""
+    from calibrator.identify import freeset, identifiability
+
+    mdh = get_model("ur10e").mdh
+    n = freeset.poses_for(mdh, "tracker", False, 0.2)
+    free = len(freeset.decide(mdh, "tracker", False, False).names)
+    assert free == 25 and n == 31
+    for poses, warned in ((n, False), (n - 1, True)):
+        fit = poses - round(0.2 * poses)
+        assert (3 * fit / free < identifiability.MIN_VALUES_PER_PARAMETER) is warned, poses
+    assert freeset.poses_for(mdh, "tracker", False, 0.2, orientation=True) < n
+    assert plans.min_poses(mdh) == -(-free // 3)  # both from the one free-set decision

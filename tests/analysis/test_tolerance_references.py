@@ -90,8 +90,13 @@ def uneven_tolerances(distribution):
 
 @pytest.mark.parametrize("distribution, sigma_per_t", [("uniform", 3**-0.5), ("normal", 1 / 3)])
 def test_budget_equals_its_definitions_on_a_finite_difference_jacobian(distribution, sigma_per_t):
-    tol = uneven_tolerances(distribution)
-    result = tl.budget(MDH, Q, tol, samples=200, seed=3)
+    given = uneven_tolerances(distribution)
+    result = tl.budget(MDH, Q, given, samples=200, seed=3)
+    # beta entries between non-parallel axes are no quantity of this arm: no tolerance.
+    excluded = tl.without_meaning(MDH)
+    assert "beta3" not in excluded and {"beta1", "beta6"} <= set(excluded)
+    tol = tl.for_arm(given, MDH)
+    assert all(tol.t[tl.NAMES.index(n)] == 0 for n in excluded)
     want = expected_budget(fd_jacobian(MDH, Q), tol.t, sigma_per_t * tol.t)
     for key in (
         "worst_case_mm",
@@ -106,7 +111,8 @@ def test_budget_equals_its_definitions_on_a_finite_difference_jacobian(distribut
     assert 0.0 < result["nonlinear"]["linearisation_error"] < 1e-3
     total = want["contrib"].sum()
     order = [row["name"] for row in result["ranking"]]
-    assert sorted(order) == sorted(tl.NAMES)
+    assert sorted(order) == sorted(n for n in tl.NAMES if n not in excluded)
+    assert [d["name"] for d in result["not_toleranced"]] == list(excluded)
     shares = [want["contrib"][tl.NAMES.index(n)] / total for n in order]
     # Decreasing (to the finite differences' precision).
     assert all(a >= b * (1 - 1e-6) for a, b in zip(shares, shares[1:], strict=False))
@@ -164,15 +170,17 @@ def test_zero_tolerances_give_zero_error_and_no_division_by_zero():
         "max_mm": 0.0,
         "linearisation_error": 0.0,
     }
-    assert [row["share"] for row in result["ranking"]] == [0.0] * len(tl.NAMES)
-    assert [row["name"] for row in result["ranking"]] == list(tl.NAMES)
+    physical = [n for n in tl.NAMES if n not in tl.without_meaning(MDH)]
+    assert [row["share"] for row in result["ranking"]] == [0.0] * len(physical)
+    assert [row["name"] for row in result["ranking"]] == physical
 
 
 def test_ties_in_the_ranking_keep_the_table_order():
     tol = tl.Tolerances.build(0.0, 0.0, 0.0, {"a2": 0.1, "q3": 1e-4})
     ranking = [row["name"] for row in tl.budget(MDH, Q[:3], tol, samples=10)["ranking"]]
     assert set(ranking[:2]) == {"a2", "q3"}
-    assert ranking[2:] == [n for n in tl.NAMES if n not in ("a2", "q3")]
+    unranked = ("a2", "q3", *tl.without_meaning(MDH))
+    assert ranking[2:] == [n for n in tl.NAMES if n not in unranked]
 
 
 def test_build_gives_each_kind_its_tolerance():

@@ -1,7 +1,6 @@
 """calibration.json: strict JSON out, validated in, extra keys kept."""
 
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -10,49 +9,58 @@ from test_cli import run  # the CLI as a user runs it: a real process
 from calibrator import calibration, parameters
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.identify import pipeline
 from calibrator.models import get_model
 
 
-def result(extra=None):
-    """An identification result as the pipeline makes one, plus attributes of later issues."""
+def result(uncertainty=None):
+    """An identification result as the pipeline makes one."""
     nominal = get_model("ur5e").mdh
     free, _ = parameters.structural_candidates(nominal, "base", True)
     space = parameters.ParameterSpace(nominal, free=free)
     x = np.random.default_rng(0).uniform(-1e-3, 1e-3, space.size)
-    res = SimpleNamespace(
+    return pipeline.Result(
         space=space,
         x=x,
         dropped=[{"name": "d2", "reason": "parallel"}],
         stats={"fit": {"before": {"n": 3}, "after": {"n": 3}}},
-        options=SimpleNamespace(method="lm", seed=0, validation_fraction=0.2),
+        options=pipeline.Options(method="lm", seed=0, validation_fraction=0.2),
         k=1e4,
         fit_index=np.arange(3),
         validation_index=np.array([3, 4]),
         details={"least_squares": {"evaluations": np.int64(7)}},
+        uncertainty=uncertainty or {},
+        tool_known=True,
     )
-    for key, value in (extra or {}).items():
-        setattr(res, key, value)
-    return res
 
 
-def test_from_result_keeps_extra_keys_and_round_trips(tmp_path):
-    extra = {"standard_errors": np.full(3, 0.01), "convergence": {"iterations": np.int32(4)}}
-    cal = Calibration.from_result(result(extra), "s.parquet", "ur5e")
+def test_from_result_writes_its_parts_and_round_trips(tmp_path):
+    unc = {"standard_errors": {"a1": np.float64(0.01)}, "residual_sigma": {"position_mm": 0.02}}
+    cal = Calibration.from_result(result(unc), "s.parquet", "ur5e")
     cal.save(tmp_path / "c.json")
     doc = json.loads((tmp_path / "c.json").read_text())
-    assert doc["standard_errors"] == [0.01] * 3 and doc["convergence"] == {"iterations": 4}
+    assert doc["uncertainty"]["standard_errors"] == {"a1": 0.01}
     assert doc["solver"]["least_squares"]["evaluations"] == 7
+    assert (doc["method"], doc["loss"], doc["seed"], doc["validation_fraction"]) == (
+        "lm",
+        "lsq",
+        0,
+        0.2,
+    )
+    assert (doc["noise_mm"], doc["tool_known"], doc["k"]) == (0.05, True, 1e4)
+    assert doc["validation_poses"] == [3, 4] and doc["outliers"] == []
     record = {r["name"]: r for r in doc["parameters"]}
     assert record["beta2"]["free"] and not record["d2"]["free"]
     assert record["a2"]["nominal"] == -425.0 and record["a2"]["unit"] == "mm"
     back = calibration.load(tmp_path / "c.json")
     np.testing.assert_array_equal(back.mdh, cal.mdh)
-    assert back.free == cal.free and back.diagnostics["standard_errors"] == [0.01] * 3
+    assert back.free == cal.free and back.fit == cal.fit and back.provenance == cal.provenance
+    assert back.diagnostics == {}
 
 
-@pytest.mark.parametrize("where", ["stats", "mdh"])
+@pytest.mark.parametrize("where", ["uncertainty", "mdh"])
 def test_save_refuses_non_finite(tmp_path, where):
-    res = result({"standard_errors": [float("nan")]} if where == "stats" else None)
+    res = result({"standard_errors": [float("nan")]} if where == "uncertainty" else None)
     cal = Calibration.from_result(res)
     if where == "mdh":
         cal.mdh[1, 1] = np.inf

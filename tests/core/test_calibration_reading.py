@@ -4,15 +4,16 @@ keeps, and the exact JSON a calibration becomes."""
 
 import json
 import math
+import re
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from calibrator import calibration, frames, outputs, parameters
-from calibrator.calibration import Calibration
+from calibrator.calibration import Calibration, FitReport, Provenance
 from calibrator.errors import CalibrationError
+from calibrator.identify import pipeline
 from calibrator.models import get_model
 
 NOMINAL = get_model("ur5e").mdh
@@ -30,14 +31,18 @@ def good_cal():
         base2tracker=frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0]),
         flange2tool=frames.transform(frames.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0]),
         free=FREE + ["tool_x"],
-        deltas={n: 0.0 for n in FREE + ["tool_x"]},
+        deltas={
+            n: {"a2": 0.25, "beta2": 0.001, "tool_x": 1.0}.get(n, 0.0) for n in FREE + ["tool_x"]
+        },
         dropped=[{"name": "d2", "reason": "parallel axes"}],
         model="ur5e",
         frame="tracker",
         base0=frames.transform(None, [99.0, 0.0, 5.0]),
         tool0=frames.transform(None, [0.0, 0.0, 90.0]),
         session="s.parquet",
-        diagnostics={"stats": {"fit": [1.5, 2]}, "method": "lm"},
+        provenance=Provenance(method="lm"),
+        fit=FitReport(stats={"fit": [1.5, 2]}),
+        diagnostics={"note": "kept"},
     )
 
 
@@ -67,7 +72,8 @@ def test_a_saved_calibration_loads_back_field_by_field(tmp_path):
     assert back.free == tuple(cal.free) and back.deltas == cal.deltas
     assert back.dropped == cal.dropped and back.model == "ur5e" and back.frame == "tracker"
     assert back.session == "s.parquet"
-    assert back.diagnostics == {"stats": {"fit": [1.5, 2]}, "method": "lm"}
+    assert back.diagnostics == {"note": "kept"}
+    assert back.fit == cal.fit and back.provenance == cal.provenance
     assert Calibration.load(tmp_path / "c.json").mdh.tolist() == cal.mdh.tolist()
 
 
@@ -103,6 +109,7 @@ def test_parameter_records_hold_nominal_and_identified_values():
         "unit": "mm",
         "nominal": NOMINAL[1, 0],
         "identified": NOMINAL[1, 0] + 0.25,
+        "delta": 0.25,
         "free": True,
     }
     assert records["beta2"]["unit"] == "rad" and records["beta2"]["identified"] == 0.001
@@ -302,17 +309,18 @@ def test_free_parameters_stay_within_a_plausible_distance(
 
 def test_save_names_the_first_non_finite_value(tmp_path):
     cal = good_cal()
-    cal.diagnostics = {"stats": {"fit": [1.0, {"max": math.nan}]}, "k": 2.0}
+    cal.fit = FitReport(stats={"fit": [1.0, {"max": math.nan}]})
     with pytest.raises(CalibrationError) as info:
         cal.save(tmp_path / "c.json")
     assert str(info.value) == (
         f"refusing to write {tmp_path / 'c.json'}: stats.fit[1].max is not a finite number "
         "(calibration files are strict JSON)"
     )
-    cal.diagnostics = {"k": math.inf}
+    cal.fit = FitReport()
+    cal.provenance = Provenance(k=math.inf)
     with pytest.raises(CalibrationError, match=r": k is not a finite number"):
         cal.save(tmp_path / "c.json")
-    cal.diagnostics = {}
+    cal.provenance = Provenance()
     cal.mdh[2, 1] = -math.inf
     with pytest.raises(CalibrationError, match=r": mdh\[2\]\.alpha_rad is not a finite number"):
         cal.save(tmp_path / "c.json")
@@ -329,7 +337,7 @@ def test_save_in_a_batch_appears_with_the_batch(tmp_path):
     assert json.loads(text) == cal.to_json()
 
 
-def result(**extra):
+def result(**fields):
     nominal = NOMINAL
     free = FREE + ["base_tx", "base_rz", "tool_x"]
     space = parameters.ParameterSpace(
@@ -339,27 +347,34 @@ def result(**extra):
         tool0=frames.transform(None, [0.0, 0.0, 120.0]),
     )
     x = np.linspace(-1e-3, 1e-3, space.size)
-    res = SimpleNamespace(
+    values = dict(
         space=space,
         x=x,
         dropped=({"name": "d2", "reason": "parallel"},),
+        stats={},
+        options=pipeline.Options(),
+        k=0.0,
         fit_index=np.arange(3),
-        **extra,
+        validation_index=np.array([], dtype=int),
     )
-    return res, space, x
+    return pipeline.Result(**{**values, **fields}), space, x
 
 
-def test_from_result_keeps_the_solution_and_what_later_versions_add():
+def test_from_result_keeps_the_solution_provenance_and_fit_report():
     res, space, x = result(
-        options=SimpleNamespace(method="pso", seed=7, validation_fraction=0.25, loss="huber"),
+        options=pipeline.Options(
+            method="pso", seed=7, validation_fraction=0.25, loss="huber", noise_mm=0.03
+        ),
+        k=250.0,
+        tool_known=True,
         validation_index=np.array([3, 4], dtype=np.int64),
         details={"iterations": np.int32(9), "ok": np.bool_(True), "r": np.float32(0.5)},
         stats={"n": np.int64(5), "pair": (1, 2)},
-        _private=1,
-        where=Path("/tmp/x"),
-        flags=frozenset([1]),
+        warnings=["w"],
+        outliers=[np.int64(8)],
     )
-    cal = Calibration.from_result(res, Path("s.parquet"), "ur5e", "tracker")
+    origin = Provenance(session_sha256="ab" * 32, versions={"numpy": "1"}, created="now")
+    cal = Calibration.from_result(res, Path("s.parquet"), "ur5e", "tracker", origin)
     mdh, base, tool = space.unpack(x)
     np.testing.assert_array_equal(cal.mdh, mdh)
     np.testing.assert_array_equal(cal.base2tracker, base)
@@ -371,36 +386,62 @@ def test_from_result_keeps_the_solution_and_what_later_versions_add():
     assert (cal.model, cal.frame, cal.session) == ("ur5e", "tracker", "s.parquet")
     np.testing.assert_array_equal(cal.base0, space.base0)
     np.testing.assert_array_equal(cal.tool0, space.tool0)
-    g = cal.diagnostics
-    assert (g["method"], g["seed"], g["validation_fraction"], g["loss"]) == (
+    g = cal.provenance
+    assert (g.method, g.seed, g.validation_fraction, g.loss, g.noise_mm, g.k) == (
         "pso",
         7,
         0.25,
         "huber",
+        0.03,
+        250.0,
     )
-    assert g["validation_poses"] == [3, 4] and type(g["validation_poses"][0]) is int
-    assert g["solver"] == {"iterations": 9, "ok": True, "r": 0.5}
-    assert type(g["solver"]["iterations"]) is int and type(g["solver"]["ok"]) is bool
-    assert g["stats"] == {"n": 5, "pair": [1, 2]}
-    assert g["where"] == "/tmp/x" and g["flags"] == "frozenset({1})"
-    for key in ("space", "x", "dropped", "options", "fit_index", "validation_index", "details"):
-        assert key not in g
-    assert "_private" not in g
-    json.dumps(g, allow_nan=False)  # plain JSON values only
+    assert g.tool_known is True and g.session_sha256 == "ab" * 32
+    assert (g.versions, g.created, g.generations, g.swarm_poses) == (
+        {"numpy": "1"},
+        "now",
+        2000,
+        32,
+    )
+    f = cal.fit
+    assert f.validation_poses == [3, 4] and type(f.validation_poses[0]) is int
+    assert f.solver == {"iterations": 9, "ok": True, "r": 0.5}
+    assert type(f.solver["iterations"]) is int and type(f.solver["ok"]) is bool
+    assert f.stats == {"n": 5, "pair": [1, 2]}
+    assert f.outliers == [8] and type(f.outliers[0]) is int and f.warnings == ["w"]
+    assert cal.diagnostics == {}
+    json.dumps(cal.to_json(), allow_nan=False)  # plain JSON values only
 
 
-def test_from_result_without_options_or_details():
-    res, _, _ = result(options=SimpleNamespace(method="lm", seed=0, validation_fraction=0.0))
-    cal = Calibration.from_result(res)
-    assert cal.diagnostics == {"method": "lm", "seed": 0, "validation_fraction": 0.0}
-    assert cal.session is None and cal.model is None and cal.frame == "base"
-    bare, _, _ = result(details=None)
-    assert Calibration.from_result(bare).diagnostics == {}
+def test_a_file_without_provenance_reads_as_not_recorded():
+    doc = good_cal().to_json()
+    for key in ("method", "seed", "loss", "noise_mm", "tool_known", "k", "outliers", "stats"):
+        doc.pop(key, None)
+    back = calibration.from_json(doc)
+    assert back.provenance.options() == {} and back.fit.outliers == []
+    assert back.provenance.noise_mm is None and back.fit.stats == {}
 
 
-def test_nested_objects_become_json_objects():
-    res, _, _ = result(extra=SimpleNamespace(a=np.array([[1, 2]]), _hidden=3, b={1: None}))
-    assert Calibration.from_result(res).diagnostics == {"extra": {"a": [[1, 2]], "b": {"1": None}}}
+def test_outlier_poses_is_read_as_outliers():
+    doc = dict(good_cal().to_json(), outlier_poses=[4, 9])
+    doc.pop("outliers", None)
+    assert calibration.from_json(doc).fit.outliers == [4, 9]
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "says"),
+    [
+        ("noise_mm", "0.05", "'noise_mm' must be a JSON number"),
+        ("seed", 1.5, "'seed' must be a JSON integer"),
+        ("seed", True, "'seed' must be a JSON integer"),
+        ("tool_known", 1, "'tool_known' must be a JSON boolean"),
+        ("outliers", [1.5], "'outliers' must be a list of pose numbers"),
+        ("stats", [], "'stats' must be a JSON object"),
+    ],
+)
+def test_provenance_and_fit_keys_of_the_wrong_type_are_refused(key, value, says):
+    doc = dict(good_cal().to_json(), **{key: value})
+    with pytest.raises(CalibrationError, match=re.escape(says)):
+        calibration.from_json(doc, "c.json")
 
 
 def test_write_refuses_non_finite_json_and_leaves_nothing(tmp_path):

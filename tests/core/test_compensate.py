@@ -106,7 +106,7 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
         out.loc[ok, [f"q{i}_rad" for i in range(1, 7)]].to_numpy(), expected.q[ok], atol=1e-8
     )
     assert done.returncode == 1
-    assert "target 1: not reached" in done.stderr
+    assert "target 0: not reached" in done.stderr  # numbered from 0, as plans are
     assert out.loc[0, ["q1_rad", "x_mm"]].isna().all()  # reported, not clipped
 
 

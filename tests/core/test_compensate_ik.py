@@ -297,15 +297,17 @@ def test_compensate_command_writes_every_target(tmp_path):
     done = cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert done.stderr == ""
-    assert done.stdout == "6 of 6 targets compensated; wrote out.csv\n"
+    first, sizes = done.stdout.splitlines()
+    assert first == "6 of 6 targets compensated; wrote out.csv"
     out = pd.read_csv(tmp_path / "out.csv")
     assert list(out.columns) == [
         "target", "status",
         "q1_rad", "q2_rad", "q3_rad", "q4_rad", "q5_rad", "q6_rad",
         "x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad",
+        "correction_mm", "correction_mrad", "joint_correction_mrad",
         "iterations", "error_mm",
     ]  # fmt: skip
-    assert out["target"].tolist() == [1, 2, 3, 4, 5, 6]
+    assert out["target"].tolist() == [0, 1, 2, 3, 4, 5]  # as plans number their poses
     assert (out["status"] == "ok").all()
     joints = out[[f"q{i}_rad" for i in range(1, 7)]].to_numpy()
     desired = kinematics.chain(cal.nominal_mdh, q) @ cal.flange2tool
@@ -317,6 +319,18 @@ def test_compensate_command_writes_every_target(tmp_path):
     rv = out[["rx_rad", "ry_rad", "rz_rad"]].to_numpy()
     assert angle_between(frames.rotvec_to_matrix(rv), sent[:, :3, :3]).max() < 1e-9
     assert (out["iterations"] >= 1).all() and (out["error_mm"] < compensate.TOL_MM).all()
+    # Each correction's size: the sent target against the desired one, and the joints.
+    moved = np.linalg.norm(sent[:, :3, 3] - desired[:, :3, 3], axis=1)
+    np.testing.assert_allclose(out["correction_mm"], moved, rtol=1e-9, atol=1e-9)
+    turned = angle_between(sent[:, :3, :3], desired[:, :3, :3])
+    np.testing.assert_allclose(out["correction_mrad"], 1e3 * turned, rtol=1e-6, atol=1e-9)
+    dq = 1e3 * np.abs(joints - q).max(axis=1)
+    np.testing.assert_allclose(out["joint_correction_mrad"], dq, rtol=1e-9, atol=1e-6)
+    assert moved.max() > 0.1  # a real correction, not zeros
+    assert sizes == (
+        f"corrections: up to {moved.max():.3f} mm and {1e3 * turned.max():.3f} mrad on the "
+        f"targets, {dq.max():.3f} mrad on a joint"
+    )
 
 
 @pytest.mark.parametrize("n_out", [10, 11])
@@ -333,9 +347,10 @@ def test_compensate_command_reports_failures_on_stderr_with_exit_1(tmp_path, n_o
     assert lines[0] == f"2 of {n_out + 2} targets compensated; wrote out.csv"
     # The summary, at most ten targets, then how many more.
     more = ["... and 1 more (see the status column)"] if n_out == 11 else []
-    assert len(lines) == 11 + len(more) and lines[11:] == more
-    for i, line in enumerate(lines[1:11]):
-        assert line.startswith(f"target {i + 1}: not reached (")
+    assert lines[1].startswith("corrections: up to ")
+    assert len(lines) == 12 + len(more) and lines[12:] == more
+    for i, line in enumerate(lines[2:12]):
+        assert line.startswith(f"target {i}: not reached (")
         assert line.endswith(" iterations)")
         count = int(line.rsplit(" after ", 1)[1].split()[0])
         assert 1 <= count <= compensate.MAX_ITER
@@ -345,7 +360,7 @@ def test_compensate_command_reports_failures_on_stderr_with_exit_1(tmp_path, n_o
     assert failed[["q1_rad", "x_mm", "rz_rad"]].isna().all().all()
     assert out.loc[n_out:, ["q1_rad", "x_mm", "rz_rad"]].notna().all().all()
     assert (failed["error_mm"] > 2000.0).all()
-    first = lines[1].split("(")[1]
+    first = lines[2].split("(")[1]
     assert first.startswith(
         f"{out.loc[0, 'error_mm']:.3g} mm off after {out.loc[0, 'iterations']} "
     )
@@ -376,10 +391,10 @@ def test_compensate_command_names_the_joints_past_their_limits(tmp_path):
     targets_csv(tmp_path / "t.csv", q)
     done = cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     assert done.code == 1
-    assert done.stderr.splitlines() == [
-        "2 of 3 targets compensated; wrote out.csv",
-        "target 2: unreachable within the joint limits (joint 1, 6)",
-    ]
+    lines = done.stderr.splitlines()
+    assert lines[0] == "2 of 3 targets compensated; wrote out.csv"
+    assert lines[1].startswith("corrections: up to ") and len(lines) == 3
+    assert lines[2] == "target 1: unreachable within the joint limits (joint 1, 6)"
     out = pd.read_csv(tmp_path / "out.csv")
     assert out["status"].tolist() == ["ok", "outside joint limits", "ok"]
 
@@ -392,8 +407,8 @@ def test_an_arm_without_known_limits_says_so(tmp_path):
     targets_csv(tmp_path / "t.csv", q)
     done = cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     assert done.code == 0, done.stderr
-    assert done.stdout == (
-        "2 of 2 targets compensated (no joint limits known for this model); wrote out.csv\n"
+    assert done.stdout.splitlines()[0] == (
+        "2 of 2 targets compensated (no joint limits known for this model); wrote out.csv"
     )
     unknown = calibrated(seed=23, model="my-arm")
     unknown.save(tmp_path / "cal2.json")

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from calibrator import session
-from calibrator.identify import objective, pipeline, pso, refine, report
+from calibrator.identify import pipeline, pso, refine, report
+from calibrator.identify.problem import Problem
 from calibrator.simulate import simulate
 
 
@@ -71,10 +72,8 @@ def test_unknown_base_and_tool_on_ur10e_matches_a_fit_started_from_the_truth(tmp
     obs = loaded.observations
     fit, val = obs.subset(result.fit_index), obs.subset(result.validation_index)
     from_truth = refine.refine(
-        result.space,
-        fit,
+        Problem.of(result.space, fit, result.k),
         result.space.pack(truth.mdh, truth.base2tracker, truth.flange2tool),
-        result.k,
     )
     ours = held_out_mean(result.space, result.x, val)
     reference = held_out_mean(result.space, from_truth.x, val)
@@ -115,7 +114,7 @@ def test_swarm_objective_equals_the_sum_of_squared_residuals(tmp_path):
     obs = loaded.observations
     swarm = np.random.default_rng(0).normal(0, 0.002, (6, result.space.size))
     for k in (0.0, 1e4):
-        f = objective.SwarmObjective(result.space, obs, k)(swarm)
+        f = Problem.of(result.space, obs, k).swarm_objective()(swarm)
         direct = [np.sum(measurement.residuals(result.space, x, obs, k) ** 2) for x in swarm]
         # The swarm's chordal orientation term equals theta^2 to fourth order.
         np.testing.assert_allclose(f, direct, rtol=1e-5)

@@ -14,6 +14,7 @@ import pytest
 from calibrator import measurement, parameters
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import identifiability as idf
+from calibrator.identify.problem import Problem
 from calibrator.models import get_model
 
 # Plausible ranges (see calibrator.parameters.PLAUSIBLE): a1 1 mm, alpha1 0.01 rad,
@@ -264,7 +265,7 @@ def test_jacobian_on_is_the_derivative_at_the_first_guess(k):
     # Measured turns equal to the model's: the orientation rows' derivative is exact there.
     rot = measurement.predict(space, np.zeros(len(free)), q)[:, :3, :3]
     obs = measurement.Observations(q, np.zeros((5, 3)), rot)
-    jac = idf.jacobian_on(space, names, obs, k)
+    jac = Problem.of(space, obs, k).jacobian(np.zeros(len(free)), names=names)
     assert jac.shape == (30 if k else 15, 3)
     h = 1e-6
     for i, name in enumerate(names):

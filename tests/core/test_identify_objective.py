@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from calibrator import frames, kinematics, measurement, parameters
-from calibrator.identify import objective
+from calibrator.identify.problem import Problem
 from calibrator.models import get_model
 
 K = 1.0e4
@@ -72,7 +72,7 @@ def test_swarm_objective_is_the_seed_formula_per_particle(case, base0, k, loss):
     rng = np.random.default_rng(7)
     lower, upper = space.bounds()
     swarm = rng.uniform(lower, upper, (4, space.size)) * 0.5
-    f = objective.SwarmObjective(space, obs, k, loss)(swarm)
+    f = Problem.of(space, obs, k).swarm_objective(loss)(swarm)
     expected = by_hand(space, swarm, obs, k, loss == "minimax")
     np.testing.assert_allclose(f, expected, rtol=1e-9)
 
@@ -83,7 +83,7 @@ def test_orientation_is_ignored_without_orientation_data():
     bare = measurement.Observations(obs.q, obs.points)
     swarm = np.random.default_rng(1).uniform(-0.01, 0.01, (3, space.size))
     for loss in ("lsq", "minimax"):
-        f = objective.SwarmObjective(space, bare, K, loss)(swarm)
+        f = Problem.of(space, bare, K).swarm_objective(loss)(swarm)
         np.testing.assert_allclose(f, by_hand(space, swarm, bare, 0.0, loss == "minimax"))
 
 
@@ -91,11 +91,11 @@ def test_defaults_are_least_squares_on_positions():
     space = parameters.ParameterSpace(ROBOT.mdh, BASE0, TOOL0, CASES["everything"])
     obs = observations(seed=4)
     swarm = np.random.default_rng(2).uniform(-0.01, 0.01, (3, space.size))
-    f = objective.SwarmObjective(space, obs)(swarm)
+    f = Problem.of(space, obs, 0.0).swarm_objective()(swarm)
     np.testing.assert_allclose(f, by_hand(space, swarm, obs, 0.0, False), rtol=1e-9)
 
 
 def test_an_unknown_loss_is_refused():
     space = parameters.ParameterSpace(ROBOT.mdh, free=MDH_FREE)
     with pytest.raises(ValueError, match="swarm loss must be 'lsq' or 'minimax', got 'huber'"):
-        objective.SwarmObjective(space, observations(seed=1), K, "huber")
+        Problem.of(space, observations(seed=1), K).swarm_objective("huber")

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from calibrator import kinematics, measurement, parameters, session
 from calibrator.errors import IdentifiabilityError
-from calibrator.identify import pipeline
+from calibrator.identify import freeset, pipeline
 from calibrator.models import get_model
 
 
@@ -155,7 +155,8 @@ def test_generic_poses_are_the_nominal_arm_at_spread_joints(orientation):
     tool = np.eye(4)
     tool[:3, 3] = [0.0, 0.0, 100.0]
     space = parameters.ParameterSpace(robot.mdh, np.eye(4), tool, ("a1",))
-    q, points, rot = pipeline._generic_poses(space, orientation)
+    generic = freeset.generic_poses(space, orientation)
+    q, points, rot = generic.q, generic.points, generic.rotations
     assert q.shape == (64, 6) and np.abs(q).max() <= np.pi
     assert q.std(axis=0).min() > 1.5  # spread over the whole turn
     pose = kinematics.forward(robot.mdh, q, tool)

@@ -17,6 +17,7 @@ from scipy.optimize import least_squares
 
 from calibrator import frames, measurement, parameters
 from calibrator.identify import refine, robust
+from calibrator.identify.problem import Problem
 from calibrator.models import get_model
 
 K = 1.0e4
@@ -113,12 +114,12 @@ def test_huber_answer_is_a_stationary_point_of_the_huber_loss():
     x0 = lsq(space, obs, K, np.zeros(len(NAMES)))
     # One round: whitened by the robust scale of the residuals at the start.
     scale0 = robust.robust_scales(measurement.residuals(space, x0, obs, K), len(obs))
-    one = robust.huber(space, obs, x0, K, rounds=1)
+    one = robust.huber(Problem.of(space, obs, K), x0, rounds=1)
     grad, z = huber_gradient(space, one.x, obs, K, scale0)
     assert np.all(grad < 1e-3)  # c = 1.2 or 1.5 give 3e-2
     assert np.sum(np.abs(z) > 1.345) > 4  # enough rows beyond c that the corner matters
     # Two rounds: the second is whitened at the first round's answer.
-    two = robust.huber(space, obs, x0, K, rounds=2)
+    two = robust.huber(Problem.of(space, obs, K), x0, rounds=2)
     scale1 = robust.robust_scales(measurement.residuals(space, one.x, obs, K), len(obs))
     grad, _ = huber_gradient(space, two.x, obs, K, scale1)
     assert np.all(grad < 1e-3)  # c = 1.2 or 1.5 give 3e-2
@@ -139,7 +140,7 @@ def test_huber_on_clean_data_is_close_to_least_squares_but_not_equal():
     space, _, obs = problem(orientation=False)
     clean = obs.subset(np.delete(np.arange(len(obs)), 5))
     x_lsq = lsq(space, clean, 0.0, np.zeros(len(NAMES)))
-    out = robust.huber(space, clean, np.zeros(len(NAMES)), 0.0)
+    out = robust.huber(Problem.of(space, clean, 0.0), np.zeros(len(NAMES)))
     res = measurement.residuals(space, out.x, clean)
     z = res / robust.robust_scales(res, len(clean))
     assert np.abs(z).max() > 1.345  # some rows are in the linear part ...
@@ -151,13 +152,15 @@ def test_huber_on_clean_data_is_close_to_least_squares_but_not_equal():
 
 def test_huber_stops_at_the_evaluation_cap_and_after_converging():
     space, _, obs = problem(orientation=False)
-    capped = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1, max_evaluations=2)
+    capped = robust.huber(
+        Problem.of(space, obs, 0.0), np.zeros(len(NAMES)), rounds=1, max_evaluations=2
+    )
     assert capped.evaluations <= 2
-    full = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1)
+    full = robust.huber(Problem.of(space, obs, 0.0), np.zeros(len(NAMES)), rounds=1)
     assert full.evaluations > 2
     # From its own converged answer the scale no longer changes: one short round.
-    settled = robust.huber(space, obs, np.zeros(len(NAMES)), 0.0, rounds=50)
-    again = robust.huber(space, obs, settled.x, 0.0, rounds=50)
+    settled = robust.huber(Problem.of(space, obs, 0.0), np.zeros(len(NAMES)), rounds=50)
+    again = robust.huber(Problem.of(space, obs, 0.0), settled.x, rounds=50)
     assert again.evaluations < 0.5 * settled.evaluations
     np.testing.assert_allclose(again.x, settled.x, rtol=0, atol=1e-7)
 
@@ -166,7 +169,7 @@ def test_huber_stops_at_the_evaluation_cap_and_after_converging():
 def test_trimmed_answer_is_least_squares_on_the_poses_it_keeps(orientation):
     space, _, obs = problem(orientation=orientation)
     k = K if orientation else 0.0
-    out = robust.trimmed(space, obs, np.zeros(len(NAMES)), k)
+    out = robust.trimmed(Problem.of(space, obs, k), np.zeros(len(NAMES)))
     expected = [5, 11] if orientation else [5]
     assert out.outliers.tolist() == expected
     keep = np.setdiff1d(np.arange(len(obs)), expected)
@@ -190,9 +193,12 @@ def test_trimmed_answer_is_least_squares_on_the_poses_it_keeps(orientation):
 
 def test_trimmed_with_one_round_keeps_the_first_judgement():
     space, _, obs = problem(orientation=False)
-    out = robust.trimmed(space, obs, np.zeros(len(NAMES)), 0.0, rounds=1)
+    out = robust.trimmed(Problem.of(space, obs, 0.0), np.zeros(len(NAMES)), rounds=1)
     # One round: the fit is on every pose (dragged), then the poses are judged.
     x_all = lsq(space, obs, 0.0, np.zeros(len(NAMES)))
-    assert out.evaluations == refine.refine(space, obs, np.zeros(len(NAMES))).evaluations
+    assert (
+        out.evaluations
+        == refine.refine(Problem.of(space, obs, 0.0), np.zeros(len(NAMES))).evaluations
+    )
     assert ssr(space, out.x, obs, 0.0) == pytest.approx(ssr(space, x_all, obs, 0.0), rel=1e-9)
     assert 5 in out.outliers.tolist()

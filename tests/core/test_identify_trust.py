@@ -11,6 +11,7 @@ from cli_process import run_cli
 from calibrator import frames, session
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import pipeline
+from calibrator.identify.problem import Problem
 from calibrator.simulate import simulate
 
 DEG = np.pi / 180
@@ -276,7 +277,6 @@ def test_the_default_loss_is_least_squares_and_the_cli_writes_the_new_keys(tmp_p
 @pytest.mark.parametrize("frame", ["base", "tracker"])
 def test_swarm_objective_with_the_full_tool_frame_matches_the_residuals(frame):
     from calibrator import measurement, parameters
-    from calibrator.identify import objective
 
     robot, true = arms.truth_arm("ur10e", seed=3)
     q = arms.joints(robot, 12, seed=4)
@@ -297,7 +297,7 @@ def test_swarm_objective_with_the_full_tool_frame_matches_the_residuals(frame):
         for x in swarm
     ]
     # The swarm's chordal orientation term equals theta^2 to fourth order.
-    lsq = objective.SwarmObjective(space, obs, k)(swarm)
+    lsq = Problem.of(space, obs, k).swarm_objective()(swarm)
     np.testing.assert_allclose(lsq, [p.sum() for p in per_pose], rtol=1e-5)
-    worst = objective.SwarmObjective(space, obs, k, "minimax")(swarm)
+    worst = Problem.of(space, obs, k).swarm_objective("minimax")(swarm)
     np.testing.assert_allclose(worst, [p.max() for p in per_pose], rtol=1e-5)

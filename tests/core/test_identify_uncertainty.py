@@ -11,6 +11,7 @@ import pytest
 
 from calibrator import frames, measurement, parameters
 from calibrator.identify import uncertainty
+from calibrator.identify.problem import Problem
 from calibrator.models import get_model
 
 K = 1.0e4
@@ -48,7 +49,7 @@ def correlation(cov):
 
 def test_position_only_errors_are_sqrt_diag_s2_inverse_normal_matrix():
     space, x, obs = problem(orientation=False)
-    unc = uncertainty.analyse(space, x, obs, K)  # k is ignored without orientation data
+    unc = uncertainty.analyse(Problem.of(space, obs, K), x)  # k is ignored without orientation data
     res = measurement.residuals(space, x, obs)
     jac = fd_jacobian(space, x, obs, 0.0)
     m, d = jac.shape
@@ -67,7 +68,7 @@ def test_position_only_errors_are_sqrt_diag_s2_inverse_normal_matrix():
 
 def test_two_blocks_use_the_sandwich_with_each_block_s_own_noise():
     space, x, obs = problem(orientation=True)
-    unc = uncertainty.analyse(space, x, obs, K)
+    unc = uncertainty.analyse(Problem.of(space, obs, K), x)
     res = measurement.residuals(space, x, obs, K)
     jac = fd_jacobian(space, x, obs, K)
     m, d = jac.shape
@@ -147,7 +148,7 @@ def test_predicted_error_propagates_the_covariance_through_each_pose():
 def test_analyse_predicts_at_the_held_out_poses_it_is_given():
     space, x, obs = problem(orientation=False, n=12)
     fit, val = obs.subset(np.arange(9)), obs.subset(np.arange(9, 12))
-    unc = uncertainty.analyse(space, x, fit, 0.0, val)
+    unc = uncertainty.analyse(Problem.of(space, fit, 0.0), x, val)
     res = measurement.residuals(space, x, fit)
     jac = fd_jacobian(space, x, fit, 0.0)
     s2 = res @ res / (jac.shape[0] - jac.shape[1])
@@ -159,9 +160,9 @@ def test_analyse_predicts_at_the_held_out_poses_it_is_given():
     assert pred["error_mean"] == pytest.approx(
         np.sqrt(8 / (3 * np.pi)) * np.sqrt(var + 3 * s2).mean(), rel=1e-4
     )
-    assert "predicted_validation_mm" not in uncertainty.analyse(space, x, fit, 0.0)
+    assert "predicted_validation_mm" not in uncertainty.analyse(Problem.of(space, fit, 0.0), x)
     assert "predicted_validation_mm" not in uncertainty.analyse(
-        space, x, fit, 0.0, obs.subset(np.arange(0))
+        Problem.of(space, fit, 0.0), x, obs.subset(np.arange(0))
     )
 
 
@@ -170,7 +171,7 @@ def test_a_parameter_without_effect_gets_zero_error_and_no_nan():
     space, x, obs = problem(orientation=False, n=6)
     space = space.with_free(("a2", "d3", "tool_rx"))
     assert not fd_jacobian(space, np.zeros(3), obs, 0.0)[:, 2].any()
-    unc = uncertainty.analyse(space, np.zeros(3), obs, 0.0)
+    unc = uncertainty.analyse(Problem.of(space, obs, 0.0), np.zeros(3))
     se = unc["standard_errors"]
     assert se["tool_rx"] == 0.0
     assert se["a2"] > 0 and se["d3"] > 0

@@ -68,7 +68,7 @@ def identified(tmp_path_factory):
 
 def test_report_renders_from_a_simulated_session(identified, tmp_path):
     _, doc, loaded = identified
-    written = report.write(tmp_path / "rep", doc, loaded)
+    written = report.write(tmp_path / "rep", calibration.from_json(doc), loaded)
     names = sorted(p.name for p in written)
     assert names == sorted([f"{p}.png" for p in PLOTS] + ["index.html"])
     assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == names  # nothing else left
@@ -91,7 +91,7 @@ def test_report_renders_from_a_simulated_session(identified, tmp_path):
 
 def test_per_pose_errors_match_the_recorded_statistics(identified):
     _, doc, loaded = identified
-    poses = data.pose_errors(doc, loaded)
+    poses = data.pose_errors(calibration.from_json(doc), loaded)
     assert (
         poses.origin == "tracker"
         and poses.held_out.sum() == doc["stats"]["validation"]["before"]["n"]
@@ -113,7 +113,7 @@ def test_standard_errors_and_convergence_when_recorded_and_not(identified, tmp_p
     full["uncertainty"] = {"standard_errors": errors}  # as issue 9 records them
     full["solver"]["convergence"] = [5.0, 2.0, 1.0]  # one cost per generation, older form
     full["warnings"] = ["poses 3 and 4 are the same pose"]
-    content = data.collect(full)
+    content = data.collect(calibration.from_json(full))
     assert content.standard_errors == errors
     np.testing.assert_array_equal(content.convergence, [[0, 5.0], [1, 2.0], [2, 1.0]])
     text = report.page.html(content, report.plots.draw(content))
@@ -127,7 +127,7 @@ def test_standard_errors_and_convergence_when_recorded_and_not(identified, tmp_p
         assert "give the session file" in page.sections[plot]["text"]
     bare = copy.deepcopy(doc)
     bare["solver"].pop("convergence")
-    page = Page(report.page.html(data.collect(bare), {}))
+    page = Page(report.page.html(data.collect(calibration.from_json(bare)), {}))
     assert "not recorded" in page.sections["convergence"]["text"]
 
 

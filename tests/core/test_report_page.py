@@ -249,17 +249,23 @@ def test_robot_base_distances_are_explained_only_for_a_base_frame_session():
 def test_deltas_table_values_standard_errors_and_units():
     deltas = {"a1": 0.123456789, "theta2": -0.00123456789, "tool_x": 2.5, "tool_rz": 1e-7}
     errors = {"a1": 0.0123456, "theta2": 4.5678e-5, "tool_rz": 2e-8}
-    parsed = Parsed(page.html(content(deltas=deltas, standard_errors=errors), IMAGES))
-    assert parsed.rows("deltas") == [
-        ["parameter", "delta", "standard error", "unit"],
-        ["a1", "0.123457", "0.0123", "mm"],
-        ["theta2", "-0.00123457", "4.57e-05", "rad"],
-        ["tool_x", "2.5", "not recorded", "mm"],
-        ["tool_rz", "1e-07", "2e-08", "rad"],
+    records = [
+        {"name": "a1", "nominal": 0.0, "identified": 0.123456789},
+        {"name": "theta2", "nominal": 1.5, "identified": 1.5 - 0.00123456789},
     ]
-    assert parsed.paras("deltas") == []  # standard errors were recorded
+    shown = content(deltas=deltas, standard_errors=errors, parameters=records)
+    parsed = Parsed(page.html(shown, IMAGES))
+    # One unit system, as the plots: mm and mrad; nominal and identified beside the delta.
+    assert parsed.rows("deltas") == [
+        ["parameter", "unit", "nominal", "identified", "delta", "standard error"],
+        ["a1", "mm", "0", "0.123457", "0.123457", "0.0123"],
+        ["theta2", "mrad", "1500", "1498.77", "-1.23457", "0.0457"],
+        ["tool_x", "mm", "", "", "2.5", "not recorded"],
+        ["tool_rz", "mrad", "", "", "0.0001", "2e-05"],
+    ]
+    assert len(parsed.paras("deltas")) == 1  # the units note; standard errors were recorded
     bare = Parsed(page.html(content(deltas={"d4": 0.5}), IMAGES))
-    assert bare.rows("deltas")[1] == ["d4", "0.5", "not recorded", "mm"]
+    assert bare.rows("deltas")[1] == ["d4", "mm", "", "", "0.5", "not recorded"]
 
 
 def test_dropped_parameters_with_their_reasons_or_none():

@@ -90,7 +90,7 @@ def test_images_are_pngs_of_the_figure_size_and_the_same_every_time(rendered):
     two = content(convergence=np.array([[0, 9.0], [1, 4.0]]), deltas={"a1": 0.1, "d2": 0.2})
     images = plots.draw(two)
     assert png_size(images["convergence.png"]) == (700, 400)  # 7 x 4 in at 100 dpi
-    assert png_size(images["deltas.png"]) == (700, 100 * (1.0 + 0.2 * 2))
+    assert png_size(images["deltas.png"]) == (900, 100 * (1.0 + 0.2 * 2))
     for png in images.values():
         assert b"Software" not in png  # no matplotlib version stamp: same bytes every run
     assert plots.draw(two) == images
@@ -114,10 +114,10 @@ def test_error_per_pose_plots_each_set_before_and_after(figures):
     (ax,) = figures[0].axes
     fit, held = ~p.held_out, p.held_out
     expected = [
-        (fit, p.before_mm, FIT, "x", 0.5, "fitted, nominal"),
-        (fit, p.after_mm, FIT, "o", None, "fitted, identified"),
-        (held, p.before_mm, HELD, "x", 0.5, "held-out, nominal"),
-        (held, p.after_mm, HELD, "o", None, "held-out, identified"),
+        (fit, p.before_mm, FIT, "x", 0.5, "fitted, nominal (mm)"),
+        (fit, p.after_mm, FIT, "o", None, "fitted, identified (mm)"),
+        (held, p.before_mm, HELD, "x", 0.5, "held-out, nominal (mm)"),
+        (held, p.after_mm, HELD, "o", None, "held-out, identified (mm)"),
     ]
     assert len(ax.collections) == 4
     for coll, (mask, values, colour, marker, alpha, label) in zip(
@@ -143,9 +143,15 @@ def test_a_set_without_poses_is_left_out(figures):
     p = poses(held=(False,) * 5)
     plots.draw(content(poses=p))
     pose_ax, cdf_ax, distance_ax = (f.axes[0] for f in figures)
-    assert [c.get_label() for c in pose_ax.collections] == ["fitted, nominal", "fitted, identified"]
-    assert [line.get_label() for line in cdf_ax.lines] == ["fitted, nominal", "fitted, identified"]
-    assert [c.get_label() for c in distance_ax.collections] == ["fitted"]
+    assert [c.get_label() for c in pose_ax.collections] == [
+        "fitted, nominal (mm)",
+        "fitted, identified (mm)",
+    ]
+    assert [line.get_label() for line in cdf_ax.lines] == [
+        "fitted, nominal (mm)",
+        "fitted, identified (mm)",
+    ]
+    assert [c.get_label() for c in distance_ax.collections] == ["fitted (mm)"]
 
 
 def test_error_scale_turns_logarithmic_past_a_factor_of_100(figures):
@@ -172,10 +178,10 @@ def test_distribution_is_a_step_per_set_and_model_rising_to_one(figures):
     plots.draw(content(poses=p))
     ax = figures[1].axes[0]
     expected = [
-        (~p.held_out, p.before_mm, FIT, ":", "fitted, nominal"),
-        (~p.held_out, p.after_mm, FIT, "-", "fitted, identified"),
-        (p.held_out, p.before_mm, HELD, ":", "held-out, nominal"),
-        (p.held_out, p.after_mm, HELD, "-", "held-out, identified"),
+        (~p.held_out, p.before_mm, FIT, ":", "fitted, nominal (mm)"),
+        (~p.held_out, p.after_mm, FIT, "-", "fitted, identified (mm)"),
+        (p.held_out, p.before_mm, HELD, ":", "held-out, nominal (mm)"),
+        (p.held_out, p.after_mm, HELD, "-", "held-out, identified (mm)"),
     ]
     assert len(ax.lines) == 4
     for line, (mask, values, colour, style, label) in zip(ax.lines, expected, strict=True):
@@ -202,14 +208,18 @@ def test_error_against_distance_from_the_named_origin(figures, origin):
     ax = figures[2].axes[0]
     assert len(ax.collections) == 2
     for coll, mask, colour, label in zip(
-        ax.collections, (~p.held_out, p.held_out), (FIT, HELD), ("fitted", "held-out"), strict=True
+        ax.collections,
+        (~p.held_out, p.held_out),
+        (FIT, HELD),
+        ("fitted (mm)", "held-out (mm)"),
+        strict=True,
     ):
         np.testing.assert_array_equal(
             coll.get_offsets(), np.column_stack([p.distance_mm[mask], p.after_mm[mask]])
         )
         np.testing.assert_allclose(coll.get_facecolor()[0][:3], colour[:3])
         assert coll.get_label() == label
-    assert legend(ax) == ["fitted", "held-out"]
+    assert legend(ax) == ["fitted (mm)", "held-out (mm)"]
     assert ax.get_xlabel() == f"distance from the {origin} (mm)"
     assert ax.get_ylabel() == "position error, identified (mm)"
     assert ax.get_title() == f"Error against distance from the {origin}"
@@ -244,13 +254,16 @@ def test_deltas_are_bars_in_mm_and_mrad_with_their_standard_errors(figures):
     errors = {"a1": 0.05, "theta2": 0.0004, "tool_rx": 0.0002}  # none for d3
     plots.draw(content(deltas=deltas, standard_errors=errors))
     (fig,) = figures
-    assert tuple(fig.get_size_inches()) == pytest.approx((7, 1.0 + 0.2 * 4))
+    assert tuple(fig.get_size_inches()) == pytest.approx((9, 1.0 + 0.2 * 4))
     assert fig.get_suptitle() == "Identified deltas with standard errors"
-    lengths, angles = fig.axes
-    for ax, names, scale, unit in (
-        (lengths, ["a1", "d3"], 1.0, "mm"),
-        (angles, ["theta2", "tool_rx"], 1e3, "mrad"),
+    # Joints and frames in panels of their own: a frame's metres never flatten a joint's.
+    lengths, angles, turns = fig.axes
+    for ax, names, scale, unit, title in (
+        (lengths, ["a1", "d3"], 1.0, "mm", "joint lengths"),
+        (angles, ["theta2"], 1e3, "mrad", "joint angles"),
+        (turns, ["tool_rx"], 1e3, "mrad", "base and tool turns"),
     ):
+        assert ax.get_title() == title
         widths, bars = _bars(ax)
         np.testing.assert_allclose(widths, [deltas[n] * scale for n in names])
         assert [t.get_text() for t in ax.get_yticklabels()] == names
@@ -279,4 +292,14 @@ def test_deltas_without_standard_errors_or_of_one_kind(figures):
     np.testing.assert_allclose(widths, [1.0, -3.0])
     assert ax.get_xlabel() == "delta (mrad)"
     assert bars.errorbar is None
-    assert tuple(fig.get_size_inches()) == pytest.approx((7, 1.4))
+    assert tuple(fig.get_size_inches()) == pytest.approx((9, 1.4))
+
+
+def test_joint_deltas_stay_visible_beside_metre_scale_base_offsets(figures):
+    plots.draw(content(deltas={"a2": 0.1, "d4": -0.05, "base_tx": 1500.0, "base_rz": 0.2}))
+    (fig,) = figures
+    joints, offsets, turns = fig.axes
+    assert [t.get_text() for t in joints.get_yticklabels()] == ["a2", "d4"]
+    assert [t.get_text() for t in offsets.get_yticklabels()] == ["base_tx"]
+    assert max(abs(v) for v in joints.get_xlim()) < 1.0  # a 0.1 mm bar fills its panel
+    assert offsets.get_title() == "base and tool offsets" and turns.get_xlabel() == "delta (mrad)"

@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 from cli_testkit import cli, listing, one_line_error
+from report_kit import calibration_of
 
 from calibrator import calibration, outputs, report, session
 from calibrator.models import get_model
@@ -27,7 +28,7 @@ def document(a2_delta=0.0, **extra):
         "deltas": {"a2": a2_delta} if a2_delta else {},
     }
     doc.update(extra)
-    return doc
+    return calibration.from_json(doc)
 
 
 def test_write_returns_the_files_in_page_order_and_leaves_nothing_else(tmp_path):
@@ -39,7 +40,12 @@ def test_write_returns_the_files_in_page_order_and_leaves_nothing_else(tmp_path)
     files = listing(tmp_path)
     assert sorted(files) == ["rep", "rep/convergence.png", "rep/deltas.png", "rep/index.html"]
     page = files["rep/index.html"].decode()
-    assert "<td>a2</td><td>0.5</td><td>not recorded</td><td>mm</td>" in page
+    nominal = f"{NOMINAL[1, 0]:.6g}"
+    identified = f"{NOMINAL[1, 0] + 0.5:.6g}"
+    assert (
+        f"<td>a2</td><td>mm</td><td>{nominal}</td><td>{identified}</td>"
+        "<td>0.5</td><td>not recorded</td>"
+    ) in page
     assert files["rep/deltas.png"].startswith(b"\x89PNG")
 
 
@@ -48,7 +54,7 @@ def test_an_input_inside_the_folder_is_refused_before_anything_is_read(tmp_path)
     rep.mkdir()
     (rep / "index.html").write_text("my notes")
     before = listing(tmp_path)
-    malformed = {"deltas": {"a1": None}}  # would fail later, when gathered
+    malformed = calibration_of({"convergence": [[0, 1, 2]]})  # would fail later, when gathered
     with pytest.raises(outputs.OutputError) as caught:
         report.write(rep, malformed, calibration_path=rep / "index.html")
     assert str(caught.value) == (
@@ -113,8 +119,8 @@ def test_a_failing_batch_report_is_left_for_the_caller_to_discard(tmp_path, monk
 
 
 def test_report_command_counts_and_names_what_it_wrote(tmp_path):
-    (tmp_path / "bare.json").write_text(json.dumps(document()))
-    (tmp_path / "one.json").write_text(json.dumps(document(0.25)))
+    (tmp_path / "bare.json").write_text(json.dumps(document().to_json()))
+    (tmp_path / "one.json").write_text(json.dumps(document(0.25).to_json()))
     done = cli("report", "bare.json", cwd=tmp_path)
     assert (done.code, done.stderr) == (0, "")
     assert done.stdout == "wrote 1 file into report: index.html\n"
@@ -127,7 +133,7 @@ def test_report_command_with_its_session(tmp_path):
     table, meta, truth = simulate(model="ur10e", poses=8, seed=2, frame="base", errors="none")
     session.write(tmp_path / "s.parquet", table, meta)
     doc = document(model="ur10e", validation_poses=[3])
-    (tmp_path / "c.json").write_text(json.dumps(doc))
+    (tmp_path / "c.json").write_text(json.dumps(doc.to_json()))
     done = cli("report", "c.json", "s.parquet", "--output", "rep", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert done.stdout == (
@@ -140,7 +146,7 @@ def test_report_command_with_its_session(tmp_path):
 
 
 def test_report_command_refuses_bad_folders_in_one_line(tmp_path):
-    (tmp_path / "c.json").write_text(json.dumps(document()))
+    (tmp_path / "c.json").write_text(json.dumps(document().to_json()))
     before = listing(tmp_path)
     line = one_line_error(cli("report", "c.json", "-o", "c.json", cwd=tmp_path))
     assert line == "calibrator: error: cannot write into c.json: it exists and is not a folder"
