@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames, kinematics, outputs, parameters
+from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.calibration"
@@ -287,12 +287,7 @@ def load(path):
         raise CalibrationError(
             f"{path}: {path.stat().st_size} bytes is too large for a calibration"
         )
-    try:
-        doc = json.loads(path.read_bytes().decode("utf-8"), parse_constant=_reject_constant)
-    except _NonFinite as exc:
-        raise CalibrationError(f"{path}: {exc} is not allowed (strict JSON)") from None
-    except (ValueError, UnicodeDecodeError, RecursionError):
-        raise CalibrationError(f"{path} is not JSON") from None
+    doc = strict.load_json(path.read_bytes(), str(path))
     return from_json(doc, path)
 
 
@@ -353,7 +348,7 @@ def from_json(doc, where="calibration"):
         raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
-    return Calibration(
+    calibration = Calibration(
         nominal_mdh=nominal,
         mdh=mdh,
         free=tuple(free),
@@ -365,6 +360,8 @@ def from_json(doc, where="calibration"):
         diagnostics=diagnostics,
         **transforms,
     )
+    consistency.check_calibration(calibration, where)
+    return calibration
 
 
 def _check_fixed(mdh, nominal, free, where):
@@ -414,14 +411,6 @@ class _Checker:
                 for i, r in enumerate(value)
             ]
         )
-
-
-class _NonFinite(ValueError):
-    pass
-
-
-def _reject_constant(name):
-    raise _NonFinite(name)
 
 
 def _flat_values(mdh, base2tracker, tool):

@@ -22,12 +22,15 @@ def report(
     ),
 ):
     """Write the calibration report: PNG plots and one self-contained HTML page."""
-    from calibrator import calibration, outputs, session
+    from calibrator import calibration, consistency, outputs, session
     from calibrator.report import write
 
     outputs.check_folder(output, inputs=[calibration_path, session_path])
-    doc = calibration.load(calibration_path).to_json()
+    cal = calibration.load(calibration_path)
+    doc = cal.to_json()
     loaded = None if session_path is None else session.load(session_path)
+    if loaded is not None:
+        consistency.check_session_matches(cal, loaded.meta, str(session_path))
     written = write(output, doc, loaded, None, calibration_path, session_path)
     names = ", ".join(p.name for p in written)
     files = "1 file" if len(written) == 1 else f"{len(written)} files"

@@ -26,13 +26,14 @@ def calibrated(seed=5, model="ur10e", tool_xy=(0.0, 0.0)):
     mdh = nominal + simulate.random_errors(nominal, rng, mm=1.0, rad=0.002)
     tool = frames.transform(None, [tool_xy[0], tool_xy[1], 100.0])
     free = parameters.structural_candidates(nominal, "base", True)[0]
+    space = parameters.ParameterSpace(nominal, free=tuple(free))
     return Calibration(
         nominal_mdh=nominal,
         mdh=mdh,
         flange2tool=tool,
         model=model,
         free=free,
-        deltas=dict.fromkeys(free, 0.0),
+        deltas=dict(zip(space.free, space.pack(mdh), strict=True)),
     )
 
 
