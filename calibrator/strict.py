@@ -48,6 +48,7 @@ __all__ = [
     "check_budget",
     "load_json",
     "load_yaml",
+    "parse_columns",
     "parse_number",
     "parse_numbers",
     "read_text",
@@ -98,16 +99,39 @@ def parse_number(text: str, what: str = "value") -> float:
 
 
 def parse_numbers(cells: Any, what: str = "value") -> np.ndarray:
-    """:func:`parse_number` over an array of texts, any shape, as float64.
-
-    ``what`` names the table; the first bad cell is named by its row and
-    column (1-based) in the error.
-    """
+    """:func:`parse_number` over an array of texts, any shape, as float64."""
     arr = np.asarray(cells, dtype=object)
     out = np.empty(arr.shape, dtype=float)
     for index, cell in np.ndenumerate(arr):
-        where = what if arr.ndim != 2 else f"{what}, row {index[0] + 1}, column {index[1] + 1}"
-        out[index] = parse_number("" if cell is None else cell, where)
+        out[index] = parse_number("" if cell is None else cell, what)
+    return out
+
+
+def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
+    """The cells of a CSV's columns as floats, shape (N, len(names)).
+
+    Parameters
+    ----------
+    rows : sequence of sequences of str, shape (N, len(names))
+        The cells of the data rows, in file order (the header is line 1).
+    names : sequence of str
+        Column names, for the error.
+    what : str
+        The file, for the error.
+
+    Raises
+    ------
+    StrictError
+        Naming the file, the line and the column: ``p.csv: line 3, q1_rad:
+        '0_5' is not a decimal number``.
+    """
+    names = tuple(names)
+    out = np.empty((len(rows), len(names)), dtype=float)
+    for i, row in enumerate(rows):
+        for j, cell in enumerate(row):
+            out[i, j] = parse_number(
+                "" if cell is None else cell, f"{what}: line {i + 2}, {names[j]}"
+            )
     return out
 
 

@@ -268,16 +268,16 @@ def test_read_targets_gives_joints_and_poses(tmp_path):
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0,0,0,0,0,0\n0,0,x,0,0,0\n",
-            "columns q1_rad, q2_rad, q3_rad, q4_rad, q5_rad, q6_rad must be numbers",
+            "line 3, q3_rad: 'x' is not a decimal number",
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0,0,0,0,0,0\n0,0,0,0,0,0\n0,0,0,nan,0,0\n",
-            "NaN or infinite value in row 3",
+            "line 4, q4_rad: 'nan' is not a decimal number",
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,x_mm,y_mm,z_mm,rx_rad,ry_rad,rz_rad\n"
             "0,0,0,0,0,0,1,2,3,0,0,0\n0,0,0,0,0,0,1,inf,3,0,0,0\n",
-            "NaN or infinite value in row 2",
+            "line 3, y_mm: 'inf' is not a decimal number",
         ),
         ("", "not a readable CSV (No columns to parse from file)"),
     ],

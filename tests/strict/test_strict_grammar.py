@@ -33,10 +33,14 @@ def test_python_float_would_have_read_an_underscore_as_a_digit_separator():
         strict.parse_number("0_5")
 
 
-def test_parse_numbers_names_row_and_column():
-    assert strict.parse_numbers([["1", "2"], ["3", "4.5"]]).tolist() == [[1, 2], [3, 4.5]]
-    with pytest.raises(strict.StrictError, match=r"^t, row 2, column 1: '0x1' is not"):
-        strict.parse_numbers([["1", "2"], ["0x1", "4"]], "t")
+def test_parse_columns_names_line_and_column():
+    assert strict.parse_columns([["1", "2"], ["3", "4.5"]], "ab", "t").tolist() == [
+        [1, 2],
+        [3, 4.5],
+    ]
+    with pytest.raises(strict.StrictError, match=r"^t.csv: line 3, a: '0x1' is not"):
+        strict.parse_columns([["1", "2"], ["0x1", "4"]], "ab", "t.csv")
+    assert strict.parse_numbers(["1", "-2e1"]).tolist() == [1.0, -20.0]
 
 
 @pytest.mark.parametrize(
