@@ -37,7 +37,9 @@ def simulate(
         help="Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
     model: str = typer.Option("er10l-c10", help="Named nominal model."),
-    poses: int = typer.Option(32, callback=checks.at_least(1), help="Number of poses (>= 1)."),
+    poses: int = typer.Option(
+        32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
+    ),
     seed: int = typer.Option(3, callback=checks.at_least(0), help="Seed of every random draw."),
     frame: Frame = typer.Option(Frame.base, help="Frame of the recorded points."),
     orientation: bool = typer.Option(True, help="Record probe orientation (6-DoF probe)."),

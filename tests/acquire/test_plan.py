@@ -98,7 +98,7 @@ def test_plan_cli_writes_a_plan_measure_then_uses(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("plan", "--tracker-at", "1,2"), "--tracker-at needs X,Y,Z"),
+        (("plan", "--tracker-at", "1,2"), "--tracker-at: needs X,Y,Z"),
         (("plan", "-o", "nodir/p.csv"), "folder nodir does not exist"),
         (("plan", "--from", "missing.csv"), "cannot read plan missing.csv"),
         (("measure", "--plan", "bad.csv"), "plan row 1 joint 3"),

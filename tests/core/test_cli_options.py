@@ -180,7 +180,7 @@ def test_fuzz_numeric_options(tmp_path, option, value):
 
 
 _SIMULATE_RULES = {
-    "--poses": lambda v: float(v) == int(float(v)) and int(float(v)) >= 1,
+    "--poses": lambda v: float(v) == int(float(v)) and 1 <= int(float(v)) <= 50_000,
     "--seed": lambda v: float(v) == int(float(v)) and int(float(v)) >= 0,
     "--noise-mm": lambda v: math.isfinite(v) and v >= 0,
     "--orientation-noise-deg": lambda v: math.isfinite(v) and v >= 0,
