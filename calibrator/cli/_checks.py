@@ -199,7 +199,9 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
     what = "--candidates" if candidates is not None else f"--candidates (default for {poses} poses)"
     strict.check_budget(what, n, *BUDGETS["candidates"])
     if selection == "d-optimal":
-        strict.check_budget("--poses x --candidates", poses * n, *BUDGETS["plan_work"])
+        strict.check_budget(
+            "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
+        )
 
 
 def _within(value: float, limit: float, unit: str) -> None:
