@@ -268,7 +268,7 @@ def load_yaml(text: str, where: str = "YAML") -> Any:
         Not YAML, a duplicate key, a number outside the grammar or too
         large, nesting too deep.
     """
-    import yaml
+    import yaml  # type: ignore[import-untyped]
 
     try:
         return yaml.load(text, Loader=_strict_loader())  # noqa: S506 (a SafeLoader subclass)
@@ -288,7 +288,7 @@ def _strict_loader():
     global _LOADER
     if _LOADER is not None:
         return _LOADER
-    import yaml
+    import yaml  # type: ignore[import-untyped]
 
     class StrictLoader(yaml.SafeLoader):
         pass
