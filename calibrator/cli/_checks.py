@@ -66,6 +66,10 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "plan_poses": (2_000, "poses"),
     "candidates": (200_000, "candidates"),
     "plan_work": (2e7, "poses x candidates"),
+    # identify: the swarm holds particles x parameters and one cost per generation;
+    # 2,000 generations of 20 particles take seconds, 100,000 of 1,000 hours.
+    "particles": (1_000, "particles"),
+    "generations": (100_000, "generations"),
     # simulate: as many poses as identify takes.
     "simulate_poses": (50_000, "poses"),
     # analyze misalignment: about 100,000 trials/s on one core.
@@ -80,6 +84,11 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "readings": (1_000, "readings"),
     "settle": (60.0, "s"),
     "retries": (100, "retries"),
+    # simulate: noise and offsets a simulated cell can have (beyond them the
+    # session is nonsense that identify refuses later).
+    "noise_mm": (100.0, "mm"),
+    "noise_deg": (10.0, "deg"),
+    "noise_rad": (0.1, "rad"),
     # Points in a robot cell, mm: a tool on the flange, a tracker in the room.
     "tool": (2_000.0, "mm"),
     "tracker_at": (100_000.0, "mm"),
@@ -145,7 +154,7 @@ def seed():
 
     def check(value: int | None) -> int | None:
         if value is not None and not 0 <= value <= MAX_SEED:
-            raise typer.BadParameter(f"must be a whole number in [0, 2**63 - 1], got {value}")
+            raise typer.BadParameter(f"must be a whole number >= 0 and <= 2**63 - 1, got {value}")
         return value
 
     return check

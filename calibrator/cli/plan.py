@@ -59,7 +59,7 @@ def plan(
         help="Reflector position on the flange X,Y,Z, mm.",
     ),
     seed: int = typer.Option(
-        0, callback=checks.at_least(0), help="Seed of the random sampling and selection."
+        0, callback=checks.seed(), help="Seed of the random sampling and selection."
     ),
 ):
     """Write a plan of joint configurations inside limits, facing the tracker, above the floor."""
