@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, kinematics, outputs, parameters
+from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.calibration"
@@ -582,12 +582,7 @@ def load(path: str | Path) -> Calibration:
         raise CalibrationError(
             f"{path}: {path.stat().st_size} bytes is too large for a calibration"
         )
-    try:
-        doc = json.loads(path.read_bytes().decode("utf-8"), parse_constant=_reject_constant)
-    except _NonFinite as exc:
-        raise CalibrationError(f"{path}: {exc} is not allowed (strict JSON)") from None
-    except (ValueError, UnicodeDecodeError, RecursionError):
-        raise CalibrationError(f"{path} is not JSON") from None
+    doc = strict.load_json(path.read_bytes(), str(path))
     return from_json(doc, path)
 
 
@@ -648,7 +643,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
-    return Calibration(
+    calibration = Calibration(
         provenance=Provenance.from_json(doc, where),
         fit=FitReport.from_json(doc, where),
         nominal_mdh=nominal,
@@ -662,6 +657,8 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         diagnostics=diagnostics,
         **transforms,
     )
+    consistency.check_calibration(calibration, where)
+    return calibration
 
 
 def _check_fixed(mdh, nominal, free, where):
@@ -711,14 +708,6 @@ class _Checker:
                 for i, r in enumerate(value)
             ]
         )
-
-
-class _NonFinite(ValueError):
-    pass
-
-
-def _reject_constant(name):
-    raise _NonFinite(name)
 
 
 def _flat_values(mdh, base2tracker, tool):

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrator import frames, kinematics
+from calibrator import frames, kinematics, strict
 from calibrator.errors import CalibrationError
 
 #: Position tolerance of the IK (mm).
@@ -273,7 +273,8 @@ def read_targets(path):
     import pandas as pd
 
     try:
-        table = pd.read_csv(path)
+        # As text: numbers are read by the one strict grammar, not pandas' own.
+        table = pd.read_csv(path, dtype=str, keep_default_na=False)
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         raise CalibrationError(f"{path}: not a readable CSV ({str(exc).splitlines()[0]})") from None
     missing = [c for c in JOINT_COLUMNS if c not in table.columns]
@@ -291,9 +292,9 @@ def read_targets(path):
 
     def numbers(cols):
         try:
-            values = table[list(cols)].to_numpy(dtype=float)
-        except (TypeError, ValueError):
-            raise CalibrationError(f"{path}: columns {', '.join(cols)} must be numbers") from None
+            values = strict.parse_columns(table[list(cols)].to_numpy(dtype=object), cols, str(path))
+        except strict.StrictError as exc:
+            raise CalibrationError(str(exc)) from None
         bad = ~np.isfinite(values)
         if bad.any():
             raise CalibrationError(

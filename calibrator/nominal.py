@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import chains, kinematics
+from calibrator import chains, consistency, kinematics
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
 
@@ -83,6 +83,7 @@ def load(path, reference=None, model=None):
         base, source = np.eye(4), "ur-calibration"
     if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(offset))):
         raise CalibrationError(f"{path}: the kinematics do not describe a 6R arm")
+    consistency.check_mdh_sane(mdh, str(path))
     return Nominal(mdh, base, offset, source, model)
 
 

@@ -30,12 +30,13 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from calibrator import kinematics, measurement, parameters
+from calibrator import kinematics, measurement, parameters, strict
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
 
@@ -306,11 +307,24 @@ def digest(q) -> str:
 def read_csv(path) -> np.ndarray:
     """Joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
 
+    Numbers follow the strict grammar of :func:`calibrator.strict.parse_number`
+    (``0_5``, ``0x1``, ``nan`` are refused, not read). Other columns (``pose``,
+    notes) are ignored, except joint columns beyond the six used (``q7_rad``,
+    or a ``q2_deg`` beside ``q1_rad..q6_rad``): those mean another arm or a
+    mix-up, and are refused.
+
+    Returns
+    -------
+    ndarray, shape (N, 6)
+        Joint angles (rad).
+
     Raises
     ------
     PlanError
-        Missing file or columns, repeated or ambiguous columns, a row longer
-        than the header, non-numeric values, no rows.
+        Missing file or columns, repeated, ambiguous or extra joint columns,
+        a row longer than the header, a value outside the number grammar,
+        no rows, or the same pose twice (a plan of repeated poses measures
+        nothing new; its rows are named).
     """
     path = Path(path)
     try:
@@ -335,15 +349,39 @@ def read_csv(path) -> np.ndarray:
         columns, factor = DEG_COLUMNS, np.pi / 180.0
     else:
         raise PlanError(f"{path}: needs columns {','.join(JOINT_COLUMNS)} (or q1_deg..q6_deg)")
+    extra = [c for c in fields if _JOINT_LIKE.fullmatch(c.strip()) and c not in columns]
+    if extra:
+        raise PlanError(
+            f"{path}: joint column(s) {', '.join(extra)} beside {columns[0]}..{columns[-1]}: "
+            "a plan is for a 6-axis arm in one unit"
+        )
     if not rows:
         raise PlanError(f"{path}: the plan has no poses")
     try:
-        q = np.array([[float(r[c]) for c in columns] for r in rows]) * factor
-    except (TypeError, ValueError):
-        raise PlanError(f"{path}: non-numeric joint angle") from None
-    if not np.all(np.isfinite(q)):
-        raise PlanError(f"{path}: NaN or infinite joint angle")
+        q = strict.parse_columns([[r[c] for c in columns] for r in rows], columns, str(path))
+    except strict.StrictError as exc:
+        raise PlanError(str(exc)) from None
+    q = q * factor
+    _refuse_repeats(q, path)
     return q
+
+
+#: A joint column of any index and unit (``q7_rad``, ``Q1_DEG``).
+_JOINT_LIKE = re.compile(r"[qQ]\d+_(?:rad|deg|RAD|DEG)")
+
+
+def _refuse_repeats(q: np.ndarray, path: Path) -> None:
+    """Refuse a pose that appears twice, naming the first pair of lines."""
+    _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    twice = np.flatnonzero(first[inverse.ravel()] != np.arange(len(q)))
+    if twice.size:
+        i = int(twice[0])
+        j = int(first[inverse.ravel()[i]])
+        distinct = len(first)
+        raise PlanError(
+            f"{path}: lines {j + 2} and {i + 2} are the same pose ({distinct} distinct of "
+            f"{len(q)}); a repeated pose adds nothing to a calibration"
+        )
 
 
 def write_csv(path, q, inputs=()) -> None:

@@ -44,7 +44,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from calibrator import frames, kinematics, outputs, plausibility
+from calibrator import consistency, frames, kinematics, outputs, plausibility, strict
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.measurement import Observations
 from calibrator.models import get_model
@@ -191,13 +191,9 @@ def _parse_meta(raw, path, model):
     if raw is None:
         raise SessionError(f"{path} has no '{META_KEY.decode()}' metadata (not a session file v1)")
     try:
-        meta = json.loads(raw)
-    except RecursionError:
-        raise SessionError(
-            f"{path}: the '{META_KEY.decode()}' metadata is nested too deeply"
-        ) from None
-    except ValueError:
-        raise SessionError(f"{path}: the '{META_KEY.decode()}' metadata is not JSON") from None
+        meta = strict.load_json(raw, f"{path}: the '{META_KEY.decode()}' metadata")
+    except strict.StrictError as exc:
+        raise SessionError(str(exc)) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SessionError(f"{path}: metadata format is not '{FORMAT}'")
     version = meta.get("version")
@@ -262,6 +258,11 @@ def _matrix(value, shape, what, path):
         raise SessionError(f"{path}: metadata '{what}' must be {shape}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise SessionError(f"{path}: metadata '{what}' has NaN or infinite entries")
+    if what == "nominal_mdh":
+        try:
+            consistency.check_mdh_sane(arr, f"metadata '{what}'")
+        except CalibrationError as exc:
+            raise SessionError(f"{path}: {exc}") from None
     return arr
 
 
@@ -329,6 +330,9 @@ def _validate_table(table, path, meta):
         raise SessionError(f"{path}: column pose has NaN, infinite or null values")
     if any(isinstance(p, float) and (p != int(p) or abs(p) > 2**53) for p in poses):
         raise SessionError(f"{path}: column pose must hold whole numbers")
+    if any(abs(int(p)) > strict.MAX_INT for p in poses):
+        # uint64 above 2**63 fits no signed index (sorting, numpy, the journal).
+        raise SessionError(f"{path}: column pose has numbers beyond 64-bit signed integers")
     duplicates = sorted(p for p, c in Counter(int(p) for p in poses).items() if c > 1)
     if duplicates:
         raise SessionError(f"{path}: duplicate pose number(s) {duplicates[:5]}")

@@ -6,6 +6,7 @@ Dask is imported only when a cluster is asked for.
 """
 
 import logging
+import os
 
 from calibrator.analysis import misalignment as mc
 from calibrator.errors import CalibrationError
@@ -47,8 +48,11 @@ def run(study, *, chunk_trials=None, workers=None, scheduler=None, progress=None
     """
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")
-    if workers is not None and workers < 1:
-        raise CalibrationError(f"--workers must be >= 1, got {workers}")
+    if workers is not None and not 1 <= workers <= (os.cpu_count() or 1):
+        # More local workers than cores only adds processes and memory, never speed.
+        raise CalibrationError(
+            f"--workers must be in [1, {os.cpu_count() or 1}] (this machine's cores), got {workers}"
+        )
     if chunk_trials is not None and chunk_trials < 1:
         raise CalibrationError(f"--chunk must be >= 1 trial, got {chunk_trials}")
     grid = mc.make_grid(study)

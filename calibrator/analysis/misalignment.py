@@ -87,6 +87,9 @@ class Study:
             raise CalibrationError("h must be finite and > 0 mm for every joint")
         if int(self.trials) < 1:
             raise CalibrationError(f"trials must be >= 1, got {self.trials}")
+        if not 0 <= int(self.seed) <= MAX_SEED:
+            # SeedSequence raises a bare ValueError on a negative seed.
+            raise CalibrationError(f"seed must be in [0, 2**63 - 1], got {self.seed}")
         object.__setattr__(self, "r0_mm", r0)
         object.__setattr__(self, "h_mm", h)
         object.__setattr__(self, "trials", int(self.trials))
@@ -98,6 +101,10 @@ class Study:
     def block_size(self, k):
         """Number of trials in block ``k``."""
         return min(BLOCK, self.trials - k * BLOCK)
+
+
+#: Largest seed: a 64-bit signed integer, as every seed of the project.
+MAX_SEED = 2**63 - 1
 
 
 def block_rng(seed, k):

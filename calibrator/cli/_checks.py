@@ -18,13 +18,206 @@ Use::
 
 ``None`` (an optional option left out) always passes. Files are checked
 elsewhere: inputs by their loaders, outputs by :mod:`calibrator.outputs`.
+
+Budgets: every option that allocates or waits has an upper bound, so a typo
+(``--trials 1000000000000``) is refused in one line instead of hanging or
+running out of memory. The bounds are in :data:`BUDGETS` (what each costs
+is measured in ``benchmarks/``); use them through :func:`count`,
+:func:`seconds`, :func:`cores` and :func:`point_mm`::
+
+    trials: int = typer.Option(20000, callback=checks.count("trials"), help="...")
+    workers: int = typer.Option(None, callback=checks.cores(), help="...")
+    settle: float = typer.Option(0.5, callback=checks.seconds("settle"), help="...")
+    tool: str = typer.Option("0,0,100", callback=checks.point_mm("tool"), help="...")
+    seed: int = typer.Option(0, callback=checks.seed(), help="...")
+
+A budget over several options (poses times samples) is checked in the
+command with :func:`calibrator.strict.check_budget`.
 """
 
 import math
+import os
 
 import typer
 
-__all__ = ["at_least", "finite", "fraction", "one_line"]
+from calibrator import strict
+
+__all__ = [
+    "BUDGETS",
+    "MAX_SEED",
+    "at_least",
+    "cores",
+    "count",
+    "finite",
+    "fraction",
+    "one_line",
+    "plan_work",
+    "point_mm",
+    "seconds",
+    "seed",
+]
+
+#: Upper bound of each budgeted option: (limit, unit). Sizes are what a
+#: calibration cell can use (measuring 2,000 poses takes hours; identify takes
+#: at most 50,000); times are what a user would rather be told about than wait.
+BUDGETS: dict[str, tuple[float, str]] = {
+    # plan: greedy D-optimal selection costs poses x candidates (30 from
+    # 100,000 candidates: 20 s, 450 MB).
+    "plan_poses": (2_000, "poses"),
+    "candidates": (200_000, "candidates"),
+    "plan_work": (2e7, "poses x candidates"),
+    # identify: the swarm holds particles x parameters and one cost per generation;
+    # 2,000 generations of 20 particles take seconds, 100,000 of 1,000 hours.
+    "particles": (1_000, "particles"),
+    "generations": (100_000, "generations"),
+    # simulate: as many poses as identify takes.
+    "simulate_poses": (50_000, "poses"),
+    # analyze misalignment: about 100,000 trials/s on one core.
+    "trials": (100_000_000, "trials"),
+    "sweep_work": (100_000_000, "trials x cases"),
+    "sweep_values": (100, "values"),
+    # analyze tolerance: about 380 bytes per pose x sample (1,000 x 20,000: 7.6 GB).
+    "tolerance_poses": (10_000, "poses"),
+    "samples": (100_000, "samples"),
+    "tolerance_work": (2_000_000, "poses x samples"),
+    # measure (the lead wires these): readings per pose, seconds of settling.
+    "readings": (1_000, "readings"),
+    "settle": (60.0, "s"),
+    "retries": (100, "retries"),
+    # simulate: noise and offsets a simulated cell can have (beyond them the
+    # session is nonsense that identify refuses later).
+    "noise_mm": (100.0, "mm"),
+    "noise_deg": (10.0, "deg"),
+    "noise_rad": (0.1, "rad"),
+    # Points in a robot cell, mm: a tool on the flange, a tracker in the room.
+    "tool": (2_000.0, "mm"),
+    "tracker_at": (100_000.0, "mm"),
+}
+#: Largest seed: a JSON-safe 64-bit integer (seeds are written into results).
+MAX_SEED = strict.MAX_INT
+
+
+def count(budget: str, minimum: int = 1):
+    """Callback for a whole number in ``[minimum, BUDGETS[budget]]``.
+
+    Parameters
+    ----------
+    budget : str
+        Key of :data:`BUDGETS`.
+    minimum : int
+    """
+    limit, unit = BUDGETS[budget]
+
+    def check(value: int | None) -> int | None:
+        if value is None:
+            return value
+        if value < minimum:
+            raise typer.BadParameter(f"must be a whole number >= {minimum}, got {value}")
+        _within(value, limit, unit)
+        return value
+
+    return check
+
+
+def seconds(budget: str):
+    """Callback for a time in seconds: finite, >= 0, at most ``BUDGETS[budget]``."""
+    limit, unit = BUDGETS[budget]
+    base = finite(minimum=0.0)
+
+    def check(value: float | None):
+        value = base(value)
+        if value is not None:
+            _within(value, limit, unit)
+        return value
+
+    return check
+
+
+def cores():
+    """Callback for a number of worker processes: 1 up to this machine's cores."""
+
+    def check(value: int | None) -> int | None:
+        if value is None:
+            return value
+        if value < 1:
+            raise typer.BadParameter(f"must be a whole number >= 1, got {value}")
+        limit = os.cpu_count() or 1
+        if value > limit:
+            raise typer.BadParameter(f"must be at most {limit} (this machine's cores), got {value}")
+        return value
+
+    return check
+
+
+def seed():
+    """Callback for a random seed: a whole number in [0, 2**63 - 1]."""
+
+    def check(value: int | None) -> int | None:
+        if value is not None and not 0 <= value <= MAX_SEED:
+            raise typer.BadParameter(f"must be a whole number >= 0 and <= 2**63 - 1, got {value}")
+        return value
+
+    return check
+
+
+def point_mm(budget: str):
+    """Callback for ``X,Y,Z`` in mm: three numbers of the strict grammar, each within the budget.
+
+    Returns the text unchanged (the command parses it); refuses ``0,0,1e308``,
+    ``nan``, ``0_5`` and anything but three numbers.
+    """
+    limit, unit = BUDGETS[budget]
+
+    def check(value: str | None) -> str | None:
+        if value is None:
+            return value
+        parts = str(value).split(",")
+        if len(parts) != 3:
+            raise typer.BadParameter(f"needs X,Y,Z (three numbers, mm), got {value!r}")
+        try:
+            numbers = [strict.parse_number(p, "coordinate") for p in parts]
+        except strict.StrictError as exc:
+            raise typer.BadParameter(str(exc).removeprefix("coordinate: ")) from None
+        for v in numbers:
+            if abs(v) > limit:
+                raise typer.BadParameter(
+                    f"{v:g} {unit} is beyond +-{limit:g} {unit} (not a point in a robot cell)"
+                )
+        return value
+
+    return check
+
+
+def plan_work(poses: int, candidates: int | None, selection: str) -> None:
+    """Refuse a sampled plan whose candidates or selection work exceed their budgets.
+
+    Parameters
+    ----------
+    poses : int
+        ``--poses``.
+    candidates : int or None
+        ``--candidates``; None for the default ``max(60 poses, 2000)``.
+    selection : str
+        ``--selection``: only ``d-optimal`` costs poses x candidates.
+
+    Raises
+    ------
+    calibrator.strict.StrictError
+    """
+    n = max(60 * poses, 2000) if candidates is None else candidates
+    what = "--candidates" if candidates is not None else f"--candidates (default for {poses} poses)"
+    strict.check_budget(what, n, *BUDGETS["candidates"])
+    if selection == "d-optimal":
+        strict.check_budget(
+            "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
+        )
+
+
+def _within(value: float, limit: float, unit: str) -> None:
+    try:
+        strict.check_budget("", value, limit, unit)
+    except strict.StrictError as exc:
+        raise typer.BadParameter(str(exc).removeprefix(": ")) from None
 
 
 def at_least(minimum):

@@ -23,14 +23,39 @@ class Distribution(StrEnum):
     normal = "normal"
 
 
-def _floats(text, what, n=None):
-    """Comma-separated numbers; one value is repeated to ``n`` when ``n`` is given."""
+#: Physical ranges of the study inputs: beyond them the Monte Carlo and the
+#: linear budget overflow into nan and inf (1e308 sweeps printed nan with exit 0).
+#: (low, high, unit); a bearing's radial clearance is microns to a millimetre,
+#: the distance between its end faces millimetres to a metre.
+RANGES = {
+    "length": (-1e5, 1e5, "mm"),  # as any MDH length (calibrator.consistency.MAX_MDH)
+    "r0": (0.0, 10.0, "mm"),
+    "h": (1.0, 10_000.0, "mm"),
+    "pose": (-360.0, 360.0, "deg"),
+    "length_tol": (0.0, 100.0, "mm"),
+    "angle_tol": (0.0, 10.0, "deg"),
+}
+
+
+def _floats(text, what, n=None, bounds=None):
+    """Comma-separated numbers (strict grammar); one value is repeated to ``n`` when given.
+
+    ``bounds`` is a key of :data:`RANGES` every value must lie in.
+    """
+    from calibrator import strict
+
+    parts = [v for v in str(text).split(",") if v.strip()]
     try:
-        values = [float(v) for v in str(text).split(",") if v.strip()]
-    except ValueError:
-        raise CalibrationError(f"{what} must be comma-separated numbers, got {text!r}") from None
-    if not values or not all(v == v and abs(v) != float("inf") for v in values):
-        raise CalibrationError(f"{what} must be finite numbers, got {text!r}")
+        values = [strict.parse_number(v, what) for v in parts]
+    except strict.StrictError as exc:
+        reason = str(exc).removeprefix(f"{what}: ")
+        raise CalibrationError(
+            f"{what} must be comma-separated numbers, got {text!r} ({reason})"
+        ) from None
+    if not values:
+        raise CalibrationError(f"{what} must be comma-separated numbers, got {text!r}")
+    if bounds is not None:
+        _in_range(values, what, bounds)
     if n is not None:
         if len(values) == 1:
             values = values * n
@@ -39,12 +64,40 @@ def _floats(text, what, n=None):
     return values
 
 
-def _assignment(text, what):
+def _in_range(values, what, key):
+    """Refuse a value outside ``RANGES[key]``, naming it with its unit."""
+    low, high, unit = RANGES[key]
+    bad = [v for v in values if not low <= v <= high]
+    if bad:
+        raise CalibrationError(f"{what}: {bad[0]:g} {unit} is outside [{low:g}, {high:g}] {unit}")
+
+
+def _finite_result(value, what):
+    """Fail loudly rather than print nan or inf: every number of a result must be finite."""
+    import numpy as np
+
+    def numbers(v):
+        if isinstance(v, dict):
+            for x in v.values():
+                yield from numbers(x)
+        elif isinstance(v, list | tuple | np.ndarray):
+            for x in v:
+                yield from numbers(x)
+        elif isinstance(v, int | float | np.number) and not isinstance(v, bool):
+            yield float(v)
+
+    if not all(np.isfinite(x) for x in numbers(value)):
+        raise CalibrationError(
+            f"the {what} gave non-finite numbers: the inputs are beyond what it can compute"
+        )
+
+
+def _assignment(text, what, bounds=None):
     """``NAME=VALUE[,VALUE...]`` -> (name, [values])."""
     name, sep, values = str(text).partition("=")
     if not sep or not name.strip():
         raise CalibrationError(f"{what} must look like NAME=VALUE, got {text!r}")
-    return name.strip(), _floats(values, f"{what} {name.strip()}")
+    return name.strip(), _floats(values, f"{what} {name.strip()}", bounds=bounds)
 
 
 _HEADER = f"{'case':24s} {'PDF peak':>9s} {'CDF 50%':>9s} {'CDF 90%':>9s} {'CDF 98%':>9s} "
@@ -70,8 +123,10 @@ def misalignment(
     h: str = typer.Option(
         None, "--h", help="End-face distance h (mm), one value or six [default: 267, see docs]."
     ),
-    trials: int = typer.Option(20000, callback=checks.at_least(1), help="Monte Carlo trials."),
-    seed: int = typer.Option(0, help="Seed; results depend only on seed and trials."),
+    trials: int = typer.Option(20000, callback=checks.count("trials"), help="Monte Carlo trials."),
+    seed: int = typer.Option(
+        0, callback=checks.seed(), help="Seed; results depend only on seed and trials."
+    ),
     sweep_r0: str = typer.Option(None, help="Also run with every joint's R0 at each value (mm)."),
     sweep_length: str = typer.Option(
         None, help="Also run with one link length at each value, e.g. d3=800,1000,1200 (mm)."
@@ -81,10 +136,14 @@ def misalignment(
     ),
     json_out: Path = typer.Option(None, "--json", help="Write all statistics to this JSON file."),
     chunk: int = typer.Option(
-        None, callback=checks.at_least(1), help="Trials per chunk (rounded to blocks of 10,000)."
+        None,
+        callback=checks.count("trials"),
+        help="Trials per chunk (rounded to blocks of 10,000).",
     ),
     workers: int = typer.Option(
-        None, callback=checks.at_least(1), help="Run on a Dask LocalCluster of N worker processes."
+        None,
+        callback=checks.cores(),
+        help="Run on a Dask LocalCluster of N worker processes (at most this machine's cores).",
     ),
     scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
@@ -92,7 +151,7 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress
+    from calibrator import outputs, progress, strict
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
 
@@ -102,15 +161,18 @@ def misalignment(
         outputs.check(json_out)
     if plots is not None:
         outputs.check_folder(plots)
-    pose_deg = None if pose is None else _floats(pose, "--pose", 6)
-    r0_mm = np.array(_floats(r0, "--r0", 6))
-    h_mm = np.array(_floats(h, "--h", 6) if h is not None else [mc.PAPER_H_MM] * 6)
+    pose_deg = None if pose is None else _floats(pose, "--pose", 6, "pose")
+    r0_mm = np.array(_floats(r0, "--r0", 6, "r0"))
+    h_mm = np.array(_floats(h, "--h", 6, "h") if h is not None else [mc.PAPER_H_MM] * 6)
     cases = [("base", {}, r0_mm)]
     if sweep_r0 is not None:
-        cases += [(f"R0={v:g}", {}, np.full(6, v)) for v in _floats(sweep_r0, "--sweep-r0")]
+        sweep = _floats(sweep_r0, "--sweep-r0", bounds="r0")
+        cases += [(f"R0={v:g}", {}, np.full(6, v)) for v in sweep]
     if sweep_length is not None:
-        name, values = _assignment(sweep_length, "--sweep-length")
+        name, values = _assignment(sweep_length, "--sweep-length", "length")
         cases += [(f"{name}={v:g}", {name: v}, r0_mm) for v in values]
+    strict.check_budget("sweep values", len(cases) - 1, *checks.BUDGETS["sweep_values"])
+    strict.check_budget("--trials x cases", trials * len(cases), *checks.BUDGETS["sweep_work"])
     # Build every arm and study first: a bad option fails before any work.
     studies = [
         (label, mc.Study(arm.build(model, pose_deg, lengths), r, h_mm, trials, seed))
@@ -134,6 +196,7 @@ def misalignment(
                 progress=lambda done, _total, task=task: task.update(done),
             )
         stats = mc.statistics(summary, grid)
+        _finite_result(stats, f"misalignment study {label}")
         results.append((label, study, summary, grid, stats))
         typer.echo(_row(label, stats))
     base = results[0][4]
@@ -204,16 +267,18 @@ def tolerance(
         "parameter's tolerance is 3 x its standard error (normal) unless set with --tol.",
     ),
     length_tol: float = typer.Option(
-        0.05, callback=checks.finite(minimum=0.0), help="Tolerance of every a and d (+- mm)."
+        0.05,
+        callback=checks.finite(*RANGES["length_tol"][:2]),
+        help="Tolerance of every a and d (+- mm).",
     ),
     angle_tol: float = typer.Option(
         0.01,
-        callback=checks.finite(minimum=0.0),
+        callback=checks.finite(*RANGES["angle_tol"][:2]),
         help="Tolerance of every alpha, theta, beta (+- deg).",
     ),
     joint_tol: float = typer.Option(
         0.01,
-        callback=checks.finite(minimum=0.0),
+        callback=checks.finite(*RANGES["angle_tol"][:2]),
         help="Tolerance of every joint coordinate (+- deg).",
     ),
     tol: list[str] = typer.Option(
@@ -224,12 +289,14 @@ def tolerance(
     ),
     pose: str = typer.Option(None, help="One pose, six joint angles (deg) [default: random]."),
     poses: int = typer.Option(
-        100, callback=checks.at_least(1), help="Random poses within the joint limits."
+        100, callback=checks.count("tolerance_poses"), help="Random poses within the joint limits."
     ),
     samples: int = typer.Option(
-        2000, callback=checks.at_least(1), help="Deviation sets for the nonlinear check."
+        2000, callback=checks.count("samples"), help="Deviation sets for the nonlinear check."
     ),
-    seed: int = typer.Option(0, help="Seed of the random poses and of the nonlinear draws."),
+    seed: int = typer.Option(
+        0, callback=checks.seed(), help="Seed of the random poses and of the nonlinear draws."
+    ),
     top: int = typer.Option(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),
@@ -238,8 +305,11 @@ def tolerance(
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models, outputs
+    from calibrator import models, outputs, strict
     from calibrator.analysis import tolerance as tl
+
+    n_poses = 1 if pose is not None else poses
+    strict.check_budget("--poses x --samples", n_poses * samples, *checks.BUDGETS["tolerance_work"])
 
     if (model is None) == (calibration is None):
         raise CalibrationError("give exactly one of --model and --calibration")
@@ -259,6 +329,7 @@ def tolerance(
         name, values = _assignment(item, "--tol")
         if len(values) != 1:
             raise CalibrationError(f"--tol {name} takes one value, got {len(values)}")
+        _in_range(values, f"--tol {name}", "length_tol" if tl.is_length(name) else "angle_tol")
         overrides[name] = values[0] if tl.is_length(name) else np.radians(values[0])
     # Which entries an arm has is the design's: an identified table is parallel only nearly.
     design = loaded.nominal_mdh if calibration is not None else nominal
@@ -283,12 +354,13 @@ def tolerance(
                 t[tl.NAMES.index(name)] = value
             tols = tl.Tolerances(t, tols.distribution)
     if pose is not None:
-        q = np.radians([_floats(pose, "--pose", 6)])
+        q = np.radians([_floats(pose, "--pose", 6, "pose")])
     else:
         lim = np.tile([-np.pi, np.pi], (6, 1)) if limits is None else limits
         lo, hi = np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi)
         q = np.random.default_rng(seed).uniform(lo, hi, (poses, 6))
     result = tl.budget(nominal, q, tols, samples=samples, seed=seed, structure=design)
+    _finite_result(result, "tolerance budget")
     nl = result["nonlinear"]
     typer.echo(f"nominal: {source}; {len(q)} poses; {tols.distribution} deviations")
     if from_errors is not None:

@@ -44,10 +44,10 @@ def identify(
         "minimax: smallest worst-pose error.",
     ),
     particles: int = typer.Option(
-        20, callback=checks.at_least(2), help="Swarm size (particles, >= 2)."
+        20, callback=checks.count("particles", 2), help="Swarm size (particles, >= 2)."
     ),
     generations: int = typer.Option(
-        2000, callback=checks.at_least(0), help="Swarm generations (>= 0)."
+        2000, callback=checks.count("generations", 0), help="Swarm generations (>= 0)."
     ),
     orientation_weight: float = typer.Option(
         None,
@@ -64,7 +64,7 @@ def identify(
         help="Share of poses held out for checking, in [0, 1) (0 = fit all).",
     ),
     seed: int = typer.Option(
-        0, callback=checks.at_least(0), help="Random seed of the hold-out split and the swarm."
+        0, callback=checks.seed(), help="Random seed of the hold-out split and the swarm."
     ),
     noise_mm: float = typer.Option(
         0.05,

@@ -26,9 +26,11 @@ class Selection(StrEnum):
 def plan(
     output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
     model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics)."),
-    poses: int = typer.Option(30, callback=checks.at_least(1), help="Poses in the plan."),
+    poses: int = typer.Option(30, callback=checks.count("plan_poses"), help="Poses in the plan."),
     candidates: int = typer.Option(
-        None, callback=checks.at_least(1), help="Sampled candidates [default: max(60 N, 2000)]."
+        None,
+        callback=checks.count("candidates"),
+        help="Sampled candidates [default: max(60 N, 2000)].",
     ),
     sampling: Sampling = typer.Option(Sampling.halton, help="How candidates are sampled."),
     joints: Path = typer.Option(
@@ -41,7 +43,9 @@ def plan(
         5.0, callback=checks.finite(minimum=0.0), help="Stay this far inside joint limits, deg."
     ),
     tracker_at: str = typer.Option(
-        None, help="Tracker position X,Y,Z in the robot base frame, mm (acceptance check)."
+        None,
+        callback=checks.point_mm("tracker_at"),
+        help="Tracker position X,Y,Z in the robot base frame, mm (acceptance check).",
     ),
     acceptance_deg: float = typer.Option(
         30.0, callback=checks.finite(0.0, 90.0), help="Reflector acceptance half-angle, deg."
@@ -49,9 +53,13 @@ def plan(
     floor_mm: float = typer.Option(
         0.0, callback=checks.finite(), help="Lowest z of tool and wrist in the base frame, mm."
     ),
-    tool: str = typer.Option("0,0,100", help="Reflector position on the flange X,Y,Z, mm."),
+    tool: str = typer.Option(
+        "0,0,100",
+        callback=checks.point_mm("tool"),
+        help="Reflector position on the flange X,Y,Z, mm.",
+    ),
     seed: int = typer.Option(
-        0, callback=checks.at_least(0), help="Seed of the random sampling and selection."
+        0, callback=checks.seed(), help="Seed of the random sampling and selection."
     ),
 ):
     """Write a plan of joint configurations inside limits, facing the tracker, above the floor."""
@@ -62,6 +70,8 @@ def plan(
     from calibrator.cli.measure import _triple
     from calibrator.models import get_model
 
+    if joints is None:
+        checks.plan_work(poses, candidates, selection.value)
     inputs = [] if joints is None else [joints]
     outputs.check(output, inputs=inputs)
     robot = get_model(model)

@@ -25,7 +25,7 @@ def report(
     ),
 ):
     """Write the calibration report: PNG plots and one self-contained HTML page."""
-    from calibrator import calibration, outputs, session
+    from calibrator import calibration, consistency, outputs, session
     from calibrator.report import verify_section, write
 
     verify_paths = list(verify_paths or [])
@@ -33,6 +33,8 @@ def report(
     outputs.check_folder(output, inputs=[calibration_path, session_path, *extra])
     cal = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
+    if loaded is not None:
+        consistency.check_session_matches(cal, loaded.meta, str(session_path))
     runs = verify_section.load(verify_paths)
     batch = outputs.Outputs(inputs=[calibration_path, session_path, *extra])
     with batch:

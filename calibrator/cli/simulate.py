@@ -37,18 +37,26 @@ def simulate(
         help="Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
     model: str = typer.Option("er10l-c10", help="Named nominal model."),
-    poses: int = typer.Option(32, callback=checks.at_least(1), help="Number of poses (>= 1)."),
-    seed: int = typer.Option(3, callback=checks.at_least(0), help="Seed of every random draw."),
+    poses: int = typer.Option(
+        32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
+    ),
+    seed: int = typer.Option(3, callback=checks.seed(), help="Seed of every random draw."),
     frame: Frame = typer.Option(Frame.base, help="Frame of the recorded points."),
     orientation: bool = typer.Option(True, help="Record probe orientation (6-DoF probe)."),
     noise_mm: float = typer.Option(
-        0.02, callback=checks.finite(minimum=0.0), help="RMS 3-D error of a recorded point (mm)."
+        0.02,
+        callback=checks.finite(0.0, checks.BUDGETS["noise_mm"][0]),
+        help="RMS 3-D error of a recorded point (mm).",
     ),
     orientation_noise_deg: float = typer.Option(
-        0.005, callback=checks.finite(minimum=0.0), help="RMS orientation error (deg)."
+        0.005,
+        callback=checks.finite(0.0, checks.BUDGETS["noise_deg"][0]),
+        help="RMS orientation error (deg).",
     ),
     joint_noise_rad: float = typer.Option(
-        0.0, callback=checks.finite(minimum=0.0), help="Encoder noise per joint (rad)."
+        0.0,
+        callback=checks.finite(0.0, checks.BUDGETS["noise_rad"][0]),
+        help="Encoder noise per joint (rad).",
     ),
     errors: str = typer.Option(
         None,
@@ -58,7 +66,9 @@ def simulate(
         "or none [default: ref003 for er10l-c10, else random].",
     ),
     tool_offset_mm: float = typer.Option(
-        0.0, callback=checks.finite(minimum=0.0), help="Unknown tool offset (mm); 0 = tool known."
+        0.0,
+        callback=checks.finite(0.0, checks.BUDGETS["tool"][0]),
+        help="Unknown tool offset (mm); 0 = tool known.",
     ),
 ):
     """Write a session measured on a simulated arm, and its truth beside it."""

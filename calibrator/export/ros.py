@@ -21,13 +21,15 @@ import math
 
 import numpy as np
 
-from calibrator import chains, kinematics
+from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
 
 JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 _M = 1000.0
+#: Refuse kinematics YAML files larger than this: one is about a kilobyte.
+MAX_BYTES = 2**20
 
 
 def origins(mdh):
@@ -111,13 +113,7 @@ def read(path):
     ------
     CalibrationError
     """
-    import yaml
-
-    try:
-        with open(path, encoding="utf-8") as fh:
-            doc = yaml.safe_load(fh)
-    except (yaml.YAMLError, UnicodeDecodeError, RecursionError) as exc:
-        raise CalibrationError(f"{path}: not YAML ({str(exc).splitlines()[0]})") from None
+    doc = strict.load_yaml(strict.read_text(path, MAX_BYTES, "YAML"), str(path))
     kin = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(kin, dict) or not all(isinstance(kin.get(j), dict) for j in JOINTS):
         raise CalibrationError(f"{path}: no 'kinematics' with the joints {', '.join(JOINTS)}")

@@ -22,12 +22,11 @@ File layout (an INI text, the ``[mounting]`` section as on the controller)::
 """
 
 import configparser
-import json
 import math
 
 import numpy as np
 
-from calibrator import chains, kinematics
+from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
 from calibrator.models import MODEL_NAMES, get_model
@@ -40,6 +39,8 @@ KEYS = (
     ("delta_alpha", kinematics.ALPHA),
 )
 _M = 1000.0  # mm per metre
+#: Refuse UR calibration files larger than this: one is a few hundred bytes.
+MAX_BYTES = 2**20
 _ANGLES = (kinematics.THETA, kinematics.ALPHA)
 
 
@@ -141,11 +142,11 @@ def read(path, model=None):
     CalibrationError
         One line naming what is wrong.
     """
-    parser = configparser.ConfigParser()
+    # No interpolation: a '%' in a value is text, not a configparser reference.
+    parser = configparser.ConfigParser(interpolation=None)
     try:
-        with open(path, encoding="utf-8") as fh:
-            parser.read_file(fh)
-    except (configparser.Error, UnicodeDecodeError) as exc:
+        parser.read_string(strict.read_text(path, MAX_BYTES, "a UR calibration file"), str(path))
+    except configparser.Error as exc:
         raise CalibrationError(
             f"{path}: not a UR calibration file ({str(exc).splitlines()[0]})"
         ) from None
@@ -161,9 +162,9 @@ def read(path, model=None):
         if raw is None:
             raise CalibrationError(f"{path}: [mounting] has no {key}")
         try:
-            values = json.loads(raw)
-        except ValueError:
-            values = None
+            values = strict.load_json(raw, f"{path}: {key}")
+        except strict.StrictError:
+            values = None  # NaN, 1e400, an integer beyond 64 bits: all refused below
         if (
             not isinstance(values, list)
             or len(values) != 6

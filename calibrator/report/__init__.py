@@ -102,6 +102,7 @@ def write(
     if Path(folder).is_dir():
         for name in FILES:
             outputs.check(Path(folder) / name, batch.inputs)
+        _refuse_existing_page(Path(folder))
     content = data.collect(cal, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
@@ -121,3 +122,12 @@ def write(
     if own:
         batch.commit()
     return written
+
+
+def _refuse_existing_page(folder):
+    """A page already in the folder the user named is theirs: never replaced."""
+    from calibrator.outputs import OutputError
+
+    page = folder / "index.html"
+    if page.exists() or page.is_symlink():
+        raise OutputError(f"{page} already exists; remove it or name another folder with -o")

@@ -98,7 +98,7 @@ def test_plan_cli_writes_a_plan_measure_then_uses(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("plan", "--tracker-at", "1,2"), "--tracker-at needs X,Y,Z"),
+        (("plan", "--tracker-at", "1,2"), "--tracker-at: needs X,Y,Z"),
         (("plan", "-o", "nodir/p.csv"), "folder nodir does not exist"),
         (("plan", "--from", "missing.csv"), "cannot read plan missing.csv"),
         (("measure", "--plan", "bad.csv"), "plan row 1 joint 3"),
@@ -109,8 +109,11 @@ def test_plan_cli_writes_a_plan_measure_then_uses(tmp_path):
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path, args, message):
-    plans.write_csv(tmp_path / "bad.csv", np.array([[0.0] * 6, [0, 0, 4.0, 0, 0, 0]] * 5))
-    plans.write_csv(tmp_path / "short.csv", np.zeros((3, 6)))
+    # Distinct poses (a repeated pose is refused by the reader before anything else).
+    steps = 0.01 * np.arange(10)[:, None]
+    bad = np.array([[0.0] * 6, [0, 0, 4.0, 0, 0, 0]] * 5) + steps * [1, 1, 0, 1, 1, 1]
+    plans.write_csv(tmp_path / "bad.csv", bad)
+    plans.write_csv(tmp_path / "short.csv", 0.01 * np.arange(18.0).reshape(3, 6))
     done = run_cli(*args, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and done.stderr.count("\n") == 1, done.stderr

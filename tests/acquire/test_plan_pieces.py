@@ -164,10 +164,22 @@ def test_a_plan_in_degrees_is_read_in_radians(tmp_path):
         ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad\n1,2,3,4,5\n", "needs columns q1_rad,q2_rad,"),
         ("", "needs columns q1_rad,.*,q6_rad \\(or q1_deg..q6_deg\\)$"),
         ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n", ": the plan has no poses$"),
-        ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5,x\n", ": non-numeric joint angle$"),
-        ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5\n", ": non-numeric joint angle$"),
-        ("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5,nan\n", ": NaN or infinite joint"),
-        ("q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,2,3,4,5,-inf\n", ": NaN or infinite joint"),
+        (
+            "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5,x\n",
+            "line 2, q6_rad: 'x' is not a decimal number$",
+        ),
+        (
+            "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5\n",
+            "line 2, q6_rad: '' is not a decimal number$",
+        ),
+        (
+            "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n1,2,3,4,5,nan\n",
+            "line 2, q6_rad: 'nan' is not a decimal",
+        ),
+        (
+            "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,2,3,4,5,-inf\n",
+            "line 2, q6_deg: '-inf' is not a decimal",
+        ),
     ],
 )
 def test_a_bad_plan_file_is_refused_naming_the_problem(tmp_path, text, message):

@@ -146,18 +146,32 @@ def test_printed_rows_are_the_json_statistics(tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--r0", "nan"], "--r0 must be finite numbers, got 'nan'"),
-        (["--r0", "0.05,inf"], "--r0 must be finite numbers, got '0.05,inf'"),
-        (["--r0", "-inf"], "--r0 must be finite numbers, got '-inf'"),
-        (["--sweep-r0", " , "], "--sweep-r0 must be finite numbers, got ' , '"),
+        (
+            ["--r0", "nan"],
+            "--r0 must be comma-separated numbers, got 'nan' ('nan' is not a decimal number)",
+        ),
+        (
+            ["--r0", "0.05,inf"],
+            "--r0 must be comma-separated numbers, got '0.05,inf' ('inf' is not a decimal number)",
+        ),
+        (
+            ["--r0", "-inf"],
+            "--r0 must be comma-separated numbers, got '-inf' ('-inf' is not a decimal number)",
+        ),
+        (["--sweep-r0", " , "], "--sweep-r0 must be comma-separated numbers, got ' , '"),
         (["--pose", "1,2,3"], "--pose needs 1 or 6 values, got 3"),
         (["--sweep-length", "d3"], "--sweep-length must look like NAME=VALUE, got 'd3'"),
         (["--sweep-length", "=800"], "--sweep-length must look like NAME=VALUE, got '=800'"),
         (
             ["--sweep-length", "d3=800=900"],
-            "--sweep-length d3 must be comma-separated numbers, got '800=900'",
+            "--sweep-length d3 must be comma-separated numbers, got '800=900' "
+            "('800=900' is not a decimal number)",
         ),
-        (["--sweep-length", "d3=nan"], "--sweep-length d3 must be finite numbers, got 'nan'"),
+        (
+            ["--sweep-length", "d3=nan"],
+            "--sweep-length d3 must be comma-separated numbers, got 'nan' "
+            "('nan' is not a decimal number)",
+        ),
     ],
 )
 def test_misalignment_option_refusals(args, message, tmp_path):
@@ -170,7 +184,10 @@ def test_misalignment_option_refusals(args, message, tmp_path):
     "args, message",
     [
         (["--tol", "a2"], "--tol must look like NAME=VALUE, got 'a2'"),
-        (["--tol", "a2=x"], "--tol a2 must be comma-separated numbers, got 'x'"),
+        (
+            ["--tol", "a2=x"],
+            "--tol a2 must be comma-separated numbers, got 'x' ('x' is not a decimal number)",
+        ),
         (["--tol", "a2=0.1,0.2"], "--tol a2 takes one value, got 2"),
         (["--pose", "0,0"], "--pose needs 1 or 6 values, got 2"),
     ],

@@ -70,7 +70,7 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
     "args, message",
     [
         (["misalignment", "--r0", "abc"], "--r0 must be comma-separated numbers"),
-        (["misalignment", "--h", "0"], "h must be finite and > 0"),
+        (["misalignment", "--h", "0"], "--h: 0 mm is outside [1, 10000] mm"),
         (["misalignment", "--r0", "1,2"], "--r0 needs 1 or 6 values"),
         (["misalignment", "--sweep-length", "x3=1"], "unknown link length 'x3'"),
         (["misalignment", "--plots", "no/such/dir"], "folder no/such does not exist"),
@@ -81,7 +81,10 @@ def test_tolerance_from_model_and_from_calibration_file(tmp_path):
         (["tolerance"], "exactly one of --model and --calibration"),
         (["tolerance", "--model", "ur5e", "--tol", "zz=1"], "unknown parameter 'zz'"),
         (["tolerance", "--model", "ur5e", "--tol", "a2=1,2"], "--tol a2 takes one value"),
-        (["tolerance", "--model", "ur5e", "--length-tol", "-1"], "--length-tol: must be >= 0"),
+        (
+            ["tolerance", "--model", "ur5e", "--length-tol", "-1"],
+            "--length-tol: must be in [0, 100], got -1.0",
+        ),
         (["tolerance", "--calibration", "missing.json"], "calibration file not found"),
     ],
 )

@@ -4,6 +4,8 @@ No Dask cluster here (worker processes per mutant would be far too slow);
 ``test_dask.py`` compares the cluster paths with this in-process one.
 """
 
+import os
+
 import numpy as np
 import pytest
 
@@ -106,7 +108,15 @@ def test_default_chunks_keep_the_workers_busy_but_stay_small(workers):
             {"workers": 2, "scheduler": "tcp://127.0.0.1:1"},
             "give --workers or --scheduler, not both",
         ),
-        ({"workers": 0}, "--workers must be >= 1, got 0"),
+        (
+            {"workers": 0},
+            f"--workers must be in [1, {os.cpu_count()}] (this machine's cores), got 0",
+        ),
+        (
+            {"workers": os.cpu_count() + 1},
+            f"--workers must be in [1, {os.cpu_count()}] (this machine's cores), "
+            f"got {os.cpu_count() + 1}",
+        ),
         ({"chunk_trials": 0}, "--chunk must be >= 1 trial, got 0"),
         ({"chunk_trials": -5}, "--chunk must be >= 1 trial, got -5"),
     ],

@@ -27,8 +27,15 @@ def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
         flange2tool=tool,
         model=model,
         free=free + ["tool_x"],
-        deltas={n: 0.0 for n in free + ["tool_x"]},
+        # MDH deltas as the table says (frame deltas: relative to identity first guesses).
+        deltas=_deltas(nominal, mdh, free + ["tool_x"]),
     )
+
+
+def _deltas(nominal, mdh, free):
+    """``{name: delta}`` of the free parameters as the MDH table gives them."""
+    space = parameters.ParameterSpace(nominal, free=tuple(free))
+    return dict(zip(space.free, space.pack(mdh), strict=True))
 
 
 def poses(n=100, seed=1):

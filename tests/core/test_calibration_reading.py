@@ -25,20 +25,23 @@ def good_cal():
     mdh = NOMINAL.copy()
     mdh[1, 0] += 0.25  # a2, free
     mdh[1, 4] = 0.001  # beta2, free
+    base2tracker = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0])
+    flange2tool = frames.transform(frames.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0])
+    base0 = frames.transform(None, [99.0, 0.0, 5.0])
+    tool0 = frames.transform(None, [0.0, 0.0, 90.0])
+    space = parameters.ParameterSpace(NOMINAL, base0, tool0, tuple(FREE + ["tool_x"]))
     return Calibration(
         nominal_mdh=NOMINAL,
         mdh=mdh,
-        base2tracker=frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0]),
-        flange2tool=frames.transform(frames.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0]),
+        base2tracker=base2tracker,
+        flange2tool=flange2tool,
         free=FREE + ["tool_x"],
-        deltas={
-            n: {"a2": 0.25, "beta2": 0.001, "tool_x": 1.0}.get(n, 0.0) for n in FREE + ["tool_x"]
-        },
+        deltas=dict(zip(space.free, space.pack(mdh, base2tracker, flange2tool), strict=True)),
         dropped=[{"name": "d2", "reason": "parallel axes"}],
         model="ur5e",
         frame="tracker",
-        base0=frames.transform(None, [99.0, 0.0, 5.0]),
-        tool0=frames.transform(None, [0.0, 0.0, 90.0]),
+        base0=base0,
+        tool0=tool0,
         session="s.parquet",
         provenance=Provenance(method="lm"),
         fit=FitReport(stats={"fit": [1.5, 2]}),
@@ -166,7 +169,7 @@ def test_not_json_is_refused(tmp_path, content):
 def test_nan_is_named(tmp_path):
     text = json.dumps(doc()).replace('"method": "lm"', '"method": -Infinity')
     message, path = refused(tmp_path, text)
-    assert message == f"{path}: -Infinity is not allowed (strict JSON)"
+    assert message == f"{path}: method: -Infinity is not allowed (strict JSON)"
 
 
 def edit(**changes):
@@ -261,8 +264,9 @@ def test_bad_documents_are_refused_naming_the_key(tmp_path, document, message):
 
 def test_numbers_up_to_a_trillion_are_sane(tmp_path):
     d = doc()
-    d["deltas"]["a2"] = -1e12
-    assert calibration.load(write(tmp_path, d)).deltas["a2"] == -1e12
+    d["deltas"]["a2"] = -1e12  # sane as a number; refused as not what the tables give
+    got, path = refused(tmp_path, d)
+    assert got.startswith(f"{path}: deltas.a2 is -1e+12 mm but mdh minus nominal_mdh gives")
     d["deltas"]["a2"] = 1e12 + 0.5
     got, path = refused(tmp_path, d)
     assert got == f"{path}: deltas.a2 is not a finite, sane number"
@@ -296,6 +300,7 @@ def test_free_parameters_stay_within_a_plausible_distance(
 ):
     d = doc()
     d["mdh"][row][calibration.kinematics.FIELDS[col]] = NOMINAL[row, col] + delta
+    d["deltas"][name] = delta  # consistent with the table
     if ok:
         assert calibration.load(write(tmp_path, d)).mdh[row, col] == NOMINAL[row, col] + delta
         return

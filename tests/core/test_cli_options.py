@@ -141,11 +141,11 @@ _NUMBERS = st.one_of(
     st.text(max_size=6),
 )
 _RULES = {
-    "--particles": lambda v: float(v) == int(float(v)) and int(float(v)) >= 2,
-    "--generations": lambda v: float(v) == int(float(v)) and int(float(v)) >= 0,
+    "--particles": lambda v: float(v) == int(float(v)) and 2 <= int(float(v)) <= 1_000,
+    "--generations": lambda v: float(v) == int(float(v)) and 0 <= int(float(v)) <= 100_000,
     "--orientation-weight": lambda v: math.isfinite(v) and v >= 0,
     "--validation-fraction": lambda v: math.isfinite(v) and 0 <= v < 1,
-    "--seed": lambda v: float(v) == int(float(v)) and int(float(v)) >= 0,
+    "--seed": lambda v: float(v) == int(float(v)) and 0 <= int(float(v)) <= 2**63 - 1,
 }
 
 
@@ -180,12 +180,12 @@ def test_fuzz_numeric_options(tmp_path, option, value):
 
 
 _SIMULATE_RULES = {
-    "--poses": lambda v: float(v) == int(float(v)) and int(float(v)) >= 1,
-    "--seed": lambda v: float(v) == int(float(v)) and int(float(v)) >= 0,
-    "--noise-mm": lambda v: math.isfinite(v) and v >= 0,
-    "--orientation-noise-deg": lambda v: math.isfinite(v) and v >= 0,
-    "--joint-noise-rad": lambda v: math.isfinite(v) and v >= 0,
-    "--tool-offset-mm": lambda v: math.isfinite(v) and v >= 0,
+    "--poses": lambda v: float(v) == int(float(v)) and 1 <= int(float(v)) <= 50_000,
+    "--seed": lambda v: float(v) == int(float(v)) and 0 <= int(float(v)) <= 2**63 - 1,
+    "--noise-mm": lambda v: math.isfinite(v) and 0 <= v <= 100,
+    "--orientation-noise-deg": lambda v: math.isfinite(v) and 0 <= v <= 10,
+    "--joint-noise-rad": lambda v: math.isfinite(v) and 0 <= v <= 0.1,
+    "--tool-offset-mm": lambda v: math.isfinite(v) and 0 <= v <= 2000,
 }
 
 

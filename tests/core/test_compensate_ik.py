@@ -26,13 +26,14 @@ def calibrated(seed=5, model="ur10e", tool_xy=(0.0, 0.0)):
     mdh = nominal + simulate.random_errors(nominal, rng, mm=1.0, rad=0.002)
     tool = frames.transform(None, [tool_xy[0], tool_xy[1], 100.0])
     free = parameters.structural_candidates(nominal, "base", True)[0]
+    space = parameters.ParameterSpace(nominal, free=tuple(free))
     return Calibration(
         nominal_mdh=nominal,
         mdh=mdh,
         flange2tool=tool,
         model=model,
         free=free,
-        deltas=dict.fromkeys(free, 0.0),
+        deltas=dict(zip(space.free, space.pack(mdh), strict=True)),
     )
 
 
@@ -267,16 +268,16 @@ def test_read_targets_gives_joints_and_poses(tmp_path):
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0,0,0,0,0,0\n0,0,x,0,0,0\n",
-            "columns q1_rad, q2_rad, q3_rad, q4_rad, q5_rad, q6_rad must be numbers",
+            "line 3, q3_rad: 'x' is not a decimal number",
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0,0,0,0,0,0\n0,0,0,0,0,0\n0,0,0,nan,0,0\n",
-            "NaN or infinite value in row 3",
+            "line 4, q4_rad: 'nan' is not a decimal number",
         ),
         (
             "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,x_mm,y_mm,z_mm,rx_rad,ry_rad,rz_rad\n"
             "0,0,0,0,0,0,1,2,3,0,0,0\n0,0,0,0,0,0,1,inf,3,0,0,0\n",
-            "NaN or infinite value in row 2",
+            "line 3, y_mm: 'inf' is not a decimal number",
         ),
         ("", "not a readable CSV (No columns to parse from file)"),
     ],

@@ -135,7 +135,19 @@ def test_report_command_and_a_session_that_does_not_match(identified, tmp_path):
     folder, doc, _ = identified
     (tmp_path / "c.json").write_text(json.dumps(doc))
     (tmp_path / "s.parquet").write_bytes((folder / "s.parquet").read_bytes())
-    assert cli("simulate", "-o", "other.parquet", "--poses", "12", cwd=tmp_path).code == 0
+    made = cli(
+        "simulate",
+        "-o",
+        "other.parquet",
+        "--poses",
+        "12",
+        "--model",
+        "ur10e",
+        "--frame",
+        "tracker",
+        cwd=tmp_path,
+    )
+    assert made.code == 0
     before = listing(tmp_path)
     line = one_line_error(cli("report", "c.json", "other.parquet", "-o", "rep", cwd=tmp_path))
     assert "other.parquet has 12 poses" in line

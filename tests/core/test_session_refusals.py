@@ -75,7 +75,7 @@ def floats(values):
         (lambda c, m: m.update(nominal_mdh=[[0.0] * 4] * 6),
          "metadata 'nominal_mdh' must be (6, 5), got (6, 4)"),
         (lambda c, m: m.update(nominal_mdh=[[float("nan")] * 5] * 6),
-         "metadata 'nominal_mdh' has NaN or infinite entries"),
+         "the 'calibrator' metadata: nominal_mdh[0][0]: NaN is not allowed (strict JSON)"),
         (lambda c, m: m.update(flange2tool=np.diag([1.0, 1, -1, 1]).tolist()),
          "flange2tool rotation part is not a proper rotation"),
         (lambda c, m: c.update(q0_rad=np.zeros(N), q9_rad=np.zeros(N)),

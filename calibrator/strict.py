@@ -1,0 +1,370 @@
+"""Strict reading of what users hand in: one number grammar, one JSON and one YAML loader, budgets.
+
+Every file reader of the project reads its numbers, JSON and YAML through
+here, so a quirk of one parser cannot turn into silently wrong data:
+
+- :func:`parse_number` accepts decimal numbers only
+  (``[+-]digits[.digits][e[+-]digits]``). Python's ``float()`` also takes
+  ``0_5`` (as 5.0), ``nan``, ``inf`` and ``infinity``; pandas and YAML 1.1
+  take hex, octal and ``1:30``. None of those is a joint angle or a length.
+- :func:`load_json` refuses duplicate keys (Python keeps the last one
+  silently), ``NaN``/``Infinity``, numbers that overflow to infinity
+  (``1e400``) and integers beyond 64 bits (``math.isfinite`` raises
+  ``OverflowError`` on an integer above about 1e308).
+- :func:`load_yaml` does the same for YAML: duplicate keys, ``.nan``/``.inf``,
+  hex/octal/sexagesimal/underscored numbers are refused, and a plain
+  ``1e-3`` reads as the number YAML 1.2 says it is (YAML 1.1 reads it as text).
+- :func:`check_budget` is the one size/time budget check: an option that
+  allocates or waits is refused above its limit before any work starts.
+
+Every refusal is a :class:`StrictError` (a
+:class:`~calibrator.errors.CalibrationError`): one line, exit code 2 at the CLI.
+
+Use::
+
+    from calibrator import strict
+
+    strict.parse_number("0.25")            # 0.25; "0_5", "0x1", "nan" raise
+    doc = strict.load_json(text, "calibration.json")
+    doc = strict.load_yaml(text, "kinematics.yaml")
+    strict.check_budget("--trials", 10**12, 10**9, "trials")
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibrator.errors import CalibrationError
+
+__all__ = [
+    "MAX_INT",
+    "StrictError",
+    "check_budget",
+    "load_json",
+    "load_yaml",
+    "parse_columns",
+    "parse_number",
+    "parse_numbers",
+    "read_text",
+]
+
+#: Largest integer magnitude a file may hold: int64 (seeds, counts, pose numbers).
+MAX_INT = 2**63 - 1
+#: The number grammar: optional sign, digits with an optional fraction (or a
+#: fraction alone), optional exponent. ASCII digits only (\\d would take any
+#: script's digits, as float() does). No underscores, no hex, no words.
+NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+#: Longest text read as one number (a double needs 17 significant digits).
+_MAX_NUMBER_CHARS = 64
+
+
+class StrictError(CalibrationError, ValueError):
+    """An input that does not follow the strict grammar or exceeds its budget."""
+
+
+def parse_number(text: str, what: str = "value") -> float:
+    """A finite float from text in the strict decimal grammar.
+
+    Parameters
+    ----------
+    text : str
+        Surrounding whitespace is ignored.
+    what : str
+        Named in the error (e.g. ``"plan.csv row 3, q2_rad"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    StrictError
+        Not a decimal number (``0_5``, ``0x10``, ``nan``, ``inf``, empty) or
+        too large for a double (``1e400``).
+    """
+    s = str(text).strip()
+    if len(s) > _MAX_NUMBER_CHARS or not NUMBER.fullmatch(s):
+        raise StrictError(f"{what}: {_shown(s)} is not a decimal number")
+    value = float(s)
+    if not math.isfinite(value):
+        raise StrictError(f"{what}: {_shown(s)} is too large for a number")
+    return value
+
+
+def parse_numbers(cells: Any, what: str = "value") -> np.ndarray:
+    """:func:`parse_number` over an array of texts, any shape, as float64."""
+    arr = np.asarray(cells, dtype=object)
+    out = np.empty(arr.shape, dtype=float)
+    for index, cell in np.ndenumerate(arr):
+        out[index] = parse_number("" if cell is None else cell, what)
+    return out
+
+
+def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
+    """The cells of a CSV's columns as floats, shape (N, len(names)).
+
+    Parameters
+    ----------
+    rows : sequence of sequences of str, shape (N, len(names))
+        The cells of the data rows, in file order (the header is line 1).
+    names : sequence of str
+        Column names, for the error.
+    what : str
+        The file, for the error.
+
+    Raises
+    ------
+    StrictError
+        Naming the file, the line and the column: ``p.csv: line 3, q1_rad:
+        '0_5' is not a decimal number``.
+    """
+    names = tuple(names)
+    out = np.empty((len(rows), len(names)), dtype=float)
+    for i, row in enumerate(rows):
+        for j, cell in enumerate(row):
+            out[i, j] = parse_number(
+                "" if cell is None else cell, f"{what}: line {i + 2}, {names[j]}"
+            )
+    return out
+
+
+def read_text(path: str | Path, max_bytes: int, what: str = "a text file") -> str:
+    """The UTF-8 text of a file no larger than ``max_bytes``.
+
+    ``what`` names the kind of file in the errors (``"a UR calibration file"``).
+
+    Raises
+    ------
+    StrictError
+        Missing, too large, not a file or not UTF-8.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise StrictError(f"{path}: no such file")
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise StrictError(f"{path}: {size} bytes is too large for {what} (at most {max_bytes})")
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise StrictError(f"{path}: not {what} (not UTF-8 text)") from None
+
+
+def load_json(text: str | bytes, where: str = "JSON") -> Any:
+    """Parse strict JSON.
+
+    Parameters
+    ----------
+    text : str or bytes
+    where : str
+        Named in the error (a path, or ``"the 'calibrator' metadata"``).
+
+    Returns
+    -------
+    The parsed value (dicts, lists, str, int, float, bool, None).
+
+    Raises
+    ------
+    StrictError
+        Not JSON, a duplicate key, ``NaN``/``Infinity``, a number that
+        overflows a double, an integer beyond 64 bits, nesting too deep.
+    """
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError:
+            raise StrictError(f"{where} is not JSON") from None
+    try:
+        doc = json.loads(
+            text,
+            object_pairs_hook=_unique_keys,
+            parse_constant=lambda name: _Bad(f"{name} is not allowed (strict JSON)"),
+            parse_float=_finite_float,
+            parse_int=_bounded_int,
+        )
+    except StrictError as exc:
+        raise StrictError(f"{where}: {exc}") from None
+    except RecursionError:
+        raise StrictError(f"{where} is not JSON") from None
+    except ValueError:  # JSONDecodeError, and int() beyond its digit limit
+        raise StrictError(f"{where} is not JSON") from None
+    found = _first_bad(doc)
+    if found is not None:
+        key, bad = found
+        raise StrictError(f"{where}: {key + ': ' if key else ''}{bad.reason}")
+    return doc
+
+
+class _Bad:
+    """A refused number, kept in place while parsing so the error can name its key."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+
+def _first_bad(value: Any, where: str = "") -> tuple[str, _Bad] | None:
+    """Key path and marker of the first refused number in a parsed document."""
+    if isinstance(value, _Bad):
+        return where, value
+    if isinstance(value, dict):
+        items: Any = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        path = f"{where}[{key}]" if isinstance(key, int) else (f"{where}.{key}" if where else key)
+        found = _first_bad(item, path)
+        if found is not None:
+            return found
+    return None
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise StrictError(f"key {key!r} appears more than once")
+        out[key] = value
+    return out
+
+
+def _finite_float(text: str) -> float | _Bad:
+    value = float(text)
+    if not math.isfinite(value):
+        return _Bad(f"{_shown(text)} is too large for a number")
+    return value
+
+
+def _bounded_int(text: str) -> int | _Bad:
+    # Count digits before int(): its cost grows with the square of their number.
+    if len(text.lstrip("+-")) > 19 or abs(int(text)) > MAX_INT:
+        return _Bad(f"the integer {_shown(text)} is beyond 64 bits")
+    return int(text)
+
+
+def _shown(text: str) -> str:
+    text = str(text)
+    return repr(text if len(text) <= 24 else text[:20] + "...")
+
+
+def load_yaml(text: str, where: str = "YAML") -> Any:
+    """Parse YAML (safe subset) with the strict number grammar and unique keys.
+
+    Numbers are what :data:`NUMBER` matches, in YAML 1.2 fashion (``1e-3`` is
+    a number); ``0x1F``, ``0o17``, ``1_000``, ``1:30``, ``.nan`` and ``.inf``
+    are refused, not silently converted.
+
+    Raises
+    ------
+    StrictError
+        Not YAML, a duplicate key, a number outside the grammar or too
+        large, nesting too deep.
+    """
+    import yaml  # type: ignore[import-untyped]
+
+    try:
+        return yaml.load(text, Loader=_strict_loader())  # noqa: S506 (a SafeLoader subclass)
+    except StrictError as exc:
+        raise StrictError(f"{where}: {exc}") from None
+    except RecursionError:
+        raise StrictError(f"{where} is not JSON (nested too deeply)") from None
+    except yaml.YAMLError as exc:
+        raise StrictError(f"{where}: not YAML ({str(exc).splitlines()[0]})") from None
+
+
+_LOADER = None
+
+
+def _strict_loader():
+    """A SafeLoader subclass, built once (PyYAML is imported only when needed)."""
+    global _LOADER
+    if _LOADER is not None:
+        return _LOADER
+    import yaml  # type: ignore[import-untyped]
+
+    class StrictLoader(yaml.SafeLoader):
+        pass
+
+    # Own copy of the resolver table: add_implicit_resolver would append to
+    # lists shared with SafeLoader.
+    StrictLoader.yaml_implicit_resolvers = {
+        ch: list(v) for ch, v in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+    StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", NUMBER, list("-+0123456789."))
+
+    def mapping(loader, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = loader.construct_object(key_node, deep=True)
+            try:
+                duplicate = key in seen
+            except TypeError:
+                continue  # an unhashable key: SafeLoader refuses it itself
+            if duplicate:
+                raise StrictError(
+                    f"key {key!r} appears more than once (line {key_node.start_mark.line + 1})"
+                )
+            seen.add(key)
+        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+    def integer(loader, node):
+        s = loader.construct_scalar(node)
+        # "017" is octal in YAML 1.1 and decimal in 1.2: ambiguous, so refused.
+        if not _INTEGER.fullmatch(s.strip()) or re.fullmatch(r"[+-]?0[0-9]+", s.strip()):
+            raise StrictError(
+                f"{_shown(s)} (line {node.start_mark.line + 1}) is not a decimal number"
+            )
+        value = _bounded_int(s.strip())
+        if isinstance(value, _Bad):
+            raise StrictError(f"line {node.start_mark.line + 1}: {value.reason}")
+        return value
+
+    def real(loader, node):
+        s = loader.construct_scalar(node)
+        return parse_number(s, f"line {node.start_mark.line + 1}")
+
+    StrictLoader.construct_mapping = mapping
+    StrictLoader.add_constructor("tag:yaml.org,2002:int", integer)
+    StrictLoader.add_constructor("tag:yaml.org,2002:float", real)
+    _LOADER = StrictLoader
+    return _LOADER
+
+
+def check_budget(what: str, value: float, limit: float, unit: str = "") -> None:
+    """Refuse a size or a time above its budget, before anything is allocated or waited for.
+
+    Parameters
+    ----------
+    what : str
+        The option or input (``"--trials"``).
+    value, limit : number
+        ``value`` must be <= ``limit`` (and not NaN).
+    unit : str
+        Unit of both, named in the error (``"trials"``, ``"s"``).
+
+    Raises
+    ------
+    StrictError
+        ``--trials: 1000000000000 trials is more than the limit of 1e+09 trials``.
+    """
+    if not value <= limit:
+        unit = f" {unit}" if unit else ""
+        raise StrictError(
+            f"{what}: {_amount(value)}{unit} is more than the limit of {_amount(limit)}{unit}"
+        )
+
+
+def _amount(value: float) -> str:
+    """A number for a message: whole numbers as digits (shortened), others with %g."""
+    if isinstance(value, int):
+        text = str(value) if abs(value) < 10**30 else f"about 1e{len(str(abs(value))) - 1}"
+        return text
+    return f"{value:g}"
