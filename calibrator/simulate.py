@@ -49,6 +49,64 @@ class Truth:
         }
 
 
+#: The simulated measuring cell: where the tracker stands in the robot base frame
+#: (mm) and how it is turned (rotation vector, rad); roughly what a user would measure.
+SIM_TRACKER_AT_MM = np.array([2500.0, 400.0, 300.0])
+SIM_TRACKER_ROTVEC = np.array([0.05, -0.1, 2.8])
+
+
+@dataclass(frozen=True)
+class SimWorld:
+    """The one simulated world behind ``measure --robot sim`` / ``--tracker sim`` (seeded).
+
+    The simulated robot moves this true arm, and the tracker simulator is
+    told where this arm's probe really is; nothing else holds a truth.
+
+    Attributes
+    ----------
+    model : calibrator.models.RobotModel
+        The nominal arm (what the session says it measured).
+    seed : int
+    true_mdh : ndarray, shape (6, 5)
+        Nominal plus hidden errors (+-0.5 mm, +-1 mrad), mm and rad.
+    base2tracker : ndarray, shape (4, 4)
+        Robot base in the tracker frame, mm.
+    flange2tool : ndarray, shape (4, 4)
+        The true tool: :data:`DEFAULT_TOOL_POINT` plus an unknown 1.5 mm error.
+    tracker_at_mm : ndarray, shape (3,)
+        The tracker's position in the robot base frame (plans use it).
+    """
+
+    model: object
+    seed: int
+    true_mdh: np.ndarray
+    base2tracker: np.ndarray
+    flange2tool: np.ndarray
+    tracker_at_mm: np.ndarray
+
+    @classmethod
+    def make(cls, model_name: str, seed: int) -> "SimWorld":
+        """The world of ``model_name`` (a named model) drawn from ``seed``."""
+        model = get_model(model_name)
+        rng = np.random.default_rng(seed)
+        true_mdh = model.mdh + random_errors(model.mdh, rng, mm=0.5, rad=1e-3)
+        offset = rng.standard_normal(3)
+        offset *= 1.5 / np.linalg.norm(offset)  # an unknown 1.5 mm error of the tool point
+        tool = frames.transform(translation=DEFAULT_TOOL_POINT + offset)
+        tracker2base = frames.transform(
+            frames.rotvec_to_matrix(SIM_TRACKER_ROTVEC), SIM_TRACKER_AT_MM
+        )
+        return cls(
+            model, seed, true_mdh, frames.invert(tracker2base), tool, SIM_TRACKER_AT_MM.copy()
+        )
+
+    def tool_pose(self, q_rad) -> np.ndarray:
+        """True probe pose in the tracker frame for joints ``q_rad`` (6,), shape (4, 4), mm."""
+        return kinematics.forward(
+            self.true_mdh, np.asarray(q_rad, float)[None], self.flange2tool, self.base2tracker
+        )[0]
+
+
 def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
     """MDH errors of the seed's size on the parameters an identification can see.
 

@@ -13,6 +13,7 @@ The dependency runs drivers -> calibrator (kinematics, models) only.
 
 import numpy as np
 
+from calibrator.acquire import ports
 from calibrator.kinematics import check_mdh, forward
 from calibrator.models import get_model
 from calibrator.simulate import random_errors
@@ -43,6 +44,8 @@ class SimulatedRobot(Robot):
         Called as ``listener(tool_pose)`` with :meth:`true_tool_pose` (4x4, mm,
         tracker frame) after every completed move.
     """
+
+    capabilities = frozenset({ports.REPORTS_TRUE_POSE})
 
     def __init__(
         self,

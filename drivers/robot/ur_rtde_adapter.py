@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from calibrator.acquire import ports
 from drivers.robot.errors import (
     ConnectionLost,
     DriverTimeout,
@@ -77,6 +78,8 @@ class UrRtdeRobot(Robot):
         Deadline of one control command (moveJ, stopJ, isSteady, ...), s; a
         command without an answer by then means the link is lost.
     """
+
+    capabilities = frozenset({ports.MOVES_HARDWARE})
 
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
     start_grace_s = 0.1
