@@ -39,6 +39,7 @@ from calibrator.acquire import rows
 from calibrator.acquire.averaging import measure_average
 from calibrator.acquire.ports import (
     SEARCH,
+    BadReading,
     BeamLost,
     ReadingLost,
     RobotHalted,
@@ -249,7 +250,7 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
         if last_lost is not None:
             _before_retry(pose, attempt, last_lost, tracker, options, state)
         try:
-            avg = measure_average(tracker, options.readings)
+            avg = _checked(measure_average(tracker, options.readings))
         except ReadingLost as exc:
             last_lost = exc
             lost.append(f"{type(exc).__name__}: {exc}")
@@ -260,6 +261,26 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
         state.last_point_mm = avg.mean_mm
         return rows.measured_record(pose, q, avg, attempt)
     return rows.failed_record(pose, "; ".join(lost), options.retries + 1, dict(causes))
+
+
+#: Largest coordinate or spread a reading may have, mm: no tracker reaches 1 km.
+MAX_COORD_MM = 1e6
+
+
+def _checked(avg):
+    """The averaged reading, or :class:`BadReading` if a number in it cannot be true.
+
+    Whatever a driver let through (NaN, inf, 1e300 from a well-formed packet)
+    is refused here, before it reaches the journal, as a lost reading.
+    """
+    values = [avg.mean_mm, avg.std_mm]
+    if avg.rotvec_mean_rad is not None:
+        values.append(avg.rotvec_mean_rad)
+    for value in values:
+        arr = np.asarray(value, dtype=float)
+        if not (np.all(np.isfinite(arr)) and np.all(np.abs(arr) <= MAX_COORD_MM)):
+            raise BadReading(f"reading with impossible numbers: {arr.tolist()}")
+    return avg
 
 
 def _before_retry(pose, attempt, exc, tracker, options, state: _State) -> None:

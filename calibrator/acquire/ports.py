@@ -38,6 +38,10 @@ class BeamLost(ReadingLost):
     """The beam is broken or not locked on the reflector: someone (or a search) must re-lock it."""
 
 
+class BadReading(ReadingLost):
+    """A reading whose numbers cannot be true (NaN, infinite, beyond any tracker's range)."""
+
+
 class TrackerUnavailable(PortError):
     """The tracker link is gone and the driver's own reconnects did not bring it back."""
 

@@ -227,7 +227,7 @@ def _report(summary, options) -> None:
     causes = f": {summary.causes_text()}" if summary.causes else ""
     failed = f"{len(summary.failed)} pose(s) failed{causes}"
     if summary.written is None:
-        what = summary.stopped or failed
+        what = "; ".join(x for x in (summary.stopped, failed if summary.failed else "") if x)
         typer.echo(
             f"calibrator: error: no pose measured, no session written: {what}; {resume_hint}",
             err=True,
