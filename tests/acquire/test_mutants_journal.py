@@ -377,3 +377,14 @@ def test_via_poses_are_moved_through_before_their_pose_and_never_measured():
     np.testing.assert_array_equal(moved, expected)
     assert out.measured == [0, 1, 2, 3] and tracker.calls == 4  # pose numbers are plan rows
     np.testing.assert_allclose(out.records[1]["q_rad"], PLAN[1] + 2e-6)
+
+
+def test_readings_with_impossible_numbers_are_lost_never_journalled():
+    answers = [[float("nan"), 0, 0], [1e300, 0, 0], [float("inf"), 0, 0], [1, 2, 3]]
+    journal = Journal()
+    out = loop.run(PLAN[:1], Arm(), Script(answers), journal, loop.LoopOptions(1, retries=3))
+    assert out.measured == [0] and out.records[0]["attempts"] == 4
+    assert journal.lines[0]["point_mm"] == [1.0, 2.0, 3.0]
+    out = loop.run(PLAN[:1], Arm(), Script([[float("nan"), 0, 0]] * 2), Journal(),
+                   loop.LoopOptions(1, retries=1))  # fmt: skip
+    assert out.failed == [0] and out.records[0]["causes"] == {"bad reading": 2}
