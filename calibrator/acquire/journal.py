@@ -211,10 +211,10 @@ def read(path, plan_rad=None, expect: dict | None = None) -> Resumed:
         if header is None:
             raise JournalError(f"{path}: line 1 (the header) is damaged: its CRC does not match")
     for key in IDENTITY_KEYS if expect is not None else ():
-        if header.get(key) != expect.get(key):
+        theirs, ours = header.get(key), expect.get(key)  # type: ignore[union-attr]
+        if theirs != ours:
             raise JournalError(
-                f"{path} belongs to another run: its {key} is "
-                f"{header.get(key)!r}, this run's is {expect.get(key)!r}"
+                f"{path} belongs to another run: its {key} is {theirs!r}, this run's is {ours!r}"
             )
     plan = None if plan_rad is None else np.asarray(plan_rad, dtype=float)
     check = _RecordCheck(header, plan)

@@ -47,7 +47,7 @@ def _connected(url: str):
 
 def _describe(state) -> str:
     """``key=value`` pairs of a tracker state (whatever fields its kind reports)."""
-    if dataclasses.is_dataclass(state):
+    if dataclasses.is_dataclass(state) and not isinstance(state, type):
         fields = dataclasses.asdict(state)
     else:
         fields = {"initialised": state.initialised}

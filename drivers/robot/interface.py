@@ -51,6 +51,8 @@ class Robot(ports.Robot):
     """
 
     capabilities: frozenset[str] = frozenset()
+    #: Who the arm is, for the journal (``open_robot`` sets it: ``ur://HOST:MODEL``).
+    device_id: str = ""
 
     def __enter__(self):
         self.connect()

@@ -75,9 +75,9 @@ class FakeUr:
         self.host = host
         self.ports = ports
         self.stopped = threading.Event()
-        self._conns = set()
+        self._conns: set[socket.socket] = set()
         self._conns_lock = threading.Lock()
-        self._listeners = []
+        self._listeners: list[socket.socket] = []
 
     # ------------------------------------------------------------ lifecycle
     def start(self):
