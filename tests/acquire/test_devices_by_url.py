@@ -352,3 +352,18 @@ def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_c
     np.testing.assert_allclose(table["x_mm"], 1000.0005, atol=1e-9)
     meta = pq.read_schema(out).metadata[b"calibrator"].decode()
     assert '"tracker": "fake:1"' in meta
+
+
+def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
+    from calibrator import simulate
+    from drivers.tracker.emscon.simulator import engine as emscon_engine
+    from drivers.tracker.simulator import NoiseModel, engine
+
+    assert NoiseModel is simulate.NoiseModel is engine.NoiseModel is emscon_engine.NoiseModel
+    # A synthetic session's transverse noise grows with range as the model's does.
+    point = np.array([[5000.0, 0.0, 0.0]])  # 5 m along x: y and z are transverse
+    readings = simulate.tracker_readings(point, 20000, 1e-9, np.random.default_rng(1))[0]
+    _, s_trans = simulate.TRACKER_NOISE.sigmas_mm(point[0])
+    growth = s_trans - simulate.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
+    np.testing.assert_allclose(readings[:, 1:].std(axis=0), growth, rtol=0.03)
+    assert readings[:, 0].std() < 1e-8  # along the beam: the session's own sigma

@@ -140,14 +140,21 @@ def test_out_of_range_target_is_refused(served):
             tracker.measure()
 
 
-def test_simulator_does_not_import_calibrator():
+def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
     # The simulated device knows the port contract its driver's errors derive
-    # from, and nothing else of the product's domain.
+    # from and the one simulated world (its noise model), nothing else of the
+    # product's domain: no solver, session, plan or command line, and no scipy.
+    allowed = {
+        "calibrator", "calibrator.acquire", "calibrator.acquire.ports", "calibrator.simulate",
+        "calibrator.errors", "calibrator.frames", "calibrator.kinematics", "calibrator.models",
+        "calibrator.parameters",
+    }  # fmt: skip
     code = (
         "import sys, drivers.tracker.simulator.__main__ as m; "
         "mods = {n for n in sys.modules if n.split('.')[0] == 'calibrator'}; "
-        "extra = mods - {'calibrator', 'calibrator.acquire', 'calibrator.acquire.ports'}; "
-        "assert not extra, f'calibrator imported: {sorted(extra)}'; print('ok')"
+        f"extra = mods - {allowed!r}; "
+        "assert not extra, f'calibrator imported: {sorted(extra)}'; "
+        "assert 'scipy' not in sys.modules, 'scipy imported'; print('ok')"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=30
