@@ -6,6 +6,7 @@ see of it, and the truth is written beside the session so tests and users
 can check what ``identify`` recovers.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +50,178 @@ class Truth:
         }
 
 
+# ---------------------------------------------------------------- the one tracker noise model
+#
+# Measurement noise of a Leica-class absolute tracker at the origin of the
+# tracker frame. Its ISO 10360-10 maximum permissible errors are anisotropic:
+# along the beam ``10 um + 0.3 um/m``, transverse to it ``15 um + 6 um/m``
+# (range in metres). The MPE is taken as two standard deviations ("typical
+# results about half the MPE"), with independent Gaussian errors along the
+# beam and two transverse axes. Both tracker simulators draw every reading
+# from it; :func:`tracker_readings` (synthetic sessions) uses its
+# range-dependent transverse term with the user's ``noise_mm`` as the
+# constant term.
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Anisotropic, range-dependent tracker noise.
+
+    Attributes
+    ----------
+    along_mpe_um : tuple of float
+        ``(constant_um, um_per_m)`` MPE along the beam.
+    transverse_mpe_um : tuple of float
+        ``(constant_um, um_per_m)`` MPE per transverse axis.
+    rotation_mpe_rad : float
+        MPE of each rotation-vector component of a 6-DoF probe, rad
+        (0.01 deg, the order of a Leica T-Mac; an assumption, not a datasheet).
+    mpe_over_sigma : float
+        MPE divided by the standard deviation used for sampling.
+    enabled : bool
+        False gives exact readings (for deterministic tests).
+    """
+
+    along_mpe_um: tuple[float, float] = (10.0, 0.3)
+    transverse_mpe_um: tuple[float, float] = (15.0, 6.0)
+    rotation_mpe_rad: float = math.radians(0.01)
+    mpe_over_sigma: float = 2.0
+    enabled: bool = True
+
+    def sigmas_mm(self, point_mm: np.ndarray) -> tuple[float, float]:
+        """Standard deviations ``(along, transverse)`` in mm at a target position.
+
+        Parameters
+        ----------
+        point_mm : numpy.ndarray, shape (3,)
+            Target position in the tracker frame, mm.
+        """
+        range_m = float(np.linalg.norm(point_mm)) / 1000.0
+        along_um = self.along_mpe_um[0] + self.along_mpe_um[1] * range_m
+        trans_um = self.transverse_mpe_um[0] + self.transverse_mpe_um[1] * range_m
+        return along_um / self.mpe_over_sigma / 1000.0, trans_um / self.mpe_over_sigma / 1000.0
+
+    def scale_matrix(self, point_mm: np.ndarray) -> np.ndarray:
+        """Rows: the beam and two transverse unit vectors, each times its sigma (mm).
+
+        A reading is ``point_mm + rng.standard_normal(3) @ scale_matrix(point_mm)``.
+        Depends only on the target, so callers may cache it (np.cross is slow on 3-vectors).
+
+        Returns
+        -------
+        numpy.ndarray, shape (3, 3)
+        """
+        s_along, s_trans = self.sigmas_mm(point_mm)
+        return np.array(beam_frame(point_mm)) * np.array([[s_along], [s_trans], [s_trans]])
+
+    def sample_point(
+        self, point_mm: np.ndarray, rng: np.random.Generator, scale: np.ndarray | None = None
+    ) -> np.ndarray:
+        """One noisy reading of a target at ``point_mm`` (shape (3,), mm, tracker frame).
+
+        ``scale`` is :meth:`scale_matrix` of the same point, if the caller cached it.
+        """
+        point_mm = np.asarray(point_mm, dtype=float)
+        if not self.enabled:
+            return point_mm.copy()
+        if scale is None:
+            scale = self.scale_matrix(point_mm)
+        return point_mm + rng.standard_normal(3) @ scale
+
+    def sample_rotvec(self, rotvec_rad: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """One noisy probe orientation (rotation vector, shape (3,), rad).
+
+        The error is a small rotation applied on the tracker side of the true one.
+        """
+        rotvec_rad = np.asarray(rotvec_rad, dtype=float)
+        if not self.enabled:
+            return rotvec_rad.copy()
+        from scipy.spatial.transform import Rotation  # only 6-DoF runs pay for the import
+
+        err = rng.standard_normal(3) * (self.rotation_mpe_rad / self.mpe_over_sigma)
+        return (Rotation.from_rotvec(err) * Rotation.from_rotvec(rotvec_rad)).as_rotvec()
+
+
+def beam_frame(point_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit vectors ``(along_beam, transverse_1, transverse_2)`` for a target (tracker at origin).
+
+    Raises
+    ------
+    ValueError
+        For a target at the tracker's own origin, where the beam has no direction.
+    """
+    r = float(np.linalg.norm(point_mm))
+    if r == 0.0:
+        raise ValueError("target at the tracker origin has no beam direction")
+    beam = np.asarray(point_mm, dtype=float) / r
+    # Any axis not parallel to the beam gives a valid transverse pair.
+    helper = np.array([0.0, 0.0, 1.0]) if abs(beam[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    side1 = np.cross(beam, helper)
+    side1 /= np.linalg.norm(side1)
+    return beam, side1, np.cross(beam, side1)
+
+
+#: The tracker noise of every simulation (the simulators' default).
+TRACKER_NOISE = NoiseModel()
+
+#: The simulated measuring cell: where the tracker stands in the robot base frame
+#: (mm) and how it is turned (rotation vector, rad); roughly what a user would measure.
+SIM_TRACKER_AT_MM = np.array([2500.0, 400.0, 300.0])
+SIM_TRACKER_ROTVEC = np.array([0.05, -0.1, 2.8])
+
+
+@dataclass(frozen=True)
+class SimWorld:
+    """The one simulated world behind ``measure --robot sim`` / ``--tracker sim`` (seeded).
+
+    The simulated robot moves this true arm, and the tracker simulator is
+    told where this arm's probe really is; nothing else holds a truth.
+
+    Attributes
+    ----------
+    model : calibrator.models.RobotModel
+        The nominal arm (what the session says it measured).
+    seed : int
+    true_mdh : ndarray, shape (6, 5)
+        Nominal plus hidden errors (+-0.5 mm, +-1 mrad), mm and rad.
+    base2tracker : ndarray, shape (4, 4)
+        Robot base in the tracker frame, mm.
+    flange2tool : ndarray, shape (4, 4)
+        The true tool: :data:`DEFAULT_TOOL_POINT` plus an unknown 1.5 mm error.
+    tracker_at_mm : ndarray, shape (3,)
+        The tracker's position in the robot base frame (plans use it).
+    """
+
+    model: object
+    seed: int
+    true_mdh: np.ndarray
+    base2tracker: np.ndarray
+    flange2tool: np.ndarray
+    tracker_at_mm: np.ndarray
+
+    @classmethod
+    def make(cls, model_name: str, seed: int) -> "SimWorld":
+        """The world of ``model_name`` (a named model) drawn from ``seed``."""
+        model = get_model(model_name)
+        rng = np.random.default_rng(seed)
+        true_mdh = model.mdh + random_errors(model.mdh, rng, mm=0.5, rad=1e-3)
+        offset = rng.standard_normal(3)
+        offset *= 1.5 / np.linalg.norm(offset)  # an unknown 1.5 mm error of the tool point
+        tool = frames.transform(translation=DEFAULT_TOOL_POINT + offset)
+        tracker2base = frames.transform(
+            frames.rotvec_to_matrix(SIM_TRACKER_ROTVEC), SIM_TRACKER_AT_MM
+        )
+        return cls(
+            model, seed, true_mdh, frames.invert(tracker2base), tool, SIM_TRACKER_AT_MM.copy()
+        )
+
+    def tool_pose(self, q_rad) -> np.ndarray:
+        """True probe pose in the tracker frame for joints ``q_rad`` (6,), shape (4, 4), mm."""
+        return kinematics.forward(
+            self.true_mdh, np.asarray(q_rad, float)[None], self.flange2tool, self.base2tracker
+        )[0]
+
+
 def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
     """MDH errors of the seed's size on the parameters an identification can see.
 
@@ -77,8 +250,8 @@ def tracker_readings(points, n_readings, sigma_mm, rng):
     """Readings of a tracker at the tracker-frame origin: anisotropic noise.
 
     Along the beam the noise is ``sigma_mm``; across it, ``sigma_mm`` plus
-    6 um/m of range over 2 (Leica's transverse MPE grows with range, the
-    along-beam one hardly does).
+    the transverse growth of :data:`TRACKER_NOISE` (6 um/m of range over 2:
+    Leica's transverse MPE grows with range, the along-beam one hardly does).
 
     Parameters
     ----------
@@ -94,7 +267,9 @@ def tracker_readings(points, n_readings, sigma_mm, rng):
     """
     rng_m = np.linalg.norm(points, axis=1, keepdims=True)
     beam = points / np.maximum(rng_m, 1e-9)
-    transverse = sigma_mm + 0.5 * 6e-3 * rng_m / 1000.0 if sigma_mm else 0.0 * rng_m
+    # The tracker noise model's transverse growth with range, as a standard deviation (mm per mm)
+    growth = TRACKER_NOISE.transverse_mpe_um[1] / TRACKER_NOISE.mpe_over_sigma / 1000.0
+    transverse = sigma_mm + growth * rng_m / 1000.0 if sigma_mm else 0.0 * rng_m
     noise = rng.standard_normal((len(points), n_readings, 3))
     along = np.einsum("nrj,nj->nr", noise, beam)[..., None] * beam[:, None]
     across = noise - along

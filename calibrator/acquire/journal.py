@@ -6,21 +6,45 @@ one finished pose (measured, or failed after its retries), written, flushed
 and fsynced before the robot moves again, so a crash (even SIGKILL) loses at
 most the pose in progress. A line cut short by a crash is dropped on resume.
 
+A journal is input like any file: :func:`read` validates every line (its
+CRC-32, the types and ranges of every field, the pose being a row of the
+plan and its joints the plan's within :data:`JOINT_MATCH_RAD`) and refuses
+the first bad one, naming its line number. The process that writes a
+journal holds an exclusive lock on it, so a second ``measure --resume`` of
+the same run is refused while the first one runs.
+
 Floats go through JSON's shortest round-trip repr, so a row read back from the
 journal is bit-for-bit the row that was measured.
 """
 
 from __future__ import annotations
 
+import fcntl
 import json
+import math
 import os
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
 
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.journal"
-VERSION = 1
+#: 2 adds a CRC-32 to every line; version 1 journals (no CRC) are still read.
+VERSION = 2
+READABLE_VERSIONS = (1, 2)
+#: Largest difference between a measured pose's joints (read back from the
+#: arm after the readings) and its plan row, rad: a robot ends a move within
+#: its tolerance (1e-3 rad for the UR adapter), a record copied from another
+#: pose or hand-edited joints do not.
+JOINT_MATCH_RAD = 0.01
+#: Largest coordinate a reading may have, mm (no tracker reaches 1 km).
+MAX_COORD_MM = 1e6
+#: Key of each line's CRC-32 (of the line's JSON without it).
+CRC_KEY = "crc32"
 #: Header keys that must match for a resume: the run's identity.
 IDENTITY_KEYS = ("plan_sha256", "robot", "tracker", "readings")
 
@@ -56,13 +80,14 @@ class Journal:
     Use :meth:`create` for a new run and :meth:`resume` to continue one.
     """
 
-    def __init__(self, path: Path, fh):
+    def __init__(self, path: Path, fh: IO[str], version: int = VERSION) -> None:
         self.path = path
         self._fh = fh
+        self.version = version
 
     @classmethod
     def create(cls, path, header: dict) -> Journal:
-        """Start a journal; refuses to replace an existing one (it may hold a run's poses)."""
+        """Start a journal, locked; never replaces an existing one (it may hold a run's poses)."""
         path = Path(path)
         try:
             fh = open(path, "x", encoding="utf-8")  # noqa: SIM115  closed by close()
@@ -71,38 +96,57 @@ class Journal:
                 f"{path} exists (an unfinished run): pass --resume to continue it, "
                 "or remove it to start over"
             ) from None
+        _lock(fh, path)
         journal = cls(path, fh)
         journal._write({"format": FORMAT, "version": VERSION, **header})
         _fsync_dir(path)
         return journal
 
     @classmethod
-    def resume(cls, path, header: dict) -> tuple[Journal, Resumed]:
-        """Reopen a journal for appending after checking it belongs to this run.
+    def resume(cls, path, header: dict, plan_rad=None) -> tuple[Journal, Resumed]:
+        """Lock a journal, check every line and that it belongs to this run, reopen it to append.
+
+        Parameters
+        ----------
+        path : str or Path
+        header : dict
+            This run's header (:data:`IDENTITY_KEYS` must match).
+        plan_rad : array_like, shape (N, 6), optional
+            This run's plan: every record's pose must be a row of it and its
+            joints that row's (see :func:`read`).
 
         Raises
         ------
         JournalError
-            No journal, not a journal, or its plan, robot, tracker or reading
+            No journal, one another process is writing (a run in progress),
+            not a journal, a bad line, or its plan, robot, tracker or reading
             count differ from ``header``.
         """
         path = Path(path)
-        done = read(path)
-        for key in IDENTITY_KEYS:
-            if done.header.get(key) != header.get(key):
-                raise JournalError(
-                    f"{path} belongs to another run: its {key} is {done.header.get(key)!r}, "
-                    f"this run's is {header.get(key)!r}"
-                )
-        _truncate_partial_line(path)
-        return cls(path, open(path, "a", encoding="utf-8")), done  # noqa: SIM115
+        if not path.is_file():
+            raise JournalError(f"no journal to resume: {path} not found")
+        fh = open(path, "a", encoding="utf-8")  # noqa: SIM115  closed by close()
+        try:
+            _lock(fh, path)
+            done = read(path, plan_rad=plan_rad, expect=header)
+            _truncate_partial_line(path)
+        except BaseException:
+            fh.close()
+            raise
+        return cls(path, fh, done.header["version"]), done
 
     def append(self, record: dict) -> None:
-        """Write one finished pose durably (flush and fsync) before returning."""
+        """Write one finished pose durably (flush and fsync) before returning.
+
+        Raises
+        ------
+        ValueError
+            A non-finite number in the record (refused, never written).
+        """
         self._write(record)
 
     def _write(self, obj: dict) -> None:
-        self._fh.write(json.dumps(obj, allow_nan=False) + "\n")
+        self._fh.write(encode_line(obj, crc=self.version >= 2))
         self._fh.flush()
         os.fsync(self._fh.fileno())
 
@@ -117,36 +161,208 @@ class Journal:
         self.close()
 
 
-def read(path) -> Resumed:
-    """Read a journal: its header and the last record of each pose.
+def encode_line(obj: dict, *, crc: bool = True) -> str:
+    """One journal line: the JSON of ``obj`` with its CRC-32 as the last key, and a newline.
+
+    Raises
+    ------
+    ValueError
+        NaN or an infinity anywhere in ``obj``.
+    """
+    text = json.dumps(obj, allow_nan=False)
+    if not crc:
+        return text + "\n"
+    return text[:-1] + f', "{CRC_KEY}": {zlib.crc32(text.encode())}}}\n'
+
+
+def read(path, plan_rad=None, expect: dict | None = None) -> Resumed:
+    """Read and validate a journal: its header and the last record of each pose.
+
+    Parameters
+    ----------
+    path : str or Path
+    plan_rad : array_like, shape (N, 6), optional
+        The run's plan; with it every record's joints are checked against
+        their plan row (within :data:`JOINT_MATCH_RAD`).
+    expect : dict, optional
+        This run's header: its :data:`IDENTITY_KEYS` must match the journal's
+        (checked before any record).
 
     Raises
     ------
     JournalError
-        Missing file, or a first line that is not a journal header.
+        Missing file, a first line that is not a journal header, or the first
+        line that fails a check, named by its number.
     """
     path = Path(path)
     if not path.is_file():
         raise JournalError(f"no journal to resume: {path} not found")
-    with open(path, encoding="utf-8") as fh:
-        lines = fh.read().split("\n")
-    try:
-        header = json.loads(lines[0])
-    except ValueError:
-        header = None
+    with open(path, "rb") as fh:
+        lines = fh.read().split(b"\n")
+    header = _parse(lines[0], crc=None)
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise JournalError(f"{path} is not a calibrator journal")
-    if header.get("version") != VERSION:
-        raise JournalError(f"{path}: journal version {header.get('version')!r} is not supported")
+    version = header.get("version")
+    if type(version) is not int or version not in READABLE_VERSIONS:
+        raise JournalError(f"{path}: journal version {version!r} is not supported")
+    crc = version >= 2
+    if crc:
+        header = _parse(lines[0], crc=True)
+        if header is None:
+            raise JournalError(f"{path}: line 1 (the header) is damaged: its CRC does not match")
+    for key in IDENTITY_KEYS if expect is not None else ():
+        theirs, ours = header.get(key), expect.get(key)  # type: ignore[union-attr]
+        if theirs != ours:
+            raise JournalError(
+                f"{path} belongs to another run: its {key} is {theirs!r}, this run's is {ours!r}"
+            )
+    plan = None if plan_rad is None else np.asarray(plan_rad, dtype=float)
+    check = _RecordCheck(header, plan)
     records = {}
     # The last element is "" after a complete file, or a line a crash cut short.
     for number, line in enumerate(lines[1:-1], start=2):
-        try:
-            record = json.loads(line)
-            records[int(record["pose"])] = record
-        except (ValueError, KeyError, TypeError):
-            raise JournalError(f"{path}: line {number} is damaged") from None
+        record = _parse(line, crc=crc)
+        if record is None:
+            raise JournalError(f"{path}: line {number} is damaged (not JSON, or its CRC differs)")
+        problem = check(record)
+        if problem:
+            raise JournalError(f"{path}: line {number} is damaged: {problem}")
+        records[record["pose"]] = record
     return Resumed(header, records)
+
+
+def _parse(raw: bytes, *, crc: bool | None) -> Any:
+    """A line's JSON object (CRC checked and removed when ``crc``), or None when unusable."""
+    try:
+        text = raw.decode("utf-8")
+        obj = json.loads(text, parse_constant=_refuse_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError):
+        return None
+    if crc is None or not isinstance(obj, dict):
+        return obj
+    if crc:
+        stated = obj.pop(CRC_KEY, None)
+        if type(stated) is not int or not text.endswith("}"):
+            return None
+        try:
+            body = json.dumps(obj, allow_nan=False)  # 1e400 reads as inf: not writable
+        except ValueError:
+            return None
+        if zlib.crc32(body.encode()) != stated or encode_line(obj) != text + "\n":
+            return None
+    return obj
+
+
+def _refuse_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a number")
+
+
+class _RecordCheck:
+    """Checks one record against the header (and the plan): returns what is wrong, or ""."""
+
+    def __init__(self, header: dict, plan: np.ndarray | None) -> None:
+        poses = header.get("poses")
+        self.poses = poses if type(poses) is int and poses > 0 else None
+        if plan is not None:
+            self.poses = len(plan)
+        readings = header.get("readings")
+        self.readings = readings if type(readings) is int and readings > 0 else None
+        self.plan = plan
+
+    def __call__(self, record: Any) -> str:
+        if not isinstance(record, dict):
+            return "not a JSON object"
+        pose = record.get("pose")
+        if type(pose) is not int:
+            return f"pose must be a whole number, got {pose!r}"
+        if pose < 0 or (self.poses is not None and pose >= self.poses):
+            return f"pose {pose} is not a row of the plan (0..{(self.poses or 1) - 1})"
+        status = record.get("status")
+        if status == "failed":
+            return self._failed(record)
+        if status != "measured":
+            return f"pose {pose}: status must be 'measured' or 'failed', got {status!r}"
+        return self._measured(record, pose)
+
+    def _failed(self, record: dict) -> str:
+        if not isinstance(record.get("reason"), str):
+            return f"pose {record['pose']}: a failed pose needs its reason (text)"
+        problem = _count(record, "attempts", 1)
+        causes = record.get("causes", {})
+        if not problem and not (
+            isinstance(causes, dict) and all(type(n) is int and n >= 0 for n in causes.values())
+        ):
+            problem = f"pose {record['pose']}: causes must map a failure class to a count"
+        return problem
+
+    def _measured(self, record: dict, pose: int) -> str:
+        q = _vector(record, "q_rad", 6, math.tau * 2)
+        if isinstance(q, str):
+            return q
+        for key, size, bound in (("point_mm", 3, MAX_COORD_MM), ("std_mm", 3, MAX_COORD_MM)):
+            value = _vector(record, key, size, bound)
+            if isinstance(value, str):
+                return value
+        if any(v < 0 for v in record["std_mm"]):
+            return f"pose {pose}: std_mm must be >= 0, got {record['std_mm']}"
+        if "rotvec_rad" in record:
+            value = _vector(record, "rotvec_rad", 3, 2 * math.pi)
+            if isinstance(value, str):
+                return value
+        for key, least in (("n_readings", 1), ("rejected", 0), ("attempts", 1)):
+            problem = _count(record, key, least)
+            if problem:
+                return problem
+        if self.readings is not None and record["n_readings"] > self.readings:
+            return f"pose {pose}: {record['n_readings']} readings, the run takes {self.readings}"
+        if not isinstance(record.get("timestamp"), str):
+            return f"pose {pose}: timestamp must be text"
+        if self.plan is not None:
+            off = float(np.max(np.abs(np.asarray(q) - self.plan[pose])))
+            if not off <= JOINT_MATCH_RAD:
+                return (
+                    f"pose {pose}: joints differ from the plan's row {pose} by {off:.3g} rad "
+                    f"(more than {JOINT_MATCH_RAD} rad)"
+                )
+        return ""
+
+
+def _vector(record: dict, key: str, size: int, bound: float) -> list[float] | str:
+    value = record.get(key)
+    if not (
+        isinstance(value, list)
+        and len(value) == size
+        and all(type(v) in (int, float) and math.isfinite(v) and abs(v) <= bound for v in value)
+    ):
+        return (
+            f"pose {record['pose']}: {key} must be {size} finite numbers within +-{bound:g}, "
+            f"got {_short(value)}"
+        )
+    return value
+
+
+def _count(record: dict, key: str, least: int) -> str:
+    value = record.get(key)
+    if type(value) is not int or not least <= value <= 10**9:
+        got = _short(value)
+        return f"pose {record['pose']}: {key} must be a whole number >= {least}, got {got}"
+    return ""
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _lock(fh: IO[str], path: Path) -> None:
+    """Hold an exclusive lock on the journal while this process writes it (released on close)."""
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        fh.close()
+        raise JournalError(
+            f"{path} is in use by another measure run: wait for it to end (or stop it), then resume"
+        ) from None
 
 
 def _truncate_partial_line(path: Path) -> None:

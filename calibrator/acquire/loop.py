@@ -5,26 +5,46 @@ hands in concrete drivers. What happens on each failure:
 
 - :class:`~calibrator.acquire.ports.ReadingLost` (beam break, unstable target,
   lost or garbled reply, link dropped and re-established): the pose's readings
-  are all discarded and the pose is measured again, up to ``retries`` times;
-  then it is journalled as failed and the run goes on.
+  are all discarded and the pose is measured again, up to ``retries`` times,
+  after a pause that doubles each time (``retry_pause_s``: a person or the
+  tracker's own search can re-lock the beam meanwhile). Before a retry after
+  a lost beam, a tracker that declares ``search`` looks for its reflector
+  near the last point measured, and ``on_beam_lost`` (e.g. asking the
+  operator to re-lock the beam) is called. After the retries the pose is
+  journalled as failed, with its lost readings counted by failure class,
+  and the run goes on; ``give_up_after`` failed poses in a row end it (the
+  beam will not come back by itself).
 - :class:`~calibrator.acquire.ports.RobotHalted` (protective stop, e-stop),
   :class:`~calibrator.acquire.ports.TrackerUnavailable`, or any other
   ``OSError`` (a lost robot link, a move that failed without a stop): the run
   ends cleanly; every finished pose is already in the journal.
 - A stop request (SIGINT) is honoured between poses, never inside one.
+
+Via poses (``via_rad``) are moved through, in order, before the pose they
+precede; they are never measured nor counted, and pose numbers stay the
+plan rows' indices.
 """
 
 from __future__ import annotations
 
+import re
 import time
-from collections.abc import Callable, Iterable
+from collections import Counter
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from calibrator.acquire import rows
 from calibrator.acquire.averaging import measure_average
-from calibrator.acquire.ports import ReadingLost, RobotHalted, TrackerUnavailable
+from calibrator.acquire.ports import (
+    SEARCH,
+    BadReading,
+    BeamLost,
+    ReadingLost,
+    RobotHalted,
+    TrackerUnavailable,
+)
 
 
 @dataclass(frozen=True)
@@ -41,6 +61,11 @@ class LoopOptions:
         Extra sets of readings after a lost one, per pose.
     speed_rad_s, accel_rad_s2 : float
         Leading-joint speed (rad/s) and acceleration (rad/s^2) of each move.
+    retry_pause_s : float
+        Pause before the first retry of a pose, s; doubled before each further
+        one (at most 8 times this).
+    give_up_after : int
+        Failed poses in a row that end the run (0: never).
     """
 
     readings: int = 10
@@ -48,6 +73,8 @@ class LoopOptions:
     retries: int = 3
     speed_rad_s: float = 0.5
     accel_rad_s2: float = 1.0
+    retry_pause_s: float = 0.0
+    give_up_after: int = 0
 
 
 @dataclass
@@ -108,6 +135,8 @@ def run(
     after_move: Callable[[np.ndarray], None] | None = None,
     should_stop: Callable[[], bool] = lambda: False,
     on_pose: Callable[[Progress], None] | None = None,
+    on_beam_lost: Callable[[int, int], None] | None = None,
+    via_rad: Sequence[np.ndarray] | None = None,
     sleep: Callable[[float], None] = time.sleep,
 ) -> Outcome:
     """Measure every pose of a plan that is not finished yet.
@@ -133,6 +162,12 @@ def run(
         Polled before each pose; True ends the run after the current pose.
     on_pose : callable, optional
         Called with a :class:`Progress` after each finished pose.
+    on_beam_lost : callable, optional
+        Called as ``on_beam_lost(pose, attempt)`` before a retry after a
+        :class:`~calibrator.acquire.ports.BeamLost` (ask the operator to re-lock).
+    via_rad : sequence of N arrays of shape (k_i, 6), optional
+        Via poses (rad) moved through before measured pose i, already
+        validated with the plan; an empty array for none.
 
     Returns
     -------
@@ -141,12 +176,17 @@ def run(
     plan = np.asarray(plan_rad, dtype=float)
     outcome = Outcome(records=dict(done or {}))
     todo = [i for i in range(len(plan)) if _pending(outcome.records.get(i))]
+    state = _State(on_beam_lost, sleep)
+    in_row = 0
     for pose in todo:
         if should_stop():
             outcome.stopped = f"interrupted before pose {pose}"
             break
         try:
-            record = _measure_pose(pose, plan[pose], robot, tracker, options, after_move, sleep)
+            if via_rad is not None:
+                for via in np.asarray(via_rad[pose], dtype=float).reshape(-1, 6):
+                    robot.move_joints(via, options.speed_rad_s, options.accel_rad_s2)
+            record = _measure_pose(pose, plan[pose], robot, tracker, options, after_move, state)
         except RobotHalted as exc:
             outcome.stopped = f"robot halted at pose {pose}: {exc}"
             break
@@ -163,28 +203,96 @@ def run(
         if on_pose is not None:
             finished = sum(not _pending(r) for r in outcome.records.values())
             on_pose(Progress(pose, finished, len(plan), record))
+        in_row = in_row + 1 if record["status"] == "failed" else 0
+        if options.give_up_after and in_row >= options.give_up_after and pose != todo[-1]:
+            outcome.stopped = (
+                f"{in_row} poses in a row failed (last: pose {pose}, {_causes_text(record)}); "
+                "check the beam and the reflector"
+            )
+            break
     return outcome
+
+
+@dataclass
+class _State:
+    """What the loop carries from pose to pose: the last point measured, the callbacks."""
+
+    on_beam_lost: Callable[[int, int], None] | None
+    sleep: Callable[[float], None]
+    last_point_mm: np.ndarray | None = None
+
+
+def failure_class(exc: BaseException) -> str:
+    """A failure class a user reads: ``BeamBroken`` -> ``beam broken``."""
+    return re.sub(r"(?<!^)(?=[A-Z])", " ", type(exc).__name__).lower()
+
+
+def _causes_text(record: dict) -> str:
+    causes = record.get("causes") or {}
+    return ", ".join(f"{what} x{n}" for what, n in causes.items()) or "no cause recorded"
 
 
 def _pending(record: dict | None) -> bool:
     return record is None or record["status"] != "measured"
 
 
-def _measure_pose(pose, target, robot, tracker, options, after_move, sleep) -> dict:
+def _measure_pose(pose, target, robot, tracker, options, after_move, state: _State) -> dict:
     """One pose: move, settle, a full set of readings (re-taken whole if lost), joints."""
     actual = robot.move_joints(target, options.speed_rad_s, options.accel_rad_s2)
     if after_move is not None:
         after_move(np.asarray(actual, dtype=float))
     if options.settle_s > 0:
-        sleep(options.settle_s)
-    lost: Iterable[str] = []
+        state.sleep(options.settle_s)
+    lost: list[str] = []
+    causes: Counter = Counter()
+    last_lost: ReadingLost | None = None
     for attempt in range(1, options.retries + 2):
+        if last_lost is not None:
+            _before_retry(pose, attempt, last_lost, tracker, options, state)
         try:
-            avg = measure_average(tracker, options.readings)
+            avg = _checked(measure_average(tracker, options.readings))
         except ReadingLost as exc:
-            lost = [*lost, f"{type(exc).__name__}: {exc}"]
+            last_lost = exc
+            lost.append(f"{type(exc).__name__}: {exc}")
+            causes[failure_class(exc)] += 1
             continue
         # Read back after the readings: these are the joints the arm held while measured.
         q = robot.actual_joints()
+        state.last_point_mm = avg.mean_mm
         return rows.measured_record(pose, q, avg, attempt)
-    return rows.failed_record(pose, "; ".join(lost), options.retries + 1)
+    return rows.failed_record(pose, "; ".join(lost), options.retries + 1, dict(causes))
+
+
+#: Largest coordinate or spread a reading may have, mm: no tracker reaches 1 km.
+MAX_COORD_MM = 1e6
+
+
+def _checked(avg):
+    """The averaged reading, or :class:`BadReading` if a number in it cannot be true.
+
+    Whatever a driver let through (NaN, inf, 1e300 from a well-formed packet)
+    is refused here, before it reaches the journal, as a lost reading.
+    """
+    values = [avg.mean_mm, avg.std_mm]
+    if avg.rotvec_mean_rad is not None:
+        values.append(avg.rotvec_mean_rad)
+    for value in values:
+        arr = np.asarray(value, dtype=float)
+        if not (np.all(np.isfinite(arr)) and np.all(np.abs(arr) <= MAX_COORD_MM)):
+            raise BadReading(f"reading with impossible numbers: {arr.tolist()}")
+    return avg
+
+
+def _before_retry(pose, attempt, exc, tracker, options, state: _State) -> None:
+    """Back off, let the tracker search or the operator re-lock a lost beam, then retry."""
+    if options.retry_pause_s > 0:
+        state.sleep(options.retry_pause_s * min(2 ** (attempt - 2), 8))
+    if not isinstance(exc, BeamLost):
+        return
+    if SEARCH in tracker.capabilities and state.last_point_mm is not None:
+        try:
+            tracker.find_reflector(state.last_point_mm)
+        except (ReadingLost, OSError):
+            pass  # the search failed: the retry reports the beam as still lost
+    if state.on_beam_lost is not None:
+        state.on_beam_lost(pose, attempt)

@@ -13,6 +13,7 @@ angles in rad.
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -31,6 +32,14 @@ class ReadingLost(PortError):
     The tracker is still there: the loop discards the pose's readings and
     re-measures it, a bounded number of times.
     """
+
+
+class BeamLost(ReadingLost):
+    """The beam is broken or not locked on the reflector: someone (or a search) must re-lock it."""
+
+
+class BadReading(ReadingLost):
+    """A reading whose numbers cannot be true (NaN, infinite, beyond any tracker's range)."""
 
 
 class TrackerUnavailable(PortError):
@@ -73,40 +82,150 @@ class TrackerReading(Protocol):
     def accurate(self) -> bool: ...
 
 
+# ---------------------------------------------------------------- capabilities
+#
+# What a device can do beyond the contract, declared by the driver in its
+# ``capabilities`` (a frozenset of these names) rather than probed with hasattr.
+
+#: ``initialise(timeout_s=None)``: the tracker can be initialised (moves the head).
+INITIALISE = "initialise"
+#: ``find_reflector(near_mm)``: the tracker can search for its reflector near a
+#: predicted position (``near_mm``, shape (3,), tracker frame, mm) after a lost
+#: beam; the loop predicts it as the last point measured.
+SEARCH = "search"
+#: ``set_target(point_mm)``: a simulated tracker told where its reflector really is.
+STEER = "steer"
+#: The robot moves real hardware: the user must confirm before it moves.
+MOVES_HARDWARE = "moves_hardware"
+#: ``check_plan(plan_rad, speed_rad_s, accel_rad_s2)``: the robot checks a whole plan
+#: against its motion limits before the first move (raises ``ValueError``).
+CHECKS_PLAN = "checks_plan"
+#: ``listener``: a simulated robot calls ``listener(tool2tracker)`` (4x4, mm) after
+#: each move, so a simulated tracker can follow the true probe.
+REPORTS_TRUE_POSE = "reports_true_pose"
+
+
+class TrackerState(Protocol):
+    """What ``Tracker.connect`` and ``Tracker.status`` return (at least)."""
+
+    @property
+    def initialised(self) -> bool: ...
+
+
 @runtime_checkable
 class Tracker(Protocol):
-    """A laser tracker, connected and ready to take stationary readings.
+    """A laser tracker, ready to take stationary readings once connected.
 
     ``measure`` raises :class:`ReadingLost` (or a subclass) when the reading
-    is unusable and :class:`TrackerUnavailable` when the link is gone.
+    is unusable and :class:`TrackerUnavailable` when the link is gone; any
+    failure of ``connect`` is an ``OSError`` or a :class:`PortError`.
+
+    Attributes
+    ----------
+    capabilities : frozenset of str
+        Which of :data:`INITIALISE`, :data:`SEARCH`, :data:`STEER` it offers.
+    device_id : str
+        Who answered (vendor, model and serial), known after ``connect``; a
+        journal records it and a resume must find the same.
     """
 
-    def connect(self) -> object:
+    capabilities: frozenset[str]
+
+    @property
+    def device_id(self) -> str: ...
+
+    def connect(self) -> TrackerState:
         """Open the link, set units to mm and rad; never initialises (that moves the head)."""
+        ...
+
+    def status(self) -> TrackerState:
+        """The tracker's state now (initialised or not, ...)."""
+        ...
 
     def measure(self, timeout_s: float | None = None) -> TrackerReading:
         """One stationary reading, bounded by ``timeout_s`` (s) or the driver's default."""
+        ...
 
     def close(self) -> None:
         """Close the link; safe to call twice or after a failure."""
+        ...
 
 
-@runtime_checkable
 class Robot(Protocol):
-    """A 6-axis arm that moves in joint space (rad) and reports its joints.
+    """The one robot contract: a 6-axis arm moving in joint space (rad), reporting its joints.
 
-    ``move_joints`` raises :class:`RobotHalted` (or a subclass) when the
-    safety system stops the arm.
+    Every robot driver implements it (``drivers.robot.interface.Robot`` is
+    its base class with the context-manager methods) and the measure loop
+    uses nothing else. Failures are exceptions, never return codes:
+    :class:`RobotHalted` (or a subclass) when the safety system stops the
+    arm, any other ``OSError`` for a lost link or a move that failed.
+
+    Units: joint angles in rad, speeds in rad/s, accelerations in rad/s^2.
+
+    Attributes
+    ----------
+    capabilities : frozenset of str
+        Which of :data:`MOVES_HARDWARE`, :data:`CHECKS_PLAN`,
+        :data:`REPORTS_TRUE_POSE` it offers.
     """
 
-    def connect(self) -> object: ...
+    capabilities: frozenset[str] = frozenset()
 
-    def close(self) -> None: ...
+    @abstractmethod
+    def connect(self) -> object:
+        """Open the link to the arm; raises ``ConnectionError`` (an ``OSError``) if it fails."""
 
+    @abstractmethod
+    def close(self) -> None:
+        """Close the link; safe to call twice or after a failure."""
+
+    @abstractmethod
     def move_joints(self, q_rad, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
-        """Move to ``q_rad`` (shape (6,), rad), wait until steady; actual joints, shape (6,)."""
+        """Move to joint angles, wait until steady, and check the arm got there.
 
+        Parameters
+        ----------
+        q_rad : array_like, shape (6,)
+            Target joint angles, rad.
+        speed_rad_s : float
+            Speed of the leading joint, rad/s (> 0).
+        accel_rad_s2 : float
+            Acceleration of the leading joint, rad/s^2 (> 0).
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            Actual joint angles (rad) once steady, within tolerance of ``q_rad``.
+
+        Raises
+        ------
+        RobotHalted
+            The arm is (or became) stopped by its safety system.
+        OSError
+            The move ended away from its target, the link went away, or the
+            move did not end by its deadline.
+        """
+
+    @abstractmethod
     def actual_joints(self) -> np.ndarray:
         """Actual joint angles, rad, shape (6,)."""
 
-    def stop(self) -> None: ...
+    @abstractmethod
+    def safety_state(self) -> object:
+        """Current safety flags (``protective_stopped``, ``emergency_stopped``, ``ok``)."""
+
+    @abstractmethod
+    def stop(self) -> None:
+        """Stop any motion now (callable from another thread while a move waits)."""
+
+    @abstractmethod
+    def clear_protective_stop(self) -> None:
+        """Release a protective stop and make the arm accept moves again.
+
+        Raises
+        ------
+        RobotHalted
+            An e-stop is still engaged (only an operator can release it).
+        OSError
+            The controller refused to release the stop (yet).
+        """

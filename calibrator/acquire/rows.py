@@ -41,9 +41,15 @@ def measured_record(pose: int, q_rad, avg: AveragedReading, attempts: int) -> di
     return record
 
 
-def failed_record(pose: int, reason: str, attempts: int) -> dict:
-    """The journal record of a pose given up after its retries."""
-    return {"pose": int(pose), "status": "failed", "reason": reason, "attempts": int(attempts)}
+def failed_record(pose: int, reason: str, attempts: int, causes: dict | None = None) -> dict:
+    """The journal record of a pose given up after its retries.
+
+    ``causes`` counts its lost readings by failure class (``{"beam broken": 4}``).
+    """
+    record = {"pose": int(pose), "status": "failed", "reason": reason, "attempts": int(attempts)}
+    if causes:
+        record["causes"] = {str(k): int(v) for k, v in causes.items()}
+    return record
 
 
 def to_table(records) -> pa.Table:

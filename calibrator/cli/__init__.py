@@ -19,6 +19,7 @@ from calibrator.errors import CalibrationError
 # in this order, the order of the workflow.
 from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
 from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
+from calibrator.cli import tracker as _tracker  # noqa: E402,F401  isort: skip
 from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
 from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
 from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import typer
@@ -82,6 +83,16 @@ def measure(
     seed: int = typer.Option(
         0, callback=checks.at_least(0), help="Seed of the plan and of the simulated cell."
     ),
+    retry_pause: float = typer.Option(
+        0.2,
+        callback=checks.finite(minimum=0.0, maximum=60.0),
+        help="Pause before re-measuring a pose after a lost reading, s; doubled each "
+        "further retry (up to 8 times).",
+    ),
+    ask_relock: bool = typer.Option(
+        True,
+        help="On a terminal, ask the operator to re-lock a lost beam (Enter) before a retry.",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
@@ -89,7 +100,9 @@ def measure(
     sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
     timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
     sim_control: str = typer.Option(
-        None, hidden=True, help="Control URL of a tracker simulator the simulated robot steers."
+        None,
+        hidden=True,
+        help="Control URL of a tracker simulator (either kind) the simulated robot steers.",
     ),
 ):
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
@@ -98,147 +111,155 @@ def measure(
 
     marks = [("start", time.perf_counter())]
 
-    from calibrator import outputs, progress, session
+    from calibrator import outputs, progress
     from calibrator import plan as plans
-    from calibrator.acquire import journal as journals
-    from calibrator.acquire import loop, rows
-    from calibrator.acquire.ports import PortError
-    from calibrator.cli import _hardware
+    from calibrator.acquire.run import RunOptions
 
     output = Path(output)
     inputs = [p for p in (plan_path, sim_faults, sim_replay) if p is not None]
     outputs.check(output, inputs=inputs)
-    jpath = journals.journal_path(output)
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
-    if not resume and output.exists():
-        _fail(f"{output} exists: choose another -o, remove it, or pass --resume")
-    if not resume and jpath.exists():
-        _fail(f"{jpath} exists (an unfinished run): pass --resume to continue it, or remove it")
-    if resume and not jpath.exists():
-        _fail(f"nothing to resume: {jpath} not found")
-    _check_motion_caps(model, speed, accel, max_speed)
-    options = _hardware.RigOptions(
-        model=model,
+    arm = _check_motion_caps(model, speed, accel, max_speed)
+    options = RunOptions(
+        plan_rad=plans.read_csv(plan_path) if plan_path is not None else None,
+        poses=poses,
         seed=seed,
-        sim_noise=sim_noise,
-        sim_faults=str(sim_faults) if sim_faults else None,
-        sim_record=str(sim_record) if sim_record else None,
-        sim_replay=str(sim_replay) if sim_replay else None,
-        sim_control=sim_control,
-        max_speed_rad_s=max_speed,
-        # The acceleration cap stays the model's ceiling: --accel is checked
-        # against it above and never becomes its own limit.
-        max_accel_rad_s2=None,
+        readings=readings,
+        retries=retries,
+        speed_rad_s=speed,
+        accel_rad_s2=accel,
+        retry_pause_s=retry_pause,
+        tool_mm=_triple(tool, "--tool"),
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
+        resume=resume,
     )
     with contextlib.ExitStack() as stack:
-        tool_mm = _triple(tool, "--tool")
-        try:
-            rig = _hardware.build(robot, tracker, options, stack)
-        except PortError as exc:  # a tracker that cannot be reached at the start: one line
-            _fail(str(exc))
-        rig.flange2tool_guess[:3, 3] = tool_mm
+        run = stack.enter_context(
+            _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
+                      sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
+                      sim_control=sim_control, max_speed=max_speed)
+        )  # fmt: skip
+        run.check_files()
+        run.connect(tracker)
         marks.append(("connect (simulator start, links)", time.perf_counter()))
-        # ---- the plan, checked whole before anything moves
-        if plan_path is not None:
-            q_plan = plans.read_csv(plan_path)
-        else:
-            if rig.tracker_at_mm is None:
-                typer.echo("note: no --tracker-at: the plan ignores the acceptance angle", err=True)
-            cell = plans.CellConstraints(
-                tracker_at_mm=rig.tracker_at_mm, flange2tool=rig.flange2tool_guess
-            )
-            q_plan = plans.make(rig.model.mdh, rig.model.joint_limits_rad, poses, cell, seed=seed)
-        need = plans.min_poses(rig.model.mdh)
-        q_plan = plans.validate(q_plan, rig.model.joint_limits_rad, need=need)
-        if hasattr(rig.robot, "check_plan"):
-            from drivers.robot.errors import LimitsViolation
-
-            try:
-                rig.robot.check_plan(q_plan, speed, accel)
-            except LimitsViolation as exc:
-                _fail(str(exc))
+        run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
         marks.append(("plan (make and check)", time.perf_counter()))
-        settle_s = settle if settle is not None else (0.5 if rig.real_robot else 0.0)
-        meta = session.SessionMeta(
-            frame="tracker",
-            nominal_mdh=rig.model.mdh,
-            model=rig.model.name,
-            flange2tool=rig.flange2tool_guess,
-            tool_known=False,
-            extra={"measured": {"robot": rig.robot_id, "tracker": rig.tracker_id}},
-        )
-        header = {
-            "plan_sha256": plans.digest(q_plan),
-            "robot": rig.robot_id,
-            "tracker": rig.tracker_id,
-            "readings": readings,
-            "poses": len(q_plan),
-            "meta": meta.to_json(),
-        }
-        if resume:
-            journal, done = journals.Journal.resume(jpath, header)
-            done = done.records
+        if settle is None:  # a real arm rings after a move; the simulated one does not
+            run.options = options = replace(options, settle_s=0.5 if run.moves_hardware else 0.0)
         else:
-            if rig.real_robot and not yes:
-                _confirm(rig.robot_id, len(q_plan))
-            journal, done = journals.Journal.create(jpath, header), {}
-        stack.callback(journal.close)
-        if resume and rig.real_robot and not yes:
-            left = len(q_plan) - sum(r["status"] == "measured" for r in done.values())
-            _confirm(rig.robot_id, left)
+            run.options = options = replace(options, settle_s=settle)
+        run.open_journal(confirm=None if yes else _confirm)
         # A line per pose when piped: a measure run is slow enough to log each one.
         reporter = progress.Reporter.for_cli(quiet)
         reporter.interval_s = 0.0
+        relock = _ask_relock if ask_relock and sys.stdin.isatty() else None
         with (
             _StopOnSigint() as interrupt,
-            reporter.task("measure", len(q_plan), "poses") as task,
+            reporter.task("measure", len(run.plan), "poses") as task,
         ):
-            outcome = loop.run(
-                q_plan,
-                rig.robot,
-                rig.tracker,
-                journal,
-                loop.LoopOptions(readings, settle_s, retries, speed, accel),
-                done=done,
-                after_move=rig.after_move,
+            run.measure(
                 should_stop=lambda: interrupt.requested,
                 on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
+                on_beam_lost=relock,
             )
-        journal.close()
         marks.append(("measure loop", time.perf_counter()))
-        measured, failed = outcome.measured, outcome.failed
-        if measured:
-            session.write(output, rows.to_table(outcome.records.values()), meta)
+        summary = run.finish()
         marks.append(("write session", time.perf_counter()))
-        if timings:
-            for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
-                typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
-        resume_hint = f"rerun the same command with --resume to continue ({jpath})"
-        if outcome.stopped:
-            advice = ""
-            if outcome.stopped.startswith("robot halted"):
-                advice = (
-                    "clear the stop on the pendant (after an e-stop: release it, power on "
-                    "and release the brakes), then "
-                )
-            typer.echo(
-                f"stopped: {outcome.stopped}; {len(measured)} of {len(q_plan)} poses kept; "
-                + advice
-                + resume_hint,
-                err=True,
+    marks.append(("close (devices, simulator)", time.perf_counter()))
+    if timings:
+        for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
+            typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
+    _report(summary, options)
+
+
+def _open_run(robot_url, tracker_url, arm, options, output, stack, *, sim_noise, sim_faults,
+              sim_replay, sim_record, sim_control, max_speed):  # fmt: skip
+    """The devices named by URL (the drivers' registries) and the run over them."""
+    from calibrator.acquire.run import MeasureRun
+    from calibrator.errors import CalibrationError
+    from calibrator.simulate import SimWorld
+    from drivers.robot import RobotOptions, open_robot
+    from drivers.tracker import OpenOptions, open_tracker
+
+    world = None
+    if "sim" in (robot_url, tracker_url):
+        world = SimWorld.make(arm.name, options.seed)
+    try:
+        robot = open_robot(robot_url, RobotOptions(arm, world, max_speed_rad_s=max_speed))
+    except ValueError as exc:
+        raise CalibrationError(f"--robot: {exc}") from None
+    try:
+        tracker = open_tracker(
+            tracker_url,
+            OpenOptions(
+                record=sim_record, world=world if tracker_url == "sim" else None,
+                sim_noise=sim_noise, sim_faults=sim_faults, sim_replay=sim_replay,
+            ),
+        )  # fmt: skip
+    except ValueError as exc:
+        raise CalibrationError(f"--tracker: {exc}") from None
+    steer = None
+    if sim_control is not None:
+        steer = _sim_control(sim_control, robot, stack)
+    return MeasureRun(robot, tracker, arm, options, output, world=world, steer=steer)
+
+
+def _sim_control(url, robot, stack):
+    """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
+    from calibrator.acquire.ports import REPORTS_TRUE_POSE
+    from drivers.tracker.simulator.launch import SimulatorControl
+
+    if REPORTS_TRUE_POSE not in robot.capabilities:
+        _fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")
+    try:
+        control = SimulatorControl(url)
+    except (OSError, ValueError) as exc:
+        _fail(f"--sim-control {url}: {exc}")
+    stack.callback(control.close)
+    return control.set_target
+
+
+def _report(summary, options) -> None:
+    """The run's last lines: what was written, what failed and why, what to do next."""
+    resume_hint = f"rerun the same command with --resume to continue ({summary.journal})"
+    causes = f": {summary.causes_text()}" if summary.causes else ""
+    failed = f"{len(summary.failed)} pose(s) failed{causes}"
+    if summary.written is None:
+        what = "; ".join(x for x in (summary.stopped, failed if summary.failed else "") if x)
+        typer.echo(
+            f"calibrator: error: no pose measured, no session written: {what}; {resume_hint}",
+            err=True,
+        )
+        raise typer.Exit(1)
+    if summary.stopped:
+        advice = ""
+        if summary.stopped.startswith("robot halted"):
+            advice = (
+                "clear the stop on the pendant (after an e-stop: release it, power on "
+                "and release the brakes), then "
             )
-            raise typer.Exit(1)
-        if failed:
-            typer.echo(
-                f"{len(failed)} pose(s) failed after {retries} retries ({failed[:10]}); "
-                f"wrote {output} with {len(measured)} poses; " + resume_hint + " to retry them"
-            )
-            return
-        jpath.unlink()
-        typer.echo(f"wrote {output}: {len(measured)} poses x {readings} readings")
+        kept = f"{len(summary.measured)} of {summary.total} poses kept"
+        typer.echo(
+            f"stopped: {summary.stopped}; {kept}"
+            + (f"; {failed}" if summary.failed else "")
+            + "; "
+            + advice
+            + resume_hint,
+            err=True,
+        )
+        raise typer.Exit(1)
+    if summary.failed:
+        typer.echo(
+            f"{failed} (after {options.retries} retries: poses {summary.failed[:10]}); "
+            f"wrote {summary.written} with {len(summary.measured)} poses; "
+            + resume_hint
+            + " to retry them"
+        )
+        return
+    n = len(summary.measured)
+    typer.echo(f"wrote {summary.written}: {n} poses x {options.readings} readings")
 
 
 def _check_motion_caps(model_name, speed, accel, max_speed):
@@ -268,6 +289,7 @@ def _check_motion_caps(model_name, speed, accel, max_speed):
             f"--accel {accel} rad/s^2 outside (0, {accel_cap}] (the {arm.name} ceiling; "
             "an option cannot raise it)"
         )
+    return arm
 
 
 def _pose_fields(progress) -> dict:
@@ -278,6 +300,17 @@ def _pose_fields(progress) -> dict:
     import numpy as np
 
     return {"pose": progress.pose, "spread_um": float(np.linalg.norm(record["std_mm"]) * 1e3)}
+
+
+def _ask_relock(pose: int, attempt: int) -> None:
+    """On a terminal: let the operator re-lock the beam before the next attempt."""
+    typer.prompt(
+        f"beam lost at pose {pose}: re-lock it on the reflector, then press Enter "
+        f"(attempt {attempt})",
+        default="",
+        show_default=False,
+        err=True,
+    )
 
 
 def _confirm(robot_id: str, n: int) -> None:

@@ -1,9 +1,16 @@
-"""Robot link: one interface, a ``ur-rtde`` adapter, a simulated arm, safety checks.
+"""Robot link: one contract, robots opened by URL, a ``ur-rtde`` adapter, a simulated arm.
 
-See ``docs/robot-link.md``. Import the implementations from their modules
-(``drivers.robot.ur_rtde_adapter``, ``drivers.robot.simulated``) so that the
+See ``docs/robot-link.md``. :func:`open_robot` builds the robot a URL names
+(``sim``, ``ur://HOST``, or any scheme added with :func:`register_robot`);
+the implementations are imported only when their scheme is used, so the
 simulated robot never needs the ``ur-rtde`` wheel.
 """
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 from drivers.robot.errors import (
     EmergencyStop,
@@ -15,6 +22,10 @@ from drivers.robot.interface import Robot, SafetyState
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
 
 __all__ = [
+    "ROBOT_KINDS",
+    "RobotOptions",
+    "open_robot",
+    "register_robot",
     "EmergencyStop",
     "GuardedRobot",
     "LimitsViolation",
@@ -25,3 +36,90 @@ __all__ = [
     "SafetyState",
     "check_plan",
 ]
+
+
+@dataclass(frozen=True)
+class RobotOptions:
+    """What a caller may ask of any robot kind when opening it.
+
+    Attributes
+    ----------
+    model : calibrator.models.RobotModel
+        The named arm (limits, data-sheet motion caps).
+    world : calibrator.simulate.SimWorld, optional
+        The simulated world (the ``sim`` kind needs it).
+    max_speed_rad_s, max_accel_rad_s2 : float, optional
+        Lower the model's fixed motion caps (never raise them).
+    """
+
+    model: Any
+    world: Any = None
+    max_speed_rad_s: float | None = None
+    max_accel_rad_s2: float | None = None
+
+
+RobotOpener = Callable[[str, RobotOptions], Robot]
+
+
+def _open_sim(url: str, options: RobotOptions) -> Robot:
+    from drivers.robot.simulated import SimulatedRobot
+
+    world = options.world
+    if world is None:
+        raise ValueError("--robot sim needs the simulated world (measure builds it)")
+    robot = SimulatedRobot(world.true_mdh, world.base2tracker, world.flange2tool)
+    robot.device_id = f"sim:{world.model.name}:seed={world.seed}"
+    return robot
+
+
+def _open_ur(url: str, options: RobotOptions) -> Robot:
+    from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+
+    host = url.split("://", 1)[1].strip("/")
+    if not host:
+        raise ValueError("ur:// needs a host, e.g. ur://192.168.1.10")
+    limits = MotionLimits.from_model(
+        options.model, options.max_speed_rad_s, options.max_accel_rad_s2
+    )
+    robot = GuardedRobot(UrRtdeRobot(host), limits)
+    robot.device_id = f"ur://{host}:{options.model.name}"
+    return robot
+
+
+#: Robot kinds by URL scheme.
+ROBOT_KINDS: dict[str, RobotOpener] = {"sim": _open_sim, "ur": _open_ur}
+
+
+def register_robot(kind: str, opener: RobotOpener) -> None:
+    """Add (or replace) the opener of URL scheme ``kind``."""
+    ROBOT_KINDS[kind.lower()] = opener
+
+
+def open_robot(url: str, options: RobotOptions) -> Robot:
+    """The robot named by ``url``, not yet connected, with a ``device_id`` for the journal.
+
+    Parameters
+    ----------
+    url : str
+        ``sim`` or ``ur://HOST`` (or a registered scheme).
+    options : RobotOptions
+
+    Returns
+    -------
+    drivers.robot.interface.Robot
+        Every move of a robot that moves hardware is checked against the
+        model's limits first (:class:`GuardedRobot`).
+
+    Raises
+    ------
+    ValueError
+        Unknown scheme (the message lists the known ones) or a missing host.
+    """
+    kind = "sim" if url == "sim" else url.split("://", 1)[0].lower() if "://" in url else url
+    opener = ROBOT_KINDS.get(kind)
+    if opener is None:
+        raise ValueError(
+            f"unknown robot {url!r}; use sim or "
+            + ", ".join(f"{k}://HOST" for k in sorted(ROBOT_KINDS) if k != "sim")
+        )
+    return opener(url, options)

@@ -9,11 +9,12 @@ Units: joint angles in rad, speeds in rad/s, accelerations in rad/s^2.
 Failures are exceptions from :mod:`drivers.robot.errors`, never return codes.
 """
 
-import abc
 import numbers
 from dataclasses import dataclass
 
 import numpy as np
+
+from calibrator.acquire import ports
 
 N_JOINTS = 6
 
@@ -39,72 +40,19 @@ class SafetyState:
         return not (self.protective_stopped or self.emergency_stopped)
 
 
-class Robot(abc.ABC):
-    """A 6-axis arm that moves in joint space and reports its joints.
+class Robot(ports.Robot):
+    """Base class of every robot driver: the one robot contract plus ``with`` support.
 
-    Use as a context manager (``with robot: ...``) or call :meth:`connect`
-    and :meth:`close`.
+    The contract itself (methods, units, failures, capabilities) is
+    :class:`calibrator.acquire.ports.Robot`; this class adds nothing to it
+    but :meth:`__enter__`/:meth:`__exit__` (``with robot: ...`` connects and
+    closes). A driver declares what it can do beyond the contract in
+    ``capabilities`` (names from :mod:`calibrator.acquire.ports`).
     """
 
-    @abc.abstractmethod
-    def connect(self):
-        """Open the link to the arm; raises :class:`~drivers.errors.ConnectionLost` if it fails."""
-
-    @abc.abstractmethod
-    def close(self):
-        """Close the link; safe to call twice or after a failure."""
-
-    @abc.abstractmethod
-    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
-        """Move to joint angles, wait until steady, and check the arm got there.
-
-        Parameters
-        ----------
-        q_rad : array_like, shape (6,)
-            Target joint angles, rad.
-        speed_rad_s : float
-            Speed of the leading joint, rad/s (> 0).
-        accel_rad_s2 : float
-            Acceleration of the leading joint, rad/s^2 (> 0).
-
-        Returns
-        -------
-        ndarray, shape (6,)
-            Actual joint angles (rad) once steady, within tolerance of ``q_rad``.
-
-        Raises
-        ------
-        ProtectiveStop, EmergencyStop
-            The arm is (or became) stopped by its safety system.
-        MotionFailed
-            The move ended away from its target (e.g. :meth:`stop` was called).
-        ConnectionLost, DriverTimeout
-            The link went away, or the move did not end by its deadline.
-        """
-
-    @abc.abstractmethod
-    def actual_joints(self):
-        """Actual joint angles, rad, shape (6,)."""
-
-    @abc.abstractmethod
-    def safety_state(self):
-        """Current :class:`SafetyState`."""
-
-    @abc.abstractmethod
-    def stop(self):
-        """Stop any motion now (callable from another thread while a move waits)."""
-
-    @abc.abstractmethod
-    def clear_protective_stop(self):
-        """Release a protective stop and make the arm accept moves again.
-
-        Raises
-        ------
-        EmergencyStop
-            An e-stop is still engaged (only an operator can release it).
-        NotReady
-            The controller refused to release the stop (yet).
-        """
+    capabilities: frozenset[str] = frozenset()
+    #: Who the arm is, for the journal (``open_robot`` sets it: ``ur://HOST:MODEL``).
+    device_id: str = ""
 
     def __enter__(self):
         self.connect()

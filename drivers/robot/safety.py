@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator.acquire import ports
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.interface import N_JOINTS, Robot, real_array, real_scalar
 
@@ -180,11 +181,13 @@ class GuardedRobot(Robot):
     limits : MotionLimits
     """
 
-    def __init__(self, robot, limits):
+    def __init__(self, robot: Robot, limits: MotionLimits) -> None:
         self.robot = robot
         self.limits = limits
+        # What the inner robot can do, plus the whole-plan check this wrapper adds.
+        self.capabilities = frozenset(robot.capabilities) | {ports.CHECKS_PLAN}
 
-    def check_plan(self, q_plan_rad, speed_rad_s, accel_rad_s2):
+    def check_plan(self, q_plan_rad, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
         """:func:`check_plan` with this robot's limits; call it before the first move."""
         return check_plan(q_plan_rad, self.limits, speed_rad_s, accel_rad_s2)
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator.acquire import ports
 from calibrator.kinematics import check_mdh, forward
 from calibrator.models import get_model
 from calibrator.simulate import random_errors
@@ -95,6 +96,8 @@ class SimulatedRobot(Robot):
     repeatability : JointRepeatability, optional
         Load-side joint errors (default: none). Needs ``rng`` when not zero.
     """
+
+    capabilities = frozenset({ports.REPORTS_TRUE_POSE})
 
     def __init__(
         self,

@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from calibrator.acquire import ports
 from drivers.robot.errors import (
     ConnectionLost,
     DriverTimeout,
@@ -78,6 +79,8 @@ class UrRtdeRobot(Robot):
         command without an answer by then means the link is lost.
     """
 
+    capabilities = frozenset({ports.MOVES_HARDWARE})
+
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
     start_grace_s = 0.1
     #: Seconds to wait for ``actual_q`` to catch up once steady (it lags ~1 period).
@@ -131,12 +134,13 @@ class UrRtdeRobot(Robot):
             self._dashboard = dashboard_client.DashboardClient(self.host)
             self._dashboard.connect()
         except RuntimeError as exc:
-            stopped = self._receive is not None and (
-                self._receive.isProtectiveStopped() or self._receive.isEmergencyStopped()
-            )
+            estop = self._receive is not None and self._receive.isEmergencyStopped()
+            pstop = self._receive is not None and self._receive.isProtectiveStopped()
             self.close()
-            if stopped:
-                raise NotReady(f"UR controller at {self.host} is safety-stopped: {exc}") from exc
+            if estop or pstop:
+                # Typed as the stop it is (a RobotHalted): the caller says "clear the stop".
+                kind = EmergencyStop if estop else ProtectiveStop
+                raise kind(f"UR controller at {self.host} is safety-stopped: {exc}") from exc
             raise ConnectionLost(f"could not connect to {self.host}: {exc}") from exc
         self._last_stamp = (self._receive.getTimestamp(), time.monotonic())
         # a robot that is stopped at connect time must be cleared explicitly too

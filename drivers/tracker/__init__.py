@@ -1,20 +1,31 @@
-"""Laser-tracker support: protocol, driver on pyserial, averaging, recording, simulator.
+"""Laser-tracker support: one opener by URL, protocol, driver on pyserial, averaging, simulator.
 
-The measure loop needs::
+Any tracker kind is opened by URL (:func:`open_tracker`, registry in
+:mod:`drivers.tracker.base`) and satisfies the measure loop's port directly::
 
-    from drivers.tracker import LaserTracker, Environment, measure_average
+    # requires hardware
+    from drivers.tracker import open_tracker, measure_average
 
-    with LaserTracker("socket://127.0.0.1:5000", record="raw.jsonl") as tracker:
-        identity, status = tracker.connect(Environment(20.0, 1013.25, 45.0))
-        if not status.initialised:
-            tracker.initialise()
-        avg = measure_average(tracker, n=10)   # avg.mean_mm, avg.std_mm, avg.count
+    tracker = open_tracker("socket://127.0.0.1:5000")
+    status = tracker.connect()
+    if not status.initialised:
+        tracker.initialise()
+    avg = measure_average(tracker, n=10)   # avg.mean_mm, avg.std_mm, avg.count
+    tracker.close()
 
 The simulator lives in :mod:`drivers.tracker.simulator` (imported on demand).
 """
 
 from drivers.tracker.averaging import measure_average
-from drivers.tracker.driver import Environment, Identity, LaserTracker, Status
+from drivers.tracker.base import (
+    TRACKER_KINDS,
+    Environment,
+    OpenOptions,
+    UnknownKind,
+    open_tracker,
+    register_tracker,
+)
+from drivers.tracker.driver import Identity, LaserTracker, Status
 from drivers.tracker.errors import (
     BeamBroken,
     ChecksumError,
@@ -22,16 +33,19 @@ from drivers.tracker.errors import (
     FrameError,
     FrameRejected,
     IdentityChanged,
+    LinkDropped,
     NotInitialised,
     TargetUnstable,
     TrackerBusy,
     TrackerError,
+    TrackerGone,
     TrackerTimeout,
 )
 from drivers.tracker.protocol import Reading, ReadingStatus
 from drivers.tracker.recording import Recorder, read_log
 
 __all__ = [
+    "TRACKER_KINDS",
     "AveragedReading",
     "BeamBroken",
     "ChecksumError",
@@ -42,6 +56,8 @@ __all__ = [
     "Identity",
     "IdentityChanged",
     "LaserTracker",
+    "LinkDropped",
+    "OpenOptions",
     "NotInitialised",
     "Reading",
     "ReadingStatus",
@@ -50,9 +66,13 @@ __all__ = [
     "TargetUnstable",
     "TrackerBusy",
     "TrackerError",
+    "TrackerGone",
     "TrackerTimeout",
+    "UnknownKind",
     "measure_average",
+    "open_tracker",
     "read_log",
+    "register_tracker",
 ]
 
 

@@ -17,10 +17,14 @@ from typing import TextIO
 
 import serial
 
+from calibrator.acquire import ports
+from drivers.tracker.base import Environment, OpenOptions
 from drivers.tracker.errors import (
     ConnectionLost,
     FrameError,
     IdentityChanged,
+    LinkDropped,
+    TrackerGone,
     TrackerTimeout,
 )
 from drivers.tracker.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
@@ -66,15 +70,6 @@ class Status:
     mode: str
 
 
-@dataclass(frozen=True)
-class Environment:
-    """Meteo data the tracker needs for its refractive index correction."""
-
-    temperature_c: float = 20.0
-    pressure_hpa: float = 1013.25
-    humidity_pct: float = 50.0
-
-
 class LaserTracker:
     """Driver for a tracker speaking the protocol in ``docs/tracker-protocol.md``.
 
@@ -97,7 +92,11 @@ class LaserTracker:
         Pause before each reconnect attempt, s.
     on_event : callable, optional
         Called with each unsolicited ``EV`` frame.
+    environment : Environment, optional
+        Meteo data :meth:`connect` sends when it is given none.
     """
+
+    capabilities = frozenset({ports.INITIALISE})
 
     def __init__(
         self,
@@ -110,6 +109,7 @@ class LaserTracker:
         reconnect_attempts: int = 3,
         reconnect_delay_s: float = 0.2,
         on_event: Callable[[Reply], None] | None = None,
+        environment: Environment | None = None,
     ):
         self._url = port if isinstance(port, str) else None
         self._port: SerialLike | None = None if isinstance(port, str) else port
@@ -120,6 +120,7 @@ class LaserTracker:
         self.reconnect_delay_s = reconnect_delay_s
         self._recorder = Recorder(record) if record is not None else None
         self._on_event = on_event
+        self.environment = environment
         self._link: Link | None = None
         self._events: deque[Reply] = deque(maxlen=256)  # survives reconnects
         # Sequence numbers continue across reconnects, so a late reply to a command
@@ -133,28 +134,32 @@ class LaserTracker:
 
     # ------------------------------------------------------------ lifecycle
 
-    def connect(
-        self, environment: Environment | None = None, mode: str | None = None
-    ) -> tuple[Identity, Status]:
+    def connect(self, environment: Environment | None = None, mode: str | None = None) -> Status:
         """Open the transport, identify, set units (mm, rad), environment and mode, read status.
 
         Never initialises: call :meth:`initialise` when :attr:`Status.initialised` is False.
+        Who answered is :attr:`identity` (and :attr:`device_id`) afterwards.
 
         Returns
         -------
-        identity : Identity
-        status : Status
+        Status
         """
         self._open()
         self.identity = self.query_identity()
         reply = self._apply("UNITS", "MM", "RAD")
         if reply.fields != ("MM", "RAD"):  # every reading is parsed as mm and rad
             raise FrameError(f"tracker did not confirm UNITS,MM,RAD: {reply.fields!r}")
+        environment = environment or self.environment
         if environment is not None:
             self.set_environment(environment)
         if mode is not None:
             self.set_mode(mode)
-        return self.identity, self.status()
+        return self.status()
+
+    @property
+    def device_id(self) -> str:
+        """``vendor:model:serial`` of the tracker that answered :meth:`connect` ("" before)."""
+        return ":".join(self.identity.key) if self.identity is not None else ""
 
     def close(self) -> None:
         """Close the transport if we opened it, and the recording."""
@@ -243,9 +248,13 @@ class LaserTracker:
             The tracker refused (typed by its error code).
         TrackerTimeout, FrameError, ChecksumError
             No usable reply; the reading is lost and never re-requested here.
-        ConnectionLost
-            The transport failed; if a reconnect succeeded the next call works,
-            but this reading is not repeated.
+        LinkDropped
+            The transport failed and a reconnect brought it back; this reading
+            is lost (a :class:`~calibrator.acquire.ports.ReadingLost`) and not repeated.
+        TrackerGone
+            The transport failed and the bounded reconnect did not bring it
+            back, or another tracker answered (a
+            :class:`~calibrator.acquire.ports.TrackerUnavailable`).
         """
         reply = self._query("MEAS", idempotent=False, timeout_s=timeout_s or self.measure_timeout_s)
         return parse_reading(reply.fields)
@@ -293,7 +302,7 @@ class LaserTracker:
                 self._lost = True
                 self._reconnect()  # raises ConnectionLost when it cannot
                 if not idempotent or attempt:
-                    raise ConnectionLost(
+                    raise LinkDropped(
                         f"connection lost during {command}; reconnected, command not repeated"
                     ) from exc
         raise AssertionError("unreachable")
@@ -371,7 +380,7 @@ class LaserTracker:
             except (ConnectionLost, TrackerTimeout, FrameError) as exc:
                 last = exc
                 self._lost = True
-        raise ConnectionLost(
+        raise TrackerGone(
             f"connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
         ) from last
 
@@ -388,3 +397,11 @@ def _parse_status(reply: Reply) -> Status:
     if len(f) != 5 or f[1] not in flags or f[2] not in flags or f[3] not in ("P3", "P6"):
         raise FrameError(f"bad STAT? reply fields {f!r}")
     return Status(f[0], f[1] == "1", f[2] == "1", f[3] == "P6", f[4])
+
+
+def open_line_tracker(url: str, options: OpenOptions) -> LaserTracker:
+    """The registry's opener for the line protocol (device paths and pyserial URLs)."""
+    if options.world is not None or options.sim_faults or options.sim_replay:
+        raise ValueError(f"{url}: simulator options need --tracker sim")
+    # Standard air until the user's meteo is wired in: what measure always sent.
+    return LaserTracker(url, record=options.record, environment=Environment())

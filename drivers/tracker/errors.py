@@ -10,11 +10,14 @@ Which error means what (those the measure loop retries also derive from
   codes the caller acts on (:class:`BeamBroken`, :class:`NotInitialised`,
   :class:`TargetUnstable`, :class:`TrackerBusy`, :class:`FrameRejected`).
 - :class:`IdentityChanged` -- after a reconnect a different tracker answered.
-- ``ConnectionLost`` from :mod:`drivers.errors` -- the port went away and the
-  bounded reconnect did not bring it back (or the in-flight command was lost).
+- :class:`LinkDropped` -- the port went away during a command and came back:
+  the reply is lost (the loop measures again).
+- :class:`TrackerGone` -- the port went away and the bounded reconnect did
+  not bring it back (the loop ends the run); both are ``ConnectionLost``
+  from :mod:`drivers.errors`.
 """
 
-from calibrator.acquire.ports import ReadingLost
+from calibrator.acquire.ports import BeamLost, ReadingLost, TrackerUnavailable
 from drivers.errors import ConnectionLost, DriverError, DriverTimeout, NotReady, ProtocolError
 
 __all__ = [
@@ -24,10 +27,12 @@ __all__ = [
     "FrameError",
     "FrameRejected",
     "IdentityChanged",
+    "LinkDropped",
     "NotInitialised",
     "TargetUnstable",
     "TrackerBusy",
     "TrackerError",
+    "TrackerGone",
     "TrackerTimeout",
 ]
 
@@ -44,7 +49,15 @@ class ChecksumError(FrameError):
     """A received frame's CRC-16 does not match its body."""
 
 
-class IdentityChanged(ConnectionLost):
+class LinkDropped(ConnectionLost, ReadingLost):
+    """The link failed during a command and a reconnect brought it back; that reply is lost."""
+
+
+class TrackerGone(ConnectionLost, TrackerUnavailable):
+    """The link failed and the bounded reconnect did not bring the tracker back."""
+
+
+class IdentityChanged(TrackerGone):
     """After a reconnect the device reported a different identity than before."""
 
 
@@ -74,7 +87,7 @@ class TrackerError(DriverError):
         super().__init__(msg)
 
 
-class BeamBroken(TrackerError, ReadingLost):
+class BeamBroken(TrackerError, BeamLost):
     """The laser beam is interrupted or not locked on a target (codes BEAM_BROKEN, NO_TARGET)."""
 
 

@@ -22,6 +22,8 @@ Why a reading always belongs to its command:
 
 from __future__ import annotations
 
+import contextlib
+import socket
 import time
 from collections import deque
 from collections.abc import Callable
@@ -64,6 +66,26 @@ class SerialLike(Protocol):
 
 # pyserial raises SerialException (an IOError) or plain OSError when a port vanishes.
 TRANSPORT_ERRORS = (serial.SerialException, OSError)
+
+
+def close_for_good(port: SerialLike) -> None:
+    """Close a transport that will not be reopened; a ``socket://`` one without a pause.
+
+    pyserial's socket transport sleeps 0.3 s in ``close()`` so that a quick
+    reconnect finds the server ready again. A link closed for good (the
+    simulator's control link at the end of a run) has no reconnect to wait
+    for, so its socket is shut down and closed directly.
+    """
+    sock = getattr(port, "_socket", None)
+    if isinstance(sock, socket.socket):
+        with contextlib.suppress(OSError):  # the peer may have gone first
+            sock.shutdown(socket.SHUT_RDWR)
+        sock.close()
+        port._socket = None  # type: ignore[attr-defined]  # what pyserial's close() resets
+        port.is_open = False  # type: ignore[attr-defined]
+        return
+    port.close()
+
 
 # Start of every tracker frame: where a reply glued behind junk may begin.
 _FRAME_STARTS = (b"OK,", b"ER,", b"EV,")

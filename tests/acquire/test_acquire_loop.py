@@ -15,9 +15,10 @@ from calibrator.acquire import journal as journals
 from calibrator.acquire import loop
 from calibrator.acquire.averaging import AveragedReading, average, measure_average
 from calibrator.acquire.ports import ReadingLost
-from calibrator.cli._hardware import SIM_TRACKER_AT_MM, LaserTrackerPort, SimCell
+from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.errors import EmergencyStop
 from drivers.robot.simulated import SimulatedRobot
+from drivers.tracker import LaserTracker
 from drivers.tracker.simulator import SimulatorControl, SimulatorProcess
 
 N_POSES = 10
@@ -26,7 +27,7 @@ HEADER = {"plan_sha256": "x", "robot": "sim", "tracker": "sim", "readings": 10}
 
 @pytest.fixture(scope="module")
 def cell():
-    return SimCell.make("ur10e", 0)
+    return SimWorld.make("ur10e", 0)
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +43,7 @@ def rig(cell, socket=False):
         robot = SimulatedRobot(cell.true_mdh, cell.base2tracker, cell.flange2tool)
         robot.listener = lambda pose: sim.set_target(pose[:3, 3])
         # The TCP endpoint survives a hang-up (the pty does not): "lost and back".
-        tracker = LaserTrackerPort(sim.control_url if socket else sim.url)
+        tracker = LaserTracker(sim.control_url if socket else sim.url)
         robot.connect()
         tracker.connect()
         try:

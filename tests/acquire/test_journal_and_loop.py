@@ -1,4 +1,6 @@
-"""The journal, its records and the measure loop, called directly.
+"""Journal records, session rows and the measure loop, called directly.
+
+The journal itself is tested in test_journal.py.
 
 The loop runs over scripted ports here (a robot that reports where it was
 sent, a tracker that answers from a script), so each failure path can be
@@ -12,10 +14,15 @@ from datetime import UTC, datetime, timedelta
 import numpy as np
 import pytest
 
-from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, rows
 from calibrator.acquire.averaging import TooFewReadings, average, measure_average
-from calibrator.acquire.ports import ReadingLost, RobotHalted, TrackerUnavailable
+from calibrator.acquire.ports import (
+    SEARCH,
+    BeamLost,
+    ReadingLost,
+    RobotHalted,
+    TrackerUnavailable,
+)
 
 HEADER = {"plan_sha256": "abc", "robot": "sim:r", "tracker": "t-1", "readings": 3, "poses": 4}
 
@@ -34,98 +41,6 @@ def averaged(points, rotvecs=None):
 
 
 # ---------------------------------------------------------------- journal
-
-
-def test_journal_lives_beside_the_session():
-    assert journals.journal_path("out/s.parquet") == journals.Path("out/s.parquet.journal")
-
-
-def test_a_journal_reads_back_bit_for_bit_with_the_last_record_of_each_pose(tmp_path):
-    path = tmp_path / "s.journal"
-    third = 1.0 / 3.0
-    with journals.Journal.create(path, HEADER) as journal:
-        assert journal.path == path
-        journal.append({"pose": 2, "status": "failed", "reason": "x"})
-        journal.append({"pose": 0, "status": "measured", "point_mm": [third, 1e-17, -2.5e300]})
-        journal.append({"pose": 2, "status": "measured", "point_mm": [0.1, 0.2, 0.3]})
-    lines = path.read_text().split("\n")
-    assert len(lines) == 5 and lines[-1] == ""  # header, three records, final newline
-    assert json.loads(lines[0]) == {"format": "calibrator.journal", "version": 1, **HEADER}
-    done = journals.read(path)
-    assert done.header == json.loads(lines[0])
-    assert sorted(done.records) == [0, 2] and done.records[2]["status"] == "measured"
-    assert done.records[0]["point_mm"] == [third, 1e-17, -2.5e300]
-
-
-def test_a_journal_is_never_replaced_and_refuses_nan(tmp_path):
-    path = tmp_path / "j"
-    journal = journals.Journal.create(path, HEADER)
-    with pytest.raises(ValueError):
-        journal.append({"pose": 0, "point_mm": [float("nan")]})
-    journal.close()
-    journal.close()  # twice is fine
-    before = path.read_bytes()
-    with pytest.raises(journals.JournalError) as exc:
-        journals.Journal.create(path, HEADER)
-    assert str(exc.value) == (
-        f"{path} exists (an unfinished run): pass --resume to continue it, or remove it to "
-        "start over"
-    )
-    assert path.read_bytes() == before
-
-
-@pytest.mark.parametrize(
-    ("text", "message"),
-    [
-        ("", "is not a calibrator journal"),
-        ("[1, 2]\n", "is not a calibrator journal"),
-        ('{"format": "other", "version": 1}\n', "is not a calibrator journal"),
-        ('{"format": "calibrator.journal", "version": 2}\n', "journal version 2 is not supported"),
-        ('{"format": "calibrator.journal"}\n', "journal version None is not supported"),
-        (
-            '{"format": "calibrator.journal", "version": 1}\n{"pose": 0}\n{"po\n',
-            "line 3 is damaged",
-        ),
-        ('{"format": "calibrator.journal", "version": 1}\n{"status": 1}\n', "line 2 is damaged"),
-        ('{"format": "calibrator.journal", "version": 1}\n[3]\n', "line 2 is damaged"),
-    ],
-)
-def test_a_damaged_journal_is_refused_naming_the_problem(tmp_path, text, message):
-    path = tmp_path / "j"
-    path.write_text(text)
-    with pytest.raises(journals.JournalError, match=message):
-        journals.read(path)
-
-
-def test_a_missing_journal_cannot_be_resumed(tmp_path):
-    with pytest.raises(journals.JournalError, match="^no journal to resume: .* not found$"):
-        journals.Journal.resume(tmp_path / "none", HEADER)
-
-
-@pytest.mark.parametrize("key", journals.IDENTITY_KEYS)
-def test_resume_refuses_another_runs_journal(tmp_path, key):
-    path = tmp_path / "j"
-    journals.Journal.create(path, HEADER).close()
-    other = {**HEADER, key: "other"}
-    expected = f"its {key} is {HEADER[key]!r}, this run's is 'other'"
-    with pytest.raises(journals.JournalError, match="belongs to another run: " + expected):
-        journals.Journal.resume(path, other)
-
-
-def test_resume_drops_a_line_cut_short_and_appends_after_the_last_whole_one(tmp_path):
-    path = tmp_path / "j"
-    with journals.Journal.create(path, HEADER) as journal:
-        journal.append({"pose": 0, "status": "measured"})
-    with open(path, "a") as fh:
-        fh.write('{"pose": 1, "status": "meas')  # a crash in the middle of a write
-    journal, done = journals.Journal.resume(path, {**HEADER, "poses": 99})  # not identity
-    assert sorted(done.records) == [0] and journal.path == path
-    with journal:
-        journal.append({"pose": 1, "status": "measured"})
-    assert sorted(journals.read(path).records) == [0, 1]
-    assert path.read_text().endswith(
-        '{"pose": 0, "status": "measured"}\n{"pose": 1, "status": "measured"}\n'
-    )
 
 
 # ---------------------------------------------------------------- records and rows
@@ -262,6 +177,8 @@ class Arm:
 class Script:
     """A tracker answering from a list: a point, or an exception to raise."""
 
+    capabilities = frozenset()
+
     def __init__(self, answers):
         self.answers, self.calls = list(answers), 0
 
@@ -324,6 +241,7 @@ def test_a_lost_set_is_taken_again_whole_and_given_up_after_the_retries():
         "status": "failed",
         "reason": "; ".join(["ReadingLost: beam broken"] * 3),
         "attempts": 3,
+        "causes": {"reading lost": 3},
     }
     assert out.records[2]["point_mm"] == [5.0, 5.0, 5.0]
     assert out.failed == [1] and out.measured == [0, 2] and out.stopped is None
@@ -384,3 +302,89 @@ def test_default_options_are_ten_readings_no_wait_three_retries():
     tracker = Script([ReadingLost("x")] * 4)
     out = loop.run(PLAN[:1], Arm(), tracker, Journal())
     assert out.failed == [0] and tracker.calls == 4
+
+
+class BeamBroken(BeamLost):
+    """A tracker's own beam-lost error (its class name is the failure class)."""
+
+
+class Searching(Script):
+    """A tracker that can look for its reflector: records where it was asked to."""
+
+    capabilities = frozenset({SEARCH})
+
+    def __init__(self, answers):
+        super().__init__(answers)
+        self.searched = []
+
+    def find_reflector(self, near_mm):
+        self.searched.append(np.array(near_mm))
+
+
+def test_a_lost_reading_is_retried_after_a_pause_that_doubles():
+    slept = []
+    answers = [ReadingLost("x")] * 4 + [[1, 1, 1]] * 4
+    options = loop.LoopOptions(readings=1, retries=5, retry_pause_s=0.5)
+    out = loop.run(PLAN[:1], Arm(), Script(answers), Journal(), options, sleep=slept.append)
+    assert out.measured == [0] and out.records[0]["attempts"] == 5
+    assert slept == [0.5, 1.0, 2.0, 4.0]  # before retries 1..4, none before the first try
+    slept.clear()
+    options = loop.LoopOptions(readings=1, retries=6, retry_pause_s=0.5)
+    loop.run(PLAN[:1], Arm(), Script([ReadingLost("x")] * 7), Journal(), options,
+             sleep=slept.append)  # fmt: skip
+    assert slept == [0.5, 1.0, 2.0, 4.0, 4.0, 4.0]  # at most 8 times the first pause
+
+
+def test_a_lost_beam_is_searched_for_near_the_last_point_and_the_operator_asked():
+    tracker = Searching([[1, 2, 3], BeamBroken("beam"), ReadingLost("garbled"), [4, 5, 6]])
+    asked = []
+    out = loop.run(
+        PLAN[:2], Arm(), tracker, Journal(), loop.LoopOptions(readings=1, retries=3),
+        on_beam_lost=lambda pose, attempt: asked.append((pose, attempt)),
+    )  # fmt: skip
+    assert out.measured == [0, 1] and out.records[1]["attempts"] == 3
+    np.testing.assert_array_equal(tracker.searched, [[1, 2, 3]])  # once: only after the beam
+    assert asked == [(1, 2)]
+
+
+def test_failed_poses_count_their_lost_readings_by_class():
+    answers = [BeamBroken("a"), BeamBroken("b"), ReadingLost("c")]
+    out = loop.run(PLAN[:1], Arm(), Script(answers), Journal(), loop.LoopOptions(1, retries=2))
+    assert out.records[0]["causes"] == {"beam broken": 2, "reading lost": 1}
+    assert loop.failure_class(TrackerUnavailable("x")) == "tracker unavailable"
+
+
+def test_a_run_gives_up_after_failed_poses_in_a_row():
+    options = loop.LoopOptions(readings=1, retries=1, give_up_after=2)
+    tracker = Script([BeamBroken("x")] * 100)
+    out = loop.run(PLAN, Arm(), tracker, Journal(), options)
+    assert out.failed == [0, 1] and tracker.calls == 4
+    assert out.stopped == (
+        "2 poses in a row failed (last: pose 1, beam broken x2); check the beam and the reflector"
+    )
+    # A measured pose resets the count; the last pose never "gives up" the run.
+    answers = [BeamBroken("x")] * 2 + [[1, 1, 1]] + [BeamBroken("x")] * 4
+    out = loop.run(PLAN, Arm(), Script(answers), Journal(), options)
+    assert out.failed == [0, 2, 3] and out.measured == [1] and out.stopped is None
+
+
+def test_via_poses_are_moved_through_before_their_pose_and_never_measured():
+    arm, tracker = Arm(), Script([])
+    vias = [np.zeros((0, 6)), np.full((2, 6), 0.05), np.zeros((0, 6)), np.full((1, 6), -0.1)]
+    out = loop.run(PLAN, arm, tracker, Journal(), loop.LoopOptions(readings=1), via_rad=vias)
+    moved = np.array([m[0] for m in arm.moves])
+    expected = np.vstack([PLAN[0], vias[1], PLAN[1], PLAN[2], vias[3], PLAN[3]])
+    np.testing.assert_array_equal(moved, expected)
+    assert out.measured == [0, 1, 2, 3] and tracker.calls == 4  # pose numbers are plan rows
+    np.testing.assert_allclose(out.records[1]["q_rad"], PLAN[1] + 2e-6)
+
+
+def test_readings_with_impossible_numbers_are_lost_never_journalled():
+    answers = [[float("nan"), 0, 0], [1e300, 0, 0], [float("inf"), 0, 0], [1, 2, 3]]
+    journal = Journal()
+    out = loop.run(PLAN[:1], Arm(), Script(answers), journal, loop.LoopOptions(1, retries=3))
+    assert out.measured == [0] and out.records[0]["attempts"] == 4
+    assert journal.lines[0]["point_mm"] == [1.0, 2.0, 3.0]
+    out = loop.run(PLAN[:1], Arm(), Script([[float("nan"), 0, 0]] * 2), Journal(),
+                   loop.LoopOptions(1, retries=1))  # fmt: skip
+    assert out.failed == [0] and out.records[0]["causes"] == {"bad reading": 2}

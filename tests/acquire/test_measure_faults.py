@@ -50,7 +50,7 @@ def test_lost_readings_remeasure_the_pose(tmp_path, reference_session, script):
 def test_pose_fails_after_bounded_retries_and_the_run_goes_on(tmp_path, reference_session):
     done = faulted_run(tmp_path, "MEAS@31 beam_break count=40", "--retries", "2")
     assert done.returncode == 0, done.stderr
-    assert "1 pose(s) failed after 2 retries ([3])" in done.stdout
+    assert "1 pose(s) failed: beam broken x3 (after 2 retries: poses [3])" in done.stdout
     rows, ref = session_rows(tmp_path / "s.parquet"), session_rows(reference_session)
     assert sorted(rows) == [p for p in range(12) if p != 3]
     _, records = journal(tmp_path)

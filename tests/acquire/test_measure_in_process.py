@@ -25,8 +25,8 @@ from measure_testkit import session_rows
 from calibrator import frames, session
 from calibrator import plan as plans
 from calibrator.cli import measure as measure_cli
-from calibrator.cli._hardware import SIM_TRACKER_AT_MM, SimCell
 from calibrator.models import get_model
+from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.simulated import SimulatedRobot
 from drivers.tracker import read_log
 
@@ -79,7 +79,7 @@ def test_session_holds_the_simulated_arm_pose_for_pose(tmp_path):
     assert rows["pose"] == list(range(10)) and set(rows["n_readings"]) == {3}
     q = np.column_stack([rows[f"q{i}_rad"] for i in range(1, 7)])
     np.testing.assert_allclose(q, q_plan, atol=1e-12)
-    truth = SimCell.make("ur10e", 2)
+    truth = SimWorld.make("ur10e", 2)
     points = np.column_stack([rows[c] for c in ("x_mm", "y_mm", "z_mm")])
     expected = np.array([truth.tool_pose(qi)[:3, 3] for qi in q_plan])
     np.testing.assert_allclose(points, expected, atol=1e-4)  # the tracker's 0.1 um
@@ -90,7 +90,11 @@ def test_session_holds_the_simulated_arm_pose_for_pose(tmp_path):
     assert (meta.frame, meta.model, meta.tool_known) == ("tracker", "ur10e", False)
     np.testing.assert_array_equal(meta.nominal_mdh, UR10E.mdh)
     np.testing.assert_array_equal(meta.flange2tool, frames.transform(translation=tool))
-    assert meta.extra["measured"] == {"robot": "sim:ur10e:seed=2", "tracker": SIM_IDENTITY}
+    assert meta.extra["measured"] == {
+        "robot": "sim:ur10e:seed=2",
+        "tracker": SIM_IDENTITY,
+        "plan_sha256": plans.digest(q_plan),  # what a resume checks an existing file against
+    }
 
     lines = progress_lines(done.stderr)
     assert [re.search(r" pose=(\d+) ", x).group(1) for x in lines] == [str(i) for i in range(10)]
@@ -101,6 +105,7 @@ def test_session_holds_the_simulated_arm_pose_for_pose(tmp_path):
         "plan (make and check)",
         "measure loop",
         "write session",
+        "close (devices, simulator)",
     ]
 
 
@@ -143,8 +148,9 @@ def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
     done = measure(*FAST, "--retries", "1", "--sim-faults", "faults.txt", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert done.stdout == (
-        "1 pose(s) failed after 1 retries ([3]); wrote s.parquet with 9 poses; rerun the same "
-        "command with --resume to continue (s.parquet.journal) to retry them\n"
+        "1 pose(s) failed: beam broken x2 (after 1 retries: poses [3]); wrote s.parquet with "
+        "9 poses; rerun the same command with --resume to continue (s.parquet.journal) to "
+        "retry them\n"
     )
     assert sorted(session_rows(tmp_path / "s.parquet")) == [0, 1, 2, 4, 5, 6, 7, 8, 9]
     header, *records = journal_lines(tmp_path / "s.parquet.journal")
@@ -168,7 +174,7 @@ def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
     assert not (tmp_path / "s.parquet.journal").exists()
     rows = session_rows(tmp_path / "s.parquet")
     assert sorted(rows) == list(range(10))
-    truth = SimCell.make("ur10e", 0)
+    truth = SimWorld.make("ur10e", 0)
     np.testing.assert_allclose(rows[3][1], truth.tool_pose(q_plan[3])[:3, 3], atol=1e-4)
 
 
@@ -181,7 +187,7 @@ def test_progress_marks_a_failed_pose(tmp_path):
     spreads = [re.search(r"spread_um=(\S+)", x).group(1) for x in progress_lines(done.stderr)]
     assert spreads[3] == "FAILED" and spreads.count("FAILED") == 1
     assert " pose=3 spread_um=FAILED" in progress_lines(done.stderr)[3]
-    assert "failed after 0 retries ([3])" in done.stdout
+    assert "failed: beam broken x1 (after 0 retries: poses [3])" in done.stdout
 
 
 def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
@@ -266,13 +272,13 @@ def write_plans(folder):
         (("--sim-faults", "none.txt"), "file not found: none.txt"),
         (("--sim-replay", "none.jsonl"), "file not found: none.jsonl"),
         (("--resume",), "nothing to resume: s.parquet.journal not found"),
-        (("--robot", "ftp://x"), "unknown --robot 'ftp://x'; use sim or ur://HOST"),
+        (("--robot", "ftp://x"), "--robot: unknown robot 'ftp://x'; use sim or ur://HOST"),
         (
             ("--tracker", "gopher://x"),
-            "unknown --tracker 'gopher://x'; use sim, a device path or one of "
+            "--tracker: unknown tracker 'gopher://x'; use sim, a device path or one of "
             "socket://, rfc2217://, loop://, emscon://",
         ),
-        (("--robot", "ur://"), "--robot ur:// needs a host, e.g. ur://192.168.1.10"),
+        (("--robot", "ur://"), "--robot: ur:// needs a host, e.g. ur://192.168.1.10"),
         (("--plan", "bad.csv"), "plan row 6 joint 3: 4 rad outside"),
         (("--tracker", "socket://127.0.0.1:1"), "tracker at socket://127.0.0.1:1: "),
         (("--tracker", "emscon://127.0.0.1:1?meteo=20,1013"), "--tracker: meteo needs T,P,H"),

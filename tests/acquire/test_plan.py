@@ -6,10 +6,9 @@ from cli_process import run_cli
 
 from calibrator import frames, kinematics, measurement, session
 from calibrator import plan as plans
-from calibrator.cli._hardware import SIM_TRACKER_AT_MM, SimCell
 from calibrator.identify import pipeline
 from calibrator.models import get_model
-from calibrator.simulate import DEFAULT_TOOL_POINT
+from calibrator.simulate import DEFAULT_TOOL_POINT, SIM_TRACKER_AT_MM, SimWorld
 
 TOOL = frames.transform(translation=DEFAULT_TOOL_POINT)
 UR10E = get_model("ur10e")
@@ -55,7 +54,7 @@ def _held_out_error(cell, q_fit, q_val, rng, sigma_mm=0.01):
 def test_d_optimal_plan_beats_a_random_plan_of_the_same_size():
     n, better_criterion, errors_d, errors_r = 12, [], [], []
     for seed in range(4):
-        cell = SimCell.make("ur10e", seed)
+        cell = SimWorld.make("ur10e", seed)
         constraints = plans.CellConstraints(tracker_at_mm=SIM_TRACKER_AT_MM, flange2tool=TOOL)
         args = (UR10E.mdh, UR10E.joint_limits_rad)
         q_d = plans.make(*args, n, constraints, seed=seed)
@@ -103,8 +102,8 @@ def test_plan_cli_writes_a_plan_measure_then_uses(tmp_path):
         (("plan", "--from", "missing.csv"), "cannot read plan missing.csv"),
         (("measure", "--plan", "bad.csv"), "plan row 1 joint 3"),
         (("measure", "--plan", "short.csv"), "the free parameters need at least"),
-        (("measure", "--robot", "ftp://x"), "unknown --robot"),
-        (("measure", "--tracker", "gopher://x"), "unknown --tracker"),
+        (("measure", "--robot", "ftp://x"), "--robot: unknown robot"),
+        (("measure", "--tracker", "gopher://x"), "--tracker: unknown tracker"),
         (("measure", "--speed", "3"), "--speed 3.0 rad/s outside"),
     ],
 )

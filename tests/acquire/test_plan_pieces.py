@@ -15,8 +15,8 @@ from cli_testkit import cli, one_line_error
 
 from calibrator import frames, kinematics
 from calibrator import plan as plans
-from calibrator.cli._hardware import SIM_TRACKER_AT_MM
 from calibrator.models import get_model
+from calibrator.simulate import SIM_TRACKER_AT_MM
 
 UR10E = get_model("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])

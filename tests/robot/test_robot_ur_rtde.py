@@ -320,3 +320,22 @@ def test_expected_move_time_matches_trapezoid_and_triangle():
     assert expected_move_time(np.zeros(6), np.r_[1.0, np.zeros(5)], 0.5, 1.0) == pytest.approx(2.5)
     # 0.01 rad never reaches 0.5 rad/s: triangle, 2 * sqrt(0.01 / 1)
     assert expected_move_time(np.zeros(6), np.r_[0.01, np.zeros(5)], 0.5, 1.0) == pytest.approx(0.2)
+
+
+def test_a_stop_present_at_connect_is_typed_and_a_cleared_arm_connects(fake_ur):
+    """Stopped before we connect: refused as the stop it is (no control script can run)."""
+    fake_ur.command("fake protective stop")
+    wait_until(lambda: fake_ur.command("fake status") != "fake: status normal", what="stop")
+    robot = UrRtdeRobot(HOST)
+    with pytest.raises(ProtectiveStop, match="^UR controller at 127.0.0.1 is safety-stopped"):
+        robot.connect()
+    # unlocked on the pendant: a new connection works and moves
+    assert fake_ur.command("unlock protective stop") == "Protective stop releasing"
+    wait_until(lambda: fake_ur.command("fake status") == "fake: status normal", what="unlock")
+    robot.connect()
+    try:
+        assert robot.safety_state().ok
+        start = robot.actual_joints()
+        np.testing.assert_allclose(robot.move_joints(start, 1.0, 2.0), start, atol=TOL)
+    finally:
+        robot.close()

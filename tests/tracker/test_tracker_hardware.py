@@ -15,7 +15,8 @@ from drivers.tracker import LaserTracker, measure_average
 
 def test_real_tracker_identifies_and_measures(tracker_url):
     with LaserTracker(tracker_url, timeout_s=3.0, measure_timeout_s=10.0) as tracker:
-        identity, status = tracker.connect()
+        status = tracker.connect()
+        identity = tracker.identity
         assert identity.vendor and identity.serial
         if not (status.initialised and status.beam_locked):
             pytest.skip(f"tracker not ready (status {status}); initialise and lock on first")

@@ -104,7 +104,8 @@ def rfc2217_url(served):
 def test_driver_over_rfc2217(rfc2217_url):
     sim, url = rfc2217_url
     with live_tracker(url) as tracker:
-        identity, status = tracker.connect()
+        status = tracker.connect()
+        identity = tracker.identity
         assert identity.serial == "SIM-0001" and status.state == "READY"
         avg = measure_average(tracker, 10)
     assert avg.count == 10

@@ -27,7 +27,8 @@ from drivers.tracker.protocol import ErrorCode
 
 def test_connect_identifies_sets_units_and_reads_status():
     with expected_exchange(CONNECT_PAIRS) as tracker:
-        identity, status = tracker.connect()
+        status = tracker.connect()
+        identity = tracker.identity
     assert (identity.vendor, identity.model, identity.serial, identity.firmware) == (
         "ACME",
         "AT-X",
@@ -47,7 +48,7 @@ def test_connect_with_environment_and_mode():
         (host(5, "STAT?"), trk("OK,5,NOT_READY,0,1,P6,PRECISE")),
     ]
     with expected_exchange(pairs) as tracker:
-        _, status = tracker.connect(Environment(21.5, 1001.0, 40.0), mode="PRECISE")
+        status = tracker.connect(Environment(21.5, 1001.0, 40.0), mode="PRECISE")
     assert not status.initialised and status.probe_6dof and status.mode == "PRECISE"
 
 

@@ -50,7 +50,8 @@ def test_noise_statistics_through_the_wire(sim_process, transport):
     )
     url = path if transport == "pty" else f"socket://127.0.0.1:{port}"
     with live_tracker(url) as tracker:
-        identity, status = tracker.connect()
+        status = tracker.connect()
+        identity = tracker.identity
         assert identity.model == "TRACKER-SIM" and status.state == "READY"
         readings = [tracker.measure() for _ in range(N_READINGS)]
     assert all(r.accurate for r in readings)
@@ -93,7 +94,7 @@ def test_6dof_probe_orientation(sim_process):
         "--pty", "--probe-6dof", "--initialised", "--target", "2500,0,400,0.1,-0.2,0.3"
     )
     with live_tracker(path) as tracker:
-        _, status = tracker.connect()
+        status = tracker.connect()
         assert status.probe_6dof
         avg = measure_average(tracker, n=50)
     np.testing.assert_allclose(avg.rotvec_mean_rad, [0.1, -0.2, 0.3], atol=3e-5)
@@ -105,7 +106,7 @@ def test_6dof_probe_orientation(sim_process):
 def test_init_required_then_initialise(sim_process):
     _, (path,) = sim_process("--pty", "--init-time", "0.3", "--target", "2000,0,0")
     with live_tracker(path) as tracker:
-        _, status = tracker.connect()
+        status = tracker.connect()
         assert not status.initialised and status.state == "NOT_READY"
         with pytest.raises(NotInitialised):
             tracker.measure()
@@ -139,14 +140,21 @@ def test_out_of_range_target_is_refused(served):
             tracker.measure()
 
 
-def test_simulator_does_not_import_calibrator():
+def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
     # The simulated device knows the port contract its driver's errors derive
-    # from, and nothing else of the product's domain.
+    # from and the one simulated world (its noise model), nothing else of the
+    # product's domain: no solver, session, plan or command line, and no scipy.
+    allowed = {
+        "calibrator", "calibrator.acquire", "calibrator.acquire.ports", "calibrator.simulate",
+        "calibrator.errors", "calibrator.frames", "calibrator.kinematics", "calibrator.models",
+        "calibrator.parameters",
+    }  # fmt: skip
     code = (
         "import sys, drivers.tracker.simulator.__main__ as m; "
         "mods = {n for n in sys.modules if n.split('.')[0] == 'calibrator'}; "
-        "extra = mods - {'calibrator', 'calibrator.acquire', 'calibrator.acquire.ports'}; "
-        "assert not extra, f'calibrator imported: {sorted(extra)}'; print('ok')"
+        f"extra = mods - {allowed!r}; "
+        "assert not extra, f'calibrator imported: {sorted(extra)}'; "
+        "assert 'scipy' not in sys.modules, 'scipy imported'; print('ok')"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=30

@@ -6,14 +6,30 @@ import sys
 import time
 
 from drivers.robot.fake_ur.controller import UNLOCK_DELAY_S, FakeController
-from drivers.robot.fake_ur.servers import FakeUr
+from drivers.robot.fake_ur.servers import (
+    DASHBOARD_PORT,
+    HOST,
+    RTDE_PORT,
+    SCRIPT_PORT,
+    FakeUr,
+    PortsInUse,
+)
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(
         prog="python -m drivers.robot.fake_ur",
-        description="Loopback fake UR controller on 127.0.0.1 ports 30004, 29999, 30003.",
+        description="Loopback fake UR controller (default 127.0.0.1 ports 30004, 29999, 30003).",
     )
+    parser.add_argument(
+        "--host",
+        default=HOST,
+        help="loopback address to listen on, 127.x.y.z (default 127.0.0.1); each address has "
+        "its own ports, so a fake on 127.0.0.2 never meets another run's fake",
+    )
+    for name, default in (("rtde", RTDE_PORT), ("dashboard", DASHBOARD_PORT),
+                          ("script", SCRIPT_PORT)):  # fmt: skip
+        parser.add_argument(f"--{name}-port", type=int, default=default, help=f"default {default}")
     parser.add_argument(
         "--time-scale",
         type=float,
@@ -45,9 +61,20 @@ def main(argv=None):
         )
     except CalibrationError as exc:
         parser.error(str(exc))
-    server = FakeUr(controller)
-    server.start()
-    print("fake UR controller ready on 127.0.0.1:30004/29999/30003", flush=True)
+    if not args.host.startswith("127."):
+        parser.error(f"--host {args.host}: the fake listens on loopback addresses only (127.x)")
+    ports = (args.rtde_port, args.dashboard_port, args.script_port)
+    server = FakeUr(controller, args.host, ports)
+    try:
+        server.start()
+    except PortsInUse as exc:
+        print(f"fake_ur: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # e.g. an address this machine does not have
+        reason = exc.strerror or exc
+        print(f"fake_ur: error: cannot listen on {args.host}: {reason}", file=sys.stderr)
+        return 2
+    print(f"fake UR controller ready on {args.host}:{'/'.join(map(str, ports))}", flush=True)
     try:
         while not server.stopped.wait(0.2):
             if args.parent_pid is not None and not _alive(args.parent_pid):

@@ -2,9 +2,12 @@
 
 The ``ur-rtde`` client deadlocks against a server in its own interpreter, so
 tests run the fake with :class:`FakeUrProcess` (a child process). The ports are
-fixed, so only one fake can run at a time: :meth:`FakeUrProcess.start` first
-shuts down a fake left over from a crashed run, and every fake is started with
-``--parent-pid`` so it exits on its own when the process that started it dies.
+fixed, so only one test fake runs at a time (a machine-wide lock):
+:meth:`FakeUrProcess.start` first stops a fake an earlier test run left, and
+every fake is started with ``--parent-pid`` so it exits on its own when the
+process that started it dies. A fake a user started by hand is never
+stopped: the tests report the taken ports instead (start a hand-run fake on
+another loopback address, ``--host 127.0.0.2``, to keep both).
 """
 
 import fcntl
@@ -18,7 +21,7 @@ import tempfile
 import threading
 import time
 
-from drivers.robot.fake_ur.servers import DASHBOARD_PORT, GREETING, HOST, RTDE_PORT, SCRIPT_PORT
+from drivers.robot.fake_ur.servers import DASHBOARD_PORT, HOST, RTDE_PORT, SCRIPT_PORT
 
 _LOCK_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.lock")
 _PID_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.pid")
@@ -87,40 +90,46 @@ def _port_open(port):
         return False
 
 
-def shutdown_leftover(timeout_s=5.0):
-    """Stop a fake still serving 127.0.0.1 from an earlier run; wait until its ports are free."""
-    try:
-        with socket.create_connection((HOST, DASHBOARD_PORT), timeout=0.5) as sock:
-            greeting = sock.makefile("rb").readline().decode().strip()
-            if greeting == GREETING:
-                sock.sendall(b"fake shutdown\n")
-    except OSError:
-        pass
+def shutdown_leftover(timeout_s: float = 5.0) -> None:
+    """Stop a fake an earlier test run left behind; wait until the fixed ports are free.
+
+    Only a fake this launcher started (its pid recorded, its command line a
+    fake started with ``--parent-pid``) is ever stopped: a fake a user
+    started by hand, or any other program on the ports, is left alone and
+    reported.
+
+    Raises
+    ------
+    RuntimeError
+        The ports are still taken, by something this launcher did not start.
+    """
+    _kill_recorded_fake()
     deadline = time.monotonic() + timeout_s
-    killed = False
     while any(_port_open(p) for p in (RTDE_PORT, DASHBOARD_PORT, SCRIPT_PORT)):
-        if not killed and time.monotonic() > deadline - timeout_s / 2:
-            killed = _kill_recorded_fake()  # it did not answer "fake shutdown": hung
         if time.monotonic() > deadline:
-            raise RuntimeError("ports 30004/29999/30003 on 127.0.0.1 are still in use")
+            raise RuntimeError(
+                f"ports {RTDE_PORT}/{DASHBOARD_PORT}/{SCRIPT_PORT} on {HOST} are in use by a "
+                "process the tests did not start (a fake UR controller started by hand?); "
+                "it is left running: stop it, or start yours with --host 127.0.0.2"
+            )
         time.sleep(0.05)
 
 
-def _kill_recorded_fake():
-    """SIGKILL the fake whose pid the last launcher recorded, if it is still a fake."""
+def _kill_recorded_fake() -> None:
+    """SIGKILL the fake whose pid the last launcher recorded, if it is still that fake."""
     try:
         with open(_PID_PATH) as f:
             pid = int(f.read().strip())
         with open(f"/proc/{pid}/cmdline", "rb") as f:
-            cmdline = f.read()
+            cmdline = f.read().split(b"\0")
     except (OSError, ValueError):
-        return True  # no record, or the process is gone
-    if b"drivers.robot.fake_ur" in cmdline:  # the pid was not reused by something else
+        return  # no record, or the process is gone
+    # The pid was not reused by something else, and it is a launcher's fake, not a user's.
+    if b"drivers.robot.fake_ur" in cmdline and b"--parent-pid" in cmdline:
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
-    return True
 
 
 class FakeUrProcess:

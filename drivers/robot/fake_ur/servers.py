@@ -25,11 +25,29 @@ GREETING = "Connected: Universal Robots Dashboard Server"
 _REG_OFFSET = re.compile(r"global reg_offset_int\s*=\s*(?:#[^\n]*\n\s*)?(\d+)")
 
 
-def listen(port):
-    """A listening socket on 127.0.0.1:``port`` that can rebind over TIME_WAIT leftovers."""
+class PortsInUse(OSError):
+    """A port the fake needs is taken (another fake, or any other program)."""
+
+
+def listen(port: int, host: str = HOST) -> socket.socket:
+    """A listening socket on ``host:port`` that can rebind over TIME_WAIT leftovers.
+
+    Raises
+    ------
+    PortsInUse
+        Something already listens there.
+    """
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    sock.bind((HOST, port))
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise PortsInUse(
+            f"{host}:{port} is in use ({exc.strerror}): another fake UR controller or another "
+            "program listens there; stop it, or start this one on another loopback address "
+            "(--host 127.0.0.2, then ur://127.0.0.2) or other ports"
+        ) from None
     sock.listen(8)
     return sock
 
@@ -41,26 +59,40 @@ class FakeUr:
     ----------
     controller : FakeController
         State shared by all servers.
+    host : str
+        Loopback address to listen on (any 127.x.y.z: each has its own ports).
+    ports : tuple of int
+        RTDE, dashboard and script ports (``ur-rtde`` expects the defaults).
     """
 
-    def __init__(self, controller):
+    def __init__(
+        self,
+        controller,
+        host: str = HOST,
+        ports: tuple[int, int, int] = (RTDE_PORT, DASHBOARD_PORT, SCRIPT_PORT),
+    ) -> None:
         self.controller = controller
+        self.host = host
+        self.ports = ports
         self.stopped = threading.Event()
-        self._conns = set()
+        self._conns: set[socket.socket] = set()
         self._conns_lock = threading.Lock()
-        self._listeners = []
+        self._listeners: list[socket.socket] = []
 
     # ------------------------------------------------------------ lifecycle
     def start(self):
         """Bind all ports, then start the clock and accept loops (returns at once)."""
-        handlers = [
-            (RTDE_PORT, self._serve_rtde),
-            (DASHBOARD_PORT, self._serve_dashboard),
-            (SCRIPT_PORT, self._serve_script),
-        ]
-        for port, handler in handlers:
-            sock = listen(port)
-            self._listeners.append(sock)
+        handlers = [self._serve_rtde, self._serve_dashboard, self._serve_script]
+        try:  # all ports or none: a fake with half its servers would confuse a client
+            listeners = []
+            for port in self.ports:
+                listeners.append(listen(port, self.host))
+        except PortsInUse:
+            for sock in listeners:
+                _close(sock)
+            raise
+        self._listeners = listeners
+        for sock, handler in zip(listeners, handlers, strict=True):
             threading.Thread(target=self._accept_loop, args=(sock, handler), daemon=True).start()
         threading.Thread(target=self._clock, daemon=True).start()
 

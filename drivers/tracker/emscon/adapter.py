@@ -21,8 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator.acquire import ports
 from drivers.errors import DriverError
-from drivers.tracker.driver import Environment
+from drivers.tracker.base import Environment, OpenOptions
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.errors import (
     BeamBroken,
@@ -103,6 +104,8 @@ class EmsconTracker:
         Pause before each reconnect attempt, s.
     """
 
+    capabilities = frozenset({ports.INITIALISE})
+
     def __init__(
         self,
         host: str,
@@ -151,6 +154,11 @@ class EmsconTracker:
         status = self._settle()
         self.serial = status.serial
         return status
+
+    @property
+    def device_id(self) -> str:
+        """``emscon:serial=N`` of the tracker that answered :meth:`connect` ("" before)."""
+        return f"emscon:serial={self.serial}" if self.serial is not None else ""
 
     def close(self) -> None:
         """Close the connection; safe to call twice or after a failure."""
@@ -346,6 +354,13 @@ def open_tracker(url: str, **options) -> EmsconTracker:
     if "meteo" in query:
         options["environment"] = _parse_meteo(query["meteo"][0])
     return EmsconTracker(parts.hostname, port, **options)
+
+
+def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
+    """The tracker registry's opener for ``emscon://`` (see :mod:`drivers.tracker.base`)."""
+    if options.record is not None or options.world is not None:
+        raise ValueError(f"{url}: --sim-record and simulator options need a line-protocol tracker")
+    return open_tracker(url)
 
 
 def _parse_meteo(text: str) -> Environment:

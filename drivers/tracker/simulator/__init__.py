@@ -1,7 +1,9 @@
 """Simulated laser tracker speaking the product's tracker protocol.
 
-Independent of the ``calibrator`` package: it imports only numpy (scipy for
-6-DoF orientation noise) and :mod:`drivers.tracker.protocol`.
+Of the ``calibrator`` package it imports only the port contract and the one
+simulated world's noise model (:class:`calibrator.simulate.NoiseModel`);
+otherwise numpy (scipy for 6-DoF orientation noise) and
+:mod:`drivers.tracker.protocol`.
 
 In-process::
 

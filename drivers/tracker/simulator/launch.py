@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import serial
 
-from drivers.tracker.link import Link
+from drivers.tracker.link import Link, close_for_good
 from drivers.tracker.protocol import format_number
 
 CONTROL_TIMEOUT_S = 5.0  # control replies are immediate; generous for loaded machines
@@ -59,7 +59,8 @@ class SimulatorControl:
         self._link.transact("SIM", "FAULT", line, timeout_s=CONTROL_TIMEOUT_S)
 
     def close(self) -> None:
-        self._port.close()
+        """Close the control link (at once: it is never reopened)."""
+        close_for_good(self._port)
 
 
 class SimulatorProcess:

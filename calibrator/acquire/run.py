@@ -1,0 +1,462 @@
+"""One measure run as an object: plan -> checks -> journal -> loop -> session file.
+
+``calibrator measure`` parses options into :class:`RunOptions`, opens the
+two devices by URL (``drivers.tracker.open_tracker``,
+``drivers.robot.open_robot``) and hands them here; other commands that
+drive a robot past a tracker (a verification run, an external robot) use
+the same object::
+
+    run = MeasureRun(robot, tracker, model, RunOptions(plan_rad=q), output)
+    run.connect()                      # tracker initialised? robot reachable?
+    plan = run.make_plan()             # validated whole, size budget, robot's own check
+    run.open_journal(confirm)          # new journal, or --resume (locked)
+    outcome = run.measure()            # the loop (calibrator.acquire.loop)
+    summary = run.finish()             # session written only when a pose was measured
+
+Every refusal is a :class:`~calibrator.errors.CalibrationError` with one
+line naming what was wrong; device failures during the loop end the run
+cleanly (see :mod:`calibrator.acquire.loop`).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from calibrator import frames
+from calibrator.acquire import journal as journals
+from calibrator.acquire import loop, ports
+from calibrator.errors import CalibrationError
+from calibrator.simulate import DEFAULT_TOOL_POINT
+
+#: Most poses a plan may hold: the most ``identify`` accepts
+#: (``calibrator.identify.pipeline.MAX_POSES``), so no run measures a session
+#: that cannot be identified. Kept here so measure does not import the solver.
+MAX_POSES = 50_000
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What one measure run does; every field has the CLI's default.
+
+    Attributes
+    ----------
+    plan_rad : ndarray, shape (N, 6), optional
+        The poses to measure (rad); None makes a plan of ``poses`` poses.
+    via_rad : sequence of N arrays of shape (k_i, 6), optional
+        Via poses moved through before measured pose i (never measured).
+    poses : int
+        Poses of a made plan.
+    seed : int
+        Seed of a made plan.
+    readings, settle_s, retries, speed_rad_s, accel_rad_s2, retry_pause_s, give_up_after
+        See :class:`calibrator.acquire.loop.LoopOptions`.
+    tool_mm : tuple of 3 float
+        First guess of the reflector on the flange, mm.
+    tracker_at_mm : tuple of 3 float, optional
+        Rough tracker position in the robot base frame, mm (made plans face it).
+    resume : bool
+        Continue the run recorded in the journal beside the output.
+    """
+
+    plan_rad: np.ndarray | None = None
+    via_rad: Sequence[np.ndarray] | None = None
+    poses: int = 30
+    seed: int = 0
+    readings: int = 10
+    settle_s: float = 0.0
+    retries: int = 3
+    speed_rad_s: float = 0.5
+    accel_rad_s2: float = 1.0
+    retry_pause_s: float = 0.2
+    give_up_after: int = 5
+    tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
+    tracker_at_mm: tuple[float, float, float] | None = None
+    resume: bool = False
+
+
+@dataclass
+class Summary:
+    """How a run ended, for the one-line report.
+
+    Attributes
+    ----------
+    written : Path or None
+        The session file, or None when none was written.
+    measured, failed : list of int
+        Plan rows measured and given up.
+    total : int
+        Poses in the plan.
+    stopped : str or None
+        Why the run ended early (None: every pose was visited).
+    causes : collections.Counter
+        Lost readings by failure class over the failed poses ("beam broken": 48).
+    journal : Path
+    complete : bool
+        Every pose measured; the journal was removed.
+    """
+
+    written: Path | None
+    measured: list[int]
+    failed: list[int]
+    total: int
+    stopped: str | None
+    causes: Counter = field(default_factory=Counter)
+    journal: Path = Path()
+    complete: bool = False
+
+    @property
+    def exit_code(self) -> int:
+        """0 when a session was written and the run was not cut short, else 1."""
+        return 0 if self.written is not None and self.stopped is None else 1
+
+    def causes_text(self) -> str:
+        """``beam broken x48, tracker timeout x2`` (most frequent first)."""
+        return ", ".join(f"{what} x{n}" for what, n in self.causes.most_common())
+
+
+class MeasureRun:
+    """One measure run over a connected-on-demand robot and tracker.
+
+    Parameters
+    ----------
+    robot : calibrator.acquire.ports.Robot
+    tracker : calibrator.acquire.ports.Tracker
+    model : calibrator.models.RobotModel
+        The named arm (nominal MDH, joint limits).
+    options : RunOptions
+    output : Path
+        Session file to write; its journal is beside it.
+    world : calibrator.simulate.SimWorld, optional
+        The simulated world, when either device is simulated.
+    steer : callable, optional
+        ``steer(point_mm)`` tells a simulated tracker where the probe is
+        (tracker frame, mm); default: the tracker's own ``set_target`` when
+        it declares :data:`~calibrator.acquire.ports.STEER` and a world is given.
+    """
+
+    def __init__(
+        self,
+        robot: ports.Robot,
+        tracker: ports.Tracker,
+        model,
+        options: RunOptions,
+        output: Path,
+        *,
+        world=None,
+        steer: Callable[[np.ndarray], None] | None = None,
+    ) -> None:
+        self.robot, self.tracker, self.model = robot, tracker, model
+        self.options = options
+        self.output = Path(output)
+        self.journal_path = journals.journal_path(self.output)
+        self.world = world
+        if steer is None and world is not None and ports.STEER in tracker.capabilities:
+            steer = tracker.set_target  # type: ignore[attr-defined]
+        self._steer = steer
+        self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
+        self.tracker_at_mm = (
+            np.asarray(options.tracker_at_mm, float)
+            if options.tracker_at_mm is not None
+            else (world.tracker_at_mm.copy() if world is not None else None)
+        )
+        self.plan: np.ndarray | None = None
+        self.journal: journals.Journal | None = None
+        self.done: dict = {}
+        self.outcome: loop.Outcome | None = None
+        self._after_move: Callable[[np.ndarray], None] | None = None
+        self._connected: list = []
+
+    # ------------------------------------------------------------ steps
+
+    def check_files(self) -> None:
+        """Refuse to start over an existing session or journal, or to resume nothing."""
+        output, jpath = self.output, self.journal_path
+        if not self.options.resume and output.exists():
+            raise CalibrationError(
+                f"{output} exists: choose another -o, remove it, or pass --resume"
+            )
+        if not self.options.resume and jpath.exists():
+            raise CalibrationError(
+                f"{jpath} exists (an unfinished run): pass --resume to continue it, or remove it"
+            )
+        if self.options.resume and not jpath.exists():
+            raise CalibrationError(f"nothing to resume: {jpath} not found")
+
+    def connect(self, tracker_url: str = "the tracker") -> None:
+        """Connect the tracker (it must be initialised), then the robot; wire a simulated world.
+
+        Raises
+        ------
+        CalibrationError
+            The tracker cannot be reached or is not initialised, or the robot
+            cannot be reached.
+        """
+        try:
+            status = self.tracker.connect()
+        except (ports.PortError, OSError) as exc:
+            raise CalibrationError(f"tracker at {tracker_url}: {exc}") from None
+        finally:
+            self._connected.append(self.tracker)
+        if not status.initialised:
+            raise CalibrationError(
+                f"tracker at {tracker_url} is not initialised: run `calibrator tracker init "
+                f"--tracker {tracker_url}` (it moves the head), then measure again"
+            )
+        self._connected.append(self.robot)
+        try:
+            self.robot.connect()
+        except (ports.PortError, OSError) as exc:
+            raise CalibrationError(f"robot {self.robot_id}: {exc}") from None
+        if self._steer is not None:
+            steer = self._steer
+            if ports.REPORTS_TRUE_POSE in self.robot.capabilities:
+                self.robot.listener = lambda pose: steer(pose[:3, 3])  # type: ignore[attr-defined]
+            elif self.world is not None:
+                world = self.world
+                self._after_move = lambda q: steer(world.tool_pose(q)[:3, 3])
+
+    @property
+    def robot_id(self) -> str:
+        return str(getattr(self.robot, "device_id", "") or type(self.robot).__name__)
+
+    @property
+    def tracker_id(self) -> str:
+        return str(self.tracker.device_id or type(self.tracker).__name__)
+
+    @property
+    def moves_hardware(self) -> bool:
+        return ports.MOVES_HARDWARE in self.robot.capabilities
+
+    def make_plan(self, on_note: Callable[[str], None] = lambda text: None) -> np.ndarray:
+        """The plan, checked whole before anything moves (limits, count, size, robot's caps).
+
+        Raises
+        ------
+        CalibrationError
+            A plan (or its via poses) outside the limits, too short, larger
+            than :data:`MAX_POSES`, or refused by the robot's own check.
+        """
+        from calibrator import plan as plans
+
+        opts = self.options
+        if opts.plan_rad is not None:
+            q_plan = np.asarray(opts.plan_rad)
+        else:
+            if self.tracker_at_mm is None:
+                on_note("no --tracker-at: the plan ignores the acceptance angle")
+            cell = plans.CellConstraints(
+                tracker_at_mm=self.tracker_at_mm, flange2tool=self.flange2tool_guess
+            )
+            q_plan = plans.make(
+                self.model.mdh, self.model.joint_limits_rad, opts.poses, cell, seed=opts.seed
+            )
+        if q_plan.ndim >= 1 and len(q_plan) > MAX_POSES:
+            raise CalibrationError(
+                f"plan has {len(q_plan)} poses; identify takes at most {MAX_POSES}: "
+                "thin the plan (a well-spread subset identifies as well)"
+            )
+        need = plans.min_poses(self.model.mdh)
+        q_plan = plans.validate(q_plan, self.model.joint_limits_rad, need=need)
+        vias = self._check_vias(len(q_plan))
+        if ports.CHECKS_PLAN in self.robot.capabilities:
+            motion = np.concatenate([q_plan, *vias]) if vias else q_plan
+            try:
+                self.robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)  # type: ignore[attr-defined]
+            except ValueError as exc:
+                raise CalibrationError(str(exc)) from None
+        self.plan = q_plan
+        return q_plan
+
+    def _check_vias(self, n: int) -> list[np.ndarray]:
+        """Via poses: N arrays of shape (k_i, 6), inside the joint limits."""
+        from calibrator import plan as plans
+
+        if self.options.via_rad is None:
+            return []
+        vias = [np.asarray(v, dtype=float).reshape(-1, 6) for v in self.options.via_rad]
+        if len(vias) != n:
+            raise CalibrationError(f"via poses given for {len(vias)} poses; the plan has {n}")
+        for pose, via in enumerate(vias):
+            if len(via):
+                try:
+                    plans.validate(via, self.model.joint_limits_rad)
+                except CalibrationError as exc:
+                    raise CalibrationError(f"via poses before pose {pose}: {exc}") from None
+        return [v for v in vias if len(v)]
+
+    def header(self, meta) -> dict:
+        """The journal header: what a resume must match."""
+        from calibrator import plan as plans
+
+        assert self.plan is not None, "make_plan() first"
+        return {
+            "plan_sha256": plans.digest(self.plan),
+            "robot": self.robot_id,
+            "tracker": self.tracker_id,
+            "readings": self.options.readings,
+            "poses": len(self.plan),
+            "meta": meta.to_json(),
+        }
+
+    def session_meta(self):
+        """The session's metadata (nominal arm, tool guess, devices and the plan's digest)."""
+        from calibrator import plan as plans
+        from calibrator import session
+
+        assert self.plan is not None, "make_plan() first"
+
+        return session.SessionMeta(
+            frame="tracker",
+            nominal_mdh=self.model.mdh,
+            model=self.model.name,
+            flange2tool=self.flange2tool_guess,
+            tool_known=False,
+            extra={
+                "measured": {
+                    "robot": self.robot_id,
+                    "tracker": self.tracker_id,
+                    "plan_sha256": plans.digest(self.plan),
+                }
+            },
+        )
+
+    def open_journal(self, confirm: Callable[[str, int], None] | None = None) -> None:
+        """Create the journal, or (resume) lock and check it; ``confirm(robot_id, n)`` first.
+
+        ``confirm`` is called before a robot that moves hardware moves
+        through ``n`` poses; it raises to refuse.
+        """
+        self.meta = self.session_meta()
+        header = self.header(self.meta)
+        assert self.plan is not None
+        if self.options.resume:
+            self.journal, resumed = journals.Journal.resume(
+                self.journal_path, header, plan_rad=self.plan
+            )
+            self.done = resumed.records
+            try:
+                self._check_own_session(header)
+            except CalibrationError:
+                self.journal.close()
+                raise
+            left = len(self.plan) - sum(r["status"] == "measured" for r in self.done.values())
+        else:
+            left = len(self.plan)
+        if self.moves_hardware and confirm is not None:
+            try:
+                confirm(self.robot_id, left)
+            except BaseException:
+                self.close()
+                raise
+        if not self.options.resume:
+            self.journal = journals.Journal.create(self.journal_path, header)
+
+    def _check_own_session(self, header: dict) -> None:
+        """On resume, an existing session file must be one this run wrote (else it is not ours)."""
+        if not self.output.exists():
+            return
+        import json
+
+        import pyarrow.parquet as pq
+
+        from calibrator.session import META_KEY
+
+        try:
+            meta = json.loads((pq.read_schema(self.output).metadata or {})[META_KEY])
+            measured = meta["measured"]
+            ours = all(measured[key] == header[key] for key in ("plan_sha256", "robot", "tracker"))
+        except (OSError, ValueError, KeyError, TypeError):
+            ours = False
+        if not ours:
+            raise CalibrationError(
+                f"{self.output} exists and was not written by the run in {self.journal_path}: "
+                "move it away, then resume"
+            )
+
+    def measure(
+        self,
+        *,
+        should_stop: Callable[[], bool] = lambda: False,
+        on_pose: Callable[[loop.Progress], None] | None = None,
+        on_beam_lost: Callable[[int, int], None] | None = None,
+    ) -> loop.Outcome:
+        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`)."""
+        assert self.plan is not None and self.journal is not None
+        o = self.options
+        self.outcome = loop.run(
+            self.plan,
+            self.robot,
+            self.tracker,
+            self.journal,
+            loop.LoopOptions(
+                o.readings,
+                o.settle_s,
+                o.retries,
+                o.speed_rad_s,
+                o.accel_rad_s2,
+                retry_pause_s=o.retry_pause_s,
+                give_up_after=o.give_up_after,
+            ),
+            done=self.done,
+            after_move=self._after_move,
+            should_stop=should_stop,
+            on_pose=on_pose,
+            on_beam_lost=on_beam_lost,
+            via_rad=o.via_rad,
+        )
+        self.journal.close()
+        return self.outcome
+
+    def finish(self) -> Summary:
+        """Write the session when at least one pose was measured; never claim one otherwise.
+
+        The journal stays (for ``--resume``) unless every pose was measured.
+        """
+        from calibrator import session
+        from calibrator.acquire import rows
+
+        assert self.outcome is not None and self.plan is not None
+        outcome = self.outcome
+        measured, failed = outcome.measured, outcome.failed
+        causes: Counter = Counter()
+        for pose in failed:
+            causes.update(outcome.records[pose].get("causes", {}))
+        written = None
+        if measured:
+            session.write(self.output, rows.to_table(outcome.records.values()), self.meta)
+            written = self.output
+        complete = bool(measured) and not failed and outcome.stopped is None
+        if complete:
+            self.journal_path.unlink()
+        return Summary(
+            written,
+            measured,
+            failed,
+            len(self.plan),
+            outcome.stopped,
+            causes,
+            self.journal_path,
+            complete,
+        )
+
+    def close(self) -> None:
+        """Close the journal and every device connected (reverse order); safe to call twice."""
+        if self.journal is not None:
+            self.journal.close()
+        while self._connected:
+            device = self._connected.pop()
+            try:
+                device.close()
+            except OSError:
+                pass  # closing a link that already failed: nothing left to release
+
+    def __enter__(self) -> MeasureRun:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

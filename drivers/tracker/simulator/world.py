@@ -1,0 +1,84 @@
+"""The ``sim`` tracker kind: the tracker simulator as a child process, steered by the world.
+
+The driver is the product's line-protocol driver over the simulator's pty,
+so the whole wire protocol runs; the simulated robot (or the caller) tells
+the simulator where the probe of the simulated world really is
+(:meth:`SimulatedTracker.set_target`, declared as the ``steer`` capability).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibrator.acquire import ports
+from drivers.errors import DriverError
+from drivers.tracker.base import Environment, OpenOptions
+from drivers.tracker.driver import LaserTracker, Status
+from drivers.tracker.errors import TrackerGone
+from drivers.tracker.simulator.launch import SimulatorProcess
+
+
+class SimulatedTracker(LaserTracker):
+    """The line-protocol driver talking to a simulator process it starts on :meth:`connect`.
+
+    Parameters
+    ----------
+    seed : int
+        Noise seed of the simulator (the world's seed).
+    noise : bool
+        False for exact readings.
+    faults, replay : str or Path, optional
+        Fault script, or a recorded exchange to answer from.
+    record : str or Path, optional
+        Log the raw exchange.
+    """
+
+    capabilities = frozenset({ports.INITIALISE, ports.STEER})
+
+    def __init__(self, *, seed: int = 0, noise: bool = True, faults=None, replay=None, record=None):
+        # The pty path is known once started; standard air, as the line opener sends.
+        super().__init__("sim://", record=record, environment=Environment())
+        self._start = {"seed": seed, "noise": noise, "faults": faults, "replay": replay}
+        self._process: SimulatorProcess | None = None
+
+    def connect(self, environment: Environment | None = None, mode: str | None = None) -> Status:
+        """Start the simulator (initialised, as a tracker warmed up and homed), then connect."""
+        if self._process is None:
+            self._process = SimulatorProcess(initialised=True, **self._start)
+            self._url = self._process.url
+        return super().connect(environment, mode)
+
+    def set_target(self, point_mm: np.ndarray) -> None:
+        """Where the reflector really is: shape (3,), mm, tracker frame.
+
+        Raises
+        ------
+        TrackerGone
+            The simulator process is gone (a :class:`~calibrator.acquire.ports.TrackerUnavailable`).
+        """
+        if self._process is None:
+            raise TrackerGone("tracker simulator not started: call connect() first")
+        try:
+            self._process.set_target(point_mm)
+        except (DriverError, OSError) as exc:
+            raise TrackerGone(f"tracker simulator: {exc}") from exc
+
+    def close(self) -> None:
+        """Close the link, then stop the simulator process."""
+        super().close()
+        if self._process is not None:
+            self._process.stop()
+            self._process = None
+
+
+def open_simulated_tracker(url: str, options: OpenOptions) -> SimulatedTracker:
+    """The tracker registry's opener for ``sim``: needs the simulated world (its seed)."""
+    if options.world is None:
+        raise ValueError("--tracker sim needs the simulated world (measure builds it)")
+    return SimulatedTracker(
+        seed=options.world.seed,
+        noise=options.sim_noise,
+        faults=options.sim_faults,
+        replay=options.sim_replay,
+        record=options.record,
+    )

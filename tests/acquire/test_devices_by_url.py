@@ -1,0 +1,369 @@
+"""Devices opened by URL in the drivers, and the measure run over them.
+
+The robot and tracker are chosen by URL scheme from the drivers' registries
+(``drivers.tracker.open_tracker``, ``drivers.robot.open_robot``): ``sim`` (the
+simulated arm and the tracker simulator behind a pty), a device path or a
+pyserial URL (the product's line protocol), ``emscon://HOST[:PORT]`` (a Leica
+emScon server; its simulator here) and ``ur://HOST`` (built, never
+connected: no controller runs in these tests). Each is checked by what it
+measures, and a tracker kind registered from a test measures through the CLI.
+"""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from scipy.spatial.transform import Rotation
+
+from calibrator import kinematics
+from calibrator.acquire import ports
+from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
+from calibrator.acquire.run import MeasureRun, RunOptions
+from calibrator.errors import CalibrationError
+from calibrator.models import get_model
+from calibrator.simulate import (
+    DEFAULT_TOOL_POINT,
+    SIM_TRACKER_AT_MM,
+    SIM_TRACKER_ROTVEC,
+    SimWorld,
+)
+from drivers.robot import RobotOptions, open_robot
+from drivers.robot.safety import GuardedRobot
+from drivers.robot.simulated import SimulatedRobot
+from drivers.tracker import LaserTracker, OpenOptions, open_tracker
+from drivers.tracker.base import scheme
+from drivers.tracker.emscon import EmsconTracker
+from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
+from drivers.tracker.simulator import SimulatorProcess
+from drivers.tracker.simulator.world import SimulatedTracker
+
+UR10E = get_model("ur10e")
+Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
+
+
+@pytest.mark.parametrize(
+    ("url", "kind"),
+    [
+        ("sim", "sim"),
+        ("/dev/ttyUSB0", "serial"),
+        ("COM3", "serial"),
+        ("socket://10.0.0.2:4000", "socket"),
+        ("RFC2217://host:2217", "rfc2217"),
+        ("loop://", "loop"),
+        ("emscon://10.0.0.3:700?meteo=20,1013,45", "emscon"),
+        ("ur://192.168.1.10", "ur"),
+        ("simulated", "serial"),  # only the bare word means the simulated cell
+    ],
+)
+def test_scheme_is_the_lowercase_part_before_the_separator(url, kind):
+    assert scheme(url) == kind
+
+
+def test_the_simulated_world_is_seeded_and_its_errors_are_small_but_real():
+    world = SimWorld.make("ur10e", 4)
+    again, other = SimWorld.make("ur10e", 4), SimWorld.make("ur10e", 5)
+    np.testing.assert_array_equal(world.true_mdh, again.true_mdh)
+    assert not np.allclose(world.true_mdh, other.true_mdh)
+    delta = world.true_mdh - UR10E.mdh
+    lengths, angles = delta[:, [0, 3]], delta[:, [1, 2, 4]]
+    assert 0.05 < np.abs(lengths).max() <= 0.5 and 1e-4 < np.abs(angles).max() <= 1e-3
+    offset = world.flange2tool[:3, 3] - DEFAULT_TOOL_POINT
+    assert np.linalg.norm(offset) == pytest.approx(1.5, abs=1e-12)
+    np.testing.assert_allclose(world.flange2tool[:3, :3], np.eye(3), atol=0)
+    tracker2base = np.linalg.inv(world.base2tracker)
+    np.testing.assert_allclose(tracker2base[:3, 3], SIM_TRACKER_AT_MM, atol=1e-9)
+    turn = Rotation.from_rotvec(SIM_TRACKER_ROTVEC).as_matrix()
+    np.testing.assert_allclose(tracker2base[:3, :3], turn, atol=1e-12)
+    assert world.model.name == "ur10e" and world.seed == 4
+
+
+def test_the_worlds_tool_pose_is_the_true_arm_seen_from_the_tracker():
+    world = SimWorld.make("ur10e", 1)
+    base2flange = kinematics.chain(world.true_mdh, Q[None])[0]
+    expected = world.base2tracker @ base2flange @ world.flange2tool
+    np.testing.assert_allclose(world.tool_pose(list(Q)), expected, atol=1e-9)
+
+
+def sim_run(tmp_path, tracker_url="sim", seed=3, noise=False, **options):
+    world = SimWorld.make("ur10e", seed)
+    robot = open_robot("sim", RobotOptions(UR10E, world))
+    tracker = open_tracker(
+        tracker_url,
+        OpenOptions(world=world if tracker_url == "sim" else None, sim_noise=noise),
+    )
+    run = MeasureRun(
+        robot, tracker, UR10E, RunOptions(seed=seed, **options), tmp_path / "s.parquet", world=world
+    )
+    return run, world
+
+
+def measure_at(run, q):
+    """Move the run's arm to ``q`` (rad) and take one reading: the point, mm."""
+    actual = run.robot.move_joints(q, 0.5, 1.0)
+    if run._after_move is not None:
+        run._after_move(actual)
+    return run.tracker.measure().point_mm
+
+
+def test_the_simulated_devices_satisfy_the_ports_and_measure_the_hidden_arm(tmp_path):
+    run, world = sim_run(tmp_path)
+    assert isinstance(run.tracker, SimulatedTracker) and isinstance(run.tracker, ports.Tracker)
+    assert isinstance(run.robot, SimulatedRobot)
+    assert ports.STEER in run.tracker.capabilities
+    assert ports.REPORTS_TRUE_POSE in run.robot.capabilities and not run.moves_hardware
+    with run:
+        run.connect("sim")
+        assert run.robot_id == "sim:ur10e:seed=3"
+        assert run.tracker_id.startswith("CALIBRATOR:TRACKER-SIM")
+        assert run._after_move is None  # the robot steers the simulator itself
+        np.testing.assert_array_equal(run.tracker_at_mm, SIM_TRACKER_AT_MM)
+        for q in (Q, -Q):
+            np.testing.assert_allclose(measure_at(run, q), world.tool_pose(q)[:3, 3], atol=1e-4)
+        tracker = run.tracker
+    with pytest.raises(OSError):  # closing the run closed the link and the simulator
+        tracker.measure()
+
+
+def test_the_simulator_is_noisy_unless_told_otherwise(tmp_path):
+    run, world = sim_run(tmp_path, noise=True)
+    with run:
+        run.connect()
+        run.robot.move_joints(Q, 0.5, 1.0)
+        points = np.array([run.tracker.measure().point_mm for _ in range(3)])
+    assert np.all(np.ptp(points, axis=0) > 0)  # no two readings alike
+    np.testing.assert_allclose(points, np.tile(world.tool_pose(Q)[:3, 3], (3, 1)), atol=0.2)
+
+
+def test_a_given_tracker_position_overrides_the_simulated_one(tmp_path):
+    run, _ = sim_run(tmp_path, tracker_at_mm=(1, 2, 3))
+    assert run.tracker_at_mm.dtype == float
+    np.testing.assert_array_equal(run.tracker_at_mm, [1.0, 2.0, 3.0])
+
+
+class PlainRobot(SimulatedRobot):
+    """A simulated arm that does not report its true pose (as a real arm would not)."""
+
+    capabilities = frozenset()
+
+
+def test_a_robot_without_true_poses_places_the_simulated_target_after_each_move(tmp_path):
+    world = SimWorld.make("ur10e", 2)
+    robot = PlainRobot(world.true_mdh, world.base2tracker, world.flange2tool)
+    tracker = open_tracker("sim", OpenOptions(world=world, sim_noise=False))
+    run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet", world=world)
+    with run:
+        run.connect()
+        run._after_move(Q)
+        np.testing.assert_allclose(
+            run.tracker.measure().point_mm, world.tool_pose(Q)[:3, 3], atol=1e-4
+        )
+        after_move = run._after_move
+    with pytest.raises(TrackerUnavailable, match="^tracker simulator not started"):
+        after_move(Q)  # the simulator has been stopped with the run
+
+
+@pytest.mark.parametrize("endpoint", ["url", "control_url"], ids=["pty", "socket"])
+def test_a_line_protocol_tracker_by_device_path_or_socket_url(endpoint):
+    with SimulatorProcess(noise=False, initialised=True) as sim:
+        url = getattr(sim, endpoint)
+        tracker = open_tracker(url)
+        assert type(tracker) is LaserTracker and isinstance(tracker, ports.Tracker)
+        try:
+            assert tracker.connect().initialised
+            assert tracker.device_id.startswith("CALIBRATOR:")
+            sim.set_target([1000.0, -20.5, 300.25])
+            np.testing.assert_allclose(tracker.measure().point_mm, [1000.0, -20.5, 300.25])
+        finally:
+            tracker.close()
+
+
+@pytest.mark.parametrize(
+    "simulator", [SimulatorProcess, EmsconSimulatorProcess], ids=["line", "emscon"]
+)
+def test_an_uninitialised_tracker_is_refused_and_never_initialised(simulator, tmp_path):
+    with simulator(noise=False, initialised=False) as sim:
+        world = SimWorld.make("ur10e", 0)
+        run = MeasureRun(
+            open_robot("sim", RobotOptions(UR10E, world)),
+            open_tracker(sim.url),
+            UR10E,
+            RunOptions(),
+            tmp_path / "s.parquet",
+        )
+        with run, pytest.raises(CalibrationError) as exc:
+            run.connect(sim.url)
+        assert str(exc.value) == (
+            f"tracker at {sim.url} is not initialised: run `calibrator tracker init "
+            f"--tracker {sim.url}` (it moves the head), then measure again"
+        )
+        assert not run.tracker.status().initialised  # nobody initialised it
+
+
+def test_an_unreachable_tracker_is_refused_in_one_line(tmp_path):
+    run, _ = sim_run(tmp_path, tracker_url="socket://127.0.0.1:1")
+    with run, pytest.raises(CalibrationError, match="^tracker at socket://127.0.0.1:1: "):
+        run.connect("socket://127.0.0.1:1")
+
+
+def test_a_hang_up_is_a_lost_reading_a_dead_tracker_is_unavailable():
+    # The TCP endpoint survives a hang-up (a pty's number could be reused meanwhile).
+    with SimulatorProcess(noise=False, initialised=True) as sim:
+        sim.set_target([1000.0, -20.5, 300.25])
+        tracker = open_tracker(sim.control_url)
+        try:
+            tracker.connect()
+            sim.arm_fault("MEAS+1 hangup")
+            with pytest.raises(ReadingLost, match="reconnected, command not repeated"):
+                tracker.measure()
+            np.testing.assert_allclose(tracker.measure().point_mm, [1000.0, -20.5, 300.25])
+            sim.stop()
+            with pytest.raises(TrackerUnavailable, match="reconnect attempts failed"):
+                tracker.measure()
+        finally:
+            tracker.close()
+
+
+def test_a_ur_robot_is_guarded_by_the_models_limits_and_the_users_caps():
+    options = RobotOptions(UR10E, max_speed_rad_s=0.7, max_accel_rad_s2=1.5)
+    robot = open_robot("ur://10.0.0.5/", options)  # built, not connected
+    assert isinstance(robot, GuardedRobot) and robot.robot.host == "10.0.0.5"
+    assert {ports.MOVES_HARDWARE, ports.CHECKS_PLAN} <= robot.capabilities
+    limits = robot.limits
+    assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (0.7, 1.5)
+    np.testing.assert_array_equal(limits.joint_limits_rad, UR10E.joint_limits_rad)
+    np.testing.assert_array_equal(limits.max_joint_speed_rad_s, UR10E.max_joint_speed_rad_s)
+    assert robot.device_id == "ur://10.0.0.5:ur10e"
+    with pytest.raises(ValueError) as exc:
+        open_robot("ur:///", options)
+    assert str(exc.value) == "ur:// needs a host, e.g. ur://192.168.1.10"
+    assert open_robot("ur://Xarm.local", options).device_id == "ur://Xarm.local:ur10e"
+
+
+def test_unknown_schemes_are_refused_naming_the_known_ones():
+    with pytest.raises(ValueError, match="^unknown robot 'kuka://x'; use sim or ur://HOST$"):
+        open_robot("kuka://x", RobotOptions(UR10E))
+    with pytest.raises(ValueError, match="^unknown tracker 'ftp://x'; use sim, a device path"):
+        open_tracker("ftp://x")
+
+
+def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steers(tmp_path):
+    with EmsconSimulatorProcess(noise=False, initialised=True) as sim:
+        from drivers.tracker.simulator.launch import SimulatorControl
+
+        control = SimulatorControl(sim.control_url)
+        url = sim.url + "?meteo=21.5,1000,40"
+        world = SimWorld.make("ur10e", 1)
+        tracker = open_tracker(url)
+        assert isinstance(tracker, EmsconTracker) and isinstance(tracker, ports.Tracker)
+        run = MeasureRun(
+            open_robot("sim", RobotOptions(UR10E, world)),
+            tracker,
+            UR10E,
+            RunOptions(),
+            tmp_path / "s.parquet",
+            world=world,
+            steer=control.set_target,
+        )
+        try:
+            with run:
+                run.connect(url)
+                assert re.fullmatch(r"emscon:serial=\d+", run.tracker_id)
+                np.testing.assert_allclose(measure_at(run, Q), world.tool_pose(Q)[:3, 3], atol=1e-3)
+                np.testing.assert_allclose(run.tracker.measure().meteo, (21.5, 1000.0, 40.0))
+        finally:
+            control.close()
+
+
+@pytest.mark.parametrize(
+    ("url", "message"),
+    [("emscon://", "^expected emscon://HOST"), ("emscon://h?meteo=1,2", "^meteo needs T,P,H")],
+)
+def test_bad_emscon_urls_are_refused(url, message):
+    with pytest.raises(ValueError, match=message):
+        open_tracker(url)
+
+
+# ------------------------------------------------- a third tracker kind, from a test
+
+FAKE_KIND = '''
+import sys
+import numpy as np
+from calibrator.acquire import ports
+from calibrator.acquire.averaging import measure_average  # noqa: F401  (the port's user)
+from drivers.tracker import register_tracker
+
+
+class Status:
+    initialised = True
+
+
+class Reading:
+    def __init__(self, point):
+        self.point_mm = point
+        self.rotvec_rad = None
+        self.accurate = True
+        self.device_time_us = 0
+
+
+class FakeTracker:
+    """Reads a fixed point plus a per-reading offset; satisfies the port directly."""
+
+    capabilities = frozenset()
+    device_id = "fake:1"
+
+    def __init__(self, url, options):
+        self.n = 0
+
+    def connect(self):
+        return Status()
+
+    def status(self):
+        return Status()
+
+    def measure(self, timeout_s=None):
+        self.n += 1
+        return Reading(np.array([1000.0, 2.0, 3.0]) + 1e-3 * (self.n % 2))
+
+    def close(self):
+        pass
+
+
+register_tracker("fake", FakeTracker)
+from calibrator.cli import main
+
+main(sys.argv[1:])
+'''
+
+
+def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_cli(tmp_path):
+    out = tmp_path / "s.parquet"
+    done = subprocess.run(
+        [sys.executable, "-c", FAKE_KIND, "measure", "--tracker", "fake://bench",
+         "--poses", "12", "--readings", "4", "-q", "-o", str(out)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"wrote {out}: 12 poses x 4 readings"
+    table = pq.read_table(out).to_pydict()
+    assert table["pose"] == list(range(12))
+    np.testing.assert_allclose(table["x_mm"], 1000.0005, atol=1e-9)
+    meta = pq.read_schema(out).metadata[b"calibrator"].decode()
+    assert '"tracker": "fake:1"' in meta
+
+
+def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
+    from calibrator import simulate
+    from drivers.tracker.emscon.simulator import engine as emscon_engine
+    from drivers.tracker.simulator import NoiseModel, engine
+
+    assert NoiseModel is simulate.NoiseModel is engine.NoiseModel is emscon_engine.NoiseModel
+    # A synthetic session's transverse noise grows with range as the model's does.
+    point = np.array([[5000.0, 0.0, 0.0]])  # 5 m along x: y and z are transverse
+    readings = simulate.tracker_readings(point, 20000, 1e-9, np.random.default_rng(1))[0]
+    _, s_trans = simulate.TRACKER_NOISE.sigmas_mm(point[0])
+    growth = s_trans - simulate.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
+    np.testing.assert_allclose(readings[:, 1:].std(axis=0), growth, rtol=0.03)
+    assert readings[:, 0].std() < 1e-8  # along the beam: the session's own sigma
