@@ -1,0 +1,340 @@
+"""Pose and motion checks of the capsule arm in its cell, batched over poses.
+
+A pose is checked for each reason of :data:`REASONS`; a motion (the
+joint-space line ``moveJ`` follows) is checked at samples at most
+:data:`MOTION_STEP_RAD` of the largest joint's travel apart, with every
+clearance grown by a bound on how far any capsule point can move between
+two samples (so a motion passing its samples is clear all along).
+
+Positions in the robot base frame, mm; joint angles rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calibrator import kinematics
+from calibrator.cell import distance
+from calibrator.cell.cellfile import Cell, CellError, obstacle_arrays
+from calibrator.cell.geometry import ArmGeometry, place
+
+#: Reasons a pose is refused, in the order checks report them.
+REASONS = (
+    "below mounting plane",
+    "into the base",
+    "self collision",
+    "obstacle",
+    "line of sight",
+    "tracker range",
+    "acceptance angle",
+)
+#: Reasons that also apply along a motion (no tracker needed while moving).
+MOTION_REASONS = REASONS[:4]
+#: Largest joint step between samples of a motion, rad (0.5 deg).
+MOTION_STEP_RAD = np.radians(0.5)
+_SPACING_MM = 10.0  # point spacing along capsules checked against boxes and cylinders
+
+
+@dataclass(frozen=True)
+class Checker:
+    """An arm in a cell, ready to check poses and motions.
+
+    Build with :func:`checker`. ``pairs`` are the capsule pairs checked for
+    self collision: every pair except those joined at a joint (closer than
+    their radii plus the margin with the arm stretched out at zero).
+    """
+
+    geometry: ArmGeometry
+    cell: Cell
+    plane_z_mm: float
+    pairs: np.ndarray  # (P, 2) capsule indices
+    levers_mm: np.ndarray  # (6,) farthest capsule point from each joint axis
+
+
+def checker(geometry: ArmGeometry, cell: Cell) -> Checker:
+    """Prepare the checks of ``geometry`` in ``cell``."""
+    plane = geometry.mount_z_mm if cell.mounting_plane_z_mm is None else cell.mounting_plane_z_mm
+    k = len(geometry.capsules)
+    ends = place(geometry, np.zeros((1, 6)))[0]
+    i, j = np.triu_indices(k, 1)
+    gap = distance.segment_segment(ends[i, 0], ends[i, 1], ends[j, 0], ends[j, 1])
+    joined = gap < geometry.radii[i] + geometry.radii[j] + cell.margin_mm
+    pairs = np.column_stack([i, j])[~joined & (geometry.links[i] != geometry.links[j])]
+    # Joint j turns links j..6 about an axis through frame j-1's origin: a point
+    # of link k is at most sum(|d_m| + |a_m|, m = j..k) + its offset in frame k away.
+    step = np.abs(geometry.mdh[:, 0]) + np.abs(geometry.mdh[:, 3])
+    offset = np.array(
+        [max(np.linalg.norm(c.p_mm), np.linalg.norm(c.q_mm)) for c in geometry.capsules]
+    )
+    links = np.minimum(geometry.links, 6)
+    levers = np.zeros(6)
+    for joint in range(6):
+        reach = [
+            step[joint:link].sum() + off
+            for link, off in zip(links, offset, strict=True)
+            if link > joint
+        ]
+        levers[joint] = max(reach, default=0.0)
+    return Checker(geometry, cell, float(plane), pairs, levers)
+
+
+def _ends(chk: Checker, q: np.ndarray) -> np.ndarray:
+    return place(chk.geometry, q)
+
+
+def collision_faults(chk: Checker, q, pad_mm=0.0) -> np.ndarray:
+    """Collision reasons (:data:`MOTION_REASONS`) per pose, shape (N, 4) bool.
+
+    Parameters
+    ----------
+    chk : Checker
+    q : array_like, shape (N, 6)
+        Joint angles, rad.
+    pad_mm : float or array_like, shape (N,)
+        Extra clearance per pose (the swept bound of a motion), mm.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    ends = _ends(chk, q)  # (N, K, 2, 3)
+    geo, cell = chk.geometry, chk.cell
+    radii = geo.radii
+    clear = cell.margin_mm + np.broadcast_to(np.asarray(pad_mm, dtype=float), (len(q),))
+    need = radii[None, :] + clear[:, None]  # (N, K)
+    out = np.zeros((len(q), 4), dtype=bool)
+    out[:, 0] = np.any(ends[..., 2].min(axis=-1) - chk.plane_z_mm < need, axis=1)
+    # The base: links 3 on (the first two turn about it and cannot reach it).
+    # Its cylinder is bounded by the capsule on its axis (exact on the sides,
+    # a rounded top a radius high that the shoulder's capsule covers anyway).
+    far = np.flatnonzero(geo.links >= 3)
+    axis_lo = np.array([0.0, 0.0, chk.plane_z_mm - geo.base_radius_mm])
+    axis_hi = np.array([0.0, 0.0, geo.base_top_mm - geo.base_radius_mm])
+    base = distance.segment_segment(ends[:, far, 0], ends[:, far, 1], axis_lo, axis_hi)
+    out[:, 1] = np.any(base - geo.base_radius_mm < need[:, far], axis=1)
+    a, b = chk.pairs[:, 0], chk.pairs[:, 1]
+    gap = distance.segment_segment(ends[:, a, 0], ends[:, a, 1], ends[:, b, 0], ends[:, b, 1])
+    out[:, 2] = np.any(gap < radii[a] + radii[b] + clear[:, None], axis=1)
+    out[:, 3] = np.any(_obstacle_distance(chk, ends) < need, axis=1)
+    return out
+
+
+def _obstacle_distance(chk: Checker, ends: np.ndarray) -> np.ndarray:
+    """Lower bound of each capsule axis's distance to the nearest obstacle, (N, K), mm."""
+    obs = obstacle_arrays(chk.cell)
+    n, k = ends.shape[:2]
+    if len(obs["box_lo"]) + len(obs["cyl"]) == 0:
+        return np.full((n, k), np.inf)
+    pts, slack = distance.segment_points(ends[:, :, 0], ends[:, :, 1], _SPACING_MM)  # (N, K, S, 3)
+    best = np.full((n, k), np.inf)
+    for lo, hi in zip(obs["box_lo"], obs["box_hi"], strict=True):
+        best = np.minimum(best, distance.point_box(pts, lo, hi).min(axis=-1))
+    for x, y, r, z0, z1 in obs["cyl"]:
+        best = np.minimum(
+            best, distance.point_cylinder(pts, np.array([x, y]), r, z0, z1).min(axis=-1)
+        )
+    return best - slack
+
+
+def aim_faults(chk: Checker, q) -> np.ndarray:
+    """Tracker range and acceptance angle per pose, shape (N, 2) bool (cheap: no capsules).
+
+    All False when the cell has no tracker position.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    out = np.zeros((len(q), 2), dtype=bool)
+    cell = chk.cell
+    if cell.tracker_at_mm is None:
+        return out
+    reflector, unit, dist, axis = _beam(chk, q)
+    out[:, 0] = (dist < cell.min_range_mm) | (dist > cell.max_range_mm)
+    out[:, 1] = np.einsum("nj,nj->n", axis, unit) < np.cos(np.radians(cell.acceptance_deg))
+    return out
+
+
+def _beam(chk: Checker, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Reflector (N, 3), unit vector to the tracker (N, 3), distance (N,), reflector axis (N, 3)."""
+    flange = kinematics.chain(chk.geometry.mdh, q)  # (N, 4, 4)
+    tool = np.asarray(chk.geometry.capsules[-1].q_mm)
+    reflector = flange[:, :3, :3] @ tool + flange[:, :3, 3]
+    beam = np.asarray(chk.cell.tracker_at_mm, dtype=float) - reflector
+    dist = np.linalg.norm(beam, axis=1)
+    return reflector, beam / np.maximum(dist, 1e-9)[:, None], dist, flange[:, :3, 2]
+
+
+def sight_faults(chk: Checker, q) -> np.ndarray:
+    """Whether the arm or an obstacle blocks the beam to the reflector, shape (N,) bool.
+
+    The beam runs from the tracker head to the reflector, less the tool's
+    radius at its end (the reflector sits in its holder); it keeps
+    ``beam_clearance_mm`` from every capsule but the tool's and from every
+    obstacle (those from 200 mm in front of the head: the head's own stand).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    cell, geo = chk.cell, chk.geometry
+    if cell.tracker_at_mm is None:
+        return np.zeros(len(q), dtype=bool)
+    tracker = np.asarray(cell.tracker_at_mm, dtype=float)
+    reflector, unit, dist, _ = _beam(chk, q)
+    start = reflector + unit * np.minimum(geo.capsules[-1].radius_mm + 5.0, 0.5 * dist)[:, None]
+    ends = _ends(chk, q)[:, :-1]
+    gap = distance.segment_segment(start[:, None], tracker, ends[:, :, 0], ends[:, :, 1])
+    blocked = np.any(gap < geo.radii[None, :-1] + cell.beam_clearance_mm, axis=1)
+    obs = obstacle_arrays(cell)
+    if len(obs["box_lo"]) + len(obs["cyl"]):
+        far_end = tracker - unit * np.minimum(200.0, 0.5 * dist)[:, None]
+        pts, slack = distance.segment_points(start, far_end, _SPACING_MM)
+        near = np.full(len(q), np.inf)
+        for lo, hi in zip(obs["box_lo"], obs["box_hi"], strict=True):
+            near = np.minimum(near, distance.point_box(pts, lo, hi).min(axis=-1))
+        for x, y, r, z0, z1 in obs["cyl"]:
+            near = np.minimum(
+                near, distance.point_cylinder(pts, np.array([x, y]), r, z0, z1).min(axis=-1)
+            )
+        blocked |= near - slack < cell.beam_clearance_mm
+    return blocked
+
+
+def pose_faults(chk: Checker, q) -> np.ndarray:
+    """Every reason of :data:`REASONS` per pose, shape (N, 7) bool (True: refused)."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    return np.column_stack([collision_faults(chk, q), sight_faults(chk, q), aim_faults(chk, q)])
+
+
+def describe(chk: Checker, q, reason: str) -> str:
+    """What exactly fails ``reason`` at one pose ``q`` (6,): the capsules or obstacle named."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))[:1]
+    ends = _ends(chk, q)[0]
+    names, radii = chk.geometry.names, chk.geometry.radii
+    margin = chk.cell.margin_mm
+    if reason == REASONS[0]:
+        low = ends[..., 2].min(axis=-1) - radii - chk.plane_z_mm
+        k = int(np.argmin(low))
+        return (
+            f"{names[k]} {-low[k]:.0f} mm below the mounting plane"
+            if low[k] < 0
+            else (f"{names[k]} within {margin:g} mm of the mounting plane")
+        )
+    if reason == REASONS[2]:
+        a, b = chk.pairs[:, 0], chk.pairs[:, 1]
+        gap = (
+            distance.segment_segment(ends[a, 0], ends[a, 1], ends[b, 0], ends[b, 1])
+            - radii[a]
+            - radii[b]
+        )
+        p = int(np.argmin(gap))
+        return f"{names[a[p]]} and {names[b[p]]} {gap[p]:.0f} mm apart (margin {margin:g} mm)"
+    if reason == REASONS[3]:
+        gaps = []
+        for box in chk.cell.boxes:
+            one = Cell(boxes=(box,), margin_mm=margin)
+            gaps.append(
+                (
+                    box.name,
+                    _obstacle_distance(
+                        Checker(chk.geometry, one, 0.0, chk.pairs, chk.levers_mm), ends[None]
+                    )[0]
+                    - radii,
+                )
+            )
+        for cyl in chk.cell.cylinders:
+            one = Cell(cylinders=(cyl,), margin_mm=margin)
+            gaps.append(
+                (
+                    cyl.name,
+                    _obstacle_distance(
+                        Checker(chk.geometry, one, 0.0, chk.pairs, chk.levers_mm), ends[None]
+                    )[0]
+                    - radii,
+                )
+            )
+        name, gap = min(gaps, key=lambda g: g[1].min())
+        k = int(np.argmin(gap))
+        return (
+            f"{names[k]} within {max(gap[k], 0):.0f} mm of obstacle {name!r} (margin {margin:g} mm)"
+        )
+    if reason == REASONS[1]:
+        return f"a link within {margin:g} mm of the base"
+    if reason == REASONS[4]:
+        return "the beam from the tracker to the reflector passes through the arm or an obstacle"
+    if reason == REASONS[5]:
+        return (
+            f"reflector outside the tracker's range "
+            f"[{chk.cell.min_range_mm:g}, {chk.cell.max_range_mm:g}] mm"
+        )
+    return f"reflector turned more than {chk.cell.acceptance_deg:g} deg from the tracker"
+
+
+def motion_samples(
+    qa, qb, step_rad: float = MOTION_STEP_RAD
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Interior samples of joint-space lines ``qa[i] -> qb[i]``.
+
+    Parameters
+    ----------
+    qa, qb : array_like, shape (M, 6)
+        Start and end of each motion, rad.
+    step_rad : float
+        Largest joint step between samples.
+
+    Returns
+    -------
+    q : ndarray, shape (S, 6)
+        Samples of all motions (ends excluded: they are poses, checked as such).
+    owner : ndarray, shape (S,)
+        Motion each sample belongs to.
+    joint_step : ndarray, shape (S, 6)
+        Step of each joint between this sample and the next, rad.
+    """
+    qa, qb = np.atleast_2d(qa).astype(float), np.atleast_2d(qb).astype(float)
+    delta = qb - qa
+    count = np.maximum(np.ceil(np.abs(delta).max(axis=1) / step_rad).astype(int), 1)
+    owner = np.repeat(np.arange(len(qa)), count + 1)
+    start = np.repeat(np.cumsum(count + 1) - (count + 1), count + 1)
+    u = (np.arange(owner.size) - start) / count[owner]
+    q = qa[owner] + u[:, None] * delta[owner]
+    return q, owner, np.abs(delta[owner]) / count[owner][:, None]
+
+
+def motion_faults(chk: Checker, qa, qb, step_rad: float = MOTION_STEP_RAD) -> np.ndarray:
+    """Collision reasons along each joint-space motion ``qa[i] -> qb[i]``, shape (M, 4) bool.
+
+    Samples include both ends; each is checked with its clearance grown by
+    half the largest distance any capsule point can travel to the next sample
+    (``sum_j |dq_j| * lever_j``), so the continuous motion is covered.
+    """
+    q, owner, step = motion_samples(qa, qb, step_rad)
+    pad = 0.5 * step @ chk.levers_mm
+    faults = np.zeros((len(np.atleast_2d(qa)), 4), dtype=bool)
+    # Chunks keep memory bounded on long plans.
+    for lo in range(0, len(q), 4000):
+        sl = slice(lo, lo + 4000)
+        bad = collision_faults(chk, q[sl], pad[sl])
+        np.logical_or.at(faults, owner[sl], bad)
+    return faults
+
+
+def check_tracker_placement(chk: Checker) -> None:
+    """Refuse a tracker inside the arm's reach envelope (plus margin) or inside an obstacle.
+
+    Raises
+    ------
+    CellError
+    """
+    cell, geo = chk.cell, chk.geometry
+    if cell.tracker_at_mm is None:
+        return
+    at = np.asarray(cell.tracker_at_mm, dtype=float)
+    if not np.all(np.isfinite(at)):
+        raise CellError(f"tracker position {at.tolist()} is not finite")
+    away = float(np.linalg.norm(at - np.asarray(geo.shoulder_mm)))
+    envelope = geo.reach_mm + geo.radii.max() + cell.margin_mm
+    if away < envelope:
+        raise CellError(
+            f"tracker at {', '.join(f'{v:g}' for v in at)} mm is {away:.0f} mm from the shoulder, "
+            f"inside the {geo.model}'s reach envelope ({envelope:.0f} mm with the tool): "
+            "the arm could hit it; place it farther away"
+        )
+    if at[2] < chk.plane_z_mm:
+        raise CellError(
+            f"tracker at z = {at[2]:g} mm is below the mounting plane ({chk.plane_z_mm:g} mm)"
+        )
