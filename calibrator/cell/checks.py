@@ -50,7 +50,8 @@ class Checker:
     cell: Cell
     plane_z_mm: float
     pairs: np.ndarray  # (P, 2) capsule indices
-    levers_mm: np.ndarray  # (6,) farthest capsule point from each joint axis
+    levers_mm: np.ndarray  # (6, K) farthest point of capsule k from joint j's axis
+    pair_levers_mm: np.ndarray  # (6, P) the same for the pair's second capsule, joints between
 
 
 def checker(geometry: ArmGeometry, cell: Cell) -> Checker:
@@ -69,22 +70,21 @@ def checker(geometry: ArmGeometry, cell: Cell) -> Checker:
         [max(np.linalg.norm(c.p_mm), np.linalg.norm(c.q_mm)) for c in geometry.capsules]
     )
     links = np.minimum(geometry.links, 6)
-    levers = np.zeros(6)
-    for joint in range(6):
-        reach = [
-            step[joint:link].sum() + off
-            for link, off in zip(links, offset, strict=True)
-            if link > joint
-        ]
-        levers[joint] = max(reach, default=0.0)
-    return Checker(geometry, cell, float(plane), pairs, levers)
+    joint = np.arange(6)[:, None]
+    reach = np.cumsum(np.concatenate([[0.0], step]))  # reach[k] - reach[j] = step[j:k].sum()
+    levers = np.where(links[None, :] > joint, reach[links][None, :] - reach[:6, None] + offset, 0.0)
+    # Within a pair only the joints between the two links move one relative to the other.
+    first, second = links[pairs[:, 0]], links[pairs[:, 1]]
+    between = (joint >= first[None, :]) & (joint < second[None, :])
+    pair_levers = np.where(between, levers[:, pairs[:, 1]], 0.0)
+    return Checker(geometry, cell, float(plane), pairs, levers, pair_levers)
 
 
 def _ends(chk: Checker, q: np.ndarray) -> np.ndarray:
     return place(chk.geometry, q)
 
 
-def collision_faults(chk: Checker, q, pad_mm=0.0) -> np.ndarray:
+def collision_faults(chk: Checker, q, step_rad=None) -> np.ndarray:
     """Collision reasons (:data:`MOTION_REASONS`) per pose, shape (N, 4) bool.
 
     Parameters
@@ -92,15 +92,17 @@ def collision_faults(chk: Checker, q, pad_mm=0.0) -> np.ndarray:
     chk : Checker
     q : array_like, shape (N, 6)
         Joint angles, rad.
-    pad_mm : float or array_like, shape (N,)
-        Extra clearance per pose (the swept bound of a motion), mm.
+    step_rad : array_like, shape (N, 6), optional
+        Joint steps to the next sample of a motion, rad: every clearance
+        grows by half the distance a capsule point can travel over that step
+        (relative to the other capsule for self collision).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     ends = _ends(chk, q)  # (N, K, 2, 3)
     geo, cell = chk.geometry, chk.cell
     radii = geo.radii
-    clear = cell.margin_mm + np.broadcast_to(np.asarray(pad_mm, dtype=float), (len(q),))
-    need = radii[None, :] + clear[:, None]  # (N, K)
+    step = np.zeros((len(q), 6)) if step_rad is None else np.abs(np.asarray(step_rad, dtype=float))
+    need = radii[None, :] + cell.margin_mm + 0.5 * step @ chk.levers_mm  # (N, K)
     out = np.zeros((len(q), 4), dtype=bool)
     out[:, 0] = np.any(ends[..., 2].min(axis=-1) - chk.plane_z_mm < need, axis=1)
     # The base: links 3 on (the first two turn about it and cannot reach it).
@@ -113,7 +115,8 @@ def collision_faults(chk: Checker, q, pad_mm=0.0) -> np.ndarray:
     out[:, 1] = np.any(base - geo.base_radius_mm < need[:, far], axis=1)
     a, b = chk.pairs[:, 0], chk.pairs[:, 1]
     gap = distance.segment_segment(ends[:, a, 0], ends[:, a, 1], ends[:, b, 0], ends[:, b, 1])
-    out[:, 2] = np.any(gap < radii[a] + radii[b] + clear[:, None], axis=1)
+    pair_need = radii[a] + radii[b] + cell.margin_mm + 0.5 * step @ chk.pair_levers_mm
+    out[:, 2] = np.any(gap < pair_need, axis=1)
     out[:, 3] = np.any(_obstacle_distance(chk, ends) < need, axis=1)
     return out
 
@@ -230,10 +233,7 @@ def describe(chk: Checker, q, reason: str) -> str:
             gaps.append(
                 (
                     box.name,
-                    _obstacle_distance(
-                        Checker(chk.geometry, one, 0.0, chk.pairs, chk.levers_mm), ends[None]
-                    )[0]
-                    - radii,
+                    _obstacle_distance(_replace_cell(chk, one), ends[None])[0] - radii,
                 )
             )
         for cyl in chk.cell.cylinders:
@@ -241,10 +241,7 @@ def describe(chk: Checker, q, reason: str) -> str:
             gaps.append(
                 (
                     cyl.name,
-                    _obstacle_distance(
-                        Checker(chk.geometry, one, 0.0, chk.pairs, chk.levers_mm), ends[None]
-                    )[0]
-                    - radii,
+                    _obstacle_distance(_replace_cell(chk, one), ends[None])[0] - radii,
                 )
             )
         name, gap = min(gaps, key=lambda g: g[1].min())
@@ -262,6 +259,12 @@ def describe(chk: Checker, q, reason: str) -> str:
             f"[{chk.cell.min_range_mm:g}, {chk.cell.max_range_mm:g}] mm"
         )
     return f"reflector turned more than {chk.cell.acceptance_deg:g} deg from the tracker"
+
+
+def _replace_cell(chk: Checker, cell: Cell) -> Checker:
+    from dataclasses import replace
+
+    return replace(chk, cell=cell)
 
 
 def motion_samples(
@@ -299,16 +302,15 @@ def motion_faults(chk: Checker, qa, qb, step_rad: float = MOTION_STEP_RAD) -> np
     """Collision reasons along each joint-space motion ``qa[i] -> qb[i]``, shape (M, 4) bool.
 
     Samples include both ends; each is checked with its clearance grown by
-    half the largest distance any capsule point can travel to the next sample
+    half the largest distance a capsule point can travel to the next sample
     (``sum_j |dq_j| * lever_j``), so the continuous motion is covered.
     """
     q, owner, step = motion_samples(qa, qb, step_rad)
-    pad = 0.5 * step @ chk.levers_mm
     faults = np.zeros((len(np.atleast_2d(qa)), 4), dtype=bool)
     # Chunks keep memory bounded on long plans.
     for lo in range(0, len(q), 4000):
         sl = slice(lo, lo + 4000)
-        bad = collision_faults(chk, q[sl], pad[sl])
+        bad = collision_faults(chk, q[sl], step[sl])
         np.logical_or.at(faults, owner[sl], bad)
     return faults
 
