@@ -250,7 +250,14 @@ def describe(chk: Checker, q, reason: str) -> str:
             f"{names[k]} within {max(gap[k], 0):.0f} mm of obstacle {name!r} (margin {margin:g} mm)"
         )
     if reason == REASONS[1]:
-        return f"a link within {margin:g} mm of the base"
+        geo = chk.geometry
+        far = np.flatnonzero(geo.links >= 3)
+        axis_lo = np.array([0.0, 0.0, chk.plane_z_mm - geo.base_radius_mm])
+        axis_hi = np.array([0.0, 0.0, geo.base_top_mm - geo.base_radius_mm])
+        gap = distance.segment_segment(ends[far, 0], ends[far, 1], axis_lo, axis_hi)
+        gap = gap - geo.base_radius_mm - radii[far]
+        k = int(np.argmin(gap))
+        return f"{names[far[k]]} {gap[k]:.0f} mm from the base (margin {margin:g} mm)"
     if reason == REASONS[4]:
         return "the beam from the tracker to the reflector passes through the arm or an obstacle"
     if reason == REASONS[5]:
@@ -270,7 +277,7 @@ def _replace_cell(chk: Checker, cell: Cell) -> Checker:
 def motion_samples(
     qa, qb, step_rad: float = MOTION_STEP_RAD
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Interior samples of joint-space lines ``qa[i] -> qb[i]``.
+    """Samples of joint-space lines ``qa[i] -> qb[i]``, both ends included.
 
     Parameters
     ----------
@@ -282,7 +289,7 @@ def motion_samples(
     Returns
     -------
     q : ndarray, shape (S, 6)
-        Samples of all motions (ends excluded: they are poses, checked as such).
+        Samples of all motions, each from its start to its end.
     owner : ndarray, shape (S,)
         Motion each sample belongs to.
     joint_step : ndarray, shape (S, 6)

@@ -148,7 +148,9 @@ def _er10l_capsules(mdh: np.ndarray) -> tuple[Capsule, ...]:
         Capsule("upper arm", 2, (-a2, 0.0, 0.0), (0.0, 0.0, 0.0), 110.0),
         Capsule("elbow", 3, (-a3, 0.0, 0.0), (0.0, 0.0, 0.0), 110.0),
         # The forearm rolls about its own axis (joint 4): a capsule on that axis.
-        Capsule("forearm", 3, (0.0, 0.0, 0.0), (0.0, 0.0, d4 - 90.0), 90.0),
+        # In two parts: the far one is what folding the elbow brings to the upper arm.
+        Capsule("forearm", 3, (0.0, 0.0, 0.0), (0.0, 0.0, 300.0), 90.0),
+        Capsule("forearm end", 3, (0.0, 0.0, 300.0), (0.0, 0.0, d4 - 90.0), 90.0),
         Capsule("wrist", 5, (0.0, 0.0, -70.0), (0.0, 0.0, d6), 70.0),
     )
 
@@ -190,7 +192,7 @@ def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 2
         caps = _er10l_capsules(mdh)
         base_r, base_top, mount = 150.0, -130.0, -450.0
         shoulder = (0.0, 0.0, 0.0)
-        upright = (np.pi / 2, 0.0)
+        upright = (0.0, -np.pi / 2)
     else:
         raise CalibrationError(f"no geometric model for {model!r}")
     # The tool capsule starts a radius out of the flange: the flange itself is wrist 3.
