@@ -607,13 +607,21 @@ def make_checked(
         keep(~hits[:, r], reason)
         hits = hits[~hits[:, r]]
     keep(~cells.checks.sight_faults(chk, pool), "line of sight")
+    # Any two poses must be joinable: through the arm upright if not directly. A pose
+    # the arm cannot leave upwards safely (the shoulder past horizontal on the far
+    # side, where the way up turns through the floor) is dropped.
+    keep(_can_rise(chk, pool), "no safe way up")
     if len(pool) < n:
         counts = ", ".join(f"{reason} {k}" for reason, k in dropped.items() if k)
         raise PlanError(
             f"only {len(pool)} of {total} candidates pass the cell's checks ({counts}); "
             f"{n} asked (more candidates, another tracker position or a smaller margin?)"
         )
-    obs = observability(model.mdh, pool, _tool(tool_mm))
+    # The free set is the model's (from a rich reference set of poses), not what these
+    # candidates happen to see: too few or too alike candidates must fail the rank test.
+    reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
+    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm))
+    obs = Observability(full.names, full.blocks[len(reference) :])
     if selection == "first":
         picks = np.arange(n)
     elif selection == "random":
@@ -663,7 +671,7 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
     times = cells.time_matrix(q, speed, accel)
     verdict: dict[tuple[int, int], np.ndarray] = {}
     order = cells.order_poses(times)
-    for _ in range(8):
+    for attempt in range(8):
         edges = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
         new = [e for e in edges if e not in verdict]
         if new:
@@ -672,14 +680,14 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
             for e, f in zip(new, faults, strict=True):
                 verdict[e] = verdict[e[::-1]] = f
         bad = [e for e in edges if verdict[e].any()]
-        if not bad:
-            break
+        if not bad or attempt == 7:
+            break  # every edge of this order has a verdict: vias below for the bad ones
         for a, b in bad:
             times[a, b] = times[b, a] = np.inf
         order = cells.order_poses(times)
     vias = []
     for k, i in enumerate(order):
-        if k == 0 or not verdict.get((int(order[k - 1]), int(i)), np.zeros(1)).any():
+        if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
             vias.append(np.zeros((0, 6)))
             continue
         a, b = int(order[k - 1]), int(i)
@@ -694,20 +702,67 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
     return Plan(q[order], tuple(vias))
 
 
-def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.ndarray | None:
-    """Two vias that lift the arm upright above ``qa`` and swing it above ``qb``, or None."""
+def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
+    """Ways up from each pose of ``q`` (N, 6): via lists (N, k, 6).
+
+    Each ends with the arm upright and the wrist neutral (joints 1 and 6 as
+    in ``q``), where turning joints 1 and 6 to another pose's is safe: shoulder
+    and elbow together, elbow first, or shoulder first, then the wrist.
+    """
+    up2, up3 = chk.geometry.upright_rad
+    upright = q.copy()
+    upright[:, 1:3] = (up2, up3)
+    neutral = upright.copy()
+    neutral[:, 3:5] = chk.geometry.neutral_wrist_rad
+    elbow, shoulder = q.copy(), q.copy()
+    elbow[:, 2] = up3
+    shoulder[:, 1] = up2
+    return [
+        np.stack([upright, neutral], 1),
+        np.stack([elbow, upright, neutral], 1),
+        np.stack([shoulder, upright, neutral], 1),
+    ]
+
+
+def _can_rise(chk, q: np.ndarray) -> np.ndarray:
+    """Which poses of ``q`` (N, 6) have a safe way up (:func:`_rise_paths`), shape (N,) bool."""
     from calibrator import cell as cells
 
-    up = chk.geometry.upright_rad
-    va, vb = qa.copy(), qb.copy()
-    va[1:3] = up
-    vb[1:3] = up
-    via = np.array([va, vb])
-    if np.any((via < box[:, 0]) | (via > box[:, 1])):
-        return None
-    if cells.checks.collision_faults(chk, via).any():
-        return None
-    path = np.array([qa, va, vb, qb])
-    if cells.motion_faults(chk, path[:-1], path[1:]).any():
-        return None
-    return via
+    ok = np.zeros(len(q), dtype=bool)
+    for vias in _rise_paths(chk, q):
+        todo = np.flatnonzero(~ok)
+        if not todo.size:
+            break
+        path = np.concatenate([q[todo, None], vias[todo]], axis=1)  # (M, k + 1, 6)
+        k = path.shape[1] - 1
+        safe = ~cells.checks.collision_faults(chk, vias[todo].reshape(-1, 6)).any(axis=1)
+        moves = cells.motion_faults(chk, path[:, :-1].reshape(-1, 6), path[:, 1:].reshape(-1, 6))
+        safe &= ~moves.any(axis=1)
+        ok[todo] = safe.reshape(-1, k).all(axis=1)
+    return ok
+
+
+def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.ndarray | None:
+    """Vias from ``qa`` to ``qb`` through the arm held upright, or None if none is safe.
+
+    Each way up of :func:`_rise_paths` from ``qa``, then across with the arm
+    upright, then down to ``qb`` by one of its ways up reversed. Each via pose
+    and each move between them must pass the collision checks.
+    """
+    from calibrator import cell as cells
+
+    # Up from qa, across upright, down to qb (the way up reversed): each way up
+    # of qa with each of qb, shortest first.
+    ups_a = [v[0] for v in _rise_paths(chk, qa[None])]
+    ups_b = [v[0][::-1] for v in _rise_paths(chk, qb[None])]
+    tries = sorted(([*a, *b] for a in ups_a for b in ups_b), key=len)
+    for vias in tries:
+        via = np.array(vias)
+        if np.any((via < box[:, 0]) | (via > box[:, 1])):
+            continue
+        if cells.checks.collision_faults(chk, via).any():
+            continue
+        path = np.vstack([qa, via, qb])
+        if not cells.motion_faults(chk, path[:-1], path[1:]).any():
+            return via
+    return None

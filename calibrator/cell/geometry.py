@@ -84,6 +84,9 @@ class ArmGeometry:
         Centre of the reach envelope in the base frame (on the base axis), mm.
     upright_rad : tuple of float
         Values of joints 2 and 3 that hold the arm straight up (via poses).
+    neutral_wrist_rad : tuple of float
+        Values of joints 4 and 5 that, upright, point the flange straight up:
+        turning joints 1 and 6 there sweeps nothing into the arm.
     """
 
     model: str
@@ -95,6 +98,7 @@ class ArmGeometry:
     reach_mm: float
     shoulder_mm: tuple[float, float, float]
     upright_rad: tuple[float, float]
+    neutral_wrist_rad: tuple[float, float]
 
     @property
     def links(self) -> np.ndarray:
@@ -188,11 +192,13 @@ def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 2
         base_r, base_top, mount = body[2], mdh[0, 3], 0.0
         shoulder = (0.0, 0.0, float(mdh[0, 3]))
         upright = (-np.pi / 2, 0.0)
+        neutral = (-np.pi / 2, 0.0)
     elif model == "er10l-c10":
         caps = _er10l_capsules(mdh)
         base_r, base_top, mount = 150.0, -130.0, -450.0
         shoulder = (0.0, 0.0, 0.0)
         upright = (0.0, -np.pi / 2)
+        neutral = (0.0, 0.0)
     else:
         raise CalibrationError(f"no geometric model for {model!r}")
     # The tool capsule starts a radius out of the flange: the flange itself is wrist 3.
@@ -209,6 +215,7 @@ def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 2
         reach_mm=reach,
         shoulder_mm=shoulder,
         upright_rad=upright,
+        neutral_wrist_rad=neutral,
     )
 
 
