@@ -558,8 +558,9 @@ def make_checked(
     candidates : array_like, shape (C, 6), optional
         The user's joint vectors (rad) instead of sampled ones.
     n_candidates : int, optional
-        Sampled candidates [default: ``max(300 n, 6000)``; about one in
-        fifty passes every check from a typical tracker position].
+        Sampled candidates [default: ``max(300 n, 6000)``, four times more
+        while fewer than ``4 n`` pass, up to :data:`MAX_SAMPLED`; about one
+        in fifty passes every check from a typical tracker position].
     method, selection, seed
         As :func:`make`.
     settle_s, readings, rate_hz
@@ -580,37 +581,19 @@ def make_checked(
     chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), cell)
     cells.check_tracker_placement(chk)
     box = joint_box(model.joint_limits_rad, margin_rad)
-    if candidates is None:
-        pool = sample(box, n_candidates or max(300 * n, 6000), method, seed)
+    if candidates is not None or n_candidates is not None:
+        given = np.asarray(candidates, dtype=float) if candidates is not None else None
+        pool = given if given is not None else sample(box, n_candidates, method, seed)
+        pool, dropped = _passing(chk, pool, box)
     else:
-        pool = np.asarray(candidates, dtype=float)
-    total = len(pool)
-    dropped: dict[str, int] = {}
-
-    def keep(mask, reason):
-        nonlocal pool
-        dropped[reason] = int((~mask).sum())
-        pool = pool[mask]
-
-    keep(
-        np.all((pool >= box[:, 0]) & (pool <= box[:, 1]), axis=1),
-        "outside joint limits less margin",
-    )
-    mask = np.zeros(len(pool), dtype=bool)
-    mask[distinct(pool)] = True
-    keep(mask, "duplicate")
-    # Cheap checks first: the aim drops most candidates before the capsules are placed.
-    keep(~cells.checks.aim_faults(chk, pool)[:, 1], "acceptance angle")
-    keep(~cells.checks.aim_faults(chk, pool)[:, 0], "tracker range")
-    hits = cells.checks.collision_faults(chk, pool)
-    for r, reason in enumerate(cells.MOTION_REASONS):
-        keep(~hits[:, r], reason)
-        hits = hits[~hits[:, r]]
-    keep(~cells.checks.sight_faults(chk, pool), "line of sight")
-    # Any two poses must be joinable: through the arm upright if not directly. A pose
-    # the arm cannot leave upwards safely (the shoulder past horizontal on the far
-    # side, where the way up turns through the floor) is dropped.
-    keep(_can_rise(chk, pool), "no safe way up")
+        # Sample more until there is a choice (four candidates per pose), up to a bound.
+        count = max(300 * n, 6000)
+        while True:
+            pool, dropped = _passing(chk, sample(box, count, method, seed), box)
+            if len(pool) >= 4 * n or count >= MAX_SAMPLED:
+                break
+            count = min(4 * count, MAX_SAMPLED)
+    total = len(pool) + sum(dropped.values())
     if len(pool) < n:
         counts = ", ".join(f"{reason} {k}" for reason, k in dropped.items() if k)
         raise PlanError(
@@ -622,12 +605,30 @@ def make_checked(
     reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
     full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm))
     obs = Observability(full.names, full.blocks[len(reference) :])
-    if selection == "first":
-        picks = np.arange(n)
-    elif selection == "random":
-        picks = np.random.default_rng(seed).choice(len(pool), n, replace=False)
-    else:
-        picks = select_d_optimal(obs.blocks, n)
+    # Any two poses must be joinable: through the arm upright if not directly. A pose
+    # the arm cannot leave upwards safely (the shoulder past horizontal on the far
+    # side, where the way up turns through the floor) is dropped and the choice made
+    # again; checked on the chosen poses only (a motion check per candidate is slow).
+    usable = np.ones(len(pool), dtype=bool)
+    rng = np.random.default_rng(seed)
+    while True:
+        left = np.flatnonzero(usable)
+        if len(left) < n:
+            raise PlanError(
+                f"only {len(left)} of {total} candidates pass the cell's checks and have a safe "
+                f"way up; {n} asked (more candidates or another tracker position?)"
+            )
+        if selection == "first":
+            picks = left[:n]
+        elif selection == "random":
+            picks = left[rng.permutation(len(left))[:n]]
+        else:
+            picks = left[select_d_optimal(obs.blocks[left], n)]
+        stuck = picks[~_can_rise(chk, pool[picks])]
+        if not stuck.size:
+            break
+        usable[stuck] = False
+    dropped["no safe way up"] = int((~usable).sum())
     blocks = obs.blocks[picks]
     _check_rank(blocks, obs.names, n, len(pool))
     chosen = pool[picks]
@@ -644,6 +645,53 @@ def make_checked(
         selection_time=cells.cell_time(chosen, n, speed, accel, **timing),
         ordered_time=cells.cell_time(plan.path_rad, n, speed, accel, **timing),
     )
+
+
+#: Most candidates :func:`make_checked` samples on its own.
+MAX_SAMPLED = 400_000
+
+
+def _passing(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The candidates of ``pool`` (C, 6) that pass every check, and the count dropped per reason.
+
+    Duplicates first, then in chunks (bounded memory on large candidate sets).
+    """
+    pool = np.asarray(pool, dtype=float).reshape(-1, 6)
+    first = np.zeros(len(pool), dtype=bool)
+    first[distinct(pool)] = True
+    kept, dropped = [], {"duplicate": int((~first).sum())}
+    pool = pool[first]
+    for lo in range(0, max(len(pool), 1), 20000):
+        part, counts = _passing_chunk(chk, pool[lo : lo + 20000], box)
+        kept.append(part)
+        for reason, k in counts.items():
+            dropped[reason] = dropped.get(reason, 0) + k
+    return np.concatenate(kept), dropped
+
+
+def _passing_chunk(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, dict]:
+    from calibrator import cell as cells
+
+    dropped: dict[str, int] = {}
+
+    def keep(mask, reason):
+        nonlocal pool
+        dropped[reason] = int((~mask).sum())
+        pool = pool[mask]
+
+    keep(
+        np.all((pool >= box[:, 0]) & (pool <= box[:, 1]), axis=1),
+        "outside joint limits less margin",
+    )
+    # Cheap checks first: the aim drops most candidates before the capsules are placed.
+    keep(~cells.checks.aim_faults(chk, pool)[:, 1], "acceptance angle")
+    keep(~cells.checks.aim_faults(chk, pool)[:, 0], "tracker range")
+    hits = cells.checks.collision_faults(chk, pool)
+    for r, reason in enumerate(cells.MOTION_REASONS):
+        keep(~hits[:, r], reason)
+        hits = hits[~hits[:, r]]
+    keep(~cells.checks.sight_faults(chk, pool), "line of sight")
+    return pool, dropped
 
 
 def _tool(tool_mm) -> np.ndarray:

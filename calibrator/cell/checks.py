@@ -34,7 +34,6 @@ REASONS = (
 MOTION_REASONS = REASONS[:4]
 #: Largest joint step between samples of a motion, rad (0.5 deg).
 MOTION_STEP_RAD = np.radians(0.5)
-_SPACING_MM = 10.0  # point spacing along capsules checked against boxes and cylinders
 
 
 @dataclass(frozen=True)
@@ -43,7 +42,8 @@ class Checker:
 
     Build with :func:`checker`. ``pairs`` are the capsule pairs checked for
     self collision: every pair except those joined at a joint (closer than
-    their radii plus the margin with the arm stretched out at zero).
+    their radii plus the margin with the arm stretched out at zero) and those
+    kept apart by design (a distance no joint changes, larger than their radii).
     """
 
     geometry: ArmGeometry
@@ -62,7 +62,16 @@ def checker(geometry: ArmGeometry, cell: Cell) -> Checker:
     i, j = np.triu_indices(k, 1)
     gap = distance.segment_segment(ends[i, 0], ends[i, 1], ends[j, 0], ends[j, 1])
     joined = gap < geometry.radii[i] + geometry.radii[j] + cell.margin_mm
-    pairs = np.column_stack([i, j])[~joined & (geometry.links[i] != geometry.links[j])]
+    # Pairs whose distance no joint changes (UR's upper arm and forearm lie in
+    # parallel planes 137 mm apart) and which do not touch cannot collide: their
+    # distance is a design clearance, not a margin to keep. Seen on 256 seeded poses.
+    spread = np.random.default_rng(0).uniform(-np.pi, np.pi, (256, 6))
+    many = place(geometry, spread)
+    gaps = distance.segment_segment(many[:, i, 0], many[:, i, 1], many[:, j, 0], many[:, j, 1])
+    fixed = (np.ptp(gaps, axis=0) < 1e-6 * (1.0 + gaps.max(axis=0))) & (
+        gaps.min(axis=0) > geometry.radii[i] + geometry.radii[j]
+    )
+    pairs = np.column_stack([i, j])[~joined & ~fixed & (geometry.links[i] != geometry.links[j])]
     # Joint j turns links j..6 about an axis through frame j-1's origin: a point
     # of link k is at most sum(|d_m| + |a_m|, m = j..k) + its offset in frame k away.
     step = np.abs(geometry.mdh[:, 0]) + np.abs(geometry.mdh[:, 3])
@@ -117,25 +126,42 @@ def collision_faults(chk: Checker, q, step_rad=None) -> np.ndarray:
     gap = distance.segment_segment(ends[:, a, 0], ends[:, a, 1], ends[:, b, 0], ends[:, b, 1])
     pair_need = radii[a] + radii[b] + cell.margin_mm + 0.5 * step @ chk.pair_levers_mm
     out[:, 2] = np.any(gap < pair_need, axis=1)
-    out[:, 3] = np.any(_obstacle_distance(chk, ends) < need, axis=1)
+    if cell.boxes or cell.cylinders:
+        out[:, 3] = np.any(_obstacle_distance(chk, ends, float(need.max())) < need, axis=1)
     return out
 
 
-def _obstacle_distance(chk: Checker, ends: np.ndarray) -> np.ndarray:
-    """Lower bound of each capsule axis's distance to the nearest obstacle, (N, K), mm."""
-    obs = obstacle_arrays(chk.cell)
+def _obstacle_distance(chk: Checker, ends: np.ndarray, cutoff_mm: float = np.inf) -> np.ndarray:
+    """Lower bound of each segment's distance to the nearest obstacle, shape (N, K), mm.
+
+    ``ends`` (N, K, 2, 3). Segments whose bounding box is ``cutoff_mm`` or
+    farther from an obstacle's get that box distance (a lower bound, enough
+    to clear them); only the near ones get the exact search.
+    """
     n, k = ends.shape[:2]
-    if len(obs["box_lo"]) + len(obs["cyl"]) == 0:
-        return np.full((n, k), np.inf)
-    pts, slack = distance.segment_points(ends[:, :, 0], ends[:, :, 1], _SPACING_MM)  # (N, K, S, 3)
     best = np.full((n, k), np.inf)
+    seg_lo, seg_hi = ends.min(axis=2), ends.max(axis=2)  # (N, K, 3)
+    for lo, hi, point_distance in _solids(chk.cell):
+        gap = distance.box_gap(seg_lo, seg_hi, lo, hi)
+        near = gap < cutoff_mm
+        if near.any():
+            gap[near] = distance.segment_min(ends[near][:, 0], ends[near][:, 1], point_distance)
+        best = np.minimum(best, gap)
+    return best
+
+
+def _solids(cell: Cell):
+    """Each obstacle as (bounding box lo, hi, point distance function)."""
+    obs = obstacle_arrays(cell)
     for lo, hi in zip(obs["box_lo"], obs["box_hi"], strict=True):
-        best = np.minimum(best, distance.point_box(pts, lo, hi).min(axis=-1))
+        yield lo, hi, lambda pts, lo=lo, hi=hi: distance.point_box(pts, lo, hi)
     for x, y, r, z0, z1 in obs["cyl"]:
-        best = np.minimum(
-            best, distance.point_cylinder(pts, np.array([x, y]), r, z0, z1).min(axis=-1)
+        centre = np.array([x, y])
+        yield (
+            np.array([x - r, y - r, z0]),
+            np.array([x + r, y + r, z1]),
+            lambda pts, c=centre, r=r, z0=z0, z1=z1: distance.point_cylinder(pts, c, r, z0, z1),
         )
-    return best - slack
 
 
 def aim_faults(chk: Checker, q) -> np.ndarray:
@@ -182,18 +208,12 @@ def sight_faults(chk: Checker, q) -> np.ndarray:
     ends = _ends(chk, q)[:, :-1]
     gap = distance.segment_segment(start[:, None], tracker, ends[:, :, 0], ends[:, :, 1])
     blocked = np.any(gap < geo.radii[None, :-1] + cell.beam_clearance_mm, axis=1)
-    obs = obstacle_arrays(cell)
-    if len(obs["box_lo"]) + len(obs["cyl"]):
+    if cell.boxes or cell.cylinders:
+        # Obstacles from 200 mm in front of the head: the head's own stand is not in the way.
         far_end = tracker - unit * np.minimum(200.0, 0.5 * dist)[:, None]
-        pts, slack = distance.segment_points(start, far_end, _SPACING_MM)
-        near = np.full(len(q), np.inf)
-        for lo, hi in zip(obs["box_lo"], obs["box_hi"], strict=True):
-            near = np.minimum(near, distance.point_box(pts, lo, hi).min(axis=-1))
-        for x, y, r, z0, z1 in obs["cyl"]:
-            near = np.minimum(
-                near, distance.point_cylinder(pts, np.array([x, y]), r, z0, z1).min(axis=-1)
-            )
-        blocked |= near - slack < cell.beam_clearance_mm
+        beam = np.stack([start, far_end], axis=1)[:, None]  # (N, 1, 2, 3)
+        near = _obstacle_distance(chk, beam, cell.beam_clearance_mm)[:, 0]
+        blocked |= near < cell.beam_clearance_mm
     return blocked
 
 

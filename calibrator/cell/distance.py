@@ -51,32 +51,6 @@ def segment_segment(p1, q1, p2, q2) -> np.ndarray:
     return np.linalg.norm(diff, axis=-1)
 
 
-def segment_points(p, q, spacing_mm: float) -> tuple[np.ndarray, float]:
-    """Points along segments at most ``spacing_mm`` apart, and the bound they give.
-
-    Parameters
-    ----------
-    p, q : ndarray, shape (..., 3)
-        End points.
-    spacing_mm : float
-
-    Returns
-    -------
-    points : ndarray, shape (..., S, 3)
-        S points from ``p`` to ``q`` inclusive (S the same for all, from the
-        longest segment).
-    slack_mm : float
-        Every point of every segment lies within this of one of its points,
-        so a distance measured from the points, less ``slack_mm``, is a lower
-        bound of the segment's.
-    """
-    length = float(np.linalg.norm(q - p, axis=-1).max(initial=0.0))
-    count = max(2, int(np.ceil(length / spacing_mm)) + 1)
-    u = np.linspace(0.0, 1.0, count)
-    points = p[..., None, :] + u[:, None] * (q - p)[..., None, :]
-    return points, 0.5 * length / (count - 1)
-
-
 def point_box(points, lo, hi) -> np.ndarray:
     """Distance of points from axis-aligned boxes (0 inside).
 
@@ -103,3 +77,41 @@ def point_cylinder(points, centre_xy, radius, z_lo, z_hi) -> np.ndarray:
     radial = np.linalg.norm(points[..., :2] - centre_xy, axis=-1) - radius
     vertical = np.maximum(z_lo - points[..., 2], points[..., 2] - z_hi)
     return np.hypot(np.maximum(radial, 0.0), np.maximum(vertical, 0.0))
+
+
+def segment_min(p, q, point_distance, iterations: int = 40) -> np.ndarray:
+    """Lower bound of the distance of segments ``p q`` from a convex solid.
+
+    The distance of a point from a convex solid is convex along a segment, so
+    a golden-section search finds its minimum; the result is lowered by how
+    far the search bracket still leaves the minimum (the distance changes by
+    at most the distance moved), so it never overstates the clearance.
+
+    Parameters
+    ----------
+    p, q : ndarray, shape (..., 3)
+        Segment ends, mm.
+    point_distance : callable
+        Maps points (..., 3) to distances (...), mm; convex in the point.
+    iterations : int
+        Search steps; the bracket shrinks to ``0.618**iterations`` of the segment.
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    d = q - p
+    length = np.linalg.norm(d, axis=-1)
+    lo, hi = np.zeros(p.shape[:-1]), np.ones(p.shape[:-1])
+    ratio = (np.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(iterations):
+        m1 = hi - ratio * (hi - lo)
+        m2 = lo + ratio * (hi - lo)
+        left = point_distance(p + m1[..., None] * d) <= point_distance(p + m2[..., None] * d)
+        hi = np.where(left, m2, hi)
+        lo = np.where(left, lo, m1)
+    mid = point_distance(p + (0.5 * (lo + hi))[..., None] * d) - 0.5 * (hi - lo) * length
+    return np.minimum(mid, np.minimum(point_distance(p), point_distance(q)))
+
+
+def box_gap(lo1, hi1, lo2, hi2) -> np.ndarray:
+    """Distance between axis-aligned boxes (0 if they overlap): a cheap lower bound, mm."""
+    gap = np.maximum(np.maximum(lo2 - hi1, lo1 - hi2), 0.0)
+    return np.linalg.norm(gap, axis=-1)

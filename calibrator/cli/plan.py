@@ -32,7 +32,7 @@ def plan(
     candidates: int = typer.Option(
         None,
         callback=checks.finite(1, 1_000_000),
-        help="Sampled candidates [default: max(300 N, 6000)].",
+        help="Sampled candidates [default: from max(300 N, 6000), more until 4 N pass].",
     ),
     sampling: Sampling = typer.Option(Sampling.halton, help="How candidates are sampled."),
     joints: Path = typer.Option(
