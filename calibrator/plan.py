@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrator import kinematics, measurement, parameters
+from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
 
@@ -503,8 +504,8 @@ class PlanReport:
     dropped: dict
     names: tuple
     blocks: np.ndarray
-    selection_time: object
-    ordered_time: object
+    selection_time: CellTime
+    ordered_time: CellTime
 
 
 def distinct(q) -> np.ndarray:
@@ -635,15 +636,18 @@ def make_checked(
     speed, accel = model.move_speed_cap_rad_s, model.move_accel_cap_rad_s2
     plan = _order_safely(chk, chosen, box, speed, accel)
     index = [int(np.flatnonzero(np.all(chosen == q, axis=1))[0]) for q in plan.q_rad]
-    timing = dict(settle_s=settle_s, readings=readings, rate_hz=rate_hz)
     return PlanReport(
         plan=plan,
         candidates=total,
         dropped=dropped,
         names=obs.names,
         blocks=blocks[index],
-        selection_time=cells.cell_time(chosen, n, speed, accel, **timing),
-        ordered_time=cells.cell_time(plan.path_rad, n, speed, accel, **timing),
+        selection_time=cells.cell_time(
+            chosen, n, speed, accel, settle_s=settle_s, readings=readings, rate_hz=rate_hz
+        ),
+        ordered_time=cells.cell_time(
+            plan.path_rad, n, speed, accel, settle_s=settle_s, readings=readings, rate_hz=rate_hz
+        ),
     )
 
 

@@ -91,7 +91,8 @@ class Cell:
         """This cell with the tracker at ``at_mm`` (3,), mm (None: unchanged)."""
         if at_mm is None:
             return self
-        return replace(self, tracker_at_mm=tuple(float(v) for v in at_mm))
+        x, y, z = (float(v) for v in at_mm)
+        return replace(self, tracker_at_mm=(x, y, z))
 
 
 _TOP = {"mounting_plane_z_mm", "margin_mm", "tracker", "obstacles", "beam_clearance_mm"}
@@ -191,7 +192,7 @@ def parse_cell(doc) -> Cell:
 
 def read_cell(path) -> Cell:
     """Read a cell file (YAML); one :class:`CellError` line naming what is wrong."""
-    import yaml
+    import yaml  # type: ignore[import-untyped]
 
     path = Path(path)
     try:

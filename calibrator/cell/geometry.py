@@ -202,7 +202,7 @@ def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 2
     else:
         raise CalibrationError(f"no geometric model for {model!r}")
     # The tool capsule starts a radius out of the flange: the flange itself is wrist 3.
-    start = tool * min(1.0, tool_radius_mm / max(np.linalg.norm(tool), 1e-9))
+    start = tool * min(1.0, tool_radius_mm / max(float(np.linalg.norm(tool)), 1e-9))
     tool_cap = Capsule("tool", 7, tuple(start), tuple(tool), tool_radius_mm)
     reach = float(np.abs(mdh[:, 0]).sum() + np.abs(mdh[1:, 3]).sum() + np.linalg.norm(tool))
     return ArmGeometry(

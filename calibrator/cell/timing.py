@@ -85,24 +85,25 @@ def order_poses(
     finite = times[np.isfinite(times)]
     big = (finite.max(initial=1.0) + 1.0) * n * 10
     cost = np.where(np.isfinite(times), times, big)
-    best, best_cost = None, np.inf
+    best: np.ndarray | None = None
+    best_cost = np.inf
     # Nearest neighbour from up to 20 spread starts: the 2-opt below does the rest.
     starts = (
         [start] if start is not None else np.unique(np.linspace(0, n - 1, min(n, 20)).astype(int))
     )
     for first in starts:
-        path = [first]
+        walk = [int(first)]
         left = np.ones(n, dtype=bool)
         left[first] = False
         for _ in range(n - 1):
-            row = np.where(left, cost[path[-1]], np.inf)
-            nxt = int(np.argmin(row))
-            path.append(nxt)
-            left[nxt] = False
-        total = cost[path[:-1], path[1:]].sum()
+            row = np.where(left, cost[walk[-1]], np.inf)
+            step = int(np.argmin(row))
+            walk.append(step)
+            left[step] = False
+        total = float(cost[walk[:-1], walk[1:]].sum())
         if total < best_cost:
-            best, best_cost = np.array(path), total
-    path = best if best is not None else np.arange(n)
+            best, best_cost = np.array(walk), total
+    path: np.ndarray = best if best is not None else np.arange(n)
     lo = 0 if start is None else 1
     for _ in range(20 * n if rounds is None else rounds):
         # Reversing path[i..j] replaces edges (i-1, i) and (j, j+1) by (i-1, j) and (i, j+1);
