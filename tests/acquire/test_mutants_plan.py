@@ -330,7 +330,7 @@ def test_plan_command_writes_the_plan_the_library_makes(tmp_path):
     assert lines[0].startswith(f"candidates: 3000, dropped {sum(made.dropped.values())} (")
     assert lines[1].startswith(f"estimated cell time {made.ordered_time} at 1 rad/s, 2 rad/s^2")
     assert lines[2] == (
-        f"wrote p.csv: 12 poses"
+        "wrote p.csv: 12 poses"
         + (f" and {made.plan.n_vias} via rows" if made.plan.n_vias else "")
         + f", d-optimal selection, log det(J^T J) {plans.log_det(made.blocks):.2f}, "
         f"smallest singular value {plans.min_singular(made.blocks):.4g}"
