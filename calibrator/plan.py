@@ -588,7 +588,7 @@ def make_checked(
         pool, dropped = _passing(chk, pool, box)
     else:
         # Sample more until there is a choice (four candidates per pose), up to a bound.
-        count = max(300 * n, 6000)
+        count = min(max(300 * n, 6000), MAX_SAMPLED)
         while True:
             pool, dropped = _passing(chk, sample(box, count, method, seed), box)
             if len(pool) >= 4 * n or count >= MAX_SAMPLED:

@@ -72,7 +72,7 @@ def order_poses(
     start : int, optional
         Pose that must come first.
     rounds : int, optional
-        Most 2-opt reversals [default: 20 N].
+        Most 2-opt reversals [default: 20 N, at most 2000].
 
     Returns
     -------
@@ -105,7 +105,7 @@ def order_poses(
             best, best_cost = np.array(walk), total
     path: np.ndarray = best if best is not None else np.arange(n)
     lo = 0 if start is None else 1
-    for _ in range(20 * n if rounds is None else rounds):
+    for _ in range(min(20 * n, 2000) if rounds is None else rounds):
         # Reversing path[i..j] replaces edges (i-1, i) and (j, j+1) by (i-1, j) and (i, j+1);
         # at the open ends only one edge changes.
         prev = np.concatenate([[-1], path[:-1]])

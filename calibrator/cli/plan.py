@@ -27,7 +27,9 @@ def plan(
     output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
     model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics, geometry)."),
     poses: int = typer.Option(
-        30, callback=checks.finite(1, 10000), help="Poses in the plan (at most 10000)."
+        30,
+        callback=checks.finite(1, 500),
+        help="Poses in the plan (at most 500: over an hour of measuring).",
     ),
     candidates: int = typer.Option(
         None,
