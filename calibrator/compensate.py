@@ -19,6 +19,7 @@ rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
 A result outside the joint limits is reported, never clipped.
 """
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -274,7 +275,13 @@ def read_targets(path):
 
     try:
         # As text: numbers are read by the one strict grammar, not pandas' own.
-        table = pd.read_csv(path, dtype=str, keep_default_na=False)
+        # index_col=False and the warning as an error: a row longer than the
+        # header must not turn its first field into a silent index.
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            table = pd.read_csv(path, dtype=str, keep_default_na=False, index_col=False)
+    except pd.errors.ParserWarning:
+        raise CalibrationError(f"{path}: a row has more fields than the header") from None
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         raise CalibrationError(f"{path}: not a readable CSV ({str(exc).splitlines()[0]})") from None
     missing = [c for c in JOINT_COLUMNS if c not in table.columns]

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrator import kinematics, measurement, parameters, strict
+from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
 
@@ -304,19 +305,22 @@ def digest(q) -> str:
     return hashlib.sha256(np.ascontiguousarray(q, dtype="<f8").tobytes()).hexdigest()
 
 
-def read_csv(path) -> np.ndarray:
+def read_csv(path, *, _allow_via=False) -> np.ndarray:
     """Joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
 
     Numbers follow the strict grammar of :func:`calibrator.strict.parse_number`
     (``0_5``, ``0x1``, ``nan`` are refused, not read). Other columns (``pose``,
     notes) are ignored, except joint columns beyond the six used (``q7_rad``,
     or a ``q2_deg`` beside ``q1_rad..q6_rad``): those mean another arm or a
-    mix-up, and are refused.
+    mix-up, and are refused. A pose measured twice is refused. A plan with via
+    rows (a ``via`` column with a 1) is refused: its vias are no poses to
+    measure; read it with :func:`read_plan`.
 
     Returns
     -------
     ndarray, shape (N, 6)
-        Joint angles (rad).
+        Joint angles (rad); with ``_allow_via``, every row, vias included
+        (repeats are then checked by :func:`read_plan` on the measured rows).
 
     Raises
     ------
@@ -357,12 +361,15 @@ def read_csv(path) -> np.ndarray:
         )
     if not rows:
         raise PlanError(f"{path}: the plan has no poses")
+    if not _allow_via and "via" in fields and any(str(r["via"]).strip() != "0" for r in rows):
+        raise PlanError(f"{path}: has via rows (moved through, not measured): read it as a Plan")
     try:
         q = strict.parse_columns([[r[c] for c in columns] for r in rows], columns, str(path))
     except strict.StrictError as exc:
         raise PlanError(str(exc)) from None
     q = q * factor
-    _refuse_repeats(q, path)
+    if not _allow_via:
+        _refuse_repeats(q, path)
     return q
 
 
@@ -370,8 +377,13 @@ def read_csv(path) -> np.ndarray:
 _JOINT_LIKE = re.compile(r"[qQ]\d+_(?:rad|deg|RAD|DEG)")
 
 
-def _refuse_repeats(q: np.ndarray, path: Path) -> None:
-    """Refuse a pose that appears twice, naming the first pair of lines."""
+def _refuse_repeats(q: np.ndarray, path: Path, lines: np.ndarray | None = None) -> None:
+    """Refuse a pose that appears twice, naming the first pair of lines.
+
+    ``lines`` are the file lines of the rows of ``q`` (default: row + 2, after
+    the header), for plans whose vias sit between the measured rows.
+    """
+    lines = np.arange(len(q)) + 2 if lines is None else lines
     _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
     twice = np.flatnonzero(first[inverse.ravel()] != np.arange(len(q)))
     if twice.size:
@@ -379,7 +391,7 @@ def _refuse_repeats(q: np.ndarray, path: Path) -> None:
         j = int(first[inverse.ravel()[i]])
         distinct = len(first)
         raise PlanError(
-            f"{path}: lines {j + 2} and {i + 2} are the same pose ({distinct} distinct of "
+            f"{path}: lines {lines[j]} and {lines[i]} are the same pose ({distinct} distinct of "
             f"{len(q)}); a repeated pose adds nothing to a calibration"
         )
 
@@ -397,3 +409,454 @@ def write_csv(path, q, inputs=()) -> None:
     for i, row in enumerate(np.asarray(q, dtype=float)):
         writer.writerow((i, *(repr(float(v)) for v in row)))
     outputs.write_text(path, buf.getvalue(), inputs=inputs)
+
+
+# ---- plans with via poses, checked in the cell and ordered for time
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The whole motion of a run: measured poses in visiting order, and vias between.
+
+    Attributes
+    ----------
+    q_rad : ndarray, shape (N, 6)
+        Measured poses in visiting order, rad; a pose's number is its row.
+    via_rad : tuple of N ndarrays, shape (k_i, 6)
+        Joint vectors moved through (not measured) before pose i, rad.
+    """
+
+    q_rad: np.ndarray
+    via_rad: tuple = ()
+
+    def __post_init__(self) -> None:
+        q = np.asarray(self.q_rad, dtype=float)
+        if q.ndim != 2 or q.shape[1] != 6:
+            raise PlanError(f"a plan needs 6 joint angles per pose, got shape {q.shape}")
+        via = tuple(np.asarray(v, dtype=float).reshape(-1, 6) for v in self.via_rad) or tuple(
+            np.zeros((0, 6)) for _ in q
+        )
+        if len(via) != len(q):
+            raise PlanError(f"{len(via)} via lists for {len(q)} poses")
+        for array in (q, *via):
+            array.setflags(write=False)
+        object.__setattr__(self, "q_rad", q)
+        object.__setattr__(self, "via_rad", via)
+
+    @property
+    def path_rad(self) -> np.ndarray:
+        """Every row the robot moves to, vias included, in order, shape (M, 6), rad."""
+        rows = [np.vstack([v, q[None]]) for v, q in zip(self.via_rad, self.q_rad, strict=True)]
+        return np.vstack(rows) if rows else np.zeros((0, 6))
+
+    @property
+    def n_vias(self) -> int:
+        """Via rows in the plan."""
+        return sum(len(v) for v in self.via_rad)
+
+
+_VIA_VALUES = {"0": False, "1": True}
+
+
+def read_plan(path) -> Plan:
+    """A :class:`Plan` from a CSV: ``q1_rad..q6_rad`` (or degrees) and an optional ``via`` column.
+
+    Rows with ``via`` 1 are moved through, not measured, before the next
+    measured row; ``via`` 0 (or no column) rows are measured, numbered in order.
+
+    Raises
+    ------
+    PlanError
+        Everything :func:`read_csv` refuses; a ``via`` value other than 0 or 1;
+        via rows after the last measured pose.
+    """
+    q, via = _read_rows(path)
+    if via[-1]:
+        raise PlanError(f"{path}: via rows after the last measured pose (they lead nowhere)")
+    _refuse_repeats(q[~via], path, np.flatnonzero(~via) + 2)
+    vias, pending = [], []
+    for row, is_via in zip(q, via, strict=True):
+        if is_via:
+            pending.append(row)
+        else:
+            vias.append(np.array(pending).reshape(-1, 6))
+            pending = []
+    return Plan(q[~via], tuple(vias))
+
+
+def _read_rows(path) -> tuple[np.ndarray, np.ndarray]:
+    """All rows' joint angles (M, 6) rad and the via mask (M,) of a plan CSV."""
+    q = read_csv(path, _allow_via=True)
+    with open(path, newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        if "via" not in (reader.fieldnames or []):
+            return q, np.zeros(len(q), dtype=bool)
+        raw = [r["via"] for r in reader]
+    bad = [i for i, v in enumerate(raw) if str(v).strip() not in _VIA_VALUES]
+    if bad:
+        raise PlanError(f"{path}: row {bad[0]}: via must be 0 or 1, got {raw[bad[0]]!r}")
+    return q, np.array([_VIA_VALUES[str(v).strip()] for v in raw])
+
+
+def write_plan(path, plan: Plan, inputs=()) -> None:
+    """Write a :class:`Plan` (``pose,via,q1_rad..q6_rad``) atomically.
+
+    A via row has an empty ``pose`` and ``via`` 1. ``inputs`` are files the
+    command read, which the plan must not overwrite.
+    """
+    from calibrator import outputs
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(("pose", "via", *JOINT_COLUMNS))
+    for i, (q, vias) in enumerate(zip(plan.q_rad, plan.via_rad, strict=True)):
+        for v in vias:
+            writer.writerow(("", 1, *(repr(float(x)) for x in v)))
+        writer.writerow((i, 0, *(repr(float(x)) for x in q)))
+    outputs.write_text(path, buf.getvalue(), inputs=inputs)
+
+
+#: Candidates closer than this on every joint are one pose (rad).
+DUPLICATE_RAD = 1e-4
+
+
+@dataclass(frozen=True)
+class PlanReport:
+    """A checked, ordered plan and how it was made.
+
+    Attributes
+    ----------
+    plan : Plan
+        Measured poses in time-optimal order, with vias where a direct move is unsafe.
+    candidates : int
+        Candidates considered.
+    dropped : dict of str to int
+        Candidates dropped per reason, in the order the checks ran (a
+        candidate counts under the first reason it fails).
+    names : tuple of str
+        Parameters the plan's Jacobian blocks refer to (the candidates' free set).
+    blocks : ndarray, shape (N, 3, P)
+        Scaled identification Jacobian of the plan's poses on ``names``.
+    selection_time, ordered_time : calibrator.cell.CellTime
+        Estimated run time in the selection order and in the plan's order.
+    """
+
+    plan: Plan
+    candidates: int
+    dropped: dict
+    names: tuple
+    blocks: np.ndarray
+    selection_time: CellTime
+    ordered_time: CellTime
+
+
+def distinct(q) -> np.ndarray:
+    """Indices (sorted) of the first of each group of equal joint vectors of ``q`` (N, 6).
+
+    Equal: within :data:`DUPLICATE_RAD` on every joint (a grid of that size).
+    """
+    q = np.asarray(q, dtype=float)
+    if not len(q):
+        return np.zeros(0, dtype=int)
+    _, first = np.unique(np.round(q / DUPLICATE_RAD), axis=0, return_index=True)
+    return np.sort(first)
+
+
+def make_checked(
+    model,
+    n: int,
+    cell,
+    tool_mm,
+    *,
+    margin_rad: float = np.radians(5.0),
+    candidates=None,
+    n_candidates: int | None = None,
+    method: str = "halton",
+    selection: str = "d-optimal",
+    seed: int = 0,
+    settle_s: float = 0.5,
+    readings: int = 10,
+    rate_hz: float = 10.0,
+) -> PlanReport:
+    """A plan of ``n`` poses every check of :mod:`calibrator.cell` allows, in time-optimal order.
+
+    Candidates (sampled, or the user's) are kept inside the joint limits less
+    ``margin_rad``, made distinct, then checked (aim, collisions, line of
+    sight; see :data:`calibrator.cell.REASONS`). ``n`` are selected
+    (D-optimal by default) and must determine the candidates' free
+    parameters; they are then ordered to minimise the move time at the
+    model's speed and acceleration caps, and every move between consecutive
+    poses is checked along its joint-space line: an unsafe move is avoided by
+    another order, else by two vias with the arm upright, else refused.
+
+    Parameters
+    ----------
+    model : calibrator.models.RobotModel
+    n : int
+    cell : calibrator.cell.Cell
+    tool_mm : array_like, shape (3,)
+        Reflector position on the flange, mm.
+    margin_rad : float
+        Distance kept from the joint limits, rad.
+    candidates : array_like, shape (C, 6), optional
+        The user's joint vectors (rad) instead of sampled ones.
+    n_candidates : int, optional
+        Sampled candidates [default: ``max(300 n, 6000)``, four times more
+        while fewer than ``4 n`` pass, up to :data:`MAX_SAMPLED`; about one
+        in fifty passes every check from a typical tracker position].
+    method, selection, seed
+        As :func:`make`.
+    settle_s, readings, rate_hz
+        For the time estimate (:func:`calibrator.cell.cell_time`).
+
+    Raises
+    ------
+    PlanError
+        Too few candidates pass (with the counts per reason), the chosen
+        poses cannot determine the parameters, or a move cannot be made safe.
+    calibrator.cell.CellError
+        The tracker is placed where the arm could reach it.
+    """
+    from calibrator import cell as cells
+
+    if selection not in SELECTIONS:
+        raise PlanError(f"unknown selection {selection!r}; use one of {', '.join(SELECTIONS)}")
+    chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), cell)
+    cells.check_tracker_placement(chk)
+    box = joint_box(model.joint_limits_rad, margin_rad)
+    if candidates is not None or n_candidates is not None:
+        given = np.asarray(candidates, dtype=float) if candidates is not None else None
+        pool = given if given is not None else sample(box, n_candidates, method, seed)
+        pool, dropped = _passing(chk, pool, box)
+    else:
+        # Sample more until there is a choice (four candidates per pose), up to a bound.
+        count = min(max(300 * n, 6000), MAX_SAMPLED)
+        while True:
+            pool, dropped = _passing(chk, sample(box, count, method, seed), box)
+            if len(pool) >= 4 * n or count >= MAX_SAMPLED:
+                break
+            count = min(4 * count, MAX_SAMPLED)
+    total = len(pool) + sum(dropped.values())
+    if len(pool) < n:
+        counts = ", ".join(f"{reason} {k}" for reason, k in dropped.items() if k)
+        raise PlanError(
+            f"only {len(pool)} of {total} candidates pass the cell's checks ({counts}); "
+            f"{n} asked (more candidates, another tracker position or a smaller margin?)"
+        )
+    # The free set is the model's (from a rich reference set of poses), not what these
+    # candidates happen to see: too few or too alike candidates must fail the rank test.
+    reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
+    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm))
+    obs = Observability(full.names, full.blocks[len(reference) :])
+    # Any two poses must be joinable: through the arm upright if not directly. A pose
+    # the arm cannot leave upwards safely (the shoulder past horizontal on the far
+    # side, where the way up turns through the floor) is dropped and the choice made
+    # again; checked on the chosen poses only (a motion check per candidate is slow).
+    usable = np.ones(len(pool), dtype=bool)
+    rng = np.random.default_rng(seed)
+    while True:
+        left = np.flatnonzero(usable)
+        if len(left) < n:
+            raise PlanError(
+                f"only {len(left)} of {total} candidates pass the cell's checks and have a safe "
+                f"way up; {n} asked (more candidates or another tracker position?)"
+            )
+        if selection == "first":
+            picks = left[:n]
+        elif selection == "random":
+            picks = left[rng.permutation(len(left))[:n]]
+        else:
+            picks = left[select_d_optimal(obs.blocks[left], n)]
+        stuck = picks[~_can_rise(chk, pool[picks])]
+        if not stuck.size:
+            break
+        usable[stuck] = False
+    dropped["no safe way up"] = int((~usable).sum())
+    blocks = obs.blocks[picks]
+    _check_rank(blocks, obs.names, n, len(pool))
+    chosen = pool[picks]
+    speed, accel = model.move_speed_cap_rad_s, model.move_accel_cap_rad_s2
+    plan = _order_safely(chk, chosen, box, speed, accel)
+    index = [int(np.flatnonzero(np.all(chosen == q, axis=1))[0]) for q in plan.q_rad]
+    return PlanReport(
+        plan=plan,
+        candidates=total,
+        dropped=dropped,
+        names=obs.names,
+        blocks=blocks[index],
+        selection_time=cells.cell_time(
+            chosen, n, speed, accel, settle_s=settle_s, readings=readings, rate_hz=rate_hz
+        ),
+        ordered_time=cells.cell_time(
+            plan.path_rad, n, speed, accel, settle_s=settle_s, readings=readings, rate_hz=rate_hz
+        ),
+    )
+
+
+#: Most candidates :func:`make_checked` samples on its own.
+MAX_SAMPLED = 400_000
+
+
+def _passing(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The candidates of ``pool`` (C, 6) that pass every check, and the count dropped per reason.
+
+    Duplicates first, then in chunks (bounded memory on large candidate sets).
+    """
+    pool = np.asarray(pool, dtype=float).reshape(-1, 6)
+    first = np.zeros(len(pool), dtype=bool)
+    first[distinct(pool)] = True
+    kept, dropped = [], {"duplicate": int((~first).sum())}
+    pool = pool[first]
+    for lo in range(0, max(len(pool), 1), 20000):
+        part, counts = _passing_chunk(chk, pool[lo : lo + 20000], box)
+        kept.append(part)
+        for reason, k in counts.items():
+            dropped[reason] = dropped.get(reason, 0) + k
+    return np.concatenate(kept), dropped
+
+
+def _passing_chunk(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, dict]:
+    from calibrator import cell as cells
+
+    dropped: dict[str, int] = {}
+
+    def keep(mask, reason):
+        nonlocal pool
+        dropped[reason] = int((~mask).sum())
+        pool = pool[mask]
+
+    keep(
+        np.all((pool >= box[:, 0]) & (pool <= box[:, 1]), axis=1),
+        "outside joint limits less margin",
+    )
+    # Cheap checks first: the aim drops most candidates before the capsules are placed.
+    keep(~cells.checks.aim_faults(chk, pool)[:, 1], "acceptance angle")
+    keep(~cells.checks.aim_faults(chk, pool)[:, 0], "tracker range")
+    hits = cells.checks.collision_faults(chk, pool)
+    for r, reason in enumerate(cells.MOTION_REASONS):
+        keep(~hits[:, r], reason)
+        hits = hits[~hits[:, r]]
+    keep(~cells.checks.sight_faults(chk, pool), "line of sight")
+    return pool, dropped
+
+
+def _tool(tool_mm) -> np.ndarray:
+    flange2tool = np.eye(4)
+    flange2tool[:3, 3] = np.asarray(tool_mm, dtype=float)
+    return flange2tool
+
+
+def _check_rank(blocks: np.ndarray, names: tuple, n: int, pool: int) -> None:
+    """Refuse poses that cannot determine every parameter of ``names`` (a rank test)."""
+    jac = blocks.reshape(-1, blocks.shape[-1])
+    sv = np.linalg.svd(jac, compute_uv=False)
+    rank = int((sv > 1e-9 * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
+    if rank < len(names):
+        raise PlanError(
+            f"the {n} poses chosen from {pool} distinct candidates determine only {rank} of the "
+            f"{len(names)} parameters ({', '.join(names)}): more poses, or more varied candidates"
+        )
+
+
+def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: float) -> Plan:
+    """The poses in a short-time order whose every move is safe, with vias where needed."""
+    from calibrator import cell as cells
+
+    times = cells.time_matrix(q, speed, accel)
+    verdict: dict[tuple[int, int], np.ndarray] = {}
+    order = cells.order_poses(times)
+    for attempt in range(8):
+        edges = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
+        new = [e for e in edges if e not in verdict]
+        if new:
+            a, b = np.array(new).T
+            faults = cells.motion_faults(chk, q[a], q[b])
+            for e, f in zip(new, faults, strict=True):
+                verdict[e] = verdict[e[::-1]] = f
+        bad = [e for e in edges if verdict[e].any()]
+        if not bad or attempt == 7:
+            break  # every edge of this order has a verdict: vias below for the bad ones
+        for a, b in bad:
+            times[a, b] = times[b, a] = np.inf
+        order = cells.order_poses(times)
+    vias = []
+    for k, i in enumerate(order):
+        if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
+            vias.append(np.zeros((0, 6)))
+            continue
+        a, b = int(order[k - 1]), int(i)
+        via = _upright_vias(chk, q[a], q[b], box)
+        if via is None:
+            reason = cells.MOTION_REASONS[int(np.argmax(verdict[(a, b)]))]
+            raise PlanError(
+                f"no safe move between poses {k - 1} and {k} ({reason} along the joint-space line) "
+                "in any order tried, nor through the arm held upright; change the cell or the poses"
+            )
+        vias.append(via)
+    return Plan(q[order], tuple(vias))
+
+
+def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
+    """Ways up from each pose of ``q`` (N, 6): via lists (N, k, 6).
+
+    Each ends with the arm upright and the wrist neutral (joints 1 and 6 as
+    in ``q``), where turning joints 1 and 6 to another pose's is safe: shoulder
+    and elbow together, elbow first, or shoulder first, then the wrist.
+    """
+    up2, up3 = chk.geometry.upright_rad
+    upright = q.copy()
+    upright[:, 1:3] = (up2, up3)
+    neutral = upright.copy()
+    neutral[:, 3:5] = chk.geometry.neutral_wrist_rad
+    elbow, shoulder = q.copy(), q.copy()
+    elbow[:, 2] = up3
+    shoulder[:, 1] = up2
+    return [
+        np.stack([upright, neutral], 1),
+        np.stack([elbow, upright, neutral], 1),
+        np.stack([shoulder, upright, neutral], 1),
+    ]
+
+
+def _can_rise(chk, q: np.ndarray) -> np.ndarray:
+    """Which poses of ``q`` (N, 6) have a safe way up (:func:`_rise_paths`), shape (N,) bool."""
+    from calibrator import cell as cells
+
+    ok = np.zeros(len(q), dtype=bool)
+    for vias in _rise_paths(chk, q):
+        todo = np.flatnonzero(~ok)
+        if not todo.size:
+            break
+        path = np.concatenate([q[todo, None], vias[todo]], axis=1)  # (M, k + 1, 6)
+        k = path.shape[1] - 1
+        safe = ~cells.checks.collision_faults(chk, vias[todo].reshape(-1, 6)).any(axis=1)
+        moves = cells.motion_faults(chk, path[:, :-1].reshape(-1, 6), path[:, 1:].reshape(-1, 6))
+        safe &= ~moves.any(axis=1)
+        ok[todo] = safe.reshape(-1, k).all(axis=1)
+    return ok
+
+
+def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.ndarray | None:
+    """Vias from ``qa`` to ``qb`` through the arm held upright, or None if none is safe.
+
+    Each way up of :func:`_rise_paths` from ``qa``, then across with the arm
+    upright, then down to ``qb`` by one of its ways up reversed. Each via pose
+    and each move between them must pass the collision checks.
+    """
+    from calibrator import cell as cells
+
+    # Up from qa, across upright, down to qb (the way up reversed): each way up
+    # of qa with each of qb, shortest first.
+    ups_a = [v[0] for v in _rise_paths(chk, qa[None])]
+    ups_b = [v[0][::-1] for v in _rise_paths(chk, qb[None])]
+    tries = sorted(([*a, *b] for a in ups_a for b in ups_b), key=len)
+    for vias in tries:
+        via = np.array(vias)
+        if np.any((via < box[:, 0]) | (via > box[:, 1])):
+            continue
+        if cells.checks.collision_faults(chk, via).any():
+            continue
+        path = np.vstack([qa, via, qb])
+        if not cells.motion_faults(chk, path[:-1], path[1:]).any():
+            return via
+    return None

@@ -1,4 +1,4 @@
-"""``calibrator plan``: joint configurations to measure, fit for the cell and observability."""
+"""``calibrator plan``: joint configurations to measure, safe in the cell, observable, ordered."""
 
 from __future__ import annotations
 
@@ -25,12 +25,16 @@ class Selection(StrEnum):
 @app.command()
 def plan(
     output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
-    model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics)."),
-    poses: int = typer.Option(30, callback=checks.count("plan_poses"), help="Poses in the plan."),
+    model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics, geometry)."),
+    poses: int = typer.Option(
+        30,
+        callback=checks.finite(1, 500),
+        help="Poses in the plan (at most 500: over an hour of measuring).",
+    ),
     candidates: int = typer.Option(
         None,
-        callback=checks.count("candidates"),
-        help="Sampled candidates [default: max(60 N, 2000)].",
+        callback=checks.finite(1, 1_000_000),
+        help="Sampled candidates [default: from max(300 N, 6000), more until 4 N pass].",
     ),
     sampling: Sampling = typer.Option(Sampling.halton, help="How candidates are sampled."),
     joints: Path = typer.Option(
@@ -39,67 +43,105 @@ def plan(
     selection: Selection = typer.Option(
         Selection.d_optimal, help="How N poses are chosen among the feasible candidates."
     ),
+    cell_file: Path = typer.Option(
+        None, "--cell", help="Cell file (YAML): mounting plane, obstacles, tracker (docs/cell.md)."
+    ),
     margin_deg: float = typer.Option(
-        5.0, callback=checks.finite(minimum=0.0), help="Stay this far inside joint limits, deg."
+        5.0, callback=checks.finite(0.0, 90.0), help="Stay this far inside joint limits, deg."
     ),
     tracker_at: str = typer.Option(
         None,
         callback=checks.point_mm("tracker_at"),
-        help="Tracker position X,Y,Z in the robot base frame, mm (acceptance check).",
+        help="Tracker position X,Y,Z in the robot base frame, mm (overrides the cell's).",
     ),
     acceptance_deg: float = typer.Option(
-        30.0, callback=checks.finite(0.0, 90.0), help="Reflector acceptance half-angle, deg."
+        None,
+        callback=checks.finite(0.0, 90.0),
+        help="Reflector acceptance half-angle, deg [default: the cell's, 30].",
     ),
     floor_mm: float = typer.Option(
-        0.0, callback=checks.finite(), help="Lowest z of tool and wrist in the base frame, mm."
+        None,
+        "--mounting-plane-mm",
+        "--floor-mm",
+        callback=checks.finite(-10000.0, 10000.0),
+        help="z of the plane the robot stands on, base frame, mm [default: the cell's, "
+        "else the model's]; every link keeps the cell's margin above it.",
     ),
     tool: str = typer.Option(
         "0,0,100",
         callback=checks.point_mm("tool"),
         help="Reflector position on the flange X,Y,Z, mm.",
     ),
+    settle: float = typer.Option(
+        0.5, callback=checks.finite(0.0, 3600.0), help="Settle per pose for the estimate, s."
+    ),
+    readings: int = typer.Option(
+        10, callback=checks.finite(1, 100000), help="Readings per pose for the estimate."
+    ),
+    rate_hz: float = typer.Option(
+        10.0,
+        callback=checks.finite(0.0, 100000.0, inclusive=False),
+        help="Tracker reading rate for the estimate, Hz.",
+    ),
     seed: int = typer.Option(
         0, callback=checks.seed(), help="Seed of the random sampling and selection."
     ),
 ):
-    """Write a plan of joint configurations inside limits, facing the tracker, above the floor."""
+    """Write a plan every pose and move of which is clear of the cell, in time-optimal order."""
+    import dataclasses
+
     import numpy as np
 
-    from calibrator import frames, outputs
+    from calibrator import cell as cells
+    from calibrator import outputs
     from calibrator import plan as plans
     from calibrator.cli.measure import _triple
     from calibrator.models import get_model
 
-    if joints is None:
+    if joints is None and candidates is not None:
         checks.plan_work(poses, candidates, selection.value)
-    inputs = [] if joints is None else [joints]
+    inputs = [p for p in (joints, cell_file) if p is not None]
     outputs.check(output, inputs=inputs)
     robot = get_model(model)
-    at = _triple(tracker_at, "--tracker-at")
-    cell = plans.CellConstraints(
-        margin_rad=np.radians(margin_deg),
-        tracker_at_mm=None if at is None else np.array(at),
-        acceptance_rad=np.radians(acceptance_deg),
-        floor_mm=floor_mm,
-        flange2tool=frames.transform(translation=_triple(tool, "--tool")),
-    )
+    tool_mm = _triple(tool, "--tool")
+    cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
+    cell = cell.with_tracker(_triple(tracker_at, "--tracker-at"))
+    if acceptance_deg is not None:
+        cell = dataclasses.replace(cell, acceptance_deg=acceptance_deg)
+    if floor_mm is not None:
+        cell = dataclasses.replace(cell, mounting_plane_z_mm=floor_mm)
     given = plans.read_csv(joints) if joints is not None else None
-    q = plans.make(
-        robot.mdh,
-        robot.joint_limits_rad,
+    made = plans.make_checked(
+        robot,
         poses,
         cell,
+        tool_mm,
+        margin_rad=np.radians(margin_deg),
         candidates=given,
         n_candidates=candidates,
         method=sampling.value,
         selection=selection.value,
         seed=seed,
+        settle_s=settle,
+        readings=readings,
+        rate_hz=rate_hz,
     )
-    blocks = plans.observability(robot.mdh, q, cell.flange2tool).blocks
-    plans.write_csv(output, q, inputs=inputs)
+    plans.write_plan(output, made.plan, inputs=inputs)
+    lost = sum(made.dropped.values())
+    counts = ", ".join(f"{reason} {k}" for reason, k in made.dropped.items() if k) or "none"
+    typer.echo(f"candidates: {made.candidates}, dropped {lost} ({counts})")
+    before, after = made.selection_time.total_s, made.ordered_time.total_s
+    saving = f"saving {before - after:.0f} s ({100 * (before - after) / before:.0f} %)"
     typer.echo(
-        f"wrote {output}: {len(q)} poses, {selection.value} selection, "
-        f"log det(J^T J) {plans.log_det(blocks):.2f}, "
-        f"smallest singular value {plans.min_singular(blocks):.4g}"
-        + ("" if at is not None else " (no --tracker-at: acceptance angle not checked)")
+        f"estimated cell time {made.ordered_time} at {robot.move_speed_cap_rad_s:g} rad/s, "
+        f"{robot.move_accel_cap_rad_s2:g} rad/s^2; selection order "
+        f"{made.selection_time.moves_s:.0f} s of moves, {saving}"
+    )
+    typer.echo(
+        f"wrote {output}: {len(made.plan.q_rad)} poses"
+        + (f" and {made.plan.n_vias} via rows" if made.plan.n_vias else "")
+        + f", {selection.value} selection, "
+        f"log det(J^T J) {plans.log_det(made.blocks):.2f}, "
+        f"smallest singular value {plans.min_singular(made.blocks):.4g}"
+        + ("" if cell.tracker_at_mm is not None else " (no tracker position: aim not checked)")
     )

@@ -323,37 +323,46 @@ def test_make_from_given_candidates_drops_those_outside_the_box_or_the_cell():
 
 
 def test_plan_command_writes_the_plan_the_library_makes(tmp_path):
+    from calibrator import cell as cells
+
     done = cli(
-        "plan", "-o", "p.csv", "--poses", "6", "--candidates", "300", "--sampling", "random",
+        "plan", "-o", "p.csv", "--poses", "12", "--candidates", "3000", "--sampling", "random",
         "--selection", "d-optimal", "--margin-deg", "10", "--tracker-at", "2500,400,300",
-        "--acceptance-deg", "40", "--floor-mm", "150", "--tool", "5,0,90", "--seed", "3",
+        "--acceptance-deg", "40", "--floor-mm", "-50", "--tool", "5,0,90", "--seed", "3",
         cwd=tmp_path,
     )  # fmt: skip
     assert done.code == 0, done.stderr
-    tool = frames.transform(translation=[5.0, 0.0, 90.0])
-    cell = plans.CellConstraints(np.radians(10), np.array([2500.0, 400.0, 300.0]),
-                                 np.radians(40), 150.0, tool)  # fmt: skip
-    q = plans.make(UR10E.mdh, UR10E.joint_limits_rad, 6, cell, n_candidates=300,
-                   method="random", seed=3)  # fmt: skip
-    np.testing.assert_array_equal(plans.read_csv(tmp_path / "p.csv"), q)
-    blocks = plans.observability(UR10E.mdh, q, tool).blocks
-    assert done.stdout == (
-        f"wrote p.csv: 6 poses, d-optimal selection, log det(J^T J) {plans.log_det(blocks):.2f}, "
-        f"smallest singular value {plans.min_singular(blocks):.4g}\n"
+    cell = cells.Cell(tracker_at_mm=(2500.0, 400.0, 300.0), acceptance_deg=40.0,
+                      mounting_plane_z_mm=-50.0)  # fmt: skip
+    made = plans.make_checked(UR10E, 12, cell, (5.0, 0.0, 90.0), margin_rad=np.radians(10),
+                              n_candidates=3000, method="random", seed=3)  # fmt: skip
+    written = plans.read_plan(tmp_path / "p.csv")
+    np.testing.assert_array_equal(written.path_rad, made.plan.path_rad)
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith(f"candidates: 3000, dropped {sum(made.dropped.values())} (")
+    assert lines[1].startswith(f"estimated cell time {made.ordered_time} at 1 rad/s, 2 rad/s^2")
+    assert lines[2] == (
+        "wrote p.csv: 12 poses"
+        + (f" and {made.plan.n_vias} via rows" if made.plan.n_vias else "")
+        + f", d-optimal selection, log det(J^T J) {plans.log_det(made.blocks):.2f}, "
+        f"smallest singular value {plans.min_singular(made.blocks):.4g}"
     )
 
 
-def test_plan_command_from_candidates_with_defaults_says_the_angle_is_unchecked(tmp_path):
-    given = plans.sample(plans.joint_box(UR10E.joint_limits_rad, 0.1), 40, "random", seed=8)
+def test_plan_command_from_candidates_with_defaults_says_the_aim_is_unchecked(tmp_path):
+    from calibrator import cell as cells
+
+    given = plans.sample(plans.joint_box(UR10E.joint_limits_rad, 0.1), 400, "random", seed=8)
     plans.write_csv(tmp_path / "c.csv", given)
     done = cli("plan", "--from", "c.csv", "--poses", "9", "--selection", "first", cwd=tmp_path)
     assert done.code == 0, done.stderr
-    assert done.stdout.startswith("wrote plan.csv: 9 poses, first selection, log det(J^T J) ")
-    assert done.stdout.endswith(" (no --tracker-at: acceptance angle not checked)\n")
-    cell = plans.CellConstraints(flange2tool=TOOL)
-    expected = plans.make(UR10E.mdh, UR10E.joint_limits_rad, 9, cell, candidates=given,
-                          selection="first")  # fmt: skip
-    np.testing.assert_array_equal(plans.read_csv(tmp_path / "plan.csv"), expected)
+    assert "9 poses" in done.stdout and ", first selection, log det(J^T J) " in done.stdout
+    assert done.stdout.endswith(" (no tracker position: aim not checked)\n")
+    expected = plans.make_checked(UR10E, 9, cells.Cell(), (0.0, 0.0, 100.0), candidates=given,
+                                  selection="first")  # fmt: skip
+    np.testing.assert_array_equal(
+        plans.read_plan(tmp_path / "plan.csv").path_rad, expected.plan.path_rad
+    )
 
 
 def test_plan_command_refuses_to_overwrite_its_candidates(tmp_path):
@@ -363,5 +372,8 @@ def test_plan_command_refuses_to_overwrite_its_candidates(tmp_path):
     assert "c.csv" in one_line_error(done)
     assert (tmp_path / "c.csv").read_bytes() == before
     done = cli("plan", "--tool", "0,0", cwd=tmp_path)
-    assert one_line_error(done) == "calibrator: error: --tool needs X,Y,Z in mm, got '0,0'"
+    assert (
+        one_line_error(done)
+        == "calibrator: error: --tool: needs X,Y,Z (three numbers, mm), got '0,0'"
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.csv"]

@@ -36,7 +36,7 @@ def base(tmp_path_factory):
     run("plan", "--model", "ur10e", "--poses", "12", "-o", "plan.csv")
     run("export-params", "cal.json", "--format", "ur-calibration", "-o", "cal.urcal")
     run("export-params", "cal.json", "--format", "ros-kinematics", "-o", "kin.yaml")
-    q = np.loadtxt(folder / "plan.csv", delimiter=",", skiprows=1)[:, 1:]
+    q = np.loadtxt(folder / "plan.csv", delimiter=",", skiprows=1)[:, -6:]
     rows = ["q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad"] + [
         ",".join(repr(float(v)) for v in r) for r in q
     ]
@@ -284,6 +284,15 @@ def _targets_underscore(folder):
 
 
 CASES["x2-compensate-underscore"] = (_targets_underscore, COMPENSATE)
+
+
+def _targets_long_row(folder):
+    lines = (folder / "targets.csv").read_text().splitlines()
+    lines[2] = "0," + lines[2]  # seven numbers under six names
+    (folder / "targets.csv").write_text("\n".join(lines) + "\n")
+
+
+CASES["x2-compensate-long-row"] = (_targets_long_row, COMPENSATE)
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
