@@ -120,6 +120,10 @@ def huge_nominal(doc):
     doc["nominal_mdh"] = [[1e308] * 5] * 6
 
 
+def far_tool():
+    return [[1, 0, 0, 1e300], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+
+
 def make_index(folder):
     (folder / "rep").mkdir()
     (folder / "rep" / "index.html").write_text("<p>the user's own page</p>\n")
@@ -268,6 +272,16 @@ CASES = {
     ),
     "i1-meta-duplicate-key": (
         session_edit(meta_text=lambda t: t[:-1] + ', "frame": "tracker"}'),
+        ("identify", "s10.parquet", "-q", "--method", "lm"),
+    ),
+    "i1-spread-1e308": (
+        session_edit(
+            change_table=lambda t: t.append_column("sx_mm", pa.array([1e308] * t.num_rows))
+        ),
+        ("identify", "s10.parquet", "-q", "--method", "lm"),
+    ),
+    "i1-tool-1e300": (
+        session_edit(meta_text=meta_json(lambda m: m.update(flange2tool=far_tool()))),
         ("identify", "s10.parquet", "-q", "--method", "lm"),
     ),
     "i1-meta-nan": (
