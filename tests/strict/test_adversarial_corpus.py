@@ -204,6 +204,10 @@ CASES = {
     "x2-yaml-underscore": (text_edit("kin.yaml", "    x: ", "    x: 0_5\n    y0: "), NOMINAL_ROS),
     "x2-report-over-another-arm": (nothing, ("report", "cal.json", "s5.parquet", "-o", "rep")),
     "x2-report-existing-index": (make_index, ("report", "cal.json", "s10.parquet", "-o", "rep")),
+    "x2-identify-report-existing-index": (
+        make_index,
+        ("identify", "s10.parquet", "--method", "lm", "-q", "-o", "c2.json", "--report", "rep"),
+    ),
     "x2-report-hand-edited-deltas": (
         json_edit(lambda d: add_deltas(d, "d4", -0.3)),
         ("report", "cal.json", "s10.parquet", "-o", "rep"),
