@@ -57,6 +57,9 @@ POINT_COLUMNS = ("x_mm", "y_mm", "z_mm")
 ROTVEC_COLUMNS = ("rx_rad", "ry_rad", "rz_rad")
 SPREAD_COLUMNS = ("sx_mm", "sy_mm", "sz_mm")
 FRAMES = ("base", "tracker")
+#: Largest standard deviation of a pose's readings (mm): a spread of a metre
+#: is not a measurement of one point.
+MAX_SPREAD_MM = 1000.0
 
 
 @dataclass
@@ -230,6 +233,11 @@ def _parse_meta(raw, path, model):
             if tool is None
             else frames.check_transform(_matrix(tool, (4, 4), "flange2tool", path), "flange2tool")
         )
+        if np.any(np.abs(tool[:3, 3]) > consistency.MAX_MDH["mm"]):
+            raise SessionError(
+                f"{path}: metadata 'flange2tool' puts the tool more than "
+                f"{consistency.MAX_MDH['mm']:g} mm from the flange"
+            )
     except SessionError:
         raise
     except (CalibrationError, ValueError) as exc:
@@ -325,6 +333,11 @@ def _validate_table(table, path, meta):
             raise SessionError(f"{path}: column {col} has absurd values (beyond 100 rad)")
         if col in SPREAD_COLUMNS and np.any(values < 0):
             raise SessionError(f"{path}: column {col} (a standard deviation) has negative values")
+        if col in SPREAD_COLUMNS and np.any(values > MAX_SPREAD_MM):
+            raise SessionError(
+                f"{path}: column {col} (a standard deviation) has absurd values "
+                f"(beyond {MAX_SPREAD_MM:g} mm)"
+            )
     poses = table["pose"].to_pylist()
     if any(p is None or (isinstance(p, float) and not np.isfinite(p)) for p in poses):
         raise SessionError(f"{path}: column pose has NaN, infinite or null values")

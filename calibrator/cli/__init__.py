@@ -51,6 +51,7 @@ def main(argv=None):
     from calibrator.cli import _checks
 
     try:
+        _checks.strict_numbers(app, sys.argv[1:] if argv is None else list(argv))
         code = app(args=argv, prog_name="calibrator", standalone_mode=False)
     except _click_errors.NoArgsIsHelpError as exc:
         typer.echo(exc.format_message())

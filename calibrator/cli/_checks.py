@@ -37,6 +37,7 @@ command with :func:`calibrator.strict.check_budget`.
 
 import math
 import os
+import re
 
 import typer
 
@@ -55,6 +56,7 @@ __all__ = [
     "point_mm",
     "seconds",
     "seed",
+    "strict_numbers",
 ]
 
 #: Upper bound of each budgeted option: (limit, unit). Sizes are what a
@@ -211,6 +213,77 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
         strict.check_budget(
             "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
         )
+
+
+_WHOLE = re.compile(r"[+-]?[0-9]+")
+
+
+def strict_numbers(root, argv: list[str]) -> None:
+    """Refuse a number option whose text is outside the project's number grammar.
+
+    typer converts option text with pydantic, which (like ``float()`` and
+    ``int()``) reads ``0_5`` as 5 and ``1_000`` as 1000. This walks the
+    command line before typer does and checks the text of every ``int`` and
+    ``float`` option: whole numbers are ``[+-]digits``, others follow
+    :func:`calibrator.strict.parse_number` (finite, no underscores, no hex).
+
+    Parameters
+    ----------
+    root : typer.Typer
+        The application.
+    argv : list of str
+        Arguments after the program name.
+
+    Raises
+    ------
+    typer.BadParameter
+        Bound to the option, so :func:`one_line` names it.
+    """
+    import typer.main
+
+    command = typer.main.get_command(root)
+    i = 0
+    while i < len(argv):
+        token = argv[i]
+        if token == "--":
+            return
+        sub = getattr(command, "commands", {}).get(token)
+        if sub is not None:
+            command, i = sub, i + 1
+            continue
+        name, eq, value = token.partition("=")
+        param = _option(command, name) if token.startswith("--") or not eq else None
+        if param is None or getattr(param, "is_flag", False) or getattr(param, "count", False):
+            i += 1
+            continue
+        text = value if eq else (argv[i + 1] if i + 1 < len(argv) else None)
+        i += 1 if eq else 2
+        if text is not None:
+            _check_number_text(param, text)
+
+
+def _option(command, name: str):
+    """The option of ``command`` spelled ``name``, or None."""
+    for param in getattr(command, "params", ()):
+        if name in getattr(param, "opts", ()) or name in getattr(param, "secondary_opts", ()):
+            return param if getattr(param, "param_type_name", "") == "option" else None
+    return None
+
+
+def _check_number_text(param, text: str) -> None:
+    try:
+        kind = param.bare_type()
+    except (AttributeError, TypeError):
+        return
+    if kind == "int" and not _WHOLE.fullmatch(text.strip()):
+        raise typer.BadParameter(f"not a whole number, got {text!r}", param=param)
+    if kind == "float":
+        try:
+            strict.parse_number(text)
+        except strict.StrictError:
+            raise typer.BadParameter(
+                f"must be a finite decimal number, got {text!r}", param=param
+            ) from None
 
 
 def _within(value: float, limit: float, unit: str) -> None:

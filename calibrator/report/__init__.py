@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
-__all__ = ["FILES", "write"]
+__all__ = ["FILES", "check_page_free", "write"]
 
 #: Every file the report may write into its folder.
 FILES = (
@@ -102,7 +102,7 @@ def write(
     if Path(folder).is_dir():
         for name in FILES:
             outputs.check(Path(folder) / name, batch.inputs)
-        _refuse_existing_page(Path(folder))
+        check_page_free(Path(folder))
     content = data.collect(cal, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
@@ -124,8 +124,16 @@ def write(
     return written
 
 
-def _refuse_existing_page(folder):
-    """A page already in the folder the user named is theirs: never replaced."""
+def check_page_free(folder: Path) -> None:
+    """Refuse a report folder that already holds an ``index.html``: never replaced.
+
+    Commands that write a report after long work (``identify --report``)
+    call this before the work as well.
+
+    Raises
+    ------
+    calibrator.outputs.OutputError
+    """
     from calibrator.outputs import OutputError
 
     page = folder / "index.html"

@@ -239,7 +239,7 @@ def test_a_halted_robot_stops_the_run_with_the_operators_next_steps(tmp_path, mo
 
 
 def write_plans(folder):
-    q = np.tile(expected_plan()[:5], (2, 1))
+    q = expected_plan()[:10].copy()  # distinct poses: a repeated pose is refused first
     bad = q.copy()
     bad[6, 2] = 4.0  # the elbow beyond its limit, in the 7th row
     plans.write_csv(folder / "bad.csv", bad)

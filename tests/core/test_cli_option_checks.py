@@ -175,7 +175,10 @@ def test_input_of_reads_the_typed_value_or_nothing():
     [
         (("simulate", "--poses", "0"), "--poses: must be a whole number >= 1, got 0"),
         (("simulate", "--poses", "2.5"), "--poses: not a whole number, got '2.5'"),
-        (("simulate", "--noise-mm", "abc"), "--noise-mm: not a number, got 'abc'"),
+        (
+            ("simulate", "--noise-mm", "abc"),
+            "--noise-mm: must be a finite decimal number, got 'abc'",
+        ),
         (("simulate", "--noise-mm", "-1"), "--noise-mm: must be in [0, 100], got -1.0"),
         (
             ("export-params", "x.json", "--format", "yaml"),

@@ -34,7 +34,7 @@ def sessions(tmp_path_factory):
         (["--generations", "-1"], "--generations", ">= 0"),
         (["--validation-fraction", "1.5"], "--validation-fraction", "[0, 1)"),
         (["--validation-fraction", "-0.1"], "--validation-fraction", "[0, 1)"),
-        (["--validation-fraction", "nan"], "--validation-fraction", "[0, 1)"),
+        (["--validation-fraction", "nan"], "--validation-fraction", "finite"),
         (["--seed", "-1"], "--seed", ">= 0"),
         (["--method", "foo"], "--method", "'foo' is not one of"),
     ],

@@ -120,6 +120,10 @@ def huge_nominal(doc):
     doc["nominal_mdh"] = [[1e308] * 5] * 6
 
 
+def far_tool():
+    return [[1, 0, 0, 1e300], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+
+
 def make_index(folder):
     (folder / "rep").mkdir()
     (folder / "rep" / "index.html").write_text("<p>the user's own page</p>\n")
@@ -200,6 +204,10 @@ CASES = {
     "x2-yaml-underscore": (text_edit("kin.yaml", "    x: ", "    x: 0_5\n    y0: "), NOMINAL_ROS),
     "x2-report-over-another-arm": (nothing, ("report", "cal.json", "s5.parquet", "-o", "rep")),
     "x2-report-existing-index": (make_index, ("report", "cal.json", "s10.parquet", "-o", "rep")),
+    "x2-identify-report-existing-index": (
+        make_index,
+        ("identify", "s10.parquet", "--method", "lm", "-q", "-o", "c2.json", "--report", "rep"),
+    ),
     "x2-report-hand-edited-deltas": (
         json_edit(lambda d: add_deltas(d, "d4", -0.3)),
         ("report", "cal.json", "s10.parquet", "-o", "rep"),
@@ -224,6 +232,10 @@ CASES = {
     "x3-plan-default-candidates": (nothing, ("plan", "--poses", "1500", "-o", "p.csv")),
     "x3-plan-tool": (nothing, ("plan", "--tool", "0,0,1e308", "-o", "p.csv")),
     "x3-plan-tracker": (nothing, ("plan", "--tracker-at", "1e308,0,0", "-o", "p.csv")),
+    "x3-option-underscore-float": (nothing, ("plan", "--margin-deg", "0_5", "-o", "p.csv")),
+    "x3-option-underscore-int": (nothing, ("plan", "--poses", "1_0", "-o", "p.csv")),
+    "x3-option-hex-int": (nothing, (*MIS, "--seed", "0x10")),
+    "x3-option-nan": (nothing, (*TOL, "--joint-tol=nan")),
     "x3-simulate-poses": (nothing, ("simulate", "--poses", str(10**9), "-o", "x.parquet")),
     "x3-simulate-noise": (nothing, ("simulate", "--noise-mm", "1e308", "-o", "x.parquet")),
     "x3-simulate-tool": (nothing, ("simulate", "--tool-offset-mm", "1e308", "-o", "x.parquet")),
@@ -268,6 +280,16 @@ CASES = {
     ),
     "i1-meta-duplicate-key": (
         session_edit(meta_text=lambda t: t[:-1] + ', "frame": "tracker"}'),
+        ("identify", "s10.parquet", "-q", "--method", "lm"),
+    ),
+    "i1-spread-1e308": (
+        session_edit(
+            change_table=lambda t: t.append_column("sx_mm", pa.array([1e308] * t.num_rows))
+        ),
+        ("identify", "s10.parquet", "-q", "--method", "lm"),
+    ),
+    "i1-tool-1e300": (
+        session_edit(meta_text=meta_json(lambda m: m.update(flange2tool=far_tool()))),
         ("identify", "s10.parquet", "-q", "--method", "lm"),
     ),
     "i1-meta-nan": (
