@@ -30,6 +30,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from calibrator import strict
 from calibrator.errors import CalibrationError
 
 FORMAT = "calibrator.journal"
@@ -235,8 +236,9 @@ def _parse(raw: bytes, *, crc: bool | None) -> Any:
     """A line's JSON object (CRC checked and removed when ``crc``), or None when unusable."""
     try:
         text = raw.decode("utf-8")
-        obj = json.loads(text, parse_constant=_refuse_constant)
-    except (UnicodeDecodeError, ValueError, RecursionError):
+        # The one strict JSON reader: no duplicate keys, NaN, 1e400 or 64-bit overflow.
+        obj = strict.load_json(text, "journal line")
+    except (UnicodeDecodeError, strict.StrictError):
         return None
     if crc is None or not isinstance(obj, dict):
         return obj
@@ -251,10 +253,6 @@ def _parse(raw: bytes, *, crc: bool | None) -> Any:
         if zlib.crc32(body.encode()) != stated or encode_line(obj) != text + "\n":
             return None
     return obj
-
-
-def _refuse_constant(name: str) -> float:
-    raise ValueError(f"{name} is not a number")
 
 
 class _RecordCheck:

@@ -145,7 +145,6 @@ def edited(**changes):
         (line(edited(std_mm=[-1.0, 0, 0])), "std_mm must be >= 0"),
         (line(edited(n_readings=0)), "n_readings must be a whole number >= 1"),
         (line(edited(n_readings=4)), "4 readings, the run takes 3"),
-        (line(edited(attempts=10**400)), "attempts must be a whole number >= 1"),
         (line(edited(timestamp=...)), "timestamp must be text"),
         (line(edited(point_mm=...)), "point_mm must be 3 finite numbers"),
         (line(edited(q_rad=[0.5] * 6)), "joints differ from the plan's row 0 by 0.5 rad"),
@@ -271,3 +270,10 @@ def test_a_journal_in_use_by_another_run_cannot_be_resumed(tmp_path):
     journal, done = journals.Journal.resume(path, HEADER)  # the lock went with the process
     journal.close()
     assert sorted(done.records) == [0]
+
+
+def test_an_integer_beyond_64_bits_is_not_read(tmp_path):
+    # The strict JSON reader refuses it before any record check sees it.
+    path = journal_with(tmp_path, line(measured(1)), line(edited(attempts=10**400)))
+    with pytest.raises(journals.JournalError, match=f"^{path}: line 3 is damaged \\(not JSON"):
+        journals.read(path, plan_rad=PLAN)
