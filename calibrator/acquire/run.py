@@ -22,8 +22,9 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -59,6 +60,10 @@ class RunOptions:
         First guess of the reflector on the flange, mm.
     tracker_at_mm : tuple of 3 float, optional
         Rough tracker position in the robot base frame, mm (made plans face it).
+    cell : calibrator.cell.Cell, optional
+        The robot's surroundings (mounting plane, obstacles, tracker range);
+        every pose and move of the plan is checked against it before the
+        first motion. None: the default cell (:class:`calibrator.cell.Cell`).
     resume : bool
         Continue the run recorded in the journal beside the output.
     """
@@ -76,6 +81,7 @@ class RunOptions:
     give_up_after: int = 5
     tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
     tracker_at_mm: tuple[float, float, float] | None = None
+    cell: Any = None
     resume: bool = False
 
 
@@ -241,20 +247,25 @@ class MeasureRun:
             A plan (or its via poses) outside the limits, too short, larger
             than :data:`MAX_POSES`, or refused by the robot's own check.
         """
+        from calibrator import cell as cells
         from calibrator import plan as plans
 
         opts = self.options
+        cell = (opts.cell if opts.cell is not None else cells.Cell()).with_tracker(
+            self.tracker_at_mm
+        )
         if opts.plan_rad is not None:
             q_plan = np.asarray(opts.plan_rad)
         else:
             if self.tracker_at_mm is None:
                 on_note("no --tracker-at: the plan ignores the acceptance angle")
-            cell = plans.CellConstraints(
-                tracker_at_mm=self.tracker_at_mm, flange2tool=self.flange2tool_guess
-            )
-            q_plan = plans.make(
-                self.model.mdh, self.model.joint_limits_rad, opts.poses, cell, seed=opts.seed
-            )
+            # The one planner of `calibrator plan`: every pose and move clear
+            # of the mounting plane, the arm itself and the cell, in time order.
+            made = plans.make_checked(
+                self.model, opts.poses, cell, opts.tool_mm, seed=opts.seed
+            ).plan
+            q_plan = made.q_rad
+            self.options = opts = replace(opts, via_rad=made.via_rad)
         if q_plan.ndim >= 1 and len(q_plan) > MAX_POSES:
             raise CalibrationError(
                 f"plan has {len(q_plan)} poses; identify takes at most {MAX_POSES}: "
@@ -263,6 +274,10 @@ class MeasureRun:
         need = plans.min_poses(self.model.mdh)
         q_plan = plans.validate(q_plan, self.model.joint_limits_rad, need=need)
         vias = self._check_vias(len(q_plan))
+        # Before anything moves: every pose, every via and every joint-space
+        # move between them, against the arm's capsules and the cell.
+        via_rad = opts.via_rad if opts.via_rad is not None else [np.zeros((0, 6))] * len(q_plan)
+        cells.check_plan(plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm)
         if ports.CHECKS_PLAN in self.robot.capabilities:
             motion = np.concatenate([q_plan, *vias]) if vias else q_plan
             try:
@@ -271,6 +286,29 @@ class MeasureRun:
                 raise CalibrationError(str(exc)) from None
         self.plan = q_plan
         return q_plan
+
+    def estimate(self):
+        """The cell time of the checked plan: moves at the run's speed, settle, readings.
+
+        Returns
+        -------
+        calibrator.cell.CellTime
+        """
+        from calibrator import cell as cells
+        from calibrator import plan as plans
+
+        if self.plan is None:
+            raise CalibrationError("no plan yet: call make_plan first")
+        o = self.options
+        vias = o.via_rad if o.via_rad is not None else [np.zeros((0, 6))] * len(self.plan)
+        return cells.estimate(
+            plans.Plan(self.plan, tuple(vias)),
+            self.model,
+            o.speed_rad_s,
+            o.accel_rad_s2,
+            settle_s=o.settle_s,
+            readings=o.readings,
+        )
 
     def _check_vias(self, n: int) -> list[np.ndarray]:
         """Via poses: N arrays of shape (k_i, 6), inside the joint limits."""

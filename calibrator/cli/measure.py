@@ -38,6 +38,12 @@ def measure(
         "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
     ),
     plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
+    cell_file: Path = typer.Option(
+        None,
+        "--cell",
+        help="Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker range; "
+        "every pose and move is checked against it before the first motion.",
+    ),
     poses: int = typer.Option(
         30, callback=checks.at_least(1), help="Poses of the plan made when --plan is not given."
     ),
@@ -116,14 +122,19 @@ def measure(
     from calibrator.acquire.run import RunOptions
 
     output = Path(output)
-    inputs = [p for p in (plan_path, sim_faults, sim_replay) if p is not None]
+    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay) if p is not None]
     outputs.check(output, inputs=inputs)
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
     arm = _check_motion_caps(model, speed, accel, max_speed)
+    from calibrator import cell as cells
+
+    given = plans.read_plan(plan_path) if plan_path is not None else None
     options = RunOptions(
-        plan_rad=plans.read_csv(plan_path) if plan_path is not None else None,
+        plan_rad=None if given is None else given.q_rad,
+        via_rad=None if given is None else given.via_rad,
+        cell=None if cell_file is None else cells.read_cell(cell_file),
         poses=poses,
         seed=seed,
         readings=readings,
@@ -150,7 +161,19 @@ def measure(
             run.options = options = replace(options, settle_s=0.5 if run.moves_hardware else 0.0)
         else:
             run.options = options = replace(options, settle_s=settle)
-        run.open_journal(confirm=None if yes else _confirm)
+        # Shown before a confirmation is asked, else once the journal is open
+        # (a refused resume stays one line).
+        estimate = f"estimated cell time: {run.estimate()}"
+        shown = []
+
+        def confirm(robot_id: str, n: int) -> None:
+            typer.echo(estimate, err=True)
+            shown.append(True)
+            _confirm(robot_id, n)
+
+        run.open_journal(confirm=None if yes else confirm)
+        if not shown and not quiet:
+            typer.echo(estimate, err=True)
         # A line per pose when piped: a measure run is slow enough to log each one.
         reporter = progress.Reporter.for_cli(quiet)
         reporter.interval_s = 0.0

@@ -22,6 +22,7 @@ import typer
 from cli_testkit import cli, one_line_error
 from measure_testkit import session_rows
 
+from calibrator import cell as cells
 from calibrator import frames, session
 from calibrator import plan as plans
 from calibrator.cli import measure as measure_cli
@@ -40,11 +41,9 @@ def measure(*args, cwd):
 
 
 def expected_plan(seed=0, tool=(0.0, 0.0, 100.0), tracker_at=SIM_TRACKER_AT_MM, n=10):
-    cell = plans.CellConstraints(
-        tracker_at_mm=np.asarray(tracker_at, float),
-        flange2tool=frames.transform(translation=np.asarray(tool, float)),
-    )
-    return plans.make(UR10E.mdh, UR10E.joint_limits_rad, n, cell, seed=seed)
+    """The plan ``measure --poses n`` makes: the checked planner of ``calibrator plan``."""
+    cell = cells.Cell(tracker_at_mm=tuple(float(v) for v in tracker_at))
+    return plans.make_checked(UR10E, n, cell, tool, seed=seed).plan.q_rad
 
 
 def table(path):
