@@ -45,10 +45,12 @@ def measure(
         "every pose and move is checked against it before the first motion.",
     ),
     poses: int = typer.Option(
-        30, callback=checks.at_least(1), help="Poses of the plan made when --plan is not given."
+        30,
+        callback=checks.count("plan_poses"),
+        help="Poses of the plan made when --plan is not given.",
     ),
     readings: int = typer.Option(
-        10, callback=checks.at_least(1), help="Readings averaged per pose."
+        10, callback=checks.count("readings"), help="Readings averaged per pose."
     ),
     output: Path = typer.Option(
         Path("session.parquet"), "-o", "--output", help="Session file (Parquet) to write."
@@ -58,11 +60,13 @@ def measure(
     model: str = typer.Option("ur10e", help="Named model of the arm."),
     settle: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0),
+        callback=checks.seconds("settle"),
         help="Wait after each move, s [default: 0.5 for ur://, 0 for sim].",
     ),
     retries: int = typer.Option(
-        3, callback=checks.at_least(0), help="Re-measurements of a pose after a lost reading."
+        3,
+        callback=checks.count("retries", 0),
+        help="Re-measurements of a pose after a lost reading.",
     ),
     speed: float = typer.Option(
         0.5,
@@ -81,13 +85,17 @@ def measure(
         "[default: the model's fixed ceiling; it cannot be raised].",
     ),
     tracker_at: str = typer.Option(
-        None, help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
+        None,
+        callback=checks.point_mm("tracker_at"),
+        help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans.",
     ),
     tool: str = typer.Option(
-        "0,0,100", help="Reflector position on the flange X,Y,Z, mm (first guess; identified)."
+        "0,0,100",
+        callback=checks.point_mm("tool"),
+        help="Reflector position on the flange X,Y,Z, mm (first guess; identified).",
     ),
     seed: int = typer.Option(
-        0, callback=checks.at_least(0), help="Seed of the plan and of the simulated cell."
+        0, callback=checks.seed(), help="Seed of the plan and of the simulated cell."
     ),
     retry_pause: float = typer.Option(
         0.2,
