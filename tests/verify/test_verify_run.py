@@ -24,11 +24,13 @@ def records(points, rotvecs=None):
     return out
 
 
-def test_plan_rows_follow_p5_to_p1_and_lead_in_comes_from_the_previous_pose(plan):
+def test_plan_rows_follow_p5_to_p1_and_the_run_leads_in_from_p1(plan):
     assert plan.plan.shape == (15, 6) and plan.cycles == 3
     np.testing.assert_array_equal(plan.plan[0], plan.q_test[4])  # P5 first
-    np.testing.assert_array_equal(run.lead_in(plan, 0), plan.q_test[0])  # from P1
-    np.testing.assert_array_equal(run.lead_in(plan, 7), plan.plan[6])
+    # Row 0 is led in from the last row: P1, as every later P5 is approached.
+    np.testing.assert_array_equal(plan.plan[-1], plan.q_test[0])
+    options = run.run_options(plan, readings=3)
+    assert options.lead_in and options.need_poses == 15 and options.readings == 3
 
 
 def test_fit_recovers_a_known_tracker_placement(plan):
