@@ -16,7 +16,7 @@ from __future__ import annotations
 import sys
 from contextlib import ExitStack
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NoReturn, overload
 
 import typer
 
@@ -27,6 +27,10 @@ def fail(message: str) -> NoReturn:
     raise typer.Exit(2)
 
 
+@overload
+def triple(text: str, option: str) -> tuple[float, float, float]: ...
+@overload
+def triple(text: None, option: str) -> None: ...
 def triple(text: str | None, option: str) -> tuple[float, float, float] | None:
     """``X,Y,Z`` (mm) of ``option`` to three finite floats, or None when not given."""
     if text is None:
