@@ -153,6 +153,8 @@ def verify(
     outputs.check(data_path, inputs=inputs)
     if not resume and data_path.exists():
         fail(f"{data_path} exists: choose another -o, remove it, or pass --resume")
+    if sim_probe_6dof and tracker != "sim":
+        fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     arm = check_motion_caps(model, speed, accel, max_speed)
