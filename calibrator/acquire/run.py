@@ -425,7 +425,7 @@ class MeasureRun:
         self.journal.close()
         return self.outcome
 
-    def _with_lead_in(self, via_rad):
+    def _with_lead_in(self, via_rad: Sequence[np.ndarray] | None) -> Sequence[np.ndarray] | None:
         """The via poses, plus the lead-in before the first pose still to measure."""
         assert self.plan is not None
         if not self.options.lead_in:

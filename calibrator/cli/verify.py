@@ -110,10 +110,14 @@ def verify(
         help="Lower the speed cap the plan is checked against, rad/s.",
     ),
     tracker_at: str = typer.Option(
-        None, help="Tracker position in the robot base frame X,Y,Z (mm)."
+        None,
+        callback=checks.point_mm("tracker_at"),
+        help="Tracker position in the robot base frame X,Y,Z (mm).",
     ),
     tool: str = typer.Option(
-        "0,0,100", help="Nominal TCP on the flange X,Y,Z, mm (the controller's tool)."
+        "0,0,100",
+        callback=checks.point_mm("tool"),
+        help="Nominal TCP on the flange X,Y,Z, mm (the controller's tool).",
     ),
     seed: int = typer.Option(0, callback=checks.at_least(0), help="Seed of the simulated cell."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),

@@ -109,6 +109,7 @@ def test_refuses_bad_options_in_one_line(tmp_path):
     assert (tmp_path / "v.json").read_text() == "{}"
     one_line_error(cli("verify", "--calibration", "missing.json", "-o", "w.json", cwd=tmp_path))
     one_line_error(cli("verify", "--base-frame", "1,2,3", "-o", "w.json", cwd=tmp_path))
+    one_line_error(cli("verify", "--tool", "0,0,1e308", "-o", "w.json", cwd=tmp_path))
     bad = cli(
         "verify", "--tracker", "socket://h:1", "--sim-probe-6dof", "-o", "w.json", cwd=tmp_path
     )
