@@ -190,6 +190,10 @@ class SimWorld:
         The true tool: :data:`DEFAULT_TOOL_POINT` plus an unknown 1.5 mm error.
     tracker_at_mm : ndarray, shape (3,)
         The tracker's position in the robot base frame (plans use it).
+    repeatability : drivers.robot.simulated.JointRepeatability, optional
+        The true arm's load-side joint errors (positioning spread, backlash);
+        None: it lands exactly where commanded. Drawn from
+        :meth:`repeatability_rng`.
     """
 
     model: object
@@ -198,10 +202,16 @@ class SimWorld:
     base2tracker: np.ndarray
     flange2tool: np.ndarray
     tracker_at_mm: np.ndarray
+    repeatability: object = None
 
     @classmethod
-    def make(cls, model_name: str, seed: int) -> "SimWorld":
-        """The world of ``model_name`` (a named model) drawn from ``seed``."""
+    def make(cls, model_name: str, seed: int, repeatability: object = None) -> "SimWorld":
+        """The world of ``model_name`` (a named model) drawn from ``seed``.
+
+        ``repeatability`` (a ``JointRepeatability``) gives the arm its joint
+        errors; it draws from its own stream, so the hidden arm is the same
+        with or without it.
+        """
         model = get_model(model_name)
         rng = np.random.default_rng(seed)
         true_mdh = model.mdh + random_errors(model.mdh, rng, mm=0.5, rad=1e-3)
@@ -212,8 +222,18 @@ class SimWorld:
             frames.rotvec_to_matrix(SIM_TRACKER_ROTVEC), SIM_TRACKER_AT_MM
         )
         return cls(
-            model, seed, true_mdh, frames.invert(tracker2base), tool, SIM_TRACKER_AT_MM.copy()
+            model,
+            seed,
+            true_mdh,
+            frames.invert(tracker2base),
+            tool,
+            SIM_TRACKER_AT_MM.copy(),
+            repeatability,
         )
+
+    def repeatability_rng(self) -> np.random.Generator:
+        """The generator of the arm's joint errors: its own stream of the world's seed."""
+        return np.random.default_rng([self.seed, 9283])
 
     def tool_pose(self, q_rad) -> np.ndarray:
         """True probe pose in the tracker frame for joints ``q_rad`` (6,), shape (4, 4), mm."""

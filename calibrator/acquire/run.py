@@ -66,6 +66,12 @@ class RunOptions:
         first motion. None: the default cell (:class:`calibrator.cell.Cell`).
     resume : bool
         Continue the run recorded in the journal beside the output.
+    lead_in : bool
+        Before the first pose still to measure, move to the plan row before it
+        (row 0: the last row), so that pose is approached as in an
+        uninterrupted run of a cyclic plan, also after a resume (backlash).
+    need_poses : int, optional
+        Fewest poses the plan must hold; default what identification needs.
     """
 
     plan_rad: np.ndarray | None = None
@@ -83,6 +89,8 @@ class RunOptions:
     tracker_at_mm: tuple[float, float, float] | None = None
     cell: Any = None
     resume: bool = False
+    lead_in: bool = False
+    need_poses: int | None = None
 
 
 @dataclass
@@ -140,9 +148,10 @@ class MeasureRun:
     world : calibrator.simulate.SimWorld, optional
         The simulated world, when either device is simulated.
     steer : callable, optional
-        ``steer(point_mm)`` tells a simulated tracker where the probe is
-        (tracker frame, mm); default: the tracker's own ``set_target`` when
-        it declares :data:`~calibrator.acquire.ports.STEER` and a world is given.
+        ``steer(point_mm, rotvec_rad)`` tells a simulated tracker where the
+        probe is and how it is turned (tracker frame, mm and rad); default:
+        the tracker's own ``set_target`` when it declares
+        :data:`~calibrator.acquire.ports.STEER` and a world is given.
     """
 
     def __init__(
@@ -154,7 +163,7 @@ class MeasureRun:
         output: Path,
         *,
         world=None,
-        steer: Callable[[np.ndarray], None] | None = None,
+        steer: Callable[[np.ndarray, np.ndarray], None] | None = None,
     ) -> None:
         self.robot, self.tracker, self.model = robot, tracker, model
         self.options = options
@@ -220,11 +229,12 @@ class MeasureRun:
             raise CalibrationError(f"robot {self.robot_id}: {exc}") from None
         if self._steer is not None:
             steer = self._steer
+            # The orientation too: a 6-DoF probe reports it (others ignore it).
             if ports.REPORTS_TRUE_POSE in self.robot.capabilities:
-                self.robot.listener = lambda pose: steer(pose[:3, 3])  # type: ignore[attr-defined]
+                self.robot.listener = lambda pose: _steer_to(steer, pose)  # type: ignore[attr-defined]
             elif self.world is not None:
                 world = self.world
-                self._after_move = lambda q: steer(world.tool_pose(q)[:3, 3])
+                self._after_move = lambda q: _steer_to(steer, world.tool_pose(q))
 
     @property
     def robot_id(self) -> str:
@@ -271,7 +281,9 @@ class MeasureRun:
                 f"plan has {len(q_plan)} poses; identify takes at most {MAX_POSES}: "
                 "thin the plan (a well-spread subset identifies as well)"
             )
-        need = plans.min_poses(self.model.mdh)
+        need = opts.need_poses
+        if need is None:
+            need = plans.min_poses(self.model.mdh)
         q_plan = plans.validate(q_plan, self.model.joint_limits_rad, need=need)
         vias = self._check_vias(len(q_plan))
         # Before anything moves: every pose, every via and every joint-space
@@ -426,6 +438,7 @@ class MeasureRun:
         """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`)."""
         assert self.plan is not None and self.journal is not None
         o = self.options
+        via_rad = self._with_lead_in(o.via_rad)
         self.outcome = loop.run(
             self.plan,
             self.robot,
@@ -445,15 +458,35 @@ class MeasureRun:
             should_stop=should_stop,
             on_pose=on_pose,
             on_beam_lost=on_beam_lost,
-            via_rad=o.via_rad,
+            via_rad=via_rad,
         )
         self.journal.close()
         return self.outcome
 
-    def finish(self) -> Summary:
-        """Write the session when at least one pose was measured; never claim one otherwise.
+    def _with_lead_in(self, via_rad: Sequence[np.ndarray] | None) -> Sequence[np.ndarray] | None:
+        """The via poses, plus the lead-in before the first pose still to measure."""
+        assert self.plan is not None
+        if not self.options.lead_in:
+            return via_rad
+        todo = [
+            i for i in range(len(self.plan)) if self.done.get(i, {}).get("status") != "measured"
+        ]
+        if not todo:
+            return via_rad
+        n, first = len(self.plan), todo[0]
+        vias = (
+            [np.empty((0, 6))] * n if via_rad is None else [np.reshape(v, (-1, 6)) for v in via_rad]
+        )
+        # A plan row, so already inside the limits and the robot's plan check.
+        vias[first] = np.concatenate([vias[first], self.plan[first - 1][None]])
+        return vias
 
-        The journal stays (for ``--resume``) unless every pose was measured.
+    def finish(self, write: Callable[[loop.Outcome], Path | None] | None = None) -> Summary:
+        """Write the result when at least one pose was measured; never claim one otherwise.
+
+        ``write(outcome)`` writes the result and returns its path (or None
+        when it wrote nothing); default: the session file. The journal stays
+        (for ``--resume``) unless every pose was measured and the result written.
         """
         from calibrator import session
         from calibrator.acquire import rows
@@ -465,10 +498,12 @@ class MeasureRun:
         for pose in failed:
             causes.update(outcome.records[pose].get("causes", {}))
         written = None
-        if measured:
+        if measured and write is not None:
+            written = write(outcome)
+        elif measured:
             session.write(self.output, rows.to_table(outcome.records.values()), self.meta)
             written = self.output
-        complete = bool(measured) and not failed and outcome.stopped is None
+        complete = written is not None and not failed and outcome.stopped is None
         if complete:
             self.journal_path.unlink()
         return Summary(
@@ -498,3 +533,8 @@ class MeasureRun:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _steer_to(steer: Callable[[np.ndarray, np.ndarray], None], pose: np.ndarray) -> None:
+    """Tell a simulated tracker the probe's true pose (4, 4), mm, tracker frame."""
+    steer(pose[:3, 3], frames.matrix_to_rotvec(pose[:3, :3]))

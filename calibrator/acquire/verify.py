@@ -1,13 +1,14 @@
 """The ISO 9283 pose test run: its plan, the registration of the tracker, the figures.
 
-A thin layer over the measure loop (:func:`calibrator.acquire.loop.run`):
+A thin layer over the measure run (:class:`calibrator.acquire.run.MeasureRun`):
 the plan is ``cycles`` times P5, P4, P3, P2, P1 (:func:`make_plan`), measured
-with the same journal, resume, retries and stops as ``measure``; before the
-first pending pose the arm is led in from the pose that precedes it in the
-cycle (:func:`lead_in`), so that every test pose is approached from the same
-direction, also after a resume. The finished records become the figures
-(:func:`evaluate`) in the robot base frame, through one of three registrations
-of the tracker frame (:class:`Registration`):
+with the same plan checks, journal, resume, retries and stops as ``measure``
+(:func:`run_options`); before the first pending pose the arm is led in from
+the pose that precedes it in the cycle (``RunOptions.lead_in``), so that every
+test pose is approached from the same direction, also after a resume. The
+finished records become the figures (:func:`evaluate`) in the robot base
+frame, through one of three registrations of the tracker frame
+(:class:`Registration`), and both files are written at once (:func:`write`):
 
 - ``calibration``: the base frame identified by a calibration
   (``base2tracker`` of calibration.json);
@@ -22,14 +23,17 @@ of the tracker frame (:class:`Registration`):
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from calibrator import compensate, frames, iso9283
+from calibrator import compensate, frames, iso9283, outputs
+from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 
@@ -124,14 +128,18 @@ def make_plan(
     return VerifyPlan(cube, given, desired, q, calibration is not None, plan, test_pose, cycle)
 
 
-def lead_in(plan: VerifyPlan, first_pending: int) -> np.ndarray:
-    """Joints to move to before plan row ``first_pending``: the row before it in the cycle.
+def run_options(plan: VerifyPlan, **options: Any) -> RunOptions:
+    """The measure run of a verify plan: its rows, led in, any plan length allowed.
 
-    Row 0 (P5 of cycle 1) is approached from P1, as every later P5 is.
+    ``options`` are further :class:`~calibrator.acquire.run.RunOptions` fields
+    (readings, speed, resume...).
     """
-    if first_pending > 0:
-        return plan.plan[first_pending - 1]
-    return plan.q_test[0]
+    return RunOptions(plan_rad=plan.plan, lead_in=True, need_poses=len(plan.plan), **options)
+
+
+def data_path(output: str | Path) -> Path:
+    """Where the attained poses of ``verify.json`` go: ``verify.parquet`` beside it."""
+    return Path(output).with_suffix(".parquet")
 
 
 @dataclass(frozen=True)
@@ -182,6 +190,27 @@ def surveyed(base2tracker: npt.ArrayLike, source: str) -> Registration:
     """A base frame measured apart from the arm (base2tracker, (4, 4), mm)."""
     t = frames.check_transform(np.asarray(base2tracker, float), "base2tracker")
     return Registration("surveyed", frames.invert(t), source)
+
+
+#: How well the simulated cell's base frame is surveyed: standard deviation of
+#: each translation (mm) and rotation (rad) component, a tracker on base fiducials.
+SIM_SURVEY_MM, SIM_SURVEY_RAD = 0.02, 20e-6
+
+
+def sim_survey(world: Any) -> Registration:
+    """The simulated world's base frame as a user would survey it: truth plus a seeded error.
+
+    Parameters
+    ----------
+    world : calibrator.simulate.SimWorld
+        Its ``base2tracker`` (4, 4), mm, is the truth; its seed draws the error.
+    """
+    rng = np.random.default_rng([world.seed, 9283, 1])
+    error = frames.transform(
+        frames.rotvec_to_matrix(rng.normal(0.0, SIM_SURVEY_RAD, 3)),
+        rng.normal(0.0, SIM_SURVEY_MM, 3),
+    )
+    return surveyed(world.base2tracker @ error, "simulated cell survey")
 
 
 def fit(points_tracker_mm: npt.ArrayLike, plan: VerifyPlan) -> Registration:
@@ -310,3 +339,51 @@ def document(
         else "not measured: the probe gives positions only (APa..RPc need a 6-DoF probe)",
         "poses": poses,
     }
+
+
+def write(
+    output: Path,
+    records: dict,
+    plan: VerifyPlan,
+    registration: Registration | None,
+    *,
+    info: dict,
+    inputs: list[Path],
+) -> dict:
+    """The figures of a finished run: ``output`` (JSON) and its :func:`data_path` (Parquet).
+
+    Both files are written at once or neither (:mod:`calibrator.outputs`).
+
+    Parameters
+    ----------
+    records : dict
+        Journal records by plan row; every row must be measured.
+    registration : Registration or None
+        None: :func:`fit` on the attained positions.
+    info : dict
+        Fields of the document naming the devices, model and inputs.
+    inputs : list of Path
+        Files the outputs must not overwrite.
+
+    Returns
+    -------
+    dict
+        The verify.json document.
+
+    Raises
+    ------
+    CalibrationError
+        A visit not measured, or a non-finite figure (no certificate from it).
+    """
+    pts, rotvecs = points(records, plan)
+    if registration is None:
+        registration = fit(pts, plan)
+    poses, table = evaluate(pts, rotvecs, plan, registration)
+    doc = document(plan, poses, registration, info={**info, "data": data_path(output).name})
+    try:
+        with outputs.Outputs(inputs=inputs) as batch:
+            batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+            batch.file(data_path(output), lambda tmp: table.to_parquet(tmp, index=False))
+    except ValueError as exc:
+        raise CalibrationError(f"cannot write {output}: {exc}") from None
+    return doc

@@ -10,23 +10,13 @@ import typer
 
 from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
-
-
-def _fail(message: str) -> None:
-    typer.echo(f"calibrator: error: {message}", err=True)
-    raise typer.Exit(2)
-
-
-def _triple(text: str | None, option: str):
-    if text is None:
-        return None
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(abs(v) < float("inf") for v in values):
-        _fail(f"{option} needs X,Y,Z in mm, got {text!r}")
-    return values
+from calibrator.cli._run import StopOnSigint as _StopOnSigint
+from calibrator.cli._run import check_motion_caps as _check_motion_caps
+from calibrator.cli._run import confirm as _confirm
+from calibrator.cli._run import fail as _fail
+from calibrator.cli._run import open_run as _open_run
+from calibrator.cli._run import pose_fields as _pose_fields
+from calibrator.cli._run import triple as _triple
 
 
 @app.command()
@@ -205,53 +195,6 @@ def measure(
     _report(summary, options)
 
 
-def _open_run(robot_url, tracker_url, arm, options, output, stack, *, sim_noise, sim_faults,
-              sim_replay, sim_record, sim_control, max_speed):  # fmt: skip
-    """The devices named by URL (the drivers' registries) and the run over them."""
-    from calibrator.acquire.run import MeasureRun
-    from calibrator.errors import CalibrationError
-    from calibrator.simulate import SimWorld
-    from drivers.robot import RobotOptions, open_robot
-    from drivers.tracker import OpenOptions, open_tracker
-
-    world = None
-    if "sim" in (robot_url, tracker_url):
-        world = SimWorld.make(arm.name, options.seed)
-    try:
-        robot = open_robot(robot_url, RobotOptions(arm, world, max_speed_rad_s=max_speed))
-    except ValueError as exc:
-        raise CalibrationError(f"--robot: {exc}") from None
-    try:
-        tracker = open_tracker(
-            tracker_url,
-            OpenOptions(
-                record=sim_record, world=world if tracker_url == "sim" else None,
-                sim_noise=sim_noise, sim_faults=sim_faults, sim_replay=sim_replay,
-            ),
-        )  # fmt: skip
-    except ValueError as exc:
-        raise CalibrationError(f"--tracker: {exc}") from None
-    steer = None
-    if sim_control is not None:
-        steer = _sim_control(sim_control, robot, stack)
-    return MeasureRun(robot, tracker, arm, options, output, world=world, steer=steer)
-
-
-def _sim_control(url, robot, stack):
-    """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
-    from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.simulator.launch import SimulatorControl
-
-    if REPORTS_TRUE_POSE not in robot.capabilities:
-        _fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")
-    try:
-        control = SimulatorControl(url)
-    except (OSError, ValueError) as exc:
-        _fail(f"--sim-control {url}: {exc}")
-    stack.callback(control.close)
-    return control.set_target
-
-
 def _report(summary, options) -> None:
     """The run's last lines: what was written, what failed and why, what to do next."""
     resume_hint = f"rerun the same command with --resume to continue ({summary.journal})"
@@ -293,46 +236,6 @@ def _report(summary, options) -> None:
     typer.echo(f"wrote {summary.written}: {n} poses x {options.readings} readings")
 
 
-def _check_motion_caps(model_name, speed, accel, max_speed):
-    """Refuse motion options above the model's fixed ceilings (exit 2).
-
-    The ceilings (:attr:`calibrator.models.RobotModel.move_speed_cap_rad_s` and
-    ``move_accel_cap_rad_s2``) are fixed per model; options can lower them only.
-    """
-    from calibrator.errors import CalibrationError
-    from calibrator.models import get_model
-
-    try:
-        arm = get_model(model_name)
-    except CalibrationError as exc:
-        _fail(str(exc))
-    speed_cap, accel_cap = arm.move_speed_cap_rad_s, arm.move_accel_cap_rad_s2
-    if max_speed is not None and max_speed > speed_cap:
-        _fail(
-            f"--max-speed {max_speed} rad/s above the {arm.name} ceiling {speed_cap} rad/s: "
-            "it can lower the cap, never raise it"
-        )
-    cap = speed_cap if max_speed is None else max_speed
-    if speed > cap:
-        _fail(f"--speed {speed} rad/s outside (0, {cap}] (the {arm.name} ceiling or --max-speed)")
-    if accel > accel_cap:
-        _fail(
-            f"--accel {accel} rad/s^2 outside (0, {accel_cap}] (the {arm.name} ceiling; "
-            "an option cannot raise it)"
-        )
-    return arm
-
-
-def _pose_fields(progress) -> dict:
-    """Fields of the progress line after a pose: its plan row and spread (um) or FAILED."""
-    record = progress.record
-    if record["status"] != "measured":
-        return {"pose": progress.pose, "spread_um": "FAILED"}
-    import numpy as np
-
-    return {"pose": progress.pose, "spread_um": float(np.linalg.norm(record["std_mm"]) * 1e3)}
-
-
 def _ask_relock(pose: int, attempt: int) -> None:
     """On a terminal: let the operator re-lock the beam before the next attempt."""
     typer.prompt(
@@ -342,34 +245,3 @@ def _ask_relock(pose: int, attempt: int) -> None:
         show_default=False,
         err=True,
     )
-
-
-def _confirm(robot_id: str, n: int) -> None:
-    if not sys.stdin.isatty():
-        _fail(f"the robot {robot_id} would move through {n} poses: pass --yes to confirm")
-    if not typer.confirm(f"Move the robot {robot_id} through {n} poses?", default=False):
-        _fail("not confirmed; nothing moved")
-
-
-class _StopOnSigint:
-    """SIGINT asks the loop to stop after the current pose; a second one interrupts at once."""
-
-    def __init__(self):
-        self.requested = False
-
-    def _handle(self, signum, frame):
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-        typer.echo("\nstopping after the current pose (Ctrl-C again to abort now)", err=True)
-
-    def __enter__(self):
-        import signal
-
-        self._previous = signal.signal(signal.SIGINT, self._handle)
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        signal.signal(signal.SIGINT, self._previous)

@@ -67,7 +67,14 @@ def _open_sim(url: str, options: RobotOptions) -> Robot:
     world = options.world
     if world is None:
         raise ValueError("--robot sim needs the simulated world (measure builds it)")
-    robot = SimulatedRobot(world.true_mdh, world.base2tracker, world.flange2tool)
+    repeatability = world.repeatability
+    robot = SimulatedRobot(
+        world.true_mdh,
+        world.base2tracker,
+        world.flange2tool,
+        repeatability=repeatability,
+        rng=world.repeatability_rng() if repeatability is not None else None,
+    )
     robot.device_id = f"sim:{world.model.name}:seed={world.seed}"
     return robot
 

@@ -51,6 +51,8 @@ class OpenOptions:
         The ``sim`` kind's readings carry the tracker's noise (False: exact).
     sim_faults, sim_replay : str or Path, optional
         The ``sim`` kind's fault script, or a recorded exchange it answers from.
+    sim_probe_6dof : bool
+        The ``sim`` kind's probe reports its orientation too (a 6-DoF probe).
     """
 
     record: str | Path | None = None
@@ -58,6 +60,7 @@ class OpenOptions:
     sim_noise: bool = True
     sim_faults: str | Path | None = None
     sim_replay: str | Path | None = None
+    sim_probe_6dof: bool = False
 
 
 Opener = Callable[[str, OpenOptions], "Tracker"]

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 from cli_testkit import cli, one_line_error
 from verify_testkit import check_outputs
@@ -108,6 +109,11 @@ def test_refuses_bad_options_in_one_line(tmp_path):
     assert (tmp_path / "v.json").read_text() == "{}"
     one_line_error(cli("verify", "--calibration", "missing.json", "-o", "w.json", cwd=tmp_path))
     one_line_error(cli("verify", "--base-frame", "1,2,3", "-o", "w.json", cwd=tmp_path))
+    one_line_error(cli("verify", "--tool", "0,0,1e308", "-o", "w.json", cwd=tmp_path))
+    bad = cli(
+        "verify", "--tracker", "socket://h:1", "--sim-probe-6dof", "-o", "w.json", cwd=tmp_path
+    )
+    assert "--sim-probe-6dof is for --tracker sim" in one_line_error(bad)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["v.json"]
 
 
@@ -165,3 +171,29 @@ def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrate
     )  # fmt: skip
     assert "--calibration already registers" in one_line_error(both)
     assert not (folder / "x.json").exists() and not (folder / "x.json.journal").exists()
+
+
+def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path):
+    from calibrator import frames
+    from calibrator.simulate import SimWorld
+
+    done = cli("verify", "-q", "--cycles", "2", "--sim-probe-6dof", "-o", "v.json", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert "APa deg" in done.stdout and "RPc deg" in done.stdout
+    doc = json.loads((tmp_path / "v.json").read_text())
+    assert doc["orientation"].startswith("measured")
+    table = pd.read_parquet(tmp_path / "v.parquet")
+    # What the hidden arm really does at the commanded joints, seen in the base frame.
+    world = SimWorld.make("ur10e", 0)
+    q = np.array([p["q_rad"] for p in doc["test_poses"]])
+    attained = np.stack([world.tool_pose(qk)[:3, :3] for qk in q])
+    true_angles = frames.angles_xyz(world.base2tracker[:3, :3].T @ attained)
+    commanded = frames.angles_xyz(np.array([p["rotation"] for p in doc["test_poses"]]))
+    for p, truth, cmd in zip(doc["poses"], true_angles, commanded, strict=True):
+        rows = table[table["test_pose"] == p["test_pose"]]
+        for k, axis in enumerate("abc"):
+            values = rows[f"{axis}_rad"].to_numpy()
+            # RP from the table (3 S, ISO 9283), AP against the true arm (survey, noise: < 5 mdeg)
+            assert p[f"RP{axis}_deg"] == pytest.approx(3 * np.degrees(values.std(ddof=1)), abs=1e-9)
+            assert p[f"AP{axis}_deg"] == pytest.approx(np.degrees(truth[k] - cmd[k]), abs=5e-3)
+        assert max(abs(p[f"AP{axis}_deg"]) for axis in "abc") > 0.02  # the hidden errors show

@@ -24,11 +24,13 @@ def records(points, rotvecs=None):
     return out
 
 
-def test_plan_rows_follow_p5_to_p1_and_lead_in_comes_from_the_previous_pose(plan):
+def test_plan_rows_follow_p5_to_p1_and_the_run_leads_in_from_p1(plan):
     assert plan.plan.shape == (15, 6) and plan.cycles == 3
     np.testing.assert_array_equal(plan.plan[0], plan.q_test[4])  # P5 first
-    np.testing.assert_array_equal(run.lead_in(plan, 0), plan.q_test[0])  # from P1
-    np.testing.assert_array_equal(run.lead_in(plan, 7), plan.plan[6])
+    # Row 0 is led in from the last row: P1, as every later P5 is approached.
+    np.testing.assert_array_equal(plan.plan[-1], plan.q_test[0])
+    options = run.run_options(plan, readings=3)
+    assert options.lead_in and options.need_poses == 15 and options.readings == 3
 
 
 def test_fit_recovers_a_known_tracker_placement(plan):
@@ -73,3 +75,35 @@ def test_a_missing_visit_gives_no_figures(plan):
     partial[4]["status"] = "failed"
     with pytest.raises(run.CalibrationError, match="not measured: \\[4\\]"):
         run.points(partial, plan)
+
+
+def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tmp_path):
+    from calibrator.acquire.run import MeasureRun
+    from calibrator.simulate import SimWorld
+    from drivers.robot import RobotOptions, open_robot
+    from drivers.tracker import OpenOptions, open_tracker
+
+    arm = get_model("ur10e")
+    world = SimWorld.make("ur10e", 0)
+
+    def session(resume, stop_after):
+        moves = []
+        robot = open_robot("sim", RobotOptions(arm, world))
+        tracker = open_tracker("sim", OpenOptions(world=world, sim_noise=False))
+        options = run.run_options(plan, readings=1, resume=resume)
+        with MeasureRun(robot, tracker, arm, options, tmp_path / "v.json", world=world) as mrun:
+            mrun.connect()
+            steer = robot.listener
+            robot.listener = lambda pose: (moves.append(robot.actual_joints()), steer(pose))
+            mrun.make_plan()
+            mrun.open_journal()
+            outcome = mrun.measure(should_stop=lambda: len(moves) > stop_after)
+        return np.array(moves), outcome
+
+    moves, outcome = session(False, 4)  # lead-in, then rows 0..3
+    assert outcome.stopped == "interrupted before pose 4" and outcome.measured == [0, 1, 2, 3]
+    np.testing.assert_array_equal(moves, np.concatenate([plan.q_test[:1], plan.plan[:4]]))
+    moves, outcome = session(True, 99)
+    assert outcome.stopped is None and outcome.measured == list(range(15))
+    # Row 4 (P1 of cycle 1) is approached from row 3 (P2), as in a run never stopped.
+    np.testing.assert_array_equal(moves, plan.plan[3:])

@@ -31,14 +31,31 @@ class SimulatedTracker(LaserTracker):
         Fault script, or a recorded exchange to answer from.
     record : str or Path, optional
         Log the raw exchange.
+    probe_6dof : bool
+        The probe reports its orientation too (``P6`` readings).
     """
 
     capabilities = frozenset({ports.INITIALISE, ports.STEER})
 
-    def __init__(self, *, seed: int = 0, noise: bool = True, faults=None, replay=None, record=None):
+    def __init__(
+        self,
+        *,
+        seed: int = 0,
+        noise: bool = True,
+        faults=None,
+        replay=None,
+        record=None,
+        probe_6dof: bool = False,
+    ):
         # The pty path is known once started; standard air, as the line opener sends.
         super().__init__("sim://", record=record, environment=Environment())
-        self._start = {"seed": seed, "noise": noise, "faults": faults, "replay": replay}
+        self._start = {
+            "seed": seed,
+            "noise": noise,
+            "faults": faults,
+            "replay": replay,
+            "probe_6dof": probe_6dof,
+        }
         self._process: SimulatorProcess | None = None
 
     def connect(self, environment: Environment | None = None, mode: str | None = None) -> Status:
@@ -48,8 +65,10 @@ class SimulatedTracker(LaserTracker):
             self._url = self._process.url
         return super().connect(environment, mode)
 
-    def set_target(self, point_mm: np.ndarray) -> None:
-        """Where the reflector really is: shape (3,), mm, tracker frame.
+    def set_target(self, point_mm: np.ndarray, rotvec_rad: np.ndarray | None = None) -> None:
+        """Where the reflector really is: shape (3,), mm, tracker frame; and how the probe
+        is turned (probe to tracker frame, rotation vector, shape (3,), rad; a 6-DoF probe
+        reports it).
 
         Raises
         ------
@@ -59,7 +78,7 @@ class SimulatedTracker(LaserTracker):
         if self._process is None:
             raise TrackerGone("tracker simulator not started: call connect() first")
         try:
-            self._process.set_target(point_mm)
+            self._process.set_target(point_mm, rotvec_rad)
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"tracker simulator: {exc}") from exc
 
@@ -81,4 +100,5 @@ def open_simulated_tracker(url: str, options: OpenOptions) -> SimulatedTracker:
         faults=options.sim_faults,
         replay=options.sim_replay,
         record=options.record,
+        probe_6dof=options.sim_probe_6dof,
     )
