@@ -102,6 +102,32 @@ def test_positions(centre_mm: npt.ArrayLike, side_mm: float) -> np.ndarray:
     return np.vstack([centre, inner])
 
 
+def facing(from_mm: npt.ArrayLike, tracker_mm: npt.ArrayLike) -> np.ndarray:
+    """A constant tool orientation whose z axis points from ``from_mm`` at the tracker.
+
+    A reflector accepts the beam within a cone about its axis (the tool z
+    axis), so the test poses face the tracker. x is kept horizontal where it
+    can be (the tool's "up" stays up).
+
+    Parameters
+    ----------
+    from_mm, tracker_mm : array_like, shape (3,)
+        A point of the test region and the tracker, base frame, mm.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rotation of the tool frame in the base frame.
+    """
+    z = np.asarray(tracker_mm, float) - np.asarray(from_mm, float)
+    z = z / np.linalg.norm(z)
+    x = np.cross([0.0, 0.0, 1.0], z)
+    if np.linalg.norm(x) < 1e-9:  # tracker straight above: any horizontal x
+        x = np.array([1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
 def test_poses(
     centre_mm: npt.ArrayLike, side_mm: float, rotation: npt.ArrayLike = TOOL_DOWN
 ) -> np.ndarray:
@@ -269,6 +295,7 @@ def largest_cube(
     limits_rad: npt.ArrayLike,
     flange2tool: npt.ArrayLike,
     rotation: npt.ArrayLike = TOOL_DOWN,
+    min_z_mm: float | None = None,
 ) -> Cube:
     """The largest test cube in the arm's working space with a constant tool orientation.
 
@@ -291,6 +318,9 @@ def largest_cube(
         Nominal tool (TCP) on the flange, mm.
     rotation : array_like, shape (3, 3)
         Tool orientation in the base frame.
+    min_z_mm : float, optional
+        Lowest z the cube may reach, base frame, mm: the working space ends
+        above the mounting plane (the cell's checks have the last word).
 
     Returns
     -------
@@ -309,6 +339,8 @@ def largest_cube(
     rotation = np.asarray(rotation, float)
     q_centres = _centre_solutions(mdh, flange2tool, limits_rad, centres, rotation, rng)
     lo, hi = np.zeros(len(centres)), np.full(len(centres), reach)
+    if min_z_mm is not None:  # the cube's floor stays above min_z_mm
+        hi = np.clip(2.0 * (centres[:, 2] - min_z_mm), 0.0, hi)
     while np.max(hi - lo) > 1.0:
         mid = 0.5 * (lo + hi)
         fit = _fits(mdh, flange2tool, limits_rad, centres, mid, q_centres, rotation)

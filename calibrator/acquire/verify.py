@@ -81,6 +81,7 @@ def make_plan(
     cycles: int,
     cube: iso9283.Cube | None = None,
     calibration: Calibration | None = None,
+    tracker_at_mm: npt.ArrayLike | None = None,
 ) -> VerifyPlan:
     """The test poses and the run's joint plan.
 
@@ -109,12 +110,21 @@ def make_plan(
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
     limits = model.joint_limits_rad
     given = cube is not None
+    rotation = iso9283.TOOL_DOWN
+    if tracker_at_mm is not None:
+        # The reflector faces the tracker from where the cube will be.
+        centre = cube.centre_mm if cube is not None else _TEST_REGION * _reach(model.mdh)
+        rotation = iso9283.facing(centre, tracker_at_mm)
     if cube is None:
-        cube = iso9283.largest_cube(model.mdh, limits, flange2tool)
+        # Above the mounting plane by the cell's margin and the tool's reach
+        # below its point (the plan's cell check refuses anything lower).
+        cube = iso9283.largest_cube(
+            model.mdh, limits, flange2tool, rotation, min_z_mm=CUBE_FLOOR_ABOVE_PLANE_MM
+        )
     else:
-        iso9283.check_cube(model.mdh, limits, flange2tool, cube)
-    desired = iso9283.test_poses(cube.centre_mm, cube.side_mm)
-    q = iso9283.commanded_joints(model.mdh, limits, flange2tool, cube)
+        iso9283.check_cube(model.mdh, limits, flange2tool, cube, rotation)
+    desired = iso9283.test_poses(cube.centre_mm, cube.side_mm, rotation)
+    q = iso9283.commanded_joints(model.mdh, limits, flange2tool, cube, rotation)
     if calibration is not None:
         result = compensate.compensate(calibration, desired=desired, q_nominal=q, limits=limits)
         bad = np.flatnonzero(~result.solution.ok)
@@ -126,6 +136,21 @@ def make_plan(
         q = result.q
     plan, test_pose, cycle = iso9283.cycle_plan(q, cycles)
     return VerifyPlan(cube, given, desired, q, calibration is not None, plan, test_pose, cycle)
+
+
+#: Where the test region lies, as fractions of the arm's reach (x, y, z), base frame.
+_TEST_REGION = np.array([0.45, 0.0, 0.3])
+
+
+def _reach(mdh: npt.ArrayLike) -> float:
+    table = np.asarray(mdh, float)
+    return float(np.abs(table[:, 0]).sum() + np.abs(table[:, 3]).sum())
+
+
+#: Lowest z of a default test cube, base frame, mm: the robot's mounting plane
+#: is z = 0 for every named model; the tool pointing down keeps its capsule and
+#: the wrist this far clear of it.
+CUBE_FLOOR_ABOVE_PLANE_MM = 200.0
 
 
 def run_options(plan: VerifyPlan, **options: Any) -> RunOptions:

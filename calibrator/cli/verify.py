@@ -169,8 +169,16 @@ def verify(
     for doc, path in ((cal, calibration_path), (reg_cal, register_path)):
         if doc is not None and doc.model and doc.model != model.strip().lower():
             fail(f"{path} calibrates a {doc.model}, not --model {model}")
+    # The test poses face the tracker: given, or where the simulated cell puts it.
+    tracker_at_mm = triple(tracker_at, "--tracker-at")
+    if tracker_at_mm is None and robot == "sim":
+        from calibrator.simulate import SimWorld
+
+        tracker_at_mm = tuple(SimWorld.make(arm.name, seed).tracker_at_mm)
     # The plan first: a cube out of reach is refused before any device is opened.
-    vplan = run.make_plan(arm, frames.transform(translation=tool_mm), cycles, given_cube, cal)
+    vplan = run.make_plan(
+        arm, frames.transform(translation=tool_mm), cycles, given_cube, cal, tracker_at_mm
+    )
     options = run.run_options(
         vplan,
         seed=seed,
