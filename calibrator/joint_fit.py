@@ -1,0 +1,281 @@
+"""Opt-in joint terms on top of a geometric fit, kept only where cross-validation says so.
+
+After :func:`calibrator.identify.pipeline.identify` has fitted the geometry,
+:func:`fit` adds the requested joint-term groups (``scale``, ``harmonic``,
+``compliance``, see :mod:`calibrator.joint_terms`):
+
+1. the terms join the geometric free set in the *same* free-set decision
+   (:func:`calibrator.parameters.prune` then
+   :func:`calibrator.identify.identifiability.select`): a term these poses
+   cannot tell from the geometry, or cannot pin down against the noise, is
+   dropped with the same kind of reason as a geometric parameter;
+2. least squares from the geometric solution fits geometry and terms together;
+3. each group is kept only when it lowers the cross-validated error (leave-one-
+   out up to :data:`LOO_MAX_POSES` fitting poses, else :data:`FOLDS`-fold) of
+   the objective's own per-pose error ``sqrt(|dp|^2 + k |dphi|^2)`` by more than
+   :data:`MIN_GAIN`; groups are tried in the order given, each against the
+   geometry plus the groups kept before it;
+4. standard errors and the predicted held-out error come from the same
+   :func:`calibrator.identify.uncertainty.analyse` as for the geometry.
+
+Compliance needs the gravity torque of every pose (``Observations.torque``)
+and more than one payload: at one payload a torque term is a smooth function
+of the pose that the geometry absorbs.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from calibrator import joint_terms, measurement, parameters
+from calibrator.identify import identifiability, refine, report, uncertainty
+
+#: Up to this many fitting poses cross-validation leaves one out at a time.
+LOO_MAX_POSES = 40
+#: Folds of the K-fold cross-validation above :data:`LOO_MAX_POSES`.
+FOLDS = 10
+#: Smallest relative drop of the cross-validated error for a group to be kept.
+MIN_GAIN = 0.02
+#: Payloads closer than this (kg) count as one.
+PAYLOAD_TOL_KG = 0.1
+
+
+@dataclass
+class JointFit:
+    """Outcome of :func:`fit`.
+
+    Attributes
+    ----------
+    space : ParameterSpace
+        Geometry plus the kept terms.
+    x : ndarray, shape (space.size,)
+    kept : tuple of str
+        Kept groups.
+    decisions : list of dict
+        Per requested group: ``group``, ``kept``, ``reason``, ``cv_without``,
+        ``cv_with`` (each ``{"score_mm", "position_mm", "orientation_deg"}``).
+    dropped : list of dict
+        Terms the free-set decision left out, ``{"name", "reason"}``.
+    cv_geometry, cv_final : dict
+        Cross-validated errors of the geometry alone and of the final model.
+    uncertainty : dict
+        :func:`calibrator.identify.uncertainty.analyse` of the final model.
+    stats : dict
+        Before/after statistics as in the pipeline's result.
+    """
+
+    space: parameters.ParameterSpace
+    x: np.ndarray
+    kept: tuple[str, ...]
+    decisions: list[dict] = field(default_factory=list)
+    dropped: list[dict] = field(default_factory=list)
+    cv_geometry: dict = field(default_factory=dict)
+    cv_final: dict = field(default_factory=dict)
+    uncertainty: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def terms(self) -> joint_terms.JointTerms:
+        """Values of every term (zeros where not kept)."""
+        return joint_terms.JointTerms.from_vector(self.space.joint_terms(self.x))
+
+
+def payloads(payload_kg: np.ndarray | None) -> np.ndarray:
+    """Distinct payloads (kg) among the poses."""
+    if payload_kg is None:
+        return np.zeros(1)
+    values = np.sort(np.asarray(payload_kg, dtype=float))
+    return values[np.concatenate([[True], np.diff(values) > PAYLOAD_TOL_KG])]
+
+
+def fit(
+    space: parameters.ParameterSpace,
+    x: np.ndarray,
+    fit_obs: measurement.Observations,
+    val_obs: measurement.Observations,
+    k: float,
+    groups: tuple[str, ...],
+    noise_mm: float,
+    payload_kg: np.ndarray | None = None,
+) -> JointFit:
+    """Add joint-term groups to a geometric fit where they pay (see the module docstring).
+
+    Parameters
+    ----------
+    space, x
+        The geometric fit (free set and deltas).
+    fit_obs, val_obs : Observations
+        Fitting and held-out poses (with ``torque`` for compliance).
+    k : float
+        Orientation weight of the fit (mm^2/rad^2).
+    groups : tuple of str
+        Requested groups, from :data:`calibrator.joint_terms.GROUPS`.
+    noise_mm : float
+        Noise per residual row assumed by the free-set decision.
+    payload_kg : ndarray, shape (len(fit_obs),), optional
+        Payload of every fitting pose (kg).
+
+    Returns
+    -------
+    JointFit
+    """
+    decisions, dropped = [], []
+    usable = []
+    for group in groups:
+        if group == "compliance":
+            if fit_obs.torque is None:
+                decisions.append(_no(group, "no gravity torques (needs a mass model)"))
+                continue
+            if len(payloads(payload_kg)) < 2:
+                decisions.append(
+                    _no(
+                        group,
+                        "one payload only: compliance cannot be told from the geometry "
+                        "(measure at two or more payloads)",
+                    )
+                )
+                continue
+        usable.append(group)
+    names = list(space.free) + list(joint_terms.names_of(tuple(usable)))
+    ext = space.with_free(names)
+    x_ext = _extend(space, x, ext)
+    # The same free-set decision as the geometry's: redundancy, then what these poses pin down.
+    jac = measurement.jacobian(ext, x_ext, fit_obs, k)
+    kept_names, redundant = parameters.prune(list(ext.free), jac, context="with these poses")
+    cols = [list(ext.free).index(n) for n in kept_names]
+    kept_names, weak = identifiability.select(kept_names, jac[:, cols], noise_mm)
+    dropped += [d for d in redundant + weak if d["name"] in joint_terms.NAMES]
+    lost_geometry = [n for n in space.free if n not in kept_names]
+    folds = _folds(len(fit_obs))
+
+    def solve(free: list[str], obs: measurement.Observations) -> tuple:
+        sp = ext.with_free(free)
+        start = _extend(ext, x_ext, sp)
+        return sp, refine.refine(sp, obs, start, k).x
+
+    base_free = [n for n in kept_names if n not in joint_terms.NAMES] + lost_geometry
+    current = list(base_free)
+    cv_geometry = _cv(ext.with_free(current), solve, fit_obs, k, folds)
+    cv_current = cv_geometry
+    kept_groups = []
+    for group in usable:
+        group_names = [n for n in joint_terms.names_of((group,)) if n in kept_names]
+        if not group_names:
+            decisions.append(_no(group, "every term dropped by the free-set decision"))
+            continue
+        trial = current + group_names
+        cv_trial = _cv(ext.with_free(trial), solve, fit_obs, k, folds)
+        gain = 1.0 - cv_trial["score_mm"] / cv_current["score_mm"]
+        keep = gain > MIN_GAIN
+        how = _cv_text(len(fit_obs), folds)
+        reason = (
+            f"{how} error {cv_current['score_mm']:.4f} -> {cv_trial['score_mm']:.4f} mm "
+            f"({100 * gain:+.1f} %; kept above {100 * MIN_GAIN:g} %)"
+        )
+        decisions.append(
+            {
+                "group": group,
+                "kept": keep,
+                "terms": group_names,
+                "reason": reason,
+                "cv_without": cv_current,
+                "cv_with": cv_trial,
+            }
+        )
+        if keep:
+            current, cv_current = trial, cv_trial
+            kept_groups.append(group)
+    final_space, final_x = solve(current, fit_obs)
+    unc = uncertainty.analyse(final_space, final_x, fit_obs, k, val_obs)
+    zero = np.zeros(final_space.size)
+    stats = {
+        part: {
+            "before": report.error_stats(final_space, zero, o),
+            "after": report.error_stats(final_space, final_x, o),
+        }
+        for part, o in (("fit", fit_obs), ("validation", val_obs))
+    }
+    return JointFit(
+        final_space,
+        final_x,
+        tuple(kept_groups),
+        decisions,
+        dropped,
+        cv_geometry,
+        cv_current,
+        unc,
+        stats,
+    )
+
+
+def _no(group: str, reason: str) -> dict:
+    return {"group": group, "kept": False, "terms": [], "reason": reason}
+
+
+def _extend(space: parameters.ParameterSpace, x: np.ndarray, to: parameters.ParameterSpace):
+    """Deltas of ``space`` re-expressed in ``to`` (zeros for new names)."""
+    values = dict(zip(space.free, np.asarray(x, dtype=float), strict=True))
+    return np.array([values.get(n, 0.0) for n in to.free])
+
+
+def _folds(n: int) -> list[np.ndarray]:
+    """Held-out index sets: one pose each up to LOO_MAX_POSES, else FOLDS interleaved folds."""
+    if n <= LOO_MAX_POSES:
+        return [np.array([i]) for i in range(n)]
+    return [np.arange(i, n, FOLDS) for i in range(FOLDS)]
+
+
+def _cv_text(n: int, folds: list) -> str:
+    return "leave-one-out" if len(folds) == n else f"{len(folds)}-fold cross-validated"
+
+
+def _cv(space, solve, obs, k: float, folds: list[np.ndarray]) -> dict:
+    """Cross-validated per-pose errors of the free set of ``space``."""
+    n = len(obs)
+    pos, rot = np.zeros(n), np.full(n, np.nan)
+    for held in folds:
+        train = obs.subset(np.setdiff1d(np.arange(n), held))
+        sp, xf = solve(list(space.free), train)
+        test = obs.subset(held)
+        p, r = measurement.errors(sp, xf, test)
+        pos[held] = np.linalg.norm(p, axis=1)
+        if r is not None:
+            rot[held] = np.linalg.norm(r, axis=1)
+    has_rot = obs.has_orientation and k > 0
+    score = np.sqrt(pos**2 + (k * rot**2 if has_rot else 0.0))
+    return {
+        "score_mm": float(np.mean(score)),
+        "position_mm": float(np.mean(pos)),
+        "orientation_deg": float(np.degrees(np.nanmean(rot))) if obs.has_orientation else None,
+    }
+
+
+def summary_lines(result: JointFit) -> list[str]:
+    """What ``identify`` prints about the joint terms."""
+    g, f = result.cv_geometry, result.cv_final
+
+    def fig(cv: dict) -> str:
+        text = f"position {cv['position_mm']:.4f} mm"
+        if cv.get("orientation_deg") is not None:
+            text += f", orientation {cv['orientation_deg']:.4f} deg"
+        return text
+
+    lines = [
+        f"joint terms, cross-validated per-pose error: geometry alone {fig(g)}; "
+        f"with the kept terms {fig(f)}"
+    ]
+    for d in result.decisions:
+        verdict = "kept" if d["kept"] else "not kept"
+        lines.append(f"  {d['group']:10s} {verdict}: {d['reason']}")
+    for d in result.dropped:
+        lines.append(f"  not identified: {d['name']:8s} {d['reason']}")
+    if result.kept:
+        se = result.uncertainty["standard_errors"]
+        values = dict(zip(result.space.free, result.x, strict=True))
+        shown = [n for n in result.space.free if n in joint_terms.NAMES]
+        parts = [f"{n} {values[n]:.3g} +- {se[n]:.2g} {parameters.unit(n)}" for n in shown]
+        lines.append("  identified: " + ", ".join(parts))
+    return lines
+
+
+__all__ = ["JointFit", "fit", "payloads", "summary_lines"]
