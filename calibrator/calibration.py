@@ -27,6 +27,7 @@ import numpy as np
 
 from calibrator import frames, kinematics, outputs, parameters
 from calibrator.errors import CalibrationError
+from calibrator.joint_terms import JointTerms
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -49,6 +50,7 @@ TYPED_KEYS = (
     "deltas",
     "dropped_parameters",
     "parameters",
+    "joint_terms",
 )
 #: Refuse files larger than this: a calibration is a few kB.
 MAX_BYTES = 16 * 2**20
@@ -91,6 +93,9 @@ class Calibration:
         Path of the session it came from.
     diagnostics : dict
         Every other key of the file (statistics, solver details, ...), JSON values.
+    joint_terms : JointTerms
+        Joint error terms (:mod:`calibrator.joint_terms`), zero when not used;
+        written under ``"joint_terms"`` only when some term is nonzero.
     """
 
     nominal_mdh: np.ndarray
@@ -106,6 +111,7 @@ class Calibration:
     tool0: np.ndarray = field(default_factory=lambda: np.eye(4))
     session: str | None = None
     diagnostics: dict = field(default_factory=dict)
+    joint_terms: JointTerms = field(default_factory=JointTerms.zero)
 
     def __post_init__(self):
         self.nominal_mdh = kinematics.check_mdh(self.nominal_mdh).copy()
@@ -131,6 +137,9 @@ class Calibration:
         space = result.space
         mdh, base2tracker, flange2tool = space.unpack(result.x)
         x = np.asarray(result.x, dtype=float)
+        # Joint terms go under "joint_terms"; free/deltas stay geometric.
+        terms = JointTerms.from_vector(space.joint_terms(x))
+        geometric = [i for i, n in enumerate(space.free) if n in parameters.ALL_NAMES]
         diagnostics = {}
         opts = getattr(result, "options", None)
         if opts is not None:
@@ -152,8 +161,8 @@ class Calibration:
             mdh=mdh,
             base2tracker=base2tracker,
             flange2tool=flange2tool,
-            free=space.free,
-            deltas=dict(zip(space.free, map(float, x), strict=True)),
+            free=tuple(space.free[i] for i in geometric),
+            deltas={space.free[i]: float(x[i]) for i in geometric},
             dropped=[dict(d) for d in result.dropped],
             model=model,
             frame=frame,
@@ -161,6 +170,7 @@ class Calibration:
             tool0=space.tool0,
             session=None if session_path is None else str(session_path),
             diagnostics=_jsonable(diagnostics),
+            joint_terms=terms,
         )
 
     def parameter_records(self):
@@ -211,6 +221,8 @@ class Calibration:
             dropped_parameters=self.dropped,
             parameters=self.parameter_records(),
         )
+        if self.joint_terms.used:
+            doc["joint_terms"] = self.joint_terms.to_json()
         return _jsonable(doc)
 
     def save(self, path, batch=None):
@@ -353,6 +365,10 @@ def from_json(doc, where="calibration"):
         raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
+    try:
+        terms = JointTerms.from_json(doc.get("joint_terms"))
+    except CalibrationError as exc:
+        raise CalibrationError(f"{where}: {exc}") from None
     return Calibration(
         nominal_mdh=nominal,
         mdh=mdh,
@@ -363,6 +379,7 @@ def from_json(doc, where="calibration"):
         frame=frame,
         session=doc.get("session"),
         diagnostics=diagnostics,
+        joint_terms=terms,
         **transforms,
     )
 

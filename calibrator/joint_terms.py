@@ -256,3 +256,81 @@ def gravity_torques(
         moment += np.cross(pay_c - orig[:, j], pay_f)
         tau[:, j] = np.einsum("ni,ni->n", moment, axes[:, j])
     return tau * 1e-3  # N mm -> N m
+
+
+def torque_function(terms: JointTerms, nominal_mdh: np.ndarray, payload_kg: float | None = None):
+    """``tau(q)`` for the compliance terms at a payload (default: the calibration's).
+
+    Returns None when the terms have no compliance.
+    """
+    if not terms.needs_torque:
+        return None
+    from calibrator import mass_models
+
+    if not terms.mass_model:
+        raise CalibrationError("the compliance terms name no mass model")
+    masses = mass_models.resolve(terms.mass_model)
+    kg = terms.payload_kg if payload_kg is None else float(payload_kg)
+
+    def tau(q: np.ndarray) -> np.ndarray:
+        return gravity_torques(nominal_mdh, q, masses, kg, terms.payload_com_mm)
+
+    return tau
+
+
+def invert(q_eff: np.ndarray, terms: JointTerms, torque=None, iterations: int = 20) -> np.ndarray:
+    """Read-back angles whose effective angles are ``q_eff`` (what to command).
+
+    Newton steps per joint on ``q (1 + s) + c cos q + d sin q + k tau(q) = q_eff``;
+    the torque's dependence on ``q`` is left out of the derivative (``k dtau/dq``
+    is about 1e-4) and re-evaluated every step.
+
+    Parameters
+    ----------
+    q_eff : ndarray, shape (N, 6)
+    terms : JointTerms
+    torque : callable, optional
+        ``torque(q) -> (N, 6)`` N m; needed with compliance terms.
+
+    Returns
+    -------
+    ndarray, shape (N, 6)
+    """
+    target = np.asarray(q_eff, dtype=float)
+    vec = terms.vector()
+    s, c, d, _ = vec.reshape(4, 6)
+    q = target.copy()
+    for _ in range(iterations):
+        tau = None if torque is None else torque(q)
+        f = effective(q, vec, tau) - target
+        q = q - f / (1.0 + s - c * np.sin(q) + d * np.cos(q))
+        if np.max(np.abs(f), initial=0.0) < 1e-13:
+            break
+    return q
+
+
+def loss_note(terms: JointTerms) -> str | None:
+    """What an export that cannot hold the joint terms loses, or None when they are zero.
+
+    The size given is the largest angle change the scale and harmonic terms
+    make over +-pi, per joint that has them (compliance depends on the load).
+    """
+    if not terms.used:
+        return None
+    kinds = [
+        name
+        for name, values in (
+            ("scale", terms.scale),
+            ("harmonic", np.r_[terms.cos, terms.sin]),
+            ("compliance", terms.compliance),
+        )
+        if np.any(values != 0)
+    ]
+    size = np.abs(terms.scale) * np.pi + np.hypot(terms.cos, terms.sin)
+    joints = ", ".join(f"q{j + 1} {1e3 * size[j]:.3g}" for j in range(6) if size[j] > 0)
+    text = f"cannot hold the joint terms ({', '.join(kinds)})"
+    if joints:
+        text += f": up to {joints} mrad over +-pi is lost"
+    if terms.needs_torque:
+        text += "; compliance k tau is lost"
+    return text + " (calibrator compensate applies them)"
