@@ -279,3 +279,134 @@ def summary_lines(result: JointFit) -> list[str]:
 
 
 __all__ = ["JointFit", "fit", "payloads", "summary_lines"]
+
+
+# --- sessions and payloads --------------------------------------------------------
+
+
+def session_payload(sess, default_kg: float | None = None) -> np.ndarray:
+    """Payload of every pose of a session (kg).
+
+    From a ``payload_kg`` column, else the footer's ``payload_kg``, else
+    ``default_kg`` (the ``--payload-kg`` option), else 0.
+    """
+    from calibrator.errors import SessionError
+
+    n = sess.table.num_rows
+    if "payload_kg" in sess.table.column_names:
+        values = np.array(sess.table["payload_kg"].to_pylist(), dtype=float)
+    elif "payload_kg" in sess.meta.extra:
+        try:
+            values = np.full(n, float(sess.meta.extra["payload_kg"]))
+        except (TypeError, ValueError):
+            raise SessionError("the session's payload_kg is not a number") from None
+    else:
+        values = np.full(n, 0.0 if default_kg is None else float(default_kg))
+    if not np.all(np.isfinite(values)) or np.any(values < 0):
+        raise SessionError("payload_kg must be finite and >= 0")
+    return values
+
+
+def combine(loaded: list, names: list[str]):
+    """Several sessions of one arm as one session (poses renumbered in order).
+
+    Raises
+    ------
+    SessionError
+        When the sessions differ in model, nominal table, frame, tool or
+        orientation columns: they must be of one arm in one set-up.
+    """
+    import pyarrow as pa
+
+    from calibrator import session
+    from calibrator.errors import SessionError
+
+    first = loaded[0]
+    for other, name in zip(loaded[1:], names[1:], strict=True):
+        same = (
+            other.meta.model == first.meta.model
+            and other.meta.frame == first.meta.frame
+            and np.allclose(other.meta.nominal_mdh, first.meta.nominal_mdh)
+            and np.allclose(other.meta.flange2tool, first.meta.flange2tool)
+            and sorted(other.table.column_names) == sorted(first.table.column_names)
+        )
+        if not same:
+            raise SessionError(
+                f"{name}: not the same arm and set-up as {names[0]} (model, nominal table, "
+                "frame, tool and columns must match to fit sessions together)"
+            )
+    columns = first.table.column_names
+    table = pa.concat_tables([s.table.select(columns) for s in loaded], promote_options="default")
+    n = table.num_rows
+    table = table.set_column(columns.index("pose"), "pose", pa.array(np.arange(n)))
+    warnings = [w for s in loaded for w in s.warnings]
+    return session.Session(table, first.meta, warnings)
+
+
+def run(
+    result,
+    sess,
+    payload_kg: np.ndarray,
+    groups: tuple[str, ...],
+    masses,
+    payload_com_mm: np.ndarray,
+    noise_mm: float,
+):
+    """Joint terms on a pipeline result, in place; returns the :class:`JointFit`.
+
+    The result's free set, deltas, uncertainty, statistics and dropped list
+    become those of the geometry plus the kept terms; the decisions go to
+    ``result.details["joint_terms"]``.
+    """
+    o = sess.observations
+    torque = None
+    if masses is not None:
+        torque = joint_terms.gravity_torques(
+            sess.meta.nominal_mdh, o.q, masses, payload_kg, payload_com_mm
+        )
+    obs = measurement.Observations(o.q, o.points, o.rotations, torque)
+    found = fit(
+        result.space,
+        result.x,
+        obs.subset(result.fit_index),
+        obs.subset(result.validation_index),
+        result.k,
+        groups,
+        noise_mm,
+        payload_kg[result.fit_index],
+    )
+    if found.kept:
+        result.warnings = _rejudged_warnings(result, found, noise_mm)
+    result.space, result.x = found.space, found.x
+    result.uncertainty, result.stats = found.uncertainty, found.stats
+    result.dropped = list(result.dropped) + found.dropped
+    result.details["joint_terms"] = {
+        "requested": list(groups),
+        "kept": list(found.kept),
+        "decisions": found.decisions,
+        "cross_validated_geometry": found.cv_geometry,
+        "cross_validated_final": found.cv_final,
+        "payloads_kg": payloads(payload_kg).tolist(),
+    }
+    return found
+
+
+def _rejudged_warnings(result, found: JointFit, noise_mm: float) -> list[str]:
+    """The pipeline's residual-noise warning, judged again with the kept terms.
+
+    The geometric fit's residuals carry the joint errors the terms now
+    explain; its residual-noise and outlier warnings are replaced by the
+    noise check on the final fit.
+    """
+    from calibrator.identify import pipeline
+
+    stale = ("the fit's residual noise", "possible outliers")
+    kept = [w for w in result.warnings if not any(s in w for s in stale)]
+    sigma = found.uncertainty["residual_sigma"]["position_mm"]
+    if sigma > pipeline.NOISE_WARNING * noise_mm:
+        kept.append(
+            f"the fit's residual noise {sigma:.3g} mm per axis (with the joint terms) is over "
+            f"{pipeline.NOISE_WARNING:g} times the {noise_mm:g} mm assumed when choosing the "
+            f"free parameters; rerun with --noise-mm {sigma:.2g} to judge them against it"
+        )
+    return kept

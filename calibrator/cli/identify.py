@@ -27,7 +27,11 @@ class Loss(StrEnum):
 
 @app.command()
 def identify(
-    session_path: Path = typer.Argument(..., metavar="SESSION", help="Session file (Parquet)."),
+    session_paths: list[Path] = typer.Argument(
+        ...,
+        metavar="SESSION...",
+        help="Session file(s) (Parquet); several: one arm, e.g. at several payloads.",
+    ),
     output: Path = typer.Option(
         Path("calibration.json"), "-o", "--output", help="Calibration file to write (JSON)."
     ),
@@ -82,6 +86,23 @@ def identify(
     report_dir: Path = typer.Option(
         None, "--report", metavar="DIR", help="Also write the calibration report into DIR."
     ),
+    joint_terms_text: str = typer.Option(
+        None,
+        "--joint-terms",
+        help="Also fit joint terms: any of scale,harmonic,compliance; each kept only if "
+        "it lowers the cross-validated error.",
+    ),
+    mass_model: str = typer.Option(
+        None, help="Mass model for compliance: a named arm or a YAML [default: the model's]."
+    ),
+    payload_kg: float = typer.Option(
+        None,
+        callback=checks.finite(minimum=0.0),
+        help="Payload (kg) of sessions that do not record one [default: 0].",
+    ),
+    payload_com_mm: str = typer.Option(
+        "0,0,0", help="Payload centre of mass in the flange frame, x,y,z (mm)."
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
@@ -91,13 +112,24 @@ def identify(
     if k is not None and orientation_weight is not None:
         raise CalibrationError("give --orientation-weight only (--k is its old name)")
     weight = orientation_weight if orientation_weight is not None else k
-    inputs = [session_path, nominal_file]
+    # --- joint terms (issue 22): options, several sessions ---
+    import numpy as np
+
+    from calibrator import joint_fit, joint_terms
+
+    groups = () if joint_terms_text is None else joint_terms.parse_groups(joint_terms_text)
+    payload_com = _three(payload_com_mm, "--payload-com-mm")
+    session_path = session_paths[0]
+    # --- end joint terms
+    inputs = [*session_paths, nominal_file]
     outputs.check(output, inputs=inputs)
     if report_dir is not None:
         outputs.check_folder(report_dir, inputs=inputs)
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
-    loaded = session.load(session_path, model=model)
+    parts = [session.load(p, model=model) for p in session_paths]
+    loaded = joint_fit.combine(parts, [str(p) for p in session_paths])
+    payloads = np.concatenate([joint_fit.session_payload(s, payload_kg) for s in parts])
     for doubt in loaded.warnings:
         typer.echo(f"warning: {doubt}", err=True)
     if nominal_file is not None:
@@ -128,10 +160,28 @@ def identify(
         raise CalibrationError(
             _too_few_hint(session_path, exc, len(loaded.table), options)
         ) from None
+    found = None
+    if groups:
+        from calibrator import mass_models
+
+        source = mass_model or loaded.meta.model
+        masses = None
+        if "compliance" in groups and source:
+            masses = mass_models.resolve(source)
+        found = joint_fit.run(result, loaded, payloads, groups, masses, payload_com, noise_mm)
     took = time.perf_counter() - started
     cal = calibration.Calibration.from_result(
         result, session_path, loaded.meta.model, loaded.meta.frame
     )
+    if found is not None and found.terms.needs_torque:
+        cal.joint_terms = replace(
+            cal.joint_terms,
+            payload_kg=float(np.median(payloads)),
+            payload_com_mm=payload_com,
+            mass_model=str(mass_model or loaded.meta.model),
+        )
+    if len(session_paths) > 1:
+        cal.diagnostics["sessions"] = [str(p) for p in session_paths]
     with outputs.Outputs(inputs=inputs) as batch:
         cal.save(output, batch=batch)
         if report_dir is not None:
@@ -151,8 +201,24 @@ def identify(
     typer.echo(report.format_table(result.stats))
     for line in uncertainty.summary_lines(result.uncertainty):
         typer.echo(line)
+    if found is not None:
+        for line in joint_fit.summary_lines(found):
+            typer.echo(line)
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+
+
+def _three(text, what):
+    """``'x,y,z'`` -> ndarray (3,) of finite numbers."""
+    import numpy as np
+
+    try:
+        values = np.array([float(v) for v in str(text).split(",")])
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise CalibrationError(f"{what} must be three numbers x,y,z, got {text!r}")
+    return values
 
 
 def _too_few_hint(path, exc, n_poses, options):

@@ -164,6 +164,8 @@ def summary_lines(unc, limit=6):
 
 
 def _fmt(name, value):
+    if parameters.unit(name) not in ("mm", "rad"):  # joint terms: 1, rad/Nm
+        return f"{value:.3g} {parameters.unit(name)}"
     if parameters.unit(name) == "rad":
         return f"{np.degrees(value) * 1000:.3g} mdeg"
     return f"{value * 1000:.3g} um"
