@@ -29,7 +29,7 @@ class Loss(StrEnum):
 def identify(
     session_paths: list[Path] = typer.Argument(
         ...,
-        metavar="SESSION...",
+        metavar="SESSION",
         help="Session file(s) (Parquet); several: one arm, e.g. at several payloads.",
     ),
     output: Path = typer.Option(
