@@ -353,4 +353,11 @@ def run(calibration, targets_path, output, payload_kg=None):
             )
     if len(failed) > 10:
         lines.append(f"... and {len(failed) - 10} more (see the status column)")
+    # Issue 22: targets outside the joint ranges the calibration was fitted on.
+    ranges = calibration.diagnostics.get("fitted_joint_ranges_rad")
+    if ranges is not None and np.shape(ranges) == (6, 2):
+        from calibrator.identify.uncertainty import range_warnings
+
+        fitted = np.asarray(ranges, dtype=float).T
+        lines += [f"warning: {w}" for w in range_warnings(fitted, sol.q[sol.ok], "target")]
     return Report(len(failed) == 0, lines)

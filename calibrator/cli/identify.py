@@ -103,6 +103,12 @@ def identify(
     payload_com_mm: str = typer.Option(
         "0,0,0", help="Payload centre of mass in the flange frame, x,y,z (mm)."
     ),
+    target_mm: float = typer.Option(
+        None,
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Print how many more poses would bring the parameter part of the held-out "
+        "error below this (mm).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
@@ -182,6 +188,11 @@ def identify(
         )
     if len(session_paths) > 1:
         cal.diagnostics["sessions"] = [str(p) for p in session_paths]
+    # Issue 22: compensate warns about targets outside the joint ranges the fit saw.
+    fitted_q = loaded.observations.q[result.fit_index]
+    cal.diagnostics["fitted_joint_ranges_rad"] = np.column_stack(
+        [fitted_q.min(axis=0), fitted_q.max(axis=0)]
+    ).tolist()
     with outputs.Outputs(inputs=inputs) as batch:
         cal.save(output, batch=batch)
         if report_dir is not None:
@@ -204,8 +215,29 @@ def identify(
     if found is not None:
         for line in joint_fit.summary_lines(found):
             typer.echo(line)
+    if target_mm is not None:
+        typer.echo(_target_line(result, target_mm))
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+
+
+def _target_line(result, target_mm):
+    """``--target-mm``: more poses of the same kind for a parameter part below it."""
+    from calibrator.identify import uncertainty
+
+    pred = result.uncertainty.get("predicted_validation_mm")
+    if not pred:
+        return "--target-mm: no held-out poses to predict at (use --validation-fraction > 0)"
+    n_fit = len(result.fit_index)
+    more = uncertainty.poses_for_target(pred["model_rms_mean"], n_fit, target_mm)
+    if more == 0:
+        return f"parameter part {pred['model_rms_mean']:.4f} mm is already below {target_mm:g} mm"
+    floor = uncertainty.noise_floor(result.uncertainty["residual_sigma"]["position_mm"])
+    return (
+        f"about {more} more poses like these ({n_fit + more} in all) bring the parameter part "
+        f"from {pred['model_rms_mean']:.4f} to {target_mm:g} mm RMS; the mean held-out error "
+        f"then approaches the noise floor {floor:.4f} mm"
+    )
 
 
 def _three(text, what):

@@ -224,6 +224,7 @@ def identify(session, options=Options()):
 
     say("uncertainty")
     unc = uncertainty.analyse(space, x, inliers, k, val)
+    warnings += uncertainty.range_warnings(fit.q, val.q)  # issue 22: extrapolation
     sigma = unc["residual_sigma"]["position_mm"]
     if sigma > NOISE_WARNING * options.noise_mm:
         warnings.append(

@@ -15,13 +15,16 @@ def sessions(
     orientation_noise_rad=2e-5,
     model="ur10e",
     geometry_errors=True,
+    narrow_first=None,
 ):
     """One simulated 6-DoF session (base frame) per payload, and the truth.
 
     ``terms`` is a :class:`calibrator.joint_terms.JointTerms` applied to the
     read-back angles: ``q_true = q_eff(q_read)``; the gravity torques come from
     the model's published mass model and each session's payload (a point mass
-    100 mm out on the flange axis, the probe's side).
+    100 mm out on the flange axis, the probe's side). ``narrow_first=(n, f)``
+    draws the first ``n`` poses of each session from ``f`` times the joint ranges,
+    so that the others lie partly outside the range of the first.
 
     Returns
     -------
@@ -39,6 +42,8 @@ def sessions(
     for payload in payloads_kg:
         limits = np.clip(robot.joint_limits_rad, -np.pi, np.pi)
         q = simulate.sample_joints(limits, poses, rng)
+        if narrow_first is not None:
+            q[: narrow_first[0]] *= narrow_first[1]
         tau = joint_terms.gravity_torques(robot.mdh, q, masses, payload, [0.0, 0.0, 100.0])
         q_true = joint_terms.effective(q, terms.vector(), tau)
         pose = kinematics.forward(true_mdh, q_true, tool)
