@@ -212,6 +212,7 @@ def identify(
     typer.echo(report.format_table(result.stats))
     for line in uncertainty.summary_lines(result.uncertainty):
         typer.echo(line)
+    typer.echo(uncertainty.noise_floor_line(result.uncertainty))
     if found is not None:
         for line in joint_fit.summary_lines(found):
             typer.echo(line)

@@ -168,6 +168,15 @@ def predict_error(space, x, obs, cov, sigma_p):
     }
 
 
+def noise_floor_line(unc):
+    """``noise floor: ...`` for ``identify``'s output."""
+    floor = noise_floor(unc["residual_sigma"]["position_mm"])
+    return (
+        f"noise floor: {floor:.4f} mm mean held-out error from the residual noise alone "
+        "(no model predicts better)"
+    )
+
+
 def noise_floor(sigma_p):
     """Mean held-out distance error that the residual noise alone implies (mm).
 
@@ -260,10 +269,6 @@ def summary_lines(unc, limit=6):
             f"(parameter part {pred['model_rms_mean']:.4f} mm RMS, worst "
             f"{pred['model_rms_max']:.4f} mm)"
         )
-    lines.append(
-        f"noise floor: {noise_floor(sig['position_mm']):.4f} mm mean held-out error from the "
-        "residual noise alone (no model predicts better)"
-    )
     return lines
 
 
