@@ -377,6 +377,7 @@ def run(
     )
     if found.kept:
         result.warnings = _rejudged_warnings(result, found, noise_mm)
+        result.warnings += implausible_terms(found)
     result.space, result.x = found.space, found.x
     result.uncertainty, result.stats = found.uncertainty, found.stats
     result.dropped = list(result.dropped) + found.dropped
@@ -410,3 +411,23 @@ def _rejudged_warnings(result, found: JointFit, noise_mm: float) -> list[str]:
             f"free parameters; rerun with --noise-mm {sigma:.2g} to judge them against it"
         )
     return kept
+
+
+#: A kept term beyond this many times its plausible size gives a warning.
+IMPLAUSIBLE = 10.0
+
+
+def implausible_terms(found: JointFit) -> list[str]:
+    """Warnings for kept terms far beyond their plausible size (a unit or model mistake?)."""
+    out = []
+    for name, value in zip(found.space.free, found.x, strict=True):
+        if name not in joint_terms.NAMES:
+            continue
+        size = joint_terms.PLAUSIBLE[joint_terms.prefix(name)]
+        if abs(value) > IMPLAUSIBLE * size:
+            out.append(
+                f"joint term {name} = {value:.3g} {parameters.unit(name)} is over "
+                f"{IMPLAUSIBLE:g} times its plausible {size:g}: check the joint readings "
+                "(units, offsets) and the model before trusting it"
+            )
+    return out

@@ -155,3 +155,11 @@ def test_joint_terms_json_round_trip_and_bad_entries():
     with pytest.raises(CalibrationError, match="--joint-terms"):
         joint_terms.parse_groups("scale,gearbox")
     assert joint_terms.parse_groups("harmonic, scale") == ("harmonic", "scale")
+
+
+def test_a_huge_kept_term_is_warned_about():
+    truth = _terms(scale=[0, 0, 0, 0, 0.03, 0])  # 3 %: no gearbox is that far off
+    _, result = _fit(truth, ("scale",))
+    assert result.kept == ("scale",)
+    (line,) = joint_fit.implausible_terms(result)
+    assert line.startswith("joint term scale5 = 0.03")
