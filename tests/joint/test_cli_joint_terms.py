@@ -155,3 +155,19 @@ def test_sessions_of_different_arms_are_refused(tmp_path):
         cli("identify", names[0], "other.parquet", "-o", "cal.json", cwd=tmp_path)
     )
     assert "other.parquet" in line and "same arm" in line
+
+
+def test_compensate_warns_about_targets_outside_the_fitted_joint_ranges(tmp_path):
+    names, truth = _write(tmp_path, WRIST, poses=30)
+    assert cli("identify", *names, "--method", "lm", "-o", "cal.json", cwd=tmp_path).code == 0
+    doc = json.loads((tmp_path / "cal.json").read_text())
+    assert np.shape(doc["fitted_joint_ranges_rad"]) == (6, 2)
+    _targets(tmp_path, truth)
+    ok = cli("compensate", "cal.json", "targets.csv", "-o", "out.csv", cwd=tmp_path)
+    assert "outside the fitted joint ranges" not in ok.stdout
+    doc["fitted_joint_ranges_rad"][2] = [-0.6, -0.5]  # as if the elbow had barely moved
+    (tmp_path / "narrow.json").write_text(json.dumps(doc))
+    (tmp_path / "out.csv").unlink()
+    out = cli("compensate", "narrow.json", "targets.csv", "-o", "out.csv", cwd=tmp_path)
+    assert out.code == 0, out.stderr
+    assert "target poses lie outside the fitted joint ranges (q3 by up to" in out.stdout
