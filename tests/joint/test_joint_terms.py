@@ -163,3 +163,39 @@ def test_a_huge_kept_term_is_warned_about():
     assert result.kept == ("scale",)
     (line,) = joint_fit.implausible_terms(result)
     assert line.startswith("joint term scale5 = 0.03")
+
+
+@pytest.mark.parametrize("wrist", [True, False])
+def test_held_out_error_against_least_squares_from_the_truth(wrist):
+    """W1's shape: with wrist gear errors the terms reach least squares from the truth
+    and beat the geometry twice over; without, they are not kept and cost nothing."""
+    from jointkit import sessions as make
+
+    from calibrator.identify import refine
+
+    scale = np.array([0, 0, 0, 1.5e-3, -2e-3, 1e-3]) if wrist else np.zeros(6)
+    parts, truth = make(_terms(scale=scale), poses=50, seed=21, noise_mm=0.03)
+    sess, tau, payload = merged(parts)
+    geo = geometric_fit(sess, 0.3, noise_mm=0.03)
+    o = sess.observations
+    obs = measurement.Observations(o.q, o.points, o.rotations, tau)
+    fit_obs, val_obs = obs.subset(geo.fit_index), obs.subset(geo.validation_index)
+    result = joint_fit.fit(
+        geo.space, geo.x, fit_obs, val_obs, geo.k, ("scale",), 0.03, payload[geo.fit_index]
+    )
+    held = result.stats["validation"]["after"]["position_mm"]["mean"]
+    geometric = geo.stats["validation"]["after"]["position_mm"]["mean"]
+    # Least squares started at the truth, geometry plus scale terms.
+    names = list(geo.space.free) + list(joint_terms.names_of(("scale",)))
+    space = result.space.with_free(names)
+    start = space.pack(truth["mdh"], np.eye(4), truth["tool"])
+    start[[names.index(f"scale{j + 1}") for j in range(6)]] = scale
+    best = refine.refine(space, fit_obs, start, geo.k).x
+    from_truth = np.linalg.norm(measurement.errors(space, best, val_obs)[0], axis=1).mean()
+    if wrist:
+        assert result.kept == ("scale",)
+        assert held <= 1.3 * from_truth
+        assert geometric >= 2 * held
+    else:
+        assert result.kept == ()
+        assert held <= 1.05 * geometric
