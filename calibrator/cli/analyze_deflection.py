@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
-from calibrator.cli.analyze import _floats, analyze_app
+from calibrator.cli.analyze import analyze_app
 from calibrator.errors import CalibrationError
 
 _DEG = 3.141592653589793 / 180.0
@@ -14,7 +14,14 @@ _DEG = 3.141592653589793 / 180.0
 
 def _vector(text: str, n: int, what: str, prismatic: list[bool]) -> list[float]:
     """Joint values from the command line: deg, or mm for prismatic joints."""
-    values = _floats(text, what, n)
+    import math
+
+    try:
+        values = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise CalibrationError(f"{what} needs {n} comma-separated finite numbers, got {text!r}")
     return [v if p else v * _DEG for v, p in zip(values, prismatic, strict=True)]
 
 
