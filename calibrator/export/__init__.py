@@ -112,7 +112,15 @@ def export(calibration, fmt):
     """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
     if fmt not in REGISTRY:
         raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
-    return REGISTRY[fmt].write(calibration)
+    result = REGISTRY[fmt].write(calibration)
+    # --- joint terms (issue 22): no format holds them; say what is lost.
+    from calibrator.joint_terms import loss_note
+
+    terms = getattr(calibration, "joint_terms", None)
+    lost = None if terms is None else loss_note(terms)
+    if lost:
+        result = Exported(result.text, [*result.notes, f"{fmt} {lost}"])
+    return result
 
 
 # Importing the format modules registers them (order = order of --format choices).
