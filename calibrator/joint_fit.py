@@ -313,12 +313,15 @@ def combine(loaded: list, names: list[str]):
         When the sessions differ in model, nominal table, frame, tool or
         orientation columns: they must be of one arm in one set-up.
     """
+    first = loaded[0]
+    if len(loaded) == 1:  # one session is itself: no copy, no renumbering
+        return first
+
     import pyarrow as pa
 
     from calibrator import session
     from calibrator.errors import SessionError
 
-    first = loaded[0]
     for other, name in zip(loaded[1:], names[1:], strict=True):
         same = (
             other.meta.model == first.meta.model

@@ -123,7 +123,7 @@ def identify(
     """Identify MDH parameters from a session and write calibration.json."""
     import numpy as np
 
-    from calibrator import calibration, joint_fit, joint_terms, outputs, progress, session
+    from calibrator import calibration, outputs, progress, session
     from calibrator.identify import pipeline, report, uncertainty
 
     if k is not None and orientation_weight is not None:
@@ -146,7 +146,11 @@ def identify(
         options, model, nominal_file, joint = _recorded(
             ctx, like, session_path, options, model, nominal_file, joint
         )
-    groups = () if joint.groups is None else joint_terms.parse_groups(joint.groups)
+    groups = ()
+    if joint.groups is not None:
+        from calibrator import joint_terms
+
+        groups = joint_terms.parse_groups(joint.groups)
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
     inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs)
@@ -155,8 +159,13 @@ def identify(
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
     parts = [session.load(p, model=model) for p in session_paths]
-    loaded = joint_fit.combine(parts, [str(p) for p in session_paths])
-    payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
+    loaded = parts[0]
+    if len(parts) > 1 or groups:
+        # Joint terms and several sessions only: a plain identify does not load them.
+        from calibrator import joint_fit
+
+        loaded = joint_fit.combine(parts, [str(p) for p in session_paths])
+        payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     for doubt in loaded.warnings:
         typer.echo(f"warning: {doubt}", err=True)
     if nominal_file is not None:
