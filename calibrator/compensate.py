@@ -207,8 +207,8 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None, payload_k
         desired = np.asarray(desired, dtype=float)
         q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
     sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
-    # --- joint terms (issue 22): the IK gives the angles the joints must really
-    # turn to; command the read-back angles whose effective angles those are.
+    # Joint terms: the IK gives the angles the joints must really turn to;
+    # command the read-back angles whose effective angles those are.
     terms = calibration.joint_terms
     if terms.used:
         torque = joint_terms.torque_function(terms, calibration.nominal_mdh, payload_kg)
@@ -218,7 +218,6 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None, payload_k
             lim = np.asarray(limits, dtype=float)
             inside = np.all((q_cmd >= lim[:, 0]) & (q_cmd <= lim[:, 1]), axis=1)
         sol = replace(sol, q=q_cmd, within_limits=inside)
-    # --- end joint terms
     corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
     return Compensation(sol.q, corrected, desired, sol, q_nominal)
 

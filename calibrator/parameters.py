@@ -32,7 +32,7 @@ MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMN
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
 TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
 TOOL_ROTATION_NAMES = ("tool_rx", "tool_ry", "tool_rz")
-# --- joint terms (issue 22): scale/harmonic/compliance, see calibrator.joint_terms ---
+# Opt-in joint error terms (scale, harmonic, compliance), see calibrator.joint_terms.
 JOINT_TERM_NAMES = joint_terms.NAMES
 ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES + TOOL_ROTATION_NAMES
 #: Every name a space can free: the geometry, then the opt-in joint terms.

@@ -113,11 +113,10 @@ def export(calibration, fmt):
     if fmt not in REGISTRY:
         raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
     result = REGISTRY[fmt].write(calibration)
-    # --- joint terms (issue 22): no format holds them; say what is lost.
+    # No format holds the joint terms: say what is lost.
     from calibrator.joint_terms import loss_note
 
-    terms = getattr(calibration, "joint_terms", None)
-    lost = None if terms is None else loss_note(terms)
+    lost = loss_note(calibration.joint_terms)
     if lost:
         result = Exported(result.text, [*result.notes, f"{fmt} {lost}"])
     return result
