@@ -40,6 +40,7 @@ import numpy as np
 
 from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
+from calibrator.joint_terms import JointTerms
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -82,6 +83,15 @@ class Provenance:
         Whether the tool frame was fixed (the resolved value, not the option).
     particles, generations, swarm_poses : int or None
         Swarm settings.
+    joint_term_groups : str or None
+        ``identify --joint-terms``: the requested groups, comma-separated
+        (``""`` when none were requested).
+    mass_model : str or None
+        ``--mass-model`` when given (a named arm or a YAML path).
+    payload_kg : float or None
+        ``--payload-kg`` when given (kg; sessions that record none).
+    payload_com_mm : list of float or None
+        ``--payload-com-mm``: payload centre of mass, flange frame (mm).
     versions : dict
         ``{"calibrator", "numpy", "scipy", "python"}`` version strings.
     created : str or None
@@ -104,6 +114,10 @@ class Provenance:
     particles: int | None = None
     generations: int | None = None
     swarm_poses: int | None = None
+    joint_term_groups: str | None = None
+    mass_model: str | None = None
+    payload_kg: float | None = None
+    payload_com_mm: list | None = None
     versions: dict = field(default_factory=dict)
     created: str | None = None
 
@@ -120,6 +134,8 @@ class Provenance:
         "generations",
         "swarm_poses",
     )
+    #: Keys of the joint-term options (``identify --joint-terms`` and its companions).
+    JOINT_OPTION_KEYS = ("joint_term_groups", "mass_model", "payload_kg", "payload_com_mm")
     _TYPES = {
         "session_sha256": str,
         "nominal_source": str,
@@ -135,6 +151,10 @@ class Provenance:
         "particles": int,
         "generations": int,
         "swarm_poses": int,
+        "joint_term_groups": str,
+        "mass_model": str,
+        "payload_kg": float,
+        "payload_com_mm": list,
         "versions": dict,
         "created": str,
     }
@@ -171,14 +191,35 @@ class Provenance:
                     f"{where}: '{key}' must be a JSON {_JSON_TYPE[kind]}, got {value!r:.40}"
                 )
             values[key] = value
+        com = values.get("payload_com_mm")
+        if com is not None:
+            if len(com) != 3 or not all(_is_number(v) for v in com):
+                raise CalibrationError(
+                    f"{where}: 'payload_com_mm' must be three numbers x, y, z (mm)"
+                )
+            values["payload_com_mm"] = [float(v) for v in com]
         return cls(**values)
 
     def options(self) -> dict[str, Any]:
-        """The recorded options that were given (``{key: value}``, ``None`` left out)."""
+        """The recorded pipeline options (``{key: value}``, ``None`` left out).
+
+        The joint-term options are the attributes named in :attr:`JOINT_OPTION_KEYS`.
+        """
         return {k: getattr(self, k) for k in self.OPTION_KEYS if getattr(self, k) is not None}
 
 
-_JSON_TYPE = {str: "string", int: "integer", float: "number", bool: "boolean", dict: "object"}
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
+
+
+_JSON_TYPE = {
+    str: "string",
+    int: "integer",
+    float: "number",
+    bool: "boolean",
+    dict: "object",
+    list: "array",
+}
 
 
 @dataclass
@@ -203,6 +244,10 @@ class FitReport:
     solver : dict
         What each fitter reported (cost, evaluations, message), and the
         swarm's ``convergence`` as ``[[generation, best cost], ...]``.
+    fitted_joint_ranges_rad : list
+        ``[[min, max]] * 6`` joint angles of the fitted poses (rad): beyond
+        them the model is extrapolated (``compensate`` warns); empty when
+        not recorded.
     """
 
     stats: dict = field(default_factory=dict)
@@ -211,9 +256,18 @@ class FitReport:
     outliers: list = field(default_factory=list)
     validation_poses: list = field(default_factory=list)
     solver: dict = field(default_factory=dict)
+    fitted_joint_ranges_rad: list = field(default_factory=list)
 
     #: Keys of calibration.json this part reads and writes.
-    KEYS = ("stats", "uncertainty", "warnings", "outliers", "validation_poses", "solver")
+    KEYS = (
+        "stats",
+        "uncertainty",
+        "warnings",
+        "outliers",
+        "validation_poses",
+        "solver",
+        "fitted_joint_ranges_rad",
+    )
 
     def to_json(self) -> dict[str, Any]:
         """The fit report keys of calibration.json (JSON values)."""
@@ -239,6 +293,7 @@ class FitReport:
             ("warnings", list),
             ("outliers", list),
             ("validation_poses", list),
+            ("fitted_joint_ranges_rad", list),
         ):
             value = outliers if key == "outliers" else doc.get(key)
             if value is None:
@@ -251,6 +306,17 @@ class FitReport:
         for key in ("outliers", "validation_poses"):
             if not all(type(i) is int for i in values.get(key, [])):
                 raise CalibrationError(f"{where}: '{key}' must be a list of pose numbers")
+        ranges = values.get("fitted_joint_ranges_rad", [])
+        if ranges and not (
+            len(ranges) == 6
+            and all(
+                isinstance(r, list) and len(r) == 2 and all(_is_number(v) for v in r)
+                for r in ranges
+            )
+        ):
+            raise CalibrationError(
+                f"{where}: 'fitted_joint_ranges_rad' must be six [min, max] pairs (rad)"
+            )
         values["warnings"] = [str(w) for w in values.get("warnings", [])]
         return cls(**values)
 
@@ -298,6 +364,7 @@ TYPED_KEYS = (
     "outlier_poses",
     *FitReport.KEYS,
     *Provenance._TYPES,
+    "joint_terms",
 )
 
 
@@ -337,6 +404,9 @@ class Calibration:
         Statistics, uncertainty, warnings, outliers, solver.
     diagnostics : dict
         Every other key of the file (what later versions add), JSON values.
+    joint_terms : JointTerms
+        Joint error terms (:mod:`calibrator.joint_terms`), zero when not used;
+        written under ``"joint_terms"`` only when some term is nonzero.
     """
 
     nominal_mdh: np.ndarray
@@ -354,6 +424,7 @@ class Calibration:
     provenance: Provenance = field(default_factory=Provenance)
     fit: FitReport = field(default_factory=FitReport)
     diagnostics: dict = field(default_factory=dict)
+    joint_terms: JointTerms = field(default_factory=JointTerms.zero)
 
     def __post_init__(self) -> None:
         self.nominal_mdh = kinematics.check_mdh(self.nominal_mdh).copy()
@@ -386,6 +457,9 @@ class Calibration:
         space = result.space
         mdh, base2tracker, flange2tool = space.unpack(result.x)
         x = np.asarray(result.x, dtype=float)
+        # Joint terms go under "joint_terms"; free/deltas stay geometric.
+        terms = JointTerms.from_vector(space.joint_terms(x))
+        geometric = [i for i, n in enumerate(space.free) if n in parameters.ALL_NAMES]
         opts = result.options
         recorded = provenance or Provenance()
         provenance = Provenance(
@@ -403,6 +477,10 @@ class Calibration:
             particles=int(opts.particles),
             generations=int(opts.generations),
             swarm_poses=int(opts.swarm_poses),
+            joint_term_groups=recorded.joint_term_groups,
+            mass_model=recorded.mass_model,
+            payload_kg=recorded.payload_kg,
+            payload_com_mm=recorded.payload_com_mm,
             versions=dict(recorded.versions),
             created=recorded.created,
         )
@@ -419,8 +497,8 @@ class Calibration:
             mdh=mdh,
             base2tracker=base2tracker,
             flange2tool=flange2tool,
-            free=space.free,
-            deltas=dict(zip(space.free, map(float, x), strict=True)),
+            free=tuple(space.free[i] for i in geometric),
+            deltas={space.free[i]: float(x[i]) for i in geometric},
             dropped=[dict(d) for d in result.dropped],
             model=model,
             frame=frame,
@@ -429,6 +507,7 @@ class Calibration:
             session=None if session_path is None else str(session_path),
             provenance=provenance,
             fit=fit,
+            joint_terms=terms,
         )
 
     def parameter_records(self) -> list[dict[str, Any]]:
@@ -506,6 +585,8 @@ class Calibration:
             dropped_parameters=self.dropped,
             parameters=self.parameter_records(),
         )
+        if self.joint_terms.used:
+            doc["joint_terms"] = self.joint_terms.to_json()
         return _jsonable(doc)
 
     def save(self, path, batch=None):
@@ -643,6 +724,10 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
+    try:
+        terms = JointTerms.from_json(doc.get("joint_terms"))
+    except CalibrationError as exc:
+        raise CalibrationError(f"{where}: {exc}") from None
     calibration = Calibration(
         provenance=Provenance.from_json(doc, where),
         fit=FitReport.from_json(doc, where),
@@ -655,6 +740,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         frame=frame,
         session=doc.get("session"),
         diagnostics=diagnostics,
+        joint_terms=terms,
         **transforms,
     )
     consistency.check_calibration(calibration, where)

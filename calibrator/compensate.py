@@ -20,11 +20,11 @@ A result outside the joint limits is reported, never clipped.
 """
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from calibrator import frames, kinematics, strict
+from calibrator import frames, joint_terms, kinematics, strict
 from calibrator.errors import CalibrationError
 
 #: Position tolerance of the IK (mm).
@@ -177,7 +177,7 @@ class Compensation:
     q_nominal: np.ndarray
 
 
-def compensate(calibration, desired=None, q_nominal=None, limits=None):
+def compensate(calibration, desired=None, q_nominal=None, limits=None, payload_kg=None):
     """Compensate targets for a calibrated arm.
 
     Parameters
@@ -192,6 +192,9 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None):
         ``desired`` it is refined on the nominal model first.
     limits : array_like, shape (6, 2), optional
         Joint limits (rad).
+    payload_kg : float, optional
+        Working payload for the calibration's compliance terms (default: the
+        payload it was calibrated at).
 
     Returns
     -------
@@ -205,6 +208,17 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None):
         desired = np.asarray(desired, dtype=float)
         q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
     sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
+    # Joint terms: the IK gives the angles the joints must really turn to;
+    # command the read-back angles whose effective angles those are.
+    terms = calibration.joint_terms
+    if terms.used:
+        torque = joint_terms.torque_function(terms, calibration.nominal_mdh, payload_kg)
+        q_cmd = joint_terms.invert(sol.q, terms, torque)
+        inside = np.ones(len(q_cmd), dtype=bool)
+        if limits is not None:
+            lim = np.asarray(limits, dtype=float)
+            inside = np.all((q_cmd >= lim[:, 0]) & (q_cmd <= lim[:, 1]), axis=1)
+        sol = replace(sol, q=q_cmd, within_limits=inside)
     corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
     return Compensation(sol.q, corrected, desired, sol, q_nominal)
 
@@ -317,7 +331,7 @@ def read_targets(path):
     return q, desired
 
 
-def run(calibration, targets_path, output):
+def run(calibration, targets_path, output, payload_kg=None):
     """Compensate a targets CSV and write the result CSV atomically.
 
     Output columns: ``target`` (row number, from 0, as plans number their
@@ -345,7 +359,7 @@ def run(calibration, targets_path, output):
         limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
-    result = compensate(calibration, desired, q_nom, limits)
+    result = compensate(calibration, desired, q_nom, limits, payload_kg)
     sol = result.solution
     status = np.where(sol.ok, "ok", np.where(sol.converged, "outside joint limits", "not reached"))
     corrected = np.concatenate(
@@ -394,4 +408,11 @@ def run(calibration, targets_path, output):
             )
     if len(failed) > 10:
         lines.append(f"... and {len(failed) - 10} more (see the status column)")
+    # Targets outside the joint ranges the calibration was fitted on: extrapolated.
+    ranges = calibration.fit.fitted_joint_ranges_rad
+    if np.shape(ranges) == (6, 2):
+        from calibrator.identify.uncertainty import range_warnings
+
+        fitted = np.asarray(ranges, dtype=float).T
+        lines += [f"warning: {w}" for w in range_warnings(fitted, sol.q[sol.ok], "target")]
     return Report(len(failed) == 0, lines)

@@ -15,8 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrator import frames, kinematics
-from calibrator.parameters import ALL_NAMES, N_MDH, TOOL_ROTATION_START, TOOL_START
+from calibrator import frames, joint_terms, kinematics
+from calibrator.parameters import (
+    JOINT_TERM_START,
+    N_MDH,
+    NAMES_WITH_TERMS,
+    TOOL_ROTATION_START,
+    TOOL_START,
+)
 
 
 @dataclass(frozen=True)
@@ -31,11 +37,14 @@ class Observations:
         Tool point in the tracker frame (mm).
     rotations : ndarray, shape (N, 3, 3), or None
         Probe orientation in the tracker frame, for 6-DoF probes.
+    torque : ndarray, shape (N, 6), or None
+        Gravity torque about each joint (N m), for compliance joint terms.
     """
 
     q: np.ndarray
     points: np.ndarray
     rotations: np.ndarray | None = None
+    torque: np.ndarray | None = None
 
     def __len__(self):
         return len(self.q)
@@ -47,10 +56,11 @@ class Observations:
     def subset(self, index):
         """The observations at ``index`` (an integer array or boolean mask)."""
         rot = None if self.rotations is None else self.rotations[index]
-        return Observations(self.q[index], self.points[index], rot)
+        tau = None if self.torque is None else self.torque[index]
+        return Observations(self.q[index], self.points[index], rot, tau)
 
 
-def predict(space, x, q):
+def predict(space, x, q, torque=None):
     """Tool poses in the tracker frame for deltas ``x``.
 
     Parameters
@@ -59,6 +69,8 @@ def predict(space, x, q):
     x : array_like, shape (..., space.size)
     q : array_like, shape (N, 6)
         Joint angles (rad).
+    torque : array_like, shape (N, 6), optional
+        Gravity torques (N m), needed by free compliance terms.
 
     Returns
     -------
@@ -66,6 +78,22 @@ def predict(space, x, q):
         ``base2tracker . base2flange . flange2tool`` (mm).
     """
     mdh, base2tracker, flange2tool = space.unpack(x)
+    if space.has_joint_terms:
+        # Joint terms: the chain turns through the effective angles.
+        q = joint_terms.effective(q, space.joint_terms(np.asarray(x, dtype=float)), torque)
+        if q.ndim > 2:  # a batch of parameter sets, each with its own angles
+            lead = q.shape[:-2]
+            flat = [
+                kinematics.forward(m, qq, f, b)
+                for m, qq, f, b in zip(
+                    mdh.reshape(-1, 6, 5),
+                    q.reshape(-1, *q.shape[-2:]),
+                    flange2tool.reshape(-1, 4, 4),
+                    base2tracker.reshape(-1, 4, 4),
+                    strict=True,
+                )
+            ]
+            return np.stack(flat).reshape(lead + flat[0].shape)
     return kinematics.forward(mdh, q, flange2tool, base2tracker)
 
 
@@ -90,7 +118,7 @@ def residuals(space, x, obs, k=0.0):
     ndarray, shape (3N,) or (6N,)
         Position rows (mm), then weighted orientation rows.
     """
-    pose = predict(space, x, obs.q)
+    pose = predict(space, x, obs.q, obs.torque)
     dp = (pose[:, :3, 3] - obs.points).ravel()
     if not uses_orientation(obs, k):
         return dp
@@ -108,7 +136,7 @@ def errors(space, x, obs):
     orientation : ndarray, shape (N, 3) or None
         Rotation vector of model relative to measured orientation (rad).
     """
-    pose = predict(space, x, obs.q)
+    pose = predict(space, x, obs.q, obs.torque)
     position = pose[:, :3, 3] - obs.points
     if obs.rotations is None:
         return position, None
@@ -143,7 +171,10 @@ def jacobian(space, x, obs, k=0.0, names=None):
     names = space.free if names is None else tuple(names)
     full = space.expand(np.asarray(x, dtype=float))
     mdh, base2tracker, flange2tool = space.unpack(np.asarray(x, dtype=float))
-    _, link = kinematics.chain(mdh, obs.q, all_frames=True)  # (N, 7, 4, 4)
+    q_eff = obs.q
+    if space.has_joint_terms:
+        q_eff = joint_terms.effective(obs.q, full[JOINT_TERM_START:], obs.torque)
+    _, link = kinematics.chain(mdh, q_eff, all_frames=True)  # (N, 7, 4, 4)
     n = len(obs.q)
     p = link[:, 6, :3, :3] @ flange2tool[:3, 3] + link[:, 6, :3, 3]  # tool point, base frame
 
@@ -183,16 +214,22 @@ def jacobian(space, x, obs, k=0.0, names=None):
     none = np.zeros((n, 3, 3))  # the tool point does not turn; the tool's turns do not move it
     # Tool rotation R(tool0) Rx Ry Rz: turns about the tool frame's moving
     # axes, which leave the tool point where it is.
-    t_angles = full[TOOL_ROTATION_START:]
+    t_angles = full[TOOL_ROTATION_START:JOINT_TERM_START]
     t_rx = frames.rotations_xyz([t_angles[0], 0.0, 0.0])
     t_rxy = frames.rotations_xyz([t_angles[0], t_angles[1], 0.0])
     local = space.tool0[:3, :3] @ np.column_stack([[1.0, 0.0, 0.0], t_rx[:, 1], t_rxy[:, 2]])
     rot_tool_turn = b_r @ link[:, 6, :3, :3] @ local  # (N, 3, 3), tracker-frame axes
 
-    pos_all = np.concatenate([pos_mdh, pos_base, pos_tool, none], axis=-1)  # (N, 3, 42)
-    cols = [ALL_NAMES.index(name) for name in names]
+    # Joint terms: joint j's theta column times d q_eff_j / d term.
+    dq = joint_terms.derivatives(obs.q, obs.torque).reshape(n, 4, 6)
+    theta_cols = [j * 5 + kinematics.THETA for j in range(6)]
+    pos_terms = (pos_mdh[..., theta_cols][:, :, None, :] * dq[:, None]).reshape(n, 3, 24)
+    rot_terms = (rot_mdh[..., theta_cols][:, :, None, :] * dq[:, None]).reshape(n, 3, 24)
+
+    pos_all = np.concatenate([pos_mdh, pos_base, pos_tool, none, pos_terms], axis=-1)
+    cols = [NAMES_WITH_TERMS.index(name) for name in names]
     jac = pos_all[..., cols].reshape(3 * n, len(cols))
     if uses_orientation(obs, k):
-        rot_all = np.concatenate([rot_mdh, rot_base, none, rot_tool_turn], axis=-1)
+        rot_all = np.concatenate([rot_mdh, rot_base, none, rot_tool_turn, rot_terms], axis=-1)
         jac = np.vstack([jac, np.sqrt(k) * rot_all[..., cols].reshape(3 * n, len(cols))])
     return jac

@@ -25,24 +25,31 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calibrator import frames, kinematics
+from calibrator import frames, joint_terms, kinematics
 from calibrator.errors import IdentifiabilityError
 
 MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMNS)
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
 TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
 TOOL_ROTATION_NAMES = ("tool_rx", "tool_ry", "tool_rz")
+# Opt-in joint error terms (scale, harmonic, compliance), see calibrator.joint_terms.
+JOINT_TERM_NAMES = joint_terms.NAMES
 ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES + TOOL_ROTATION_NAMES
+#: Every name a space can free: the geometry, then the opt-in joint terms.
+NAMES_WITH_TERMS = ALL_NAMES + JOINT_TERM_NAMES
 N_MDH, N_BASE, N_TOOL = len(MDH_NAMES), len(BASE_NAMES), len(TOOL_NAMES)
 #: Offsets of the blocks in :data:`ALL_NAMES`.
 TOOL_START = N_MDH + N_BASE
 TOOL_ROTATION_START = TOOL_START + N_TOOL
-_INDEX = {name: i for i, name in enumerate(ALL_NAMES)}
+JOINT_TERM_START = TOOL_ROTATION_START + len(TOOL_ROTATION_NAMES)
+_INDEX = {name: i for i, name in enumerate(NAMES_WITH_TERMS)}
 
 
 def unit(name):
     """Unit of a parameter, ``'mm'`` or ``'rad'``."""
     i = _INDEX[name]
+    if i >= JOINT_TERM_START:
+        return joint_terms.UNITS[joint_terms.prefix(name)]
     if i < N_MDH:
         return kinematics.UNITS[i % 5]
     if i < TOOL_START:
@@ -59,6 +66,8 @@ PLAUSIBLE = {("mdh", "mm"): 1.0, ("mdh", "rad"): 0.01, ("frame", "mm"): 5.0, ("f
 
 def plausible_range(name):
     """Plausible size of the delta of a parameter (mm or rad), see :data:`PLAUSIBLE`."""
+    if _INDEX[name] >= JOINT_TERM_START:
+        return joint_terms.PLAUSIBLE[joint_terms.prefix(name)]
     return PLAUSIBLE[("mdh" if _INDEX[name] < N_MDH else "frame", unit(name))]
 
 
@@ -109,6 +118,17 @@ class ParameterSpace:
         """Unit of each free parameter."""
         return tuple(unit(n) for n in self.free)
 
+    def joint_terms(self, x):
+        """Joint-term values (zeros where not free), shape (..., 24); see calibrator.joint_terms."""
+        x = np.asarray(x, dtype=float)
+        if not self.has_joint_terms:
+            return np.zeros(x.shape[:-1] + (len(JOINT_TERM_NAMES),))
+        return self.expand(x)[..., JOINT_TERM_START:]
+
+    @property
+    def has_joint_terms(self):
+        return bool(np.any(self.index >= JOINT_TERM_START))
+
     def with_free(self, free):
         """The same space with another free set."""
         return ParameterSpace(self.nominal_mdh, self.base0, self.tool0, tuple(free))
@@ -122,12 +142,14 @@ class ParameterSpace:
 
         Returns
         -------
-        ndarray, shape (..., len(ALL_NAMES))
+        ndarray, shape (..., len(ALL_NAMES)), or (..., len(NAMES_WITH_TERMS)) with joint terms
         """
         x = np.asarray(x, dtype=float)
         if x.shape[-1] != self.size:
             raise ValueError(f"parameter vector must end in {self.size}, got {x.shape}")
-        full = np.zeros(x.shape[:-1] + (len(ALL_NAMES),))
+        # Joint terms widen the vector only when some are free (geometry stays 42 wide).
+        width = len(NAMES_WITH_TERMS) if self.has_joint_terms else len(ALL_NAMES)
+        full = np.zeros(x.shape[:-1] + (width,))
         full[..., self.index] = x
         return full
 
@@ -151,7 +173,7 @@ class ParameterSpace:
         base2tracker = self.base0 @ delta
         flange2tool = np.broadcast_to(self.tool0, full.shape[:-1] + (4, 4)).copy()
         flange2tool[..., :3, 3] += full[..., TOOL_START:TOOL_ROTATION_START]
-        turn = full[..., TOOL_ROTATION_START:]
+        turn = full[..., TOOL_ROTATION_START:JOINT_TERM_START]
         if np.any(turn):
             flange2tool[..., :3, :3] = self.tool0[:3, :3] @ frames.rotations_xyz(turn)
         return mdh, base2tracker, flange2tool
@@ -172,7 +194,7 @@ class ParameterSpace:
             Deltas of the free parameters. Differences in parameters that
             are not free are dropped.
         """
-        full = all_deltas(
+        geometry = all_deltas(
             self.nominal_mdh,
             self.base0,
             self.tool0,
@@ -180,11 +202,14 @@ class ParameterSpace:
             self.base0 if base2tracker is None else base2tracker,
             self.tool0 if flange2tool is None else flange2tool,
         )
+        # Joint terms are not part of an arm's geometry: packed as zero.
+        full = np.zeros(len(NAMES_WITH_TERMS))
+        full[: len(ALL_NAMES)] = geometry
         # What is not given is exactly the first guess, not its round trip.
         if base2tracker is None:
             full[N_MDH:TOOL_START] = 0.0
         if flange2tool is None:
-            full[TOOL_START:] = 0.0
+            full[TOOL_START:JOINT_TERM_START] = 0.0
         return full[self.index]
 
     def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):
@@ -202,6 +227,9 @@ class ParameterSpace:
         """
         half = []
         for name in self.free:
+            if _INDEX[name] >= JOINT_TERM_START:
+                half.append(4 * plausible_range(name))
+                continue
             is_frame = _INDEX[name] >= N_MDH
             if unit(name) == "mm":
                 half.append(frame_mm if is_frame else mm)
@@ -355,6 +383,8 @@ def _priority(name):
     # Frames first: a base frame or tool point absorbs what joint 1 and
     # joint 6 duplicate, and the MDH table keeps its nominal meaning there.
     i = _INDEX[name]
+    if i >= JOINT_TERM_START:  # joint terms last: geometry keeps what it can explain
+        return i
     return i - len(ALL_NAMES) if i >= N_MDH else i
 
 

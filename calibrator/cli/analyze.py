@@ -399,3 +399,7 @@ def tolerance(
         text = json.dumps({"nominal": source, **result}, indent=2) + "\n"
         outputs.write_text(json_out, text, inputs=[calibration])
         typer.echo(f"wrote {json_out}")
+
+
+# Registers ``analyze deflection`` on :data:`analyze_app` (its own module).
+from calibrator.cli import analyze_deflection as _deflection  # noqa: E402,F401  isort: skip

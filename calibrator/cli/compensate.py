@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _checks as checks
 from calibrator.cli._app import app
 
 
@@ -14,6 +15,11 @@ def compensate(
     ),
     targets_path: Path = typer.Argument(..., metavar="TARGETS", help="CSV of targets."),
     output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
+    payload_kg: float = typer.Option(
+        None,
+        callback=checks.finite(minimum=0.0),
+        help="Working payload (kg) for compliance joint terms [default: the calibration's].",
+    ),
 ):
     """Joint angles reaching each target on the calibrated arm, and the corrected
     targets to send to a controller that keeps its nominal model.
@@ -28,7 +34,9 @@ def compensate(
 
     outputs.check(output, inputs=[calibration_path, targets_path])
     cal = calibration.load(calibration_path)
-    report = comp.run(cal, targets_path, output)
+    if payload_kg is not None and not cal.joint_terms.needs_torque:
+        typer.echo("note: --payload-kg changes nothing: the calibration has no compliance terms")
+    report = comp.run(cal, targets_path, output, payload_kg)
     for line in report.lines:
         typer.echo(line, err=not report.ok)
     if not report.ok:

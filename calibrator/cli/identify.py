@@ -1,7 +1,7 @@
 """``calibrator identify``: MDH parameters from a session, written to calibration.json."""
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
@@ -29,7 +29,11 @@ class Loss(StrEnum):
 @app.command()
 def identify(
     ctx: typer.Context,
-    session_path: Path = typer.Argument(..., metavar="SESSION", help="Session file (Parquet)."),
+    session_paths: list[Path] = typer.Argument(
+        ...,
+        metavar="SESSION",
+        help="Session file(s) (Parquet); several: one arm, e.g. at several payloads.",
+    ),
     output: Path = typer.Option(
         Path("calibration.json"), "-o", "--output", help="Calibration file to write (JSON)."
     ),
@@ -91,9 +95,34 @@ def identify(
         help="Re-run with the options recorded in this calibration file "
         "(options given here override them).",
     ),
+    joint_terms_text: str = typer.Option(
+        None,
+        "--joint-terms",
+        help="Also fit joint terms: any of scale,harmonic,compliance; each kept only if "
+        "it lowers the cross-validated error.",
+    ),
+    mass_model: str = typer.Option(
+        None, help="Mass model for compliance: a named arm or a YAML [default: the model's]."
+    ),
+    payload_kg: float = typer.Option(
+        None,
+        callback=checks.finite(minimum=0.0),
+        help="Payload (kg) of sessions that do not record one [default: 0].",
+    ),
+    payload_com_mm: str = typer.Option(
+        "0,0,0", help="Payload centre of mass in the flange frame, x,y,z (mm)."
+    ),
+    target_mm: float = typer.Option(
+        None,
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Print how many more poses would bring the parameter part of the held-out "
+        "error below this (mm).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
 ):
     """Identify MDH parameters from a session and write calibration.json."""
+    import numpy as np
+
     from calibrator import calibration, outputs, progress, session
     from calibrator.identify import pipeline, report, uncertainty
 
@@ -111,17 +140,32 @@ def identify(
         loss=loss.value,
         noise_mm=noise_mm,
     )
+    session_path = session_paths[0]
+    joint = JointOptions(joint_terms_text, mass_model, payload_kg, payload_com_mm)
     if like is not None:
-        options, model, nominal_file = _recorded(
-            ctx, like, session_path, options, model, nominal_file
+        options, model, nominal_file, joint = _recorded(
+            ctx, like, session_path, options, model, nominal_file, joint
         )
-    inputs = [session_path, nominal_file, like]
+    groups = ()
+    if joint.groups is not None:
+        from calibrator import joint_terms
+
+        groups = joint_terms.parse_groups(joint.groups)
+    payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
+    inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs)
     if report_dir is not None:
         outputs.check_folder(report_dir, inputs=inputs)
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
-    loaded = session.load(session_path, model=model)
+    parts = [session.load(p, model=model) for p in session_paths]
+    loaded = parts[0]
+    if len(parts) > 1 or groups:
+        # Joint terms and several sessions only: a plain identify does not load them.
+        from calibrator import joint_fit
+
+        loaded = joint_fit.combine(parts, [str(p) for p in session_paths])
+        payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     for doubt in loaded.warnings:
         typer.echo(f"warning: {doubt}", err=True)
     if nominal_file is not None:
@@ -141,18 +185,47 @@ def identify(
         raise CalibrationError(
             _too_few_hint(session_path, exc, len(loaded.table), options)
         ) from None
+    found = None
+    if groups:
+        from calibrator import mass_models
+
+        source = joint.mass_model or loaded.meta.model
+        masses = None
+        if "compliance" in groups and source:
+            masses = mass_models.resolve(source)
+        result, found = joint_fit.run(
+            result, loaded, payloads, groups, masses, payload_com, options.noise_mm
+        )
     took = time.perf_counter() - started
     provenance = calibration.Provenance(
         session_sha256=calibration.digest(session_path),
         nominal_source="file" if nominal_file else "model" if model else "session",
         nominal_file=None if nominal_file is None else str(nominal_file),
         nominal_sha256=None if nominal_file is None else calibration.digest(nominal_file),
+        joint_term_groups=",".join(groups),
+        mass_model=joint.mass_model,
+        payload_kg=joint.payload_kg,
+        payload_com_mm=[float(v) for v in payload_com],
         versions=calibration.versions(),
         created=datetime.now(UTC).isoformat(timespec="seconds"),
     )
     cal = calibration.Calibration.from_result(
         result, session_path, loaded.meta.model, loaded.meta.frame, provenance
     )
+    if found is not None and found.terms.needs_torque:
+        cal.joint_terms = replace(
+            cal.joint_terms,
+            payload_kg=float(np.median(payloads)),
+            payload_com_mm=payload_com,
+            mass_model=str(joint.mass_model or loaded.meta.model),
+        )
+    if len(session_paths) > 1:
+        cal.diagnostics["sessions"] = [str(p) for p in session_paths]
+    # compensate warns about targets outside the joint ranges the fit saw.
+    fitted_q = loaded.observations.q[result.fit_index]
+    cal.fit.fitted_joint_ranges_rad = np.column_stack(
+        [fitted_q.min(axis=0), fitted_q.max(axis=0)]
+    ).tolist()
     with outputs.Outputs(inputs=inputs) as batch:
         cal.save(output, batch=batch)
         if report_dir is not None:
@@ -172,8 +245,33 @@ def identify(
     typer.echo(report.format_table(result.stats))
     for line in uncertainty.summary_lines(result.uncertainty):
         typer.echo(line)
+    typer.echo(uncertainty.noise_floor_line(result.uncertainty))
+    if found is not None:
+        for line in joint_fit.summary_lines(found):
+            typer.echo(line)
+    if target_mm is not None:
+        typer.echo(_target_line(result, target_mm))
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+
+
+@dataclass(frozen=True)
+class JointOptions:
+    """The joint-term options as given (``None``: not given), for ``--like`` to fill in."""
+
+    groups: str | None = None
+    mass_model: str | None = None
+    payload_kg: float | None = None
+    payload_com_mm: str = "0,0,0"
+
+
+#: CLI parameter of each recorded joint-term option.
+_JOINT_PARAMS = {
+    "joint_term_groups": ("joint_terms_text", "groups"),
+    "mass_model": ("mass_model", "mass_model"),
+    "payload_kg": ("payload_kg", "payload_kg"),
+    "payload_com_mm": ("payload_com_mm", "payload_com_mm"),
+}
 
 
 #: CLI parameter of each recorded option (``k`` is ``--orientation-weight``).
@@ -190,8 +288,10 @@ _OPTION_PARAMS = {
 }
 
 
-def _recorded(ctx, like, session_path, options, model, nominal_file):
-    """Options, model and nominal file of ``--like``: recorded ones unless given here.
+def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
+    """Options, model, nominal file and joint-term options of ``--like``.
+
+    Recorded ones are taken unless given here.
 
     Raises
     ------
@@ -220,6 +320,15 @@ def _recorded(ctx, like, session_path, options, model, nominal_file):
         if key == "swarm_poses" or not (given_k if key == "k" else given(_OPTION_PARAMS[key]))
     }
     options = replace(options, **chosen)
+    for key, (param, attr) in _JOINT_PARAMS.items():
+        value = getattr(cal.provenance, key)
+        if value is None or given(param):
+            continue
+        if key == "payload_com_mm":
+            value = ",".join(repr(float(v)) for v in value)
+        elif key == "joint_term_groups":
+            value = value or None  # "" recorded: no joint terms
+        joint = replace(joint, **{attr: value})
     missing = [k for k in calibration.Provenance.OPTION_KEYS if k not in recorded]
     if missing:
         typer.echo(
@@ -249,7 +358,39 @@ def _recorded(ctx, like, session_path, options, model, nominal_file):
                 f"--like {like}: its nominal file {nominal_file} has changed since "
                 "(SHA-256 differs); give the one it used with --nominal"
             )
-    return options, model, nominal_file
+    return options, model, nominal_file, joint
+
+
+def _target_line(result, target_mm):
+    """``--target-mm``: more poses of the same kind for a parameter part below it."""
+    from calibrator.identify import uncertainty
+
+    pred = result.uncertainty.get("predicted_validation_mm")
+    if not pred:
+        return "--target-mm: no held-out poses to predict at (use --validation-fraction > 0)"
+    n_fit = len(result.fit_index)
+    more = uncertainty.poses_for_target(pred["model_rms_mean"], n_fit, target_mm)
+    if more == 0:
+        return f"parameter part {pred['model_rms_mean']:.4f} mm is already below {target_mm:g} mm"
+    floor = uncertainty.noise_floor(result.uncertainty["residual_sigma"]["position_mm"])
+    return (
+        f"about {more} more poses like these ({n_fit + more} in all) bring the parameter part "
+        f"from {pred['model_rms_mean']:.4f} to {target_mm:g} mm RMS; the mean held-out error "
+        f"then approaches the noise floor {floor:.4f} mm"
+    )
+
+
+def _three(text, what):
+    """``'x,y,z'`` -> ndarray (3,) of finite numbers."""
+    import numpy as np
+
+    try:
+        values = np.array([float(v) for v in str(text).split(",")])
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise CalibrationError(f"{what} must be three numbers x,y,z, got {text!r}")
+    return values
 
 
 def _too_few_hint(path, exc, n_poses, options):

@@ -112,7 +112,14 @@ def export(calibration, fmt):
     """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
     if fmt not in REGISTRY:
         raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
-    return REGISTRY[fmt].write(calibration)
+    result = REGISTRY[fmt].write(calibration)
+    # No format holds the joint terms: say what is lost.
+    from calibrator.joint_terms import loss_note
+
+    lost = loss_note(calibration.joint_terms)
+    if lost:
+        result = Exported(result.text, [*result.notes, f"{fmt} {lost}"])
+    return result
 
 
 # Importing the format modules registers them (order = order of --format choices).

@@ -14,8 +14,13 @@ Three sieves, each leaving a reason for every parameter it drops:
    the parameters left is an error, not a reason to drop.
 
 A plan has no session yet: it stops after step 2.
+
+Parameters offered after a geometric fit (the opt-in joint error terms of
+:mod:`calibrator.joint_terms`) go through :func:`offer`: sieves 2 and 3 on
+the fitting poses, at the fitted deltas, together with the geometry.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -137,6 +142,44 @@ def decide(
     cols = [kept.index(n) for n in chosen]
     info = identifiability.scaled_information(jac[:, cols], chosen, noise_mm)
     return FreeSet(space.with_free(chosen), dropped + weak, info)
+
+
+def offer(problem: Problem, x: np.ndarray, names: Sequence[str], noise_mm: float) -> FreeSet:
+    """The free set of a fitted problem with more parameters offered (joint terms).
+
+    The offered names join the problem's free set and go through the same
+    sieves as the geometry: redundancy (:func:`calibrator.parameters.prune`)
+    and what these poses pin down against the noise
+    (:func:`identifiability.select`), both on the fitting poses at ``x``
+    (joint terms need the session's poses: compliance has no effect without
+    their gravity torques, and a term is told from the geometry only by the
+    poses' joint angles).
+
+    Parameters
+    ----------
+    problem : Problem
+        The fitted problem (geometry).
+    x : ndarray, shape (problem.space.size,)
+        Its fitted deltas.
+    names : sequence of str
+        Parameters offered, in :data:`calibrator.parameters.NAMES_WITH_TERMS`.
+    noise_mm : float
+        Assumed noise of one residual row (mm).
+
+    Returns
+    -------
+    FreeSet
+        ``space``: the kept names, geometric and offered, in name order;
+        ``dropped``: every parameter left out, with its reason; no information.
+    """
+    values = dict(zip(problem.space.free, np.asarray(x, dtype=float), strict=True))
+    wider = problem.with_free(list(problem.space.free) + [n for n in names if n not in values])
+    x_wide = np.array([values.get(n, 0.0) for n in wider.space.free])
+    jac = wider.jacobian(x_wide)
+    free = list(wider.space.free)
+    kept, redundant = parameters.prune(free, jac, context="with these poses")
+    chosen, weak = identifiability.select(kept, jac[:, [free.index(n) for n in kept]], noise_mm)
+    return FreeSet(wider.space.with_free(chosen), redundant + weak)
 
 
 def poses_for(

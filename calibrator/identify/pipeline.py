@@ -188,6 +188,8 @@ def identify(session, options: Options = Options()) -> Result:
 
     say("uncertainty")
     unc = uncertainty.analyse(inliers, x, val)
+    # Held-out poses beyond the fitted joint ranges: the model is extrapolated there.
+    warnings += uncertainty.range_warnings(fit.q, val.q)
     warnings += _noise_warning(unc, options.noise_mm)
     stats = {
         part: report.before_after(problem.space, x, o)

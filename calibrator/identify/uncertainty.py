@@ -27,7 +27,7 @@ STRONG_CORRELATION = 0.9
 _MEAN_OVER_RMS = float(np.sqrt(8.0 / (3.0 * np.pi)))
 
 
-def block_sigmas(res, n_poses, n_free):
+def block_sigmas(res, n_poses, n_free, jac=None):
     """Residual standard deviation per row of each block.
 
     Parameters
@@ -35,6 +35,13 @@ def block_sigmas(res, n_poses, n_free):
     res : ndarray, shape (3N,) or (6N,)
         Residuals at the solution (position rows, then orientation rows).
     n_poses, n_free : int
+    jac : ndarray, shape (len(res), n_free), optional
+        The residual Jacobian at the solution. With it each block's share of
+        the fit is the exact one: ``E[e e^T] = (I-H) S (I-H)`` with ``H`` the
+        fit's hat matrix and ``S`` the block variances, solved for them. The
+        blocks rarely give up equal shares: with a precise probe the
+        orientation rows are nearly noise-free and the position rows absorb
+        most of the fit, so an equal split makes the position sigma too small.
 
     Returns
     -------
@@ -44,6 +51,10 @@ def block_sigmas(res, n_poses, n_free):
         Per weighted orientation row (mm-equivalent, ``sqrt(k)`` rad).
     """
     m = len(res)
+    if jac is not None and m > 3 * n_poses:
+        exact = _block_sigmas_exact(res, n_poses, jac)
+        if exact is not None:
+            return exact
     dof = max(1.0 - n_free / m, 1e-3)  # each block gives up its share of the fit
     pos = res[: 3 * n_poses]
     sigma_p = float(np.sqrt(np.sum(pos**2) / (len(pos) * dof)))
@@ -51,6 +62,38 @@ def block_sigmas(res, n_poses, n_free):
         return sigma_p, None
     rot = res[3 * n_poses :]
     return sigma_p, float(np.sqrt(np.sum(rot**2) / (len(rot) * dof)))
+
+
+def _block_sigmas_exact(res, n_poses, jac):
+    """Position and orientation sigmas from ``E|e_b|^2 = sum_c A_bc sigma_c^2``, or None."""
+    scale = np.linalg.norm(jac, axis=0)
+    scale[scale == 0] = 1.0
+    q, _ = np.linalg.qr(jac / scale)
+    # (I - H)^2 summed by blocks, H = Q Q^T: A_bc = sum_{i in b, j in c} (I - H)_ij^2
+    # = delta_bc (|b| - 2 tr G_b) + tr(G_b G_c), G_b = Q_b^T Q_b, without forming
+    # the (M, M) hat matrix (M = 6N rows: quadratic memory and time otherwise).
+    blocks = (slice(0, 3 * n_poses), slice(3 * n_poses, len(res)))
+    g = [np.einsum("mi,mj->ij", q[b], q[b]) for b in blocks]
+    sizes = [3 * n_poses, len(res) - 3 * n_poses]
+    a = np.array(
+        [
+            [
+                np.sum(g[i] * g[j]) + (sizes[i] - 2.0 * np.trace(g[i]) if i == j else 0.0)
+                for j in range(2)
+            ]
+            for i in range(2)
+        ]
+    )
+    rss = np.array([np.sum(res[b] ** 2) for b in blocks])
+    try:
+        var = np.linalg.solve(a, rss)
+    except np.linalg.LinAlgError:
+        return None
+    if var[1] <= 0:  # orientation rows at the noise of round-off: all the fit is position's
+        var = np.array([rss[0] / a[0, 0], rss[1] / max(a[1, 1], 1e-12)])
+    if not var[0] > 0:
+        return None
+    return float(np.sqrt(var[0])), float(np.sqrt(max(var[1], 0.0)))
 
 
 def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None" = None) -> dict:
@@ -76,7 +119,7 @@ def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None"
     names = list(space.free)
     res = problem.residuals(x)
     jac = problem.jacobian(x)
-    sigma_p, sigma_o = block_sigmas(res, n, len(names))
+    sigma_p, sigma_o = block_sigmas(res, n, len(names), jac)
     row_var = np.full(len(res), sigma_p**2)
     if sigma_o is not None:
         row_var[3 * n :] = sigma_o**2
@@ -137,7 +180,84 @@ def predict_error(space, x, obs, cov, sigma_p):
         "model_rms_mean": float(model_rms.mean()),
         "model_rms_max": float(model_rms.max()),
         "error_mean": float(_MEAN_OVER_RMS * total.mean()),
+        "noise_floor": noise_floor(sigma_p),
     }
+
+
+def noise_floor_line(unc):
+    """``noise floor: ...`` for ``identify``'s output."""
+    floor = noise_floor(unc["residual_sigma"]["position_mm"])
+    return (
+        f"noise floor: {floor:.4f} mm mean held-out error from the residual noise alone "
+        "(no model predicts better)"
+    )
+
+
+def noise_floor(sigma_p):
+    """Mean held-out distance error that the residual noise alone implies (mm).
+
+    ``E|e|`` of an isotropic 3-D Gaussian with ``sigma_p`` per axis: no fit,
+    however many poses, predicts better on average.
+    """
+    return float(_MEAN_OVER_RMS * np.sqrt(3.0) * sigma_p)
+
+
+def poses_for_target(model_rms_mean, n_fit, target_mm):
+    """More poses of the same kind that bring the parameter part below ``target_mm``.
+
+    The parameters' covariance falls as ``1 / N`` for more poses drawn like the
+    fitted ones, so the parameter part of the held-out error as ``1 / sqrt(N)``.
+
+    Returns
+    -------
+    int
+        0 when already below.
+    """
+    if model_rms_mean <= target_mm:
+        return 0
+    return int(np.ceil(n_fit * (model_rms_mean / target_mm) ** 2 - n_fit))
+
+
+#: Poses count as outside the fitted joint ranges beyond this margin: the larger
+#: of 2 deg and 10 % of the range.
+RANGE_SLACK_RAD = np.radians(2.0)
+RANGE_SLACK_SHARE = 0.1
+
+
+def range_warnings(fit_q, others, what="held-out"):
+    """A warning when poses lie outside the joint ranges the fit saw.
+
+    Parameters
+    ----------
+    fit_q : ndarray, shape (N, 6)
+        Joint angles of the fitted poses (rad).
+    others : ndarray, shape (M, 6)
+        Joint angles of the poses to predict at.
+    what : str
+        What those poses are ('held-out', 'target').
+
+    Returns
+    -------
+    list of str
+        Empty, or one sentence naming how many poses and which joints: the
+        model is extrapolated there and its errors grow faster than predicted.
+    """
+    if len(fit_q) == 0 or len(others) == 0:
+        return []
+    lo, hi = fit_q.min(axis=0), fit_q.max(axis=0)
+    # A step just past the edge is noise of the pose draw, not extrapolation.
+    slack = np.maximum(RANGE_SLACK_RAD, RANGE_SLACK_SHARE * (hi - lo))
+    outside = (others < lo - slack) | (others > hi + slack)
+    if not outside.any():
+        return []
+    joints = [j + 1 for j in range(6) if outside[:, j].any()]
+    worst = np.max(np.maximum(lo - others, others - hi), axis=0)
+    parts = ", ".join(f"q{j} by up to {np.degrees(worst[j - 1]):.1f} deg" for j in joints)
+    n = int(outside.any(axis=1).sum())
+    return [
+        f"{n} of {len(others)} {what} poses lie outside the fitted joint ranges ({parts}): "
+        "the model is extrapolated there; expect larger errors than predicted"
+    ]
 
 
 def summary_lines(unc, limit=6):
@@ -169,6 +289,8 @@ def summary_lines(unc, limit=6):
 
 
 def _fmt(name, value):
+    if parameters.unit(name) not in ("mm", "rad"):  # joint terms: 1, rad/Nm
+        return f"{value:.3g} {parameters.unit(name)}"
     if parameters.unit(name) == "rad":
         return f"{np.degrees(value) * 1000:.3g} mdeg"
     return f"{value * 1000:.3g} um"

@@ -73,9 +73,11 @@ def test_two_blocks_use_the_sandwich_with_each_block_s_own_noise():
     jac = fd_jacobian(space, x, obs, K)
     m, d = jac.shape
     n3 = 3 * len(obs)
-    dof = 1 - d / m
-    var_p = res[:n3] @ res[:n3] / (n3 * dof)
-    var_o = res[n3:] @ res[n3:] / ((m - n3) * dof)
+    # Each block's share of the fit from the hat matrix: E|e_b|^2 = sum_c A_bc var_c.
+    i_h = np.eye(m) - jac @ np.linalg.inv(jac.T @ jac) @ jac.T
+    blocks = (slice(0, n3), slice(n3, m))
+    a = np.array([[np.sum(i_h[b, c] ** 2) for c in blocks] for b in blocks])
+    var_p, var_o = np.linalg.solve(a, [res[b] @ res[b] for b in blocks])
     bread = np.linalg.inv(jac.T @ jac)
     s = np.diag(np.r_[np.full(n3, var_p), np.full(m - n3, var_o)])
     cov = bread @ jac.T @ s @ jac @ bread
@@ -85,8 +87,9 @@ def test_two_blocks_use_the_sandwich_with_each_block_s_own_noise():
     corr = correlation(cov)
     np.testing.assert_allclose(unc["correlation"]["matrix"], corr, atol=2e-5)
     sig = unc["residual_sigma"]
-    assert sig["position_mm"] == pytest.approx(np.sqrt(var_p), rel=1e-12)
-    assert sig["orientation_rad"] == pytest.approx(np.sqrt(var_o / K), rel=1e-12)
+    # rel 1e-8: the hat matrix here comes from the finite-difference Jacobian.
+    assert sig["position_mm"] == pytest.approx(np.sqrt(var_p), rel=1e-8)
+    assert sig["orientation_rad"] == pytest.approx(np.sqrt(var_o / K), rel=1e-6)
     # Every pair above 0.9 in |r|, strongest first, and only those.
     pairs = [
         (abs(corr[i, j]), NAMES[i], NAMES[j], corr[i, j])

@@ -1,0 +1,576 @@
+"""Hand error from link deflection, by kinetostatics (seed 001, eqs. 42-51).
+
+Method
+------
+Each flexible link ``i`` is a straight cantilever clamped at its joint frame:
+it runs from the origin of frame ``i-1`` (on joint ``i``'s axis) to the
+origin of frame ``i``, with a circular (solid or hollow) section. Its loads:
+
+- the weight and d'Alembert inertia of everything beyond it (links ``i+1..n``
+  and the payload), reduced to one force and one moment at its tip;
+- its own weight and inertia, spread evenly along the beam (a rod's weight is
+  distributed; the seed lumps it at the centre of mass), plus the moment of
+  its centre of mass's offset from the beam axis, applied at the station of
+  the centre of mass.
+
+Beam theory (Euler-Bernoulli, no shear) gives the tip's small rotation
+``phi`` and translation ``delta`` from these loads (the influence
+coefficients of the seed's eq. 48). Each tip deformation moves everything
+beyond it rigidly, so the hand moves by ``delta + phi x (p_hand - p_tip)``
+and turns by ``phi``; the contributions of all flexible links are expressed
+in the hand frame and summed (eqs. 49-51).
+
+Along a trajectory the inertia loads come from the link frames' second time
+differences (``numpy.gradient``, second order): no dynamic model beyond the
+masses, centres of mass and inertia tensors is needed.
+
+Units: mm, s, kg, N, N mm, N/mm^2 (MPa); gravity is ``-z`` of the base frame.
+Arrays are batched over poses: frames ``(N, n+1, 4, 4)``, results ``(N, ...)``.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from calibrator.errors import CalibrationError
+from calibrator.mass_models import GRAVITY_MM_S2
+
+
+@dataclass(frozen=True)
+class Section:
+    """A circular beam section, solid (``inner_mm = 0``) or hollow, and its material.
+
+    Attributes
+    ----------
+    outer_mm, inner_mm : float
+        Outer and inner diameters (mm).
+    e_mpa : float
+        Young's modulus (N/mm^2); steel 2.1e5.
+    poisson : float
+        Poisson's ratio, for the shear modulus ``G = E / (2 (1 + nu))``.
+    """
+
+    outer_mm: float
+    inner_mm: float = 0.0
+    e_mpa: float = 2.1e5
+    poisson: float = 0.3
+
+    def __post_init__(self) -> None:
+        values = (self.outer_mm, self.inner_mm, self.e_mpa, self.poisson)
+        if not all(np.isfinite(v) for v in values):
+            raise CalibrationError("section values must be finite numbers")
+        if not (self.outer_mm > 0 and 0 <= self.inner_mm < self.outer_mm):
+            raise CalibrationError(
+                f"section needs outer diameter > inner >= 0, got {self.outer_mm}, {self.inner_mm}"
+            )
+        if not (self.e_mpa > 0 and 0 <= self.poisson < 0.5):
+            raise CalibrationError("section needs E > 0 and 0 <= poisson < 0.5")
+
+    @property
+    def area_mm2(self) -> float:
+        return np.pi / 4 * (self.outer_mm**2 - self.inner_mm**2)
+
+    @property
+    def bending_mm4(self) -> float:
+        """Second moment of area about a diameter, ``pi (D^4 - d^4) / 64``."""
+        return np.pi / 64 * (self.outer_mm**4 - self.inner_mm**4)
+
+    @property
+    def polar_mm4(self) -> float:
+        """Polar moment (torsion constant of a circular section), ``2 I``."""
+        return 2 * self.bending_mm4
+
+    @property
+    def shear_mpa(self) -> float:
+        return self.e_mpa / (2 * (1 + self.poisson))
+
+
+@dataclass(frozen=True)
+class FlexArm:
+    """An arm for the deflection analysis.
+
+    Attributes
+    ----------
+    name : str
+    frames : callable
+        ``frames(q)`` with ``q`` shape ``(N, n)`` returns base2frame_i, shape
+        ``(N, n+1, 4, 4)`` (mm); index 0 the base, ``n`` the hand.
+    mass_kg : ndarray, shape (n,)
+    com_mm : ndarray, shape (n, 3)
+        Centre of mass of link ``i`` in frame ``i`` (mm).
+    inertia_kg_mm2 : ndarray, shape (n, 3, 3)
+        Inertia tensor of link ``i`` about its centre of mass, in frame ``i``.
+    sections : dict of int to Section
+        The flexible links (1-based index) and their sections; the others are rigid.
+    """
+
+    name: str
+    frames: Callable[[np.ndarray], np.ndarray]
+    mass_kg: np.ndarray
+    com_mm: np.ndarray
+    inertia_kg_mm2: np.ndarray
+    sections: dict[int, Section] = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return len(self.mass_kg)
+
+
+@dataclass(frozen=True)
+class Deflection:
+    """Hand deformation and each flexible link's share.
+
+    Attributes
+    ----------
+    hand_rot_rad, hand_mm : ndarray, shape (N, 3)
+        Small rotation and translation of the hand, in the hand frame.
+    links : dict of int to dict
+        Per flexible link: ``tip_rot_rad``, ``tip_mm`` (N, 3), its tip's own
+        deformation in the base frame, and ``hand_rot_rad``, ``hand_mm``
+        (N, 3), its share of the hand's, in the hand frame.
+    """
+
+    hand_rot_rad: np.ndarray
+    hand_mm: np.ndarray
+    links: dict[int, dict[str, np.ndarray]]
+
+
+def cantilever_tip(
+    axis: np.ndarray,
+    length_mm: np.ndarray,
+    section: Section,
+    tip_force: np.ndarray,
+    tip_moment: np.ndarray,
+    spread_force: np.ndarray,
+    station_mm: np.ndarray,
+    station_moment: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Tip rotation and translation of a clamped straight beam (influence coefficients).
+
+    Parameters
+    ----------
+    axis : ndarray, shape (N, 3)
+        Unit vector root -> tip.
+    length_mm : ndarray, shape (N,)
+    section : Section
+    tip_force, tip_moment : ndarray, shape (N, 3)
+        Force (N) and moment (N mm) applied at the tip.
+    spread_force : ndarray, shape (N, 3)
+        Total of a load spread evenly over the length (N).
+    station_mm : ndarray, shape (N,)
+        Distance from the root of a point moment ``station_moment`` (N mm).
+
+    Returns
+    -------
+    rot_rad, disp_mm : ndarray, shape (N, 3)
+        Tip rotation and translation, in the frame of the inputs.
+
+    Notes
+    -----
+    With ``u`` the axis, ``L`` the length, bending stiffness ``EI``: a tip
+    force ``F`` across gives ``F L^3 / 3EI`` and a rotation ``F L^2 / 2EI``;
+    a tip moment ``M`` gives ``M L^2 / 2EI`` and ``M L / EI``; a spread load
+    ``w = W / L`` gives ``w L^4 / 8EI`` and ``w L^3 / 6EI``; a moment at
+    station ``a`` gives ``M a (2L - a) / 2EI`` and ``M a / EI``; axial force
+    ``F L / EA`` (spread: ``W L / 2EA``); torsion ``T L / GJ``.
+    """
+    u = axis
+    L = np.asarray(length_mm, dtype=float)[:, None]
+    a = np.asarray(station_mm, dtype=float)[:, None]
+    ei, ea = section.e_mpa * section.bending_mm4, section.e_mpa * section.area_mm2
+    gj = section.shear_mpa * section.polar_mm4
+
+    def split(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        along = np.sum(v * u, axis=-1, keepdims=True) * u
+        return along, v - along
+
+    f_ax, f_t = split(tip_force)
+    m_ax, m_b = split(tip_moment)
+    w_ax, w_t = split(spread_force)
+    s_ax, s_b = split(station_moment)
+    disp = (
+        f_ax * L / ea
+        + f_t * L**3 / (3 * ei)
+        + np.cross(m_b, u) * L**2 / (2 * ei)
+        + w_ax * L / (2 * ea)
+        + w_t * L**3 / (8 * ei)
+        + np.cross(s_b, u) * a * (2 * L - a) / (2 * ei)
+    )
+    rot = (
+        np.cross(u, f_t) * L**2 / (2 * ei)
+        + m_b * L / ei
+        + m_ax * L / gj
+        + np.cross(u, w_t) * L**2 / (6 * ei)
+        + s_b * a / ei
+        + s_ax * a / gj
+    )
+    return rot, disp
+
+
+def _time_derivatives(x: np.ndarray, dt: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """First and second time derivatives along axis 0 (zeros when static)."""
+    if dt is None or len(x) < 3:
+        return np.zeros_like(x), np.zeros_like(x)
+    v = np.gradient(x, dt, axis=0, edge_order=2)
+    return v, np.gradient(v, dt, axis=0, edge_order=2)
+
+
+def link_loads(
+    arm: FlexArm,
+    frames: np.ndarray,
+    dt: float | None = None,
+    payload_kg: float = 0.0,
+    payload_com_mm: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gravity plus d'Alembert loads of every link, at its centre of mass, base frame.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (N, n+1, 4, 4)
+        base2frame_i at each sample (mm).
+    dt : float, optional
+        Sample spacing (s) of a trajectory; ``None`` for static poses (no inertia).
+    payload_kg, payload_com_mm
+        A point mass at ``payload_com_mm`` in the hand frame, added to link n.
+
+    Returns
+    -------
+    com : ndarray, shape (N, n, 3)
+        Centres of mass (mm, base frame).
+    force : ndarray, shape (N, n, 3)
+        Load on each link (N).
+    moment : ndarray, shape (N, n, 3)
+        Load moment about each centre of mass (N mm).
+    """
+    mass = np.array(arm.mass_kg, dtype=float)
+    com_local = np.array(arm.com_mm, dtype=float)
+    inertia = np.array(arm.inertia_kg_mm2, dtype=float)
+    if payload_kg:
+        # Lump the payload into link n (parallel-axis term for its inertia).
+        p = np.zeros(3) if payload_com_mm is None else np.asarray(payload_com_mm, dtype=float)
+        total = mass[-1] + payload_kg
+        c = (mass[-1] * com_local[-1] + payload_kg * p) / total
+        r1, r2 = com_local[-1] - c, p - c
+        shift = mass[-1] * (r1 @ r1 * np.eye(3) - np.outer(r1, r1))
+        shift += payload_kg * (r2 @ r2 * np.eye(3) - np.outer(r2, r2))
+        mass, com_local, inertia = mass.copy(), com_local.copy(), inertia.copy()
+        mass[-1], com_local[-1], inertia[-1] = total, c, inertia[-1] + shift
+    rot = frames[:, 1:, :3, :3]
+    com = np.einsum("tnij,nj->tni", rot, com_local) + frames[:, 1:, :3, 3]
+    gravity = np.array([0.0, 0.0, -GRAVITY_MM_S2])
+    _, acc = _time_derivatives(com, dt)
+    # kg * mm/s^2 = 1e-3 N
+    force = 1e-3 * mass[:, None] * (gravity - acc)
+    moment = np.zeros_like(force)
+    if dt is not None and len(frames) >= 3:
+        rdot, _ = _time_derivatives(rot, dt)
+        omega_hat = rdot @ np.swapaxes(rot, -1, -2)
+        omega = np.stack(
+            [omega_hat[..., 2, 1], omega_hat[..., 0, 2], omega_hat[..., 1, 0]], axis=-1
+        )
+        _, alpha = _time_derivatives(omega, dt)
+        world_inertia = rot @ inertia @ np.swapaxes(rot, -1, -2)
+        h = np.einsum("tnij,tnj->tni", world_inertia, omega)
+        # kg mm^2 / s^2 = 1e-3 N mm
+        moment = -1e-3 * (np.einsum("tnij,tnj->tni", world_inertia, alpha) + np.cross(omega, h))
+    return com, force, moment
+
+
+def deflect(
+    arm: FlexArm,
+    q: np.ndarray,
+    dt: float | None = None,
+    payload_kg: float = 0.0,
+    payload_com_mm: np.ndarray | None = None,
+) -> Deflection:
+    """Hand deformation at poses (static) or along a sampled trajectory.
+
+    Parameters
+    ----------
+    arm : FlexArm
+    q : ndarray, shape (N, n)
+        Joint coordinates (rad, or mm for prismatic joints).
+    dt : float, optional
+        Time between consecutive rows of ``q`` (s); adds inertia loads.
+    payload_kg, payload_com_mm
+        Point payload at the hand (kg; mm in the hand frame).
+
+    Returns
+    -------
+    Deflection
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    frames = arm.frames(q)
+    com, force, moment = link_loads(arm, frames, dt, payload_kg, payload_com_mm)
+    origins = frames[:, :, :3, 3]
+    hand_rot = frames[:, -1, :3, :3]
+    hand_p = origins[:, -1]
+    total_rot = np.zeros((len(q), 3))
+    total_disp = np.zeros((len(q), 3))
+    links = {}
+    for i, section in sorted(arm.sections.items()):
+        root, tip = origins[:, i - 1], origins[:, i]
+        span = tip - root
+        length = np.linalg.norm(span, axis=-1)
+        if np.any(length < 1e-9):
+            raise CalibrationError(f"link {i} has no length between its joint frames")
+        u = span / length[:, None]
+        # Everything beyond link i, reduced to its tip.
+        f_out = force[:, i:].sum(axis=1)
+        m_out = (np.cross(com[:, i:] - tip[:, None], force[:, i:]) + moment[:, i:]).sum(axis=1)
+        # Its own load: spread along it, plus the centre of mass's offset moment.
+        own_f, own_c = force[:, i - 1], com[:, i - 1]
+        station = np.clip(np.sum((own_c - root) * u, axis=-1), 0.0, length)
+        on_axis = root + station[:, None] * u
+        own_m = np.cross(own_c - on_axis, own_f) + moment[:, i - 1]
+        rot, disp = cantilever_tip(u, length, section, f_out, m_out, own_f, station, own_m)
+        hand_disp = disp + np.cross(rot, hand_p - tip)
+        to_hand = np.swapaxes(hand_rot, -1, -2)
+        share_rot = np.einsum("tij,tj->ti", to_hand, rot)
+        share_disp = np.einsum("tij,tj->ti", to_hand, hand_disp)
+        links[i] = {
+            "tip_rot_rad": rot,
+            "tip_mm": disp,
+            "hand_rot_rad": share_rot,
+            "hand_mm": share_disp,
+        }
+        total_rot += share_rot
+        total_disp += share_disp
+    return Deflection(total_rot, total_disp, links)
+
+
+# --- trajectories ---------------------------------------------------------------
+
+
+def trapezoid(
+    start: np.ndarray, end: np.ndarray, duration_s: float, samples: int, ramp: float = 0.25
+) -> tuple[np.ndarray, float]:
+    """Joint path with a trapezoidal velocity law (same timing on every joint).
+
+    Parameters
+    ----------
+    start, end : ndarray, shape (n,)
+    duration_s : float
+    samples : int
+        Number of samples, including both ends (>= 3).
+    ramp : float
+        Fraction of the duration spent accelerating (and again decelerating),
+        in (0, 0.5].
+
+    Returns
+    -------
+    q : ndarray, shape (samples, n)
+    dt : float
+        Time between samples (s).
+    """
+    if not (0 < ramp <= 0.5) or samples < 3 or not duration_s > 0:
+        raise CalibrationError("trajectory needs duration > 0, >= 3 samples, 0 < ramp <= 0.5")
+    tau = np.linspace(0.0, 1.0, samples)
+    # Normalised position s(tau) of a trapezoid with peak speed 1 / (1 - ramp).
+    vmax = 1.0 / (1.0 - ramp)
+    acc = vmax / ramp
+    s = np.where(
+        tau < ramp,
+        0.5 * acc * tau**2,
+        np.where(
+            tau <= 1 - ramp,
+            0.5 * acc * ramp**2 + vmax * (tau - ramp),
+            1.0 - 0.5 * acc * (1.0 - tau) ** 2,
+        ),
+    )
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    return start + s[:, None] * (end - start), duration_s / (samples - 1)
+
+
+# --- arms ----------------------------------------------------------------------
+
+
+def standard_dh_frames(
+    table: np.ndarray, prismatic: np.ndarray, q: np.ndarray, hand: np.ndarray | None = None
+) -> np.ndarray:
+    """Frames of a standard-DH chain, the seed's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
+
+    Parameters
+    ----------
+    table : ndarray, shape (n, 4)
+        Rows ``[theta_offset (rad), s (mm), h (mm), alpha (rad)]``.
+    prismatic : ndarray of bool, shape (n,)
+        Joints whose coordinate adds to ``s`` (mm) instead of ``theta`` (rad).
+    q : ndarray, shape (N, n)
+    hand : ndarray, shape (4, 4), optional
+        Frame n to hand.
+
+    Returns
+    -------
+    ndarray, shape (N, n+1, 4, 4)
+    """
+    q = np.atleast_2d(q)
+    out = np.zeros((len(q), len(table) + 1, 4, 4))
+    out[:, 0] = np.eye(4)
+    for i, (th0, s0, h, alpha) in enumerate(table):
+        th = np.full(len(q), th0) if prismatic[i] else th0 + q[:, i]
+        s = s0 + q[:, i] if prismatic[i] else np.full(len(q), s0)
+        ct, st, ca, sa = np.cos(th), np.sin(th), np.cos(alpha), np.sin(alpha)
+        m = np.zeros((len(q), 4, 4))
+        m[:, 0] = np.stack([ct, -st * ca, st * sa, h * ct], axis=-1)
+        m[:, 1] = np.stack([st, ct * ca, -ct * sa, h * st], axis=-1)
+        m[:, 2, 1], m[:, 2, 2], m[:, 2, 3], m[:, 3, 3] = sa, ca, s, 1.0
+        out[:, i + 1] = out[:, i] @ m
+    if hand is not None:
+        out[:, -1] = out[:, -1] @ hand
+    return out
+
+
+_DEG = np.pi / 180.0
+
+#: Seed 001's example (its Fig. 4 is missing from the text), our reading:
+#: joint 1 turns the column about the vertical (s1 = 1100 mm); joint 2 pitches
+#: the arm about a horizontal axis, the rod's axis h2 = 142 mm above it; joint 3
+#: slides the rod (link 3, s3, 600 mm out at the end pose, clamped at frame 2);
+#: joint 4 rolls about the rod, joint 5 turns the hand about the vertical with
+#: the hand frame h5 = 260 mm below the rod's tip, z5 up, x5 across the arm.
+#: Rows ``[theta_offset, s, h, alpha]`` (rad, mm).
+SEED_TABLE = np.array(
+    [
+        [0.0, 1100.0, 0.0, -90 * _DEG],
+        [-90 * _DEG, 0.0, 142.0, -90 * _DEG],
+        [0.0, 0.0, 0.0, 0.0],
+        [-90 * _DEG, 0.0, 0.0, -90 * _DEG],
+        [0.0, -260.0, 0.0, 0.0],
+    ]
+)
+SEED_PRISMATIC = np.array([False, False, True, False, False])
+#: The seed's mass table: masses (kg, link 5 includes the 5 kg workpiece),
+#: centres of mass (m in the table, mm here) and principal inertias (kg m^2).
+SEED_MASS_KG = np.array([61.46, 27.8, 18.72, 5.33, 6.5 + 5.0])
+SEED_COM_MM = np.array(
+    [[0, -800, 0], [0, 0, 0], [0, 0, -400], [0, 0, 0], [-100, 0, 0]], dtype=float
+)
+SEED_INERTIA_KG_M2 = np.array(
+    [
+        [0.15, 0.1, 0.172],
+        [1.5, 1.8, 1.7],
+        [1.3, 1.2, 1.1],
+        [0.007, 0.009, 0.004],
+        [0.01, 0.01, 0.014],
+    ]
+)
+#: Link 3, the piston rod: hollow steel, E = 2.1e11 Pa, D = 0.05 m, d = 0.03 m.
+SEED_ROD = Section(outer_mm=50.0, inner_mm=30.0, e_mpa=2.1e5)
+#: The seed's task: the hand's origin on a straight line while x5 turns from 0
+#: to 45 deg with theta_1, in 1 s. Our line: base x = 600 cos 45 deg, so the
+#: rod is out s3 = 600 mm (the seed's s3') at the end, B.
+SEED_DURATION_S = 1.0
+_SEED_LINE_X_MM = 600.0 * np.cos(45 * _DEG)
+
+
+def seed_arm() -> FlexArm:
+    """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
+    return FlexArm(
+        name="seed 001 example (5 axes, rod D 50 / d 30 mm)",
+        frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
+        mass_kg=SEED_MASS_KG,
+        com_mm=SEED_COM_MM,
+        inertia_kg_mm2=np.array([np.diag(v) for v in SEED_INERTIA_KG_M2]) * 1e6,
+        sections={3: SEED_ROD},
+    )
+
+
+def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray, float]:
+    """The seed's task: theta_1 0 -> 45 deg in 1 s (trapezoidal law), hand on a line.
+
+    The seed's own velocity law is in its Fig. 6, missing from the text; a
+    trapezoid with ``ramp`` of the time accelerating and decelerating stands in.
+    Joint 3 follows ``s3 = x / cos(theta_1)`` so the hand's origin stays on the
+    line; joints 2, 4, 5 stay at zero (z5 keeps its direction, x5 turns with theta_1).
+
+    Returns
+    -------
+    q : ndarray, shape (samples, 5)
+        Joint coordinates (rad; joint 3 in mm).
+    dt : float
+    """
+    theta, dt = trapezoid(np.zeros(1), np.array([45 * _DEG]), SEED_DURATION_S, samples, ramp)
+    q = np.zeros((samples, 5))
+    q[:, 0] = theta[:, 0]
+    q[:, 2] = _SEED_LINE_X_MM / np.cos(theta[:, 0])
+    return q, dt
+
+
+def named_arm(model: str, sections: dict[int, Section], masses: object = None) -> FlexArm:
+    """A named model (MDH table of :mod:`calibrator.models`) with flexible links.
+
+    Parameters
+    ----------
+    model : str
+        A name known to :func:`calibrator.models.get_model`.
+    sections : dict of int to Section
+        Flexible links (1..6).
+    masses : MassModel, optional
+        Defaults to the model's published mass model.
+    """
+    from calibrator import kinematics, mass_models, models
+
+    m = models.get_model(model)
+    mm = mass_models.get(model) if masses is None else masses
+    mdh = np.array(m.mdh)
+
+    def frames(q: np.ndarray) -> np.ndarray:
+        return kinematics.chain(mdh, q, all_frames=True)[1]
+
+    return FlexArm(
+        name=m.name,
+        frames=frames,
+        mass_kg=np.array(mm.mass_kg),  # type: ignore[attr-defined]
+        com_mm=np.array(mm.com_mm),  # type: ignore[attr-defined]
+        inertia_kg_mm2=np.zeros((6, 3, 3)),
+        sections=dict(sections),
+    )
+
+
+def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
+    """Read a link-section YAML file.
+
+    Format::
+
+        mass_model: ur10e        # optional: a named arm or a mass-model YAML path
+        links:
+          2: {outer_mm: 120, inner_mm: 100, e_mpa: 70000}   # aluminium tube
+          3: {outer_mm: 90, inner_mm: 74, e_mpa: 70000, poisson: 0.33}
+
+    Returns
+    -------
+    sections : dict of int to Section
+    mass_model : str or None
+    """
+    from pathlib import Path
+
+    import yaml
+
+    path = Path(str(path))
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise CalibrationError(f"{path}: cannot read sections ({type(exc).__name__})") from None
+    links = doc.get("links") if isinstance(doc, dict) else None
+    if not isinstance(links, dict) or not links:
+        raise CalibrationError(f"{path}: needs a 'links' mapping, link number -> section")
+    sections = {}
+    for key, spec in links.items():
+        if not (isinstance(key, int) and 1 <= key <= 6 and isinstance(spec, dict)):
+            raise CalibrationError(f"{path}: link {key!r}: keys are link numbers 1..6")
+        unknown = set(spec) - {"outer_mm", "inner_mm", "e_mpa", "poisson"}
+        if unknown or "outer_mm" not in spec:
+            raise CalibrationError(
+                f"{path}: link {key}: needs outer_mm, may give inner_mm, e_mpa, poisson"
+                + (f"; unknown {', '.join(sorted(map(str, unknown)))}" if unknown else "")
+            )
+        try:
+            sections[key] = Section(**{k: float(v) for k, v in spec.items()})
+        except (TypeError, ValueError):
+            raise CalibrationError(f"{path}: link {key}: values must be numbers") from None
+        except CalibrationError as exc:
+            raise CalibrationError(f"{path}: link {key}: {exc}") from None
+    model = doc.get("mass_model")
+    return sections, None if model is None else str(model)

@@ -1,0 +1,164 @@
+"""``calibrator analyze deflection``: hand error from link bending (seed 001's kinetostatics)."""
+
+import json
+from pathlib import Path
+
+import typer
+
+from calibrator.cli import _checks as checks
+from calibrator.cli.analyze import analyze_app
+from calibrator.errors import CalibrationError
+
+_DEG = 3.141592653589793 / 180.0
+
+
+def _vector(text: str, n: int, what: str, prismatic: list[bool]) -> list[float]:
+    """Joint values from the command line: deg, or mm for prismatic joints."""
+    import math
+
+    try:
+        values = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise CalibrationError(f"{what} needs {n} comma-separated finite numbers, got {text!r}")
+    return [v if p else v * _DEG for v, p in zip(values, prismatic, strict=True)]
+
+
+@analyze_app.command("deflection")
+def deflection(
+    model: str = typer.Option(
+        "seed", help="'seed' (seed 001's five-axis example) or a named model with --sections."
+    ),
+    sections: Path = typer.Option(
+        None, help="Link-section YAML (flexible links, diameters, material); named models only."
+    ),
+    masses: str = typer.Option(
+        None, help="Mass model: a named arm or a YAML file [default: the model's published one]."
+    ),
+    start: str = typer.Option(
+        None, help="Trajectory start, joint values (deg; mm for prismatic) [seed: its task]."
+    ),
+    pose: str = typer.Option(
+        None, help="End pose, joint values (deg; mm for prismatic) [seed: its task's end]."
+    ),
+    duration: float = typer.Option(
+        1.0, callback=checks.finite(minimum=0.0, inclusive=False), help="Motion time (s)."
+    ),
+    ramp: float = typer.Option(
+        0.25,
+        callback=checks.finite(minimum=0.0, maximum=0.5),
+        help="Share of the time spent accelerating (and decelerating), in (0, 0.5].",
+    ),
+    samples: int = typer.Option(201, callback=checks.at_least(3), help="Trajectory samples."),
+    payload_kg: float = typer.Option(
+        0.0, callback=checks.finite(minimum=0.0), help="Payload at the hand (kg), named models."
+    ),
+    plot: Path = typer.Option(None, help="Write a deflection map of the workspace (PNG)."),
+    json_out: Path = typer.Option(None, "--json", help="Write the results to this JSON file."),
+):
+    """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
+    import numpy as np
+
+    from calibrator import mass_models, outputs
+    from calibrator.analysis import deflection as dfl
+
+    if ramp == 0.0:
+        raise CalibrationError("--ramp: must be in (0, 0.5], got 0")
+    for path in (json_out, plot):
+        if path is not None:
+            outputs.check(path, inputs=[sections])
+    if model.strip().lower() == "seed":
+        if sections is not None or masses is not None or payload_kg:
+            raise CalibrationError(
+                "--sections, --masses and --payload-kg apply to named models; "
+                "the seed's example has its own"
+            )
+        arm = dfl.seed_arm()
+        prismatic = list(dfl.SEED_PRISMATIC)
+        q, dt = dfl.seed_trajectory(samples, ramp)
+        if duration != dfl.SEED_DURATION_S:
+            dt *= duration / dfl.SEED_DURATION_S
+        if start is not None or pose is not None:
+            q0 = q[0] if start is None else np.array(_vector(start, 5, "--start", prismatic))
+            q1 = q[-1] if pose is None else np.array(_vector(pose, 5, "--pose", prismatic))
+            q, dt = dfl.trapezoid(q0, q1, duration, samples, ramp)
+        map_joints, map_ranges = (1, 2), ((-30 * _DEG, 30 * _DEG), (300.0, 800.0))
+    else:
+        if sections is None:
+            raise CalibrationError(f"--model {model}: give --sections (a link-section YAML)")
+        table, from_file = dfl.load_sections(sections)
+        source = masses or from_file or model
+        arm = dfl.named_arm(model, table, mass_models.resolve(source))
+        prismatic = [False] * 6
+        q0 = np.zeros(6) if start is None else np.array(_vector(start, 6, "--start", prismatic))
+        q1 = np.zeros(6) if pose is None else np.array(_vector(pose, 6, "--pose", prismatic))
+        q, dt = dfl.trapezoid(q0, q1, duration, samples, ramp)
+        map_joints, map_ranges = (1, 2), ((-np.pi, 0.0), (-np.pi * 0.9, np.pi * 0.9))
+    static = dfl.deflect(arm, q[-1:], payload_kg=payload_kg)
+    moving = dfl.deflect(arm, q, dt, payload_kg=payload_kg)
+    n = arm.n
+    dz_end = float(static.hand_mm[0, 2])
+    zs = moving.hand_mm[:, 2]
+    worst = int(np.argmax(np.abs(zs)))
+    t = np.arange(len(q)) * dt
+    typer.echo(f"{arm.name}: flexible links {', '.join(str(i) for i in sorted(arm.sections))}")
+    for i, s in sorted(arm.sections.items()):
+        share = static.links[i]
+        typer.echo(
+            f"  link {i}: D {s.outer_mm:g} / d {s.inner_mm:g} mm, E {s.e_mpa:g} MPa; "
+            f"tip moves {np.linalg.norm(share['tip_mm'][0]):.4f} mm; "
+            f"share at the hand (x{n}, y{n}, z{n}) "
+            + ", ".join(f"{v:+.4f}" for v in share["hand_mm"][0])
+            + " mm"
+        )
+    typer.echo(
+        f"end pose, static: hand deflection (x{n}, y{n}, z{n}) "
+        + ", ".join(f"{v:+.4f}" for v in static.hand_mm[0])
+        + " mm; rotation "
+        + ", ".join(f"{v * 1e3:+.4f}" for v in static.hand_rot_rad[0])
+        + " mrad"
+    )
+    typer.echo(
+        f"along the motion ({duration:g} s, trapezoidal velocity law, {100 * ramp:g} % ramps; "
+        "the seed's own law is in its Fig. 6, missing from the text): "
+        f"largest |dz{n}| {abs(zs[worst]):.4f} mm at t = {t[worst]:.3f} s, "
+        f"{zs[-1]:+.4f} mm at the end"
+    )
+    typer.echo(f"hand deflection along z{n} at the end pose: {dz_end:+.3f} mm")
+    document = {
+        "model": model,
+        "arm": arm.name,
+        f"hand_dz{n}_mm": dz_end,
+        "end_pose": q[-1].tolist(),
+        "static": {
+            "hand_mm": static.hand_mm[0].tolist(),
+            "hand_rot_rad": static.hand_rot_rad[0].tolist(),
+            "links": {
+                str(i): {k: v[0].tolist() for k, v in share.items()}
+                for i, share in static.links.items()
+            },
+        },
+        "trajectory": {
+            "velocity_law": f"trapezoidal, ramp {ramp:g}",
+            "t_s": t.tolist(),
+            "hand_mm": moving.hand_mm.tolist(),
+            "hand_rot_rad": moving.hand_rot_rad.tolist(),
+            f"max_abs_dz{n}_mm": float(abs(zs[worst])),
+        },
+    }
+    figure = None
+    if plot is not None:
+        from calibrator.analysis import deflection_plot
+
+        figure = deflection_plot.workspace_map(
+            arm, q[-1], map_joints, map_ranges, payload_kg=payload_kg
+        )
+    with outputs.Outputs(inputs=[sections]) as batch:
+        if figure is not None:
+            batch.bytes(plot, figure)
+        if json_out is not None:
+            batch.text(json_out, json.dumps(document, indent=2) + "\n")
+    for path in (plot, json_out):
+        if path is not None:
+            typer.echo(f"wrote {path}")
