@@ -233,3 +233,80 @@ def test_lost_initialisation_is_reported_and_never_repaired_even_across_reconnec
     assert not trk.last_status.initialised
     with pytest.raises(NotInitialised):
         trk.measure()
+
+
+@pytest.mark.parametrize("ack_start", [False, True], ids=["stationary-no-ack", "acknowledged"])
+def test_readings_with_and_without_a_start_acknowledgement(ack_start):
+    sim = EmsconSimulator(seed=5, initialised=True, ack_start=ack_start)
+    sim.set_target(TARGET_MM)
+    with EmsconServer(sim) as server:
+        server.open()
+        server.start()
+        with EmsconTracker("127.0.0.1", server.port, timeout_s=1.0) as trk:
+            trk.connect()
+            avg = measure_average(trk, 10)
+            np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+            assert trk.status().state is pk.TrackerState.READY  # no stray ack answers this
+            assert trk._link.stale == 0 and sim.measurements == 10
+
+
+def test_find_reflector_at_a_predicted_point_relocks_only_near_the_target(tracker):
+    sim, trk = tracker
+    assert "find_reflector" in trk.capabilities
+    sim.arm_fault("MEAS+1 beam_break count=100")
+    trk.search_after_beam_break = False
+    with pytest.raises(BeamBroken):
+        trk.measure()
+    far = np.array(TARGET_MM) + [0.0, 500.0, 0.0]  # the prediction misses by 0.5 m
+    with pytest.raises(BeamBroken):
+        trk.find_reflector(far)
+    with pytest.raises(BeamBroken):
+        trk.measure()  # still broken
+    trk.find_reflector(np.array(TARGET_MM) + [20.0, -10.0, 5.0])
+    np.testing.assert_allclose(trk.measure().point_mm, TARGET_MM, atol=0.1)
+    for bad in ([np.nan, 0.0, 0.0], [1e300, 0.0, 0.0], [1.0, 2.0]):
+        with pytest.raises(ValueError):
+            trk.find_reflector(bad)
+
+
+def test_a_6dof_probe_feeds_orientation_through_the_probe_result():
+    from scipy.spatial.transform import Rotation
+
+    sim = EmsconSimulator(seed=3, initialised=True, probe=True)
+    rotvec = np.array([0.3, -0.2, 1.1])
+    sim.set_target(TARGET_MM, rotvec)
+    with EmsconServer(sim) as server:
+        server.open()
+        server.start()
+        with EmsconTracker("127.0.0.1", server.port, timeout_s=1.0) as trk:
+            trk.connect()
+            reading = trk.measure()
+            assert reading.accurate and reading.rotvec_rad.shape == (3,)
+            avg = measure_average(trk, 10)
+    np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+    err = Rotation.from_rotvec(avg.rotvec_mean_rad) * Rotation.from_rotvec(rotvec).inv()
+    assert err.magnitude() < 1e-4  # 0.01 deg MPE per reading, averaged over ten
+    assert np.all(avg.rotvec_std_rad > 0)
+
+
+def test_probe_result_layout_and_its_rotation_status():
+    q = (np.cos(0.25), 0.0, 0.0, np.sin(0.25))  # 0.5 rad about z
+    data = pk.encode_probe_stationary_result(
+        (1.0, 2.0, 3.0), (0.01, 0.02, 0.03, 0.04), q, (20.0, 1000.0, 40.0)
+    )
+    assert len(data) == pk.SIZE_PROBE_STATIONARY_RESULT == 376
+    res = pk.decode_server_packet(data)
+    assert isinstance(res, pk.ProbeStationaryResult) and res.rotation_status == 1
+    assert (res.values, res.std, res.quaternion) == ((1.0, 2.0, 3.0), (0.01, 0.02, 0.03, 0.04), q)
+    assert res.meteo == (20.0, 1000.0, 40.0)
+    trk = EmsconTracker("127.0.0.1")
+    reading = trk._reading(res, 0)
+    np.testing.assert_allclose(reading.rotvec_rad, [0.0, 0.0, 0.5])
+    neg = pk.decode_server_packet(
+        pk.encode_probe_stationary_result(
+            (1.0, 2.0, 3.0), (0, 0, 0, 0), [-v for v in q], (20, 1000, 40)
+        )
+    )
+    np.testing.assert_allclose(trk._reading(neg, 0).rotvec_rad, [0.0, 0.0, 0.5])  # -q is q
+    invalid = pk.ProbeStationaryResult(**{**res.__dict__, "rotation_status": 0b11})
+    assert not trk._reading(invalid, 0).accurate  # 6-DoF error bit: flagged, left out
