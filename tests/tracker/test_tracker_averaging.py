@@ -187,3 +187,42 @@ def test_non_finite_readings_never_enter_the_mean():
     assert "2 non-finite" in avg.notes[0]
     with pytest.raises(TooFewReadings, match="only 1 of 3"):
         average([R(1e300 * 10), R(np.nan), R(5.0)])
+
+
+class _Drifting:
+    """A target that creeps 0.1 mm per reading for the first ``drifting`` readings."""
+
+    def __init__(self, drifting):
+        self.n, self.drifting = 0, drifting
+
+    def measure(self, timeout_s=None):
+        from types import SimpleNamespace
+
+        self.n += 1
+        creep = 0.1 * min(self.n, self.drifting)
+        return SimpleNamespace(
+            point_mm=np.array([2000.0 + creep, 300.0, -200.0]), rotvec_rad=None, accurate=True
+        )
+
+
+class _Arm:
+    def move_joints(self, q, speed, accel):
+        return np.asarray(q, dtype=float)
+
+    def actual_joints(self):
+        return np.zeros(6)
+
+
+def test_the_loop_re_measures_an_unstable_pose_and_journals_why_when_it_gives_up():
+    from calibrator.acquire import loop
+
+    journal = []
+    sink = type("J", (), {"append": lambda self, r: journal.append(r)})()
+    options = loop.LoopOptions(readings=10, retries=1)
+    out = loop.run(np.zeros((1, 6)), _Arm(), _Drifting(10), sink, options)
+    assert out.measured == [0] and journal[0]["attempts"] == 2  # the still second set
+    assert journal[0]["std_mm"][0] < 0.001
+    out = loop.run(np.zeros((1, 6)), _Arm(), _Drifting(10**6), sink, options)
+    assert out.failed == [0] and journal[1]["status"] == "failed"
+    assert journal[1]["reason"].count("UnstablePose: spread") == 2
+    assert "exceeds the limit" in journal[1]["reason"]
