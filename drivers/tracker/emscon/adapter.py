@@ -30,6 +30,7 @@ import socket
 import time
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -167,8 +168,7 @@ class EmsconTracker:
         stationary time and the environment. Never sends ``Initialize``: that
         moves the head; call :meth:`initialise` when ``initialised`` is False.
         """
-        self._open()
-        status = self._settle()
+        status = self._settle(self._open())
         self.serial = status.serial
         return status
 
@@ -303,7 +303,7 @@ class EmsconTracker:
         except DriverError as search_exc:  # any failure of the search: the beam stays broken
             exc.add_note(f"FindReflector failed: {search_exc}")
 
-    def _open(self) -> None:
+    def _open(self) -> EmsconLink:
         self.close()
         try:
             sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
@@ -314,10 +314,10 @@ class EmsconTracker:
         # A packet that starts must finish like an ordinary reply: a silence inside it
         # longer than timeout_s is a stall, not a slow measurement.
         self._link = EmsconLink(sock, events=self.events, packet_gap_s=self.timeout_s)
+        return self._link
 
-    def _settle(self) -> EmsconStatus:
+    def _settle(self, link: EmsconLink) -> EmsconStatus:
         """Apply the settings on a fresh connection and read the status."""
-        link = self._link
         t = self.timeout_s
         link.transact(pk.Command.SET_UNITS, pk.units_params(), timeout_s=t)
         units = pk.parse_units(link.transact(pk.Command.GET_UNITS, timeout_s=t).body)
@@ -349,10 +349,12 @@ class EmsconTracker:
 
     def _usable_link(self) -> EmsconLink:
         if self._link is None or self._link.broken:
-            self._reconnect()
+            return self._reconnect()
         return self._link
 
-    def _once(self, command: int, params: bytes = b"", *, timeout_s: float, measure=False):
+    def _once(
+        self, command: int, params: bytes = b"", *, timeout_s: float, measure: bool = False
+    ) -> Any:
         """A command that is never repeated (it moves the head or yields a reading)."""
         link = self._usable_link()
         try:
@@ -388,7 +390,7 @@ class EmsconTracker:
                     raise
         raise AssertionError("unreachable")
 
-    def _reconnect(self) -> None:
+    def _reconnect(self) -> EmsconLink:
         """Bounded reconnect: reopen, re-apply settings, check the serial. Never initialises."""
         if self.serial is None:
             raise LinkDown("not connected: call connect() first")
@@ -396,15 +398,15 @@ class EmsconTracker:
         for _ in range(self.reconnect_attempts):
             time.sleep(self.reconnect_delay_s)
             try:
-                self._open()
-                status = self._settle()
+                link = self._open()
+                status = self._settle(link)
             except (ConnectionLost, TrackerTimeout, FrameError) as exc:
                 last = exc
                 continue
             if status.serial != self.serial:
                 self.close()
                 raise TrackerReplaced(f"reconnected to serial {status.serial}, not {self.serial}")
-            return
+            return link
         self.close()
         raise LinkDown(
             f"emScon connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"

@@ -26,6 +26,7 @@ import socket
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Literal, overload
 
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.errors import (
@@ -86,6 +87,21 @@ class EmsconLink:
             pass  # already gone
 
     # ------------------------------------------------------------ transactions
+
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: Literal[False] = ...
+    ) -> pk.CommandReply: ...
+
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: Literal[True]
+    ) -> pk.MeasResult: ...
+
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: bool
+    ) -> pk.CommandReply | pk.MeasResult: ...
 
     def transact(
         self, command: int, params: bytes = b"", *, timeout_s: float, measure: bool = False
@@ -151,7 +167,9 @@ class EmsconLink:
                 time.sleep(pause)
             self._send(pk.encode_command(fence))
 
-    def _await(self, command: int, deadline: float, name: str, measure: bool):
+    def _await(
+        self, command: int, deadline: float, name: str, measure: bool
+    ) -> pk.CommandReply | pk.MeasResult:
         while True:
             packet = self._next_packet(deadline, name)
             if isinstance(packet, pk.CommandReply | pk.ErrorResponse) and packet.command == command:
