@@ -310,3 +310,78 @@ def test_probe_result_layout_and_its_rotation_status():
     np.testing.assert_allclose(trk._reading(neg, 0).rotvec_rad, [0.0, 0.0, 0.5])  # -q is q
     invalid = pk.ProbeStationaryResult(**{**res.__dict__, "rotation_status": 0b11})
     assert not trk._reading(invalid, 0).accurate  # 6-DoF error bit: flagged, left out
+
+
+def test_initialise_without_a_deadline_uses_the_adapters_own(tracker):
+    sim, trk = tracker
+    sim.initialised = False
+    trk.init_timeout_s = 2.0
+    trk.initialise()
+    assert sim.initialised
+
+
+def test_the_search_after_a_beam_break_runs_only_when_enabled_and_counts_each(tracker):
+    sim, trk = tracker
+    trk.measure()  # a distance to search at
+    trk.search_after_beam_break = False
+    sim.arm_fault("MEAS+1 beam_break count=1")
+    with pytest.raises(BeamBroken):
+        trk.measure()
+    assert trk.searches == 0
+    trk.search_after_beam_break = True
+    for _ in range(2):
+        sim.arm_fault("MEAS+1 beam_break count=100")
+        with pytest.raises(BeamBroken):
+            trk.measure()
+    assert trk.searches == 2
+    sim.arm_fault("MEAS+1 beam_break count=100")
+    sim.clear_target()  # nothing to find: the search fails and says so
+    with pytest.raises(BeamBroken) as err:
+        trk.measure()
+    assert any(n.startswith("FindReflector failed: ") for n in err.value.__notes__)
+
+
+def test_find_reflector_checks_its_prediction_and_never_uses_the_adm(tracker):
+    sim, trk = tracker
+    with pytest.raises(ValueError, match="predicted point must be 3 finite mm within 1 km"):
+        trk.find_reflector([1e6 + 1, 0.0, 0.0])
+    with pytest.raises(EmsconRefused):  # 1 km is a prediction; the server refuses it
+        trk.find_reflector([1e6, 0.0, 0.0])
+    seen = []
+    handle = sim.handle_packet
+
+    def spy(data):
+        if pk.parse_uint(data[8:12]) == pk.Command.GO_POSITION:
+            seen.append(pk.parse_go_position(data[12:]))
+        return handle(data)
+
+    sim.handle_packet = spy
+    trk.find_reflector(np.array(TARGET_MM).reshape(3, 1))  # a column vector is 3 values
+    assert seen == [(TARGET_MM, False)]
+
+
+def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
+    from drivers.tracker.emscon.adapter import _quaternion_to_rotvec
+
+    half = np.array([np.cos(0.25), 0.0, 0.0, np.sin(0.25)])
+    np.testing.assert_allclose(_quaternion_to_rotvec(3.0 * half), [0.0, 0.0, 0.5])
+    np.testing.assert_array_equal(_quaternion_to_rotvec(np.array([1.0, 0, 0, 0])), np.zeros(3))
+    tiny = _quaternion_to_rotvec(np.array([1.0, 1e-13, 0.0, 0.0]))
+    np.testing.assert_allclose(tiny, [2e-13, 0.0, 0.0], rtol=1e-9)
+    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0], [np.inf, 0.0, 0.0, 0.0]):
+        got = _quaternion_to_rotvec(np.array(bad))
+        assert got.shape == (3,) and np.all(np.isnan(got))
+
+
+def test_open_tracker_names_what_is_wrong_with_a_url():
+    assert open_tracker("emscon://h/").host == "h"
+    cases = {
+        "socket://h": "expected emscon://HOST",
+        "emscon://h:99999": "bad port in 'emscon://h:99999'",
+        "emscon://h?meteo=": "meteo needs T,P,H",
+        "emscon://h?&meteo=21,1000,40": "bad query in 'emscon://h?&meteo=21,1000,40'",
+        "emscon://h?temp=20": "the only query is meteo=T,P,H",
+    }
+    for url, message in cases.items():
+        with pytest.raises(ValueError, match=message.replace("?", r"\?")):
+            open_tracker(url)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import socket
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -377,18 +378,15 @@ class EmsconTracker:
                 "reconnected, command not repeated"
             ) from exc
 
-    def _retrying(self, operation):
+    def _retrying(self, operation: Callable[[EmsconLink], Any]) -> Any:
         """An idempotent query: retried once after a broken frame or a reconnect."""
-        for attempt in (0, 1):
-            link = self._usable_link()
-            try:
-                return operation(link)
-            except TrackerReplaced:
-                raise
-            except (ConnectionLost, FrameError):
-                if attempt:
-                    raise
-        raise AssertionError("unreachable")
+        try:
+            return operation(self._usable_link())
+        except TrackerReplaced:
+            raise
+        except (ConnectionLost, FrameError):
+            pass  # once more, on a reconnected link if this one broke
+        return operation(self._usable_link())
 
     def _reconnect(self) -> EmsconLink:
         """Bounded reconnect: reopen, re-apply settings, check the serial. Never initialises."""
@@ -451,7 +449,10 @@ def open_tracker(url: str, **options) -> EmsconTracker:
         port = parts.port or DEFAULT_PORT
     except ValueError as exc:
         raise ValueError(f"bad port in {url!r}: {exc}") from None
-    query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
+    try:
+        query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
+    except ValueError as exc:
+        raise ValueError(f"bad query in {url!r}: {exc}") from None
     if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
         raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
     if "meteo" in query:
