@@ -127,10 +127,10 @@ def test_fence_answered_busy_at_once_is_waited_out_and_the_late_result_never_rea
     _abandon_a_measurement(sim, trk)
     busy = pk.encode_reply(pk.Command.GET_TRACKER_STATUS, pk.ResultStatus.SERVER_BUSY)
     # The busy answer comes at once; the abandoned result 0.1 s later, then the queue.
-    sim.scripts["STAT?"] = [[Send(busy), Send(_result(STALE), 0.1)]]
+    sim.scripts["STAT?"] = [[busy], [Send(busy), Send(_result(STALE), 0.1)]]
     reading = trk.measure(timeout_s=1.0)
     np.testing.assert_array_equal(reading.point_mm, TARGET_MM)
-    assert trk._link.fence_busy >= 1 and trk._link.stale == 1
+    assert trk._link.fence_busy == 2 and trk._link.stale == 1
 
 
 def test_fence_with_the_late_result_ahead_of_its_reply_discards_it(scripted):
@@ -150,7 +150,8 @@ def test_fence_refused_raises_that_error_and_fences_again_next_time(scripted):
     before = sim.measurements
     with pytest.raises(EmsconRefused) as err:
         trk.measure()
-    assert err.value.code == 38 and "fence" in str(err.value)
+    assert err.value.code == 38 and err.value.command == "ES_C_GET_TRACKER_STATUS"
+    assert err.value.detail == "fence before ES_C_START_MEASUREMENT"
     assert sim.measurements == before  # no measurement was started behind a failed fence
     late = pk.encode_reply(pk.Command.GET_TRACKER_STATUS, 0, pk.uint_param(2))
     sim.scripts["STAT?"] = [[_result(STALE), late]]  # the next fence settles it
@@ -163,8 +164,11 @@ def test_fence_busy_until_the_deadline_is_a_timeout_and_stays_unsettled(scripted
     _abandon_a_measurement(sim, trk)
     busy = pk.encode_reply(pk.Command.GET_TRACKER_STATUS, pk.ResultStatus.SERVER_BUSY)
     sim.scripts["STAT?"] = [[busy]] * 1000
-    with pytest.raises(TrackerTimeout):
+    trk._link.busy_poll_s = 5.0  # the pause never outlasts the deadline
+    start = time.monotonic()
+    with pytest.raises(TrackerTimeout, match="no answer to ES_C_START_MEASUREMENT"):
         trk.measure(timeout_s=0.3)
+    assert time.monotonic() - start < 1.5
     sim.scripts["STAT?"] = []
     np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
 
@@ -283,3 +287,33 @@ def test_a_server_that_keeps_cutting_packets_is_given_up_not_retried_forever(scr
             trk.measure(timeout_s=10.0)
     with pytest.raises(LinkDown, match="cut 3 packets short"):
         trk.measure(timeout_s=10.0)
+
+
+def test_fence_keeps_events_and_skips_other_replies_until_its_own(scripted):
+    sim, trk = scripted
+    _abandon_a_measurement(sim, trk)
+    late_ack = pk.encode_reply(pk.Command.START_MEASUREMENT, 0)
+    event = pk.encode_status_change(pk.StatusChange.MEAS_STATUS_READY)
+    ok = pk.encode_reply(pk.Command.GET_TRACKER_STATUS, 0, pk.uint_param(2))
+    sim.scripts["STAT?"] = [[late_ack, event, _result(STALE), ok]]
+    trk.events.clear()
+    np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
+    assert [e.change for e in trk.events] == [pk.StatusChange.MEAS_STATUS_READY]
+    assert trk._link.stale == 2  # the late ack and the late result
+
+
+def test_a_settled_link_sends_no_further_fence(scripted):
+    sim, trk = scripted
+    _abandon_a_measurement(sim, trk)
+    commands = []
+    handle = sim.handle_packet
+
+    def spy(data):
+        commands.append(pk.parse_uint(data[8:12]))
+        return handle(data)
+
+    sim.handle_packet = spy
+    trk.measure()
+    trk.measure()
+    fence, meas = pk.Command.GET_TRACKER_STATUS, pk.Command.START_MEASUREMENT
+    assert commands == [fence, meas, meas]
