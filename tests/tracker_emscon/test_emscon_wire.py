@@ -317,3 +317,64 @@ def test_a_settled_link_sends_no_further_fence(scripted):
     trk.measure()
     fence, meas = pk.Command.GET_TRACKER_STATUS, pk.Command.START_MEASUREMENT
     assert commands == [fence, meas, meas]
+
+
+@pytest.mark.parametrize(
+    ("values", "std", "accurate"),
+    [
+        ((1e6, -1e6, 0.0), (0.0, 0.0, 0.0, 0.05), True),  # 1 km exactly: a (far) reading
+        ((2000.0, 300.0, -200.0), (0.0, 0.0, 0.0, 0.1), True),  # dStdTotal at the limit
+        ((2000.0, 300.0, -200.0), (1e6, 0.0, 0.0, 1e6), False),  # huge std: only flagged
+    ],
+)
+def test_boundary_values_are_readings(scripted, values, std, accurate):
+    sim, trk = scripted
+    sim.scripts["MEAS"] = [[_result(values, std)]]
+    reading = trk.measure()
+    np.testing.assert_array_equal(reading.point_mm, values)
+    np.testing.assert_array_equal(reading.std_mm, std)
+    assert reading.accurate is accurate and reading.meteo == (20.0, 1013.25, 50.0)
+
+
+def test_a_bad_probe_reading_names_its_orientation_and_a_plain_one_does_not(scripted):
+    sim, trk = scripted
+    nan_q = pk.encode_probe_stationary_result(
+        (2000.0, 300.0, -200.0), (0.0, 0.0, 0.0, 0.0), (np.nan, 0, 0, 1), (20, 1000, 40)
+    )
+    sim.scripts["MEAS"] = [[nan_q], [_result((np.nan, 0.0, 0.0))]]
+    with pytest.raises(BadReading, match=r"meteo \[20.0, 1000.0, 40.0\], orientation \[nan"):
+        trk.measure()
+    with pytest.raises(BadReading) as err:
+        trk.measure()
+    assert str(err.value).endswith("meteo [20.0, 1013.25, 50.0]")
+
+
+def test_a_good_reading_between_cut_packets_resets_the_count(scripted):
+    sim, trk = scripted
+    half = _result((1.0, 2.0, 3.0))[:70]
+    sim.scripts["MEAS"] = [[half], [half], [_result((1.0, 2.0, 3.0))], [half], [half]]
+    for expected in (TrackerTimeout, TrackerTimeout, None, TrackerTimeout, TrackerTimeout):
+        if expected is None:
+            trk.measure()
+            continue
+        with pytest.raises(expected):
+            trk.measure(timeout_s=10.0)
+    np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)  # never given up
+
+
+def test_reconnect_tries_again_after_a_failed_attempt_and_names_the_failure(scripted):
+    from drivers.tracker.emscon.errors import ReadingInterrupted
+
+    sim, trk = scripted
+    sim.arm_fault("MEAS+1 hangup")
+    sim.arm_fault("UNITS+1 hangup")  # the first reconnect's settings fail too
+    with pytest.raises(ReadingInterrupted):
+        trk.measure()
+    np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
+    never = EmsconTracker("127.0.0.1", 1)
+    with pytest.raises(LinkDown, match=r"not connected: call connect\(\) first"):
+        never.measure()
+    trk.reconnect_attempts = 0
+    sim.arm_fault("MEAS+1 hangup")
+    with pytest.raises(LinkDown, match="0 reconnect attempts failed: None"):
+        trk.measure()

@@ -223,8 +223,7 @@ class EmsconTracker:
         if point.shape != (3,) or not np.all(np.abs(point) <= MAX_COORDINATE_MM):
             raise ValueError(f"predicted point must be 3 finite mm within 1 km, got {point}")
         timeout_s = timeout_s or self.search_timeout_s
-        per_unit = self._mm_per_unit
-        params = pk.go_position_params(point / per_unit, use_adm=False)
+        params = pk.go_position_params(point, use_adm=False)  # mm: connect() set the units
         self._once(pk.Command.GO_POSITION, params, timeout_s=timeout_s)
         self._find_at(float(np.linalg.norm(point)), timeout_s)
 
@@ -232,7 +231,7 @@ class EmsconTracker:
         """``FindReflector``: search for a reflector about ``distance_mm`` along the beam."""
         self._once(
             pk.Command.FIND_REFLECTOR,
-            pk.double_param(distance_mm / self._mm_per_unit),
+            pk.double_param(distance_mm),  # mm: connect() set the units
             timeout_s=timeout_s or self.search_timeout_s,
         )
 
@@ -263,23 +262,24 @@ class EmsconTracker:
         return reading
 
     def _reading(self, result: pk.MeasResult, t_us: int) -> EmsconReading:
-        """Check a result's values and make it a reading (status was checked by the link)."""
-        point = np.array(result.values, dtype=float) * self._mm_per_unit
-        std = np.array(result.std, dtype=float) * self._mm_per_unit
-        meteo = np.array(result.meteo, dtype=float)
+        """Check a result's values and make it a reading (status was checked by the link).
+
+        Values are in mm and rad: connect() set those units and confirmed them.
+        """
+        point, std, meteo = np.array(result.values), np.array(result.std), np.array(result.meteo)
         rotvec: np.ndarray | None = None
         six_dof_ok = True
         if isinstance(result, pk.ProbeStationaryResult):
-            rotvec = _quaternion_to_rotvec(np.array(result.quaternion, dtype=float))
+            rotvec = _quaternion_to_rotvec(np.array(result.quaternion))
             # lRotationStatus bit 0: 6-DoF values valid; bit 1: 6-DoF error.
             six_dof_ok = (result.rotation_status & 0b11) == 0b01
-        with np.errstate(invalid="ignore"):  # NaN compares False: refused below
-            sane = (
-                np.all(np.abs(point) <= MAX_COORDINATE_MM)
-                and np.all((std >= 0) & (std <= MAX_COORDINATE_MM))
-                and np.all(np.isfinite(meteo))
-                and (rotvec is None or bool(np.all(np.isfinite(rotvec))))
-            )
+        # NaN compares False, so these refuse it along with inf and absurd values.
+        sane = (
+            np.all(np.abs(point) <= MAX_COORDINATE_MM)
+            and np.all((std >= 0) & (std <= MAX_COORDINATE_MM))
+            and np.all(np.isfinite(meteo))
+            and (rotvec is None or bool(np.all(np.isfinite(rotvec))))
+        )
         if not sane:
             raise BadReading(
                 f"emScon result with impossible values: point {point.tolist()} mm, "
@@ -291,8 +291,6 @@ class EmsconTracker:
         return EmsconReading(point, rotvec, bool(accurate), t_us, std, tuple(meteo.tolist()))
 
     # ------------------------------------------------------------ machinery
-
-    _mm_per_unit = pk.LENGTH_UNIT_MM[pk.LU_MILLIMETER]  # connect() enforces mm
 
     def _search_after(self, exc: BeamBroken) -> None:
         if not self.search_after_beam_break or self.last_distance_mm is None:
