@@ -44,32 +44,29 @@ class EmsconLink:
     ----------
     sock : socket.socket
         Connected TCP socket (the link owns it from now on).
-    events : deque, optional
-        Where ``SystemStatusChange`` events go (survives reconnects if shared).
-    on_event : callable, optional
-        Called with each :class:`~drivers.tracker.emscon.packets.StatusChangeEvent`.
-    clock : callable
-        Monotonic clock, s.
+    events : deque
+        Where ``SystemStatusChange`` events go (the adapter's, so they survive
+        reconnects).
     packet_gap_s : float
         Longest silence inside one packet (its first bytes arrived), s: past it
         the framing is lost and the link is broken.
     busy_poll_s : float
         Pause before the fence is sent again after an ``ES_RS_ServerBusy`` answer, s.
+    clock : callable
+        Monotonic clock, s.
     """
 
     def __init__(
         self,
         sock: socket.socket,
         *,
-        events: deque | None = None,
-        on_event: Callable[[pk.StatusChangeEvent], None] | None = None,
-        clock: Callable[[], float] = time.monotonic,
-        packet_gap_s: float = 2.0,
+        events: deque,
+        packet_gap_s: float,
         busy_poll_s: float = 0.05,
+        clock: Callable[[], float] = time.monotonic,
     ):
         self.sock = sock
-        self.events: deque = deque(maxlen=256) if events is None else events
-        self.on_event = on_event
+        self.events = events
         self.stale = 0  # packets dropped because they answered another (earlier) command
         self.broken = False  # framing lost or transport failed: reconnect before use
         self._unsettled = False  # a command timed out: fence before the next one
@@ -189,8 +186,6 @@ class EmsconLink:
     def _note_other(self, packet: pk.Packet) -> None:
         if isinstance(packet, pk.StatusChangeEvent):
             self.events.append(packet)
-            if self.on_event is not None:
-                self.on_event(packet)
         else:
             self.stale += 1
 
