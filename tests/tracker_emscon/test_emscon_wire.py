@@ -285,7 +285,9 @@ def test_a_server_that_keeps_cutting_packets_is_given_up_not_retried_forever(scr
     for _ in range(2):
         with pytest.raises(TrackerTimeout):
             trk.measure(timeout_s=10.0)
-    with pytest.raises(LinkDown, match="cut 3 packets short"):
+    with pytest.raises(
+        LinkDown, match="cut 3 packets short in a row, each on a fresh connection: giving up$"
+    ):
         trk.measure(timeout_s=10.0)
 
 
@@ -368,7 +370,9 @@ def test_reconnect_tries_again_after_a_failed_attempt_and_names_the_failure(scri
     sim, trk = scripted
     sim.arm_fault("MEAS+1 hangup")
     sim.arm_fault("UNITS+1 hangup")  # the first reconnect's settings fail too
-    with pytest.raises(ReadingInterrupted):
+    with pytest.raises(
+        ReadingInterrupted, match="during START_MEASUREMENT; reconnected, command not repeated$"
+    ):
         trk.measure()
     np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
     never = EmsconTracker("127.0.0.1", 1)
@@ -378,3 +382,14 @@ def test_reconnect_tries_again_after_a_failed_attempt_and_names_the_failure(scri
     sim.arm_fault("MEAS+1 hangup")
     with pytest.raises(LinkDown, match="0 reconnect attempts failed: None"):
         trk.measure()
+
+
+def test_a_timeout_names_its_command_and_a_reading_carries_the_host_clock_in_us(scripted):
+    sim, trk = scripted
+    sim.scripts["MEAS"] = [[]]
+    with pytest.raises(TrackerTimeout, match=r"^no answer to ES_C_START_MEASUREMENT within"):
+        trk.measure(timeout_s=0.1)
+    before = time.monotonic_ns() // 1000
+    reading = trk.measure()
+    after = time.monotonic_ns() // 1000
+    assert type(reading.device_time_us) is int and before <= reading.device_time_us <= after
