@@ -7,6 +7,7 @@ other command gets the simulator's normal answer over the real server.
 from __future__ import annotations
 
 import time
+from collections import deque
 
 import numpy as np
 import pytest
@@ -193,7 +194,7 @@ def test_result_with_a_non_zero_status_is_its_error_never_a_reading(scripted):
     ]
     with pytest.raises(TargetUnstable) as err:
         trk.measure()
-    assert err.value.code == 10009
+    assert err.value.code == 10009 and err.value.command == "ES_C_START_MEASUREMENT"
     with pytest.raises(EmsconRefused):
         trk.measure()
     np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
@@ -258,7 +259,7 @@ def test_result_types_of_the_full_header_are_skipped_by_their_size(scripted):
 def test_full_header_packets_whose_size_disagrees_break_the_link(scripted, packet):
     sim, trk = scripted
     sim.scripts["MEAS"] = [[packet]]
-    with pytest.raises(FrameError):
+    with pytest.raises(FrameError, match="^while waiting for ES_C_START_MEASUREMENT: "):
         trk.measure(timeout_s=0.5)
     np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
 
@@ -271,7 +272,7 @@ def test_half_a_packet_then_silence_is_detected_fast_and_the_link_reconnected(sc
     sim.scripts["MEAS"] = [[_result((1.0, 2.0, 3.0))[:70]]]
     old = trk._link
     start = time.monotonic()
-    with pytest.raises(TrackerTimeout, match="stopped arriving"):
+    with pytest.raises(TrackerTimeout, match="stopped arriving while waiting for ES_C_START_ME"):
         trk.measure(timeout_s=10.0)  # a long measurement deadline is not waited out
     assert time.monotonic() - start < trk.timeout_s + 1.0
     assert old.broken and not trk._link.broken  # reconnected already
@@ -393,3 +394,36 @@ def test_a_timeout_names_its_command_and_a_reading_carries_the_host_clock_in_us(
     reading = trk.measure()
     after = time.monotonic_ns() // 1000
     assert type(reading.device_time_us) is int and before <= reading.device_time_us <= after
+
+
+def test_a_refusal_in_a_reply_names_its_command_and_an_error_packet_must_carry_a_status(scripted):
+    sim, trk = scripted
+    refused = pk.encode_reply(pk.Command.START_MEASUREMENT, pk.ResultStatus.SENSOR_NOT_STABLE)
+    sim.scripts["MEAS"] = [[refused], [pk.encode_error(pk.Command.START_MEASUREMENT, 0)]]
+    with pytest.raises(TargetUnstable) as err:
+        trk.measure()
+    assert err.value.command == "ES_C_START_MEASUREMENT" and err.value.code == 10013
+    with pytest.raises(FrameError, match="^ES_DT_Error with status 0 for ES_C_START_MEASUREMENT$"):
+        trk.measure()
+
+
+def test_a_broken_or_failed_link_sends_nothing_and_says_so():
+    import socket
+
+    from drivers.tracker.emscon.errors import ConnectionLost
+    from drivers.tracker.emscon.link import EmsconLink
+
+    ours, theirs = socket.socketpair()
+    link = EmsconLink(ours, events=deque(), packet_gap_s=1.0)
+    link.broken = True
+    with pytest.raises(ConnectionLost, match="^emScon link is broken: reconnect first$"):
+        link.transact(pk.Command.GET_UNITS, timeout_s=0.5)
+    theirs.setblocking(False)
+    with pytest.raises(BlockingIOError):
+        theirs.recv(16)  # not a byte went out
+    link = EmsconLink(ours, events=deque(), packet_gap_s=1.0)
+    ours.close()
+    with pytest.raises(ConnectionLost, match="^emScon connection failed while sending: "):
+        link.transact(pk.Command.GET_UNITS, timeout_s=0.5)
+    assert link.broken is True
+    theirs.close()
