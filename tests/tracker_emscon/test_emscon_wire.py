@@ -6,6 +6,7 @@ other command gets the simulator's normal answer over the real server.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 
@@ -427,3 +428,48 @@ def test_a_broken_or_failed_link_sends_nothing_and_says_so():
         link.transact(pk.Command.GET_UNITS, timeout_s=0.5)
     assert link.broken is True
     theirs.close()
+
+
+def _tcp_pair():
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as listener:
+        ours = socket.create_connection(listener.getsockname())
+        theirs, _ = listener.accept()
+    return ours, theirs
+
+
+def test_a_reset_or_closed_connection_while_reading_breaks_the_link_and_says_which():
+    import socket
+    import struct
+
+    from drivers.tracker.emscon.errors import ConnectionLost
+    from drivers.tracker.emscon.link import EmsconLink, _name
+
+    ours, theirs = _tcp_pair()
+    link = EmsconLink(ours, events=deque(), packet_gap_s=1.0)
+
+    def reset_after_the_command():
+        theirs.recv(12)
+        theirs.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        theirs.close()  # a reset, not an orderly close
+
+    server = threading.Thread(target=reset_after_the_command)
+    server.start()
+    with pytest.raises(ConnectionLost, match="^emScon connection failed while reading: "):
+        link.transact(pk.Command.GET_UNITS, timeout_s=2.0)
+    server.join()
+    assert link.broken is True
+    ours.close()
+
+    ours, theirs = _tcp_pair()
+    link = EmsconLink(ours, events=deque(), packet_gap_s=1.0)
+    theirs.shutdown(socket.SHUT_WR)  # the server hangs up; our command still goes out
+    with pytest.raises(
+        ConnectionLost, match="^emScon server closed the connection during ES_C_GET_UNITS$"
+    ):
+        link.transact(pk.Command.GET_UNITS, timeout_s=1.0)
+    assert link.broken is True
+    ours.close()
+    theirs.close()
+    assert (_name(pk.Command.GET_UNITS), _name(9999)) == ("ES_C_GET_UNITS", "ES_C_9999")
