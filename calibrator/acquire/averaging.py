@@ -13,9 +13,9 @@ tracker brand's readings average the same way, through one rule:
    range (:class:`StatedAccuracy`). The floor matters: a quiet tracker gives a
    MAD of a micrometre or less, and without it good readings a few micrometres
    off would be thrown away.
-3. **Too few left** (fewer than ``min_count``): more readings are taken, up to
-   ``max_readings`` in all, and the rule is applied again to the whole set;
-   if still too few, :class:`TooFewReadings`.
+3. **Too few left** (fewer than ``min_count``): :class:`TooFewReadings`; the
+   measure loop takes the whole set again (a set is never topped up: every
+   recorded pose is the mean of one uninterrupted set).
 4. **Spread limit**: if the accepted readings' standard deviation on any axis
    exceeds ``max_spread_mm`` (default three times the stated accuracy), the
    target moved or the set is split in two: :class:`UnstablePose`. The pose is
@@ -102,7 +102,7 @@ class AveragedReading:
     outliers : int
         Of ``rejected``, those left out by the outlier rule.
     notes : tuple of str
-        Why readings were left out or more were taken (empty when none were).
+        Why readings were left out (empty when none were).
     """
 
     mean_mm: np.ndarray
@@ -147,7 +147,6 @@ def average(
     min_count: int | None = None,
     accuracy: StatedAccuracy = DEFAULT_ACCURACY,
     max_spread_mm: float | str | None = None,
-    notes: Sequence[str] = (),
 ) -> AveragedReading:
     """Average a finished set of readings (see :func:`measure_average` and the module rule).
 
@@ -199,7 +198,7 @@ def average(
         rotvec_std_rad=rot_std,
         readings=readings,
         outliers=outliers,
-        notes=(*notes, why.removeprefix("; ")) if why else tuple(notes),
+        notes=(why.removeprefix("; "),) if why else (),
     )
 
 
@@ -248,7 +247,6 @@ def measure_average(
     min_count: int | None = None,
     accuracy: StatedAccuracy = DEFAULT_ACCURACY,
     max_spread_mm: float | str | None = "stated",
-    max_readings: int | None = None,
 ) -> AveragedReading:
     """Take ``n`` single readings and average the accepted ones (module rule).
 
@@ -268,38 +266,22 @@ def measure_average(
         Largest per-axis standard deviation of the accepted readings, mm;
         ``"stated"`` (default): three times ``accuracy`` at the readings' median
         range; None: no limit.
-    max_readings : int, optional
-        Most readings taken in all when some are left out; default ``2 * n``.
-
     Raises
     ------
     ReadingLost
         From the tracker (beam broken, timeout, ...) before any mean exists:
         no partial average is ever returned; the caller measures the pose again.
     TooFewReadings
-        Fewer than ``min_count`` readings were accepted after ``max_readings``.
+        Fewer than ``min_count`` readings were accepted.
     UnstablePose
         The accepted readings spread more than ``max_spread_mm``.
     """
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
-    need = max(-(-n // 2) if min_count is None else min_count, 1)
-    budget = 2 * n if max_readings is None else max(int(max_readings), n)
-    readings = [tracker.measure() for _ in range(n)]
-    notes: list[str] = []
-    while True:
-        usable, _, why = _select(tuple(readings), reject_flagged, accuracy)
-        missing = need - int(usable.sum())
-        if missing <= 0 or len(readings) >= budget:
-            break
-        extra = min(missing, budget - len(readings))
-        notes.append(f"{extra} more reading(s) taken after {len(readings)}{why}")
-        readings += [tracker.measure() for _ in range(extra)]
     return average(
-        readings,
+        [tracker.measure() for _ in range(n)],
         reject_flagged=reject_flagged,
-        min_count=need,
+        min_count=min_count,
         accuracy=accuracy,
         max_spread_mm=max_spread_mm,
-        notes=notes,
     )

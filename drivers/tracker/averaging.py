@@ -21,7 +21,7 @@ def measure_average(tracker: Any, n: int = 10, **options: Any) -> Any:
     """:func:`calibrator.acquire.averaging.measure_average`, with the driver's error type.
 
     ``options`` are that function's keywords (``reject_flagged``, ``min_count``,
-    ``accuracy``, ``max_spread_mm``, ``max_readings``).
+    ``accuracy``, ``max_spread_mm``).
     """
     from calibrator.acquire import averaging
 

@@ -86,7 +86,7 @@ def test_flagged_readings_are_left_out_by_default_and_half_must_remain():
     assert (mean.count, mean.rejected) == (3, 2)
     # Three of six accepted is the default minimum (half, rounded up); two is not.
     with pytest.raises(TooFewReadings):
-        measure_average(ScriptedTracker(good[:2] + flagged * 2), 6, max_readings=6)
+        measure_average(ScriptedTracker(good[:2] + flagged * 2), 6)
     kept = measure_average(ScriptedTracker(good[:2] + flagged * 2), 6, min_count=2)
     assert kept.count == 2
     everything = measure_average(ScriptedTracker(good + flagged), 5, reject_flagged=False)

@@ -58,21 +58,12 @@ def test_beam_break_mid_set_raises_and_stops_measuring():
             measure_average(tracker, 10)
 
 
-def test_too_few_accepted_readings_are_topped_up_then_refused():
-    bad, good = "P3,1.0000,0.0000,0.0000,UNSTABLE,1", "P3,1.0000,0.0000,0.0000,ACC,3"
-    # 1 of 3 accepted, 2 needed: one more reading is taken (flagged too), then a second
-    # more; the budget (2n = 6) ends it.
-    bodies = [bad, bad, good, bad, bad, bad]
+def test_too_few_accepted_readings():
+    bodies = ["P3,1.0000,0.0000,0.0000,UNSTABLE,1"] * 2 + ["P3,1.0000,0.0000,0.0000,ACC,3"]
     with expected_exchange([*CONNECT_PAIRS, *meas_pairs(bodies)]) as tracker:
         tracker.connect()
-        with pytest.raises(TargetUnstable, match="only 1 of 6 readings usable, need 2"):
+        with pytest.raises(TargetUnstable, match="only 1 of 3 readings usable, need 2; 2 flagged"):
             measure_average(tracker, 3)
-    bodies = [bad, bad, good, good]  # the top-up reading completes the set
-    with expected_exchange([*CONNECT_PAIRS, *meas_pairs(bodies)]) as tracker:
-        tracker.connect()
-        avg = measure_average(tracker, 3)
-    assert (avg.count, avg.rejected, len(avg.readings)) == (2, 2, 4)
-    assert "1 more reading(s) taken after 3; 2 flagged by the tracker" in avg.notes
 
 
 def test_orientation_mean_of_a_6dof_probe():
@@ -108,7 +99,7 @@ def test_default_set_is_ten_readings_and_a_short_one_is_a_typed_tracker_error():
     with expected_exchange([*CONNECT_PAIRS, *meas_pairs(flagged)]) as tracker:
         tracker.connect()
         with pytest.raises(TargetUnstable) as short:
-            measure_average(tracker, 3, min_count=3, max_readings=3)
+            measure_average(tracker, 3, min_count=3)
     error = short.value
     assert (error.code, error.text, error.command) == (7, "TARGET_UNSTABLE", "MEAS")
     assert "2 of 3" in error.detail
@@ -160,15 +151,14 @@ def test_a_set_split_in_two_is_refused_as_unstable_and_says_why():
             measure_average(tracker)
 
 
-def test_outliers_that_leave_too_few_are_re_measured_within_the_budget():
+def test_outliers_that_leave_too_few_refuse_the_set_and_say_why():
     from calibrator.acquire.averaging import TooFewReadings, average, inlier_mask
 
-    xs = [*QUIET[:4], 2100.0, QUIET[4]]  # the fifth is wild: one more reading replaces it
+    xs = [*QUIET[:4], 2100.0]  # n=5, all five needed: the wild one leaves four
     with expected_exchange([*CONNECT_PAIRS, *meas_pairs(_bodies(xs))]) as tracker:
         tracker.connect()
-        avg = measure_average(tracker, 5, min_count=5)
-    assert (avg.count, avg.outliers, len(avg.readings)) == (5, 1, 6)
-    assert avg.notes[0].startswith("1 more reading(s) taken after 5; 1 outlier(s)")
+        with pytest.raises(TargetUnstable, match=r"only 4 of 5 .* need 5; 1 outlier\(s\)"):
+            measure_average(tracker, 5, min_count=5)
     pts = np.array([[x, 300.0, -200.0] for x in [*QUIET, 2003.0]])
     assert inlier_mask(pts).tolist() == [True] * 10 + [False]  # 3 mm off: out
     with pytest.raises(TooFewReadings, match="only 0 of 0"):
