@@ -385,3 +385,47 @@ def test_open_tracker_names_what_is_wrong_with_a_url():
     for url, message in cases.items():
         with pytest.raises(ValueError, match=message.replace("?", r"\?")):
             open_tracker(url)
+
+
+def test_documented_defaults():
+    trk = EmsconTracker("h")
+    assert (trk.port, trk.environment, trk.meas_time_ms, trk.max_std_mm) == (700, None, None, 0.1)
+    assert (trk.timeout_s, trk.measure_timeout_s) == (2.0, 10.0)
+    assert (trk.init_timeout_s, trk.search_timeout_s) == (120.0, 30.0)
+    assert trk.search_after_beam_break is True
+    assert (trk.reconnect_attempts, trk.reconnect_delay_s) == (3, 0.2)
+    assert (trk.serial, trk.last_status, trk.last_distance_mm, trk.searches) == (None, None, None, 0)
+    assert trk.events.maxlen == 256 and not trk.events
+
+
+def test_stationary_time_is_set_on_connect_and_the_status_is_kept(served):
+    sim, server = served
+    trk = EmsconTracker("127.0.0.1", server.port, meas_time_ms=500, timeout_s=1.0)
+    try:
+        status = trk.connect()
+        assert sim.stationary == (500, True)
+        assert trk.last_status == status and status.initialised is True
+        assert status.serial == sim.serial
+    finally:
+        trk.close()
+    with pytest.raises(EmsconRefused):
+        EmsconTracker("127.0.0.1", server.port, meas_time_ms=0, timeout_s=1.0).connect()
+
+
+def test_a_server_that_does_not_confirm_the_units_is_refused_naming_both(served):
+    sim, server = served
+    from drivers.tracker.emscon.simulator import engine
+
+    engine._HANDLERS[pk.Command.GET_UNITS] = lambda self, c, p: [
+        pk.encode_reply(c, 0, pk.units_params(length=0))
+    ]
+    try:
+        with pytest.raises(FrameError, match=r"did not confirm units \(1, 0, 0, 1, 0\): \(0, 0"):
+            EmsconTracker("127.0.0.1", server.port, timeout_s=1.0).connect()
+    finally:
+        engine._HANDLERS[pk.Command.GET_UNITS] = EmsconSimulator._get_units
+
+
+def test_nobody_listening_is_link_down_naming_the_address():
+    with pytest.raises(LinkDown, match=r"^cannot connect to emScon at 127\.0\.0\.1:1: "):
+        EmsconTracker("127.0.0.1", 1, timeout_s=0.5).connect()

@@ -435,6 +435,12 @@ def stationary_params(meas_time_ms: int, use_adm: bool) -> bytes:
     return struct.pack("<ii", meas_time_ms, int(use_adm))
 
 
+def parse_stationary(body: bytes) -> tuple[int, bool]:
+    """``(lMeasTime, bUseADM)`` of ``StationaryModeDataT``."""
+    meas_time_ms, use_adm = struct.unpack_from("<ii", body)
+    return meas_time_ms, bool(use_adm)
+
+
 def system_status_body(
     processor: int, serial: int, version=(3, 6, 0), last_status: int = 0
 ) -> bytes:

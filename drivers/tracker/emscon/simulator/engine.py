@@ -164,6 +164,7 @@ class EmsconSimulator:
         self.env = (20.0, 1013.25, 50.0)
         self.coordinate_system = pk.CS_RHR
         self.meas_mode = pk.MM_STATIONARY
+        self.stationary = (1000, True)  # lMeasTime (ms), bUseADM
         self.ack_start = ack_start
         self.probe = probe
         self.aim_mm: np.ndarray | None = None  # where GoPosition pointed the beam
@@ -354,6 +355,13 @@ class EmsconSimulator:
         self.meas_mode = pk.MM_STATIONARY
         return self._ok(command, params)
 
+    def _set_stationary(self, command, params):
+        meas_time_ms, use_adm = pk.parse_stationary(params)
+        if meas_time_ms <= 0:
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        self.stationary = (meas_time_ms, use_adm)
+        return self._ok(command, params)
+
     def _get_mode(self, command, params):
         return [pk.encode_reply(command, ResultStatus.ALL_OK, pk.uint_param(self.meas_mode))]
 
@@ -457,7 +465,7 @@ _HANDLERS = {
     Command.GET_ENVIRONMENT_PARAMS: EmsconSimulator._get_env,
     Command.SET_MEASUREMENT_MODE: EmsconSimulator._set_mode,
     Command.SET_COORDINATE_SYSTEM_TYPE: EmsconSimulator._set_coordinates,
-    Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._ok,
+    Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._set_stationary,
     Command.START_MEASUREMENT: EmsconSimulator._start_measurement,
     Command.STOP_MEASUREMENT: EmsconSimulator._ok,
     Command.FIND_REFLECTOR: EmsconSimulator._find_reflector,
