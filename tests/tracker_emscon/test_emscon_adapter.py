@@ -394,7 +394,8 @@ def test_documented_defaults():
     assert (trk.init_timeout_s, trk.search_timeout_s) == (120.0, 30.0)
     assert trk.search_after_beam_break is True
     assert (trk.reconnect_attempts, trk.reconnect_delay_s) == (3, 0.2)
-    assert (trk.serial, trk.last_status, trk.last_distance_mm, trk.searches) == (None, None, None, 0)
+    assert (trk.serial, trk.last_status, trk.last_distance_mm) == (None, None, None)
+    assert trk.searches == 0
     assert trk.events.maxlen == 256 and not trk.events
 
 
