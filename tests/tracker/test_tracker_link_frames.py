@@ -46,3 +46,11 @@ def test_a_frame_written_in_part_drops_the_queue_and_the_next_line_ends_it():
     assert port.resets == 1  # what was still queued is dropped
     assert tracker.link.transact("STAT?", timeout_s=1.0).seq == 5
     port.verify()
+
+
+def test_frame_starts_are_every_tag_after_the_first_byte_in_order():
+    from drivers.tracker.link import _frame_starts
+
+    assert _frame_starts(b"OK,1,xER,2OK,3EV,4OK,") == [5, 10, 14, 18]
+    assert _frame_starts(b"xOK,") == [1]
+    assert _frame_starts(b"OK,no other tag") == []
