@@ -51,6 +51,6 @@ def test_a_frame_written_in_part_drops_the_queue_and_the_next_line_ends_it():
 def test_frame_starts_are_every_tag_after_the_first_byte_in_order():
     from drivers.tracker.link import _frame_starts
 
-    assert _frame_starts(b"OK,1,xER,2OK,3EV,4OK,") == [5, 10, 14, 18]
+    assert _frame_starts(b"OK,1,xER,2OK,3EV,4OK,") == [6, 10, 14, 18]
     assert _frame_starts(b"xOK,") == [1]
     assert _frame_starts(b"OK,no other tag") == []
