@@ -378,7 +378,7 @@ def test_reconnect_tries_again_after_a_failed_attempt_and_names_the_failure(scri
         trk.measure()
     np.testing.assert_array_equal(trk.measure().point_mm, TARGET_MM)
     never = EmsconTracker("127.0.0.1", 1)
-    with pytest.raises(LinkDown, match=r"not connected: call connect\(\) first"):
+    with pytest.raises(LinkDown, match=r"^not connected: call connect\(\) first$"):
         never.measure()
     trk.reconnect_attempts = 0
     sim.arm_fault("MEAS+1 hangup")
@@ -473,3 +473,31 @@ def test_a_reset_or_closed_connection_while_reading_breaks_the_link_and_says_whi
     ours.close()
     theirs.close()
     assert (_name(pk.Command.GET_UNITS), _name(9999)) == ("ES_C_GET_UNITS", "ES_C_9999")
+
+
+def test_a_fresh_connection_sends_no_fence():
+    sim = ScriptedSimulator(seed=2, initialised=True, noise=NoiseModel(enabled=False))
+    commands = []
+    handle = sim.handle_packet
+
+    def spy(data):
+        commands.append(pk.parse_uint(data[8:12]))
+        return handle(data)
+
+    sim.handle_packet = spy
+    with EmsconServer(sim) as server:
+        server.open()
+        server.start()
+        with EmsconTracker("127.0.0.1", server.port, timeout_s=0.5) as trk:
+            trk.connect()
+    assert commands[:2] == [pk.Command.SET_UNITS, pk.Command.GET_UNITS]
+
+
+def test_find_reflector_keeps_its_own_deadline_for_the_search(scripted):
+    sim, trk = scripted
+    trk.search_timeout_s = 5.0
+    sim.arm_fault("FIND+1 delay delay=1.0")
+    start = time.monotonic()
+    with pytest.raises(TrackerTimeout):
+        trk.find_reflector(TARGET_MM, timeout_s=0.2)
+    assert time.monotonic() - start < 1.0
