@@ -54,3 +54,44 @@ def test_frame_starts_are_every_tag_after_the_first_byte_in_order():
     assert _frame_starts(b"OK,1,xER,2OK,3EV,4OK,") == [6, 10, 14, 18]
     assert _frame_starts(b"xOK,") == [1]
     assert _frame_starts(b"OK,no other tag") == []
+
+
+class Leftovers(ScriptedTransport):
+    """A port with bytes still waiting; ``fail`` makes asking for them a transport error."""
+
+    def __init__(self, waiting: bytes, fail: bool = False):
+        super().__init__([])
+        self.rx += waiting
+        self.fail = fail
+
+    @property
+    def in_waiting(self) -> int:
+        if self.fail:
+            raise OSError("port vanished")
+        return len(self.rx)
+
+    def reset_input_buffer(self) -> None:
+        self.rx.clear()
+
+
+def test_discarding_input_counts_buffered_and_waiting_bytes_and_ends_a_skip():
+    from drivers.tracker.errors import ConnectionLost
+    from drivers.tracker.link import Link
+
+    port = Leftovers(b"12345")
+    link = Link(port)
+    link._buf += b"abc"
+    link._skipping = True
+    link.counters.discarded_bytes = 7
+    link.discard_input()
+    assert link.counters.discarded_bytes == 7 + 3 + 5 and not port.rx
+    assert link._skipping is False and not link._buf
+    broken = Link(Leftovers(b"", fail=True))
+    with pytest.raises(ConnectionLost, match="^transport failed: port vanished$"):
+        broken.discard_input()
+
+
+def test_every_later_frame_start_is_found_not_only_the_last():
+    from drivers.tracker.link import _frame_starts
+
+    assert _frame_starts(b"xOK,OK,OK,OK,") == [1, 4, 7, 10]
