@@ -1,12 +1,15 @@
 """Averaging of tracker readings; the logic lives in :mod:`calibrator.acquire.averaging`.
 
 Kept for the driver's callers: :func:`measure_average` here raises the
-driver's :class:`~drivers.tracker.errors.TargetUnstable` when too few readings
-were accepted. The domain module is imported on first use, so the tracker
-simulator (which imports this package) stays free of the domain.
+driver's :class:`~drivers.tracker.errors.TargetUnstable` when the set is
+rejected (too few readings accepted, or a spread above the limit). The domain
+module is imported on first use, so the tracker simulator (which imports this
+package) stays free of the domain.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 from drivers.tracker.errors import TargetUnstable
 from drivers.tracker.protocol import ErrorCode
@@ -14,21 +17,23 @@ from drivers.tracker.protocol import ErrorCode
 __all__ = ["measure_average"]  # and AveragedReading, on demand (see __getattr__)
 
 
-def measure_average(tracker, n: int = 10, *, reject_flagged: bool = True, min_count=None):
-    """:func:`calibrator.acquire.averaging.measure_average`, with the driver's error type."""
+def measure_average(tracker: Any, n: int = 10, **options: Any) -> Any:
+    """:func:`calibrator.acquire.averaging.measure_average`, with the driver's error type.
+
+    ``options`` are that function's keywords (``reject_flagged``, ``min_count``,
+    ``accuracy``, ``max_spread_mm``).
+    """
     from calibrator.acquire import averaging
 
     try:
-        return averaging.measure_average(
-            tracker, n, reject_flagged=reject_flagged, min_count=min_count
-        )
-    except averaging.TooFewReadings as exc:
+        return averaging.measure_average(tracker, n, **options)
+    except averaging.SetRejected as exc:
         raise TargetUnstable(
             int(ErrorCode.TARGET_UNSTABLE), ErrorCode.TARGET_UNSTABLE.name, str(exc), "MEAS"
         ) from exc
 
 
-def __getattr__(name):
+def __getattr__(name: str) -> Any:
     if name == "AveragedReading":
         from calibrator.acquire.averaging import AveragedReading
 

@@ -145,11 +145,11 @@ def test_measure_average_takes_exactly_n_readings():
             return Reading([self.n, 0, 0])
 
     tracker = Counting()
-    avg = measure_average(tracker, 4)
+    avg = measure_average(tracker, 4, max_spread_mm=None)  # toy mm-scale spread
     assert tracker.n == 4 and avg.mean_mm[0] == 2.5 and len(avg.readings) == 4
     with pytest.raises(ValueError, match="n must be >= 1, got 0"):
         measure_average(tracker, 0)
-    assert measure_average(Counting()).count == 10
+    assert measure_average(Counting(), max_spread_mm=None).count == 10
 
 
 # ---------------------------------------------------------------- the loop
@@ -230,7 +230,7 @@ def test_no_wait_without_a_settle_time():
 
 def test_a_lost_set_is_taken_again_whole_and_given_up_after_the_retries():
     lost = ReadingLost("beam broken")
-    answers = [[0, 0, 1], lost, [0, 0, 2], [0, 0, 4], *[lost] * 3, [5, 5, 5], [5, 5, 5]]
+    answers = [[0, 0, 1], lost, [0, 0, 2.99], [0, 0, 3.01], *[lost] * 3, [5, 5, 5], [5, 5, 5]]
     journal = Journal()
     out = loop.run(
         PLAN[:3], Arm(), Script(answers), journal, loop.LoopOptions(readings=2, retries=2)

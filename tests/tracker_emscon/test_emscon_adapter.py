@@ -117,7 +117,7 @@ def test_server_gone_is_tracker_unavailable_within_bounded_reconnects(served):
     trk = EmsconTracker("127.0.0.1", server.port, timeout_s=0.5, reconnect_delay_s=0.01)
     trk.connect()
     server.stop()
-    with Timer() as t, pytest.raises(LinkDown) as err:
+    with Timer() as t, pytest.raises(LinkDown, match="attempts failed: cannot connect") as err:
         trk.measure(timeout_s=0.5)
     assert isinstance(err.value, TrackerUnavailable)
     assert t.elapsed < 0.5 + trk.reconnect_attempts * (0.5 + 0.01) + DEADLINE_SLACK_S
@@ -212,9 +212,9 @@ def test_another_tracker_after_a_reconnect_stops_the_run(served):
     replacement.open(port)
     replacement.start()
     try:
-        with pytest.raises(TrackerReplaced) as err:
+        with pytest.raises(TrackerReplaced, match=f"serial {sim.serial + 1}, not {sim.serial}"):
             trk.measure()
-        assert isinstance(err.value, TrackerUnavailable)
+        assert issubclass(TrackerReplaced, TrackerUnavailable)
         assert other.measurements == 0  # nothing was measured on the wrong tracker
     finally:
         trk.close()
@@ -233,3 +233,200 @@ def test_lost_initialisation_is_reported_and_never_repaired_even_across_reconnec
     assert not trk.last_status.initialised
     with pytest.raises(NotInitialised):
         trk.measure()
+
+
+@pytest.mark.parametrize("ack_start", [False, True], ids=["stationary-no-ack", "acknowledged"])
+def test_readings_with_and_without_a_start_acknowledgement(ack_start):
+    sim = EmsconSimulator(seed=5, initialised=True, ack_start=ack_start)
+    sim.set_target(TARGET_MM)
+    with EmsconServer(sim) as server:
+        server.open()
+        server.start()
+        with EmsconTracker("127.0.0.1", server.port, timeout_s=1.0) as trk:
+            trk.connect()
+            avg = measure_average(trk, 10)
+            np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+            assert trk.status().state is pk.TrackerState.READY  # no stray ack answers this
+            assert trk._link.stale == 0 and sim.measurements == 10
+
+
+def test_find_reflector_at_a_predicted_point_relocks_only_near_the_target(tracker):
+    sim, trk = tracker
+    assert "find_reflector" in trk.capabilities
+    sim.arm_fault("MEAS+1 beam_break count=100")
+    trk.search_after_beam_break = False
+    with pytest.raises(BeamBroken):
+        trk.measure()
+    far = np.array(TARGET_MM) + [0.0, 500.0, 0.0]  # the prediction misses by 0.5 m
+    with pytest.raises(BeamBroken):
+        trk.find_reflector(far)
+    with pytest.raises(BeamBroken):
+        trk.measure()  # still broken
+    trk.find_reflector(np.array(TARGET_MM) + [20.0, -10.0, 5.0])
+    np.testing.assert_allclose(trk.measure().point_mm, TARGET_MM, atol=0.1)
+    for bad in ([np.nan, 0.0, 0.0], [1e300, 0.0, 0.0], [1.0, 2.0]):
+        with pytest.raises(ValueError):
+            trk.find_reflector(bad)
+
+
+def test_a_6dof_probe_feeds_orientation_through_the_probe_result():
+    from scipy.spatial.transform import Rotation
+
+    sim = EmsconSimulator(seed=3, initialised=True, probe=True)
+    rotvec = np.array([0.3, -0.2, 1.1])
+    sim.set_target(TARGET_MM, rotvec)
+    with EmsconServer(sim) as server:
+        server.open()
+        server.start()
+        with EmsconTracker("127.0.0.1", server.port, timeout_s=1.0) as trk:
+            trk.connect()
+            reading = trk.measure()
+            assert reading.accurate and reading.rotvec_rad.shape == (3,)
+            avg = measure_average(trk, 10)
+    np.testing.assert_allclose(avg.mean_mm, TARGET_MM, atol=0.02)
+    err = Rotation.from_rotvec(avg.rotvec_mean_rad) * Rotation.from_rotvec(rotvec).inv()
+    assert err.magnitude() < 1e-4  # 0.01 deg MPE per reading, averaged over ten
+    assert np.all(avg.rotvec_std_rad > 0)
+
+
+def test_probe_result_layout_and_its_rotation_status():
+    q = (np.cos(0.25), 0.0, 0.0, np.sin(0.25))  # 0.5 rad about z
+    data = pk.encode_probe_stationary_result(
+        (1.0, 2.0, 3.0), (0.01, 0.02, 0.03, 0.04), q, (20.0, 1000.0, 40.0)
+    )
+    assert len(data) == pk.SIZE_PROBE_STATIONARY_RESULT == 376
+    res = pk.decode_server_packet(data)
+    assert isinstance(res, pk.ProbeStationaryResult) and res.rotation_status == 1
+    assert (res.values, res.std, res.quaternion) == ((1.0, 2.0, 3.0), (0.01, 0.02, 0.03, 0.04), q)
+    assert res.meteo == (20.0, 1000.0, 40.0)
+    trk = EmsconTracker("127.0.0.1")
+    reading = trk._reading(res, 0)
+    np.testing.assert_allclose(reading.rotvec_rad, [0.0, 0.0, 0.5])
+    neg = pk.decode_server_packet(
+        pk.encode_probe_stationary_result(
+            (1.0, 2.0, 3.0), (0, 0, 0, 0), [-v for v in q], (20, 1000, 40)
+        )
+    )
+    np.testing.assert_allclose(trk._reading(neg, 0).rotvec_rad, [0.0, 0.0, 0.5])  # -q is q
+    invalid = pk.ProbeStationaryResult(**{**res.__dict__, "rotation_status": 0b11})
+    assert not trk._reading(invalid, 0).accurate  # 6-DoF error bit: flagged, left out
+
+
+def test_initialise_without_a_deadline_uses_the_adapters_own(tracker):
+    sim, trk = tracker
+    sim.initialised = False
+    trk.init_timeout_s = 2.0
+    trk.initialise()
+    assert sim.initialised
+
+
+def test_the_search_after_a_beam_break_runs_only_when_enabled_and_counts_each(tracker):
+    sim, trk = tracker
+    trk.measure()  # a distance to search at
+    trk.search_after_beam_break = False
+    sim.arm_fault("MEAS+1 beam_break count=1")
+    with pytest.raises(BeamBroken):
+        trk.measure()
+    assert trk.searches == 0
+    trk.search_after_beam_break = True
+    for _ in range(2):
+        sim.arm_fault("MEAS+1 beam_break count=100")
+        with pytest.raises(BeamBroken):
+            trk.measure()
+    assert trk.searches == 2
+    sim.arm_fault("MEAS+1 beam_break count=100")
+    sim.clear_target()  # nothing to find: the search fails and says so
+    with pytest.raises(BeamBroken) as err:
+        trk.measure()
+    assert any(n.startswith("FindReflector failed: ") for n in err.value.__notes__)
+
+
+def test_find_reflector_checks_its_prediction_and_never_uses_the_adm(tracker):
+    sim, trk = tracker
+    with pytest.raises(ValueError, match="predicted point must be 3 finite mm within 1 km"):
+        trk.find_reflector([1e6 + 1, 0.0, 0.0])
+    with pytest.raises(EmsconRefused):  # 1 km is a prediction; the server refuses it
+        trk.find_reflector([1e6, 0.0, 0.0])
+    seen = []
+    handle = sim.handle_packet
+
+    def spy(data):
+        if pk.parse_uint(data[8:12]) == pk.Command.GO_POSITION:
+            seen.append(pk.parse_go_position(data[12:]))
+        return handle(data)
+
+    sim.handle_packet = spy
+    trk.find_reflector(np.array(TARGET_MM).reshape(3, 1))  # a column vector is 3 values
+    assert seen == [(TARGET_MM, False)]
+
+
+def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
+    from drivers.tracker.emscon.adapter import _quaternion_to_rotvec
+
+    half = np.array([np.cos(0.25), 0.0, 0.0, np.sin(0.25)])
+    np.testing.assert_allclose(_quaternion_to_rotvec(3.0 * half), [0.0, 0.0, 0.5])
+    np.testing.assert_array_equal(_quaternion_to_rotvec(np.array([1.0, 0, 0, 0])), np.zeros(3))
+    tiny = _quaternion_to_rotvec(np.array([1.0, 1e-13, 0.0, 0.0]))
+    np.testing.assert_allclose(tiny, [2e-13, 0.0, 0.0], rtol=1e-9)
+    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0], [np.inf, 0.0, 0.0, 0.0]):
+        got = _quaternion_to_rotvec(np.array(bad))
+        assert got.shape == (3,) and np.all(np.isnan(got))
+
+
+def test_open_tracker_names_what_is_wrong_with_a_url():
+    assert open_tracker("emscon://h/").host == "h"
+    cases = {
+        "socket://h": "expected emscon://HOST",
+        "emscon://h:99999": "bad port in 'emscon://h:99999'",
+        "emscon://h?meteo=": "meteo needs T,P,H",
+        "emscon://h?&meteo=21,1000,40": "bad query in 'emscon://h?&meteo=21,1000,40'",
+        "emscon://h?temp=20": "the only query is meteo=T,P,H",
+    }
+    for url, message in cases.items():
+        with pytest.raises(ValueError, match=message.replace("?", r"\?")):
+            open_tracker(url)
+
+
+def test_documented_defaults():
+    trk = EmsconTracker("h")
+    assert (trk.port, trk.environment, trk.meas_time_ms, trk.max_std_mm) == (700, None, None, 0.1)
+    assert (trk.timeout_s, trk.measure_timeout_s) == (2.0, 10.0)
+    assert (trk.init_timeout_s, trk.search_timeout_s) == (120.0, 30.0)
+    assert trk.search_after_beam_break is True
+    assert (trk.reconnect_attempts, trk.reconnect_delay_s) == (3, 0.2)
+    assert (trk.serial, trk.last_status, trk.last_distance_mm) == (None, None, None)
+    assert trk.searches == 0
+    assert trk.events.maxlen == 256 and not trk.events
+
+
+def test_stationary_time_is_set_on_connect_and_the_status_is_kept(served):
+    sim, server = served
+    trk = EmsconTracker("127.0.0.1", server.port, meas_time_ms=500, timeout_s=1.0)
+    try:
+        status = trk.connect()
+        assert sim.stationary == (500, True)
+        assert trk.last_status == status and status.initialised is True
+        assert status.serial == sim.serial
+    finally:
+        trk.close()
+    with pytest.raises(EmsconRefused):
+        EmsconTracker("127.0.0.1", server.port, meas_time_ms=0, timeout_s=1.0).connect()
+
+
+def test_a_server_that_does_not_confirm_the_units_is_refused_naming_both(served):
+    sim, server = served
+    from drivers.tracker.emscon.simulator import engine
+
+    engine._HANDLERS[pk.Command.GET_UNITS] = lambda self, c, p: [
+        pk.encode_reply(c, 0, pk.units_params(length=0))
+    ]
+    try:
+        with pytest.raises(FrameError, match=r"did not confirm units \(1, 0, 0, 1, 0\): \(0, 0"):
+            EmsconTracker("127.0.0.1", server.port, timeout_s=1.0).connect()
+    finally:
+        engine._HANDLERS[pk.Command.GET_UNITS] = EmsconSimulator._get_units
+
+
+def test_nobody_listening_is_link_down_naming_the_address():
+    with pytest.raises(LinkDown, match=r"^cannot connect to emScon at 127\.0\.0\.1:1: "):
+        EmsconTracker("127.0.0.1", 1, timeout_s=0.5).connect()

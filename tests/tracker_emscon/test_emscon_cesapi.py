@@ -102,6 +102,15 @@ def test_cesapi_scripted_session_against_the_simulator(exact_served):
         units.pressUnitType = cesapi_packet.ES_PU_HPascal
         units.humUnitType = cesapi_packet.ES_HU_RH
         cmd.SetUnits(units)
+        got = cmd.GetUnits()
+        assert got.unitsSettings.lenUnitType == cesapi_packet.ES_LU_Millimeter
+        assert got.unitsSettings.angUnitType == cesapi_packet.ES_AU_Radian
+        assert sim.units == pk.parse_units(pk.units_params())
+
+        cmd.SetCoordinateSystemType(cesapi_packet.ES_CS_RHR)
+        cmd.SetMeasurementMode(cesapi_packet.ES_MM_Stationary)
+        assert cmd.GetCoordinateSystemType().coordSysType == cesapi_packet.ES_CS_RHR
+        assert cmd.GetMeasurementMode().measMode == cesapi_packet.ES_MM_Stationary
 
         env = cesapi_packet.EnvironmentDataT()
         env.dTemperature, env.dPressure, env.dHumidity = 22.0, 995.0, 38.0
@@ -118,5 +127,15 @@ def test_cesapi_scripted_session_against_the_simulator(exact_served):
         assert result.packetInfo.status == cesapi_packet.ES_RS_AllOK
         np.testing.assert_array_equal([result.dVal1, result.dVal2, result.dVal3], TARGET_MM)
         assert (result.dTemperature, result.dPressure, result.dHumidity) == (22.0, 995.0, 38.0)
+
+        sim.arm_fault("MEAS+1 beam_break count=100")  # stays broken until a search
+        try:
+            cmd.StartMeasurement()
+            raise AssertionError("a broken beam measured")
+        except Exception as exc:  # cesapi raises a bare Exception with the status
+            assert "10004" in str(exc)
+        cmd.FindReflector(float(np.linalg.norm(TARGET_MM)))
+        result = cmd.StartMeasurement()
+        assert result.packetInfo.status == cesapi_packet.ES_RS_AllOK
     finally:
         conn.disconnect()

@@ -7,9 +7,21 @@
     reading = tracker.measure()  # one SingleMeasResult, tracker frame, mm
 
 Readings are in the emScon server's current frame (station orientation and
-transformation are left as the user set them), in mm; ``rotvec_rad`` is None
-(the AT4xx packet set has no 6-DoF probe). emScon results carry no clock, so
-``device_time_us`` is the host's monotonic clock when the result arrived.
+transformation are left as the user set them), in mm. A reflector gives a
+``SingleMeasResult`` (``rotvec_rad`` None); a 6-DoF probe (T-Probe, T-Mac)
+gives a ``ProbeStationaryResult``, whose quaternion becomes ``rotvec_rad``
+(probe orientation in the server's frame, rad), so a probe can feed 6-DoF
+sessions. emScon results carry no clock, so ``device_time_us`` is the host's
+monotonic clock when the result arrived.
+
+A result is checked before it is handed out: a non-zero status is the
+status's typed error, a non-finite or absurd value (beyond 1 km, a negative
+std) is :class:`BadReading`; a try-mode result (emScon's simulation) and one
+whose ``dStdTotal`` exceeds ``max_std_mm`` are handed out flagged not accurate,
+so the averaging leaves them out.
+
+Capabilities (declared in :data:`CAPABILITIES`, never probed): ``find_reflector``
+(:meth:`EmsconTracker.find_reflector`, beam recovery at a predicted point).
 """
 
 from __future__ import annotations
@@ -17,7 +29,9 @@ from __future__ import annotations
 import socket
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +40,7 @@ from drivers.errors import DriverError
 from drivers.tracker.base import Environment, OpenOptions
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.errors import (
+    BadReading,
     BeamBroken,
     ConnectionLost,
     FrameError,
@@ -37,6 +52,9 @@ from drivers.tracker.emscon.errors import (
 from drivers.tracker.emscon.link import EmsconLink
 
 DEFAULT_PORT = 700  # emScon's default TCP port
+MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
+MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the server is sick
+CAPABILITIES = frozenset({"find_reflector"})
 
 
 @dataclass(frozen=True)
@@ -46,11 +64,14 @@ class EmsconReading:
     Attributes
     ----------
     point_mm : numpy.ndarray, shape (3,)
-        Target position, mm, in the server's frame (normally the tracker frame).
-    rotvec_rad : None
-        Always None: reflectors only.
+        Target position (a probe's tip), mm, in the server's frame (normally the
+        tracker frame).
+    rotvec_rad : numpy.ndarray, shape (3,), or None
+        A 6-DoF probe's orientation (probe to server frame) as a rotation vector,
+        rad; None for a reflector.
     accurate : bool
-        False in emScon's try mode or when ``dStdTotal`` exceeds the adapter's limit.
+        False in emScon's try mode, when ``dStdTotal`` exceeds the adapter's limit,
+        or when a probe's rotation status says its 6-DoF values are not valid.
     device_time_us : int
         Host monotonic clock at arrival, us (emScon results carry no time stamp).
     std_mm : numpy.ndarray, shape (4,)
@@ -60,7 +81,7 @@ class EmsconReading:
     """
 
     point_mm: np.ndarray
-    rotvec_rad: None
+    rotvec_rad: np.ndarray | None
     accurate: bool
     device_time_us: int
     std_mm: np.ndarray
@@ -139,6 +160,7 @@ class EmsconTracker:
         self.last_distance_mm: float | None = None
         self.searches = 0  # FindReflector runs after beam breaks (diagnostics)
         self._link: EmsconLink | None = None
+        self._stalls = 0  # packets cut short in a row, without a good reading since
 
     # ------------------------------------------------------------ lifecycle
 
@@ -150,8 +172,7 @@ class EmsconTracker:
         stationary time and the environment. Never sends ``Initialize``: that
         moves the head; call :meth:`initialise` when ``initialised`` is False.
         """
-        self._open()
-        status = self._settle()
+        status = self._settle(self._open())
         self.serial = status.serial
         return status
 
@@ -182,11 +203,43 @@ class EmsconTracker:
         """``Initialize``: moves the head for tens of seconds. Only ever on the user's request."""
         self._once(pk.Command.INITIALIZE, timeout_s=timeout_s or self.init_timeout_s)
 
-    def find_reflector(self, distance_mm: float, timeout_s: float | None = None) -> None:
-        """``FindReflector``: search for a reflector about ``distance_mm`` away along the beam."""
+    capabilities = CAPABILITIES
+
+    def find_reflector(self, predicted_point_mm, timeout_s: float | None = None) -> None:
+        """Re-lock the beam on a reflector expected near ``predicted_point_mm``.
+
+        Points the beam at the prediction (``GoPosition``, without ADM), then
+        ``FindReflector`` at its distance: the tracker's own search pattern
+        around the beam. Moves the tracker head, never the robot.
+
+        Parameters
+        ----------
+        predicted_point_mm : array_like, shape (3,)
+            Where the reflector should be, mm, in the server's frame (the
+            tracker frame unless the user set a transformation).
+        timeout_s : float, optional
+            Deadline of each of the two commands, s (default ``search_timeout_s``).
+
+        Raises
+        ------
+        ValueError
+            The prediction is not 3 finite coordinates within 1 km.
+        BeamBroken
+            No reflector found there.
+        """
+        point = np.asarray(predicted_point_mm, dtype=float).reshape(-1)
+        if point.shape != (3,) or not np.all(np.abs(point) <= MAX_COORDINATE_MM):
+            raise ValueError(f"predicted point must be 3 finite mm within 1 km, got {point}")
+        timeout_s = timeout_s or self.search_timeout_s
+        params = pk.go_position_params(point, use_adm=False)  # mm: connect() set the units
+        self._once(pk.Command.GO_POSITION, params, timeout_s=timeout_s)
+        self._find_at(float(np.linalg.norm(point)), timeout_s)
+
+    def _find_at(self, distance_mm: float, timeout_s: float | None = None) -> None:
+        """``FindReflector``: search for a reflector about ``distance_mm`` along the beam."""
         self._once(
             pk.Command.FIND_REFLECTOR,
-            pk.double_param(distance_mm),
+            pk.double_param(distance_mm),  # mm: connect() set the units
             timeout_s=timeout_s or self.search_timeout_s,
         )
 
@@ -198,7 +251,7 @@ class EmsconTracker:
         BeamBroken
             No reflector locked; the adapter already ran ``FindReflector`` (when
             enabled and a distance is known). Measure the pose again.
-        TargetUnstable, TrackerTimeout, FrameError, ReadingInterrupted
+        TargetUnstable, TrackerTimeout, FrameError, BadReading, ReadingInterrupted
             This reading is lost (all :class:`ReadingLost`); never re-requested here.
         NotInitialised, TrackerBusy, EmsconRefused, UnknownStatus
             The server refused.
@@ -212,27 +265,52 @@ class EmsconTracker:
             self._search_after(exc)
             raise
         t_us = time.monotonic_ns() // 1000
-        point = np.array(result.values) * self._mm_per_unit
-        std = np.array(result.std) * self._mm_per_unit
-        self.last_distance_mm = float(np.linalg.norm(point))
-        accurate = not result.try_mode and std[3] <= self.max_std_mm
-        return EmsconReading(point, None, bool(accurate), t_us, std, tuple(result.meteo))
+        reading = self._reading(result, t_us)
+        self.last_distance_mm = float(np.linalg.norm(reading.point_mm))
+        return reading
+
+    def _reading(self, result: pk.MeasResult, t_us: int) -> EmsconReading:
+        """Check a result's values and make it a reading (status was checked by the link).
+
+        Values are in mm and rad: connect() set those units and confirmed them.
+        """
+        point, std, meteo = np.array(result.values), np.array(result.std), np.array(result.meteo)
+        rotvec: np.ndarray | None = None
+        six_dof_ok = True
+        if isinstance(result, pk.ProbeStationaryResult):
+            rotvec = _quaternion_to_rotvec(np.array(result.quaternion))
+            # lRotationStatus bit 0: 6-DoF values valid; bit 1: 6-DoF error.
+            six_dof_ok = (result.rotation_status & 0b11) == 0b01
+        # NaN compares False, so these refuse it along with inf and absurd values.
+        sane = (
+            np.all(np.abs(point) <= MAX_COORDINATE_MM)
+            and np.all((std >= 0) & (std <= MAX_COORDINATE_MM))
+            and np.all(np.isfinite(meteo))
+            and (rotvec is None or bool(np.all(np.isfinite(rotvec))))
+        )
+        if not sane:
+            raise BadReading(
+                f"emScon result with impossible values: point {point.tolist()} mm, "
+                f"std {std.tolist()} mm, meteo {meteo.tolist()}"
+                + ("" if rotvec is None else f", orientation {rotvec.tolist()} rad")
+            )
+        self._stalls = 0
+        accurate = not result.try_mode and std[3] <= self.max_std_mm and six_dof_ok
+        return EmsconReading(point, rotvec, bool(accurate), t_us, std, tuple(meteo.tolist()))
 
     # ------------------------------------------------------------ machinery
-
-    _mm_per_unit = pk.LENGTH_UNIT_MM[pk.LU_MILLIMETER]  # connect() enforces mm
 
     def _search_after(self, exc: BeamBroken) -> None:
         if not self.search_after_beam_break or self.last_distance_mm is None:
             return
         self.searches += 1
         try:
-            self.find_reflector(self.last_distance_mm)
+            self._find_at(self.last_distance_mm)
             exc.add_note(f"FindReflector at {self.last_distance_mm:.0f} mm re-locked the beam")
         except DriverError as search_exc:  # any failure of the search: the beam stays broken
             exc.add_note(f"FindReflector failed: {search_exc}")
 
-    def _open(self) -> None:
+    def _open(self) -> EmsconLink:
         self.close()
         try:
             sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
@@ -240,11 +318,13 @@ class EmsconTracker:
             msg = f"cannot connect to emScon at {self.host}:{self.port}: {exc}"
             raise LinkDown(msg) from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self._link = EmsconLink(sock, events=self.events)
+        # A packet that starts must finish like an ordinary reply: a silence inside it
+        # longer than timeout_s is a stall, not a slow measurement.
+        self._link = EmsconLink(sock, events=self.events, packet_gap_s=self.timeout_s)
+        return self._link
 
-    def _settle(self) -> EmsconStatus:
+    def _settle(self, link: EmsconLink) -> EmsconStatus:
         """Apply the settings on a fresh connection and read the status."""
-        link = self._link
         t = self.timeout_s
         link.transact(pk.Command.SET_UNITS, pk.units_params(), timeout_s=t)
         units = pk.parse_units(link.transact(pk.Command.GET_UNITS, timeout_s=t).body)
@@ -276,14 +356,27 @@ class EmsconTracker:
 
     def _usable_link(self) -> EmsconLink:
         if self._link is None or self._link.broken:
-            self._reconnect()
+            return self._reconnect()
         return self._link
 
-    def _once(self, command: int, params: bytes = b"", *, timeout_s: float, measure=False):
+    def _once(
+        self, command: int, params: bytes = b"", *, timeout_s: float, measure: bool = False
+    ) -> Any:
         """A command that is never repeated (it moves the head or yields a reading)."""
         link = self._usable_link()
         try:
             return link.transact(command, params, timeout_s=timeout_s, measure=measure)
+        except TrackerTimeout:
+            if link.broken:  # a packet stopped half-way: reconnect now, bounded
+                self._stalls += 1
+                if self._stalls >= MAX_STALLS:
+                    self.close()
+                    raise LinkDown(
+                        f"emScon server cut {self._stalls} packets short in a row, "
+                        "each on a fresh connection: giving up"
+                    ) from None
+                self._reconnect()
+            raise
         except ConnectionLost as exc:
             self._reconnect()  # raises LinkDown when it cannot
             raise ReadingInterrupted(
@@ -291,20 +384,17 @@ class EmsconTracker:
                 "reconnected, command not repeated"
             ) from exc
 
-    def _retrying(self, operation):
+    def _retrying(self, operation: Callable[[EmsconLink], Any]) -> Any:
         """An idempotent query: retried once after a broken frame or a reconnect."""
-        for attempt in (0, 1):
-            link = self._usable_link()
-            try:
-                return operation(link)
-            except TrackerReplaced:
-                raise
-            except (ConnectionLost, FrameError):
-                if attempt:
-                    raise
-        raise AssertionError("unreachable")
+        try:
+            return operation(self._usable_link())
+        except TrackerReplaced:
+            raise
+        except (ConnectionLost, FrameError):
+            pass  # once more, on a reconnected link if this one broke
+        return operation(self._usable_link())
 
-    def _reconnect(self) -> None:
+    def _reconnect(self) -> EmsconLink:
         """Bounded reconnect: reopen, re-apply settings, check the serial. Never initialises."""
         if self.serial is None:
             raise LinkDown("not connected: call connect() first")
@@ -312,19 +402,36 @@ class EmsconTracker:
         for _ in range(self.reconnect_attempts):
             time.sleep(self.reconnect_delay_s)
             try:
-                self._open()
-                status = self._settle()
+                link = self._open()
+                status = self._settle(link)
             except (ConnectionLost, TrackerTimeout, FrameError) as exc:
                 last = exc
                 continue
             if status.serial != self.serial:
                 self.close()
                 raise TrackerReplaced(f"reconnected to serial {status.serial}, not {self.serial}")
-            return
+            return link
         self.close()
         raise LinkDown(
             f"emScon connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
         ) from last
+
+
+def _quaternion_to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vector (rad, shape (3,)) of a scalar-first quaternion (normalised here).
+
+    A zero or non-finite quaternion gives NaN, which the caller refuses.
+    """
+    norm = float(np.linalg.norm(q))
+    if not np.isfinite(norm) or norm == 0.0:
+        return np.full(3, np.nan)
+    w, v = q[0] / norm, q[1:] / norm
+    if w < 0:  # q and -q are one rotation: take the one with angle <= pi
+        w, v = -w, -v
+    s = float(np.linalg.norm(v))
+    if s < 1e-12:
+        return 2.0 * v  # small-angle limit
+    return 2.0 * np.arctan2(s, w) * v / s
 
 
 def open_tracker(url: str, **options) -> EmsconTracker:
@@ -348,7 +455,10 @@ def open_tracker(url: str, **options) -> EmsconTracker:
         port = parts.port or DEFAULT_PORT
     except ValueError as exc:
         raise ValueError(f"bad port in {url!r}: {exc}") from None
-    query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
+    try:
+        query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
+    except ValueError as exc:
+        raise ValueError(f"bad query in {url!r}: {exc}") from None
     if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
         raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
     if "meteo" in query:

@@ -17,6 +17,11 @@ any other known code                                  :class:`EmsconRefused`
 a code not in the V3.6 header                         :class:`UnknownStatus`
 ===================================================  =====================================
 
+A well-formed result whose values cannot be a reading (NaN, inf, a coordinate
+beyond 1 km or a negative or non-finite standard deviation) is a
+:class:`BadReading` (a :class:`FrameError`, so a :class:`ReadingLost`: the pose
+is measured again; the link stays up, since the framing held).
+
 Transport failures use :class:`ReadingInterrupted` (a reconnect worked, the
 reading in flight is lost: retried) and :class:`LinkDown` (the reconnects
 failed: :class:`calibrator.acquire.ports.TrackerUnavailable`), and
@@ -41,6 +46,7 @@ from drivers.tracker.errors import (
 )
 
 __all__ = [
+    "BadReading",
     "BeamBroken",
     "ConnectionLost",
     "EmsconRefused",
@@ -66,6 +72,10 @@ class EmsconRefused(TrackerError):
 
 class UnknownStatus(TrackerError):
     """The server answered with a status code that Leica's V3.6 header does not define."""
+
+
+class BadReading(FrameError):
+    """A result packet, well framed, whose values cannot be a reading (non-finite, absurd)."""
 
 
 class ReadingInterrupted(ConnectionLost, ReadingLost):

@@ -4,12 +4,20 @@ emScon packets carry no sequence number, so a reply is matched by what it is:
 the command reply (or ``ES_DT_Error``) must name our command, and a
 ``SingleMeasResult`` is only accepted while our ``StartMeasurement`` is the
 one command in flight. After a timeout the link is *unsettled*: a late answer
-to the abandoned command may still arrive. Because the server answers in
-command order, the next transaction first sends a cheap fence
-(``GetTrackerStatus``) and discards everything before the fence's reply, so
-a late reading can never be taken for the answer to a later command. A packet
-that breaks the framing (size disagreeing with its type) makes the stream
-untrustworthy: the link is then marked broken and the caller reconnects.
+to the abandoned command may still arrive. The next transaction first sends a
+cheap fence (``GetTrackerStatus``) and discards everything before the fence's
+*successful* reply: the server works through its queue in order, so an OK
+answer to the fence comes after anything the abandoned command still had to
+say. A server that is still busy with the abandoned measurement answers the
+fence at once with ``ES_RS_ServerBusy``, out of order; such an answer proves
+nothing, so the fence is sent again (every ``busy_poll_s``) until an OK reply
+or the deadline. A fence refused with any other status raises that error and
+the link stays unsettled. A packet that breaks the framing (size disagreeing
+with its type), or one that starts and then stops arriving for longer than
+``packet_gap_s``, makes the stream untrustworthy: the link is then marked
+broken and the caller reconnects. Packets of the types Leica's header defines
+but this adapter does not use (continuous, multi-measurement and probe
+position results) are skipped by their validated size.
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ import socket
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Literal, overload
 
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.errors import (
@@ -35,10 +44,14 @@ class EmsconLink:
     ----------
     sock : socket.socket
         Connected TCP socket (the link owns it from now on).
-    events : deque, optional
-        Where ``SystemStatusChange`` events go (survives reconnects if shared).
-    on_event : callable, optional
-        Called with each :class:`~drivers.tracker.emscon.packets.StatusChangeEvent`.
+    events : deque
+        Where ``SystemStatusChange`` events go (the adapter's, so they survive
+        reconnects).
+    packet_gap_s : float
+        Longest silence inside one packet (its first bytes arrived), s: past it
+        the framing is lost and the link is broken.
+    busy_poll_s : float
+        Pause before the fence is sent again after an ``ES_RS_ServerBusy`` answer, s.
     clock : callable
         Monotonic clock, s.
     """
@@ -47,18 +60,22 @@ class EmsconLink:
         self,
         sock: socket.socket,
         *,
-        events: deque | None = None,
-        on_event: Callable[[pk.StatusChangeEvent], None] | None = None,
+        events: deque,
+        packet_gap_s: float,
+        busy_poll_s: float = 0.05,
         clock: Callable[[], float] = time.monotonic,
     ):
         self.sock = sock
-        self.events: deque = deque(maxlen=256) if events is None else events
-        self.on_event = on_event
+        self.events = events
         self.stale = 0  # packets dropped because they answered another (earlier) command
         self.broken = False  # framing lost or transport failed: reconnect before use
         self._unsettled = False  # a command timed out: fence before the next one
+        self.packet_gap_s = packet_gap_s
+        self.busy_poll_s = busy_poll_s
+        self.fence_busy = 0  # fences answered ES_RS_ServerBusy (diagnostics)
         self._clock = clock
         self._buf = bytearray()
+        self._last_byte = 0.0  # when the last bytes arrived (silence inside a packet)
 
     def close(self) -> None:
         try:
@@ -68,9 +85,24 @@ class EmsconLink:
 
     # ------------------------------------------------------------ transactions
 
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: Literal[False] = ...
+    ) -> pk.CommandReply: ...
+
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: Literal[True]
+    ) -> pk.MeasResult: ...
+
+    @overload
+    def transact(
+        self, command: int, params: bytes = ..., *, timeout_s: float, measure: bool
+    ) -> pk.CommandReply | pk.MeasResult: ...
+
     def transact(
         self, command: int, params: bytes = b"", *, timeout_s: float, measure: bool = False
-    ) -> pk.CommandReply | pk.SingleMeasResult:
+    ) -> pk.CommandReply | pk.MeasResult:
         """Send ``command`` and return its OK reply (or, with ``measure``, its result).
 
         Raises
@@ -92,7 +124,7 @@ class EmsconLink:
             self._send(pk.encode_command(command, params))
             return self._await(command, deadline, name, measure)
         except TrackerTimeout:
-            if self._buf:
+            if self._buf or self.broken:
                 # Part of a packet is pending: if its size field lied, every later packet
                 # would be cut in the wrong place. Only a new connection is certain.
                 self._lose_framing()
@@ -101,17 +133,40 @@ class EmsconLink:
             raise
 
     def _fence(self, deadline: float, name: str) -> None:
-        """Discard everything up to the reply to a fresh ``GetTrackerStatus``."""
+        """Discard everything up to an OK reply to a fresh ``GetTrackerStatus``.
+
+        Raises
+        ------
+        TrackerTimeout
+            The server stayed busy (or silent) until the deadline.
+        TrackerError
+            The fence was refused with a status other than busy.
+        """
         fence = pk.Command.GET_TRACKER_STATUS
         self._send(pk.encode_command(fence))
         while True:
             packet = self._next_packet(deadline, name)
-            if isinstance(packet, pk.CommandReply | pk.ErrorResponse) and packet.command == fence:
+            if not isinstance(packet, pk.CommandReply | pk.ErrorResponse):
+                self._note_other(packet)
+                continue
+            if packet.command != fence:
+                self._note_other(packet)
+                continue
+            if packet.status == pk.ResultStatus.ALL_OK and isinstance(packet, pk.CommandReply):
                 self._unsettled = False
                 return
-            self._note_other(packet)
+            if packet.status != pk.ResultStatus.SERVER_BUSY:
+                raise error_for_status(packet.status, _name(fence), f"fence before {name}")
+            # Busy with the abandoned command: its answer is still to come. Ask again.
+            self.fence_busy += 1
+            pause = min(self.busy_poll_s, deadline - self._clock())
+            if pause > 0:
+                time.sleep(pause)
+            self._send(pk.encode_command(fence))
 
-    def _await(self, command: int, deadline: float, name: str, measure: bool):
+    def _await(
+        self, command: int, deadline: float, name: str, measure: bool
+    ) -> pk.CommandReply | pk.MeasResult:
         while True:
             packet = self._next_packet(deadline, name)
             if isinstance(packet, pk.CommandReply | pk.ErrorResponse) and packet.command == command:
@@ -122,7 +177,7 @@ class EmsconLink:
                 if not measure:
                     return packet
                 continue  # StartMeasurement acknowledged; the result follows
-            if measure and isinstance(packet, pk.SingleMeasResult):
+            if measure and isinstance(packet, pk.SingleMeasResult | pk.ProbeStationaryResult):
                 if packet.status != pk.ResultStatus.ALL_OK:
                     raise error_for_status(packet.status, name)
                 return packet
@@ -131,8 +186,6 @@ class EmsconLink:
     def _note_other(self, packet: pk.Packet) -> None:
         if isinstance(packet, pk.StatusChangeEvent):
             self.events.append(packet)
-            if self.on_event is not None:
-                self.on_event(packet)
         else:
             self.stale += 1
 
@@ -170,7 +223,17 @@ class EmsconLink:
 
     def _fill(self, n: int, deadline: float, name: str) -> None:
         while len(self._buf) < n:
-            remaining = deadline - self._clock()
+            now = self._clock()
+            remaining = deadline - now
+            if self._buf:  # inside a packet: the rest must not stall
+                gap_left = self._last_byte + self.packet_gap_s - now
+                if gap_left <= 0:
+                    self._lose_framing()
+                    raise TrackerTimeout(
+                        f"a packet stopped arriving while waiting for {name} "
+                        f"(no byte for {self.packet_gap_s:g} s); the stream cannot be re-cut"
+                    )
+                remaining = min(remaining, gap_left)
             if remaining <= 0:
                 raise TrackerTimeout(
                     f"no answer to {name} within the deadline ({len(self._buf)} bytes pending)"
@@ -186,6 +249,7 @@ class EmsconLink:
             if not chunk:
                 self.broken = True
                 raise ConnectionLost(f"emScon server closed the connection during {name}")
+            self._last_byte = self._clock()
             self._buf += chunk
 
 

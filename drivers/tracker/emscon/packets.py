@@ -1,10 +1,11 @@
 """Leica emScon TCP packets: the subset the adapter and simulator use, written with ``struct``.
 
 Layouts follow Leica's published C API header (``ES_C_API_Def.h``, TPI/SDK
-V3.6, AT4xx extract). That header sets ``#pragma pack(4)``: every field is a
-4-byte integer/enum or an 8-byte double, so with 4-byte packing there is no
-padding anywhere and the little-endian ``struct`` formats below (``<``, no
-alignment) reproduce the C layout byte for byte.
+V3.6: the AT4xx extract, and the full header for the multi-measurement and
+6-DoF probe results, types 3, 4, 5, 10 and 11). That header sets
+``#pragma pack(4)``: every field is a 4-byte integer/enum or an 8-byte double,
+so with 4-byte packing there is no padding anywhere and the little-endian
+``struct`` formats below (``<``, no alignment) reproduce the C layout byte for byte.
 
 Every packet starts with the 8-byte header ``int32 lPacketSize; uint32 type``
 (``lPacketSize`` counts the whole packet, header included). Commands carry
@@ -19,7 +20,12 @@ import struct
 from dataclasses import dataclass
 
 HEADER = struct.Struct("<iI")  # lPacketSize, type
-MAX_PACKET = 4096  # far above the largest packet we know (SingleMeasResult2, 204 bytes)
+# Fixed-size packets are checked against their layout; a multi-measurement result
+# (continuous mode) has no fixed size: lNumberOfResults records follow its head.
+# Bound it where no real server goes: 4 MiB is ~20,000 6-DoF records, seconds of
+# continuous data at the fastest rate, and far below what would starve the host.
+MAX_PACKET = 4 * 1024 * 1024
+MAX_FIXED_PACKET = 4096  # every fixed layout is far smaller (the largest is 376 bytes)
 
 
 class DataType(enum.IntEnum):
@@ -28,10 +34,15 @@ class DataType(enum.IntEnum):
     COMMAND = 0
     ERROR = 1
     SINGLE_MEAS_RESULT = 2
+    MULTI_MEAS_RESULT = 3
+    STATIONARY_PROBE_MEAS_RESULT = 4
+    CONTINUOUS_PROBE_MEAS_RESULT = 5
     NIVEL_RESULT = 6
     REFLECTOR_POS_RESULT = 7
     SYSTEM_STATUS_CHANGE = 8
     SINGLE_MEAS_RESULT2 = 9
+    MULTI_MEAS_RESULT2 = 10
+    PROBE_POS_RESULT = 11
 
 
 class Command(enum.IntEnum):
@@ -52,6 +63,7 @@ class Command(enum.IntEnum):
     SET_STATIONARY_MODE_PARAMS = 28
     START_MEASUREMENT = 49
     STOP_MEASUREMENT = 52
+    GO_POSITION = 55
     FIND_REFLECTOR = 63
     GET_MEASUREMENT_STATUS_INFO = 122
 
@@ -131,6 +143,13 @@ _UNITS = struct.Struct("<5I")
 _ENV = struct.Struct("<3d")
 _RESULT = struct.Struct("<Ii17d")  # measMode, bIsTryMode, dVal1..dHumidity
 _RESULT2 = struct.Struct("<Ii23d")  # the same with covariances (statistic mode "extended")
+# ProbeStationaryResultT: measMode, bIsTryMode, triggerStatus, lRotationStatus,
+# iInternalProbeId, iFieldNumber, tipStatus, iInternalTipAdapterId,
+# iTipAdapterInterface, then 41 doubles: position (3), its std (3 + total),
+# covariances (3), a-priori std (4) and covariances (3); quaternion (4), rotation
+# angles (3), their std (3 + total), covariances (3), a-priori std (4) and
+# covariances (3); temperature, pressure, humidity. ``long`` is 4 bytes (LLP64).
+_PROBE = struct.Struct("<IiIiiiIii41d")
 _SYSTEM_STATUS = struct.Struct("<4I3iIii")
 _CMD = struct.Struct("<I")
 _CMD_REPLY = struct.Struct("<II")
@@ -144,6 +163,8 @@ SIZE_SINGLE_MEAS_RESULT = 12 + _RESULT.size  # 156
 SIZE_SINGLE_MEAS_RESULT2 = 12 + _RESULT2.size  # 204
 SIZE_NIVEL_RESULT = 40
 SIZE_REFLECTOR_POS_RESULT = 36
+SIZE_PROBE_STATIONARY_RESULT = 12 + _PROBE.size  # 376
+SIZE_PROBE_POS_RESULT = 12 + 4 * 4 + 10 * 8  # 108
 
 FIXED_SIZES = {
     DataType.ERROR: SIZE_ERROR,
@@ -152,20 +173,34 @@ FIXED_SIZES = {
     DataType.REFLECTOR_POS_RESULT: SIZE_REFLECTOR_POS_RESULT,
     DataType.SYSTEM_STATUS_CHANGE: SIZE_STATUS_CHANGE,
     DataType.SINGLE_MEAS_RESULT2: SIZE_SINGLE_MEAS_RESULT2,
+    DataType.STATIONARY_PROBE_MEAS_RESULT: SIZE_PROBE_STATIONARY_RESULT,
+    DataType.PROBE_POS_RESULT: SIZE_PROBE_POS_RESULT,
+}
+
+# Multi-measurement results: (size of the head, size of one record), header included.
+# Head: ReturnDataT, lNumberOfResults, measMode, bIsTryMode[, probe id, field, tip
+# status, tip adapter id and interface], temperature, pressure, humidity.
+# Records: MeasValueT (3 ints, 3 doubles), MeasValue2T (3 ints, 10 doubles),
+# ProbeMeasValueT (5 ints, 24 doubles).
+VARIABLE_SIZES = {
+    DataType.MULTI_MEAS_RESULT: (12 + 3 * 4 + 3 * 8, 3 * 4 + 3 * 8),
+    DataType.MULTI_MEAS_RESULT2: (12 + 3 * 4 + 3 * 8, 3 * 4 + 10 * 8),
+    DataType.CONTINUOUS_PROBE_MEAS_RESULT: (12 + 8 * 4 + 3 * 8, 5 * 4 + 24 * 8),
 }
 
 # Size of each command packet (client to server) by command, header included.
-COMMAND_SIZES = {
+COMMAND_SIZES: dict[int, int] = {
     Command.SET_UNITS: SIZE_COMMAND + _UNITS.size,
     Command.SET_ENVIRONMENT_PARAMS: SIZE_COMMAND + _ENV.size,
     Command.SET_MEASUREMENT_MODE: SIZE_COMMAND + 4,
     Command.SET_COORDINATE_SYSTEM_TYPE: SIZE_COMMAND + 4,
     Command.SET_STATIONARY_MODE_PARAMS: SIZE_COMMAND + 8,
     Command.FIND_REFLECTOR: SIZE_COMMAND + 8,
+    Command.GO_POSITION: SIZE_COMMAND + 28,
 }
 
 # Size of each command reply (server to client) by command; others are 16.
-REPLY_SIZES = {
+REPLY_SIZES: dict[int, int] = {
     Command.GET_SYSTEM_STATUS: SIZE_COMMAND_REPLY + _SYSTEM_STATUS.size,  # 56
     Command.GET_TRACKER_STATUS: SIZE_COMMAND_REPLY + 4,
     Command.GET_UNITS: SIZE_COMMAND_REPLY + _UNITS.size,
@@ -240,6 +275,39 @@ class SingleMeasResult:
 
 
 @dataclass(frozen=True)
+class ProbeStationaryResult:
+    """``ES_DT_StationaryProbeMeasResult``: one stationary 6-DoF probe reading.
+
+    Attributes
+    ----------
+    status, meas_mode, try_mode
+        As in :class:`SingleMeasResult`.
+    values : tuple of float
+        ``dPosition1..3``: the probe tip, length unit.
+    std : tuple of float
+        ``dStdDevPosition1..3, dStdDevPositionTotal``, length unit.
+    quaternion : tuple of float
+        ``dQuaternion0..3``, scalar first: the probe's orientation in the server's frame.
+    rotation_std : tuple of float
+        ``dStdDevRotationAngleX..Z, dStdDevRotationAngleTotal``, angle unit.
+    meteo : tuple of float
+        ``dTemperature, dPressure, dHumidity`` used for the reading.
+    rotation_status : int
+        ``lRotationStatus`` bit field (bit 0: 6-DoF valid, bit 1: 6-DoF error).
+    """
+
+    status: int
+    meas_mode: int
+    try_mode: bool
+    values: tuple[float, float, float]
+    std: tuple[float, float, float, float]
+    quaternion: tuple[float, float, float, float]
+    rotation_std: tuple[float, float, float, float]
+    meteo: tuple[float, float, float]
+    rotation_status: int
+
+
+@dataclass(frozen=True)
 class StatusChangeEvent:
     """``ES_DT_SystemStatusChange``: an unsolicited event."""
 
@@ -248,12 +316,21 @@ class StatusChangeEvent:
 
 @dataclass(frozen=True)
 class OtherPacket:
-    """A well-sized packet of a type the adapter does not use (nivel, reflector position)."""
+    """A well-sized packet of a type the adapter does not use (nivel, reflector position,
+    continuous and multi-measurement results): skipped by its size."""
 
     type: int
 
 
-Packet = CommandReply | ErrorResponse | SingleMeasResult | StatusChangeEvent | OtherPacket
+Packet = (
+    CommandReply
+    | ErrorResponse
+    | SingleMeasResult
+    | ProbeStationaryResult
+    | StatusChangeEvent
+    | OtherPacket
+)
+MeasResult = SingleMeasResult | ProbeStationaryResult
 
 
 # ---------------------------------------------------------------- encoding
@@ -291,6 +368,28 @@ def encode_single_meas_result(
     return _with_header(DataType.SINGLE_MEAS_RESULT, body)
 
 
+def encode_probe_stationary_result(
+    values,
+    std,
+    quaternion,
+    meteo,
+    *,
+    status: int = 0,
+    try_mode: bool = False,
+    rotation_std=(0.0, 0.0, 0.0, 0.0),
+) -> bytes:
+    """A ``ProbeStationaryResult``; covariances, a-priori values and rotation angles zero,
+    rotation status "6-DoF valid"."""
+    ints = (MM_STATIONARY, int(try_mode), 0, 1, 0, 0, 0, 0, 0)
+    doubles = (
+        *values, *std, 0.0, 0.0, 0.0, *std, 0.0, 0.0, 0.0,
+        *quaternion, 0.0, 0.0, 0.0, *rotation_std, 0.0, 0.0, 0.0, *rotation_std,
+        0.0, 0.0, 0.0, *meteo,
+    )  # fmt: skip
+    body = _CMD.pack(status) + _PROBE.pack(*ints, *doubles)
+    return _with_header(DataType.STATIONARY_PROBE_MEAS_RESULT, body)
+
+
 def units_params(length=LU_MILLIMETER, angle=AU_RADIAN, temp=TU_CELSIUS, press=PU_HPASCAL):
     """``SystemUnitsDataT``: length, angle, temperature, pressure, humidity units."""
     return _UNITS.pack(length, angle, temp, press, HU_RH)
@@ -321,9 +420,25 @@ def double_param(value: float) -> bytes:
     return struct.pack("<d", value)
 
 
+def go_position_params(point, use_adm: bool) -> bytes:
+    """``GoPositionCT`` data: ``dVal1..3`` in the frame and units set, then ``bUseADM``."""
+    return struct.pack("<3di", *point, int(use_adm))
+
+
+def parse_go_position(body: bytes) -> tuple[tuple[float, float, float], bool]:
+    *point, use_adm = struct.unpack_from("<3di", body)
+    return (point[0], point[1], point[2]), bool(use_adm)
+
+
 def stationary_params(meas_time_ms: int, use_adm: bool) -> bytes:
     """``StationaryModeDataT``: ``lMeasTime`` (ms), ``bUseADM``."""
     return struct.pack("<ii", meas_time_ms, int(use_adm))
+
+
+def parse_stationary(body: bytes) -> tuple[int, bool]:
+    """``(lMeasTime, bUseADM)`` of ``StationaryModeDataT``."""
+    meas_time_ms, use_adm = struct.unpack_from("<ii", body)
+    return meas_time_ms, bool(use_adm)
 
 
 def system_status_body(
@@ -359,16 +474,20 @@ def parse_system_status(body: bytes) -> SystemStatus:
 # ---------------------------------------------------------------- framing and decoding
 
 
-def split_header(data: bytes) -> tuple[int, int]:
+def split_header(data: bytes | bytearray) -> tuple[int, int]:
     """``(lPacketSize, type)`` of a header, after bounds checks.
+
+    The bound depends on the type: a multi-measurement result may reach
+    :data:`MAX_PACKET`; every other packet stays under :data:`MAX_FIXED_PACKET`.
 
     Raises
     ------
     PacketSizeError
-        Size below the smallest packet (12) or above :data:`MAX_PACKET`.
+        Size below the smallest packet (12) or above the type's bound.
     """
     size, type_ = HEADER.unpack_from(data)
-    if not SIZE_COMMAND <= size <= MAX_PACKET:
+    bound = MAX_PACKET if type_ in VARIABLE_SIZES else MAX_FIXED_PACKET
+    if not SIZE_COMMAND <= size <= bound:
         raise PacketSizeError(f"lPacketSize {size} out of bounds (type {type_})")
     return size, type_
 
@@ -400,7 +519,20 @@ def decode_server_packet(data: bytes) -> Packet:
     try:
         dtype = DataType(type_)
     except ValueError:
+        # Not a type of the V3.6 header: the size field cannot be checked against
+        # any layout, so it cannot be trusted to find the next packet either.
         raise ValueError(f"unknown packet type {type_} ({size} bytes)") from None
+    if dtype in VARIABLE_SIZES:
+        head, record = VARIABLE_SIZES[dtype]
+        count = (size - head) // record if size >= head else -1
+        if count < 0 or size != head + count * record:
+            msg = f"{dtype.name} packet of {size} bytes is not {head} + n * {record}"
+            raise PacketSizeError(msg)
+        (claimed,) = _CMD.unpack_from(data, SIZE_COMMAND)
+        if claimed != count:
+            msg = f"{dtype.name} claims {claimed} results but carries {count}"
+            raise PacketSizeError(msg)
+        return OtherPacket(type_)  # continuous mode: never requested by this adapter
     if size != FIXED_SIZES[dtype]:
         raise PacketSizeError(
             f"{dtype.name} packet has lPacketSize {size}, expected {FIXED_SIZES[dtype]}"
@@ -417,6 +549,13 @@ def decode_server_packet(data: bytes) -> Packet:
         (status,) = _CMD.unpack_from(data, HEADER.size)
         f = _RESULT2.unpack_from(data, SIZE_COMMAND)
         return SingleMeasResult(status, f[0], bool(f[1]), f[2:5], f[5:9], f[22:25])
+    if dtype is DataType.STATIONARY_PROBE_MEAS_RESULT:
+        (status,) = _CMD.unpack_from(data, HEADER.size)
+        f = _PROBE.unpack_from(data, SIZE_COMMAND)
+        d = f[9:]
+        return ProbeStationaryResult(
+            status, f[0], bool(f[1]), d[0:3], d[3:7], d[17:21], d[24:28], d[38:41], f[3]
+        )
     return OtherPacket(type_)
 
 

@@ -35,6 +35,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--init-time", type=float, default=0.2, metavar="S", help="Initialize, s")
     p.add_argument("--serial", type=int, default=390001, help="tracker serial number")
     p.add_argument("--faults", type=Path, metavar="FILE", help="fault script (shared syntax)")
+    p.add_argument(
+        "--ack-start",
+        action="store_true",
+        help="acknowledge StartMeasurement before its result (default: result only)",
+    )
+    p.add_argument("--probe", action="store_true", help="a 6-DoF probe (ProbeStationaryResult)")
     p.add_argument("--outlive-parent", action="store_true", help="keep serving after parent exits")
     return p
 
@@ -57,6 +63,8 @@ def main(argv: list[str] | None = None) -> int:
         init_time_s=args.init_time,
         initialised=args.initialised,
         serial=args.serial,
+        ack_start=args.ack_start,
+        probe=args.probe,
     )
     if args.target:
         engine.set_target(args.target[:3])

@@ -22,6 +22,15 @@ looks in emScon:
 - ``bad_crc`` (emScon has no checksum): the packet's ``lPacketSize`` is 16,
   disagreeing with its type.
 
+``StartMeasurement`` in stationary mode is answered by its result alone, as
+Leica documents it (the acknowledgement before the result is documented for
+continuous mode only); ``ack_start=True`` sends an OK reply first, as some
+servers do, so clients can be tested against both. A refusal is always a
+reply carrying the status. ``probe=True`` simulates a 6-DoF probe: results
+are ``ProbeStationaryResult`` packets whose orientation is the target's.
+``GoPosition`` aims the beam; ``FindReflector`` then re-locks only if the
+target is within :data:`SEARCH_RADIUS_MM` of where the beam points.
+
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
 / ``SIM,FAULT`` (so ``drivers.tracker.simulator.launch.SimulatorControl``
@@ -56,6 +65,7 @@ MIN_RANGE_MM = 500.0
 MAX_RANGE_MM = 80_000.0
 METEO_LIMITS = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))  # degC, hPa, %RH
 INACCURATE_STD_MM = 1.0
+SEARCH_RADIUS_MM = 100.0  # FindReflector's reach around the aimed point
 
 # emScon commands under the names the shared fault scripts count.
 FAULT_NAMES = {
@@ -72,6 +82,9 @@ FAULT_NAMES = {
     Command.START_MEASUREMENT: "MEAS",
     Command.STOP_MEASUREMENT: "STOP",
     Command.FIND_REFLECTOR: "FIND",
+    Command.GO_POSITION: "GOPOS",
+    Command.GET_MEASUREMENT_MODE: "MODE?",
+    Command.GET_COORDINATE_SYSTEM_TYPE: "CSYS?",
     Command.GET_MEASUREMENT_STATUS_INFO: "MSI?",
 }
 
@@ -114,6 +127,11 @@ class EmsconSimulator:
         ``lTrackerSerialNumber`` of ``GetSystemStatus``.
     clock : callable
         Monotonic clock, s.
+    ack_start : bool
+        Acknowledge ``StartMeasurement`` with an OK reply before the result
+        (default False: stationary mode as Leica documents it, result only).
+    probe : bool
+        Simulate a 6-DoF probe (``ProbeStationaryResult``) instead of a reflector.
     """
 
     def __init__(
@@ -126,6 +144,8 @@ class EmsconSimulator:
         initialised: bool = False,
         serial: int = 390001,
         clock: Callable[[], float] = time.monotonic,
+        ack_start: bool = False,
+        probe: bool = False,
     ):
         self._rng = np.random.default_rng(seed)
         self.noise = noise if noise is not None else NoiseModel()
@@ -143,6 +163,12 @@ class EmsconSimulator:
         self.units = pk.parse_units(pk.units_params(length=0, angle=0))  # emScon starts in m
         self.env = (20.0, 1013.25, 50.0)
         self.coordinate_system = pk.CS_RHR
+        self.meas_mode = pk.MM_STATIONARY
+        self.stationary = (1000, True)  # lMeasTime (ms), bUseADM
+        self.ack_start = ack_start
+        self.probe = probe
+        self.aim_mm: np.ndarray | None = None  # where GoPosition pointed the beam
+        self._rotvec = np.zeros(3)
         self.measurements = 0  # results sent (diagnostics)
 
     # ------------------------------------------------------------ in-process control
@@ -150,11 +176,15 @@ class EmsconSimulator:
     def set_target(self, point_mm, rotvec_rad=None) -> None:
         """True target position (shape (3,), mm, tracker frame); re-locks a broken beam.
 
-        ``rotvec_rad`` is accepted for the shared control interface and ignored
-        (emScon's AT4xx packet set has reflectors only).
+        ``rotvec_rad`` (shape (3,), rad): the probe's orientation, used when the
+        simulator has ``probe=True`` (identity when None).
         """
         with self._lock:
             self._set_target(point_mm)
+            rotvec = np.zeros(3) if rotvec_rad is None else np.asarray(rotvec_rad, float)
+            if rotvec.shape != (3,) or not np.all(np.isfinite(rotvec)):
+                raise ValueError("target orientation must be 3 finite values")
+            self._rotvec = rotvec
 
     def _set_target(self, point_mm) -> None:
         point = np.asarray(point_mm, dtype=float).reshape(3)
@@ -190,7 +220,8 @@ class EmsconSimulator:
         try:
             what, *args = cmd.args if cmd.name == "SIM" else ("",)
             if what == "TARGET" and len(args) in (3, 6):
-                self.set_target([float(a) for a in args[:3]])
+                values = [float(a) for a in args]
+                self.set_target(values[:3], values[3:] or None)
             elif what == "NOTARGET" and not args:
                 self.clear_target()
             elif what == "FAULT" and len(args) == 1:
@@ -319,13 +350,41 @@ class EmsconSimulator:
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
     def _set_mode(self, command, params):
-        if pk.parse_uint(params) != pk.MM_STATIONARY:
+        if pk.parse_uint(params) != pk.MM_STATIONARY:  # only stationary is simulated
+            return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
+        self.meas_mode = pk.MM_STATIONARY
+        return self._ok(command, params)
+
+    def _set_stationary(self, command, params):
+        meas_time_ms, use_adm = pk.parse_stationary(params)
+        if meas_time_ms <= 0:
             return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        self.stationary = (meas_time_ms, use_adm)
+        return self._ok(command, params)
+
+    def _get_mode(self, command, params):
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, pk.uint_param(self.meas_mode))]
+
+    def _get_coordinates(self, command, params):
+        body = pk.uint_param(self.coordinate_system)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
+
+    def _go_position(self, command, params):
+        if not self.initialised:
+            return [pk.encode_reply(command, ResultStatus.TRACKER_NOT_INITIALIZED)]
+        point, _ = pk.parse_go_position(params)
+        aim = np.array(point) * pk.LENGTH_UNIT_MM[self.units[0]]
+        if not np.all(np.isfinite(aim)) or not 0 < np.linalg.norm(aim) <= MAX_RANGE_MM:
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        self.aim_mm = aim
         return self._ok(command, params)
 
     def _set_coordinates(self, command, params):
         if pk.parse_uint(params) != pk.CS_RHR:  # only the Cartesian frame is simulated
             return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
+        if self.coordinate_system == pk.CS_RHR:
+            return self._ok(command, params)  # unchanged: nothing to announce
+        self.coordinate_system = pk.CS_RHR
         change = pk.encode_status_change(StatusChange.COORDINATE_SYSTEM_TYPE_CHANGED)
         return [*self._ok(command, params), change]
 
@@ -333,6 +392,9 @@ class EmsconSimulator:
         if not self.initialised:
             return [pk.encode_reply(command, ResultStatus.TRACKER_NOT_INITIALIZED)]
         if self._target is None:
+            return [pk.encode_reply(command, ResultStatus.MEASUREMENT_STATUS_NOT_READY)]
+        aim, self.aim_mm = self.aim_mm, None
+        if aim is not None and np.linalg.norm(self._target - aim) > SEARCH_RADIUS_MM:
             return [pk.encode_reply(command, ResultStatus.MEASUREMENT_STATUS_NOT_READY)]
         self._beam_broken_left = 0
         ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
@@ -368,9 +430,24 @@ class EmsconSimulator:
             total = INACCURATE_STD_MM
         per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
         std = (*(std_xyz / per_unit), total / per_unit)
-        result = pk.encode_single_meas_result(point / per_unit, std, self.env)
+        if self.probe:
+            rotvec = self.noise.sample_rotvec(self._rotvec, self._rng)
+            quaternion = _rotvec_to_quaternion(rotvec)
+            result = pk.encode_probe_stationary_result(point / per_unit, std, quaternion, self.env)
+        else:
+            result = pk.encode_single_meas_result(point / per_unit, std, self.env)
         self.measurements += 1
-        return [pk.encode_reply(command, ResultStatus.ALL_OK), result]
+        if self.ack_start:
+            return [pk.encode_reply(command, ResultStatus.ALL_OK), result]
+        return [result]
+
+
+def _rotvec_to_quaternion(rotvec: np.ndarray) -> tuple[float, float, float, float]:
+    """Scalar-first unit quaternion of a rotation vector (rad)."""
+    angle = float(np.linalg.norm(rotvec))
+    axis = rotvec / angle if angle > 0 else np.zeros(3)
+    w, v = np.cos(angle / 2), np.sin(angle / 2) * axis
+    return float(w), float(v[0]), float(v[1]), float(v[2])
 
 
 def _ok(packet: bytes) -> bool:
@@ -388,8 +465,11 @@ _HANDLERS = {
     Command.GET_ENVIRONMENT_PARAMS: EmsconSimulator._get_env,
     Command.SET_MEASUREMENT_MODE: EmsconSimulator._set_mode,
     Command.SET_COORDINATE_SYSTEM_TYPE: EmsconSimulator._set_coordinates,
-    Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._ok,
+    Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._set_stationary,
     Command.START_MEASUREMENT: EmsconSimulator._start_measurement,
     Command.STOP_MEASUREMENT: EmsconSimulator._ok,
     Command.FIND_REFLECTOR: EmsconSimulator._find_reflector,
+    Command.GO_POSITION: EmsconSimulator._go_position,
+    Command.GET_MEASUREMENT_MODE: EmsconSimulator._get_mode,
+    Command.GET_COORDINATE_SYSTEM_TYPE: EmsconSimulator._get_coordinates,
 }

@@ -34,8 +34,12 @@ class EmsconSimulatorProcess(SimulatorProcess):
         initialised: bool = False,
         init_time_s: float = 0.2,
         faults: str | Path | None = None,
+        ack_start: bool = False,
+        probe: bool = False,
     ):  # replaces SimulatorProcess.__init__: another program, two endpoint lines
         args = ["--seed", str(seed), "--init-time", str(init_time_s)]
+        args += ["--ack-start"] if ack_start else []
+        args += ["--probe"] if probe else []
         args += [] if noise else ["--no-noise"]
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []
