@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from emscon_testkit import ENV, TARGET_MM
 
+from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, Tracker, TrackerUnavailable
 from drivers.errors import DriverError
 from drivers.tracker.averaging import measure_average
@@ -252,7 +253,7 @@ def test_readings_with_and_without_a_start_acknowledgement(ack_start):
 
 def test_find_reflector_at_a_predicted_point_relocks_only_near_the_target(tracker):
     sim, trk = tracker
-    assert "find_reflector" in trk.capabilities
+    assert ports.SEARCH in trk.capabilities and ports.INITIALISE in trk.capabilities
     sim.arm_fault("MEAS+1 beam_break count=100")
     trk.search_after_beam_break = False
     with pytest.raises(BeamBroken):

@@ -54,7 +54,9 @@ from drivers.tracker.emscon.link import EmsconLink
 DEFAULT_PORT = 700  # emScon's default TCP port
 MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
 MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the server is sick
-CAPABILITIES = frozenset({"find_reflector"})
+#: What the adapter declares to the acquisition ports: it can initialise the
+#: tracker (on request only) and search for a lost reflector (FindReflector).
+CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH})
 
 
 @dataclass(frozen=True)
@@ -125,7 +127,7 @@ class EmsconTracker:
         Pause before each reconnect attempt, s.
     """
 
-    capabilities = frozenset({ports.INITIALISE})
+    capabilities = CAPABILITIES
 
     def __init__(
         self,
@@ -202,8 +204,6 @@ class EmsconTracker:
     def initialise(self, timeout_s: float | None = None) -> None:
         """``Initialize``: moves the head for tens of seconds. Only ever on the user's request."""
         self._once(pk.Command.INITIALIZE, timeout_s=timeout_s or self.init_timeout_s)
-
-    capabilities = CAPABILITIES
 
     def find_reflector(self, predicted_point_mm, timeout_s: float | None = None) -> None:
         """Re-lock the beam on a reflector expected near ``predicted_point_mm``.
