@@ -460,7 +460,8 @@ class MeasureRun:
             on_beam_lost=on_beam_lost,
             via_rad=via_rad,
         )
-        self.journal.close()
+        # The journal stays open, and so locked, until finish() has removed it:
+        # a --resume started in between must find it in use, not half gone.
         return self.outcome
 
     def _with_lead_in(self, via_rad: Sequence[np.ndarray] | None) -> Sequence[np.ndarray] | None:
@@ -506,6 +507,8 @@ class MeasureRun:
         complete = written is not None and not failed and outcome.stopped is None
         if complete:
             self.journal_path.unlink()
+        if self.journal is not None:
+            self.journal.close()  # releases the lock, after the unlink
         return Summary(
             written,
             measured,
