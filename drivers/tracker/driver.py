@@ -144,6 +144,7 @@ class LaserTracker:
         -------
         Status
         """
+        self._closed = False  # an explicit connect reopens a closed driver
         self._open()
         self.identity = self.query_identity()
         reply = self._apply("UNITS", "MM", "RAD")
@@ -162,7 +163,12 @@ class LaserTracker:
         return ":".join(self.identity.key) if self.identity is not None else ""
 
     def close(self) -> None:
-        """Close the transport if we opened it, and the recording."""
+        """Close the transport if we opened it, and the recording.
+
+        A closed driver stays closed: a later command raises
+        :class:`TrackerGone` instead of reopening the port.
+        """
+        self._closed = True
         if self._url is not None and self._port is not None:
             try:
                 self._port.close()
@@ -288,6 +294,8 @@ class LaserTracker:
         never silently replaced by a second one.
         """
         timeout_s = timeout_s or self.timeout_s
+        if getattr(self, "_closed", False):
+            raise TrackerGone(f"{command}: the tracker driver was closed")
         for attempt in (0, 1):
             if self._lost or self._link is None:
                 self._reconnect()

@@ -199,7 +199,8 @@ def test_an_uninitialised_tracker_is_refused_and_never_initialised(simulator, tm
             f"tracker at {sim.url} is not initialised: run `calibrator tracker init "
             f"--tracker {sim.url}` (it moves the head), then measure again"
         )
-        assert not run.tracker.status().initialised  # nobody initialised it
+        with open_tracker(sim.url) as again:  # the run's driver is closed with the run
+            assert not again.connect().initialised  # nobody initialised it
 
 
 def test_an_unreachable_tracker_is_refused_in_one_line(tmp_path):
