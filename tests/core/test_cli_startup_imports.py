@@ -6,29 +6,39 @@ comes back shows here whatever the machine's load.
 """
 
 import json
+import os
 import subprocess
 import sys
 
 import pytest
 
 PROBE = """
-import json, sys
+import json, os, sys
 from calibrator.cli import main
 try:
     main(sys.argv[1:])
 except SystemExit as exc:
     code = exc.code
-print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+blas = os.environ.get("OPENBLAS_NUM_THREADS")
+print(json.dumps({"code": code, "modules": sorted(sys.modules), "blas": blas}))
 """
 
 
-def loaded(*argv):
+def probe(*argv, env=None):
     out = subprocess.run(
-        [sys.executable, "-c", PROBE, *map(str, argv)], capture_output=True, text=True, check=True
+        [sys.executable, "-c", PROBE, *map(str, argv)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
     )
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report["code"] == 0, out.stderr
-    return set(report["modules"])
+    return report
+
+
+def loaded(*argv):
+    return set(probe(*argv)["modules"])
 
 
 @pytest.fixture(scope="module")
@@ -78,3 +88,22 @@ def test_help_still_lists_every_command_in_workflow_order():
         "tracker",
         "analyze",
     ]
+
+
+@pytest.mark.parametrize(("given", "expected"), [(None, "1"), ("2", "2")])
+def test_identify_runs_one_blas_thread_unless_told(session, tmp_path, given, expected):
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    report = probe(
+        "identify",
+        session,
+        "-o",
+        tmp_path / "cal.json",
+        "--method",
+        "pso",
+        "--generations",
+        "5",
+        env=env,
+    )
+    assert report["blas"] == expected
