@@ -7,31 +7,85 @@ line on stderr and exit code 2 (:func:`main`); option checks live in
 Heavy modules are imported inside the commands so ``--help`` stays quick.
 """
 
+import importlib
+import os
 import sys
 
 import typer
 from typer._click import exceptions as _click_errors
 
-from calibrator.cli._app import app
+from calibrator.cli import _app
 from calibrator.errors import CalibrationError
 
-# Importing a command module registers its command on ``app``; help lists them
-# in this order, the order of the workflow.
-from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
-from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
-from calibrator.cli import tracker as _tracker  # noqa: E402,F401  isort: skip
-from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
-from calibrator.cli import export as _export  # noqa: E402,F401  isort: skip
-from calibrator.cli import compensate as _compensate  # noqa: E402,F401  isort: skip
-from calibrator.cli import verify as _verify  # noqa: E402,F401  isort: skip
-from calibrator.cli import report as _report  # noqa: E402,F401  isort: skip
-from calibrator.cli import analyze as _analyze  # noqa: E402,F401  isort: skip
-from calibrator.cli import simulate as _simulate  # noqa: E402,F401  isort: skip
+#: Command name -> module ``calibrator/cli/<module>.py`` that registers it, in
+#: the order of the workflow (the order help lists them in).
+COMMANDS = {
+    "plan": "plan",
+    "measure": "measure",
+    "tracker": "tracker",
+    "identify": "identify",
+    "export-params": "export",
+    "compensate": "compensate",
+    "verify": "verify",
+    "report": "report",
+    "analyze": "analyze",
+    "simulate": "simulate",
+}
 
-__all__ = ["app", "main"]
+
+#: Commands whose arithmetic is large enough for threaded BLAS (the Monte
+#: Carlo of ``analyze``, which also runs its own workers).
+MANY_THREADED = frozenset({"analyze"})
+
+__all__ = ["COMMANDS", "app", "main", "register"]
 
 #: Exit code of an interrupted command (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
+
+
+def register(names: tuple[str, ...] = tuple(COMMANDS)) -> typer.Typer:
+    """Import command modules, which registers their commands on the app.
+
+    A command line names one command, and importing all ten costs a quarter
+    of a second at every start (their imports reach the exporters, the
+    planner's checks, ...), so :func:`main` registers only the one it runs.
+
+    Parameters
+    ----------
+    names : iterable of str
+        Command names, keys of :data:`COMMANDS` (default: all).
+
+    Returns
+    -------
+    typer.Typer
+        The application, with those commands registered.
+    """
+    for name in names:
+        importlib.import_module(f"calibrator.cli.{COMMANDS[name]}")
+    # Keep help in workflow order whatever order the commands were registered in.
+    order = {f"calibrator.cli.{module}": i for i, module in enumerate(COMMANDS.values())}
+    app = _app.app
+    app.registered_commands.sort(key=lambda c: order.get(c.callback.__module__, len(order)))
+    app.registered_groups.sort(key=lambda g: list(COMMANDS).index(g.name or ""))
+    return app
+
+
+def _commands_for(argv: list[str]) -> tuple[str, ...]:
+    """The commands a command line needs: the one it names, or all of them.
+
+    Help, ``--version``, a missing or unknown command all need the full list,
+    so that help lists every command and an error can name the choices.
+    """
+    if argv and argv[0] in COMMANDS:
+        return (argv[0],)
+    return tuple(COMMANDS)
+
+
+def __getattr__(name: str):
+    # ``from calibrator.cli import app`` (tests, embedding) gets every command.
+    if name == "app":
+        return register()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _fail(message, code=2):
@@ -48,10 +102,18 @@ def main(argv=None):
     argv : list of str, optional
         Arguments after the program name (default: ``sys.argv[1:]``).
     """
+    args = sys.argv[1:] if argv is None else list(argv)
+    if not args or args[0] not in MANY_THREADED:
+        # Before numpy loads: OpenBLAS reads this once. Our matrices are small
+        # (a Jacobian of 6 rows a pose by at most 36 columns), where extra BLAS
+        # threads only spin: identify on 30 poses spent 0.15 s more CPU and
+        # 0.2 s more wall with them (measured). A user's own setting wins.
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from calibrator.cli import _checks
 
+    app = register(_commands_for(args))
     try:
-        _checks.strict_numbers(app, sys.argv[1:] if argv is None else list(argv))
+        _checks.strict_numbers(app, args)
         code = app(args=argv, prog_name="calibrator", standalone_mode=False)
     except _click_errors.NoArgsIsHelpError as exc:
         typer.echo(exc.format_message())

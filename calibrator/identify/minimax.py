@@ -10,7 +10,6 @@ judges all poses without a dense constraint Jacobian over thousands.
 """
 
 import numpy as np
-from scipy.optimize import minimize
 
 from calibrator import parameters
 from calibrator.identify.problem import FitResult, Problem
@@ -44,6 +43,10 @@ def refine_minimax(
         ``cost`` is the worst pose's squared error (mm^2), ``evaluations``
         the SLSQP iterations, ``info`` holds ``worst_mm`` and ``iterations``.
     """
+    # Imported here, not at module level: scipy.optimize costs about half a second of
+    # start-up, which a run that never reaches this fit (pso, plan, report) must not pay.
+    from scipy.optimize import minimize
+
     scale = np.array([parameters.plausible_range(n) for n in problem.space.free])
     best = np.asarray(x0, dtype=float)
     e_best = problem.pose_errors(best)

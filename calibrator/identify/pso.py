@@ -108,13 +108,26 @@ def ipso(
     history[0] = best_f[g]
     # Constants folded once: v <- K v + K c1 r1 (pbest - x) + K c2 r2 (gbest - x).
     kc1, kc2 = k * c1, k * c2
+    # Work buffers: the update below allocates nothing per generation (a few
+    # microseconds a call at this size, a tenth of a generation's overhead);
+    # the products are formed in the same order as written out, so the
+    # trajectory is the same to the bit.
+    r = np.empty((2, particles, dim))
+    pull, gap = np.empty_like(x), np.empty_like(x)
+    neg_v_max = -v_max
     for gen in range(1, generations + 1):
-        r = rng.random((2, particles, dim))
+        rng.random(out=r)
         v *= k
-        v += kc1 * r[0] * (best_x - x)
-        v += kc2 * r[1] * (best_x[g] - x)
+        np.multiply(kc1, r[0], out=pull)  # K c1 r1 (pbest - x)
+        np.subtract(best_x, x, out=gap)
+        pull *= gap
+        v += pull
+        np.multiply(kc2, r[1], out=pull)  # K c2 r2 (gbest - x)
+        np.subtract(best_x[g], x, out=gap)
+        pull *= gap
+        v += pull
         np.minimum(v, v_max, out=v)
-        np.maximum(v, -v_max, out=v)
+        np.maximum(v, neg_v_max, out=v)
         x += v
         np.minimum(x, upper, out=x)
         np.maximum(x, lower, out=x)
@@ -122,7 +135,7 @@ def ipso(
         better = f < best_f
         np.copyto(best_x, x, where=better[:, np.newaxis])
         np.copyto(best_f, f, where=better)
-        g = int(np.argmin(best_f))
+        g = int(best_f.argmin())
         history[gen] = best_f[g]
         if on_generation is not None:
             on_generation(gen, float(history[gen]))

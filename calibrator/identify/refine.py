@@ -1,7 +1,6 @@
 """Least-squares refinement of the identified deltas."""
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from calibrator.identify.problem import FitResult, Problem
 
@@ -22,6 +21,10 @@ def refine(problem: Problem, x0: np.ndarray, max_evaluations: int = 200) -> FitR
     FitResult
         ``cost`` is the sum of squared residuals (the seed's objective f).
     """
+    # Imported here, not at module level: scipy.optimize costs about half a second of
+    # start-up, which a run that never reaches this fit (pso, plan, report) must not pay.
+    from scipy.optimize import least_squares
+
     result = least_squares(
         problem.residuals,
         np.asarray(x0, dtype=float),

@@ -8,7 +8,6 @@ so the test is not blinded by the outliers it looks for.
 """
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from calibrator.identify import refine
 from calibrator.identify.problem import FitResult, Problem
@@ -72,6 +71,10 @@ def huber(
         ``cost``: sum of squared residuals over every fitting pose;
         ``outliers``: poses the outlier test rejects at the solution.
     """
+    # Imported here, not at module level: scipy.optimize costs about half a second of
+    # start-up, which a run that never reaches this fit (pso, plan, report) must not pay.
+    from scipy.optimize import least_squares
+
     x = np.asarray(x0, dtype=float)
     n = len(problem)
     evaluations = 0
