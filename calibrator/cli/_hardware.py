@@ -147,6 +147,9 @@ class Rig:
     after_move: Callable | None = None
     real_robot: bool = False
     sim_cell: SimCell | None = None
+    # A robot that watches the tracker hands the loop its own view of it (external).
+    tracker_view: Callable | None = None
+    summary: Callable[[], list] | None = None
 
 
 @dataclass(frozen=True)
@@ -164,12 +167,13 @@ class RigOptions:
     max_speed_rad_s: float | None = None
     max_accel_rad_s2: float | None = None
     tracker_at_mm: tuple | None = None
+    external: object = None  # drivers.robot.external.ExternalOptions for --robot external
 
 
 def scheme(url: str) -> str:
     """``sim``, ``ur``, ``socket``, ... : the part before ``://`` (a bare path is ``serial``)."""
-    if url == "sim":
-        return "sim"
+    if url in ("sim", "external"):
+        return url
     if "://" in url:
         return url.split("://", 1)[0].lower()
     return "serial"
@@ -199,7 +203,13 @@ def _ur_robot(url, rig: Rig, options: RigOptions, stack) -> None:
     rig.real_robot = True
 
 
-ROBOTS: dict[str, Callable] = {"sim": _sim_robot, "ur": _ur_robot}
+def _external_robot(url, rig: Rig, options: RigOptions, stack) -> None:
+    from drivers.robot.external.setup import attach
+
+    attach(rig, options.external)
+
+
+ROBOTS: dict[str, Callable] = {"sim": _sim_robot, "ur": _ur_robot, "external": _external_robot}
 
 
 # ---------------------------------------------------------------- trackers
@@ -319,7 +329,7 @@ def build(robot_url: str, tracker_url: str, options: RigOptions, stack) -> Rig:
     """
     robot_kind, tracker_kind = scheme(robot_url), scheme(tracker_url)
     if robot_kind not in ROBOTS:
-        raise CalibrationError(f"unknown --robot {robot_url!r}; use sim or ur://HOST")
+        raise CalibrationError(f"unknown --robot {robot_url!r}; use sim, ur://HOST or external")
     if tracker_kind not in TRACKERS:
         raise CalibrationError(
             f"unknown --tracker {tracker_url!r}; use sim, a device path or one of "
@@ -333,6 +343,8 @@ def build(robot_url: str, tracker_url: str, options: RigOptions, stack) -> Rig:
         rig.tracker_at_mm = np.asarray(options.tracker_at_mm, dtype=float)
     ROBOTS[robot_kind](robot_url, rig, options, stack)
     TRACKERS[tracker_kind](tracker_url, rig, options, stack)
+    if rig.tracker_view is not None:
+        rig.tracker = rig.tracker_view(rig.tracker)
     rig.tracker_id = tracker_url if tracker_kind != "sim" else "sim"
     stack.callback(rig.tracker.close)
     rig.tracker.connect()

@@ -30,7 +30,11 @@ def _triple(text: str | None, option: str):
 
 @app.command()
 def measure(
-    robot: str = typer.Option("sim", help="sim, or ur://HOST (a real UR controller)."),
+    robot: str = typer.Option(
+        "sim",
+        help="sim, ur://HOST (a real UR controller), or external (any brand running the "
+        "plan as its own program: the tracker detects each stop).",
+    ),
     tracker: str = typer.Option(
         "sim",
         help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
@@ -83,6 +87,26 @@ def measure(
         0, callback=checks.at_least(0), help="Seed of the plan and of the simulated cell."
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    stop_band: float = typer.Option(
+        0.05,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: stationarity band of a stop, mm.",
+    ),
+    settle_window: float = typer.Option(
+        0.5,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: how long readings stay in the band to make a stop, s.",
+    ),
+    match_tolerance: float = typer.Option(
+        15.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: largest distance of a stop from its expected pose, mm.",
+    ),
+    stop_timeout: float = typer.Option(
+        30.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: no stop for this long ends the program's poses (missing), s.",
+    ),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
@@ -132,6 +156,9 @@ def measure(
         # against it above and never becomes its own limit.
         max_accel_rad_s2=None,
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
+        external=_external_options(
+            stop_band, settle_window, match_tolerance, stop_timeout, readings, quiet
+        ),
     )
     with contextlib.ExitStack() as stack:
         tool_mm = _triple(tool, "--tool")
@@ -208,6 +235,8 @@ def measure(
                 on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
             )
         journal.close()
+        for line in rig.summary() if rig.summary is not None else ():
+            typer.echo(line)
         marks.append(("measure loop", time.perf_counter()))
         measured, failed = outcome.measured, outcome.failed
         if measured:
@@ -239,6 +268,15 @@ def measure(
             return
         jpath.unlink()
         typer.echo(f"wrote {output}: {len(measured)} poses x {readings} readings")
+
+
+def _external_options(band_mm, window_s, tolerance_mm, timeout_s, readings, quiet):
+    """Options of ``--robot external`` (stop detection and association)."""
+    from drivers.robot.external.setup import ExternalOptions
+    from drivers.robot.external.stops import StopOptions
+
+    stops = StopOptions(band_mm, window_s, tolerance_mm, timeout_s)
+    return ExternalOptions(stops, readings, None if quiet else lambda m: typer.echo(m, err=True))
 
 
 def _check_motion_caps(model_name, speed, accel, max_speed):
