@@ -21,9 +21,12 @@ stops. Each stop is matched to a plan pose in two stages:
    tolerance, or rejected when none is that close.
 
 A decision waits for the next stop (lag one): when the arm stops twice near
-the same pose (a pause just before it, or ringing after it) the closer stop
-is kept and the other rejected, so no reading is ever assigned to a pose the
-arm merely passed near. Assignments only move forward through the plan; the
+the same pose, the two are compared. Within :data:`SAME_PLACE_MM` of each
+other they are one place (the arm settled twice): the later is kept. Else the
+stop closer to the prediction is kept when it is clearly closer (by three
+times the registration's RMS residual); when it is not, neither is recorded
+and the pose is reported missing. So no reading is ever assigned to a pose
+the arm merely passed near. Assignments only move forward through the plan; the
 poses jumped over are the ones the program skipped.
 
 Units: mm; nominal points in the robot base frame, stops in the tracker frame.
@@ -43,6 +46,10 @@ from drivers.robot.external.stops import Stop
 BOOTSTRAP_SKIPS = 4
 #: Assigned poses from which the tool point is re-estimated with the registration.
 TOOL_FIT_POSES = 5
+#: Assigned poses from which stops are matched to the registered prediction (before: distances).
+REGISTRATION_POSES = 6
+#: Two stops closer than this are the same place (the arm settled twice), mm.
+SAME_PLACE_MM = 0.5
 
 
 @dataclass(frozen=True)
@@ -83,6 +90,7 @@ class Associator:
         self.tolerance_mm = float(tolerance_mm)
         self.next_pose = int(first_pose)
         self.base2tracker: np.ndarray | None = None
+        self.residual_rms_mm = 0.0
         self._unplaced: list[Stop] = []  # bootstrap: stops not yet part of a triangle
         self._pending: Assigned | None = None  # lag one: the last match, not yet final
         self._pairs: list[tuple[int, np.ndarray]] = []  # (pose, stop point) assigned
@@ -121,6 +129,10 @@ class Associator:
             self.tool_mm = tool
             if step < 1e-6:
                 break
+        points = flange[:, :3, :3] @ self.tool_mm + flange[:, :3, 3]
+        rot, shift = self.base2tracker[:3, :3], self.base2tracker[:3, 3]
+        misfit = np.linalg.norm(points @ rot.T + shift - measured, axis=1)
+        self.residual_rms_mm = float(np.sqrt(np.mean(misfit**2)))
 
     # ------------------------------------------------------------ decisions
 
@@ -128,12 +140,10 @@ class Associator:
         """Take one stop; return the decisions now final (about this or earlier stops)."""
         if self.base2tracker is None:
             return self._bootstrap(stop)
-        predicted = self.predicted()
-        assert predicted is not None  # registered above
         floor = self.next_pose if self._pending is None else self._pending.pose
         if floor >= len(self.flange):
             return [Rejected(stop, "after the last plan pose")]
-        errors = np.linalg.norm(predicted[floor:] - stop.point_mm, axis=1)
+        errors = self._misfits(stop.point_mm, floor)
         best = int(np.argmin(errors))
         pose, error = floor + best, float(errors[best])
         if error > self.tolerance_mm:
@@ -149,14 +159,7 @@ class Associator:
             ]
         match = Assigned(stop, pose, error)
         if self._pending is not None and self._pending.pose == pose:
-            keep, drop = sorted((self._pending, match), key=lambda a: a.error_mm)
-            self._pending = keep
-            return [
-                Rejected(
-                    drop.stop,
-                    f"a second stop at pose {pose}; kept the closer stop {keep.stop.number}",
-                )
-            ]
+            return self._twice(self._pending, match)
         out = self._settle()
         self._pending = match
         return out
@@ -171,6 +174,65 @@ class Associator:
             self._unplaced = []
             return out
         return self._settle()
+
+    def _misfits(self, point_mm: np.ndarray, floor: int) -> np.ndarray:
+        """Misfit of a stop (shape (3,), tracker frame) to every pose from ``floor``, mm.
+
+        With at least :data:`REGISTRATION_POSES` poses assigned: the distance
+        to the registered prediction. Before that a registration from three or
+        four points extrapolates poorly (a millimetre of model error turns the
+        frame by milliradians), so the misfit is the worst disagreement between
+        the stop's distances to the assigned stops and the pose's nominal
+        distances to their poses: frame-free, like the bootstrap.
+        """
+        pairs = list(self._pairs)
+        if self._pending is not None:
+            pairs.append((self._pending.pose, np.asarray(self._pending.stop.point_mm, float)))
+        if len(self._pairs) >= REGISTRATION_POSES:
+            predicted = self.predicted()
+            assert predicted is not None
+            return np.linalg.norm(predicted[floor:] - point_mm, axis=1)
+        nominal = self.nominal_points()
+        poses = np.array([p for p, _ in pairs])
+        seen = np.array([m for _, m in pairs])
+        measured = np.linalg.norm(seen - point_mm, axis=1)  # (K,)
+        expected = np.linalg.norm(nominal[floor:, None, :] - nominal[None, poses, :], axis=2)
+        misfit = np.abs(expected - measured[None, :])
+        # a pose compared with itself (a second stop there) is no evidence either way
+        misfit[poses[None, :] == np.arange(floor, len(nominal))[:, None]] = 0.0
+        return misfit.max(axis=1)
+
+    def _twice(self, first: Assigned, second: Assigned) -> list[Assigned | Rejected]:
+        """Two stops match one pose: keep the one that is surely it, or neither."""
+        pose = first.pose
+        apart = float(np.linalg.norm(second.stop.point_mm - first.stop.point_mm))
+        if apart <= SAME_PLACE_MM:  # the arm rang or crept and settled again: the later is steadier
+            self._pending = second
+            return [
+                Rejected(first.stop, f"stopped again at pose {pose} (stop {second.stop.number})")
+            ]
+        keep, drop = sorted((first, second), key=lambda a: a.error_mm)
+        if drop.error_mm - keep.error_mm > self.ambiguity_mm():
+            self._pending = keep
+            return [
+                Rejected(
+                    drop.stop,
+                    f"a second stop near pose {pose}, {drop.error_mm - keep.error_mm:.1f} mm "
+                    f"farther than stop {keep.stop.number}",
+                )
+            ]
+        # Both fit about as well: which one is the pose cannot be told, so neither is recorded.
+        self._pending = None
+        why = f"two stops {apart:.1f} mm apart both fit pose {pose}; neither is recorded"
+        return [Rejected(first.stop, why), Rejected(second.stop, why)]
+
+    def ambiguity_mm(self) -> float:
+        """How much closer to its prediction a stop must be to win over another, mm.
+
+        Three times the registration's RMS residual (how well the nominal arm
+        predicts a stop), at least :data:`SAME_PLACE_MM`.
+        """
+        return max(3.0 * self.residual_rms_mm, SAME_PLACE_MM)
 
     def _settle(self) -> list[Assigned | Rejected]:
         if self._pending is None:
