@@ -159,3 +159,19 @@ def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, plan_csv, args, 
     assert needle in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
     assert plan_csv.read_bytes() == before
+
+
+def test_measure_external_refuses_the_embedded_simulated_tracker(tmp_path, plan_csv):
+    line = one_line_error(
+        cli("measure", "--robot", "external", "--plan", plan_csv, "-o", "s.parquet", cwd=tmp_path)
+    )
+    assert "--robot external watches a tracker" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
+
+
+@pytest.mark.parametrize("option", ["--stop-band", "--settle-window", "--match-tolerance"])
+def test_measure_external_options_refuse_non_positive_values(tmp_path, plan_csv, option):
+    line = one_line_error(
+        cli("measure", "--robot", "external", "--plan", plan_csv, option, "0", cwd=tmp_path)
+    )
+    assert option in line

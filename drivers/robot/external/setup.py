@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from calibrator.errors import CalibrationError
 from drivers.robot.external.robot import ExternalRobot
 from drivers.robot.external.stops import StopOptions
 
@@ -47,6 +48,16 @@ def attach(rig, options: ExternalOptions | None = None) -> ExternalRobot:
     )
     rig.robot = robot
     rig.robot_id = f"external:{rig.model.name}"
-    rig.tracker_view = robot.readings_port
+
+    def view(tracker):
+        if rig.sim_cell is not None:  # --tracker sim: nothing would ever move its target
+            raise CalibrationError(
+                "--robot external watches a tracker whose target a controller moves: give "
+                "--tracker URL (a real tracker, or a tracker simulator the external-robot "
+                "simulator steers; see docs/external-robots.md)"
+            )
+        return robot.readings_port(tracker)
+
+    rig.tracker_view = view
     rig.summary = robot.summary
     return robot
