@@ -329,7 +329,7 @@ def build(robot_url: str, tracker_url: str, options: RigOptions, stack) -> Rig:
     """
     robot_kind, tracker_kind = scheme(robot_url), scheme(tracker_url)
     if robot_kind not in ROBOTS:
-        raise CalibrationError(f"unknown --robot {robot_url!r}; use sim, ur://HOST or external")
+        raise CalibrationError(f"unknown --robot {robot_url!r}; use sim or ur://HOST or external")
     if tracker_kind not in TRACKERS:
         raise CalibrationError(
             f"unknown --tracker {tracker_url!r}; use sim, a device path or one of "
