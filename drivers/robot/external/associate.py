@@ -130,7 +130,9 @@ class Associator:
             if step < 1e-6:
                 break
         points = flange[:, :3, :3] @ self.tool_mm + flange[:, :3, 3]
-        rot, shift = self.base2tracker[:3, :3], self.base2tracker[:3, 3]
+        fitted = frames.fit_rigid(points, measured)
+        self.base2tracker = fitted
+        rot, shift = fitted[:3, :3], fitted[:3, 3]
         misfit = np.linalg.norm(points @ rot.T + shift - measured, axis=1)
         self.residual_rms_mm = float(np.sqrt(np.mean(misfit**2)))
 

@@ -132,7 +132,7 @@ class ExternalRobot:
         """
         pose = self._pose_of(q_rad)
         if self._assoc is None:
-            flange = kinematics.forward(self.mdh, self.plan)  # (N, 4, 4), base frame
+            flange = kinematics.forward(self.mdh, self._plan)  # (N, 4, 4), base frame
             self._assoc = Associator(
                 flange, np.asarray(self.flange2tool)[:3, 3], self.options.tolerance_mm, pose
             )
@@ -159,7 +159,7 @@ class ExternalRobot:
 
     def actual_joints(self) -> np.ndarray:
         """The plan's joints of the pose just found (the arm stopped where it belongs), rad."""
-        if self.plan is None or self._current is None and self._missing_now is None:
+        if self._current is None and self._missing_now is None:
             raise RuntimeError("actual_joints before a pose was found")
         pose = self._current.pose if self._current is not None else self._last_missing
         return self._plan[pose].copy()
