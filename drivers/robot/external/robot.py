@@ -31,7 +31,11 @@ from calibrator import kinematics
 from calibrator.acquire.ports import ReadingLost
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.external.associate import Assigned, Associator, Rejected
-from drivers.robot.external.stops import Stop, StopDetector, StopOptions
+from drivers.robot.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions
+
+#: After the program was taken as ended, each later pose first looks this many settle
+#: windows for the arm moving again (a program restarted) before it is reported missing.
+RECHECK_WINDOWS = 3
 
 
 class PoseMissing(ReadingLost):
@@ -95,6 +99,8 @@ class ExternalRobot:
         self._missing_now: str | None = None
         self._ended = False
         self._asked = -1
+        # Readings this far apart (poll to poll) show the arm moving, mm.
+        self._moving_mm = REARM_FACTOR * options.band_mm
         self._last_missing = -1
 
     # ------------------------------------------------------------ port
@@ -150,11 +156,15 @@ class ExternalRobot:
                 )
                 break
             if self._ended:
+                # Has the program been started again? A short look for motion first.
+                if self._watch(RECHECK_WINDOWS * self.options.window_s):
+                    self._ended = False
+                    continue
                 self._skip(
                     pose, f"no stop within {self.options.timeout_s:g} s (program ended or stopped)"
                 )
                 break
-            self._watch()
+            self._watch(self.options.timeout_s)
         return self._plan[pose].copy()
 
     def actual_joints(self) -> np.ndarray:
@@ -248,15 +258,21 @@ class ExternalRobot:
                 self.rejected.append(d)
                 self._event(f"stop {d.stop.number} rejected: {d.reason}")
 
-    def _watch(self) -> None:
-        """Read the tracker until a decision is made or the program is taken as ended."""
+    def _watch(self, budget_s: float) -> bool:
+        """Read the tracker until a decision is made, or ``budget_s`` passes without a stop.
+
+        Returns True when the arm was seen moving (or a stop was taken) meanwhile.
+        At the end of a full ``timeout_s`` without a stop the last match is
+        settled and, with still nothing decided, the program is taken as ended.
+        """
         last_activity = self.clock()
+        moved, previous = False, None
         while not self._decided:
-            now = self.clock()
-            if now - last_activity > self.options.timeout_s:
-                self._decide(self._associator.finish())
-                self._ended = not self._decided
-                return
+            if self.clock() - last_activity > budget_s:
+                if budget_s >= self.options.timeout_s:
+                    self._decide(self._associator.finish())
+                    self._ended = not self._decided
+                return moved or bool(self._decided)
             try:
                 reading = self.tracker.measure()
             except ReadingLost:  # beam lost while moving: expected
@@ -266,14 +282,19 @@ class ExternalRobot:
             if not reading.accurate:
                 self._detector.lost()
                 continue
-            centre = self._detector.add(self.clock(), reading.point_mm)
+            point = np.asarray(reading.point_mm, dtype=float)
+            if previous is not None and np.linalg.norm(point - previous) > self._moving_mm:
+                moved = True
+            previous = point
+            centre = self._detector.add(self.clock(), point)
             if centre is not None:
-                last_activity = self.clock()
+                last_activity, moved = self.clock(), True
                 stop = self._take(centre)
                 if stop is not None:
                     self._decide(self._associator.add(stop))
                 continue
             self.sleep(self.options.poll_s)
+        return True
 
     def _take(self, centre) -> Stop | None:
         """The usual readings at a stop; None (a rejected stop) if the arm left during them."""
