@@ -80,15 +80,24 @@ class ProgramSpec:
         return np.clip(np.floor(pct * 10.0) / 10.0, 0.1, 100.0)
 
 
-def move_duration_s(start_rad, end_rad, speed_rad_s: float, accel_rad_s2: float) -> float:
-    """Duration of a synchronous joint move whose leading joint keeps to the caps, s.
+def trapezoid_duration_s(distance_rad: float, speed_rad_s: float, accel_rad_s2: float) -> float:
+    """Duration of a rest-to-rest move of ``distance_rad`` with a trapezoidal speed profile, s.
 
-    A trapezoidal profile (triangular when the move is too short to reach the
-    speed); a time-programmed move this long never exceeds either cap.
+    Triangular (accelerate, then brake) when the move is too short to reach the speed.
     """
-    distance = float(np.max(np.abs(np.asarray(end_rad, float) - np.asarray(start_rad, float))))
+    distance = abs(float(distance_rad))
     if distance == 0.0:
         return 0.0
     if distance >= speed_rad_s**2 / accel_rad_s2:
         return distance / speed_rad_s + speed_rad_s / accel_rad_s2
     return 2.0 * float(np.sqrt(distance / accel_rad_s2))
+
+
+def move_duration_s(start_rad, end_rad, speed_rad_s: float, accel_rad_s2: float) -> float:
+    """Duration of a synchronous joint move whose leading joint keeps to the caps, s.
+
+    ``start_rad`` and ``end_rad`` have shape (6,); a time-programmed move this
+    long never exceeds either cap.
+    """
+    lead = float(np.max(np.abs(np.asarray(end_rad, float) - np.asarray(start_rad, float))))
+    return trapezoid_duration_s(lead, speed_rad_s, accel_rad_s2)

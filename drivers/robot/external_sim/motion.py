@@ -10,15 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator.program.spec import trapezoid_duration_s
+
 
 def trapezoid_duration(distance: float, speed: float, accel: float) -> float:
-    """Duration of a rest-to-rest move of ``distance`` with a trapezoidal speed profile, s."""
-    distance = abs(float(distance))
-    if distance == 0.0:
-        return 0.0
-    if distance >= speed * speed / accel:  # reaches cruise speed
-        return distance / speed + speed / accel
-    return 2.0 * np.sqrt(distance / accel)  # triangular: accelerate, then brake
+    """Duration of a rest-to-rest trapezoidal move, s (the program writers' own timing)."""
+    return trapezoid_duration_s(distance, speed, accel)
 
 
 def trapezoid_fraction(t, duration: float, speed: float, accel: float, distance: float):
