@@ -98,6 +98,9 @@ class Summary:
     journal : Path
     complete : bool
         Every pose measured; the journal was removed.
+    notes : list of str
+        The robot's own end-of-run lines (a robot that watches the tracker:
+        poses its program skipped, stops that matched no pose).
     """
 
     written: Path | None
@@ -108,6 +111,7 @@ class Summary:
     causes: Counter = field(default_factory=Counter)
     journal: Path = Path()
     complete: bool = False
+    notes: list[str] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
@@ -385,13 +389,21 @@ class MeasureRun:
         on_pose: Callable[[loop.Progress], None] | None = None,
         on_beam_lost: Callable[[int, int], None] | None = None,
     ) -> loop.Outcome:
-        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`)."""
+        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`).
+
+        A robot that declares :data:`~calibrator.acquire.ports.WATCHES_TRACKER`
+        finds each pose by watching the raw tracker; the loop then reads the
+        tracker port it hands out (``robot.readings_port()``).
+        """
         assert self.plan is not None and self.journal is not None
         o = self.options
+        tracker = self.tracker
+        if ports.WATCHES_TRACKER in self.robot.capabilities:
+            tracker = self.robot.readings_port()  # type: ignore[attr-defined]
         self.outcome = loop.run(
             self.plan,
             self.robot,
-            self.tracker,
+            tracker,
             self.journal,
             loop.LoopOptions(
                 o.readings,
@@ -433,6 +445,9 @@ class MeasureRun:
         complete = bool(measured) and not failed and outcome.stopped is None
         if complete:
             self.journal_path.unlink()
+        notes: list[str] = []
+        if ports.WATCHES_TRACKER in self.robot.capabilities:
+            notes = list(self.robot.summary())  # type: ignore[attr-defined]
         return Summary(
             written,
             measured,
@@ -442,6 +457,7 @@ class MeasureRun:
             causes,
             self.journal_path,
             complete,
+            notes,
         )
 
     def close(self) -> None:

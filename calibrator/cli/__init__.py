@@ -18,6 +18,7 @@ from calibrator.errors import CalibrationError
 # Importing a command module registers its command on ``app``; help lists them
 # in this order, the order of the workflow.
 from calibrator.cli import plan as _plan  # noqa: E402,F401  isort: skip
+from calibrator.cli import program as _program  # noqa: E402,F401  isort: skip
 from calibrator.cli import measure as _measure  # noqa: E402,F401  isort: skip
 from calibrator.cli import tracker as _tracker  # noqa: E402,F401  isort: skip
 from calibrator.cli import identify as _identify  # noqa: E402,F401  isort: skip
