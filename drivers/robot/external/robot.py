@@ -31,9 +31,9 @@ import numpy as np
 from calibrator import kinematics
 from calibrator.acquire.ports import CHECKS_PLAN, WATCHES_TRACKER, ReadingLost
 from drivers.robot.errors import LimitsViolation
-from drivers.robot.interface import Robot
 from drivers.robot.external.associate import Assigned, Associator, Rejected
 from drivers.robot.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions
+from drivers.robot.interface import Robot
 
 #: After the program was taken as ended, each later pose first looks this many settle
 #: windows for the arm moving again (a program restarted) before it is reported missing.
