@@ -397,9 +397,13 @@ class MeasureRun:
         """
         assert self.plan is not None and self.journal is not None
         o = self.options
-        tracker = self.tracker
+        tracker, retry_pause_s = self.tracker, o.retry_pause_s
         if ports.WATCHES_TRACKER in self.robot.capabilities:
             tracker = self.robot.readings_port()  # type: ignore[attr-defined]
+            # The arm runs on without us: a pause before re-reading a pose's stop
+            # (nothing comes back) would leave the tracker unwatched through the
+            # next poses' dwells and lose them.
+            retry_pause_s = 0.0
         self.outcome = loop.run(
             self.plan,
             self.robot,
@@ -411,7 +415,7 @@ class MeasureRun:
                 o.retries,
                 o.speed_rad_s,
                 o.accel_rad_s2,
-                retry_pause_s=o.retry_pause_s,
+                retry_pause_s=retry_pause_s,
                 give_up_after=o.give_up_after,
             ),
             done=self.done,

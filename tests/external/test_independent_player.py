@@ -130,7 +130,7 @@ def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_th
     with tracker_simulator(seed=6) as url:
         measure = start_cli(
             "measure", "--robot", "external", "--plan", "plan.csv", "--tracker", url,
-            "-o", "s.parquet", "--stop-timeout", "5", cwd=tmp_path,
+            "-o", "s.parquet", cwd=tmp_path,
         )  # fmt: skip
         _wait_for(tmp_path / "s.parquet.journal", measure)
         player = _Player(int(url.rsplit(":", 1)[1]), plan, truth, SKIPPED)
@@ -140,7 +140,7 @@ def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_th
     assert player.error is None, player.error
     assert measure.returncode == 0, stderr
     # every other pose recorded under its own number, the skipped one reported
-    assert f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]" in stdout, stdout
+    assert f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]" in stdout, stdout + stderr
     table = pq.read_table(tmp_path / "s.parquet").to_pydict()
     assert table["pose"] == [p for p in range(len(plan)) if p != SKIPPED]
     q = np.column_stack([table[f"q{i}_rad"] for i in range(1, 7)])
