@@ -166,7 +166,8 @@ def _against_least_squares_from_truth(cwd, truth, plan, true_points) -> dict:
     fit_idx, _ = pipeline.split(len(obs), cal.provenance.validation_fraction, cal.provenance.seed)
     problem = Problem.of(space, obs.subset(fit_idx), 0.0)
     found = space.pack(cal.mdh, cal.base2tracker, cal.flange2tool)
-    baseline = refine(problem, space.pack(*truth))
+    mdh, tool, base2tracker = truth
+    baseline = refine(problem, space.pack(mdh, base2tracker, tool))
 
     def rms(x):
         return float(np.sqrt(np.mean(problem.residuals(x) ** 2)))
