@@ -203,7 +203,15 @@ def measure(
     _report(summary, options)
 
 
-def _external_options(band_mm, window_s, tolerance_mm, timeout_s, readings, tool_mm, quiet):
+def _external_options(
+    band_mm: float,
+    window_s: float,
+    tolerance_mm: float,
+    timeout_s: float,
+    readings: int,
+    tool_mm: tuple[float, float, float],
+    quiet: bool,
+):
     """``--robot external``: stop detection and association (used by that kind only)."""
     from drivers.robot.external.setup import ExternalOptions
     from drivers.robot.external.stops import StopOptions

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from calibrator import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
 from drivers.robot.external.robot import ExternalRobot
 from drivers.robot.external.stops import StopOptions
+
+if TYPE_CHECKING:
+    from drivers.robot import RobotOptions
 
 
 @dataclass(frozen=True)
@@ -34,7 +38,7 @@ class ExternalOptions:
     log: Callable[[str], None] | None = None
 
 
-def open_external(url: str, options) -> ExternalRobot:
+def open_external(url: str, options: RobotOptions) -> ExternalRobot:
     """The ``external`` robot: watches ``options.tracker`` for the stops of the arm's program.
 
     Parameters
