@@ -103,6 +103,11 @@ CHECKS_PLAN = "checks_plan"
 #: ``listener``: a simulated robot calls ``listener(tool2tracker)`` (4x4, mm) after
 #: each move, so a simulated tracker can follow the true probe.
 REPORTS_TRUE_POSE = "reports_true_pose"
+#: The robot finds its poses by watching the tracker (an arm running its own program,
+#: ``--robot external``): ``readings_port()`` returns the tracker port the loop must
+#: read instead of the raw tracker (the readings taken at the stop that is the pose),
+#: and ``summary()`` returns lines for the end of the run (poses missing, stops rejected).
+WATCHES_TRACKER = "watches_tracker"
 
 
 class TrackerState(Protocol):
@@ -166,7 +171,7 @@ class Robot(Protocol):
     ----------
     capabilities : frozenset of str
         Which of :data:`MOVES_HARDWARE`, :data:`CHECKS_PLAN`,
-        :data:`REPORTS_TRUE_POSE` it offers.
+        :data:`REPORTS_TRUE_POSE`, :data:`WATCHES_TRACKER` it offers.
     """
 
     capabilities: frozenset[str] = frozenset()

@@ -112,6 +112,9 @@ class Summary:
     journal : Path
     complete : bool
         Every pose measured; the journal was removed.
+    notes : list of str
+        The robot's own end-of-run lines (a robot that watches the tracker:
+        poses its program skipped, stops that matched no pose).
     """
 
     written: Path | None
@@ -122,6 +125,7 @@ class Summary:
     causes: Counter = field(default_factory=Counter)
     journal: Path = Path()
     complete: bool = False
+    notes: list[str] = field(default_factory=list)
 
     @property
     def exit_code(self) -> int:
@@ -435,14 +439,26 @@ class MeasureRun:
         on_pose: Callable[[loop.Progress], None] | None = None,
         on_beam_lost: Callable[[int, int], None] | None = None,
     ) -> loop.Outcome:
-        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`)."""
+        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`).
+
+        A robot that declares :data:`~calibrator.acquire.ports.WATCHES_TRACKER`
+        finds each pose by watching the raw tracker; the loop then reads the
+        tracker port it hands out (``robot.readings_port()``).
+        """
         assert self.plan is not None and self.journal is not None
         o = self.options
         via_rad = self._with_lead_in(o.via_rad)
+        tracker, retry_pause_s = self.tracker, o.retry_pause_s
+        if ports.WATCHES_TRACKER in self.robot.capabilities:
+            tracker = self.robot.readings_port()  # type: ignore[attr-defined]
+            # The arm runs on without us: a pause before re-reading a pose's stop
+            # (nothing comes back) would leave the tracker unwatched through the
+            # next poses' dwells and lose them.
+            retry_pause_s = 0.0
         self.outcome = loop.run(
             self.plan,
             self.robot,
-            self.tracker,
+            tracker,
             self.journal,
             loop.LoopOptions(
                 o.readings,
@@ -450,7 +466,7 @@ class MeasureRun:
                 o.retries,
                 o.speed_rad_s,
                 o.accel_rad_s2,
-                retry_pause_s=o.retry_pause_s,
+                retry_pause_s=retry_pause_s,
                 give_up_after=o.give_up_after,
             ),
             done=self.done,
@@ -509,6 +525,9 @@ class MeasureRun:
             self.journal_path.unlink()
         if self.journal is not None:
             self.journal.close()  # releases the lock, after the unlink
+        notes: list[str] = []
+        if ports.WATCHES_TRACKER in self.robot.capabilities:
+            notes = list(self.robot.summary())  # type: ignore[attr-defined]
         return Summary(
             written,
             measured,
@@ -518,6 +537,7 @@ class MeasureRun:
             causes,
             self.journal_path,
             complete,
+            notes,
         )
 
     def close(self) -> None:

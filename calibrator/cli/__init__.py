@@ -21,6 +21,7 @@ from calibrator.errors import CalibrationError
 #: the order of the workflow (the order help lists them in).
 COMMANDS = {
     "plan": "plan",
+    "program": "program",
     "measure": "measure",
     "tracker": "tracker",
     "identify": "identify",

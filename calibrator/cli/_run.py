@@ -90,6 +90,7 @@ def open_run(
     max_speed: float | None = None,
     sim_repeatability: bool = False,
     sim_probe_6dof: bool = False,
+    external: Any = None,
 ) -> Any:
     """The devices named by URL (the drivers' registries) and the run over them.
 
@@ -102,6 +103,8 @@ def open_run(
         backlash (seeded from ``options.seed``); off, it lands exactly.
     sim_probe_6dof : bool
         The simulated tracker's probe reports its orientation too.
+    external : drivers.robot.external.setup.ExternalOptions, optional
+        Stop detection and association of ``--robot external``.
 
     Returns
     -------
@@ -123,10 +126,6 @@ def open_run(
             repeatability = JointRepeatability.typical()
         world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
     try:
-        robot = open_robot(robot_url, RobotOptions(arm, world, max_speed_rad_s=max_speed))
-    except ValueError as exc:
-        raise CalibrationError(f"--robot: {exc}") from None
-    try:
         tracker = open_tracker(
             tracker_url,
             OpenOptions(
@@ -137,6 +136,15 @@ def open_run(
         )  # fmt: skip
     except ValueError as exc:
         raise CalibrationError(f"--tracker: {exc}") from None
+    # The tracker is handed to the robot too: an external robot finds its poses by
+    # watching it (the run connects and closes it, once).
+    robot_options = RobotOptions(
+        arm, world, max_speed_rad_s=max_speed, tracker=tracker, external=external
+    )
+    try:
+        robot = open_robot(robot_url, robot_options)
+    except ValueError as exc:
+        raise CalibrationError(f"--robot: {exc}") from None
     steer = None
     if sim_control is not None:
         steer = _sim_control(sim_control, robot, stack)

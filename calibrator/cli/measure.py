@@ -21,7 +21,11 @@ from calibrator.cli._run import triple as _triple
 
 @app.command()
 def measure(
-    robot: str = typer.Option("sim", help="sim, or ur://HOST (a real UR controller)."),
+    robot: str = typer.Option(
+        "sim",
+        help="sim, ur://HOST (a real UR controller), or external (any brand running the "
+        "plan as its own program: the tracker detects each stop; docs/external-robots.md).",
+    ),
     tracker: str = typer.Option(
         "sim",
         help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
@@ -98,6 +102,26 @@ def measure(
         help="On a terminal, ask the operator to re-lock a lost beam (Enter) before a retry.",
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    stop_band: float = typer.Option(
+        0.05,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: stationarity band of a stop, mm.",
+    ),
+    settle_window: float = typer.Option(
+        0.5,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: how long readings stay in the band to make a stop, s.",
+    ),
+    match_tolerance: float = typer.Option(
+        15.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: largest distance of a stop from its expected pose, mm.",
+    ),
+    stop_timeout: float = typer.Option(
+        30.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="--robot external: no stop for this long ends the program's poses (missing), s.",
+    ),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
     sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
@@ -144,11 +168,14 @@ def measure(
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
         resume=resume,
     )
+    external = _external_options(
+        stop_band, settle_window, match_tolerance, stop_timeout, readings, options.tool_mm, quiet
+    )
     with contextlib.ExitStack() as stack:
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                       sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=max_speed)
+                      sim_control=sim_control, max_speed=max_speed, external=external)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)
@@ -192,7 +219,27 @@ def measure(
     if timings:
         for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
             typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
+    for line in summary.notes:
+        typer.echo(line)
     _report(summary, options)
+
+
+def _external_options(
+    band_mm: float,
+    window_s: float,
+    tolerance_mm: float,
+    timeout_s: float,
+    readings: int,
+    tool_mm: tuple[float, float, float],
+    quiet: bool,
+):
+    """``--robot external``: stop detection and association (used by that kind only)."""
+    from drivers.robot.external.setup import ExternalOptions
+    from drivers.robot.external.stops import StopOptions
+
+    stops = StopOptions(band_mm, window_s, tolerance_mm, timeout_s)
+    log = None if quiet else (lambda line: typer.echo(line, err=True))
+    return ExternalOptions(stops, readings, tool_mm, log)
 
 
 def _report(summary, options) -> None:

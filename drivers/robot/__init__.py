@@ -50,12 +50,19 @@ class RobotOptions:
         The simulated world (the ``sim`` kind needs it).
     max_speed_rad_s, max_accel_rad_s2 : float, optional
         Lower the model's fixed motion caps (never raise them).
+    tracker : calibrator.acquire.ports.Tracker, optional
+        The raw tracker, for a robot that finds its poses by watching it
+        (the ``external`` kind needs it; the caller connects it).
+    external : drivers.robot.external.setup.ExternalOptions, optional
+        Stop detection and association of the ``external`` kind.
     """
 
     model: Any
     world: Any = None
     max_speed_rad_s: float | None = None
     max_accel_rad_s2: float | None = None
+    tracker: Any = None
+    external: Any = None
 
 
 RobotOpener = Callable[[str, RobotOptions], Robot]
@@ -93,8 +100,16 @@ def _open_ur(url: str, options: RobotOptions) -> Robot:
     return robot
 
 
+def _open_external(url: str, options: RobotOptions) -> Robot:
+    from drivers.robot.external.setup import open_external
+
+    return open_external(url, options)
+
+
 #: Robot kinds by URL scheme.
-ROBOT_KINDS: dict[str, RobotOpener] = {"sim": _open_sim, "ur": _open_ur}
+ROBOT_KINDS: dict[str, RobotOpener] = {"sim": _open_sim, "ur": _open_ur, "external": _open_external}
+#: Kinds named by their bare scheme (no host).
+_BARE_KINDS = ("sim", "external")
 
 
 def register_robot(kind: str, opener: RobotOpener) -> None:
@@ -108,7 +123,8 @@ def open_robot(url: str, options: RobotOptions) -> Robot:
     Parameters
     ----------
     url : str
-        ``sim`` or ``ur://HOST`` (or a registered scheme).
+        ``sim``, ``ur://HOST``, ``external`` (an arm running the plan as its
+        own program, watched through ``options.tracker``), or a registered scheme.
     options : RobotOptions
 
     Returns
@@ -122,11 +138,13 @@ def open_robot(url: str, options: RobotOptions) -> Robot:
     ValueError
         Unknown scheme (the message lists the known ones) or a missing host.
     """
-    kind = "sim" if url == "sim" else url.split("://", 1)[0].lower() if "://" in url else url
+    kind = url.split("://", 1)[0].lower() if "://" in url else url
     opener = ROBOT_KINDS.get(kind)
     if opener is None:
         raise ValueError(
             f"unknown robot {url!r}; use sim or "
-            + ", ".join(f"{k}://HOST" for k in sorted(ROBOT_KINDS) if k != "sim")
+            + ", ".join(f"{k}://HOST" for k in sorted(ROBOT_KINDS) if k not in _BARE_KINDS)
+            + " or "
+            + ", ".join(k for k in _BARE_KINDS if k != "sim")
         )
     return opener(url, options)

@@ -244,7 +244,8 @@ def test_a_ur_robot_is_guarded_by_the_models_limits_and_the_users_caps():
 
 
 def test_unknown_schemes_are_refused_naming_the_known_ones():
-    with pytest.raises(ValueError, match="^unknown robot 'kuka://x'; use sim or ur://HOST$"):
+    known = "use sim or ur://HOST or external"
+    with pytest.raises(ValueError, match=f"^unknown robot 'kuka://x'; {known}$"):
         open_robot("kuka://x", RobotOptions(UR10E))
     with pytest.raises(ValueError, match="^unknown tracker 'ftp://x'; use sim, a device path"):
         open_tracker("ftp://x")

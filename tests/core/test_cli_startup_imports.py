@@ -78,6 +78,7 @@ def test_help_still_lists_every_command_in_workflow_order():
     listed = [line.split()[0] for line in out.split("Commands:")[1].splitlines() if line.strip()]
     assert listed == [
         "plan",
+        "program",
         "measure",
         "identify",
         "export-params",

@@ -1,0 +1,104 @@
+"""``calibrator program``: the plan as a robot program for any controller (``--robot external``)."""
+
+from __future__ import annotations
+
+import re
+from enum import StrEnum
+from pathlib import Path
+
+import typer
+
+from calibrator.cli import _checks as checks
+from calibrator.cli._app import app
+from calibrator.program import REGISTRY
+
+#: The ``--format`` choices, generated from the writer registry.
+ProgramFormat = StrEnum("ProgramFormat", {name: name for name in REGISTRY})
+_FORMAT_HELP = "Program language [default: from the output's extension]. " + "; ".join(
+    f"{f.name}: {f.help}" for f in REGISTRY.values()
+)
+
+
+def _fail(message: str) -> None:
+    typer.echo(f"calibrator: error: {message}", err=True)
+    raise typer.Exit(2)
+
+
+@app.command()
+def program(
+    plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
+    output: Path = typer.Option(..., "-o", "--output", help="Program file to write."),
+    fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
+    model: str = typer.Option("ur10e", help="Named model (joint limits, speed ceiling)."),
+    speed: float = typer.Option(
+        None,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint speed, rad/s [default: the model's fixed ceiling; only lower].",
+    ),
+    accel: float = typer.Option(
+        None,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint acceleration, rad/s^2 [default: the model's ceiling; only lower].",
+    ),
+    dwell: float = typer.Option(
+        2.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Wait at each pose, s: more than the settle window plus the readings' time.",
+    ),
+    pulse: int = typer.Option(
+        None, callback=checks.at_least(0), help="Digital output pulsed at each arrival."
+    ),
+    home: str = typer.Option(
+        None,
+        help="Safe start and end pose J1,...,J6 in degrees [default: the plan's first pose].",
+    ),
+):
+    """Write the plan as a robot program: home, a joint move and a dwell per pose, home."""
+    import numpy as np
+
+    from calibrator import outputs
+    from calibrator import plan as plans
+    from calibrator import program as programs
+    from calibrator.models import get_model
+
+    chosen = programs.choose(None if fmt is None else fmt.value, output)
+    outputs.check(output, inputs=[plan_path])
+    arm = get_model(model)
+    q = plans.validate(plans.read_csv(plan_path), arm.joint_limits_rad)
+    speed = arm.move_speed_cap_rad_s if speed is None else speed
+    accel = arm.move_accel_cap_rad_s2 if accel is None else accel
+    if speed > arm.move_speed_cap_rad_s:
+        _fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
+    if accel > arm.move_accel_cap_rad_s2:
+        _fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
+    home_rad = q[0] if home is None else np.radians(_six(home))
+    plans.validate(home_rad[None], arm.joint_limits_rad)
+    # KRL and Fanuc want the program named as its file.
+    stem = re.sub(r"\W", "_", output.name.split(".")[0]) or "calibrator_measure"
+    name = stem if stem[0].isalpha() else f"p_{stem}"
+    spec = programs.ProgramSpec(
+        plan_rad=q,
+        home_rad=home_rad,
+        speed_rad_s=speed,
+        accel_rad_s2=accel,
+        max_joint_speed_rad_s=arm.max_joint_speed_rad_s,
+        dwell_s=dwell,
+        pulse_output=pulse,
+        name=name,
+        model=arm.name,
+    )
+    outputs.write_text(output, programs.render(spec, chosen), inputs=[plan_path])
+    typer.echo(
+        f"wrote {output} ({chosen}): {len(q)} poses, {speed:g} rad/s, {dwell:g} s dwell; "
+        f"measure with --robot external --plan {plan_path}"
+    )
+
+
+def _six(text: str):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
+        _fail(f"--home needs six joint angles J1,...,J6 in degrees, got {text!r}")
+    return values

@@ -1,0 +1,99 @@
+"""The plan as a robot program, one writer per controller language.
+
+A format is one function registered with :func:`writer`: it takes a
+:class:`ProgramSpec` and returns the program's text. The CLI's ``--format``
+choices and the file-extension lookup come from :data:`REGISTRY`; importing
+this package imports every writer module, which registers its functions.
+
+Every program does the same thing: a joint move to the safe home pose, then
+for each plan pose in order a joint move (exact stop) and a dwell long enough
+for the tracker's readings (with an optional digital-output pulse at arrival),
+and a joint move back home. Speeds never exceed the plan's cap.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from calibrator import outputs
+from calibrator.errors import CalibrationError
+from calibrator.program.spec import ProgramSpec, move_duration_s
+
+__all__ = ["REGISTRY", "Format", "ProgramSpec", "choose", "move_duration_s", "render", "writer"]
+
+
+@dataclass(frozen=True)
+class Format:
+    """A registered program format: name, file suffixes, one-line help, writer, angle unit."""
+
+    name: str
+    suffixes: tuple
+    help: str
+    write: Callable[[ProgramSpec], str]
+
+
+#: name -> Format, in registration order.
+REGISTRY: dict[str, Format] = {}
+
+
+def writer(name: str, suffixes: tuple, help: str) -> Callable:
+    """Register ``func(spec) -> str`` as program format ``name`` (files ending in ``suffixes``)."""
+
+    def register(func: Callable[[ProgramSpec], str]) -> Callable[[ProgramSpec], str]:
+        REGISTRY[name] = Format(name, tuple(suffixes), help, func)
+        return func
+
+    return register
+
+
+def choose(fmt: str | None, output) -> str:
+    """The format to write: ``fmt`` if given (it must fit the extension), else by extension.
+
+    Raises
+    ------
+    CalibrationError
+        Unknown format, an extension no format has, or a mismatch.
+    """
+    name = Path(output).name.lower()
+    matches = [(len(s), f.name) for f in REGISTRY.values() for s in f.suffixes if name.endswith(s)]
+    by_suffix = max(matches)[1] if matches else None
+    if fmt is not None:
+        if fmt not in REGISTRY:
+            raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+        if by_suffix != fmt:
+            want = " or ".join(REGISTRY[fmt].suffixes)
+            raise CalibrationError(
+                f"output {outputs.show(output)} does not end in {want}, the extension of {fmt}"
+            )
+        return fmt
+    if by_suffix is None:
+        known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
+        raise CalibrationError(
+            f"cannot tell the format from {outputs.show(output)}: give --format or end the "
+            f"name in one of {known}"
+        )
+    return by_suffix
+
+
+def render(spec: ProgramSpec, fmt: str) -> str:
+    """The program text of ``spec`` in format ``fmt``."""
+    if fmt not in REGISTRY:
+        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+    return REGISTRY[fmt].write(spec)
+
+
+def degrees(q_rad) -> np.ndarray:
+    """Joint angles in degrees (the unit of KRL, RAPID and Fanuc LS)."""
+    return np.degrees(np.asarray(q_rad, dtype=float))
+
+
+# Importing the writer modules registers them (order = order of --format choices).
+from calibrator.program import urscript as _urscript  # noqa: E402,F401  isort: skip
+from calibrator.program import krl as _krl  # noqa: E402,F401  isort: skip
+from calibrator.program import rapid as _rapid  # noqa: E402,F401  isort: skip
+from calibrator.program import fanuc as _fanuc  # noqa: E402,F401  isort: skip
+from calibrator.program import table as _table  # noqa: E402,F401  isort: skip

@@ -1,0 +1,58 @@
+"""Fanuc LS (R-30iB / R-30iB Plus, compiled on the PC with MakeTP or loaded with ASCII Upload).
+
+A ``/PROG`` with ``/ATTR``, ``/MN`` and ``/POS`` sections. Positions are
+joint representations (``J1= ... deg``) in ``/POS``; each line of ``/MN``
+is numbered. ``J P[i] n% FINE`` moves at a percentage of each axis's top
+speed (the smallest over the axes, so no joint exceeds the cap), ``WAIT
+t(sec)`` dwells and ``DO[n]=PULSE,t sec`` pulses an output.
+"""
+
+from __future__ import annotations
+
+from calibrator.program import ProgramSpec, degrees, writer
+from calibrator.program.spec import DEG_DECIMALS, PULSE_S
+
+
+def _position(index: int, q_rad, comment: str) -> list[str]:
+    deg = degrees(q_rad)
+    axes = [f"J{i + 1}= {v:.{DEG_DECIMALS}f} deg" for i, v in enumerate(deg)]
+    return [
+        f'P[{index}:"{comment}"]{{',
+        "   GP1:",
+        "\tUF : 0, UT : 1,",
+        "\t" + ",\t".join(axes[:3]) + ",",
+        "\t" + ",\t".join(axes[3:]),
+        "};",
+    ]
+
+
+@writer("fanuc-ls", (".ls",), "Fanuc LS for R-30iB / R-30iB Plus (MakeTP); deg")
+def write(spec: ProgramSpec) -> str:
+    name = spec.name.upper()[:36]
+    pct = max(1, int(spec.speed_percent().min()))
+    home = len(spec.plan_rad) + 1  # P[1..N] are the poses
+    body = [f"J P[{home}:HOME] {pct}% FINE"]
+    for pose in range(len(spec.plan_rad)):
+        body.append(f"J P[{pose + 1}] {pct}% FINE")
+        wait = spec.dwell_s
+        if spec.pulse_output is not None:
+            body.append(f"DO[{spec.pulse_output}]=PULSE,{PULSE_S:.1f}sec")
+        body.append(f"WAIT {wait:.2f}(sec)")
+    body.append(f"J P[{home}:HOME] {pct}% FINE")
+    lines = [
+        f"/PROG  {name}",
+        "/ATTR",
+        "OWNER\t\t= MNEDITOR;",
+        f'COMMENT\t\t= "{len(spec.plan_rad)} poses";',
+        f"LINE_COUNT\t= {len(body)};",
+        "PROTECT\t\t= READ_WRITE;",
+        "DEFAULT_GROUP\t= 1,*,*,*,*;",
+        "/MN",
+    ]
+    lines += [f"{n:4d}:  {stmt} ;" for n, stmt in enumerate(body, start=1)]
+    lines.append("/POS")
+    for pose, q in enumerate(spec.plan_rad):
+        lines += _position(pose + 1, q, f"pose {pose}")
+    lines += _position(home, spec.home_rad, "HOME")
+    lines += ["/END", ""]
+    return "\n".join(lines)

@@ -1,0 +1,103 @@
+"""``python -m drivers.robot.external_sim``: play a plan on a true arm, steering a tracker sim.
+
+Example (with a tracker simulator listening on TCP port 5001)::
+
+    python -m drivers.robot.external_sim --plan plan.csv \\
+        --control socket://127.0.0.1:5001 --model ur10e --seed 3 --skip 7
+
+Exit codes: 0 when the program ran to its end, 2 on bad input (one line),
+1 when the tracker simulator's control link failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from drivers.robot.external_sim.player import Player, PlayerOptions
+
+
+def _poses(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected pose numbers like 3,7, got {text!r}") from None
+
+
+def _pause(text: str) -> tuple[int, float, float]:
+    try:
+        pose, fraction, seconds = text.split(":")
+        value = int(pose), float(fraction), float(seconds)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected POSE:FRACTION:SECONDS, got {text!r}") from None
+    if not (0.0 < value[1] < 1.0 and value[2] > 0):
+        raise argparse.ArgumentTypeError(f"FRACTION in (0, 1) and SECONDS > 0, got {text!r}")
+    return value
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m drivers.robot.external_sim", description=__doc__
+    )
+    parser.add_argument("--plan", required=True, help="plan CSV (q1_rad..q6_rad)")
+    parser.add_argument("--control", required=True, help="tracker simulator control URL")
+    parser.add_argument("--model", default="ur10e")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the hidden true arm")
+    parser.add_argument("--speed", type=float, default=1.0, help="leading-joint speed, rad/s")
+    parser.add_argument("--accel", type=float, default=2.0, help="leading-joint accel, rad/s^2")
+    parser.add_argument("--dwell", type=float, default=1.5, help="dwell at each pose, s")
+    parser.add_argument("--tick", type=float, default=0.02, help="target update period, s")
+    parser.add_argument("--skip", type=_poses, default=(), help="poses the program skips: 3,7")
+    parser.add_argument(
+        "--pause",
+        type=_pause,
+        action="append",
+        default=[],
+        help="POSE:FRACTION:SECONDS: stop that long that far into the move to POSE",
+    )
+    parser.add_argument("--vibration", type=float, default=0.0, help="ringing after a stop, mm")
+    parser.add_argument("--start-delay", type=float, default=0.0, help="wait before moving, s")
+    parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
+    args = parser.parse_args(argv)
+    from calibrator.errors import CalibrationError
+    from calibrator.plan import read_csv
+
+    try:
+        plan = read_csv(args.plan)
+        options = PlayerOptions(
+            speed_rad_s=args.speed,
+            accel_rad_s2=args.accel,
+            dwell_s=args.dwell,
+            tick_s=args.tick,
+            skip=args.skip,
+            pauses=tuple(args.pause),
+            vibration_mm=args.vibration,
+            start_delay_s=args.start_delay,
+        )
+        player = Player.for_model(plan, args.model, args.seed, options)
+    except (CalibrationError, ValueError) as exc:
+        print(f"external_sim: error: {exc}", file=sys.stderr)
+        return 2
+    if args.truth:
+        player.write_truth(args.truth)
+    from drivers.tracker.simulator.launch import SimulatorControl
+
+    try:
+        control = SimulatorControl(args.control)
+    except (OSError, ValueError) as exc:
+        print(f"external_sim: error: --control {args.control}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        player.play(control.set_target)
+    except OSError as exc:
+        print(f"external_sim: control link failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        control.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,51 @@
+"""The simulated controller: trapezoidal synchronous moves within the caps; its program order."""
+
+import numpy as np
+import pytest
+
+from calibrator.program.spec import move_duration_s
+from drivers.robot.external_sim.motion import JointMove, trapezoid_duration
+from drivers.robot.external_sim.player import Hold, Player, PlayerOptions
+
+
+@pytest.mark.parametrize("lead", [0.05, 0.5, 2.0, 5.0])
+def test_a_move_keeps_to_its_speed_and_acceleration_and_ends_on_time(lead):
+    start = np.zeros(6)
+    end = np.array([lead, -0.5 * lead, 0.2 * lead, 0.0, lead * 0.9, -lead])
+    move = JointMove(start, end, 1.0, 2.0)
+    t = np.linspace(0.0, move.duration, 4001)
+    q = move.at(t)
+    dt = t[1] - t[0]
+    speed = np.abs(np.diff(q, axis=0)) / dt
+    accel = np.abs(np.diff(q, n=2, axis=0)) / dt**2
+    assert speed.max() <= 1.0 + 1e-6
+    assert accel.max() <= 2.0 * 1.01  # finite differences round the corners
+    np.testing.assert_allclose(q[0], start, atol=1e-12)
+    np.testing.assert_allclose(q[-1], end, atol=1e-12)
+    # synchronous: every joint is the same fraction of its way at every instant
+    fraction = (q - start)[:, 0] / (end - start)[0]
+    np.testing.assert_allclose((q - start)[:, 1] / (end - start)[1], fraction, atol=1e-12)
+    # the program writers time a move with the same profile
+    assert move.duration == pytest.approx(move_duration_s(start, end, 1.0, 2.0))
+
+
+def test_short_moves_are_triangular():
+    assert trapezoid_duration(0.5, 1.0, 2.0) == pytest.approx(2 * np.sqrt(0.25))
+    assert trapezoid_duration(2.0, 1.0, 2.0) == pytest.approx(2.0 + 0.5)
+
+
+def test_the_script_skips_pauses_and_returns_home():
+    plan = np.linspace(0.1, 1.0, 5)[:, None] * np.ones((1, 6))
+    options = PlayerOptions(dwell_s=1.5, skip=(2,), pauses=((3, 0.5, 2.0),))
+    script = Player(plan, np.zeros((6, 5)), np.eye(4), np.eye(4), options).script()
+    holds = [s for s in script if isinstance(s, Hold)]
+    stood = [tuple(np.round(h.q_rad, 6)) for h in holds]
+    midway = tuple(np.round(0.5 * (plan[1] + plan[3]), 6))
+    expected = [plan.mean(axis=0), plan[0], plan[1], midway, plan[3], plan[4], plan.mean(axis=0)]
+    assert stood == [tuple(np.round(q, 6)) for q in expected]
+    assert [h.seconds for h in holds] == [0.0, 1.5, 1.5, 2.0, 1.5, 1.5, 1.5]
+
+
+def test_poses_not_in_the_plan_are_refused():
+    with pytest.raises(ValueError, match="not in the plan"):
+        Player(np.zeros((3, 6)), np.zeros((6, 5)), np.eye(4), np.eye(4), PlayerOptions(skip=(5,)))

@@ -1,0 +1,100 @@
+"""``MeasureRun`` over the ``external`` robot kind: the arm runs on its own clock, never waits.
+
+The tracker here is scripted in time (not in calls): the reflector moves
+through the plan's points and dwells at each, whether or not anyone reads
+it, as with a controller running its program. A pose the program skipped
+must cost no other pose: the run may not stop watching (a retry pause)
+while the arm dwells at the next ones.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from calibrator import frames, kinematics
+from calibrator.acquire import ports
+from calibrator.acquire.run import MeasureRun, RunOptions
+from calibrator.models import get_model
+from calibrator.simulate import sample_joints
+from drivers.robot import RobotOptions, open_robot
+from drivers.robot.external.setup import ExternalOptions
+from drivers.robot.external.stops import StopOptions
+
+MOVE_S, DWELL_S = 0.3, 1.0
+SKIPPED = 3
+
+
+class _Status:
+    initialised = True
+
+
+class _Reading:
+    rotvec_rad = None
+    accurate = True
+    device_time_us = 0
+
+    def __init__(self, point_mm):
+        self.point_mm = point_mm
+
+
+class _ArmOnItsOwnClock:
+    """A tracker seeing an arm that moves through ``points`` by the wall clock (tracker frame)."""
+
+    capabilities: frozenset[str] = frozenset()
+    device_id = "scripted:1"
+
+    def __init__(self, points, seed: int = 0):
+        start = points.mean(axis=0)
+        self.stops = [start, *points, start]
+        self.rng = np.random.default_rng(seed)
+        self.t0: float | None = None
+
+    def connect(self):
+        return _Status()
+
+    def status(self):
+        return _Status()
+
+    def close(self) -> None:
+        pass
+
+    def measure(self, timeout_s=None):
+        if self.t0 is None:  # the program starts when the run first looks
+            self.t0 = time.monotonic()
+        t = time.monotonic() - self.t0
+        leg, into = divmod(t, MOVE_S + DWELL_S)
+        k = int(leg)
+        if k + 1 >= len(self.stops):
+            point = self.stops[-1]
+        elif into < DWELL_S:
+            point = self.stops[k]
+        else:
+            u = (into - DWELL_S) / MOVE_S
+            point = self.stops[k] + (self.stops[k + 1] - self.stops[k]) * u
+        time.sleep(0.002)  # a reading takes time
+        return _Reading(point + self.rng.normal(0.0, 0.003, 3))
+
+
+def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
+    arm = get_model("ur10e")
+    plan = sample_joints(arm.joint_limits_rad * 0.7, 14, np.random.default_rng(3))
+    tool = frames.transform(translation=[0.0, 0.0, 100.0])
+    points = kinematics.forward(arm.mdh, plan, tool)[:, :3, 3]
+    tracker = _ArmOnItsOwnClock(np.delete(points, SKIPPED, axis=0))
+    external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
+    robot = open_robot("external", RobotOptions(arm, tracker=tracker, external=external))
+    assert {ports.WATCHES_TRACKER, ports.CHECKS_PLAN} <= robot.capabilities
+    # Pauses of 0.5, 1 and 2 s between re-reads: longer than a dwell.
+    options = RunOptions(plan_rad=plan, readings=5, retry_pause_s=0.5)
+    with MeasureRun(robot, tracker, arm, options, tmp_path / "s.parquet") as run:
+        run.check_files()
+        run.connect()
+        run.make_plan()
+        run.open_journal()
+        run.measure()
+        summary = run.finish()
+    assert summary.failed == [SKIPPED]
+    assert summary.measured == [p for p in range(len(plan)) if p != SKIPPED]
+    assert summary.notes[0] == f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]"
