@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calibrator import frames
-from calibrator.acquire.ports import ReadingLost, Tracker, TrackerReading
+from calibrator.acquire.ports import BadReading, ReadingLost, Tracker, TrackerReading
 
 OUTLIER_Z = 3.5  # Iglewicz & Hoaglin's cut-off for the MAD-based modified z-score
 MAD_TO_SIGMA = 1.4826  # 1 / Phi^-1(3/4): MAD of a Gaussian times this is its sigma
@@ -158,6 +158,9 @@ def average(
     ------
     TooFewReadings
         Fewer than ``min_count`` readings were accepted.
+    BadReading
+        Too few were accepted because the rest held impossible numbers
+        (NaN, infinite, beyond 1 km): the failure is named for that.
     UnstablePose
         The accepted readings spread more than ``max_spread_mm`` on some axis.
     """
@@ -167,7 +170,11 @@ def average(
     usable, outliers, why = _select(readings, reject_flagged, accuracy)
     count = int(usable.sum())
     if count < max(min_count, 1):
-        raise TooFewReadings(f"only {count} of {n} readings usable, need {min_count}{why}")
+        message = f"only {count} of {n} readings usable, need {min_count}{why}"
+        if outliers == 0 and "non-finite" in why and "flagged" not in why:
+            # Emptied by numbers no tracker can read: name that, not the count.
+            raise BadReading(f"reading with impossible numbers: {message}")
+        raise TooFewReadings(message)
     accepted = [r for r, keep in zip(readings, usable, strict=True) if keep]
     points = np.array([r.point_mm for r in accepted], dtype=float)
     ddof = 1 if count > 1 else 0
