@@ -49,6 +49,10 @@ class TooFewReadings(SetRejected):
     """Fewer readings than needed were accepted (the rest flagged or outliers)."""
 
 
+class ImpossibleReadings(TooFewReadings, BadReading):
+    """Too few readings were accepted because the rest held numbers no tracker reads."""
+
+
 class UnstablePose(SetRejected):
     """The accepted readings spread more than the limit: the target was not still."""
 
@@ -158,9 +162,10 @@ def average(
     ------
     TooFewReadings
         Fewer than ``min_count`` readings were accepted.
-    BadReading
+    ImpossibleReadings
         Too few were accepted because the rest held impossible numbers
-        (NaN, infinite, beyond 1 km): the failure is named for that.
+        (NaN, infinite, beyond 1 km): a :class:`TooFewReadings` and a
+        :class:`~calibrator.acquire.ports.BadReading`, named for that.
     UnstablePose
         The accepted readings spread more than ``max_spread_mm`` on some axis.
     """
@@ -173,7 +178,7 @@ def average(
         message = f"only {count} of {n} readings usable, need {min_count}{why}"
         if outliers == 0 and "non-finite" in why and "flagged" not in why:
             # Emptied by numbers no tracker can read: name that, not the count.
-            raise BadReading(f"reading with impossible numbers: {message}")
+            raise ImpossibleReadings(f"reading with impossible numbers: {message}")
         raise TooFewReadings(message)
     accepted = [r for r, keep in zip(readings, usable, strict=True) if keep]
     points = np.array([r.point_mm for r in accepted], dtype=float)

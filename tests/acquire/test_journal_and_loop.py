@@ -387,4 +387,4 @@ def test_readings_with_impossible_numbers_are_lost_never_journalled():
     assert journal.lines[0]["point_mm"] == [1.0, 2.0, 3.0]
     out = loop.run(PLAN[:1], Arm(), Script([[float("nan"), 0, 0]] * 2), Journal(),
                    loop.LoopOptions(1, retries=1))  # fmt: skip
-    assert out.failed == [0] and out.records[0]["causes"] == {"bad reading": 2}
+    assert out.failed == [0] and out.records[0]["causes"] == {"impossible readings": 2}
