@@ -2,11 +2,15 @@
 
 Run::
 
-    .venv/bin/python benchmarks/measure.py [--repeats 7] [--poses 30]
+    .venv/bin/python benchmarks/measure.py [--repeats 7] [--poses 30] [--make-plan]
 
 Each run is a new process as a user starts it (interpreter, imports, the
-tracker simulator started as a child process behind a real pty, plan,
-300 readings over the wire, journal fsyncs, Parquet write). Prints the median
+tracker simulator started as a child process behind a real pty, the plan
+read and checked against the arm and the cell, 300 readings over the wire,
+journal fsyncs, Parquet write). The plan is made once beforehand with
+``calibrator plan`` (its own benchmark is plan_order.py); ``--make-plan``
+times ``measure --poses N`` instead, which makes and orders the plan in the
+run. Prints the median
 wall time, readings per second (whole command and measure loop alone), and
 the median of each phase that ``measure --timings`` reports.
 """
@@ -29,14 +33,27 @@ def main():
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--poses", type=int, default=30)
     ap.add_argument("--readings", type=int, default=10)
+    ap.add_argument("--make-plan", action="store_true", help="time measure --poses N")
     args = ap.parse_args()
     walls, phases = [], defaultdict(list)
     with tempfile.TemporaryDirectory() as tmp:
+        plan = ["--poses", str(args.poses)]
+        if not args.make_plan:
+            from calibrator.simulate import SimWorld
+
+            at = ",".join(f"{v:.3f}" for v in SimWorld.make("ur10e", 0).tracker_at_mm)
+            plan_csv = Path(tmp) / "plan.csv"
+            subprocess.run(
+                [*CLI, "plan", "--poses", str(args.poses), "--tracker-at", at, "-o", plan_csv],
+                check=True,
+                capture_output=True,
+            )
+            plan = ["--plan", str(plan_csv)]
         for i in range(args.repeats):
             out = Path(tmp) / f"s{i}.parquet"
             t = time.perf_counter()
             done = subprocess.run(
-                [*CLI, "measure", "--poses", str(args.poses), "--readings", str(args.readings)]
+                [*CLI, "measure", *plan, "--readings", str(args.readings)]
                 + ["--settle", "0", "--timings", "-o", str(out)],
                 check=True,
                 capture_output=True,

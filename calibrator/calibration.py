@@ -600,7 +600,10 @@ class Calibration:
             Naming the first key that holds a non-finite number; nothing is written.
         """
         doc = self.to_json()
-        bad = _first_non_finite(doc)
+        found = strict.first_leaf(
+            doc, lambda leaf: isinstance(leaf, float) and not math.isfinite(leaf)
+        )
+        bad = None if found is None else (found[0] or "value")
         if bad is not None:
             raise CalibrationError(
                 f"refusing to write {path}: {bad} is not a finite number "
@@ -822,21 +825,3 @@ def _jsonable(value):
     if hasattr(value, "__dict__"):
         return _jsonable({k: v for k, v in vars(value).items() if not k.startswith("_")})
     return str(value)
-
-
-def _first_non_finite(value, where=""):
-    """Path of the first NaN or infinity in a JSON value, or None."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return where or "value"
-    if isinstance(value, dict):
-        items = value.items()
-    elif isinstance(value, list):
-        items = enumerate(value)
-    else:
-        return None
-    for key, item in items:
-        path = f"{where}[{key}]" if isinstance(key, int) else (f"{where}.{key}" if where else key)
-        found = _first_non_finite(item, path)
-        if found is not None:
-            return found
-    return None

@@ -35,6 +35,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -209,9 +210,23 @@ class _Bad:
         self.reason = reason
 
 
-def _first_bad(value: Any, where: str = "") -> tuple[str, _Bad] | None:
-    """Key path and marker of the first refused number in a parsed document."""
-    if isinstance(value, _Bad):
+def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tuple[str, Any] | None:
+    """The first leaf of a parsed document that ``test`` picks, with its key path.
+
+    Parameters
+    ----------
+    value : dicts, lists and leaves, as parsed from JSON or YAML
+    test : callable
+        True for the leaf wanted.
+    where : str
+        Path of ``value`` itself (``""`` for a whole document).
+
+    Returns
+    -------
+    (str, leaf) or None
+        Its path (``a.b[2]``) and the leaf, or None when no leaf matches.
+    """
+    if test(value):
         return where, value
     if isinstance(value, dict):
         items: Any = value.items()
@@ -221,10 +236,15 @@ def _first_bad(value: Any, where: str = "") -> tuple[str, _Bad] | None:
         return None
     for key, item in items:
         path = f"{where}[{key}]" if isinstance(key, int) else (f"{where}.{key}" if where else key)
-        found = _first_bad(item, path)
+        found = first_leaf(item, test, path)
         if found is not None:
             return found
     return None
+
+
+def _first_bad(value: Any) -> tuple[str, _Bad] | None:
+    """Key path and marker of the first refused number in a parsed document."""
+    return first_leaf(value, lambda leaf: isinstance(leaf, _Bad))
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
