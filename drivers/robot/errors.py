@@ -50,7 +50,9 @@ class LimitsViolation(DriverError, ValueError):
         Joint that violates (0-based: 0 is joint 1), ``None`` for a parameter.
     """
 
-    def __init__(self, message, pose_index=None, joint_index=None):
+    def __init__(
+        self, message: str, pose_index: int | None = None, joint_index: int | None = None
+    ) -> None:
         super().__init__(message)
         self.pose_index = pose_index
         self.joint_index = joint_index

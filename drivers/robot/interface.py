@@ -9,10 +9,14 @@ Units: joint angles in rad, speeds in rad/s, accelerations in rad/s^2.
 Failures are exceptions from :mod:`drivers.robot.errors`, never return codes.
 """
 
+from __future__ import annotations
+
 import numbers
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 
@@ -35,7 +39,7 @@ class SafetyState:
     emergency_stopped: bool
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """True when neither stop is active."""
         return not (self.protective_stopped or self.emergency_stopped)
 
@@ -62,7 +66,7 @@ class Robot(ports.Robot):
         self.close()
 
 
-def real_array(value, name):
+def real_array(value: Any, name: str) -> np.ndarray:
     """``value`` as a float array, refusing anything that is not real numbers.
 
     ``np.asarray(value, dtype=float)`` alone drops the imaginary part of a
@@ -81,7 +85,7 @@ def real_array(value, name):
     return arr.astype(float)
 
 
-def real_scalar(value, name):
+def real_scalar(value: object, name: str) -> float:
     """``value`` as a float, refusing bools, complex numbers, text and arrays.
 
     Raises
@@ -93,7 +97,7 @@ def real_scalar(value, name):
     return float(value)
 
 
-def check_move_args(q_rad, speed_rad_s, accel_rad_s2):
+def check_move_args(q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
     """Validate the arguments of :meth:`Robot.move_joints`.
 
     Returns

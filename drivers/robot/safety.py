@@ -10,13 +10,20 @@ Limits come from the caller (e.g. ``calibrator.models.get_model(name)``); this
 module never picks a robot model itself.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.interface import N_JOINTS, Robot, real_array, real_scalar
+
+if TYPE_CHECKING:  # drivers need no model at run time: the caller hands one in
+    from calibrator.models import RobotModel
 
 
 @dataclass(frozen=True)
@@ -68,7 +75,12 @@ class MotionLimits:
             object.__setattr__(self, "max_joint_speed_rad_s", speeds)
 
     @classmethod
-    def from_model(cls, model, max_speed_rad_s=None, max_accel_rad_s2=None):
+    def from_model(
+        cls,
+        model: RobotModel,
+        max_speed_rad_s: float | None = None,
+        max_accel_rad_s2: float | None = None,
+    ) -> MotionLimits:
         """Limits from a ``calibrator.models.RobotModel``, optionally lowered by the user.
 
         The model's fixed ceilings (``move_speed_cap_rad_s``,
@@ -100,7 +112,7 @@ class MotionLimits:
         return cls(model.joint_limits_rad, caps[0], caps[1], model.max_joint_speed_rad_s)
 
 
-def check_motion(limits, speed_rad_s, accel_rad_s2):
+def check_motion(limits: MotionLimits, speed_rad_s: float, accel_rad_s2: float) -> None:
     """Refuse a speed or acceleration above the caps (or not > 0).
 
     Raises
@@ -127,7 +139,9 @@ def check_motion(limits, speed_rad_s, accel_rad_s2):
         )
 
 
-def check_plan(q_plan_rad, limits, speed_rad_s, accel_rad_s2):
+def check_plan(
+    q_plan_rad: ArrayLike, limits: MotionLimits, speed_rad_s: float, accel_rad_s2: float
+) -> np.ndarray:
     """Check every target of a plan, and the motion parameters, before any move.
 
     Parameters
@@ -187,31 +201,33 @@ class GuardedRobot(Robot):
         # What the inner robot can do, plus the whole-plan check this wrapper adds.
         self.capabilities = frozenset(robot.capabilities) | {ports.CHECKS_PLAN}
 
-    def check_plan(self, q_plan_rad, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
+    def check_plan(
+        self, q_plan_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float
+    ) -> np.ndarray:
         """:func:`check_plan` with this robot's limits; call it before the first move."""
         return check_plan(q_plan_rad, self.limits, speed_rad_s, accel_rad_s2)
 
-    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
+    def move_joints(self, q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
         target = real_array(q_rad, "joint target")
         if target.shape != (N_JOINTS,):
             raise ValueError(f"joint target must have shape (6,), got {target.shape}")
         check_plan(target[np.newaxis], self.limits, speed_rad_s, accel_rad_s2)
         return self.robot.move_joints(target, speed_rad_s, accel_rad_s2)
 
-    def connect(self):
+    def connect(self) -> None:
         self.robot.connect()
 
-    def close(self):
+    def close(self) -> None:
         self.robot.close()
 
-    def actual_joints(self):
+    def actual_joints(self) -> np.ndarray:
         return self.robot.actual_joints()
 
-    def safety_state(self):
+    def safety_state(self) -> object:
         return self.robot.safety_state()
 
-    def stop(self):
+    def stop(self) -> None:
         self.robot.stop()
 
-    def clear_protective_stop(self):
+    def clear_protective_stop(self) -> None:
         self.robot.clear_protective_stop()

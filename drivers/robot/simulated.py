@@ -21,9 +21,14 @@ offset (it shifts AP); the random error spreads the attained poses (RP).
 The dependency runs drivers -> calibrator (kinematics, models) only.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from calibrator.kinematics import check_mdh, forward
@@ -52,7 +57,7 @@ class JointRepeatability:
     backlash_rad: float | np.ndarray = 0.0
 
     @classmethod
-    def typical(cls) -> "JointRepeatability":
+    def typical(cls) -> JointRepeatability:
         """Values of a 10 kg-class collaborative arm (about 0.05 mm RP at 1 m reach).
 
         Positioning 8 urad (base, shoulder, elbow) and 15 urad (wrist);
@@ -101,16 +106,16 @@ class SimulatedRobot(Robot):
 
     def __init__(
         self,
-        true_mdh,
-        base2tracker,
-        flange2tool,
+        true_mdh: ArrayLike,
+        base2tracker: ArrayLike,
+        flange2tool: ArrayLike,
         *,
-        initial_q=None,
-        joint_noise_rad=0.0,
-        rng=None,
-        listener=None,
-        repeatability=None,
-    ):
+        initial_q: ArrayLike | None = None,
+        joint_noise_rad: float = 0.0,
+        rng: np.random.Generator | None = None,
+        listener: Callable[[np.ndarray], object] | None = None,
+        repeatability: JointRepeatability | None = None,
+    ) -> None:
         self._mdh = check_mdh(true_mdh).copy()
         if self._mdh.shape != (N_JOINTS, 5):
             raise ValueError(f"true_mdh must have shape (6, 5), got {self._mdh.shape}")
@@ -142,15 +147,15 @@ class SimulatedRobot(Robot):
     @classmethod
     def from_model(
         cls,
-        name,
-        rng,
+        name: str,
+        rng: np.random.Generator,
         *,
-        base2tracker=None,
-        flange2tool=None,
-        error_mm=0.5,
-        error_rad=1e-3,
-        **kwargs,
-    ):
+        base2tracker: ArrayLike | None = None,
+        flange2tool: ArrayLike | None = None,
+        error_mm: float = 0.5,
+        error_rad: float = 1e-3,
+        **kwargs: Any,
+    ) -> SimulatedRobot:
         """A true arm: the named model (``calibrator.models``) with hidden errors from ``rng``.
 
         The errors are :func:`calibrator.simulate.random_errors` (uniform
@@ -169,7 +174,9 @@ class SimulatedRobot(Robot):
             **kwargs,
         )
 
-    def set_repeatability(self, repeatability: JointRepeatability, rng=None) -> None:
+    def set_repeatability(
+        self, repeatability: JointRepeatability, rng: np.random.Generator | None = None
+    ) -> None:
         """Switch on (or change) the load-side joint errors; see :class:`JointRepeatability`.
 
         Parameters
@@ -187,30 +194,30 @@ class SimulatedRobot(Robot):
         self._position_std, self._backlash = std, backlash
 
     # ------------------------------------------------------------ lifecycle
-    def connect(self):
+    def connect(self) -> None:
         self._connected = True
 
-    def close(self):
+    def close(self) -> None:
         self._connected = False
 
     # --------------------------------------------------------------- state
-    def actual_joints(self):
+    def actual_joints(self) -> np.ndarray:
         self._check_connected()
         # The encoders sit before the gears: they see the target, not the load-side errors.
         return self._q_target + self._encoder_error
 
-    def safety_state(self):
+    def safety_state(self) -> SafetyState:
         self._check_connected()
         return SafetyState(protective_stopped=self._protective, emergency_stopped=self._emergency)
 
-    def true_tool_pose(self):
+    def true_tool_pose(self) -> np.ndarray:
         """Where the probe really is: tool pose in the tracker frame, shape (4, 4), mm."""
         return forward(self._mdh, self._q_true[np.newaxis], self._flange2tool, self._base2tracker)[
             0
         ]
 
     # -------------------------------------------------------------- motion
-    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
+    def move_joints(self, q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
         target = check_move_args(q_rad, speed_rad_s, accel_rad_s2)
         self._check_connected()
         if self._emergency:
@@ -221,20 +228,21 @@ class SimulatedRobot(Robot):
         self._direction = np.where(moved != 0, moved, self._direction)
         self._q_target = target.copy()
         self._q_true = target.copy()
-        if self.joint_noise_rad > 0:
+        # The constructor and set_repeatability refuse noise without a generator.
+        if self.joint_noise_rad > 0 and self._rng is not None:
             self._encoder_error = self._rng.normal(0.0, self.joint_noise_rad, N_JOINTS)
         if np.any(self._backlash > 0):
             self._q_true -= 0.5 * self._backlash * self._direction
-        if np.any(self._position_std > 0):
+        if np.any(self._position_std > 0) and self._rng is not None:
             self._q_true += self._rng.normal(0.0, 1.0, N_JOINTS) * self._position_std
         if self.listener is not None:
             self.listener(self.true_tool_pose())
         return self.actual_joints()
 
-    def stop(self):
+    def stop(self) -> None:
         self._check_connected()  # moves are instantaneous: nothing is ever in motion
 
-    def clear_protective_stop(self):
+    def clear_protective_stop(self) -> None:
         self._check_connected()
         if self._emergency:
             raise EmergencyStop("emergency stop engaged: release it first (simulated)")
@@ -242,11 +250,11 @@ class SimulatedRobot(Robot):
         self._latched = False
 
     # ------------------------------------------------- simulation controls
-    def inject_protective_stop(self):
+    def inject_protective_stop(self) -> None:
         """Simulation control: the safety system trips (as a collision would)."""
         self._protective = self._latched = True
 
-    def unlock_from_pendant(self):
+    def unlock_from_pendant(self) -> None:
         """Simulation control: an operator unlocks the protective stop on the pendant.
 
         The arm's safety flag clears, but this driver still refuses moves until
@@ -254,20 +262,20 @@ class SimulatedRobot(Robot):
         """
         self._protective = False
 
-    def inject_emergency_stop(self):
+    def inject_emergency_stop(self) -> None:
         """Simulation control: someone presses the e-stop."""
         self._emergency = self._latched = True
 
-    def release_emergency_stop(self):
+    def release_emergency_stop(self) -> None:
         """Simulation control: the operator releases the e-stop (a clear is still needed)."""
         self._emergency = False
 
-    def _check_connected(self):
+    def _check_connected(self) -> None:
         if not self._connected:
             raise NotReady("simulated robot not connected; call connect() first")
 
 
-def _check_transform(t, name):
+def _check_transform(t: ArrayLike, name: str) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     if t.shape != (4, 4):
         raise ValueError(f"{name} must have shape (4, 4), got {t.shape}")

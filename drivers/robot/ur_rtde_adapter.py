@@ -21,8 +21,10 @@ the target, else :class:`~drivers.robot.errors.MotionFailed`.
 
 import threading
 import time
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from drivers.robot.errors import (
@@ -41,7 +43,9 @@ ROBOT_MODE_RUNNING = 7
 SAFETY_MODES_RUNNING = frozenset({"NORMAL", "REDUCED", "RECOVERY"})
 
 
-def expected_move_time(q0, q1, speed_rad_s, accel_rad_s2):
+def expected_move_time(
+    q0: ArrayLike, q1: ArrayLike, speed_rad_s: float, accel_rad_s2: float
+) -> float:
     """Duration of a synchronised trapezoidal joint move (as URScript ``movej``), s.
 
     Parameters
@@ -53,7 +57,7 @@ def expected_move_time(q0, q1, speed_rad_s, accel_rad_s2):
     """
     travel = float(np.max(np.abs(np.asarray(q1, float) - np.asarray(q0, float))))
     if travel * accel_rad_s2 <= speed_rad_s**2:  # triangular profile
-        return 2.0 * np.sqrt(travel / accel_rad_s2)
+        return 2.0 * float(np.sqrt(travel / accel_rad_s2))
     return travel / speed_rad_s + speed_rad_s / accel_rad_s2
 
 
@@ -90,14 +94,14 @@ class UrRtdeRobot(Robot):
 
     def __init__(
         self,
-        host,
+        host: str,
         *,
-        tolerance_rad=1e-3,
-        stale_after_s=1.0,
-        timeout_margin_s=5.0,
-        poll_s=0.002,
-        command_timeout_s=5.0,
-    ):
+        tolerance_rad: float = 1e-3,
+        stale_after_s: float = 1.0,
+        timeout_margin_s: float = 5.0,
+        poll_s: float = 0.002,
+        command_timeout_s: float = 5.0,
+    ) -> None:
         if not host:
             raise ValueError("host is required")
         self.host = host
@@ -106,17 +110,18 @@ class UrRtdeRobot(Robot):
         self.timeout_margin_s = float(timeout_margin_s)
         self.poll_s = float(poll_s)
         self.command_timeout_s = float(command_timeout_s)
-        self._control = None
-        self._receive = None
-        self._dashboard = None
+        # ur-rtde ships no type stubs: its clients are typed as Any.
+        self._control: Any = None
+        self._receive: Any = None
+        self._dashboard: Any = None
         # commands on the control interface are register handshakes: one at a time
         self._cmd_lock = threading.Lock()
         self._stop_latch = False
-        self._last_stamp = None
-        self._lost = None  # why the link was declared lost; no client call after that
+        self._last_stamp: tuple[float, float] | None = None
+        self._lost: str | None = None  # why the link was declared lost; no client call after that
 
     # ------------------------------------------------------------ lifecycle
-    def connect(self):
+    def connect(self) -> None:
         import dashboard_client
         import rtde_control
         import rtde_receive
@@ -146,7 +151,7 @@ class UrRtdeRobot(Robot):
         # a robot that is stopped at connect time must be cleared explicitly too
         self._stop_latch = not self.safety_state().ok
 
-    def close(self):
+    def close(self) -> None:
         if self._control is not None and not self._lost:
             try:
                 # leave no control script running on the robot
@@ -161,11 +166,11 @@ class UrRtdeRobot(Robot):
         del control
 
     # --------------------------------------------------------------- state
-    def actual_joints(self):
+    def actual_joints(self) -> np.ndarray:
         self._check_link()
         return np.array(self._receive.getActualQ(), dtype=float)
 
-    def safety_state(self):
+    def safety_state(self) -> SafetyState:
         self._check_link()
         state = SafetyState(
             protective_stopped=bool(self._receive.isProtectiveStopped()),
@@ -176,7 +181,7 @@ class UrRtdeRobot(Robot):
         return state
 
     # -------------------------------------------------------------- motion
-    def move_joints(self, q_rad, speed_rad_s, accel_rad_s2):
+    def move_joints(self, q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
         target = check_move_args(q_rad, speed_rad_s, accel_rad_s2)
         self._check_link()
         self._raise_for_safety()
@@ -200,12 +205,12 @@ class UrRtdeRobot(Robot):
         self._wait_move(deadline + self.timeout_margin_s)
         return self._verify_reached(target)
 
-    def stop(self, decel_rad_s2=2.0):
+    def stop(self, decel_rad_s2: float = 2.0) -> None:
         """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2)."""
         self._check_link()
         self._command(self._control.stopJ, float(decel_rad_s2))
 
-    def clear_protective_stop(self, timeout_s=6.0):
+    def clear_protective_stop(self, timeout_s: float = 6.0) -> None:
         """Unlock the protective stop (dashboard), restart the control script, lift the latch.
 
         A real controller refuses the unlock for 5 s after the stop, so the

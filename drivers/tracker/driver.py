@@ -186,7 +186,7 @@ class LaserTracker:
         self.close()
 
     @property
-    def events(self):
+    def events(self) -> deque[Reply]:
         """Unsolicited ``EV`` frames received so far (most recent last, at most 256)."""
         return self._events
 

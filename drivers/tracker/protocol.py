@@ -356,7 +356,9 @@ def reading_fields(
     return (*values, status.value, str(int(device_time_us)))
 
 
-def parse_reading(fields: tuple[str, ...], length_scale: float = 1.0, angle_scale: float = 1.0):
+def parse_reading(
+    fields: tuple[str, ...], length_scale: float = 1.0, angle_scale: float = 1.0
+) -> Reading:
     """Parse the fields of a ``MEAS`` reply into a :class:`Reading`.
 
     Parameters

@@ -1,5 +1,7 @@
 """Run the fake controller: ``python -m drivers.robot.fake_ur [--time-scale X]``."""
 
+from __future__ import annotations
+
 import argparse
 import os
 import sys
@@ -16,7 +18,7 @@ from drivers.robot.fake_ur.servers import (
 )
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m drivers.robot.fake_ur",
         description="Loopback fake UR controller (default 127.0.0.1 ports 30004, 29999, 30003).",

@@ -25,10 +25,15 @@ is ready for a command and 2 when it has finished one; the client then writes
 NO_CMD (0) and the script answers ready again.
 """
 
+from __future__ import annotations
+
 import threading
 import time
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, kinematics
 from calibrator.models import get_model
@@ -71,7 +76,7 @@ UNLOCK_DELAY_S = 5.0
 HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
 
 
-def safety_mode(bits):
+def safety_mode(bits: int) -> int:
     """RTDE ``safety_mode`` of ``safety_status_bits``: 1 NORMAL, 3 PROTECTIVE_STOP, 7 E-STOP."""
     if bits & SAFETY_EMERGENCY_STOPPED:
         return 7
@@ -80,7 +85,9 @@ def safety_mode(bits):
     return 1
 
 
-def tcp_pose(q, mdh=None, flange2tcp=None):
+def tcp_pose(
+    q: ArrayLike, mdh: ArrayLike | None = None, flange2tcp: ArrayLike | None = None
+) -> np.ndarray:
     """TCP pose as UR reports it: ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad).
 
     Parameters
@@ -159,7 +166,13 @@ class FakeController:
 
     period_s = 0.002  # 500 Hz, as an e-Series controller
 
-    def __init__(self, time_scale=1.0, initial_q=None, model="ur5e", unlock_delay_s=UNLOCK_DELAY_S):
+    def __init__(
+        self,
+        time_scale: float = 1.0,
+        initial_q: ArrayLike | None = None,
+        model: str = "ur5e",
+        unlock_delay_s: float = UNLOCK_DELAY_S,
+    ) -> None:
         if time_scale <= 0:
             raise ValueError(f"time_scale must be > 0, got {time_scale}")
         self.time_scale = float(time_scale)
@@ -167,7 +180,7 @@ class FakeController:
         self.q = np.array(HOME_Q if initial_q is None else initial_q, dtype=float)
         self.qd = np.zeros(6)
         self.target_q = self.q.copy()
-        self._move = None
+        self._move: _JointMove | None = None
         self._move_is_sync = False  # a sync movej holds the script until it ends
         self._busy = False
         self._executing_cmd = False
@@ -176,7 +189,9 @@ class FakeController:
         # or one starved thread, can show a stop at different moments)
         self.safety_lag_s = 0.0
         self._lag_since = 0.0  # when the lag was set: the stream never reports older bits
-        self._safety_log = []  # (monotonic time, bits), for the lagged report
+        self._safety_log: list[
+            tuple[float, int]
+        ] = []  # (monotonic time, bits), for the lagged report
         self.safety_bits = SAFETY_NORMAL
         self.estop_at_movej = 0  # test hook: the n-th MOVEJ from now is an e-stop instead
         self.reg_offset = 0
@@ -186,34 +201,36 @@ class FakeController:
         self.in_double = np.zeros(48)
         self._async_wr_count = 0
         self._async_op_id = 0
-        self.frozen_timestamp = None  # test hook: keep streaming, repeat this timestamp
+        self.frozen_timestamp: float | None = (
+            None  # test hook: keep streaming, repeat this timestamp
+        )
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
         self.unlock_delay_s = float(unlock_delay_s)
         self.model = get_model(model)
         self.flange2tcp = np.eye(4)  # setTcp changes it (mm)
         self.robot_mode = MODE_RUNNING
-        self._protective_since = None
-        self.log = []  # commands executed, for the fake's own tests
+        self._protective_since: float | None = None
+        self.log: list[str] = []  # commands executed, for the fake's own tests
 
     # ----------------------------------------------------------------- state
     @property
-    def safety_bits(self):
+    def safety_bits(self) -> int:
         """``safety_status_bits`` now (the dashboard's view)."""
         return self._safety_bits
 
     @safety_bits.setter
-    def safety_bits(self, bits):
+    def safety_bits(self, bits: int) -> None:
         self._safety_bits = bits
         self._safety_log = [*self._safety_log[-15:], (time.monotonic(), bits)]
 
-    def set_safety_lag(self, lag_s):
+    def set_safety_lag(self, lag_s: float) -> None:
         """Test hook: from now on the stream shows safety changes ``lag_s`` late."""
         with self.lock:
             self.safety_lag_s = float(lag_s)
             self._lag_since = time.monotonic()
 
-    def streamed_safety_bits(self):
+    def streamed_safety_bits(self) -> int:
         """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old.
 
         Never older than the moment the lag was set, so changes from before
@@ -225,13 +242,13 @@ class FakeController:
         reported = [bits for t, bits in self._safety_log if t <= seen]
         return reported[-1] if reported else self._safety_log[0][1]
 
-    def timestamp(self):
+    def timestamp(self) -> float:
         """Controller time since start, s (the RTDE ``timestamp``)."""
         if self.frozen_timestamp is not None:
             return self.frozen_timestamp
         return time.monotonic() - self._t0
 
-    def snapshot(self):
+    def snapshot(self) -> dict[str, Any]:
         """Values of the outputs a client may request, by RTDE name (units as UR: m, rad)."""
         with self.lock:
             playing = self.runtime_state == RUNTIME_PLAYING
@@ -263,10 +280,10 @@ class FakeController:
         return values
 
     @property
-    def moving(self):
+    def moving(self) -> bool:
         return self._move is not None
 
-    def write_inputs(self, values):
+    def write_inputs(self, values: Mapping[str, float]) -> None:
         """Store input registers the client sent (``{"input_int_register_3": 7, ...}``)."""
         with self.lock:
             for name, value in values.items():
@@ -279,7 +296,7 @@ class FakeController:
                     self.in_double[int(index)] = value
 
     # ------------------------------------------------------------- programs
-    def start_program(self, reg_offset=0):
+    def start_program(self, reg_offset: int = 0) -> None:
         """A ``def rtde_control():`` program arrived on the script port: start its loop."""
         with self.lock:
             if self.safety_bits & (SAFETY_PROTECTIVE_STOPPED | SAFETY_EMERGENCY_STOPPED):
@@ -300,7 +317,7 @@ class FakeController:
             self._out_int(0, READY)
             self.log.append("program started")
 
-    def stop_program(self):
+    def stop_program(self) -> None:
         """Dashboard ``stop`` or STOP_SCRIPT: the program ends and the arm halts."""
         with self.lock:
             self._halt()
@@ -309,7 +326,7 @@ class FakeController:
             self._executing_cmd = False
             self.log.append("program stopped")
 
-    def protective_stop(self):
+    def protective_stop(self) -> None:
         """Safety system trips: the arm halts, the program stops, bit 2 is raised."""
         with self.lock:
             self.stop_program()
@@ -317,7 +334,7 @@ class FakeController:
             self._protective_since = time.monotonic()
             self.log.append("protective stop")
 
-    def emergency_stop(self):
+    def emergency_stop(self) -> None:
         """E-stop pressed: the program stops, bit 7 is raised and the arm is powered off."""
         with self.lock:
             self.stop_program()
@@ -325,7 +342,7 @@ class FakeController:
             self.robot_mode = MODE_POWER_OFF
             self.log.append("emergency stop")
 
-    def power_on(self):
+    def power_on(self) -> str:
         """Dashboard ``power on``: POWER_OFF -> IDLE (brakes still on). Returns the reply."""
         with self.lock:
             if self.safety_bits & SAFETY_EMERGENCY_STOPPED:
@@ -334,7 +351,7 @@ class FakeController:
                 self.robot_mode = MODE_IDLE
             return "Powering on"
 
-    def brake_release(self):
+    def brake_release(self) -> str:
         """Dashboard ``brake release``: IDLE -> RUNNING. Returns the reply."""
         with self.lock:
             if self.robot_mode == MODE_POWER_OFF:
@@ -342,20 +359,20 @@ class FakeController:
             self.robot_mode = MODE_RUNNING
             return "Brake releasing"
 
-    def power_off(self):
+    def power_off(self) -> str:
         """Dashboard ``power off``: the program stops, the arm is powered off."""
         with self.lock:
             self.stop_program()
             self.robot_mode = MODE_POWER_OFF
             return "Powering off"
 
-    def release_emergency_stop(self):
+    def release_emergency_stop(self) -> None:
         with self.lock:
             self.safety_bits &= ~SAFETY_EMERGENCY_STOPPED
             if not self.safety_bits & SAFETY_PROTECTIVE_STOPPED:
                 self.safety_bits |= SAFETY_NORMAL
 
-    def unlock_protective_stop(self):
+    def unlock_protective_stop(self) -> str:
         """Dashboard ``unlock protective stop``; refused while e-stopped. Returns the reply line."""
         with self.lock:
             if self.safety_bits & SAFETY_EMERGENCY_STOPPED or not (
@@ -372,7 +389,7 @@ class FakeController:
             return "Protective stop releasing"
 
     # ----------------------------------------------------------- the loop
-    def tick(self, dt_wall):
+    def tick(self, dt_wall: float) -> None:
         """One controller cycle: motion advances ``dt_wall * time_scale``, then the script runs."""
         with self.lock:
             self._advance(dt_wall * self.time_scale)

@@ -10,6 +10,8 @@ stopped: the tests report the taken ports instead (start a hand-run fake on
 another loopback address, ``--host 127.0.0.2``, to keep both).
 """
 
+from __future__ import annotations
+
 import fcntl
 import os
 import selectors
@@ -25,11 +27,20 @@ from drivers.robot.fake_ur.servers import DASHBOARD_PORT, HOST, RTDE_PORT, SCRIP
 
 _LOCK_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.lock")
 _PID_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.pid")
-_lock_state = {"fd": None, "depth": 0}
+
+
+class _PortsLock:
+    """The process's hold on the machine-wide lock: its file descriptor and nesting depth."""
+
+    fd: int | None = None
+    depth: int = 0
+
+
+_lock_state = _PortsLock()
 _lock_mutex = threading.Lock()
 
 
-def acquire_ports(timeout_s=600.0):
+def acquire_ports(timeout_s: float = 600.0) -> None:
     """Take the machine-wide lock on the fake's fixed ports (reentrant within a process).
 
     Two test sessions on one machine would otherwise start fakes on the same
@@ -37,7 +48,7 @@ def acquire_ports(timeout_s=600.0):
     waits. The lock is an ``flock``, so the kernel drops it when its holder dies.
     """
     with _lock_mutex:
-        if _lock_state["depth"] == 0:
+        if _lock_state.depth == 0:
             fd = os.open(_LOCK_PATH, os.O_RDWR | os.O_CREAT, 0o666)
             deadline = time.monotonic() + timeout_s
             while True:
@@ -49,23 +60,23 @@ def acquire_ports(timeout_s=600.0):
                         os.close(fd)
                         raise RuntimeError(f"another process holds {_LOCK_PATH}") from None
                     time.sleep(0.1)
-            _lock_state["fd"] = fd
-        _lock_state["depth"] += 1
+            _lock_state.fd = fd
+        _lock_state.depth += 1
 
 
-def release_ports():
+def release_ports() -> None:
     """Undo one :func:`acquire_ports`."""
     with _lock_mutex:
-        if _lock_state["depth"] == 0:
+        if _lock_state.depth == 0:
             return
-        _lock_state["depth"] -= 1
-        if _lock_state["depth"] == 0:
-            fcntl.flock(_lock_state["fd"], fcntl.LOCK_UN)
-            os.close(_lock_state["fd"])
-            _lock_state["fd"] = None
+        _lock_state.depth -= 1
+        if _lock_state.depth == 0 and _lock_state.fd is not None:  # fd is set while depth > 0
+            fcntl.flock(_lock_state.fd, fcntl.LOCK_UN)
+            os.close(_lock_state.fd)
+            _lock_state.fd = None
 
 
-def dashboard_command(command, timeout_s=2.0):
+def dashboard_command(command: str, timeout_s: float = 2.0) -> str:
     """Send one dashboard line to the fake on 127.0.0.1 and return its reply line.
 
     Parameters
@@ -147,15 +158,21 @@ class FakeUrProcess:
         ``--unlock-delay``; default the real controller's 5 s.
     """
 
-    def __init__(self, time_scale=10.0, startup_timeout_s=30.0, model="ur5e", unlock_delay_s=None):
+    def __init__(
+        self,
+        time_scale: float = 10.0,
+        startup_timeout_s: float = 30.0,
+        model: str = "ur5e",
+        unlock_delay_s: float | None = None,
+    ) -> None:
         self.time_scale = time_scale
         self.model = model
         self.unlock_delay_s = unlock_delay_s
         self.startup_timeout_s = startup_timeout_s
-        self.process = None
+        self.process: subprocess.Popen[bytes] | None = None
         self._holds_lock = False
 
-    def start(self):
+    def start(self) -> FakeUrProcess:
         acquire_ports()
         self._holds_lock = True
         try:
@@ -200,15 +217,15 @@ class FakeUrProcess:
             err = self._stderr.read().decode(errors="replace")
             raise RuntimeError(f"fake UR controller did not start: {err.strip()[-500:]}")
 
-    def command(self, text):
+    def command(self, text: str) -> str:
         """A dashboard command to this fake, e.g. ``"fake estop"``; returns the reply line."""
         return dashboard_command(text)
 
     @property
-    def running(self):
+    def running(self) -> bool:
         return self.process is not None and self.process.poll() is None
 
-    def stop(self):
+    def stop(self) -> None:
         """Terminate the fake (kill it if it does not exit within 3 s) and free the ports."""
         try:
             self._terminate()

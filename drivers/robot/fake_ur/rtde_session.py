@@ -7,11 +7,18 @@ the negotiated rate once started. The stream never stalls on its own: the
 client's receive thread dies after 2.5 s without data.
 """
 
+from __future__ import annotations
+
+import socket
 import struct
 import threading
 import time
+from typing import TYPE_CHECKING
 
 from drivers.robot.fake_ur import wire
+
+if TYPE_CHECKING:
+    from drivers.robot.fake_ur.controller import FakeController
 
 CONTROLLER_VERSION = (5, 11, 1, 108318)
 
@@ -29,24 +36,27 @@ def _read_exact(conn, n):
 class RtdeSession:
     """One RTDE connection: answers setup requests in order, then streams outputs."""
 
-    def __init__(self, conn, controller, server_stopped):
+    def __init__(
+        self, conn: socket.socket, controller: FakeController, server_stopped: threading.Event
+    ) -> None:
         self.conn = conn
         self.controller = controller
         self.server_stopped = server_stopped
         self.send_lock = threading.Lock()
-        self.output_names = []
-        self.output_types = []
-        self.output_struct = None
+        self.output_names: list[str] = []
+        self.output_types: list[str] = []
+        self.output_struct: struct.Struct | None = None
         self.frequency = 500.0
-        self.inputs = {}  # recipe id -> (names, struct)
+        # recipe id -> (names, values per field, struct)
+        self.inputs: dict[int, tuple[list[str], list[int], struct.Struct]] = {}
         self.streaming = threading.Event()
         self.closed = False
 
-    def send(self, package_type, payload=b""):
+    def send(self, package_type: int, payload: bytes = b"") -> None:
         with self.send_lock:
             self.conn.sendall(wire.pack(package_type, payload))
 
-    def run(self):
+    def run(self) -> None:
         threading.Thread(target=self._stream, daemon=True).start()
         try:
             while not self.server_stopped.is_set():

@@ -5,12 +5,14 @@ right after another one died. Each client connection gets its own thread; the
 shared :class:`~drivers.robot.fake_ur.controller.FakeController` holds the state.
 """
 
+from __future__ import annotations
+
 import re
 import socket
 import threading
 import time
 
-from drivers.robot.fake_ur.controller import ROBOT_MODES, safety_mode
+from drivers.robot.fake_ur.controller import ROBOT_MODES, FakeController, safety_mode
 from drivers.robot.fake_ur.rtde_session import RtdeSession
 
 HOST = "127.0.0.1"
@@ -67,7 +69,7 @@ class FakeUr:
 
     def __init__(
         self,
-        controller,
+        controller: FakeController,
         host: str = HOST,
         ports: tuple[int, int, int] = (RTDE_PORT, DASHBOARD_PORT, SCRIPT_PORT),
     ) -> None:
@@ -80,7 +82,7 @@ class FakeUr:
         self._listeners: list[socket.socket] = []
 
     # ------------------------------------------------------------ lifecycle
-    def start(self):
+    def start(self) -> None:
         """Bind all ports, then start the clock and accept loops (returns at once)."""
         handlers = [self._serve_rtde, self._serve_dashboard, self._serve_script]
         try:  # all ports or none: a fake with half its servers would confuse a client
@@ -96,7 +98,7 @@ class FakeUr:
             threading.Thread(target=self._accept_loop, args=(sock, handler), daemon=True).start()
         threading.Thread(target=self._clock, daemon=True).start()
 
-    def drop(self):
+    def drop(self) -> None:
         """Hang up: close every connection and stop listening (the controller is gone)."""
         self.stopped.set()
         for sock in self._listeners:

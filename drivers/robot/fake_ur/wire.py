@@ -5,8 +5,11 @@ Only what a controller needs to answer the ``ur-rtde`` client (see
 ``>HB`` (total size including the 3 header bytes, package type) and a payload.
 """
 
+from __future__ import annotations
+
 import re
 import struct
+from collections.abc import Iterable
 
 HEADER = struct.Struct(">HB")
 
@@ -98,7 +101,7 @@ _PATTERN_TYPES = [
 ]
 
 
-def type_of(name):
+def type_of(name: str) -> str:
     """RTDE type name of a variable; unknown names are served as ``DOUBLE`` zeros.
 
     Parameters
@@ -119,28 +122,28 @@ def type_of(name):
     return "DOUBLE"
 
 
-def recipe_struct(type_names):
+def recipe_struct(type_names: Iterable[str]) -> struct.Struct:
     """``struct.Struct`` for the fields of one recipe (after its 1-byte id)."""
     return struct.Struct(">" + "".join(TYPE_FORMATS[t] for t in type_names))
 
 
-def count_of(type_name):
+def count_of(type_name: str) -> int:
     """Number of scalar values in one field of this type (6 for ``VECTOR6D``)."""
     fmt = TYPE_FORMATS[type_name]
     return int(fmt[:-1]) if len(fmt) > 1 else 1
 
 
-def zero_of(type_name):
+def zero_of(type_name: str) -> tuple[bool | int, ...]:
     """Zero value(s) of an RTDE type, as a tuple ready to pack."""
     zero = False if TYPE_FORMATS[type_name] == "?" else 0
     return (zero,) * count_of(type_name)
 
 
-def pack(package_type, payload=b""):
+def pack(package_type: int, payload: bytes = b"") -> bytes:
     """Frame one package: header then payload."""
     return HEADER.pack(HEADER.size + len(payload), package_type) + payload
 
 
-def split_names(payload):
+def split_names(payload: bytes) -> list[str]:
     """Variable names of a setup request (``"a,b,c,"``; the trailing comma is optional)."""
     return [n for n in payload.decode("ascii", "replace").strip("\x00").split(",") if n]

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from drivers.errors import DriverError
@@ -205,7 +206,7 @@ class EmsconTracker:
         """``Initialize``: moves the head for tens of seconds. Only ever on the user's request."""
         self._once(pk.Command.INITIALIZE, timeout_s=timeout_s or self.init_timeout_s)
 
-    def find_reflector(self, predicted_point_mm, timeout_s: float | None = None) -> None:
+    def find_reflector(self, predicted_point_mm: ArrayLike, timeout_s: float | None = None) -> None:
         """Re-lock the beam on a reflector expected near ``predicted_point_mm``.
 
         Points the beam at the prediction (``GoPosition``, without ADM), then
@@ -434,7 +435,7 @@ def _quaternion_to_rotvec(q: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(s, w) * v / s
 
 
-def open_tracker(url: str, **options) -> EmsconTracker:
+def open_tracker(url: str, **options: Any) -> EmsconTracker:
     """An (unconnected) :class:`EmsconTracker` for ``emscon://HOST[:PORT][?meteo=T,P,H]``.
 
     ``meteo`` gives the environment sent on connect: temperature degC, pressure

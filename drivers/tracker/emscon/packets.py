@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import enum
 import struct
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 HEADER = struct.Struct("<iI")  # lPacketSize, type
@@ -359,7 +360,12 @@ def encode_status_change(change: int) -> bytes:
 
 
 def encode_single_meas_result(
-    values, std, meteo, *, status: int = 0, try_mode: bool = False
+    values: Sequence[float],
+    std: Sequence[float],
+    meteo: Sequence[float],
+    *,
+    status: int = 0,
+    try_mode: bool = False,
 ) -> bytes:
     """A ``SingleMeasResult``; ``std`` is ``(s1, s2, s3, total)``; pointing errors and
     a-priori stds are sent as zero and the a-priori std total as ``std[3]``."""
@@ -369,14 +375,14 @@ def encode_single_meas_result(
 
 
 def encode_probe_stationary_result(
-    values,
-    std,
-    quaternion,
-    meteo,
+    values: Sequence[float],
+    std: Sequence[float],
+    quaternion: Sequence[float],
+    meteo: Sequence[float],
     *,
     status: int = 0,
     try_mode: bool = False,
-    rotation_std=(0.0, 0.0, 0.0, 0.0),
+    rotation_std: Sequence[float] = (0.0, 0.0, 0.0, 0.0),
 ) -> bytes:
     """A ``ProbeStationaryResult``; covariances, a-priori values and rotation angles zero,
     rotation status "6-DoF valid"."""
@@ -390,7 +396,12 @@ def encode_probe_stationary_result(
     return _with_header(DataType.STATIONARY_PROBE_MEAS_RESULT, body)
 
 
-def units_params(length=LU_MILLIMETER, angle=AU_RADIAN, temp=TU_CELSIUS, press=PU_HPASCAL):
+def units_params(
+    length: int = LU_MILLIMETER,
+    angle: int = AU_RADIAN,
+    temp: int = TU_CELSIUS,
+    press: int = PU_HPASCAL,
+) -> bytes:
     """``SystemUnitsDataT``: length, angle, temperature, pressure, humidity units."""
     return _UNITS.pack(length, angle, temp, press, HU_RH)
 
@@ -420,7 +431,7 @@ def double_param(value: float) -> bytes:
     return struct.pack("<d", value)
 
 
-def go_position_params(point, use_adm: bool) -> bytes:
+def go_position_params(point: Iterable[float], use_adm: bool) -> bytes:
     """``GoPositionCT`` data: ``dVal1..3`` in the frame and units set, then ``bUseADM``."""
     return struct.pack("<3di", *point, int(use_adm))
 
@@ -442,7 +453,10 @@ def parse_stationary(body: bytes) -> tuple[int, bool]:
 
 
 def system_status_body(
-    processor: int, serial: int, version=(3, 6, 0), last_status: int = 0
+    processor: int,
+    serial: int,
+    version: tuple[int, int, int] = (3, 6, 0),
+    last_status: int = 0,
 ) -> bytes:
     """Data of the ``GetSystemStatus`` reply (laser ready, ADM ready, no weather monitor)."""
     return _SYSTEM_STATUS.pack(last_status, processor, 3, 2, *version, 0, 0, serial)

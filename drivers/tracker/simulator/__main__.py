@@ -150,7 +150,7 @@ def _build_server(args) -> SimulatorServer:
     """Engine and endpoints from the options; endpoints printed only once all opened."""
     if args.replay:
         try:
-            engine = ReplaySimulator(args.replay)
+            engine: TrackerSimulator | ReplaySimulator = ReplaySimulator(args.replay)
         except ValueError as exc:
             message = str(exc)
             if str(args.replay) not in message:  # json's own errors do not name the file
@@ -163,7 +163,7 @@ def _build_server(args) -> SimulatorServer:
                 faults = parse_script(args.faults.read_text())
             except ValueError as exc:
                 raise ValueError(f"{args.faults}: {exc}") from None
-        engine = TrackerSimulator(
+        simulator = TrackerSimulator(
             seed=args.seed,
             noise=NoiseModel(enabled=not args.no_noise),
             probe_6dof=args.probe_6dof,
@@ -173,7 +173,8 @@ def _build_server(args) -> SimulatorServer:
             serial=args.serial,
         )
         if args.target:
-            engine.set_target(args.target[:3], args.target[3:] or None)
+            simulator.set_target(args.target[:3], args.target[3:] or None)
+        engine = simulator
     server = SimulatorServer(engine)
     lines = []
     try:

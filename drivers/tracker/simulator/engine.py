@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from drivers.tracker.errors import FrameError
 from drivers.tracker.protocol import (
@@ -117,7 +118,7 @@ class TrackerSimulator:
 
     # ------------------------------------------------------------ in-process control
 
-    def set_target(self, point_mm, rotvec_rad=None) -> None:
+    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
         """Tell the simulator where the target truly is; re-acquires a broken beam.
 
         Parameters

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import serial
+from numpy.typing import ArrayLike
 
 from drivers.tracker.link import Link, close_for_good
 from drivers.tracker.protocol import format_number
@@ -36,11 +37,11 @@ class SimulatorControl:
         Usually ``socket://127.0.0.1:PORT`` of a running simulator.
     """
 
-    def __init__(self, url: str):
+    def __init__(self, url: str) -> None:
         self._port = serial.serial_for_url(url, timeout=CONTROL_TIMEOUT_S)
         self._link = Link(self._port)
 
-    def set_target(self, point_mm, rotvec_rad=None) -> None:
+    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
         """``SIM,TARGET``: true target position (shape (3,), mm, tracker frame), optional
         probe rotation vector (shape (3,), rad)."""
         values = np.asarray(point_mm, dtype=float).reshape(3).tolist()
@@ -106,7 +107,9 @@ class SimulatorProcess:
             stdout=subprocess.PIPE,
             text=True,
         )
-        path, port = (self._proc.stdout.readline().strip() for _ in range(2))
+        stdout = self._proc.stdout
+        assert stdout is not None  # stdout=PIPE above
+        path, port = (stdout.readline().strip() for _ in range(2))
         if not path or not port:
             self._proc.kill()
             raise RuntimeError("tracker simulator did not start")
@@ -122,7 +125,7 @@ class SimulatorProcess:
             self._control = SimulatorControl(self.control_url)
         return self._control
 
-    def set_target(self, point_mm, rotvec_rad=None) -> None:
+    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
         """Tell the simulator the true target (mm, tracker frame; rad); see SimulatorControl."""
         self.control.set_target(point_mm, rotvec_rad)
 
@@ -144,7 +147,8 @@ class SimulatorProcess:
             except subprocess.TimeoutExpired:
                 self._proc.kill()
                 self._proc.wait()
-        self._proc.stdout.close()
+        if self._proc.stdout is not None:  # always, with stdout=PIPE
+            self._proc.stdout.close()
 
     def __enter__(self) -> SimulatorProcess:
         return self

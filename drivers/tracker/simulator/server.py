@@ -16,9 +16,16 @@ import threading
 import time
 import tty
 from collections import deque
+from typing import Protocol
 
 from drivers.tracker.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.simulator.engine import HangUp, Send, internal_error_reply
+from drivers.tracker.simulator.engine import HangUp, Output, Send, internal_error_reply
+
+
+class LineEngine(Protocol):
+    """What the server drives: one complete command line in, the outputs to send back."""
+
+    def handle_line(self, line: bytes) -> list[Output]: ...
 
 
 class _Conn:
@@ -63,7 +70,7 @@ class SimulatorServer:
     client; the port keeps listening, so a reconnect succeeds.
     """
 
-    def __init__(self, engine):
+    def __init__(self, engine: LineEngine) -> None:
         self.engine = engine
         self._conns: list[_Conn] = []
         self._listeners: list[socket.socket] = []
@@ -129,7 +136,11 @@ class SimulatorServer:
         try:
             while not self._stop and (self._conns or self._listeners):
                 self._flush(time.monotonic())
-                rlist = [self._wake_r, *self._listeners, *(c.fd for c in self._conns)]
+                rlist: list[int | socket.socket] = [
+                    self._wake_r,
+                    *self._listeners,
+                    *(c.fd for c in self._conns),
+                ]
                 wlist = [c.fd for c in self._conns if c.out and c.out[0][0] <= time.monotonic()]
                 ready_r, ready_w, _ = select.select(rlist, wlist, [], self._timeout())
                 if self._wake_r in ready_r:

@@ -8,6 +8,8 @@ the simulator where the probe of the simulated world really is
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from calibrator.acquire import ports
@@ -42,26 +44,31 @@ class SimulatedTracker(LaserTracker):
         *,
         seed: int = 0,
         noise: bool = True,
-        faults=None,
-        replay=None,
-        record=None,
+        faults: str | Path | None = None,
+        replay: str | Path | None = None,
+        record: str | Path | None = None,
         probe_6dof: bool = False,
-    ):
+    ) -> None:
         # The pty path is known once started; standard air, as the line opener sends.
         super().__init__("sim://", record=record, environment=Environment())
-        self._start = {
-            "seed": seed,
-            "noise": noise,
-            "faults": faults,
-            "replay": replay,
-            "probe_6dof": probe_6dof,
-        }
+        self._seed = seed
+        self._noise = noise
+        self._faults = faults
+        self._replay = replay
+        self._probe_6dof = probe_6dof
         self._process: SimulatorProcess | None = None
 
     def connect(self, environment: Environment | None = None, mode: str | None = None) -> Status:
         """Start the simulator (initialised, as a tracker warmed up and homed), then connect."""
         if self._process is None:
-            self._process = SimulatorProcess(initialised=True, **self._start)
+            self._process = SimulatorProcess(
+                seed=self._seed,
+                noise=self._noise,
+                probe_6dof=self._probe_6dof,
+                initialised=True,
+                faults=self._faults,
+                replay=self._replay,
+            )
             self._url = self._process.url
         return super().connect(environment, mode)
 

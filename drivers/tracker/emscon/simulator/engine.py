@@ -45,6 +45,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from drivers.tracker.emscon import packets as pk
 from drivers.tracker.emscon.packets import Command, ResultStatus, StatusChange
@@ -68,7 +69,7 @@ INACCURATE_STD_MM = 1.0
 SEARCH_RADIUS_MM = 100.0  # FindReflector's reach around the aimed point
 
 # emScon commands under the names the shared fault scripts count.
-FAULT_NAMES = {
+FAULT_NAMES: dict[int, str] = {
     Command.INITIALIZE: "INIT",
     Command.GET_TRACKER_STATUS: "STAT?",
     Command.GET_SYSTEM_STATUS: "SYS?",
@@ -173,7 +174,7 @@ class EmsconSimulator:
 
     # ------------------------------------------------------------ in-process control
 
-    def set_target(self, point_mm, rotvec_rad=None) -> None:
+    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
         """True target position (shape (3,), mm, tracker frame); re-locks a broken beam.
 
         ``rotvec_rad`` (shape (3,), rad): the probe's orientation, used when the

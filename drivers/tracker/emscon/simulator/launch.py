@@ -48,7 +48,9 @@ class EmsconSimulatorProcess(SimulatorProcess):
             stdout=subprocess.PIPE,
             text=True,
         )
-        port, control = (self._proc.stdout.readline().strip() for _ in range(2))
+        stdout = self._proc.stdout
+        assert stdout is not None  # stdout=PIPE above
+        port, control = (stdout.readline().strip() for _ in range(2))
         if not port or not control:
             self._proc.kill()
             self._proc.wait()

@@ -51,9 +51,11 @@ class EmsconServer:
         return self.port, self.control_port
 
     def start(self) -> EmsconServer:
-        """Serve in daemon threads."""
+        """Serve in daemon threads (after :meth:`open`)."""
+        if self._listener is None:
+            raise RuntimeError("open() the server before start()")
         self._control.start()
-        self._spawn(self._accept_loop)
+        self._spawn(self._accept_loop, self._listener)
         return self
 
     def stop(self) -> None:
@@ -91,10 +93,10 @@ class EmsconServer:
         self._threads.append(thread)
         thread.start()
 
-    def _accept_loop(self) -> None:
+    def _accept_loop(self, listener: socket.socket) -> None:
         while not self._stop.is_set():
             try:
-                conn, _ = self._listener.accept()
+                conn, _ = listener.accept()
             except OSError:
                 return  # listener closed by stop()
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
