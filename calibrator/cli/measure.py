@@ -152,10 +152,10 @@ def measure(
     arm = _check_motion_caps(model, speed, accel, max_speed)
     from calibrator import cell as cells
 
-    given = plans.read_plan(plan_path) if plan_path is not None else None
+    user_plan = plans.read_plan(plan_path) if plan_path is not None else None
     options = RunOptions(
-        plan_rad=None if given is None else given.q_rad,
-        via_rad=None if given is None else given.via_rad,
+        plan_rad=None if user_plan is None else user_plan.q_rad,
+        via_rad=None if user_plan is None else user_plan.via_rad,
         cell=None if cell_file is None else cells.read_cell(cell_file),
         poses=poses,
         seed=seed,
