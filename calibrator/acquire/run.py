@@ -162,11 +162,11 @@ class MeasureRun:
         self,
         robot: ports.Robot,
         tracker: ports.Tracker,
-        model,
+        model: Any,
         options: RunOptions,
         output: Path,
         *,
-        world=None,
+        world: Any = None,
         steer: Callable[[np.ndarray, np.ndarray], None] | None = None,
     ) -> None:
         self.robot, self.tracker, self.model = robot, tracker, model
@@ -303,7 +303,7 @@ class MeasureRun:
         self.plan = q_plan
         return q_plan
 
-    def estimate(self):
+    def estimate(self) -> Any:
         """The cell time of the checked plan: moves at the run's speed, settle, readings.
 
         Returns
@@ -343,7 +343,7 @@ class MeasureRun:
                     raise CalibrationError(f"via poses before pose {pose}: {exc}") from None
         return [v for v in vias if len(v)]
 
-    def header(self, meta) -> dict:
+    def header(self, meta: Any) -> dict:
         """The journal header: what a resume must match."""
         from calibrator import plan as plans
 
@@ -357,7 +357,7 @@ class MeasureRun:
             "meta": meta.to_json(),
         }
 
-    def session_meta(self):
+    def session_meta(self) -> Any:
         """The session's metadata (nominal arm, tool guess, devices and the plan's digest)."""
         from calibrator import plan as plans
         from calibrator import session

@@ -95,7 +95,7 @@ def _fail(message, code=2):
     sys.exit(code)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the app, turning known errors into one line.
 
     Parameters

@@ -119,7 +119,7 @@ def identify(
         "error below this (mm).",
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
-):
+) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
     import numpy as np
 

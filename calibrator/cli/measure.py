@@ -132,7 +132,7 @@ def measure(
         hidden=True,
         help="Control URL of a tracker simulator (either kind) the simulated robot steers.",
     ),
-):
+) -> None:
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     import contextlib
     import time

@@ -10,6 +10,7 @@ steps over a :class:`~.problem.Problem`), then outliers, uncertainty
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -94,24 +95,24 @@ class Result:
     tool_known: bool = False
 
     @property
-    def mdh(self):
+    def mdh(self) -> np.ndarray:
         """Identified MDH table, shape (6, 5)."""
         return self.space.unpack(self.x)[0]
 
     @property
-    def base2tracker(self):
+    def base2tracker(self) -> np.ndarray:
         return self.space.unpack(self.x)[1]
 
     @property
-    def flange2tool(self):
+    def flange2tool(self) -> np.ndarray:
         return self.space.unpack(self.x)[2]
 
     @property
-    def loss(self):
+    def loss(self) -> str:
         return self.options.loss
 
 
-def split(n_poses, fraction, seed):
+def split(n_poses: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Seeded split of pose indices into fitting and held-out sets.
 
     Returns
@@ -126,7 +127,7 @@ def split(n_poses, fraction, seed):
     return np.sort(order[n_val:]), np.sort(order[:n_val])
 
 
-def identify(session, options: Options = Options()) -> Result:
+def identify(session: Any, options: Options = Options()) -> Result:
     """Identify the free parameters of a session.
 
     Parameters

@@ -10,9 +10,11 @@
 The whole swarm moves as arrays; the objective takes all particles at once.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.identify.halton import halton
 
@@ -36,7 +38,7 @@ class PSOResult:
     history: np.ndarray
 
 
-def constriction(c1, c2):
+def constriction(c1: float, c2: float) -> float:
     """Clerc's constriction factor K for ``phi = c1 + c2 > 4``."""
     phi = c1 + c2
     if phi <= 4:
@@ -45,19 +47,19 @@ def constriction(c1, c2):
 
 
 def ipso(
-    objective,
-    lower,
-    upper,
+    objective: Callable[[np.ndarray], np.ndarray],
+    lower: ArrayLike,
+    upper: ArrayLike,
     *,
-    particles=20,
-    generations=2000,
-    c1=2.05,
-    c2=2.05,
-    init_fraction=0.25,
-    seed=0,
-    quasi_random=True,
-    on_generation=None,
-):
+    particles: int = 20,
+    generations: int = 2000,
+    c1: float = 2.05,
+    c2: float = 2.05,
+    init_fraction: float = 0.25,
+    seed: int | np.random.Generator = 0,
+    quasi_random: bool = True,
+    on_generation: Callable[[int, float], None] | None = None,
+) -> PSOResult:
     """Minimise ``objective`` over the box ``[lower, upper]``.
 
     Parameters
