@@ -163,8 +163,8 @@ def admissible(
     where = (cell if cell is not None else cells.Cell()).with_tracker(tracker_at_mm)
     chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), where)
     return iso9283.Admissible(
-        poses=lambda q: ~cells.pose_faults(chk, q).any(axis=1),
-        moves=lambda qa, qb: ~cells.motion_faults(chk, qa, qb).any(axis=1),
+        poses=lambda q: np.asarray(~cells.pose_faults(chk, q).any(axis=1)),
+        moves=lambda qa, qb: np.asarray(~cells.motion_faults(chk, qa, qb).any(axis=1)),
     )
 
 
