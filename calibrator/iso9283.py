@@ -25,6 +25,7 @@ Everything is vectorised over test poses; units are mm and rad inside.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,6 +55,32 @@ MIN_SINGULAR_MM = 50.0
 
 class Iso9283Error(CalibrationError):
     """A test cube that cannot be placed, or clouds that cannot give the figures."""
+
+
+@dataclass(frozen=True)
+class Admissible:
+    """What the cell allows, as two vectorised predicates (no hardware, no geometry here).
+
+    Attributes
+    ----------
+    poses : callable
+        ``poses(q)`` with ``q`` shape (N, 6), rad, returns bool (N,): True
+        where the arm may stand (clear of the plane, itself and the cell, the
+        reflector seen by the tracker).
+    moves : callable
+        ``moves(qa, qb)`` with shapes (M, 6), rad, returns bool (M,): True
+        where the joint-space line ``qa -> qb`` stays clear all along.
+    """
+
+    poses: Callable[[np.ndarray], np.ndarray]
+    moves: Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def _cycle_moves(q_test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end of every move of a cycle, closing P1 -> P5, shapes (..., 5, 6)."""
+    order = np.array(CYCLE_ORDER) - 1
+    path = q_test[..., order, :]
+    return path, np.roll(path, -1, axis=-2)
 
 
 @dataclass(frozen=True)
@@ -241,8 +268,9 @@ def solve_poses(
     return compensate.inverse(mdh, targets, start, flange2tool, limits_rad)
 
 
-def _regular(mdh, flange2tool, q, q_centre, limits) -> np.ndarray:
-    """Poses inside the margins: limits, same configuration as the centre, no singularity."""
+def _regular(mdh, flange2tool, q, q_centre, limits, cell: Admissible | None = None) -> np.ndarray:
+    """Poses inside the margins: limits, same configuration as the centre, no singularity,
+    and (with ``cell``) poses the cell allows."""
     lim = np.asarray(limits, float)
     inside = np.all(
         (q >= lim[:, 0] + LIMIT_MARGIN_RAD) & (q <= lim[:, 1] - LIMIT_MARGIN_RAD), axis=-1
@@ -250,7 +278,12 @@ def _regular(mdh, flange2tool, q, q_centre, limits) -> np.ndarray:
     same = np.all(np.abs(q - q_centre) < MAX_JOINT_CHANGE_RAD, axis=-1)
     jac, _ = compensate._jacobian_and_pose(mdh, q.reshape(-1, 6), flange2tool)
     smallest = np.linalg.svd(jac[:, :3, :3], compute_uv=False)[:, -1].reshape(q.shape[:-1])
-    return inside & same & (smallest > MIN_SINGULAR_MM)
+    ok = inside & same & (smallest > MIN_SINGULAR_MM)
+    if cell is not None:
+        # NaN joints (no solution) are already refused; the cell sees finite ones only.
+        flat = np.nan_to_num(q.reshape(-1, 6))
+        ok &= np.asarray(cell.poses(flat), bool).reshape(q.shape[:-1])
+    return ok
 
 
 def _reach_mm(mdh) -> float:
@@ -258,15 +291,20 @@ def _reach_mm(mdh) -> float:
     return float(np.abs(table[:, 0]).sum() + np.abs(table[:, 3]).sum())
 
 
-def _centre_solutions(mdh, flange2tool, limits, centres, rotation, rng):
-    """A joint solution per candidate centre (or NaN): best-conditioned of many starts."""
+def _centre_solutions(mdh, flange2tool, limits, centres, rotation, rng, cell=None):
+    """A joint solution per candidate centre (or NaN): best-conditioned of many starts.
+
+    With ``cell`` only solutions the cell allows compete: the elbow-down or
+    wrist-flipped branches of the same tool pose drop out here, so every pose
+    solved from this centre stays on the allowed branch.
+    """
     lim = np.asarray(limits, float)
-    starts = rng.uniform(lim[:, 0] * 0.5, lim[:, 1] * 0.5, size=(24, 6))
+    starts = rng.uniform(lim[:, 0] * 0.5, lim[:, 1] * 0.5, size=(48, 6))
     m, s = len(centres), len(starts)
     targets = np.repeat(frames.transform(rotation, centres), s, axis=0)
     sol = solve_poses(mdh, targets, flange2tool, lim, np.tile(starts, (m, 1)))
     q = sol.q.reshape(m, s, 6)
-    good = sol.ok.reshape(m, s) & _regular(mdh, flange2tool, q, q, lim)
+    good = sol.ok.reshape(m, s) & _regular(mdh, flange2tool, q, q, lim, cell)
     jac, _ = compensate._jacobian_and_pose(mdh, sol.q, flange2tool)
     score = np.linalg.svd(jac[:, :3, :3], compute_uv=False)[:, -1].reshape(m, s)
     score = np.where(good, score, -np.inf)
@@ -276,8 +314,12 @@ def _centre_solutions(mdh, flange2tool, limits, centres, rotation, rng):
     return out
 
 
-def _fits(mdh, flange2tool, limits, centres, sides, q_centres, rotation) -> np.ndarray:
-    """Whether each cube (centre, side) is inside the regular working space, shape (M,)."""
+def _fits(mdh, flange2tool, limits, centres, sides, q_centres, rotation, cell=None) -> np.ndarray:
+    """Whether each cube (centre, side) is inside the regular working space, shape (M,).
+
+    With ``cell`` the 27 points must be allowed poses and the test poses'
+    cycle (P5 .. P1 and back to P5) allowed moves.
+    """
     grid = np.stack(np.meshgrid(*[np.array([-0.5, 0.0, 0.5])] * 3, indexing="ij"), -1)
     grid = grid.reshape(-1, 3)  # 27 points: corners, edge middles, face centres, centre
     m, g = len(centres), len(grid)
@@ -286,8 +328,19 @@ def _fits(mdh, flange2tool, limits, centres, sides, q_centres, rotation) -> np.n
     start = np.repeat(np.nan_to_num(q_centres), g, axis=0)
     sol = solve_poses(mdh, targets, flange2tool, limits, start)
     q = sol.q.reshape(m, g, 6)
-    ok = sol.ok.reshape(m, g) & _regular(mdh, flange2tool, q, q_centres[:, None, :], limits)
-    return ok.all(axis=1) & np.isfinite(q_centres).all(axis=1)
+    ok = sol.ok.reshape(m, g) & _regular(mdh, flange2tool, q, q_centres[:, None, :], limits, cell)
+    fit = ok.all(axis=1) & np.isfinite(q_centres).all(axis=1)
+    if cell is not None and fit.any():
+        # The commanded joints of the fitting cubes, solved as commanded_joints does.
+        idx = np.flatnonzero(fit)
+        poses = np.concatenate([test_poses(centres[i], sides[i], rotation) for i in idx])
+        tp = solve_poses(mdh, poses, flange2tool, limits, np.repeat(q_centres[idx], 5, axis=0))
+        q_test = tp.q.reshape(len(idx), 5, 6)
+        good = tp.ok.reshape(len(idx), 5).all(axis=1) & np.isfinite(q_test).all(axis=(1, 2))
+        qa, qb = _cycle_moves(np.nan_to_num(q_test))
+        clear = np.asarray(cell.moves(qa.reshape(-1, 6), qb.reshape(-1, 6)), bool)
+        fit[idx] = good & clear.reshape(len(idx), 5).all(axis=1)
+    return fit
 
 
 def largest_cube(
@@ -296,6 +349,7 @@ def largest_cube(
     flange2tool: npt.ArrayLike,
     rotation: npt.ArrayLike = TOOL_DOWN,
     min_z_mm: float | None = None,
+    cell: Admissible | None = None,
 ) -> Cube:
     """The largest test cube in the arm's working space with a constant tool orientation.
 
@@ -320,7 +374,12 @@ def largest_cube(
         Tool orientation in the base frame.
     min_z_mm : float, optional
         Lowest z the cube may reach, base frame, mm: the working space ends
-        above the mounting plane (the cell's checks have the last word).
+        above the mounting plane (a quick bound; ``cell`` has the last word).
+    cell : Admissible, optional
+        What the cell allows: the working space is then also where the arm
+        may stand (every one of the 27 points, on the centre's joint
+        solution branch) and the cycle's moves between the test poses stay
+        clear. Without it the cube ignores the arm's surroundings.
 
     Returns
     -------
@@ -337,13 +396,13 @@ def largest_cube(
     zs = np.linspace(-0.1, 0.5, 5) * reach
     centres = np.array([[x, 0.0, z] for x in xs for z in zs])
     rotation = np.asarray(rotation, float)
-    q_centres = _centre_solutions(mdh, flange2tool, limits_rad, centres, rotation, rng)
+    q_centres = _centre_solutions(mdh, flange2tool, limits_rad, centres, rotation, rng, cell)
     lo, hi = np.zeros(len(centres)), np.full(len(centres), reach)
     if min_z_mm is not None:  # the cube's floor stays above min_z_mm
         hi = np.clip(2.0 * (centres[:, 2] - min_z_mm), 0.0, hi)
     while np.max(hi - lo) > 1.0:
         mid = 0.5 * (lo + hi)
-        fit = _fits(mdh, flange2tool, limits_rad, centres, mid, q_centres, rotation)
+        fit = _fits(mdh, flange2tool, limits_rad, centres, mid, q_centres, rotation, cell)
         lo, hi = np.where(fit, mid, lo), np.where(fit, hi, mid)
     best = int(np.argmax(lo))
     if lo[best] < 10.0:
@@ -357,14 +416,15 @@ def cube_fits(
     flange2tool: npt.ArrayLike,
     cube: Cube,
     rotation: npt.ArrayLike = TOOL_DOWN,
+    cell: Admissible | None = None,
 ) -> bool:
     """Whether ``cube`` lies in the regular working space (the test :func:`largest_cube` uses)."""
     rng = np.random.default_rng(9283)
     centre = np.asarray(cube.centre_mm, float)[None]
     rotation = np.asarray(rotation, float)
-    q_centre = _centre_solutions(mdh, flange2tool, limits_rad, centre, rotation, rng)
+    q_centre = _centre_solutions(mdh, flange2tool, limits_rad, centre, rotation, rng, cell)
     side = np.array([float(cube.side_mm)])
-    return bool(_fits(mdh, flange2tool, limits_rad, centre, side, q_centre, rotation)[0])
+    return bool(_fits(mdh, flange2tool, limits_rad, centre, side, q_centre, rotation, cell)[0])
 
 
 def check_cube(
@@ -373,27 +433,18 @@ def check_cube(
     flange2tool: npt.ArrayLike,
     cube: Cube,
     rotation: npt.ArrayLike = TOOL_DOWN,
+    cell: Admissible | None = None,
 ) -> None:
     """Refuse a given cube whose test poses the arm cannot reach regularly.
+
+    With ``cell``, also a cube whose test poses or cycle moves the cell refuses.
 
     Raises
     ------
     Iso9283Error
         Naming the first test pose out of reach.
     """
-    rng = np.random.default_rng(9283)
-    centre = np.asarray(cube.centre_mm, float)[None]
-    q_centre = _centre_solutions(mdh, flange2tool, limits_rad, centre, rotation, rng)[0]
-    if not np.isfinite(q_centre).all():
-        raise Iso9283Error(f"--cube: the centre {cube.centre_mm.tolist()} mm is out of reach")
-    poses = test_poses(cube.centre_mm, cube.side_mm, rotation)
-    sol = solve_poses(mdh, poses, flange2tool, limits_rad, q_centre)
-    ok = sol.ok & _regular(mdh, flange2tool, sol.q, q_centre, limits_rad)
-    if not ok.all():
-        raise Iso9283Error(
-            f"--cube: test pose P{int(np.flatnonzero(~ok)[0]) + 1} is out of reach "
-            "(joint limits, configuration change or singularity); choose a smaller cube"
-        )
+    commanded_joints(mdh, limits_rad, flange2tool, cube, rotation, cell, what="--cube: ")
 
 
 def commanded_joints(
@@ -402,24 +453,63 @@ def commanded_joints(
     flange2tool: npt.ArrayLike,
     cube: Cube,
     rotation: npt.ArrayLike = TOOL_DOWN,
+    cell: Admissible | None = None,
+    what: str = "",
 ) -> np.ndarray:
     """Nominal joint targets of P1..P5 (what an uncalibrated controller commands).
+
+    All five are solved from the centre's joint solution (one branch: elbow,
+    wrist), which with ``cell`` is one the cell allows.
+
+    Parameters
+    ----------
+    mdh, limits_rad, flange2tool, cube, rotation
+        As :func:`largest_cube`.
+    cell : Admissible, optional
+        Refuse test poses, or moves of the cycle (P5 .. P1, then P1 -> P5),
+        the cell does not allow.
+    what : str
+        Prefix of the error messages (the option that gave the cube).
 
     Returns
     -------
     ndarray, shape (5, 6)
         Row ``k`` reaches test pose ``P(k+1)`` on the nominal model, rad.
+
+    Raises
+    ------
+    Iso9283Error
+        Naming the first test pose, or move, out of reach and why.
     """
     rng = np.random.default_rng(9283)
     centre = np.asarray(cube.centre_mm, float)[None]
-    q_centre = _centre_solutions(mdh, flange2tool, limits_rad, centre, rotation, rng)[0]
+    rotation = np.asarray(rotation, float)
+    q_centre = _centre_solutions(mdh, flange2tool, limits_rad, centre, rotation, rng, cell)[0]
     if not np.isfinite(q_centre).all():
-        raise Iso9283Error(f"the cube centre {cube.centre_mm.tolist()} mm is out of reach")
+        where = " the cell allows" if cell is not None else ""
+        raise Iso9283Error(
+            f"{what}the cube centre {cube.centre_mm.tolist()} mm is out of reach{where}"
+        )
     poses = test_poses(cube.centre_mm, cube.side_mm, rotation)
     sol = solve_poses(mdh, poses, flange2tool, limits_rad, q_centre)
-    if not sol.ok.all():
-        bad = int(np.flatnonzero(~sol.ok)[0]) + 1
-        raise Iso9283Error(f"test pose P{bad} is not reachable on the nominal model")
+    ok = sol.ok & _regular(mdh, flange2tool, sol.q, q_centre, limits_rad, cell)
+    if not ok.all():
+        why = "joint limits, configuration change, singularity" + (
+            " or the cell" if cell is not None else ""
+        )
+        raise Iso9283Error(
+            f"{what}test pose P{int(np.flatnonzero(~ok)[0]) + 1} is out of reach "
+            f"({why}); choose a smaller cube"
+        )
+    if cell is not None:
+        qa, qb = _cycle_moves(sol.q)
+        clear = np.asarray(cell.moves(qa, qb), bool)
+        if not clear.all():
+            k = int(np.flatnonzero(~clear)[0])
+            a, b = CYCLE_ORDER[k], CYCLE_ORDER[(k + 1) % len(CYCLE_ORDER)]
+            raise Iso9283Error(
+                f"{what}the move from P{a} to P{b} is not clear in the cell; choose a smaller cube"
+            )
     return sol.q
 
 

@@ -82,6 +82,7 @@ def make_plan(
     cube: iso9283.Cube | None = None,
     calibration: Calibration | None = None,
     tracker_at_mm: npt.ArrayLike | None = None,
+    cell: Any = None,
 ) -> VerifyPlan:
     """The test poses and the run's joint plan.
 
@@ -115,16 +116,16 @@ def make_plan(
         # The reflector faces the tracker from where the cube will be.
         centre = cube.centre_mm if cube is not None else _TEST_REGION * _reach(model.mdh)
         rotation = iso9283.facing(centre, tracker_at_mm)
+    allowed = admissible(model, flange2tool, cell, tracker_at_mm)
     if cube is None:
-        # Above the mounting plane by the cell's margin and the tool's reach
-        # below its point (the plan's cell check refuses anything lower).
+        # A quick floor above the mounting plane; the cell's checks decide the rest.
         cube = iso9283.largest_cube(
-            model.mdh, limits, flange2tool, rotation, min_z_mm=CUBE_FLOOR_ABOVE_PLANE_MM
+            model.mdh, limits, flange2tool, rotation, CUBE_FLOOR_ABOVE_PLANE_MM, allowed
         )
     else:
-        iso9283.check_cube(model.mdh, limits, flange2tool, cube, rotation)
+        iso9283.check_cube(model.mdh, limits, flange2tool, cube, rotation, allowed)
     desired = iso9283.test_poses(cube.centre_mm, cube.side_mm, rotation)
-    q = iso9283.commanded_joints(model.mdh, limits, flange2tool, cube, rotation)
+    q = iso9283.commanded_joints(model.mdh, limits, flange2tool, cube, rotation, allowed)
     if calibration is not None:
         result = compensate.compensate(calibration, desired=desired, q_nominal=q, limits=limits)
         bad = np.flatnonzero(~result.solution.ok)
@@ -136,6 +137,35 @@ def make_plan(
         q = result.q
     plan, test_pose, cycle = iso9283.cycle_plan(q, cycles)
     return VerifyPlan(cube, given, desired, q, calibration is not None, plan, test_pose, cycle)
+
+
+def admissible(
+    model: Any,
+    flange2tool: npt.ArrayLike,
+    cell: Any = None,
+    tracker_at_mm: npt.ArrayLike | None = None,
+) -> iso9283.Admissible:
+    """The cell's pose and motion checks as the predicates the cube search takes.
+
+    Parameters
+    ----------
+    model : calibrator.models.RobotModel
+    flange2tool : array_like, shape (4, 4)
+        Tool on the flange, mm: its origin is the reflector the capsule model carries.
+    cell : calibrator.cell.Cell, optional
+        Default the bare cell (the model's mounting plane, 20 mm margin).
+    tracker_at_mm : array_like, shape (3,), optional
+        With it the tracker's checks (line of sight, range, acceptance) apply.
+    """
+    from calibrator import cell as cells
+
+    tool_mm = np.asarray(flange2tool, float)[:3, 3]
+    where = (cell if cell is not None else cells.Cell()).with_tracker(tracker_at_mm)
+    chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), where)
+    return iso9283.Admissible(
+        poses=lambda q: np.asarray(~cells.pose_faults(chk, q).any(axis=1)),
+        moves=lambda qa, qb: np.asarray(~cells.motion_faults(chk, qa, qb).any(axis=1)),
+    )
 
 
 #: Where the test region lies, as fractions of the arm's reach (x, y, z), base frame.

@@ -171,7 +171,7 @@ def verify(
             fail(f"{path} calibrates a {doc.model}, not --model {model}")
     # The test poses face the tracker: given, or where the simulated cell puts it.
     tracker_at_mm = triple(tracker_at, "--tracker-at")
-    if tracker_at_mm is None and robot == "sim":
+    if tracker_at_mm is None and (robot == "sim" or tracker == "sim"):
         from calibrator.simulate import SimWorld
 
         tracker_at_mm = tuple(SimWorld.make(arm.name, seed).tracker_at_mm)
@@ -187,7 +187,8 @@ def verify(
         speed_rad_s=speed,
         accel_rad_s2=accel,
         tool_mm=tool_mm,
-        tracker_at_mm=triple(tracker_at, "--tracker-at"),
+        # The run checks its plan with the tracker the poses were made to face.
+        tracker_at_mm=tracker_at_mm,
         resume=resume,
     )
     with contextlib.ExitStack() as stack:

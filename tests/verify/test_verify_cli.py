@@ -191,9 +191,15 @@ def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path)
     commanded = frames.angles_xyz(np.array([p["rotation"] for p in doc["test_poses"]]))
     for p, truth, cmd in zip(doc["poses"], true_angles, commanded, strict=True):
         rows = table[table["test_pose"] == p["test_pose"]]
+        # The poses face the tracker, so b is far from 0: a and c take the
+        # probe's noise amplified by 1 / cos(b) (the x-y-z angles near their
+        # singularity at b = 90 deg); b takes it as it is.
+        gain = np.array([1.0 / np.cos(cmd[1]), 1.0, 1.0 / np.cos(cmd[1])])
         for k, axis in enumerate("abc"):
             values = rows[f"{axis}_rad"].to_numpy()
             # RP from the table (3 S, ISO 9283), AP against the true arm (survey, noise: < 5 mdeg)
             assert p[f"RP{axis}_deg"] == pytest.approx(3 * np.degrees(values.std(ddof=1)), abs=1e-9)
-            assert p[f"AP{axis}_deg"] == pytest.approx(np.degrees(truth[k] - cmd[k]), abs=5e-3)
+            assert p[f"AP{axis}_deg"] == pytest.approx(
+                np.degrees(truth[k] - cmd[k]), abs=5e-3 * abs(gain[k])
+            )
         assert max(abs(p[f"AP{axis}_deg"]) for axis in "abc") > 0.02  # the hidden errors show

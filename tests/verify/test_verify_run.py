@@ -12,7 +12,11 @@ TOOL = frames.transform(translation=[0, 0, 100.0])
 
 @pytest.fixture(scope="module")
 def plan():
-    return run.make_plan(get_model("ur10e"), TOOL, 3)
+    from calibrator.simulate import SimWorld
+
+    # Facing the simulated cell's tracker, as `calibrator verify` makes it.
+    tracker = SimWorld.make("ur10e", 0).tracker_at_mm
+    return run.make_plan(get_model("ur10e"), TOOL, 3, tracker_at_mm=tracker)
 
 
 def records(points, rotvecs=None):
@@ -107,3 +111,21 @@ def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tm
     assert outcome.stopped is None and outcome.measured == list(range(15))
     # Row 4 (P1 of cycle 1) is approached from row 3 (P2), as in a run never stopped.
     np.testing.assert_array_equal(moves, plan.plan[3:])
+
+
+@pytest.mark.parametrize("name", ["ur5e", "ur10", "ur10e"])
+def test_the_default_verify_plan_passes_the_cell_check_of_each_named_ur(name):
+    from calibrator import cell as cells
+    from calibrator import plan as plans
+    from calibrator.simulate import SimWorld
+
+    arm = get_model(name)
+    tracker = SimWorld.make(arm.name, 0).tracker_at_mm
+    vplan = run.make_plan(arm, TOOL, 30, tracker_at_mm=tracker)
+    assert len(vplan.plan) == 150 and vplan.cube.side_mm >= 100.0
+    # Every pose (acceptance, sight, plane...) and every move, the cycle's
+    # P1 -> P5 (also the lead-in) included; the lead-in is a plan row already.
+    vias = tuple([np.zeros((0, 6))] * len(vplan.plan))
+    cells.check_plan(
+        plans.Plan(vplan.plan, vias), arm, cells.Cell().with_tracker(tracker), TOOL[:3, 3]
+    )
