@@ -38,4 +38,3 @@ def export_params(
         return
     outputs.write_text(output, result.text, inputs=[calibration_path])
     typer.echo(f"wrote {output} ({name})")
-
