@@ -28,15 +28,19 @@ The file is strict JSON: a NaN or infinity anywhere refuses the save, and
 consistency of the fixed parameters before anything uses the file.
 """
 
+from __future__ import annotations
+
 import hashlib
 import json
 import math
 import platform
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
@@ -169,7 +173,7 @@ class Provenance:
         return doc
 
     @classmethod
-    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "Provenance":
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> Provenance:
         """The provenance keys of a parsed document; missing keys read as ``None``.
 
         Raises
@@ -274,7 +278,7 @@ class FitReport:
         return _jsonable({key: getattr(self, key) for key in self.KEYS})
 
     @classmethod
-    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> "FitReport":
+    def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> FitReport:
         """The fit report keys of a parsed document; missing ones read as empty.
 
         Also reads ``outlier_poses`` (a name some readers used for ``outliers``).
@@ -441,7 +445,7 @@ class Calibration:
         model: str | None = None,
         frame: str = "base",
         provenance: Provenance | None = None,
-    ) -> "Calibration":
+    ) -> Calibration:
         """The calibration of an identification result.
 
         Parameters
@@ -589,7 +593,7 @@ class Calibration:
             doc["joint_terms"] = self.joint_terms.to_json()
         return _jsonable(doc)
 
-    def save(self, path, batch=None):
+    def save(self, path: outputs.PathLike, batch: outputs.Outputs | None = None) -> None:
         """Write strict JSON atomically; refuses NaN or infinity anywhere.
 
         With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
@@ -612,22 +616,22 @@ class Calibration:
         write(path, doc, batch=batch)
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: outputs.PathLike) -> Calibration:
         """Read and check a calibration file; see :func:`load`."""
         return load(path)
 
 
-def mdh_records(mdh):
+def mdh_records(mdh: ArrayLike) -> list[dict[str, float]]:
     """MDH table (6, 5) as a list of six ``{"a_mm": ..., ...}`` dicts."""
     return [dict(zip(_FIELDS, map(float, row), strict=True)) for row in np.asarray(mdh)]
 
 
-def mdh_from_records(records):
+def mdh_from_records(records: Iterable[Mapping[str, Any]]) -> np.ndarray:
     """Inverse of :func:`mdh_records`; returns an ndarray (6, 5)."""
     return np.array([[float(r[f]) for f in _FIELDS] for r in records])
 
 
-def write(path, document, batch=None):
+def write(path: outputs.PathLike, document: Any, batch: outputs.Outputs | None = None) -> None:
     """Write a JSON document atomically (strict JSON: ValueError on NaN/inf).
 
     With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
@@ -639,7 +643,7 @@ def write(path, document, batch=None):
         batch.text(path, text)
 
 
-def load(path: str | Path) -> Calibration:
+def load(path: outputs.PathLike) -> Calibration:
     """Read and validate a calibration.json.
 
     Parameters
@@ -746,7 +750,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         joint_terms=terms,
         **transforms,
     )
-    consistency.check_calibration(calibration, where)
+    consistency.check_calibration(calibration, str(where))
     return calibration
 
 

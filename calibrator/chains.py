@@ -32,7 +32,12 @@ through that geometry:
   not allowed) is returned as a residual transform.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, kinematics
 from calibrator.kinematics import ALPHA, BETA, THETA
@@ -42,7 +47,7 @@ from calibrator.kinematics import ALPHA, BETA, THETA
 _PARALLEL_EPS = 1e-12
 
 
-def rz(angle):
+def rz(angle: float) -> np.ndarray:
     """Rotation by ``angle`` (rad) about z, (4, 4)."""
     c, s = np.cos(angle), np.sin(angle)
     t = np.eye(4)
@@ -50,12 +55,12 @@ def rz(angle):
     return t
 
 
-def link(row):
+def link(row: np.ndarray) -> np.ndarray:
     """``A_i`` at ``q_i = 0`` for one MDH row ``[a, alpha, theta, d, beta]``, (4, 4)."""
     return rz(row[THETA]) @ kinematics.link_constants(np.tile(row, (6, 1)))[0]
 
 
-def joint_frames(mdh):
+def joint_frames(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Joint frames at the zero pose and the flange frame of an MDH table.
 
     Parameters
@@ -74,7 +79,13 @@ def joint_frames(mdh):
     return frames[0, :6], frames[0, 6]
 
 
-def fit_links(joints, flange, reference, hayati, beta6=False):
+def fit_links(
+    joints: ArrayLike,
+    flange: ArrayLike,
+    reference: ArrayLike,
+    hayati: Sequence[bool] | np.ndarray,
+    beta6: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A table reproducing given joint frames, near a reference table.
 
     Parameters
@@ -208,7 +219,7 @@ def _ry(angle):
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-def residual_size(transform):
+def residual_size(transform: ArrayLike) -> tuple[float, float]:
     """Translation (mm) and rotation angle (rad) of a residual transform."""
     t = np.asarray(transform, dtype=float)
     # through the rotation vector: arccos of the trace reads angles below ~2e-8 rad as 0
@@ -216,7 +227,7 @@ def residual_size(transform):
     return float(np.linalg.norm(t[:3, 3])), float(angle)
 
 
-def mdh_to_dh(mdh, reference):
+def mdh_to_dh(mdh: ArrayLike, reference: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Standard DH table (``beta = 0``) of the arm an MDH table describes.
 
     Parameters
@@ -238,7 +249,7 @@ def mdh_to_dh(mdh, reference):
     return dh, base @ residual
 
 
-def dh_to_mdh(dh, reference):
+def dh_to_mdh(dh: ArrayLike, reference: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """MDH table (Hayati where the reference has parallel axes) of a DH-described arm.
 
     Parameters

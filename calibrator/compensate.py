@@ -19,13 +19,22 @@ rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
 A result outside the joint limits is reported, never clipped.
 """
 
+from __future__ import annotations
+
+import os
 import warnings
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, joint_terms, kinematics, strict
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+
 
 #: Position tolerance of the IK (mm).
 TOL_MM = 1e-6
@@ -60,12 +69,12 @@ class Solution:
     error_rad: np.ndarray
 
     @property
-    def ok(self):
+    def ok(self) -> np.ndarray:
         """Targets reached within the joint limits, shape (N,)."""
         return self.converged & self.within_limits
 
 
-def tool_poses(mdh, q, flange2tool):
+def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: np.ndarray) -> np.ndarray:
     """Tool poses in the base frame, shape (N, 4, 4)."""
     return kinematics.chain(mdh, q) @ flange2tool
 
@@ -87,7 +96,13 @@ def _pose_error(target, pose):
     return np.concatenate([dp, dr], axis=1)
 
 
-def inverse(mdh, targets, q0, flange2tool=None, limits=None):
+def inverse(
+    mdh: ArrayLike,
+    targets: ArrayLike,
+    q0: ArrayLike,
+    flange2tool: ArrayLike | None = None,
+    limits: ArrayLike | None = None,
+) -> Solution:
     """Joint angles reaching tool poses, by damped Newton (Levenberg-Marquardt) from ``q0``.
 
     Parameters
@@ -177,7 +192,13 @@ class Compensation:
     q_nominal: np.ndarray
 
 
-def compensate(calibration, desired=None, q_nominal=None, limits=None, payload_kg=None):
+def compensate(
+    calibration: Calibration,
+    desired: ArrayLike | None = None,
+    q_nominal: ArrayLike | None = None,
+    limits: ArrayLike | None = None,
+    payload_kg: float | None = None,
+) -> Compensation:
     """Compensate targets for a calibrated arm.
 
     Parameters
@@ -201,7 +222,11 @@ def compensate(calibration, desired=None, q_nominal=None, limits=None, payload_k
     Compensation
     """
     tool = calibration.flange2tool
+    if q_nominal is None:
+        # A default only because ``desired`` before it has one: the solver must start somewhere.
+        raise ValueError("q_nominal is required: the nominal joints of each target")
     q_nominal = kinematics.check_joints(q_nominal)
+
     if desired is None:
         desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
     else:
@@ -276,7 +301,7 @@ def _repeated_header_names(path):
     return sorted({name for name in header if header.count(name) > 1})
 
 
-def read_targets(path):
+def read_targets(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray | None]:
     """Nominal joints (N, 6) and desired poses (N, 4, 4) or None from a targets CSV.
 
     Raises
@@ -331,7 +356,12 @@ def read_targets(path):
     return q, desired
 
 
-def run(calibration, targets_path, output, payload_kg=None):
+def run(
+    calibration: Calibration,
+    targets_path: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    payload_kg: float | None = None,
+) -> Report:
     """Compensate a targets CSV and write the result CSV atomically.
 
     Output columns: ``target`` (row number, from 0, as plans number their
@@ -394,7 +424,7 @@ def run(calibration, targets_path, output, payload_kg=None):
             f"{np.max(size['joint_correction_mrad'][sol.ok]):.3f} mrad on a joint"
         )
     for i in failed[:10]:
-        if sol.converged[i]:
+        if sol.converged[i] and limits is not None:  # converged yet failed: outside the limits
             lo, hi = limits[:, 0], limits[:, 1]
             joints = [j + 1 for j in range(6) if not lo[j] <= sol.q[i, j] <= hi[j]]
             lines.append(

@@ -23,6 +23,8 @@ and more than one payload: at one payload a torque term is a smooth function
 of the pose that the geometry absorbs.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -34,6 +36,8 @@ from calibrator.identify.problem import Problem
 
 if TYPE_CHECKING:
     from calibrator.identify.pipeline import Result
+    from calibrator.mass_models import MassModel
+    from calibrator.session import Session
 
 #: Up to this many fitting poses cross-validation leaves one out at a time.
 LOO_MAX_POSES = 40
@@ -281,7 +285,7 @@ __all__ = ["JointFit", "fit", "payloads", "summary_lines"]
 # --- sessions and payloads --------------------------------------------------------
 
 
-def session_payload(sess, default_kg: float | None = None) -> np.ndarray:
+def session_payload(sess: Session, default_kg: float | None = None) -> np.ndarray:
     """Payload of every pose of a session (kg).
 
     From a ``payload_kg`` column, else the footer's ``payload_kg``, else
@@ -304,7 +308,7 @@ def session_payload(sess, default_kg: float | None = None) -> np.ndarray:
     return values
 
 
-def combine(loaded: list, names: list[str]):
+def combine(loaded: list[Session], names: list[str]) -> Session:
     """Several sessions of one arm as one session (poses renumbered in order).
 
     Raises
@@ -344,14 +348,14 @@ def combine(loaded: list, names: list[str]):
 
 
 def run(
-    result: "Result",
-    sess,
+    result: Result,
+    sess: Session,
     payload_kg: np.ndarray,
     groups: tuple[str, ...],
-    masses,
+    masses: MassModel | None,
     payload_com_mm: np.ndarray,
     noise_mm: float,
-) -> tuple["Result", JointFit]:
+) -> tuple[Result, JointFit]:
     """Joint terms on a pipeline result.
 
     Parameters

@@ -18,6 +18,9 @@ Parameter names (in :data:`calibrator.parameters.ALL_NAMES` when wired):
 vectorized over poses (and over a leading batch of term sets).
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,11 +89,11 @@ class JointTerms:
     mass_model: str = ""
 
     @classmethod
-    def zero(cls) -> "JointTerms":
+    def zero(cls) -> JointTerms:
         return cls(np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6))
 
     @classmethod
-    def from_vector(cls, full: np.ndarray, **extra: object) -> "JointTerms":
+    def from_vector(cls, full: np.ndarray, **extra: object) -> JointTerms:
         """From the 24 values in :data:`NAMES` order."""
         full = np.asarray(full, dtype=float).reshape(4, 6)
         return cls(*full, **extra)  # type: ignore[arg-type]
@@ -121,7 +124,7 @@ class JointTerms:
         }
 
     @classmethod
-    def from_json(cls, doc: object) -> "JointTerms":
+    def from_json(cls, doc: object) -> JointTerms:
         """Read the ``"joint_terms"`` entry; absent parts are zero.
 
         Raises
@@ -258,7 +261,9 @@ def gravity_torques(
     return tau * 1e-3  # N mm -> N m
 
 
-def torque_function(terms: JointTerms, nominal_mdh: np.ndarray, payload_kg: float | None = None):
+def torque_function(
+    terms: JointTerms, nominal_mdh: np.ndarray, payload_kg: float | None = None
+) -> Callable[[np.ndarray], np.ndarray] | None:
     """``tau(q)`` for the compliance terms at a payload (default: the calibration's).
 
     Returns None when the terms have no compliance.
@@ -278,7 +283,12 @@ def torque_function(terms: JointTerms, nominal_mdh: np.ndarray, payload_kg: floa
     return tau
 
 
-def invert(q_eff: np.ndarray, terms: JointTerms, torque=None, iterations: int = 20) -> np.ndarray:
+def invert(
+    q_eff: np.ndarray,
+    terms: JointTerms,
+    torque: Callable[[np.ndarray], np.ndarray] | None = None,
+    iterations: int = 20,
+) -> np.ndarray:
     """Read-back angles whose effective angles are ``q_eff`` (what to command).
 
     Newton steps per joint on ``q (1 + s) + c cos q + d sin q + k tau(q) = q_eff``;

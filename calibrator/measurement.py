@@ -11,9 +11,13 @@ flange2tool`` (rotation part). Residuals are model minus measurement:
 Their sum of squares is the seed's objective (7).
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, joint_terms, kinematics
 from calibrator.parameters import (
@@ -22,6 +26,7 @@ from calibrator.parameters import (
     NAMES_WITH_TERMS,
     TOOL_ROTATION_START,
     TOOL_START,
+    ParameterSpace,
 )
 
 
@@ -46,21 +51,23 @@ class Observations:
     rotations: np.ndarray | None = None
     torque: np.ndarray | None = None
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.q)
 
     @property
-    def has_orientation(self):
+    def has_orientation(self) -> bool:
         return self.rotations is not None
 
-    def subset(self, index):
+    def subset(self, index: np.ndarray) -> Observations:
         """The observations at ``index`` (an integer array or boolean mask)."""
         rot = None if self.rotations is None else self.rotations[index]
         tau = None if self.torque is None else self.torque[index]
         return Observations(self.q[index], self.points[index], rot, tau)
 
 
-def predict(space, x, q, torque=None):
+def predict(
+    space: ParameterSpace, x: ArrayLike, q: np.ndarray, torque: np.ndarray | None = None
+) -> np.ndarray:
     """Tool poses in the tracker frame for deltas ``x``.
 
     Parameters
@@ -97,12 +104,12 @@ def predict(space, x, q, torque=None):
     return kinematics.forward(mdh, q, flange2tool, base2tracker)
 
 
-def uses_orientation(obs, k):
+def uses_orientation(obs: Observations, k: float) -> bool:
     """Whether orientation rows take part: the data has them and ``k > 0``."""
     return obs.has_orientation and k > 0
 
 
-def residuals(space, x, obs, k=0.0):
+def residuals(space: ParameterSpace, x: ArrayLike, obs: Observations, k: float = 0.0) -> np.ndarray:
     """Residual vector of one parameter set.
 
     Parameters
@@ -122,11 +129,15 @@ def residuals(space, x, obs, k=0.0):
     dp = (pose[:, :3, 3] - obs.points).ravel()
     if not uses_orientation(obs, k):
         return dp
+    assert obs.rotations is not None  # uses_orientation: the data has them
     rot = frames.rotation_error(pose[:, :3, :3], obs.rotations).ravel()
+
     return np.concatenate([dp, np.sqrt(k) * rot])
 
 
-def errors(space, x, obs):
+def errors(
+    space: ParameterSpace, x: ArrayLike, obs: Observations
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Per-pose errors for reports.
 
     Returns
@@ -143,7 +154,13 @@ def errors(space, x, obs):
     return position, frames.rotation_error(pose[:, :3, :3], obs.rotations)
 
 
-def jacobian(space, x, obs, k=0.0, names=None):
+def jacobian(
+    space: ParameterSpace,
+    x: ArrayLike,
+    obs: Observations,
+    k: float = 0.0,
+    names: Sequence[str] | None = None,
+) -> np.ndarray:
     """Analytic Jacobian of :func:`residuals` with respect to named parameters.
 
     Each MDH parameter is an elementary motion about or along an axis of a

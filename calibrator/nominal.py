@@ -8,14 +8,21 @@ Both formats are converted exactly to an MDH table through the joint axes
 identified.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import chains, consistency, kinematics
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
+
+if TYPE_CHECKING:
+    from calibrator.session import SessionMeta
 
 
 @dataclass(frozen=True)
@@ -45,7 +52,7 @@ class Nominal:
     model: str | None = None
 
 
-def load(path, reference=None, model=None):
+def load(path: str | Path, reference: ArrayLike | None = None, model: str | None = None) -> Nominal:
     """Read a UR calibration file or a ROS kinematics YAML as a nominal model.
 
     Parameters
@@ -87,7 +94,7 @@ def load(path, reference=None, model=None):
     return Nominal(mdh, base, offset, source, model)
 
 
-def apply(meta, path):
+def apply(meta: SessionMeta, path: str | Path) -> str:
     """Make an imported factory calibration the nominal model of a loaded session.
 
     Parameters

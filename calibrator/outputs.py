@@ -53,7 +53,7 @@ class OutputError(CalibrationError):
     """An output path that cannot or must not be written."""
 
 
-def check(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
+def check(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
     """Refuse an output path that cannot or must not be written.
 
     Parameters
@@ -61,7 +61,8 @@ def check(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
     path : str or Path
         The output file as the user gave it.
     inputs : iterable of str or Path
-        Files the command reads; none of them may be overwritten.
+        Files the command reads; none of them may be overwritten (None: an
+        optional input not given, skipped).
 
     Returns
     -------
@@ -88,7 +89,7 @@ def check(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
     return Path(path)
 
 
-def check_folder(path: PathLike, inputs: Iterable[PathLike] = ()) -> Path:
+def check_folder(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
     """Refuse an output folder that cannot be used (its parent is checked as for a file).
 
     An existing folder is fine (its files are replaced one by one); a missing
@@ -146,7 +147,7 @@ def _same_file(a, b):
         return False
 
 
-def write_text(path: PathLike, text: str, inputs: Iterable[PathLike] = ()) -> Path:
+def write_text(path: PathLike, text: str, inputs: Iterable[PathLike | None] = ()) -> Path:
     """Write one text file (UTF-8) atomically; see :class:`Outputs`."""
     with Outputs(inputs) as out:
         out.text(path, text)
@@ -154,7 +155,7 @@ def write_text(path: PathLike, text: str, inputs: Iterable[PathLike] = ()) -> Pa
 
 
 def write_with(
-    path: PathLike, writer: Callable[[Path], object], inputs: Iterable[PathLike] = ()
+    path: PathLike, writer: Callable[[Path], object], inputs: Iterable[PathLike | None] = ()
 ) -> Path:
     """Write one file atomically with ``writer(tmp_path)``; see :class:`Outputs`."""
     with Outputs(inputs) as out:
@@ -178,7 +179,7 @@ class Outputs:
         Files the command reads; none of them may be an output.
     """
 
-    def __init__(self, inputs: Iterable[PathLike] = ()) -> None:
+    def __init__(self, inputs: Iterable[PathLike | None] = ()) -> None:
         self.inputs = [Path(p) for p in inputs if p is not None]
         self._pending: list[tuple[Path, Path, Path]] = []  # (temporary, target, user's path)
         self._created: list[Path] = []  # folders this batch made

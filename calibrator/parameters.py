@@ -21,9 +21,13 @@ Parameter names
     around the closed-form first guess ``tool0`` (rad). Only with orientation data.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, joint_terms, kinematics
 from calibrator.errors import IdentifiabilityError
@@ -45,7 +49,7 @@ JOINT_TERM_START = TOOL_ROTATION_START + len(TOOL_ROTATION_NAMES)
 _INDEX = {name: i for i, name in enumerate(NAMES_WITH_TERMS)}
 
 
-def unit(name):
+def unit(name: str) -> str:
     """Unit of a parameter, ``'mm'`` or ``'rad'``."""
     i = _INDEX[name]
     if i >= JOINT_TERM_START:
@@ -64,7 +68,7 @@ def unit(name):
 PLAUSIBLE = {("mdh", "mm"): 1.0, ("mdh", "rad"): 0.01, ("frame", "mm"): 5.0, ("frame", "rad"): 0.02}
 
 
-def plausible_range(name):
+def plausible_range(name: str) -> float:
     """Plausible size of the delta of a parameter (mm or rad), see :data:`PLAUSIBLE`."""
     if _INDEX[name] >= JOINT_TERM_START:
         return joint_terms.PLAUSIBLE[joint_terms.prefix(name)]
@@ -104,21 +108,21 @@ class ParameterSpace:
         object.__setattr__(self, "tool0", frames.check_transform(self.tool0, "tool0"))
 
     @property
-    def size(self):
+    def size(self) -> int:
         """Number of free parameters."""
         return len(self.free)
 
     @property
-    def index(self):
+    def index(self) -> np.ndarray:
         """Positions of the free parameters in :data:`ALL_NAMES`, shape (size,)."""
         return np.array([_INDEX[n] for n in self.free], dtype=int)
 
     @property
-    def units(self):
+    def units(self) -> tuple[str, ...]:
         """Unit of each free parameter."""
         return tuple(unit(n) for n in self.free)
 
-    def joint_terms(self, x):
+    def joint_terms(self, x: ArrayLike) -> np.ndarray:
         """Joint-term values (zeros where not free), shape (..., 24); see calibrator.joint_terms."""
         x = np.asarray(x, dtype=float)
         if not self.has_joint_terms:
@@ -126,14 +130,14 @@ class ParameterSpace:
         return self.expand(x)[..., JOINT_TERM_START:]
 
     @property
-    def has_joint_terms(self):
+    def has_joint_terms(self) -> bool:
         return bool(np.any(self.index >= JOINT_TERM_START))
 
-    def with_free(self, free):
+    def with_free(self, free: Iterable[str]) -> ParameterSpace:
         """The same space with another free set."""
         return ParameterSpace(self.nominal_mdh, self.base0, self.tool0, tuple(free))
 
-    def expand(self, x):
+    def expand(self, x: ArrayLike) -> np.ndarray:
         """Deltas of every candidate parameter, zeros where not free.
 
         Parameters
@@ -153,7 +157,7 @@ class ParameterSpace:
         full[..., self.index] = x
         return full
 
-    def unpack(self, x):
+    def unpack(self, x: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """MDH tables and frames for a vector (or a swarm) of deltas.
 
         Parameters
@@ -178,7 +182,12 @@ class ParameterSpace:
             flange2tool[..., :3, :3] = self.tool0[:3, :3] @ frames.rotations_xyz(turn)
         return mdh, base2tracker, flange2tool
 
-    def pack(self, mdh=None, base2tracker=None, flange2tool=None):
+    def pack(
+        self,
+        mdh: ArrayLike | None = None,
+        base2tracker: ArrayLike | None = None,
+        flange2tool: ArrayLike | None = None,
+    ) -> np.ndarray:
         """Inverse of :meth:`unpack` for one parameter set.
 
         Parameters
@@ -212,7 +221,9 @@ class ParameterSpace:
             full[TOOL_START:JOINT_TERM_START] = 0.0
         return full[self.index]
 
-    def bounds(self, mm=2.0, rad=0.04, frame_mm=10.0, frame_rad=0.04):
+    def bounds(
+        self, mm: float = 2.0, rad: float = 0.04, frame_mm: float = 10.0, frame_rad: float = 0.04
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Symmetric search box around zero deltas for the swarm.
 
         The seed starts its swarm within +-0.5 mm and +-0.01 rad, just
@@ -225,21 +236,23 @@ class ParameterSpace:
         -------
         lower, upper : ndarray, shape (size,)
         """
-        half = []
+        halves = []
         for name in self.free:
             if _INDEX[name] >= JOINT_TERM_START:
-                half.append(4 * plausible_range(name))
+                halves.append(4 * plausible_range(name))
                 continue
             is_frame = _INDEX[name] >= N_MDH
             if unit(name) == "mm":
-                half.append(frame_mm if is_frame else mm)
+                halves.append(frame_mm if is_frame else mm)
             else:
-                half.append(frame_rad if is_frame else rad)
-        half = np.array(half)
+                halves.append(frame_rad if is_frame else rad)
+        half = np.array(halves)
         return -half, half
 
 
-def structural_candidates(nominal_mdh, frame, tool_known, orientation=False):
+def structural_candidates(
+    nominal_mdh: ArrayLike, frame: str, tool_known: bool, orientation: bool = False
+) -> tuple[list[str], list[dict]]:
     """Candidate free set before looking at data, and why the rest is left out.
 
     Hayati's rule: where axes i and i+1 are parallel, ``d_i`` slides along
@@ -326,7 +339,12 @@ def _drop(name, reason):
 NEGLIGIBLE_COLUMN = 1e-9
 
 
-def prune(candidates, jacobian, tol=1e-6, context="for these poses"):
+def prune(
+    candidates: Sequence[str],
+    jacobian: ArrayLike,
+    tol: float = 1e-6,
+    context: str = "for these poses",
+) -> tuple[list[str], list[dict]]:
     """Drop candidates the data cannot separate from the ones kept before them.
 
     Columns of the Jacobian are scaled to unit length and visited frames
@@ -354,7 +372,10 @@ def prune(candidates, jacobian, tol=1e-6, context="for these poses"):
     jacobian = np.asarray(jacobian, dtype=float)
     norms = np.linalg.norm(jacobian, axis=0)
     order = sorted(range(len(candidates)), key=lambda k: _priority(candidates[k]))
-    kept, dropped, basis = [], [], np.zeros((jacobian.shape[0], 0))
+    kept: list[str] = []
+    dropped: list[dict] = []
+    basis = np.zeros((jacobian.shape[0], 0))
+
     # A column with no real effect comes out as round-off (~1e-13), not exactly 0;
     # any real effect is within a few decades of the largest column.
     negligible = NEGLIGIBLE_COLUMN * norms.max(initial=0.0)
@@ -388,7 +409,7 @@ def _priority(name):
     return i - len(ALL_NAMES) if i >= N_MDH else i
 
 
-def require_enough(n_residuals, n_free, what="the poses"):
+def require_enough(n_residuals: int, n_free: int, what: str = "the poses") -> None:
     """Raise if there are fewer residuals than free parameters."""
     if n_residuals < n_free:
         raise IdentifiabilityError(
@@ -401,9 +422,9 @@ def all_deltas(
     nominal_mdh: np.ndarray,
     base0: np.ndarray,
     tool0: np.ndarray,
-    mdh: np.ndarray,
-    base2tracker: np.ndarray,
-    flange2tool: np.ndarray,
+    mdh: ArrayLike,
+    base2tracker: ArrayLike,
+    flange2tool: ArrayLike,
 ) -> np.ndarray:
     """The delta of every named parameter from a nominal to an identified arm.
 

@@ -30,16 +30,24 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import os
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics, measurement, parameters, strict
 from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
+
+if TYPE_CHECKING:
+    from calibrator.cell import Cell
+    from calibrator.models import RobotModel
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
 ANGLE_SCALE_MM = 1000.0
@@ -78,7 +86,7 @@ class CellConstraints:
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
 
 
-def joint_box(joint_limits_rad, margin_rad) -> np.ndarray:
+def joint_box(joint_limits_rad: ArrayLike, margin_rad: float) -> np.ndarray:
     """Sampling box, shape (6, 2), rad: the limits within +-pi, less ``margin_rad``."""
     limits = np.asarray(joint_limits_rad, dtype=float)
     box = np.column_stack(
@@ -92,7 +100,7 @@ def joint_box(joint_limits_rad, margin_rad) -> np.ndarray:
     return box
 
 
-def sample(box, n, method="halton", seed=0) -> np.ndarray:
+def sample(box: np.ndarray, n: int, method: str = "halton", seed: int = 0) -> np.ndarray:
     """``n`` joint vectors in ``box`` (6, 2): scrambled Halton or uniform random, seeded. Rad."""
     rng = np.random.default_rng(seed)
     if method == "halton":
@@ -106,7 +114,7 @@ def sample(box, n, method="halton", seed=0) -> np.ndarray:
     return box[:, 0] + unit * (box[:, 1] - box[:, 0])
 
 
-def feasible(mdh, q, cell: CellConstraints) -> np.ndarray:
+def feasible(mdh: ArrayLike, q: np.ndarray, cell: CellConstraints) -> np.ndarray:
     """Which joint vectors the cell allows (acceptance angle, floor), shape (N,) bool.
 
     Parameters
@@ -148,7 +156,13 @@ class Observability:
     blocks: np.ndarray
 
 
-def observability(mdh, q, flange2tool=None, frame="tracker", tool_known=False) -> Observability:
+def observability(
+    mdh: np.ndarray,
+    q: np.ndarray,
+    flange2tool: ArrayLike | None = None,
+    frame: str = "tracker",
+    tool_known: bool = False,
+) -> Observability:
     """Scaled identification Jacobian of each pose (position rows), nominal arm.
 
     The free set is the one ``identify`` starts from
@@ -171,20 +185,20 @@ def observability(mdh, q, flange2tool=None, frame="tracker", tool_known=False) -
     return Observability(tuple(kept), blocks)
 
 
-def log_det(blocks) -> float:
+def log_det(blocks: np.ndarray) -> float:
     """D-optimality criterion: ``log det(J^T J)`` of stacked blocks (N, 3, P); -inf if singular."""
     jac = np.asarray(blocks).reshape(-1, np.shape(blocks)[-1])
     sign, value = np.linalg.slogdet(jac.T @ jac)
     return float(value) if sign > 0 else -np.inf
 
 
-def min_singular(blocks) -> float:
+def min_singular(blocks: np.ndarray) -> float:
     """Smallest singular value of the stacked blocks (N, 3, P) (observability index O3)."""
     jac = np.asarray(blocks).reshape(-1, np.shape(blocks)[-1])
     return float(np.linalg.svd(jac, compute_uv=False)[-1])
 
 
-def select_d_optimal(blocks, n) -> np.ndarray:
+def select_d_optimal(blocks: np.ndarray, n: int) -> np.ndarray:
     """Greedy D-optimal choice of ``n`` poses from blocks (C, 3, P); indices in pick order.
 
     Each step adds the candidate with the largest ``log det(I + J_c M^-1 J_c^T)``
@@ -212,16 +226,16 @@ def select_d_optimal(blocks, n) -> np.ndarray:
 
 
 def make(
-    mdh,
-    joint_limits_rad,
-    n,
+    mdh: np.ndarray,
+    joint_limits_rad: ArrayLike,
+    n: int,
     cell: CellConstraints = CellConstraints(),
     *,
-    candidates=None,
-    n_candidates=None,
-    method="halton",
-    selection="d-optimal",
-    seed=0,
+    candidates: ArrayLike | None = None,
+    n_candidates: int | None = None,
+    method: str = "halton",
+    selection: str = "d-optimal",
+    seed: int = 0,
 ) -> np.ndarray:
     """A plan of ``n`` poses, shape (n, 6), rad.
 
@@ -265,14 +279,14 @@ def make(
     return pool[select_d_optimal(blocks, n)]
 
 
-def min_poses(mdh, frame="tracker", tool_known=False) -> int:
+def min_poses(mdh: np.ndarray, frame: str = "tracker", tool_known: bool = False) -> int:
     """Fewest poses whose position rows can determine the identifiable parameters."""
     from calibrator.identify import freeset
 
     return -(-len(freeset.decide(mdh, frame, tool_known, False).names) // 3)
 
 
-def validate(q, joint_limits_rad, *, need=0) -> np.ndarray:
+def validate(q: ArrayLike, joint_limits_rad: ArrayLike, *, need: int = 0) -> np.ndarray:
     """Check a whole plan before any motion: shape, finite, inside limits, enough poses.
 
     Returns
@@ -300,12 +314,12 @@ def validate(q, joint_limits_rad, *, need=0) -> np.ndarray:
     return q
 
 
-def digest(q) -> str:
+def digest(q: ArrayLike) -> str:
     """SHA-256 of a plan's joint angles (what ties a journal to its plan)."""
     return hashlib.sha256(np.ascontiguousarray(q, dtype="<f8").tobytes()).hexdigest()
 
 
-def read_csv(path, *, _allow_via=False) -> np.ndarray:
+def read_csv(path: str | os.PathLike[str], *, _allow_via: bool = False) -> np.ndarray:
     """Joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
 
     Numbers follow the strict grammar of :func:`calibrator.strict.parse_number`
@@ -377,7 +391,9 @@ def read_csv(path, *, _allow_via=False) -> np.ndarray:
 _JOINT_LIKE = re.compile(r"[qQ]\d+_(?:rad|deg|RAD|DEG)")
 
 
-def _refuse_repeats(q: np.ndarray, path: Path, lines: np.ndarray | None = None) -> None:
+def _refuse_repeats(
+    q: np.ndarray, path: str | os.PathLike[str], lines: np.ndarray | None = None
+) -> None:
     """Refuse a pose that appears twice, naming the first pair of lines.
 
     ``lines`` are the file lines of the rows of ``q`` (default: row + 2, after
@@ -396,7 +412,9 @@ def _refuse_repeats(q: np.ndarray, path: Path, lines: np.ndarray | None = None) 
         )
 
 
-def write_csv(path, q, inputs=()) -> None:
+def write_csv(
+    path: str | os.PathLike[str], q: ArrayLike, inputs: Iterable[str | os.PathLike[str]] = ()
+) -> None:
     """Write a plan (``pose,q1_rad..q6_rad``) atomically (:mod:`calibrator.outputs`).
 
     ``inputs`` are files the command read, which the plan must not overwrite.
@@ -458,7 +476,7 @@ class Plan:
 _VIA_VALUES = {"0": False, "1": True}
 
 
-def read_plan(path) -> Plan:
+def read_plan(path: str | os.PathLike[str]) -> Plan:
     """A :class:`Plan` from a CSV: ``q1_rad..q6_rad`` (or degrees) and an optional ``via`` column.
 
     Rows with ``via`` 1 are moved through, not measured, before the next
@@ -498,7 +516,9 @@ def _read_rows(path) -> tuple[np.ndarray, np.ndarray]:
     return q, np.array([_VIA_VALUES[str(v).strip()] for v in raw])
 
 
-def write_plan(path, plan: Plan, inputs=()) -> None:
+def write_plan(
+    path: str | os.PathLike[str], plan: Plan, inputs: Iterable[str | os.PathLike[str]] = ()
+) -> None:
     """Write a :class:`Plan` (``pose,via,q1_rad..q6_rad``) atomically.
 
     A via row has an empty ``pose`` and ``via`` 1. ``inputs`` are files the
@@ -550,7 +570,7 @@ class PlanReport:
     ordered_time: CellTime
 
 
-def distinct(q) -> np.ndarray:
+def distinct(q: ArrayLike) -> np.ndarray:
     """Indices (sorted) of the first of each group of equal joint vectors of ``q`` (N, 6).
 
     Equal: within :data:`DUPLICATE_RAD` on every joint (a grid of that size).
@@ -563,13 +583,13 @@ def distinct(q) -> np.ndarray:
 
 
 def make_checked(
-    model,
+    model: RobotModel,
     n: int,
-    cell,
-    tool_mm,
+    cell: Cell,
+    tool_mm: ArrayLike,
     *,
     margin_rad: float = np.radians(5.0),
-    candidates=None,
+    candidates: ArrayLike | None = None,
     n_candidates: int | None = None,
     method: str = "halton",
     selection: str = "d-optimal",
@@ -625,8 +645,12 @@ def make_checked(
     cells.check_tracker_placement(chk)
     box = joint_box(model.joint_limits_rad, margin_rad)
     if candidates is not None or n_candidates is not None:
-        given = np.asarray(candidates, dtype=float) if candidates is not None else None
-        pool = given if given is not None else sample(box, n_candidates, method, seed)
+        if candidates is not None:
+            pool = np.asarray(candidates, dtype=float)
+        else:
+            assert n_candidates is not None  # the branch's condition
+            pool = sample(box, n_candidates, method, seed)
+
         pool, dropped = _passing(chk, pool, box)
     else:
         # Sample more until there is a choice (four candidates per pose), up to a bound.

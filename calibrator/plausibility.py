@@ -29,6 +29,10 @@ when a unit in :data:`LENGTH_UNITS` does (to 25 %), or when it is off by more
 than :data:`SCALE_REFUSE`; otherwise (ambiguous) it gives a warning string.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+
 import numpy as np
 
 from calibrator import kinematics
@@ -63,8 +67,13 @@ DELTA_REFUSE_RAD = PLAUSIBLE_DELTA["rad"]
 
 
 def check_observations(
-    q, points, nominal_mdh, joint_limits_rad=None, flange2tool=None, joint_names=None
-):
+    q: np.ndarray,
+    points: np.ndarray,
+    nominal_mdh: np.ndarray,
+    joint_limits_rad: np.ndarray | None = None,
+    flange2tool: np.ndarray | None = None,
+    joint_names: Sequence[str] | None = None,
+) -> list[str]:
     """Refuse data that cannot belong to this model; return warnings for doubtful data.
 
     Parameters
@@ -106,6 +115,8 @@ def check_observations(
         degrees_fit = (
             as_degrees[0] is not None
             and _plausible_scale(as_degrees[0])
+            and as_degrees[1] is not None
+            and scatter is not None  # both set with their ratio
             and as_degrees[1] < 0.5 * scatter  # consistent over the poses, unlike radians
         )
         warnings = _judge_scale(ratio, as_degrees[0] if degrees_fit else None, reach)
@@ -173,7 +184,12 @@ def _check_extent(points, reach):
         )
 
 
-def scale_ratio(q, points, nominal_mdh, flange2tool=None):
+def scale_ratio(
+    q: np.ndarray,
+    points: np.ndarray,
+    nominal_mdh: np.ndarray,
+    flange2tool: np.ndarray | None = None,
+) -> tuple[float | None, float | None, float]:
     """Median ratio of measured to nominal distances between poses.
 
     Parameters
@@ -206,15 +222,16 @@ def scale_ratio(q, points, nominal_mdh, flange2tool=None):
     take = np.unique(np.linspace(0, n - 1, min(n, MAX_SCALE_POSES)).astype(int))
     q, points = q[take], points[take]
     model = kinematics.forward(mdh, q, tool)[:, :3, 3]
-    ratios = []
+    parts = []
     m = len(take)
     for shift in np.unique(np.linspace(1, m - 1, min(m - 1, 8)).astype(int)):
         other = np.roll(np.arange(m), -shift)
         d_model = np.linalg.norm(model - model[other], axis=1)
         d_meas = np.linalg.norm(points - points[other], axis=1)
         keep = d_model > MIN_PAIR_MM
-        ratios.append(d_meas[keep] / d_model[keep])
-    ratios = np.concatenate(ratios)
+        parts.append(d_meas[keep] / d_model[keep])
+    ratios = np.concatenate(parts)
+
     ratios = ratios[ratios > 0]
     if len(ratios) < 3:
         return None, None, reach
@@ -253,7 +270,7 @@ def _judge_scale(ratio, ratio_if_degrees, reach):
     return [message]
 
 
-def likely_length_unit(ratio):
+def likely_length_unit(ratio: float) -> str | None:
     """The unit in :data:`LENGTH_UNITS` whose factor explains ``ratio`` to within 25 %, or None.
 
     ``ratio`` is measured/nominal: points in metres give about 1/1000.
@@ -264,7 +281,7 @@ def likely_length_unit(ratio):
     return None
 
 
-def check_deltas(nominal_mdh, identified_mdh):
+def check_deltas(nominal_mdh: np.ndarray, identified_mdh: np.ndarray) -> list[str]:
     """Judge identified MDH parameters against the nominal table.
 
     For the identify pipeline, after the fit: a real arm differs from its

@@ -35,19 +35,28 @@ joint limits, the point cloud against the arm's reach. A likely unit mistake
 is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
 
+from __future__ import annotations
+
 import json
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+from numpy.typing import ArrayLike
 
 from calibrator import consistency, frames, kinematics, outputs, plausibility, strict
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.measurement import Observations
 from calibrator.models import get_model
+
+if TYPE_CHECKING:
+    import pandas as pd
+
 
 FORMAT = "calibrator.session"
 VERSION = 1
@@ -89,7 +98,7 @@ class SessionMeta:
     tool_known: bool = False
     extra: dict = field(default_factory=dict)
 
-    def to_json(self):
+    def to_json(self) -> dict:
         out = dict(self.extra)
         out.update(
             format=FORMAT,
@@ -121,12 +130,12 @@ class Session:
     meta: SessionMeta
     warnings: list = field(default_factory=list)
 
-    def array(self, columns):
+    def array(self, columns: Sequence[str]) -> np.ndarray:
         """Columns as one float array, shape (N, len(columns))."""
         return np.column_stack([_floats(self.table, c) for c in columns])
 
     @property
-    def observations(self):
+    def observations(self) -> Observations:
         """The rows as :class:`calibrator.measurement.Observations`."""
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
@@ -134,7 +143,7 @@ class Session:
         return Observations(self.array(JOINT_COLUMNS), self.array(POINT_COLUMNS), rot)
 
 
-def load(path, model=None):
+def load(path: outputs.PathLike, model: str | None = None) -> Session:
     """Read and validate a session file.
 
     Parameters
@@ -370,7 +379,14 @@ def _poses(table, mask):
     return np.array(table["pose"].to_pylist())[mask][:5].tolist()
 
 
-def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=None):
+def to_table(
+    q: ArrayLike,
+    points: ArrayLike,
+    rotvecs: ArrayLike | None = None,
+    spread: ArrayLike | None = None,
+    n_readings: ArrayLike | None = None,
+    timestamps: ArrayLike | None = None,
+) -> pa.Table:
     """Build the rows of a session from arrays.
 
     Parameters
@@ -391,7 +407,7 @@ def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=N
     pyarrow.Table
     """
     q = kinematics.check_joints(q)
-    data = {"pose": np.arange(len(q), dtype=np.int64)}
+    data: dict[str, Any] = {"pose": np.arange(len(q), dtype=np.int64)}
     data.update(zip(JOINT_COLUMNS, q.T, strict=True))
     data.update(zip(POINT_COLUMNS, np.asarray(points, dtype=float).T, strict=True))
     if rotvecs is not None:
@@ -405,7 +421,12 @@ def to_table(q, points, rotvecs=None, spread=None, n_readings=None, timestamps=N
     return pa.table(data)
 
 
-def write(path, table, meta, batch=None):
+def write(
+    path: outputs.PathLike,
+    table: pa.Table | pd.DataFrame,
+    meta: SessionMeta,
+    batch: outputs.Outputs | None = None,
+) -> None:
     """Write a session atomically (:mod:`calibrator.outputs`).
 
     Parameters

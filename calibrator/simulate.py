@@ -6,13 +6,23 @@ see of it, and the truth is written beside the session so tests and users
 can check what ``identify`` recovers.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames, kinematics, parameters
 from calibrator.models import get_model
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from calibrator.session import SessionMeta
+
 
 #: Seed 003, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
 SEED_ERRORS = np.array(
@@ -44,7 +54,7 @@ class Truth:
     base2tracker: np.ndarray
     flange2tool: np.ndarray
 
-    def to_json(self):
+    def to_json(self) -> dict:
         return {
             k: np.asarray(getattr(self, k)).tolist() for k in ("mdh", "base2tracker", "flange2tool")
         }
@@ -205,7 +215,7 @@ class SimWorld:
     repeatability: object = None
 
     @classmethod
-    def make(cls, model_name: str, seed: int, repeatability: object = None) -> "SimWorld":
+    def make(cls, model_name: str, seed: int, repeatability: object = None) -> SimWorld:
         """The world of ``model_name`` (a named model) drawn from ``seed``.
 
         ``repeatability`` (a ``JointRepeatability``) gives the arm its joint
@@ -235,14 +245,16 @@ class SimWorld:
         """The generator of the arm's joint errors: its own stream of the world's seed."""
         return np.random.default_rng([self.seed, 9283])
 
-    def tool_pose(self, q_rad) -> np.ndarray:
+    def tool_pose(self, q_rad: ArrayLike) -> np.ndarray:
         """True probe pose in the tracker frame for joints ``q_rad`` (6,), shape (4, 4), mm."""
         return kinematics.forward(
             self.true_mdh, np.asarray(q_rad, float)[None], self.flange2tool, self.base2tracker
         )[0]
 
 
-def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
+def random_errors(
+    nominal_mdh: np.ndarray, rng: np.random.Generator, mm: float = 0.5, rad: float = 0.01
+) -> np.ndarray:
     """MDH errors of the seed's size on the parameters an identification can see.
 
     Uniform in +-``mm`` for lengths and +-``rad`` for angles, on Hayati's
@@ -259,14 +271,16 @@ def random_errors(nominal_mdh, rng, mm=0.5, rad=0.01):
     return rng.uniform(-1, 1, (6, 5)) * scale * mask
 
 
-def sample_joints(limits, n, rng):
+def sample_joints(limits: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
     """``n`` joint vectors uniform in [-pi, pi] within ``limits`` (6, 2), rad."""
     lo = np.maximum(limits[:, 0], -np.pi)
     hi = np.minimum(limits[:, 1], np.pi)
     return rng.uniform(lo, hi, (n, 6))
 
 
-def tracker_readings(points, n_readings, sigma_mm, rng):
+def tracker_readings(
+    points: np.ndarray, n_readings: int, sigma_mm: float, rng: np.random.Generator
+) -> np.ndarray:
     """Readings of a tracker at the tracker-frame origin: anisotropic noise.
 
     Along the beam the noise is ``sigma_mm``; across it, ``sigma_mm`` plus
@@ -297,18 +311,18 @@ def tracker_readings(points, n_readings, sigma_mm, rng):
 
 
 def simulate(
-    model="er10l-c10",
-    poses=32,
-    seed=3,
-    frame="base",
-    orientation=True,
-    noise_mm=0.0,
-    orientation_noise_rad=0.0,
-    joint_noise_rad=0.0,
-    errors="ref003",
-    tool_offset_mm=0.0,
-    n_readings=10,
-):
+    model: str = "er10l-c10",
+    poses: int = 32,
+    seed: int = 3,
+    frame: str = "base",
+    orientation: bool = True,
+    noise_mm: float = 0.0,
+    orientation_noise_rad: float = 0.0,
+    joint_noise_rad: float = 0.0,
+    errors: str = "ref003",
+    tool_offset_mm: float = 0.0,
+    n_readings: int = 10,
+) -> tuple[pa.Table, SessionMeta, Truth]:
     """Simulate a measured session.
 
     Parameters

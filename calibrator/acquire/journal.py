@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import strict
 from calibrator.errors import CalibrationError
@@ -54,7 +55,7 @@ class JournalError(CalibrationError):
     """A journal is unreadable or belongs to another run."""
 
 
-def journal_path(output) -> Path:
+def journal_path(output: str | os.PathLike[str]) -> Path:
     """Where the journal of the session ``output`` lives: beside it, ``<name>.journal``."""
     output = Path(output)
     return output.with_name(output.name + ".journal")
@@ -87,7 +88,7 @@ class Journal:
         self.version = version
 
     @classmethod
-    def create(cls, path, header: dict) -> Journal:
+    def create(cls, path: str | os.PathLike[str], header: dict) -> Journal:
         """Start a journal, locked; never replaces an existing one (it may hold a run's poses)."""
         path = Path(path)
         try:
@@ -104,7 +105,9 @@ class Journal:
         return journal
 
     @classmethod
-    def resume(cls, path, header: dict, plan_rad=None) -> tuple[Journal, Resumed]:
+    def resume(
+        cls, path: str | os.PathLike[str], header: dict, plan_rad: ArrayLike | None = None
+    ) -> tuple[Journal, Resumed]:
         """Lock a journal, check every line and that it belongs to this run, reopen it to append.
 
         Parameters
@@ -176,7 +179,9 @@ def encode_line(obj: dict, *, crc: bool = True) -> str:
     return text[:-1] + f', "{CRC_KEY}": {zlib.crc32(text.encode())}}}\n'
 
 
-def read(path, plan_rad=None, expect: dict | None = None) -> Resumed:
+def read(
+    path: str | os.PathLike[str], plan_rad: ArrayLike | None = None, expect: dict | None = None
+) -> Resumed:
     """Read and validate a journal: its header and the last record of each pose.
 
     Parameters

@@ -34,15 +34,19 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.acquire import rows
 from calibrator.acquire.averaging import measure_average
+from calibrator.acquire.journal import Journal
 from calibrator.acquire.ports import (
     SEARCH,
     BadReading,
     BeamLost,
     ReadingLost,
+    Robot,
     RobotHalted,
+    Tracker,
     TrackerUnavailable,
 )
 
@@ -125,10 +129,10 @@ class Outcome:
 
 
 def run(
-    plan_rad,
-    robot,
-    tracker,
-    journal,
+    plan_rad: ArrayLike,
+    robot: Robot,
+    tracker: Tracker,
+    journal: Journal,
     options: LoopOptions = LoopOptions(),
     *,
     done: dict | None = None,

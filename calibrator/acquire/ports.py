@@ -17,6 +17,7 @@ from abc import abstractmethod
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 # ---------------------------------------------------------------- failures
 
@@ -185,7 +186,7 @@ class Robot(Protocol):
         """Close the link; safe to call twice or after a failure."""
 
     @abstractmethod
-    def move_joints(self, q_rad, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
+    def move_joints(self, q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
         """Move to joint angles, wait until steady, and check the arm got there.
 
         Parameters

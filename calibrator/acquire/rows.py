@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from datetime import UTC, datetime
 
 import numpy as np
 import pyarrow as pa
+from numpy.typing import ArrayLike
 
 from calibrator import session
 from calibrator.acquire.averaging import AveragedReading
 
 
-def measured_record(pose: int, q_rad, avg: AveragedReading, attempts: int) -> dict:
+def measured_record(pose: int, q_rad: ArrayLike, avg: AveragedReading, attempts: int) -> dict:
     """The journal record of a measured pose.
 
     Parameters
@@ -52,7 +54,7 @@ def failed_record(pose: int, reason: str, attempts: int, causes: dict | None = N
     return record
 
 
-def to_table(records) -> pa.Table:
+def to_table(records: Iterable[dict]) -> pa.Table:
     """Session rows (v1) from measured records, sorted by pose.
 
     Parameters

@@ -5,25 +5,36 @@ study into chunks of whole blocks and folds the chunks' summaries together.
 Dask is imported only when a cluster is asked for.
 """
 
+from __future__ import annotations
+
 import logging
 import os
+from collections.abc import Callable
+from typing import Any
 
 from calibrator.analysis import misalignment as mc
 from calibrator.errors import CalibrationError
 
 
-def chunks(n_blocks, blocks_per_chunk):
+def chunks(n_blocks: int, blocks_per_chunk: int) -> list[list[int]]:
     """Consecutive runs of block indices, ``blocks_per_chunk`` at a time."""
     step = max(1, int(blocks_per_chunk))
     return [list(range(i, min(i + step, n_blocks))) for i in range(0, n_blocks, step)]
 
 
-def default_blocks_per_chunk(n_blocks, workers):
+def default_blocks_per_chunk(n_blocks: int, workers: int) -> int:
     """Enough chunks to keep ``workers`` busy and balanced (about 4 each), at most 50 blocks."""
     return max(1, min(50, -(-n_blocks // (4 * max(1, workers)))))
 
 
-def run(study, *, chunk_trials=None, workers=None, scheduler=None, progress=None):
+def run(
+    study: mc.Study,
+    *,
+    chunk_trials: int | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[mc.Summary, mc.Grid]:
     """Run a study and return its merged :class:`~calibrator.analysis.misalignment.Summary`.
 
     Parameters
@@ -80,7 +91,7 @@ def _run_local(study, grid, plan, progress):
     return total
 
 
-def local_cluster(workers):
+def local_cluster(workers: int) -> Any:
     """A Dask ``LocalCluster`` of ``workers`` single-threaded worker processes.
 
     Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_`` in its workers. Setting any

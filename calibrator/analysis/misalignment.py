@@ -32,7 +32,10 @@ end. So the result depends only on ``(seed, trials)``, never on how blocks
 are grouped into chunks or which worker ran them.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -95,10 +98,10 @@ class Study:
         object.__setattr__(self, "trials", int(self.trials))
 
     @property
-    def n_blocks(self):
+    def n_blocks(self) -> int:
         return -(-self.trials // BLOCK)
 
-    def block_size(self, k):
+    def block_size(self, k: int) -> int:
         """Number of trials in block ``k``."""
         return min(BLOCK, self.trials - k * BLOCK)
 
@@ -107,12 +110,14 @@ class Study:
 MAX_SEED = 2**63 - 1
 
 
-def block_rng(seed, k):
+def block_rng(seed: int, k: int) -> np.random.Generator:
     """The random generator of block ``k``: the k-th child of ``SeedSequence(seed)``."""
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(k,)))
 
 
-def error_transforms(rng, n, r0_mm, h_mm):
+def error_transforms(
+    rng: np.random.Generator, n: int, r0_mm: np.ndarray, h_mm: np.ndarray
+) -> np.ndarray:
     """Draw ``n`` sets of the six joints' error transforms E_i.
 
     Parameters
@@ -147,7 +152,7 @@ def error_transforms(rng, n, r0_mm, h_mm):
     return e
 
 
-def real_hand(arm, errors):
+def real_hand(arm: PosedArm, errors: np.ndarray) -> np.ndarray:
     """Hand poses of the chain with the error transforms inserted.
 
     Parameters
@@ -166,7 +171,7 @@ def real_hand(arm, errors):
     return compose(t, arm.tail)
 
 
-def hand_errors(arm, real):
+def hand_errors(arm: PosedArm, real: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position and orientation errors of real hand poses against the ideal one.
 
     Returns
@@ -195,7 +200,7 @@ def hand_errors(arm, real):
     return dp, rotvec, np.arctan2(off, diag)
 
 
-def simulate_block(study, k):
+def simulate_block(study: Study, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Errors of block ``k`` of a study: :func:`hand_errors` of its trials."""
     rng = block_rng(study.seed, k)
     errors = error_transforms(rng, study.block_size(k), study.r0_mm, study.h_mm)
@@ -226,7 +231,7 @@ class Grid:
     axis_hi: float
 
 
-def make_grid(study):
+def make_grid(study: Study) -> Grid:
     """Histogram ranges for a study: a bound for |dP|, and display ranges from block 0.
 
     The |dP| range must hold every trial, so it comes from a bound: each
@@ -301,7 +306,9 @@ class Summary:
     max_axis: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sums: dict = field(default_factory=dict)
 
-    def add_block(self, k, dp, rotvec, axis, grid):
+    def add_block(
+        self, k: int, dp: np.ndarray, rotvec: np.ndarray, axis: np.ndarray, grid: Grid
+    ) -> None:
         """Fold one block's trial errors in."""
         r = np.sqrt(np.sum(dp * dp, axis=1))
         self.count += len(r)
@@ -328,7 +335,7 @@ class Summary:
             + [[r.sum(), (r * r).sum()]]
         )
 
-    def merge(self, other):
+    def merge(self, other: Summary) -> Summary:
         """Add another chunk's summary (exact: integers, maxima, per-block sums)."""
         self.count += other.count
         for name in ("hist_r", "maps", "hist_rot", "hist_axis", "outside"):
@@ -339,13 +346,13 @@ class Summary:
         self.sums.update(other.sums)
         return self
 
-    def totals(self):
+    def totals(self) -> np.ndarray:
         """The float sums over all blocks, added in block order, shape (14,)."""
         rows = np.array([self.sums[k] for k in sorted(self.sums)]).reshape(-1, _SUM_COLUMNS)
         return np.array([math.fsum(col) for col in rows.T])
 
 
-def run_chunk(study, grid, blocks):
+def run_chunk(study: Study, grid: Grid, blocks: Sequence[int]) -> Summary:
     """Simulate whole blocks and summarise them: the unit of work sent to a worker.
 
     Parameters
@@ -374,7 +381,7 @@ def _quantile(cdf, edges, p):
     return float(edges[i] + frac * (edges[i + 1] - edges[i]))
 
 
-def radial_density(summary, grid, kernel_mm):
+def radial_density(summary: Summary, grid: Grid, kernel_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """Density of |dP| (1/mm), smoothed by a Gaussian kernel of ``kernel_mm``.
 
     The fine histogram is first merged by a power of two so that the kernel
@@ -399,7 +406,7 @@ def radial_density(summary, grid, kernel_mm):
     return (np.arange(len(dens)) + 0.5) * width, dens
 
 
-def statistics(summary, grid):
+def statistics(summary: Summary, grid: Grid) -> dict:
     """The study's numbers from a merged summary.
 
     Returns

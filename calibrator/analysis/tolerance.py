@@ -27,13 +27,21 @@ a calibration, :func:`from_calibration` toleranced the identified
 parameters by their identified standard errors instead of a uniform band.
 """
 
+from __future__ import annotations
+
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics, measurement, parameters
 from calibrator.errors import CalibrationError
 from calibrator.parameters import MDH_NAMES, ParameterSpace
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
 
 JOINT_NAMES = tuple(f"q{i + 1}" for i in range(6))
 #: Every toleranced quantity: the 30 MDH parameters, then the 6 joints.
@@ -42,12 +50,12 @@ DISTRIBUTIONS = ("uniform", "normal")
 _THETA_COLS = [MDH_NAMES.index(f"theta{i + 1}") for i in range(6)]
 
 
-def is_length(name):
+def is_length(name: str) -> bool:
     """Whether a toleranced quantity is a length (mm) rather than an angle (rad)."""
     return name[0] in "ad" and not name.startswith("alpha")
 
 
-def hand_jacobian(mdh, q):
+def hand_jacobian(mdh: ArrayLike, q: ArrayLike) -> np.ndarray:
     """J: hand displacement per unit deviation of each toleranced quantity.
 
     Parameters
@@ -102,7 +110,14 @@ class Tolerances:
         object.__setattr__(self, "t", t)
 
     @classmethod
-    def build(cls, length_mm, angle_rad, joint_rad, overrides=None, distribution="uniform"):
+    def build(
+        cls,
+        length_mm: float,
+        angle_rad: float,
+        joint_rad: float,
+        overrides: Mapping[str, float] | None = None,
+        distribution: str = "uniform",
+    ) -> Tolerances:
         """Tolerances from one value per kind plus per-name overrides (mm or rad)."""
         t = np.array(
             [
@@ -118,18 +133,18 @@ class Tolerances:
         return cls(t, distribution)
 
     @property
-    def sigma(self):
+    def sigma(self) -> np.ndarray:
         """Standard deviation of each deviation, shape (36,)."""
         return self.t / np.sqrt(3.0) if self.distribution == "uniform" else self.t / 3.0
 
-    def sample(self, rng, m):
+    def sample(self, rng: np.random.Generator, m: int) -> np.ndarray:
         """``m`` deviation vectors, shape (m, 36)."""
         if self.distribution == "uniform":
             return rng.uniform(-1.0, 1.0, (m, len(NAMES))) * self.t
         return rng.standard_normal((m, len(NAMES))) * self.sigma
 
 
-def perturbed_hand(mdh, q, dp):
+def perturbed_hand(mdh: np.ndarray, q: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """Hand poses with deviations applied, by the full (nonlinear) kinematics.
 
     Parameters
@@ -148,7 +163,7 @@ def perturbed_hand(mdh, q, dp):
     return kinematics.chain(tables, q)
 
 
-def nonlinear_displacement(mdh, q, dp):
+def nonlinear_displacement(mdh: np.ndarray, q: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """Hand displacement ``dS`` by the full kinematics, in the hand frame.
 
     Returns
@@ -170,7 +185,7 @@ def nonlinear_displacement(mdh, q, dp):
 def budget(
     mdh: np.ndarray,
     q: np.ndarray,
-    tol: "Tolerances",
+    tol: Tolerances,
     *,
     samples: int = 2000,
     seed: int = 0,
@@ -288,7 +303,7 @@ def without_meaning(mdh: np.ndarray) -> dict[str, str]:
     return {d["name"]: d["reason"] for d in dropped if d["name"].startswith("beta")}
 
 
-def for_arm(tol: "Tolerances", mdh: np.ndarray) -> "Tolerances":
+def for_arm(tol: Tolerances, mdh: np.ndarray) -> Tolerances:
     """``tol`` with the entries :func:`without_meaning` on this arm set to zero."""
     t = tol.t.copy()
     for name in without_meaning(mdh):
@@ -300,7 +315,7 @@ def for_arm(tol: "Tolerances", mdh: np.ndarray) -> "Tolerances":
 SIGMAS = 3.0
 
 
-def from_calibration(cal, joint_rad: float) -> tuple["Tolerances", list[str]]:
+def from_calibration(cal: Calibration, joint_rad: float) -> tuple[Tolerances, list[str]]:
     """Tolerances of a calibrated arm: what its identification left uncertain.
 
     Each identified MDH parameter gets ``SIGMAS`` times its standard error

@@ -15,7 +15,10 @@ Everything is in the robot base frame, mm and rad; nothing here touches hardware
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.cell.cellfile import Box, Cell, CellError, Cylinder, parse_cell, read_cell
 from calibrator.cell.checks import (
@@ -30,6 +33,10 @@ from calibrator.cell.checks import (
 )
 from calibrator.cell.geometry import ArmGeometry, Capsule, arm_geometry, place
 from calibrator.cell.timing import CellTime, cell_time, move_times, order_poses, time_matrix
+
+if TYPE_CHECKING:
+    from calibrator.models import RobotModel
+    from calibrator.plan import Plan
 
 __all__ = [
     "MOTION_REASONS",
@@ -60,7 +67,7 @@ __all__ = [
 ]
 
 
-def check_plan(plan, model, cell: Cell, tool_mm) -> None:
+def check_plan(plan: Plan, model: RobotModel, cell: Cell, tool_mm: ArrayLike) -> None:
     """Check a whole plan in its cell before the first motion.
 
     Every measured pose passes all of :data:`REASONS` (the tracker's only when
@@ -117,7 +124,9 @@ def check_plan(plan, model, cell: Cell, tool_mm) -> None:
             )
 
 
-def estimate(plan, model, speed_rad_s: float, accel_rad_s2: float, **kwargs) -> CellTime:
+def estimate(
+    plan: Plan, model: RobotModel, speed_rad_s: float, accel_rad_s2: float, **kwargs: Any
+) -> CellTime:
     """:func:`cell_time` of a :class:`calibrator.plan.Plan` (all its rows, vias included).
 
     ``speed_rad_s`` and ``accel_rad_s2`` are lowered to the model's caps;

@@ -21,8 +21,11 @@ or an empty box is refused with the key named.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -87,7 +90,7 @@ class Cell:
     acceptance_deg: float = 30.0
     beam_clearance_mm: float = 10.0
 
-    def with_tracker(self, at_mm) -> Cell:
+    def with_tracker(self, at_mm: Iterable[float] | None) -> Cell:
         """This cell with the tracker at ``at_mm`` (3,), mm (None: unchanged)."""
         if at_mm is None:
             return self
@@ -156,7 +159,7 @@ def _obstacle(item, i: int) -> Box | Cylinder:
     return Cylinder(str(spec.get("name", f"cylinder {i}")), xy, radius, z[0], z[1])  # type: ignore[arg-type]
 
 
-def parse_cell(doc) -> Cell:
+def parse_cell(doc: Any) -> Cell:
     """A :class:`Cell` from a parsed YAML document (a mapping); raises CellError."""
     if doc is None:
         return Cell()
@@ -190,7 +193,7 @@ def parse_cell(doc) -> Cell:
     return cell
 
 
-def read_cell(path) -> Cell:
+def read_cell(path: str | os.PathLike[str]) -> Cell:
     """Read a cell file (YAML); one :class:`CellError` line naming what is wrong."""
     import yaml  # type: ignore[import-untyped]
 

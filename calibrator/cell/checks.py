@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from calibrator.cell import distance
@@ -93,7 +94,7 @@ def _ends(chk: Checker, q: np.ndarray) -> np.ndarray:
     return place(chk.geometry, q)
 
 
-def collision_faults(chk: Checker, q, step_rad=None) -> np.ndarray:
+def collision_faults(chk: Checker, q: ArrayLike, step_rad: ArrayLike | None = None) -> np.ndarray:
     """Collision reasons (:data:`MOTION_REASONS`) per pose, shape (N, 4) bool.
 
     Parameters
@@ -164,7 +165,7 @@ def _solids(cell: Cell):
         )
 
 
-def aim_faults(chk: Checker, q) -> np.ndarray:
+def aim_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
     """Tracker range and acceptance angle per pose, shape (N, 2) bool (cheap: no capsules).
 
     All False when the cell has no tracker position.
@@ -190,7 +191,7 @@ def _beam(chk: Checker, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return reflector, beam / np.maximum(dist, 1e-9)[:, None], dist, flange[:, :3, 2]
 
 
-def sight_faults(chk: Checker, q) -> np.ndarray:
+def sight_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
     """Whether the arm or an obstacle blocks the beam to the reflector, shape (N,) bool.
 
     The beam runs from the tracker head to the reflector, less the tool's
@@ -217,13 +218,13 @@ def sight_faults(chk: Checker, q) -> np.ndarray:
     return blocked
 
 
-def pose_faults(chk: Checker, q) -> np.ndarray:
+def pose_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
     """Every reason of :data:`REASONS` per pose, shape (N, 7) bool (True: refused)."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     return np.column_stack([collision_faults(chk, q), sight_faults(chk, q), aim_faults(chk, q)])
 
 
-def describe(chk: Checker, q, reason: str) -> str:
+def describe(chk: Checker, q: ArrayLike, reason: str) -> str:
     """What exactly fails ``reason`` at one pose ``q`` (6,): the capsules or obstacle named."""
     q = np.atleast_2d(np.asarray(q, dtype=float))[:1]
     ends = _ends(chk, q)[0]
@@ -295,7 +296,7 @@ def _replace_cell(chk: Checker, cell: Cell) -> Checker:
 
 
 def motion_samples(
-    qa, qb, step_rad: float = MOTION_STEP_RAD
+    qa: ArrayLike, qb: ArrayLike, step_rad: float = MOTION_STEP_RAD
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Samples of joint-space lines ``qa[i] -> qb[i]``, both ends included.
 
@@ -325,7 +326,9 @@ def motion_samples(
     return q, owner, np.abs(delta[owner]) / count[owner][:, None]
 
 
-def motion_faults(chk: Checker, qa, qb, step_rad: float = MOTION_STEP_RAD) -> np.ndarray:
+def motion_faults(
+    chk: Checker, qa: ArrayLike, qb: ArrayLike, step_rad: float = MOTION_STEP_RAD
+) -> np.ndarray:
     """Collision reasons along each joint-space motion ``qa[i] -> qb[i]``, shape (M, 4) bool.
 
     Samples include both ends; each is checked with its clearance grown by

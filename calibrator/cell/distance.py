@@ -6,10 +6,13 @@ all capsule pairs and all obstacles at once. Lengths in mm.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def segment_segment(p1, q1, p2, q2) -> np.ndarray:
+def segment_segment(p1: ArrayLike, q1: ArrayLike, p2: ArrayLike, q2: ArrayLike) -> np.ndarray:
     """Shortest distance between segments ``p1 q1`` and ``p2 q2``.
 
     Parameters
@@ -51,7 +54,7 @@ def segment_segment(p1, q1, p2, q2) -> np.ndarray:
     return np.linalg.norm(diff, axis=-1)
 
 
-def point_box(points, lo, hi) -> np.ndarray:
+def point_box(points: ArrayLike, lo: ArrayLike, hi: ArrayLike) -> np.ndarray:
     """Distance of points from axis-aligned boxes (0 inside).
 
     Parameters
@@ -60,11 +63,14 @@ def point_box(points, lo, hi) -> np.ndarray:
     lo, hi : array_like, shape (..., 3)
         Box corners, broadcast with ``points``.
     """
+    points, lo, hi = np.asarray(points), np.asarray(lo), np.asarray(hi)
     gap = np.maximum(np.maximum(lo - points, points - hi), 0.0)
     return np.linalg.norm(gap, axis=-1)
 
 
-def point_cylinder(points, centre_xy, radius, z_lo, z_hi) -> np.ndarray:
+def point_cylinder(
+    points: ArrayLike, centre_xy: ArrayLike, radius: float, z_lo: float, z_hi: float
+) -> np.ndarray:
     """Distance of points from vertical solid cylinders (0 inside).
 
     Parameters
@@ -79,7 +85,12 @@ def point_cylinder(points, centre_xy, radius, z_lo, z_hi) -> np.ndarray:
     return np.hypot(np.maximum(radial, 0.0), np.maximum(vertical, 0.0))
 
 
-def segment_min(p, q, point_distance, iterations: int = 40) -> np.ndarray:
+def segment_min(
+    p: np.ndarray,
+    q: np.ndarray,
+    point_distance: Callable[[np.ndarray], np.ndarray],
+    iterations: int = 40,
+) -> np.ndarray:
     """Lower bound of the distance of segments ``p q`` from a convex solid.
 
     The distance of a point from a convex solid is convex along a segment, so
@@ -111,7 +122,9 @@ def segment_min(p, q, point_distance, iterations: int = 40) -> np.ndarray:
     return np.minimum(mid, np.minimum(point_distance(p), point_distance(q)))
 
 
-def box_gap(lo1, hi1, lo2, hi2) -> np.ndarray:
+def box_gap(lo1: ArrayLike, hi1: ArrayLike, lo2: ArrayLike, hi2: ArrayLike) -> np.ndarray:
     """Distance between axis-aligned boxes (0 if they overlap): a cheap lower bound, mm."""
+    lo1, hi1, lo2, hi2 = (np.asarray(v) for v in (lo1, hi1, lo2, hi2))
     gap = np.maximum(np.maximum(lo2 - hi1, lo1 - hi2), 0.0)
+
     return np.linalg.norm(gap, axis=-1)

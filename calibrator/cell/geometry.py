@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from calibrator.errors import CalibrationError
@@ -159,7 +160,9 @@ def _er10l_capsules(mdh: np.ndarray) -> tuple[Capsule, ...]:
     )
 
 
-def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 20.0) -> ArmGeometry:
+def arm_geometry(
+    model: str, mdh: np.ndarray, tool_mm: ArrayLike, tool_radius_mm: float = 20.0
+) -> ArmGeometry:
     """The capsule model of a named arm with a tool.
 
     Parameters
@@ -219,7 +222,7 @@ def arm_geometry(model: str, mdh: np.ndarray, tool_mm, tool_radius_mm: float = 2
     )
 
 
-def place(geometry: ArmGeometry, q) -> np.ndarray:
+def place(geometry: ArmGeometry, q: ArrayLike) -> np.ndarray:
     """Capsule end points at each pose, base frame.
 
     Parameters

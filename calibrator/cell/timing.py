@@ -10,12 +10,14 @@ Times in s, angles rad.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def trapezoid_time(travel_rad, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
+def trapezoid_time(travel_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
     """Duration of a rest-to-rest trapezoidal (or triangular) profile, s.
 
     Parameters
@@ -35,7 +37,7 @@ def trapezoid_time(travel_rad, speed_rad_s: float, accel_rad_s2: float) -> np.nd
     )
 
 
-def move_times(qa, qb, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
+def move_times(qa: ArrayLike, qb: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
     """Time of each ``moveJ`` ``qa -> qb``, the slowest joint leading, s.
 
     ``qa`` (M, 6) and ``qb`` (M, 6), or (M, 1, 6) and (1, L, 6) for a matrix.
@@ -44,16 +46,16 @@ def move_times(qa, qb, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
     return trapezoid_time(travel, speed_rad_s, accel_rad_s2)
 
 
-def time_matrix(q, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
+def time_matrix(q: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> np.ndarray:
     """Move time between every two poses of ``q`` (N, 6), shape (N, N), s."""
     q = np.asarray(q, dtype=float)
     return move_times(q[:, None], q[None], speed_rad_s, accel_rad_s2)
 
 
-def path_time(times: np.ndarray, order) -> float:
+def path_time(times: np.ndarray, order: Sequence[int]) -> float:
     """Total time of visiting ``order`` with the time matrix ``times``, s."""
-    order = np.asarray(order)
-    return float(times[order[:-1], order[1:]].sum())
+    idx = np.asarray(order)
+    return float(times[idx[:-1], idx[1:]].sum())
 
 
 def order_poses(
@@ -163,7 +165,7 @@ def _clock(seconds: float) -> str:
 
 
 def cell_time(
-    path_rad,
+    path_rad: ArrayLike,
     n_poses: int,
     speed_rad_s: float,
     accel_rad_s2: float,

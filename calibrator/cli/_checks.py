@@ -35,10 +35,14 @@ A budget over several options (poses times samples) is checked in the
 command with :func:`calibrator.strict.check_budget`.
 """
 
+from __future__ import annotations
+
 import math
 import os
 import re
+from collections.abc import Callable
 
+import click
 import typer
 
 from calibrator import strict
@@ -99,7 +103,7 @@ BUDGETS: dict[str, tuple[float, str]] = {
 MAX_SEED = strict.MAX_INT
 
 
-def count(budget: str, minimum: int = 1):
+def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
     """Callback for a whole number in ``[minimum, BUDGETS[budget]]``.
 
     Parameters
@@ -121,12 +125,12 @@ def count(budget: str, minimum: int = 1):
     return check
 
 
-def seconds(budget: str):
+def seconds(budget: str) -> Callable[[float | None], float | None]:
     """Callback for a time in seconds: finite, >= 0, at most ``BUDGETS[budget]``."""
     limit, unit = BUDGETS[budget]
     base = finite(minimum=0.0)
 
-    def check(value: float | None):
+    def check(value: float | None) -> float | None:
         value = base(value)
         if value is not None:
             _within(value, limit, unit)
@@ -135,7 +139,7 @@ def seconds(budget: str):
     return check
 
 
-def cores():
+def cores() -> Callable[[int | None], int | None]:
     """Callback for a number of worker processes: 1 up to this machine's cores."""
 
     def check(value: int | None) -> int | None:
@@ -151,7 +155,7 @@ def cores():
     return check
 
 
-def seed():
+def seed() -> Callable[[int | None], int | None]:
     """Callback for a random seed: a whole number in [0, 2**63 - 1]."""
 
     def check(value: int | None) -> int | None:
@@ -162,7 +166,7 @@ def seed():
     return check
 
 
-def point_mm(budget: str):
+def point_mm(budget: str) -> Callable[[str | None], str | None]:
     """Callback for ``X,Y,Z`` in mm: three numbers of the strict grammar, each within the budget.
 
     Returns the text unchanged (the command parses it); refuses ``0,0,1e308``,
@@ -218,7 +222,7 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
 _WHOLE = re.compile(r"[+-]?[0-9]+")
 
 
-def strict_numbers(root, argv: list[str]) -> None:
+def strict_numbers(root: typer.Typer, argv: list[str]) -> None:
     """Refuse a number option whose text is outside the project's number grammar.
 
     typer converts option text with pydantic, which (like ``float()`` and
@@ -293,10 +297,10 @@ def _within(value: float, limit: float, unit: str) -> None:
         raise typer.BadParameter(str(exc).removeprefix(": ")) from None
 
 
-def at_least(minimum):
+def at_least(minimum: int) -> Callable[[int | None], int | None]:
     """Callback refusing whole numbers below ``minimum``."""
 
-    def check(value: int | None):
+    def check(value: int | None) -> int | None:
         if value is not None and value < minimum:
             raise typer.BadParameter(f"must be a whole number >= {minimum}, got {value}")
         return value
@@ -304,13 +308,15 @@ def at_least(minimum):
     return check
 
 
-def finite(minimum=None, maximum=None, inclusive=True):
+def finite(
+    minimum: float | None = None, maximum: float | None = None, inclusive: bool = True
+) -> Callable[[float | None], float | None]:
     """Callback refusing NaN, infinities and values outside ``[minimum, maximum]``.
 
     ``inclusive=False`` makes both bounds strict.
     """
 
-    def check(value: float | None):
+    def check(value: float | None) -> float | None:
         if value is None:
             return value
         if not math.isfinite(value):
@@ -324,10 +330,10 @@ def finite(minimum=None, maximum=None, inclusive=True):
     return check
 
 
-def fraction():
+def fraction() -> Callable[[float | None], float | None]:
     """Callback for a share of something: a finite number in [0, 1)."""
 
-    def check(value: float | None):
+    def check(value: float | None) -> float | None:
         if value is not None and not (math.isfinite(value) and 0.0 <= value < 1.0):
             raise typer.BadParameter(f"must be a fraction in [0, 1), got {value}")
         return value
@@ -358,7 +364,7 @@ _PHRASES = (
 )
 
 
-def one_line(exc):
+def one_line(exc: click.UsageError) -> str:
     """One line for a click/typer usage error, naming the option at fault.
 
     Parameters

@@ -147,7 +147,7 @@ def misalignment(
     ),
     scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
-):
+) -> None:
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
@@ -301,7 +301,7 @@ def tolerance(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),
     json_out: Path = typer.Option(None, "--json", help="Write the budget to this JSON file."),
-):
+) -> None:
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 

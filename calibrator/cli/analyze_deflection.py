@@ -56,7 +56,7 @@ def deflection(
     ),
     plot: Path = typer.Option(None, help="Write a deflection map of the workspace (PNG)."),
     json_out: Path = typer.Option(None, "--json", help="Write the results to this JSON file."),
-):
+) -> None:
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
 

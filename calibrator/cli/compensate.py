@@ -20,7 +20,7 @@ def compensate(
         callback=checks.finite(minimum=0.0),
         help="Working payload (kg) for compliance joint terms [default: the calibration's].",
     ),
-):
+) -> None:
     """Joint angles reaching each target on the calibrated arm, and the corrected
     targets to send to a controller that keeps its nominal model.
 

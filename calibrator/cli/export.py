@@ -23,18 +23,18 @@ def export_params(
     ),
     fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
-):
+) -> None:
     """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export, outputs
 
-    fmt = export.choose(None if fmt is None else fmt.value, output)
+    name = export.choose(None if fmt is None else fmt.value, output)
     if output is not None:
         outputs.check(output, inputs=[calibration_path])
-    result = export.export(calibration.load(calibration_path), fmt)
+    result = export.export(calibration.load(calibration_path), name)
     for note in result.notes:
         typer.echo(f"note: {note}", err=True)
     if output is None:
         sys.stdout.write(result.text)
         return
     outputs.write_text(output, result.text, inputs=[calibration_path])
-    typer.echo(f"wrote {output} ({fmt})")
+    typer.echo(f"wrote {output} ({name})")

@@ -86,7 +86,7 @@ def plan(
     seed: int = typer.Option(
         0, callback=checks.seed(), help="Seed of the random sampling and selection."
     ),
-):
+) -> None:
     """Write a plan every pose and move of which is clear of the cell, in time-optimal order."""
     import dataclasses
 

@@ -23,7 +23,7 @@ def report(
     verify_paths: list[Path] = typer.Option(
         None, "--verify", help="ISO 9283 result (calibrator verify), repeatable: before, after."
     ),
-):
+) -> None:
     """Write the calibration report: PNG plots and one self-contained HTML page."""
     from calibrator import calibration, consistency, outputs, session
     from calibrator.report import verify_section, write

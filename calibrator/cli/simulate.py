@@ -70,7 +70,7 @@ def simulate(
         callback=checks.finite(0.0, checks.BUDGETS["tool"][0]),
         help="Unknown tool offset (mm); 0 = tool known.",
     ),
-):
+) -> None:
     """Write a session measured on a simulated arm, and its truth beside it."""
     import numpy as np
 

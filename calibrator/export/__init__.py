@@ -7,11 +7,18 @@ file-extension lookup come from :data:`REGISTRY`. Importing this package
 imports every format module, which registers its functions.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
 
 
 @dataclass(frozen=True)
@@ -38,14 +45,17 @@ class Format:
     name: str
     suffixes: tuple
     help: str
-    write: object
+    write: Writer
 
+
+#: An exporter: a calibration in, the file's text and notes out.
+Writer = Callable[["Calibration"], Exported]
 
 #: name -> Format, in registration order.
-REGISTRY = {}
+REGISTRY: dict[str, Format] = {}
 
 
-def exporter(name, suffixes, help):
+def exporter(name: str, suffixes: Iterable[str], help: str) -> Callable[[Writer], Writer]:
     """Register ``func(calibration) -> Exported`` as format ``name``.
 
     Parameters
@@ -58,19 +68,20 @@ def exporter(name, suffixes, help):
         One line for ``--help``.
     """
 
-    def register(func):
+    def register(func: Writer) -> Writer:
+
         REGISTRY[name] = Format(name, tuple(suffixes), help, func)
         return func
 
     return register
 
 
-def format_names():
+def format_names() -> tuple[str, ...]:
     """Registered format names, in registration order."""
     return tuple(REGISTRY)
 
 
-def choose(fmt=None, output=None):
+def choose(fmt: str | None = None, output: outputs.PathLike | None = None) -> str:
     """The format to write: ``fmt`` if given, else from the output's name.
 
     Raises
@@ -108,7 +119,7 @@ def _format_of(output):
     return max(matches)[1] if matches else None
 
 
-def export(calibration, fmt):
+def export(calibration: Calibration, fmt: str) -> Exported:
     """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
     if fmt not in REGISTRY:
         raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")

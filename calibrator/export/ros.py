@@ -16,14 +16,23 @@ trailing transform (ROS puts the flange at wrist_3 with a fixed joint): the
 export prints it when it is not the identity.
 """
 
+from __future__ import annotations
+
 import hashlib
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+
 
 JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
@@ -32,7 +41,7 @@ _M = 1000.0
 MAX_BYTES = 2**20
 
 
-def origins(mdh):
+def origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Joint origins of an MDH table (mm) and the trailing transform.
 
     Returns
@@ -55,7 +64,7 @@ def origins(mdh):
     return out, after[5]
 
 
-def origin_values(transform):
+def origin_values(transform: np.ndarray) -> np.ndarray:
     """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad) of a transform."""
     from scipy.spatial.transform import Rotation
 
@@ -63,7 +72,7 @@ def origin_values(transform):
     return np.concatenate([transform[:3, 3], rpy])
 
 
-def origin_transform(values):
+def origin_transform(values: np.ndarray) -> np.ndarray:
     """Inverse of :func:`origin_values`: (x, y, z mm, roll, pitch, yaw) -> (4, 4)."""
     from scipy.spatial.transform import Rotation
 
@@ -73,7 +82,7 @@ def origin_transform(values):
     return out
 
 
-def trailing_notes(trailing, fmt):
+def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
     mm, rad = chains.residual_size(trailing)
     if mm < 1e-9 and rad < 1e-12:
@@ -85,7 +94,7 @@ def trailing_notes(trailing, fmt):
 
 
 @exporter("ros-kinematics", (".yaml", ".yml"), "ur_description kinematics parameters (m, rad)")
-def to_ros(cal):
+def to_ros(cal: Calibration) -> Exported:
     """The calibrated arm as a ``kinematics:`` YAML with its ``hash``."""
     frames, trailing = origins(cal.mdh)
     lines = ["kinematics:"]
@@ -99,7 +108,7 @@ def to_ros(cal):
     return Exported("\n".join(lines) + "\n", trailing_notes(trailing, "ros-kinematics"))
 
 
-def read(path):
+def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Joint frames at the zero pose from a kinematics YAML.
 
     Returns

@@ -1,13 +1,20 @@
 """``json`` and ``csv``: the whole model (MDH table, base and tool frames), mm and rad."""
 
+from __future__ import annotations
+
 import csv
 import io
 import json
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibrator import frames, kinematics
 from calibrator.export import Exported, exporter
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+
 
 CONVENTION = "A_i = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i)"
 #: Columns of a frame in the CSV: translation, then ``Rx(rx) Ry(ry) Rz(rz)`` angles.
@@ -20,7 +27,7 @@ _FRAME_NAMES = {
 
 
 @exporter("json", (".json",), "the whole model with nominal values and free flags (mm, rad)")
-def to_json(cal):
+def to_json(cal: Calibration) -> Exported:
     """MDH table per joint (identified, nominal, free per column) and both frames."""
     free = set(cal.free)
     out = {
@@ -53,13 +60,13 @@ def to_json(cal):
     return Exported(json.dumps(out, indent=2, allow_nan=False) + "\n")
 
 
-def frame_values(transform):
+def frame_values(transform: np.ndarray) -> np.ndarray:
     """``x_mm, y_mm, z_mm, rx_rad, ry_rad, rz_rad`` of a transform, shape (6,)."""
     return np.concatenate([transform[:3, 3], frames.angles_xyz(transform[:3, :3])])
 
 
 @exporter("csv", (".csv",), "one row per parameter: nominal, identified, delta, free (mm, rad)")
-def to_csv(cal):
+def to_csv(cal: Calibration) -> Exported:
     """Long table: ``element, parameter, nominal, identified, delta, free``.
 
     ``element`` is ``joint1``..``joint6``, ``base2tracker`` or ``flange2tool``;

@@ -21,13 +21,22 @@ File layout (an INI text, the ``[mounting]`` section as on the controller)::
     model = ur10e               # the published table the deltas are against
 """
 
+from __future__ import annotations
+
 import configparser
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+
 from calibrator.export import Exported, exporter
 from calibrator.models import MODEL_NAMES, get_model
 
@@ -44,12 +53,12 @@ MAX_BYTES = 2**20
 _ANGLES = (kinematics.THETA, kinematics.ALPHA)
 
 
-def ur_models():
+def ur_models() -> tuple[str, ...]:
     """Named models that have a published UR DH table."""
     return tuple(n for n in MODEL_NAMES if n.startswith("ur"))
 
 
-def nominal_dh(model):
+def nominal_dh(model: str | None) -> np.ndarray:
     """Published standard-DH table of a UR model (mm, rad), shape (6, 5)."""
     if model is None or str(model).lower() not in ur_models():
         raise CalibrationError(
@@ -58,7 +67,7 @@ def nominal_dh(model):
     return get_model(model).mdh
 
 
-def deltas_from_mdh(mdh, model):
+def deltas_from_mdh(mdh: ArrayLike, model: str | None) -> tuple[np.ndarray, np.ndarray]:
     """UR deltas (mm, rad) of an MDH table, and the residual of the conversion.
 
     Returns
@@ -75,7 +84,9 @@ def deltas_from_mdh(mdh, model):
     return deltas, residual
 
 
-def mdh_from_deltas(deltas, model, reference=None):
+def mdh_from_deltas(
+    deltas: ArrayLike, model: str | None, reference: ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """MDH table (Hayati where axes are parallel) of UR deltas.
 
     Parameters
@@ -99,7 +110,7 @@ def mdh_from_deltas(deltas, model, reference=None):
 
 
 @exporter("ur-calibration", (".urcal", ".conf"), "UR factory-calibration DH deltas (m, rad)")
-def to_ur(cal):
+def to_ur(cal: Calibration) -> Exported:
     """The calibrated arm as deltas against the published DH of ``cal.model``."""
     deltas, residual = deltas_from_mdh(cal.mdh, cal.model)
     lines = [
@@ -122,7 +133,7 @@ def _residual_notes(residual, fmt, what):
     return [f"{fmt} cannot hold {what}: the flange is off by {mm:.6g} mm and {rad:.6g} rad"]
 
 
-def read(path, model=None):
+def read(path: str | Path, model: str | None = None) -> tuple[np.ndarray, str]:
     """Read a UR calibration file.
 
     Parameters
@@ -177,5 +188,6 @@ def read(path, model=None):
         deltas[:, col] = np.asarray(values, dtype=float) * (
             _M if col in (kinematics.A, kinematics.D) else 1.0
         )
-    nominal_dh(model)
+    nominal_dh(model)  # refuses a missing or non-UR model
+    assert model is not None
     return deltas, model.lower()

@@ -8,6 +8,9 @@ identified ``flange2tool``). The joint origins are those of
 ``base_link -> flange`` is the calibrated ``A_1 ... A_6``.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -16,6 +19,10 @@ from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
 from calibrator.export.ros import JOINTS, origin_values, origins
 from calibrator.models import get_model
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+
 
 _M = 1000.0
 JOINT_NAMES = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
@@ -41,7 +48,7 @@ def _limits(model):
 
 
 @exporter("urdf", (".urdf",), "URDF of the calibrated arm with flange and tool frames (m, rad)")
-def to_urdf(cal):
+def to_urdf(cal: Calibration) -> Exported:
     """The calibrated arm as URDF text."""
     frames, trailing = origins(cal.mdh)
     limits, speeds = _limits(cal.model)

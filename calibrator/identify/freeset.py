@@ -124,7 +124,7 @@ def decide(
     candidates, dropped = parameters.structural_candidates(
         nominal_mdh, frame, tool_known, orientation
     )
-    space = parameters.ParameterSpace(nominal_mdh, base0, tool0, candidates)
+    space = parameters.ParameterSpace(nominal_mdh, base0, tool0, tuple(candidates))
     weight = k if orientation else 0.0
     generic = Problem.of(space, generic_poses(space, orientation), weight)
     jac = generic.jacobian(generic.zero(), names=candidates)

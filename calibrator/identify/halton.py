@@ -7,12 +7,14 @@ the start-up budget of ``calibrator identify``. The unscrambled sequence is
 checked against scipy's in the tests.
 """
 
+from __future__ import annotations
+
 import numpy as np
 
 
-def primes(count):
+def primes(count: int) -> np.ndarray:
     """The first ``count`` primes."""
-    found = []
+    found: list[int] = []
     candidate = 2
     while len(found) < count:
         if all(candidate % p for p in found if p * p <= candidate):
@@ -21,7 +23,9 @@ def primes(count):
     return np.array(found)
 
 
-def halton(n, d, rng=None, scramble=True):
+def halton(
+    n: int, d: int, rng: np.random.Generator | None = None, scramble: bool = True
+) -> np.ndarray:
     """``n`` points of the d-dimensional Halton sequence in [0, 1)^d.
 
     Parameters
@@ -38,6 +42,8 @@ def halton(n, d, rng=None, scramble=True):
     -------
     ndarray, shape (n, d)
     """
+    if scramble and rng is None:
+        raise ValueError("a scrambled Halton sequence needs rng")
     index = np.arange(n)
     out = np.zeros((n, d))
     for j, base in enumerate(primes(d)):
@@ -49,8 +55,9 @@ def halton(n, d, rng=None, scramble=True):
             digit = rest % base
             rest //= base
             scale /= base
-            if scramble:
+            if rng is not None and scramble:
                 digit = rng.permutation(base)[digit]
+
             out[:, j] += digit * scale
             if not scramble and not rest.any():
                 break

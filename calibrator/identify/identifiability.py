@@ -14,7 +14,12 @@ measured values per free parameter, near-duplicate poses, a high condition
 number.
 """
 
+from __future__ import annotations
+
+from collections.abc import Sequence, Sized
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import parameters
 from calibrator.errors import IdentifiabilityError
@@ -30,7 +35,7 @@ DUPLICATE_RAD = 1e-3
 MAX_CONDITION = 1e3
 
 
-def scaled_information(jacobian, names, noise):
+def scaled_information(jacobian: np.ndarray, names: Sequence[str], noise: float) -> np.ndarray:
     """Fisher information of the range-scaled parameters.
 
     Parameters
@@ -53,7 +58,7 @@ def scaled_information(jacobian, names, noise):
     return uncertainty.gram(js)
 
 
-def relative_errors(info):
+def relative_errors(info: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Standard errors in range units, and the correlation, from an information matrix.
 
     Returns
@@ -76,7 +81,9 @@ def relative_errors(info):
     return se, cov
 
 
-def select(names, jacobian, noise_mm, threshold=SE_THRESHOLD):
+def select(
+    names: Sequence[str], jacobian: np.ndarray, noise_mm: float, threshold: float = SE_THRESHOLD
+) -> tuple[list[str], list[dict]]:
     """Drop, one at a time, the parameter these poses pin down worst.
 
     Parameters
@@ -136,13 +143,13 @@ def _most_correlated(info, k, names):
     return f", confounded with {names[j]} (cos {cos[j]:.3f})" if cos[j] > 0.5 else ""
 
 
-def condition_number(info):
+def condition_number(info: np.ndarray) -> float:
     """Condition number of the range-scaled Jacobian (square root of the information's)."""
     w = np.linalg.eigvalsh(info)
     return float(np.sqrt(w.max() / w.min())) if w.min() > 0 else float("inf")
 
 
-def duplicate_poses(q, tol=DUPLICATE_RAD):
+def duplicate_poses(q: ArrayLike, tol: float = DUPLICATE_RAD) -> np.ndarray:
     """Indices of poses whose joint vector repeats an earlier one within ``tol``.
 
     Poses are binned on a ``tol`` grid, so this is linear in the pose count
@@ -157,7 +164,7 @@ def duplicate_poses(q, tol=DUPLICATE_RAD):
     return np.flatnonzero(first[inverse.ravel()] != np.arange(len(keys)))
 
 
-def session_warnings(n_values, n_free, cond, duplicates):
+def session_warnings(n_values: int, n_free: int, cond: float, duplicates: Sized) -> list[str]:
     """Warnings about the redundancy and spread of a session's poses (list of str)."""
     out = []
     if n_free and n_values / n_free < MIN_VALUES_PER_PARAMETER:
@@ -181,7 +188,7 @@ def session_warnings(n_values, n_free, cond, duplicates):
     return out
 
 
-def require_some(kept):
+def require_some(kept: Sequence[str]) -> None:
     """Refuse a session that can identify nothing."""
     if not kept:
         raise IdentifiabilityError(

@@ -1,11 +1,18 @@
 """Closed-form first guesses of the base frame and the tool frame."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from calibrator import frames, kinematics
 
+if TYPE_CHECKING:
+    from calibrator.measurement import Observations
 
-def tool_point(base2flange, base2tracker, points):
+
+def tool_point(base2flange: np.ndarray, base2tracker: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Least-squares tool point in the flange frame for a known base frame.
 
     Parameters
@@ -25,7 +32,9 @@ def tool_point(base2flange, base2tracker, points):
     return np.linalg.lstsq(rot.reshape(-1, 3), rhs.ravel(), rcond=None)[0]
 
 
-def tool_rotation(base2flange, base2tracker, rotations):
+def tool_rotation(
+    base2flange: np.ndarray, base2tracker: np.ndarray, rotations: np.ndarray
+) -> np.ndarray:
     """Least-squares (chordal) tool rotation in the flange frame.
 
     Each pose gives one estimate ``(B R_flange)^T R_measured``; the rotation
@@ -51,7 +60,14 @@ def tool_rotation(base2flange, base2tracker, rotations):
     return u @ fix @ vt
 
 
-def first_guess(nominal_mdh, obs, flange2tool, frame, tool_known, iterations=20):
+def first_guess(
+    nominal_mdh: np.ndarray,
+    obs: Observations,
+    flange2tool: np.ndarray,
+    frame: str,
+    tool_known: bool,
+    iterations: int = 20,
+) -> tuple[np.ndarray, np.ndarray]:
     """``base2tracker`` and ``flange2tool`` to start the identification from.
 
     In the base frame, ``base2tracker`` is the identity. In the tracker frame
@@ -86,6 +102,7 @@ def first_guess(nominal_mdh, obs, flange2tool, frame, tool_known, iterations=20)
         if tool_known:
             break
         tool[:3, 3] = tool_point(base2flange, base, obs.points)
-    if obs.has_orientation and not tool_known:
+    if obs.rotations is not None and not tool_known:  # has_orientation
         tool[:3, :3] = tool_rotation(base2flange, base, obs.rotations)
+
     return base, tool

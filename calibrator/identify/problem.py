@@ -17,6 +17,9 @@ in :meth:`Problem.residuals` / :meth:`Problem.jacobian`: nothing else
 evaluates the model.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,7 +48,9 @@ class Problem:
     k: float = 0.0
 
     @classmethod
-    def of(cls, space: parameters.ParameterSpace, obs: measurement.Observations, k: float):
+    def of(
+        cls, space: parameters.ParameterSpace, obs: measurement.Observations, k: float
+    ) -> Problem:
         """The problem with ``k`` resolved: 0 unless the poses carry orientation."""
         return cls(space, obs, float(k) if measurement.uses_orientation(obs, k) else 0.0)
 
@@ -66,11 +71,11 @@ class Problem:
         """Deltas of the first guess, shape (space.size,)."""
         return np.zeros(self.space.size)
 
-    def subset(self, index: np.ndarray) -> "Problem":
+    def subset(self, index: np.ndarray) -> Problem:
         """The same problem on the poses at ``index`` (int array or mask)."""
         return Problem(self.space, self.obs.subset(index), self.k)
 
-    def with_free(self, names) -> "Problem":
+    def with_free(self, names: Iterable[str]) -> Problem:
         """The same poses and weights with another free set."""
         return Problem(self.space.with_free(names), self.obs, self.k)
 
@@ -78,7 +83,7 @@ class Problem:
         """Residuals at ``x``, shape (3N,) or (6N,): position (mm), then weighted orientation."""
         return measurement.residuals(self.space, x, self.obs, self.k)
 
-    def jacobian(self, x: np.ndarray, names=None) -> np.ndarray:
+    def jacobian(self, x: np.ndarray, names: Sequence[str] | None = None) -> np.ndarray:
         """Jacobian of :meth:`residuals`, shape (rows, len(names or space.free))."""
         return measurement.jacobian(self.space, x, self.obs, self.k, names=names)
 
@@ -87,7 +92,7 @@ class Problem:
         res = self.residuals(x)
         return (res**2).reshape(-1, len(self.obs), 3).sum(axis=(0, 2))
 
-    def errors(self, x: np.ndarray):
+    def errors(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Position (N, 3) mm and orientation (N, 3) rad or None, model minus measured."""
         return measurement.errors(self.space, x, self.obs)
 

@@ -1,8 +1,11 @@
 """Accuracy statistics in the form of the seed's Table 3, and their text table."""
 
+from __future__ import annotations
+
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import measurement
 
@@ -13,7 +16,7 @@ if TYPE_CHECKING:
 _AXES = ("x", "y", "z")
 
 
-def error_stats(space, x, obs):
+def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> dict:
     """Position and orientation error statistics of one parameter set.
 
     Parameters
@@ -41,7 +44,7 @@ def error_stats(space, x, obs):
     return out
 
 
-def before_after(space: "ParameterSpace", x: np.ndarray, obs: "Observations") -> dict:
+def before_after(space: ParameterSpace, x: np.ndarray, obs: Observations) -> dict:
     """``{"before": ..., "after": ...}``: :func:`error_stats` at the first guess and at ``x``."""
     return {
         "before": error_stats(space, np.zeros(space.size), obs),
@@ -55,7 +58,7 @@ def _summary(values):
     return {"mean": float(np.mean(values)), "std": std, "max": float(np.max(values))}
 
 
-def format_table(stats):
+def format_table(stats: dict) -> str:
     """Before/after table like the seed's Table 3.
 
     Parameters

@@ -7,6 +7,8 @@ whitened by a robust scale, ``1.4826 * median(|residual|)`` over its rows,
 so the test is not blinded by the outliers it looks for.
 """
 
+from __future__ import annotations
+
 import numpy as np
 
 from calibrator.identify import refine
@@ -20,7 +22,7 @@ _MAD = 1.4826
 _FLOOR_MM = 1e-6  # robust scales never below a micrometre's fraction: noise-free data
 
 
-def robust_scales(res, n_poses):
+def robust_scales(res: np.ndarray, n_poses: int) -> np.ndarray:
     """Robust per-row scale of the position block and of the orientation block.
 
     Returns
@@ -37,7 +39,7 @@ def robust_scales(res, n_poses):
     return scale
 
 
-def outliers(res, n_poses, scale):
+def outliers(res: np.ndarray, n_poses: int, scale: np.ndarray) -> np.ndarray:
     """Poses whose whitened squared error exceeds the chi-square 99.9 % quantile.
 
     Parameters

@@ -11,9 +11,12 @@ held-out pose's predicted position error propagates ``C`` through its
 position rows and adds the point noise.
 """
 
+from __future__ import annotations
+
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import measurement, parameters
 
@@ -27,7 +30,9 @@ STRONG_CORRELATION = 0.9
 _MEAN_OVER_RMS = float(np.sqrt(8.0 / (3.0 * np.pi)))
 
 
-def block_sigmas(res, n_poses, n_free, jac=None):
+def block_sigmas(
+    res: np.ndarray, n_poses: int, n_free: int, jac: np.ndarray | None = None
+) -> tuple[float, float | None]:
     """Residual standard deviation per row of each block.
 
     Parameters
@@ -96,7 +101,7 @@ def _block_sigmas_exact(res, n_poses, jac):
     return float(np.sqrt(var[0])), float(np.sqrt(max(var[1], 0.0)))
 
 
-def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None" = None) -> dict:
+def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = None) -> dict:
     """Uncertainty of the deltas ``x`` fitted on ``problem``'s poses.
 
     Parameters
@@ -156,12 +161,18 @@ def analyse(problem: "Problem", x: np.ndarray, validation: "Observations | None"
     return out
 
 
-def gram(a):
+def gram(a: np.ndarray) -> np.ndarray:
     """``a.T @ a`` for a tall, narrow ``a`` (M, D), without threaded BLAS."""
     return np.einsum("mi,mj->ij", a, a)
 
 
-def predict_error(space, x, obs, cov, sigma_p):
+def predict_error(
+    space: parameters.ParameterSpace,
+    x: ArrayLike,
+    obs: Observations,
+    cov: np.ndarray,
+    sigma_p: float,
+) -> dict:
     """Predicted position error at poses not used in the fit.
 
     Returns
@@ -184,7 +195,7 @@ def predict_error(space, x, obs, cov, sigma_p):
     }
 
 
-def noise_floor_line(unc):
+def noise_floor_line(unc: dict) -> str:
     """``noise floor: ...`` for ``identify``'s output."""
     floor = noise_floor(unc["residual_sigma"]["position_mm"])
     return (
@@ -193,7 +204,7 @@ def noise_floor_line(unc):
     )
 
 
-def noise_floor(sigma_p):
+def noise_floor(sigma_p: float) -> float:
     """Mean held-out distance error that the residual noise alone implies (mm).
 
     ``E|e|`` of an isotropic 3-D Gaussian with ``sigma_p`` per axis: no fit,
@@ -202,7 +213,7 @@ def noise_floor(sigma_p):
     return float(_MEAN_OVER_RMS * np.sqrt(3.0) * sigma_p)
 
 
-def poses_for_target(model_rms_mean, n_fit, target_mm):
+def poses_for_target(model_rms_mean: float, n_fit: int, target_mm: float) -> int:
     """More poses of the same kind that bring the parameter part below ``target_mm``.
 
     The parameters' covariance falls as ``1 / N`` for more poses drawn like the
@@ -224,7 +235,7 @@ RANGE_SLACK_RAD = np.radians(2.0)
 RANGE_SLACK_SHARE = 0.1
 
 
-def range_warnings(fit_q, others, what="held-out"):
+def range_warnings(fit_q: np.ndarray, others: np.ndarray, what: str = "held-out") -> list[str]:
     """A warning when poses lie outside the joint ranges the fit saw.
 
     Parameters
@@ -260,7 +271,7 @@ def range_warnings(fit_q, others, what="held-out"):
     ]
 
 
-def summary_lines(unc, limit=6):
+def summary_lines(unc: dict, limit: int = 6) -> list[str]:
     """A short text summary: worst standard errors and correlated pairs."""
     se = unc["standard_errors"]
     lines = []

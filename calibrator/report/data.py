@@ -1,5 +1,7 @@
 """What the report shows, gathered from a calibration and its session."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -56,7 +58,7 @@ class Content:
     parameters: list = field(default_factory=list)
 
 
-def unit_of(name):
+def unit_of(name: str) -> str:
     """Unit of a parameter delta, ``'mm'`` or ``'rad'`` (also for names not known here)."""
     try:
         return parameters.unit(name)

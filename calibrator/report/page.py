@@ -1,9 +1,12 @@
 """The report's HTML page: one file, images embedded, no scripts, no outside links."""
 
+from __future__ import annotations
+
 import base64
 import html as _html
+from collections.abc import Mapping
 
-from calibrator.report.data import unit_of
+from calibrator.report.data import Content, unit_of
 
 _SECTIONS = (
     ("pose_errors", "Error per pose", "pose_errors.png"),
@@ -23,7 +26,7 @@ img { max-width: 100%; }
 """
 
 
-def html(content, images):
+def html(content: Content, images: Mapping[str, bytes]) -> str:
     """The page as text.
 
     Parameters

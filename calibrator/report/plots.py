@@ -1,16 +1,18 @@
 """The report's plots as PNG bytes (matplotlib's Agg canvas; no pyplot, no global state)."""
 
+from __future__ import annotations
+
 import io
 
 import numpy as np
 
 from calibrator import parameters
-from calibrator.report.data import unit_of
+from calibrator.report.data import Content, unit_of
 
 _FIT, _HELD = "#1f77b4", "#d62728"
 
 
-def draw(content):
+def draw(content: Content) -> dict[str, bytes]:
     """Every plot the content allows.
 
     Returns

@@ -13,6 +13,8 @@ from __future__ import annotations
 import html as _html
 import io
 import json
+import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,7 +54,7 @@ class VerifyRun:
         return f"{state}: {self.path.name}"
 
 
-def data_paths(paths) -> list[Path]:
+def data_paths(paths: Iterable[str | os.PathLike[str]] | None) -> list[Path]:
     """The parquet files the JSON files name (inputs the report must not overwrite)."""
     out = []
     for path in paths or ():
@@ -60,7 +62,7 @@ def data_paths(paths) -> list[Path]:
     return out
 
 
-def load(paths) -> list[VerifyRun]:
+def load(paths: Iterable[str | os.PathLike[str]] | None) -> list[VerifyRun]:
     """Read verify.json files (and their parquet files when present).
 
     Raises
