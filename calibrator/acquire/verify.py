@@ -160,7 +160,8 @@ def admissible(
     from calibrator import cell as cells
 
     tool_mm = np.asarray(flange2tool, float)[:3, 3]
-    where = (cell if cell is not None else cells.Cell()).with_tracker(tracker_at_mm)
+    at = None if tracker_at_mm is None else tuple(np.asarray(tracker_at_mm, float).reshape(3))
+    where = (cell if cell is not None else cells.Cell()).with_tracker(at)
     chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), where)
     return iso9283.Admissible(
         poses=lambda q: np.asarray(~cells.pose_faults(chk, q).any(axis=1)),

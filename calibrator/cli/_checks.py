@@ -42,8 +42,8 @@ import os
 import re
 from collections.abc import Callable
 
-import click
 import typer
+from typer._click import exceptions as _click_errors
 
 from calibrator import strict
 
@@ -364,7 +364,7 @@ _PHRASES = (
 )
 
 
-def one_line(exc: click.UsageError) -> str:
+def one_line(exc: _click_errors.UsageError) -> str:
     """One line for a click/typer usage error, naming the option at fault.
 
     Parameters

@@ -10,7 +10,8 @@ from calibrator.cli._app import app
 from calibrator.export import REGISTRY
 
 #: The ``--format`` choices, generated from the exporter registry.
-ExportFormat = StrEnum("ExportFormat", {name: name for name in REGISTRY})
+# mypy cannot type a functional Enum whose members come from a registry at run time.
+ExportFormat = StrEnum("ExportFormat", {name: name for name in REGISTRY})  # type: ignore[misc]
 _FORMAT_HELP = "Output format [default: from the output's extension, else json]. " + "; ".join(
     f"{f.name}: {f.help}" for f in REGISTRY.values()
 )

@@ -173,6 +173,7 @@ def identify(session: Any, options: Options = Options()) -> Result:
         noise_mm=options.noise_mm,
     )
     problem = Problem.of(free.space, fit, k)
+    assert free.information is not None  # decide() always measures the kept set
     cond = identifiability.condition_number(free.information)
     warnings = identifiability.session_warnings(problem.rows, len(free.names), cond, duplicates)
 
