@@ -105,3 +105,26 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
     assert summary.failed == [SKIPPED]
     assert summary.measured == [p for p in range(len(plan)) if p != SKIPPED]
     assert summary.notes[0] == f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]"
+
+
+class _Untouched:
+    """A tracker that must not be read."""
+
+    capabilities: frozenset[str] = frozenset()
+    device_id = "untouched:1"
+
+    def measure(self, timeout_s=None):
+        raise AssertionError("a via move read the tracker")
+
+
+def test_a_via_move_is_a_no_op_and_leaves_the_poses_in_order():
+    arm = get_model("ur10e")
+    plan = np.random.default_rng(1).uniform(-1.0, 1.0, (6, 6))  # the robot checks speed only
+    external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
+    robot = open_robot("external", RobotOptions(arm, tracker=_Untouched(), external=external))
+    robot.check_plan(plan, arm.move_speed_cap_rad_s, arm.move_accel_cap_rad_s2)
+    via = np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0])
+    start = time.monotonic()
+    np.testing.assert_array_equal(robot.move_joints(via), via)
+    assert time.monotonic() - start < 0.1  # no wait for a stop
+    assert robot.missing == [] and robot._asked == -1  # no pose asked for, none missed
