@@ -16,10 +16,6 @@ from external_cell import start_player, tracker_simulator
 from calibrator import plan as plans
 
 FAST = ("--speed", "3", "--accel", "6")  # a simulated controller: quicker than the cap
-#: The controller's wait before its first move, s: `measure` must be watching the tracker
-#: before the first arrival, and its start (imports, plan and cell checks) takes seconds
-#: on a loaded machine.
-START_DELAY_S = "4"
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +54,7 @@ def test_a_40_pose_program_with_a_skip_and_a_pause_reaches_the_noise_floor(tmp_p
             "--vibration",
             "0.3",
             "--start-delay",
-            START_DELAY_S,
+            "1",
             cwd=tmp_path,
         )
         done = run_cli(
@@ -150,7 +146,7 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):
             "--skip",
             "9,10,11,12,13",
             "--start-delay",
-            START_DELAY_S,
+            "1",
             cwd=tmp_path,
         )
         part = run_cli(*common, "--tracker", url, cwd=tmp_path, timeout=300)
@@ -170,7 +166,7 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):
             "--skip",
             "0,1,2,3,4,5,6,7,8",
             "--start-delay",
-            START_DELAY_S,
+            "1",
             cwd=tmp_path,
         )
         rest = run_cli(*common, "--tracker", url, "--resume", cwd=tmp_path, timeout=300)
