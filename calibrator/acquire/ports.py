@@ -108,6 +108,8 @@ REPORTS_TRUE_POSE = "reports_true_pose"
 #: ``--robot external``): ``readings_port()`` returns the tracker port the loop must
 #: read instead of the raw tracker (the readings taken at the stop that is the pose),
 #: and ``summary()`` returns lines for the end of the run (poses missing, stops rejected).
+#: Its ``check_plan`` gets the measured poses only, and ``move_joints`` to a via returns
+#: at once (the controller passes through vias without a stop).
 WATCHES_TRACKER = "watches_tracker"
 
 

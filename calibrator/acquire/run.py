@@ -296,6 +296,10 @@ class MeasureRun:
         cells.check_plan(plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm)
         if ports.CHECKS_PLAN in self.robot.capabilities:
             motion = np.concatenate([q_plan, *vias]) if vias else q_plan
+            if ports.WATCHES_TRACKER in self.robot.capabilities:
+                # It finds the measured poses among the stops: vias (passed
+                # through by its own program, checked above) are none of them.
+                motion = q_plan
             try:
                 self.robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)  # type: ignore[attr-defined]
             except ValueError as exc:

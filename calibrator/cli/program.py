@@ -53,7 +53,10 @@ def program(
         help="Safe start and end pose J1,...,J6 in degrees [default: the plan's first pose].",
     ),
 ):
-    """Write the plan as a robot program: home, a joint move and a dwell per pose, home."""
+    """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
+
+    Via rows of the plan become joint moves without dwell or pulse before their pose.
+    """
     import numpy as np
 
     from calibrator import outputs
@@ -64,7 +67,10 @@ def program(
     chosen = programs.choose(None if fmt is None else fmt.value, output)
     outputs.check(output, inputs=[plan_path])
     arm = get_model(model)
-    q = plans.validate(plans.read_csv(plan_path), arm.joint_limits_rad)
+    given = plans.read_plan(plan_path)
+    q = plans.validate(given.q_rad, arm.joint_limits_rad)
+    # Vias too: the controller moves through them on the path the plan checked.
+    plans.validate(given.path_rad, arm.joint_limits_rad)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
@@ -86,10 +92,13 @@ def program(
         pulse_output=pulse,
         name=name,
         model=arm.name,
+        via_rad=given.via_rad,
     )
     outputs.write_text(output, programs.render(spec, chosen), inputs=[plan_path])
     typer.echo(
-        f"wrote {output} ({chosen}): {len(q)} poses, {speed:g} rad/s, {dwell:g} s dwell; "
+        f"wrote {output} ({chosen}): {len(q)} poses"
+        + (f" and {given.n_vias} vias" if given.n_vias else "")
+        + f", {speed:g} rad/s, {dwell:g} s dwell; "
         f"measure with --robot external --plan {plan_path}"
     )
 

@@ -4,10 +4,13 @@ A ``/PROG`` with ``/ATTR``, ``/MN`` and ``/POS`` sections. Positions are
 joint representations (``J1= ... deg``) in ``/POS``; each line of ``/MN``
 is numbered. ``J P[i] n% FINE`` moves at a percentage of each axis's top
 speed (the smallest over the axes, so no joint exceeds the cap), ``WAIT
-t(sec)`` dwells and ``DO[n]=PULSE,t sec`` pulses an output.
+t(sec)`` dwells and ``DO[n]=PULSE,t sec`` pulses an output. A via (moved through, not measured) is a
+``J P[i:VIA]`` with no wait; its position is commented ``via before pose i`` in ``/POS``.
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 from calibrator.program import ProgramSpec, degrees, writer
 from calibrator.program.spec import DEG_DECIMALS, PULSE_S
@@ -30,9 +33,17 @@ def _position(index: int, q_rad, comment: str) -> list[str]:
 def write(spec: ProgramSpec) -> str:
     name = spec.name.upper()[:36]
     pct = max(1, int(spec.speed_percent().min()))
-    home = len(spec.plan_rad) + 1  # P[1..N] are the poses
+    # P[1..N] are the poses, P[N+1] home, P[N+2..] the vias in path order.
+    home = len(spec.plan_rad) + 1
+    vias: list[tuple[int, int, np.ndarray]] = []  # (P index, pose it leads to, joints)
     body = [f"J P[{home}:HOME] {pct}% FINE"]
-    for pose in range(len(spec.plan_rad)):
+    for kind, pose, _, q in spec.moves()[1:-1]:
+        assert pose is not None
+        if kind == "via":
+            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
+            vias.append((home + 1 + len(vias), pose, q))
+            body.append(f"J P[{vias[-1][0]}:VIA] {pct}% FINE")
+            continue
         body.append(f"J P[{pose + 1}] {pct}% FINE")
         wait = spec.dwell_s
         if spec.pulse_output is not None:
@@ -54,5 +65,7 @@ def write(spec: ProgramSpec) -> str:
     for pose, q in enumerate(spec.plan_rad):
         lines += _position(pose + 1, q, f"pose {pose}")
     lines += _position(home, spec.home_rad, "HOME")
+    for index, pose, q in vias:
+        lines += _position(index, q, f"via before pose {pose}")
     lines += ["/END", ""]
     return "\n".join(lines)

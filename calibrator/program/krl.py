@@ -5,12 +5,11 @@ is one ``DEF``. Axis speed is ``$VEL_AXIS[i]``, a percentage of each axis's
 top speed (computed from the model's rated joint speeds so the leading joint
 never exceeds the cap), acceleration ``$ACC_AXIS[i]`` in percent. Motions are
 exact stops (no ``C_PTP``); ``WAIT SEC`` dwells and ``PULSE($OUT[n], TRUE, t)``
-pulses an output.
+pulses an output. A via (moved through, not measured) is a ``PTP`` after a
+``; via before pose i`` comment, with no wait.
 """
 
 from __future__ import annotations
-
-import numpy as np
 
 from calibrator.program import ProgramSpec, degrees, writer
 from calibrator.program.spec import DEG_DECIMALS, PULSE_S
@@ -41,7 +40,12 @@ def write(spec: ProgramSpec) -> str:
     for axis in range(1, 7):
         lines.append(f"$ACC_AXIS[{axis}] = {ACC_PERCENT}")
     lines.append("PTP HOME_POS")
-    for pose, q in enumerate(np.asarray(spec.plan_rad, float)):
+    for kind, pose, _, q in spec.moves()[1:-1]:
+        if kind == "via":
+            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
+            lines.append(f"; via before pose {pose}")
+            lines.append(f"PTP {_axis(q)}")
+            continue
         lines.append(f"; pose {pose}")
         lines.append(f"PTP {_axis(q)}")
         wait = spec.dwell_s

@@ -7,7 +7,8 @@ trapezoidal profile at the speed and acceleration caps needs, so the leading
 joint never exceeds the cap; ``fine`` makes each an exact stop, ``WaitTime
 \\InPos`` dwells once the arm is in position, and ``PulseDO`` pulses a signal
 (``do_calibrator`` by default: create it in the I/O configuration, or edit
-the name).
+the name). A via (moved through, not measured) is a ``MoveAbsJ`` after a
+``! via before pose i`` comment, with no wait.
 """
 
 from __future__ import annotations
@@ -53,6 +54,11 @@ def write(spec: ProgramSpec) -> str:
             continue
         if kind == "home":
             lines.append(f"    MoveAbsJ jHome, v100 \\T:={t}, fine, tool0;")
+            continue
+        if kind == "via":
+            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
+            lines.append(f"    ! via before pose {pose}")
+            lines.append(f"    MoveAbsJ {_target(end)}, v100 \\T:={t}, fine, tool0;")
             continue
         lines.append(f"    ! pose {pose}")
         lines.append(f"    MoveAbsJ {_target(end)}, v100 \\T:={t}, fine, tool0;")

@@ -38,6 +38,10 @@ class ProgramSpec:
         Program (procedure) name.
     model : str
         The arm model, written in the header.
+    via_rad : tuple of N ndarrays, shape (k_i, 6)
+        Joint vectors moved through before pose i, rad (:attr:`calibrator.plan.Plan.via_rad`):
+        joint moves without dwell or pulse, so the controller follows the path the plan
+        checked in the cell. Default: none.
     """
 
     plan_rad: np.ndarray
@@ -49,11 +53,16 @@ class ProgramSpec:
     pulse_output: int | None = None
     name: str = "calibrator_measure"
     model: str = ""
+    via_rad: tuple = ()
 
     def __post_init__(self) -> None:
         plan = np.asarray(self.plan_rad, dtype=float)
         if plan.ndim != 2 or plan.shape[1] != 6 or not len(plan):
             raise CalibrationError(f"a program needs a plan of shape (N, 6), got {plan.shape}")
+        via = tuple(np.asarray(v, dtype=float).reshape(-1, 6) for v in self.via_rad)
+        if via and len(via) != len(plan):
+            raise CalibrationError(f"{len(via)} via lists for {len(plan)} poses")
+        object.__setattr__(self, "via_rad", via or tuple(np.zeros((0, 6)) for _ in plan))
         if np.asarray(self.home_rad).shape != (6,):
             raise CalibrationError("the home pose needs 6 joint angles")
         if not (self.speed_rad_s > 0 and self.accel_rad_s2 > 0):
@@ -64,11 +73,18 @@ class ProgramSpec:
             raise CalibrationError(f"program name {self.name!r} is not an identifier")
 
     def moves(self) -> list[tuple[str, int | None, np.ndarray, np.ndarray]]:
-        """Every joint move in order: ``(kind, pose, start_rad, end_rad)``, kind home or pose."""
+        """Every joint move in order: ``(kind, pose, start_rad, end_rad)``.
+
+        ``kind`` is ``home``, ``via`` (moved through before ``pose``: no dwell,
+        no pulse) or ``pose`` (a measured pose: dwell, and pulse if asked).
+        """
         out: list[tuple[str, int | None, np.ndarray, np.ndarray]] = []
         here = np.asarray(self.home_rad, dtype=float)
         out.append(("home", None, here, here))
         for pose, q in enumerate(np.asarray(self.plan_rad, dtype=float)):
+            for via in self.via_rad[pose]:
+                out.append(("via", pose, here, via))
+                here = via
             out.append(("pose", pose, here, q))
             here = q
         out.append(("home", None, here, np.asarray(self.home_rad, dtype=float)))

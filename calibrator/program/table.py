@@ -2,7 +2,8 @@
 
 Columns ``step,kind,pose,q1_deg..q6_deg,q1_rad..q6_rad,speed_rad_s,dwell_s``:
 a ``home`` row, one ``pose`` row per plan pose in order (``pose`` is its
-plan row), and a ``home`` row at the end.
+plan row), each after its ``via`` rows (moved through, dwell 0; ``pose`` is the
+pose they lead to), and a ``home`` row at the end.
 """
 
 from __future__ import annotations

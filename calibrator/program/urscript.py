@@ -4,7 +4,8 @@ Load as a script file (``.script``) in a Script node or send it to the
 controller's secondary interface; the program is one ``def``, indented by two
 spaces, ``movej(q, a, v)`` with joint vectors in radians and the leading-joint
 speed and acceleration in rad/s and rad/s^2, ``sleep(t)`` for the dwell and
-``set_standard_digital_out(n, b)`` for the pulse.
+``set_standard_digital_out(n, b)`` for the pulse. A via (moved through, not
+measured) is a ``movej`` after a ``# via before pose i`` comment, with no sleep.
 """
 
 from __future__ import annotations
@@ -30,7 +31,12 @@ def write(spec: ProgramSpec) -> str:
         f"  home = {_joints(spec.home_rad)}",
         f"  movej(home, {move})",
     ]
-    for pose, q in enumerate(spec.plan_rad):
+    for kind, pose, _, q in spec.moves()[1:-1]:
+        if kind == "via":
+            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
+            lines.append(f"  # via before pose {pose}")
+            lines.append(f"  movej({_joints(q)}, {move})")
+            continue
         lines.append(f"  # pose {pose}")
         lines.append(f"  movej({_joints(q)}, {move})")
         wait = spec.dwell_s

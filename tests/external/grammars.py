@@ -37,6 +37,7 @@ class Parsed:
     pulses: int = 0
     speeds: dict = field(default_factory=dict)
     move_times: list = field(default_factory=list)  # RAPID \T per move, None if untimed
+    order: str = ""  # "m" per motion statement, "w" per wait, in program order
 
     def targets(self) -> list:
         """Every motion target as joints (rad), named ones resolved."""
@@ -89,14 +90,17 @@ def parse_urscript(text: str) -> Parsed:
             target = m.group(1)
             if target.startswith("["):
                 out.moves.append(("literal", _nums(target, 6)))
+                out.order += "m"
             else:
                 if target not in out.named:
                     raise GrammarError(f"URScript line {n}: {target} used before assignment")
                 out.moves.append(("named", target))
+                out.order += "m"
             out.speeds.setdefault("v", set()).add(float(m.group(3)))
             out.speeds.setdefault("a", set()).add(float(m.group(2)))
         elif m := re.fullmatch(rf"sleep\(({NUM})\)", s):
             out.waits.append(float(m.group(1)))
+            out.order += "w"
         elif re.fullmatch(r"set_standard_digital_out\(\d, (True|False)\)", s):
             out.pulses += s.endswith("True)")
         else:
@@ -139,12 +143,15 @@ def parse_krl(text: str) -> Parsed:
                 raise GrammarError(f"KRL line {n}: percent out of range")
         elif m := re.fullmatch(rf"PTP {KRL_AXIS}", line):
             out.moves.append(("literal", [float(v) * deg for v in m.groups()]))
+            out.order += "m"
         elif m := re.fullmatch(rf"PTP ({IDENT})", line):
             if m.group(1) not in out.named:
                 raise GrammarError(f"KRL line {n}: {m.group(1)} has no value")
             out.moves.append(("named", m.group(1)))
+            out.order += "m"
         elif m := re.fullmatch(rf"WAIT SEC ({NUM})", line):
             out.waits.append(float(m.group(1)))
+            out.order += "w"
         elif re.fullmatch(rf"PULSE\(\$OUT\[\d+\], TRUE, ({NUM})\)", line):
             out.pulses += 1
         else:
@@ -184,13 +191,16 @@ def parse_rapid(text: str) -> Parsed:
             target = m.group(1)
             if target.startswith("["):
                 out.moves.append(("literal", _nums(m.group(2), 6, deg)))
+                out.order += "m"
             else:
                 if target not in out.named:
                     raise GrammarError(f"RAPID line {n}: {target} not declared")
                 out.moves.append(("named", target))
+                out.order += "m"
             out.move_times.append(None if m.group(3) is None else float(m.group(3)))
         elif m := re.fullmatch(rf"WaitTime \\InPos, ({NUM});", line):
             out.waits.append(float(m.group(1)))
+            out.order += "w"
         elif re.fullmatch(rf"PulseDO \\PLength:=({NUM}), {IDENT};", line):
             out.pulses += 1
         else:
@@ -239,9 +249,11 @@ def parse_fanuc(text: str) -> Parsed:
             if index not in points:
                 raise GrammarError(f"Fanuc LS: P[{index}] not in /POS")
             out.moves.append(("literal", points[index]))
+            out.order += "m"
             out.speeds.setdefault("percent", set()).add(int(mm.group(2)))
         elif mm := re.fullmatch(rf"WAIT ({NUM})\(sec\)", stmt):
             out.waits.append(float(mm.group(1)))
+            out.order += "w"
         elif re.fullmatch(rf"DO\[\d+\]=PULSE,{NUM}sec", stmt):
             out.pulses += 1
         else:

@@ -49,3 +49,21 @@ def test_the_script_skips_pauses_and_returns_home():
 def test_poses_not_in_the_plan_are_refused():
     with pytest.raises(ValueError, match="not in the plan"):
         Player(np.zeros((3, 6)), np.zeros((6, 5)), np.eye(4), np.eye(4), PlayerOptions(skip=(5,)))
+
+
+def test_vias_are_passed_through_without_a_dwell():
+    plan = np.linspace(0.1, 1.0, 4)[:, None] * np.ones((1, 6))
+    via = [np.zeros((0, 6)) for _ in plan]
+    via[2] = np.array([np.full(6, -0.3), np.full(6, -0.6)])
+    options = PlayerOptions(dwell_s=1.5)
+    script = Player(plan, np.zeros((6, 5)), np.eye(4), np.eye(4), options, via_rad=via).script()
+    ends = [np.round(s.end if isinstance(s, JointMove) else s.q_rad, 6) for s in script]
+    kinds = ["move" if isinstance(s, JointMove) else "hold" for s in script]
+    # the arm goes through both vias, in order, between poses 1 and 2, standing at neither
+    at = [i for i, q in enumerate(ends) if np.allclose(q, -0.3) or np.allclose(q, -0.6)]
+    assert [kinds[i] for i in at] == ["move", "move"]
+    assert at[1] == at[0] + 1
+    np.testing.assert_allclose(ends[at[0] - 1], plan[1])
+    assert kinds[at[1] + 1] == "move" and np.allclose(ends[at[1] + 1], plan[2])
+    holds = [s for s in script if isinstance(s, Hold)]
+    assert len(holds) == len(plan) + 2  # start, a dwell per pose, end

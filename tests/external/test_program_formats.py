@@ -2,6 +2,7 @@
 
 import csv
 import io
+import re
 
 import numpy as np
 import pytest
@@ -175,3 +176,69 @@ def test_measure_external_options_refuse_non_positive_values(tmp_path, plan_csv,
         cli("measure", "--robot", "external", "--plan", plan_csv, option, "0", cwd=tmp_path)
     )
     assert option in line
+
+
+# ---------------------------------------------------------------- vias
+
+
+def _vias(q):
+    """Two vias before pose 1 and one before pose 3 (rad), inside the limits."""
+    via = [np.zeros((0, 6)) for _ in q]
+    via[1] = np.array([q[0] * 0.5, q[1] * 0.5])
+    via[3] = (q[2] * 0.25)[None]
+    return tuple(via)
+
+
+@pytest.mark.parametrize("fmt", ["urscript", "krl", "rapid", "fanuc-ls"])
+def test_vias_are_moves_without_dwell_or_pulse_on_the_checked_path(fmt):
+    q = _plan(6, seed=2)
+    via = _vias(q)
+    spec = _spec(q, via_rad=via)
+    parsed = PARSERS[fmt](programs.render(spec, fmt))
+    path = plans.Plan(q, via).path_rad
+    targets = np.array(parsed.targets())
+    # home, every via and pose in path order, home; joints within 1e-6 rad
+    assert len(targets) == len(path) + 2
+    np.testing.assert_allclose(targets[1:-1], path, rtol=0, atol=1e-6)
+    # a dwell after each measured pose only: a via's move is followed by the next move
+    measured = "mw"
+    via_move = "m"
+    expected = "m" + "".join(via_move * len(v) + measured for v in via) + "m"
+    # (URScript sleeps through its pulse too: consecutive waits are one dwell)
+    assert re.sub("w+", "w", parsed.order) == expected
+    assert parsed.pulses == len(q)
+    assert sum(parsed.waits) == pytest.approx(len(q) * spec.dwell_s, abs=1e-6)
+
+
+def test_csv_table_names_the_vias(tmp_path):
+    q = _plan(5)
+    text = programs.render(_spec(q, via_rad=_vias(q)), "csv")
+    rows = list(csv.DictReader(io.StringIO(text)))
+    kinds = [(r["kind"], r["pose"], float(r["dwell_s"])) for r in rows]
+    dwell = 1.75
+    assert kinds == [
+        ("home", "", 0.0),
+        ("pose", "0", dwell),
+        ("via", "1", 0.0),
+        ("via", "1", 0.0),
+        ("pose", "1", dwell),
+        ("pose", "2", dwell),
+        ("via", "3", 0.0),
+        ("pose", "3", dwell),
+        ("pose", "4", dwell),
+        ("home", "", 0.0),
+    ]
+
+
+@pytest.mark.parametrize("fmt", ["urscript", "fanuc-ls"])
+def test_cli_writes_a_plan_with_vias(tmp_path, fmt):
+    q = _plan(10)
+    plan = plans.Plan(q, _vias(q))
+    plans.write_plan(tmp_path / "plan.csv", plan)
+    name = {"urscript": "run.script", "fanuc-ls": "run.ls"}[fmt]
+    done = cli("program", "plan.csv", "-o", name, cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert "10 poses and 3 vias" in done.stdout
+    parsed = PARSERS[fmt]((tmp_path / name).read_text())
+    np.testing.assert_allclose(parsed.targets()[1:-1], plan.path_rad, rtol=0, atol=1e-6)
+    assert len(parsed.waits) == 10

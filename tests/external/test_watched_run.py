@@ -13,11 +13,12 @@ import time
 
 import numpy as np
 
+from calibrator import cell as cells
 from calibrator import frames, kinematics
+from calibrator import plan as plans
 from calibrator.acquire import ports
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.models import get_model
-from calibrator.simulate import sample_joints
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.external.setup import ExternalOptions
 from drivers.robot.external.stops import StopOptions
@@ -79,15 +80,21 @@ class _ArmOnItsOwnClock:
 
 def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
     arm = get_model("ur10e")
-    plan = sample_joints(arm.joint_limits_rad * 0.7, 14, np.random.default_rng(3))
-    tool = frames.transform(translation=[0.0, 0.0, 100.0])
+    # A plan the run's cell check passes (every pose and move clear of the cell),
+    # as `calibrator plan` makes them.
+    tool_mm = (0.0, 0.0, 100.0)
+    made = plans.make_checked(arm, 14, cells.Cell(), tool_mm, seed=3).plan
+    plan = made.q_rad
+    tool = frames.transform(translation=tool_mm)
     points = kinematics.forward(arm.mdh, plan, tool)[:, :3, 3]
     tracker = _ArmOnItsOwnClock(np.delete(points, SKIPPED, axis=0))
     external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
     robot = open_robot("external", RobotOptions(arm, tracker=tracker, external=external))
     assert {ports.WATCHES_TRACKER, ports.CHECKS_PLAN} <= robot.capabilities
     # Pauses of 0.5, 1 and 2 s between re-reads: longer than a dwell.
-    options = RunOptions(plan_rad=plan, readings=5, retry_pause_s=0.5)
+    options = RunOptions(
+        plan_rad=plan, via_rad=made.via_rad, tool_mm=tool_mm, readings=5, retry_pause_s=0.5
+    )
     with MeasureRun(robot, tracker, arm, options, tmp_path / "s.parquet") as run:
         run.check_files()
         run.connect()
@@ -98,3 +105,26 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
     assert summary.failed == [SKIPPED]
     assert summary.measured == [p for p in range(len(plan)) if p != SKIPPED]
     assert summary.notes[0] == f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]"
+
+
+class _Untouched:
+    """A tracker that must not be read."""
+
+    capabilities: frozenset[str] = frozenset()
+    device_id = "untouched:1"
+
+    def measure(self, timeout_s=None):
+        raise AssertionError("a via move read the tracker")
+
+
+def test_a_via_move_is_a_no_op_and_leaves_the_poses_in_order():
+    arm = get_model("ur10e")
+    plan = np.random.default_rng(1).uniform(-1.0, 1.0, (6, 6))  # the robot checks speed only
+    external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
+    robot = open_robot("external", RobotOptions(arm, tracker=_Untouched(), external=external))
+    robot.check_plan(plan, arm.move_speed_cap_rad_s, arm.move_accel_cap_rad_s2)
+    via = np.array([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0])
+    start = time.monotonic()
+    np.testing.assert_array_equal(robot.move_joints(via), via)
+    assert time.monotonic() - start < 0.1  # no wait for a stop
+    assert robot.missing == [] and robot._asked == -1  # no pose asked for, none missed

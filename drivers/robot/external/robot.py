@@ -121,7 +121,11 @@ class ExternalRobot(Robot):
         """Nothing to stop: the controller runs its own program (use its stop button)."""
 
     def check_plan(self, q_rad, speed_rad_s: float, accel_rad_s2: float) -> None:
-        """Take the plan the program runs (shape (N, 6), rad) and check its speed.
+        """Take the plan's measured poses (shape (N, 6), rad, in order) and check its speed.
+
+        Only the measured poses: the stops are associated with these rows, and
+        the vias the program moves through are no stops (the run checks them in
+        the cell and against the limits).
 
         Raises
         ------
@@ -137,11 +141,17 @@ class ExternalRobot(Robot):
     def move_joints(self, q_rad, speed_rad_s: float = 0.0, accel_rad_s2: float = 0.0) -> np.ndarray:
         """Wait until pose ``q_rad`` (a row of the plan, rad) is found or known missing.
 
+        A target that is no row of the plan is a via: the controller moves
+        through it in its own program without stopping, so nothing is waited
+        for and no stop is taken; it is returned as is.
+
         Returns
         -------
         numpy.ndarray, shape (6,)
-            The plan's joints of that pose, rad.
+            The plan's joints of that pose (or the via), rad.
         """
+        if self._is_via(q_rad):
+            return np.asarray(q_rad, dtype=float).copy()
         pose = self._pose_of(q_rad)
         if self._assoc is None:
             flange = kinematics.forward(self.mdh, self._plan)  # (N, 4, 4), base frame
@@ -239,6 +249,10 @@ class ExternalRobot(Robot):
         if self.plan is None:
             raise RuntimeError("check_plan(plan) must hand over the plan before the first move")
         return self.plan
+
+    def _is_via(self, q_rad) -> bool:
+        """True for a target that is no row of the measured plan (a via)."""
+        return not np.all(self._plan == np.asarray(q_rad, dtype=float), axis=1).any()
 
     def _pose_of(self, q_rad) -> int:
         if self.plan is None:

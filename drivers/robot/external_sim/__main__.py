@@ -39,7 +39,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m drivers.robot.external_sim", description=__doc__
     )
-    parser.add_argument("--plan", required=True, help="plan CSV (q1_rad..q6_rad)")
+    parser.add_argument(
+        "--plan", required=True, help="plan CSV (q1_rad..q6_rad; via rows are moved through)"
+    )
     parser.add_argument("--control", required=True, help="tracker simulator control URL")
     parser.add_argument("--model", default="ur10e")
     parser.add_argument("--seed", type=int, default=0, help="seed of the hidden true arm")
@@ -60,10 +62,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
     args = parser.parse_args(argv)
     from calibrator.errors import CalibrationError
-    from calibrator.plan import read_csv
+    from calibrator.plan import read_plan
 
     try:
-        plan = read_csv(args.plan)
+        plan = read_plan(args.plan)
         options = PlayerOptions(
             speed_rad_s=args.speed,
             accel_rad_s2=args.accel,
@@ -74,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             vibration_mm=args.vibration,
             start_delay_s=args.start_delay,
         )
-        player = Player.for_model(plan, args.model, args.seed, options)
+        player = Player.for_model(plan.q_rad, args.model, args.seed, options, plan.via_rad)
     except (CalibrationError, ValueError) as exc:
         print(f"external_sim: error: {exc}", file=sys.stderr)
         return 2

@@ -1,7 +1,8 @@
 """Play a plan as a controller runs the exported program, on a hidden true arm.
 
 The program (see :mod:`calibrator.program`) goes to a safe start pose, makes
-one joint move per plan pose with a dwell at each, and ends at the safe pose.
+one joint move per plan pose with a dwell at each (after the pose's via moves,
+passed through without dwell), and ends at the safe pose.
 :class:`Player` reproduces that in real time and hands the true reflector
 position (tracker frame, mm) to a callback every tick, e.g. a tracker
 simulator's ``SIM,TARGET``.
@@ -83,12 +84,26 @@ class Player:
     options : PlayerOptions
     safe_rad : array_like, shape (6,), optional
         Start and end pose; default the plan's mean joints (inside its limits).
+    via_rad : sequence of N arrays of shape (k_i, 6), optional
+        Joints moved through before pose i (no dwell), rad: the plan's via rows.
     """
 
     def __init__(
-        self, plan_rad, true_mdh, flange2tool, base2tracker, options: PlayerOptions, safe_rad=None
+        self,
+        plan_rad,
+        true_mdh,
+        flange2tool,
+        base2tracker,
+        options: PlayerOptions,
+        safe_rad=None,
+        via_rad=(),
     ):
         self.plan = np.asarray(plan_rad, dtype=float)
+        self.via = [np.asarray(v, dtype=float).reshape(-1, 6) for v in via_rad] or [
+            np.zeros((0, 6)) for _ in self.plan
+        ]
+        if len(self.via) != len(self.plan):
+            raise ValueError(f"{len(self.via)} via lists for {len(self.plan)} poses")
         self.true_mdh = np.asarray(true_mdh, dtype=float)
         self.flange2tool = np.asarray(flange2tool, dtype=float)
         self.base2tracker = np.asarray(base2tracker, dtype=float)
@@ -100,12 +115,21 @@ class Player:
         self.safe = self.plan.mean(axis=0) if safe_rad is None else np.asarray(safe_rad, float)
 
     @classmethod
-    def for_model(cls, plan_rad, model: str, seed: int, options: PlayerOptions) -> Player:
+    def for_model(
+        cls, plan_rad, model: str, seed: int, options: PlayerOptions, via_rad=()
+    ) -> Player:
         """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``."""
         from calibrator.simulate import SimWorld
 
         cell = SimWorld.make(model, seed)
-        return cls(plan_rad, cell.true_mdh, cell.flange2tool, cell.base2tracker, options)
+        return cls(
+            plan_rad,
+            cell.true_mdh,
+            cell.flange2tool,
+            cell.base2tracker,
+            options,
+            via_rad=via_rad,
+        )
 
     def write_truth(self, path) -> None:
         """The hidden truth as JSON: ``true_mdh``, ``flange2tool``, ``base2tracker``."""
@@ -130,6 +154,11 @@ class Player:
         here = self.safe
         targets = [p for p in range(len(self.plan)) if p not in set(o.skip)]
         for pose in targets:
+            # Vias first, passed through (no dwell), as the program's via moves are:
+            # the path the plan checked in the cell. A skipped pose keeps its vias.
+            for via in self.via[pose]:
+                steps.append(JointMove(here, via, o.speed_rad_s, o.accel_rad_s2))
+                here = via
             move = JointMove(here, self.plan[pose], o.speed_rad_s, o.accel_rad_s2)
             if pose in pauses:
                 fraction, seconds = pauses[pose]
