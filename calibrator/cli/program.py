@@ -13,7 +13,8 @@ from calibrator.cli._app import app
 from calibrator.program import REGISTRY
 
 #: The ``--format`` choices, generated from the writer registry.
-ProgramFormat = StrEnum("ProgramFormat", {name: name for name in REGISTRY})
+# mypy cannot type a functional Enum whose members come from a registry at run time.
+ProgramFormat = StrEnum("ProgramFormat", {name: name for name in REGISTRY})  # type: ignore[misc]
 _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; ".join(
     f"{f.name}: {f.help}" for f in REGISTRY.values()
 )
@@ -52,7 +53,7 @@ def program(
         None,
         help="Safe start and end pose J1,...,J6 in degrees [default: the plan's first pose].",
     ),
-):
+) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
     Via rows of the plan become joint moves without dwell or pulse before their pose.

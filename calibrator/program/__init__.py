@@ -13,11 +13,13 @@ and a joint move back home. Speeds never exceed the plan's cap.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
@@ -50,7 +52,7 @@ def writer(name: str, suffixes: tuple, help: str) -> Callable:
     return register
 
 
-def choose(fmt: str | None, output) -> str:
+def choose(fmt: str | None, output: str | os.PathLike) -> str:
     """The format to write: ``fmt`` if given (it must fit the extension), else by extension.
 
     Raises
@@ -86,7 +88,7 @@ def render(spec: ProgramSpec, fmt: str) -> str:
     return REGISTRY[fmt].write(spec)
 
 
-def degrees(q_rad) -> np.ndarray:
+def degrees(q_rad: ArrayLike) -> np.ndarray:
     """Joint angles in degrees (the unit of KRL, RAPID and Fanuc LS)."""
     return np.degrees(np.asarray(q_rad, dtype=float))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
 
@@ -109,7 +110,9 @@ def trapezoid_duration_s(distance_rad: float, speed_rad_s: float, accel_rad_s2: 
     return 2.0 * float(np.sqrt(distance / accel_rad_s2))
 
 
-def move_duration_s(start_rad, end_rad, speed_rad_s: float, accel_rad_s2: float) -> float:
+def move_duration_s(
+    start_rad: ArrayLike, end_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float
+) -> float:
     """Duration of a synchronous joint move whose leading joint keeps to the caps, s.
 
     ``start_rad`` and ``end_rad`` have shape (6,); a time-programmed move this

@@ -67,8 +67,10 @@ def test_a_40_pose_program_with_a_skip_and_a_pause_reaches_the_noise_floor(tmp_p
             url,
             "-o",
             "s.parquet",
+            # Longer than the longest move: a move to a pose may pass through
+            # the plan's vias (the arm upright) without stopping.
             "--stop-timeout",
-            "5",
+            "15",
             cwd=tmp_path,
             timeout=600,
         )
@@ -84,7 +86,7 @@ def test_a_40_pose_program_with_a_skip_and_a_pause_reaches_the_noise_floor(tmp_p
     table = pq.read_table(tmp_path / "s.parquet").to_pydict()
     assert table["pose"] == [p for p in range(40) if p != 7]  # no pose number shifted
     q = np.column_stack([table[f"q{i}_rad"] for i in range(1, 7)])
-    np.testing.assert_array_equal(q, np.delete(plans.read_csv(plan40), 7, axis=0))
+    np.testing.assert_array_equal(q, np.delete(plans.read_plan(plan40).q_rad, 7, axis=0))
     # each recorded point is where the true arm put the reflector at that pose
     truth_done = run_truth(plan40, tmp_path)
     points = np.column_stack([table[c] for c in ("x_mm", "y_mm", "z_mm")])
@@ -103,8 +105,9 @@ def run_truth(plan_path, cwd):
     """True reflector points (tracker frame, mm) of the player's hidden arm for the plan."""
     from drivers.robot.external_sim.player import Player, PlayerOptions
 
-    player = Player.for_model(plans.read_csv(plan_path), "ur10e", 3, PlayerOptions())
-    return player.tool_points(plans.read_csv(plan_path))
+    q = plans.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
+    player = Player.for_model(q, "ur10e", 3, PlayerOptions())
+    return player.tool_points(q)
 
 
 def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import frames
 from drivers.robot.external.stops import Stop
@@ -84,7 +85,9 @@ class Associator:
         Lowest plan row a stop may be (a resumed run starts past its done poses).
     """
 
-    def __init__(self, flange_poses, tool_mm, tolerance_mm: float, first_pose: int = 0):
+    def __init__(
+        self, flange_poses: ArrayLike, tool_mm: ArrayLike, tolerance_mm: float, first_pose: int = 0
+    ) -> None:
         self.flange = np.asarray(flange_poses, dtype=float)
         self.tool_mm = np.asarray(tool_mm, dtype=float).reshape(3).copy()
         self.tolerance_mm = float(tolerance_mm)

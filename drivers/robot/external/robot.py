@@ -25,8 +25,10 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from calibrator.acquire.ports import CHECKS_PLAN, WATCHES_TRACKER, ReadingLost
@@ -73,9 +75,9 @@ class ExternalRobot(Robot):
 
     def __init__(
         self,
-        tracker,
-        mdh,
-        flange2tool,
+        tracker: Any,
+        mdh: ArrayLike,
+        flange2tool: ArrayLike,
         readings: int,
         options: StopOptions | None = None,
         *,
@@ -83,7 +85,7 @@ class ExternalRobot(Robot):
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         on_event: Callable[[str], None] | None = None,
-    ):
+    ) -> None:
         self.tracker = tracker
         self.mdh = np.asarray(mdh, dtype=float)
         self.flange2tool = flange2tool
@@ -120,7 +122,7 @@ class ExternalRobot(Robot):
     def stop(self) -> None:
         """Nothing to stop: the controller runs its own program (use its stop button)."""
 
-    def check_plan(self, q_rad, speed_rad_s: float, accel_rad_s2: float) -> None:
+    def check_plan(self, q_rad: ArrayLike, speed_rad_s: float, accel_rad_s2: float) -> None:
         """Take the plan's measured poses (shape (N, 6), rad, in order) and check its speed.
 
         Only the measured poses: the stops are associated with these rows, and
@@ -138,7 +140,9 @@ class ExternalRobot(Robot):
             )
         self.plan = np.asarray(q_rad, dtype=float)
 
-    def move_joints(self, q_rad, speed_rad_s: float = 0.0, accel_rad_s2: float = 0.0) -> np.ndarray:
+    def move_joints(
+        self, q_rad: ArrayLike, speed_rad_s: float = 0.0, accel_rad_s2: float = 0.0
+    ) -> np.ndarray:
         """Wait until pose ``q_rad`` (a row of the plan, rad) is found or known missing.
 
         A target that is no row of the plan is a via: the controller moves
@@ -199,7 +203,7 @@ class ExternalRobot(Robot):
     def clear_protective_stop(self) -> None:
         """Nothing to clear from here: stops are cleared on the controller's pendant."""
 
-    def readings_port(self, tracker=None) -> _StopReadings:
+    def readings_port(self, tracker: Any = None) -> _StopReadings:
         """The tracker port the measure loop reads: the current stop's readings.
 
         ``tracker`` (the raw tracker, optional) becomes the one this robot watches.
@@ -208,7 +212,7 @@ class ExternalRobot(Robot):
             self.tracker = tracker
         return _StopReadings(self, self.tracker)
 
-    def next_reading(self):
+    def next_reading(self) -> Any:
         if self._missing_now is not None:
             raise PoseMissing(self._missing_now)
         if self._current is None:

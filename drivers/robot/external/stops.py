@@ -21,6 +21,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: The target must leave the stop by this many bands before a new stop counts
 #: (noise is a small fraction of the band, so noise alone never re-arms).
@@ -106,7 +107,7 @@ class StopDetector:
         self._window.clear()
         self._last_stop = None
 
-    def add(self, time_s: float, point_mm) -> np.ndarray | None:
+    def add(self, time_s: float, point_mm: ArrayLike) -> np.ndarray | None:
         """Add one reading; return the window's mean (shape (3,), mm) when a stop is taken."""
         point = np.asarray(point_mm, dtype=float).reshape(3)
         if self._last_stop is not None:
@@ -132,7 +133,7 @@ class StopDetector:
         self._last_stop = mean
         return mean
 
-    def left(self, points_mm, centre_mm) -> bool:
+    def left(self, points_mm: ArrayLike, centre_mm: ArrayLike) -> bool:
         """True when readings (shape (M, 3), mm) show the arm left ``centre_mm`` (shape (3,)).
 
         The same two tests as a stop: the readings' mean moved by more than

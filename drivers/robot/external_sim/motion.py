@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator.program.spec import trapezoid_duration_s
 
@@ -18,9 +19,17 @@ def trapezoid_duration(distance: float, speed: float, accel: float) -> float:
     return trapezoid_duration_s(distance, speed, accel)
 
 
-def trapezoid_fraction(t, duration: float, speed: float, accel: float, distance: float):
+def trapezoid_fraction(
+    t: ArrayLike, duration: float, speed: float, accel: float, distance: float
+) -> np.ndarray:
     """Fraction (0..1) of the move done at time ``t`` (s, array_like) of a trapezoidal profile."""
-    t = np.clip(np.asarray(t, dtype=float), 0.0, duration)
+    times = np.clip(np.asarray(t, dtype=float), 0.0, duration)
+    return _fraction(times, duration, speed, accel, distance)
+
+
+def _fraction(
+    t: np.ndarray, duration: float, speed: float, accel: float, distance: float
+) -> np.ndarray:
     if distance == 0.0 or duration == 0.0:
         return np.ones_like(t)
     peak = min(speed, np.sqrt(accel * distance))  # cruise speed actually reached
@@ -62,13 +71,19 @@ class JointMove:
     def duration(self) -> float:
         return trapezoid_duration(self.lead, self.speed, self.accel)
 
-    def at(self, t) -> np.ndarray:
+    def at(self, t: ArrayLike) -> np.ndarray:
         """Joints at time(s) ``t`` since the move's start, shape (..., 6), rad."""
         f = trapezoid_fraction(t, self.duration, self.speed, self.accel, self.lead)
         return self.start + np.asarray(f)[..., None] * (self.end - self.start)
 
 
-def ringing(t, amplitude_mm: float, direction, frequency_hz: float = 8.0, decay_s: float = 0.15):
+def ringing(
+    t: ArrayLike,
+    amplitude_mm: float,
+    direction: ArrayLike,
+    frequency_hz: float = 8.0,
+    decay_s: float = 0.15,
+) -> np.ndarray:
     """Damped vibration of the tool after a stop: offset (shape (..., 3), mm) at ``t`` s."""
     t = np.asarray(t, dtype=float)
     envelope = amplitude_mm * np.exp(-t / decay_s) * np.cos(2.0 * np.pi * frequency_hz * t)

@@ -11,11 +11,13 @@ simulator's ``SIM,TARGET``.
 from __future__ import annotations
 
 import json
+import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from drivers.robot.external_sim.motion import JointMove, ringing
@@ -90,14 +92,14 @@ class Player:
 
     def __init__(
         self,
-        plan_rad,
-        true_mdh,
-        flange2tool,
-        base2tracker,
+        plan_rad: ArrayLike,
+        true_mdh: ArrayLike,
+        flange2tool: ArrayLike,
+        base2tracker: ArrayLike,
         options: PlayerOptions,
-        safe_rad=None,
-        via_rad=(),
-    ):
+        safe_rad: ArrayLike | None = None,
+        via_rad: Sequence[ArrayLike] = (),
+    ) -> None:
         self.plan = np.asarray(plan_rad, dtype=float)
         self.via = [np.asarray(v, dtype=float).reshape(-1, 6) for v in via_rad] or [
             np.zeros((0, 6)) for _ in self.plan
@@ -116,7 +118,12 @@ class Player:
 
     @classmethod
     def for_model(
-        cls, plan_rad, model: str, seed: int, options: PlayerOptions, via_rad=()
+        cls,
+        plan_rad: ArrayLike,
+        model: str,
+        seed: int,
+        options: PlayerOptions,
+        via_rad: Sequence[ArrayLike] = (),
     ) -> Player:
         """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``."""
         from calibrator.simulate import SimWorld
@@ -131,7 +138,7 @@ class Player:
             via_rad=via_rad,
         )
 
-    def write_truth(self, path) -> None:
+    def write_truth(self, path: str | os.PathLike) -> None:
         """The hidden truth as JSON: ``true_mdh``, ``flange2tool``, ``base2tracker``."""
         truth = {
             "true_mdh": self.true_mdh.tolist(),
@@ -141,7 +148,7 @@ class Player:
         with open(path, "w", encoding="utf-8") as fh:
             json.dump(truth, fh)
 
-    def tool_points(self, q_rad) -> np.ndarray:
+    def tool_points(self, q_rad: ArrayLike) -> np.ndarray:
         """True reflector positions for joints (M, 6), tracker frame, shape (M, 3), mm."""
         q = np.atleast_2d(np.asarray(q_rad, dtype=float))
         return kinematics.forward(self.true_mdh, q, self.flange2tool, self.base2tracker)[:, :3, 3]
