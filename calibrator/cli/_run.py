@@ -20,6 +20,63 @@ from typing import Any, NoReturn, overload
 
 import typer
 
+from calibrator.cli import _checks as checks
+
+# ---------------------------------------------------------------- options
+# The options every command that moves the arm shares (measure, verify), made
+# here once so their limits and budgets cannot drift apart.
+
+
+def readings_option(per: str = "pose") -> Any:
+    """``--readings``: readings averaged per pose, within the shared budget."""
+    return typer.Option(10, callback=checks.count("readings"), help=f"Readings averaged per {per}.")
+
+
+def settle_option() -> Any:
+    """``--settle``: wait after each move, s, within the shared budget."""
+    return typer.Option(
+        None,
+        callback=checks.seconds("settle"),
+        help="Wait after each move, s [default: 0.5 for ur://, 0 for sim].",
+    )
+
+
+def retries_option() -> Any:
+    """``--retries``: re-measurements of a pose after a lost reading."""
+    return typer.Option(
+        3,
+        callback=checks.count("retries", 0),
+        help="Re-measurements of a pose after a lost reading.",
+    )
+
+
+def speed_option() -> Any:
+    """``--speed``: leading-joint speed, rad/s (never above the model's ceiling)."""
+    return typer.Option(
+        0.5,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint speed, rad/s (at most the model's fixed ceiling, 1.0).",
+    )
+
+
+def accel_option() -> Any:
+    """``--accel``: leading-joint acceleration, rad/s^2 (never above the model's ceiling)."""
+    return typer.Option(
+        1.0,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Leading-joint acceleration, rad/s^2 (at most the model's fixed ceiling, 2.0).",
+    )
+
+
+def max_speed_option() -> Any:
+    """``--max-speed``: lowers the speed cap; it cannot raise the model's ceiling."""
+    return typer.Option(
+        None,
+        callback=checks.finite(0.0, inclusive=False),
+        help="Lower the speed cap the plan is checked against, rad/s "
+        "[default: the model's fixed ceiling; it cannot be raised].",
+    )
+
 
 def fail(message: str) -> NoReturn:
     """One line naming what was wrong, exit code 2."""

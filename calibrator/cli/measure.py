@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._run import StopOnSigint as _StopOnSigint
 from calibrator.cli._run import check_motion_caps as _check_motion_caps
@@ -43,41 +44,18 @@ def measure(
         callback=checks.count("plan_poses"),
         help="Poses of the plan made when --plan is not given.",
     ),
-    readings: int = typer.Option(
-        10, callback=checks.count("readings"), help="Readings averaged per pose."
-    ),
+    readings: int = _run.readings_option("pose"),
     output: Path = typer.Option(
         Path("session.parquet"), "-o", "--output", help="Session file (Parquet) to write."
     ),
     resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
     yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
     model: str = typer.Option("ur10e", help="Named model of the arm."),
-    settle: float = typer.Option(
-        None,
-        callback=checks.seconds("settle"),
-        help="Wait after each move, s [default: 0.5 for ur://, 0 for sim].",
-    ),
-    retries: int = typer.Option(
-        3,
-        callback=checks.count("retries", 0),
-        help="Re-measurements of a pose after a lost reading.",
-    ),
-    speed: float = typer.Option(
-        0.5,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint speed, rad/s (at most the model's fixed ceiling, 1.0).",
-    ),
-    accel: float = typer.Option(
-        1.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint acceleration, rad/s^2 (at most the model's fixed ceiling, 2.0).",
-    ),
-    max_speed: float = typer.Option(
-        None,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Lower the speed cap the plan is checked against, rad/s "
-        "[default: the model's fixed ceiling; it cannot be raised].",
-    ),
+    settle: float = _run.settle_option(),
+    retries: int = _run.retries_option(),
+    speed: float = _run.speed_option(),
+    accel: float = _run.accel_option(),
+    max_speed: float = _run.max_speed_option(),
     tracker_at: str = typer.Option(
         None,
         callback=checks.point_mm("tracker_at"),

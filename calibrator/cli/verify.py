@@ -13,6 +13,7 @@ from typing import Any
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._run import (
     StopOnSigint,
@@ -74,9 +75,7 @@ def verify(
     cube: str = typer.Option(
         None, help="Test cube X,Y,Z,SIDE, mm, base frame [default: the largest that fits]."
     ),
-    readings: int = typer.Option(
-        10, callback=checks.at_least(1), help="Readings averaged per attained pose."
-    ),
+    readings: int = _run.readings_option("attained pose"),
     output: Path = typer.Option(
         Path("verify.json"),
         "-o",
@@ -86,29 +85,11 @@ def verify(
     resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
     yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
     model: str = typer.Option("ur10e", help="Named model of the arm."),
-    settle: float = typer.Option(
-        None,
-        callback=checks.finite(minimum=0.0),
-        help="Wait after each move, s [default: 0.5 for ur://, 0 for sim].",
-    ),
-    retries: int = typer.Option(
-        3, callback=checks.at_least(0), help="Re-measurements of a pose after a lost reading."
-    ),
-    speed: float = typer.Option(
-        0.5,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint speed, rad/s (at most the model's fixed ceiling, 1.0).",
-    ),
-    accel: float = typer.Option(
-        1.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint acceleration, rad/s^2 (at most the model's fixed ceiling, 2.0).",
-    ),
-    max_speed: float = typer.Option(
-        None,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Lower the speed cap the plan is checked against, rad/s.",
-    ),
+    settle: float = _run.settle_option(),
+    retries: int = _run.retries_option(),
+    speed: float = _run.speed_option(),
+    accel: float = _run.accel_option(),
+    max_speed: float = _run.max_speed_option(),
     tracker_at: str = typer.Option(
         None,
         callback=checks.point_mm("tracker_at"),
@@ -119,7 +100,7 @@ def verify(
         callback=checks.point_mm("tool"),
         help="Nominal TCP on the flange X,Y,Z, mm (the controller's tool).",
     ),
-    seed: int = typer.Option(0, callback=checks.at_least(0), help="Seed of the simulated cell."),
+    seed: int = typer.Option(0, callback=checks.seed(), help="Seed of the simulated cell."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_repeatability: bool = typer.Option(

@@ -117,6 +117,22 @@ def test_refuses_bad_options_in_one_line(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["v.json"]
 
 
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("--readings", "1000000000"), "--readings: 1000000000 readings is more than the limit"),
+        (("--settle", "1e9"), "--settle: 1e+09 s is more than the limit of 60 s"),
+        (("--retries", "1000000"), "--retries: 1000000 retries is more than the limit"),
+        (("--seed", "-1"), "--seed: must be a whole number >= 0"),
+        (("--accel", "39"), "--accel 39.0 rad/s^2 outside (0, 2.0]"),
+    ],
+)
+def test_the_run_options_have_measures_budgets(tmp_path, args, message):
+    # The options verify shares with measure are declared once (cli/_run.py).
+    assert message in one_line_error(cli("verify", *args, "-o", "w.json", cwd=tmp_path))
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_given_cube_and_base_frame_are_used(tmp_path):
     done = cli(
         "verify", "-q", "--cycles", "2", "--cube", "700,100,300,200",
