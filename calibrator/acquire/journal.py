@@ -316,6 +316,11 @@ class _RecordCheck:
             problem = _count(record, key, least)
             if problem:
                 return problem
+        # Journals written before outliers were recorded have no count: read as none.
+        outliers = record.get("outliers", 0)
+        if type(outliers) is not int or not 0 <= outliers <= record["rejected"]:
+            got = _short(outliers)
+            return f"pose {pose}: outliers must be a whole number in [0, rejected], got {got}"
         if self.readings is not None and record["n_readings"] > self.readings:
             return f"pose {pose}: {record['n_readings']} readings, the run takes {self.readings}"
         if not isinstance(record.get("timestamp"), str):

@@ -35,6 +35,9 @@ def measured_record(pose: int, q_rad: ArrayLike, avg: AveragedReading, attempts:
         "std_mm": avg.std_mm.tolist(),
         "n_readings": int(avg.count),
         "rejected": int(avg.rejected),
+        # Of those, the readings the robust rule set aside: a pose whose average needed it
+        # is kept, but the record says so (a flagged reading is the tracker's own word).
+        "outliers": int(avg.outliers),
         "attempts": int(attempts),
         "timestamp": datetime.now(UTC).isoformat(timespec="milliseconds"),
     }

@@ -146,6 +146,9 @@ def edited(**changes):
         (line(edited(n_readings=0)), "n_readings must be a whole number >= 1"),
         (line(edited(n_readings=4)), "4 readings, the run takes 3"),
         (line(edited(timestamp=...)), "timestamp must be text"),
+        (line(edited(outliers=1)), "outliers must be a whole number in [0, rejected], got 1"),
+        (line(edited(outliers=-1)), "outliers must be a whole number in [0, rejected]"),
+        (line(edited(outliers=True)), "outliers must be a whole number in [0, rejected]"),
         (line(edited(point_mm=...)), "point_mm must be 3 finite numbers"),
         (line(edited(q_rad=[0.5] * 6)), "joints differ from the plan's row 0 by 0.5 rad"),
         (line({"pose": 1, "status": "failed", "attempts": 4}), "needs its reason"),
@@ -159,6 +162,21 @@ def test_a_bad_record_is_refused_naming_its_line(tmp_path, raw, message):
     with pytest.raises(journals.JournalError, match=f"^{path}: line 3 is damaged: .*") as exc:
         journals.read(path, plan_rad=PLAN)
     assert message in str(exc.value)
+
+
+def test_a_record_counts_the_outliers_its_average_set_aside_and_reads_back(tmp_path):
+    still = [Reading([1.0 + 1e-3 * k, 2.0, 3.0]) for k in range(9)]
+    avg = average([*still, Reading([51.0, 2.0, 3.0])])
+    record = rows.measured_record(0, PLAN[0], avg, 1)
+    assert (record["n_readings"], record["rejected"], record["outliers"]) == (9, 1, 1)
+    with journals.Journal.create(tmp_path / "j", {**HEADER, "readings": 10}) as journal:
+        journal.append(record)
+    assert journals.read(tmp_path / "j", plan_rad=PLAN).records[0]["outliers"] == 1
+
+
+def test_a_record_from_before_outliers_were_counted_reads_as_none_set_aside(tmp_path):
+    path = journal_with(tmp_path, line(edited(outliers=...)))
+    assert "outliers" not in journals.read(path, plan_rad=PLAN).records[0]
 
 
 @pytest.mark.parametrize(

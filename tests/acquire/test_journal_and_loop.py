@@ -60,6 +60,7 @@ def test_a_measured_record_carries_the_average_joints_and_attempts():
         "std_mm": [np.sqrt(2), 0.0, np.sqrt(2)],
         "n_readings": 2,
         "rejected": 1,
+        "outliers": 0,
         "attempts": 2,
     }
     assert type(record["pose"]) is int and json.dumps(record)  # JSON-ready
