@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from calibrator.analysis import misalignment as mc
@@ -66,29 +67,64 @@ def run(
         )
     if chunk_trials is not None and chunk_trials < 1:
         raise CalibrationError(f"--chunk must be >= 1 trial, got {chunk_trials}")
-    grid = mc.make_grid(study)
-    if chunk_trials is None:
-        per_chunk = default_blocks_per_chunk(study.n_blocks, workers or 1)
-    else:
-        per_chunk = -(-chunk_trials // mc.BLOCK)
-    plan = chunks(study.n_blocks, per_chunk)
     if workers is None and scheduler is None:
-        return _run_local(study, grid, plan, progress), grid
-    return _run_dask(study, grid, plan, workers, scheduler, progress), grid
+        grid = mc.make_grid(study)
+        plan = chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1))
+        total = mc.Summary()
+        _run_here(study, grid, plan, total, 0, progress)
+        return total, grid
+    # Starting a cluster (importing dask, spawning workers that import numpy) takes
+    # about a second; the calling process meanwhile builds the grid and runs chunks
+    # itself instead of waiting, so one worker costs about what in-process does.
+    starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
+    connection = starting.submit(_connect, workers, scheduler)
+    starting.shutdown(wait=False)
+    try:
+        grid = mc.make_grid(study)
+        plan = chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, workers or 1))
+        total = mc.Summary()
+        done = _run_here(study, grid, plan, total, 0, progress, until=connection.done)
+    except BaseException:
+        connection.add_done_callback(_close_connection)
+        raise
+    client, cluster = connection.result()
+    try:
+        return _run_dask(client, study, grid, plan, total, done, progress), grid
+    finally:
+        _close(client, cluster)
+
+
+def _blocks_per_chunk(study: mc.Study, chunk_trials: int | None, workers: int) -> int:
+    if chunk_trials is None:
+        return default_blocks_per_chunk(study.n_blocks, workers)
+    return -(-chunk_trials // mc.BLOCK)
 
 
 def _trials(study, blocks):
     return sum(study.block_size(k) for k in blocks)
 
 
-def _run_local(study, grid, plan, progress):
-    total, done = mc.Summary(), 0
-    for blocks in plan:
+def _run_here(
+    study: mc.Study,
+    grid: mc.Grid,
+    plan: list[list[int]],
+    total: mc.Summary,
+    done: int,
+    progress: Callable[[int, int], None] | None,
+    until: Callable[[], bool] = lambda: False,
+) -> int:
+    """Run chunks from the front of ``plan`` in this process, folding them into ``total``.
+
+    Stops when ``plan`` is empty or ``until()`` is true between chunks; the
+    chunks run are removed from ``plan``. Returns the trials done so far.
+    """
+    while plan and not until():
+        blocks = plan.pop(0)
         total.merge(mc.run_chunk(study, grid, blocks))
         done += _trials(study, blocks)
         if progress:
             progress(done, study.trials)
-    return total
+    return done
 
 
 def local_cluster(workers: int) -> Any:
@@ -113,38 +149,59 @@ def local_cluster(workers: int) -> Any:
         )
 
 
-def _run_dask(study, grid, plan, workers, scheduler, progress):
-    from dask.distributed import Client, as_completed
+def _connect(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """``(client, cluster)``: a client of ``scheduler`` (no cluster) or of a new local cluster."""
+    from dask.distributed import Client
 
     if scheduler is not None:
         try:
-            client = Client(scheduler, timeout="10s")
+            return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
             raise CalibrationError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None
-        cluster = None
-    else:
-        cluster = local_cluster(workers)
-        client = Client(cluster)
-    try:
-        # One copy of the (small) study and grid per worker, not one per chunk.
-        study_f, grid_f = client.scatter([study, grid], broadcast=True)
-        futures = [client.submit(mc.run_chunk, study_f, grid_f, blocks) for blocks in plan]
-        sizes = {f.key: _trials(study, blocks) for f, blocks in zip(futures, plan, strict=True)}
-        total, done = mc.Summary(), 0
-        for future in as_completed(futures):
-            try:
-                result = future.result()
-            except ModuleNotFoundError as exc:
-                raise CalibrationError(
-                    f"a Dask worker cannot import {exc.name!r}: install calibrator on every worker"
-                ) from None
-            total.merge(result)
-            done += sizes[future.key]
-            future.release()
-            if progress:
-                progress(done, study.trials)
+    cluster = local_cluster(workers or 1)
+    return Client(cluster), cluster
+
+
+def _close(client: Any, cluster: Any) -> None:
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def _close_connection(connection: Future) -> None:
+    """Close a cluster that finished starting after the run had already failed."""
+    if not connection.cancelled() and connection.exception() is None:
+        _close(*connection.result())
+
+
+def _run_dask(
+    client: Any,
+    study: mc.Study,
+    grid: mc.Grid,
+    plan: list[list[int]],
+    total: mc.Summary,
+    done: int,
+    progress: Callable[[int, int], None] | None,
+) -> mc.Summary:
+    """Fold ``plan``'s chunks, run on ``client``'s workers, into ``total`` (``done`` trials in)."""
+    from dask.distributed import as_completed
+
+    if not plan:
         return total
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    # One copy of the (small) study and grid per worker, not one per chunk.
+    study_f, grid_f = client.scatter([study, grid], broadcast=True)
+    futures = [client.submit(mc.run_chunk, study_f, grid_f, blocks) for blocks in plan]
+    sizes = {f.key: _trials(study, blocks) for f, blocks in zip(futures, plan, strict=True)}
+    for future in as_completed(futures):
+        try:
+            result = future.result()
+        except ModuleNotFoundError as exc:
+            raise CalibrationError(
+                f"a Dask worker cannot import {exc.name!r}: install calibrator on every worker"
+            ) from None
+        total.merge(result)
+        done += sizes[future.key]
+        future.release()
+        if progress:
+            progress(done, study.trials)
+    return total

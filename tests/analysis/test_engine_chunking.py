@@ -5,6 +5,7 @@ No Dask cluster here (worker processes per mutant would be far too slow);
 """
 
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -132,21 +133,45 @@ def test_bad_run_options_are_refused_before_any_work(kwargs, message, monkeypatc
     assert str(info.value) == message
 
 
+class FakeClient:
+    """Stands in for a Dask client: records its closing (the chunks go to ``_run_dask``)."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def close(self):
+        self.log.append("closed")
+
+
 @pytest.fixture
 def planned(monkeypatch):
-    """The chunks each run hands on, by path; the chunks themselves are not simulated."""
-    seen = {"local": [], "dask": []}
+    """The chunks each run runs here and hands on, by path; none is simulated.
+
+    The cluster "starts" only once the calling process has run ``held`` chunks
+    (an event, not a clock), so which chunks run where is deterministic.
+    """
+    seen = {"local": [], "dask": [], "connect": [], "client": [], "held": 0}
+    ready = threading.Event()
 
     def local_chunk(study, grid, blocks):
         seen["local"].append(list(blocks))
+        if len(seen["local"]) >= seen["held"]:
+            ready.set()
         return mc.Summary()
 
-    def dask(study, grid, plan, workers, scheduler, progress):
-        seen["dask"].append((plan, workers, scheduler))
-        seen["progress"], seen["study"], seen["grid"] = progress, study, grid
-        return mc.Summary()
+    def connect(workers, scheduler):
+        seen["connect"].append((workers, scheduler))
+        if seen["held"]:
+            assert ready.wait(5)
+        return FakeClient(seen["client"]), None
+
+    def dask(client, study, grid, plan, total, done, progress):
+        seen["dask"].append(list(plan))
+        seen["progress"], seen["study"], seen["grid"], seen["done"] = progress, study, grid, done
+        return total
 
     monkeypatch.setattr(mc, "run_chunk", local_chunk)
+    monkeypatch.setattr(engine, "_connect", connect)
     monkeypatch.setattr(engine, "_run_dask", dask)
     return seen
 
@@ -155,15 +180,68 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     s = study(trials=8 * mc.BLOCK)
     engine.run(s)
     assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
-    engine.run(s, workers=1)
-    engine.run(s, workers=2)
-    engine.run(s, scheduler="tcp://127.0.0.1:1")
-    _, grid = engine.run(s, workers=2, chunk_trials=3 * mc.BLOCK, progress=print)
+    cases = [
+        ({"workers": 1}, [[0, 1], [2, 3], [4, 5], [6, 7]], (1, None)),
+        ({"workers": 2}, [[k] for k in range(8)], (2, None)),
+        ({"scheduler": "tcp://h:1"}, [[0, 1], [2, 3], [4, 5], [6, 7]], (None, "tcp://h:1")),
+        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, [[0, 1, 2], [3, 4, 5], [6, 7]], (2, None)),
+    ]
+    for kwargs, plan, connected in cases:
+        planned["local"].clear()
+        engine.run(s, **kwargs)
+        # Whatever ran here while the cluster started, every chunk ran once, in plan order.
+        assert planned["local"] + planned["dask"][-1] == plan
+        assert planned["connect"][-1] == connected
+    _, grid = engine.run(s, workers=2, progress=print)
     assert planned["progress"] is print
     assert planned["study"] is s and planned["grid"] is grid
-    assert planned["dask"] == [
-        ([[0, 1], [2, 3], [4, 5], [6, 7]], 1, None),
-        ([[k] for k in range(8)], 2, None),
-        ([[0, 1], [2, 3], [4, 5], [6, 7]], None, "tcp://127.0.0.1:1"),
-        ([[0, 1, 2], [3, 4, 5], [6, 7]], 2, None),
-    ]
+    assert planned["client"] == ["closed"] * 5
+
+
+def test_the_calling_process_runs_chunks_while_the_cluster_starts(planned):
+    s = study(trials=8 * mc.BLOCK)
+    planned["held"] = 3
+    calls, progress = recorder()
+    engine.run(s, workers=1, progress=progress)
+    assert planned["local"] == [[0, 1], [2, 3], [4, 5]]
+    assert planned["dask"] == [[[6, 7]]]
+    assert planned["done"] == 6 * mc.BLOCK  # what the cluster's chunks add to
+    assert calls == [(2 * mc.BLOCK * k, 8 * mc.BLOCK) for k in (1, 2, 3)]
+    assert planned["client"] == ["closed"]
+
+
+def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypatch):
+    s = study(trials=8 * mc.BLOCK)
+
+    def fail_second(study, grid, blocks):
+        planned["local"].append(list(blocks))
+        if len(planned["local"]) == 2:
+            raise KeyboardInterrupt
+        return mc.Summary()
+
+    monkeypatch.setattr(mc, "run_chunk", fail_second)
+    started = threading.Event()
+    connect = engine._connect
+
+    def connect_later(workers, scheduler):
+        started.wait(5)
+        return connect(workers, scheduler)
+
+    monkeypatch.setattr(engine, "_connect", connect_later)
+    with pytest.raises(KeyboardInterrupt):
+        engine.run(s, workers=1)
+    started.set()
+    for _ in range(500):  # the starting thread closes what it started, in its own time
+        if planned["client"]:
+            break
+        threading.Event().wait(0.01)
+    assert planned["client"] == ["closed"] and planned["dask"] == []
+
+
+def test_a_cluster_that_cannot_start_fails_the_run(planned, monkeypatch):
+    def unreachable(workers, scheduler):
+        raise CalibrationError("cannot reach Dask scheduler tcp://127.0.0.1:1: refused")
+
+    monkeypatch.setattr(engine, "_connect", unreachable)
+    with pytest.raises(CalibrationError, match="cannot reach Dask scheduler"):
+        engine.run(study(trials=8 * mc.BLOCK), scheduler="tcp://127.0.0.1:1")
