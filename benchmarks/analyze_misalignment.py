@@ -14,14 +14,22 @@ Run::
    of 1 and of 2 single-threaded worker processes (cluster start-up
    included): wall times, one worker against in-process, and the speed-up;
    the statistics must be identical, to the bit.
+
+With ``--cli``, part 3 times the whole command as a user runs it instead
+(``calibrator analyze misalignment --trials BIG -q --json F [--workers N]``,
+a new process each, the three settings alternating), with CPU time, and
+compares the JSON statistics the three wrote.
 """
 
 import argparse
 import json
+import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from calibrator.analysis import arm, engine
 from calibrator.analysis import misalignment as mc
@@ -63,10 +71,11 @@ def main():
     ap.add_argument("--big", type=int, default=10_000_000)
     ap.add_argument("--rounds", type=int, default=1, help="Alternate 1 and 2 workers this often.")
     ap.add_argument("--workers-only", action="store_true", help="Only the 1-vs-2 worker part.")
+    ap.add_argument("--cli", action="store_true", help="Time whole CLI processes in part 3.")
     args = ap.parse_args()
     if not args.workers_only:
         in_process(args)
-    workers(args)
+    (workers_cli if args.cli else workers)(args)
 
 
 def in_process(args):
@@ -99,6 +108,36 @@ def workers(args):
     print(
         f"1 worker / in-process: {one / here:.2f}x; "
         f"speed-up 2 workers / 1 worker (medians): {one / two:.2f}x; statistics identical: {same}"
+    )
+
+
+def workers_cli(args):
+    times, cpus, results = {0: [], 1: [], 2: []}, {0: [], 1: [], 2: []}, []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(args.rounds):
+            for n in (0, 1, 2):
+                out = Path(tmp) / f"w{n}.json"
+                command = [sys.executable, "-m", "calibrator", "analyze", "misalignment"]
+                command += ["--trials", str(args.big), "-q", "--json", str(out)]
+                command += ["--workers", str(n)] if n else []
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
+                t = time.perf_counter()
+                subprocess.run(command, check=True, capture_output=True)
+                wall = time.perf_counter() - t
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+                times[n].append(wall)
+                cpus[n].append(cpu)  # workers included: the command reaps them
+                results.append(json.loads(out.read_text()))
+                where = f"--workers {n}" if n else "in-process"
+                print(f"{args.big:,} trials, CLI {where}: {wall:.2f} s wall", flush=True)
+    here, one, two = (statistics.median(times[n]) for n in (0, 1, 2))
+    same = all(r == results[0] for r in results)
+    print(
+        f"medians over {args.rounds} rounds: in-process {here:.2f} s, 1 worker {one:.2f} s, "
+        f"2 workers {two:.2f} s; 1 worker / in-process: {one / here:.2f}x; "
+        f"2 workers faster than 1: {one / two:.2f}x; statistics identical: {same}; CPU medians "
+        + ", ".join(f"{statistics.median(cpus[n]):.2f} s" for n in (0, 1, 2))
     )
 
 
