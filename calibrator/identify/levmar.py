@@ -313,20 +313,20 @@ def _damped_step(
     return par, to_step(z)
 
 
+#: Why the fit stopped. The convergence sentences are scipy's, word for word, so
+#: calibration.json's ``solver`` messages read as they did when scipy fitted.
 MESSAGES = {
-    "ftol": "converged: the sum of squares fell, and was predicted to fall, by less than ftol",
-    "xtol": "converged: the trust radius shrank below xtol relative to the scaled parameters",
-    "ftol+xtol": "converged: both the ftol and the xtol tests are met",
-    "gtol": "converged: the residuals are orthogonal to every Jacobian column within gtol",
-    "max_evaluations": "stopped before converging: max_evaluations residual evaluations used",
-    "precision": "converged to machine precision: the tolerances cannot be met more closely",
+    "ftol": "`ftol` termination condition is satisfied.",
+    "xtol": "`xtol` termination condition is satisfied.",
+    "ftol+xtol": "Both `ftol` and `xtol` termination conditions are satisfied.",
+    "gtol": "`gtol` termination condition is satisfied.",
+    "max_evaluations": "stopped before converging: the limit of {n} residual evaluations reached.",
+    "precision": "converged to machine precision: the tolerances cannot be met more closely.",
 }
 
 
 def _result(
     x: np.ndarray, f: np.ndarray, evaluations: int, jacobians: int, status: str
 ) -> LevMarResult:
-    message = MESSAGES[status]
-    if status == "max_evaluations":
-        message = message.replace("max_evaluations", str(evaluations))
+    message = MESSAGES[status].format(n=evaluations)
     return LevMarResult(x, f, float(f @ f), evaluations, jacobians, status, message)
