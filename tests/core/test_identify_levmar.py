@@ -122,7 +122,7 @@ def test_refine_is_the_same_fit_on_the_identify_problem(tmp_path):
 
 
 # Meyer's function (More, Garbow and Hillstrom 1981, problem 10): parameters of
-# size 1e-2, 1e3 and 1e2 and a Jacobian whose columns differ by 1e9.
+# size 1e-2, 1e3 and 1e2 and Jacobian columns whose norms differ by 1e4 to 1e5.
 MEYER_T = 45.0 + 5.0 * np.arange(16)
 MEYER_Y = np.array(
     [34780, 28610, 23650, 19630, 16370, 13720, 11540, 9744]
@@ -143,6 +143,8 @@ def meyer_jac(x):
 
 def test_badly_scaled_meyer_function_reaches_its_known_minimum_like_scipy():
     x0 = np.array([0.02, 4000.0, 250.0])
+    cols = np.linalg.norm(meyer_jac(x0), axis=0)
+    assert cols.max() / cols.min() > 1e4
     ref = scipy_lm(meyer, x0, meyer_jac, max_nfev=2000)
     ours = levmar.levenberg_marquardt(meyer, x0, meyer_jac, max_evaluations=2000)
     assert ours.converged
