@@ -16,8 +16,8 @@ imports nothing from scipy: ``python -X importtime -m calibrator identify
 S.parquet -o c.json 2>&1 | grep scipy`` prints nothing. Compare against
 another checkout by running this script with that checkout's interpreter.
 With ``PYTHONDONTWRITEBYTECODE`` set (and no ``__pycache__`` yet), every run
-also compiles the project's sources, about 0.1 s of CPU a user with cached
-bytecode does not pay: the script says which case it measured.
+also compiles the project's sources, a few hundredths of a second of CPU a
+user with cached bytecode does not pay: the script says which case it measured.
 """
 
 import argparse
