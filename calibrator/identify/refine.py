@@ -2,11 +2,17 @@
 
 import numpy as np
 
+from calibrator.identify import levmar
 from calibrator.identify.problem import FitResult, Problem
 
 
 def refine(problem: Problem, x0: np.ndarray, max_evaluations: int = 200) -> FitResult:
     """Minimise the sum of squared residuals from ``x0`` (Levenberg-Marquardt).
+
+    The fit is :func:`calibrator.identify.levmar.levenberg_marquardt`, the
+    method of ``scipy.optimize.least_squares(method="lm", x_scale="jac")``
+    without its import, which costs about half a second of start-up that
+    the default ``identify`` would pay for this one call.
 
     Parameters
     ----------
@@ -15,26 +21,24 @@ def refine(problem: Problem, x0: np.ndarray, max_evaluations: int = 200) -> FitR
     x0 : array_like, shape (space.size,)
         Starting deltas (the swarm's best, or zeros).
     max_evaluations : int
+        Most residual evaluations (the one at ``x0`` included).
 
     Returns
     -------
     FitResult
-        ``cost`` is the sum of squared residuals (the seed's objective f).
+        ``cost`` is the sum of squared residuals (the seed's objective f);
+        ``evaluations`` the residual evaluations made.
     """
-    # Imported here, not at module level: scipy.optimize costs about half a second of
-    # start-up, which a run that never reaches this fit (pso, plan, report) must not pay.
-    from scipy.optimize import least_squares
-
-    result = least_squares(
+    found = levmar.levenberg_marquardt(
         problem.residuals,
         np.asarray(x0, dtype=float),
-        jac=problem.jacobian,
-        method="lm",
-        # Columns mix mm and rad and frames metres away: scale by the Jacobian.
-        x_scale="jac",
-        xtol=1e-14,
+        problem.jacobian,
+        max_evaluations=max_evaluations,
+        # Tight: the swarm only brings the fit near; least squares decides the answer.
+        # The columns mix mm and rad and frames metres away: the fit scales them by
+        # the Jacobian's column norms.
         ftol=1e-14,
+        xtol=1e-14,
         gtol=1e-14,
-        max_nfev=max_evaluations,
     )
-    return FitResult(result.x, float(2 * result.cost), int(result.nfev), str(result.message))
+    return FitResult(found.x, found.cost, found.evaluations, found.message)

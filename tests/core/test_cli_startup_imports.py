@@ -61,6 +61,17 @@ def test_swarm_only_identify_never_imports_scipy_optimize(session, tmp_path):
     assert "pyarrow.compute" not in modules  # a session already in pose order is not re-sorted
 
 
+def test_default_identify_fits_least_squares_without_importing_scipy_optimize(session, tmp_path):
+    out = tmp_path / "cal.json"
+    modules = loaded("identify", session, "-o", out, "--generations", "5")
+    doc = json.loads(out.read_text())
+    assert doc["method"] == "hybrid"
+    assert doc["solver"]["least_squares"]["evaluations"] > 1  # it did fit least squares
+    assert "scipy.optimize" not in modules
+    # Nothing else of scipy's on this path either: its package import alone is 0.03 s.
+    assert not {m for m in modules if m == "scipy" or m.startswith("scipy.")}
+
+
 def test_a_command_registers_only_itself(session, tmp_path):
     modules = loaded(
         "identify", session, "-o", tmp_path / "cal.json", "--method", "pso", "--generations", "5"
