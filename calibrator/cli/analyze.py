@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
@@ -124,9 +125,7 @@ def misalignment(
         None, "--h", help="End-face distance h (mm), one value or six [default: 267, see docs]."
     ),
     trials: int = typer.Option(20000, callback=checks.count("trials"), help="Monte Carlo trials."),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed; results depend only on seed and trials."
-    ),
+    seed: int = opts.seed(0, "Seed; results depend only on seed and trials."),
     sweep_r0: str = typer.Option(None, help="Also run with every joint's R0 at each value (mm)."),
     sweep_length: str = typer.Option(
         None, help="Also run with one link length at each value, e.g. d3=800,1000,1200 (mm)."
@@ -146,7 +145,7 @@ def misalignment(
         help="Run on a Dask LocalCluster of N worker processes (at most this machine's cores).",
     ),
     scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    quiet: bool = opts.quiet(),
 ) -> None:
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
@@ -294,9 +293,7 @@ def tolerance(
     samples: int = typer.Option(
         2000, callback=checks.count("samples"), help="Deviation sets for the nonlinear check."
     ),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed of the random poses and of the nonlinear draws."
-    ),
+    seed: int = opts.seed(0, "Seed of the random poses and of the nonlinear draws."),
     top: int = typer.Option(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),
