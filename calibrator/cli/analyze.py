@@ -114,8 +114,8 @@ def _row(label, stats):
 
 @analyze_app.command("misalignment")
 def misalignment(
-    model: str = typer.Option(
-        "paper", help="'paper' (the seed's arm, Craig DH) or a named model (er10l-c10, ur5e, ...)."
+    model: str = opts.model(
+        "paper", "'paper' (the seed's arm, Craig DH) or a named model (er10l-c10, ur5e, ...)."
     ),
     pose: str = typer.Option(
         None, help="Six joint angles, deg [default: the paper's pose; zeros for a named model]."
@@ -259,7 +259,7 @@ def _misalignment_plots(batch, folder, results):
 
 @analyze_app.command("tolerance")
 def tolerance(
-    model: str = typer.Option(None, help="Named model giving the nominal table."),
+    model: str = opts.model(None, "Named model giving the nominal table."),
     calibration: Path = typer.Option(
         None,
         help="calibration.json: its identified table is the nominal, and each identified "
