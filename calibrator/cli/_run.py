@@ -1,14 +1,19 @@
 """What the commands that drive a robot past a tracker share (``measure``, ``verify``).
 
-Parsing of motion and position options, the devices opened by URL around a
+Their options (declared once here; the ones both take word for word arrive
+parsed as one :class:`RunArgs`), the devices opened by URL around a
 :class:`~calibrator.acquire.run.MeasureRun`, the operator's confirmation and
 the Ctrl-C handling::
 
-    arm = check_motion_caps(model, speed, accel, max_speed)     # exit 2 above the caps
-    run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
-    run.open_journal(confirm=None if yes else confirm)
-    with StopOnSigint() as interrupt:
-        run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
+    @app.command()
+    @run_command
+    def measure(*, robot: str = robot_option(external=True), run_args: RunArgs, ...):
+        arm = run_args.arm()                                    # exit 2 above the caps
+        options = RunOptions(..., **run_args.run_fields())
+        run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
+        run.open_journal(confirm=None if run_args.yes else confirm)
+        with StopOnSigint() as interrupt:
+            run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
 """
 
 from __future__ import annotations
