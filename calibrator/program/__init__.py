@@ -16,13 +16,11 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
-from calibrator.errors import CalibrationError
 from calibrator.program.spec import PULSE_S, ProgramSpec, move_duration_s
 
 __all__ = [
@@ -71,31 +69,12 @@ def choose(fmt: str | None, output: str | os.PathLike) -> str:
     CalibrationError
         Unknown format, an extension no format has, or a mismatch.
     """
-    name = Path(output).name.lower()
-    matches = [(len(s), f.name) for f in REGISTRY.values() for s in f.suffixes if name.endswith(s)]
-    by_suffix = max(matches)[1] if matches else None
-    if fmt is not None:
-        if fmt not in REGISTRY:
-            raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
-        if by_suffix != fmt:
-            want = " or ".join(REGISTRY[fmt].suffixes)
-            raise CalibrationError(
-                f"output {outputs.show(output)} does not end in {want}, the extension of {fmt}"
-            )
-        return fmt
-    if by_suffix is None:
-        known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
-        raise CalibrationError(
-            f"cannot tell the format from {outputs.show(output)}: give --format or end the "
-            f"name in one of {known}"
-        )
-    return by_suffix
+    return outputs.choose_format(REGISTRY, fmt, output)
 
 
 def render(spec: ProgramSpec, fmt: str) -> str:
     """The program text of ``spec`` in format ``fmt``."""
-    if fmt not in REGISTRY:
-        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+    outputs.known_format(REGISTRY, fmt)
     return REGISTRY[fmt].write(spec)
 
 
