@@ -179,15 +179,9 @@ def position_figures(
     dict of ndarray, each shape (P,)
         ``AP_mm``, ``APx_mm``, ``APy_mm``, ``APz_mm``, ``RP_mm``.
     """
-    x = np.asarray(attained_mm, dtype=float)
-    c = np.asarray(commanded_mm, dtype=float)
-    if x.ndim != 3 or x.shape[-1] != 3 or x.shape[1] < 2:
-        raise Iso9283Error(f"attained positions need shape (P, n >= 2, 3), got {x.shape}")
-    if c.shape != (x.shape[0], 3):
-        raise Iso9283Error(f"commanded positions need shape ({x.shape[0]}, 3), got {c.shape}")
-    bary = x.mean(axis=1)
-    ap = bary - c
-    dist = np.linalg.norm(x - bary[:, None, :], axis=2)
+    d = _deviations(attained_mm, commanded_mm, "positions")
+    ap = d.mean(axis=1)  # barycentre - commanded
+    dist = np.linalg.norm(d - ap[:, None, :], axis=2)  # from the barycentre
     rp = dist.mean(axis=1) + 3.0 * dist.std(axis=1, ddof=1)
     return {
         "AP_mm": np.linalg.norm(ap, axis=1),
@@ -219,21 +213,34 @@ def orientation_figures(
         the standard's ``+-3 S_a``), degrees. Differences are taken wrapped
         to (-180, 180] degrees so that a pose near +-180 degrees is not torn.
     """
-    a = np.asarray(attained_rad, dtype=float)
-    c = np.asarray(commanded_rad, dtype=float)
-    if a.ndim != 3 or a.shape[-1] != 3 or a.shape[1] < 2 or c.shape != (a.shape[0], 3):
-        raise Iso9283Error(
-            f"orientations need shapes (P, n >= 2, 3) and (P, 3), got {a.shape} and {c.shape}"
-        )
-    d = np.angle(np.exp(1j * (a - c[:, None, :])))  # wrapped deviations, rad
+    d = _deviations(attained_rad, commanded_rad, "orientations", wrap=True)
     ap = np.rad2deg(d.mean(axis=1))
     rp = np.rad2deg(3.0 * d.std(axis=1, ddof=1))
-    out = {}
-    for k, name in enumerate("abc"):
-        out[f"AP{name}_deg"] = ap[:, k]
-    for k, name in enumerate("abc"):
-        out[f"RP{name}_deg"] = rp[:, k]
-    return out
+    return {
+        f"{fig}{name}_deg": v[:, k]
+        for fig, v in (("AP", ap), ("RP", rp))
+        for k, name in enumerate("abc")
+    }
+
+
+def _deviations(
+    attained: npt.ArrayLike, commanded: npt.ArrayLike, what: str, wrap: bool = False
+) -> np.ndarray:
+    """Attained minus commanded per test pose, shape (P, n, 3).
+
+    ``attained`` has shape (P, n >= 2, 3), ``commanded`` (P, 3), same unit and
+    frame; other shapes raise :class:`Iso9283Error` naming ``what``. ``wrap``:
+    angles in rad, the differences wrapped to (-pi, pi].
+    """
+    x = np.asarray(attained, dtype=float)
+    c = np.asarray(commanded, dtype=float)
+    if x.ndim != 3 or x.shape[-1] != 3 or x.shape[1] < 2 or c.shape != (x.shape[0], 3):
+        raise Iso9283Error(
+            f"attained and commanded {what} need shapes (P, n >= 2, 3) and (P, 3), "
+            f"got {x.shape} and {c.shape}"
+        )
+    d = x - c[:, None, :]
+    return np.angle(np.exp(1j * d)) if wrap else d
 
 
 # ---------------------------------------------------------------- the cube

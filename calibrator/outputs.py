@@ -38,8 +38,9 @@ import os
 import shutil
 import stat
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+from typing import Any
 
 from calibrator.errors import CalibrationError
 
@@ -315,6 +316,65 @@ def _second_name(target):
             _unlink(name)
             raise
     return Path(name)
+
+
+def known_format(registry: Mapping[str, object], fmt: str) -> None:
+    """Refuse a format name ``registry`` does not hold (one line naming the known ones)."""
+    if fmt not in registry:
+        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(registry)}")
+
+
+def choose_format(
+    registry: Mapping[str, Any],
+    fmt: str | None,
+    output: PathLike | None,
+    default: str | None = None,
+) -> str:
+    """The format to write: ``fmt`` if given (it must fit the extension), else by extension.
+
+    Parameters
+    ----------
+    registry : mapping
+        Format name -> a format whose ``suffixes`` are the file name endings that
+        select it (:data:`calibrator.export.REGISTRY`, :data:`calibrator.program.REGISTRY`);
+        the longest matching ending wins (``.urcal.conf`` before ``.conf``).
+    fmt : str, optional
+        The format asked for (``--format``).
+    output : path, optional
+        The file to write; None: standard output, which has no extension.
+    default : str, optional
+        The format when neither ``fmt`` nor ``output`` tells.
+
+    Raises
+    ------
+    CalibrationError
+        Unknown format, no way to tell, or a format that does not match the
+        output file's extension (``-o out.xml`` with ``--format json``).
+    """
+    by_suffix = None
+    if output is not None:
+        name = Path(output).name.lower()
+        matches = [
+            (len(s), f.name) for f in registry.values() for s in f.suffixes if name.endswith(s)
+        ]
+        by_suffix = max(matches)[1] if matches else None
+    if fmt is not None:
+        known_format(registry, fmt)
+        if output is not None and by_suffix != fmt:
+            want = " or ".join(registry[fmt].suffixes)
+            raise CalibrationError(
+                f"output {show(output)} does not end in {want}, the extension of format {fmt}"
+            )
+        return fmt
+    if output is None and default is not None:
+        return default
+    if by_suffix is None:
+        known = ", ".join(s for f in registry.values() for s in f.suffixes)
+        raise CalibrationError(
+            f"cannot tell the format from {show(output or '-')}: "
+            f"give --format or end the name in one of {known}"
+        )
+    return by_suffix
 
 
 def show(path: PathLike) -> str:

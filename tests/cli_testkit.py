@@ -43,6 +43,12 @@ def one_line_error(result):
     return lines[0]
 
 
+def refused_line(completed):
+    """The last stderr line of a command run as a process and refused (exit 2)."""
+    assert completed.returncode == 2, (completed.returncode, completed.stderr)
+    return completed.stderr.strip().splitlines()[-1]
+
+
 def listing(folder):
     """Every file and folder under ``folder`` (hidden ones too), with contents."""
     folder = Path(folder)

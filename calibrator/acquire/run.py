@@ -41,8 +41,12 @@ MAX_POSES = 50_000
 
 
 @dataclass(frozen=True)
-class RunOptions:
-    """What one measure run does; every field has the CLI's default.
+class RunOptions(loop.LoopOptions):
+    """What one measure run does: how each pose is measured, and the run around the loop.
+
+    Every field has the CLI's default; those of :class:`~calibrator.acquire.loop.LoopOptions`
+    are handed to the loop as they are (a run gives up after 5 failed poses in a row and
+    pauses before a retry, where the bare loop does neither).
 
     Attributes
     ----------
@@ -55,7 +59,7 @@ class RunOptions:
     seed : int
         Seed of a made plan.
     readings, settle_s, retries, speed_rad_s, accel_rad_s2, retry_pause_s, give_up_after
-        See :class:`calibrator.acquire.loop.LoopOptions`.
+        Inherited: see :class:`calibrator.acquire.loop.LoopOptions`.
     tool_mm : tuple of 3 float
         First guess of the reflector on the flange, mm.
     tracker_at_mm : tuple of 3 float, optional
@@ -74,17 +78,12 @@ class RunOptions:
         Fewest poses the plan must hold; default what identification needs.
     """
 
+    retry_pause_s: float = 0.2
+    give_up_after: int = 5
     plan_rad: np.ndarray | None = None
     via_rad: Sequence[np.ndarray] | None = None
     poses: int = 30
     seed: int = 0
-    readings: int = 10
-    settle_s: float = 0.0
-    retries: int = 3
-    speed_rad_s: float = 0.5
-    accel_rad_s2: float = 1.0
-    retry_pause_s: float = 0.2
-    give_up_after: int = 5
     tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
     tracker_at_mm: tuple[float, float, float] | None = None
     cell: Any = None
@@ -464,15 +463,7 @@ class MeasureRun:
             self.robot,
             tracker,
             self.journal,
-            loop.LoopOptions(
-                o.readings,
-                o.settle_s,
-                o.retries,
-                o.speed_rad_s,
-                o.accel_rad_s2,
-                retry_pause_s=retry_pause_s,
-                give_up_after=o.give_up_after,
-            ),
+            replace(o, retry_pause_s=retry_pause_s),
             done=self.done,
             after_move=self._after_move,
             should_stop=should_stop,

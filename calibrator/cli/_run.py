@@ -1,30 +1,74 @@
 """What the commands that drive a robot past a tracker share (``measure``, ``verify``).
 
-Parsing of motion and position options, the devices opened by URL around a
+Their options (declared once here; the ones both take word for word arrive
+parsed as one :class:`RunArgs`), the devices opened by URL around a
 :class:`~calibrator.acquire.run.MeasureRun`, the operator's confirmation and
 the Ctrl-C handling::
 
-    arm = check_motion_caps(model, speed, accel, max_speed)     # exit 2 above the caps
-    run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
-    run.open_journal(confirm=None if yes else confirm)
-    with StopOnSigint() as interrupt:
-        run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
+    @app.command()
+    @run_command
+    def measure(*, robot: str = robot_option(external=True), run_args: RunArgs, ...):
+        arm = run_args.arm()                                    # exit 2 above the caps
+        options = RunOptions(..., **run_args.run_fields())
+        run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
+        run.open_journal(confirm=None if run_args.yes else confirm)
+        with StopOnSigint() as interrupt:
+            run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import sys
+from collections.abc import Callable
 from contextlib import ExitStack
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, NoReturn, overload
+from typing import Any, get_type_hints, overload
 
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
+from calibrator.cli._options import fail
 
 # ---------------------------------------------------------------- options
 # The options every command that moves the arm shares (measure, verify), made
 # here once so their limits and budgets cannot drift apart.
+
+#: The trackers ``--tracker`` opens (``drivers.tracker.open_tracker``).
+TRACKER_URLS = (
+    "a device path, a pyserial URL (socket://, rfc2217://), "
+    "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server)"
+)
+
+
+def robot_option(external: bool) -> Any:
+    """``--robot``: sim, ur://HOST, and with ``external`` a robot the tracker watches."""
+    if external:
+        kinds = (
+            "sim, ur://HOST (a real UR controller), or external (any brand running the "
+            "plan as its own program: the tracker detects each stop; docs/external-robots.md)."
+        )
+    else:
+        kinds = "sim, or ur://HOST (a real UR controller)."
+    return typer.Option("sim", help=kinds)
+
+
+def tracker_option() -> Any:
+    """``--tracker``: sim or a tracker's URL."""
+    return typer.Option("sim", help=f"sim, {TRACKER_URLS}.")
+
+
+def resume_option() -> Any:
+    """``--resume``: continue the run the journal beside the output recorded."""
+    return typer.Option(False, help="Continue the run recorded in OUTPUT.journal.")
+
+
+def yes_option() -> Any:
+    """``--yes``: move a real robot without asking."""
+    return opts.yes("Move a real robot without asking.")
 
 
 def readings_option(per: str = "pose") -> Any:
@@ -50,38 +94,126 @@ def retries_option() -> Any:
     )
 
 
-def speed_option() -> Any:
+def speed_option(
+    default: float | None = 0.5, limit: str = "(at most the model's fixed ceiling, 1.0)"
+) -> Any:
     """``--speed``: leading-joint speed, rad/s (never above the model's ceiling)."""
-    return typer.Option(
-        0.5,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint speed, rad/s (at most the model's fixed ceiling, 1.0).",
-    )
+    return opts.positive(default, f"Leading-joint speed, rad/s {limit}.")
 
 
-def accel_option() -> Any:
+def accel_option(
+    default: float | None = 1.0, limit: str = "(at most the model's fixed ceiling, 2.0)"
+) -> Any:
     """``--accel``: leading-joint acceleration, rad/s^2 (never above the model's ceiling)."""
-    return typer.Option(
-        1.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint acceleration, rad/s^2 (at most the model's fixed ceiling, 2.0).",
-    )
+    return opts.positive(default, f"Leading-joint acceleration, rad/s^2 {limit}.")
 
 
 def max_speed_option() -> Any:
     """``--max-speed``: lowers the speed cap; it cannot raise the model's ceiling."""
-    return typer.Option(
+    return opts.positive(
         None,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Lower the speed cap the plan is checked against, rad/s "
+        "Lower the speed cap the plan is checked against, rad/s "
         "[default: the model's fixed ceiling; it cannot be raised].",
     )
 
 
-def fail(message: str) -> NoReturn:
-    """One line naming what was wrong, exit code 2."""
-    typer.echo(f"calibrator: error: {message}", err=True)
-    raise typer.Exit(2)
+@dataclass(frozen=True)
+class RunArgs:
+    """The options measure and verify take word for word, parsed (see :func:`run_command`).
+
+    Attributes
+    ----------
+    resume, yes : bool
+        ``--resume`` and ``--yes``.
+    model : str
+        ``--model``, a named arm.
+    settle : float or None
+        ``--settle``, s; None: the default of the robot kind.
+    retries : int
+    speed, accel : float
+        Leading-joint speed (rad/s) and acceleration (rad/s^2).
+    max_speed : float or None
+        ``--max-speed``, rad/s; None: the model's ceiling.
+    """
+
+    resume: bool
+    yes: bool
+    model: str
+    settle: float | None
+    retries: int
+    speed: float
+    accel: float
+    max_speed: float | None
+
+    def arm(self) -> Any:
+        """The named model, the motion options checked against its ceilings (exit 2 above)."""
+        return check_motion_caps(self.model, self.speed, self.accel, self.max_speed)
+
+    def run_fields(self) -> dict[str, Any]:
+        """The :class:`~calibrator.acquire.run.RunOptions` fields these options set."""
+        return {
+            "retries": self.retries,
+            "speed_rad_s": self.speed,
+            "accel_rad_s2": self.accel,
+            "resume": self.resume,
+        }
+
+    def settle_s(self, moves_hardware: bool) -> float:
+        """``--settle``, else 0.5 s on hardware (a real arm rings after a move), 0 simulated."""
+        if self.settle is not None:
+            return self.settle
+        return 0.5 if moves_hardware else 0.0
+
+
+def _run_args_options() -> list[inspect.Parameter]:
+    """The options of :class:`RunArgs` as parameters, in the order ``--help`` lists them."""
+    declared = {
+        "resume": resume_option(),
+        "yes": yes_option(),
+        "model": opts.model(),
+        "settle": settle_option(),
+        "retries": retries_option(),
+        "speed": speed_option(),
+        "accel": accel_option(),
+        "max_speed": max_speed_option(),
+    }
+    types = get_type_hints(RunArgs)
+    return [
+        inspect.Parameter(
+            name, inspect.Parameter.KEYWORD_ONLY, default=option, annotation=types[name]
+        )
+        for name, option in declared.items()
+    ]
+
+
+def run_command(command: Callable[..., None]) -> Callable[..., None]:
+    """Give ``command`` the options of :class:`RunArgs`, declared once, where it has ``run_args``.
+
+    The command declares a parameter ``run_args: RunArgs`` among its options;
+    typer sees the shared options in its place (so ``--help`` lists them there)
+    and the command receives them parsed into one :class:`RunArgs`. Use it
+    below ``@app.command()``.
+    """
+    own = inspect.signature(command).parameters
+    if "run_args" not in own:
+        raise TypeError(f"{command.__name__} has no run_args parameter")
+    hints = get_type_hints(command)
+    params: list[inspect.Parameter] = []
+    for p in own.values():
+        if p.name == "run_args":
+            params += _run_args_options()
+        else:
+            params.append(p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints[p.name]))
+    shared = [f.name for f in fields(RunArgs)]
+
+    @functools.wraps(command)
+    def parsed(**given: Any) -> None:
+        run_args = RunArgs(**{name: given.pop(name) for name in shared})
+        command(run_args=run_args, **given)
+
+    parsed.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    parsed.__annotations__ = {p.name: p.annotation for p in params}
+    return parsed
 
 
 @overload
@@ -92,13 +224,8 @@ def triple(text: str | None, option: str) -> tuple[float, float, float] | None:
     """``X,Y,Z`` (mm) of ``option`` to three finite floats, or None when not given."""
     if text is None:
         return None
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(abs(v) < float("inf") for v in values):
-        fail(f"{option} needs X,Y,Z in mm, got {text!r}")
-    return values  # type: ignore[return-value]
+    x, y, z = opts.floats(text, 3, option, "X,Y,Z in mm")
+    return x, y, z
 
 
 def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: float | None) -> Any:

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
@@ -113,8 +114,8 @@ def _row(label, stats):
 
 @analyze_app.command("misalignment")
 def misalignment(
-    model: str = typer.Option(
-        "paper", help="'paper' (the seed's arm, Craig DH) or a named model (er10l-c10, ur5e, ...)."
+    model: str = opts.model(
+        "paper", "'paper' (the seed's arm, Craig DH) or a named model (er10l-c10, ur5e, ...)."
     ),
     pose: str = typer.Option(
         None, help="Six joint angles, deg [default: the paper's pose; zeros for a named model]."
@@ -124,9 +125,7 @@ def misalignment(
         None, "--h", help="End-face distance h (mm), one value or six [default: 267, see docs]."
     ),
     trials: int = typer.Option(20000, callback=checks.count("trials"), help="Monte Carlo trials."),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed; results depend only on seed and trials."
-    ),
+    seed: int = opts.seed(0, "Seed; results depend only on seed and trials."),
     sweep_r0: str = typer.Option(None, help="Also run with every joint's R0 at each value (mm)."),
     sweep_length: str = typer.Option(
         None, help="Also run with one link length at each value, e.g. d3=800,1000,1200 (mm)."
@@ -146,7 +145,7 @@ def misalignment(
         help="Run on a Dask LocalCluster of N worker processes (at most this machine's cores).",
     ),
     scheduler: str = typer.Option(None, help="Run on an existing Dask cluster at this address."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    quiet: bool = opts.quiet(),
 ) -> None:
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
@@ -260,7 +259,7 @@ def _misalignment_plots(batch, folder, results):
 
 @analyze_app.command("tolerance")
 def tolerance(
-    model: str = typer.Option(None, help="Named model giving the nominal table."),
+    model: str = opts.model(None, "Named model giving the nominal table."),
     calibration: Path = typer.Option(
         None,
         help="calibration.json: its identified table is the nominal, and each identified "
@@ -294,9 +293,7 @@ def tolerance(
     samples: int = typer.Option(
         2000, callback=checks.count("samples"), help="Deviation sets for the nonlinear check."
     ),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed of the random poses and of the nonlinear draws."
-    ),
+    seed: int = opts.seed(0, "Seed of the random poses and of the nonlinear draws."),
     top: int = typer.Option(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),

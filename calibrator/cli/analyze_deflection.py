@@ -6,6 +6,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli.analyze import analyze_app
 from calibrator.errors import CalibrationError
 
@@ -27,8 +28,8 @@ def _vector(text: str, n: int, what: str, prismatic: list[bool]) -> list[float]:
 
 @analyze_app.command("deflection")
 def deflection(
-    model: str = typer.Option(
-        "seed", help="'seed' (seed 001's five-axis example) or a named model with --sections."
+    model: str = opts.model(
+        "seed", "'seed' (seed 001's five-axis example) or a named model with --sections."
     ),
     sections: Path = typer.Option(
         None, help="Link-section YAML (flexible links, diameters, material); named models only."

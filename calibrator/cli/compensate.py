@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 
 
@@ -14,7 +15,7 @@ def compensate(
         ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
     ),
     targets_path: Path = typer.Argument(..., metavar="TARGETS", help="CSV of targets."),
-    output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
+    output: Path = opts.output(..., "CSV to write."),
     payload_kg: float = typer.Option(
         None,
         callback=checks.finite(minimum=0.0),

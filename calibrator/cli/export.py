@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.export import REGISTRY
 
@@ -23,7 +24,7 @@ def export_params(
         ..., metavar="CALIBRATION", help="Calibration file (JSON) written by identify."
     ),
     fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
-    output: Path = typer.Option(None, "-o", "--output", help="File to write [default: stdout]."),
+    output: Path = opts.output(None, "File to write [default: stdout]."),
 ) -> None:
     """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export, outputs

@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError, IdentifiabilityError
 
@@ -34,10 +35,8 @@ def identify(
         metavar="SESSION",
         help="Session file(s) (Parquet); several: one arm, e.g. at several payloads.",
     ),
-    output: Path = typer.Option(
-        Path("calibration.json"), "-o", "--output", help="Calibration file to write (JSON)."
-    ),
-    model: str = typer.Option(None, help="Named model instead of the session's."),
+    output: Path = opts.output(Path("calibration.json"), "Calibration file to write (JSON)."),
+    model: str = opts.model(None, "Named model instead of the session's."),
     method: Method = typer.Option(
         Method.hybrid,
         help="hybrid: swarm, then least squares; pso: swarm only; lm: least squares only.",
@@ -67,9 +66,7 @@ def identify(
         callback=checks.fraction(),
         help="Share of poses held out for checking, in [0, 1) (0 = fit all).",
     ),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Random seed of the hold-out split and the swarm."
-    ),
+    seed: int = opts.seed(0, "Random seed of the hold-out split and the swarm."),
     noise_mm: float = typer.Option(
         0.05,
         callback=checks.finite(minimum=0.0, inclusive=False),
@@ -118,7 +115,7 @@ def identify(
         help="Print how many more poses would bring the parameter part of the held-out "
         "error below this (mm).",
     ),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    quiet: bool = opts.quiet(),
 ) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
     import numpy as np

@@ -9,35 +9,27 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli import _run
 from calibrator.cli._app import app
+from calibrator.cli._options import fail as _fail
 from calibrator.cli._run import StopOnSigint as _StopOnSigint
-from calibrator.cli._run import check_motion_caps as _check_motion_caps
 from calibrator.cli._run import confirm as _confirm
-from calibrator.cli._run import fail as _fail
 from calibrator.cli._run import open_run as _open_run
 from calibrator.cli._run import pose_fields as _pose_fields
 from calibrator.cli._run import triple as _triple
 
 
 @app.command()
+@_run.run_command
 def measure(
-    robot: str = typer.Option(
-        "sim",
-        help="sim, ur://HOST (a real UR controller), or external (any brand running the "
-        "plan as its own program: the tracker detects each stop; docs/external-robots.md).",
-    ),
-    tracker: str = typer.Option(
-        "sim",
-        help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
-        "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
-    ),
+    *,
+    robot: str = _run.robot_option(external=True),
+    tracker: str = _run.tracker_option(),
     plan_path: Path = typer.Option(None, "--plan", help="Plan CSV (calibrator plan)."),
-    cell_file: Path = typer.Option(
-        None,
-        "--cell",
-        help="Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker range; "
-        "every pose and move is checked against it before the first motion.",
+    cell_file: Path = opts.cell(
+        "Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker range; "
+        "every pose and move is checked against it before the first motion."
     ),
     poses: int = typer.Option(
         30,
@@ -45,30 +37,13 @@ def measure(
         help="Poses of the plan made when --plan is not given.",
     ),
     readings: int = _run.readings_option("pose"),
-    output: Path = typer.Option(
-        Path("session.parquet"), "-o", "--output", help="Session file (Parquet) to write."
+    output: Path = opts.output(Path("session.parquet"), "Session file (Parquet) to write."),
+    run_args: _run.RunArgs,
+    tracker_at: str = opts.tracker_at(
+        "Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
     ),
-    resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
-    yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
-    model: str = typer.Option("ur10e", help="Named model of the arm."),
-    settle: float = _run.settle_option(),
-    retries: int = _run.retries_option(),
-    speed: float = _run.speed_option(),
-    accel: float = _run.accel_option(),
-    max_speed: float = _run.max_speed_option(),
-    tracker_at: str = typer.Option(
-        None,
-        callback=checks.point_mm("tracker_at"),
-        help="Tracker position in the robot base frame X,Y,Z (mm), for --poses plans.",
-    ),
-    tool: str = typer.Option(
-        "0,0,100",
-        callback=checks.point_mm("tool"),
-        help="Reflector position on the flange X,Y,Z, mm (first guess; identified).",
-    ),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed of the plan and of the simulated cell."
-    ),
+    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm (first guess; identified)."),
+    seed: int = opts.seed(0, "Seed of the plan and of the simulated cell."),
     retry_pause: float = typer.Option(
         0.2,
         callback=checks.finite(minimum=0.0, maximum=60.0),
@@ -79,26 +54,17 @@ def measure(
         True,
         help="On a terminal, ask the operator to re-lock a lost beam (Enter) before a retry.",
     ),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
-    stop_band: float = typer.Option(
-        0.05,
-        callback=checks.finite(0.0, inclusive=False),
-        help="--robot external: stationarity band of a stop, mm.",
+    quiet: bool = opts.quiet(),
+    # --robot external: how the tracker's stream is cut into stops and matched to poses.
+    stop_band: float = opts.positive(0.05, "--robot external: stationarity band of a stop, mm."),
+    settle_window: float = opts.positive(
+        0.5, "--robot external: how long readings stay in the band to make a stop, s."
     ),
-    settle_window: float = typer.Option(
-        0.5,
-        callback=checks.finite(0.0, inclusive=False),
-        help="--robot external: how long readings stay in the band to make a stop, s.",
+    match_tolerance: float = opts.positive(
+        15.0, "--robot external: largest distance of a stop from its expected pose, mm."
     ),
-    match_tolerance: float = typer.Option(
-        15.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="--robot external: largest distance of a stop from its expected pose, mm.",
-    ),
-    stop_timeout: float = typer.Option(
-        30.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="--robot external: no stop for this long ends the program's poses (missing), s.",
+    stop_timeout: float = opts.positive(
+        30.0, "--robot external: no stop for this long ends the program's poses (missing), s."
     ),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
@@ -127,7 +93,7 @@ def measure(
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
-    arm = _check_motion_caps(model, speed, accel, max_speed)
+    arm = run_args.arm()
     from calibrator import cell as cells
 
     user_plan = plans.read_plan(plan_path) if plan_path is not None else None
@@ -138,13 +104,10 @@ def measure(
         poses=poses,
         seed=seed,
         readings=readings,
-        retries=retries,
-        speed_rad_s=speed,
-        accel_rad_s2=accel,
         retry_pause_s=retry_pause,
         tool_mm=_triple(tool, "--tool"),
         tracker_at_mm=_triple(tracker_at, "--tracker-at"),
-        resume=resume,
+        **run_args.run_fields(),
     )
     external = _external_options(
         stop_band, settle_window, match_tolerance, stop_timeout, readings, options.tool_mm, quiet
@@ -153,17 +116,14 @@ def measure(
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                       sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=max_speed, external=external)
+                      sim_control=sim_control, max_speed=run_args.max_speed, external=external)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
         marks.append(("plan (make and check)", time.perf_counter()))
-        if settle is None:  # a real arm rings after a move; the simulated one does not
-            run.options = options = replace(options, settle_s=0.5 if run.moves_hardware else 0.0)
-        else:
-            run.options = options = replace(options, settle_s=settle)
+        run.options = options = replace(options, settle_s=run_args.settle_s(run.moves_hardware))
         # Shown before a confirmation is asked, else once the journal is open
         # (a refused resume stays one line).
         estimate = f"estimated cell time: {run.estimate()}"
@@ -174,7 +134,7 @@ def measure(
             shown.append(True)
             _confirm(robot_id, n)
 
-        run.open_journal(confirm=None if yes else confirm)
+        run.open_journal(confirm=None if run_args.yes else confirm)
         if not shown and not quiet:
             typer.echo(estimate, err=True)
         # A line per pose when piped: a measure run is slow enough to log each one.

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 
 
@@ -24,8 +25,8 @@ class Selection(StrEnum):
 
 @app.command()
 def plan(
-    output: Path = typer.Option(Path("plan.csv"), "-o", "--output", help="Plan CSV to write."),
-    model: str = typer.Option("ur10e", help="Named model (joint limits, kinematics, geometry)."),
+    output: Path = opts.output(Path("plan.csv"), "Plan CSV to write."),
+    model: str = opts.model(help="Named model (joint limits, kinematics, geometry)."),
     poses: int = typer.Option(
         30,
         callback=checks.finite(1, 500),
@@ -43,16 +44,14 @@ def plan(
     selection: Selection = typer.Option(
         Selection.d_optimal, help="How N poses are chosen among the feasible candidates."
     ),
-    cell_file: Path = typer.Option(
-        None, "--cell", help="Cell file (YAML): mounting plane, obstacles, tracker (docs/cell.md)."
+    cell_file: Path = opts.cell(
+        "Cell file (YAML): mounting plane, obstacles, tracker (docs/cell.md)."
     ),
     margin_deg: float = typer.Option(
         5.0, callback=checks.finite(0.0, 90.0), help="Stay this far inside joint limits, deg."
     ),
-    tracker_at: str = typer.Option(
-        None,
-        callback=checks.point_mm("tracker_at"),
-        help="Tracker position X,Y,Z in the robot base frame, mm (overrides the cell's).",
+    tracker_at: str = opts.tracker_at(
+        "Tracker position X,Y,Z in the robot base frame, mm (overrides the cell's)."
     ),
     acceptance_deg: float = typer.Option(
         None,
@@ -67,11 +66,7 @@ def plan(
         help="z of the plane the robot stands on, base frame, mm [default: the cell's, "
         "else the model's]; every link keeps the cell's margin above it.",
     ),
-    tool: str = typer.Option(
-        "0,0,100",
-        callback=checks.point_mm("tool"),
-        help="Reflector position on the flange X,Y,Z, mm.",
-    ),
+    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm."),
     settle: float = typer.Option(
         0.5, callback=checks.finite(0.0, 3600.0), help="Settle per pose for the estimate, s."
     ),
@@ -83,9 +78,7 @@ def plan(
         callback=checks.finite(0.0, 100000.0, inclusive=False),
         help="Tracker reading rate for the estimate, Hz.",
     ),
-    seed: int = typer.Option(
-        0, callback=checks.seed(), help="Seed of the random sampling and selection."
-    ),
+    seed: int = opts.seed(0, "Seed of the random sampling and selection."),
 ) -> None:
     """Write a plan every pose and move of which is clear of the cell, in time-optimal order."""
     import dataclasses
@@ -95,7 +88,7 @@ def plan(
     from calibrator import cell as cells
     from calibrator import outputs
     from calibrator import plan as plans
-    from calibrator.cli.measure import _triple
+    from calibrator.cli._run import triple as _triple
     from calibrator.models import get_model
 
     if joints is None and candidates is not None:

@@ -9,7 +9,10 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
+from calibrator.cli import _run
 from calibrator.cli._app import app
+from calibrator.cli._options import fail
 from calibrator.program import REGISTRY
 
 #: The ``--format`` choices, generated from the writer registry.
@@ -20,31 +23,16 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 )
 
 
-def _fail(message: str) -> None:
-    typer.echo(f"calibrator: error: {message}", err=True)
-    raise typer.Exit(2)
-
-
 @app.command()
 def program(
     plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
-    output: Path = typer.Option(..., "-o", "--output", help="Program file to write."),
+    output: Path = opts.output(..., "Program file to write."),
     fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
-    model: str = typer.Option("ur10e", help="Named model (joint limits, speed ceiling)."),
-    speed: float = typer.Option(
-        None,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint speed, rad/s [default: the model's fixed ceiling; only lower].",
-    ),
-    accel: float = typer.Option(
-        None,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Leading-joint acceleration, rad/s^2 [default: the model's ceiling; only lower].",
-    ),
-    dwell: float = typer.Option(
-        2.0,
-        callback=checks.finite(0.0, inclusive=False),
-        help="Wait at each pose, s: more than the settle window plus the readings' time.",
+    model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
+    speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
+    accel: float = _run.accel_option(None, "[default: the model's ceiling; only lower]"),
+    dwell: float = opts.positive(
+        2.0, "Wait at each pose, s: more than the settle window plus the readings' time."
     ),
     pulse: int = typer.Option(
         None, callback=checks.at_least(0), help="Digital output pulsed at each arrival."
@@ -75,10 +63,10 @@ def program(
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
-        _fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
+        fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
     if accel > arm.move_accel_cap_rad_s2:
-        _fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
-    home_rad = q[0] if home is None else np.radians(_six(home))
+        fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
+    home_rad = q[0] if home is None else np.radians(_degrees(home))
     plans.validate(home_rad[None], arm.joint_limits_rad)
     # KRL and Fanuc want the program named as its file.
     stem = re.sub(r"\W", "_", output.name.split(".")[0]) or "calibrator_measure"
@@ -104,11 +92,6 @@ def program(
     )
 
 
-def _six(text: str):
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
-        _fail(f"--home needs six joint angles J1,...,J6 in degrees, got {text!r}")
-    return values
+def _degrees(text: str) -> list[float]:
+    """``--home J1,...,J6`` (deg) to six finite floats (exit 2 otherwise)."""
+    return opts.floats(text, 6, "--home", "six joint angles J1,...,J6 in degrees")

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 
 
@@ -17,9 +18,7 @@ def report(
         metavar="SESSION",
         help="Session it was identified from (Parquet); needed for the per-pose plots.",
     ),
-    output: Path = typer.Option(
-        Path("report"), "-o", "--output", help="Folder to write the PNGs and index.html into."
-    ),
+    output: Path = opts.output(Path("report"), "Folder to write the PNGs and index.html into."),
     verify_paths: list[Path] = typer.Option(
         None, "--verify", help="ISO 9283 result (calibrator verify), repeatable: before, after."
     ),

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 
@@ -30,17 +31,15 @@ def _errors_choice(value: str | None):
 
 @app.command()
 def simulate(
-    output: Path = typer.Option(
+    output: Path = opts.output(
         Path("session.parquet"),
-        "-o",
-        "--output",
-        help="Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
+        "Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
-    model: str = typer.Option("er10l-c10", help="Named nominal model."),
+    model: str = opts.model("er10l-c10", "Named nominal model."),
     poses: int = typer.Option(
         32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
     ),
-    seed: int = typer.Option(3, callback=checks.seed(), help="Seed of every random draw."),
+    seed: int = opts.seed(3, "Seed of every random draw."),
     frame: Frame = typer.Option(Frame.base, help="Frame of the recorded points."),
     orientation: bool = typer.Option(True, help="Record probe orientation (6-DoF probe)."),
     noise_mm: float = typer.Option(

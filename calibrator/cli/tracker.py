@@ -8,6 +8,7 @@ import sys
 import typer
 
 from calibrator.cli._app import app
+from calibrator.cli._options import fail as _fail
 
 tracker_app = typer.Typer(
     help="Set up a laser tracker: its status, and initialising it (moves the head).",
@@ -19,11 +20,6 @@ URL_HELP = (
     "A device path, a pyserial URL (socket://, rfc2217://) or emscon://HOST[:PORT] "
     "(as measure --tracker)."
 )
-
-
-def _fail(message: str) -> None:
-    typer.echo(f"calibrator: error: {message}", err=True)
-    raise typer.Exit(2)
 
 
 def _connected(url: str):

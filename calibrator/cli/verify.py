@@ -13,13 +13,13 @@ from typing import Any
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli import _run
 from calibrator.cli._app import app
+from calibrator.cli._options import fail
 from calibrator.cli._run import (
     StopOnSigint,
-    check_motion_caps,
     confirm,
-    fail,
     open_run,
     pose_fields,
     triple,
@@ -34,23 +34,19 @@ def _cube(text: str | None) -> Any:
 
     from calibrator.iso9283 import Cube
 
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 4 or not all(np.isfinite(values)) or values[3] <= 0:
-        fail(f"--cube needs X,Y,Z,SIDE in mm (centre and a positive edge), got {text!r}")
+    needs = "X,Y,Z,SIDE in mm (centre and a positive edge)"
+    values = opts.floats(text, 4, "--cube", needs)
+    if values[3] <= 0:
+        fail(f"--cube needs {needs}, got {text!r}")
     return Cube(np.array(values[:3]), values[3])
 
 
 @app.command()
+@_run.run_command
 def verify(
-    robot: str = typer.Option("sim", help="sim, or ur://HOST (a real UR controller)."),
-    tracker: str = typer.Option(
-        "sim",
-        help="sim, a device path, a pyserial URL (socket://, rfc2217://), "
-        "or emscon://HOST[:PORT][?meteo=T,P,H] (a Leica tracker's emScon server).",
-    ),
+    *,
+    robot: str = _run.robot_option(external=False),
+    tracker: str = _run.tracker_option(),
     calibration_path: Path = typer.Option(
         None,
         "--calibration",
@@ -76,32 +72,14 @@ def verify(
         None, help="Test cube X,Y,Z,SIDE, mm, base frame [default: the largest that fits]."
     ),
     readings: int = _run.readings_option("attained pose"),
-    output: Path = typer.Option(
-        Path("verify.json"),
-        "-o",
-        "--output",
-        help="Figures (JSON) to write; the attained poses go beside it (.parquet).",
+    output: Path = opts.output(
+        Path("verify.json"), "Figures (JSON) to write; the attained poses go beside it (.parquet)."
     ),
-    resume: bool = typer.Option(False, help="Continue the run recorded in OUTPUT.journal."),
-    yes: bool = typer.Option(False, "--yes", help="Move a real robot without asking."),
-    model: str = typer.Option("ur10e", help="Named model of the arm."),
-    settle: float = _run.settle_option(),
-    retries: int = _run.retries_option(),
-    speed: float = _run.speed_option(),
-    accel: float = _run.accel_option(),
-    max_speed: float = _run.max_speed_option(),
-    tracker_at: str = typer.Option(
-        None,
-        callback=checks.point_mm("tracker_at"),
-        help="Tracker position in the robot base frame X,Y,Z (mm).",
-    ),
-    tool: str = typer.Option(
-        "0,0,100",
-        callback=checks.point_mm("tool"),
-        help="Nominal TCP on the flange X,Y,Z, mm (the controller's tool).",
-    ),
-    seed: int = typer.Option(0, callback=checks.seed(), help="Seed of the simulated cell."),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+    run_args: _run.RunArgs,
+    tracker_at: str = opts.tracker_at("Tracker position in the robot base frame X,Y,Z (mm)."),
+    tool: str = opts.tool("Nominal TCP on the flange X,Y,Z, mm (the controller's tool)."),
+    seed: int = opts.seed(0, "Seed of the simulated cell."),
+    quiet: bool = opts.quiet(),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_repeatability: bool = typer.Option(
         True, hidden=True, help="Joint positioning error and backlash of the simulated arm."
@@ -136,20 +114,20 @@ def verify(
     inputs = [p for p in (calibration_path, register_path, sim_faults) if p is not None]
     outputs.check(output, inputs=inputs)
     outputs.check(data_path, inputs=inputs)
-    if not resume and data_path.exists():
+    if not run_args.resume and data_path.exists():
         fail(f"{data_path} exists: choose another -o, remove it, or pass --resume")
     if sim_probe_6dof and tracker != "sim":
         fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
-    arm = check_motion_caps(model, speed, accel, max_speed)
+    arm = run_args.arm()
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
     reg_cal = calibrations.load(register_path) if register_path is not None else None
     for doc, path in ((cal, calibration_path), (reg_cal, register_path)):
-        if doc is not None and doc.model and doc.model != model.strip().lower():
-            fail(f"{path} calibrates a {doc.model}, not --model {model}")
+        if doc is not None and doc.model and doc.model != run_args.model.strip().lower():
+            fail(f"{path} calibrates a {doc.model}, not --model {run_args.model}")
     # The test poses face the tracker: given, or where the simulated cell puts it.
     tracker_at_mm = triple(tracker_at, "--tracker-at")
     if tracker_at_mm is None and (robot == "sim" or tracker == "sim"):
@@ -164,26 +142,22 @@ def verify(
         vplan,
         seed=seed,
         readings=readings,
-        retries=retries,
-        speed_rad_s=speed,
-        accel_rad_s2=accel,
         tool_mm=tool_mm,
         # The run checks its plan with the tracker the poses were made to face.
         tracker_at_mm=tracker_at_mm,
-        resume=resume,
+        **run_args.run_fields(),
     )
     with contextlib.ExitStack() as stack:
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
-                     sim_faults=sim_faults, sim_control=sim_control, max_speed=max_speed,
+                     sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
                      sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof)
         )  # fmt: skip
         mrun.check_files()
         mrun.connect(tracker)
         mrun.make_plan()
-        settle_s = settle if settle is not None else (0.5 if mrun.moves_hardware else 0.0)
-        mrun.options = replace(mrun.options, settle_s=settle_s)
-        mrun.open_journal(confirm=None if yes else confirm)
+        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
+        mrun.open_journal(confirm=None if run_args.yes else confirm)
         reporter = progress.Reporter.for_cli(quiet)
         with StopOnSigint() as interrupt, reporter.task("verify", len(vplan.plan), "poses") as task:
             mrun.measure(
@@ -228,7 +202,7 @@ def verify(
     if summary.failed:
         causes = f": {summary.causes_text()}" if summary.causes else ""
         typer.echo(
-            f"{len(summary.failed)} visit(s) failed after {retries} retries{causes} "
+            f"{len(summary.failed)} visit(s) failed after {run_args.retries} retries{causes} "
             f"({summary.failed[:10]}); ISO 9283 needs every cycle: {hint} to retry them",
             err=True,
         )
@@ -250,12 +224,7 @@ def _base_frame(text: str | None) -> Any:
 
     from calibrator import frames
 
-    try:
-        values = np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        values = np.array([])
-    if values.shape != (6,) or not np.isfinite(values).all():
-        fail(f"--base-frame needs X,Y,Z,RX,RY,RZ (mm, rad), got {text!r}")
+    values = np.array(opts.floats(text, 6, "--base-frame", "X,Y,Z,RX,RY,RZ (mm, rad)"))
     return frames.transform(frames.rotvec_to_matrix(values[3:]), values[:3])
 
 

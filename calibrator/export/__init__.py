@@ -11,11 +11,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from calibrator import outputs
-from calibrator.errors import CalibrationError
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -82,7 +80,7 @@ def format_names() -> tuple[str, ...]:
 
 
 def choose(fmt: str | None = None, output: outputs.PathLike | None = None) -> str:
-    """The format to write: ``fmt`` if given, else from the output's name.
+    """The format to write: ``fmt`` if given, else from the output's name (stdout: json).
 
     Raises
     ------
@@ -90,39 +88,12 @@ def choose(fmt: str | None = None, output: outputs.PathLike | None = None) -> st
         Unknown format, no way to tell, or a format that does not match the
         output file's extension (``-o out.xml`` with ``--format json``).
     """
-    by_suffix = _format_of(output) if output is not None else None
-    if fmt is not None:
-        if fmt not in REGISTRY:
-            raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
-        if output is not None and by_suffix != fmt:
-            want = " or ".join(REGISTRY[fmt].suffixes)
-            raise CalibrationError(
-                f"output {outputs.show(output)} does not end in {want}, "
-                f"the extension of format {fmt}"
-            )
-        return fmt
-    if output is None:
-        return "json"
-    if by_suffix is None:
-        known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
-        raise CalibrationError(
-            f"cannot tell the format from {outputs.show(output)}: "
-            f"give --format or end the name in one of {known}"
-        )
-    return by_suffix
-
-
-def _format_of(output):
-    name = Path(output).name.lower()
-    # Longest suffix first: ".urcal.conf" before ".conf".
-    matches = [(len(s), f.name) for f in REGISTRY.values() for s in f.suffixes if name.endswith(s)]
-    return max(matches)[1] if matches else None
+    return outputs.choose_format(REGISTRY, fmt, output, default="json")
 
 
 def export(calibration: Calibration, fmt: str) -> Exported:
     """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
-    if fmt not in REGISTRY:
-        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+    outputs.known_format(REGISTRY, fmt)
     result = REGISTRY[fmt].write(calibration)
     # No format holds the joint terms: say what is lost.
     from calibrator.joint_terms import loss_note

@@ -16,16 +16,25 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
-from calibrator.errors import CalibrationError
-from calibrator.program.spec import ProgramSpec, move_duration_s
+from calibrator.program.spec import PULSE_S, ProgramSpec, move_duration_s
 
-__all__ = ["REGISTRY", "Format", "ProgramSpec", "choose", "move_duration_s", "render", "writer"]
+__all__ = [
+    "REGISTRY",
+    "Format",
+    "ProgramSpec",
+    "between_homes",
+    "choose",
+    "degrees",
+    "move_duration_s",
+    "render",
+    "title",
+    "writer",
+]
 
 
 @dataclass(frozen=True)
@@ -60,37 +69,76 @@ def choose(fmt: str | None, output: str | os.PathLike) -> str:
     CalibrationError
         Unknown format, an extension no format has, or a mismatch.
     """
-    name = Path(output).name.lower()
-    matches = [(len(s), f.name) for f in REGISTRY.values() for s in f.suffixes if name.endswith(s)]
-    by_suffix = max(matches)[1] if matches else None
-    if fmt is not None:
-        if fmt not in REGISTRY:
-            raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
-        if by_suffix != fmt:
-            want = " or ".join(REGISTRY[fmt].suffixes)
-            raise CalibrationError(
-                f"output {outputs.show(output)} does not end in {want}, the extension of {fmt}"
-            )
-        return fmt
-    if by_suffix is None:
-        known = ", ".join(s for f in REGISTRY.values() for s in f.suffixes)
-        raise CalibrationError(
-            f"cannot tell the format from {outputs.show(output)}: give --format or end the "
-            f"name in one of {known}"
-        )
-    return by_suffix
+    return outputs.choose_format(REGISTRY, fmt, output)
 
 
 def render(spec: ProgramSpec, fmt: str) -> str:
     """The program text of ``spec`` in format ``fmt``."""
-    if fmt not in REGISTRY:
-        raise CalibrationError(f"unknown format {fmt!r}; known: {', '.join(REGISTRY)}")
+    outputs.known_format(REGISTRY, fmt)
     return REGISTRY[fmt].write(spec)
 
 
 def degrees(q_rad: ArrayLike) -> np.ndarray:
     """Joint angles in degrees (the unit of KRL, RAPID and Fanuc LS)."""
     return np.degrees(np.asarray(q_rad, dtype=float))
+
+
+def title(spec: ProgramSpec) -> str:
+    """The header line every program opens with: its poses, and the model when known."""
+    model = f" of a {spec.model}" if spec.model else ""
+    return f"{len(spec.plan_rad)} poses for a laser-tracker calibration{model}"
+
+
+def between_homes(
+    spec: ProgramSpec,
+    move: Callable[[str, int, np.ndarray, np.ndarray], str],
+    pulse: Callable[[int], list[str]],
+    dwell: Callable[[float], str],
+    *,
+    comment: Callable[[str], str] | None = None,
+    pulse_blocks: bool = False,
+) -> list[str]:
+    """The statements between the first and the last home move, in every language.
+
+    Per via (moved through on the path the plan checked in the cell) its move
+    alone; per pose its move, the pulse if asked and the dwell. Each language
+    gives its own statements.
+
+    Parameters
+    ----------
+    spec : ProgramSpec
+    move : callable
+        ``move(kind, pose, start_rad, end_rad)`` (``kind`` ``"via"`` or ``"pose"``,
+        joints shape (6,), rad): the joint move statement.
+    pulse : callable
+        ``pulse(output)``: the statements pulsing the digital output for :data:`PULSE_S`.
+    dwell : callable
+        ``dwell(seconds)``: the wait statement.
+    comment : callable, optional
+        ``comment(text)``: a comment line, written before each move
+        (``via before pose i`` or ``pose i``); None: no comments.
+    pulse_blocks : bool
+        The pulse statements wait out the pulse, so the dwell is that much shorter.
+
+    Returns
+    -------
+    list of str
+    """
+    lines: list[str] = []
+    for kind, pose, start, end in spec.moves()[1:-1]:
+        assert pose is not None  # only the home moves have no pose
+        if comment is not None:
+            lines.append(comment(f"via before pose {pose}" if kind == "via" else f"pose {pose}"))
+        lines.append(move(kind, pose, start, end))
+        if kind == "via":
+            continue  # no dwell, no pulse
+        wait = spec.dwell_s
+        if spec.pulse_output is not None:
+            lines += pulse(spec.pulse_output)
+            if pulse_blocks:
+                wait -= PULSE_S
+        lines.append(dwell(wait))
+    return lines
 
 
 # Importing the writer modules registers them (order = order of --format choices).

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator.program import ProgramSpec, degrees, writer
+from calibrator.program import ProgramSpec, between_homes, degrees, writer
 from calibrator.program.spec import DEG_DECIMALS, PULSE_S
 
 
@@ -36,19 +36,20 @@ def write(spec: ProgramSpec) -> str:
     # P[1..N] are the poses, P[N+1] home, P[N+2..] the vias in path order.
     home = len(spec.plan_rad) + 1
     vias: list[tuple[int, int, np.ndarray]] = []  # (P index, pose it leads to, joints)
-    body = [f"J P[{home}:HOME] {pct}% FINE"]
-    for kind, pose, _, q in spec.moves()[1:-1]:
-        assert pose is not None
+
+    def move(kind: str, pose: int, start: np.ndarray, q: np.ndarray) -> str:
         if kind == "via":
-            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
             vias.append((home + 1 + len(vias), pose, q))
-            body.append(f"J P[{vias[-1][0]}:VIA] {pct}% FINE")
-            continue
-        body.append(f"J P[{pose + 1}] {pct}% FINE")
-        wait = spec.dwell_s
-        if spec.pulse_output is not None:
-            body.append(f"DO[{spec.pulse_output}]=PULSE,{PULSE_S:.1f}sec")
-        body.append(f"WAIT {wait:.2f}(sec)")
+            return f"J P[{vias[-1][0]}:VIA] {pct}% FINE"
+        return f"J P[{pose + 1}] {pct}% FINE"
+
+    body = [f"J P[{home}:HOME] {pct}% FINE"]
+    body += between_homes(
+        spec,
+        move,
+        pulse=lambda output: [f"DO[{output}]=PULSE,{PULSE_S:.1f}sec"],
+        dwell=lambda wait: f"WAIT {wait:.2f}(sec)",
+    )
     body.append(f"J P[{home}:HOME] {pct}% FINE")
     lines = [
         f"/PROG  {name}",

@@ -11,7 +11,7 @@ pulses an output. A via (moved through, not measured) is a ``PTP`` after a
 
 from __future__ import annotations
 
-from calibrator.program import ProgramSpec, degrees, writer
+from calibrator.program import ProgramSpec, between_homes, degrees, title, writer
 from calibrator.program.spec import DEG_DECIMALS, PULSE_S
 
 #: Axis acceleration as a percentage of the machine data's maximum (gentle: a calibration
@@ -29,8 +29,7 @@ def write(spec: ProgramSpec) -> str:
     name = spec.name.upper()[:24]  # KRL names: at most 24 characters
     lines = [
         f"DEF {name}()",
-        f"; {len(spec.plan_rad)} poses for a laser-tracker calibration"
-        + (f" of a {spec.model}" if spec.model else ""),
+        f"; {title(spec)}",
         "; joints in deg; axis speeds in percent of each axis's top speed",
         "DECL E6AXIS HOME_POS",
         f"HOME_POS = {_axis(spec.home_rad)}",
@@ -40,17 +39,12 @@ def write(spec: ProgramSpec) -> str:
     for axis in range(1, 7):
         lines.append(f"$ACC_AXIS[{axis}] = {ACC_PERCENT}")
     lines.append("PTP HOME_POS")
-    for kind, pose, _, q in spec.moves()[1:-1]:
-        if kind == "via":
-            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
-            lines.append(f"; via before pose {pose}")
-            lines.append(f"PTP {_axis(q)}")
-            continue
-        lines.append(f"; pose {pose}")
-        lines.append(f"PTP {_axis(q)}")
-        wait = spec.dwell_s
-        if spec.pulse_output is not None:
-            lines.append(f"PULSE($OUT[{spec.pulse_output}], TRUE, {PULSE_S:.2f})")
-        lines.append(f"WAIT SEC {wait:.3f}")
+    lines += between_homes(
+        spec,
+        move=lambda kind, pose, start, q: f"PTP {_axis(q)}",
+        pulse=lambda output: [f"PULSE($OUT[{output}], TRUE, {PULSE_S:.2f})"],
+        dwell=lambda wait: f"WAIT SEC {wait:.3f}",
+        comment=lambda text: f"; {text}",
+    )
     lines += ["PTP HOME_POS", "END", ""]
     return "\n".join(lines)

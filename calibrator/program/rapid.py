@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator.program import ProgramSpec, degrees, move_duration_s, writer
+from calibrator.program import ProgramSpec, between_homes, degrees, move_duration_s, title, writer
 from calibrator.program.spec import DEG_DECIMALS, PULSE_S
 
 #: Name of the digital output pulsed at each arrival.
@@ -39,32 +39,30 @@ def write(spec: ProgramSpec) -> str:
     module = "".join(w.capitalize() for w in spec.name.split("_")) or "CalibratorMeasure"
     lines = [
         f"MODULE {module}",
-        f"  ! {len(spec.plan_rad)} poses for a laser-tracker calibration"
-        + (f" of a {spec.model}" if spec.model else ""),
+        f"  ! {title(spec)}",
         "  ! joints in deg; each move timed (\\T) to keep the leading joint under "
         f"{spec.speed_rad_s:g} rad/s",
         f"  CONST jointtarget jHome := {_target(spec.home_rad)};",
         "  PROC main()",
     ]
-    for step, (kind, pose, start, end) in enumerate(spec.moves()):
-        t = _time(move_duration_s(start, end, spec.speed_rad_s, spec.accel_rad_s2))
-        if step == 0:
-            # From wherever the arm stands: no timed move from an unknown start, a slow one.
-            lines.append(f"    MoveAbsJ jHome, {FIRST_SPEED}, fine, tool0;")
-            continue
-        if kind == "home":
-            lines.append(f"    MoveAbsJ jHome, v100 \\T:={t}, fine, tool0;")
-            continue
-        if kind == "via":
-            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
-            lines.append(f"    ! via before pose {pose}")
-            lines.append(f"    MoveAbsJ {_target(end)}, v100 \\T:={t}, fine, tool0;")
-            continue
-        lines.append(f"    ! pose {pose}")
-        lines.append(f"    MoveAbsJ {_target(end)}, v100 \\T:={t}, fine, tool0;")
-        wait = spec.dwell_s
-        if spec.pulse_output is not None:
-            lines.append(f"    PulseDO \\PLength:={PULSE_S:.2f}, {SIGNAL};")
-        lines.append(f"    WaitTime \\InPos, {wait:.3f};")
+
+    def timed(start: np.ndarray, end: np.ndarray) -> str:
+        """The move's speed argument, time-programmed to keep within the caps."""
+        seconds = move_duration_s(start, end, spec.speed_rad_s, spec.accel_rad_s2)
+        return f"v100 \\T:={_time(seconds)}"
+
+    # From wherever the arm stands: no timed move from an unknown start, a slow one.
+    lines.append(f"    MoveAbsJ jHome, {FIRST_SPEED}, fine, tool0;")
+    lines += between_homes(
+        spec,
+        move=lambda kind, pose, start, q: (
+            f"    MoveAbsJ {_target(q)}, {timed(start, q)}, fine, tool0;"
+        ),
+        pulse=lambda output: [f"    PulseDO \\PLength:={PULSE_S:.2f}, {SIGNAL};"],
+        dwell=lambda wait: f"    WaitTime \\InPos, {wait:.3f};",
+        comment=lambda text: f"    ! {text}",
+    )
+    _, _, start, end = spec.moves()[-1]
+    lines.append(f"    MoveAbsJ jHome, {timed(start, end)}, fine, tool0;")
     lines += ["  ENDPROC", "ENDMODULE", ""]
     return "\n".join(lines)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator.program import ProgramSpec, writer
+from calibrator.program import ProgramSpec, between_homes, title, writer
 from calibrator.program.spec import PULSE_S, RAD_DECIMALS
 
 
@@ -24,27 +24,23 @@ def _joints(q) -> str:
 def write(spec: ProgramSpec) -> str:
     move = f"a={spec.accel_rad_s2:.4f}, v={spec.speed_rad_s:.4f}"
     lines = [
-        f"# {spec.name}: {len(spec.plan_rad)} poses for a laser-tracker calibration"
-        + (f" of a {spec.model}" if spec.model else ""),
+        f"# {spec.name}: {title(spec)}",
         "# joints in rad; speed and acceleration of the leading joint in rad/s and rad/s^2",
         f"def {spec.name}():",
         f"  home = {_joints(spec.home_rad)}",
         f"  movej(home, {move})",
     ]
-    for kind, pose, _, q in spec.moves()[1:-1]:
-        if kind == "via":
-            # Moved through on the path the plan checked in the cell: no dwell, no pulse.
-            lines.append(f"  # via before pose {pose}")
-            lines.append(f"  movej({_joints(q)}, {move})")
-            continue
-        lines.append(f"  # pose {pose}")
-        lines.append(f"  movej({_joints(q)}, {move})")
-        wait = spec.dwell_s
-        if spec.pulse_output is not None:
-            lines.append(f"  set_standard_digital_out({spec.pulse_output}, True)")
-            lines.append(f"  sleep({PULSE_S:.3f})")
-            lines.append(f"  set_standard_digital_out({spec.pulse_output}, False)")
-            wait -= PULSE_S
-        lines.append(f"  sleep({wait:.3f})")
+    lines += between_homes(
+        spec,
+        move=lambda kind, pose, start, q: f"  movej({_joints(q)}, {move})",
+        pulse=lambda output: [
+            f"  set_standard_digital_out({output}, True)",
+            f"  sleep({PULSE_S:.3f})",
+            f"  set_standard_digital_out({output}, False)",
+        ],
+        dwell=lambda wait: f"  sleep({wait:.3f})",
+        comment=lambda text: f"  # {text}",
+        pulse_blocks=True,  # sleep() waits the pulse out
+    )
     lines += [f"  movej(home, {move})", "end", f"{spec.name}()", ""]
     return "\n".join(lines)

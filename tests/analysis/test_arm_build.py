@@ -6,6 +6,7 @@ rotations; the MDH arms are compared with :func:`calibrator.kinematics.chain`.
 
 import numpy as np
 import pytest
+from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
 from calibrator import kinematics, models
@@ -13,20 +14,12 @@ from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
 
 
-def _h(rotation=None, xyz=(0.0, 0.0, 0.0)):
-    out = np.eye(4)
-    if rotation is not None:
-        out[:3, :3] = rotation.as_matrix()
-    out[:3, 3] = xyz
-    return out
-
-
 def craig_hand(table_deg_mm, pose_deg):
     """Hand pose of a Craig table ``[alpha_{i-1} deg, a_{i-1}, d_i]``, (4, 4)."""
     t = np.eye(4)
     for (alpha, a, d), q in zip(table_deg_mm, pose_deg, strict=True):
-        t = t @ _h(Rotation.from_euler("x", alpha, degrees=True)) @ _h(xyz=(a, 0.0, 0.0))
-        t = t @ _h(Rotation.from_euler("z", q, degrees=True)) @ _h(xyz=(0.0, 0.0, d))
+        t = t @ _h(Rotation.from_euler("x", alpha, degrees=True)) @ _h(None, (a, 0.0, 0.0))
+        t = t @ _h(Rotation.from_euler("z", q, degrees=True)) @ _h(None, (0.0, 0.0, d))
     return t
 
 

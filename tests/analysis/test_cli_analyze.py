@@ -5,14 +5,11 @@ import signal
 
 import numpy as np
 import pytest
-from cli_process import run_cli, start_cli
+from analyze_kit import analyze, analyze_json
+from cli_process import start_cli
 
 from calibrator import calibration, models
 from calibrator.cli import main
-
-
-def run(*args, cwd):
-    return run_cli("analyze", *args, cwd=cwd)
 
 
 def write_calibration(path, model, **deltas):
@@ -29,7 +26,7 @@ def write_calibration(path, model, **deltas):
 
 def test_misalignment_writes_figures_and_statistics(tmp_path):
     (tmp_path / "figs").mkdir()
-    out = run(
+    out = analyze(
         "misalignment", "--trials", "3000", "--sweep-r0", "0.025,0.05",
         "--sweep-length", "d3=800,1200", "--plots", "figs", "--json", "stats.json",
         cwd=tmp_path,
@@ -51,17 +48,17 @@ def test_misalignment_writes_figures_and_statistics(tmp_path):
 
 
 def test_tolerance_from_model_and_from_calibration_file(tmp_path):
-    out = run(
+    out, doc = analyze_json(
         "tolerance", "--model", "ur10e", "--poses", "20", "--samples", "200",
         "--tol", "a2=0.2", "--json", "b.json", cwd=tmp_path,
     )  # fmt: skip
-    assert out.returncode == 0, out.stderr
-    doc = json.loads((tmp_path / "b.json").read_text())
     assert doc["ranking"][0]["name"] == "a2"  # the loosened tolerance comes out on top
     assert "tighten first" in out.stdout and "linearisation error" in out.stdout
 
     write_calibration(tmp_path / "cal.json", "er10l-c10", a2=0.3)
-    out = run("tolerance", "--calibration", "cal.json", "--pose", "0,10,20,30,40,50", cwd=tmp_path)
+    out = analyze(
+        "tolerance", "--calibration", "cal.json", "--pose", "0,10,20,30,40,50", cwd=tmp_path
+    )
     assert out.returncode == 0, out.stderr
     assert "cal.json (identified table); 1 poses" in out.stdout
 

@@ -54,8 +54,12 @@ def doc():
 
 
 def write(tmp_path, document):
+    """``document`` (bytes, text, or a dict to dump) as tmp_path/c.json."""
     path = tmp_path / "c.json"
-    path.write_text(document if isinstance(document, str) else json.dumps(document))
+    if isinstance(document, bytes):
+        path.write_bytes(document)
+    else:
+        path.write_text(document if isinstance(document, str) else json.dumps(document))
     return path
 
 
@@ -148,22 +152,14 @@ def test_a_missing_or_huge_file_is_refused(tmp_path):
     # Exactly the limit is accepted; one byte more is refused.
     path.write_text(text + " " * (calibration.MAX_BYTES - len(text)))
     assert calibration.load(path).model == "ur5e"
-    path.write_text(text + " " * (calibration.MAX_BYTES - len(text) + 1))
-    with pytest.raises(CalibrationError) as info:
-        calibration.load(path)
-    assert (
-        str(info.value)
-        == f"{path}: {calibration.MAX_BYTES + 1} bytes is too large for a calibration"
-    )
+    message, _ = refused(tmp_path, text + " " * (calibration.MAX_BYTES - len(text) + 1))
+    assert message == f"{path}: {calibration.MAX_BYTES + 1} bytes is too large for a calibration"
 
 
 @pytest.mark.parametrize("content", [b"{", b'{"format": "\xff"}', b"[" * 100000])
 def test_not_json_is_refused(tmp_path, content):
-    path = tmp_path / "c.json"
-    path.write_bytes(content)
-    with pytest.raises(CalibrationError) as info:
-        calibration.load(path)
-    assert str(info.value) == f"{path} is not JSON"
+    message, path = refused(tmp_path, content)
+    assert message == f"{path} is not JSON"
 
 
 def test_nan_is_named(tmp_path):

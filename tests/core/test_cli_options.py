@@ -205,3 +205,28 @@ def test_fuzz_simulate_options(tmp_path, option, value):
     if _canonical(option, value):
         assert accepted == _SIMULATE_RULES[option](float(value)), (option, value, line)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_measure_and_verify_take_the_shared_run_options_alike_in_the_same_place(tmp_path):
+    # Declared once (cli/_run.py RunArgs): same flags, defaults, help and checks in
+    # both commands, listed where each command's own options put them.
+    commands = get_command(app).commands
+    shared = ["resume", "yes", "model", "settle", "retries", "speed", "accel", "max_speed"]
+    seen = {}
+    for name in ("measure", "verify"):
+        params = {p.name: p for p in commands[name].params}
+        order = [p.name for p in commands[name].params]
+        start = order.index("resume")
+        assert order[start : start + len(shared)] == shared, name
+        seen[name] = [
+            (params[n].opts, params[n].default, params[n].help, params[n].callback) for n in shared
+        ]
+    for (opts, default, text, check), (opts2, default2, text2, check2) in zip(
+        seen["measure"], seen["verify"], strict=True
+    ):
+        assert (opts, default, text) == (opts2, default2, text2)
+        assert (check is None) == (check2 is None)
+    for name in ("measure", "verify"):  # and each checks them against the model's ceiling
+        line = one_line_error(cli(name, "--speed", "5", cwd=tmp_path))
+        assert "--speed 5.0 rad/s outside (0, " in line, line
+    assert listing(tmp_path) == {}

@@ -2,19 +2,10 @@
 
 import numpy as np
 import pytest
+from session_kit import simulated
 
-from calibrator import session
 from calibrator.identify import pipeline, pso, refine, report
 from calibrator.identify.problem import Problem
-from calibrator.simulate import simulate
-
-
-def simulated(tmp_path, **kwargs):
-    """Simulate, write and load back a session (so the file format is exercised)."""
-    table, meta, truth = simulate(**kwargs)
-    path = tmp_path / "session.parquet"
-    session.write(path, table, meta)
-    return session.load(path), truth
 
 
 def seed_case(tmp_path, noise_mm=0.0, seed=3):

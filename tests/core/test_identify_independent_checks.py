@@ -11,6 +11,7 @@ import re
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from session_kit import simulated, written
 
 from calibrator import kinematics, session
 from calibrator.identify import pipeline, pso
@@ -18,12 +19,6 @@ from calibrator.models import get_model
 from calibrator.simulate import SEED_ERRORS, simulate
 
 K = 1.0e4  # orientation weight used throughout (mm^2/rad^2)
-
-
-def load(tmp_path, table, meta, name="s.parquet"):
-    path = tmp_path / name
-    session.write(path, table, meta)
-    return session.load(path)
 
 
 def model_poses(result, q):
@@ -81,7 +76,7 @@ def outside_the_box_session(tmp_path):
     q = np.random.default_rng(8).uniform(-2.5, 2.5, (30, 6))
     points = kinematics.forward(truth, q, tool)[:, :3, 3]
     meta = session.SessionMeta("base", nominal, "er10l-c10", tool, tool_known=True)
-    return load(tmp_path, session.to_table(q, points), meta)
+    return written(tmp_path, session.to_table(q, points), meta)
 
 
 def test_swarm_answer_is_returned_inside_its_box_with_the_objective_it_reports(tmp_path):
@@ -103,7 +98,9 @@ def test_swarm_answer_is_returned_inside_its_box_with_the_objective_it_reports(t
 def test_search_box_contains_the_true_frames_a_few_mm_from_their_first_guess(tmp_path):
     # Closed-form first guesses of the base frame and tool point are off by
     # up to a few mm (here 2-3.5 mm): the swarm's box must reach the truth.
-    table, meta, truth = simulate(
+    loaded, truth = simulated(
+        tmp_path,
+        "s.parquet",
         model="er10l-c10",
         poses=30,
         seed=5,
@@ -113,7 +110,6 @@ def test_search_box_contains_the_true_frames_a_few_mm_from_their_first_guess(tmp
         errors="random",
         tool_offset_mm=8.0,
     )
-    loaded = load(tmp_path, table, meta)
     result = pipeline.identify(loaded, pipeline.Options(method="lm", validation_fraction=0.2))
     true_deltas = result.space.pack(truth.mdh, truth.base2tracker, truth.flange2tool)
     frame = np.array([n.startswith(("base_", "tool_")) for n in result.space.free])
@@ -145,7 +141,7 @@ def noisy(tmp_path):
         orientation_noise_rad=2e-4,
         errors="seed",
     )
-    loaded = load(tmp_path, table, meta)
+    loaded = written(tmp_path, table, meta)
     options = pipeline.Options(method="hybrid", generations=100, k=K, seed=4)
     return tmp_path, table, meta, loaded, options, pipeline.identify(loaded, options)
 
@@ -177,7 +173,7 @@ def test_corrupting_held_out_poses_leaves_the_fit_unchanged(noisy):
     rows = bad["pose"].isin(result.validation_index)
     assert rows.sum() == 6
     bad.loc[rows, ["x_mm", "y_mm", "z_mm"]] += [3.0, -2.0, 4.0]
-    corrupted = load(tmp_path, bad, meta, name="corrupted.parquet")
+    corrupted = written(tmp_path, bad, meta, name="corrupted.parquet")
     again = pipeline.identify(corrupted, options)
     np.testing.assert_array_equal(again.validation_index, result.validation_index)
     np.testing.assert_array_equal(again.x, result.x)
@@ -201,7 +197,7 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
     q[:, 4] = 0.0
     points = kinematics.forward(nominal + SEED_ERRORS, q, tool)[:, :3, 3]
     meta = session.SessionMeta("base", nominal, "er10l-c10", tool, tool_known=True)
-    loaded = load(tmp_path, session.to_table(q, points), meta)
+    loaded = written(tmp_path, session.to_table(q, points), meta)
     result = pipeline.identify(loaded, pipeline.Options(method="lm", validation_fraction=0))
     # Every free parameter moves the measured points in its own direction:
     # the finite-difference Jacobian, columns scaled to unit length, has full rank.
@@ -287,7 +283,9 @@ def test_defaults_are_the_seeds_ipso():
 
 
 def small_session(tmp_path, poses, orientation, frame="base", tool_offset_mm=0.0):
-    table, meta, _ = simulate(
+    loaded, _ = simulated(
+        tmp_path,
+        f"s{poses}{orientation}{frame}.parquet",
         model="er10l-c10",
         poses=poses,
         seed=6,
@@ -296,7 +294,7 @@ def small_session(tmp_path, poses, orientation, frame="base", tool_offset_mm=0.0
         errors="seed",
         tool_offset_mm=tool_offset_mm,
     )
-    return load(tmp_path, table, meta, name=f"s{poses}{orientation}{frame}.parquet")
+    return loaded
 
 
 def lm(**kwargs):

@@ -7,18 +7,11 @@ where every link has alpha != 0 and beta != 0 (so Rx.Ry cannot pass for Ry.Rx).
 """
 
 import numpy as np
+from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
 from calibrator import frames, kinematics
 from calibrator.identify.halton import halton
-
-
-def _h(rotation=None, translation=(0.0, 0.0, 0.0)):
-    t = np.eye(4)
-    if rotation is not None:
-        t[:3, :3] = rotation.as_matrix()
-    t[:3, 3] = translation
-    return t
 
 
 def reference_chain(mdh, q):

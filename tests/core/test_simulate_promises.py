@@ -17,7 +17,9 @@ from calibrator import kinematics, session
 from calibrator import simulate as sim
 from calibrator.models import get_model
 
-# Seed 003, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed from the paper.
+# Seed 003, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed again from the
+# paper on purpose: an independent copy to hold calibrator.simulate's own against (importing
+# it would make the test pass whatever the simulator's table says).
 SEED_TABLE_2 = [
     [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
     [0.2565, 0.0092, -0.0003, 0.0, -0.0028],

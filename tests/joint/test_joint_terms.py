@@ -79,8 +79,17 @@ def test_measurement_jacobian_of_joint_terms_matches_differences():
 
 def _fit(truth_terms, groups, payloads=(0.0,), poses=60, seed=5, validation=0.25):
     parts, _ = sessions(truth_terms, poses=poses, seed=seed, payloads_kg=payloads)
+    geo, result, _ = _fit_parts(parts, groups, validation, noise_mm=0.02)
+    return geo, result
+
+
+def _fit_parts(parts, groups, validation, noise_mm):
+    """Geometry first, then the joint terms of ``groups`` on the same split of ``parts``.
+
+    Returns the geometric fit, the joint-terms fit and the (fit, validation) observations.
+    """
     sess, tau, payload = merged(parts)
-    geo = geometric_fit(sess, validation)
+    geo = geometric_fit(sess, validation, noise_mm=noise_mm)
     o = sess.observations
     obs = measurement.Observations(o.q, o.points, o.rotations, tau)
     fit_obs, val_obs = obs.subset(geo.fit_index), obs.subset(geo.validation_index)
@@ -89,10 +98,10 @@ def _fit(truth_terms, groups, payloads=(0.0,), poses=60, seed=5, validation=0.25
         geo.x,
         val_obs,
         groups,
-        0.02,
+        noise_mm,
         payload[geo.fit_index],
     )
-    return geo, result
+    return geo, result, (fit_obs, val_obs)
 
 
 def _recovered(result, truth_terms):
@@ -178,19 +187,7 @@ def test_held_out_error_against_least_squares_from_the_truth(wrist):
 
     scale = np.array([0, 0, 0, 1.5e-3, -2e-3, 1e-3]) if wrist else np.zeros(6)
     parts, truth = make(_terms(scale=scale), poses=50, seed=21, noise_mm=0.03)
-    sess, tau, payload = merged(parts)
-    geo = geometric_fit(sess, 0.3, noise_mm=0.03)
-    o = sess.observations
-    obs = measurement.Observations(o.q, o.points, o.rotations, tau)
-    fit_obs, val_obs = obs.subset(geo.fit_index), obs.subset(geo.validation_index)
-    result = joint_fit.fit(
-        Problem.of(geo.space, fit_obs, geo.k),
-        geo.x,
-        val_obs,
-        ("scale",),
-        0.03,
-        payload[geo.fit_index],
-    )
+    geo, result, (fit_obs, val_obs) = _fit_parts(parts, ("scale",), 0.3, noise_mm=0.03)
     held = result.stats["validation"]["after"]["position_mm"]["mean"]
     geometric = geo.stats["validation"]["after"]["position_mm"]["mean"]
     # Least squares started at the truth, geometry plus scale terms.

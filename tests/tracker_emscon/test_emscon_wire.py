@@ -306,9 +306,8 @@ def test_fence_keeps_events_and_skips_other_replies_until_its_own(scripted):
     assert trk._link.stale == 2  # the late ack and the late result
 
 
-def test_a_settled_link_sends_no_further_fence(scripted):
-    sim, trk = scripted
-    _abandon_a_measurement(sim, trk)
+def _spy_on_commands(sim):
+    """The command codes ``sim`` receives from now on, in order (a list it fills)."""
     commands = []
     handle = sim.handle_packet
 
@@ -317,6 +316,13 @@ def test_a_settled_link_sends_no_further_fence(scripted):
         return handle(data)
 
     sim.handle_packet = spy
+    return commands
+
+
+def test_a_settled_link_sends_no_further_fence(scripted):
+    sim, trk = scripted
+    _abandon_a_measurement(sim, trk)
+    commands = _spy_on_commands(sim)
     trk.measure()
     trk.measure()
     fence, meas = pk.Command.GET_TRACKER_STATUS, pk.Command.START_MEASUREMENT
@@ -477,14 +483,7 @@ def test_a_reset_or_closed_connection_while_reading_breaks_the_link_and_says_whi
 
 def test_a_fresh_connection_sends_no_fence():
     sim = ScriptedSimulator(seed=2, initialised=True, noise=NoiseModel(enabled=False))
-    commands = []
-    handle = sim.handle_packet
-
-    def spy(data):
-        commands.append(pk.parse_uint(data[8:12]))
-        return handle(data)
-
-    sim.handle_packet = spy
+    commands = _spy_on_commands(sim)
     with EmsconServer(sim) as server:
         server.open()
         server.start()

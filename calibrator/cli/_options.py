@@ -1,0 +1,91 @@
+"""Options several commands declare, each declared here once with its checks.
+
+A command names what differs (its default, its help) and takes the flag
+names and the check from here, so ``-o`` stays ``-o`` and ``--tool`` keeps
+its millimetre budget in every command::
+
+    from calibrator.cli import _options as opts
+
+    output: Path = opts.output(Path("plan.csv"), "Plan CSV to write."),
+    model: str = opts.model(help="Named model (joint limits, kinematics, geometry)."),
+    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm."),
+    quiet: bool = opts.quiet(),
+
+The options of the commands that move the arm (``--readings``, ``--speed``,
+...) are in :mod:`calibrator.cli._run`, built from these.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import EllipsisType
+from typing import Any, NoReturn
+
+import typer
+
+from calibrator.cli import _checks as checks
+
+
+def fail(message: str) -> NoReturn:
+    """One line naming what was wrong, exit code 2."""
+    typer.echo(f"calibrator: error: {message}", err=True)
+    raise typer.Exit(2)
+
+
+def floats(text: str, n: int, option: str, needs: str) -> list[float]:
+    """``text``, ``n`` comma-separated finite numbers, or one line naming ``option`` (exit 2).
+
+    ``needs`` says what the option takes (``"X,Y,Z in mm"``).
+    """
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(abs(v) < float("inf") for v in values):
+        fail(f"{option} needs {needs}, got {text!r}")
+    return values
+
+
+def positive(default: float | None, help: str, *names: str) -> Any:
+    """A finite option above zero (speeds, bands, windows, timeouts)."""
+    return typer.Option(default, *names, callback=checks.finite(0.0, inclusive=False), help=help)
+
+
+def output(default: Path | EllipsisType | None, help: str) -> Any:
+    """``-o/--output``: the file (or folder) the command writes; ``...`` makes it required."""
+    return typer.Option(default, "-o", "--output", help=help)
+
+
+def model(default: str | None = "ur10e", help: str = "Named model of the arm.") -> Any:
+    """``--model``: a named arm model (``calibrator.models``)."""
+    return typer.Option(default, help=help)
+
+
+def seed(default: int, help: str) -> Any:
+    """``--seed``: a whole number a random generator accepts."""
+    return typer.Option(default, callback=checks.seed(), help=help)
+
+
+def quiet() -> Any:
+    """``-q/--quiet``: no progress display."""
+    return typer.Option(False, "--quiet", "-q", help="No progress display.")
+
+
+def yes(help: str) -> Any:
+    """``--yes``: do what moves hardware without asking."""
+    return typer.Option(False, "--yes", help=help)
+
+
+def tool(help: str) -> Any:
+    """``--tool X,Y,Z``: a point on the flange, mm, within the tool budget."""
+    return typer.Option("0,0,100", callback=checks.point_mm("tool"), help=help)
+
+
+def tracker_at(help: str) -> Any:
+    """``--tracker-at X,Y,Z``: the tracker in the robot base frame, mm, within its budget."""
+    return typer.Option(None, callback=checks.point_mm("tracker_at"), help=help)
+
+
+def cell(help: str) -> Any:
+    """``--cell``: a cell file (YAML, docs/cell.md)."""
+    return typer.Option(None, "--cell", help=help)
