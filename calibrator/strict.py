@@ -235,11 +235,20 @@ def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tupl
     else:
         return None
     for key, item in items:
-        path = f"{where}[{key}]" if isinstance(key, int) else (f"{where}.{key}" if where else key)
+        if isinstance(key, int):
+            path = f"{where}[{key}]"
+        elif _PLAIN_KEY.fullmatch(key):
+            path = f"{where}.{key}" if where else key
+        else:  # a key a message cannot show as is (a newline, a dot, nothing): quoted
+            path = f"{where}[{key!r}]"
         found = first_leaf(item, test, path)
         if found is not None:
             return found
     return None
+
+
+#: Keys shown bare in a path (``a.b``); any other is shown quoted (``a['x\\n']``).
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def _first_bad(value: Any) -> tuple[str, _Bad] | None:

@@ -59,6 +59,10 @@ def test_parse_columns_names_line_and_column():
         ('{"a": 9223372036854775808}', "f: a: the integer '9223372036854775808' is beyond 64 bits"),
         ('{"a": 1e400}', "f: a: '1e400' is too large for a number"),
         ('{"a": NaN}', "f: a: NaN is not allowed (strict JSON)"),
+        # A key a line cannot show as is (newline, dot, empty) is quoted in the path.
+        ('{"a": {"\\n": 1e400}}', "f: a['\\n']: '1e400' is too large for a number"),
+        ('{"x.y": [NaN]}', "f: ['x.y'][0]: NaN is not allowed (strict JSON)"),
+        ('{"": NaN}', "f: ['']: NaN is not allowed (strict JSON)"),
         ("[Infinity]", "f: [0]: Infinity is not allowed (strict JSON)"),
         ("{", "f is not JSON"),
         ("[" * 100000, "f is not JSON"),
