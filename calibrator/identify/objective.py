@@ -12,6 +12,22 @@ With ``loss="minimax"`` the value is instead the worst pose's
 ``k * |delta_j|^2 + |dp_j|^2`` (chordal orientation term as above): the
 objective of a fit held to its worst pose, which least squares cannot
 minimise and the swarm can.
+
+How a call is made fast (the identifier makes thousands): at 20 particles
+and 26 poses each numpy call costs a few microseconds of dispatch, more than
+its arithmetic, so the evaluation is a fixed sequence of about 25 calls over
+all particles, poses and joints at once, into arrays allocated once per
+swarm size (:class:`_Buffers`):
+
+1. deltas -> ``a, d, alpha, beta, theta`` of all joints (one product), their
+   cosines and sines and the products of those (four elementwise calls);
+2. every link ``Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)`` of every particle
+   from those features in one product with a constant 0/+-1 matrix;
+3. the chain: per joint, ``Rz(q_i)`` as a complex phase on two columns (it
+   depends on the pose only) and one batched product with the links;
+4. with the base and tool frames fixed (the usual case) the tool frame is
+   folded into link 6 and the measured points into the base frame, so the
+   error is one subtraction and the sum one dot product each.
 """
 
 from typing import TYPE_CHECKING
@@ -49,11 +65,10 @@ class SwarmObjective:
         self.minimax = loss == "minimax"
         self.space = space
         self.points = obs.points
-        self.q_phase = kinematics.joint_phases(obs.q)
+        self.n_poses = len(obs.q)
         self.k = problem.k
         index = space.index
-        self.mdh_cols = np.flatnonzero(index < N_MDH)
-        self.mdh_index = index[self.mdh_cols]
+        mdh_cols = np.flatnonzero(index < N_MDH)
         self.base_free = bool(np.any((index >= N_MDH) & (index < TOOL_START)))
         self.tool_free = bool(np.any(index >= TOOL_START))
         self.tool_turn_free = bool(np.any(index >= TOOL_ROTATION_START))
@@ -61,13 +76,10 @@ class SwarmObjective:
         if self.base_fixed is not None and np.array_equal(self.base_fixed, np.eye(4)):
             self.base_fixed = None  # the base frame: nothing to apply
         self.tool_h = space.tool0[:, 3]  # homogeneous tool point in the flange frame
-        self.nominal_flat = space.nominal_mdh.ravel().copy()
-        # Deltas -> flat MDH tables as one product with a 0/1 matrix (D, 30):
-        # two numpy calls per evaluation instead of four, and exact (each
-        # entry is one delta times 1 plus zeros).
-        self.to_mdh = np.zeros((space.size, N_MDH))
-        self.to_mdh[self.mdh_cols, self.mdh_index] = 1.0
-        if self.k and (self.tool_turn_free or self.minimax):
+        # The usual case (least squares, base and tool frames fixed) ends in
+        # two calls on the chain's rows; the others go the general way.
+        self.fast = not (self.minimax or self.base_free or self.tool_free)
+        if self.k and (self.tool_turn_free or self.minimax or self.fast):
             self.meas_rot = obs.rotations  # (N, 3, 3), tracker frame
             if not self.base_free:
                 self.meas_rot = space.base0[:3, :3].T @ self.meas_rot  # base frame
@@ -77,26 +89,83 @@ class SwarmObjective:
             target = obs.rotations @ space.tool0[:3, :3].T
             if not self.base_free:
                 target = space.base0[:3, :3].T @ target
-            self.meas_tool = np.zeros((len(obs.q), 3, 4))
+            self.meas_tool = np.zeros((self.n_poses, 3, 4))
             self.meas_tool[..., :3] = target
+        self._tables(space, index[mdh_cols], mdh_cols, obs.q)
+        if self.fast:
+            # The measurements are brought into the frame after Rz(q1) of
+            # each pose: |Rz p - m| = |p - Rz^T m| and trace(M^T Rz X) =
+            # trace((Rz^T M)^T X); the chain then starts at link 1, the same
+            # for every pose (see _Buffers.chain).
+            points = self.points
+            if self.base_fixed is not None:
+                points = (points - self.base_fixed[:3, 3]) @ self.base_fixed[:3, :3]
+            turn_back = np.swapaxes(_rz(obs.q[:, 0]), -1, -2)  # Rz(q1)^T per pose
+            points = np.einsum("nij,nj->ni", turn_back, points)
+            self.points_rows = np.ascontiguousarray(points.T)  # (3, N)
+            if self.k:
+                # -k trace(R_meas^T R_model) over all poses as one dot product
+                # with the chain's rows (P, 3, N, 4); column 3 is the point.
+                rot = np.asarray(self.meas_rot)
+                weights = np.zeros((3, self.n_poses, 4))
+                weights[..., :3] = (turn_back @ rot).transpose(1, 0, 2)
+                self.neg_k_meas = -self.k * weights.ravel()
+        self._buffers: dict[int, _Buffers] = {}
+
+    def _tables(self, space, mdh_index, mdh_cols, q):
+        """Constant tables: deltas to link features, features to links, the joints' turns."""
+        # x (P, D) -> a, d, alpha, beta, theta of the 6 joints (features
+        # _A.._THETA of _Buffers), as one product plus the nominal values:
+        # exact, each entry is one delta times 1 plus zeros.
+        row_of_column = {kinematics.A: 0, kinematics.D: 1, kinematics.ALPHA: 2}
+        row_of_column.update({kinematics.BETA: 3, kinematics.THETA: 4})
+        self.to_features = np.zeros((5 * 6, space.size))
+        self.feature_bias = np.zeros((5 * 6, 1))
+        for col, row in row_of_column.items():
+            self.feature_bias[row * 6 : row * 6 + 6, 0] = space.nominal_mdh[:, col]
+        for k, flat in zip(mdh_cols, mdh_index, strict=True):
+            joint, col = divmod(int(flat), 5)
+            self.to_features[row_of_column[col] * 6 + joint, k] = 1.0
+        self.to_links = _FEATURES_TO_LINK
+        self.to_last_link = None
+        if self.fast:
+            # Link 6 times the fixed tool frame, so that the chain ends at
+            # the tool point.
+            with_tool = np.einsum("frk,kc->frc", _FEATURES_TO_LINK.reshape(48, 4, 4), space.tool0)
+            self.to_last_link = with_tool.reshape(48, 16)
+        q = np.asarray(q, dtype=float)
+        # Joint 1 from rest: the top rows of Rz(q1), rows before poses (3N, 4).
+        first = np.zeros((3, len(q), 4))
+        first[..., :3] = _rz(q[:, 0]).transpose(1, 0, 2)
+        self.first_rows = first.reshape(3 * len(q), 4)
+        # Rz(q_i) as phases on columns 0 and 1 (see kinematics.chain_parts), (6, N).
+        self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(q).T)
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
-        mdh = (x @ self.to_mdh + self.nominal_flat).reshape(len(x), 6, 5)
+        n_sets, n_poses = len(x), self.n_poses
+        buffers = self._buffers.get(n_sets)
+        if buffers is None:
+            buffers = self._buffers[n_sets] = _Buffers(self, n_sets)
+        t = buffers.chain(x, self)  # (P, 3, N, 4): rows before poses
+        if self.fast:
+            # t is base2tool; its column 3 the tool point in the base frame.
+            d = buffers.d
+            np.subtract(t[..., 3], self.points_rows, out=d)
+            f = _dot(buffers.d_flat)
+            if self.k:
+                f += buffers.flat @ self.neg_k_meas
+                f += self.k * 3.0 * n_poses
+            return f
+        top = t.transpose(0, 2, 1, 3)  # (P, N, 3, 4) base2flange
         base2tracker = flange2tool = None
         if self.base_free or self.tool_free:
             _, base2tracker, flange2tool = self.space.unpack(x)
-        top = kinematics.chain_parts(
-            kinematics.link_constants(mdh),
-            kinematics.joint_phases(mdh[..., kinematics.THETA]),
-            self.q_phase,
-        )  # (P, N, 3, 4) base2flange
-        n_sets, n_poses = top.shape[:2]
         if self.tool_free:
-            p = np.matmul(top.reshape(n_sets, n_poses * 3, 4), flange2tool[:, :, 3:4])
+            p = np.matmul(top, flange2tool[:, np.newaxis, :, 3:4])[..., 0]
         else:
-            p = top.reshape(-1, 4) @ self.tool_h
-        p = p.reshape(n_sets, n_poses, 3)  # tool point, base frame
+            p = top @ self.tool_h
+        # p: (P, N, 3) tool point, base frame
         if self.base_free:
             p = np.matmul(p, np.swapaxes(base2tracker[:, :3, :3], -1, -2))
             p += base2tracker[:, np.newaxis, :3, 3]
@@ -108,8 +177,7 @@ class SwarmObjective:
             if self.k:
                 per_pose += self.k * (3.0 - self._traces(top, base2tracker, flange2tool))
             return per_pose.max(axis=1)
-        d = d.reshape(n_sets, -1)
-        f = np.einsum("pj,pj->p", d, d)
+        f = _dot(d.reshape(n_sets, -1))
         if self.k and self.tool_turn_free:
             # Sum over poses before the per-particle tool rotation:
             # sum_n trace(R_meas^T B R_fl R_tool) = trace((sum_n R_meas^T B R_fl) R_tool).
@@ -123,9 +191,9 @@ class SwarmObjective:
                 # B^T applied to the measured orientations, per particle.
                 b_t = np.swapaxes(base2tracker[:, :3, :3], -1, -2)
                 target = np.matmul(b_t[:, np.newaxis], self.meas_tool)
-                trace = np.einsum("pj,pj->p", top.reshape(n_sets, -1), target.reshape(n_sets, -1))
+                trace = np.einsum("pnij,pnij->p", top, target)
             else:
-                trace = top.reshape(n_sets, -1) @ self.meas_tool.ravel()
+                trace = np.einsum("pnij,nij->p", top, self.meas_tool)
             f += self.k * (3.0 * n_poses - trace)
         return f
 
@@ -139,3 +207,157 @@ class SwarmObjective:
         else:
             model = model @ self.space.tool0[:3, :3]
         return np.einsum("nij,pnij->pn", self.meas_rot, model)
+
+
+def _rz(angle):
+    """Rotations about z, shape (N, 3, 3), for angles (N,) (rad)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((len(angle), 3, 3))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = c, -s, s, c
+    out[:, 2, 2] = 1.0
+    return out
+
+
+def _dot(d):
+    """Sum of squares of each row of ``d`` (P, M) -> (P,): one call."""
+    if hasattr(np, "vecdot"):  # numpy >= 2.0: a ufunc, half the time of einsum here
+        return np.vecdot(d, d)
+    return np.einsum("pj,pj->p", d, d)
+
+
+# Features of one link: rows of _Buffers.features, one column per joint and
+# particle. Rows 13-15 are the angles whose cosines and sines fill rows 0-5.
+_CA, _CB, _CT, _SA, _SB, _ST, _CACB, _CASB, _SACB, _SASB, _ONE, _A, _D = range(13)
+_ALPHA, _BETA, _THETA = 13, 14, 15
+
+
+def _features_to_link() -> np.ndarray:
+    """0/+-1 matrix (48, 16): link features to ``Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)``.
+
+    The 48 inputs are the 16 features, then cos(theta) times each, then
+    sin(theta) times each. Each entry of the flattened 4x4 link is one input
+    or the sum of two: ``Rz(theta)`` times :func:`kinematics.link_constants`
+    written out.
+    """
+    plain, cos_t, sin_t = 0, 16, 32
+    terms = {
+        (0, 0): [(cos_t + _CB, 1), (sin_t + _SASB, -1)],
+        (0, 1): [(sin_t + _CA, -1)],
+        (0, 2): [(cos_t + _SB, 1), (sin_t + _SACB, 1)],
+        (0, 3): [(cos_t + _A, 1)],
+        (1, 0): [(sin_t + _CB, 1), (cos_t + _SASB, 1)],
+        (1, 1): [(cos_t + _CA, 1)],
+        (1, 2): [(sin_t + _SB, 1), (cos_t + _SACB, -1)],
+        (1, 3): [(sin_t + _A, 1)],
+        (2, 0): [(plain + _CASB, -1)],
+        (2, 1): [(plain + _SA, 1)],
+        (2, 2): [(plain + _CACB, 1)],
+        (2, 3): [(plain + _D, 1)],
+        (3, 3): [(plain + _ONE, 1)],
+    }
+    out = np.zeros((48, 16))
+    for (row, col), entry in terms.items():
+        for feature, sign in entry:
+            out[feature, 4 * row + col] = sign
+    return out
+
+
+_FEATURES_TO_LINK = _features_to_link()
+
+
+class _Buffers:
+    """Work arrays of one swarm size and the forward kinematics written into them.
+
+    The link features keep particles innermost, (feature, joint, P), so that
+    their elementwise steps run over long contiguous rows; the chain keeps
+    rows before poses, (P, 3, N, 4), so that a joint's turn broadcasts one
+    phase per pose along contiguous rows.
+    """
+
+    def __init__(self, objective: SwarmObjective, n_sets: int) -> None:
+        n = objective.n_poses
+        # (3, 16, 6, P): link features, then cos(theta) and sin(theta) times them.
+        self.blocks = np.zeros((3, 16, 6, n_sets))
+        features = self.blocks[0]
+        features[_ONE] = 1.0
+        self.features = features
+        self.deltas = features[_A:].reshape(30, n_sets)  # a, d, alpha, beta, theta rows
+        self.angles = features[_ALPHA:]
+        self.cos, self.sin = features[_CA : _CT + 1], features[_SA : _ST + 1]
+        self.cos_sin_a = features[_CA : _SA + 1 : 3, np.newaxis]  # (2, 1, 6, P)
+        self.cos_sin_b = features[np.newaxis, _CB : _SB + 1 : 3]  # (1, 2, 6, P)
+        self.products = features[_CACB : _SASB + 1].reshape(2, 2, 6, n_sets)
+        self.cos_sin_t = features[_CT : _ST + 1 : 3, np.newaxis]  # (2, 1, 6, P)
+        self.turned = self.blocks[1:]
+        self.inputs = self.blocks.reshape(48, 6 * n_sets).T  # (6P, 48)
+        self.links = np.empty((6 * n_sets, 16))
+        for view in (self.deltas, self.products):
+            assert np.shares_memory(view, self.blocks)  # written in place, never a copy
+        link = list(self.links.reshape(6, n_sets, 4, 4))
+        self.last_link = None
+        if objective.to_last_link is not None:
+            self.last_inputs = self.inputs[5 * n_sets :]  # (P, 48): joint 6
+            self.last_link = link[5] = np.empty((n_sets, 4, 4))  # with the tool frame
+        # Two chain buffers in turn.
+        pair = np.empty((2, n_sets, 3, n, 4))
+        self.first = (link[0], pair[0].reshape(n_sets, 3 * n, 4))
+        # Without Rz(q1) (the fast objective moved it to the measurements)
+        # the chain starts at link 1 for every pose, turned by q2: columns
+        # (0, 1) and (2, 3) as two complex numbers, the first turned, the
+        # second copied to every pose.
+        self.from_link_1 = objective.fast
+        top = link[0][:, :3].view(np.complex128)  # (P, 3, 2)
+        turned = pair[0].view(np.complex128)  # (P, 3, N, 2)
+        self.start = (
+            top[..., 0, np.newaxis],
+            turned[..., 0],
+            top[..., 1, np.newaxis],
+            turned[..., 1],
+        )
+        self.steps = []
+        for joint in range(1, 6):
+            src, dst = pair[(joint + 1) % 2], pair[joint % 2]
+            turn = src.view(np.complex128)[..., 0]
+            self.steps.append(
+                (
+                    None if joint == 1 and self.from_link_1 else turn,
+                    objective.pose_phases[joint],
+                    src.reshape(n_sets, 3 * n, 4),
+                    link[joint],
+                    dst.reshape(n_sets, 3 * n, 4),
+                )
+            )
+        self.last = pair[1]
+        self.flat = self.last.reshape(n_sets, 12 * n)
+        self.d = np.empty((n_sets, 3, n))
+        self.d_flat = self.d.reshape(n_sets, 3 * n)
+
+    def chain(self, x: np.ndarray, objective: SwarmObjective) -> np.ndarray:
+        """Forward kinematics of the swarm ``x`` (P, D), shape (P, 3, N, 4), rows before poses.
+
+        ``base2flange`` (mm), or ``base2tool`` when the objective folds its
+        fixed tool frame into link 6. The result lives in this buffer until
+        the next call.
+        """
+        np.matmul(objective.to_features, x.T, out=self.deltas)
+        self.deltas += objective.feature_bias
+        np.cos(self.angles, out=self.cos)
+        np.sin(self.angles, out=self.sin)
+        np.multiply(self.cos_sin_a, self.cos_sin_b, out=self.products)
+        np.multiply(self.cos_sin_t, self.features, out=self.turned)
+        # Every link of every particle in one product.
+        np.matmul(self.inputs, objective.to_links, out=self.links)
+        if self.last_link is not None:
+            np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
+        if self.from_link_1:
+            xy, turned_xy, zw, kept_zw = self.start
+            np.multiply(xy, objective.pose_phases[1], out=turned_xy)
+            np.copyto(kept_zw, zw)
+        else:
+            first, out = self.first
+            np.matmul(objective.first_rows, first, out=out)
+        for turn, phase, src, link, dst in self.steps:
+            if turn is not None:
+                turn *= phase  # t @ Rz(q_i): columns 0 and 1 as one complex number
+            np.matmul(src, link, out=dst)
+        return self.last
