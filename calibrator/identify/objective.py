@@ -114,11 +114,11 @@ class SwarmObjective:
 
     def _tables(self, space, mdh_index, mdh_cols, q):
         """Constant tables: deltas to link features, features to links, the joints' turns."""
-        # x (P, D) -> a, d, alpha, beta, theta of the 6 joints (features
-        # _A.._THETA of _Buffers), as one product plus the nominal values:
+        # x (P, D) -> a, d, theta, alpha, beta of the 6 joints (features
+        # _A.._BETA of _Buffers), as one product plus the nominal values:
         # exact, each entry is one delta times 1 plus zeros.
-        row_of_column = {kinematics.A: 0, kinematics.D: 1, kinematics.ALPHA: 2}
-        row_of_column.update({kinematics.BETA: 3, kinematics.THETA: 4})
+        row_of_column = {kinematics.A: 0, kinematics.D: 1, kinematics.THETA: 2}
+        row_of_column.update({kinematics.ALPHA: 3, kinematics.BETA: 4})
         self.to_features = np.zeros((5 * 6, space.size))
         self.feature_bias = np.zeros((5 * 6, 1))
         for col, row in row_of_column.items():
@@ -131,8 +131,8 @@ class SwarmObjective:
         if self.fast:
             # Link 6 times the fixed tool frame, so that the chain ends at
             # the tool point.
-            with_tool = np.einsum("frk,kc->frc", _FEATURES_TO_LINK.reshape(48, 4, 4), space.tool0)
-            self.to_last_link = with_tool.reshape(48, 16)
+            with_tool = np.einsum("frk,kc->frc", _FEATURES_TO_LINK.reshape(-1, 4, 4), space.tool0)
+            self.to_last_link = with_tool.reshape(-1, 16)
         q = np.asarray(q, dtype=float)
         # Joint 1 from rest: the top rows of Rz(q1), rows before poses (3N, 4).
         first = np.zeros((3, len(q), 4))
@@ -140,6 +140,8 @@ class SwarmObjective:
         self.first_rows = first.reshape(3 * len(q), 4)
         # Rz(q_i) as phases on columns 0 and 1 (see kinematics.chain_parts), (6, N).
         self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(q).T)
+        self.second_turn = np.ones((2, len(q)), dtype=complex)  # q2's phases, then 1
+        self.second_turn[0] = self.pose_phases[1]
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
@@ -227,19 +229,24 @@ def _dot(d):
 
 # Features of one link: rows of _Buffers.features, one column per joint and
 # particle. Rows 13-15 are the angles whose cosines and sines fill rows 0-5.
-_CA, _CB, _CT, _SA, _SB, _ST, _CACB, _CASB, _SACB, _SASB, _ONE, _A, _D = range(13)
-_ALPHA, _BETA, _THETA = 13, 14, 15
+_CT, _CA, _CB, _ST, _SA, _SB, _CACB, _CASB, _SACB, _SASB, _A, _D = range(12)
+_THETA, _ALPHA, _BETA, _ONE = 12, 13, 14, 15
+# The features that cos(theta) and sin(theta) multiply (Rz(theta) mixes rows
+# 0 and 1 of the link): ca, cb, sb, sa cb, sa sb, a and the four between them.
+_TURNED = slice(_CA, _A + 1)
+_N_TURNED = _A + 1 - _CA
+_N_INPUTS = 16 + 2 * _N_TURNED
 
 
 def _features_to_link() -> np.ndarray:
-    """0/+-1 matrix (48, 16): link features to ``Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)``.
+    """0/+-1 matrix (36, 16): link features to ``Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)``.
 
-    The 48 inputs are the 16 features, then cos(theta) times each, then
-    sin(theta) times each. Each entry of the flattened 4x4 link is one input
+    The 36 inputs are the 16 features, then cos(theta) times features
+    ``_TURNED``, then sin(theta) times them. Each entry of the flattened 4x4 link is one input
     or the sum of two: ``Rz(theta)`` times :func:`kinematics.link_constants`
     written out.
     """
-    plain, cos_t, sin_t = 0, 16, 32
+    plain, cos_t, sin_t = 0, 16 - _CA, 16 + _N_TURNED - _CA
     terms = {
         (0, 0): [(cos_t + _CB, 1), (sin_t + _SASB, -1)],
         (0, 1): [(sin_t + _CA, -1)],
@@ -255,7 +262,7 @@ def _features_to_link() -> np.ndarray:
         (2, 3): [(plain + _D, 1)],
         (3, 3): [(plain + _ONE, 1)],
     }
-    out = np.zeros((48, 16))
+    out = np.zeros((_N_INPUTS, 16))
     for (row, col), entry in terms.items():
         for feature, sign in entry:
             out[feature, 4 * row + col] = sign
@@ -276,44 +283,41 @@ class _Buffers:
 
     def __init__(self, objective: SwarmObjective, n_sets: int) -> None:
         n = objective.n_poses
-        # (3, 16, 6, P): link features, then cos(theta) and sin(theta) times them.
-        self.blocks = np.zeros((3, 16, 6, n_sets))
-        features = self.blocks[0]
+        # (36, 6, P): the 16 link features, then cos(theta) and sin(theta)
+        # times those that Rz(theta) mixes.
+        self.blocks = np.zeros((_N_INPUTS, 6, n_sets))
+        features = self.blocks[:16]
         features[_ONE] = 1.0
         self.features = features
-        self.deltas = features[_A:].reshape(30, n_sets)  # a, d, alpha, beta, theta rows
-        self.angles = features[_ALPHA:]
-        self.cos, self.sin = features[_CA : _CT + 1], features[_SA : _ST + 1]
+        self.deltas = features[_A:_ONE].reshape(30, n_sets)  # a, d, theta, alpha, beta rows
+        self.angles = features[_THETA:_ONE]
+        self.cos, self.sin = features[_CT : _CB + 1], features[_ST : _SB + 1]
         self.cos_sin_a = features[_CA : _SA + 1 : 3, np.newaxis]  # (2, 1, 6, P)
         self.cos_sin_b = features[np.newaxis, _CB : _SB + 1 : 3]  # (1, 2, 6, P)
         self.products = features[_CACB : _SASB + 1].reshape(2, 2, 6, n_sets)
         self.cos_sin_t = features[_CT : _ST + 1 : 3, np.newaxis]  # (2, 1, 6, P)
-        self.turned = self.blocks[1:]
-        self.inputs = self.blocks.reshape(48, 6 * n_sets).T  # (6P, 48)
+        self.to_turn = features[_TURNED]
+        self.turned = self.blocks[16:].reshape(2, _N_TURNED, 6, n_sets)
+        self.inputs = self.blocks.reshape(_N_INPUTS, 6 * n_sets).T  # (6P, 36)
         self.links = np.empty((6 * n_sets, 16))
-        for view in (self.deltas, self.products):
+        for view in (self.deltas, self.products, self.turned):
             assert np.shares_memory(view, self.blocks)  # written in place, never a copy
         link = list(self.links.reshape(6, n_sets, 4, 4))
         self.last_link = None
         if objective.to_last_link is not None:
-            self.last_inputs = self.inputs[5 * n_sets :]  # (P, 48): joint 6
+            self.last_inputs = self.inputs[5 * n_sets :]  # (P, 36): joint 6
             self.last_link = link[5] = np.empty((n_sets, 4, 4))  # with the tool frame
         # Two chain buffers in turn.
         pair = np.empty((2, n_sets, 3, n, 4))
         self.first = (link[0], pair[0].reshape(n_sets, 3 * n, 4))
         # Without Rz(q1) (the fast objective moved it to the measurements)
         # the chain starts at link 1 for every pose, turned by q2: columns
-        # (0, 1) and (2, 3) as two complex numbers, the first turned, the
-        # second copied to every pose.
+        # (0, 1) and (2, 3) as two complex numbers, the first times q2's
+        # phase and the second times 1, in one product (P, 3, 2, 1) x (2, N).
         self.from_link_1 = objective.fast
         top = link[0][:, :3].view(np.complex128)  # (P, 3, 2)
         turned = pair[0].view(np.complex128)  # (P, 3, N, 2)
-        self.start = (
-            top[..., 0, np.newaxis],
-            turned[..., 0],
-            top[..., 1, np.newaxis],
-            turned[..., 1],
-        )
+        self.start = (top[..., np.newaxis], turned.transpose(0, 1, 3, 2))
         self.steps = []
         for joint in range(1, 6):
             src, dst = pair[(joint + 1) % 2], pair[joint % 2]
@@ -344,15 +348,14 @@ class _Buffers:
         np.cos(self.angles, out=self.cos)
         np.sin(self.angles, out=self.sin)
         np.multiply(self.cos_sin_a, self.cos_sin_b, out=self.products)
-        np.multiply(self.cos_sin_t, self.features, out=self.turned)
+        np.multiply(self.cos_sin_t, self.to_turn, out=self.turned)
         # Every link of every particle in one product.
         np.matmul(self.inputs, objective.to_links, out=self.links)
         if self.last_link is not None:
             np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
         if self.from_link_1:
-            xy, turned_xy, zw, kept_zw = self.start
-            np.multiply(xy, objective.pose_phases[1], out=turned_xy)
-            np.copyto(kept_zw, zw)
+            link_1, turned = self.start
+            np.multiply(link_1, objective.second_turn, out=turned)
         else:
             first, out = self.first
             np.matmul(objective.first_rows, first, out=out)
