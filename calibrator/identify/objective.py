@@ -102,7 +102,11 @@ class SwarmObjective:
                 points = (points - self.base_fixed[:3, 3]) @ self.base_fixed[:3, :3]
             turn_back = np.swapaxes(_rz(obs.q[:, 0]), -1, -2)  # Rz(q1)^T per pose
             points = np.einsum("nij,nj->ni", turn_back, points)
-            self.points_rows = np.ascontiguousarray(points.T)  # (3, N)
+            # The chain starts from link 1's rows minus the measured point in
+            # column 3 (column 3 only ever gains multiples of itself times 1:
+            # the last row of every link is 0 0 0 1), so it ends at the error
+            # p - m. As complex numbers (columns 2 + 3j) per row and pose.
+            self.start_offset = 1j * np.ascontiguousarray(points.T)  # (3, N)
             if self.k:
                 # -k trace(R_meas^T R_model) over all poses as one dot product
                 # with the chain's rows (P, 3, N, 4); column 3 is the point.
@@ -140,8 +144,6 @@ class SwarmObjective:
         self.first_rows = first.reshape(3 * len(q), 4)
         # Rz(q_i) as phases on columns 0 and 1 (see kinematics.chain_parts), (6, N).
         self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(q).T)
-        self.second_turn = np.ones((2, len(q)), dtype=complex)  # q2's phases, then 1
-        self.second_turn[0] = self.pose_phases[1]
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
@@ -151,10 +153,8 @@ class SwarmObjective:
             buffers = self._buffers[n_sets] = _Buffers(self, n_sets)
         t = buffers.chain(x, self)  # (P, 3, N, 4): rows before poses
         if self.fast:
-            # t is base2tool; its column 3 the tool point in the base frame.
-            d = buffers.d
-            np.subtract(t[..., 3], self.points_rows, out=d)
-            f = _dot(buffers.d_flat)
+            # t is base2tool, column 3 less the measured point: the error.
+            f = _dot(buffers.errors)
             if self.k:
                 f += buffers.flat @ self.neg_k_meas
                 f += self.k * 3.0 * n_poses
@@ -313,11 +313,11 @@ class _Buffers:
         # Without Rz(q1) (the fast objective moved it to the measurements)
         # the chain starts at link 1 for every pose, turned by q2: columns
         # (0, 1) and (2, 3) as two complex numbers, the first times q2's
-        # phase and the second times 1, in one product (P, 3, 2, 1) x (2, N).
+        # phase, the second less the measured point (in column 3).
         self.from_link_1 = objective.fast
-        top = link[0][:, :3].view(np.complex128)  # (P, 3, 2)
+        top = link[0][:, :3].view(np.complex128)[..., np.newaxis]  # (P, 3, 2, 1)
         turned = pair[0].view(np.complex128)  # (P, 3, N, 2)
-        self.start = (top[..., np.newaxis], turned.transpose(0, 1, 3, 2))
+        self.start = (top[..., 0, :], turned[..., 0], top[..., 1, :], turned[..., 1])
         self.steps = []
         for joint in range(1, 6):
             src, dst = pair[(joint + 1) % 2], pair[joint % 2]
@@ -333,8 +333,7 @@ class _Buffers:
             )
         self.last = pair[1]
         self.flat = self.last.reshape(n_sets, 12 * n)
-        self.d = np.empty((n_sets, 3, n))
-        self.d_flat = self.d.reshape(n_sets, 3 * n)
+        self.errors = self.last.reshape(n_sets, 3 * n, 4)[..., 3]  # (P, 3N), a view
 
     def chain(self, x: np.ndarray, objective: SwarmObjective) -> np.ndarray:
         """Forward kinematics of the swarm ``x`` (P, D), shape (P, 3, N, 4), rows before poses.
@@ -354,8 +353,9 @@ class _Buffers:
         if self.last_link is not None:
             np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
         if self.from_link_1:
-            link_1, turned = self.start
-            np.multiply(link_1, objective.second_turn, out=turned)
+            xy, turned_xy, zw, offset_zw = self.start
+            np.multiply(xy, objective.pose_phases[1], out=turned_xy)
+            np.subtract(zw, objective.start_offset, out=offset_zw)
         else:
             first, out = self.first
             np.matmul(objective.first_rows, first, out=out)
