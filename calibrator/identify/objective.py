@@ -76,9 +76,9 @@ class SwarmObjective:
         if self.base_fixed is not None and np.array_equal(self.base_fixed, np.eye(4)):
             self.base_fixed = None  # the base frame: nothing to apply
         self.tool_h = space.tool0[:, 3]  # homogeneous tool point in the flange frame
-        # The usual case (least squares, base and tool frames fixed) ends in
-        # two calls on the chain's rows; the others go the general way.
-        self.fast = not (self.minimax or self.base_free or self.tool_free)
+        # The usual case (base and tool frames fixed) ends in two or three
+        # calls on the chain's rows; the others go the general way.
+        self.fast = not (self.base_free or self.tool_free)
         if self.k and (self.tool_turn_free or self.minimax or self.fast):
             self.meas_rot = obs.rotations  # (N, 3, 3), tracker frame
             if not self.base_free:
@@ -113,7 +113,8 @@ class SwarmObjective:
                 rot = np.asarray(self.meas_rot)
                 weights = np.zeros((3, self.n_poses, 4))
                 weights[..., :3] = (turn_back @ rot).transpose(1, 0, 2)
-                self.neg_k_meas = -self.k * weights.ravel()
+                self.neg_k_meas = -self.k * weights  # (3, N, 4)
+                self.neg_k_meas_flat = self.neg_k_meas.ravel()
         self._buffers: dict[int, _Buffers] = {}
 
     def _tables(self, space, mdh_index, mdh_cols, q):
@@ -154,9 +155,16 @@ class SwarmObjective:
         t = buffers.chain(x, self)  # (P, 3, N, 4): rows before poses
         if self.fast:
             # t is base2tool, column 3 less the measured point: the error.
+            if self.minimax:
+                error = buffers.errors.reshape(n_sets, 3, n_poses)
+                per_pose = np.einsum("prn,prn->pn", error, error)
+                if self.k:
+                    per_pose += np.einsum("prnc,rnc->pn", t, self.neg_k_meas)
+                    per_pose += 3.0 * self.k
+                return per_pose.max(axis=1)
             f = _dot(buffers.errors)
             if self.k:
-                f += buffers.flat @ self.neg_k_meas
+                f += buffers.flat @ self.neg_k_meas_flat
                 f += self.k * 3.0 * n_poses
             return f
         top = t.transpose(0, 2, 1, 3)  # (P, N, 3, 4) base2flange
