@@ -14,20 +14,25 @@ objective of a fit held to its worst pose, which least squares cannot
 minimise and the swarm can.
 
 How a call is made fast (the identifier makes thousands): at 20 particles
-and 26 poses each numpy call costs a few microseconds of dispatch, more than
-its arithmetic, so the evaluation is a fixed sequence of about 25 calls over
-all particles, poses and joints at once, into arrays allocated once per
-swarm size (:class:`_Buffers`):
+and 26 poses each numpy call costs microseconds of dispatch, as much as its
+arithmetic, so an evaluation is a fixed sequence of about 23 calls over all
+particles, poses and joints at once, into arrays allocated once per swarm
+size (:class:`_Buffers`):
 
-1. deltas -> ``a, d, alpha, beta, theta`` of all joints (one product), their
+1. deltas -> ``a, d, theta, alpha, beta`` of all joints (one product), their
    cosines and sines and the products of those (four elementwise calls);
 2. every link ``Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)`` of every particle
-   from those features in one product with a constant 0/+-1 matrix;
-3. the chain: per joint, ``Rz(q_i)`` as a complex phase on two columns (it
-   depends on the pose only) and one batched product with the links;
-4. with the base and tool frames fixed (the usual case) the tool frame is
-   folded into link 6 and the measured points into the base frame, so the
-   error is one subtraction and the sum one dot product each.
+   from those features in one product with a constant 0/+-1 matrix, link 6
+   times the tool frame;
+3. the chain, rows before poses: per joint, ``Rz(q_i)`` as a complex phase
+   on columns 0 and 1 (it depends on the pose only) and one batched product
+   with the links. With the base frame fixed, ``Rz(q1)`` and the base frame
+   go to the measurements instead, so the chain starts at link 1, the same
+   for every pose; with it free, it starts at each particle's base frame;
+4. the measured points are taken off column 3 at the start and the last row
+   of every link is ``0 0 0 1``, so the chain ends at the position errors:
+   the objective is then one dot product of them and one with the measured
+   rotations.
 """
 
 from typing import TYPE_CHECKING
@@ -35,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator import kinematics
-from calibrator.parameters import N_MDH, TOOL_ROTATION_START, TOOL_START
+from calibrator.parameters import N_MDH, TOOL_START
 
 if TYPE_CHECKING:
     from calibrator.identify.problem import Problem
@@ -64,57 +69,42 @@ class SwarmObjective:
         space, obs = problem.space, problem.obs
         self.minimax = loss == "minimax"
         self.space = space
-        self.points = obs.points
         self.n_poses = len(obs.q)
         self.k = problem.k
         index = space.index
         mdh_cols = np.flatnonzero(index < N_MDH)
         self.base_free = bool(np.any((index >= N_MDH) & (index < TOOL_START)))
         self.tool_free = bool(np.any(index >= TOOL_START))
-        self.tool_turn_free = bool(np.any(index >= TOOL_ROTATION_START))
-        self.base_fixed = None if self.base_free else space.base0
-        if self.base_fixed is not None and np.array_equal(self.base_fixed, np.eye(4)):
-            self.base_fixed = None  # the base frame: nothing to apply
-        self.tool_h = space.tool0[:, 3]  # homogeneous tool point in the flange frame
-        # The usual case (base and tool frames fixed) ends in two or three
-        # calls on the chain's rows; the others go the general way.
-        self.fast = not (self.base_free or self.tool_free)
-        if self.k and (self.tool_turn_free or self.minimax or self.fast):
-            self.meas_rot = obs.rotations  # (N, 3, 3), tracker frame
-            if not self.base_free:
-                self.meas_rot = space.base0[:3, :3].T @ self.meas_rot  # base frame
-        elif self.k:
-            # trace(R_meas^T B R_flange R_tool) = sum(R_flange * (B^T R_meas R_tool^T));
-            # padded to 3x4 with a zero column so it lines up with base2flange.
-            target = obs.rotations @ space.tool0[:3, :3].T
-            if not self.base_free:
-                target = space.base0[:3, :3].T @ target
-            self.meas_tool = np.zeros((self.n_poses, 3, 4))
-            self.meas_tool[..., :3] = target
         self._tables(space, index[mdh_cols], mdh_cols, obs.q)
-        if self.fast:
-            # The measurements are brought into the frame after Rz(q1) of
-            # each pose: |Rz p - m| = |p - Rz^T m| and trace(M^T Rz X) =
-            # trace((Rz^T M)^T X); the chain then starts at link 1, the same
-            # for every pose (see _Buffers.chain).
-            points = self.points
-            if self.base_fixed is not None:
-                points = (points - self.base_fixed[:3, 3]) @ self.base_fixed[:3, :3]
+        # What the chain's end is compared with: the measured points and
+        # rotations. With the base frame free the chain starts from each
+        # particle's base2tracker, turned by q1, and ends in the tracker
+        # frame. With it fixed, the measurements are brought into the base
+        # frame and then into the frame after Rz(q1) of their pose:
+        # |B Rz p - m| = |p - Rz^T B^-1 m| and trace(M^T B Rz X) =
+        # trace((Rz^T B^T M)^T X); the chain then starts at link 1, the same
+        # for every pose, turned by q2 (see _Buffers.chain).
+        points = obs.points
+        rotations = obs.rotations if self.k else None
+        if not self.base_free:
+            base0 = space.base0
+            points = (points - base0[:3, 3]) @ base0[:3, :3]
             turn_back = np.swapaxes(_rz(obs.q[:, 0]), -1, -2)  # Rz(q1)^T per pose
             points = np.einsum("nij,nj->ni", turn_back, points)
-            # The chain starts from link 1's rows minus the measured point in
-            # column 3 (column 3 only ever gains multiples of itself times 1:
-            # the last row of every link is 0 0 0 1), so it ends at the error
-            # p - m. As complex numbers (columns 2 + 3j) per row and pose.
-            self.start_offset = 1j * np.ascontiguousarray(points.T)  # (3, N)
-            if self.k:
-                # -k trace(R_meas^T R_model) over all poses as one dot product
-                # with the chain's rows (P, 3, N, 4); column 3 is the point.
-                rot = np.asarray(self.meas_rot)
-                weights = np.zeros((3, self.n_poses, 4))
-                weights[..., :3] = (turn_back @ rot).transpose(1, 0, 2)
-                self.neg_k_meas = -self.k * weights  # (3, N, 4)
-                self.neg_k_meas_flat = self.neg_k_meas.ravel()
+            if rotations is not None:
+                rotations = turn_back @ (base0[:3, :3].T @ rotations)
+        # The chain starts from rows whose column 3 is less the measured
+        # point: column 3 only ever gains multiples of itself times 1 (the
+        # last row of every link is 0 0 0 1), so the chain ends at the error
+        # p - m. As complex numbers (columns 2 + 3j) per row and pose.
+        self.start_offset = 1j * np.ascontiguousarray(points.T)  # (3, N)
+        if rotations is not None:
+            # -k trace(R_meas^T R_model) as a dot product with the chain's
+            # rows (P, 3, N, 4); column 3 (the error) has weight 0.
+            weights = np.zeros((3, self.n_poses, 4))
+            weights[..., :3] = np.asarray(rotations).transpose(1, 0, 2)
+            self.neg_k_meas = -self.k * weights  # (3, N, 4)
+            self.neg_k_meas_flat = self.neg_k_meas.ravel()
         self._buffers: dict[int, _Buffers] = {}
 
     def _tables(self, space, mdh_index, mdh_cols, q):
@@ -132,91 +122,36 @@ class SwarmObjective:
             joint, col = divmod(int(flat), 5)
             self.to_features[row_of_column[col] * 6 + joint, k] = 1.0
         self.to_links = _FEATURES_TO_LINK
-        self.to_last_link = None
-        if self.fast:
-            # Link 6 times the fixed tool frame, so that the chain ends at
-            # the tool point.
-            with_tool = np.einsum("frk,kc->frc", _FEATURES_TO_LINK.reshape(-1, 4, 4), space.tool0)
-            self.to_last_link = with_tool.reshape(-1, 16)
-        q = np.asarray(q, dtype=float)
-        # Joint 1 from rest: the top rows of Rz(q1), rows before poses (3N, 4).
-        first = np.zeros((3, len(q), 4))
-        first[..., :3] = _rz(q[:, 0]).transpose(1, 0, 2)
-        self.first_rows = first.reshape(3 * len(q), 4)
+        # Link 6 times the tool frame, so that the chain ends at the tool:
+        # with the tool fixed, straight from the features.
+        with_tool = np.einsum("frk,kc->frc", _FEATURES_TO_LINK.reshape(-1, 4, 4), space.tool0)
+        self.to_last_link = with_tool.reshape(-1, 16)
         # Rz(q_i) as phases on columns 0 and 1 (see kinematics.chain_parts), (6, N).
-        self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(q).T)
+        self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(np.asarray(q, float)).T)
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
-        n_sets, n_poses = len(x), self.n_poses
+        n_sets = len(x)
         buffers = self._buffers.get(n_sets)
         if buffers is None:
             buffers = self._buffers[n_sets] = _Buffers(self, n_sets)
-        t = buffers.chain(x, self)  # (P, 3, N, 4): rows before poses
-        if self.fast:
-            # t is base2tool, column 3 less the measured point: the error.
-            if self.minimax:
-                error = buffers.errors.reshape(n_sets, 3, n_poses)
-                per_pose = np.einsum("prn,prn->pn", error, error)
-                if self.k:
-                    per_pose += np.einsum("prnc,rnc->pn", t, self.neg_k_meas)
-                    per_pose += 3.0 * self.k
-                return per_pose.max(axis=1)
-            f = _dot(buffers.errors)
-            if self.k:
-                f += buffers.flat @ self.neg_k_meas_flat
-                f += self.k * 3.0 * n_poses
-            return f
-        top = t.transpose(0, 2, 1, 3)  # (P, N, 3, 4) base2flange
         base2tracker = flange2tool = None
         if self.base_free or self.tool_free:
             _, base2tracker, flange2tool = self.space.unpack(x)
-        if self.tool_free:
-            p = np.matmul(top, flange2tool[:, np.newaxis, :, 3:4])[..., 0]
-        else:
-            p = top @ self.tool_h
-        # p: (P, N, 3) tool point, base frame
-        if self.base_free:
-            p = np.matmul(p, np.swapaxes(base2tracker[:, :3, :3], -1, -2))
-            p += base2tracker[:, np.newaxis, :3, 3]
-        elif self.base_fixed is not None:
-            p = p @ self.base_fixed[:3, :3].T + self.base_fixed[:3, 3]
-        d = p - self.points
+        t = buffers.chain(x, self, base2tracker, flange2tool)  # (P, 3, N, 4)
+        # t: the tool pose, column 3 less the measured point (the error).
         if self.minimax:
-            per_pose = np.einsum("pnj,pnj->pn", d, d)
+            error = buffers.errors.reshape(n_sets, 3, self.n_poses)
+            per_pose = np.einsum("prn,prn->pn", error, error)
             if self.k:
-                per_pose += self.k * (3.0 - self._traces(top, base2tracker, flange2tool))
+                per_pose += np.einsum("prnc,rnc->pn", t, self.neg_k_meas)
+                per_pose += 3.0 * self.k
             return per_pose.max(axis=1)
-        f = _dot(d.reshape(n_sets, -1))
-        if self.k and self.tool_turn_free:
-            # Sum over poses before the per-particle tool rotation:
-            # sum_n trace(R_meas^T B R_fl R_tool) = trace((sum_n R_meas^T B R_fl) R_tool).
-            model = top[..., :3]
-            if self.base_free:
-                model = np.matmul(base2tracker[:, np.newaxis, :3, :3], model)
-            s = np.einsum("nji,pnjl->pil", self.meas_rot, model)
-            f += self.k * (3.0 * n_poses - np.einsum("pil,pli->p", s, flange2tool[:, :3, :3]))
-        elif self.k:
-            if self.base_free:
-                # B^T applied to the measured orientations, per particle.
-                b_t = np.swapaxes(base2tracker[:, :3, :3], -1, -2)
-                target = np.matmul(b_t[:, np.newaxis], self.meas_tool)
-                trace = np.einsum("pnij,pnij->p", top, target)
-            else:
-                trace = np.einsum("pnij,nij->p", top, self.meas_tool)
-            f += self.k * (3.0 * n_poses - trace)
+        f = _dot(buffers.errors)
+        if self.k:
+            f += buffers.flat @ self.neg_k_meas_flat
+            f += self.k * 3.0 * self.n_poses
         return f
-
-    def _traces(self, top, base2tracker, flange2tool):
-        """``trace(R_meas^T R_model)`` per particle and pose, shape (P, N)."""
-        model = top[..., :3]
-        if self.base_free:
-            model = np.matmul(base2tracker[:, np.newaxis, :3, :3], model)
-        if self.tool_free:
-            model = np.matmul(model, flange2tool[:, np.newaxis, :3, :3])
-        else:
-            model = model @ self.space.tool0[:3, :3]
-        return np.einsum("nij,pnij->pn", self.meas_rot, model)
 
 
 def _rz(angle):
@@ -311,44 +246,58 @@ class _Buffers:
         for view in (self.deltas, self.products, self.turned):
             assert np.shares_memory(view, self.blocks)  # written in place, never a copy
         link = list(self.links.reshape(6, n_sets, 4, 4))
-        self.last_link = None
-        if objective.to_last_link is not None:
-            self.last_inputs = self.inputs[5 * n_sets :]  # (P, 36): joint 6
-            self.last_link = link[5] = np.empty((n_sets, 4, 4))  # with the tool frame
-        # Two chain buffers in turn.
+        self.last_inputs = self.inputs[5 * n_sets :]  # (P, 36): joint 6
+        self.last_link = link[5] = np.empty((n_sets, 4, 4))  # with the tool frame
+        # The chain's first rows: each particle's base2tracker, or link 1
+        # when the base is fixed (Rz(q1) went to the measurements).
+        self.base_free = objective.base_free
+        self.base = np.empty((n_sets, 4, 4))
+        first = self.base if self.base_free else link[0]
+        first_joint = 0 if self.base_free else 1
+        # Two chain buffers in turn. The start turns the first rows by the
+        # first joint's phase and takes the measured points off column 3:
+        # columns (0, 1) and (2, 3) as two complex numbers.
         pair = np.empty((2, n_sets, 3, n, 4))
-        self.first = (link[0], pair[0].reshape(n_sets, 3 * n, 4))
-        # Without Rz(q1) (the fast objective moved it to the measurements)
-        # the chain starts at link 1 for every pose, turned by q2: columns
-        # (0, 1) and (2, 3) as two complex numbers, the first times q2's
-        # phase, the second less the measured point (in column 3).
-        self.from_link_1 = objective.fast
-        top = link[0][:, :3].view(np.complex128)[..., np.newaxis]  # (P, 3, 2, 1)
+        top = first[:, :3].view(np.complex128)[..., np.newaxis]  # (P, 3, 2, 1)
         turned = pair[0].view(np.complex128)  # (P, 3, N, 2)
-        self.start = (top[..., 0, :], turned[..., 0], top[..., 1, :], turned[..., 1])
+        self.start = (
+            top[..., 0, :],
+            objective.pose_phases[first_joint],
+            turned[..., 0],
+            top[..., 1, :],
+            turned[..., 1],
+        )
         self.steps = []
-        for joint in range(1, 6):
-            src, dst = pair[(joint + 1) % 2], pair[joint % 2]
-            turn = src.view(np.complex128)[..., 0]
+        for step, joint in enumerate(range(first_joint, 6)):
+            src, dst = pair[step % 2], pair[(step + 1) % 2]
             self.steps.append(
                 (
-                    None if joint == 1 and self.from_link_1 else turn,
+                    # The first link's turn is the start's; the next turns
+                    # belong to the following joint.
+                    src.view(np.complex128)[..., 0] if step else None,
                     objective.pose_phases[joint],
                     src.reshape(n_sets, 3 * n, 4),
                     link[joint],
                     dst.reshape(n_sets, 3 * n, 4),
                 )
             )
-        self.last = pair[1]
+        self.last = dst
         self.flat = self.last.reshape(n_sets, 12 * n)
         self.errors = self.last.reshape(n_sets, 3 * n, 4)[..., 3]  # (P, 3N), a view
 
-    def chain(self, x: np.ndarray, objective: SwarmObjective) -> np.ndarray:
-        """Forward kinematics of the swarm ``x`` (P, D), shape (P, 3, N, 4), rows before poses.
+    def chain(
+        self,
+        x: np.ndarray,
+        objective: SwarmObjective,
+        base2tracker: np.ndarray | None = None,
+        flange2tool: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The tool pose of the swarm ``x`` (P, D) less the measured points, (P, 3, N, 4).
 
-        ``base2flange`` (mm), or ``base2tool`` when the objective folds its
-        fixed tool frame into link 6. The result lives in this buffer until
-        the next call.
+        Rows before poses (mm); column 3 is the position error, in the frame
+        the objective compares in. ``base2tracker`` and ``flange2tool``
+        (P, 4, 4) are the particles' frames when free. The result lives in
+        this buffer until the next call.
         """
         np.matmul(objective.to_features, x.T, out=self.deltas)
         self.deltas += objective.feature_bias
@@ -358,15 +307,15 @@ class _Buffers:
         np.multiply(self.cos_sin_t, self.to_turn, out=self.turned)
         # Every link of every particle in one product.
         np.matmul(self.inputs, objective.to_links, out=self.links)
-        if self.last_link is not None:
+        if flange2tool is None:
             np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
-        if self.from_link_1:
-            xy, turned_xy, zw, offset_zw = self.start
-            np.multiply(xy, objective.pose_phases[1], out=turned_xy)
-            np.subtract(zw, objective.start_offset, out=offset_zw)
         else:
-            first, out = self.first
-            np.matmul(objective.first_rows, first, out=out)
+            np.matmul(self.links[5 * len(x) :].reshape(-1, 4, 4), flange2tool, out=self.last_link)
+        if base2tracker is not None:
+            np.copyto(self.base, base2tracker)
+        xy, phase, turned_xy, zw, offset_zw = self.start
+        np.multiply(xy, phase, out=turned_xy)
+        np.subtract(zw, objective.start_offset, out=offset_zw)
         for turn, phase, src, link, dst in self.steps:
             if turn is not None:
                 turn *= phase  # t @ Rz(q_i): columns 0 and 1 as one complex number
