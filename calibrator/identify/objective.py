@@ -138,6 +138,8 @@ class SwarmObjective:
         base2tracker = flange2tool = None
         if self.base_free or self.tool_free:
             _, base2tracker, flange2tool = self.space.unpack(x)
+            base2tracker = base2tracker if self.base_free else None
+            flange2tool = flange2tool if self.tool_free else None
         t = buffers.chain(x, self, base2tracker, flange2tool)  # (P, 3, N, 4)
         # t: the tool pose, column 3 less the measured point (the error).
         if self.minimax:
@@ -150,7 +152,7 @@ class SwarmObjective:
         f = _dot(buffers.errors)
         if self.k:
             f += buffers.flat @ self.neg_k_meas_flat
-            f += self.k * 3.0 * self.n_poses
+            f += 3.0 * self.k * self.n_poses
         return f
 
 
@@ -243,6 +245,9 @@ class _Buffers:
         self.turned = self.blocks[16:].reshape(2, _N_TURNED, 6, n_sets)
         self.inputs = self.blocks.reshape(_N_INPUTS, 6 * n_sets).T  # (6P, 36)
         self.links = np.empty((6 * n_sets, 16))
+        # Link 6 is only needed bare when a free tool frame multiplies it.
+        used = 6 * n_sets if objective.tool_free else 5 * n_sets
+        self.link_inputs, self.link_outputs = self.inputs[:used], self.links[:used]
         for view in (self.deltas, self.products, self.turned):
             assert np.shares_memory(view, self.blocks)  # written in place, never a copy
         link = list(self.links.reshape(6, n_sets, 4, 4))
@@ -306,7 +311,7 @@ class _Buffers:
         np.multiply(self.cos_sin_a, self.cos_sin_b, out=self.products)
         np.multiply(self.cos_sin_t, self.to_turn, out=self.turned)
         # Every link of every particle in one product.
-        np.matmul(self.inputs, objective.to_links, out=self.links)
+        np.matmul(self.link_inputs, objective.to_links, out=self.link_outputs)
         if flange2tool is None:
             np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
         else:
