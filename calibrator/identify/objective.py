@@ -28,7 +28,11 @@ size (:class:`_Buffers`):
    on columns 0 and 1 (it depends on the pose only) and one batched product
    with the links. With the base frame fixed, ``Rz(q1)`` and the base frame
    go to the measurements instead, so the chain starts at link 1, the same
-   for every pose; with it free, it starts at each particle's base frame;
+   for every pose; with it free, it starts at each particle's base frame.
+   Free base and tool frames are made from their deltas the same way as the
+   links (cosines, sines, their products, one product with a constant
+   matrix), not with :meth:`ParameterSpace.unpack`, which costs more than
+   the whole chain;
 4. the measured points are taken off column 3 at the start and the last row
    of every link is ``0 0 0 1``, so the chain ends at the position errors:
    the objective is then one dot product of them and one with the measured
@@ -40,7 +44,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator import kinematics
-from calibrator.parameters import N_MDH, TOOL_START
+from calibrator.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
     from calibrator.identify.problem import Problem
@@ -74,8 +78,11 @@ class SwarmObjective:
         index = space.index
         mdh_cols = np.flatnonzero(index < N_MDH)
         self.base_free = bool(np.any((index >= N_MDH) & (index < TOOL_START)))
-        self.tool_free = bool(np.any(index >= TOOL_START))
+        # (Joint terms, if free, do not enter the swarm's objective.)
+        self.tool_free = bool(np.any((index >= TOOL_START) & (index < JOINT_TERM_START)))
         self._tables(space, index[mdh_cols], mdh_cols, obs.q)
+        if self.base_free or self.tool_free:
+            self._frame_tables(space, index)
         # What the chain's end is compared with: the measured points and
         # rotations. With the base frame free the chain starts from each
         # particle's base2tracker, turned by q1, and ends in the tracker
@@ -129,18 +136,57 @@ class SwarmObjective:
         # Rz(q_i) as phases on columns 0 and 1 (see kinematics.chain_parts), (6, N).
         self.pose_phases = np.ascontiguousarray(kinematics.joint_phases(np.asarray(q, float)).T)
 
+    def _frame_tables(self, space, index):
+        """Tables for the free frames: deltas to their features, features to the frames.
+
+        ``base2tracker = base0 . [Rxyz(r) | t]`` and ``flange2tool =
+        [R_tool0 Rxyz(r) | t_tool0 + t]`` (as :meth:`ParameterSpace.unpack`)
+        are linear in the 27 products ``a_i b_j c_k`` of ``a = (1, cos rx,
+        sin rx)``, ``b``, ``c`` likewise for ry and rz, the translation
+        deltas ``t`` and 1.
+        """
+        # x (P, D) -> (tx, ty, tz, rx, ry, rz) deltas of each frame, (2, 6, D).
+        self.to_frames = np.zeros((2, 6, space.size))
+        for frame, start in enumerate((N_MDH, TOOL_START)):
+            for k, i in enumerate(index):
+                if start <= i < start + 6:
+                    self.to_frames[frame, i - start, k] = 1.0
+        # Rxyz entries from the products, (27, 3, 3): r00 = cy cz, ...
+        rot = np.zeros((27, 3, 3))
+        terms = {
+            (0, 0): [((0, 1, 1), 1)],
+            (0, 1): [((0, 1, 2), -1)],
+            (0, 2): [((0, 2, 0), 1)],
+            (1, 0): [((1, 0, 2), 1), ((2, 2, 1), 1)],
+            (1, 1): [((1, 0, 1), 1), ((2, 2, 2), -1)],
+            (1, 2): [((2, 1, 0), -1)],
+            (2, 0): [((2, 0, 2), 1), ((1, 2, 1), -1)],
+            (2, 1): [((2, 0, 1), 1), ((1, 2, 2), 1)],
+            (2, 2): [((1, 1, 0), 1)],
+        }
+        for (row, col), entry in terms.items():
+            for (i, j, k), sign in entry:
+                rot[9 * i + 3 * j + k, row, col] = sign
+        # (2, 34, 12): products, t, angles (weight 0), 1 -> top rows of the frame.
+        self.frame_maps = np.zeros((2, _FRAME_ONE + 1, 3, 4))
+        for frame, (turn, shift, rotate_t) in enumerate(
+            (
+                (space.base0[:3, :3], space.base0[:3, 3], space.base0[:3, :3]),
+                (space.tool0[:3, :3], space.tool0[:3, 3], np.eye(3)),
+            )
+        ):
+            self.frame_maps[frame, :27, :, :3] = np.einsum("rm,fmc->frc", turn, rot)
+            self.frame_maps[frame, 27:30, :, 3] = rotate_t.T  # t_m -> row r: rotate_t[r, m]
+            self.frame_maps[frame, _FRAME_ONE, :, 3] = shift
+        self.frame_maps = self.frame_maps.reshape(2, _FRAME_ONE + 1, 12)
+
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
         n_sets = len(x)
         buffers = self._buffers.get(n_sets)
         if buffers is None:
             buffers = self._buffers[n_sets] = _Buffers(self, n_sets)
-        base2tracker = flange2tool = None
-        if self.base_free or self.tool_free:
-            _, base2tracker, flange2tool = self.space.unpack(x)
-            base2tracker = base2tracker if self.base_free else None
-            flange2tool = flange2tool if self.tool_free else None
-        t = buffers.chain(x, self, base2tracker, flange2tool)  # (P, 3, N, 4)
+        t = buffers.chain(x, self)  # (P, 3, N, 4)
         # t: the tool pose, column 3 less the measured point (the error).
         if self.minimax:
             error = buffers.errors.reshape(n_sets, 3, self.n_poses)
@@ -154,6 +200,11 @@ class SwarmObjective:
             f += buffers.flat @ self.neg_k_meas_flat
             f += 3.0 * self.k * self.n_poses
         return f
+
+
+#: Rows of _Buffers.frame_features: 27 products, the translation (27-29),
+#: the angles (30-32), 1 (33), then (1, cos, sin) of rx, ry, rz (34-42).
+_FRAME_ANGLES, _FRAME_ONE, _FRAME_TRIG = 30, 33, 34
 
 
 def _rz(angle):
@@ -253,10 +304,28 @@ class _Buffers:
         link = list(self.links.reshape(6, n_sets, 4, 4))
         self.last_inputs = self.inputs[5 * n_sets :]  # (P, 36): joint 6
         self.last_link = link[5] = np.empty((n_sets, 4, 4))  # with the tool frame
+        # The free frames' features (2 frames, 43 rows, P) and the frames
+        # (2, P, 4, 4): base2tracker, then flange2tool.
+        self.frame_features = np.zeros((2, _FRAME_TRIG + 9, n_sets))
+        self.frame_features[:, _FRAME_ONE] = 1.0
+        self.frame_features[:, _FRAME_TRIG::3] = 1.0
+        self.frame_deltas = self.frame_features[:, 27:_FRAME_ONE]  # (2, 6, P)
+        self.frame_angles = self.frame_features[:, _FRAME_ANGLES:_FRAME_ONE]
+        trig = self.frame_features[:, _FRAME_TRIG:]
+        self.frame_cos, self.frame_sin = trig[:, 1::3], trig[:, 2::3]
+        self.frame_ab = (trig[:, 0:3, np.newaxis], trig[:, np.newaxis, 3:6])  # (2, 3, 3, P)
+        self.frame_pairs = np.empty((2, 3, 3, n_sets))
+        self.frame_c = trig[:, np.newaxis, np.newaxis, 6:9]
+        self.frame_products = self.frame_features[:, :27].reshape(2, 3, 3, 3, n_sets)
+        self.frame_inputs = self.frame_features[:, : _FRAME_ONE + 1].transpose(0, 2, 1)
+        self.frames = np.zeros((2, n_sets, 16))
+        self.frames[..., 15] = 1.0
+        self.frame_rows = self.frames[..., :12]
+        assert np.shares_memory(self.frame_products, self.frame_features)
+        self.base_free, self.tool_free = objective.base_free, objective.tool_free
+        self.base, self.tool = self.frames.reshape(2, n_sets, 4, 4)
         # The chain's first rows: each particle's base2tracker, or link 1
         # when the base is fixed (Rz(q1) went to the measurements).
-        self.base_free = objective.base_free
-        self.base = np.empty((n_sets, 4, 4))
         first = self.base if self.base_free else link[0]
         first_joint = 0 if self.base_free else 1
         # Two chain buffers in turn. The start turns the first rows by the
@@ -290,20 +359,20 @@ class _Buffers:
         self.flat = self.last.reshape(n_sets, 12 * n)
         self.errors = self.last.reshape(n_sets, 3 * n, 4)[..., 3]  # (P, 3N), a view
 
-    def chain(
-        self,
-        x: np.ndarray,
-        objective: SwarmObjective,
-        base2tracker: np.ndarray | None = None,
-        flange2tool: np.ndarray | None = None,
-    ) -> np.ndarray:
+    def chain(self, x: np.ndarray, objective: SwarmObjective) -> np.ndarray:
         """The tool pose of the swarm ``x`` (P, D) less the measured points, (P, 3, N, 4).
 
         Rows before poses (mm); column 3 is the position error, in the frame
-        the objective compares in. ``base2tracker`` and ``flange2tool``
-        (P, 4, 4) are the particles' frames when free. The result lives in
-        this buffer until the next call.
+        the objective compares in. The result lives in this buffer until the
+        next call.
         """
+        if self.base_free or self.tool_free:
+            np.matmul(objective.to_frames, x.T, out=self.frame_deltas)
+            np.cos(self.frame_angles, out=self.frame_cos)
+            np.sin(self.frame_angles, out=self.frame_sin)
+            np.multiply(*self.frame_ab, out=self.frame_pairs)
+            np.multiply(self.frame_pairs[..., np.newaxis, :], self.frame_c, out=self.frame_products)
+            np.matmul(self.frame_inputs, objective.frame_maps, out=self.frame_rows)
         np.matmul(objective.to_features, x.T, out=self.deltas)
         self.deltas += objective.feature_bias
         np.cos(self.angles, out=self.cos)
@@ -312,12 +381,10 @@ class _Buffers:
         np.multiply(self.cos_sin_t, self.to_turn, out=self.turned)
         # Every link of every particle in one product.
         np.matmul(self.link_inputs, objective.to_links, out=self.link_outputs)
-        if flange2tool is None:
-            np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
+        if self.tool_free:
+            np.matmul(self.links[5 * len(x) :].reshape(-1, 4, 4), self.tool, out=self.last_link)
         else:
-            np.matmul(self.links[5 * len(x) :].reshape(-1, 4, 4), flange2tool, out=self.last_link)
-        if base2tracker is not None:
-            np.copyto(self.base, base2tracker)
+            np.matmul(self.last_inputs, objective.to_last_link, out=self.last_link.reshape(-1, 16))
         xy, phase, turned_xy, zw, offset_zw = self.start
         np.multiply(xy, phase, out=turned_xy)
         np.subtract(zw, objective.start_offset, out=offset_zw)

@@ -88,10 +88,14 @@ def by_hand(space, swarm, obs, k):
     return np.array(out)
 
 
+FRAMES = parameters.BASE_NAMES + parameters.TOOL_NAMES + parameters.TOOL_ROTATION_NAMES
+
+
+@pytest.mark.parametrize("frames_free", [(), FRAMES], ids=["frames fixed", "frames free"])
 @pytest.mark.parametrize("base0", [np.eye(4), BASE0], ids=["base frame", "fixed base offset"])
-def test_swarm_objective_keeps_no_state_between_calls_or_swarm_sizes(base0):
-    # Every MDH parameter free (beta too), frames fixed: the objective's
-    # common case, with its work arrays kept per swarm size.
+def test_swarm_objective_keeps_no_state_between_calls_or_swarm_sizes(base0, frames_free):
+    # Every MDH parameter free (beta too), with or without both frames; the
+    # objective keeps its work arrays per swarm size.
     rng = np.random.default_rng(3)
     q = rng.uniform(-2.5, 2.5, (9, 6))
     pose = kinematics.forward(ROBOT.mdh + rng.normal(0, 1e-3, (6, 5)), q, TOOL0, base0)
@@ -100,7 +104,7 @@ def test_swarm_objective_keeps_no_state_between_calls_or_swarm_sizes(base0):
         pose[:, :3, 3] + rng.normal(0, 0.1, (9, 3)),
         frames.rotvec_to_matrix(rng.normal(0, 1e-3, (9, 3))) @ pose[:, :3, :3],
     )
-    space = parameters.ParameterSpace(ROBOT.mdh, base0, TOOL0, parameters.MDH_NAMES)
+    space = parameters.ParameterSpace(ROBOT.mdh, base0, TOOL0, parameters.MDH_NAMES + frames_free)
     objective = Problem.of(space, obs, 1.0e4).swarm_objective()
     lower, upper = space.bounds()
     swarms = [rng.uniform(lower, upper, (n, space.size)) for n in (4, 7, 4, 1)]
