@@ -65,6 +65,12 @@ class SwarmObjective:
         The fitting poses, free set and orientation weight (resolved there).
     loss : {'lsq', 'minimax'}
         Sum over the poses, or the worst pose.
+
+    Notes
+    -----
+    Calls share work arrays (one set per swarm size): the values returned
+    are fresh arrays, but one objective must not be called from two threads
+    at once.
     """
 
     def __init__(self, problem: "Problem", loss: str = "lsq") -> None:
