@@ -352,8 +352,8 @@ class _Buffers:
             src, dst = pair[step % 2], pair[(step + 1) % 2]
             self.steps.append(
                 (
-                    # The first link's turn is the start's; the next turns
-                    # belong to the following joint.
+                    # Rz(q) of this joint, then its link; the start has
+                    # already turned the first rows by the first joint's q.
                     src.view(np.complex128)[..., 0] if step else None,
                     objective.pose_phases[joint],
                     src.reshape(n_sets, 3 * n, 4),
