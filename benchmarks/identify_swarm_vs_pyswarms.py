@@ -122,8 +122,14 @@ def main():
         f"identify --method pso: {med(full, 1):.2f} s CPU ({med(full, 0):.2f} s wall) at {g}"
         f" generations, {med(short, 1):.2f} s CPU ({med(short, 0):.2f} s wall) at 1"
     )
-    print(f"IPSO in identify (difference): {ipso_cpu:.3f} s CPU, {ipso_wall:.3f} s wall")
-    print(f"pyswarms GlobalBestPSO, plain objective: {ref_cpu:.3f} s CPU, {ref_wall:.3f} s wall")
+    print(
+        f"IPSO in identify (difference): {ipso_cpu:.3f} s CPU, {ipso_wall:.3f} s wall"
+        f" = {ipso_cpu / (g - 1) * 1e6:.0f} us CPU per generation"
+    )
+    print(
+        f"pyswarms GlobalBestPSO, plain objective: {ref_cpu:.3f} s CPU, {ref_wall:.3f} s wall"
+        f" = {ref_cpu / g * 1e6:.0f} us CPU per iteration"
+    )
     print(
         f"A4 ratio pyswarms / IPSO: {ref_cpu / ipso_cpu:.2f} (CPU),"
         f" {ref_wall / ipso_wall:.2f} (wall)"

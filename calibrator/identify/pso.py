@@ -18,6 +18,9 @@ from numpy.typing import ArrayLike
 
 from calibrator.identify.halton import halton
 
+#: Generations whose random numbers are drawn in one call.
+_CHUNK = 16
+
 
 @dataclass(frozen=True)
 class PSOResult:
@@ -113,29 +116,40 @@ def ipso(
     # Work buffers: the update below allocates nothing per generation (a few
     # microseconds a call at this size, a tenth of a generation's overhead);
     # the products are formed in the same order as written out, so the
-    # trajectory is the same to the bit.
-    r = np.empty((2, particles, dim))
-    pull, gap = np.empty_like(x), np.empty_like(x)
+    # trajectory is the same to the bit. Both pulls are formed in one array
+    # (2, P, D): K c r (bests - x), for the personal bests and the global
+    # one. r1, r2 are drawn and scaled for CHUNK generations at a time: the
+    # same numbers in the same order as one draw per generation, and exactly
+    # as many, so a generator passed in ends in the same state.
+    draws = np.empty((_CHUNK, 2, particles, dim))
+    rows = [(d, d[0], d[1]) for d in draws]
+    gap = np.empty((2, particles, dim))
+    to_own, to_global = gap[0], gap[1]
+    scale = np.array([kc1, kc2])[:, np.newaxis, np.newaxis]
     neg_v_max = -v_max
+    better = np.empty(particles, dtype=bool)
+    better_rows = better[:, np.newaxis]
     for gen in range(1, generations + 1):
-        rng.random(out=r)
+        i = (gen - 1) % _CHUNK
+        if i == 0:
+            block = draws[: min(_CHUNK, generations - gen + 1)]
+            rng.random(out=block)
+            block *= scale  # K c1 r1, K c2 r2
+        r, own_pull, global_pull = rows[i]
+        np.subtract(best_x, x, out=to_own)
+        np.subtract(best_x[g], x, out=to_global)
+        r *= gap
         v *= k
-        np.multiply(kc1, r[0], out=pull)  # K c1 r1 (pbest - x)
-        np.subtract(best_x, x, out=gap)
-        pull *= gap
-        v += pull
-        np.multiply(kc2, r[1], out=pull)  # K c2 r2 (gbest - x)
-        np.subtract(best_x[g], x, out=gap)
-        pull *= gap
-        v += pull
+        v += own_pull
+        v += global_pull
         np.minimum(v, v_max, out=v)
         np.maximum(v, neg_v_max, out=v)
         x += v
         np.minimum(x, upper, out=x)
         np.maximum(x, lower, out=x)
         f = objective(x)
-        better = f < best_f
-        np.copyto(best_x, x, where=better[:, np.newaxis])
+        np.less(f, best_f, out=better)
+        np.copyto(best_x, x, where=better_rows)
         np.copyto(best_f, f, where=better)
         g = int(best_f.argmin())
         history[gen] = best_f[g]
