@@ -94,51 +94,60 @@ def in_process(args):
 
 
 def workers(args):
-    # Alternating the three settings spreads drifts in the machine's load over all.
-    times, results = {0: [], 1: [], 2: []}, []
-    for _ in range(args.rounds):
-        for n in (0, 1, 2):
-            wall, stats = timed(args.big, workers=n or None)
-            times[n].append(wall)
-            results.append(stats)
-            where = f"LocalCluster {n} worker(s)" if n else "in-process"
-            print(f"{args.big:,} trials, {where}: {wall:.1f} s", flush=True)
-    here, one, two = (statistics.median(times[n]) for n in (0, 1, 2))
-    same = all(r == results[0] for r in results)
-    print(
-        f"1 worker / in-process: {one / here:.2f}x; "
-        f"speed-up 2 workers / 1 worker (medians): {one / two:.2f}x; statistics identical: {same}"
-    )
+    """Part 3 through ``engine.run`` in this process (imports paid once, before)."""
+
+    def run(n):
+        wall, stats = timed(args.big, workers=n or None)
+        return wall, None, stats
+
+    alternate(args, run, "LocalCluster {n} worker(s)")
 
 
 def workers_cli(args):
-    times, cpus, results = {0: [], 1: [], 2: []}, {0: [], 1: [], 2: []}, []
+    """Part 3 as whole ``calibrator analyze misalignment`` processes."""
     with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(args.rounds):
-            for n in (0, 1, 2):
-                out = Path(tmp) / f"w{n}.json"
-                command = [sys.executable, "-m", "calibrator", "analyze", "misalignment"]
-                command += ["--trials", str(args.big), "-q", "--json", str(out)]
-                command += ["--workers", str(n)] if n else []
-                before = resource.getrusage(resource.RUSAGE_CHILDREN)
-                t = time.perf_counter()
-                subprocess.run(command, check=True, capture_output=True)
-                wall = time.perf_counter() - t
-                after = resource.getrusage(resource.RUSAGE_CHILDREN)
-                cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-                times[n].append(wall)
-                cpus[n].append(cpu)  # workers included: the command reaps them
-                results.append(json.loads(out.read_text()))
-                where = f"--workers {n}" if n else "in-process"
-                print(f"{args.big:,} trials, CLI {where}: {wall:.2f} s wall", flush=True)
+
+        def run(n):
+            out = Path(tmp) / f"w{n}.json"
+            command = [sys.executable, "-m", "calibrator", "analyze", "misalignment"]
+            command += ["--trials", str(args.big), "-q", "--json", str(out)]
+            command += ["--workers", str(n)] if n else []
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t = time.perf_counter()
+            subprocess.run(command, check=True, capture_output=True)
+            wall = time.perf_counter() - t
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            # Workers included: the command reaps them, so their time is its children's.
+            cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+            return wall, cpu, json.loads(out.read_text())
+
+        alternate(args, run, "CLI --workers {n}")
+
+
+def alternate(args, run, where):
+    """Run in-process, 1 and 2 workers in turn ``--rounds`` times; print medians and ratios."""
+    # Alternating the three settings spreads drifts in the machine's load over all.
+    times, cpus, results = {0: [], 1: [], 2: []}, {0: [], 1: [], 2: []}, []
+    for _ in range(args.rounds):
+        for n in (0, 1, 2):
+            wall, cpu, stats = run(n)
+            times[n].append(wall)
+            cpus[n].append(cpu)
+            results.append(stats)
+            label = where.format(n=n) if n else "in-process"
+            print(f"{args.big:,} trials, {label}: {wall:.2f} s wall", flush=True)
     here, one, two = (statistics.median(times[n]) for n in (0, 1, 2))
     same = all(r == results[0] for r in results)
-    print(
-        f"medians over {args.rounds} rounds: in-process {here:.2f} s, 1 worker {one:.2f} s, "
+    line = (
+        f"medians over {args.rounds} round(s): in-process {here:.2f} s, 1 worker {one:.2f} s, "
         f"2 workers {two:.2f} s; 1 worker / in-process: {one / here:.2f}x; "
-        f"2 workers faster than 1: {one / two:.2f}x; statistics identical: {same}; CPU medians "
-        + ", ".join(f"{statistics.median(cpus[n]):.2f} s" for n in (0, 1, 2))
+        f"2 workers faster than 1: {one / two:.2f}x; statistics identical: {same}"
     )
+    if cpus[0][0] is not None:
+        line += "; CPU medians " + ", ".join(
+            f"{statistics.median(cpus[n]):.2f} s" for n in (0, 1, 2)
+        )
+    print(line)
 
 
 if __name__ == "__main__":

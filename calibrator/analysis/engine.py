@@ -11,6 +11,7 @@ import logging
 import os
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
 from typing import Any
 
 from calibrator.analysis import misalignment as mc
@@ -69,10 +70,9 @@ def run(
         raise CalibrationError(f"--chunk must be >= 1 trial, got {chunk_trials}")
     if workers is None and scheduler is None:
         grid = mc.make_grid(study)
-        plan = chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1))
-        total = mc.Summary()
-        _run_here(study, grid, plan, total, 0, progress)
-        return total, grid
+        fold = _Fold(study, progress)
+        _run_here(fold, grid, chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1)))
+        return fold.total, grid
     # Starting a cluster (importing dask, spawning workers that import numpy) takes
     # about a second; the calling process meanwhile builds the grid and runs chunks
     # itself instead of waiting, so one worker costs about what in-process does.
@@ -82,14 +82,15 @@ def run(
     try:
         grid = mc.make_grid(study)
         plan = chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, workers or 1))
-        total = mc.Summary()
-        done = _run_here(study, grid, plan, total, 0, progress, until=connection.done)
+        fold = _Fold(study, progress)
+        _run_here(fold, grid, plan, until=connection.done)
     except BaseException:
         connection.add_done_callback(_close_connection)
         raise
     client, cluster = connection.result()
     try:
-        return _run_dask(client, study, grid, plan, total, done, progress), grid
+        _run_dask(client, fold, grid, plan)
+        return fold.total, grid
     finally:
         _close(client, cluster)
 
@@ -100,31 +101,32 @@ def _blocks_per_chunk(study: mc.Study, chunk_trials: int | None, workers: int) -
     return -(-chunk_trials // mc.BLOCK)
 
 
-def _trials(study, blocks):
-    return sum(study.block_size(k) for k in blocks)
+@dataclass
+class _Fold:
+    """The chunks' summaries folded into one, and the progress reported after each."""
+
+    study: mc.Study
+    progress: Callable[[int, int], None] | None
+    total: mc.Summary = field(default_factory=mc.Summary)
+    done: int = 0
+
+    def add(self, blocks: list[int], summary: mc.Summary) -> None:
+        self.total.merge(summary)
+        self.done += sum(self.study.block_size(k) for k in blocks)
+        if self.progress:
+            self.progress(self.done, self.study.trials)
 
 
 def _run_here(
-    study: mc.Study,
-    grid: mc.Grid,
-    plan: list[list[int]],
-    total: mc.Summary,
-    done: int,
-    progress: Callable[[int, int], None] | None,
-    until: Callable[[], bool] = lambda: False,
-) -> int:
-    """Run chunks from the front of ``plan`` in this process, folding them into ``total``.
+    fold: _Fold, grid: mc.Grid, plan: list[list[int]], until: Callable[[], bool] = lambda: False
+) -> None:
+    """Run chunks from the front of ``plan`` in this process until it is empty or ``until()``.
 
-    Stops when ``plan`` is empty or ``until()`` is true between chunks; the
-    chunks run are removed from ``plan``. Returns the trials done so far.
+    ``until`` is asked between chunks; the chunks run are removed from ``plan``.
     """
     while plan and not until():
         blocks = plan.pop(0)
-        total.merge(mc.run_chunk(study, grid, blocks))
-        done += _trials(study, blocks)
-        if progress:
-            progress(done, study.trials)
-    return done
+        fold.add(blocks, mc.run_chunk(fold.study, grid, blocks))
 
 
 def local_cluster(workers: int) -> Any:
@@ -174,24 +176,15 @@ def _close_connection(connection: Future) -> None:
         _close(*connection.result())
 
 
-def _run_dask(
-    client: Any,
-    study: mc.Study,
-    grid: mc.Grid,
-    plan: list[list[int]],
-    total: mc.Summary,
-    done: int,
-    progress: Callable[[int, int], None] | None,
-) -> mc.Summary:
-    """Fold ``plan``'s chunks, run on ``client``'s workers, into ``total`` (``done`` trials in)."""
+def _run_dask(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) -> None:
+    """Run ``plan``'s chunks on ``client``'s workers, folding them in as they finish."""
     from dask.distributed import as_completed
 
     if not plan:
-        return total
+        return
     # One copy of the (small) study and grid per worker, not one per chunk.
-    study_f, grid_f = client.scatter([study, grid], broadcast=True)
-    futures = [client.submit(mc.run_chunk, study_f, grid_f, blocks) for blocks in plan]
-    sizes = {f.key: _trials(study, blocks) for f, blocks in zip(futures, plan, strict=True)}
+    study_f, grid_f = client.scatter([fold.study, grid], broadcast=True)
+    futures = {client.submit(mc.run_chunk, study_f, grid_f, blocks): blocks for blocks in plan}
     for future in as_completed(futures):
         try:
             result = future.result()
@@ -199,9 +192,5 @@ def _run_dask(
             raise CalibrationError(
                 f"a Dask worker cannot import {exc.name!r}: install calibrator on every worker"
             ) from None
-        total.merge(result)
-        done += sizes[future.key]
+        fold.add(futures[future], result)
         future.release()
-        if progress:
-            progress(done, study.trials)
-    return total

@@ -165,10 +165,10 @@ def planned(monkeypatch):
             assert ready.wait(5)
         return FakeClient(seen["client"]), None
 
-    def dask(client, study, grid, plan, total, done, progress):
+    def dask(client, fold, grid, plan):
         seen["dask"].append(list(plan))
-        seen["progress"], seen["study"], seen["grid"], seen["done"] = progress, study, grid, done
-        return total
+        seen["progress"], seen["study"], seen["grid"] = fold.progress, fold.study, grid
+        seen["done"] = fold.done
 
     monkeypatch.setattr(mc, "run_chunk", local_chunk)
     monkeypatch.setattr(engine, "_connect", connect)
