@@ -23,6 +23,7 @@ from typing import Any, NoReturn
 
 import typer
 
+from calibrator import strict
 from calibrator.cli import _checks as checks
 
 
@@ -33,15 +34,17 @@ def fail(message: str) -> NoReturn:
 
 
 def floats(text: str, n: int, option: str, needs: str) -> list[float]:
-    """``text``, ``n`` comma-separated finite numbers, or one line naming ``option`` (exit 2).
+    """``text``, ``n`` comma-separated numbers of the strict grammar, or one line naming ``option``.
 
-    ``needs`` says what the option takes (``"X,Y,Z in mm"``).
+    ``needs`` says what the option takes (``"X,Y,Z in mm"``). The strict grammar
+    refuses what Python's ``float`` would read (``0_5`` as 5, ``nan``, ``inf``);
+    exit code 2.
     """
     try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != n or not all(abs(v) < float("inf") for v in values):
+        values = [strict.parse_number(v, option) for v in str(text).split(",")]
+    except strict.StrictError as exc:
+        fail(f"{option} needs {needs}, got {text!r} ({str(exc).removeprefix(option + ': ')})")
+    if len(values) != n:
         fail(f"{option} needs {needs}, got {text!r}")
     return values
 

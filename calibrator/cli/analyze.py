@@ -45,16 +45,14 @@ def _floats(text, what, n=None, bounds=None):
     """
     from calibrator import strict
 
-    parts = [v for v in str(text).split(",") if v.strip()]
     try:
-        values = [strict.parse_number(v, what) for v in parts]
+        # Every item, an empty one too: "0.05," is a value missing, not one value.
+        values = [strict.parse_number(v, what) for v in str(text).split(",")]
     except strict.StrictError as exc:
         reason = str(exc).removeprefix(f"{what}: ")
         raise CalibrationError(
             f"{what} must be comma-separated numbers, got {text!r} ({reason})"
         ) from None
-    if not values:
-        raise CalibrationError(f"{what} must be comma-separated numbers, got {text!r}")
     if bounds is not None:
         _in_range(values, what, bounds)
     if n is not None:

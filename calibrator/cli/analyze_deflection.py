@@ -15,14 +15,7 @@ _DEG = 3.141592653589793 / 180.0
 
 def _vector(text: str, n: int, what: str, prismatic: list[bool]) -> list[float]:
     """Joint values from the command line: deg, or mm for prismatic joints."""
-    import math
-
-    try:
-        values = [float(v) for v in str(text).split(",")]
-    except ValueError:
-        values = []
-    if len(values) != n or not all(math.isfinite(v) for v in values):
-        raise CalibrationError(f"{what} needs {n} comma-separated finite numbers, got {text!r}")
+    values = opts.floats(text, n, what, f"{n} comma-separated numbers (deg, or mm if prismatic)")
     return [v if p else v * _DEG for v, p in zip(values, prismatic, strict=True)]
 
 

@@ -378,16 +378,10 @@ def _target_line(result, target_mm):
 
 
 def _three(text, what):
-    """``'x,y,z'`` -> ndarray (3,) of finite numbers."""
+    """``'x,y,z'`` -> ndarray (3,) of finite numbers (the strict grammar), or exit 2."""
     import numpy as np
 
-    try:
-        values = np.array([float(v) for v in str(text).split(",")])
-    except ValueError:
-        values = np.zeros(0)
-    if values.shape != (3,) or not np.all(np.isfinite(values)):
-        raise CalibrationError(f"{what} must be three numbers x,y,z, got {text!r}")
-    return values
+    return np.array(opts.floats(text, 3, what, "three numbers x,y,z"))
 
 
 def _too_few_hint(path, exc, n_poses, options):

@@ -158,7 +158,10 @@ def test_printed_rows_are_the_json_statistics(tmp_path):
             ["--r0", "-inf"],
             "--r0 must be comma-separated numbers, got '-inf' ('-inf' is not a decimal number)",
         ),
-        (["--sweep-r0", " , "], "--sweep-r0 must be comma-separated numbers, got ' , '"),
+        (
+            ["--sweep-r0", " , "],
+            "--sweep-r0 must be comma-separated numbers, got ' , ' ('' is not a decimal number)",
+        ),
         (["--pose", "1,2,3"], "--pose needs 1 or 6 values, got 3"),
         (["--sweep-length", "d3"], "--sweep-length must look like NAME=VALUE, got 'd3'"),
         (["--sweep-length", "=800"], "--sweep-length must look like NAME=VALUE, got '=800'"),
