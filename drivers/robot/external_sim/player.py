@@ -23,7 +23,6 @@ from numpy.typing import ArrayLike
 from calibrator import kinematics
 from drivers.robot.external_sim.motion import JointMove, ringing
 
-
 #: A step this close to its end (controller time, s) is at its end.
 _END_S = 1e-6
 
