@@ -47,8 +47,10 @@ def test_lost_readings_remeasure_the_pose(tmp_path, reference_session, script):
     assert_same_session(tmp_path / "s.parquet", reference_session)
 
 
-def test_pose_fails_after_bounded_retries_and_the_run_goes_on(tmp_path, reference_session):
-    done = faulted_run(tmp_path, "MEAS@31 beam_break count=40", "--retries", "2")
+def test_pose_fails_after_bounded_retries_and_the_run_goes_on(
+    tmp_path, reference_session, pose_3_failed
+):
+    done = pose_3_failed  # "MEAS@31 beam_break count=40" with --retries 2
     assert done.returncode == 0, done.stderr
     assert "1 pose(s) failed: beam broken x3 (after 2 retries: poses [3])" in done.stdout
     rows, ref = session_rows(tmp_path / "s.parquet"), session_rows(reference_session)
@@ -62,8 +64,8 @@ def test_pose_fails_after_bounded_retries_and_the_run_goes_on(tmp_path, referenc
     assert len(ref) == 12
 
 
-def test_resume_refuses_a_journal_of_another_run(tmp_path):
-    done = faulted_run(tmp_path, "MEAS@31 beam_break count=40", "--retries", "2")
+def test_resume_refuses_a_journal_of_another_run(tmp_path, pose_3_failed):
+    done = pose_3_failed
     assert done.returncode == 0 and "failed" in done.stdout  # the journal stays for --resume
     before = (tmp_path / "s.parquet.journal").read_bytes()
     for extra, what in (

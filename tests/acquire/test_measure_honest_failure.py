@@ -94,9 +94,8 @@ def test_a_plan_larger_than_identify_takes_is_refused_before_anything_moves(tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["big.csv"]
 
 
-def test_resume_never_replaces_a_session_file_its_run_did_not_write(tmp_path):
-    (tmp_path / "faults.txt").write_text("MEAS@31 beam_break count=40\n")
-    first = run_cli(*BASE, "--retries", "2", "--sim-faults", "faults.txt", cwd=tmp_path)
+def test_resume_never_replaces_a_session_file_its_run_did_not_write(tmp_path, pose_3_failed):
+    first = pose_3_failed
     assert first.returncode == 0 and "failed" in first.stdout  # journal kept, session written
     other = tmp_path / "other"
     other.mkdir()

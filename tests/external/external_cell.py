@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from cli_process import child_env
+from cli_process import child_env, start_cli
 
 
 @contextmanager
@@ -57,3 +58,39 @@ def start_player(plan: Path, url: str, *args, cwd: Path) -> subprocess.Popen:
         text=True,
         env=child_env(None),
     )
+
+
+class Watching:
+    """``calibrator measure --robot external ARGS`` running in ``cwd``, watching the tracker.
+
+    Made once the run says its cell-time estimate, the line it prints with
+    its journal open, just before it starts watching: the operator starts
+    the program then, so the run sees the program's first stop however long
+    its own start took on a loaded machine.
+    """
+
+    def __init__(self, *args, cwd: Path, ready_s: float = 120.0):
+        self.proc = start_cli("measure", "--robot", "external", *args, cwd=cwd)
+        self._stderr: list[str] = []
+        self._ready = threading.Event()
+        # stderr carries a line per stop decision: drained as it comes, never left to fill
+        self._drain = threading.Thread(target=self._read_stderr, daemon=True)
+        self._drain.start()
+        assert self._ready.wait(ready_s), f"measure not watching after {ready_s} s"
+        assert self.proc.poll() is None, self.result(0)
+
+    def _read_stderr(self) -> None:
+        for line in self.proc.stderr:
+            self._stderr.append(line)
+            if line.startswith("estimated cell time"):
+                self._ready.set()
+        self._ready.set()  # it ended before watching: the caller reports why
+
+    def result(self, timeout: float) -> subprocess.CompletedProcess:
+        """Wait for the run to end; its exit code and output, as :func:`cli_process.run_cli`."""
+        # stdout holds one line per pose: far below a pipe's capacity, read once at the end.
+        code = self.proc.wait(timeout=timeout)
+        stdout = self.proc.stdout.read()
+        self.proc.stdout.close()
+        self._drain.join(timeout=10)
+        return subprocess.CompletedProcess(self.proc.args, code, stdout, "".join(self._stderr))

@@ -46,12 +46,41 @@ class Parsed:
     def literal(self) -> list:
         return [q for kind, q in self.moves if kind == "literal"]
 
+    def move(self, target, where: str) -> None:
+        """A motion statement: to joints written out (rad), or to a target's name.
+
+        A name must have been given its joints before (``where`` names the line).
+        """
+        if isinstance(target, str):
+            if target not in self.named:
+                raise GrammarError(f"{where}: {target} used before it has a value")
+            self.moves.append(("named", target))
+        else:
+            self.moves.append(("literal", target))
+        self.order += "m"
+
+    def wait(self, seconds: str) -> None:
+        """A wait statement of ``seconds`` (as written)."""
+        self.waits.append(float(seconds))
+        self.order += "w"
+
 
 def _nums(text: str, count: int, scale: float = 1.0) -> list:
     values = [float(v) * scale for v in re.findall(NUM, text)]
     if len(values) != count:
         raise GrammarError(f"expected {count} numbers in {text!r}")
     return values
+
+
+def _wait_or_pulse(out: Parsed, statement: str, wait: str, pulse: str) -> bool:
+    """Take a wait (regex ``wait``, group 1 its seconds) or a pulse; False if it is neither."""
+    if m := re.fullmatch(wait, statement):
+        out.wait(m.group(1))
+    elif re.fullmatch(pulse, statement):
+        out.pulses += 1
+    else:
+        return False
+    return True
 
 
 def _fail(n: int, line: str, lang: str):
@@ -88,19 +117,11 @@ def parse_urscript(text: str) -> Parsed:
             out.named[m.group(1)] = _nums(m.group(2), 6)
         elif m := re.fullmatch(rf"movej\(({UR_LIST}|{IDENT}), a=({NUM}), v=({NUM})\)", s):
             target = m.group(1)
-            if target.startswith("["):
-                out.moves.append(("literal", _nums(target, 6)))
-                out.order += "m"
-            else:
-                if target not in out.named:
-                    raise GrammarError(f"URScript line {n}: {target} used before assignment")
-                out.moves.append(("named", target))
-                out.order += "m"
+            out.move(_nums(target, 6) if target.startswith("[") else target, f"URScript line {n}")
             out.speeds.setdefault("v", set()).add(float(m.group(3)))
             out.speeds.setdefault("a", set()).add(float(m.group(2)))
         elif m := re.fullmatch(rf"sleep\(({NUM})\)", s):
-            out.waits.append(float(m.group(1)))
-            out.order += "w"
+            out.wait(m.group(1))
         elif re.fullmatch(r"set_standard_digital_out\(\d, (True|False)\)", s):
             out.pulses += s.endswith("True)")
         else:
@@ -142,19 +163,12 @@ def parse_krl(text: str) -> Parsed:
             if not 0 < float(m.group(2)) <= 100:
                 raise GrammarError(f"KRL line {n}: percent out of range")
         elif m := re.fullmatch(rf"PTP {KRL_AXIS}", line):
-            out.moves.append(("literal", [float(v) * deg for v in m.groups()]))
-            out.order += "m"
+            out.move([float(v) * deg for v in m.groups()], f"KRL line {n}")
         elif m := re.fullmatch(rf"PTP ({IDENT})", line):
-            if m.group(1) not in out.named:
-                raise GrammarError(f"KRL line {n}: {m.group(1)} has no value")
-            out.moves.append(("named", m.group(1)))
-            out.order += "m"
-        elif m := re.fullmatch(rf"WAIT SEC ({NUM})", line):
-            out.waits.append(float(m.group(1)))
-            out.order += "w"
-        elif re.fullmatch(rf"PULSE\(\$OUT\[\d+\], TRUE, ({NUM})\)", line):
-            out.pulses += 1
-        else:
+            out.move(m.group(1), f"KRL line {n}")
+        elif not _wait_or_pulse(
+            out, line, rf"WAIT SEC ({NUM})", rf"PULSE\(\$OUT\[\d+\], TRUE, ({NUM})\)"
+        ):
             _fail(n, line, "KRL")
     return out
 
@@ -189,21 +203,12 @@ def parse_rapid(text: str) -> Parsed:
             rf"MoveAbsJ ({RAPID_JT}|{IDENT}), v\d+(?: \\T:=({NUM}))?, fine, tool0;", line
         ):
             target = m.group(1)
-            if target.startswith("["):
-                out.moves.append(("literal", _nums(m.group(2), 6, deg)))
-                out.order += "m"
-            else:
-                if target not in out.named:
-                    raise GrammarError(f"RAPID line {n}: {target} not declared")
-                out.moves.append(("named", target))
-                out.order += "m"
+            literal = target.startswith("[")
+            out.move(_nums(m.group(2), 6, deg) if literal else target, f"RAPID line {n}")
             out.move_times.append(None if m.group(3) is None else float(m.group(3)))
-        elif m := re.fullmatch(rf"WaitTime \\InPos, ({NUM});", line):
-            out.waits.append(float(m.group(1)))
-            out.order += "w"
-        elif re.fullmatch(rf"PulseDO \\PLength:=({NUM}), {IDENT};", line):
-            out.pulses += 1
-        else:
+        elif not _wait_or_pulse(
+            out, line, rf"WaitTime \\InPos, ({NUM});", rf"PulseDO \\PLength:=({NUM}), {IDENT};"
+        ):
             _fail(n, line, "RAPID")
     return out
 
@@ -248,15 +253,9 @@ def parse_fanuc(text: str) -> Parsed:
             index = int(mm.group(1))
             if index not in points:
                 raise GrammarError(f"Fanuc LS: P[{index}] not in /POS")
-            out.moves.append(("literal", points[index]))
-            out.order += "m"
+            out.move(points[index], f"Fanuc LS /MN line {expect}")
             out.speeds.setdefault("percent", set()).add(int(mm.group(2)))
-        elif mm := re.fullmatch(rf"WAIT ({NUM})\(sec\)", stmt):
-            out.waits.append(float(mm.group(1)))
-            out.order += "w"
-        elif re.fullmatch(rf"DO\[\d+\]=PULSE,{NUM}sec", stmt):
-            out.pulses += 1
-        else:
+        elif not _wait_or_pulse(out, stmt, rf"WAIT ({NUM})\(sec\)", rf"DO\[\d+\]=PULSE,{NUM}sec"):
             raise GrammarError(f"Fanuc LS /MN line {expect}: not a statement: {stmt!r}")
     return out
 

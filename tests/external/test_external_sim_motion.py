@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from calibrator.models import get_model
 from calibrator.program.spec import move_duration_s
 from drivers.robot.external_sim.motion import JointMove, trapezoid_duration
 from drivers.robot.external_sim.player import Hold, Player, PlayerOptions
@@ -67,3 +68,32 @@ def test_vias_are_passed_through_without_a_dwell():
     assert kinds[at[1] + 1] == "move" and np.allclose(ends[at[1] + 1], plan[2])
     holds = [s for s in script if isinstance(s, Hold)]
     assert len(holds) == len(plan) + 2  # start, a dwell per pose, end
+
+
+def _played(player):
+    """Points sent and wall seconds taken by ``player.play`` on a clock that only sleeps moves."""
+    now, sent = [0.0], []
+    player.play(sent.append, clock=lambda: now[0], sleep=lambda s: now.__setitem__(0, now[0] + s))
+    return np.array(sent), now[0]
+
+
+def test_a_time_scale_plays_the_same_program_that_many_times_faster():
+    plan = np.linspace(0.1, 1.0, 4)[:, None] * np.ones((1, 6))
+    arm, tool = get_model("ur10e").mdh, np.eye(4)
+    tool[:3, 3] = [10.0, -5.0, 100.0]  # the reflector off the flange: every joint moves it
+    common = dict(dwell_s=1.5, pauses=((2, 0.5, 1.0),), vibration_mm=0.3, start_delay_s=0.5)
+    real = Player(plan, arm, tool, np.eye(4), PlayerOptions(**common, tick_s=0.08))
+    fast = Player(plan, arm, tool, np.eye(4), PlayerOptions(**common, tick_s=0.02, time_scale=4))
+    real_points, real_s = _played(real)
+    fast_points, fast_s = _played(fast)
+    # the same controller time between updates (4 x 0.02 s = 0.08 s): the same stream
+    assert len(real_points) > 100 and np.ptp(real_points, axis=0).min() > 100.0  # it moved
+    np.testing.assert_allclose(fast_points, real_points, rtol=0, atol=1e-9)
+    program_s = sum(s.duration if isinstance(s, JointMove) else s.seconds for s in real.script())
+    assert real_s == pytest.approx(program_s)
+    assert fast_s == pytest.approx(program_s / 4)
+
+
+def test_a_time_scale_must_be_positive():
+    with pytest.raises(ValueError, match="time_scale"):
+        PlayerOptions(time_scale=0.0)

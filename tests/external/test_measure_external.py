@@ -3,6 +3,11 @@
 Real processes throughout: the tracker simulator on loopback TCP, the
 external-robot player steering its target with ``SIM,TARGET`` every 20 ms,
 and ``calibrator measure`` reading the tracker over its own connection.
+
+The controller runs its program five times faster than real time
+(``--time-scale``): moves, dwells, pauses and ringing alike. The run watches
+with a settle window to match (``--settle-window``, as an operator sets it for
+a program with short dwells); everything else is as in a cell.
 """
 
 import json
@@ -11,11 +16,21 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from cli_process import run_cli
-from external_cell import start_player, tracker_simulator
+from external_cell import Watching, start_player, tracker_simulator
 
 from calibrator import plan as plans
 
-FAST = ("--speed", "3", "--accel", "6")  # a simulated controller: quicker than the cap
+SCALE = 5  # controller seconds per wall-clock second
+FAST = ("--speed", "3", "--accel", "6", "--time-scale", SCALE)  # quicker than the cap, too
+# A dwell (and a pause) of 3.5 s of controller time is 0.7 s of the run's: a settle
+# window of 0.3 s leaves time for the ringing to die and the readings to be taken.
+DWELL = 3.5
+WINDOW = ("--settle-window", "0.3")
+
+
+def _play(plan, url, cwd, *args):
+    """The simulated controller (hidden arm seed 3) runs ``plan`` on the tracker at ``url``."""
+    return start_player(plan, url, "--seed", 3, *FAST, "--dwell", DWELL, *args, cwd=cwd)
 
 
 @pytest.fixture(scope="module")
@@ -39,41 +54,18 @@ def plan40(tmp_path_factory):
 
 def test_a_40_pose_program_with_a_skip_and_a_pause_reaches_the_noise_floor(tmp_path, plan40):
     with tracker_simulator(seed=2) as url:
-        player = start_player(
-            plan40,
-            url,
-            "--seed",
-            "3",
-            *FAST,
-            "--dwell",
-            "1.5",
-            "--skip",
-            "7",
-            "--pause",
-            "20:0.5:1.5",
-            "--vibration",
-            "0.3",
-            "--start-delay",
-            "1",
-            cwd=tmp_path,
-        )
-        done = run_cli(
-            "measure",
-            "--robot",
-            "external",
-            "--plan",
-            plan40,
-            "--tracker",
-            url,
-            "-o",
-            "s.parquet",
+        measure = Watching(
+            "--plan", plan40, "--tracker", url, "-o", "s.parquet", *WINDOW,
             # Longer than the longest move: a move to a pose may pass through
             # the plan's vias (the arm upright) without stopping.
-            "--stop-timeout",
-            "15",
+            "--stop-timeout", "15",
             cwd=tmp_path,
-            timeout=600,
-        )
+        )  # fmt: skip
+        player = _play(
+            plan40, url, tmp_path, "--skip", "7", "--pause", f"20:0.5:{DWELL}",
+            "--vibration", "0.3", "--start-delay", "1",
+        )  # fmt: skip
+        done = measure.result(timeout=600)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert done.returncode == 0, done.stderr
     # the skipped pose is reported missing under its own number
@@ -125,54 +117,20 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     plan = tmp_path / "plan.csv"
-    common = (
-        "measure",
-        "--robot",
-        "external",
-        "--plan",
-        plan,
-        "-o",
-        "s.parquet",
-        "--stop-timeout",
-        "4",
-    )
+    common = ("--plan", plan, "-o", "s.parquet", *WINDOW, "--stop-timeout", "4")
     with tracker_simulator(seed=4) as url:
         # the operator stops the program after pose 8
-        first = start_player(
-            plan,
-            url,
-            "--seed",
-            "3",
-            *FAST,
-            "--dwell",
-            "1.2",
-            "--skip",
-            "9,10,11,12,13",
-            "--start-delay",
-            "1",
-            cwd=tmp_path,
-        )
-        part = run_cli(*common, "--tracker", url, cwd=tmp_path, timeout=300)
+        run = Watching(*common, "--tracker", url, cwd=tmp_path)
+        first = _play(plan, url, tmp_path, "--skip", "9,10,11,12,13", "--start-delay", "1")
+        part = run.result(timeout=300)
         assert first.wait(timeout=60) == 0
         assert part.returncode == 0, part.stderr
         assert "missing: 5 pose(s)" in part.stdout and "[9, 10, 11, 12, 13]" in part.stdout
         assert (tmp_path / "s.parquet.journal").exists()  # kept for --resume
         # restarted from pose 9: resume records the rest under their own numbers
-        second = start_player(
-            plan,
-            url,
-            "--seed",
-            "3",
-            *FAST,
-            "--dwell",
-            "1.2",
-            "--skip",
-            "0,1,2,3,4,5,6,7,8",
-            "--start-delay",
-            "1",
-            cwd=tmp_path,
-        )
-        rest = run_cli(*common, "--tracker", url, "--resume", cwd=tmp_path, timeout=300)
+        run = Watching(*common, "--tracker", url, "--resume", cwd=tmp_path)
+        second = _play(plan, url, tmp_path, "--skip", "0,1,2,3,4,5,6,7,8", "--start-delay", "1")
+        rest = run.result(timeout=300)
         assert second.wait(timeout=60) == 0
     assert rest.returncode == 0, rest.stderr
     assert "wrote s.parquet: 14 poses" in rest.stdout

@@ -23,7 +23,7 @@ from drivers.robot import RobotOptions, open_robot
 from drivers.robot.external.setup import ExternalOptions
 from drivers.robot.external.stops import StopOptions
 
-MOVE_S, DWELL_S = 0.3, 1.0
+MOVE_S, DWELL_S = 0.2, 0.6  # a 0.3 s settle window and 5 readings fit in the dwell
 SKIPPED = 3
 
 
@@ -91,9 +91,9 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
     external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
     robot = open_robot("external", RobotOptions(arm, tracker=tracker, external=external))
     assert {ports.WATCHES_TRACKER, ports.CHECKS_PLAN} <= robot.capabilities
-    # Pauses of 0.5, 1 and 2 s between re-reads: longer than a dwell.
+    # Pauses of 0.7, 1.4 and 2.8 s between re-reads: each longer than a dwell.
     options = RunOptions(
-        plan_rad=plan, via_rad=made.via_rad, tool_mm=tool_mm, readings=5, retry_pause_s=0.5
+        plan_rad=plan, via_rad=made.via_rad, tool_mm=tool_mm, readings=5, retry_pause_s=0.7
     )
     with MeasureRun(robot, tracker, arm, options, tmp_path / "s.parquet") as run:
         run.check_files()

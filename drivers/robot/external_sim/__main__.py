@@ -5,6 +5,9 @@ Example (with a tracker simulator listening on TCP port 5001)::
     python -m drivers.robot.external_sim --plan plan.csv \\
         --control socket://127.0.0.1:5001 --model ur10e --seed 3 --skip 7
 
+``--time-scale 4`` plays the program four times faster than real time (moves,
+dwells, pauses and ringing alike), as the fake UR controller's option does.
+
 Exit codes: 0 when the program ran to its end, 2 on bad input (one line),
 1 when the tracker simulator's control link failed.
 """
@@ -13,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import fields
 
 from drivers.robot.external_sim.player import Player, PlayerOptions
 
@@ -45,20 +49,30 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--control", required=True, help="tracker simulator control URL")
     parser.add_argument("--model", default="ur10e")
     parser.add_argument("--seed", type=int, default=0, help="seed of the hidden true arm")
-    parser.add_argument("--speed", type=float, default=1.0, help="leading-joint speed, rad/s")
-    parser.add_argument("--accel", type=float, default=2.0, help="leading-joint accel, rad/s^2")
-    parser.add_argument("--dwell", type=float, default=1.5, help="dwell at each pose, s")
-    parser.add_argument("--tick", type=float, default=0.02, help="target update period, s")
+    # Named as PlayerOptions' fields, so _options takes them over by name.
+    for flag, dest, default, what in (
+        ("--speed", "speed_rad_s", 1.0, "leading-joint speed, rad/s"),
+        ("--accel", "accel_rad_s2", 2.0, "leading-joint accel, rad/s^2"),
+        ("--dwell", "dwell_s", 1.5, "dwell at each pose, s"),
+        ("--tick", "tick_s", 0.02, "target update period, s of the wall clock"),
+        ("--vibration", "vibration_mm", 0.0, "ringing after a stop, mm"),
+        ("--start-delay", "start_delay_s", 0.0, "wait before moving, s"),
+        ("--time-scale", "time_scale", 1.0, "simulated s per wall-clock s (default 1: real time)"),
+    ):
+        metavar = flag[2:].upper().replace("-", "_")  # as without a dest: --dwell DWELL
+        parser.add_argument(
+            flag, dest=dest, metavar=metavar, type=float, default=default, help=what
+        )
     parser.add_argument("--skip", type=_poses, default=(), help="poses the program skips: 3,7")
     parser.add_argument(
         "--pause",
+        dest="pauses",
+        metavar="PAUSE",
         type=_pause,
         action="append",
         default=[],
         help="POSE:FRACTION:SECONDS: stop that long that far into the move to POSE",
     )
-    parser.add_argument("--vibration", type=float, default=0.0, help="ringing after a stop, mm")
-    parser.add_argument("--start-delay", type=float, default=0.0, help="wait before moving, s")
     parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
     args = parser.parse_args(argv)
     from calibrator.errors import CalibrationError
@@ -66,16 +80,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         plan = read_plan(args.plan)
-        options = PlayerOptions(
-            speed_rad_s=args.speed,
-            accel_rad_s2=args.accel,
-            dwell_s=args.dwell,
-            tick_s=args.tick,
-            skip=args.skip,
-            pauses=tuple(args.pause),
-            vibration_mm=args.vibration,
-            start_delay_s=args.start_delay,
-        )
+        options = _options(args)
         player = Player.for_model(plan.q_rad, args.model, args.seed, options, plan.via_rad)
     except (CalibrationError, ValueError) as exc:
         print(f"external_sim: error: {exc}", file=sys.stderr)
@@ -99,6 +104,12 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         control.close()
     return 0
+
+
+def _options(args: argparse.Namespace) -> PlayerOptions:
+    """The player's options from the parsed command line (dests named as the fields)."""
+    given = {f.name: getattr(args, f.name) for f in fields(PlayerOptions)}
+    return PlayerOptions(**{**given, "pauses": tuple(given["pauses"])})
 
 
 if __name__ == "__main__":

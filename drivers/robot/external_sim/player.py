@@ -3,9 +3,10 @@
 The program (see :mod:`calibrator.program`) goes to a safe start pose, makes
 one joint move per plan pose with a dwell at each (after the pose's via moves,
 passed through without dwell), and ends at the safe pose.
-:class:`Player` reproduces that in real time and hands the true reflector
-position (tracker frame, mm) to a callback every tick, e.g. a tracker
-simulator's ``SIM,TARGET``.
+:class:`Player` reproduces that in real time (or, with
+:attr:`PlayerOptions.time_scale`, that many times faster) and hands the true
+reflector position (tracker frame, mm) to a callback every tick, e.g. a
+tracker simulator's ``SIM,TARGET``.
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from drivers.robot.external_sim.motion import JointMove, ringing
+
+#: A step this close to its end (controller time, s) is at its end.
+_END_S = 1e-6
 
 
 @dataclass(frozen=True)
@@ -39,11 +43,12 @@ class PlayerOptions:
     Attributes
     ----------
     speed_rad_s, accel_rad_s2 : float
-        Leading-joint speed and acceleration of every move.
+        Leading-joint speed and acceleration of every move (controller time).
     dwell_s : float
-        Wait at each pose, s.
+        Wait at each pose, s (controller time).
     tick_s : float
-        Period of the target updates, s.
+        Period of the target updates, s of the wall clock (however fast the
+        program runs, the target is updated this often).
     skip : tuple of int
         Plan poses the program leaves out.
     pauses : tuple of (int, float, float)
@@ -52,7 +57,12 @@ class PlayerOptions:
     vibration_mm : float
         Amplitude of the damped ringing after each arrival, mm.
     start_delay_s : float
-        Wait before the first move, s.
+        Wait before the first move, s (controller time).
+    time_scale : float
+        Controller seconds per wall-clock second: 4 plays the whole program
+        (moves, dwells, pauses, ringing) four times faster than real time, as
+        the fake UR controller's ``--time-scale`` does. A watcher then sees
+        dwells ``time_scale`` times shorter (see docs/external-robots.md).
     """
 
     speed_rad_s: float = 1.0
@@ -63,9 +73,10 @@ class PlayerOptions:
     pauses: tuple = ()
     vibration_mm: float = 0.0
     start_delay_s: float = 0.0
+    time_scale: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("speed_rad_s", "accel_rad_s2", "tick_s"):
+        for name in ("speed_rad_s", "accel_rad_s2", "tick_s", "time_scale"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
         for name in ("dwell_s", "vibration_mm", "start_delay_s"):
@@ -188,9 +199,14 @@ class Player:
         sleep: Callable[[float], None] = time.sleep,
         rng: np.random.Generator | None = None,
     ) -> None:
-        """Run the program in real time, calling ``send(point_mm)`` every tick (tracker frame)."""
+        """Run the program, calling ``send(point_mm)`` every tick (tracker frame).
+
+        ``clock`` and ``sleep`` are the wall clock (s); the program runs
+        ``options.time_scale`` controller seconds per wall second.
+        """
         rng = np.random.default_rng(0) if rng is None else rng
         o = self.options
+        scale = o.time_scale
         for step in self.script():
             position: Callable[[float], np.ndarray]
             if isinstance(step, JointMove):
@@ -202,14 +218,19 @@ class Player:
             direction /= np.linalg.norm(direction)
             start = clock()
             while True:
-                t = clock() - start
-                point = self.tool_points(position(min(t, duration)))[0]
+                t = (clock() - start) * scale  # controller time into the step, s
+                # Within a microsecond of its end the step is over: a clock stepped by the
+                # sleeps asked for can round just short of the end again and again.
+                done = t >= duration - _END_S
+                if done:
+                    t = duration
+                point = self.tool_points(position(t))[0]
                 if ring:
                     point = point + ringing(t, ring, direction)
                 send(point)
-                if t >= duration:
+                if done:
                     break
-                sleep(max(0.0, min(o.tick_s, duration - t)))
+                sleep(min(o.tick_s, (duration - t) / scale))
 
 
 def _standing(q_rad: np.ndarray) -> Callable[[float], np.ndarray]:
