@@ -18,10 +18,10 @@ from calibrator.analysis import misalignment as mc
 from calibrator.errors import CalibrationError
 
 
-def chunks(n_blocks: int, blocks_per_chunk: int) -> list[list[int]]:
-    """Consecutive runs of block indices, ``blocks_per_chunk`` at a time."""
+def chunks(n_blocks: int, blocks_per_chunk: int, first: int = 0) -> list[list[int]]:
+    """Consecutive runs of block indices ``first..n_blocks-1``, ``blocks_per_chunk`` at a time."""
     step = max(1, int(blocks_per_chunk))
-    return [list(range(i, min(i + step, n_blocks))) for i in range(0, n_blocks, step)]
+    return [list(range(i, min(i + step, n_blocks))) for i in range(first, n_blocks, step)]
 
 
 def default_blocks_per_chunk(n_blocks: int, workers: int) -> int:
@@ -74,22 +74,25 @@ def run(
         _run_here(fold, grid, chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1)))
         return fold.total, grid
     # Starting a cluster (importing dask, spawning workers that import numpy) takes
-    # about a second; the calling process meanwhile builds the grid and runs chunks
-    # itself instead of waiting, so one worker costs about what in-process does.
+    # about a second; the calling process meanwhile builds the grid and runs blocks
+    # itself instead of waiting, so one worker costs about what in-process does. One
+    # block at a time (a few tens of ms), so the workers get the rest as soon as they
+    # are up rather than after a whole chunk.
     starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
     connection = starting.submit(_connect, workers, scheduler)
     starting.shutdown(wait=False)
     try:
         grid = mc.make_grid(study)
-        plan = chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, workers or 1))
         fold = _Fold(study, progress)
-        _run_here(fold, grid, plan, until=connection.done)
+        here = chunks(study.n_blocks, 1)
+        _run_here(fold, grid, here, until=connection.done)
     except BaseException:
         connection.add_done_callback(_close_connection)
         raise
     client, cluster = connection.result()
     try:
-        _run_dask(client, fold, grid, plan)
+        per_chunk = _blocks_per_chunk(study, chunk_trials, workers or 1)
+        _run_dask(client, fold, grid, chunks(study.n_blocks, per_chunk, study.n_blocks - len(here)))
         return fold.total, grid
     finally:
         _close(client, cluster)

@@ -181,16 +181,19 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     engine.run(s)
     assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
     cases = [
-        ({"workers": 1}, [[0, 1], [2, 3], [4, 5], [6, 7]], (1, None)),
-        ({"workers": 2}, [[k] for k in range(8)], (2, None)),
-        ({"scheduler": "tcp://h:1"}, [[0, 1], [2, 3], [4, 5], [6, 7]], (None, "tcp://h:1")),
-        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, [[0, 1, 2], [3, 4, 5], [6, 7]], (2, None)),
+        ({"workers": 1}, 2, (1, None)),
+        ({"workers": 2}, 1, (2, None)),
+        ({"scheduler": "tcp://h:1"}, 2, (None, "tcp://h:1")),
+        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, 3, (2, None)),
     ]
-    for kwargs, plan, connected in cases:
+    for kwargs, per_chunk, connected in cases:
         planned["local"].clear()
         engine.run(s, **kwargs)
-        # Whatever ran here while the cluster started, every chunk ran once, in plan order.
-        assert planned["local"] + planned["dask"][-1] == plan
+        # Whatever ran here, one block at a time while the cluster started, the
+        # cluster got the rest in chunks of the plan's size: every block once, in order.
+        here = len(planned["local"])
+        assert planned["local"] == [[k] for k in range(here)]
+        assert planned["dask"][-1] == engine.chunks(8, per_chunk, here)
         assert planned["connect"][-1] == connected
     _, grid = engine.run(s, workers=2, progress=print)
     assert planned["progress"] is print
@@ -198,16 +201,24 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     assert planned["client"] == ["closed"] * 5
 
 
-def test_the_calling_process_runs_chunks_while_the_cluster_starts(planned):
+def test_the_calling_process_runs_blocks_while_the_cluster_starts(planned):
     s = study(trials=8 * mc.BLOCK)
     planned["held"] = 3
     calls, progress = recorder()
     engine.run(s, workers=1, progress=progress)
-    assert planned["local"] == [[0, 1], [2, 3], [4, 5]]
-    assert planned["dask"] == [[[6, 7]]]
-    assert planned["done"] == 6 * mc.BLOCK  # what the cluster's chunks add to
-    assert calls == [(2 * mc.BLOCK * k, 8 * mc.BLOCK) for k in (1, 2, 3)]
+    # The cluster is up once three blocks ran here; the caller notices between
+    # blocks, so at most one more block runs here before the cluster takes over.
+    here = len(planned["local"])
+    assert here in (3, 4) and planned["local"] == [[k] for k in range(here)]
+    assert planned["dask"] == [engine.chunks(8, 2, here)]
+    assert planned["done"] == here * mc.BLOCK  # what the cluster's chunks add to
+    assert calls == [(mc.BLOCK * k, 8 * mc.BLOCK) for k in range(1, here + 1)]
     assert planned["client"] == ["closed"]
+
+
+def test_chunks_can_start_at_any_block():
+    assert engine.chunks(8, 3, 2) == [[2, 3, 4], [5, 6, 7]]
+    assert engine.chunks(8, 3, 8) == []
 
 
 def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypatch):
