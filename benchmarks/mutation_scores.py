@@ -81,6 +81,8 @@ DRIVER_RUNS = {
             "tests/robot/test_robot_timestamp_stall.py",
             "tests/robot/test_robot_fake_ur.py",
             "tests/robot/test_robot_interface.py",
+            "tests/robot/test_ur_stop_latch.py",
+            "tests/robot/test_ur_stop_seen_at_connect.py",
         ],
         1,
     ),
@@ -109,6 +111,9 @@ def prepare(module, folder):
             f"source_paths = [{source!r}]".replace("'", '"'),
             "pytest_add_cli_args_test_selection = [" + ", ".join(f'"{t}"' for t in tests) + "]",
             'also_copy = ["fixtures/", "drivers/"]',
+            # mutmut stops a mutant after (expected + 1) * 2 * this many CPU seconds
+            # (default 15): a mutant stuck in a loop is a kill either way, found sooner.
+            "timeout_multiplier = 5.0",
             "",
         ]
     )
