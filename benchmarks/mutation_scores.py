@@ -72,6 +72,7 @@ DRIVER_RUNS = {
             "tests/tracker/test_tracker_grammar.py",
             "tests/tracker/test_tracker_integrity.py",
             "tests/tracker/test_tracker_scripted.py",
+            "tests/tracker/test_tracker_link_errors_and_close.py",
         ],
         2,
     ),
