@@ -77,3 +77,17 @@ def test_clearing_times_out_naming_the_stop_the_stream_still_shows(ur_robot, fak
     ):
         ur_robot.clear_protective_stop(timeout_s=0.5)
     # (the fake is left lagging: the fixture replaces it)
+
+
+def test_clearing_times_out_naming_the_control_script_that_does_not_start(ur_robot, fake_ur):
+    # The stream does not show the stop yet (3 s late), so nothing is unlocked; the
+    # controller refuses to start the re-uploaded script while it is stopped.
+    assert fake_ur.command("fake safety lag 3") == "fake: safety lag 3"
+    assert fake_ur.command("fake protective stop") == "fake: protective stop"
+    assert fake_ur.command("programstate") == "STOPPED <unnamed>"
+    time.sleep(0.2)  # the program's end reaches the control stream (2 ms periods)
+    with pytest.raises(
+        DriverTimeout, match="^timed out after 0.5 s waiting for control script to start$"
+    ):
+        ur_robot.clear_protective_stop(timeout_s=0.5)
+    # (the fake is left stopped and lagging: the fixture replaces it)
