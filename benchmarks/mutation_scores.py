@@ -73,6 +73,8 @@ DRIVER_RUNS = {
             "tests/tracker/test_tracker_integrity.py",
             "tests/tracker/test_tracker_scripted.py",
             "tests/tracker/test_tracker_link_errors_and_close.py",
+            "tests/tracker/test_tracker_link_write_bound.py",
+            "tests/tracker/test_tracker_rfc2217.py",
         ],
         2,
     ),

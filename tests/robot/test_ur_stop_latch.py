@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from drivers.errors import DriverTimeout
+from drivers.errors import DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, ProtectiveStop
 
 pytest.importorskip("rtde_control")
@@ -91,3 +91,20 @@ def test_clearing_times_out_naming_the_control_script_that_does_not_start(ur_rob
     ):
         ur_robot.clear_protective_stop(timeout_s=0.5)
     # (the fake is left stopped and lagging: the fixture replaces it)
+
+
+def test_clearing_an_unpowered_arm_says_what_the_operator_must_do(ur_robot, fake_ur):
+    assert fake_ur.command("fake estop") == "fake: emergency stop"
+    fake_ur.command("fake release estop")
+    deadline = time.monotonic() + 3.0
+    while not ur_robot.safety_state().ok:
+        assert time.monotonic() < deadline, "the e-stop release never reached the stream"
+        time.sleep(0.01)
+    # the e-stop powered the arm off (robot mode 3): no program can run
+    with pytest.raises(NotReady) as refused:
+        ur_robot.clear_protective_stop()
+    assert str(refused.value) == (
+        "UR controller at 127.0.0.1 is not running (robot mode 3): power the arm on and "
+        "release the brakes (pendant or dashboard), then retry"
+    )
+    # (the fake is left powered off: the fixture replaces it)
