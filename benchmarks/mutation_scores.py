@@ -75,6 +75,7 @@ DRIVER_RUNS = {
             "tests/tracker/test_tracker_link_errors_and_close.py",
             "tests/tracker/test_tracker_link_write_bound.py",
             "tests/tracker/test_tracker_link_long_lines.py",
+            "tests/tracker/test_tracker_link_reads.py",
             "tests/tracker/test_tracker_rfc2217.py",
         ],
         2,
