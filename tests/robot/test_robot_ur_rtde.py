@@ -306,8 +306,10 @@ def test_move_overrunning_its_deadline_times_out_and_stops(fake_manager):
         start = robot.actual_joints()
         target = start + np.array([0.3, 0, 0, 0, 0, 0])
         expected = expected_move_time(start, target, 3.0, 10.0)
-        with pytest.raises(DriverTimeout):
+        deadline = expected + robot.timeout_margin_s
+        with pytest.raises(DriverTimeout) as err:
             robot.move_joints(target, 3.0, 10.0)
+        assert str(err.value) == f"move did not finish within {deadline:.1f} s; stopped"
         assert not fake_is_moving(fake)  # the adapter stopped the arm
         q = robot.actual_joints()
         assert start[0] < q[0] < target[0]

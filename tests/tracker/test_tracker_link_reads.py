@@ -70,3 +70,50 @@ def test_the_read_timeout_is_set_to_the_time_left_only_when_out_of_range(current
     assert link.transact("STAT?", timeout_s=0.5).seq == 1
     assert port.timeouts_set == set_to
     port.verify()
+
+
+class Unannounced(Recording):
+    """A port that never says how many bytes wait (``in_waiting`` 0), as some adapters do."""
+
+    def __init__(self, pairs, timeout):
+        super().__init__(pairs, timeout)
+        self.asked_until: list[int | None] = []
+
+    @property
+    def in_waiting(self) -> int:
+        return 0
+
+    def read_until(self, expected: bytes = b"\n", size: int | None = None) -> bytes:
+        self.asked_until.append(size)
+        return super().read_until(expected, size)
+
+
+def test_a_line_that_has_begun_is_finished_by_a_read_bounded_to_a_frame():
+    port = Unannounced([(host(1, "STAT?"), b"\x7f" * 1000)], timeout=1.0)
+    with pytest.raises(FrameError, match="no line end"):
+        Link(port).transact("STAT?", timeout_s=1.0)
+    # one byte starts the line, then read_until for what still fits (the port gives 100)
+    assert port.asked_until == [MAX_FRAME, MAX_FRAME - 100, MAX_FRAME - 200]
+
+
+class Vanishing(ScriptedTransport):
+    def read(self, size: int = 1) -> bytes:
+        raise OSError("port vanished")
+
+
+def test_a_port_that_vanishes_while_reading_is_a_lost_connection_saying_so():
+    from drivers.tracker.errors import ConnectionLost
+
+    port = Vanishing([(host(1, "STAT?"), trk(REPLY))])
+    with pytest.raises(ConnectionLost) as err:
+        Link(port).transact("STAT?", timeout_s=0.5)
+    assert str(err.value) == "transport failed while reading: port vanished"
+
+
+def test_a_link_keeps_the_last_256_events():
+    events = trk("EV,0,6,BEAM_BROKEN") * 300
+    port = ScriptedTransport([(host(1, "STAT?"), events + trk(REPLY))])
+    link = Link(port)
+    assert link.transact("STAT?", timeout_s=1.0).seq == 1
+    assert len(link.events) == 256
+    port.verify()
