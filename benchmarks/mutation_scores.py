@@ -51,8 +51,9 @@ RANK = {"killed": 3, "survived": 2, "no tests": 1, "other": 1, "unchecked": 0}
 #: Per driver module: the tests that exercise it (fast ones; no real hardware,
 #: no tests that start processes mutmut cannot trace) and how many mutants may
 #: run at once. The UR adapter's tests share the fake controller's fixed
-#: ports (a cross-process lock serialises them), so its mutants run one at a
-#: time.
+#: ports (a cross-process lock serialises them), so its mutants must run one
+#: at a time; the others were measured one at a time too (2 shared cores) and
+#: may run two at a time.
 DRIVER_RUNS = {
     "drivers.robot.safety": (
         [
@@ -63,7 +64,7 @@ DRIVER_RUNS = {
             "tests/robot/test_robot_inputs.py",
             "tests/robot/test_robot_simulated.py",
         ],
-        2,
+        1,
     ),
     "drivers.tracker.link": (
         [
@@ -78,7 +79,7 @@ DRIVER_RUNS = {
             "tests/tracker/test_tracker_link_reads.py",
             "tests/tracker/test_tracker_rfc2217.py",
         ],
-        2,
+        1,
     ),
     "drivers.robot.ur_rtde_adapter": (
         [
