@@ -6,6 +6,7 @@ The fake controller's ``safety lag`` makes its stream show safety changes late,
 as a loaded controller or host does.
 """
 
+import threading
 import time
 
 import numpy as np
@@ -108,3 +109,33 @@ def test_clearing_an_unpowered_arm_says_what_the_operator_must_do(ur_robot, fake
         "release the brakes (pendant or dashboard), then retry"
     )
     # (the fake is left powered off: the fixture replaces it)
+
+
+def test_an_emergency_stop_that_ended_a_move_stays_latched_after_its_release(ur_robot, fake_ur):
+    start = ur_robot.actual_joints()
+    target = start + np.array([0.0, 0.0, 0.8, 0.0, 0.0, 0.0])
+
+    def estop_once_moving():
+        deadline = time.monotonic() + 5.0
+        while fake_ur.command("fake moving") != "fake: moving true":
+            if time.monotonic() > deadline:
+                return
+            time.sleep(0.002)
+        fake_ur.command("fake estop")
+
+    presser = threading.Thread(target=estop_once_moving, daemon=True)
+    presser.start()
+    with pytest.raises(EmergencyStop, match="^emergency stop engaged$"):
+        ur_robot.move_joints(target, 0.1, 1.0)  # slow: the e-stop comes mid-move
+    presser.join(10)
+    # released, powered and braked off on the pendant, the adapter not asked meanwhile
+    for command in RELEASES["fake estop"]:
+        fake_ur.command(command)
+    assert fake_ur.command("fake status") == "fake: status normal"
+    time.sleep(0.3)  # the stream shows the release (2 ms periods)
+    stopped_at = ur_robot.actual_joints()
+    with pytest.raises(ProtectiveStop, match=r"call clear_protective_stop\(\) first"):
+        ur_robot.move_joints(start, 1.0, 2.0)
+    np.testing.assert_allclose(ur_robot.actual_joints(), stopped_at, atol=1e-9)
+    ur_robot.clear_protective_stop()
+    np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=1e-3)
