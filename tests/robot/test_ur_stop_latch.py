@@ -96,8 +96,11 @@ def test_clearing_times_out_naming_the_control_script_that_does_not_start(ur_rob
 
 def test_clearing_an_unpowered_arm_says_what_the_operator_must_do(ur_robot, fake_ur):
     assert fake_ur.command("fake estop") == "fake: emergency stop"
-    fake_ur.command("fake release estop")
     deadline = time.monotonic() + 3.0
+    while not ur_robot.safety_state().emergency_stopped:  # the stream shows it first
+        assert time.monotonic() < deadline, "the e-stop never reached the stream"
+        time.sleep(0.01)
+    fake_ur.command("fake release estop")
     while not ur_robot.safety_state().ok:
         assert time.monotonic() < deadline, "the e-stop release never reached the stream"
         time.sleep(0.01)
