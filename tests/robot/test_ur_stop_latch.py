@@ -114,7 +114,20 @@ def test_clearing_an_unpowered_arm_says_what_the_operator_must_do(ur_robot, fake
     # (the fake is left powered off: the fixture replaces it)
 
 
-def test_an_emergency_stop_that_ended_a_move_stays_latched_after_its_release(ur_robot, fake_ur):
+@pytest.mark.parametrize(
+    ("inject", "error", "message"),
+    [
+        ("fake estop", EmergencyStop, "^emergency stop engaged$"),
+        (
+            "fake protective stop",
+            ProtectiveStop,
+            "^protective stop: the controller stopped the arm$",
+        ),
+    ],
+)
+def test_a_stop_that_ended_a_move_stays_latched_after_its_release(
+    ur_robot, fake_ur, inject, error, message
+):
     start = ur_robot.actual_joints()
     target = start + np.array([0.0, 0.0, 0.8, 0.0, 0.0, 0.0])
 
@@ -124,21 +137,36 @@ def test_an_emergency_stop_that_ended_a_move_stays_latched_after_its_release(ur_
             if time.monotonic() > deadline:
                 return
             time.sleep(0.002)
-        fake_ur.command("fake estop")
+        fake_ur.command(inject)
 
     presser = threading.Thread(target=estop_once_moving, daemon=True)
     presser.start()
-    with pytest.raises(EmergencyStop, match="^emergency stop engaged$"):
-        ur_robot.move_joints(target, 0.1, 1.0)  # slow: the e-stop comes mid-move
+    with pytest.raises(error, match=message):
+        ur_robot.move_joints(target, 0.1, 1.0)  # slow: the stop comes mid-move
     presser.join(10)
-    # released, powered and braked off on the pendant, the adapter not asked meanwhile
-    for command in RELEASES["fake estop"]:
+    # released on the pendant (powered, brakes off), the adapter not asked meanwhile
+    for command in RELEASES[inject]:
         fake_ur.command(command)
     assert fake_ur.command("fake status") == "fake: status normal"
     time.sleep(0.3)  # the stream shows the release (2 ms periods)
     stopped_at = ur_robot.actual_joints()
-    with pytest.raises(ProtectiveStop, match=r"call clear_protective_stop\(\) first"):
+    with pytest.raises(ProtectiveStop) as refused:
         ur_robot.move_joints(start, 1.0, 2.0)
+    assert str(refused.value) == "the arm was safety-stopped; call clear_protective_stop() first"
     np.testing.assert_allclose(ur_robot.actual_joints(), stopped_at, atol=1e-9)
     ur_robot.clear_protective_stop()
     np.testing.assert_allclose(ur_robot.move_joints(start, 1.0, 2.0), start, atol=1e-3)
+
+
+def test_a_program_stopped_on_the_pendant_is_refused_as_not_running(ur_robot, fake_ur):
+    start = ur_robot.actual_joints()
+    assert fake_ur.command("stop") == "Stopped"
+    assert fake_ur.command("programstate") == "STOPPED <unnamed>"
+    time.sleep(0.2)  # the program's end reaches the control stream (2 ms periods)
+    with pytest.raises(NotReady) as refused:
+        ur_robot.move_joints(start + 0.2, 1.0, 2.0)
+    assert str(refused.value) == (
+        "the rtde_control script is not running (stopped on the pendant or by a safety stop); "
+        "call clear_protective_stop() to restart it"
+    )
+    assert not isinstance(refused.value, (EmergencyStop, ProtectiveStop))
