@@ -26,16 +26,110 @@ survived rather than as not checked, so an unfinished re-run cannot raise the
 score.
 
 Run it after ``mutmut run`` (see docs/mutation-testing.md).
+
+The drivers are measured one module at a time, each against the fast tests
+that exercise it: ``--prepare MODULE FOLDER`` copies the repository's tracked
+files to ``FOLDER`` (outside the work tree) with ``[tool.mutmut]`` narrowed
+to that module and its tests (``DRIVER_RUNS``); then, in ``FOLDER``::
+
+    nice -n 15 ../path/.venv/bin/mutmut run --max-children 1 "drivers.robot.ur_rtde_adapter*"
 """
 
 import argparse
 import json
+import re
+import shutil
+import subprocess
 from collections import Counter, defaultdict
 from pathlib import Path
 
 #: mutmut's statuses that count as a kill (the test run failed, hung or crashed).
 KILLED = {"killed", "timeout", "segfault", "caught by type check"}
 RANK = {"killed": 3, "survived": 2, "no tests": 1, "other": 1, "unchecked": 0}
+
+
+#: Per driver module: the tests that exercise it (fast ones; no real hardware,
+#: no tests that start processes mutmut cannot trace) and how many mutants may
+#: run at once. The UR adapter's tests share the fake controller's fixed
+#: ports (a cross-process lock serialises them), so its mutants must run one
+#: at a time; the others were measured one at a time too (2 shared cores) and
+#: may run two at a time.
+DRIVER_RUNS = {
+    "drivers.robot.safety": (
+        [
+            "tests/robot/test_robot_safety.py",
+            "tests/robot/test_robot_limits_margin.py",
+            "tests/robot/test_safety_boundaries.py",
+            "tests/robot/test_model_motion_ceiling.py",
+            "tests/robot/test_robot_inputs.py",
+            "tests/robot/test_robot_simulated.py",
+        ],
+        1,
+    ),
+    "drivers.tracker.link": (
+        [
+            "tests/tracker/test_tracker_link_frames.py",
+            "tests/tracker/test_tracker_faults.py",
+            "tests/tracker/test_tracker_grammar.py",
+            "tests/tracker/test_tracker_integrity.py",
+            "tests/tracker/test_tracker_scripted.py",
+            "tests/tracker/test_tracker_link_errors_and_close.py",
+            "tests/tracker/test_tracker_link_write_bound.py",
+            "tests/tracker/test_tracker_link_long_lines.py",
+            "tests/tracker/test_tracker_link_reads.py",
+            "tests/tracker/test_tracker_rfc2217.py",
+        ],
+        1,
+    ),
+    "drivers.robot.ur_rtde_adapter": (
+        [
+            "tests/robot/test_robot_ur_rtde.py",
+            "tests/robot/test_robot_timestamp_stall.py",
+            "tests/robot/test_robot_fake_ur.py",
+            "tests/robot/test_robot_interface.py",
+            "tests/robot/test_ur_stop_latch.py",
+            "tests/robot/test_ur_stop_seen_at_connect.py",
+            "tests/robot/test_ur_move_ended_short.py",
+            "tests/robot/test_ur_close_stops_script.py",
+        ],
+        1,
+    ),
+}
+
+
+def prepare(module, folder):
+    """Copy the tracked files to ``folder`` with ``[tool.mutmut]`` set for ``module``.
+
+    Returns the ``mutmut run`` command to run in ``folder``.
+    """
+    tests, children = DRIVER_RUNS[module]
+    repo = Path(__file__).resolve().parent.parent
+    files = subprocess.run(
+        ["git", "ls-files", "-z"], cwd=repo, check=True, capture_output=True, text=True
+    ).stdout.split("\0")
+    folder = Path(folder)
+    for name in filter(None, files):
+        if (repo / name).is_file():
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(repo / name, folder / name)
+    source = module.replace(".", "/") + ".py"
+    config = "\n".join(
+        [
+            "[tool.mutmut]",
+            f"source_paths = [{source!r}]".replace("'", '"'),
+            "pytest_add_cli_args_test_selection = [" + ", ".join(f'"{t}"' for t in tests) + "]",
+            'also_copy = ["fixtures/", "drivers/"]',
+            # mutmut stops a mutant after (expected + 1) * 2 * this many CPU seconds
+            # (default 15): a mutant stuck in a loop is a kill either way, found sooner.
+            "timeout_multiplier = 5.0",
+            "",
+        ]
+    )
+    pyproject = folder / "pyproject.toml"
+    text = pyproject.read_text()
+    text = re.sub(r"\[tool\.mutmut\].*?(?=^\[|\Z)", config + "\n", text, flags=re.S | re.M)
+    pyproject.write_text(text)
+    return f'nice -n 15 mutmut run --max-children {children} "{module}*"'
 
 
 def _module_and_function(key):
@@ -125,7 +219,16 @@ def main(argv=None):
         "--survived-before", metavar="FILE", help="survivors handed to an unfinished re-run"
     )
     parser.add_argument("--survivors", metavar="PREFIX", help="list surviving mutants")
+    parser.add_argument(
+        "--prepare",
+        nargs=2,
+        metavar=("MODULE", "FOLDER"),
+        help=f"set up a one-module run of a driver ({', '.join(DRIVER_RUNS)})",
+    )
     args = parser.parse_args(argv)
+    if args.prepare:
+        print(prepare(*args.prepare))
+        return
     roots = args.root or ["mutants"]
     before = frozenset()
     if args.survived_before:

@@ -306,8 +306,10 @@ def test_move_overrunning_its_deadline_times_out_and_stops(fake_manager):
         start = robot.actual_joints()
         target = start + np.array([0.3, 0, 0, 0, 0, 0])
         expected = expected_move_time(start, target, 3.0, 10.0)
-        with pytest.raises(DriverTimeout):
+        deadline = expected + robot.timeout_margin_s
+        with pytest.raises(DriverTimeout) as err:
             robot.move_joints(target, 3.0, 10.0)
+        assert str(err.value) == f"move did not finish within {deadline:.1f} s; stopped"
         assert not fake_is_moving(fake)  # the adapter stopped the arm
         q = robot.actual_joints()
         assert start[0] < q[0] < target[0]
@@ -320,6 +322,13 @@ def test_expected_move_time_matches_trapezoid_and_triangle():
     assert expected_move_time(np.zeros(6), np.r_[1.0, np.zeros(5)], 0.5, 1.0) == pytest.approx(2.5)
     # 0.01 rad never reaches 0.5 rad/s: triangle, 2 * sqrt(0.01 / 1)
     assert expected_move_time(np.zeros(6), np.r_[0.01, np.zeros(5)], 0.5, 1.0) == pytest.approx(0.2)
+    # the same with 2 rad/s^2 (a unit acceleration hides a swapped * and /):
+    # 0.3 rad cruises (0.6 s) between two 0.125 s ramps; 0.1 rad peaks at 0.447 rad/s
+    q = np.r_[0.0, 0.0, -0.3, 0.0, 0.0, 0.0]  # the leading joint need not be the first
+    assert expected_move_time(np.zeros(6), q, 0.5, 2.0) == pytest.approx(0.85)
+    assert expected_move_time(q, np.zeros(6), 0.5, 2.0) == pytest.approx(0.85)
+    triangle = expected_move_time(np.zeros(6), np.r_[0.1, np.zeros(5)], 0.5, 2.0)
+    assert triangle == pytest.approx(2 * np.sqrt(0.1 / 2.0))
 
 
 def test_a_stop_present_at_connect_is_typed_and_a_cleared_arm_connects(fake_ur):

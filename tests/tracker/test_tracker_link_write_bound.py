@@ -1,0 +1,74 @@
+"""The line link bounds each write by the command's deadline, touching the port only when needed.
+
+Setting a write timeout reconfigures a tty (a syscall), so the link leaves a
+port's timeout alone while it lies between half the time left and the time
+left, and sets it to the time left otherwise. A reply glued behind junk that
+itself looks like the start of a frame is still found.
+"""
+
+from __future__ import annotations
+
+import pytest
+from tracker_testkit import ScriptedTransport, host, trk
+
+from drivers.tracker.errors import ConnectionLost
+from drivers.tracker.link import Link
+
+REPLY = "OK,1,READY,1,1,P3,STANDARD"
+
+
+class WriteTimeoutPort(ScriptedTransport):
+    """Records every write timeout the link sets."""
+
+    def __init__(self, pairs, write_timeout):
+        super().__init__(pairs)
+        self._write_timeout = write_timeout
+        self.set_to: list[float | None] = []
+
+    @property
+    def write_timeout(self):
+        return self._write_timeout
+
+    @write_timeout.setter
+    def write_timeout(self, value):
+        self.set_to.append(value)
+        self._write_timeout = value
+
+
+@pytest.mark.parametrize(
+    ("current", "set_to"),
+    [
+        (None, [0.5]),  # no bound yet
+        (0.6, [0.5]),  # longer than the time left
+        (0.5, []),  # exactly the time left
+        (0.4, []),
+        (0.25, []),  # exactly half the time left
+        (0.24, [0.5]),  # far too short for the time left
+    ],
+)
+def test_the_write_timeout_is_set_to_the_time_left_only_when_out_of_range(current, set_to):
+    port = WriteTimeoutPort([(host(1, "STAT?"), trk(REPLY))], write_timeout=current)
+    link = Link(port, clock=lambda: 1000.0)  # a stopped clock: 0.5 s left at the write
+    assert link.transact("STAT?", timeout_s=0.5).seq == 1
+    assert port.set_to == set_to
+    port.verify()
+
+
+class Vanished(ScriptedTransport):
+    def write(self, data: bytes) -> int:
+        raise OSError("port vanished")
+
+
+def test_a_port_that_vanishes_while_writing_is_a_lost_connection_saying_so():
+    with pytest.raises(ConnectionLost) as err:
+        Link(Vanished([])).transact("MEAS", timeout_s=0.5)
+    assert str(err.value) == "transport failed while writing: port vanished"
+
+
+def test_a_reply_behind_junk_that_starts_like_a_frame_is_still_read():
+    junk = b"\x00OK,1,junk"  # a frame tag whose frame never ends: not a reply
+    port = ScriptedTransport([(host(1, "STAT?"), junk + trk(REPLY))])
+    link = Link(port)
+    assert link.transact("STAT?", timeout_s=0.5).fields[0] == "READY"
+    assert link.counters.discarded_bytes == len(junk)
+    port.verify()
