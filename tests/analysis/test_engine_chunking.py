@@ -201,7 +201,8 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     assert planned["client"] == ["closed"] * 5
 
 
-def test_the_calling_process_runs_blocks_while_the_cluster_starts(planned):
+def test_the_calling_process_runs_blocks_while_the_cluster_starts(planned, monkeypatch):
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)  # a core the one worker leaves free
     s = study(trials=8 * mc.BLOCK)
     planned["held"] = 3
     calls, progress = recorder()
@@ -214,6 +215,16 @@ def test_the_calling_process_runs_blocks_while_the_cluster_starts(planned):
     assert planned["done"] == here * mc.BLOCK  # what the cluster's chunks add to
     assert calls == [(mc.BLOCK * k, 8 * mc.BLOCK) for k in range(1, here + 1)]
     assert planned["client"] == ["closed"]
+
+
+def test_with_a_local_worker_on_every_core_the_caller_only_waits(planned, monkeypatch):
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    s = study(trials=8 * mc.BLOCK)
+    engine.run(s, workers=2)
+    assert planned["local"] == [] and planned["dask"] == [[[k] for k in range(8)]]
+    planned["held"] = 2  # a remote scheduler takes no core here: the caller works
+    engine.run(s, scheduler="tcp://h:1")
+    assert len(planned["local"]) >= 2
 
 
 def test_chunks_can_start_at_any_block():
