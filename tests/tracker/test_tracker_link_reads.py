@@ -11,7 +11,7 @@ reconfigures a tty).
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import ScriptedTransport, host, trk
+from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, trk
 
 from drivers.tracker.errors import FrameError
 from drivers.tracker.link import Link
@@ -53,17 +53,7 @@ def test_while_a_line_builds_up_only_what_fits_a_frame_is_read():
     assert len(port.rx) == len(flood) - 257  # the rest is still in the port
 
 
-@pytest.mark.parametrize(
-    ("current", "set_to"),
-    [
-        (None, [0.5]),  # no bound yet
-        (0.6, [0.5]),  # longer than the time left
-        (0.5, []),  # exactly the time left
-        (0.4, []),
-        (0.25, []),  # exactly half the time left
-        (0.24, [0.5]),  # far too short for the time left
-    ],
-)
+@pytest.mark.parametrize(("current", "set_to"), TIMEOUT_BOUNDS)
 def test_the_read_timeout_is_set_to_the_time_left_only_when_out_of_range(current, set_to):
     port = Recording([(host(1, "STAT?"), trk(REPLY))], timeout=current)
     link = Link(port, clock=lambda: 1000.0)  # a stopped clock: 0.5 s left at each read

@@ -9,7 +9,7 @@ itself looks like the start of a frame is still found.
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import ScriptedTransport, host, trk
+from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, trk
 
 from drivers.tracker.errors import ConnectionLost
 from drivers.tracker.link import Link
@@ -35,17 +35,7 @@ class WriteTimeoutPort(ScriptedTransport):
         self._write_timeout = value
 
 
-@pytest.mark.parametrize(
-    ("current", "set_to"),
-    [
-        (None, [0.5]),  # no bound yet
-        (0.6, [0.5]),  # longer than the time left
-        (0.5, []),  # exactly the time left
-        (0.4, []),
-        (0.25, []),  # exactly half the time left
-        (0.24, [0.5]),  # far too short for the time left
-    ],
-)
+@pytest.mark.parametrize(("current", "set_to"), TIMEOUT_BOUNDS)
 def test_the_write_timeout_is_set_to_the_time_left_only_when_out_of_range(current, set_to):
     port = WriteTimeoutPort([(host(1, "STAT?"), trk(REPLY))], write_timeout=current)
     link = Link(port, clock=lambda: 1000.0)  # a stopped clock: 0.5 s left at the write

@@ -236,3 +236,16 @@ def engine_responder(engine, meas_delay_s: float = 0.0):
         ]
 
     return respond
+
+
+#: ``(timeout the port has, what the link sets it to)`` with 0.5 s left for an
+#: I/O: the link bounds a read or a write by the time left, and leaves a bound
+#: alone from half that time up to it.
+TIMEOUT_BOUNDS = [
+    (None, [0.5]),  # no bound yet
+    (0.6, [0.5]),  # longer than the time left
+    (0.5, []),  # exactly the time left
+    (0.4, []),
+    (0.25, []),  # exactly half the time left
+    (0.24, [0.5]),  # far too short for the time left
+]
