@@ -73,13 +73,13 @@ def run(
         fold = _Fold(study, progress)
         _run_here(fold, grid, chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1)))
         return fold.total, grid
-    # Starting a cluster (importing dask, spawning workers that import numpy) takes
-    # about a second; the calling process meanwhile builds the grid and, on a core
-    # the start-up leaves free (a remote scheduler, or fewer local workers than
+    # Starting a cluster (importing Dask, the scheduler, forking the workers) takes a
+    # few tenths of a second; the calling process meanwhile builds the grid and, on a
+    # core the start-up leaves free (a remote scheduler, or fewer local workers than
     # cores), runs blocks itself instead of waiting, so one worker costs about what
     # in-process does. One block at a time (a few tens of ms), so the workers get the
-    # rest as soon as they are up. With a worker on every core it would only slow
-    # their start-up down (measured: 2 workers on 2 cores 0.2-0.4 s slower).
+    # rest as soon as they are up. With a worker on every core it only slowed their
+    # start-up down (measured with spawned workers: 2 on 2 cores, 0.2-0.4 s slower).
     starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
     connection = starting.submit(_connect, workers, scheduler)
     starting.shutdown(wait=False)
