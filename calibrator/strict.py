@@ -210,6 +210,10 @@ class _Bad:
         self.reason = reason
 
 
+#: Keys shown bare in a path (``a.b``); any other is shown quoted (``a['x\\n']``).
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tuple[str, Any] | None:
     """The first leaf of a parsed document that ``test`` picks, with its key path.
 
@@ -245,10 +249,6 @@ def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tupl
         if found is not None:
             return found
     return None
-
-
-#: Keys shown bare in a path (``a.b``); any other is shown quoted (``a['x\\n']``).
-_PLAIN_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def _first_bad(value: Any) -> tuple[str, _Bad] | None:

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import kinematics
+from calibrator import frames, kinematics
 from calibrator.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
@@ -102,7 +102,9 @@ class SwarmObjective:
         if not self.base_free:
             base0 = space.base0
             points = (points - base0[:3, 3]) @ base0[:3, :3]
-            turn_back = np.swapaxes(_rz(obs.q[:, 0]), -1, -2)  # Rz(q1)^T per pose
+            q1 = np.zeros((len(obs.q), 3))
+            q1[:, 2] = obs.q[:, 0]
+            turn_back = np.swapaxes(frames.rotations_xyz(q1), -1, -2)  # Rz(q1)^T per pose
             points = np.einsum("nij,nj->ni", turn_back, points)
             if rotations is not None:
                 rotations = turn_back @ (base0[:3, :3].T @ rotations)
@@ -211,15 +213,6 @@ class SwarmObjective:
 #: Rows of _Buffers.frame_features: 27 products, the translation (27-29),
 #: the angles (30-32), 1 (33), then (1, cos, sin) of rx, ry, rz (34-42).
 _FRAME_ANGLES, _FRAME_ONE, _FRAME_TRIG = 30, 33, 34
-
-
-def _rz(angle):
-    """Rotations about z, shape (N, 3, 3), for angles (N,) (rad)."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros((len(angle), 3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = c, -s, s, c
-    out[:, 2, 2] = 1.0
-    return out
 
 
 def _dot(d):
