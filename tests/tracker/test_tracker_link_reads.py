@@ -11,7 +11,7 @@ reconfigures a tty).
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, trk
+from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
 
 from drivers.tracker.errors import FrameError
 from drivers.tracker.link import Link
@@ -56,10 +56,8 @@ def test_while_a_line_builds_up_only_what_fits_a_frame_is_read():
 @pytest.mark.parametrize(("current", "set_to"), TIMEOUT_BOUNDS)
 def test_the_read_timeout_is_set_to_the_time_left_only_when_out_of_range(current, set_to):
     port = Recording([(host(1, "STAT?"), trk(REPLY))], timeout=current)
-    link = Link(port, clock=lambda: 1000.0)  # a stopped clock: 0.5 s left at each read
-    assert link.transact("STAT?", timeout_s=0.5).seq == 1
+    stat_half_second_left(port)
     assert port.timeouts_set == set_to
-    port.verify()
 
 
 class Unannounced(Recording):

@@ -238,6 +238,17 @@ def engine_responder(engine, meas_delay_s: float = 0.0):
     return respond
 
 
+def stat_half_second_left(port) -> None:
+    """One ``STAT?`` through a :class:`~drivers.tracker.link.Link` on ``port``, 0.5 s left
+    at every read and write (a stopped clock); the reply must be read and the script used up.
+    """
+    from drivers.tracker.link import Link
+
+    link = Link(port, clock=lambda: 1000.0)
+    assert link.transact("STAT?", timeout_s=0.5).seq == 1
+    port.verify()
+
+
 #: ``(timeout the port has, what the link sets it to)`` with 0.5 s left for an
 #: I/O: the link bounds a read or a write by the time left, and leaves a bound
 #: alone from half that time up to it.
