@@ -7,10 +7,10 @@ shuts down a fake left over from a crashed run, and every fake exits by
 itself when the test process dies (``--parent-pid``).
 """
 
-import time
 
 import numpy as np
 import pytest
+from robot_testkit import wait_until
 
 from drivers.robot.fake_ur.launcher import FakeUrProcess, acquire_ports, release_ports
 from drivers.robot.simulated import SimulatedRobot
@@ -78,14 +78,6 @@ def ur_robot(fake_ur):
     yield robot
     robot.close()
 
-
-def wait_until(condition, timeout_s=2.0, what="condition"):
-    """Poll ``condition`` until true; fail the test after ``timeout_s``."""
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out waiting for {what}")
-        time.sleep(0.002)
 
 
 class SimulatedHarness:

@@ -4,10 +4,10 @@ Tried with the real ``ur-rtde`` clients where the wire matters (TCP pose, setTcp
 commands the fake does not emulate); the power and unlock rules in-process.
 """
 
-import time
 
 import numpy as np
 import pytest
+from robot_testkit import wait_until
 
 from calibrator import frames, kinematics
 from calibrator.models import get_model
@@ -24,14 +24,6 @@ from drivers.robot.fake_ur.controller import (
     FakeController,
     tcp_pose,
 )
-
-
-def wait_until(condition, timeout_s=3.0, what="condition"):
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out waiting for {what}")
-        time.sleep(0.002)
 
 
 def test_tcp_pose_is_right_through_a_tool_down_sweep():

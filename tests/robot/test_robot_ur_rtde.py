@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 import pytest
+from robot_testkit import wait_until
 
 from calibrator.acquire.ports import RobotHalted
 from drivers.errors import ConnectionLost, DriverTimeout, NotReady
@@ -23,14 +24,6 @@ rtde_receive = pytest.importorskip("rtde_receive")
 HOST = "127.0.0.1"
 TOL = 1e-3  # rad
 
-
-def wait_until(condition, timeout_s=3.0, what="condition"):
-    """Poll ``condition`` until true; fail the test after ``timeout_s``."""
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out waiting for {what}")
-        time.sleep(0.002)
 
 
 def fake_is_moving(fake):

@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 import pytest
+from robot_testkit import wait_until
 
 from drivers.errors import DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, ProtectiveStop
@@ -54,10 +55,7 @@ def test_a_stop_only_the_dashboard_reported_stays_latched_after_a_release_elsewh
 
 def test_clearing_during_an_emergency_stop_is_refused_for_the_operator(ur_robot, fake_ur):
     assert fake_ur.command("fake estop") == "fake: emergency stop"
-    deadline = time.monotonic() + 3.0
-    while not ur_robot.safety_state().emergency_stopped:
-        assert time.monotonic() < deadline, "the e-stop never reached the stream"
-        time.sleep(0.01)
+    wait_until(lambda: ur_robot.safety_state().emergency_stopped, what="the e-stop on the stream")
     with pytest.raises(
         EmergencyStop, match="^emergency stop engaged: an operator must release it$"
     ):
@@ -68,10 +66,7 @@ def test_clearing_during_an_emergency_stop_is_refused_for_the_operator(ur_robot,
 def test_clearing_times_out_naming_the_stop_the_stream_still_shows(ur_robot, fake_ur):
     assert fake_ur.command("fake safety lag 3") == "fake: safety lag 3"
     assert fake_ur.command("fake protective stop") == "fake: protective stop"
-    deadline = time.monotonic() + 5.0
-    while not ur_robot.safety_state().protective_stopped:
-        assert time.monotonic() < deadline, "the stop never reached the stream"
-        time.sleep(0.01)
+    wait_until(lambda: ur_robot.safety_state().protective_stopped, 5.0, "the stop on the stream")
     # the controller unlocks at once, but the stream shows the stop 3 s longer
     with pytest.raises(
         DriverTimeout, match="^timed out after 0.5 s waiting for protective stop to clear$"
@@ -96,14 +91,12 @@ def test_clearing_times_out_naming_the_control_script_that_does_not_start(ur_rob
 
 def test_clearing_an_unpowered_arm_says_what_the_operator_must_do(ur_robot, fake_ur):
     assert fake_ur.command("fake estop") == "fake: emergency stop"
+    # the stream shows the e-stop, then its release, within 3 s together
     deadline = time.monotonic() + 3.0
-    while not ur_robot.safety_state().emergency_stopped:  # the stream shows it first
-        assert time.monotonic() < deadline, "the e-stop never reached the stream"
-        time.sleep(0.01)
+    wait_until(lambda: ur_robot.safety_state().emergency_stopped, what="the e-stop on the stream")
     fake_ur.command("fake release estop")
-    while not ur_robot.safety_state().ok:
-        assert time.monotonic() < deadline, "the e-stop release never reached the stream"
-        time.sleep(0.01)
+    left = deadline - time.monotonic()
+    wait_until(lambda: ur_robot.safety_state().ok, left, "the e-stop release on the stream")
     # the e-stop powered the arm off (robot mode 3): no program can run
     with pytest.raises(NotReady) as refused:
         ur_robot.clear_protective_stop()
