@@ -7,7 +7,6 @@ shuts down a fake left over from a crashed run, and every fake exits by
 itself when the test process dies (``--parent-pid``).
 """
 
-
 import numpy as np
 import pytest
 from robot_testkit import wait_until
@@ -77,7 +76,6 @@ def ur_robot(fake_ur):
     robot.connect()
     yield robot
     robot.close()
-
 
 
 class SimulatedHarness:

@@ -4,7 +4,6 @@ Tried with the real ``ur-rtde`` clients where the wire matters (TCP pose, setTcp
 commands the fake does not emulate); the power and unlock rules in-process.
 """
 
-
 import numpy as np
 import pytest
 from robot_testkit import wait_until

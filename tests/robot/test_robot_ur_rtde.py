@@ -25,7 +25,6 @@ HOST = "127.0.0.1"
 TOL = 1e-3  # rad
 
 
-
 def fake_is_moving(fake):
     return fake.command("fake moving") == "fake: moving true"
 
