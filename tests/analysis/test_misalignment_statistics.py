@@ -146,6 +146,17 @@ def test_smoothed_density_is_a_unit_gaussian_of_the_kernel_width(kernel_bins, me
     assert spread == pytest.approx(math.hypot(kernel_mm, step / math.sqrt(12)), rel=0.02)
 
 
+@pytest.mark.parametrize("n", [1, 5, 40, 4096])
+@pytest.mark.parametrize("sigma", [0.1, 0.37, 2.0, 11.5, 300.0])
+def test_smoothing_is_scipys_gaussian_filter_with_zeros_outside(n, sigma):
+    # The kernel longer than the data (n=1, 5 against sigma 300) included.
+    from scipy.ndimage import gaussian_filter1d
+
+    values = np.random.default_rng(n).random(n)
+    expected = gaussian_filter1d(values, sigma, mode="constant")
+    np.testing.assert_allclose(mc._gaussian_smooth(values, sigma), expected, rtol=1e-12, atol=1e-15)
+
+
 @pytest.mark.parametrize("angle", [1e-9, 0.02, 1.0, 2.5])
 def test_hand_errors_of_a_known_rotation_and_offset(angle):
     # Real hand = ideal hand turned by a known rotation (hand frame) and moved by a
