@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -22,6 +23,18 @@ def chunks(n_blocks: int, blocks_per_chunk: int, first: int = 0) -> list[list[in
     """Consecutive runs of block indices ``first..n_blocks-1``, ``blocks_per_chunk`` at a time."""
     step = max(1, int(blocks_per_chunk))
     return [list(range(i, min(i + step, n_blocks))) for i in range(first, n_blocks, step)]
+
+
+def even_chunks(n_blocks: int, count: int, first: int = 0) -> list[list[int]]:
+    """Blocks ``first..n_blocks-1`` as ``count`` consecutive runs whose sizes differ by at most one.
+
+    Workers that finish together waste no core at the end; fewer runs when
+    there are fewer blocks.
+    """
+    n = max(0, n_blocks - first)
+    count = min(max(1, int(count)), n) if n else 0
+    bounds = [first + (n * i) // count for i in range(count + 1)] if count else []
+    return [list(range(a, b)) for a, b in zip(bounds, bounds[1:], strict=False)]
 
 
 def default_blocks_per_chunk(n_blocks: int, workers: int) -> int:
@@ -73,30 +86,32 @@ def run(
         fold = _Fold(study, progress)
         _run_here(fold, grid, chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1)))
         return fold.total, grid
-    # Starting a cluster (importing Dask, the scheduler, forking the workers) takes a
-    # few tenths of a second; the calling process meanwhile builds the grid and, on a
-    # core the start-up leaves free (a remote scheduler, or fewer local workers than
-    # cores), runs blocks itself instead of waiting, so one worker costs about what
-    # in-process does. One block at a time (a few tens of ms), so the workers get the
-    # rest as soon as they are up. With a worker on every core it only slowed their
-    # start-up down (measured with spawned workers: 2 on 2 cores, 0.2-0.4 s slower).
+    # Starting a cluster takes a few tenths of a second, most of it importing Dask in
+    # one thread of this process while the other core idles. Meanwhile the calling
+    # process builds the grid and runs blocks itself, one at a time (a few tens of
+    # ms), until no core is idle: until Dask is imported for a local cluster (its
+    # workers then start, and take the cores the user gave them: --workers N runs
+    # on N cores), until connected for a remote scheduler (its workers are elsewhere).
+    imported = threading.Event()
     starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
-    connection = starting.submit(_connect, workers, scheduler)
+    connection = starting.submit(_start, workers, scheduler, imported)
     starting.shutdown(wait=False)
-    spare_core = workers is None or workers < (os.cpu_count() or 1)
+
+    def handed_over() -> bool:
+        return connection.done() or (scheduler is None and imported.is_set())
+
     try:
         grid = mc.make_grid(study)
         fold = _Fold(study, progress)
-        here = chunks(study.n_blocks, 1) if spare_core else []
-        _run_here(fold, grid, here, until=connection.done)
-        first = study.n_blocks - len(here) if spare_core else 0  # blocks run here
+        here = chunks(study.n_blocks, 1)
+        _run_here(fold, grid, here, until=handed_over)
+        first = study.n_blocks - len(here)  # blocks run here
     except BaseException:
         connection.add_done_callback(_close_connection)
         raise
     client, cluster = connection.result()
     try:
-        per_chunk = _blocks_per_chunk(study, chunk_trials, workers or 1)
-        _run_dask(client, fold, grid, chunks(study.n_blocks, per_chunk, first))
+        _run_dask(client, fold, grid, _dask_plan(study, chunk_trials, workers or 1, first))
         return fold.total, grid
     finally:
         _close(client, cluster)
@@ -106,6 +121,17 @@ def _blocks_per_chunk(study: mc.Study, chunk_trials: int | None, workers: int) -
     if chunk_trials is None:
         return default_blocks_per_chunk(study.n_blocks, workers)
     return -(-chunk_trials // mc.BLOCK)
+
+
+def _dask_plan(
+    study: mc.Study, chunk_trials: int | None, workers: int, first: int
+) -> list[list[int]]:
+    """The chunks of blocks ``first..`` for the cluster: the user's size, or even ones."""
+    if chunk_trials is not None:
+        return chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, workers), first)
+    left = study.n_blocks - first
+    # About four per worker to keep them all busy, of at most 50 blocks.
+    return even_chunks(study.n_blocks, max(4 * workers, -(-left // 50)), first)
 
 
 @dataclass
@@ -145,6 +171,10 @@ def local_cluster(workers: int) -> Any:
     1.7-2x slower in a worker than in the calling process
     (benchmarks/analyze_misalignment.py). These workers keep glibc's default.
 
+    Without a dashboard the workers' statistical profiler and system monitor
+    have no reader: off or slowed, two workers on two cores ran 2·10⁶ trials
+    about 8 % faster (benchmarks/analyze_misalignment.py).
+
     The workers are forked, not spawned: a spawned worker imports Python,
     numpy, Dask and this package afresh, about half a second of start-up and
     a fifth of a second to shut down per cluster on two cores; a forked one
@@ -156,6 +186,14 @@ def local_cluster(workers: int) -> Any:
     settings = {
         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
         "distributed.worker.multiprocessing-method": "fork",
+        # The statistical profiler samples the running chunk's stack every 10 ms for a
+        # dashboard nobody opens here; each sample takes the GIL from the chunk.
+        "distributed.worker.profile.enabled": False,
+        # Likewise the event loops' 20 ms tick (a blocked-loop warning) and the 0.5 s
+        # system monitor (dashboard figures): with a worker on every core, every wake-up
+        # of the scheduler's and workers' loops is taken from a chunk.
+        "distributed.admin.tick.interval": "1s",
+        "distributed.admin.system-monitor.interval": "5s",
     }
     with dask.config.set(settings):
         return LocalCluster(
@@ -165,6 +203,21 @@ def local_cluster(workers: int) -> Any:
             dashboard_address=None,
             silence_logs=logging.ERROR,
         )
+
+
+def _start(
+    workers: int | None, scheduler: str | None, imported: threading.Event
+) -> tuple[Any, Any]:
+    """Import Dask, set ``imported``, then :func:`_connect` (run in a thread)."""
+    try:
+        _import_dask()
+    finally:
+        imported.set()
+    return _connect(workers, scheduler)
+
+
+def _import_dask() -> None:
+    import dask.distributed  # noqa: F401
 
 
 def _connect(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:

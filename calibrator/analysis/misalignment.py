@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from calibrator.analysis import _malloc
 from calibrator.analysis.arm import PosedArm, compose
 from calibrator.errors import CalibrationError
 
@@ -366,6 +367,7 @@ def run_chunk(study: Study, grid: Grid, blocks: Sequence[int]) -> Summary:
     -------
     Summary
     """
+    _malloc.keep_freed_memory()  # in whichever process runs it: caller or worker
     summary = Summary()
     for k in blocks:
         summary.add_block(k, *simulate_block(study, k), grid)

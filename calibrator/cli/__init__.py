@@ -7,6 +7,8 @@ line on stderr and exit code 2 (:func:`main`); option checks live in
 Heavy modules are imported inside the commands so ``--help`` stays quick.
 """
 
+import atexit
+import gc
 import importlib
 import os
 import sys
@@ -104,6 +106,12 @@ def main(argv: list[str] | None = None) -> None:
         Arguments after the program name (default: ``sys.argv[1:]``).
     """
     args = sys.argv[1:] if argv is None else list(argv)
+    if argv is None:
+        # The process ends with this command. Python's last garbage collections at
+        # exit walk every object the imports made, to free memory the exit frees
+        # anyway: 0.2 s after a Dask run, 0.06 s after others (measured). Outputs
+        # are written and closed by then. Registered first, so it runs last.
+        atexit.register(gc.freeze)
     if not args or args[0] not in MANY_THREADED:
         # Before numpy loads: OpenBLAS reads this once. Our matrices are small
         # (a Jacobian of 6 rows a pose by at most 36 columns), where extra BLAS

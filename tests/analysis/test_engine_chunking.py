@@ -6,6 +6,7 @@ No Dask cluster here (worker processes per mutant would be far too slow);
 
 import os
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -147,30 +148,41 @@ class FakeClient:
 def planned(monkeypatch):
     """The chunks each run runs here and hands on, by path; none is simulated.
 
-    The cluster "starts" only once the calling process has run ``held`` chunks
-    (an event, not a clock), so which chunks run where is deterministic.
+    Dask "is imported" once the calling process has run ``imported`` chunks,
+    and the cluster "starts" once it has run ``held`` (counts, not a clock),
+    so which chunks run where is deterministic: once the cluster is up, the
+    chunk running here gives the starting thread time to hand it over.
     """
-    seen = {"local": [], "dask": [], "connect": [], "client": [], "held": 0}
-    ready = threading.Event()
+    seen = {"local": [], "dask": [], "connect": [], "client": [], "held": 0, "imported": 0}
+    ran = threading.Condition()
+    up = threading.Event()
 
     def local_chunk(study, grid, blocks):
-        seen["local"].append(list(blocks))
-        if len(seen["local"]) >= seen["held"]:
-            ready.set()
+        with ran:
+            seen["local"].append(list(blocks))
+            ran.notify_all()
+        if seen["held"] and len(seen["local"]) >= seen["held"] and up.wait(5):
+            time.sleep(0.05)  # the connection's future completes
         return mc.Summary()
+
+    def wait_for(key):
+        with ran:
+            assert ran.wait_for(lambda: len(seen["local"]) >= seen[key], 5)
 
     def connect(workers, scheduler):
         seen["connect"].append((workers, scheduler))
-        if seen["held"]:
-            assert ready.wait(5)
+        wait_for("held")
+        up.set()
         return FakeClient(seen["client"]), None
 
     def dask(client, fold, grid, plan):
+        up.clear()
         seen["dask"].append(list(plan))
         seen["progress"], seen["study"], seen["grid"] = fold.progress, fold.study, grid
         seen["done"] = fold.done
 
     monkeypatch.setattr(mc, "run_chunk", local_chunk)
+    monkeypatch.setattr(engine, "_import_dask", lambda: wait_for("imported"))
     monkeypatch.setattr(engine, "_connect", connect)
     monkeypatch.setattr(engine, "_run_dask", dask)
     return seen
@@ -181,19 +193,24 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     engine.run(s)
     assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
     cases = [
-        ({"workers": 1}, 2, (1, None)),
-        ({"workers": 2}, 1, (2, None)),
-        ({"scheduler": "tcp://h:1"}, 2, (None, "tcp://h:1")),
-        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, 3, (2, None)),
+        ({"workers": 1}, (1, None)),
+        ({"workers": 2}, (2, None)),
+        ({"scheduler": "tcp://h:1"}, (None, "tcp://h:1")),
+        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, (2, None)),
     ]
-    for kwargs, per_chunk, connected in cases:
+    for kwargs, connected in cases:
         planned["local"].clear()
         engine.run(s, **kwargs)
         # Whatever ran here, one block at a time while the cluster started, the
-        # cluster got the rest in chunks of the plan's size: every block once, in order.
+        # cluster got the rest: every block once, in order.
         here = len(planned["local"])
         assert planned["local"] == [[k] for k in range(here)]
-        assert planned["dask"][-1] == engine.chunks(8, per_chunk, here)
+        plan = planned["dask"][-1]
+        assert [k for chunk in plan for k in chunk] == list(range(here, 8))
+        if "chunk_trials" in kwargs:
+            assert plan == engine.chunks(8, 3, here)  # the user's size
+        else:  # four even chunks per worker, or one block each
+            assert plan == engine.even_chunks(8, 4 * (kwargs.get("workers") or 1), here)
         assert planned["connect"][-1] == connected
     _, grid = engine.run(s, workers=2, progress=print)
     assert planned["progress"] is print
@@ -201,30 +218,50 @@ def test_default_plan_gives_each_worker_about_four_chunks(planned):
     assert planned["client"] == ["closed"] * 5
 
 
-def test_the_calling_process_runs_blocks_while_the_cluster_starts(planned, monkeypatch):
-    monkeypatch.setattr(os, "cpu_count", lambda: 4)  # a core the one worker leaves free
+def test_the_cluster_gets_even_chunks_of_what_is_left(planned):
+    s = study(trials=100 * mc.BLOCK)
+    planned["held"] = planned["imported"] = 7
+    engine.run(s, workers=2)
+    here = len(planned["local"])
+    assert here in (7, 8)
+    plan = planned["dask"][-1]
+    # 8 chunks (four per worker) of what the caller left, sizes differing by at most one.
+    assert len(plan) == 8 and max(map(len, plan)) - min(map(len, plan)) <= 1
+    assert [k for chunk in plan for k in chunk] == list(range(here, 100))
+
+
+def test_even_chunks_are_consecutive_and_differ_by_at_most_one_block():
+    assert engine.even_chunks(7, 3) == [[0, 1], [2, 3], [4, 5, 6]]
+    assert engine.even_chunks(8, 3, 2) == [[2, 3], [4, 5], [6, 7]]
+    assert engine.even_chunks(8, 5, 6) == [[6], [7]]  # no empty chunks
+    assert engine.even_chunks(8, 3, 8) == [] and engine.even_chunks(0, 4) == []
+    assert engine.even_chunks(5, 0) == [[0, 1, 2, 3, 4]]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_calling_process_runs_blocks_while_dask_imports(planned, workers):
     s = study(trials=8 * mc.BLOCK)
-    planned["held"] = 3
+    planned["imported"] = 3
     calls, progress = recorder()
-    engine.run(s, workers=1, progress=progress)
-    # The cluster is up once three blocks ran here; the caller notices between
-    # blocks, so at most one more block runs here before the cluster takes over.
+    engine.run(s, workers=workers, progress=progress)
+    # Dask is imported once three blocks ran here; the caller notices between
+    # blocks, so at most one more runs here. Then the workers have the cores the
+    # user gave them (--workers N, N cores), and the cluster gets the rest.
     here = len(planned["local"])
     assert here in (3, 4) and planned["local"] == [[k] for k in range(here)]
-    assert planned["dask"] == [engine.chunks(8, 2, here)]
+    assert [k for chunk in planned["dask"][0] for k in chunk] == list(range(here, 8))
     assert planned["done"] == here * mc.BLOCK  # what the cluster's chunks add to
     assert calls == [(mc.BLOCK * k, 8 * mc.BLOCK) for k in range(1, here + 1)]
     assert planned["client"] == ["closed"]
 
 
-def test_with_a_local_worker_on_every_core_the_caller_only_waits(planned, monkeypatch):
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+def test_with_a_remote_scheduler_the_caller_works_until_connected(planned):
     s = study(trials=8 * mc.BLOCK)
-    engine.run(s, workers=2)
-    assert planned["local"] == [] and planned["dask"] == [[[k] for k in range(8)]]
-    planned["held"] = 2  # a remote scheduler takes no core here: the caller works
+    planned["imported"], planned["held"] = 1, 4  # its workers take no core here
     engine.run(s, scheduler="tcp://h:1")
-    assert len(planned["local"]) >= 2
+    here = len(planned["local"])
+    assert here in (4, 5) and planned["local"] == [[k] for k in range(here)]
+    assert [k for chunk in planned["dask"][0] for k in chunk] == list(range(here, 8))
 
 
 def test_chunks_can_start_at_any_block():
@@ -232,7 +269,8 @@ def test_chunks_can_start_at_any_block():
     assert engine.chunks(8, 3, 8) == []
 
 
-def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypatch):
+@pytest.mark.parametrize("where", [{"workers": 1}, {"scheduler": "tcp://h:1"}])
+def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypatch, where):
     s = study(trials=8 * mc.BLOCK)
 
     def fail_second(study, grid, blocks):
@@ -249,9 +287,12 @@ def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypat
         started.wait(5)
         return connect(workers, scheduler)
 
+    # Still importing Dask (a local cluster) or connecting (a remote one) when the
+    # second block fails here.
+    monkeypatch.setattr(engine, "_import_dask", lambda: started.wait(5))
     monkeypatch.setattr(engine, "_connect", connect_later)
     with pytest.raises(KeyboardInterrupt):
-        engine.run(s, workers=1)
+        engine.run(s, **where)
     started.set()
     for _ in range(500):  # the starting thread closes what it started, in its own time
         if planned["client"]:
