@@ -1,6 +1,7 @@
 """Running ``calibrator`` as a user does: a new process, its output and exit code."""
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -30,7 +31,13 @@ def run_cli(*args, cwd=None, timeout=120, env=None, **kwargs):
 
 
 def start_cli(*args, cwd=None):
-    """``python -m calibrator ARGS`` started in ``cwd`` and left running (text pipes)."""
+    """``python -m calibrator ARGS`` started in ``cwd`` and left running (text pipes).
+
+    The child takes Ctrl-C as a terminal user's command does, even when the
+    test run itself ignores SIGINT (started in the background by a
+    non-interactive shell, or under ``nohup``), which children inherit and
+    Python then leaves ignored.
+    """
     return subprocess.Popen(
         [sys.executable, "-m", "calibrator", *map(str, args)],
         cwd=cwd,
@@ -38,6 +45,7 @@ def start_cli(*args, cwd=None):
         stderr=subprocess.PIPE,
         text=True,
         env=child_env(None),
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
