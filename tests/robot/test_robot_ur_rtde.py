@@ -135,6 +135,20 @@ def test_adapter_requires_a_host():
         UrRtdeRobot("")
 
 
+def test_an_adapter_not_connected_says_to_connect_first():
+    robot = UrRtdeRobot(HOST)
+    calls = [
+        robot.actual_joints,
+        robot.safety_state,
+        robot.stop,
+        robot.clear_protective_stop,
+        lambda: robot.move_joints(np.zeros(6), 0.1, 1.0),
+    ]
+    for call in calls:
+        with pytest.raises(NotReady, match=r"^not connected; call connect\(\) first$"):
+            call()
+
+
 def test_stop_mid_move_reports_motion_failed(ur_robot, fake_ur):
     start = ur_robot.actual_joints()
     target = start + np.array([1.0, 0, 0, 0, 0, 0])
@@ -286,7 +300,10 @@ def test_controller_hangup_during_move_is_connection_lost(ur_robot, fake_ur, fau
     join()
     # the deadline that matters: the client alone would wait out its 300 s timeout
     assert elapsed < ur_robot.stale_after_s + 5.0
-    with pytest.raises(ConnectionLost):
+    # Later calls refuse at once, naming what was lost and what to do.
+    with pytest.raises(
+        ConnectionLost, match=r"^link to 127\.0\.0\.1 lost earlier \(.+\); reconnect$"
+    ):
         ur_robot.actual_joints()
 
 
