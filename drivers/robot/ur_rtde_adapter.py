@@ -69,16 +69,16 @@ class UrRtdeRobot(Robot):
     host : str
         Controller address, given by the caller (no default: a driver never
         picks an address on its own).
-    tolerance_rad : float
+    tolerance_rad : float, default 0.001
         Largest joint error accepted at the end of a move, rad.
-    stale_after_s : float
+    stale_after_s : float, default 1
         The link counts as lost when the RTDE timestamp has not advanced for
-        this long (the controller streams at 500 Hz).
-    timeout_margin_s : float
+        this long, s (the controller streams at 500 Hz).
+    timeout_margin_s : float, default 5
         Added to the expected move time to make a move's deadline, s.
-    poll_s : float
+    poll_s : float, default 0.002
         Polling period while a move runs, s.
-    command_timeout_s : float
+    command_timeout_s : float, default 5
         Deadline of one control command (moveJ, stopJ, isSteady, ...), s; a
         command without an answer by then means the link is lost.
     """

@@ -5,6 +5,7 @@ wheel), then the adapter's semantics: stop mid-move, protective stop during a
 move, e-stop, hang-up and a frozen controller, deadlines.
 """
 
+import re
 import threading
 import time
 
@@ -133,6 +134,19 @@ def test_adapter_connect_refused_without_controller(fake_manager):
 def test_adapter_requires_a_host():
     with pytest.raises(ValueError):
         UrRtdeRobot("")
+
+
+def test_the_adapters_defaults_are_the_documented_ones():
+    # The end-of-move tolerance, the stale-data bound and the deadlines decide when
+    # a move counts as done or the link as lost: a changed default must show in the
+    # documentation ("name : float, default value").
+    documented = dict(re.findall(r"^ {4}(\w+) : float, default (\S+)$", UrRtdeRobot.__doc__, re.M))
+    robot = UrRtdeRobot(HOST)
+    assert sorted(documented) == sorted(
+        ["tolerance_rad", "stale_after_s", "timeout_margin_s", "poll_s", "command_timeout_s"]
+    )
+    for name, value in documented.items():
+        assert getattr(robot, name) == float(value), name
 
 
 def test_an_adapter_not_connected_says_to_connect_first():
