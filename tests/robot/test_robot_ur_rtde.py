@@ -132,7 +132,7 @@ def test_adapter_connect_refused_without_controller(fake_manager):
 
 
 def test_adapter_requires_a_host():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="^host is required$"):
         UrRtdeRobot("")
 
 
