@@ -91,6 +91,7 @@ DRIVER_RUNS = {
             "tests/robot/test_ur_stop_seen_at_connect.py",
             "tests/robot/test_ur_move_ended_short.py",
             "tests/robot/test_ur_close_stops_script.py",
+            "tests/robot/test_ur_command_deadline.py",
         ],
         1,
     ),
