@@ -18,17 +18,15 @@ import pytest
 from calibrator.acquire import journal as journals
 from calibrator.acquire import rows
 from calibrator.acquire.averaging import average
+from drivers.tracker import protocol
 
 HEADER = {"plan_sha256": "abc", "robot": "sim:r", "tracker": "t-1", "readings": 3, "poses": 4}
 PLAN = np.array([np.full(6, pose / 10) for pose in range(4)])
 
 
-class Reading:
-    def __init__(self, point):
-        self.point_mm = np.asarray(point, float)
-        self.accurate = True
-        self.rotvec_rad = None
-        self.device_time_us = 0
+def Reading(point):  # noqa: N802 - reads as the tracker's reading it builds
+    """An accurate point reading (the tracker driver's own type)."""
+    return protocol.Reading(np.asarray(point, float), None, protocol.ReadingStatus.ACCURATE, 0)
 
 
 def measured(pose, x=1.0):

@@ -26,13 +26,10 @@ WRITER = textwrap.dedent(
     import numpy as np
     from calibrator.acquire import journal as journals, rows
     from calibrator.acquire.averaging import average
+    from drivers.tracker.protocol import Reading as TrackerReading, ReadingStatus
 
-    class Reading:
-        def __init__(self, point):
-            self.point_mm = np.asarray(point, float)
-            self.accurate = True
-            self.rotvec_rad = None
-            self.device_time_us = 0
+    def Reading(point):
+        return TrackerReading(np.asarray(point, float), None, ReadingStatus.ACCURATE, 0)
 
     header = {"plan_sha256": "abc", "robot": "sim:r", "tracker": "t-1", "readings": 2, "poses": 3}
     plan = np.array([np.full(6, pose / 10) for pose in range(3)])
