@@ -41,6 +41,9 @@ from drivers.robot.interface import Robot, SafetyState, check_move_args
 ROBOT_MODE_RUNNING = 7
 #: Dashboard ``safetystatus`` values under which the arm may move (any other one is a stop).
 SAFETY_MODES_RUNNING = frozenset({"NORMAL", "REDUCED", "RECOVERY"})
+#: Longest wait, after a safety stop, for the control interface to show that the stop
+#: ended its script (s); it takes milliseconds unless the host is loaded.
+SCRIPT_END_WAIT_S = 2.0
 
 
 def expected_move_time(
@@ -216,10 +219,19 @@ class UrRtdeRobot(Robot):
         A real controller refuses the unlock for 5 s after the stop, so the
         unlock is retried until ``timeout_s``; a refusal that lasts longer is
         :class:`~drivers.errors.NotReady`.
+
+        A safety stop ends the control script, but the control interface
+        learns that from its own RTDE stream, which a loaded host reads late:
+        until then its ``isProgramRunning()`` is the ended script's, and a move
+        sent on it fails with "RTDE control script is not running!". So after a
+        stop the adapter has seen, the script is restarted once that view shows
+        it ended (or after :data:`SCRIPT_END_WAIT_S`, when it never does), and
+        only a start seen after that counts.
         """
         self._check_link()
         if self._receive.isEmergencyStopped():
             raise EmergencyStop("emergency stop engaged: an operator must release it")
+        stopped = self._stop_latch or self._receive.isProtectiveStopped()
         if self._receive.isProtectiveStopped():
             self._unlock(timeout_s)
             self._wait_for(
@@ -227,7 +239,9 @@ class UrRtdeRobot(Robot):
                 timeout_s,
                 "protective stop to clear",
             )
-        if not self._control.isProgramRunning():
+        if stopped:
+            self._wait_for_script_end(min(timeout_s, SCRIPT_END_WAIT_S))
+        if stopped or not self._control.isProgramRunning():
             self._require_running_mode()
             self._command(self._control.reuploadScript)
             # reuploadScript returns before the program runs; a moveJ sent now would fail
@@ -247,6 +261,17 @@ class UrRtdeRobot(Robot):
                 f"UR controller at {self.host} is not running (robot mode {mode}): power the "
                 "arm on and release the brakes (pendant or dashboard), then retry"
             )
+
+    def _wait_for_script_end(self, timeout_s):
+        """Until the control interface shows no script running, at most ``timeout_s``.
+
+        Not an error when it never does (a script someone restarted): restarting
+        it, as ur-rtde's ``reuploadScript`` does, stops it first.
+        """
+        deadline = time.monotonic() + timeout_s
+        while self._control.isProgramRunning() and time.monotonic() < deadline:
+            self._check_link()
+            time.sleep(self.poll_s)
 
     def _unlock(self, timeout_s):
         deadline = time.monotonic() + timeout_s

@@ -19,6 +19,7 @@ from drivers.robot.fake_ur.controller import (
     RUNTIME_STOPPED,
     SAFETY_NORMAL,
     SAFETY_PROTECTIVE_STOPPED,
+    STATUS_PROGRAM_RUNNING,
     UNLOCK_DELAY_S,
     FakeController,
     tcp_pose,
@@ -113,20 +114,40 @@ def test_safety_lag_delays_the_streamed_bits_but_never_replays_older_ones():
     c.emergency_stop()
     c.release_emergency_stop()
     # as if the e-stop had begun 6 s ago and been released 1 s ago (by an earlier test)
-    (t0, start), (t1, stopped), *release = c._safety_log
-    c._safety_log = [(t0 - 10.0, start), (t1 - 6.0, stopped)] + [(t - 1.0, b) for t, b in release]
+    (t0, start), (t1, stopped), *release = c._safety.log
+    c._safety.log = [(t0 - 10.0, start), (t1 - 6.0, stopped)] + [(t - 1.0, b) for t, b in release]
     c.set_safety_lag(5.0)
     assert c.snapshot()["safety_status_bits"] == SAFETY_NORMAL  # the old stop is not replayed
     c.protective_stop()
     assert c.snapshot()["safety_status_bits"] == SAFETY_NORMAL  # the stream lags ...
     assert c.safety_bits & SAFETY_PROTECTIVE_STOPPED  # ... the controller (dashboard) does not
-    t3, bits = c._safety_log[-1]
-    c._safety_log[-1] = (t3 - 5.1, bits)  # as if 5.1 s had passed since the stop
-    c._lag_since -= 5.1
+    t3, bits = c._safety.log[-1]
+    c._safety.log[-1] = (t3 - 5.1, bits)  # as if 5.1 s had passed since the stop
+    c._safety.lag_since -= 5.1
     assert c.snapshot()["safety_status_bits"] & SAFETY_PROTECTIVE_STOPPED
     assert c.snapshot()["safety_mode"] == 3
     c.set_safety_lag(0)
     assert c.snapshot()["safety_status_bits"] == c.safety_bits
+
+
+def test_program_lag_delays_the_streamed_program_state_only():
+    c = FakeController(unlock_delay_s=0.0)
+    c.start_program()
+    c.set_program_lag(5.0)
+    c.protective_stop()
+    assert c.runtime_state == RUNTIME_STOPPED  # the controller (dashboard) knows at once ...
+    shown = c.snapshot()
+    assert shown["runtime_state"] == RUNTIME_PLAYING  # ... the stream still shows it running
+    assert shown["robot_status_bits"] & STATUS_PROGRAM_RUNNING
+    assert shown["safety_status_bits"] & SAFETY_PROTECTIVE_STOPPED  # safety is not delayed
+    t, state = c._runtime.log[-1]
+    c._runtime.log[-1] = (t - 5.1, state)  # as if 5.1 s had passed since the stop
+    c._runtime.lag_since -= 5.1
+    shown = c.snapshot()
+    assert shown["runtime_state"] == RUNTIME_STOPPED
+    assert not shown["robot_status_bits"] & STATUS_PROGRAM_RUNNING
+    c.set_program_lag(0)
+    assert c.snapshot()["runtime_state"] == c.runtime_state
 
 
 @pytest.mark.parametrize("name", ["ur5e", "ur10e"])

@@ -147,6 +147,37 @@ class _JointMove:
         return self.q0 + direction * s, direction * sd
 
 
+class _Streamed:
+    """A controller value and its recent changes, which the RTDE stream may report late.
+
+    Test hook: two streams, or one starved client thread, can show a change at
+    different moments. With ``lag_s`` set, :meth:`streamed` is the value as it
+    was ``lag_s`` ago, but never older than the moment the lag was set, so
+    changes from before it (another test's stop) are not played again.
+    """
+
+    def __init__(self, value: int) -> None:
+        self.value = value
+        self.lag_s = 0.0
+        self.lag_since = 0.0
+        self.log: list[tuple[float, int]] = [(time.monotonic(), value)]  # (monotonic time, value)
+
+    def set(self, value: int) -> None:
+        self.value = value
+        self.log = [*self.log[-15:], (time.monotonic(), value)]
+
+    def set_lag(self, lag_s: float) -> None:
+        self.lag_s = float(lag_s)
+        self.lag_since = time.monotonic()
+
+    def streamed(self) -> int:
+        if self.lag_s <= 0:
+            return self.value
+        seen = max(time.monotonic() - self.lag_s, self.lag_since)
+        reported = [value for t, value in self.log if t <= seen]
+        return reported[-1] if reported else self.log[0][1]
+
+
 class FakeController:
     """State of the fake UR controller, advanced by :meth:`tick`.
 
@@ -184,15 +215,10 @@ class FakeController:
         self._move_is_sync = False  # a sync movej holds the script until it ends
         self._busy = False
         self._executing_cmd = False
-        self.runtime_state = RUNTIME_STOPPED
-        # test hook: the RTDE stream reports the safety bits this late (two streams,
-        # or one starved thread, can show a stop at different moments)
-        self.safety_lag_s = 0.0
-        self._lag_since = 0.0  # when the lag was set: the stream never reports older bits
-        self._safety_log: list[
-            tuple[float, int]
-        ] = []  # (monotonic time, bits), for the lagged report
-        self.safety_bits = SAFETY_NORMAL
+        # What the stream reports of these two may lag (test hooks: set_safety_lag,
+        # set_program_lag); the dashboard and the script loop see them as they are.
+        self._runtime = _Streamed(RUNTIME_STOPPED)
+        self._safety = _Streamed(SAFETY_NORMAL)
         self.estop_at_movej = 0  # test hook: the n-th MOVEJ from now is an e-stop instead
         self.reg_offset = 0
         self.out_int = np.zeros(48, dtype=np.int64)
@@ -217,30 +243,47 @@ class FakeController:
     @property
     def safety_bits(self) -> int:
         """``safety_status_bits`` now (the dashboard's view)."""
-        return self._safety_bits
+        return self._safety.value
 
     @safety_bits.setter
     def safety_bits(self, bits: int) -> None:
-        self._safety_bits = bits
-        self._safety_log = [*self._safety_log[-15:], (time.monotonic(), bits)]
+        self._safety.set(bits)
+
+    @property
+    def runtime_state(self) -> int:
+        """``runtime_state`` now (the dashboard's ``programState``, the script loop's)."""
+        return self._runtime.value
+
+    @runtime_state.setter
+    def runtime_state(self, state: int) -> None:
+        self._runtime.set(state)
+
+    @property
+    def safety_lag_s(self) -> float:
+        return self._safety.lag_s
+
+    @property
+    def program_lag_s(self) -> float:
+        return self._runtime.lag_s
 
     def set_safety_lag(self, lag_s: float) -> None:
         """Test hook: from now on the stream shows safety changes ``lag_s`` late."""
         with self.lock:
-            self.safety_lag_s = float(lag_s)
-            self._lag_since = time.monotonic()
+            self._safety.set_lag(lag_s)
+
+    def set_program_lag(self, lag_s: float) -> None:
+        """Test hook: from now on the stream shows the program start and end ``lag_s`` late.
+
+        ``runtime_state`` and the program-running bit of ``robot_status_bits``, as a
+        client's starved receive thread would: the control interface then says a
+        program runs that a safety stop has already ended.
+        """
+        with self.lock:
+            self._runtime.set_lag(lag_s)
 
     def streamed_safety_bits(self) -> int:
-        """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old.
-
-        Never older than the moment the lag was set, so changes from before
-        it (another test's stop) are not played again.
-        """
-        if self.safety_lag_s <= 0:
-            return self._safety_bits
-        seen = max(time.monotonic() - self.safety_lag_s, self._lag_since)
-        reported = [bits for t, bits in self._safety_log if t <= seen]
-        return reported[-1] if reported else self._safety_log[0][1]
+        """``safety_status_bits`` as the RTDE stream reports it: ``safety_lag_s`` old."""
+        return self._safety.streamed()
 
     def timestamp(self) -> float:
         """Controller time since start, s (the RTDE ``timestamp``)."""
@@ -251,7 +294,8 @@ class FakeController:
     def snapshot(self) -> dict[str, Any]:
         """Values of the outputs a client may request, by RTDE name (units as UR: m, rad)."""
         with self.lock:
-            playing = self.runtime_state == RUNTIME_PLAYING
+            runtime = self._runtime.streamed()
+            playing = runtime == RUNTIME_PLAYING
             streamed = self.streamed_safety_bits()
             values = {
                 "timestamp": self.timestamp(),
@@ -261,7 +305,7 @@ class FakeController:
                 "target_qd": tuple(self.qd),
                 "actual_TCP_pose": tuple(tcp_pose(self.q, self.model.mdh, self.flange2tcp)),
                 "target_TCP_pose": tuple(tcp_pose(self.target_q, self.model.mdh, self.flange2tcp)),
-                "runtime_state": self.runtime_state,
+                "runtime_state": runtime,
                 "robot_mode": self.robot_mode,
                 "joint_mode": (253,) * 6,  # JOINT_RUNNING_MODE
                 "safety_mode": safety_mode(streamed),

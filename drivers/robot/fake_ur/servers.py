@@ -225,6 +225,9 @@ class FakeUr:
         if command.startswith("safety lag "):
             c.set_safety_lag(command.split()[-1])
             return f"fake: safety lag {c.safety_lag_s:g}"
+        if command.startswith("program lag "):
+            c.set_program_lag(command.split()[-1])
+            return f"fake: program lag {c.program_lag_s:g}"
         if command.startswith("estop at movej "):
             c.estop_at_movej = int(command.split()[-1])
             return f"fake: estop at movej {c.estop_at_movej}"
@@ -245,6 +248,7 @@ class FakeUr:
                         ("stalled", c.stalled),
                         ("timestamp_frozen", c.frozen_timestamp is not None),
                         ("safety_lag", c.safety_lag_s),
+                        ("program_lag", c.program_lag_s),
                         ("estop_pending", c.estop_at_movej),
                         ("moving", c.moving),
                         ("not_running", c.robot_mode != 7),
