@@ -92,6 +92,7 @@ DRIVER_RUNS = {
             "tests/robot/test_ur_move_ended_short.py",
             "tests/robot/test_ur_close_stops_script.py",
             "tests/robot/test_ur_command_deadline.py",
+            "tests/robot/test_ur_clear_stale_program_state.py",
         ],
         1,
     ),
