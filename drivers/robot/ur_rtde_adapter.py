@@ -268,10 +268,12 @@ class UrRtdeRobot(Robot):
         Not an error when it never does (a script someone restarted): restarting
         it, as ur-rtde's ``reuploadScript`` does, stops it first.
         """
-        deadline = time.monotonic() + timeout_s
-        while self._control.isProgramRunning() and time.monotonic() < deadline:
-            self._check_link()
-            time.sleep(self.poll_s)
+        try:
+            self._wait_for(
+                lambda: not self._control.isProgramRunning(), timeout_s, "control script to end"
+            )
+        except DriverTimeout:
+            pass
 
     def _unlock(self, timeout_s):
         deadline = time.monotonic() + timeout_s

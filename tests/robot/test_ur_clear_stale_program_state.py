@@ -39,6 +39,14 @@ def assert_seen_running_throughout(robot, seconds):
         time.sleep(0.005)
 
 
+def assert_cleared_and_moving(robot, fake, start):
+    """The script runs on the controller, the client sees it so throughout, and a move runs."""
+    assert fake.command("programstate").startswith("PLAYING")
+    assert_seen_running_throughout(robot, LAG_S + 0.3)
+    target = start + np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(robot.move_joints(target, 1.0, 2.0), target, atol=TOL)
+
+
 def test_a_move_right_after_clearing_a_protective_stop_runs(ur_robot, fake_ur):
     assert fake_ur.command(f"fake program lag {LAG_S:g}") == f"fake: program lag {LAG_S:g}"
     start = ur_robot.actual_joints()
@@ -47,10 +55,7 @@ def test_a_move_right_after_clearing_a_protective_stop_runs(ur_robot, fake_ur):
     assert ur_robot._control.isProgramRunning()  # the client's view: the old program runs
     assert fake_ur.command("programstate").startswith("STOPPED")  # the controller's: it ended
     ur_robot.clear_protective_stop()
-    assert fake_ur.command("programstate").startswith("PLAYING")
-    assert_seen_running_throughout(ur_robot, LAG_S + 0.3)
-    target = start + np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
-    np.testing.assert_allclose(ur_robot.move_joints(target, 1.0, 2.0), target, atol=TOL)
+    assert_cleared_and_moving(ur_robot, fake_ur, start)
     # (the fake is left lagging: the fixture replaces it)
 
 
@@ -63,7 +68,4 @@ def test_a_move_right_after_clearing_an_emergency_stop_runs(ur_robot, fake_ur):
         fake_ur.command(command)
     wait_until(lambda: ur_robot.safety_state().ok, what="the release on the stream")
     ur_robot.clear_protective_stop()
-    assert fake_ur.command("programstate").startswith("PLAYING")
-    assert_seen_running_throughout(ur_robot, LAG_S + 0.3)
-    target = start + np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
-    np.testing.assert_allclose(ur_robot.move_joints(target, 1.0, 2.0), target, atol=TOL)
+    assert_cleared_and_moving(ur_robot, fake_ur, start)
