@@ -50,3 +50,33 @@ def test_local_workers_keep_glibcs_dynamic_malloc_thresholds(monkeypatch):
     assert seen is None
     assert blas == "1"  # the rest of Dask's worker settings stay
     assert multiprocessing.active_children() == []
+
+
+def test_nannies_poll_their_starting_workers_quickly_then_dask_is_as_before(monkeypatch):
+    # Dask's nanny looks for its worker's start-up message every 50 ms, most of a
+    # forked worker's start; the engine's clusters have it looked for every 2 ms.
+    from distributed.nanny import WorkerProcess
+
+    before = WorkerProcess._init_msg_interval
+    polled = []
+    wait = WorkerProcess._wait_until_connected
+
+    async def watched(self, *args, **kwargs):
+        polled.append(self._init_msg_interval)
+        return await wait(self, *args, **kwargs)
+
+    monkeypatch.setattr(WorkerProcess, "_wait_until_connected", watched)
+    with engine.local_cluster(2):
+        assert WorkerProcess._init_msg_interval == before  # only while it starts
+    assert polled == [engine.NANNY_POLL_S] * 2
+    assert engine.NANNY_POLL_S < before
+    assert multiprocessing.active_children() == []
+
+
+def test_a_dask_without_the_nanny_poll_interval_is_left_alone(monkeypatch):
+    from distributed.nanny import WorkerProcess
+
+    monkeypatch.delattr(WorkerProcess, "_init_msg_interval")
+    with engine._nanny_poll(0.002):
+        assert not hasattr(WorkerProcess, "_init_msg_interval")
+    assert not hasattr(WorkerProcess, "_init_msg_interval")
