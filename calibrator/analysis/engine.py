@@ -203,7 +203,11 @@ def local_cluster(workers: int) -> Any:
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
-            silence_logs=logging.ERROR,
+            # Dask's own log lines stay off the user's terminal: a worker logs a
+            # traceback at ERROR when its heartbeat is in flight as the scheduler
+            # closes (1 run in 48 that succeeded). Failures reach the caller as
+            # exceptions, which the CLI reports in one line.
+            silence_logs=logging.CRITICAL,
         )
 
 
