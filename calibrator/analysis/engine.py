@@ -11,7 +11,7 @@ import logging
 import os
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -279,6 +279,11 @@ def _close_connection(connection: Future) -> None:
         _close(*connection.result())
 
 
+def _named(blocks: list[int]) -> str:
+    """``block 3`` or ``blocks 3-7``, for messages."""
+    return f"blocks {blocks[0]}-{blocks[-1]}" if len(blocks) > 1 else f"block {blocks[0]}"
+
+
 def _run_dask(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) -> None:
     """Run ``plan``'s chunks on ``client``'s workers, folding them in as they finish.
 
@@ -302,10 +307,14 @@ def _run_dask(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) ->
                 f"a Dask worker cannot import {exc.name!r}: install calibrator on every worker"
             ) from None
         except KilledWorker:
-            which = f"blocks {blocks[0]}-{blocks[-1]}" if len(blocks) > 1 else f"block {blocks[0]}"
             raise CalibrationError(
-                f"a Dask worker died running {which}, each time it was tried"
+                f"a Dask worker died running {_named(blocks)}, each time it was tried"
                 " (out of memory, or killed by a signal)"
+            ) from None
+        except CancelledError as exc:  # e.g. another client restarted the cluster
+            reason = getattr(exc, "reason", None) or "no reason given"
+            raise CalibrationError(
+                f"the Dask cluster cancelled {_named(blocks)} before it finished ({reason})"
             ) from None
         fold.add(blocks, result)
         future.release()

@@ -157,3 +157,32 @@ def test_a_worker_that_dies_once_is_replaced_and_the_result_is_the_same(monkeypa
     assert died.exists()
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
     assert multiprocessing.active_children() == []
+
+
+def test_a_cluster_restarted_under_the_run_fails_it_in_one_line():
+    # Another client of the user's cluster restarts it: Dask cancels this run's
+    # chunks, and the run stops with one line instead of Dask's traceback.
+    import threading
+    import time
+
+    from dask.distributed import Client, LocalCluster
+
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 60 * mc.BLOCK, seed=4)
+
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+
+        def restart():
+            deadline = time.monotonic() + 30
+            while not cluster.scheduler.tasks and time.monotonic() < deadline:
+                time.sleep(0.005)  # until the run's chunks are on the cluster
+            with Client(cluster.scheduler_address) as other:
+                other.restart()
+
+        restarter = threading.Thread(target=restart)
+        restarter.start()
+        cancelled = r"^the Dask cluster cancelled blocks? \d+(-\d+)? before it finished \(scheduler"
+        with pytest.raises(CalibrationError, match=cancelled):
+            engine.run(study, scheduler=cluster.scheduler_address, chunk_trials=mc.BLOCK)
+        restarter.join()
