@@ -5,12 +5,13 @@ on a link that went silent with its sockets open. The adapter runs each
 command in a daemon thread and gives up after ``command_timeout_s``: the link
 is then lost, and the abandoned call can never keep the process from exiting.
 
-About one run in twenty, the client takes the move as started from the last
-packet it read before the silence (measured on the fake: ``moveJ`` returned
-True at once). The adapter then waits for the move and loses the link when
-the client's own watchdog closes it, 2.5 s into the silence. Either way the
-move fails with :class:`ConnectionLost` in bounded time; the deadline's own
-path is run again until it is the one taken.
+About one run in twenty, the client takes the move as started from the
+last packet it read before the silence (seen on the fake: ``moveJ``
+returned True within the deadline). The adapter then waits for the move
+and loses the link when the client's own watchdog closes it, 2.5 s into
+the silence. Either way the move fails with :class:`ConnectionLost` in
+bounded time; the deadline's own path is run again until it is the one
+taken.
 """
 
 import threading
