@@ -228,10 +228,10 @@ def _nanny_poll(interval_s: float) -> Iterator[None]:
     from distributed.nanny import WorkerProcess
 
     name = "_init_msg_interval"
-    if not isinstance(getattr(WorkerProcess, name, None), float):
+    old = getattr(WorkerProcess, name, None)
+    if not isinstance(old, float):
         yield
         return
-    old = getattr(WorkerProcess, name)
     setattr(WorkerProcess, name, interval_s)
     try:
         yield

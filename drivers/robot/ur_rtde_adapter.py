@@ -231,8 +231,9 @@ class UrRtdeRobot(Robot):
         self._check_link()
         if self._receive.isEmergencyStopped():
             raise EmergencyStop("emergency stop engaged: an operator must release it")
-        stopped = self._stop_latch or self._receive.isProtectiveStopped()
-        if self._receive.isProtectiveStopped():
+        protective = self._receive.isProtectiveStopped()
+        stopped = self._stop_latch or protective
+        if protective:
             self._unlock(timeout_s)
             self._wait_for(
                 lambda: not self._receive.isProtectiveStopped(),

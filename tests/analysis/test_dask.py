@@ -5,6 +5,8 @@ import os
 import signal
 import subprocess
 import sys
+import threading
+import time
 
 import pytest
 
@@ -162,9 +164,6 @@ def test_a_worker_that_dies_once_is_replaced_and_the_result_is_the_same(monkeypa
 def test_a_cluster_restarted_under_the_run_fails_it_in_one_line():
     # Another client of the user's cluster restarts it: Dask cancels this run's
     # chunks, and the run stops with one line instead of Dask's traceback.
-    import threading
-    import time
-
     from dask.distributed import Client, LocalCluster
 
     study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 60 * mc.BLOCK, seed=4)
