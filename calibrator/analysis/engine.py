@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
+from calibrator.analysis import _malloc
 from calibrator.analysis import misalignment as mc
 from calibrator.errors import CalibrationError
 
@@ -83,16 +84,20 @@ def run(
     if chunk_trials is not None and chunk_trials < 1:
         raise CalibrationError(f"--chunk must be >= 1 trial, got {chunk_trials}")
     if workers is None and scheduler is None:
-        grid = mc.make_grid(study)
-        fold = _Fold(study, progress)
-        _run_here(fold, grid, chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, 1)))
+        grid, fold = _first_block(study, progress)
+        per_chunk = _blocks_per_chunk(study, chunk_trials, 1)
+        _run_here(fold, grid, chunks(study.n_blocks, per_chunk, first=1))
         return fold.total, grid
+    if scheduler is None and workers is not None and workers >= 2 and study.n_blocks > 2:
+        # (With two blocks or fewer, block 0 leaves a helper at most one.)
+        return _run_with_spare(study, chunk_trials, workers, progress)
     # Starting a cluster takes a few tenths of a second, most of it importing Dask in
     # one thread of this process while the other core idles. Meanwhile the calling
     # process builds the grid and runs blocks itself, one at a time (a few tens of
-    # ms), until no core is idle: until Dask is imported for a local cluster (its
-    # workers then start, and take the cores the user gave them: --workers N runs
-    # on N cores), until connected for a remote scheduler (its workers are elsewhere).
+    # ms), until no core is idle: until Dask is imported for a local cluster of one
+    # worker (which then takes the core the user gave it), until connected for a
+    # remote scheduler (its workers are elsewhere). Two or more local workers: see
+    # _run_with_spare.
     imported = threading.Event()
     starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
     connection = starting.submit(_start, workers, scheduler, imported)
@@ -102,9 +107,8 @@ def run(
         return connection.done() or (scheduler is None and imported.is_set())
 
     try:
-        grid = mc.make_grid(study)
-        fold = _Fold(study, progress)
-        here = chunks(study.n_blocks, 1)
+        grid, fold = _first_block(study, progress)
+        here = chunks(study.n_blocks, 1, first=1)
         _run_here(fold, grid, here, until=handed_over)
         first = study.n_blocks - len(here)  # blocks run here
     except BaseException:
@@ -118,6 +122,58 @@ def run(
         _close(client, cluster)
 
 
+def _run_with_spare(
+    study: mc.Study, chunk_trials: int | None, workers: int, progress: Callable | None
+) -> tuple[mc.Summary, mc.Grid]:
+    """Two or more local workers: a forked helper runs blocks while the cluster starts.
+
+    The user gave the run ``workers`` cores. Starting the cluster (importing
+    Dask, then forking the workers) keeps one busy; the helper
+    (:class:`_spare.Spare`) runs blocks from the end of the study on
+    another, at full speed, until the cluster is up. Computing in a thread of
+    this process instead shares the GIL with the import: about three blocks
+    got done in the time the helper does twelve (benchmarks/README.md).
+    """
+    from calibrator.analysis import _spare
+
+    grid, fold = _first_block(study, progress)
+    # Forked before Dask starts threads here. The child runs only numpy and a
+    # pipe, nothing another thread (a progress bar's) could have left locked.
+    spare = _spare.Spare(study, grid, low=1)
+    try:
+        _import_dask()
+        client, cluster = _connect(workers, None)
+    except BaseException:
+        spare.close()
+        raise
+    try:
+        end = spare.stop()  # blocks end.. are the helper's
+        plan = _dask_plan(study, chunk_trials, workers, 1, end)
+        futures = _submit(client, fold, grid, plan)
+        helped = spare.result()  # at most one block's wait; the workers are at it
+        if helped is None:  # the helper failed: its blocks go to the cluster too
+            futures.update(_submit(client, fold, grid, chunks(study.n_blocks, 1, first=end)))
+        elif end < study.n_blocks:
+            fold.add(list(range(end, study.n_blocks)), helped)
+        _gather(futures, fold)
+        return fold.total, grid
+    finally:
+        spare.close()
+        _close(client, cluster)
+
+
+def _first_block(study: mc.Study, progress: Callable | None) -> tuple[mc.Grid, _Fold]:
+    """The study's grid, and a fold holding block 0, which the grid's ranges are drawn from."""
+    _malloc.keep_freed_memory()  # as run_chunk does
+    block = mc.simulate_block(study, 0)
+    grid = mc.make_grid(study, block)
+    fold = _Fold(study, progress)
+    summary = mc.Summary()
+    summary.add_block(0, *block, grid)
+    fold.add([0], summary)
+    return grid, fold
+
+
 def _blocks_per_chunk(study: mc.Study, chunk_trials: int | None, workers: int) -> int:
     if chunk_trials is None:
         return default_blocks_per_chunk(study.n_blocks, workers)
@@ -125,14 +181,15 @@ def _blocks_per_chunk(study: mc.Study, chunk_trials: int | None, workers: int) -
 
 
 def _dask_plan(
-    study: mc.Study, chunk_trials: int | None, workers: int, first: int
+    study: mc.Study, chunk_trials: int | None, workers: int, first: int, end: int | None = None
 ) -> list[list[int]]:
-    """The chunks of blocks ``first..`` for the cluster: the user's size, or even ones."""
+    """The chunks of blocks ``first..end-1`` for the cluster: the user's size, or even ones."""
+    end = study.n_blocks if end is None else end
     if chunk_trials is not None:
-        return chunks(study.n_blocks, _blocks_per_chunk(study, chunk_trials, workers), first)
-    left = study.n_blocks - first
+        return chunks(end, _blocks_per_chunk(study, chunk_trials, workers), first)
+    left = end - first
     # About four per worker to keep them all busy, of at most 50 blocks.
-    return even_chunks(study.n_blocks, max(4 * workers, -(-left // 50)), first)
+    return even_chunks(end, max(4 * workers, -(-left // 50)), first)
 
 
 @dataclass
@@ -285,7 +342,12 @@ def _named(blocks: list[int]) -> str:
 
 
 def _run_dask(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) -> None:
-    """Run ``plan``'s chunks on ``client``'s workers, folding them in as they finish.
+    """Run ``plan``'s chunks on ``client``'s workers, folding them in as they finish."""
+    _gather(_submit(client, fold, grid, plan), fold)
+
+
+def _submit(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) -> dict:
+    """Send ``plan``'s chunks to ``client``'s workers: ``{future: blocks}``.
 
     Each task carries the study and grid itself (under 2 kB pickled), not a
     reference to copies scattered to the workers: a worker that dies takes
@@ -293,11 +355,15 @@ def _run_dask(client: Any, fold: _Fold, grid: mc.Grid, plan: list[list[int]]) ->
     task that needs it, where a self-contained task is retried on the
     restarted worker.
     """
+    return {client.submit(mc.run_chunk, fold.study, grid, blocks): blocks for blocks in plan}
+
+
+def _gather(futures: dict, fold: _Fold) -> None:
+    """Fold in the chunks of ``futures`` (from :func:`_submit`) as they finish."""
     from dask.distributed import KilledWorker, as_completed
 
-    if not plan:
+    if not futures:
         return
-    futures = {client.submit(mc.run_chunk, fold.study, grid, blocks): blocks for blocks in plan}
     for future in as_completed(futures):
         blocks = futures[future]
         try:

@@ -232,8 +232,13 @@ class Grid:
     axis_hi: float
 
 
-def make_grid(study: Study) -> Grid:
+def make_grid(
+    study: Study, block0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+) -> Grid:
     """Histogram ranges for a study: a bound for |dP|, and display ranges from block 0.
+
+    ``block0`` is :func:`simulate_block` ``(study, 0)`` if the caller has it
+    already (it is simulated otherwise).
 
     The |dP| range must hold every trial, so it comes from a bound: each
     joint moves the hand by at most its offset R0 plus its tilt
@@ -247,7 +252,7 @@ def make_grid(study: Study) -> Grid:
     lever = np.linalg.norm(hand - frames[:, :, 3], axis=1)
     tilt = 2.0 * study.r0_mm / study.h_mm
     bound = 1.5 * float(np.sum(study.r0_mm + tilt * (lever + study.r0_mm)))
-    dp, rotvec, axis = simulate_block(study, 0)
+    dp, rotvec, axis = simulate_block(study, 0) if block0 is None else block0
 
     def span(x):
         mid, half = x.mean(axis=0), 6.0 * x.std(axis=0)

@@ -134,10 +134,20 @@ def test_tolerance_json_never_overwrites_its_calibration(tmp_path, capsys, monke
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
 
 
-def test_ctrl_c_ends_a_long_run_in_one_line_leaving_no_file(tmp_path):
-    # a real SIGINT to a real process, mid-computation (a run of minutes)
+@pytest.mark.parametrize("workers", [[], ["--workers", "2"]])
+def test_ctrl_c_ends_a_long_run_in_one_line_leaving_no_file(tmp_path, workers):
+    # A real SIGINT to a real process, mid-computation (a run of minutes); with
+    # two workers it lands while the cluster starts and a forked helper computes.
     proc = start_cli(
-        "analyze", "misalignment", "--trials", "50000000", "-q", "--json", "s.json", cwd=tmp_path
+        "analyze",
+        "misalignment",
+        "--trials",
+        "50000000",
+        "-q",
+        "--json",
+        "s.json",
+        *workers,
+        cwd=tmp_path,
     )
     try:
         assert proc.stdout.readline()  # the run has begun: its first line is out

@@ -1,5 +1,6 @@
 """The same study on a real Dask LocalCluster gives the in-process result, to the bit."""
 
+import copy
 import multiprocessing
 import os
 import signal
@@ -23,8 +24,10 @@ def test_local_cluster_matches_in_process():
         study, workers=2, chunk_trials=mc.BLOCK, progress=lambda d, t: seen.append((d, t))
     )
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
-    assert seen[-1] == (study.trials, study.trials) and len(seen) == 3
-    # The cluster's worker processes are gone once the run returns.
+    # Progress after block 0, then after what the helper ran and each chunk.
+    assert seen[0] == (mc.BLOCK, study.trials) and seen[-1] == (study.trials, study.trials)
+    assert [d for d, _ in seen] == sorted({d for d, _ in seen})
+    # The cluster's worker processes, and the helper, are gone once the run returns.
     assert multiprocessing.active_children() == []
 
 
@@ -185,3 +188,57 @@ def test_a_cluster_restarted_under_the_run_fails_it_in_one_line():
         with pytest.raises(CalibrationError, match=cancelled):
             engine.run(study, scheduler=cluster.scheduler_address, chunk_trials=mc.BLOCK)
         restarter.join()
+
+
+def spy(monkeypatch, owner, name, log):
+    """Record what ``owner.name`` returns (it still runs), as it was then."""
+    real = getattr(owner, name)
+
+    def recorded(*args, **kwargs):
+        out = real(*args, **kwargs)
+        log.append(copy.copy(out))
+        return out
+
+    monkeypatch.setattr(owner, name, recorded)
+
+
+def test_with_two_workers_a_helper_runs_blocks_while_the_cluster_starts(monkeypatch):
+    # The run forks a helper onto the core the cluster's start leaves idle; it
+    # runs blocks from the top until the cluster is up, the cluster the rest.
+    from calibrator.analysis import _spare
+
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 40 * mc.BLOCK, seed=6)
+    local, grid = engine.run(study)
+    ends, sent = [], []
+    spy(monkeypatch, _spare.Spare, "stop", ends)
+    spy(monkeypatch, engine, "_submit", sent)
+    remote, _ = engine.run(study, workers=2)
+    assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    (end,) = ends
+    on_cluster = sorted(k for futures in sent for blocks in futures.values() for k in blocks)
+    assert 1 < end < study.n_blocks  # both had blocks here (the start takes ~0.3 s)
+    assert on_cluster == list(range(1, end))  # block 0 ran with the grid
+    assert multiprocessing.active_children() == []
+
+
+def test_a_helper_that_dies_has_its_blocks_run_on_the_cluster(monkeypatch):
+    from calibrator.analysis import _spare
+
+    def claims_three_and_dies(study, grid, claims, lock, sender):
+        with lock:
+            claims[0] -= 3
+        os._exit(3)
+
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 12 * mc.BLOCK, seed=6)
+    local, grid = engine.run(study)
+    sent = []
+    monkeypatch.setattr(_spare, "_work", claims_three_and_dies)
+    spy(monkeypatch, engine, "_submit", sent)
+    remote, _ = engine.run(study, workers=2)
+    assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    # The cluster's plan stops below the helper's claims; then it runs them too.
+    assert [sorted(k for b in f.values() for k in b) for f in sent] == [
+        list(range(1, 9)),
+        [9, 10, 11],
+    ]
+    assert multiprocessing.active_children() == []

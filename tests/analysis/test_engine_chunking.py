@@ -39,8 +39,9 @@ def test_every_chunking_gives_the_direct_result():
     s = study()
     dp, r = direct(s)
     first = None
-    # chunk_trials -> chunks; the default: about four chunks per worker, here one block each.
-    for chunk_trials, n_chunks in ((None, 3), (1, 3), (mc.BLOCK + 1, 2), (10 * TRIALS, 1)):
+    # chunk_trials -> progress calls: block 0 (the grid is drawn from it), then a call
+    # per chunk of the rest; the default: about four chunks per worker, here one block each.
+    for chunk_trials, n_chunks in ((None, 3), (1, 3), (mc.BLOCK + 1, 2), (10 * TRIALS, 2)):
         seen, progress = recorder()
         summary, grid = engine.run(s, chunk_trials=chunk_trials, progress=progress)
         assert summary.count == TRIALS and sorted(summary.sums) == [0, 1, 2]
@@ -201,42 +202,42 @@ def planned(monkeypatch):
 def test_default_plan_gives_each_worker_about_four_chunks(planned):
     s = study(trials=8 * mc.BLOCK)
     engine.run(s)
-    assert planned["local"] == [[0, 1], [2, 3], [4, 5], [6, 7]]
+    # Block 0 is run with the grid, which is drawn from it; then chunks of the rest.
+    assert planned["local"] == [[1, 2], [3, 4], [5, 6], [7]]
     cases = [
         ({"workers": 1}, (1, None)),
-        ({"workers": 2}, (2, None)),
         ({"scheduler": "tcp://h:1"}, (None, "tcp://h:1")),
-        ({"workers": 2, "chunk_trials": 3 * mc.BLOCK}, (2, None)),
+        ({"workers": 1, "chunk_trials": 3 * mc.BLOCK}, (1, None)),
     ]
     for kwargs, connected in cases:
         planned["local"].clear()
         engine.run(s, **kwargs)
         # Whatever ran here, one block at a time while the cluster started, the
         # cluster got the rest: every block once, in order.
-        here = len(planned["local"])
-        assert planned["local"] == [[k] for k in range(here)]
+        here = 1 + len(planned["local"])
+        assert planned["local"] == [[k] for k in range(1, here)]
         plan = planned["dask"][-1]
         assert [k for chunk in plan for k in chunk] == list(range(here, 8))
         if "chunk_trials" in kwargs:
             assert plan == engine.chunks(8, 3, here)  # the user's size
         else:  # four even chunks per worker, or one block each
-            assert plan == engine.even_chunks(8, 4 * (kwargs.get("workers") or 1), here)
+            assert plan == engine.even_chunks(8, 4, here)
         assert planned["connect"][-1] == connected
-    _, grid = engine.run(s, workers=2, progress=print)
+    _, grid = engine.run(s, workers=1, progress=print)
     assert planned["progress"] is print
     assert planned["study"] is s and planned["grid"] is grid
-    assert planned["client"] == ["closed"] * 5
+    assert planned["client"] == ["closed"] * 4
 
 
 def test_the_cluster_gets_even_chunks_of_what_is_left(planned):
     s = study(trials=100 * mc.BLOCK)
     planned["held"] = planned["imported"] = 7
-    engine.run(s, workers=2)
-    here = len(planned["local"])
-    assert here == 7
+    engine.run(s, workers=1)
+    here = 1 + len(planned["local"])
+    assert here == 8
     plan = planned["dask"][-1]
-    # 8 chunks (four per worker) of what the caller left, sizes differing by at most one.
-    assert len(plan) == 8 and max(map(len, plan)) - min(map(len, plan)) <= 1
+    # 4 chunks (four per worker) of what the caller left, sizes differing by at most one.
+    assert len(plan) == 4 and max(map(len, plan)) - min(map(len, plan)) <= 1
     assert [k for chunk in plan for k in chunk] == list(range(here, 100))
 
 
@@ -248,17 +249,16 @@ def test_even_chunks_are_consecutive_and_differ_by_at_most_one_block():
     assert engine.even_chunks(5, 0) == [[0, 1, 2, 3, 4]]
 
 
-@pytest.mark.parametrize("workers", [1, 2])
-def test_the_calling_process_runs_blocks_while_dask_imports(planned, workers):
+def test_with_one_worker_the_calling_process_runs_blocks_while_dask_imports(planned):
     s = study(trials=8 * mc.BLOCK)
     planned["imported"] = 3
     calls, progress = recorder()
-    engine.run(s, workers=workers, progress=progress)
-    # Dask is imported once three blocks ran here, and the caller stops there:
-    # the workers have the cores the user gave them (--workers N, N cores), and
-    # the cluster gets the rest.
-    here = len(planned["local"])
-    assert here == 3 and planned["local"] == [[k] for k in range(here)]
+    engine.run(s, workers=1, progress=progress)
+    # Dask is imported once three blocks (after block 0) ran here, and the caller
+    # stops there: the worker has the core the user gave it (--workers N, N
+    # cores), and the cluster gets the rest.
+    here = 1 + len(planned["local"])
+    assert here == 4 and planned["local"] == [[k] for k in range(1, here)]
     assert [k for chunk in planned["dask"][0] for k in chunk] == list(range(here, 8))
     assert planned["done"] == here * mc.BLOCK  # what the cluster's chunks add to
     assert calls == [(mc.BLOCK * k, 8 * mc.BLOCK) for k in range(1, here + 1)]
@@ -269,8 +269,8 @@ def test_with_a_remote_scheduler_the_caller_works_until_connected(planned):
     s = study(trials=8 * mc.BLOCK)
     planned["imported"], planned["held"] = 1, 4  # its workers take no core here
     engine.run(s, scheduler="tcp://h:1")
-    here = len(planned["local"])
-    assert here in (4, 5) and planned["local"] == [[k] for k in range(here)]
+    here = 1 + len(planned["local"])
+    assert here in (5, 6) and planned["local"] == [[k] for k in range(1, here)]
     assert [k for chunk in planned["dask"][0] for k in chunk] == list(range(here, 8))
 
 
