@@ -33,13 +33,31 @@ def helper_pid():
     return child.pid
 
 
-def test_left_alone_the_helper_runs_every_block_it_may_from_the_top():
-    s = study(4)
+def started(n_blocks, low=1, claimed_to=None):
+    """A study, its grid and a helper; once it has claimed down to ``claimed_to``, if given.
+
+    Waits on the claims themselves, not a clock: a loaded machine only
+    makes it wait longer.
+    """
+    s = study(n_blocks)
     grid = mc.make_grid(s)
-    spare = _spare.Spare(s, grid, low=1)
-    time.sleep(1.0)  # three blocks of about 20 ms each
+    spare = _spare.Spare(s, grid, low=low)
+    deadline = time.monotonic() + 30
+    while claimed_to is not None and spare._claims[0] > claimed_to:
+        assert time.monotonic() < deadline, "the helper claimed nothing for 30 s"
+        time.sleep(0.002)
+    return s, grid, spare
+
+
+def stopped(spare):
+    """``(end, summary)``: where it stopped, and what it sent."""
     end = spare.stop()
-    summary = spare.result()
+    return end, spare.result()
+
+
+def test_left_alone_the_helper_runs_every_block_it_may_from_the_top():
+    s, grid, spare = started(4, claimed_to=1)
+    end, summary = stopped(spare)
     assert end == 1  # it claimed all of 1..3, and nothing below its floor
     same(summary, mc.run_chunk(s, grid, [1, 2, 3]))
     assert s.trials - mc.BLOCK == summary.count
@@ -47,12 +65,9 @@ def test_left_alone_the_helper_runs_every_block_it_may_from_the_top():
 
 
 def test_stopped_at_once_the_helper_sends_exactly_the_blocks_it_claimed():
-    s = study(40)
-    grid = mc.make_grid(s)
     for _ in range(3):
-        spare = _spare.Spare(s, grid, low=1)
-        end = spare.stop()
-        summary = spare.result()
+        s, grid, spare = started(40)
+        end, summary = stopped(spare)
         # It may have claimed none, or the one it was starting: those, and only those.
         assert end in (s.n_blocks, s.n_blocks - 1)
         same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
@@ -60,13 +75,9 @@ def test_stopped_at_once_the_helper_sends_exactly_the_blocks_it_claimed():
 
 
 def test_stopped_mid_run_its_blocks_and_the_callers_make_up_the_study():
-    s = study(60)
-    grid = mc.make_grid(s)
-    spare = _spare.Spare(s, grid, low=1)
-    time.sleep(0.15)
-    end = spare.stop()
-    summary = spare.result()
-    assert 1 < end < s.n_blocks - 1  # it ran some, not all
+    s, grid, spare = started(200, claimed_to=197)
+    end, summary = stopped(spare)
+    assert 1 < end <= 197  # it ran some, not all
     same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
     whole = mc.run_chunk(s, grid, range(s.n_blocks))
     here = mc.run_chunk(s, grid, range(end))
@@ -74,8 +85,6 @@ def test_stopped_mid_run_its_blocks_and_the_callers_make_up_the_study():
 
 
 def test_a_helper_that_fails_sends_nothing_and_its_claims_stay(monkeypatch):
-    s = study(5)
-    grid = mc.make_grid(s)
     simulate = mc.simulate_block
 
     def fails_at_3(study, k):
@@ -84,18 +93,15 @@ def test_a_helper_that_fails_sends_nothing_and_its_claims_stay(monkeypatch):
         return simulate(study, k)
 
     monkeypatch.setattr(mc, "simulate_block", fails_at_3)  # the forked helper inherits it
-    spare = _spare.Spare(s, grid, low=1)
-    time.sleep(0.5)
-    end = spare.stop()
-    assert spare.result() is None
+    _, _, spare = started(5, claimed_to=3)
+    end, summary = stopped(spare)
+    assert summary is None
     # It had claimed 4 and then 3: both are the caller's to run again.
     assert end == 3
     assert multiprocessing.active_children() == []
 
 
 def test_a_helper_killed_under_a_block_counts_as_failed(monkeypatch):
-    s = study(5)
-    grid = mc.make_grid(s)
     simulate = mc.simulate_block
 
     def killed_at_2(study, k):
@@ -104,46 +110,40 @@ def test_a_helper_killed_under_a_block_counts_as_failed(monkeypatch):
         return simulate(study, k)
 
     monkeypatch.setattr(mc, "simulate_block", killed_at_2)
-    spare = _spare.Spare(s, grid, low=1)
-    time.sleep(0.5)
-    assert spare.stop() == 2
-    assert spare.result() is None
+    _, _, spare = started(5, claimed_to=2)
+    assert stopped(spare) == (2, None)
     assert multiprocessing.active_children() == []
 
 
 def test_the_helper_ignores_ctrl_c_which_the_caller_handles():
-    s = study(60)
-    grid = mc.make_grid(s)
-    spare = _spare.Spare(s, grid, low=1)
-    time.sleep(0.05)
+    s, grid, spare = started(200, claimed_to=199)
     os.kill(helper_pid(), signal.SIGINT)  # as the terminal sends it to the whole group
-    time.sleep(0.05)
-    end = spare.stop()
-    summary = spare.result()
+    deadline = time.monotonic() + 30
+    while spare._claims[0] > 197:  # it goes on to the next blocks
+        assert time.monotonic() < deadline
+        time.sleep(0.002)
+    end, summary = stopped(spare)
     same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
 
 
 def test_closing_ends_a_running_helper_at_once():
-    s = study(500)  # ten seconds of blocks
-    spare = _spare.Spare(s, mc.make_grid(s), low=1)
-    time.sleep(0.05)
-    started = time.monotonic()
+    _, _, spare = started(500, claimed_to=499)  # ten seconds of blocks
+    asked = time.monotonic()
     spare.close()
     spare.close()  # twice is fine
-    assert time.monotonic() - started < 1.0
+    assert time.monotonic() - asked < 1.0
     assert multiprocessing.active_children() == []
 
 
 def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
-    s = study(200)
-    spare = _spare.Spare(s, mc.make_grid(s), low=1)
+    s, _, spare = started(200)
     monkeypatch.setattr(_spare, "LOCK_WAIT_S", 0.05)
     lock = spare._lock  # as if the helper died holding it
     assert lock.acquire(timeout=5)
     try:
-        started = time.monotonic()
+        asked = time.monotonic()
         end = spare.stop()
-        assert time.monotonic() - started < 1.0
+        assert time.monotonic() - asked < 1.0
     finally:
         lock.release()
     assert 1 <= end <= s.n_blocks
@@ -153,11 +153,8 @@ def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
 
 @pytest.mark.parametrize("low", [1, 3])
 def test_the_helper_never_claims_below_its_floor(low):
-    s = study(3)
-    grid = mc.make_grid(s)
-    spare = _spare.Spare(s, grid, low=low)
-    time.sleep(0.5)
-    end = spare.stop()
-    summary = spare.result()
-    assert end == min(low, s.n_blocks)
+    s, _, spare = started(3, low=low, claimed_to=low)
+    time.sleep(0.1)  # time enough to claim below it, were it to
+    end, summary = stopped(spare)
+    assert end == low
     assert sorted(summary.sums) == list(range(end, s.n_blocks))
