@@ -48,7 +48,6 @@ class Spare:
 
     def __init__(self, study: mc.Study, grid: mc.Grid, low: int) -> None:
         ctx = multiprocessing.get_context("fork")
-        self.n_blocks = study.n_blocks
         # claims[0]: the lowest block claimed so far (the helper's next is one
         # below); claims[1]: the lowest it may claim, raised to claims[0] to stop it.
         self._claims: Any = ctx.RawArray("q", [study.n_blocks, low])
