@@ -130,9 +130,9 @@ def _run_with_spare(
     The user gave the run ``workers`` cores. Starting the cluster (importing
     Dask, then forking the workers) keeps one busy; the helper
     (:class:`_spare.Spare`) runs blocks from the end of the study on
-    another, at full speed, until the cluster is up. Computing in a thread of
-    this process instead shares the GIL with the import: about three blocks
-    got done in the time the helper does twelve (benchmarks/README.md).
+    another, at full speed, until the cluster is up. Computing in this
+    process instead shares the GIL with the import: two blocks got done in
+    the time the helper does fifteen (benchmarks/README.md).
     """
     from calibrator.analysis import _spare
 
