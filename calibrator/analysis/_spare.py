@@ -2,18 +2,21 @@
 
 Starting a local Dask cluster is mostly importing Dask, a fifth of a second
 of one core. With ``--workers 2`` or more the user gave the run a second
-core, and it would idle meanwhile. So before it imports Dask the calling
-process forks one helper, which runs blocks from the end of the study
-downwards, claiming each under a lock it shares with the caller. Once the
-cluster is up the caller closes the claims (:meth:`Spare.stop`): the cluster
-runs every block below the lowest one claimed, and the helper, after the
-block it is on, sends the summary of its blocks through a pipe
-(:meth:`Spare.result`). Which process ran a block does not change the
-result: summaries merge exactly (:meth:`misalignment.Summary.merge`).
+core, and it would idle meanwhile. So the calling process forks one helper
+before anything else and imports Dask at once. The helper runs block 0,
+sends the study's grid (whose ranges come from block 0), then runs blocks
+from the end of the study downwards, claiming each under a lock it shares
+with the caller. Once the cluster is up the caller closes the claims
+(:meth:`Spare.stop`): the cluster runs every block between 1 and the
+lowest one claimed, and the helper, after the block it is on, sends the
+summary of its blocks through a pipe (:meth:`Spare.result`). Which process
+ran a block does not change the result: summaries merge exactly
+(:meth:`misalignment.Summary.merge`).
 
-A helper that fails, or dies, sends nothing; its blocks are then run again
-by the cluster. It ignores Ctrl-C, which the caller handles and then kills
-it (:meth:`Spare.close`).
+A helper that fails, or dies, sends nothing more; its blocks are then run
+again (by the cluster, or block 0 and the grid by the caller if it never
+sent them). It ignores Ctrl-C, which the caller handles and then kills it
+(:meth:`Spare.close`).
 """
 
 from __future__ import annotations
@@ -31,14 +34,14 @@ LOCK_WAIT_S = 1.0
 
 
 class Spare:
-    """One forked process running blocks ``low..n_blocks-1`` of a study, highest first.
+    """One forked process running block 0, then blocks ``low..n_blocks-1`` highest first.
 
     Parameters
     ----------
     study : misalignment.Study
-    grid : misalignment.Grid
     low : int
-        Lowest block the helper may run (the caller keeps those below).
+        Lowest block the helper may claim after block 0 (>= 1; the cluster
+        gets those below).
 
     Notes
     -----
@@ -46,7 +49,7 @@ class Spare:
     imported): only the forking thread exists in the child.
     """
 
-    def __init__(self, study: mc.Study, grid: mc.Grid, low: int) -> None:
+    def __init__(self, study: mc.Study, low: int) -> None:
         ctx = multiprocessing.get_context("fork")
         # claims[0]: the lowest block claimed so far (the helper's next is one
         # below); claims[1]: the lowest it may claim, raised to claims[0] to stop it.
@@ -55,7 +58,7 @@ class Spare:
         self._results, sender = ctx.Pipe(duplex=False)
         self._process = ctx.Process(
             target=_work,
-            args=(study, grid, self._claims, self._lock, sender),
+            args=(study, self._claims, self._lock, sender),
             name="calibrator-spare",
         )
         self._process.start()
@@ -65,8 +68,8 @@ class Spare:
     def stop(self) -> int:
         """Let the helper claim no more blocks; the lowest it claimed (``n_blocks`` if none).
 
-        The helper's blocks are that one up to the last; it may still be
-        running one of them.
+        The helper's blocks are block 0 and that one up to the last; it may
+        still be running one of them.
         """
         if not self._lock.acquire(timeout=LOCK_WAIT_S):
             # Hung, or killed while holding the lock: ended, it claims no more,
@@ -80,19 +83,28 @@ class Spare:
         finally:
             self._lock.release()
 
+    def grid(self) -> mc.Grid | None:
+        """The study's grid, from the helper's block 0; None if it failed before sending it.
+
+        Waits for block 0 if the helper is still on it. Call before :meth:`result`.
+        """
+        grid = self._receive()
+        return grid if isinstance(grid, mc.Grid) else None
+
     def result(self) -> mc.Summary | None:
         """The summary of the helper's blocks, once it has run them; None if it failed.
 
-        Call after :meth:`stop`. Ends the helper.
+        Call after :meth:`stop` and :meth:`grid`. Ends the helper.
         """
-        summary = None
-        if not self._failed:
-            try:
-                summary = self._results.recv()
-            except (EOFError, OSError):  # died without sending
-                summary = None
+        summary = None if self._failed else self._receive()
         self.close()
         return summary if isinstance(summary, mc.Summary) else None
+
+    def _receive(self) -> Any:
+        try:
+            return self._results.recv()
+        except (EOFError, OSError):  # it died without sending, or was ended
+            return None
 
     def close(self) -> None:
         """End the helper, whatever it is doing (idempotent)."""
@@ -105,12 +117,20 @@ class Spare:
         self._process.join()
 
 
-def _work(study: mc.Study, grid: mc.Grid, claims: Any, lock: Any, sender: Any) -> None:
-    """The helper: claim the next block down, run it, until the claims close; send the summary."""
+def _work(study: mc.Study, claims: Any, lock: Any, sender: Any) -> None:
+    """The helper: block 0 and the grid, then blocks claimed from the top; send the summary."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller handles Ctrl-C and kills us
-    summary = mc.Summary()
     try:
         _malloc.keep_freed_memory()
+        block = mc.simulate_block(study, 0)
+        grid = mc.make_grid(study, block)
+    except BaseException:  # noqa: BLE001 - the caller makes the grid itself
+        _send_last(sender, None)
+        return
+    sender.send(grid)
+    summary = mc.Summary()
+    try:
+        summary.add_block(0, *block, grid)
         while True:
             with lock:
                 k = claims[0] - 1
@@ -121,7 +141,11 @@ def _work(study: mc.Study, grid: mc.Grid, claims: Any, lock: Any, sender: Any) -
         outcome: mc.Summary | None = summary
     except BaseException:  # noqa: BLE001 - any failure: the caller reruns our blocks
         outcome = None
+    _send_last(sender, outcome)
+
+
+def _send_last(sender: Any, message: Any) -> None:
     try:
-        sender.send(outcome)
+        sender.send(message)
     finally:
         sender.close()

@@ -129,17 +129,17 @@ def _run_with_spare(
 
     The user gave the run ``workers`` cores. Starting the cluster (importing
     Dask, then forking the workers) keeps one busy; the helper
-    (:class:`_spare.Spare`) runs blocks from the end of the study on
-    another, at full speed, until the cluster is up. Computing in this
-    process instead shares the GIL with the import: two blocks got done in
-    the time the helper does fifteen (benchmarks/README.md).
+    (:class:`_spare.Spare`) runs block 0 (the grid's) and then blocks from
+    the end of the study on another, at full speed, until the cluster is
+    up. Computing in this process instead shares the GIL with the import:
+    two blocks got done in the time the helper does fifteen
+    (benchmarks/README.md).
     """
     from calibrator.analysis import _spare
 
-    grid, fold = _first_block(study, progress)
-    # Forked before Dask starts threads here. The child runs only numpy and a
-    # pipe, nothing another thread (a progress bar's) could have left locked.
-    spare = _spare.Spare(study, grid, low=1)
+    # Forked first, before Dask starts threads here. The child runs only numpy
+    # and a pipe, nothing another thread (a progress bar's) could have left locked.
+    spare = _spare.Spare(study, low=1)
     try:
         _import_dask()
         client, cluster = _connect(workers, None)
@@ -147,14 +147,20 @@ def _run_with_spare(
         spare.close()
         raise
     try:
-        end = spare.stop()  # blocks end.. are the helper's
-        plan = _dask_plan(study, chunk_trials, workers, 1, end)
-        futures = _submit(client, fold, grid, plan)
+        end = spare.stop()  # the helper's blocks: 0, and end.. (it claims after block 0)
+        grid = spare.grid()
+        theirs = list(range(end, study.n_blocks))
+        if grid is None:  # it failed before block 0 was done: that is ours
+            grid, fold = _first_block(study, progress)
+        else:
+            fold = _Fold(study, progress)
+            theirs.insert(0, 0)
+        futures = _submit(client, fold, grid, _dask_plan(study, chunk_trials, workers, 1, end))
         helped = spare.result()  # at most one block's wait; the workers are at it
         if helped is None:  # the helper failed: its blocks go to the cluster too
-            futures.update(_submit(client, fold, grid, chunks(study.n_blocks, 1, first=end)))
-        elif end < study.n_blocks:
-            fold.add(list(range(end, study.n_blocks)), helped)
+            futures.update(_submit(client, fold, grid, [[k] for k in theirs]))
+        else:
+            fold.add(theirs, helped)
         _gather(futures, fold)
         return fold.total, grid
     finally:

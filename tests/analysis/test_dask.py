@@ -24,8 +24,8 @@ def test_local_cluster_matches_in_process():
         study, workers=2, chunk_trials=mc.BLOCK, progress=lambda d, t: seen.append((d, t))
     )
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
-    # Progress after block 0, then after what the helper ran and each chunk.
-    assert seen[0] == (mc.BLOCK, study.trials) and seen[-1] == (study.trials, study.trials)
+    # Progress after what the helper ran (block 0 and some from the top) and each chunk.
+    assert seen[-1] == (study.trials, study.trials)
     assert [d for d, _ in seen] == sorted({d for d, _ in seen})
     # The cluster's worker processes, and the helper, are gone once the run returns.
     assert multiprocessing.active_children() == []
@@ -204,7 +204,8 @@ def spy(monkeypatch, owner, name, log):
 
 def test_with_two_workers_a_helper_runs_blocks_while_the_cluster_starts(monkeypatch):
     # The run forks a helper onto the core the cluster's start leaves idle; it
-    # runs blocks from the top until the cluster is up, the cluster the rest.
+    # runs block 0 (the grid's), then blocks from the top until the cluster is
+    # up, and the cluster the rest.
     from calibrator.analysis import _spare
 
     study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 40 * mc.BLOCK, seed=6)
@@ -212,33 +213,44 @@ def test_with_two_workers_a_helper_runs_blocks_while_the_cluster_starts(monkeypa
     ends, sent = [], []
     spy(monkeypatch, _spare.Spare, "stop", ends)
     spy(monkeypatch, engine, "_submit", sent)
-    remote, _ = engine.run(study, workers=2)
+    remote, remote_grid = engine.run(study, workers=2)
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
+    assert remote_grid.r_max == grid.r_max and (remote_grid.xyz_lo == grid.xyz_lo).all()
     (end,) = ends
     on_cluster = sorted(k for futures in sent for blocks in futures.values() for k in blocks)
     assert 1 < end < study.n_blocks  # both had blocks here (the start takes ~0.3 s)
-    assert on_cluster == list(range(1, end))  # block 0 ran with the grid
+    assert on_cluster == list(range(1, end))
     assert multiprocessing.active_children() == []
 
 
-def test_a_helper_that_dies_has_its_blocks_run_on_the_cluster(monkeypatch):
-    from calibrator.analysis import _spare
+def claims_three_and_dies(after_the_grid):
+    """A helper's stand-in: (block 0 and the grid, sent,) three blocks claimed, then death."""
 
-    def claims_three_and_dies(study, grid, claims, lock, sender):
+    def work(study, claims, lock, sender):
+        if after_the_grid:
+            sender.send(mc.make_grid(study))
         with lock:
             claims[0] -= 3
         os._exit(3)
 
+    return work
+
+
+@pytest.mark.parametrize("after_the_grid, reruns", [(False, [9, 10, 11]), (True, [0, 9, 10, 11])])
+def test_a_helper_that_dies_has_its_blocks_run_on_the_cluster(monkeypatch, after_the_grid, reruns):
+    from calibrator.analysis import _spare
+
     study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 12 * mc.BLOCK, seed=6)
     local, grid = engine.run(study)
     sent = []
-    monkeypatch.setattr(_spare, "_work", claims_three_and_dies)
+    monkeypatch.setattr(_spare, "_work", claims_three_and_dies(after_the_grid))
     spy(monkeypatch, engine, "_submit", sent)
     remote, _ = engine.run(study, workers=2)
     assert mc.statistics(remote, grid) == mc.statistics(local, grid)
-    # The cluster's plan stops below the helper's claims; then it runs them too.
+    # The cluster's plan stops below the helper's claims; then it runs them too,
+    # and block 0 if the helper had it (without a grid from it, the caller runs it).
     assert [sorted(k for b in f.values() for k in b) for f in sent] == [
         list(range(1, 9)),
-        [9, 10, 11],
+        reruns,
     ]
     assert multiprocessing.active_children() == []

@@ -40,51 +40,58 @@ def started(n_blocks, low=1, claimed_to=None):
     makes it wait longer.
     """
     s = study(n_blocks)
-    grid = mc.make_grid(s)
-    spare = _spare.Spare(s, grid, low=low)
+    spare = _spare.Spare(s, low=low)
     deadline = time.monotonic() + 30
     while claimed_to is not None and spare._claims[0] > claimed_to:
         assert time.monotonic() < deadline, "the helper claimed nothing for 30 s"
         time.sleep(0.002)
-    return s, grid, spare
+    return s, mc.make_grid(s), spare
 
 
 def stopped(spare):
-    """``(end, summary)``: where it stopped, and what it sent."""
+    """``(end, grid, summary)``: where it stopped, and what it sent."""
     end = spare.stop()
-    return end, spare.result()
+    return end, spare.grid(), spare.result()
 
 
-def test_left_alone_the_helper_runs_every_block_it_may_from_the_top():
+def same_grid(a, b):
+    assert (a.r_max, a.axis_hi) == (b.r_max, b.axis_hi)
+    for name in ("xyz_lo", "xyz_hi", "rot_lo", "rot_hi"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_left_alone_the_helper_runs_block_0_then_every_block_it_may_from_the_top():
     s, grid, spare = started(4, claimed_to=1)
-    end, summary = stopped(spare)
+    end, sent, summary = stopped(spare)
     assert end == 1  # it claimed all of 1..3, and nothing below its floor
-    same(summary, mc.run_chunk(s, grid, [1, 2, 3]))
-    assert s.trials - mc.BLOCK == summary.count
+    same_grid(sent, grid)  # the grid's ranges come from block 0, as the caller's would
+    same(summary, mc.run_chunk(s, grid, [0, 1, 2, 3]))
+    assert s.trials == summary.count
     assert multiprocessing.active_children() == []
 
 
-def test_stopped_at_once_the_helper_sends_exactly_the_blocks_it_claimed():
+def test_stopped_at_once_the_helper_sends_block_0_and_exactly_the_blocks_it_claimed():
     for _ in range(3):
         s, grid, spare = started(40)
-        end, summary = stopped(spare)
+        end, sent, summary = stopped(spare)
         # It may have claimed none, or the one it was starting: those, and only those.
         assert end in (s.n_blocks, s.n_blocks - 1)
-        same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
+        same_grid(sent, grid)
+        same(summary, mc.run_chunk(s, grid, [0, *range(end, s.n_blocks)]))
     assert multiprocessing.active_children() == []
 
 
-def test_stopped_mid_run_its_blocks_and_the_callers_make_up_the_study():
+def test_stopped_mid_run_its_blocks_and_the_clusters_make_up_the_study():
     s, grid, spare = started(200, claimed_to=197)
-    end, summary = stopped(spare)
+    end, _, summary = stopped(spare)
     assert 1 < end <= 197  # it ran some, not all
-    same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
+    same(summary, mc.run_chunk(s, grid, [0, *range(end, s.n_blocks)]))
     whole = mc.run_chunk(s, grid, range(s.n_blocks))
-    here = mc.run_chunk(s, grid, range(end))
-    assert mc.statistics(here.merge(summary), grid) == mc.statistics(whole, grid)
+    rest = mc.run_chunk(s, grid, range(1, end))
+    assert mc.statistics(rest.merge(summary), grid) == mc.statistics(whole, grid)
 
 
-def test_a_helper_that_fails_sends_nothing_and_its_claims_stay(monkeypatch):
+def test_a_helper_that_fails_sends_nothing_more_and_its_claims_stay(monkeypatch):
     simulate = mc.simulate_block
 
     def fails_at_3(study, k):
@@ -93,11 +100,22 @@ def test_a_helper_that_fails_sends_nothing_and_its_claims_stay(monkeypatch):
         return simulate(study, k)
 
     monkeypatch.setattr(mc, "simulate_block", fails_at_3)  # the forked helper inherits it
-    _, _, spare = started(5, claimed_to=3)
-    end, summary = stopped(spare)
+    s, grid, spare = started(5, claimed_to=3)
+    end, sent, summary = stopped(spare)
+    same_grid(sent, grid)  # block 0 went well
     assert summary is None
-    # It had claimed 4 and then 3: both are the caller's to run again.
+    # It had claimed 4 and then 3: both are the caller's to run again, and block 0.
     assert end == 3
+    assert multiprocessing.active_children() == []
+
+
+def test_a_helper_that_fails_at_block_0_sends_no_grid_and_claims_nothing(monkeypatch):
+    def fails(study, k):
+        raise MemoryError(f"no room for block {k}")
+
+    monkeypatch.setattr(mc, "simulate_block", fails)
+    spare = _spare.Spare(study(5), low=1)
+    assert stopped(spare) == (5, None, None)
     assert multiprocessing.active_children() == []
 
 
@@ -110,8 +128,10 @@ def test_a_helper_killed_under_a_block_counts_as_failed(monkeypatch):
         return simulate(study, k)
 
     monkeypatch.setattr(mc, "simulate_block", killed_at_2)
-    _, _, spare = started(5, claimed_to=2)
-    assert stopped(spare) == (2, None)
+    _, grid, spare = started(5, claimed_to=2)
+    end, sent, summary = stopped(spare)
+    assert (end, summary) == (2, None)
+    same_grid(sent, grid)
     assert multiprocessing.active_children() == []
 
 
@@ -122,8 +142,8 @@ def test_the_helper_ignores_ctrl_c_which_the_caller_handles():
     while spare._claims[0] > 197:  # it goes on to the next blocks
         assert time.monotonic() < deadline
         time.sleep(0.002)
-    end, summary = stopped(spare)
-    same(summary, mc.run_chunk(s, grid, range(end, s.n_blocks)))
+    end, _, summary = stopped(spare)
+    same(summary, mc.run_chunk(s, grid, [0, *range(end, s.n_blocks)]))
 
 
 def test_closing_ends_a_running_helper_at_once():
@@ -136,7 +156,7 @@ def test_closing_ends_a_running_helper_at_once():
 
 
 def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
-    s, _, spare = started(200)
+    s, grid, spare = started(200)
     monkeypatch.setattr(_spare, "LOCK_WAIT_S", 0.05)
     lock = spare._lock  # as if the helper died holding it
     assert lock.acquire(timeout=5)
@@ -147,7 +167,9 @@ def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
     finally:
         lock.release()
     assert 1 <= end <= s.n_blocks
-    assert spare.result() is None  # nothing it sent would count: the caller reruns end..
+    sent = spare.grid()  # a grid it sent is still a grid (or it had not sent it)
+    assert sent is None or same_grid(sent, grid) is None
+    assert spare.result() is None  # nothing else it sent counts: the caller reruns them
     assert multiprocessing.active_children() == []
 
 
@@ -155,6 +177,6 @@ def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
 def test_the_helper_never_claims_below_its_floor(low):
     s, _, spare = started(3, low=low, claimed_to=low)
     time.sleep(0.1)  # time enough to claim below it, were it to
-    end, summary = stopped(spare)
+    end, _, summary = stopped(spare)
     assert end == low
-    assert sorted(summary.sums) == list(range(end, s.n_blocks))
+    assert sorted(summary.sums) == [0, *range(end, s.n_blocks)]
