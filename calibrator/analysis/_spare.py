@@ -16,13 +16,20 @@ ran a block does not change the result: summaries merge exactly
 A helper that fails, or dies, sends nothing more; its blocks are then run
 again (by the cluster, or block 0 and the grid by the caller if it never
 sent them). It ignores Ctrl-C, which the caller handles and then kills it
-(:meth:`Spare.close`).
+(:meth:`Spare.close`). It never outlives the caller, however that ends (a
+helper left running would hold the terminal's output open, and block for
+ever on a pipe nobody reads): it is a daemon process, which Python ends at
+exit; on Linux the kernel kills it when the caller dies; and it stops
+between blocks once the caller is gone.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
+import os
 import signal
+import sys
 from typing import Any
 
 from calibrator.analysis import _malloc
@@ -58,8 +65,9 @@ class Spare:
         self._results, sender = ctx.Pipe(duplex=False)
         self._process = ctx.Process(
             target=_work,
-            args=(study, self._claims, self._lock, sender),
+            args=(study, self._claims, self._lock, sender, self._results, os.getpid()),
             name="calibrator-spare",
+            daemon=True,
         )
         self._process.start()
         sender.close()  # the child's copy is the one that sends
@@ -117,9 +125,16 @@ class Spare:
         self._process.join()
 
 
-def _work(study: mc.Study, claims: Any, lock: Any, sender: Any) -> None:
-    """The helper: block 0 and the grid, then blocks claimed from the top; send the summary."""
+def _work(study: mc.Study, claims: Any, lock: Any, sender: Any, receiver: Any, caller: int) -> None:
+    """The helper: block 0 and the grid, then blocks claimed from the top; send the summary.
+
+    ``receiver`` is the caller's end of the pipe, inherited with the fork and
+    closed here: with only the caller holding it, a send to a caller that died
+    fails instead of waiting for a reader. ``caller`` is the caller's pid.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller handles Ctrl-C and kills us
+    _die_with(caller)
+    receiver.close()
     try:
         _malloc.keep_freed_memory()
         block = mc.simulate_block(study, 0)
@@ -132,6 +147,8 @@ def _work(study: mc.Study, claims: Any, lock: Any, sender: Any) -> None:
     try:
         summary.add_block(0, *block, grid)
         while True:
+            if os.getppid() != caller:  # orphaned: nobody will read what we send
+                os._exit(1)
             with lock:
                 k = claims[0] - 1
                 if k < claims[1]:
@@ -142,6 +159,21 @@ def _work(study: mc.Study, claims: Any, lock: Any, sender: Any) -> None:
     except BaseException:  # noqa: BLE001 - any failure: the caller reruns our blocks
         outcome = None
     _send_last(sender, outcome)
+
+
+#: Linux ``prctl`` option: the signal this process gets when its parent dies.
+PR_SET_PDEATHSIG = 1
+
+
+def _die_with(caller: int) -> None:
+    """Have the kernel kill this process when ``caller`` (its parent) dies (Linux only)."""
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):  # another C library: the checks between blocks remain
+            pass
+    if os.getppid() != caller:  # it died before the line above took effect
+        os._exit(1)
 
 
 def _send_last(sender: Any, message: Any) -> None:

@@ -99,9 +99,7 @@ def run(
     # remote scheduler (its workers are elsewhere). Two or more local workers: see
     # _run_with_spare.
     imported = threading.Event()
-    starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
-    connection = starting.submit(_start, workers, scheduler, imported)
-    starting.shutdown(wait=False)
+    connection = _start_in_thread(workers, scheduler, imported)
 
     def handed_over() -> bool:
         return connection.done() or (scheduler is None and imported.is_set())
@@ -137,14 +135,20 @@ def _run_with_spare(
     """
     from calibrator.analysis import _spare
 
-    # Forked first, before Dask starts threads here. The child runs only numpy
-    # and a pipe, nothing another thread (a progress bar's) could have left locked.
-    spare = _spare.Spare(study, low=1)
+    spare = connection = None
     try:
-        _import_dask()
-        client, cluster = _connect(workers, None)
+        # Forked first, before Dask starts threads here. The child runs only numpy
+        # and a pipe, nothing another thread (a progress bar's) could have left locked.
+        spare = _spare.Spare(study, low=1)
+        # The cluster starts in a thread, as for one worker: Ctrl-C here then never
+        # lands inside Dask's start-up (which then fails its own clean-up at exit).
+        connection = _start_in_thread(workers, None, threading.Event())
+        client, cluster = connection.result()
     except BaseException:
-        spare.close()
+        if connection is not None:
+            connection.add_done_callback(_close_connection)
+        if spare is not None:
+            spare.close()
         raise
     try:
         end = spare.stop()  # the helper's blocks: 0, and end.. (it claims after block 0)
@@ -300,6 +304,16 @@ def _nanny_poll(interval_s: float) -> Iterator[None]:
         yield
     finally:
         setattr(WorkerProcess, name, old)
+
+
+def _start_in_thread(
+    workers: int | None, scheduler: str | None, imported: threading.Event
+) -> Future:
+    """:func:`_start` in a thread of its own: the future of ``(client, cluster)``."""
+    starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
+    connection = starting.submit(_start, workers, scheduler, imported)
+    starting.shutdown(wait=False)
+    return connection
 
 
 def _start(

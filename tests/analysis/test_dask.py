@@ -226,7 +226,7 @@ def test_with_two_workers_a_helper_runs_blocks_while_the_cluster_starts(monkeypa
 def claims_three_and_dies(after_the_grid):
     """A helper's stand-in: (block 0 and the grid, sent,) three blocks claimed, then death."""
 
-    def work(study, claims, lock, sender):
+    def work(study, claims, lock, sender, receiver, caller):
         if after_the_grid:
             sender.send(mc.make_grid(study))
         with lock:

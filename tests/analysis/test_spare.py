@@ -3,6 +3,8 @@
 import multiprocessing
 import os
 import signal
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -180,3 +182,42 @@ def test_the_helper_never_claims_below_its_floor(low):
     end, _, summary = stopped(spare)
     assert end == low
     assert sorted(summary.sums) == [0, *range(end, s.n_blocks)]
+
+
+_ORPHANING_CALLER = """
+import os, sys, time
+from calibrator.analysis import _spare, arm
+from calibrator.analysis import misalignment as mc
+
+spare = _spare.Spare(mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 500 * mc.BLOCK, 1), low=1)
+print(spare._process.pid, flush=True)
+time.sleep(0.3)  # the helper is at its blocks
+os._exit(int(sys.argv[1]))  # the caller dies without a word (as under SIGKILL)
+"""
+
+
+def gone(pid, within_s):
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        with open(f"/proc/{pid}/stat") as stat:  # a zombie is gone too, once reaped
+            if stat.read().rsplit(")", 1)[1].split()[0] == "Z":
+                return True
+        time.sleep(0.01)
+    return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads /proc")
+def test_a_helper_never_outlives_its_caller(tmp_path):
+    # Left running, it would compute for minutes, hold the caller's terminal
+    # output open (a shell pipeline would never end), then block for ever
+    # sending its summary.
+    script, out = tmp_path / "caller.py", tmp_path / "out.txt"
+    script.write_text(_ORPHANING_CALLER)
+    with out.open("w") as sink:  # files, not pipes: a helper left behind must not hold us up
+        code = subprocess.call([sys.executable, str(script), "3"], stdout=sink, stderr=sink)
+    assert code == 3, out.read_text()
+    assert gone(int(out.read_text()), within_s=2.0)
