@@ -30,6 +30,7 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 from typing import Any
 
 from calibrator.analysis import _malloc
@@ -69,7 +70,7 @@ class Spare:
             name="calibrator-spare",
             daemon=True,
         )
-        self._process.start()
+        _start_deferring_ctrl_c(self._process)
         sender.close()  # the child's copy is the one that sends
         self._failed = False
 
@@ -159,6 +160,29 @@ def _work(study: mc.Study, claims: Any, lock: Any, sender: Any, receiver: Any, c
     except BaseException:  # noqa: BLE001 - any failure: the caller reruns our blocks
         outcome = None
     _send_last(sender, outcome)
+
+
+def _start_deferring_ctrl_c(process: Any) -> None:
+    """Start (fork) ``process``, holding a Ctrl-C that comes meanwhile until it is done.
+
+    A KeyboardInterrupt raised in one of Python's at-fork handlers is
+    swallowed ("Exception ignored") and leaves that handler's lock held:
+    logging's, which Dask's import then waited on for ever (seen in about
+    one Ctrl-C in 50 sent as a run began). Only the main thread gets
+    KeyboardInterrupt, and only it can change the handler.
+    """
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        process.start()  # SIGINT ignored, or left at the OS default: nothing to hold
+        return
+    held: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        process.start()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        previous(signal.SIGINT, None)  # KeyboardInterrupt, or the caller's own handler
 
 
 #: Linux ``prctl`` option: the signal this process gets when its parent dies.

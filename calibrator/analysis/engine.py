@@ -11,7 +11,7 @@ import logging
 import os
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Future
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -98,6 +98,13 @@ def run(
     # worker (which then takes the core the user gave it), until connected for a
     # remote scheduler (its workers are elsewhere). Two or more local workers: see
     # _run_with_spare.
+    #
+    # Block 0 runs first, alone: it makes every import a block needs (numpy's lazy
+    # modules, the progress display's), so that this thread never imports while the
+    # start thread imports Dask. A Ctrl-C landing in an import here can be
+    # swallowed and leave a module lock held, which the start thread then waited
+    # on for ever: the command hung (about 1 run in 30 interrupted 0.15 s in).
+    grid, fold = _first_block(study, progress)
     imported = threading.Event()
     connection = _start_in_thread(workers, scheduler, imported)
 
@@ -105,12 +112,11 @@ def run(
         return connection.done() or (scheduler is None and imported.is_set())
 
     try:
-        grid, fold = _first_block(study, progress)
         here = chunks(study.n_blocks, 1, first=1)
         _run_here(fold, grid, here, until=handed_over)
         first = study.n_blocks - len(here)  # blocks run here
     except BaseException:
-        connection.add_done_callback(_close_connection)
+        _abandon(connection)
         raise
     client, cluster = connection.result()
     try:
@@ -146,7 +152,7 @@ def _run_with_spare(
         client, cluster = connection.result()
     except BaseException:
         if connection is not None:
-            connection.add_done_callback(_close_connection)
+            _abandon(connection)
         if spare is not None:
             spare.close()
         raise
@@ -309,10 +315,23 @@ def _nanny_poll(interval_s: float) -> Iterator[None]:
 def _start_in_thread(
     workers: int | None, scheduler: str | None, imported: threading.Event
 ) -> Future:
-    """:func:`_start` in a thread of its own: the future of ``(client, cluster)``."""
-    starting = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
-    connection = starting.submit(_start, workers, scheduler, imported)
-    starting.shutdown(wait=False)
+    """:func:`_start` in a thread of its own: the future of ``(client, cluster)``.
+
+    A daemon thread: a command interrupted while it imports Dask exits
+    without waiting for it. (Ctrl-C landing in an import in the main thread
+    can leave a module lock that this thread then waits on for ever; a
+    non-daemon thread, joined at exit, hung the command.)
+    """
+    connection: Future = Future()
+
+    def start() -> None:
+        connection.set_running_or_notify_cancel()
+        try:
+            connection.set_result(_start(workers, scheduler, imported))
+        except BaseException as exc:  # noqa: BLE001 - handed to whoever waits
+            connection.set_exception(exc)
+
+    threading.Thread(target=start, name="dask-start", daemon=True).start()
     return connection
 
 
@@ -348,6 +367,29 @@ def _close(client: Any, cluster: Any) -> None:
     client.close()
     if cluster is not None:
         cluster.close()
+
+
+#: After a failure (Ctrl-C), how long the run waits for a cluster still starting,
+#: to close it itself (s): a start takes a few tenths.
+ABANDON_WAIT_S = 5.0
+
+
+def _abandon(connection: Future) -> None:
+    """Close what a start in progress makes, once made; the run has failed meanwhile.
+
+    Waits for it at most :data:`ABANDON_WAIT_S`, so that the cluster is
+    closed before Python's exit does it (which logs, and fails its own
+    checks on a half-started cluster). A start that takes longer, or a
+    second Ctrl-C, leaves it to a callback: the start thread is a daemon,
+    and a start stuck for good (an import that a Ctrl-C broke) dies with
+    the process.
+    """
+    try:
+        connection.result(timeout=ABANDON_WAIT_S)
+    except BaseException:  # noqa: BLE001 - failed, still starting, or interrupted again
+        connection.add_done_callback(_close_connection)
+        return
+    _close_connection(connection)
 
 
 def _close_connection(connection: Future) -> None:

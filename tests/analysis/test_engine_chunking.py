@@ -192,7 +192,9 @@ def planned(monkeypatch):
         seen["done"] = fold.done
 
     monkeypatch.setattr(mc, "run_chunk", local_chunk)
-    monkeypatch.setattr(engine, "threading", types.SimpleNamespace(Event=engine_event))
+    monkeypatch.setattr(
+        engine, "threading", types.SimpleNamespace(Event=engine_event, Thread=threading.Thread)
+    )
     monkeypatch.setattr(engine, "_import_dask", lambda: wait_for("imported"))
     monkeypatch.setattr(engine, "_connect", connect)
     monkeypatch.setattr(engine, "_run_dask", dask)
@@ -301,6 +303,7 @@ def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypat
     # second block fails here.
     monkeypatch.setattr(engine, "_import_dask", lambda: started.wait(5))
     monkeypatch.setattr(engine, "_connect", connect_later)
+    monkeypatch.setattr(engine, "ABANDON_WAIT_S", 0.05)  # a start that outlasts the wait
     with pytest.raises(KeyboardInterrupt):
         engine.run(s, **where)
     started.set()

@@ -221,3 +221,35 @@ def test_a_helper_never_outlives_its_caller(tmp_path):
         code = subprocess.call([sys.executable, str(script), "3"], stdout=sink, stderr=sink)
     assert code == 3, out.read_text()
     assert gone(int(out.read_text()), within_s=2.0)
+
+
+class InterruptedStart:
+    """A process whose start gets Ctrl-C midway (as a fork's at-fork handlers may)."""
+
+    def __init__(self):
+        self.finished = False
+
+    def start(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(1000):  # bytecode boundaries, where Python raises KeyboardInterrupt
+            time.sleep(0.0001)
+        self.finished = True
+
+
+def test_ctrl_c_during_the_fork_is_held_until_the_fork_is_done():
+    process = InterruptedStart()
+    with pytest.raises(KeyboardInterrupt):
+        _spare._start_deferring_ctrl_c(process)
+    assert process.finished  # not cut short inside the start
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_callers_own_ctrl_c_handler_gets_the_held_ctrl_c():
+    seen = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
+    try:
+        process = InterruptedStart()
+        _spare._start_deferring_ctrl_c(process)
+        assert process.finished and seen == [signal.SIGINT]
+    finally:
+        signal.signal(signal.SIGINT, previous)
