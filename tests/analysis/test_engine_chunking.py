@@ -314,6 +314,26 @@ def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypat
     assert planned["client"] == ["closed"] and planned["dask"] == []
 
 
+def test_a_start_that_ends_soon_after_the_failure_is_closed_before_the_run_ends(
+    planned, monkeypatch
+):
+    # So that Python's exit does not close a cluster itself (it logs, and trips
+    # on one half started).
+    def fail_second(study, grid, blocks):
+        planned["local"].append(list(blocks))
+        if len(planned["local"]) == 2:
+            threading.Timer(0.1, started.set).start()  # the start ends 0.1 s on
+            raise KeyboardInterrupt
+        return mc.Summary()
+
+    monkeypatch.setattr(mc, "run_chunk", fail_second)
+    started = threading.Event()
+    monkeypatch.setattr(engine, "_import_dask", lambda: started.wait(5))
+    with pytest.raises(KeyboardInterrupt):
+        engine.run(study(trials=8 * mc.BLOCK), workers=1)
+    assert planned["client"] == ["closed"] and planned["dask"] == []
+
+
 def test_a_cluster_that_cannot_start_fails_the_run(planned, monkeypatch):
     def unreachable(workers, scheduler):
         raise CalibrationError("cannot reach Dask scheduler tcp://127.0.0.1:1: refused")
@@ -321,3 +341,21 @@ def test_a_cluster_that_cannot_start_fails_the_run(planned, monkeypatch):
     monkeypatch.setattr(engine, "_connect", unreachable)
     with pytest.raises(CalibrationError, match="cannot reach Dask scheduler"):
         engine.run(study(trials=8 * mc.BLOCK), scheduler="tcp://127.0.0.1:1")
+
+
+@pytest.mark.parametrize("where", [{"workers": 1}, {"scheduler": "tcp://h:1"}])
+def test_block_0_runs_before_the_cluster_starts_importing(planned, monkeypatch, where):
+    # Block 0 makes every import a block needs, so this thread never imports while
+    # the start thread imports Dask: a Ctrl-C in an import here could leave a
+    # module lock held that the start thread then waits on for ever.
+    calls, progress = recorder()
+    done_when_started = []
+    start = engine._start_in_thread
+
+    def recorded(*args):
+        done_when_started.append(list(calls))
+        return start(*args)
+
+    monkeypatch.setattr(engine, "_start_in_thread", recorded)
+    engine.run(study(trials=8 * mc.BLOCK), progress=progress, **where)
+    assert done_when_started == [[(mc.BLOCK, 8 * mc.BLOCK)]]
