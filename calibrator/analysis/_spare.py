@@ -143,7 +143,8 @@ def _work(study: mc.Study, claims: Any, lock: Any, sender: Any, receiver: Any, c
     except BaseException:  # noqa: BLE001 - the caller makes the grid itself
         _send_last(sender, None)
         return
-    sender.send(grid)
+    if not _send(sender, grid):
+        return
     summary = mc.Summary()
     try:
         summary.add_block(0, *block, grid)
@@ -200,8 +201,15 @@ def _die_with(caller: int) -> None:
         os._exit(1)
 
 
-def _send_last(sender: Any, message: Any) -> None:
+def _send(sender: Any, message: Any) -> bool:
+    """Send ``message`` to the caller; False, quietly, if the caller is gone."""
     try:
         sender.send(message)
-    finally:
-        sender.close()
+    except OSError:  # the caller closed its end, or died: nobody reads
+        return False
+    return True
+
+
+def _send_last(sender: Any, message: Any) -> None:
+    _send(sender, message)
+    sender.close()

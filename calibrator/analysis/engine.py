@@ -93,8 +93,8 @@ def run(
         return _run_with_spare(study, chunk_trials, workers, progress)
     # Starting a cluster takes a few tenths of a second, most of it importing Dask in
     # one thread of this process while the other core idles. Meanwhile the calling
-    # process builds the grid and runs blocks itself, one at a time (a few tens of
-    # ms), until no core is idle: until Dask is imported for a local cluster of one
+    # process runs blocks itself, one at a time (a few tens of ms), until no core is
+    # idle: until Dask is imported for a local cluster of one
     # worker (which then takes the core the user gave it), until connected for a
     # remote scheduler (its workers are elsewhere). Two or more local workers: see
     # _run_with_spare.
