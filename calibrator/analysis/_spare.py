@@ -33,7 +33,6 @@ import sys
 import threading
 from typing import Any
 
-from calibrator.analysis import _malloc
 from calibrator.analysis import misalignment as mc
 
 #: How long :meth:`Spare.stop` waits for the claims' lock, which the helper
@@ -137,17 +136,13 @@ def _work(study: mc.Study, claims: Any, lock: Any, sender: Any, receiver: Any, c
     _die_with(caller)
     receiver.close()
     try:
-        _malloc.keep_freed_memory()
-        block = mc.simulate_block(study, 0)
-        grid = mc.make_grid(study, block)
+        grid, summary = mc.first_block(study)
     except BaseException:  # noqa: BLE001 - the caller makes the grid itself
         _send_last(sender, None)
         return
     if not _send(sender, grid):
         return
-    summary = mc.Summary()
     try:
-        summary.add_block(0, *block, grid)
         while True:
             if os.getppid() != caller:  # orphaned: nobody will read what we send
                 os._exit(1)

@@ -16,7 +16,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-from calibrator.analysis import _malloc
 from calibrator.analysis import misalignment as mc
 from calibrator.errors import CalibrationError
 
@@ -94,10 +93,9 @@ def run(
     # Starting a cluster takes a few tenths of a second, most of it importing Dask in
     # one thread of this process while the other core idles. Meanwhile the calling
     # process runs blocks itself, one at a time (a few tens of ms), until no core is
-    # idle: until Dask is imported for a local cluster of one
-    # worker (which then takes the core the user gave it), until connected for a
-    # remote scheduler (its workers are elsewhere). Two or more local workers: see
-    # _run_with_spare.
+    # idle: until Dask is imported for a local cluster of one worker (which then
+    # takes the core the user gave it), until connected for a remote scheduler (its
+    # workers are elsewhere). Two or more local workers: see _run_with_spare.
     #
     # Block 0 runs first, alone: it makes every import a block needs (numpy's lazy
     # modules, the progress display's), so that this thread never imports while the
@@ -180,12 +178,8 @@ def _run_with_spare(
 
 def _first_block(study: mc.Study, progress: Callable | None) -> tuple[mc.Grid, _Fold]:
     """The study's grid, and a fold holding block 0, which the grid's ranges are drawn from."""
-    _malloc.keep_freed_memory()  # as run_chunk does
-    block = mc.simulate_block(study, 0)
-    grid = mc.make_grid(study, block)
+    grid, summary = mc.first_block(study)
     fold = _Fold(study, progress)
-    summary = mc.Summary()
-    summary.add_block(0, *block, grid)
     fold.add([0], summary)
     return grid, fold
 

@@ -358,6 +358,20 @@ class Summary:
         return np.array([math.fsum(col) for col in rows.T])
 
 
+def first_block(study: Study) -> tuple[Grid, Summary]:
+    """The study's grid, and the summary of block 0, which its ranges are drawn from.
+
+    Block 0 is simulated once, for both; the unit of work that starts a run
+    (in the calling process, or in the helper of ``_spare``).
+    """
+    _malloc.keep_freed_memory()  # in whichever process runs it, as run_chunk
+    block = simulate_block(study, 0)
+    grid = make_grid(study, block)
+    summary = Summary()
+    summary.add_block(0, *block, grid)
+    return grid, summary
+
+
 def run_chunk(study: Study, grid: Grid, blocks: Sequence[int]) -> Summary:
     """Simulate whole blocks and summarise them: the unit of work sent to a worker.
 

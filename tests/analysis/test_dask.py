@@ -208,7 +208,8 @@ def test_with_two_workers_a_helper_runs_blocks_while_the_cluster_starts(monkeypa
     # up, and the cluster the rest.
     from calibrator.analysis import _spare
 
-    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 40 * mc.BLOCK, seed=6)
+    # 80 blocks, about 1.5 s of one core: more than a loaded machine's cluster start.
+    study = mc.Study(arm.build(), 0.05, mc.PAPER_H_MM, 80 * mc.BLOCK, seed=6)
     local, grid = engine.run(study)
     ends, sent = [], []
     spy(monkeypatch, _spare.Spare, "stop", ends)
