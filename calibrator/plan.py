@@ -803,6 +803,7 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
         for a, b in bad:
             times[a, b] = times[b, a] = np.inf
         order = cells.order_poses(times)
+    order = _close_safely(chk, q, order, times, verdict)
     vias = []
     for k, i in enumerate(order):
         if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
@@ -818,6 +819,36 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
             )
         vias.append(via)
     return Plan(q[order], tuple(vias))
+
+
+def _close_safely(
+    chk, q: np.ndarray, order: np.ndarray, times: np.ndarray, verdict: dict
+) -> np.ndarray:
+    """``order`` turned so that the move from its last pose back to its first is safe.
+
+    A program returns from the last pose to its home, by default the first
+    pose, along the joint-space line: that closing move must pass the same
+    checks as every other. If it does not, the cycle starts after its longest
+    safe direct move instead (the old closing move becomes an inner one, given
+    vias like any other). ``verdict`` maps ``(a, b)`` to the move's faults and
+    gains the closing move's.
+    """
+    from calibrator import cell as cells
+
+    if len(order) < 2:
+        return order
+    first, last = int(order[0]), int(order[-1])
+    if (last, first) not in verdict:
+        faults = cells.motion_faults(chk, q[last][None], q[first][None])[0]
+        verdict[(last, first)] = verdict[(first, last)] = faults
+    if not verdict[(last, first)].any():
+        return order
+    pairs = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
+    safe = [k for k, e in enumerate(pairs) if not verdict[e].any()]
+    if not safe:
+        return order  # every move needs vias: the closing one is refused where it is used
+    k = max(safe, key=lambda j: times[pairs[j]] if np.isfinite(times[pairs[j]]) else 0.0)
+    return np.roll(order, -(k + 1))
 
 
 def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:

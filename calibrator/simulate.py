@@ -9,7 +9,7 @@ can check what ``identify`` recovers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -240,6 +240,16 @@ class SimWorld:
             SIM_TRACKER_AT_MM.copy(),
             repeatability,
         )
+
+    def with_tracker_at(self, at_mm: ArrayLike) -> SimWorld:
+        """This world with the tracker moved to ``at_mm`` (3,), robot base frame, mm.
+
+        The tracker keeps its orientation; the arm, tool and seed are unchanged.
+        """
+        at = np.asarray(at_mm, dtype=float).reshape(3)
+        tracker2base = frames.invert(self.base2tracker)
+        tracker2base[:3, 3] = at
+        return replace(self, base2tracker=frames.invert(tracker2base), tracker_at_mm=at.copy())
 
     def repeatability_rng(self) -> np.random.Generator:
         """The generator of the arm's joint errors: its own stream of the world's seed."""

@@ -41,33 +41,61 @@ def program(
         None,
         help="Safe start and end pose J1,...,J6 in degrees [default: the plan's first pose].",
     ),
+    cell_file: Path = opts.cell(
+        "Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker; every pose "
+        "and move of the program, from and back to home included, is checked against it."
+    ),
+    tracker_at: str = opts.tracker_at(
+        "Tracker position in the robot base frame X,Y,Z (mm; overrides the cell's): the "
+        "poses' aim and line of sight are checked only when it is known."
+    ),
+    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm (as the plan was made)."),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
     Via rows of the plan become joint moves without dwell or pulse before their pose.
+    The program is the only gate for an arm the controller runs on its own, so it
+    runs the whole-plan check of ``measure`` first and writes nothing it refuses.
     """
     import numpy as np
 
+    from calibrator import cell as cells
     from calibrator import outputs
     from calibrator import plan as plans
     from calibrator import program as programs
     from calibrator.models import get_model
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
-    outputs.check(output, inputs=[plan_path])
+    inputs = [p for p in (plan_path, cell_file) if p is not None]
+    outputs.check(output, inputs=inputs)
     arm = get_model(model)
     given = plans.read_plan(plan_path)
-    q = plans.validate(given.q_rad, arm.joint_limits_rad)
-    # Vias too: the controller moves through them on the path the plan checked.
-    plans.validate(given.path_rad, arm.joint_limits_rad)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
         fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
     if accel > arm.move_accel_cap_rad_s2:
         fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
-    home_rad = q[0] if home is None else np.radians(_degrees(home))
-    plans.validate(home_rad[None], arm.joint_limits_rad)
+    home_rad = given.q_rad[0] if home is None else np.radians(_degrees(home))
+    cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
+    cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
+    # What measure --robot external would refuse is refused here, before a
+    # program exists: the controller runs it without asking calibrator again.
+    cells.check_whole_plan(
+        given,
+        arm,
+        cell,
+        _run.triple(tool, "--tool"),
+        home_rad=home_rad,
+        need=plans.min_poses(arm.mdh),
+    )
+    q = given.q_rad
+    if cell.tracker_at_mm is None:
+        typer.echo(
+            "note: no --tracker-at and no tracker in the cell: the poses' aim and line of "
+            "sight are not checked",
+            err=True,
+        )
     # KRL and Fanuc want the program named as its file.
     stem = re.sub(r"\W", "_", output.name.split(".")[0]) or "calibrator_measure"
     name = stem if stem[0].isalpha() else f"p_{stem}"
@@ -83,7 +111,7 @@ def program(
         model=arm.name,
         via_rad=given.via_rad,
     )
-    outputs.write_text(output, programs.render(spec, chosen), inputs=[plan_path])
+    outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
     typer.echo(
         f"wrote {output} ({chosen}): {len(q)} poses"
         + (f" and {given.n_vias} vias" if given.n_vias else "")
