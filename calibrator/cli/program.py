@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from enum import StrEnum
 from pathlib import Path
 
@@ -14,6 +13,7 @@ from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 from calibrator.program import REGISTRY
+from calibrator.program.spec import MAX_DWELL_S, MIN_ACCEL_RAD_S2, MIN_SPEED_RAD_S, PULSE_S
 
 #: The ``--format`` choices, generated from the writer registry.
 # mypy cannot type a functional Enum whose members come from a registry at run time.
@@ -31,11 +31,16 @@ def program(
     model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
     accel: float = _run.accel_option(None, "[default: the model's ceiling; only lower]"),
-    dwell: float = opts.positive(
-        2.0, "Wait at each pose, s: more than the settle window plus the readings' time."
+    dwell: float = typer.Option(
+        2.0,
+        callback=checks.finite(PULSE_S, MAX_DWELL_S, inclusive=False),
+        help="Wait at each pose, s: more than the settle window plus the readings' time "
+        f"(at most {MAX_DWELL_S:g}).",
     ),
     pulse: int = typer.Option(
-        None, callback=checks.at_least(0), help="Digital output pulsed at each arrival."
+        None,
+        callback=checks.count("pulse", 0),
+        help="Digital output pulsed at each arrival (URScript 0-7, KRL and Fanuc from 1).",
     ),
     home: str = typer.Option(
         None,
@@ -66,6 +71,8 @@ def program(
     from calibrator.models import get_model
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
+    # KRL and Fanuc want the program named as its file; no language takes a keyword.
+    name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs)
     arm = get_model(model)
@@ -76,6 +83,11 @@ def program(
         fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
     if accel > arm.move_accel_cap_rad_s2:
         fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
+    # Slower than this is a typo, and a program never rounds a speed to zero.
+    if speed < MIN_SPEED_RAD_S:
+        fail(f"--speed {speed:g} rad/s below {MIN_SPEED_RAD_S:g} rad/s (a 1 rad move: 17 min)")
+    if accel < MIN_ACCEL_RAD_S2:
+        fail(f"--accel {accel:g} rad/s^2 below {MIN_ACCEL_RAD_S2:g} rad/s^2")
     home_rad = given.q_rad[0] if home is None else np.radians(_degrees(home))
     cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
     cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
@@ -90,15 +102,6 @@ def program(
         need=plans.min_poses(arm.mdh),
     )
     q = given.q_rad
-    if cell.tracker_at_mm is None:
-        typer.echo(
-            "note: no --tracker-at and no tracker in the cell: the poses' aim and line of "
-            "sight are not checked",
-            err=True,
-        )
-    # KRL and Fanuc want the program named as its file.
-    stem = re.sub(r"\W", "_", output.name.split(".")[0]) or "calibrator_measure"
-    name = stem if stem[0].isalpha() else f"p_{stem}"
     spec = programs.ProgramSpec(
         plan_rad=q,
         home_rad=home_rad,
@@ -110,8 +113,15 @@ def program(
         name=name,
         model=arm.name,
         via_rad=given.via_rad,
+        joint_limits_rad=arm.joint_limits_rad,
     )
     outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
+    if cell.tracker_at_mm is None:
+        typer.echo(
+            "note: no --tracker-at and no tracker in the cell: the poses' aim and line of "
+            "sight were not checked",
+            err=True,
+        )
     typer.echo(
         f"wrote {output} ({chosen}): {len(q)} poses"
         + (f" and {given.n_vias} vias" if given.n_vias else "")

@@ -129,7 +129,7 @@ def plan_csv(tmp_path, checked_plan):
 
 @pytest.mark.parametrize(
     ("name", "fmt"),
-    [("run.script", "urscript"), ("RUN.src", "krl"), ("run.mod", "rapid"), ("run.ls", "fanuc-ls")],
+    [("cal.script", "urscript"), ("CAL.src", "krl"), ("cal.mod", "rapid"), ("cal.ls", "fanuc-ls")],
 )
 def test_cli_picks_the_format_from_the_extension(tmp_path, plan_csv, name, fmt):
     done = cli("program", plan_csv, "-o", name, "--pulse", "1", cwd=tmp_path)
@@ -235,7 +235,7 @@ def test_csv_table_names_the_vias(tmp_path):
 @pytest.mark.parametrize("fmt", ["urscript", "fanuc-ls"])
 def test_cli_writes_a_plan_with_vias(tmp_path, fmt, checked_plan):
     plans.write_plan(tmp_path / "plan.csv", checked_plan)
-    name = {"urscript": "run.script", "fanuc-ls": "run.ls"}[fmt]
+    name = {"urscript": "cal.script", "fanuc-ls": "cal.ls"}[fmt]
     done = cli("program", "plan.csv", "-o", name, cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert f"10 poses and {checked_plan.n_vias} vias" in done.stdout

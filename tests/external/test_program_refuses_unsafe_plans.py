@@ -19,7 +19,7 @@ from calibrator.models import get_model
 ARM = get_model("ur10e")
 #: Elbow 496 mm below the mounting plane (the red-team's pose), rad.
 BELOW_FLOOR = np.array([-1.0647, 1.3788, -2.7751, -0.5934, 2.7751, -1.2741])
-FORMATS = ["run.script", "RUN.src", "run.mod", "run.ls", "run.csv"]
+FORMATS = ["cal.script", "CAL.src", "cal.mod", "cal.ls", "cal.csv"]
 TRACKER = ",".join(f"{v:g}" for v in CHECKED_PLAN_TRACKER_MM)
 
 
@@ -40,7 +40,7 @@ def _with_pose(plan, i, q):
 
 def test_the_shared_plan_is_written_with_its_tracker(tmp_path, checked_plan):
     plans.write_plan(tmp_path / "plan.csv", checked_plan)
-    done = cli("program", "plan.csv", "-o", "run.script", "--tracker-at", TRACKER, cwd=tmp_path)
+    done = cli("program", "plan.csv", "-o", "cal.script", "--tracker-at", TRACKER, cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert "not checked" not in done.stderr
 
@@ -88,19 +88,19 @@ def test_the_move_back_home_is_checked(tmp_path, checked_plan):
     else:
         pytest.fail("no home found whose way back from the last pose collides")
     text = ",".join(f"{v:.9f}" for v in np.degrees(home))
-    line = _refused(tmp_path, checked_plan, "-o", "run.mod", "--home", text)
+    line = _refused(tmp_path, checked_plan, "-o", "cal.mod", "--home", text)
     assert "home" in line and "nothing moved" in line
 
 
 def test_poses_that_do_not_face_the_tracker_are_refused(tmp_path, checked_plan):
     x, y, z = CHECKED_PLAN_TRACKER_MM
-    line = _refused(tmp_path, checked_plan, "-o", "run.ls", "--tracker-at", f"{-x},{-y},{z}")
+    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--tracker-at", f"{-x},{-y},{z}")
     assert "acceptance angle" in line or "line of sight" in line
 
 
 def test_a_cell_file_tracker_inside_the_reach_is_refused(tmp_path, checked_plan):
     (tmp_path / "cell.yaml").write_text("tracker:\n  at_mm: [400, 0, 300]\n")
-    line = _refused(tmp_path, checked_plan, "-o", "run.script", "--cell", "cell.yaml")
+    line = _refused(tmp_path, checked_plan, "-o", "cal.script", "--cell", "cell.yaml")
     assert "inside the ur10e's reach" in line
 
 
@@ -113,7 +113,7 @@ def test_a_cell_file_obstacle_refuses_the_pose_it_holds(tmp_path, checked_plan):
         f"min_mm: [{lo[0]:.1f}, {lo[1]:.1f}, {lo[2]:.1f}], "
         f"max_mm: [{hi[0]:.1f}, {hi[1]:.1f}, {hi[2]:.1f}]}}\n"
     )
-    line = _refused(tmp_path, checked_plan, "-o", "run.csv", "--cell", "cell.yaml")
+    line = _refused(tmp_path, checked_plan, "-o", "cal.csv", "--cell", "cell.yaml")
     assert "fixture" in line
 
 
