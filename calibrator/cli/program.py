@@ -54,7 +54,10 @@ def program(
         "Tracker position in the robot base frame X,Y,Z (mm; overrides the cell's): the "
         "poses' aim and line of sight are checked only when it is known."
     ),
-    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm (as the plan was made)."),
+    tool: str = opts.tool(
+        "Reflector position on the flange X,Y,Z, mm [default: the plan file's, else 0,0,100].",
+        default=None,
+    ),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
@@ -91,13 +94,19 @@ def program(
     home_rad = given.q_rad[0] if home is None else np.radians(_degrees(home))
     cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
     cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
+    # A plan made for another arm, tracker or reflector is refused; what the
+    # command line leaves out comes from the plan file.
+    tracker_mm, tool_mm = plans.made_for(
+        given, arm.name, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
+    )
+    cell = cell.with_tracker(tracker_mm)
     # What measure --robot external would refuse is refused here, before a
     # program exists: the controller runs it without asking calibrator again.
     cells.check_whole_plan(
         given,
         arm,
         cell,
-        _run.triple(tool, "--tool"),
+        tool_mm,
         home_rad=home_rad,
         need=plans.min_poses(arm.mdh),
     )

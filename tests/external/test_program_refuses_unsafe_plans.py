@@ -35,7 +35,7 @@ def _refused(tmp_path, plan, *args):
 def _with_pose(plan, i, q):
     rows = plan.q_rad.copy()
     rows[i] = q
-    return plans.Plan(rows, plan.via_rad)
+    return plans.Plan(rows, plan.via_rad, plan.origin)
 
 
 def test_the_shared_plan_is_written_with_its_tracker(tmp_path, checked_plan):
@@ -55,7 +55,8 @@ def test_a_pose_below_the_mounting_plane_is_refused_in_every_language(tmp_path, 
 def test_a_via_below_the_mounting_plane_is_refused_in_every_language(tmp_path, checked_plan, name):
     vias = list(checked_plan.via_rad)
     vias[3] = BELOW_FLOOR[None]
-    line = _refused(tmp_path, plans.Plan(checked_plan.q_rad, tuple(vias)), "-o", name)
+    plan = plans.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
+    line = _refused(tmp_path, plan, "-o", name)
     assert "via 0 before pose 3: below mounting plane" in line
 
 
@@ -65,13 +66,14 @@ def test_a_colliding_move_is_refused_in_every_language(tmp_path, checked_plan, n
     assert len(checked_plan.via_rad[1])
     vias = list(checked_plan.via_rad)
     vias[1] = np.zeros((0, 6))
-    line = _refused(tmp_path, plans.Plan(checked_plan.q_rad, tuple(vias)), "-o", name)
+    plan = plans.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
+    line = _refused(tmp_path, plan, "-o", name)
     assert "plan motion from pose 0 to pose 1" in line and "along the way" in line
 
 
 def test_a_home_below_the_mounting_plane_is_refused(tmp_path, checked_plan):
     home = ",".join(f"{v:g}" for v in np.degrees(BELOW_FLOOR))
-    line = _refused(tmp_path, checked_plan, "-o", "run.src", "--home", home)
+    line = _refused(tmp_path, checked_plan, "-o", "cal.src", "--home", home)
     assert "plan home: below mounting plane" in line
 
 
@@ -94,13 +96,36 @@ def test_the_move_back_home_is_checked(tmp_path, checked_plan):
 
 def test_poses_that_do_not_face_the_tracker_are_refused(tmp_path, checked_plan):
     x, y, z = CHECKED_PLAN_TRACKER_MM
-    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--tracker-at", f"{-x},{-y},{z}")
+    # A plan file that does not say where its tracker was (an older or hand-made one).
+    plan = plans.Plan(checked_plan.q_rad, checked_plan.via_rad)
+    line = _refused(tmp_path, plan, "-o", "cal.ls", "--tracker-at", f"{-x},{-y},{z}")
     assert "acceptance angle" in line or "line of sight" in line
+
+
+def test_a_plan_made_for_another_tracker_position_is_refused_naming_both(tmp_path, checked_plan):
+    x, y, z = CHECKED_PLAN_TRACKER_MM
+    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--tracker-at", f"{-x},{-y},{z}")
+    assert f"made for the tracker at {x:g},{y:g},{z:g} mm, not {-x:g},{-y:g},{z:g}" in line
+
+
+def test_a_plan_made_for_another_arm_or_reflector_is_refused_naming_both(tmp_path, checked_plan):
+    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--model", "ur5e")
+    assert "was made for a ur10e, not a ur5e (--model)" in line
+    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--tool", "0,0,150")
+    assert "reflector at 0,0,100 mm on the flange, not 0,0,150 (--tool)" in line
+
+
+def test_the_plan_files_tracker_is_checked_without_tracker_at(tmp_path, checked_plan):
+    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    done = cli("program", "plan.csv", "-o", "cal.script", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert "not checked" not in done.stderr
 
 
 def test_a_cell_file_tracker_inside_the_reach_is_refused(tmp_path, checked_plan):
     (tmp_path / "cell.yaml").write_text("tracker:\n  at_mm: [400, 0, 300]\n")
-    line = _refused(tmp_path, checked_plan, "-o", "cal.script", "--cell", "cell.yaml")
+    plan = plans.Plan(checked_plan.q_rad, checked_plan.via_rad)  # no tracker recorded
+    line = _refused(tmp_path, plan, "-o", "cal.script", "--cell", "cell.yaml")
     assert "inside the ur10e's reach" in line
 
 
