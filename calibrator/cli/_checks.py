@@ -90,6 +90,13 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "readings": (1_000, "readings"),
     "settle": (60.0, "s"),
     "retries": (100, "retries"),
+    # measure --robot external: a band wider than 1 mm takes a slow move for a stop, a
+    # window past 10 s outlasts any dwell, a tolerance past 50 mm is another arm, and a
+    # program silent for an hour has ended.
+    "stop_band": (1.0, "mm"),
+    "settle_window": (10.0, "s"),
+    "match_tolerance": (50.0, "mm"),
+    "stop_timeout": (3600.0, "s"),
     # simulate: noise and offsets a simulated cell can have (beyond them the
     # session is nonsense that identify refuses later).
     "noise_mm": (100.0, "mm"),
@@ -127,10 +134,13 @@ def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
     return check
 
 
-def seconds(budget: str) -> Callable[[float | None], float | None]:
-    """Callback for a time in seconds: finite, >= 0, at most ``BUDGETS[budget]``."""
+def seconds(budget: str, positive: bool = False) -> Callable[[float | None], float | None]:
+    """Callback for a time (or any amount in the budget's unit): finite, >= 0, <= the budget.
+
+    ``positive=True`` refuses 0 too (a window or a band of nothing).
+    """
     limit, unit = BUDGETS[budget]
-    base = finite(minimum=0.0)
+    base = finite(minimum=0.0, inclusive=not positive)
 
     def check(value: float | None) -> float | None:
         value = base(value)

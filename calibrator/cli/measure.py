@@ -60,15 +60,26 @@ def measure(
     ),
     quiet: bool = opts.quiet(),
     # --robot external: how the tracker's stream is cut into stops and matched to poses.
-    stop_band: float = opts.positive(0.05, "--robot external: stationarity band of a stop, mm."),
-    settle_window: float = opts.positive(
-        0.5, "--robot external: how long readings stay in the band to make a stop, s."
+    stop_band: float = typer.Option(
+        0.05,
+        callback=checks.seconds("stop_band", positive=True),
+        help="--robot external: stationarity band of a stop, mm.",
     ),
-    match_tolerance: float = opts.positive(
-        15.0, "--robot external: largest distance of a stop from its expected pose, mm."
+    settle_window: float = typer.Option(
+        0.5,
+        callback=checks.seconds("settle_window", positive=True),
+        help="--robot external: how long readings stay in the band to make a stop, s.",
     ),
-    stop_timeout: float = opts.positive(
-        30.0, "--robot external: no stop for this long ends the program's poses (missing), s."
+    match_tolerance: float = typer.Option(
+        15.0,
+        callback=checks.seconds("match_tolerance", positive=True),
+        help="--robot external: most the nominal arm may be off, mm (the bound of the "
+        "tolerance a stop is matched with; docs/external-robots.md).",
+    ),
+    stop_timeout: float = typer.Option(
+        30.0,
+        callback=checks.seconds("stop_timeout", positive=True),
+        help="--robot external: no stop for this long ends the program's poses (missing), s.",
     ),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
