@@ -68,14 +68,46 @@ def names() -> tuple[str, ...]:
     return tuple(sorted(_builders()))
 
 
-def get(name: str) -> RobotDescription:
-    """The description of the arm called ``name`` (case-insensitive).
+#: Endings of description files :func:`get` reads instead of looking a name up.
+FILE_SUFFIXES = (".yaml", ".yml", ".urdf")
+
+
+def is_file_name(name: str) -> bool:
+    """Whether ``name`` names a description file (a path ending in .yaml, .yml or .urdf)."""
+    return str(name).split("#", 1)[0].strip().lower().endswith(FILE_SUFFIXES)
+
+
+def get(
+    name: str, *, base_link: str | None = None, tip_link: str | None = None
+) -> RobotDescription:
+    """The description of the arm called ``name`` (case-insensitive), or in a file.
+
+    Parameters
+    ----------
+    name : str
+        A shipped arm's name (:func:`names`), or the path of a description
+        file (``arm.yaml``) or URDF (``arm.urdf``; ``arm.urdf#base:tip`` names
+        the chain's links, as the description's own name records them).
+    base_link, tip_link : str, optional
+        For a URDF: the chain's first and last links [default: ``base_link``;
+        ``tool0``, else ``flange``].
+
+    Returns
+    -------
+    RobotDescription
+        Named ``name`` (for a file: the path as given, with ``#base:tip``
+        when the links were given), so that ``get(d.name)`` gives ``d`` again.
 
     Raises
     ------
     DescriptionError
-        If no arm has that name (the message lists the known ones).
+        An unknown name (the message lists the known ones), or a file that
+        cannot be read or describes an arm that is not supported.
     """
+    if is_file_name(name):
+        return _from_file(str(name).strip(), base_link, tip_link)
+    if base_link is not None or tip_link is not None:
+        raise DescriptionError(f"--base-link and --tip-link are for a URDF, not {name!r}")
     key = str(name).strip().lower()
     builders = _builders()
     if key not in builders:
@@ -84,3 +116,22 @@ def get(name: str) -> RobotDescription:
     if description.name != key:
         raise DescriptionError(f"robot module for {key!r} built {description.name!r}")
     return description
+
+
+def _from_file(name: str, base_link: str | None, tip_link: str | None) -> RobotDescription:
+    from calibrator.robots import files, urdf
+
+    path, _, links = name.partition("#")
+    if links:
+        if base_link is not None or tip_link is not None:
+            raise DescriptionError(f"{name}: give the links once, in the name or as options")
+        base_link, _, tip_link = links.partition(":")
+        base_link, tip_link = base_link or None, tip_link or None
+    if path.lower().endswith(".urdf"):
+        recorded = path
+        if base_link is not None or tip_link is not None:
+            recorded = f"{path}#{base_link or ''}:{tip_link or ''}"
+        return urdf.describe(path, base_link, tip_link, name=recorded)
+    if base_link is not None or tip_link is not None:
+        raise DescriptionError(f"{path}: --base-link and --tip-link are for a URDF")
+    return files.load(path, name=path)
