@@ -170,12 +170,13 @@ def read_chain(
 
     base = pick(base_link, BASE_LINKS, "base")
     tip = pick(tip_link, TIP_LINKS, "tip")
-    elements = []
+    elements: list[ET.Element] = []
     link = tip
     while link != base:
-        element = by_child.get(link)
-        if element is None:
+        found = by_child.get(link)
+        if found is None:
             raise _fail(path, f"link {tip!r} is not below {base!r} on one chain")
+        element = found
         elements.append(element)
         parent = element.find("parent")
         link = str(parent.get("link")) if parent is not None else ""
