@@ -9,7 +9,7 @@ language.
 import numpy as np
 import pytest
 from cli_testkit import cli, listing, one_line_error
-from conftest import CHECKED_PLAN_TRACKER_MM
+from plan_testkit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell as cells
 from calibrator import frames, kinematics
