@@ -123,6 +123,7 @@ def program(
         model=arm.name,
         via_rad=given.via_rad,
         joint_limits_rad=arm.joint_limits_rad,
+        convention=arm.convention,
     )
     outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
     if cell.tracker_at_mm is None:

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
+from calibrator.robots import JointConvention
 
 #: Decimals written for angles: 1e-6 deg and 1e-9 rad, far below the 1e-6 rad round trip
 #: (a controller storing 32-bit floats keeps about 3e-7 rad at 180 deg).
@@ -51,8 +52,13 @@ class ProgramSpec:
         joint moves without dwell or pulse, so the controller follows the path the plan
         checked in the cell. Default: none.
     joint_limits_rad : numpy.ndarray, shape (6, 2), optional
-        The arm's joint limits, rad: written angles are rounded toward their inside
-        (:meth:`angles`), so a target at a limit is never written past it.
+        The arm's joint limits (model angles), rad: written angles are rounded
+        toward their inside (:meth:`angles`), so a target at a limit is never
+        written past it.
+    convention : calibrator.robots.JointConvention, optional
+        How the controller's angles relate to the model's (sign, zero offset,
+        coupled axes): programs are written in the controller's angles. None:
+        the same angles.
     """
 
     plan_rad: np.ndarray
@@ -66,6 +72,7 @@ class ProgramSpec:
     model: str = ""
     via_rad: tuple = ()
     joint_limits_rad: np.ndarray | None = None
+    convention: JointConvention | None = None
 
     def __post_init__(self) -> None:
         plan = np.asarray(self.plan_rad, dtype=float)
@@ -137,31 +144,42 @@ class ProgramSpec:
         return np.minimum(floored, 100.0)
 
     def angles(self, q_rad: ArrayLike, unit: str) -> list[str]:
-        """The six joint angles of ``q_rad`` as program text, rounded toward the inside.
+        """The six joint angles of ``q_rad`` as program text: the controller's, rounded inward.
 
         Parameters
         ----------
         q_rad : array_like, shape (6,)
-            Joint angles, rad.
+            The model's joint angles, rad.
         unit : {'rad', 'deg'}
             Written with :data:`RAD_DECIMALS` or :data:`DEG_DECIMALS` decimals.
 
         Returns
         -------
         list of 6 str
-            Each rounded to nearest, except where that would cross the joint
-            limit (``q3`` of exactly pi is written 3.141592653, not 3.141592654).
+            The angles the controller displays and programs use
+            (:attr:`convention`), each rounded to nearest except where that would
+            cross the joint limit (``q3`` of exactly pi is written 3.141592653,
+            not 3.141592654). A joint coupled to earlier ones (Fanuc's J3) is
+            bounded with their angles as written.
         """
-        q = np.asarray(q_rad, dtype=float).reshape(6)
+        convention = self.convention if self.convention is not None else JointConvention()
+        ctrl = convention.to_controller(np.asarray(q_rad, dtype=float).reshape(6))
+        scale, decimals = (180.0 / np.pi, DEG_DECIMALS) if unit == "deg" else (1.0, RAD_DECIMALS)
         limits = self.joint_limits_rad
-        if unit == "deg":
-            values, decimals = np.degrees(q), DEG_DECIMALS
-            limits = None if limits is None else np.degrees(np.asarray(limits, dtype=float))
-        else:
-            values, decimals = q, RAD_DECIMALS
-        low = [None] * 6 if limits is None else np.asarray(limits, dtype=float)[:, 0]
-        high = [None] * 6 if limits is None else np.asarray(limits, dtype=float)[:, 1]
-        return [inward(v, decimals, lo, hi) for v, lo, hi in zip(values, low, high, strict=True)]
+        texts: list[str] = []
+        written = np.zeros(6)  # controller angles as written, rad
+        for j in range(6):
+            low = high = None
+            if limits is not None:
+                # model_j = sign_j * ctrl_j + offset_j + sum(f * ctrl_k): solve for ctrl_j.
+                base = convention.offset_rad[j] + sum(
+                    f * written[k] for jj, k, f in convention.couplings if jj == j
+                )
+                ends = sorted((float(lim) - base) / convention.sign[j] for lim in limits[j])
+                low, high = ends[0] * scale, ends[1] * scale
+            texts.append(inward(ctrl[j] * scale, decimals, low, high))
+            written[j] = float(texts[-1]) / scale
+        return texts
 
 
 def trapezoid_duration_s(distance_rad: float, speed_rad_s: float, accel_rad_s2: float) -> float:
