@@ -27,6 +27,7 @@ stated margin. Arms that are not serial 6R chains are refused in one line.
 
 from __future__ import annotations
 
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,7 +124,7 @@ def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
 
 
 def read_chain(
-    path: str | Path, base_link: str | None = None, tip_link: str | None = None
+    path: str | os.PathLike[str], base_link: str | None = None, tip_link: str | None = None
 ) -> Chain:
     """The serial chain of a URDF file between two links.
 
