@@ -112,7 +112,13 @@ def get(
     builders = _builders()
     if key not in builders:
         raise DescriptionError(f"unknown model {name!r}; known: {', '.join(sorted(builders))}")
-    description = builders[key]()
+    return _built(tuple(__path__), key)
+
+
+@functools.lru_cache(maxsize=64)
+def _built(path: tuple[str, ...], key: str) -> RobotDescription:
+    # Descriptions are immutable: a named one is built once per process.
+    description = _scan(path)[key]()
     if description.name != key:
         raise DescriptionError(f"robot module for {key!r} built {description.name!r}")
     return description

@@ -20,6 +20,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -261,7 +262,7 @@ class RobotDescription:
             configs[str(key)] = tuple(_frozen(q, (6,), f"configuration {key!r}", n).tolist())
         if "home" not in configs:
             raise DescriptionError(f"robot {n}: needs a 'home' configuration")
-        put(self, "configurations", configs)
+        put(self, "configurations", MappingProxyType(configs))
 
     # -- the ceilings every move obeys -------------------------------------------------
 
