@@ -20,6 +20,7 @@ import importlib
 import pkgutil
 from collections.abc import Callable
 
+from calibrator.robots import files
 from calibrator.robots.description import (
     FORMAT,
     Body,
@@ -36,6 +37,7 @@ __all__ = [
     "DescriptionError",
     "JointConvention",
     "RobotDescription",
+    "files",
     "get",
     "names",
 ]

@@ -359,10 +359,12 @@ class RobotDescription:
 
     @property
     def digest(self) -> str:
-        """``sha256:`` of the canonical content (sorted-key JSON, floats by repr).
+        """``sha256:`` of the canonical content but the name (sorted-key JSON, floats by repr).
 
         Two descriptions with the same digest describe the same arm to the
         last bit; plan files and sessions record it to refuse a mismatch.
         """
-        text = json.dumps(self.as_dict(), sort_keys=True, separators=(",", ":"))
+        content = self.as_dict()
+        del content["name"]  # a description file moved or renamed is the same arm
+        text = json.dumps(content, sort_keys=True, separators=(",", ":"))
         return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()

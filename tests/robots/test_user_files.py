@@ -212,3 +212,25 @@ def test_a_bad_description_file_is_refused_naming_what_is_wrong(tmp_path, edit, 
     path.write_text(edit(DESCRIPTION))
     with pytest.raises(DescriptionError, match=message):
         get_model(str(path))
+
+
+def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
+    (tmp_path / "a.yaml").write_text(DESCRIPTION)
+    (tmp_path / "b.yaml").write_text(DESCRIPTION)
+    (tmp_path / "c.yaml").write_text(
+        DESCRIPTION.replace("[600, 0, -90, 0, 0]", "[600.001, 0, -90, 0, 0]")
+    )
+    a, b, c = (get_model(str(tmp_path / f"{n}.yaml")) for n in "abc")
+    assert a.name != b.name and a.digest == b.digest
+    assert c.digest != a.digest
+
+
+def test_a_description_files_masses_are_its_mass_model(tmp_path):
+    from calibrator import mass_models
+
+    path = tmp_path / "arm.yaml"
+    masses = "masses:\n  mass_kg: [20, 15, 8, 3, 2, 0.5]\n  com_mm: " + str([[0, 0, 10]] * 6) + "\n"
+    path.write_text(DESCRIPTION + masses)
+    model = mass_models.resolve(str(path))
+    np.testing.assert_array_equal(model.mass_kg, [20, 15, 8, 3, 2, 0.5])
+    np.testing.assert_array_equal(model.com_mm[:, 2], 10.0)
