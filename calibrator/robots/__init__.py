@@ -15,6 +15,7 @@ arm up by name.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import pkgutil
@@ -114,12 +115,13 @@ def get(
     builders = _builders()
     if key not in builders:
         raise DescriptionError(f"unknown model {name!r}; known: {', '.join(sorted(builders))}")
-    return _built(tuple(__path__), key)
+    # Built once per process (a shipped file is parsed once); each caller gets
+    # its own copy of the arrays, as a fresh build would give.
+    return dataclasses.replace(_built(tuple(__path__), key))
 
 
 @functools.lru_cache(maxsize=64)
 def _built(path: tuple[str, ...], key: str) -> RobotDescription:
-    # Descriptions are immutable: a named one is built once per process.
     description = _scan(path)[key]()
     if description.name != key:
         raise DescriptionError(f"robot module for {key!r} built {description.name!r}")
