@@ -129,8 +129,10 @@ def load(path: Path | str) -> MassModel:
 
 
 def resolve(source: str | Path) -> MassModel:
-    """A named arm's published model, or the YAML file at ``source``."""
+    """A named arm's masses, a robot description's, or the mass-model YAML at ``source``."""
+    from calibrator import robots
+
     text = str(source)
-    if text.lower().endswith((".yaml", ".yml")):
+    if text.lower().endswith((".yaml", ".yml")) and not robots.files.is_description(text):
         return load(text)
     return get(text)

@@ -15,11 +15,13 @@ arm up by name.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import pkgutil
 from collections.abc import Callable
 
+from calibrator.robots import files
 from calibrator.robots.description import (
     FORMAT,
     Body,
@@ -36,6 +38,7 @@ __all__ = [
     "DescriptionError",
     "JointConvention",
     "RobotDescription",
+    "files",
     "get",
     "names",
 ]
@@ -112,7 +115,14 @@ def get(
     builders = _builders()
     if key not in builders:
         raise DescriptionError(f"unknown model {name!r}; known: {', '.join(sorted(builders))}")
-    description = builders[key]()
+    # Built once per process (a shipped file is parsed once); each caller gets
+    # its own copy of the arrays, as a fresh build would give.
+    return dataclasses.replace(_built(tuple(__path__), key))
+
+
+@functools.lru_cache(maxsize=64)
+def _built(path: tuple[str, ...], key: str) -> RobotDescription:
+    description = _scan(path)[key]()
     if description.name != key:
         raise DescriptionError(f"robot module for {key!r} built {description.name!r}")
     return description

@@ -20,6 +20,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -261,7 +262,7 @@ class RobotDescription:
             configs[str(key)] = tuple(_frozen(q, (6,), f"configuration {key!r}", n).tolist())
         if "home" not in configs:
             raise DescriptionError(f"robot {n}: needs a 'home' configuration")
-        put(self, "configurations", configs)
+        put(self, "configurations", MappingProxyType(configs))
 
     # -- the ceilings every move obeys -------------------------------------------------
 
@@ -358,10 +359,12 @@ class RobotDescription:
 
     @property
     def digest(self) -> str:
-        """``sha256:`` of the canonical content (sorted-key JSON, floats by repr).
+        """``sha256:`` of the canonical content but the name (sorted-key JSON, floats by repr).
 
         Two descriptions with the same digest describe the same arm to the
         last bit; plan files and sessions record it to refuse a mismatch.
         """
-        text = json.dumps(self.as_dict(), sort_keys=True, separators=(",", ":"))
+        content = self.as_dict()
+        del content["name"]  # a description file moved or renamed is the same arm
+        text = json.dumps(content, sort_keys=True, separators=(",", ":"))
         return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -131,6 +131,16 @@ def _has_bool(value: Any) -> bool:
     return False
 
 
+def is_description(path: str | Path) -> bool:
+    """Whether the file at ``path`` says it is a robot description (its ``format:`` line)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as stream:
+            head = stream.read(4096)
+    except OSError:
+        return False
+    return any(line.split("#")[0].strip() == f"format: {FORMAT}" for line in head.splitlines())
+
+
 def load(path: str | Path, name: str | None = None) -> RobotDescription:
     """Read a description file (see the module docstring).
 

@@ -27,6 +27,7 @@ stated margin. Arms that are not serial 6R chains are refused in one line.
 
 from __future__ import annotations
 
+import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,7 +124,7 @@ def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
 
 
 def read_chain(
-    path: str | Path, base_link: str | None = None, tip_link: str | None = None
+    path: str | os.PathLike[str], base_link: str | None = None, tip_link: str | None = None
 ) -> Chain:
     """The serial chain of a URDF file between two links.
 
@@ -415,24 +416,32 @@ def upright(mdh: np.ndarray, limits: np.ndarray, base_offset: np.ndarray) -> tup
 
     Joints 2 and 3 put the wrist (frame 5's origin) highest above the base
     link; joints 4 and 5 then point the flange's z axis most nearly up. Found
-    on a 1-degree grid within the limits (the cell's via poses need no more).
+    on a 5-degree grid within the limits, refined on a half-degree one (the
+    cell's via poses need no more).
     """
-    grid = np.radians(np.arange(-360, 361, 1.0))
 
-    def within(i: int) -> np.ndarray:
-        return grid[(grid >= limits[i, 0]) & (grid <= limits[i, 1])]
+    def best(q0: np.ndarray, joints: tuple[int, int], score, step_deg: float, span_deg: float):
+        axes = []
+        for j in joints:
+            grid = q0[j] + np.radians(np.arange(-span_deg, span_deg + step_deg / 2, step_deg))
+            axes.append(grid[(grid >= limits[j, 0]) & (grid <= limits[j, 1])])
+        a, b = np.meshgrid(*axes, indexing="ij")
+        q = np.tile(q0, (a.size, 1))
+        q[:, joints[0]], q[:, joints[1]] = a.ravel(), b.ravel()
+        # Ties (a flat optimum) go to the smallest angles.
+        return q[np.argmax(score(q) - 1e-6 * np.abs(q[:, joints]).sum(axis=1))]
 
-    j2, j3 = np.meshgrid(within(1), within(2), indexing="ij")
-    q = np.zeros((j2.size, 6))
-    q[:, 1], q[:, 2] = j2.ravel(), j3.ravel()
-    frames = base_offset @ kinematics.chain(mdh, q, all_frames=True)[1]
-    best = q[np.argmax(frames[:, 5, 2, 3] - 1e-6 * np.abs(q[:, 1:3]).sum(axis=1))]
-    j4, j5 = np.meshgrid(within(3), within(4), indexing="ij")
-    wrist = np.tile(best, (j4.size, 1))
-    wrist[:, 3], wrist[:, 4] = j4.ravel(), j5.ravel()
-    flange = base_offset @ kinematics.chain(mdh, wrist)
-    best = wrist[np.argmax(flange[:, 2, 2] - 1e-6 * np.abs(wrist[:, 3:5]).sum(axis=1))]
-    return tuple(float(v) for v in best)
+    def wrist_height(q: np.ndarray) -> np.ndarray:
+        return (base_offset @ kinematics.chain(mdh, q, all_frames=True)[1][:, 5])[:, 2, 3]
+
+    def flange_up(q: np.ndarray) -> np.ndarray:
+        return (base_offset @ kinematics.chain(mdh, q))[:, 2, 2]
+
+    q = np.zeros(6)
+    for score, joints in ((wrist_height, (1, 2)), (flange_up, (3, 4))):
+        q = best(q, joints, score, 5.0, 360.0)
+        q = best(q, joints, score, 0.5, 5.0)
+    return tuple(float(v) for v in q)
 
 
 def _short_of(point: np.ndarray, flange: np.ndarray, back: np.ndarray, r: float) -> np.ndarray:

@@ -2,40 +2,15 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yourdfpy
+from robot_files import KUKA, with_geometry
 
-from calibrator import kinematics, robots
+from calibrator import kinematics
 from calibrator.models import get_model
 from calibrator.robots import DescriptionError
-
-DATA = Path(robots.__file__).with_name("data")
-KUKA = (DATA / "kuka-kr6-r900.urdf").read_text()
-
-
-def with_geometry(text):
-    """The KUKA URDF with a box, a cylinder, a sphere and inertials on some links."""
-    link_2 = """<link name="link_2">
-    <inertial><origin xyz="0.2 0 0.01" rpy="0 0 0"/><mass value="8.0"/>
-      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
-    <collision><origin xyz="0.2275 0 0" rpy="0.3 0 0"/><geometry><box size="0.5 0.12 0.1"/></geometry></collision>
-  </link>"""
-    link_4 = """<link name="link_4">
-    <inertial><origin xyz="0.15 0 0" rpy="0 0 0"/><mass value="3.0"/>
-      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
-    <collision><origin xyz="0.2 0 0" rpy="0 1.5707963267948966 0"/><geometry><cylinder radius="0.05" length="0.3"/></geometry></collision>
-  </link>"""
-    link_6 = """<link name="link_6">
-    <collision><origin xyz="-0.01 0 0" rpy="0 0 0"/><geometry><sphere radius="0.04"/></geometry></collision>
-  </link>"""
-    return (
-        text.replace('<link name="link_2"/>', link_2)
-        .replace('<link name="link_4"/>', link_4)
-        .replace('<link name="link_6"/>', link_6)
-    )
 
 
 def test_capsules_enclose_the_collision_primitives_with_the_stated_margin(tmp_path):
@@ -116,7 +91,9 @@ def on_a_track(text):
     <parent link="world"/><child link="carriage"/><axis xyz="1 0 0"/>
     <limit lower="0" upper="3" effort="0" velocity="1"/>
   </joint>
-  <joint name="carriage-base" type="fixed"><parent link="carriage"/><child link="base_link"/></joint>
+  <joint name="carriage-base" type="fixed">
+    <parent link="carriage"/><child link="base_link"/>
+  </joint>
 </robot>"""
     return text.replace("</robot>", track)
 
@@ -235,3 +212,25 @@ def test_a_bad_description_file_is_refused_naming_what_is_wrong(tmp_path, edit, 
     path.write_text(edit(DESCRIPTION))
     with pytest.raises(DescriptionError, match=message):
         get_model(str(path))
+
+
+def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
+    (tmp_path / "a.yaml").write_text(DESCRIPTION)
+    (tmp_path / "b.yaml").write_text(DESCRIPTION)
+    (tmp_path / "c.yaml").write_text(
+        DESCRIPTION.replace("[600, 0, -90, 0, 0]", "[600.001, 0, -90, 0, 0]")
+    )
+    a, b, c = (get_model(str(tmp_path / f"{n}.yaml")) for n in "abc")
+    assert a.name != b.name and a.digest == b.digest
+    assert c.digest != a.digest
+
+
+def test_a_description_files_masses_are_its_mass_model(tmp_path):
+    from calibrator import mass_models
+
+    path = tmp_path / "arm.yaml"
+    masses = "masses:\n  mass_kg: [20, 15, 8, 3, 2, 0.5]\n  com_mm: " + str([[0, 0, 10]] * 6) + "\n"
+    path.write_text(DESCRIPTION + masses)
+    model = mass_models.resolve(str(path))
+    np.testing.assert_array_equal(model.mass_kg, [20, 15, 8, 3, 2, 0.5])
+    np.testing.assert_array_equal(model.com_mm[:, 2], 10.0)
