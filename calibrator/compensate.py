@@ -44,6 +44,11 @@ TOL_RAD = 1e-9
 MAX_ITER = 50
 #: Weight of a rotation error against a position error (mm/rad).
 ROT_WEIGHT_MM = 1000.0
+#: Largest turn of a joint between a target's nominal and calibrated solution
+#: (deg). A calibration moves joints by tenths of a degree; more means the
+#: target sits near a singularity, where a tiny pose change swings the wrist
+#: or the arm, and the corrected target would not move the arm as planned.
+MAX_JOINT_CHANGE_DEG = 2.0
 
 
 @dataclass(frozen=True)
@@ -79,6 +84,11 @@ def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: np.ndarray) -> np.ndar
     return kinematics.chain(mdh, q) @ flange2tool
 
 
+def _tool_rows(tool, idx):
+    """The tool of the targets ``idx``: one (4, 4) for all, or the rows of an (N, 4, 4)."""
+    return tool if tool.ndim == 2 else tool[idx]
+
+
 def _jacobian_and_pose(mdh, q, flange2tool):
     _, link_frames = kinematics.chain(mdh, q, all_frames=True)
     pose = link_frames[:, 6] @ flange2tool
@@ -112,7 +122,9 @@ def inverse(
         Desired tool poses, base frame (mm).
     q0 : array_like, shape (N, 6)
         Start (rad): the nominal solution.
-    flange2tool : array_like, shape (4, 4), optional
+    flange2tool : array_like, shape (4, 4) or (N, 4, 4), optional
+        One tool for every target, or one per target (a program's targets
+        name their own tools).
     limits : array_like, shape (6, 2), optional
         Joint limits (rad); all within when omitted.
 
@@ -142,7 +154,7 @@ def inverse(
         damp = lam[idx, None, None] * (np.eye(6) * np.diagonal(jtj, axis1=1, axis2=2)[:, None, :])
         dq = np.linalg.solve(jtj + damp, jt @ e[..., None])[..., 0]
         trial_q = q[idx] + dq
-        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, tool)
+        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, _tool_rows(tool, idx))
         trial_err = _pose_error(targets[idx], trial_pose)
         better = np.sum((trial_err * weight) ** 2, axis=1) < np.sum(e**2, axis=1)
         take = idx[better]
@@ -198,6 +210,7 @@ def compensate(
     q_nominal: ArrayLike | None = None,
     limits: ArrayLike | None = None,
     payload_kg: float | None = None,
+    tool: ArrayLike | None = None,
 ) -> Compensation:
     """Compensate targets for a calibrated arm.
 
@@ -216,12 +229,15 @@ def compensate(
     payload_kg : float, optional
         Working payload for the calibration's compliance terms (default: the
         payload it was calibrated at).
+    tool : array_like, shape (4, 4) or (N, 4, 4), optional
+        The controller's TCP (flange to tool, mm), one or one per target
+        (default: the calibration's ``flange2tool``).
 
     Returns
     -------
     Compensation
     """
-    tool = calibration.flange2tool
+    tool = calibration.flange2tool if tool is None else np.asarray(tool, dtype=float)
     if q_nominal is None:
         # A default only because ``desired`` before it has one: the solver must start somewhere.
         raise ValueError("q_nominal is required: the nominal joints of each target")
