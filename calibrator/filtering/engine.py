@@ -257,7 +257,9 @@ class Filter:
             if new[i] is None:
                 continue
             self.summary.corrected[t.layout.kind] += 1
-            for (li, s, e), tok, v, unit in zip(t.spans, t.tokens, new[i], t.layout.units, strict=False):
+            for (li, s, e), tok, v, unit in zip(
+                t.spans, t.tokens, new[i], t.layout.units, strict=False
+            ):
                 text = numbers.write(tok, float(v), unit)
                 if text != tok:
                     edits[(id(u), li)].append((s, e, text, u))
