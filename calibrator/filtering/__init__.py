@@ -231,5 +231,5 @@ def split_ending(line: str) -> tuple[str, str]:
 from calibrator.filtering import urscript as _urscript  # noqa: E402,F401  isort: skip
 from calibrator.filtering import krl as _krl  # noqa: E402,F401  isort: skip
 from calibrator.filtering import rapid as _rapid  # noqa: E402,F401  isort: skip
-# from calibrator.filtering import fanuc as _fanuc  # noqa: E402,F401  isort: skip
+from calibrator.filtering import fanuc as _fanuc  # noqa: E402,F401  isort: skip
 # from calibrator.filtering import jbi as _jbi  # noqa: E402,F401  isort: skip
