@@ -232,4 +232,4 @@ from calibrator.filtering import urscript as _urscript  # noqa: E402,F401  isort
 from calibrator.filtering import krl as _krl  # noqa: E402,F401  isort: skip
 from calibrator.filtering import rapid as _rapid  # noqa: E402,F401  isort: skip
 from calibrator.filtering import fanuc as _fanuc  # noqa: E402,F401  isort: skip
-# from calibrator.filtering import jbi as _jbi  # noqa: E402,F401  isort: skip
+from calibrator.filtering import jbi as _jbi  # noqa: E402,F401  isort: skip
