@@ -103,6 +103,12 @@ def beyond_half_turn(q_deg: ArrayLike) -> np.ndarray:
     return ((q >= 180.0) | (q < -180.0)).astype(int)
 
 
+#: A pose closer than this to a wrist or elbow singularity is named near it (deg).
+NEAR_DEG = 5.0
+#: ... or closer than this to the shoulder singularity (mm).
+NEAR_MM = 50.0
+
+
 def nearest_singularity(mdh: ArrayLike, q_model: ArrayLike) -> list[str]:
     """Name, per pose, the singularity closest to it, with its margin.
 
@@ -115,26 +121,35 @@ def nearest_singularity(mdh: ArrayLike, q_model: ArrayLike) -> list[str]:
     Returns
     -------
     list of str, length N
-        E.g. ``"wrist singularity: axes 4 and 6 are 0.8 deg from parallel"``.
+        E.g. ``"wrist singularity: axes 4 and 6 are 0.8 deg from parallel"``;
+        empty where no singularity is within :data:`NEAR_DEG` (or
+        :data:`NEAR_MM` for the shoulder).
     """
     q_model = kinematics.check_joints(q_model)
-    o1, o2, w, _, z1, z3, z5 = _points(mdh, q_model)
+    o1, o2, w, x1, z1, z3, z5 = _points(mdh, q_model)
     wrist = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", z3, z5)), 0.0, 1.0)))
     upper, fore = o2 - o1, w - o2
     cos_elbow = np.einsum("ij,ij->i", upper, fore) / (
         np.linalg.norm(upper, axis=1) * np.linalg.norm(fore, axis=1)
     )
     elbow = np.degrees(np.arccos(np.clip(np.abs(cos_elbow), 0.0, 1.0)))
-    shoulder = np.hypot(w[:, 0], w[:, 1])
+    # The shoulder is singular where the wrist centre crosses the plane through
+    # axis 1 parallel to axis 2 (over axis 1 on an arm without a shoulder offset).
+    a1 = np.arctan2(x1[:, 1], x1[:, 0])
+    shoulder = np.abs(w[:, 0] * np.cos(a1) + w[:, 1] * np.sin(a1))
     out = []
-    for a, b, c in zip(wrist, elbow, shoulder, strict=False):
-        # Margins compared on one scale: degrees, and 10 mm from axis 1 as one degree.
-        pick = int(np.argmin([a, b, c / 10.0]))
+    for a, b, c in zip(wrist, elbow, shoulder, strict=True):
+        margins = [a / NEAR_DEG, b / NEAR_DEG, c / NEAR_MM]
+        pick = int(np.argmin(margins))
+        if margins[pick] > 1.0:
+            out.append("")
+            continue
         out.append(
             [
                 f"wrist singularity: axes 4 and 6 are {a:.2f} deg from parallel",
                 f"elbow singularity: the arm is {b:.1f} deg from stretched",
-                f"shoulder singularity: the wrist centre is {c:.0f} mm from axis 1",
+                f"shoulder singularity: the wrist centre is {c:.0f} mm from the plane "
+                "through axis 1 parallel to axis 2",
             ][pick]
         )
     return out

@@ -317,10 +317,8 @@ class Filter:
                 singular = singular or dict(
                     zip(rows, configuration.nearest_singularity(cal.nominal_mdh, q0), strict=False)
                 )
-                reason = (
-                    f"the calibrated arm cannot reach it ({sol.error_mm[j]:.3g} mm off; "
-                    f"{singular[i]})"
-                )
+                near = f"; {singular[i]}" if singular[i] else ""
+                reason = f"the calibrated arm cannot reach it ({sol.error_mm[j]:.3g} mm off{near})"
             elif not np.array_equal(code_nom[j], code_cal[j]):
                 reason = (
                     f"the configuration would change from {self.lang.describe(tuple(code_nom[j]))} "
@@ -335,9 +333,10 @@ class Filter:
                 singular = singular or dict(
                     zip(rows, configuration.nearest_singularity(cal.nominal_mdh, q0), strict=False)
                 )
+                near = f" ({singular[i]})" if singular[i] else ""
                 reason = (
                     f"joint {k + 1} would turn {jump[j, k]:.2f} deg between the nominal and the "
-                    f"calibrated solution ({singular[i]})"
+                    f"calibrated solution{near}"
                 )
             elif move_mm[j] > job.max_mm or turn_deg[j] > job.max_deg:
                 reason = (
