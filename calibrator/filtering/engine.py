@@ -307,7 +307,12 @@ class Filter:
             np.linalg.norm(frames.rotation_error(comp.corrected[:, :3, :3], d[:, :3, :3]), axis=1)
         )
         jump = np.degrees(np.abs(q_cal - comp.q_nominal))
-        code_nom = self.solver.code_of(comp.q_nominal)
+        # The configuration to keep: the one the target states, else its nominal solution's.
+        keep = self.solver.code_of(comp.q_nominal)
+        for j, i in enumerate(rows):
+            if pose[j] and items[i][1].code is not None:
+                keep[j] = items[i][1].code
+        kept = self.solver.matches(q_cal, keep)
         code_cal = self.solver.code_of(q_cal)
         singular = None
         for j, i in enumerate(rows):
@@ -319,9 +324,9 @@ class Filter:
                 )
                 near = f"; {singular[i]}" if singular[i] else ""
                 reason = f"the calibrated arm cannot reach it ({sol.error_mm[j]:.3g} mm off{near})"
-            elif not np.array_equal(code_nom[j], code_cal[j]):
+            elif not kept[j]:
                 reason = (
-                    f"the configuration would change from {self.lang.describe(tuple(code_nom[j]))} "
+                    f"the configuration would change from {self.lang.describe(tuple(keep[j]))} "
                     f"to {self.lang.describe(tuple(code_cal[j]))}"
                 )
             elif not sol.within_limits[j]:

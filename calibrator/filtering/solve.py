@@ -33,6 +33,8 @@ from calibrator.filtering import configuration, convention
 STRIDE = 16
 #: Poses in the start library.
 LIBRARY_SIZE = 20_000
+#: A joint this close to a boundary of the configuration data counts on either side (deg).
+BOUNDARY_DEG = 0.01
 #: Library starts tried per target.
 TRIES = 6
 _LIBRARIES: dict = {}
@@ -108,20 +110,46 @@ class Solver:
         q_deg = np.degrees(convention.to_controller(q_model, self.conv))
         return self.lang.code(q_deg, configuration.arm_bits(self.mdh, q_model))
 
+    def matches(self, q_model: np.ndarray, code: np.ndarray) -> np.ndarray:
+        """Rows whose joints have the configuration ``code`` (N, k).
+
+        A joint within :data:`BOUNDARY_DEG` of a boundary of the configuration
+        data (0 deg for a turn bit, a quadrant's edge) counts on either side:
+        a target taught at ``A6 = 0`` reads back a hair either side of it
+        once its pose is printed with a few decimals.
+        """
+        q_deg = np.degrees(convention.to_controller(q_model, self.conv))
+        bits = configuration.arm_bits(self.mdh, q_model)
+        ok = np.all(self.lang.code(q_deg, bits) == code, axis=1)
+        for j in range(6):
+            for step in (BOUNDARY_DEG, -BOUNDARY_DEG):
+                if ok.all():
+                    return ok
+                nudged = q_deg.copy()
+                nudged[:, j] += step
+                ok |= np.all(self.lang.code(nudged, bits) == code, axis=1)
+        return ok
+
     def fit_turns(self, q_model: np.ndarray, code: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Joints 1, 4, 6 moved by whole turns to match ``code``; and which rows match."""
+        """Joints 1, 4, 6 moved by whole turns to match ``code`` within the limits; which match."""
         q_ctrl = np.degrees(convention.to_controller(q_model, self.conv))
         # Start from joints 1, 4, 6 within [-180, 180): the solver may have left them a turn off.
         q_ctrl[:, [0, 3, 5]] = (q_ctrl[:, [0, 3, 5]] + 180.0) % 360.0 - 180.0
-        bits = configuration.arm_bits(self.mdh, q_model)
+        lim = self.job.limits
         out = q_ctrl.copy()
         done = np.zeros(len(q_model), dtype=bool)
         for shift in _SHIFTS:
             trial = q_ctrl.copy()
             trial[:, [0, 3, 5]] += shift
-            hit = ~done & np.all(self.lang.code(trial, bits) == code, axis=1)
-            out[hit] = trial[hit]
-            done |= hit
+            rows = np.flatnonzero(~done)
+            if not len(rows):
+                break
+            q_try = convention.to_model(np.radians(trial[rows]), self.conv)
+            hit = self.matches(q_try, code[rows])
+            if lim is not None:
+                hit &= np.all((q_try >= lim[:, 0]) & (q_try <= lim[:, 1]), axis=1)
+            out[rows[hit]] = trial[rows[hit]]
+            done[rows[hit]] = True
         return convention.to_model(np.radians(out), self.conv), done
 
     def _try(self, desired, tool, seeds, code, stated, ref_bits):
