@@ -178,13 +178,12 @@ class Filter:
         values: list = [None] * n
         for rows in by_layout.values():
             layout = items[rows[0]][1].layout
-            vals = np.array([[float(x) for x in items[i][1].tokens] for i in rows])
+            vals = np.array([items[i][1].tokens for i in rows]).astype(float)
             dec = layout.decode(vals)
             for j, i in enumerate(rows):
                 decoded[i], values[i] = dec[j], vals[j]
-        eye = np.eye(4)
-        tool = np.array([eye if t.tool is None else t.tool for _, t in items])
-        base = np.array([eye if t.base is None else t.base for _, t in items])
+        tool = _stack([t.tool for _, t in items])
+        base = _stack([t.base for _, t in items])
         is_pose = np.array([t.layout.kind == "pose" for _, t in items])
         for _, t in items:
             self.summary.found[t.layout.kind] += 1
@@ -246,8 +245,9 @@ class Filter:
                 enc = layout.encode(corrected, old)
             else:
                 enc = layout.encode(convention.to_controller(result_q[good], conv), old)
+            texts = numbers.write_many([items[i][1].tokens for i in good], old, enc, layout.units)
             for j, i in enumerate(good):
-                new[i] = enc[j]
+                new[i] = texts[j]
         # Rewrite tokens (right to left within a line so spans stay valid).
         edits: dict = defaultdict(list)
         for i, (u, t) in enumerate(items):
@@ -257,10 +257,7 @@ class Filter:
             if new[i] is None:
                 continue
             self.summary.corrected[t.layout.kind] += 1
-            for (li, s, e), tok, v, unit in zip(
-                t.spans, t.tokens, new[i], t.layout.units, strict=False
-            ):
-                text = numbers.write(tok, float(v), unit)
+            for (li, s, e), tok, text in zip(t.spans, t.tokens, new[i], strict=True):
                 if text != tok:
                     edits[(id(u), li)].append((s, e, text, u))
         for (_, li), changes in edits.items():
@@ -357,6 +354,15 @@ class Filter:
             self.summary.sum_mm += float(move_mm[j])
             self.summary.sum_deg += float(turn_deg[j])
             del t
+
+
+def _stack(transforms: list) -> np.ndarray:
+    """(N, 4, 4) of per-target transforms (None: identity); targets share a few objects."""
+    index: dict = {}
+    rows = [index.setdefault(id(t), len(index)) for t in transforms]
+    unique = {id(t): t for t in transforms}
+    table = np.array([np.eye(4) if unique[k] is None else unique[k] for k in index])
+    return table[np.array(rows)]
 
 
 def _split(line: str) -> tuple[str, str]:

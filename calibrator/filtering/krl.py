@@ -58,6 +58,7 @@ _BASE_SET = re.compile(r"\$BASE\s*=\s*BASE_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECAS
 _BAS = re.compile(r"\bBAS\s*\(\s*#(TOOL|BASE)\s*,\s*(\d+)\s*\)", re.IGNORECASE)
 _FDAT_ACT = re.compile(r"\bFDAT_ACT\s*=\s*([A-Za-z_]\w*)", re.IGNORECASE)
 _FDAT = re.compile(r"^\s*DECL\s+(?:GLOBAL\s+)?FDAT\s+([A-Za-z_]\w*)\s*=\s*\{(.*)\}", re.IGNORECASE)
+_FRAME_WORDS = re.compile(r"\$TOOL|\$BASE|BAS\s*\(|FDAT_ACT", re.IGNORECASE)
 _CONFIG = re.compile(
     r"^\s*(TOOL_DATA|BASE_DATA)\s*\[\s*(\d+)\s*\]\s*=\s*\{([^}]*)\}", re.IGNORECASE
 )
@@ -82,6 +83,9 @@ JOINTS = Layout("joints", ("deg",) * 6, lambda v: np.radians(v), lambda q, old: 
 
 def _code(text: str) -> str:
     """A KRL line without its comment (``;`` outside a string)."""
+    if '"' not in text:
+        cut = text.find(";")
+        return text if cut < 0 else text[:cut]
     quote = False
     for i, ch in enumerate(text):
         if ch == '"':
@@ -100,8 +104,21 @@ def _int(text: str) -> int:
     return int(float(t))
 
 
+#: The usual full E6POS/POS aggregate, in the order KUKA's editors write it.
+_FULL_POSE = re.compile(
+    (
+        r"\{\s*X\s+(?P<X>NUM)\s*,\s*Y\s+(?P<Y>NUM)\s*,\s*Z\s+(?P<Z>NUM)\s*,\s*A\s+(?P<A>NUM)"
+        r"\s*,\s*B\s+(?P<B>NUM)\s*,\s*C\s+(?P<C>NUM)\s*(?:,\s*S\s+(?P<S>NUM|'[Bb][01]+')\s*"
+        r",\s*T\s+(?P<T>NUM|'[Bb][01]+'))?\s*[,}]"
+    ).replace("NUM", _NUM)
+)
+
+
 def _fields(body: str, start: int) -> dict:
     """Components of an aggregate ``{...}`` starting at ``start``: name -> (text, start, end)."""
+    m = _FULL_POSE.match(body, start)
+    if m and m.group(0).endswith("}"):
+        return {k: (v, m.start(k), m.end(k)) for k, v in m.groupdict().items() if v is not None}
     end = body.find("}", start)
     if end < 0:
         return {}
@@ -181,6 +198,8 @@ class KRL(Language):
 
     @staticmethod
     def _update(code: str, state: list, fdat: dict) -> None:
+        if not _FRAME_WORDS.search(code):
+            return  # most lines set no frame
         for m in _TOOL_SET.finditer(code):
             state[0] = int(m.group(1))
         for m in _BASE_SET.finditer(code):
@@ -300,6 +319,13 @@ def _strip_aggregates(text: str) -> str:
 
 
 def _top_braces(code: str, start: int) -> list[int]:
+    if code.count("{") == 1:
+        at = code.find("{", start)
+        return [at] if at >= 0 else []
+    if code.count("{") == code.count("}") == len(re.findall(r"\{[^{}]*\}", code)):
+        return [m.start() for m in re.finditer(r"\{", code[start:])] and [
+            start + m.start() for m in re.finditer(r"\{", code[start:])
+        ]  # no nesting: every brace opens a target
     out, depth = [], 0
     for i in range(start, len(code)):
         if code[i] == "{":

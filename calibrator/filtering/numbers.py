@@ -28,8 +28,15 @@ NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 def decimals(token: str) -> int:
     """Digits after the decimal point of a token (0 without one)."""
-    mantissa = re.split("[eE]", token)[0]
-    return len(mantissa.split(".")[1]) if "." in mantissa else 0
+    dot = token.find(".")
+    if dot < 0:
+        return 0
+    end = len(token)
+    for mark in "eE":
+        at = token.find(mark)
+        if at >= 0:
+            end = at
+    return end - dot - 1
 
 
 def write(token: str, value: float, unit: str) -> str:
@@ -58,3 +65,45 @@ def write(token: str, value: float, unit: str) -> str:
     if token.startswith("+") and not text.startswith("-"):
         text = "+" + text
     return text
+
+
+def write_many(tokens: list, old, new, units: tuple) -> list:
+    """:func:`write` for a block of targets of one layout, vectorised where it can be.
+
+    Parameters
+    ----------
+    tokens : list of list of str, shape (N, m)
+    old, new : ndarray, shape (N, m)
+        The values the tokens hold, and the corrected values.
+    units : tuple of str, length m
+
+    Returns
+    -------
+    list of list of str
+        The text for each token (the token itself where it reads the same).
+    """
+    import numpy as np
+
+    tok = np.asarray(tokens, dtype=str)
+    plain = ~(np.char.count(tok, "e") + np.char.count(tok, "E")).astype(bool)
+    dot = np.char.find(tok, ".")
+    places = np.where(dot >= 0, np.char.str_len(tok) - dot - 1, 0)
+    res = np.array([RESOLUTION[u] for u in units])
+    pulse = np.array([u == "pulse" for u in units])
+    scale = 10.0**places
+    rounded = np.round(new * scale) / scale
+    places = np.where((np.abs(rounded - new) > res) & ~pulse, places + 1, places)
+    rounded = np.round(new * 10.0**places) / 10.0**places
+    same = (rounded == old) | ~np.isfinite(new)
+    out = [list(row) for row in tokens]
+    for i, j in zip(*np.nonzero(~same | ~plain), strict=True):
+        if plain[i, j]:
+            text = f"{new[i, j]:.{places[i, j]}f}"
+            if text.startswith("-") and float(text) == 0.0:
+                text = text[1:]
+            if tokens[i][j].startswith("+") and not text.startswith("-"):
+                text = "+" + text
+            out[i][j] = text
+        else:
+            out[i][j] = write(tokens[i][j], float(new[i, j]), units[j])
+    return out
