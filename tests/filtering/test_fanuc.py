@@ -100,3 +100,16 @@ def test_configuration_change_is_named_with_its_line(tmp_path):
     line = src.read_bytes().decode().split("\r\n")[fail["line"] - 1]
     assert fail["target"] == "P[4]" and line.startswith("\tX =")
     assert "configuration would change" in fail["reason"], fail
+
+
+def test_unreachable_position_is_named_with_its_line(tmp_path):
+    cal = calibration()
+    q = work_joints(6)
+    q[4, 1], q[4, 2] = 0.3, np.radians(-82.5) + 0.005  # the arm stretched out
+    src = write_ls(tmp_path / "weld.ls", cal, q)
+    summary = engine.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(
+        tmp_path / "o.ls", [src]
+    )
+    (fail,) = summary.failures
+    assert fail["target"] == "P[6]" and "cannot reach" in fail["reason"]
+    assert src.read_bytes().decode().split("\r\n")[fail["line"] - 1].startswith("\tX =")

@@ -101,3 +101,29 @@ def test_pulse_positions_are_corrected_when_asked(tmp_path):
     missing = frames_file.FrameTable(tools=_frames(tmp_path).tools, bases=_frames(tmp_path).bases)
     summary = engine.Filter("jbi", job(cal, missing, correct_joints=True), src).run(out, [src])
     assert summary.failures[0]["reason"] == "pulse positions need pulses_per_degree in --frames"
+
+
+def test_configuration_change_is_named_with_its_line(tmp_path):
+    # A UR10e model (joint 6 turns +-360 deg), so the half-turn flag can change
+    # inside the limits.
+    cal = calibration("ur10e", mm=0.3, rad=0.002)
+    q = work_joints(6, model="ur10e")
+    q[1, 5] = np.radians(-179.95)  # joint 6 at its half-turn flag: the calibrated arm crosses it
+    src = write_job(tmp_path / "NAHT1.JBI", cal, q)
+    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
+    (fail,) = summary.failures
+    assert fail["target"] == "C00002"
+    assert fail["reason"].startswith("the configuration would change from RCONF 0,0,1,0,0,0 to ")
+    assert src.read_bytes().decode().split("\r\n")[fail["line"] - 1].startswith("C00002=")
+    assert not (tmp_path / "O.JBI").exists()
+
+
+def test_unreachable_position_is_named_with_its_line(tmp_path):
+    cal = calibration()
+    q = work_joints(6)
+    q[3, 1], q[3, 2] = 0.3, np.radians(-82.5) + 0.005  # the arm stretched out
+    src = write_job(tmp_path / "NAHT1.JBI", cal, q)
+    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
+    (fail,) = summary.failures
+    assert fail["target"] == "C00004" and "cannot reach" in fail["reason"]
+    assert src.read_bytes().decode().split("\r\n")[fail["line"] - 1].startswith("C00004=")
