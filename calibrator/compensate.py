@@ -24,8 +24,8 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from dataclasses import dataclass, replace
 from collections.abc import Iterator
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -345,7 +345,7 @@ def _read_table(path, **kw):
 
 #: A block of cells joined by newlines, every one a number of the strict grammar.
 _CELLS = re.compile(
-    r"(?:[^\S\n]*(?:{n})[^\S\n]*\n)*[^\S\n]*(?:{n})[^\S\n]*".format(n=strict.NUMBER.pattern)
+    rf"(?:[^\S\n]*(?:{strict.NUMBER.pattern})[^\S\n]*\n)*[^\S\n]*(?:{strict.NUMBER.pattern})[^\S\n]*"
 )
 
 

@@ -203,7 +203,7 @@ def language(name: str, suffixes: tuple, help: str) -> Callable:
 
 
 def choose(fmt: str | None, program: str | os.PathLike) -> str:
-    """The language of ``program``: ``fmt`` if given (it must fit the extension), else by extension."""
+    """The language of ``program``: ``fmt`` if given (it must fit the extension), else by suffix."""
     return outputs.choose_format(FORMATS, fmt, program)
 
 

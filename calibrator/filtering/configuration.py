@@ -16,8 +16,8 @@ elbow (``up`` 0 / ``down`` 1)
     Which side of the lower arm (the line from axis 2 to axis 3) the wrist
     centre ``w`` lies on, seen along axis 2: with ``a2``, ``a3`` the origins of
     link frames 1 and 2 (on axes 2 and 3) and ``z`` the direction of axis 2,
-    ``z . ((a3 - a2) x (w - a3)) >= 0`` is up. On the ER10L-C10 and UR arms that is the usual working pose
-    (forearm above the line of the lower arm).
+    ``z . ((a3 - a2) x (w - a3)) >= 0`` is up. On the ER10L-C10 and UR arms
+    that is the usual working pose (forearm above the line of the lower arm).
 wrist (``noflip`` 0 / ``flip`` 1)
     The sign of joint 5 (model convention): flip when ``q5 < 0``.
 

@@ -121,11 +121,15 @@ class Filter:
         self.last_q: np.ndarray | None = None  # model joints the arm comes from
 
     def run(self, output: Path, inputs: list) -> Summary:
-        """Filter every file of the program; write them only if nothing failed (or ``keep_failed``)."""
+        """Filter every file of the program; write them only if nothing failed (or keep_failed)."""
         batch = outputs.Outputs(inputs)
         try:
             for src, dst in self.lang.files(output):
-                batch.file(dst, lambda tmp, src=src: self._stream(src, tmp))
+
+                def write(tmp: Path, src: Path = src) -> None:
+                    self._stream(src, tmp)
+
+                batch.file(dst, write)
                 self.summary.outputs.append(str(dst))
         except BaseException:
             batch.discard()
@@ -192,7 +196,7 @@ class Filter:
         reasons: list = [None] * n
         # Joint targets: known joints (also the arm's position for the poses after them).
         known_q = np.full((n, 6), np.nan)
-        for i in np.flatnonzero(~is_pose):
+        for i in np.flatnonzero(~is_pose).tolist():
             known_q[i] = convention.to_model(decoded[i], conv)
         pose_rows = np.flatnonzero(is_pose)
         joint_rows = np.flatnonzero(~is_pose)
@@ -203,7 +207,7 @@ class Filter:
             k = len(self.solver.code_of(np.zeros((1, 6)))[0])
             codes = np.zeros((n, k), dtype=int)
             stated = np.zeros(n, dtype=bool)
-            for i in pose_rows:
+            for i in pose_rows.tolist():
                 c = items[i][1].code
                 if c is not None:
                     codes[i], stated[i] = c, True
@@ -212,7 +216,7 @@ class Filter:
                 desired[pose_rows], tool[pose_rows], codes[pose_rows], stated[pose_rows], start
             )
             q_nom[pose_rows] = q
-            for j, i in enumerate(pose_rows):
+            for j, i in enumerate(pose_rows.tolist()):
                 if not found[j]:
                     want = lang.describe(tuple(codes[i])) if stated[i] else "the previous target's"
                     reasons[i] = f"no nominal joint solution found in the configuration ({want})"
@@ -224,8 +228,7 @@ class Filter:
         if job.correct_joints:
             active[joint_rows] = True
         else:
-            for i in joint_rows:
-                self.summary.kept["joints"] += 1
+            self.summary.kept["joints"] += len(joint_rows)
         rows = np.flatnonzero(active)
         if len(rows):
             self._compensate(items, rows, desired, tool, q_nom, is_pose, reasons, result_q)
@@ -343,7 +346,8 @@ class Filter:
             elif move_mm[j] > job.max_mm or turn_deg[j] > job.max_deg:
                 reason = (
                     f"correction {move_mm[j]:.3f} mm / {turn_deg[j]:.3f} deg exceeds "
-                    f"--max-correction {job.max_mm:g},{job.max_deg:g} (a wrong frame or calibration?)"
+                    f"--max-correction {job.max_mm:g},{job.max_deg:g} "
+                    "(a wrong frame or calibration?)"
                 )
             if reason is not None:
                 reasons[i] = reason

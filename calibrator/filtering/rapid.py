@@ -82,7 +82,9 @@ def _code(text: str) -> str:
 
 def _statements(path: Path):
     """``(first line number, [lines], joined code, [offset of each line in it])`` per statement."""
-    lines, offsets, code, first, depth = [], [], "", 0, 0
+    lines: list[str] = []
+    offsets: list[int] = []
+    code, first, depth = "", 0, 0
     for number, line in read_lines(path):
         if not lines:
             first = number
@@ -225,10 +227,11 @@ class RAPID(Language):
                 use = self.uses.get(decl.group(2).lower())
                 if use is not None:
                     start = decl.end() - 1
+                    joints = decl.group(1).lower() == "jointtarget"
+                    name = decl.group(2)
                     unit.targets.append(
-                        self._target(path, number, decl.group(2), decl.group(1).lower() == "jointtarget",
-                                     code, start, offsets, use[0], use[1])
-                    )  # fmt: skip
+                        self._target(path, number, name, joints, code, start, offsets, *use[:2])
+                    )
             else:
                 for m in _MOVE.finditer(code):
                     args = _move_args(code, m)

@@ -62,7 +62,7 @@ class Library:
         self.sq = np.sum(self.points**2, axis=1)
 
     def nearest(self, points: np.ndarray, bits: np.ndarray | None, k: int) -> np.ndarray:
-        """Indices (N, k) of the ``k`` library poses nearest ``points``, of the same bits if given."""
+        """Indices (N, k) of the library poses nearest ``points`` (of the same bits if given)."""
         out = np.zeros((len(points), k), dtype=int)
         if bits is None:
             groups = [(np.arange(len(points)), np.arange(len(self.q)))]

@@ -1,4 +1,4 @@
-"""The targets CSV path: read, solved and written in blocks; joint swings near singularities refused."""
+"""The targets CSV path: read, solved and written in blocks; swings near singularities refused."""
 
 import numpy as np
 import pandas as pd

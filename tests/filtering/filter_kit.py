@@ -77,3 +77,10 @@ def path_joints(n, seed=0, model="er10l-c10"):
     ends = work_joints(2, seed, model)
     t = np.linspace(0.0, 1.0, n)[:, None]
     return ends[0] + t * (ends[1] - ends[0])
+
+
+def frame_yaml(t):
+    """One ``--frames`` entry (flow YAML) for a transform (4, 4)."""
+    abc = rotations.matrix_to_zyx(t[None, :3, :3], np.zeros((1, 3)))[0]
+    xyz = ", ".join(str(v) for v in t[:3, 3])
+    return f"{{xyz_mm: [{xyz}], abc_deg: [{abc[0]}, {abc[1]}, {abc[2]}]}}"

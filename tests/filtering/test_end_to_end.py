@@ -47,7 +47,8 @@ def _module(path, cal, q):
 
 
 def _targets(text):
-    pat = r"robtarget t\d+:=\[\[([-\d.]+),([-\d.]+),([-\d.]+)\],\[([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+)\]"
+    num = r"([-\d.]+)"
+    pat = rf"robtarget t\d+:=\[\[{num},{num},{num}\],\[{num},{num},{num},{num}\]"
     v = np.array([[float(x) for x in m] for m in re.findall(pat, text)])
     return BASE @ frames.transform(rotations.quaternion_to_matrix(v[:, 3:]), v[:, :3])
 

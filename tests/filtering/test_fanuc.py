@@ -3,7 +3,7 @@
 import re
 
 import numpy as np
-from filter_kit import BASE, TOOL, calibration, job, work_joints
+from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 
 from calibrator import compensate, frames, kinematics
 from calibrator.filtering import engine, frames_file, rotations
@@ -12,12 +12,8 @@ from calibrator.filtering.solve import Solver
 
 
 def _frames_yaml(tmp_path):
-    def entry(t):
-        abc = rotations.matrix_to_zyx(t[None, :3, :3], np.zeros((1, 3)))[0]
-        return f"{{xyz_mm: [{t[0, 3]}, {t[1, 3]}, {t[2, 3]}], abc_deg: [{abc[0]}, {abc[1]}, {abc[2]}]}}"
-
     path = tmp_path / "frames.yaml"
-    path.write_text(f"tools:\n  '1': {entry(TOOL)}\nbases:\n  '1': {entry(BASE)}\n")
+    path.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '1': {frame_yaml(BASE)}\n")
     return frames_file.read(path)
 
 
@@ -31,7 +27,8 @@ def write_ls(path, cal, q):
     ]  # fmt: skip
     for i in range(len(q) + 1):
         out.append(
-            f"   {i + 3}:{'J' if i == 0 else 'L'} P[{i + 1}] {'100%' if i == 0 else '250mm/sec'} FINE    ;"
+            f"   {i + 3}:{'J' if i == 0 else 'L'} P[{i + 1}] "
+            f"{'100%' if i == 0 else '250mm/sec'} FINE    ;"
         )
     out += ["/POS", "P[1]{", "   GP1:", "\tUF : 1, UT : 1,\t"]
     out += ["\tJ1=     0.000 deg,\tJ2=    10.000 deg,\tJ3=   -10.000 deg,",
@@ -55,7 +52,11 @@ def write_ls(path, cal, q):
 
 
 def _read(text):
-    pat = r"X =\s*([-\d.]+)\s+mm,\tY =\s*([-\d.]+)\s+mm,\tZ =\s*([-\d.]+)\s+mm,\r\n\tW =\s*([-\d.]+) deg,\tP =\s*([-\d.]+) deg,\tR =\s*([-\d.]+) deg"
+    num = r"\s*([-\d.]+)"
+    pat = (
+        rf"X ={num}\s+mm,\tY ={num}\s+mm,\tZ ={num}\s+mm,\r\n"
+        rf"\tW ={num} deg,\tP ={num} deg,\tR ={num} deg"
+    )
     v = np.array([[float(x) for x in m.groups()] for m in re.finditer(pat, text)])
     return frames.transform(rotations.zyx_to_matrix(v[:, [5, 4, 3]]), v[:, :3])
 

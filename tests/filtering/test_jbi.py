@@ -3,7 +3,7 @@
 import re
 
 import numpy as np
-from filter_kit import BASE, TOOL, calibration, job, work_joints
+from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 
 from calibrator import compensate, frames, kinematics
 from calibrator.filtering import engine, frames_file, rotations
@@ -14,13 +14,10 @@ PPD = [1341.4, 1341.4, 1145.8, 850.2, 850.2, 544.1]
 
 
 def _frames(tmp_path):
-    def entry(t):
-        abc = rotations.matrix_to_zyx(t[None, :3, :3], np.zeros((1, 3)))[0]
-        return f"{{xyz_mm: [{t[0, 3]}, {t[1, 3]}, {t[2, 3]}], abc_deg: [{abc[0]}, {abc[1]}, {abc[2]}]}}"
-
     path = tmp_path / "frames.yaml"
     path.write_text(
-        f"tools:\n  '1': {entry(TOOL)}\nbases:\n  '2': {entry(BASE)}\npulses_per_degree: {PPD}\n"
+        f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '2': {frame_yaml(BASE)}\n"
+        f"pulses_per_degree: {PPD}\n"
     )
     return frames_file.read(path)
 

@@ -3,7 +3,7 @@
 import re
 
 import numpy as np
-from filter_kit import BASE, TOOL, TOOL2, calibration, job, poses, work_joints
+from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
 
 from calibrator import compensate, frames, kinematics
 from calibrator.filtering import engine, frames_file, rotations
@@ -51,7 +51,8 @@ def write_program(tmp_path, cal, q, name="weld"):
     dat.append(f'DECL FDAT FP1={{TOOL_NO 1,BASE_NO 2,IPO_FRAME #BASE,POINT2[] " "}}{CRLF}')
     for i in range(half):
         dat.append(
-            f"DECL E6POS XP{i + 1}={{{_agg(p1[i])},{_st(q[i])},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}{CRLF}"
+            f"DECL E6POS XP{i + 1}={{{_agg(p1[i])},{_st(q[i])},"
+            f"E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}{CRLF}"
         )
         src.append(f"{'PTP' if i % 2 else 'LIN'} XP{i + 1} C_DIS ; point {i + 1}{CRLF}")
     src.append(f"$TOOL = TOOL_DATA[2]{CRLF}")
@@ -128,11 +129,7 @@ def _one_target(tmp_path, cal, q, st=None):
         f"LIN {{{_agg(pose)},{st or _st(q)}}}\nEND\n"
     )
     frames_yaml = tmp_path / "frames.yaml"
-    abc = rotations.matrix_to_zyx(TOOL[None, :3, :3], np.zeros((1, 3)))[0]
-    frames_yaml.write_text(
-        f"tools:\n  '1': {{xyz_mm: [{TOOL[0, 3]}, {TOOL[1, 3]}, {TOOL[2, 3]}], "
-        f"abc_deg: [{abc[0]}, {abc[1]}, {abc[2]}]}}\n"
-    )
+    frames_yaml.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\n")
     return src, frames_file.read(frames_yaml)
 
 

@@ -52,7 +52,9 @@ def test_bad_options_and_files_are_refused_in_one_line(tmp_path):
     cal.save(tmp_path / "cal.json")
     write_program(tmp_path, cal, work_joints(2))
     (tmp_path / "f.yaml").write_text(
-        "tools:\n  '1': {xyz_mm: [0, 0, 1], abc_deg: [0, 0, 0]}\n  '1': {xyz_mm: [0, 0, 2], abc_deg: [0, 0, 0]}\n"
+        "tools:\n"
+        "  '1': {xyz_mm: [0, 0, 1], abc_deg: [0, 0, 0]}\n"
+        "  '1': {xyz_mm: [0, 0, 2], abc_deg: [0, 0, 0]}\n"
     )
     cases = [
         (["--frames", "f.yaml"], "key '1' appears more than once"),
