@@ -122,9 +122,11 @@ class Filter:
 
     def run(self, output: Path, inputs: list) -> Summary:
         """Filter every file of the program; write them only if nothing failed (or keep_failed)."""
-        batch = outputs.Outputs(inputs)
+        pairs = self.lang.files(output)
+        # Every file read is an input no output may replace (KRL: the .dat too).
+        batch = outputs.Outputs(list(inputs) + [src for src, _ in pairs])
         try:
-            for src, dst in self.lang.files(output):
+            for src, dst in pairs:
 
                 def write(tmp: Path, src: Path = src) -> None:
                     self._stream(src, tmp)
