@@ -316,6 +316,15 @@ class Filter:
                 keep[j] = items[i][1].code
         kept = self.solver.matches(q_cal, keep)
         code_cal = self.solver.code_of(q_cal)
+        if (~pose).any():
+            # A joint target states joints, not configuration data: it only must not
+            # flip the arm (shoulder, elbow, wrist); a joint crossing 0 deg is fine.
+            mdh = cal.nominal_mdh
+            same = np.all(
+                configuration.arm_bits(mdh, q_cal[~pose]) == configuration.arm_bits(mdh, q0[~pose]),
+                axis=1,
+            )
+            kept[~pose] = same
         singular = None
         for j, i in enumerate(rows):
             t = items[i][1]

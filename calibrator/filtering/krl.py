@@ -5,7 +5,8 @@ Read from KUKA's KSS expert programming manual:
 - Targets are ``E6POS``/``POS``/``FRAME`` (``X, Y, Z`` mm, ``A, B, C`` deg,
   ``Rz(A) Ry(B) Rx(C)``; ``S`` status and ``T`` turn on ``E6POS``/``POS``) or
   ``E6AXIS``/``AXIS`` (``A1..A6`` deg), declared (``DECL E6POS XP1={...}``,
-  usually in the ``.dat``) or written inline in ``PTP``/``LIN``/``CIRC``
+  usually in the ``.dat``; or declared without a value and assigned
+  ``NAME = {...}``) or written inline in ``PTP``/``LIN``/``CIRC``
   (and ``SPTP``/``SLIN``/``SCIRC``). External axes (``E1..E6``) are kept.
 - The tool and base a target is meant in are those active where it is moved
   to: ``$TOOL = TOOL_DATA[n]``, ``$BASE = BASE_DATA[n]``, ``BAS(#TOOL, n)``,
@@ -52,6 +53,7 @@ _DECL = re.compile(
     r"^\s*(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Za-z_$]\w*)\s*=\s*\{",
     re.IGNORECASE,
 )
+_ASSIGN = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*\{")
 _MOTION = re.compile(r"^\s*(S?PTP|S?LIN|S?CIRC)\b\s*(.*)$", re.IGNORECASE)
 _TOOL_SET = re.compile(r"\$TOOL\s*=\s*TOOL_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
 _BASE_SET = re.compile(r"\$BASE\s*=\s*BASE_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
@@ -259,6 +261,16 @@ class KRL(Language):
                             use[:2],
                         )
                     )
+            elif (assign := _ASSIGN.match(code)) and assign.group(1).upper() in self.uses:
+                # ``HOMEPOS = {A1 0, ...}``: a target declared without a value, assigned here.
+                name, brace = assign.group(1), assign.end() - 1
+                axis = re.match(r"\{\s*A[1-6]\s", code[brace:], re.IGNORECASE)
+                use = self.uses[name.upper()]
+                unit.targets.append(
+                    self._target(
+                        path, number, name, "AXIS" if axis else "E6POS", code, brace, use[:2]
+                    )
+                )
             elif in_src:
                 m = _MOTION.match(code)
                 if m:

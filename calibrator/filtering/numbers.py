@@ -1,8 +1,10 @@
 """Numbers written back into a program: the original's look, the correction's value.
 
 A corrected value is printed with as many decimals as the original token
-had; one more only where rounding to those would miss the corrected value by
-more than the field's resolution (:data:`RESOLUTION`). A value that reads
+had; more (one at a time, at most :data:`MAX_EXTRA`) only where rounding to
+those would miss the corrected value by more than the field's resolution
+(:data:`RESOLUTION`): a joint printed ``45.0`` and corrected by 0.023 deg is
+written ``45.0230`` if it must be, never rounded back to ``45.0``. A value that reads
 the same as the original keeps the original token byte for byte (so ``1E3``,
 ``+5`` or ``-0.0`` survive a calibration equal to its nominal model).
 """
@@ -16,11 +18,14 @@ import re
 RESOLUTION = {
     "mm": 0.005,
     "m": 5e-6,
-    "deg": 0.0005,
-    "rad": 5e-6,
-    "quat": 5e-6,
+    "deg": 0.0001,  # 0.002 mm at 1.3 m from the axis
+    "rad": 2e-6,
+    "quat": 1e-6,
     "pulse": 0.5,
 }
+
+#: Most decimals added to a token to reach the resolution.
+MAX_EXTRA = 4
 
 #: A decimal number as programs write them (no thousands separators).
 NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -56,8 +61,10 @@ def write(token: str, value: float, unit: str) -> str:
         return token if int(float(token)) == int(text) else text
     places = decimals(token)
     text = f"{value:.{places}f}"
-    if abs(float(text) - value) > RESOLUTION[unit]:
-        text = f"{value:.{places + 1}f}"
+    for extra in range(1, MAX_EXTRA + 1):
+        if abs(float(text) - value) <= RESOLUTION[unit]:
+            break
+        text = f"{value:.{places + extra}f}"
     if float(text) == float(token):
         return token
     if text.startswith("-") and float(text) == 0.0:
@@ -90,10 +97,13 @@ def write_many(tokens: list, old, new, units: tuple) -> list:
     places = np.where(dot >= 0, np.char.str_len(tok) - dot - 1, 0)
     res = np.array([RESOLUTION[u] for u in units])
     pulse = np.array([u == "pulse" for u in units])
-    scale = 10.0**places
-    rounded = np.round(new * scale) / scale
-    places = np.where((np.abs(rounded - new) > res) & ~pulse, places + 1, places)
     rounded = np.round(new * 10.0**places) / 10.0**places
+    for _ in range(MAX_EXTRA):
+        more = (np.abs(rounded - new) > res) & ~pulse
+        if not more.any():
+            break
+        places = np.where(more, places + 1, places)
+        rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
     out = [list(row) for row in tokens]
     for i, j in zip(*np.nonzero(~same | ~plain), strict=True):

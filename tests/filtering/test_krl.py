@@ -190,3 +190,22 @@ def test_max_correction_refuses_a_large_one(tmp_path):
     summary = engine.Filter("krl", job(cal, table, max_mm=0.01), src).run(tmp_path / "o.src", [src])
     (fail,) = summary.failures
     assert "exceeds --max-correction 0.01,0.5" in fail["reason"]
+
+
+def test_joint_targets_are_kept_or_corrected(tmp_path):
+    cal = calibration()
+    src, config = write_program(tmp_path, cal, work_joints(4))
+    kept = engine.Filter("krl", job(cal, config_dat=config), src).run(tmp_path / "k.src", [src])
+    assert kept.kept["joints"] == 2 and kept.corrected["joints"] == 0  # HOMEPOS and the inline PTP
+    out = tmp_path / "c.src"
+    fixed = engine.Filter("krl", job(cal, config_dat=config, correct_joints=True), src).run(
+        out, [src]
+    )
+    assert fixed.n_failed == 0 and fixed.corrected["joints"] == 2
+    home = re.search(r"HOMEPOS = \{(.*)\}", out.read_text("cp1252")).group(1)
+    q = np.radians([[float(v.split()[1]) for v in home.split(",")]])
+    # The calibrated arm at the new joints reaches the nominal pose of the old ones (tool 1).
+    wanted = kinematics.chain(cal.nominal_mdh, np.radians([[0, -10, 10, 0, 45, 0]])) @ TOOL
+    reached = kinematics.chain(cal.mdh, q) @ TOOL
+    assert np.linalg.norm(reached[0, :3, 3] - wanted[0, :3, 3]) < 0.01
+    assert src.read_text("cp1252").count("HOMEPOS") == out.read_text("cp1252").count("HOMEPOS")
