@@ -11,12 +11,11 @@ KRL program (inline ``LIN`` aggregates with ``S``/``T``, tool and base from a
 ``$config.dat``) and as a targets CSV (the nominal joints and the base-frame
 pose of each target). Each is compensated in a fresh process, ``--repeats``
 times; the median wall time and the largest peak resident memory (the
-child's ``ru_maxrss``) are printed, with their ratio.
+child's ``VmHWM``, Linux) are printed, with their ratio.
 """
 
 import argparse
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -113,7 +112,10 @@ def _child(kind: str, folder: Path) -> None:
         )  # fmt: skip
         failed = engine.Filter("krl", job, folder / "path.src").run(out, []).n_failed
     wall = time.perf_counter() - t
-    peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    # VmHWM: this process's own peak resident memory. (ru_maxrss of a process
+    # started by fork and exec starts at its parent's peak on Linux.)
+    status = Path("/proc/self/status").read_text()
+    peak_kib = int(status.split("VmHWM:")[1].split()[0])
     print(f"{wall:.3f} {failed} {peak_kib}")
 
 

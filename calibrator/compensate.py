@@ -214,6 +214,7 @@ def compensate(
     limits: ArrayLike | None = None,
     payload_kg: float | None = None,
     tool: ArrayLike | None = None,
+    nominal_solved: bool = False,
 ) -> Compensation:
     """Compensate targets for a calibrated arm.
 
@@ -235,6 +236,9 @@ def compensate(
     tool : array_like, shape (4, 4) or (N, 4, 4), optional
         The controller's TCP (flange to tool, mm), one or one per target
         (default: the calibration's ``flange2tool``).
+    nominal_solved : bool
+        ``q_nominal`` already is the nominal solution of ``desired`` (a
+        program filter solved it in the target's configuration): not refined.
 
     Returns
     -------
@@ -250,7 +254,8 @@ def compensate(
         desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
     else:
         desired = np.asarray(desired, dtype=float)
-        q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
+        if not nominal_solved:
+            q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
     sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
     # Joint terms: the IK gives the angles the joints must really turn to;
     # command the read-back angles whose effective angles those are.

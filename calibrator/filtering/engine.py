@@ -301,7 +301,9 @@ class Filter:
         q0 = q_nom[rows]
         # Joint rows: desired = the nominal pose of their joints (compensate computes it).
         d = np.where(pose[:, None, None], d, compensate.tool_poses(cal.nominal_mdh, q0, tool[rows]))
-        comp = compensate.compensate(cal, d, q0, job.limits, job.payload_kg, tool=tool[rows])
+        comp = compensate.compensate(
+            cal, d, q0, job.limits, job.payload_kg, tool=tool[rows], nominal_solved=True
+        )
         sol = comp.solution
         q_cal = comp.q
         move_mm = np.linalg.norm(comp.corrected[:, :3, 3] - d[:, :3, 3], axis=1)
@@ -311,11 +313,13 @@ class Filter:
         jump = np.degrees(np.abs(q_cal - comp.q_nominal))
         # The configuration to keep: the one the target states, else its nominal solution's.
         keep = self.solver.code_of(comp.q_nominal)
-        for j, i in enumerate(rows):
+        for j, i in enumerate(rows.tolist()):
             if pose[j] and items[i][1].code is not None:
                 keep[j] = items[i][1].code
-        kept = self.solver.matches(q_cal, keep)
         code_cal = self.solver.code_of(q_cal)
+        kept = np.all(code_cal == keep, axis=1)
+        if not kept.all():  # within the boundary tolerance?
+            kept[~kept] = self.solver.matches(q_cal[~kept], keep[~kept])
         if (~pose).any():
             # A joint target states joints, not configuration data: it only must not
             # flip the arm (shoulder, elbow, wrist); a joint crossing 0 deg is fine.
