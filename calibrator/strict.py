@@ -108,7 +108,7 @@ def parse_numbers(cells: Any, what: str = "value") -> np.ndarray:
     return out
 
 
-def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
+def parse_columns(rows: Any, names: Any, what: str, first: int = 0) -> np.ndarray:
     """The cells of a CSV's columns as floats, shape (N, len(names)).
 
     Parameters
@@ -119,6 +119,8 @@ def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
         Column names, for the error.
     what : str
         The file, for the error.
+    first : int
+        Data rows of the file before ``rows`` (a file read in blocks).
 
     Raises
     ------
@@ -131,7 +133,7 @@ def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
     for i, row in enumerate(rows):
         for j, cell in enumerate(row):
             out[i, j] = parse_number(
-                "" if cell is None else cell, f"{what}: line {i + 2}, {names[j]}"
+                "" if cell is None else cell, f"{what}: line {first + i + 2}, {names[j]}"
             )
     return out
 
