@@ -206,7 +206,7 @@ def session(path: Path) -> Record:
     simulated = extra.get("simulated")
     if not robot and isinstance(simulated, dict) and loaded.meta.model:
         robot = f"sim:{loaded.meta.model}:seed={simulated.get('seed')}"
-    measured_at = file_time(path)
+    measured_at = file_time(path).replace(microsecond=0)
     if "timestamp" in loaded.table.column_names:
         stamps = [t for t in loaded.table.column("timestamp").to_pylist() if t is not None]
         if stamps:

@@ -184,11 +184,11 @@ class History:
         """
         record = records.calibration(Path(path))
         record.row["file"] = str(Path(path).resolve())
-        session_file = record.session
+        session_file = _session_file(record.session, Path(path))
         with self._begin() as conn:
             session_id, session_robot = self._session_of(conn, record.row["session_sha256"])
-            if session_id is None and session_file and Path(session_file).is_file():
-                found = records.session(Path(session_file))
+            if session_id is None and session_file is not None:
+                found = records.session(session_file)
                 if found.row["sha256"] == record.row["session_sha256"]:
                     session_id = self._session(conn, found, robot, session_file)
                     session_robot = self._robot_name(conn, session_id)
@@ -364,6 +364,17 @@ class History:
                 known = ", ".join(names) if names else "none yet"
                 raise HistoryError(f"no robot {robot!r} in the history {self.where} ({known})")
             return [dict(row._mapping) for row in conn.execute(query)]
+
+
+def _session_file(named: str | None, calibration: Path) -> Path | None:
+    """The session file a calibration names: as given (relative to where identify ran),
+    else beside the calibration; ``None`` when neither is there."""
+    if not named:
+        return None
+    for path in (Path(named), calibration.parent / named):
+        if path.is_file():
+            return path
+    return None
 
 
 def _tracker_parts(name: str | None) -> dict:
