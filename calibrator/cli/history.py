@@ -57,15 +57,20 @@ def record(target: str, kind: str, path: Path) -> int:
     kind : {'calibration', 'verification'}
     path : Path
     """
-    from calibrator.history import open_history
+    from calibrator.history import HistoryError, open_history
 
-    with open_history(target) as history:
-        method = {
-            "calibration": history.record_calibration,
-            "verification": history.record_verification,
-        }[kind]
-        number = method(path)
-        typer.echo(f"recorded {kind} {number} in the history {history.where}")
+    try:
+        with open_history(target) as history:
+            method = {
+                "calibration": history.record_calibration,
+                "verification": history.record_verification,
+            }[kind]
+            number = method(path)
+            typer.echo(f"recorded {kind} {number} in the history {history.where}")
+    except HistoryError as exc:
+        fail(
+            f"wrote {path} but did not record it ({exc}); record it with: calibrator history import"
+        )
     return number
 
 

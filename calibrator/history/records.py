@@ -12,6 +12,8 @@ import hashlib
 import json
 import math
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -54,6 +56,17 @@ class Record:
     model: str | None = None
     session: str | None = None
     extra: dict = field(default_factory=dict)
+
+
+@contextmanager
+def _as_history_error() -> Iterator[None]:
+    """A file the domain refuses is a record the history refuses (same one line)."""
+    try:
+        yield
+    except HistoryError:
+        raise
+    except CalibrationError as exc:
+        raise HistoryError(str(exc)) from None
 
 
 def sha256_bytes(data: bytes) -> str:
@@ -110,7 +123,8 @@ def calibration(path: Path) -> Record:
     from calibrator import calibration as calibrations
 
     path = Path(path)
-    cal = calibrations.load(path)
+    with _as_history_error():
+        cal = calibrations.load(path)
     where = str(path)
     stats = cal.fit.stats
     unc = cal.fit.uncertainty
@@ -156,7 +170,8 @@ def verification(path: Path) -> Record:
     if not path.is_file():
         raise HistoryError(f"verify file not found: {path}")
     data = path.read_bytes()
-    doc = strict.load_json(data, where)
+    with _as_history_error():
+        doc = strict.load_json(data, where)
     if not isinstance(doc, dict) or doc.get("format") != "calibrator.verify":
         raise HistoryError(f"{where} is not a calibrator verify file")
     poses = doc.get("poses")
@@ -198,7 +213,8 @@ def session(path: Path) -> Record:
     from calibrator import session as sessions
 
     path = Path(path)
-    loaded = sessions.load(path)
+    with _as_history_error():
+        loaded = sessions.load(path)
     extra = loaded.meta.extra
     found = extra.get("measured")
     measured: dict = found if isinstance(found, dict) else {}

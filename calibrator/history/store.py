@@ -67,7 +67,10 @@ def _engine(url: str, create: bool) -> Any:
     try:
         parsed = make_url(url)
     except ArgumentError:
-        raise HistoryError(f"--history {url}: not a file or a database URL") from None
+        raise HistoryError(
+            f"--history {url}: not a file or a database URL "
+            "(give an SQLite file or postgresql://USER@HOST/DB)"
+        ) from None
     if parsed.get_backend_name() == "sqlite":
         path = Path(parsed.database or "")
         if not parsed.database or parsed.database == ":memory:":
@@ -96,7 +99,10 @@ def _engine(url: str, create: bool) -> Any:
     try:
         return create_engine(parsed, pool_pre_ping=True)
     except Exception as exc:  # a driver missing or an option it refuses
-        raise HistoryError(f"--history {parsed.render_as_string()}: {exc}") from None
+        raise HistoryError(
+            f"--history {parsed.render_as_string()}: {_one_line(exc)} "
+            "(give an SQLite file or postgresql://USER@HOST/DB)"
+        ) from None
 
 
 def _one_line(exc: BaseException) -> str:
