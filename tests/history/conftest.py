@@ -54,9 +54,10 @@ def measured(tmp_path_factory) -> Path:
     calibrations (identify), and an ISO 9283 test (verify), made by the commands."""
     folder = tmp_path_factory.mktemp("measured")
     for i, noise in enumerate(("0.02", "0.04", "0.06")):
-        result = cli("simulate", "--seed", "3", "--noise-mm", noise, "-o", f"s{i}.parquet", cwd=folder)
+        session = f"s{i}.parquet"
+        result = cli("simulate", "--seed", "3", "--noise-mm", noise, "-o", session, cwd=folder)
         assert result.code == 0, result.stderr
-        result = cli("identify", f"s{i}.parquet", "-o", f"cal{i}.json", "--method", "lm", cwd=folder)
+        result = cli("identify", session, "-o", f"cal{i}.json", "--method", "lm", cwd=folder)
         assert result.code == 0, result.stderr
     result = cli(
         "verify", "--model", "er10l-c10", "--cycles", "2", "--readings", "1", "-q",
