@@ -221,3 +221,73 @@ def tracker_(
     with open_history(history) as store:
         store.describe_tracker(name, model, serial, when)
         typer.echo(f"tracker {name} described in the history {store.where}")
+
+
+@history_app.command("reidentify")
+def reidentify(
+    robot: str = typer.Option(None, help="Only this robot's sessions [default: every robot's]."),
+    history: str = _history_option(),
+    folder: Path = typer.Option(
+        Path("reidentified"),
+        "-o",
+        "--output",
+        metavar="DIR",
+        help="Folder for the new calibration files (SESSION-DIGEST.json).",
+    ),
+    identify_options: str = typer.Option(
+        "",
+        "--identify-options",
+        metavar="OPTIONS",
+        help='identify\'s options for every session, e.g. "--method lm --seed 2" '
+        "[default: identify's defaults].",
+    ),
+    workers: int = typer.Option(
+        None, callback=checks.at_least(1), help="Run on a local Dask cluster of N workers."
+    ),
+    scheduler: str = typer.Option(
+        None, metavar="ADDRESS", help="Run on this Dask scheduler (tcp://HOST:8786)."
+    ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress display."),
+) -> None:
+    """Identify every stored session again and record the results as new calibrations.
+
+    Each result is what identify gives on that session with these options
+    (bit for bit); the sessions must be where the history recorded them.
+    """
+    import time
+
+    from calibrator import outputs, progress
+    from calibrator.history import open_history
+    from calibrator.history import reidentify as redo
+
+    if workers is not None and scheduler is not None:
+        fail("give --workers or --scheduler, not both")
+    options = redo.parse_options(identify_options)
+    with open_history(history, create=False) as store:
+        jobs = redo.plan(store, robot, folder, on_skip=_skipped)
+        if not jobs:
+            typer.echo("no stored session to identify again")
+            return
+        outputs.check_folder(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        started = time.perf_counter()
+        reporter = progress.Reporter.for_cli(quiet)
+        with reporter.task("reidentify", len(jobs), "sessions") as task:
+            results = redo.run(
+                jobs, options, workers, scheduler, progress=lambda done, _: task.update(done)
+            )
+        took = time.perf_counter() - started
+        failed = 0
+        for job, (code, error) in zip(jobs, results, strict=True):
+            if code != 0:
+                failed += 1
+                last = error.strip().splitlines()[-1] if error.strip() else f"exit {code}"
+                typer.echo(f"{job.session}: {last}", err=True)
+                continue
+            store.record_calibration(job.output, robot=job.robot)
+        typer.echo(
+            f"identified {len(jobs) - failed} of {len(jobs)} sessions again in {took:.1f} s; "
+            f"recorded in the history {store.where}, files in {folder}"
+        )
+    if failed:
+        raise typer.Exit(1)

@@ -35,8 +35,8 @@ class Timeline:
 
 def load(store: Any, robot: str) -> Timeline:
     """A robot's records from a :class:`calibrator.history.History`."""
-    about = next(r for r in store.robots() if r["name"] == robot) if store.robots() else {}
     calibrations = store.calibrations(robot)  # refuses an unknown robot first
+    about = next(r for r in store.robots() if r["name"] == robot)
     sessions = store.sessions(robot)
     verifications = store.verifications(robot)
     used = {s["tracker"] for s in sessions} | {v["tracker"] for v in verifications}
