@@ -203,7 +203,7 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
                 c["time"],
                 "check",
                 c["verdict"],
-                f"check: {c['verdict']}: measured {c['measured_mm']:.3f} mm against "
+                f"{c['verdict']}: measured {c['measured_mm']:.3f} mm against "
                 f"{c['predicted_mm']:.3f} mm predicted; {why}",
             )
         )

@@ -187,7 +187,7 @@ def _held_out(fig: Any, data: Timeline, limits: Limits) -> None:
     ax.set_ylabel("mean position error (mm)")
     ax.set_xlabel("date (UTC)")
     ax.legend(fontsize="small")
-    fig.autofmt_xdate()
+    _dates(ax)
 
 
 def _iso(fig: Any, verifications: list) -> None:
@@ -201,7 +201,7 @@ def _iso(fig: Any, verifications: list) -> None:
     ax.set_ylabel("largest over the test poses (mm)")
     ax.set_xlabel("date (UTC)")
     ax.legend(fontsize="small")
-    fig.autofmt_xdate()
+    _dates(ax)
 
 
 def _parameters(fig: Any, calibrations: list, names: list) -> None:
@@ -223,10 +223,11 @@ def _parameters(fig: Any, calibrations: list, names: list) -> None:
             times, [v - b for v, b in zip(values, band, strict=True)],
             [v + b for v, b in zip(values, band, strict=True)], alpha=0.3,
         )  # fmt: skip
-        ax.plot(times, values, "o-", markersize=3)
+        # Error bars too: calibrations made close together leave the band no width.
+        ax.errorbar(times, values, yerr=band, fmt="o-", markersize=3, capsize=2)
         ax.set_title(f"{name} ({unit})", fontsize="small")
         ax.tick_params(labelsize="x-small")
-        ax.tick_params(axis="x", labelrotation=30)
+        _dates(ax, ticks=4)
 
 
 def _conditions(sessions: list) -> dict[str, list]:
@@ -252,4 +253,17 @@ def _plot_conditions(fig: Any, series: dict) -> None:
     ax.set_ylabel("value (unit in the name)")
     ax.set_xlabel("date (UTC)")
     ax.legend(fontsize="small")
-    fig.autofmt_xdate()
+    _dates(ax)
+
+
+def _dates(ax: Any, ticks: int = 6) -> None:
+    """Dates on the x axis, few and short (matplotlib's concise format)."""
+    from matplotlib import dates
+
+    low, high = ax.get_xlim()
+    if high - low < 3:  # days: records made together are shown over three days
+        middle = (low + high) / 2
+        ax.set_xlim(middle - 1.5, middle + 1.5)
+    locator = dates.AutoDateLocator(minticks=2, maxticks=ticks)
+    ax.xaxis.set_major_locator(locator)
+    ax.xaxis.set_major_formatter(dates.ConciseDateFormatter(locator))
