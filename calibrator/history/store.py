@@ -90,6 +90,11 @@ def _engine(url: str, create: bool) -> Any:
             # takes the write lock, so two writers queue instead of deadlocking.
             dbapi_connection.isolation_level = None
             dbapi_connection.execute("PRAGMA foreign_keys = ON")
+            # A commit appends to the write-ahead log and syncs it once, where the
+            # rollback journal syncs the journal and the file: a record took 29 ms
+            # with the journal and 10 ms with the log (300 records,
+            # benchmarks/history_records.py). Readers no longer wait for a writer.
+            dbapi_connection.execute("PRAGMA journal_mode = WAL")
 
         @event.listens_for(engine, "begin")
         def _begin(connection: Any) -> None:
