@@ -272,19 +272,19 @@ def reidentify(
         folder.mkdir(parents=True, exist_ok=True)
         started = time.perf_counter()
         reporter = progress.Reporter.for_cli(quiet)
-        with reporter.task("reidentify", len(jobs), "sessions") as task:
-            results = redo.run(
-                jobs, options, workers, scheduler, progress=lambda done, _: task.update(done)
-            )
-        took = time.perf_counter() - started
         failed = 0
-        for job, (code, error) in zip(jobs, results, strict=True):
-            if code != 0:
-                failed += 1
-                last = error.strip().splitlines()[-1] if error.strip() else f"exit {code}"
-                typer.echo(f"{job.session}: {last}", err=True)
-                continue
-            store.record_calibration(job.output, robot=job.robot)
+        with reporter.task("reidentify", len(jobs), "sessions") as task:
+            for done, (job, code, error) in enumerate(
+                redo.run(jobs, options, workers, scheduler), start=1
+            ):
+                if code == 0:
+                    store.record_calibration(job.output, robot=job.robot)
+                else:
+                    failed += 1
+                    last = error.strip().splitlines()[-1] if error.strip() else f"exit {code}"
+                    typer.echo(f"{job.session}: {last}", err=True)
+                task.update(done)
+        took = time.perf_counter() - started
         typer.echo(
             f"identified {len(jobs) - failed} of {len(jobs)} sessions again in {took:.1f} s; "
             f"recorded in the history {store.where}, files in {folder}"

@@ -9,7 +9,7 @@ calibrations are recorded in the history in the order of the sessions.
 from __future__ import annotations
 
 import shlex
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
 from io import StringIO
@@ -120,9 +120,8 @@ def run(
     options: Sequence[str] = (),
     workers: int | None = None,
     scheduler: str | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> list[tuple[int, str]]:
-    """identify on every job: here (neither ``workers`` nor ``scheduler``) or on Dask.
+) -> Iterator[tuple[Job, int, str]]:
+    """identify on every job, here (neither ``workers`` nor ``scheduler``) or on Dask.
 
     Parameters
     ----------
@@ -135,24 +134,24 @@ def run(
     scheduler : str, optional
         An existing Dask scheduler; its workers read the session files at
         the paths the history stores.
-    progress : callable, optional
-        ``progress(done, total)`` after each job.
 
-    Returns
-    -------
-    list of (int, str)
-        identify's exit code and error text per job, in job order.
+    Yields
+    ------
+    job : Job
+    code : int
+        identify's exit code (0: the calibration is written).
+    error : str
+        What identify printed on stderr.
+
+    In job order, each as soon as it and every job before it are done, so
+    the caller records while the workers compute.
     """
     from calibrator.analysis import engine
 
-    total = len(jobs)
     if workers is None and scheduler is None:
-        here = []
-        for i, job in enumerate(jobs):
-            here.append(identify_one(job.session, job.output, tuple(options)))
-            if progress:
-                progress(i + 1, total)
-        return here
+        for job in jobs:
+            yield (job, *identify_one(job.session, job.output, tuple(options)))
+        return
     client, cluster = engine._connect(workers, scheduler)
     try:
         from dask.distributed import as_completed
@@ -162,11 +161,12 @@ def run(
             for job in jobs
         ]
         index = {f.key: i for i, f in enumerate(futures)}
-        results: list = [None] * total
-        for done, future in enumerate(as_completed(futures), start=1):
-            results[index[future.key]] = future.result()
-            if progress:
-                progress(done, total)
-        return results
+        done: dict[int, tuple[int, str]] = {}
+        following = 0
+        for future in as_completed(futures):
+            done[index[future.key]] = future.result()
+            while following in done:
+                yield (jobs[following], *done.pop(following))
+                following += 1
     finally:
         engine._close(client, cluster)
