@@ -38,7 +38,8 @@ class _ShowByDefault(TyperGroup):
 
 history_app = typer.Typer(
     cls=_ShowByDefault,
-    help="A per-robot history of calibrations, ISO 9283 tests and checks (docs/history.md).",
+    help="A per-robot history of calibrations, ISO 9283 tests and checks (docs/history.md). "
+    "'calibrator history [ROBOT] [OPTIONS]' is 'history show'.",
 )
 app.add_typer(history_app, name="history")
 
