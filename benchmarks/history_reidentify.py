@@ -15,6 +15,7 @@ few equal ``calibrator identify`` run on those sessions one by one.
 
 import argparse
 import json
+import resource
 import shutil
 import subprocess
 import sys
@@ -27,6 +28,8 @@ from calibrator.history import open_history
 
 
 def _calibrator(*args, cwd):
+    """Run calibrator; return its wall time and the CPU time of it and its workers (s)."""
+    cpu = _children_cpu()
     started = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-m", "calibrator", *map(str, args)], cwd=cwd, capture_output=True,
@@ -34,7 +37,12 @@ def _calibrator(*args, cwd):
     )  # fmt: skip
     if done.returncode != 0:
         raise SystemExit(f"calibrator {' '.join(map(str, args))} failed: {done.stderr.strip()}")
-    return time.perf_counter() - started
+    return time.perf_counter() - started, _children_cpu() - cpu
+
+
+def _children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _doc(path):
@@ -61,11 +69,13 @@ def main() -> None:
         for r in range(args.repeats):
             for workers in (1, 2):
                 out = folder / f"w{workers}-{r}"
-                times[workers].append(
-                    _calibrator("history", "reidentify", "--history", history, "-o", out,
-                                "--workers", workers, "-q", cwd=folder)
+                wall, cpu = _calibrator(
+                    "history", "reidentify", "--history", history, "-o", out,
+                    "--workers", workers, "-q", cwd=folder,
                 )  # fmt: skip
-                print(f"{workers} worker(s): {times[workers][-1]:.1f} s", flush=True)
+                times[workers].append(wall)
+                # CPU / wall: how many cores the run had (2 workers on an idle 2-core machine: ~2).
+                print(f"{workers} worker(s): {wall:.1f} s, {cpu / wall:.2f} cores busy", flush=True)
         one, two = sorted(folder.glob("w1-0/*.json")), sorted(folder.glob("w2-0/*.json"))
         assert len(one) == len(two) == args.sessions
         assert all(_doc(a) == _doc(b) for a, b in zip(one, two, strict=True))
