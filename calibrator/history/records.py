@@ -222,16 +222,7 @@ def session(path: Path) -> Record:
     simulated = extra.get("simulated")
     if not robot and isinstance(simulated, dict) and loaded.meta.model:
         robot = f"sim:{loaded.meta.model}:seed={simulated.get('seed')}"
-    measured_at = file_time(path).replace(microsecond=0)
-    if "timestamp" in loaded.table.column_names:
-        stamps = [t for t in loaded.table.column("timestamp").to_pylist() if t is not None]
-        if stamps:
-            first = min(stamps)
-            measured_at = (
-                utc(first, where=str(path))
-                if isinstance(first, str)
-                else (first.astimezone(UTC).replace(tzinfo=None) if first.tzinfo else first)
-            )
+    measured_at = _first_time(loaded.table) or file_time(path).replace(microsecond=0)
     conditions = extra.get("conditions")
     row = {
         "sha256": calibrations.digest(path),
@@ -248,6 +239,23 @@ def session(path: Path) -> Record:
         tracker=str(tracker) if tracker else None,
         model=loaded.meta.model,
     )
+
+
+def _first_time(table: Any) -> datetime | None:
+    """The earliest ``timestamp`` of a session's rows (naive UTC), if it records them."""
+    if "timestamp" not in table.column_names:
+        return None
+    stamps = []
+    for value in table.column("timestamp").to_pylist():
+        if isinstance(value, datetime):
+            aware = value.tzinfo is not None
+            stamps.append(value.astimezone(UTC).replace(tzinfo=None) if aware else value)
+        elif isinstance(value, str):
+            try:
+                stamps.append(utc(value, "timestamp"))
+            except HistoryError:
+                continue
+    return min(stamps) if stamps else None
 
 
 #: Fields of a check document: name -> what it must be.

@@ -163,6 +163,9 @@ def test_opening_refuses_what_is_not_a_history(tmp_path):
         open_history(other)
     with pytest.raises(HistoryError, match="give an SQLite file or postgresql://"):
         open_history("nosuchdriver+x://y")
+    # A server that does not answer (nothing listens on port 1 of this machine).
+    with pytest.raises(HistoryError, match=r"history postgresql\+psycopg://nobody@127.0.0.1:1/h"):
+        open_history("postgresql://nobody@127.0.0.1:1/h")
 
 
 def test_default_location_and_environment(tmp_path, monkeypatch):
@@ -175,3 +178,14 @@ def test_default_location_and_environment(tmp_path, monkeypatch):
     with open_history() as h:
         assert h.robots() == []
     assert (tmp_path / "team.sqlite").is_file()
+
+
+def test_a_session_is_dated_by_its_first_measured_pose():
+    import pyarrow as pa
+
+    from calibrator.history import records
+
+    stamps = ["2026-03-02T10:00:05.000+01:00", "2026-03-02T09:59:59.500+01:00", "garbled"]
+    table = pa.table({"timestamp": pa.array(stamps, pa.string())})
+    assert records._first_time(table) == datetime(2026, 3, 2, 8, 59, 59, 500000)
+    assert records._first_time(pa.table({"pose": [1]})) is None
