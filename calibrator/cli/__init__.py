@@ -33,6 +33,7 @@ COMMANDS = {
     "report": "report",
     "analyze": "analyze",
     "simulate": "simulate",
+    "history": "history",
 }
 
 

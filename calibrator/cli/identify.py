@@ -116,6 +116,12 @@ def identify(
         "error below this (mm).",
     ),
     quiet: bool = opts.quiet(),
+    history: str = typer.Option(
+        None,
+        "--history",
+        metavar="FILE|URL",
+        help="Also record it in this history (docs/history.md).",
+    ),
 ) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
     import numpy as np
@@ -250,6 +256,10 @@ def identify(
         typer.echo(_target_line(result, target_mm))
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+    if history is not None:
+        from calibrator.cli.history import record
+
+        record(history, "calibration", output)
 
 
 @dataclass(frozen=True)

@@ -95,6 +95,12 @@ def verify(
         False, hidden=True, help="The simulated tracker's probe reports its orientation."
     ),
     sim_control: str = typer.Option(None, hidden=True),
+    history: str = typer.Option(
+        None,
+        "--history",
+        metavar="FILE|URL",
+        help="Also record it in this history (docs/history.md).",
+    ),
 ) -> None:
     """ISO 9283 pose test: P5..P1 for --cycles cycles; AP and RP per test pose.
 
@@ -228,6 +234,10 @@ def verify(
             err=True,
         )
     _print_table(written["doc"], output, data_path)
+    if history is not None:
+        from calibrator.cli.history import record
+
+        record(history, "verification", output)
 
 
 def _base_frame(text: str | None) -> Any:
