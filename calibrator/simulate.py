@@ -204,6 +204,9 @@ class SimWorld:
         The true arm's load-side joint errors (positioning spread, backlash);
         None: it lands exactly where commanded. Drawn from
         :meth:`repeatability_rng`.
+    noise_seed : int, optional
+        Seed of the trackers' noise; None: ``seed``. A world file pins the
+        arm's seed and leaves each run's noise to the run's own seed.
     """
 
     model: object
@@ -213,6 +216,7 @@ class SimWorld:
     flange2tool: np.ndarray
     tracker_at_mm: np.ndarray
     repeatability: object = None
+    noise_seed: int | None = None
 
     @classmethod
     def make(cls, model_name: str, seed: int, repeatability: object = None) -> SimWorld:

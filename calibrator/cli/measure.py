@@ -44,6 +44,7 @@ def measure(
     ),
     tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm (first guess; identified)."),
     seed: int = opts.seed(0, "Seed of the plan and of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     retry_pause: float = typer.Option(
         0.2,
         callback=checks.finite(minimum=0.0, maximum=60.0),
@@ -88,12 +89,13 @@ def measure(
     from calibrator.acquire.run import RunOptions
 
     output = Path(output)
-    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay) if p is not None]
+    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
     outputs.check(output, inputs=inputs)
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
 
     user_plan = plans.read_plan(plan_path) if plan_path is not None else None
@@ -116,7 +118,8 @@ def measure(
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                       sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=run_args.max_speed, external=external)
+                      sim_control=sim_control, max_speed=run_args.max_speed, external=external,
+                      world_file=world_file)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)

@@ -79,6 +79,7 @@ def verify(
     tracker_at: str = opts.tracker_at("Tracker position in the robot base frame X,Y,Z (mm)."),
     tool: str = opts.tool("Nominal TCP on the flange X,Y,Z, mm (the controller's tool)."),
     seed: int = opts.seed(0, "Seed of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     quiet: bool = opts.quiet(),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_repeatability: bool = typer.Option(
@@ -111,7 +112,7 @@ def verify(
     if register_path is not None and base_frame is not None:
         fail("give one registration: --register or --base-frame")
     surveyed_base = _base_frame(base_frame)
-    inputs = [p for p in (calibration_path, register_path, sim_faults) if p is not None]
+    inputs = [p for p in (calibration_path, register_path, sim_faults, world) if p is not None]
     outputs.check(output, inputs=inputs)
     outputs.check(data_path, inputs=inputs)
     if not run_args.resume and data_path.exists():
@@ -121,6 +122,7 @@ def verify(
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
@@ -151,7 +153,8 @@ def verify(
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                      sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof)
+                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof,
+                     world_file=world_file)
         )  # fmt: skip
         mrun.check_files()
         mrun.connect(tracker)

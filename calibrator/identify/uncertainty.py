@@ -28,6 +28,8 @@ if TYPE_CHECKING:
 STRONG_CORRELATION = 0.9
 # E|e| / sqrt(E|e|^2) for an isotropic 3-D Gaussian: sqrt(8 / (3 pi)).
 _MEAN_OVER_RMS = float(np.sqrt(8.0 / (3.0 * np.pi)))
+#: The same ratio, for other modules' predictions of a mean distance error.
+MEAN_OVER_RMS = _MEAN_OVER_RMS
 
 
 def block_sigmas(

@@ -102,7 +102,7 @@ def open_simulated_tracker(url: str, options: OpenOptions) -> SimulatedTracker:
     if options.world is None:
         raise ValueError("--tracker sim needs the simulated world (measure builds it)")
     return SimulatedTracker(
-        seed=options.world.seed,
+        seed=options.world.seed if options.world.noise_seed is None else options.world.noise_seed,
         noise=options.sim_noise,
         faults=options.sim_faults,
         replay=options.sim_replay,
