@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from calibrator.identify.uncertainty import MEAN_OVER_RMS
+from calibrator.identify.uncertainty import MEAN_OVER_RMS, sigma_bias
 
 VERDICTS = ("ok", "drifted", "recalibrate")
 #: Probability of an alarm on an unchanged arm (per check).
@@ -122,7 +122,8 @@ def judge(
     dof = 3 * n
     p = p_value(statistic, dof, noise_dof)
     per_pose = np.sqrt(np.einsum("nii->n", _blocks(cov, n)))
-    predicted = float(MEAN_OVER_RMS * per_pose.mean())
+    # As identify's prediction: the root of a noise estimated from few rows is low by c4.
+    predicted = float(MEAN_OVER_RMS * per_pose.mean() / sigma_bias(noise_dof))
     measured = float(np.linalg.norm(e, axis=1).mean())
     limit = RECALIBRATE_RATIO * predicted if tolerance_mm is None else float(tolerance_mm)
     if p >= ALARM_P:
