@@ -207,6 +207,12 @@ class SimWorld:
     noise_seed : int, optional
         Seed of the trackers' noise; None: ``seed``. A world file pins the
         arm's seed and leaves each run's noise to the run's own seed.
+    air : tuple of 3 float, optional
+        The air around the tracker: degC, hPa, %RH (None: the simulator's
+        standard air).
+    tracker_on_s : float, optional
+        The tracker's time since power-on when the run starts, s (None: the
+        simulator's default, warmed up).
     """
 
     model: object
@@ -217,6 +223,8 @@ class SimWorld:
     tracker_at_mm: np.ndarray
     repeatability: object = None
     noise_seed: int | None = None
+    air: tuple | None = None
+    tracker_on_s: float | None = None
 
     @classmethod
     def make(cls, model_name: str, seed: int, repeatability: object = None) -> SimWorld:

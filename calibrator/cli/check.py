@@ -230,22 +230,20 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
 
 
 def _conditions(records: dict) -> dict:
-    """The measuring conditions the run recorded: its span and the tracker's spread."""
+    """The measuring conditions the run recorded: its span, the spread, what the devices said."""
     import numpy as np
+
+    from calibrator.acquire import rows
 
     measured = [r for r in records.values() if r["status"] == "measured"]
     times = sorted(r["timestamp"] for r in measured if "timestamp" in r)
     spread = [float(np.linalg.norm(r["std_mm"])) for r in measured]
-    out: dict = {
+    return {
         "started": times[0] if times else None,
         "ended": times[-1] if times else None,
         "reading_spread_mm": {"mean": float(np.mean(spread)), "max": float(np.max(spread))},
+        **rows.summarise(measured),
     }
-    for key in ("environment", "joint_temperatures_c", "tracker_on_s"):
-        values = [r[key] for r in measured if key in r]
-        if values:
-            out[key] = values
-    return out
 
 
 def _record(url: str, doc: dict) -> None:
