@@ -18,6 +18,8 @@ so that ``measure``, ``check`` and ``verify`` can be run against it
     reflector_shift_mm: [0, 0, 0]  # the reflector moved on the flange (flange frame)
     noise: true                    # false: the trackers read exactly
     repeatability: false           # true: the arm lands off its targets as a typical arm does
+    tracker: {air: [20.0, 1013.25, 50.0], on_minutes: 180}   # its air (degC, hPa, %RH) and
+                                   # time since power-on (warmed up after 120 min)
 
 Units: mm and rad. Nothing here touches hardware; the drivers receive the
 :class:`~calibrator.simulate.SimWorld` it builds.
@@ -48,6 +50,7 @@ _KEYS = {
     "reflector_shift_mm",
     "noise",
     "repeatability",
+    "tracker",
 }
 #: Largest change a world file may make (a world, not a different arm): mm, rad.
 MAX_CHANGE = {"mm": 50.0, "rad": 0.2}
@@ -83,6 +86,10 @@ class World:
     repeatability : bool
         The arm has a typical arm's joint positioning error and backlash
         (``drivers.robot.simulated.JointRepeatability.typical``).
+    air : tuple of 3 float, optional
+        The air the tracker's station measures: degC, hPa, %RH.
+    tracker_on_s : float, optional
+        The tracker's time since power-on when the run starts, s.
     """
 
     model: str | None = None
@@ -95,6 +102,8 @@ class World:
     reflector_shift_mm: np.ndarray = field(default_factory=lambda: np.zeros(3))
     noise: bool = True
     repeatability: bool = False
+    air: tuple | None = None
+    tracker_on_s: float | None = None
 
     def build(self, model_name: str, seed: int, repeatability: Any = None) -> SimWorld:
         """The simulated world of this file for the run's model and seed.
@@ -131,6 +140,8 @@ class World:
             base2tracker=world.base2tracker @ moved,
             flange2tool=tool,
             noise_seed=seed,
+            air=self.air,
+            tracker_on_s=self.tracker_on_s,
         )
 
 
@@ -193,6 +204,7 @@ def parse_world(doc: Any) -> World:
     for key, value in (("noise", noise), ("repeatability", repeatability)):
         if not isinstance(value, bool):
             raise WorldError(f"{key}: expected true or false, got {value!r}")
+    air, on_s = _tracker(doc.get("tracker"))
     return World(
         model=None if model is None else model.strip().lower(),
         seed=seed,
@@ -206,7 +218,43 @@ def parse_world(doc: Any) -> World:
         reflector_shift_mm=_vector(doc.get("reflector_shift_mm"), 3, "reflector_shift_mm", "mm"),
         noise=noise,
         repeatability=repeatability,
+        air=air,
+        tracker_on_s=on_s,
     )
+
+
+#: The air a tracker measures in (its meteo limits): degC, hPa, %RH.
+AIR_LIMITS = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))
+
+
+def _tracker(doc: Any) -> tuple[tuple | None, float | None]:
+    """``tracker: {air: [T, P, H], on_minutes: M}``: the air, and the time on in s."""
+    if doc is None:
+        return None, None
+    if not isinstance(doc, dict) or set(doc) - {"air", "on_minutes"}:
+        raise WorldError("tracker: expected a mapping with air ([T, P, H]) and on_minutes")
+    air = None
+    if doc.get("air") is not None:
+        values = doc["air"]
+        if not isinstance(values, list) or len(values) != 3:
+            raise WorldError(f"tracker.air: expected [degC, hPa, %RH], got {values!r}")
+        air = tuple(_plain(v, f"tracker.air[{i}]") for i, v in enumerate(values))
+        for v, (lo, hi), name in zip(air, AIR_LIMITS, ("degC", "hPa", "%RH"), strict=True):
+            if not lo <= v <= hi:
+                raise WorldError(f"tracker.air: {v} {name} outside {lo:g}..{hi:g}")
+    on_s = None
+    if doc.get("on_minutes") is not None:
+        minutes = _plain(doc["on_minutes"], "tracker.on_minutes")
+        if minutes < 0:
+            raise WorldError(f"tracker.on_minutes: expected minutes >= 0, got {minutes}")
+        on_s = 60.0 * minutes
+    return air, on_s
+
+
+def _plain(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise WorldError(f"{what}: expected a finite number, got {value!r}")
+    return float(value)
 
 
 def _number(value: Any, what: str, unit: str) -> float:

@@ -51,6 +51,13 @@ def measure(
         help="Pause before re-measuring a pose after a lost reading, s; doubled each "
         "further retry (up to 8 times).",
     ),
+    warm_up: float = typer.Option(
+        0.0,
+        "--warm-up",
+        callback=checks.finite(minimum=0.0, maximum=600.0),
+        help="Move through the plan's moves for about this long first, without measuring, "
+        "min (warms the arm; docs/measure.md).",
+    ),
     ask_relock: bool = typer.Option(
         True,
         help="On a terminal, ask the operator to re-lock a lost beam (Enter) before a retry.",
@@ -123,6 +130,8 @@ def measure(
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)
+        for line in _warmup_warnings(run, warm_up, robot):
+            typer.echo(f"warning: {line}", err=True)
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
         marks.append(("plan (make and check)", time.perf_counter()))
@@ -148,6 +157,7 @@ def measure(
             _StopOnSigint() as interrupt,
             reporter.task("measure", len(run.plan), "poses") as task,
         ):
+            _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
             run.measure(
                 should_stop=lambda: interrupt.requested,
                 on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
@@ -163,6 +173,24 @@ def measure(
     for line in summary.notes:
         typer.echo(line)
     _report(summary, options)
+
+
+def _warmup_warnings(run, minutes: float, robot: str) -> list[str]:
+    from calibrator.acquire import warmup
+
+    if minutes > 0 and robot == "external":
+        _fail("--warm-up is for robots measure drives (the external robot runs its own program)")
+    return [w for w in [warmup.tracker_warning(run.tracker)] if w]
+
+
+def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
+    """``--warm-up``: the plan's moves, forwards and backwards, for about ``minutes``."""
+    from calibrator.acquire import warmup
+
+    if minutes > 0:
+        passes = warmup.warm_up_run(run, minutes, should_stop)
+        if not quiet:
+            typer.echo(f"warmed up: {passes} pass(es) of the plan's moves, no readings", err=True)
 
 
 def _external_options(
