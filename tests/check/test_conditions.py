@@ -118,3 +118,27 @@ def test_warm_up_runs_the_checked_path_forwards_then_backwards():
     assert warmup.warm_up(robot, path, 3, 0.5, 1.0, lambda: next(stop_after)) == 2
     assert warmup.passes_for(10, 120.0) == 5 and warmup.passes_for(0.1, 120.0) == 1
     assert warmup.passes_for(0, 120.0) == 0
+
+
+def test_emscon_reports_its_environment_parameters():
+    from drivers.tracker.base import Environment
+    from drivers.tracker.emscon import EmsconTracker
+    from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
+
+    server = EmsconServer(EmsconSimulator(seed=1, initialised=True))
+    server.open()
+    server = server.start()
+    try:
+        tracker = EmsconTracker(
+            "127.0.0.1", server.port, environment=Environment(21.3, 1002.0, 45.0), timeout_s=1.0
+        )
+        tracker.connect()
+        try:
+            said = tracker.conditions()
+        finally:
+            tracker.close()
+    finally:
+        server.stop()
+    assert said == pytest.approx(
+        {"air_temperature_c": 21.3, "air_pressure_hpa": 1002.0, "air_humidity_pct": 45.0}
+    )
