@@ -57,6 +57,12 @@ def test_measure_with_a_cold_tracker_warns_and_the_session_keeps_the_conditions(
     assert said["tracker_warmed_up"] is False and said["poses_reporting"] == 30
     table = pq.read_table(tmp_path / "s.parquet")
     assert table["tracker_warmed_up"].to_pylist() == [False] * 30
+    # The report shows them.
+    assert cli("identify", "s.parquet", "-o", "c.json", "-q", cwd=tmp_path).code == 0
+    assert cli("report", "c.json", "s.parquet", "-o", "r", cwd=tmp_path).code == 0
+    page = (tmp_path / "r" / "index.html").read_text()
+    assert "air at the tracker</th><td>23.5 °C, 990.0 hPa, 35 %RH</td>" in page
+    assert "tracker warm-up</th><td>NOT warmed up, on for 20 min</td>" in page
 
 
 def test_a_warm_tracker_gives_no_warning(tmp_path):
