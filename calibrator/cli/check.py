@@ -94,6 +94,8 @@ def check(
         fail("--resume is not for --robot external: run the check again")
     arm = run_args.arm()
     world_file = _run.read_world(world, robot, tracker)
+    if history is not None:
+        _open_history(history).close()  # one it cannot open is refused before anything moves
     cal = calibrations.load(calibration_path)
     if cal.model and cal.model != arm.name:
         fail(f"{calibration_path} calibrates a {cal.model}, not --model {run_args.model}")
@@ -246,13 +248,18 @@ def _conditions(records: dict) -> dict:
     }
 
 
-def _record(url: str, doc: dict) -> None:
-    """``--history``: record the check (the history package, imported only when asked)."""
+def _open_history(url: str) -> Any:
+    """``--history``: the history opened (the history package, imported only when asked)."""
     try:
         from calibrator.history import open_history  # type: ignore[import-not-found]
     except ImportError:
         fail("--history: this installation has no history support (calibrator.history)")
-    with open_history(url) as store:
+    return open_history(url)
+
+
+def _record(url: str, doc: dict) -> None:
+    """Record the check in the history at ``url``."""
+    with _open_history(url) as store:
         number = store.record_check(doc)
     typer.echo(f"recorded check {number} in {url}")
 
