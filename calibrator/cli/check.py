@@ -105,6 +105,11 @@ def check(
             "tracker readings with a calibration that registered the tracker (measure's sessions)"
         )
     model = Calibrated.of(cal)
+    if not model.sigma_mm > 0:
+        fail(
+            f"{calibration_path} records no residual noise (its uncertainty): the check cannot "
+            "predict its error; identify the session again with this version"
+        )
     tool_mm = tuple(float(v) for v in cal.flange2tool[:3, 3])
     # Where the calibration found the tracker, unless told otherwise.
     at = triple(tracker_at, "--tracker-at")

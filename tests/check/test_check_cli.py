@@ -17,6 +17,9 @@ def calibrated(tmp_path_factory):
                cwd=folder)  # fmt: skip
     assert base.code == 0, base.stderr
     assert cli("identify", "b.parquet", "-o", "base.json", "-q", cwd=folder).code == 0
+    doc = json.loads((folder / "cal.json").read_text())
+    doc["uncertainty"] = {}  # as a calibration from before the uncertainty was recorded
+    (folder / "bare.json").write_text(json.dumps(doc))
     return folder
 
 
@@ -45,6 +48,7 @@ def test_a_check_writes_its_verdict_and_poses_and_says_the_cell_time_first(calib
         (("--calibration", "cal.json", "--poses", "4"), "--poses"),
         (("--calibration", "cal.json", "-o", "x.parquet"), "give the JSON file"),
         (("--calibration", "cal.json", "--world", "nope.yaml"), "nope.yaml"),
+        (("--calibration", "bare.json"), "records no residual noise"),
     ],
 )
 def test_bad_input_is_refused_in_one_line_and_nothing_is_written(calibrated, args, message):
