@@ -162,21 +162,27 @@ def observability(
     flange2tool: ArrayLike | None = None,
     frame: str = "tracker",
     tool_known: bool = False,
+    names: tuple | None = None,
 ) -> Observability:
     """Scaled identification Jacobian of each pose (position rows), nominal arm.
 
     The free set is the one ``identify`` starts from
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
-    the measured poses then pin down is decided at identification.
+    the measured poses then pin down is decided at identification. ``names``
+    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset
 
     q = np.atleast_2d(np.asarray(q, dtype=float))
     tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
-    free = freeset.decide(mdh, frame, tool_known, False, tool0=tool)
-    kept = free.names
-    space = free.space
+    if names is None:
+        free = freeset.decide(mdh, frame, tool_known, False, tool0=tool)
+        kept, space = free.names, free.space
+    else:
+        space = parameters.ParameterSpace(np.asarray(mdh, float), tool0=tool, free=tuple(names))
+        kept = space.free
     pose = measurement.predict(space, np.zeros(space.size), q)
     obs = measurement.Observations(q, pose[:, :3, 3])
     jac = measurement.jacobian(space, np.zeros(space.size), obs)
@@ -679,6 +685,11 @@ def write_plan(
     """
     from calibrator import outputs
 
+    outputs.write_text(path, plan_text(plan), inputs=inputs)
+
+
+def plan_text(plan: Plan) -> str:
+    """A :class:`Plan` as the CSV text :func:`write_plan` writes."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     origin: tuple = ()
@@ -692,7 +703,7 @@ def write_plan(
         for v in vias:
             writer.writerow(("", 1, *(repr(float(x)) for x in v), *origin))
         writer.writerow((i, 0, *(repr(float(x)) for x in q), *origin))
-    outputs.write_text(path, buf.getvalue(), inputs=inputs)
+    return buf.getvalue()
 
 
 #: Candidates closer than this on every joint are one pose (rad).
@@ -756,6 +767,7 @@ def make_checked(
     settle_s: float = 0.5,
     readings: int = 10,
     rate_hz: float = 10.0,
+    names: tuple | None = None,
 ) -> PlanReport:
     """A plan of ``n`` poses every check of :mod:`calibrator.cell` allows, in time-optimal order.
 
@@ -787,6 +799,9 @@ def make_checked(
         As :func:`make`.
     settle_s, readings, rate_hz
         For the time estimate (:func:`calibrator.cell.cell_time`).
+    names : tuple of str, optional
+        Parameters the D-optimal choice serves (see :func:`observability`);
+        default every one the model can identify.
 
     Raises
     ------
@@ -829,7 +844,7 @@ def make_checked(
     # The free set is the model's (from a rich reference set of poses), not what these
     # candidates happen to see: too few or too alike candidates must fail the rank test.
     reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
-    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm))
+    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm), names=names)
     obs = Observability(full.names, full.blocks[len(reference) :])
     # Any two poses must be joinable: through the arm upright if not directly. A pose
     # the arm cannot leave upwards safely (the shoulder past horizontal on the far

@@ -196,6 +196,15 @@ class SimWorld:
         The true arm's load-side joint errors (positioning spread, backlash);
         None: it lands exactly where commanded. Drawn from
         :meth:`repeatability_rng`.
+    noise_seed : int, optional
+        Seed of the trackers' noise; None: ``seed``. A world file pins the
+        arm's seed and leaves each run's noise to the run's own seed.
+    air : tuple of 3 float, optional
+        The air around the tracker: degC, hPa, %RH (None: the simulator's
+        standard air).
+    tracker_on_s : float, optional
+        The tracker's time since power-on when the run starts, s (None: the
+        simulator's default, warmed up).
     """
 
     model: object
@@ -205,6 +214,9 @@ class SimWorld:
     flange2tool: np.ndarray
     tracker_at_mm: np.ndarray
     repeatability: object = None
+    noise_seed: int | None = None
+    air: tuple | None = None
+    tracker_on_s: float | None = None
 
     @classmethod
     def make(cls, model_name: str, seed: int, repeatability: object = None) -> SimWorld:
@@ -236,11 +248,14 @@ class SimWorld:
     def with_tracker_at(self, at_mm: ArrayLike) -> SimWorld:
         """This world with the tracker moved to ``at_mm`` (3,), robot base frame, mm.
 
-        The tracker keeps its orientation; the arm, tool and seed are unchanged.
+        The tracker is shifted by ``at_mm - tracker_at_mm`` and keeps its
+        orientation, so anything else the world holds between base and
+        tracker (a base that moved: :mod:`calibrator.world`) stays; the arm,
+        tool and seed are unchanged.
         """
         at = np.asarray(at_mm, dtype=float).reshape(3)
-        tracker2base = frames.invert(self.base2tracker)
-        tracker2base[:3, 3] = at
+        shift = frames.transform(translation=at - np.asarray(self.tracker_at_mm, dtype=float))
+        tracker2base = shift @ frames.invert(self.base2tracker)
         return replace(self, base2tracker=frames.invert(tracker2base), tracker_at_mm=at.copy())
 
     def repeatability_rng(self) -> np.random.Generator:

@@ -48,11 +48,19 @@ def measure(
         default=None,
     ),
     seed: int = opts.seed(0, "Seed of the plan and of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     retry_pause: float = typer.Option(
         0.2,
         callback=checks.finite(minimum=0.0, maximum=60.0),
         help="Pause before re-measuring a pose after a lost reading, s; doubled each "
         "further retry (up to 8 times).",
+    ),
+    warm_up: float = typer.Option(
+        0.0,
+        "--warm-up",
+        callback=checks.finite(minimum=0.0, maximum=600.0),
+        help="Move through the plan's moves for about this long first, without measuring, "
+        "min (warms the arm; docs/measure.md).",
     ),
     ask_relock: bool = typer.Option(
         True,
@@ -103,12 +111,13 @@ def measure(
     from calibrator.acquire.run import RunOptions
 
     output = Path(output)
-    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay) if p is not None]
+    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
     outputs.check(output, inputs=inputs)
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
 
     user_plan = plans.read_plan(plan_path) if plan_path is not None else None
@@ -140,10 +149,13 @@ def measure(
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                       sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=run_args.max_speed, external=external)
+                      sim_control=sim_control, max_speed=run_args.max_speed, external=external,
+                      world_file=world_file)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)
+        for line in _warmup_warnings(run, warm_up, robot):
+            typer.echo(f"warning: {line}", err=True)
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
         marks.append(("plan (make and check)", time.perf_counter()))
@@ -169,6 +181,7 @@ def measure(
             _StopOnSigint() as interrupt,
             reporter.task("measure", len(run.plan), "poses") as task,
         ):
+            _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
             run.measure(
                 should_stop=lambda: interrupt.requested,
                 on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
@@ -184,6 +197,24 @@ def measure(
     for line in summary.notes:
         typer.echo(line)
     _report(summary, options)
+
+
+def _warmup_warnings(run, minutes: float, robot: str) -> list[str]:
+    from calibrator.acquire import warmup
+
+    if minutes > 0 and robot == "external":
+        _fail("--warm-up is for robots measure drives (the external robot runs its own program)")
+    return [w for w in [warmup.tracker_warning(run.tracker)] if w]
+
+
+def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
+    """``--warm-up``: the plan's moves, forwards and backwards, for about ``minutes``."""
+    from calibrator.acquire import warmup
+
+    if minutes > 0:
+        passes = warmup.warm_up_run(run, minutes, should_stop)
+        if not quiet:
+            typer.echo(f"warmed up: {passes} pass(es) of the plan's moves, no readings", err=True)
 
 
 def _external_options(

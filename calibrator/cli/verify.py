@@ -85,6 +85,7 @@ def verify(
     ),
     tool: str = opts.tool("Nominal TCP on the flange X,Y,Z, mm (the controller's tool)."),
     seed: int = opts.seed(0, "Seed of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     quiet: bool = opts.quiet(),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_repeatability: bool = typer.Option(
@@ -123,7 +124,9 @@ def verify(
     if register_path is not None and base_frame is not None:
         fail("give one registration: --register or --base-frame")
     surveyed_base = _base_frame(base_frame)
-    inputs = [p for p in (calibration_path, register_path, sim_faults, cell_file) if p]
+    inputs = [
+        p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
+    ]
     outputs.check(output, inputs=inputs)
     outputs.check(data_path, inputs=inputs)
     if not run_args.resume and data_path.exists():
@@ -133,6 +136,7 @@ def verify(
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
@@ -169,7 +173,8 @@ def verify(
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                      sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof)
+                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof,
+                     world_file=world_file)
         )  # fmt: skip
         mrun.check_files()
         # Every option is turned into what the run uses before the first motion:

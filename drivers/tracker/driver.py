@@ -24,11 +24,19 @@ from drivers.tracker.errors import (
     FrameError,
     IdentityChanged,
     LinkDropped,
+    TrackerError,
     TrackerGone,
     TrackerTimeout,
 )
 from drivers.tracker.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
-from drivers.tracker.protocol import Reading, Reply, format_number, parse_reading
+from drivers.tracker.protocol import (
+    ErrorCode,
+    Reading,
+    Reply,
+    format_number,
+    parse_number,
+    parse_reading,
+)
 from drivers.tracker.recording import Recorder
 
 
@@ -96,7 +104,7 @@ class LaserTracker:
         Meteo data :meth:`connect` sends when it is given none.
     """
 
-    capabilities = frozenset({ports.INITIALISE})
+    capabilities = frozenset({ports.INITIALISE, ports.REPORTS_CONDITIONS})
 
     def __init__(
         self,
@@ -227,6 +235,34 @@ class LaserTracker:
             format_number(environment.pressure_hpa, 2),
             format_number(environment.humidity_pct, 1),
         )
+
+    def conditions(self) -> dict | None:
+        """``COND?``: the air the station measures, time since power-on, warmed up.
+
+        Returns
+        -------
+        dict or None
+            ``air_temperature_c``, ``air_pressure_hpa``, ``air_humidity_pct``,
+            ``on_s`` (s since power-on) and ``warmed_up`` (bool); None from a
+            tracker (or bridge) that does not know the query.
+        """
+        try:
+            reply = self._query("COND?", idempotent=True)
+        except TrackerError as exc:
+            if exc.code == ErrorCode.UNKNOWN_COMMAND:
+                return None
+            raise
+        f = reply.fields
+        if len(f) != 5 or f[4] not in ("0", "1"):
+            raise FrameError(f"bad COND? reply fields {f!r}")
+        t, p, h, on_s = (parse_number(v) for v in f[:4])
+        return {
+            "air_temperature_c": t,
+            "air_pressure_hpa": p,
+            "air_humidity_pct": h,
+            "on_s": on_s,
+            "warmed_up": f[4] == "1",
+        }
 
     def set_mode(self, mode: str) -> None:
         """``MODE,<FAST|STANDARD|PRECISE>``: stationary measurement profile."""

@@ -61,7 +61,7 @@ def start_player(plan: Path, url: str, *args, cwd: Path) -> subprocess.Popen:
 
 
 class Watching:
-    """``calibrator measure --robot external ARGS`` running in ``cwd``, watching the tracker.
+    """``calibrator measure --robot external ARGS`` (or ``command``) in ``cwd``, watching.
 
     Made once the run says its cell-time estimate, the line it prints with
     its journal open, just before it starts watching: the operator starts
@@ -69,8 +69,8 @@ class Watching:
     its own start took on a loaded machine.
     """
 
-    def __init__(self, *args, cwd: Path, ready_s: float = 120.0):
-        self.proc = start_cli("measure", "--robot", "external", *args, cwd=cwd)
+    def __init__(self, *args, cwd: Path, ready_s: float = 120.0, command: str = "measure"):
+        self.proc = start_cli(command, "--robot", "external", *args, cwd=cwd)
         self._stderr: list[str] = []
         self._ready = threading.Event()
         # stderr carries a line per stop decision: drained as it comes, never left to fill

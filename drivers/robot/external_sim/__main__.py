@@ -49,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--control", required=True, help="tracker simulator control URL")
     parser.add_argument("--model", default="ur10e")
     parser.add_argument("--seed", type=int, default=0, help="seed of the hidden true arm")
+    parser.add_argument(
+        "--world", help="world file (YAML, docs/check.md): the hidden arm worn, crashed, moved"
+    )
     # Named as PlayerOptions' fields, so _options takes them over by name.
     for flag, dest, default, what in (
         ("--speed", "speed_rad_s", 1.0, "leading-joint speed, rad/s"),
@@ -81,7 +84,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         plan = read_plan(args.plan)
         options = _options(args)
-        player = Player.for_model(plan.q_rad, args.model, args.seed, options, plan.via_rad)
+        world = None
+        if args.world:
+            from calibrator.world import read_world
+
+            world = read_world(args.world)
+        player = Player.for_model(
+            plan.q_rad, args.model, args.seed, options, plan.via_rad, world=world
+        )
     except (CalibrationError, ValueError) as exc:
         print(f"external_sim: error: {exc}", file=sys.stderr)
         return 2

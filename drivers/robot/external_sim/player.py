@@ -16,6 +16,7 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -135,11 +136,15 @@ class Player:
         seed: int,
         options: PlayerOptions,
         via_rad: Sequence[ArrayLike] = (),
+        world: Any = None,
     ) -> Player:
-        """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``."""
+        """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``.
+
+        ``world`` (a :class:`calibrator.world.World`) changes it as its file says.
+        """
         from calibrator.simulate import SimWorld
 
-        cell = SimWorld.make(model, seed)
+        cell = SimWorld.make(model, seed) if world is None else world.build(model, seed)
         return cls(
             plan_rad,
             cell.true_mdh,

@@ -56,8 +56,9 @@ DEFAULT_PORT = 700  # emScon's default TCP port
 MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
 MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the server is sick
 #: What the adapter declares to the acquisition ports: it can initialise the
-#: tracker (on request only) and search for a lost reflector (FindReflector).
-CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH})
+#: tracker (on request only), search for a lost reflector (FindReflector) and
+#: report its environment parameters (GetEnvironmentParams).
+CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH, ports.REPORTS_CONDITIONS})
 
 
 @dataclass(frozen=True)
@@ -201,6 +202,27 @@ class EmsconTracker:
     def status(self) -> EmsconStatus:
         """``GetSystemStatus`` + ``GetTrackerStatus``."""
         return self._retrying(lambda link: self._status(link))
+
+    def conditions(self) -> dict:
+        """``GetEnvironmentParams``: the air the server corrects its distances for.
+
+        With a meteo station on the tracker these are its readings; emScon
+        reports neither the time since power-on nor a warm-up state (it refuses
+        a measurement with ``ADM_STARTUP_BUSY`` while warming up).
+
+        Returns
+        -------
+        dict
+            ``air_temperature_c`` (degC), ``air_pressure_hpa`` (hPa),
+            ``air_humidity_pct`` (%RH), in the units the adapter set on connect.
+        """
+
+        def query(link: EmsconLink) -> tuple[float, float, float]:
+            reply = link.transact(pk.Command.GET_ENVIRONMENT_PARAMS, timeout_s=self.timeout_s)
+            return pk.parse_env(reply.body)
+
+        t, p, h = self._retrying(query)
+        return {"air_temperature_c": t, "air_pressure_hpa": p, "air_humidity_pct": h}
 
     def initialise(self, timeout_s: float | None = None) -> None:
         """``Initialize``: moves the head for tens of seconds. Only ever on the user's request."""
