@@ -276,6 +276,7 @@ def open_run(
     sim_probe_6dof: bool = False,
     external: Any = None,
     world_file: Any = None,
+    place_tracker: bool = True,
 ) -> Any:
     """The devices named by URL (the drivers' registries) and the run over them.
 
@@ -290,6 +291,10 @@ def open_run(
         The simulated tracker's probe reports its orientation too.
     external : drivers.robot.external.setup.ExternalOptions, optional
         Stop detection and association of ``--robot external``.
+    place_tracker : bool
+        Move the simulated tracker to the run's tracker position (``--tracker-at``,
+        the cell file's or the plan file's); False when that position is only an
+        estimate of where the simulated one stands (a calibration's registration).
     world_file : calibrator.world.World, optional
         ``--world``: the simulated cell's true arm changed as the file says.
 
@@ -317,7 +322,7 @@ def open_run(
         else:
             world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
         at = tracker_position(options)
-        if at is not None:
+        if at is not None and place_tracker:
             # The simulated tracker stands where the user (or the cell file) says.
             world = world.with_tracker_at(at)
     try:
