@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
+from calibrator.identify import option_rules
 from calibrator.joint_terms import JointTerms
 
 FORMAT = "calibrator.calibration"
@@ -126,39 +127,19 @@ class Provenance:
     created: str | None = None
 
     #: Keys of the options that decide the identified parameters.
-    OPTION_KEYS = (
-        "method",
-        "loss",
-        "seed",
-        "validation_fraction",
-        "k",
-        "noise_mm",
-        "tool_known",
-        "particles",
-        "generations",
-        "swarm_poses",
-    )
+    OPTION_KEYS = option_rules.PIPELINE
     #: Keys of the joint-term options (``identify --joint-terms`` and its companions).
-    JOINT_OPTION_KEYS = ("joint_term_groups", "mass_model", "payload_kg", "payload_com_mm")
+    JOINT_OPTION_KEYS = option_rules.JOINT
+    #: JSON type of each key; the options' come from their rules.
     _TYPES = {
         "session_sha256": str,
         "nominal_source": str,
         "nominal_file": str,
         "nominal_sha256": str,
-        "method": str,
-        "loss": str,
-        "seed": int,
-        "validation_fraction": float,
-        "k": float,
-        "noise_mm": float,
-        "tool_known": bool,
-        "particles": int,
-        "generations": int,
-        "swarm_poses": int,
-        "joint_term_groups": str,
-        "mass_model": str,
-        "payload_kg": float,
-        "payload_com_mm": list,
+        **{
+            key: list if rule.kind is tuple else rule.kind
+            for key, rule in option_rules.RULES.items()
+        },
         "versions": dict,
         "created": str,
     }
@@ -210,6 +191,33 @@ class Provenance:
         The joint-term options are the attributes named in :attr:`JOINT_OPTION_KEYS`.
         """
         return {k: getattr(self, k) for k in self.OPTION_KEYS if getattr(self, k) is not None}
+
+    def checked_options(
+        self, where: str | Path = "calibration", keys: Iterable[str] | None = None
+    ) -> dict[str, Any]:
+        """The recorded options ``keys`` (default: all, pipeline and joint terms), checked.
+
+        The rules are those the command line applies
+        (:data:`calibrator.identify.option_rules.RULES`), so a recorded value
+        is taken only if it could have been typed.
+
+        Returns
+        -------
+        dict
+            ``{key: value}`` for the recorded options (``None`` left out);
+            ``payload_com_mm`` as a tuple of 3 floats (mm).
+
+        Raises
+        ------
+        CalibrationError
+            ``cal.json: particles: must be a whole number >= 2, got -5``.
+        """
+        out = {}
+        for key in option_rules.RULES if keys is None else keys:
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = option_rules.RULES[key].check(value, f"{where}: {key}")
+        return out
 
 
 def _is_number(value: Any) -> bool:

@@ -41,6 +41,7 @@ import math
 import os
 import re
 from collections.abc import Callable
+from typing import Any
 
 import typer
 from typer._click import exceptions as _click_errors
@@ -58,6 +59,7 @@ __all__ = [
     "one_line",
     "plan_work",
     "point_mm",
+    "rule",
     "seconds",
     "seed",
     "strict_numbers",
@@ -72,10 +74,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "plan_poses": (2_000, "poses"),
     "candidates": (200_000, "candidates"),
     "plan_work": (2e7, "poses x candidates"),
-    # identify: the swarm holds particles x parameters and one cost per generation;
-    # 2,000 generations of 20 particles take seconds, 100,000 of 1,000 hours.
-    "particles": (1_000, "particles"),
-    "generations": (100_000, "generations"),
+    # identify's options (particles, generations, payload, ...) are bounded by
+    # their rules in calibrator.identify.option_rules: --like reads them too.
     # simulate: as many poses as identify takes.
     "simulate_poses": (50_000, "poses"),
     # analyze misalignment: about 100,000 trials/s on one core.
@@ -120,6 +120,24 @@ def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
         if value < minimum:
             raise typer.BadParameter(f"must be a whole number >= {minimum}, got {value}")
         _within(value, limit, unit)
+        return value
+
+    return check
+
+
+def rule(option: strict.Rule) -> Callable[[Any], Any]:
+    """Callback checking a value against its declared :class:`calibrator.strict.Rule`.
+
+    The rule is the one a file's recorded value meets too (``identify
+    --like``); the callback returns the checked value (a float for a number,
+    a tuple for ``X,Y,Z``).
+    """
+
+    def check(value: Any) -> Any:
+        try:
+            option.check(value)
+        except strict.StrictError as exc:
+            raise typer.BadParameter(str(exc)) from None
         return value
 
     return check
