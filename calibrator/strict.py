@@ -14,6 +14,8 @@ here, so a quirk of one parser cannot turn into silently wrong data:
 - :func:`load_yaml` does the same for YAML: duplicate keys, ``.nan``/``.inf``,
   hex/octal/sexagesimal/underscored numbers are refused, and a plain
   ``1e-3`` reads as the number YAML 1.2 says it is (YAML 1.1 reads it as text).
+  It is :func:`calibrator.yamlfile.loads`, the one YAML reader, which also
+  limits size, depth and alias expansion.
 - :func:`check_budget` is the one size/time budget check: an option that
   allocates or waits is refused above its limit before any work starts.
 - :class:`Rule` declares once what an option may be (type, bounds, budget,
@@ -59,6 +61,7 @@ __all__ = [
     "parse_number",
     "parse_numbers",
     "read_text",
+    "shown",
 ]
 
 #: Largest integer magnitude a file may hold: int64 (seeds, counts, pose numbers).
@@ -286,91 +289,42 @@ def _bounded_int(text: str) -> int | _Bad:
 
 
 def _shown(text: Any) -> str:
+    """A value for a message, at most about 30 characters (a document's value may be huge)."""
+    if isinstance(text, bool) or not isinstance(text, str | int | float):
+        return shown(text)
     text = str(text)
     return repr(text if len(text) <= 24 else text[:20] + "...")
 
 
+def shown(value: Any, width: int = 40) -> str:
+    """``repr`` of a parsed value for a one-line message, cut to about ``width`` characters.
+
+    Built with :mod:`reprlib`, so a value of a million nested items costs no
+    more than a short one (an alias-expanded list never reaches a message whole).
+    """
+    import reprlib
+
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict, short.maxstring, short.maxother = 2, 4, 4, 30, 30
+    text = " ".join(short.repr(value).split())
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
 def load_yaml(text: str, where: str = "YAML") -> Any:
-    """Parse YAML (safe subset) with the strict number grammar and unique keys.
+    """Parse YAML text: :func:`calibrator.yamlfile.loads` (the one YAML reader).
 
     Numbers are what :data:`NUMBER` matches, in YAML 1.2 fashion (``1e-3`` is
     a number); ``0x1F``, ``0o17``, ``1_000``, ``1:30``, ``.nan`` and ``.inf``
-    are refused, not silently converted.
+    are refused, not silently converted; so are duplicate keys, deep nesting
+    and alias expansion beyond the reader's limits.
 
     Raises
     ------
     StrictError
-        Not YAML, a duplicate key, a number outside the grammar or too
-        large, nesting too deep.
     """
-    import yaml  # type: ignore[import-untyped]
+    from calibrator import yamlfile
 
-    try:
-        return yaml.load(text, Loader=_strict_loader())  # noqa: S506 (a SafeLoader subclass)
-    except StrictError as exc:
-        raise StrictError(f"{where}: {exc}") from None
-    except RecursionError:
-        raise StrictError(f"{where} is not JSON (nested too deeply)") from None
-    except yaml.YAMLError as exc:
-        raise StrictError(f"{where}: not YAML ({str(exc).splitlines()[0]})") from None
-
-
-_LOADER = None
-
-
-def _strict_loader():
-    """A SafeLoader subclass, built once (PyYAML is imported only when needed)."""
-    global _LOADER
-    if _LOADER is not None:
-        return _LOADER
-    import yaml  # type: ignore[import-untyped]
-
-    class StrictLoader(yaml.SafeLoader):
-        pass
-
-    # Own copy of the resolver table: add_implicit_resolver would append to
-    # lists shared with SafeLoader.
-    StrictLoader.yaml_implicit_resolvers = {
-        ch: list(v) for ch, v in yaml.SafeLoader.yaml_implicit_resolvers.items()
-    }
-    StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", NUMBER, list("-+0123456789."))
-
-    def mapping(loader, node, deep=False):
-        seen = set()
-        for key_node, _ in node.value:
-            key = loader.construct_object(key_node, deep=True)
-            try:
-                duplicate = key in seen
-            except TypeError:
-                continue  # an unhashable key: SafeLoader refuses it itself
-            if duplicate:
-                raise StrictError(
-                    f"key {key!r} appears more than once (line {key_node.start_mark.line + 1})"
-                )
-            seen.add(key)
-        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-    def integer(loader, node):
-        s = loader.construct_scalar(node)
-        # "017" is octal in YAML 1.1 and decimal in 1.2: ambiguous, so refused.
-        if not _INTEGER.fullmatch(s.strip()) or re.fullmatch(r"[+-]?0[0-9]+", s.strip()):
-            raise StrictError(
-                f"{_shown(s)} (line {node.start_mark.line + 1}) is not a decimal number"
-            )
-        value = _bounded_int(s.strip())
-        if isinstance(value, _Bad):
-            raise StrictError(f"line {node.start_mark.line + 1}: {value.reason}")
-        return value
-
-    def real(loader, node):
-        s = loader.construct_scalar(node)
-        return parse_number(s, f"line {node.start_mark.line + 1}")
-
-    StrictLoader.construct_mapping = mapping
-    StrictLoader.add_constructor("tag:yaml.org,2002:int", integer)
-    StrictLoader.add_constructor("tag:yaml.org,2002:float", real)
-    _LOADER = StrictLoader
-    return _LOADER
+    return yamlfile.loads(text, where)
 
 
 def check_budget(what: str, value: float, limit: float, unit: str = "") -> None:

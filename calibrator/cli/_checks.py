@@ -86,6 +86,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "tolerance_poses": (10_000, "poses"),
     "samples": (100_000, "samples"),
     "tolerance_work": (2_000_000, "poses x samples"),
+    # analyze deflection: a trajectory of 100,000 samples took 3 s and 380 MB.
+    "trajectory_samples": (20_000, "samples"),
     # measure (the lead wires these): readings per pose, seconds of settling.
     "readings": (1_000, "readings"),
     "settle": (60.0, "s"),
