@@ -751,7 +751,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         free=tuple(free),
         deltas={k: float(v) for k, v in deltas.items()},
         dropped=dropped,
-        model=doc.get("model"),
+        model=_model_name(doc.get("model")),
         frame=frame,
         session=doc.get("session"),
         diagnostics=diagnostics,
@@ -760,6 +760,18 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     )
     consistency.check_calibration(calibration, str(where))
     return calibration
+
+
+def _model_name(name: str | None) -> str | None:
+    """A named model as the catalogue spells it (``"UR10E"`` is ``"ur10e"``); others as written.
+
+    Model names compare case-insensitively everywhere (``--model UR10e``), so
+    a hand-written file's spelling must not make it "another arm".
+    """
+    from calibrator.models import MODEL_NAMES
+
+    key = name.strip().lower() if name is not None else None
+    return key if key in MODEL_NAMES else name
 
 
 def _check_fixed(mdh, nominal, free, where):

@@ -86,6 +86,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "tolerance_poses": (10_000, "poses"),
     "samples": (100_000, "samples"),
     "tolerance_work": (2_000_000, "poses x samples"),
+    # verify: ISO 9283 asks 30 cycles of 5 poses; 1,000 cycles measure for days.
+    "cycles": (1_000, "cycles"),
     # analyze deflection: a trajectory of 100,000 samples took 3 s and 380 MB.
     "trajectory_samples": (20_000, "samples"),
     # measure (the lead wires these): readings per pose, seconds of settling.

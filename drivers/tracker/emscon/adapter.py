@@ -447,24 +447,14 @@ def open_tracker(url: str, **options: Any) -> EmsconTracker:
     ValueError
         Not an ``emscon://`` URL, a bad port, or a bad query.
     """
-    from urllib.parse import parse_qs, urlsplit
+    from drivers import urls
 
-    parts = urlsplit(url)
-    if parts.scheme != "emscon" or not parts.hostname or parts.path not in ("", "/"):
-        raise ValueError(f"expected emscon://HOST[:PORT][?meteo=T,P,H], got {url!r}")
-    try:
-        port = parts.port or DEFAULT_PORT
-    except ValueError as exc:
-        raise ValueError(f"bad port in {url!r}: {exc}") from None
-    try:
-        query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
-    except ValueError as exc:
-        raise ValueError(f"bad query in {url!r}: {exc}") from None
-    if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
-        raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
-    if "meteo" in query:
-        options["environment"] = _parse_meteo(query["meteo"][0])
-    return EmsconTracker(parts.hostname, port, **options)
+    where = urls.parse(
+        url, "emscon", port="optional", default_port=DEFAULT_PORT, params={"meteo": _parse_meteo}
+    )
+    if "meteo" in where.params:
+        options["environment"] = _parse_meteo(where.params["meteo"])
+    return EmsconTracker(where.host, where.port or DEFAULT_PORT, **options)
 
 
 def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
