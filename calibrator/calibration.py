@@ -712,6 +712,10 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
             transforms[key] = frames.check_transform(arr, key)
         except ValueError as exc:
             raise CalibrationError(f"{where}: {exc}") from None
+    # The bounds a session's frames meet: every export derives from these.
+    from calibrator import plausibility
+
+    plausibility.check_frames(transforms, str(where))
     free = doc.get("free_parameters")
     if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
         raise CalibrationError(f"{where}: 'free_parameters' must be a list of names")
