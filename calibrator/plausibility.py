@@ -366,4 +366,3 @@ def check_frames(frames: dict[str, np.ndarray], where: str = "calibration") -> N
                 f"{where}: '{name}' puts {what} {offset:.6g} mm from {origin} "
                 f"(more than {limit:g} mm: a unit mistake or a hand edit?)"
             )
-
