@@ -41,6 +41,7 @@ import math
 import os
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import typer
@@ -54,6 +55,7 @@ __all__ = [
     "at_least",
     "cores",
     "count",
+    "file_rows",
     "finite",
     "fraction",
     "one_line",
@@ -238,6 +240,47 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
     if selection == "d-optimal":
         strict.check_budget(
             "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
+        )
+
+
+def file_rows(option: str, path: Path, poses: int, selection: str) -> None:
+    """Refuse a candidate file with more rows than ``--candidates`` may give.
+
+    A file of candidates costs what sampled ones cost (checks and selection
+    per row), so it meets the same budgets (:func:`plan_work`). The rows are
+    counted before any is parsed, reading at most the budget's worth of lines.
+
+    Parameters
+    ----------
+    option : str
+        The option naming the file (``"--from"``).
+    path : Path
+        A missing file is left to its reader (which names it).
+    poses, selection : int, str
+        As for :func:`plan_work`.
+
+    Raises
+    ------
+    calibrator.strict.StrictError
+    """
+    limit = int(BUDGETS["candidates"][0])
+    rows = -1  # the header
+    try:
+        with open(path, "rb") as fh:
+            for rows, _ in enumerate(fh):
+                if rows > limit:
+                    break
+    except OSError:
+        return
+    if rows > limit:
+        raise strict.StrictError(
+            f"{option} {path}: more than {limit} rows of candidates (the limit of --candidates)"
+        )
+    if selection == "d-optimal":
+        strict.check_budget(
+            f"{option} {path}: its rows x --poses (lower either)",
+            poses * max(rows, 0),
+            *BUDGETS["plan_work"],
         )
 
 

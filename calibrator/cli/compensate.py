@@ -7,6 +7,7 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
+from calibrator.identify.option_rules import RULES
 
 
 @app.command()
@@ -18,8 +19,9 @@ def compensate(
     output: Path = opts.output(..., "CSV to write."),
     payload_kg: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0),
-        help="Working payload (kg) for compliance joint terms [default: the calibration's].",
+        callback=checks.rule(RULES["payload_kg"]),
+        help="Working payload (kg, 0..100) for compliance joint terms "
+        "[default: the calibration's].",
     ),
 ) -> None:
     """Joint angles reaching each target on the calibrated arm, and the corrected

@@ -13,6 +13,10 @@ from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError, IdentifiabilityError
 from calibrator.identify.option_rules import RULES
+from calibrator.strict import Rule
+
+#: --target-mm: below 0.1 um (no tracker's noise) the pose count overflows.
+_TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error to reach")
 
 
 class Method(StrEnum):
@@ -121,9 +125,9 @@ def identify(
     ),
     target_mm: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0, inclusive=False),
+        callback=checks.rule(_TARGET),
         help="Print how many more poses would bring the parameter part of the held-out "
-        "error below this (mm).",
+        "error below this (mm, 0.0001..10000).",
     ),
     quiet: bool = opts.quiet(),
 ) -> None:

@@ -1,6 +1,7 @@
 """Options that allocate, wait or compute far away: refused above their bound before any work."""
 
 import json
+import re
 
 import pytest
 from cli_testkit import cli, listing, one_line_error
@@ -80,3 +81,54 @@ def test_a_model_name_compares_case_insensitively(tmp_path):
     )  # fmt: skip
     assert "calibrates a" not in line and "out of reach" in line, line
     assert listing(tmp_path) == before
+
+
+def test_a_candidate_file_meets_the_candidates_budget(tmp_path):
+    rows = "0.1,-1.2,1.3,-1.4,1.5,0.6\n" * 200_001
+    (tmp_path / "c.csv").write_text("q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n" + rows)
+    before = listing(tmp_path)
+    line = one_line_error(cli("plan", "--from", "c.csv", "-o", "p.csv", cwd=tmp_path))
+    assert "--from c.csv: more than 200000 rows of candidates" in line
+    assert listing(tmp_path) == before
+
+
+def test_a_cell_file_meets_the_obstacle_budget(tmp_path):
+    box = "  - box: {min_mm: [3000, 0, 0], max_mm: [3005, 5, 5]}\n"
+    (tmp_path / "cell.yaml").write_text("obstacles:\n" + box * 5000)
+    line = one_line_error(cli("plan", "--cell", "cell.yaml", "-o", "p.csv", cwd=tmp_path))
+    assert "cell.yaml: obstacles: 5000 is more than the limit of 100" in line
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--target-mm", "1e-300"], "--target-mm: must be a number >= 0.0001, got 1e-300"),
+        (["--target-mm", "1e300"], "--target-mm: 1e+300 mm is more than the limit of 10000 mm"),
+    ],
+)
+def test_identify_report_options_are_bounded(tmp_path, args, says):
+    done = cli("simulate", "--model", "ur10e", "--poses", "30", "-o", "s.parquet", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    before = listing(tmp_path)
+    line = one_line_error(cli("identify", "s.parquet", "-o", "c.json", *args, cwd=tmp_path))
+    assert says in line
+    assert listing(tmp_path) == before  # refused before anything is written
+
+
+def test_a_recorded_joint_term_payload_meets_the_payload_rules(tmp_path):
+    from calibrator.errors import CalibrationError
+    from calibrator.joint_terms import JointTerms
+
+    for comp, says in [
+        ({"payload_kg": 1e308}, "payload_kg: 1e+308 kg is more than the limit of 100 kg"),
+        ({"payload_kg": -5}, "payload_kg: must be a number >= 0, got -5"),
+        ({"payload_kg": "5"}, "payload_kg: must be a number, got '5'"),
+        ({"payload_com_mm": [1e308, 0, 0]}, "payload_com_mm: 1e+308 mm is beyond +-2000 mm"),
+        ({"mass_model": ["x"] * 3}, "mass_model must be text"),
+    ]:
+        with pytest.raises(CalibrationError, match=re.escape(says)):
+            JointTerms.from_json({"compliance": comp})
+    line = one_line_error(
+        cli("compensate", "c.json", "t.csv", "-o", "o.csv", "--payload-kg", "1e308", cwd=tmp_path)
+    )
+    assert "--payload-kg: 1e+308 kg is more than the limit of 100 kg" in line
