@@ -16,6 +16,8 @@ _DEG = 3.141592653589793 / 180.0
 #: A motion's time: below 10 ms its accelerations are not a robot's (1e-300 s
 #: made them overflow to nan); above an hour it is not one motion.
 _DURATION = strict.Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
+#: Share of the time accelerating: below 1 % the accelerations overflow (5e-324 gave nan).
+_RAMP = strict.Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
 
 
 def _vector(text: str, what: str, prismatic: list[bool], limits) -> list[float]:
@@ -65,8 +67,8 @@ def deflection(
     ),
     ramp: float = typer.Option(
         0.25,
-        callback=checks.finite(minimum=0.0, maximum=0.5),
-        help="Share of the time spent accelerating (and decelerating), in (0, 0.5].",
+        callback=checks.rule(_RAMP),
+        help="Share of the time spent accelerating (and decelerating), in [0.01, 0.5].",
     ),
     samples: int = typer.Option(
         201,
@@ -87,8 +89,6 @@ def deflection(
     from calibrator import mass_models, models, outputs
     from calibrator.analysis import deflection as dfl
 
-    if ramp == 0.0:
-        raise CalibrationError("--ramp: must be in (0, 0.5], got 0")
     for path in (json_out, plot):
         if path is not None:
             outputs.check(path, inputs=[sections])

@@ -81,8 +81,9 @@ _TABLE = (
          group="pipeline", meaning="share of the poses held out for checking"),
     Rule("k", float, 0.0, 1e12, unit="mm^2/rad^2", flag="--orientation-weight",
          group="pipeline", meaning="weight of orientation errors"),
-    Rule("noise_mm", float, 0.0, 100.0, open_low=True, unit="mm", flag="--noise-mm",
-         group="pipeline", meaning="measurement noise assumed when choosing the free parameters"),
+    # Far below any instrument (1e-300 mm) the information matrix overflows its eigensolver.
+    Rule("noise_mm", float, 1e-9, 100.0, unit="mm", flag="--noise-mm", group="pipeline",
+         meaning="measurement noise assumed when choosing the free parameters"),
     Rule("tool_known", bool, flag="--tool-known", group="pipeline",
          meaning="tool frame fixed (true) or identified (false)"),
     Rule("particles", int, 2, 1_000, unit="particles", flag="--particles", group="pipeline",

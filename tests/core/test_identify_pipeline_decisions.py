@@ -103,7 +103,7 @@ def test_split_refuses_a_fraction_outside_zero_to_one(fraction):
         ),
         (pipeline.Options(k=float("nan")), "k: must be a finite number, got nan"),
         (pipeline.Options(k=-0.001), "k: must be a number >= 0, got -0.001"),
-        (pipeline.Options(noise_mm=0.0), "noise_mm: must be a number > 0, got 0"),
+        (pipeline.Options(noise_mm=0.0), "noise_mm: must be a number >= 1e-09, got 0"),
         (pipeline.Options(noise_mm=float("nan")), "noise_mm: must be a finite number, got nan"),
         (pipeline.Options(swarm_poses=0), "swarm_poses: must be a whole number >= 1, got 0"),
     ],

@@ -25,6 +25,7 @@ from cli_testkit import cli, listing, one_line_error
         (["analyze", "deflection", "--start", "0,0,-5,0,0"], "joint 3 at -5 mm is beyond"),
         (["analyze", "deflection", "--duration", "1e-300"], "--duration: must be a number >= 0.01"),
         (["analyze", "deflection", "--duration", "1e9"], "--duration: 1e+09 s is more than"),
+        (["analyze", "deflection", "--ramp", "5e-324"], "--ramp: must be a number >= 0.01"),
     ],
 )
 def test_an_option_beyond_its_bound_is_one_line(tmp_path, args, says):
@@ -104,6 +105,7 @@ def test_a_cell_file_meets_the_obstacle_budget(tmp_path):
     [
         (["--target-mm", "1e-300"], "--target-mm: must be a number >= 0.0001, got 1e-300"),
         (["--target-mm", "1e300"], "--target-mm: 1e+300 mm is more than the limit of 10000 mm"),
+        (["--noise-mm", "1e-300"], "--noise-mm: must be a number >= 1e-09, got 1e-300"),
     ],
 )
 def test_identify_report_options_are_bounded(tmp_path, args, says):
