@@ -690,7 +690,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     version = doc.get("version")
     if type(version) is not int or version != VERSION:
         raise CalibrationError(
-            f"{where}: calibration version {version!r} is not supported "
+            f"{where}: calibration version {strict.shown(version)} is not supported "
             f"(this program reads version {VERSION})"
         )
     nominal = check.table(doc, "nominal_mdh", (6, 5))
@@ -720,10 +720,13 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
         raise CalibrationError(f"{where}: 'free_parameters' must be a list of names")
     unknown = [n for n in free if n not in parameters.ALL_NAMES]
-    if unknown or len(set(free)) != len(free):
+    if unknown:
         raise CalibrationError(
-            f"{where}: 'free_parameters' has unknown or repeated names {unknown or free}"
+            f"{where}: 'free_parameters' has unknown names {strict.shown(unknown, 60)}"
         )
+    repeated = sorted({n for n in free if free.count(n) > 1})
+    if repeated:
+        raise CalibrationError(f"{where}: 'free_parameters' repeats {', '.join(repeated)}")
     deltas = doc.get("deltas", {})
     if not isinstance(deltas, dict) or set(deltas) != set(free):
         raise CalibrationError(f"{where}: 'deltas' must map each free parameter to its value")
@@ -740,7 +743,9 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
             raise CalibrationError(f"{where}: '{key}' must be a string or null")
     frame = doc.get("frame", "base")
     if frame not in FRAMES:
-        raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
+        raise CalibrationError(
+            f"{where}: 'frame' must be 'base' or 'tracker', got {strict.shown(frame)}"
+        )
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
     try:

@@ -46,9 +46,11 @@ def parse_groups(text: str) -> tuple[str, ...]:
     groups = tuple(dict.fromkeys(g.strip().lower() for g in str(text).split(",") if g.strip()))
     bad = [g for g in groups if g not in GROUPS]
     if bad or not groups:
+        from calibrator.strict import shown
+
+        named = ", ".join(shown(b, 30).strip("'") for b in bad[:5]) or shown(text, 30)
         raise CalibrationError(
-            f"--joint-terms: unknown term {', '.join(bad) or repr(text)}; "
-            f"use any of {', '.join(GROUPS)}"
+            f"--joint-terms: unknown term {named}; use any of {', '.join(GROUPS)}"
         )
     return groups
 
