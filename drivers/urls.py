@@ -64,6 +64,7 @@ def parse(
     *,
     port: Literal["required", "optional", "none"] = "optional",
     default_port: int | None = None,
+    host: bool = True,
     params: Mapping[str, tuple[str, ...] | Callable[[str], object] | None] | None = None,
 ) -> Address:
     """Split a device URL and check each part.
@@ -77,6 +78,8 @@ def parse(
         Whether the URL must, may or must not give a port.
     default_port : int, optional
         The port when the URL gives none (``port="optional"``).
+    host : bool
+        Whether the URL names a host (``loop://`` names none).
     params : mapping, optional
         Allowed query parameters: name -> allowed values (a tuple), a check
         (``check(value)`` raising ValueError), or None (any value). None:
@@ -96,6 +99,8 @@ def parse(
     """
     text = str(url)
     example = f"{scheme}://HOST" + {"required": ":PORT", "optional": "[:PORT]", "none": ""}[port]
+    if not host:
+        example = f"{scheme}://"
     if len(text) > 512 or not text.isprintable() or " " in text:
         raise ValueError(f"{_shown(text)}: not a URL (use {example})")
     try:
@@ -107,15 +112,19 @@ def parse(
     netloc = parts.netloc
     if "@" in netloc:
         raise ValueError(f"{_shown(text)}: user names are not taken (use {example})")
+    if not host:
+        if netloc:
+            raise ValueError(f"{_shown(text)}: {scheme}:// takes no host (use {example})")
+        return Address(scheme, "", None, _params(text, parts.query, scheme, params))
     # As written (urlsplit's hostname is lower case; a journal records the host).
     if netloc.startswith("["):
-        host = netloc[1:].split("]", 1)[0]
+        name = netloc[1:].split("]", 1)[0]
     else:
-        host = netloc.rsplit(":", 1)[0] if ":" in netloc else netloc
-    if not host:
+        name = netloc.rsplit(":", 1)[0] if ":" in netloc else netloc
+    if not name:
         raise ValueError(f"{_shown(text)}: missing host (use {example})")
-    if not _HOST.fullmatch(host):
-        raise ValueError(f"{_shown(text)}: {host!r} is not a host name or address")
+    if not _HOST.fullmatch(name):
+        raise ValueError(f"{_shown(text)}: {name!r} is not a host name or address")
     number = _port(text, netloc)
     if number is None and port == "required":
         raise ValueError(f"{_shown(text)}: missing port (use {example})")
@@ -124,7 +133,7 @@ def parse(
     if parts.path not in ("", "/") or parts.fragment:
         raise ValueError(f"{_shown(text)}: unexpected path {parts.path or parts.fragment!r}")
     query = _params(text, parts.query, scheme, params)
-    return Address(scheme, host, number if number is not None else default_port, query)
+    return Address(scheme, name, number if number is not None else default_port, query)
 
 
 def _port(text: str, netloc: str) -> int | None:

@@ -418,9 +418,9 @@ _URL_PARAMS: dict = {
 
 
 def check_url(url: str) -> None:
-    """Refuse a malformed ``socket://HOST:PORT`` or ``rfc2217://HOST:PORT`` in one line.
+    """Refuse a malformed ``socket://HOST:PORT``, ``rfc2217://HOST:PORT`` or ``loop://``.
 
-    Device paths and other pyserial schemes (``loop://``) are left to pyserial.
+    ``loop://`` takes ``logging`` only; device paths are left to pyserial.
 
     Raises
     ------
@@ -428,7 +428,9 @@ def check_url(url: str) -> None:
         Missing host, missing or out-of-range port, unknown parameter.
     """
     kind = url.split("://", 1)[0].lower() if "://" in url else ""
-    if kind in _URL_PARAMS:
+    if kind == "loop":  # pyserial's loopback: no host, logging only
+        parse_url(url, kind, host=False, params={"logging": LOGGING})
+    elif kind in _URL_PARAMS:
         parse_url(url, kind, port="required", params=_URL_PARAMS[kind])
 
 

@@ -20,6 +20,9 @@ from drivers import urls
         ("rfc2217://", "'rfc2217://': missing host (use rfc2217://HOST:PORT)"),
         ("emscon://h:99999", "'emscon://h:99999': port 99999 is out of 1..65535"),
         ("emscon://h?x=1", "unknown parameter 'x' (emscon:// takes meteo)"),
+        ("emscon://h?meteo=1e308,1000,40", "meteo T degC 1e+308 is outside [-40, 60]"),
+        ("loop://?x=1", "'loop://?x=1': unknown parameter 'x' (loop:// takes logging)"),
+        ("loop://h", "'loop://h': loop:// takes no host (use loop://)"),
     ],
 )
 def test_a_bad_tracker_url_is_one_line_naming_what_is_wrong(tmp_path, url, says):

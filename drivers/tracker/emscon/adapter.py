@@ -464,11 +464,20 @@ def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
     return open_tracker(url)
 
 
+#: Air a tracker measures in (degC, hPa, %RH): beyond these the refractive
+#: index correction is not air's, and a typo (1e308) would pass unseen.
+METEO_RANGES = ((-40.0, 60.0), (500.0, 1200.0), (0.0, 100.0))
+
+
 def _parse_meteo(text: str) -> Environment:
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
     if len(values) != 3 or not all(np.isfinite(values)):
-        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r}")
+        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r:.40}")
+    names = ("T degC", "P hPa", "H %RH")
+    for value, (low, high), what in zip(values, METEO_RANGES, names, strict=True):
+        if not low <= value <= high:
+            raise ValueError(f"meteo {what} {value:g} is outside [{low:g}, {high:g}]")
     return Environment(*values)
