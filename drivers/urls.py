@@ -169,14 +169,16 @@ def _params(
         raise ValueError(
             f"{_shown(text)}: parameters must be name=value (known: {known})"
         ) from None
+    names = [name for name, _ in pairs]
+    twice = next((name for name in names if names.count(name) > 1 and name in allowed), None)
+    if twice is not None:
+        raise ValueError(f"{_shown(text)}: parameter {twice!r} given twice")
     out: dict[str, str] = {}
     for name, value in pairs:
         if name not in allowed:
             raise ValueError(
                 f"{_shown(text)}: unknown parameter {name!r:.30} ({scheme}:// takes {known})"
             )
-        if name in out:
-            raise ValueError(f"{_shown(text)}: parameter {name!r} given twice")
         rule = allowed[name]
         if isinstance(rule, tuple) and value not in rule:
             raise ValueError(
