@@ -158,10 +158,10 @@ def identify(
             ctx, like, session_path, options, model, nominal_file, joint
         )
     groups = ()
-    if joint.groups is not None:
+    if joint.joint_term_groups is not None:
         from calibrator import joint_terms
 
-        groups = joint_terms.parse_groups(joint.groups)
+        groups = joint_terms.parse_groups(joint.joint_term_groups)
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
     inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs)
@@ -268,21 +268,15 @@ def identify(
 
 @dataclass(frozen=True)
 class JointOptions:
-    """The joint-term options as given (``None``: not given), for ``--like`` to fill in."""
+    """The joint-term options as given (``None``: not given), for ``--like`` to fill in.
 
-    groups: str | None = None
+    Named as recorded (:data:`calibrator.identify.option_rules.JOINT`).
+    """
+
+    joint_term_groups: str | None = None
     mass_model: str | None = None
     payload_kg: float | None = None
     payload_com_mm: str = "0,0,0"
-
-
-#: Attribute of :class:`JointOptions` of each recorded joint-term option.
-_JOINT_ATTRS = {
-    "joint_term_groups": "groups",
-    "mass_model": "mass_model",
-    "payload_kg": "payload_kg",
-    "payload_com_mm": "payload_com_mm",
-}
 
 
 def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
@@ -325,7 +319,7 @@ def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
     options = replace(
         options, **{k: v for k, v in taken.items() if k in calibration.Provenance.OPTION_KEYS}
     )
-    for key, attr in _JOINT_ATTRS.items():
+    for key in calibration.Provenance.JOINT_OPTION_KEYS:
         if key not in taken:
             continue
         value = taken[key]
@@ -333,7 +327,7 @@ def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
             value = ",".join(repr(float(v)) for v in value)
         elif key == "joint_term_groups":
             value = value or None  # "" recorded: no joint terms
-        joint = replace(joint, **{attr: value})
+        joint = replace(joint, **{key: value})
     missing = [k for k in calibration.Provenance.OPTION_KEYS if k not in recorded]
     if missing:
         typer.echo(
