@@ -6,6 +6,8 @@ import json
 import pytest
 import typer.main
 from cli_testkit import cli, listing, one_line_error
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from calibrator import calibration
 from calibrator.cli import _app
@@ -110,3 +112,43 @@ def test_the_limits_themselves_pass():
         ("joint_term_groups", ""),
     ]:
         option_rules.RULES[key].check(value)
+
+
+# Fuzz: any recorded value is either taken (then its rule passes) or refused in one line.
+_VALUES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.sampled_from(["", "lm", "huber", "ur10e", "UR10E", "/etc/passwd", "scale", "x" * 3000]),
+    st.lists(st.floats(-1e308, 1e308), max_size=4),
+    st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
+)
+_KEYS = st.sampled_from([*option_rules.RULES, "model", "frame", "nominal_source", "created"])
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(edits=st.dictionaries(_KEYS, _VALUES, min_size=1, max_size=3))
+def test_fuzz_recorded_options(made, edits):
+    doc = json.loads((made / "cal.json").read_text())
+    doc.update(edits)
+    if "method" not in edits:
+        doc["method"] = "lm"  # keep the runs short; a recorded swarm is fuzzed through "method"
+    if doc.get("method") != "lm":
+        doc["generations"] = 3
+        edits.pop("generations", None)
+    (made / "fuzz.json").write_text(json.dumps(doc))
+    before = listing(made)
+    result = cli("identify", "s.parquet", "--like", "fuzz.json", "-o", "fz.json", "-q", cwd=made)
+    if result.code == 2:
+        line = one_line_error(result)
+        assert len(line) < 300, line
+        assert listing(made) == before
+        return
+    assert result.code == 0, result.stderr
+    for key, value in edits.items():
+        if key in option_rules.RULES:
+            option_rules.RULES[key].check(value)  # only what its rule allows was taken
+    (made / "fz.json").unlink()
