@@ -1,4 +1,4 @@
-"""A calibration's frames meet the bounds a session's do, so no export derives from absurd ones."""
+"""Older corpora: frames no session could have, journals of an unknown version."""
 
 import json
 
@@ -44,3 +44,16 @@ def test_export_refuses_a_frame_no_session_could_have(made, fmt, edit):
 def test_the_identified_calibration_exports(made):
     done = cli("export-params", "cal.json", "--format", "csv", cwd=made)
     assert done.code == 0, done.stderr
+
+
+@pytest.mark.parametrize("version", ["99", "2.0", "true", '"2"'])
+def test_a_journal_of_an_unknown_version_is_not_resumed(tmp_path, version):
+    journal = tmp_path / "s.parquet.journal"
+    journal.write_text(f'{{"format": "calibrator.journal", "version": {version}}}\n')
+    before = listing(tmp_path)
+    line = one_line_error(
+        cli("measure", "--robot", "sim", "--tracker", "sim", "--poses", "30", "-o", "s.parquet",
+            "--resume", "--yes", "-q", cwd=tmp_path)
+    )  # fmt: skip
+    assert "s.parquet.journal: journal version" in line and "is not supported" in line
+    assert listing(tmp_path) == before
