@@ -95,9 +95,9 @@ def test_a_candidate_file_meets_the_candidates_budget(tmp_path):
 
 def test_a_cell_file_meets_the_obstacle_budget(tmp_path):
     box = "  - box: {min_mm: [3000, 0, 0], max_mm: [3005, 5, 5]}\n"
-    (tmp_path / "cell.yaml").write_text("obstacles:\n" + box * 5000)
+    (tmp_path / "cell.yaml").write_text("obstacles:\n" + box * 101)
     line = one_line_error(cli("plan", "--cell", "cell.yaml", "-o", "p.csv", cwd=tmp_path))
-    assert "cell.yaml: obstacles: 5000 is more than the limit of 100" in line
+    assert "cell.yaml: obstacles: 101 is more than the limit of 100" in line
 
 
 @pytest.mark.parametrize(
