@@ -98,8 +98,9 @@ class Cell:
         return replace(self, tracker_at_mm=(x, y, z))
 
 
-#: Largest cell file (bytes): a cell of a hundred obstacles is a few kB.
-MAX_BYTES = 2**20
+#: Largest cell file (bytes): 100 obstacles with comments are about 15 kB; a
+#: 280 kB file took 2.5 s to read, so this bounds a refused one's cost too.
+MAX_BYTES = 256 * 2**10
 #: Most obstacles: every pose and move is checked against each. A UR10e move
 #: of up to 2 rad per joint took 5 ms with 10 obstacles, 18 ms with 100, 75 ms
 #: with 500 and 700 ms with 5,000 (pose_faults/motion_faults on 100 random
