@@ -105,13 +105,10 @@ def load(path: Path | str) -> MassModel:
     CalibrationError
         Naming the file and what is wrong in it.
     """
-    import yaml
+    from calibrator import yamlfile
 
     path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(f"{path}: cannot read mass model ({type(exc).__name__})") from None
+    doc = yamlfile.read(path, "a mass-model file", 2**20)
     links = doc.get("links") if isinstance(doc, dict) else None
     if not isinstance(links, list) or len(links) != 6:
         raise CalibrationError(f"{path}: needs a 'links' list of 6 entries")

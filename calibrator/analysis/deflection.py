@@ -36,6 +36,16 @@ import numpy as np
 from calibrator.errors import CalibrationError
 from calibrator.mass_models import GRAVITY_MM_S2
 from calibrator.robots import chen_zhang
+from calibrator.strict import Rule, shown
+
+#: What each value of a section may be: a robot link, not 1e-300 mm (its
+#: stiffness underflows to nan) nor 1e308 mm (its D^4 overflows).
+SECTION_RULES = {
+    "outer_mm": Rule("outer_mm", float, 1.0, 2_000.0, unit="mm", meaning="outer diameter"),
+    "inner_mm": Rule("inner_mm", float, 0.0, 2_000.0, unit="mm", meaning="inner diameter"),
+    "e_mpa": Rule("e_mpa", float, 100.0, 1e6, unit="MPa", meaning="Young's modulus"),
+    "poisson": Rule("poisson", float, 0.0, 0.5, open_high=True, meaning="Poisson's ratio"),
+}
 
 
 @dataclass(frozen=True)
@@ -58,9 +68,8 @@ class Section:
     poisson: float = 0.3
 
     def __post_init__(self) -> None:
-        values = (self.outer_mm, self.inner_mm, self.e_mpa, self.poisson)
-        if not all(np.isfinite(v) for v in values):
-            raise CalibrationError("section values must be finite numbers")
+        for name, rule in SECTION_RULES.items():
+            rule.check(getattr(self, name), name)
         if not (self.outer_mm > 0 and 0 <= self.inner_mm < self.outer_mm):
             raise CalibrationError(
                 f"section needs outer diameter > inner >= 0, got {self.outer_mm}, {self.inner_mm}"
@@ -443,6 +452,12 @@ SEED_ROD = Section(
 #: to 45 deg with theta_1, in 1 s.
 SEED_DURATION_S = chen_zhang.DURATION_S
 _SEED_LINE_X_MM = chen_zhang.LINE_X_MM
+#: Joint ranges taken for the example (rad; joint 3 in mm): the text gives
+#: none, so half a turn either way for the revolute joints and the rod out
+#: between 0 and 1,500 mm (2.5 times its 600 mm at the task's end).
+SEED_LIMITS = np.array(
+    [[-np.pi, np.pi], [-np.pi, np.pi], [0.0, 1500.0], [-np.pi, np.pi], [-np.pi, np.pi]]
+)
 
 
 def seed_arm() -> FlexArm:
@@ -526,31 +541,28 @@ def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
     """
     from pathlib import Path
 
-    import yaml
+    from calibrator import yamlfile
 
     path = Path(str(path))
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(f"{path}: cannot read sections ({type(exc).__name__})") from None
+    doc = yamlfile.read(path, "a link-section file", 2**20)
     links = doc.get("links") if isinstance(doc, dict) else None
     if not isinstance(links, dict) or not links:
         raise CalibrationError(f"{path}: needs a 'links' mapping, link number -> section")
     sections = {}
     for key, spec in links.items():
         if not (isinstance(key, int) and 1 <= key <= 6 and isinstance(spec, dict)):
-            raise CalibrationError(f"{path}: link {key!r}: keys are link numbers 1..6")
+            raise CalibrationError(f"{path}: link {shown(key)}: keys are link numbers 1..6")
         unknown = set(spec) - {"outer_mm", "inner_mm", "e_mpa", "poisson"}
         if unknown or "outer_mm" not in spec:
             raise CalibrationError(
                 f"{path}: link {key}: needs outer_mm, may give inner_mm, e_mpa, poisson"
-                + (f"; unknown {', '.join(sorted(map(str, unknown)))}" if unknown else "")
+                + (f"; unknown {', '.join(sorted(map(shown, unknown))[:5])}" if unknown else "")
             )
         try:
-            sections[key] = Section(**{k: float(v) for k, v in spec.items()})
-        except (TypeError, ValueError):
-            raise CalibrationError(f"{path}: link {key}: values must be numbers") from None
+            sections[key] = Section(**{k: SECTION_RULES[k].check(v, k) for k, v in spec.items()})
         except CalibrationError as exc:
             raise CalibrationError(f"{path}: link {key}: {exc}") from None
     model = doc.get("mass_model")
-    return sections, None if model is None else str(model)
+    if model is not None and not isinstance(model, str):
+        raise CalibrationError(f"{path}: mass_model must be a named arm or a YAML path (text)")
+    return sections, model

@@ -7,6 +7,7 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
+from calibrator.identify.option_rules import RULES
 
 
 @app.command()
@@ -22,8 +23,9 @@ def compensate(
     output: Path = opts.output(..., "CSV or program to write (KRL: the .src; its .dat beside it)."),
     payload_kg: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0),
-        help="Working payload (kg) for compliance joint terms [default: the calibration's].",
+        callback=checks.rule(RULES["payload_kg"]),
+        help="Working payload (kg, 0..100) for compliance joint terms "
+        "[default: the calibration's].",
     ),
     fmt: str = typer.Option(
         None, "--format", help="Program language [default: from the extension]."

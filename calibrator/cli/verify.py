@@ -38,6 +38,10 @@ def _cube(text: str | None) -> Any:
     values = opts.floats(text, 4, "--cube", needs)
     if values[3] <= 0:
         fail(f"--cube needs {needs}, got {text!r}")
+    # Checked before any arithmetic: 1e308 overflows where the corners are computed.
+    limit, unit = checks.BUDGETS["tracker_at"]
+    if max(abs(v) for v in values) > limit:
+        fail(f"--cube: {text!r} is beyond +-{limit:g} {unit} (not a cube in a robot cell)")
     return Cube(np.array(values[:3]), values[3])
 
 
@@ -67,7 +71,9 @@ def verify(
         "--calibration or --register: the simulated cell's surveyed base, or a best fit "
         "on hardware; see docs/verify.md].",
     ),
-    cycles: int = typer.Option(30, callback=checks.at_least(2), help="Cycles P5..P1."),
+    cycles: int = typer.Option(
+        30, callback=checks.count("cycles", 2), help="Cycles P5..P1 (2..1000)."
+    ),
     cube: str = typer.Option(
         None, help="Test cube X,Y,Z,SIDE, mm, base frame [default: the largest that fits]."
     ),
