@@ -698,11 +698,12 @@ def plan_text(plan: Plan) -> str:
         tracker = ("", "", "") if o.tracker_at_mm is None else o.tracker_at_mm
         origin = (o.model, *(repr(float(v)) if v != "" else "" for v in tracker))
         origin += tuple(repr(float(v)) for v in o.tool_mm)
-    writer.writerow(("pose", "via", *JOINT_COLUMNS, *(ORIGIN_COLUMNS if origin else ())))
+    # Before the joints: a reader taking the last six columns still finds them there.
+    writer.writerow(("pose", "via", *(ORIGIN_COLUMNS if origin else ()), *JOINT_COLUMNS))
     for i, (q, vias) in enumerate(zip(plan.q_rad, plan.via_rad, strict=True)):
         for v in vias:
-            writer.writerow(("", 1, *(repr(float(x)) for x in v), *origin))
-        writer.writerow((i, 0, *(repr(float(x)) for x in q), *origin))
+            writer.writerow(("", 1, *origin, *(repr(float(x)) for x in v)))
+        writer.writerow((i, 0, *origin, *(repr(float(x)) for x in q)))
     return buf.getvalue()
 
 

@@ -147,15 +147,14 @@ class World:
 
 def read_world(path: str | os.PathLike[str]) -> World:
     """Read a world file (YAML); one :class:`WorldError` line naming what is wrong."""
-    import yaml  # type: ignore[import-untyped]
+    from calibrator import strict, yamlfile
 
     path = Path(path)
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise WorldError(f"cannot read world file {path}: {exc}") from None
-    except yaml.YAMLError as exc:
-        raise WorldError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        # The one YAML reader: size, depth and alias limits, duplicate keys refused.
+        doc = yamlfile.read(path, "a world file")
+    except strict.StrictError as exc:
+        raise WorldError(str(exc)) from None
     try:
         return parse_world(doc)
     except WorldError as exc:

@@ -44,4 +44,7 @@ def test_an_external_robots_crash_is_found_from_the_checks_own_program(tmp_path)
     doc = json.loads((tmp_path / "check.json").read_text())
     assert doc["verdict"] == "recalibrate" and len(doc["poses"]) == 8
     assert doc["explanation"][0]["causes"] == ["joint 3 zero"], doc["explanation_text"]
-    assert doc["explanation_text"][0].startswith("joint 3 zero moved +0.4")
+    # The crash shifted joint 3's zero by 0.4 mrad: found within its standard error.
+    change = doc["explanation"][0]["parameters"][0]
+    assert abs(change["change"] - 0.4e-3) < 5 * change["standard_error"] + 2e-5, change
+    assert doc["explanation_text"][0].startswith("joint 3 zero moved +0.")
