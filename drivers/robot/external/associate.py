@@ -227,11 +227,11 @@ class Associator:
         """Why a stop is no pose: the nearest prediction and the tolerance it missed."""
         reg = self.registration
         stops = 0 if reg is None else len(reg.loo_mm)
-        rule = (
-            f"{TOLERANCE_FACTOR:g} x the leave-one-out RMS of {stops} recorded stops"
-            if stops >= RULE_STOPS
-            else "--match-tolerance"
-        )
+        rule = f"{TOLERANCE_FACTOR:g} x the leave-one-out RMS of {stops} recorded stops"
+        if stops < RULE_STOPS:
+            rule = "--match-tolerance"
+        elif self.tolerance() >= self.bound_mm:
+            rule = f"--match-tolerance, less than {rule}"
         return (
             f"matches no expected pose: nearest is pose {pose} at {error:.1f} mm "
             f"(tolerance {self.tolerance():.1f} mm: {rule})"
