@@ -35,6 +35,7 @@ import numpy as np
 
 from calibrator.errors import CalibrationError
 from calibrator.mass_models import GRAVITY_MM_S2
+from calibrator.robots import chen_zhang
 
 
 @dataclass(frozen=True)
@@ -424,56 +425,35 @@ def standard_dh_frames(
 
 _DEG = np.pi / 180.0
 
-#: Seed 001's example (its Fig. 4 is missing from the text), our reading:
-#: joint 1 turns the column about the vertical (s1 = 1100 mm); joint 2 pitches
-#: the arm about a horizontal axis, the rod's axis h2 = 142 mm above it; joint 3
-#: slides the rod (link 3, s3, 600 mm out at the end pose, clamped at frame 2);
-#: joint 4 rolls about the rod, joint 5 turns the hand about the vertical with
-#: the hand frame h5 = 260 mm below the rod's tip, z5 up, x5 across the arm.
+#: Seed 001's example (Chen and Zhang's arm): its data live in
+#: :mod:`calibrator.robots.chen_zhang`, which says how the table was read.
 #: Rows ``[theta_offset, s, h, alpha]`` (rad, mm).
-SEED_TABLE = np.array(
-    [
-        [0.0, 1100.0, 0.0, -90 * _DEG],
-        [-90 * _DEG, 0.0, 142.0, -90 * _DEG],
-        [0.0, 0.0, 0.0, 0.0],
-        [-90 * _DEG, 0.0, 0.0, -90 * _DEG],
-        [0.0, -260.0, 0.0, 0.0],
-    ]
-)
-SEED_PRISMATIC = np.array([False, False, True, False, False])
+SEED_TABLE = chen_zhang.TABLE
+SEED_PRISMATIC = chen_zhang.PRISMATIC
 #: The seed's mass table: masses (kg, link 5 includes the 5 kg workpiece),
-#: centres of mass (m in the table, mm here) and principal inertias (kg m^2).
-SEED_MASS_KG = np.array([61.46, 27.8, 18.72, 5.33, 6.5 + 5.0])
-SEED_COM_MM = np.array(
-    [[0, -800, 0], [0, 0, 0], [0, 0, -400], [0, 0, 0], [-100, 0, 0]], dtype=float
-)
-SEED_INERTIA_KG_M2 = np.array(
-    [
-        [0.15, 0.1, 0.172],
-        [1.5, 1.8, 1.7],
-        [1.3, 1.2, 1.1],
-        [0.007, 0.009, 0.004],
-        [0.01, 0.01, 0.014],
-    ]
-)
+#: centres of mass (mm) and principal inertias (kg m^2).
+SEED_MASS_KG = chen_zhang.MASS_KG
+SEED_COM_MM = chen_zhang.COM_MM
+SEED_INERTIA_KG_M2 = chen_zhang.INERTIA_KG_M2
 #: Link 3, the piston rod: hollow steel, E = 2.1e11 Pa, D = 0.05 m, d = 0.03 m.
-SEED_ROD = Section(outer_mm=50.0, inner_mm=30.0, e_mpa=2.1e5)
+SEED_ROD = Section(
+    outer_mm=chen_zhang.ROD_OUTER_MM, inner_mm=chen_zhang.ROD_INNER_MM, e_mpa=chen_zhang.ROD_E_MPA
+)
 #: The seed's task: the hand's origin on a straight line while x5 turns from 0
-#: to 45 deg with theta_1, in 1 s. Our line: base x = 600 cos 45 deg, so the
-#: rod is out s3 = 600 mm (the seed's s3') at the end, B.
-SEED_DURATION_S = 1.0
-_SEED_LINE_X_MM = 600.0 * np.cos(45 * _DEG)
+#: to 45 deg with theta_1, in 1 s.
+SEED_DURATION_S = chen_zhang.DURATION_S
+_SEED_LINE_X_MM = chen_zhang.LINE_X_MM
 
 
 def seed_arm() -> FlexArm:
     """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
     return FlexArm(
-        name="seed 001 example (5 axes, rod D 50 / d 30 mm)",
+        name=chen_zhang.TITLE,
         frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
         mass_kg=SEED_MASS_KG,
         com_mm=SEED_COM_MM,
         inertia_kg_mm2=np.array([np.diag(v) for v in SEED_INERTIA_KG_M2]) * 1e6,
-        sections={3: SEED_ROD},
+        sections={chen_zhang.ROD_LINK: SEED_ROD},
     )
 
 
@@ -513,7 +493,7 @@ def named_arm(model: str, sections: dict[int, Section], masses: object = None) -
     from calibrator import kinematics, mass_models, models
 
     m = models.get_model(model)
-    mm = mass_models.get(model) if masses is None else masses
+    mm = mass_models.get(m.name) if masses is None else masses
     mdh = np.array(m.mdh)
 
     def frames(q: np.ndarray) -> np.ndarray:

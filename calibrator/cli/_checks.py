@@ -105,6 +105,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     # Points in a robot cell, mm: a tool on the flange, a tracker in the room.
     "tool": (2_000.0, "mm"),
     "tracker_at": (100_000.0, "mm"),
+    # program: a digital output number (KRL's $OUT[] goes to 4096).
+    "pulse": (4096, "outputs"),
 }
 #: Largest seed: a JSON-safe 64-bit integer (seeds are written into results).
 MAX_SEED = strict.MAX_INT

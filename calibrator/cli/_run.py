@@ -295,7 +295,7 @@ def open_run(
     calibrator.acquire.run.MeasureRun
         Not connected yet; enter it (``with``) so its devices are closed.
     """
-    from calibrator.acquire.run import MeasureRun
+    from calibrator.acquire.run import MeasureRun, tracker_position
     from calibrator.errors import CalibrationError
     from calibrator.simulate import SimWorld
     from drivers.robot import RobotOptions, open_robot
@@ -309,6 +309,10 @@ def open_run(
 
             repeatability = JointRepeatability.typical()
         world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
+        at = tracker_position(options)
+        if at is not None:
+            # The simulated tracker stands where the user (or the cell file) says.
+            world = world.with_tracker_at(at)
     try:
         tracker = open_tracker(
             tracker_url,
