@@ -1,10 +1,10 @@
 """Shared by the external-robot tests: one checked 40-pose plan, made once per session.
 
 Made as a user makes it (``calibrator plan``), for a reflector 14 mm from the
-default guess (``--tool 11.3,-6.8,96.2``): the runs below measure with the
-default guess, so the association must find the reflector itself. Tests that
-need fewer poses take the plan's first ones (``external_cell.first_poses``), vias
-included, instead of planning again.
+default guess (``--tool 11.3,-6.8,96.2``). The runs take it through
+``external_cell.first_poses`` (its first poses, vias included, without the
+record of the reflector it was made for), so they measure with the default
+guess and the association must find the reflector itself.
 """
 
 from __future__ import annotations

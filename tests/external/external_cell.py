@@ -19,7 +19,12 @@ TOOL_MM = (11.3, -6.8, 96.2)
 
 
 def first_poses(plan_path: Path, n: int, out: Path) -> Path:
-    """The first ``n`` measured poses of a plan (with their vias), written to ``out``."""
+    """The first ``n`` measured poses of a plan (with their vias), written to ``out``.
+
+    Written without the file's record of the arm, tracker and reflector it was
+    made for, as an older plan file is: ``measure`` then keeps the default
+    reflector guess (0,0,100), 14 mm from where the shared plan's reflector is.
+    """
     plan = plans.read_plan(plan_path)
     plans.write_plan(out, plans.Plan(plan.q_rad[:n], plan.via_rad[:n]))
     return out

@@ -45,6 +45,7 @@ def test_a_40_pose_program_with_a_skip_a_pause_and_wrong_stops_reaches_the_noise
     9.8 mm from where poses 1 and 25 belong (a wrong point in its program): with
     ``-q`` too, the wrong stops are rejected and named in the summary, their poses
     missing, and the other 37 poses recorded under their own numbers."""
+    plan40 = first_poses(plan40, 40, tmp_path / "plan.csv")  # measured with the default guess
     wrong = _moved(plan40, tmp_path / "played.csv", {1: 9.8, 25: 9.8})
     with tracker_simulator(seed=2) as url:
         measure = Watching(
