@@ -211,3 +211,12 @@ def test_a_good_stop_lands_within_the_tolerance_factor_of_its_prediction():
             ratios.append(miss / reg.loo_rms_mm())
     print(f"largest {max(ratios):.2f}, 99 % {np.percentile(ratios, 99):.2f} of {len(ratios)}")
     assert max(ratios) < TOLERANCE_FACTOR
+
+
+def test_a_reflector_beyond_its_bound_places_no_stop_and_says_what_to_check():
+    """45 mm from the guess is no plausible guess error: nothing is recorded, nothing wrongly."""
+    plan = _plan(30, seed=4)
+    cell = _cell(4, 1.0, tool_mm=(45.0, 0.0, 100.0))
+    assigned, rejected = _run(plan, plan, cell=cell)
+    assert assigned == {} and rejected == list(range(len(plan)))
+    assert all("--tool" in why for why in _run.reasons.values()), _run.reasons

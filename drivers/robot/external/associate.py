@@ -73,6 +73,11 @@ TOLERANCE_FACTOR = 4.0
 TOLERANCE_FLOOR_MM = 1.0
 #: Two stops closer than this are the same place (the arm settled twice), mm.
 SAME_PLACE_MM = 0.5
+#: What to check when the first stops fit no poses of the plan.
+_CHECK = (
+    "is it the plan the program was made from, the reflector within "
+    f"{TOOL_BOUND_MM:g} mm of --tool, the arm within --match-tolerance of nominal?"
+)
 
 
 @dataclass(frozen=True)
@@ -208,7 +213,7 @@ class Associator:
                 if self.registration is not None:
                     return out + self._settle()
             out += [
-                Rejected(s, "too few stops to place (fewer than three fit the plan)")
+                Rejected(s, f"too few stops to place (fewer than three fit the plan; {_CHECK})")
                 for s in self._unplaced
             ]
             self._unplaced = []
@@ -293,7 +298,7 @@ class Associator:
                 return []
             # The oldest stop fits with no set of the others: it is no pose of the plan's start.
             oldest = self._unplaced.pop(0)
-            return [Rejected(oldest, "fits no pose together with the stops after it")]
+            return [Rejected(oldest, f"fits no pose together with the stops after it ({_CHECK})")]
         chosen, self.registration = found
         first_pose, last_stop = self.next_pose, chosen[-1][0]
         placed = dict(chosen)
