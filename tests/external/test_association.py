@@ -189,25 +189,38 @@ def test_a_reflector_guess_far_off_keeps_every_good_stop(true_tool, guess, cell_
 
 
 def test_the_tolerance_follows_the_arm_not_the_bound():
-    plan = _plan(40, seed=2)
-    tight, loose = [], []
-    for scale, out in ((0.1, tight), (1.0, loose)):
-        _run(plan, plan, cell=_cell(2, scale))
-        out.append(_run.tolerance)
-    assert TOLERANCE_FLOOR_MM <= tight[0] < loose[0] < 15.0
+    """40-pose runs on arms 0.1 and 1 times as far off as measure simulates them."""
+    tolerances = {0.1: [], 1.0: []}
+    for seed in range(1, 9):
+        plan = _plan(40, seed=seed)
+        for scale, out in tolerances.items():
+            _run(plan, plan, cell=_cell(seed, scale))
+            out.append(_run.tolerance)
+    print({scale: (round(min(t), 2), round(max(t), 2)) for scale, t in tolerances.items()})
+    assert all(TOLERANCE_FLOOR_MM <= t < 2.0 for t in tolerances[0.1])
+    assert all(3.0 < t < 10.0 for t in tolerances[1.0])
 
 
 def test_a_good_stop_lands_within_the_tolerance_factor_of_its_prediction():
     """The factor's measurement: prediction misfit over the LOO RMS, from RULE_STOPS stops on."""
     ratios = []
-    for seed in range(1, 7):
+    for seed in range(1, 13):  # arms 0.1 to 2 times measure's simulated errors, guess 14 mm off
         plan = _plan(40, seed=seed)
         cell = _cell(seed, (0.1, 0.5, 1.0, 2.0)[seed % 4], tool_mm=(11.3, -6.8, 96.2))
         points = _true_points(plan, cell)
         flange = kinematics.forward(CELL.model.mdh, plan)
-        for n in range(RULE_STOPS, len(plan), 3):
+        for n in range(RULE_STOPS, len(plan), 2):
             reg = register(flange[:n], points[:n], (0.0, 0.0, 100.0))
             miss = np.linalg.norm(reg.predict(flange[n : n + 1])[0] - points[n])
             ratios.append(miss / reg.loo_rms_mm())
     print(f"largest {max(ratios):.2f}, 99 % {np.percentile(ratios, 99):.2f} of {len(ratios)}")
     assert max(ratios) < TOLERANCE_FACTOR
+
+
+def test_a_reflector_beyond_its_bound_places_no_stop_and_says_what_to_check():
+    """45 mm from the guess is no plausible guess error: nothing is recorded, nothing wrongly."""
+    plan = _plan(30, seed=4)
+    cell = _cell(4, 1.0, tool_mm=(45.0, 0.0, 100.0))
+    assigned, rejected = _run(plan, plan, cell=cell)
+    assert assigned == {} and rejected == list(range(len(plan)))
+    assert all("--tool" in why for why in _run.reasons.values()), _run.reasons

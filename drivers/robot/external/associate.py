@@ -66,13 +66,18 @@ BOOTSTRAP_SKIPS = 4
 #: Most stops the bootstrap may reject before or among its stops (home, pauses, a wrong stop).
 BOOTSTRAP_REJECTS = 4
 #: Tolerance = this many times the RMS leave-one-out misfit of the registration's stops.
-#: Measured: a good stop lands at most 3.5 of them from its prediction, p99 2.5 (from 8
-#: stops on; 2,000 stops of 60 simulated cells, tool guesses up to 20 mm off).
+#: Measured: a good stop lands at most 2.1 of them from its prediction (192 stops of 12
+#: simulated cells, from 8 stops on; tests/external/test_association.py -k factor).
 TOLERANCE_FACTOR = 4.0
 #: The tolerance never goes below this, mm: a reflector re-seated, a stop still settling.
 TOLERANCE_FLOOR_MM = 1.0
 #: Two stops closer than this are the same place (the arm settled twice), mm.
 SAME_PLACE_MM = 0.5
+#: What to check when the first stops fit no poses of the plan.
+_CHECK = (
+    "is it the plan the program was made from, the reflector within "
+    f"{TOOL_BOUND_MM:g} mm of --tool, the arm within --match-tolerance of nominal?"
+)
 
 
 @dataclass(frozen=True)
@@ -208,7 +213,7 @@ class Associator:
                 if self.registration is not None:
                     return out + self._settle()
             out += [
-                Rejected(s, "too few stops to place (fewer than three fit the plan)")
+                Rejected(s, f"too few stops to place (fewer than three fit the plan; {_CHECK})")
                 for s in self._unplaced
             ]
             self._unplaced = []
@@ -227,11 +232,11 @@ class Associator:
         """Why a stop is no pose: the nearest prediction and the tolerance it missed."""
         reg = self.registration
         stops = 0 if reg is None else len(reg.loo_mm)
-        rule = (
-            f"{TOLERANCE_FACTOR:g} x the leave-one-out RMS of {stops} recorded stops"
-            if stops >= RULE_STOPS
-            else "--match-tolerance"
-        )
+        rule = f"{TOLERANCE_FACTOR:g} x the leave-one-out RMS of {stops} recorded stops"
+        if stops < RULE_STOPS:
+            rule = "--match-tolerance"
+        elif self.tolerance() >= self.bound_mm:
+            rule = f"--match-tolerance, less than {rule}"
         return (
             f"matches no expected pose: nearest is pose {pose} at {error:.1f} mm "
             f"(tolerance {self.tolerance():.1f} mm: {rule})"
@@ -293,7 +298,7 @@ class Associator:
                 return []
             # The oldest stop fits with no set of the others: it is no pose of the plan's start.
             oldest = self._unplaced.pop(0)
-            return [Rejected(oldest, "fits no pose together with the stops after it")]
+            return [Rejected(oldest, f"fits no pose together with the stops after it ({_CHECK})")]
         chosen, self.registration = found
         first_pose, last_stop = self.next_pose, chosen[-1][0]
         placed = dict(chosen)
