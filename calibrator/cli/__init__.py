@@ -34,6 +34,7 @@ COMMANDS = {
     "report": "report",
     "analyze": "analyze",
     "simulate": "simulate",
+    "history": "history",
 }
 
 

@@ -276,6 +276,7 @@ def open_run(
     sim_probe_6dof: bool = False,
     external: Any = None,
     world_file: Any = None,
+    place_tracker: bool = True,
 ) -> Any:
     """The devices named by URL (the drivers' registries) and the run over them.
 
@@ -290,6 +291,10 @@ def open_run(
         The simulated tracker's probe reports its orientation too.
     external : drivers.robot.external.setup.ExternalOptions, optional
         Stop detection and association of ``--robot external``.
+    place_tracker : bool
+        Move the simulated tracker to the run's tracker position (``--tracker-at``,
+        the cell file's or the plan file's); False when that position is only an
+        estimate of where the simulated one stands (a calibration's registration).
     world_file : calibrator.world.World, optional
         ``--world``: the simulated cell's true arm changed as the file says.
 
@@ -298,7 +303,7 @@ def open_run(
     calibrator.acquire.run.MeasureRun
         Not connected yet; enter it (``with``) so its devices are closed.
     """
-    from calibrator.acquire.run import MeasureRun
+    from calibrator.acquire.run import MeasureRun, tracker_position
     from calibrator.errors import CalibrationError
     from calibrator.simulate import SimWorld
     from drivers.robot import RobotOptions, open_robot
@@ -316,6 +321,10 @@ def open_run(
             sim_noise = sim_noise and world_file.noise
         else:
             world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
+        at = tracker_position(options)
+        if at is not None and place_tracker:
+            # The simulated tracker stands where the user (or the cell file) says.
+            world = world.with_tracker_at(at)
     try:
         tracker = open_tracker(
             tracker_url,

@@ -118,9 +118,13 @@ def check(
     # Where the calibration found the tracker, unless told otherwise.
     at = triple(tracker_at, "--tracker-at")
     tracker_at_mm = at if at is not None else tuple(frames.invert(cal.base2tracker)[:3, 3])
-    cell = (cells.read_cell(cell_file) if cell_file is not None else cells.Cell()).with_tracker(
-        tracker_at_mm
-    )
+    given_cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
+    # The simulated tracker moves only to a position the user gave, never to the
+    # calibration's estimate of where it already stands.
+    cell_given = given_cell.tracker_at_mm is not None
+    if at is None and cell_given:
+        tracker_at_mm = given_cell.tracker_at_mm
+    cell = given_cell.with_tracker(tracker_at_mm)
     chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
     options = RunOptions(
         plan_rad=chosen.q_rad,
@@ -138,7 +142,8 @@ def check(
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, data_path, stack, sim_noise=sim_noise,
                      sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     external=external, world_file=world_file)
+                     external=external, world_file=world_file,
+                     place_tracker=at is not None or cell_given)
         )  # fmt: skip
         mrun.check_files()
         mrun.connect(tracker)

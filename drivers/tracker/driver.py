@@ -38,6 +38,8 @@ from drivers.tracker.protocol import (
     parse_reading,
 )
 from drivers.tracker.recording import Recorder
+from drivers.urls import LOGGING
+from drivers.urls import parse as parse_url
 
 
 @dataclass(frozen=True)
@@ -443,9 +445,35 @@ def _parse_status(reply: Reply) -> Status:
     return Status(f[0], f[1] == "1", f[2] == "1", f[3] == "P6", f[4])
 
 
+#: Query parameters pyserial's network transports take (``logging`` is checked
+#: here: pyserial reports a bad level, and a port above 65535, as the level list).
+_URL_PARAMS: dict = {
+    "socket": {"logging": LOGGING},
+    "rfc2217": {"logging": LOGGING, "ign_set_control": None, "poll_modem": None, "timeout": None},
+}
+
+
+def check_url(url: str) -> None:
+    """Refuse a malformed ``socket://HOST:PORT``, ``rfc2217://HOST:PORT`` or ``loop://``.
+
+    ``loop://`` takes ``logging`` only; device paths are left to pyserial.
+
+    Raises
+    ------
+    ValueError
+        Missing host, missing or out-of-range port, unknown parameter.
+    """
+    kind = url.split("://", 1)[0].lower() if "://" in url else ""
+    if kind == "loop":  # pyserial's loopback: no host, logging only
+        parse_url(url, kind, host=False, params={"logging": LOGGING})
+    elif kind in _URL_PARAMS:
+        parse_url(url, kind, port="required", params=_URL_PARAMS[kind])
+
+
 def open_line_tracker(url: str, options: OpenOptions) -> LaserTracker:
     """The registry's opener for the line protocol (device paths and pyserial URLs)."""
     if options.world is not None or options.sim_faults or options.sim_replay:
         raise ValueError(f"{url}: simulator options need --tracker sim")
+    check_url(url)
     # Standard air until the user's meteo is wired in: what measure always sent.
     return LaserTracker(url, record=options.record, environment=Environment())

@@ -100,6 +100,7 @@ def test_help_still_lists_every_command_in_workflow_order():
         "simulate",
         "tracker",
         "analyze",
+        "history",
     ]
 
 

@@ -469,24 +469,14 @@ def open_tracker(url: str, **options: Any) -> EmsconTracker:
     ValueError
         Not an ``emscon://`` URL, a bad port, or a bad query.
     """
-    from urllib.parse import parse_qs, urlsplit
+    from drivers import urls
 
-    parts = urlsplit(url)
-    if parts.scheme != "emscon" or not parts.hostname or parts.path not in ("", "/"):
-        raise ValueError(f"expected emscon://HOST[:PORT][?meteo=T,P,H], got {url!r}")
-    try:
-        port = parts.port or DEFAULT_PORT
-    except ValueError as exc:
-        raise ValueError(f"bad port in {url!r}: {exc}") from None
-    try:
-        query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
-    except ValueError as exc:
-        raise ValueError(f"bad query in {url!r}: {exc}") from None
-    if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
-        raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
-    if "meteo" in query:
-        options["environment"] = _parse_meteo(query["meteo"][0])
-    return EmsconTracker(parts.hostname, port, **options)
+    where = urls.parse(
+        url, "emscon", port="optional", default_port=DEFAULT_PORT, params={"meteo": _parse_meteo}
+    )
+    if "meteo" in where.params:
+        options["environment"] = _parse_meteo(where.params["meteo"])
+    return EmsconTracker(where.host, where.port or DEFAULT_PORT, **options)
 
 
 def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
@@ -496,11 +486,20 @@ def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
     return open_tracker(url)
 
 
+#: Air a tracker measures in (degC, hPa, %RH): beyond these the refractive
+#: index correction is not air's, and a typo (1e308) would pass unseen.
+METEO_RANGES = ((-40.0, 60.0), (500.0, 1200.0), (0.0, 100.0))
+
+
 def _parse_meteo(text: str) -> Environment:
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
     if len(values) != 3 or not all(np.isfinite(values)):
-        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r}")
+        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r:.40}")
+    names = ("T degC", "P hPa", "H %RH")
+    for value, (low, high), what in zip(values, METEO_RANGES, names, strict=True):
+        if not low <= value <= high:
+            raise ValueError(f"meteo {what} {value:g} is outside [{low:g}, {high:g}]")
     return Environment(*values)
