@@ -82,7 +82,7 @@ def conditions_of(robot: Any, tracker: Any) -> dict:
     if ports.REPORTS_TEMPERATURES in getattr(robot, "capabilities", ()):
         try:
             temps = np.asarray(robot.joint_temperatures(), dtype=float).reshape(-1)
-        except (ports.PortError, OSError, ValueError):
+        except (ports.PortError, OSError, ValueError, RuntimeError):  # ur_rtde: RuntimeError
             temps = np.zeros(0)
         if temps.shape == (6,) and np.all(np.isfinite(temps)):
             out["joint_temperatures_c"] = temps.tolist()

@@ -73,7 +73,7 @@ def evaluate(
     tried: list[explains.Fit] = []
     if verdict.verdict != "ok":
         best, tried = explains.explain(model, q, points, cov)
-    sd = np.sqrt(np.einsum("nii->n", verdicts._blocks(cov, len(q))))
+    sd = np.sqrt(np.einsum("nii->n", verdicts.pose_blocks(cov, len(q))))
     return {
         "verdict": verdict,
         "errors": errors,

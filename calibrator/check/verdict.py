@@ -121,7 +121,7 @@ def judge(
     statistic = float(e.ravel() @ np.linalg.solve(cov, e.ravel()))
     dof = 3 * n
     p = p_value(statistic, dof, noise_dof)
-    per_pose = np.sqrt(np.einsum("nii->n", _blocks(cov, n)))
+    per_pose = np.sqrt(np.einsum("nii->n", pose_blocks(cov, n)))
     # As identify's prediction: the root of a noise estimated from few rows is low by c4.
     predicted = float(MEAN_OVER_RMS * per_pose.mean() / sigma_bias(noise_dof))
     measured = float(np.linalg.norm(e, axis=1).mean())
@@ -135,7 +135,7 @@ def judge(
     return Verdict(verdict, measured, predicted, statistic, dof, p, limit)
 
 
-def _blocks(cov: np.ndarray, n: int) -> np.ndarray:
+def pose_blocks(cov: np.ndarray, n: int) -> np.ndarray:
     """The (N, 3, 3) diagonal blocks of a (3N, 3N) matrix."""
     idx = np.arange(n)[:, None] * 3 + np.arange(3)
     return cov[idx[:, :, None], idx[:, None, :]]

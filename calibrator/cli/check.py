@@ -53,7 +53,11 @@ def check(
         "Tracker position in the robot base frame X,Y,Z (mm) [default: where the "
         "calibration's base frame puts it]."
     ),
-    seed: int = opts.seed(0, "Seed of the pose choice and of the simulated cell."),
+    seed: int = opts.seed(
+        0,
+        "Seed of the pose choice and of the simulated cell (its hidden arm: the seed the "
+        "calibration was measured with, unless a --world file gives one).",
+    ),
     world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     history: str = typer.Option(
         None, "--history", help="Record the check in this history (a file or a database URL)."

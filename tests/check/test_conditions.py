@@ -148,3 +148,19 @@ def test_emscon_reports_its_environment_parameters():
     assert said == pytest.approx(
         {"air_temperature_c": 21.3, "air_pressure_hpa": 1002.0, "air_humidity_pct": 45.0}
     )
+
+
+def test_a_recording_with_cond_queries_replays_to_the_same_session(tmp_path):
+    from drivers.tracker import read_log
+
+    common = ("measure", "--poses", "30", "--readings", "3", "--no-sim-noise")
+    done = cli(*common, "--sim-record", "rec.jsonl", "-o", "a.parquet", "-q", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    sent = [e.data for e in read_log(tmp_path / "rec.jsonl") if e.direction == "tx"]
+    assert sum(b",COND?*" in line for line in sent) == 31  # the warm-up check, then each pose
+    done = cli(*common, "--sim-replay", "rec.jsonl", "-o", "b.parquet", "-q", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    a, b = (pq.read_table(tmp_path / f"{n}.parquet").to_pydict() for n in "ab")
+    for column in ("pose", "q1_rad", "x_mm", "y_mm", "z_mm"):
+        assert a[column] == b[column], column
+    assert "air_temperature_c" in a and "air_temperature_c" not in b  # a replay does not ask

@@ -63,7 +63,7 @@ class SimulatedTracker(LaserTracker):
         self._replay = replay
         self._probe_6dof = probe_6dof
         self._air, self._on_s = air, on_s
-        if replay is not None:  # a recorded exchange holds no COND? to answer from
+        if replay is not None:  # conditions are no reading: a replay does not ask for them
             self.capabilities = self.capabilities - {ports.REPORTS_CONDITIONS}
         self._process: SimulatorProcess | None = None
 
