@@ -213,7 +213,9 @@ def build(
     from calibrator import models
 
     lengths = dict(lengths or {})
-    key = (model or PAPER).strip().lower()
+    key = (model or PAPER).strip()
+    # Names are matched without case; a description file's path keeps its own.
+    key = PAPER if key.lower() == PAPER else key
     unknown = sorted(set(lengths) - set(length_names(key)))
     if unknown:
         raise CalibrationError(
@@ -230,8 +232,9 @@ def build(
         table[:, 0] *= _DEG
         pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
         return craig_arm(table, pose * _DEG, name=misalignment_paper.TITLE)
-    mdh = models.get_model(key).mdh.copy()
+    described = models.get_model(key)
+    mdh = described.mdh.copy()
     for name, value in lengths.items():
         mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value
     pose = np.zeros(6) if pose_deg is None else np.asarray(pose_deg, dtype=float)
-    return mdh_arm(mdh, pose * _DEG, name=key)
+    return mdh_arm(mdh, pose * _DEG, name=described.name)

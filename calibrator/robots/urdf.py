@@ -466,7 +466,9 @@ def fit_body(
     """
     frames = chain.link_frames()
     capsules: list[Capsule] = []
-    base_points: list[np.ndarray] = []
+    base_ends: list[np.ndarray] = []  # end points of the base link's capsules, base link, mm
+    base_radii: list[float] = []
+    bare: list[int] = []  # links drawn along their joints, without geometry
     groups = _groups(chain)
     anchors = [frames[j.child][:, 3] for j in chain.moving] + [frames[chain.tip_link][:, 3]]
     flange = anchors[6][:3]
@@ -484,7 +486,8 @@ def fit_body(
                 at = frames[name]
                 p_base, q_base = at @ np.append(p, 1.0), at @ np.append(q, 1.0)
                 if i == 0:
-                    base_points += [p_base[:3], q_base[:3], np.array([r, 0.0, 0.0])]
+                    base_ends += [p_base[:3], q_base[:3]]
+                    base_radii.append(r)
                     found = True
                     continue
                 pm, qm = to_model @ p_base, to_model @ q_base
@@ -500,6 +503,7 @@ def fit_body(
                 found = True
         if not found and i > 0:
             # Along the link: from its joint's origin to the next joint's (or the tip).
+            bare.append(i)
             r = BARE_LINK_RADIUS_MM if link_radius_mm is None else float(link_radius_mm[i - 1])
             start, end = anchors[i - 1][:3], anchors[i][:3]
             # A housing ends at the flange face: a cap reaching past it would swallow
@@ -515,12 +519,12 @@ def fit_body(
                 )
             )
     joint1 = model_frames[0]
-    if base_points:
-        pts = np.array(base_points[0::3] + base_points[1::3])
-        radii = np.array([p[0] for p in base_points[2::3]])
-        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + radii.max() + margin_mm)
-        top = float(pts[:, 2].max() + radii.max())
-        bottom = float(min(0.0, pts[:, 2].min() - radii.max()))
+    if base_ends:
+        # A vertical cylinder about the base z axis around every base capsule.
+        pts, r_max = np.array(base_ends), max(base_radii)
+        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + r_max + margin_mm)
+        top = float(pts[:, 2].max() + r_max)
+        bottom = float(min(0.0, pts[:, 2].min() - r_max))
     else:
         # No geometry: a base under the shoulder, half its height.
         radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
@@ -535,8 +539,18 @@ def fit_body(
         mount_z_mm=bottom - shift,
         shoulder_mm=(0.0, 0.0, float(d1_point[2] - shift)),
         margin_mm=margin_mm,
-        source=f"fitted to the collision geometry of {chain.path.name}, +{margin_mm:g} mm",
+        source=_body_source(chain, bare, margin_mm),
     )
+
+
+def _body_source(chain: Chain, bare: list[int], margin_mm: float) -> str:
+    fitted = f"fitted to the collision geometry of {chain.path.name}"
+    along = "capsules along the links between the joint origins"
+    if not bare:
+        return f"{fitted}, +{margin_mm:g} mm"
+    if len(bare) == 6:
+        return f"{along} (no collision geometry found), +{margin_mm:g} mm"
+    return f"{fitted}; links {', '.join(map(str, bare))}: {along}; +{margin_mm:g} mm"
 
 
 def _fit(

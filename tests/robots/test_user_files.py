@@ -234,3 +234,30 @@ def test_a_description_files_masses_are_its_mass_model(tmp_path):
     model = mass_models.resolve(str(path))
     np.testing.assert_array_equal(model.mass_kg, [20, 15, 8, 3, 2, 0.5])
     np.testing.assert_array_equal(model.com_mm[:, 2], 10.0)
+
+
+def test_a_collision_mesh_of_the_package_is_enclosed(tmp_path):
+    import trimesh
+
+    (tmp_path / "pkg" / "urdf").mkdir(parents=True)
+    (tmp_path / "pkg" / "meshes").mkdir()
+    mesh = trimesh.creation.box(extents=(0.3, 0.1, 0.08))
+    mesh.export(tmp_path / "pkg" / "meshes" / "link_4.stl")
+    link_4 = """<link name="link_4">
+    <collision><origin xyz="0.2 0 0" rpy="0 0 0.2"/>
+      <geometry><mesh filename="package://pkg/meshes/link_4.stl"/></geometry></collision>
+  </link>"""
+    path = tmp_path / "pkg" / "urdf" / "arm.urdf"
+    path.write_text(KUKA.replace('<link name="link_4"/>', link_4))
+    arm = get_model(str(path))
+    cap = next(c for c in arm.body.capsules if c.name == "link_4")
+    frame = arm.base_offset @ kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0, 4]
+    p, q = ((frame @ np.append(v, 1.0))[:3] for v in (cap.p_mm, cap.q_mm))
+    c, s = np.cos(0.2), np.sin(0.2)
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    corners = np.array([[x, y, z] for x in (-150, 150) for y in (-50, 50) for z in (-40, 40)])
+    points = corners @ rz.T + [25 + 455 + 200, 0, 435]  # link_4's frame at the zero pose
+    t = np.clip((points - p) @ (q - p) / ((q - p) @ (q - p)), 0, 1)
+    distance = np.linalg.norm(points - (p + t[:, None] * (q - p)), axis=1)
+    assert distance.max() <= cap.radius_mm - 10.0 + 1e-9  # enclosed, margin on top
+    assert cap.radius_mm - 10.0 < 70.0  # and not a blob: the box's half cross-diagonal is 64
