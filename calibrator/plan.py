@@ -450,8 +450,9 @@ ORIGIN_COLUMNS = (
     "tool_y_mm",
     "tool_z_mm",
 )
-#: A run's tracker or tool farther than this from the plan's is another cell, mm.
-ORIGIN_TOLERANCE_MM = 1.0
+#: A run's tracker farther than this from the plan's is another cell, mm (the
+#: whole-plan check then re-checks every aim with the run's position anyway).
+ORIGIN_TOLERANCE_MM = 50.0
 
 
 @dataclass(frozen=True)
@@ -592,10 +593,11 @@ def made_for(
 ) -> tuple[tuple[float, float, float] | None, tuple[float, float, float]]:
     """The tracker position and tool a run of ``plan`` uses; a run it was not made for is refused.
 
-    A plan's checks (capsules with its tool, aim at its tracker) hold for the
-    arm, tracker and tool it was made for: a run on another arm, with the
-    tracker elsewhere or another reflector is refused naming both. What the run
-    does not give is taken from the plan.
+    A plan's checks hold for the arm and tracker it was made for: a run on
+    another arm, or with the tracker elsewhere, is refused naming both. The
+    reflector is a first guess that identification corrects, so a run's
+    ``--tool`` is taken as given (the whole-plan check runs with it). What the
+    run does not give is taken from the plan.
 
     Parameters
     ----------
@@ -617,7 +619,7 @@ def made_for(
     Raises
     ------
     PlanError
-        Another model, or a tracker or tool farther than :data:`ORIGIN_TOLERANCE_MM`.
+        Another model, or a tracker farther than :data:`ORIGIN_TOLERANCE_MM`.
     """
     tracker = None if tracker_at_mm is None else _point(tracker_at_mm)
     tool = None if tool_mm is None else _point(tool_mm)
@@ -628,11 +630,6 @@ def made_for(
         raise PlanError(
             f"{source} was made for a {origin.model}, not a {model} (--model): make a plan "
             "for this arm"
-        )
-    if tool is not None and _apart(tool, origin.tool_mm):
-        raise PlanError(
-            f"{source} was made for the reflector at {_text(origin.tool_mm)} mm on the flange, "
-            f"not {_text(tool)} (--tool)"
         )
     if tracker is not None and origin.tracker_at_mm is not None:
         if _apart(tracker, origin.tracker_at_mm):
