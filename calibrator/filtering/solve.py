@@ -27,7 +27,7 @@ import itertools
 import numpy as np
 
 from calibrator import compensate, frames, kinematics
-from calibrator.filtering import configuration, convention
+from calibrator.filtering import Job, Language, configuration, convention
 
 #: Every STRIDE-th target of a block is solved first and starts its followers.
 STRIDE = 16
@@ -87,7 +87,7 @@ class Library:
 class Solver:
     """Nominal solutions of Cartesian targets in their configurations, for one language."""
 
-    def __init__(self, lang, job) -> None:
+    def __init__(self, lang: Language, job: Job) -> None:
         self.lang = lang
         self.job = job
         self.mdh = job.calibration.nominal_mdh
@@ -168,7 +168,14 @@ class Solver:
             ok[free] &= np.all(configuration.arm_bits(self.mdh, q[free]) == ref_bits[free], axis=1)
         return q, ok
 
-    def solve(self, desired, tool, code, stated, start_q):
+    def solve(
+        self,
+        desired: np.ndarray,
+        tool: np.ndarray,
+        code: np.ndarray,
+        stated: np.ndarray,
+        start_q: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Nominal joints of a block of targets.
 
         Parameters
