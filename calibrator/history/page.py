@@ -239,7 +239,9 @@ def _conditions(sessions: list) -> dict[str, list]:
             for k, v in value.items():
                 walk(f"{prefix}.{k}" if prefix else str(k), v, when)
         elif isinstance(value, int | float) and not isinstance(value, bool):
-            series.setdefault(prefix, []).append((when, float(value)))
+            # A column's summary: its mean stands for it.
+            if not prefix.endswith((".min", ".max")) and prefix != "poses_reporting":
+                series.setdefault(prefix, []).append((when, float(value)))
 
     for s in sessions:
         walk("", s["conditions"], s["measured_at"])
