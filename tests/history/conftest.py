@@ -51,7 +51,8 @@ def history_url(request, tmp_path):
 @pytest.fixture(scope="session")
 def measured(tmp_path_factory) -> Path:
     """A folder as a user has it: three sessions of one simulated arm, their
-    calibrations (identify), and an ISO 9283 test (verify), made by the commands."""
+    calibrations (identify), and an ISO 9283 test (verify, recorded in
+    ``verify-history.sqlite`` by ``--history``), made by the commands."""
     folder = tmp_path_factory.mktemp("measured")
     for i, noise in enumerate(("0.02", "0.04", "0.06")):
         session = f"s{i}.parquet"
@@ -61,7 +62,7 @@ def measured(tmp_path_factory) -> Path:
         assert result.code == 0, result.stderr
     result = cli(
         "verify", "--model", "er10l-c10", "--cycles", "2", "--readings", "1", "-q",
-        "--seed", "3", "-o", "verify.json", cwd=folder,
+        "--seed", "3", "-o", "verify.json", "--history", "verify-history.sqlite", cwd=folder,
     )  # fmt: skip
     assert result.code == 0, result.stderr
     return folder

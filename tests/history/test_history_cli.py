@@ -50,6 +50,14 @@ def test_identify_records_with_history(tmp_path, measured):
         assert cal["parameters"] == json.loads((tmp_path / "c.json").read_text())["deltas"]
 
 
+def test_verify_records_with_history(measured):
+    doc = json.loads((measured / "verify.json").read_text())
+    with open_history(measured / "verify-history.sqlite", create=False) as h:
+        (test,) = h.verifications(ROBOT)
+    assert test["document"] == doc and test["compensated"] is False
+    assert test["rp_mm"] == max(p["RP_mm"] for p in doc["poses"])
+
+
 def test_refusals_are_one_line(tmp_path, measured):
     assert "no history at" in one_line_error(
         cli("history", "--history", tmp_path / "none.sqlite", cwd=tmp_path)
