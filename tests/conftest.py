@@ -27,3 +27,11 @@ def tracker_url(request):
     if not url:
         pytest.skip("needs --tracker-url")
     return url
+
+
+@pytest.fixture(scope="session")
+def checked_plan():
+    """:func:`plan_testkit.checked_plan`, made once per test session."""
+    from plan_testkit import checked_plan as make
+
+    return make()

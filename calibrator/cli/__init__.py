@@ -30,6 +30,7 @@ COMMANDS = {
     "export-params": "export",
     "compensate": "compensate",
     "verify": "verify",
+    "check": "check",
     "report": "report",
     "analyze": "analyze",
     "simulate": "simulate",
