@@ -35,7 +35,10 @@ def images(data: Timeline, limits: Limits) -> dict[str, bytes]:
         )
     series = _conditions(data.sessions)
     if series:
-        out["conditions.png"] = report_plots._png(_plot_conditions, series)
+        rows = -(-len(series) // 3)
+        out["conditions.png"] = report_plots._png(
+            _plot_conditions, series, size=(10, 0.5 + 2.0 * rows)
+        )
     return out
 
 
@@ -92,6 +95,11 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits) -> str:
             parts.append(
                 '<p class="note">Each identified delta with a band of three standard errors '
                 "either side; angles in mrad, lengths in mm.</p>"
+            )
+        if key == "conditions" and png in pictures:
+            parts.append(
+                '<p class="note">Each session\'s mean over its poses; units in the names '
+                "(degC, hPa, %RH, s).</p>"
             )
         parts.append("</section>")
     parts.append('<section id="checks"><h2>Checks</h2>')
@@ -249,20 +257,23 @@ def _conditions(sessions: list) -> dict[str, list]:
 
 
 def _plot_conditions(fig: Any, series: dict) -> None:
-    ax = fig.add_subplot()
-    for key, points in sorted(series.items()):
-        ax.plot(*zip(*points, strict=True), "o-", label=key)
-    ax.set_ylabel("value (unit in the name)")
-    ax.set_xlabel("date (UTC)")
-    ax.legend(fontsize="small")
-    _dates(ax)
+    """One small plot per condition: each has its own unit (in its name: _c, _hpa, _pct, _s)."""
+    cols = 3
+    rows = -(-len(series) // cols)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, hspace=0.9, wspace=0.4)
+    for i, (key, points) in enumerate(sorted(series.items())):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        ax.plot(*zip(*points, strict=True), "o-", markersize=3)
+        ax.set_title(key.removesuffix(".mean"), fontsize="small")
+        ax.tick_params(labelsize="x-small")
+        _dates(ax, ticks=4)
 
 
 def _dates(ax: Any, ticks: int = 6) -> None:
     """Dates on the x axis, few and short (matplotlib's concise format)."""
     from matplotlib import dates
 
-    low, high = ax.get_xlim()
+    low, high = ax.dataLim.intervalx
     if high - low < 3:  # days: records made together are shown over three days
         middle = (low + high) / 2
         ax.set_xlim(middle - 1.5, middle + 1.5)
