@@ -10,7 +10,7 @@ import html as _html
 from collections.abc import Sequence
 from typing import Any
 
-from calibrator.history.alarms import Alarm, Limits
+from calibrator.history.alarms import Alarm, Limits, explanations
 from calibrator.history.timeline import Timeline, table
 from calibrator.report import page as report_page
 from calibrator.report import plots as report_plots
@@ -118,9 +118,7 @@ def _checks_table(checks: list) -> str:
         "<th>predicted mm</th><th>explanation</th></tr>"
     ]
     for c in checks:
-        why = "; ".join(
-            str(e.get("text", e)) if isinstance(e, dict) else str(e) for e in c["explanation"]
-        )
+        why = "; ".join(explanations(c))
         rows.append(
             f"<tr><td>{c['time']:%Y-%m-%d %H:%M}</td><td>{_ESC(c['verdict'])}</td>"
             f"<td>{c['measured_mm']:.4f}</td><td>{c['predicted_mm']:.4f}</td>"
