@@ -16,7 +16,7 @@ def test_import_then_table_and_csv(tmp_path, measured):
     history = tmp_path / "h.sqlite"
     result = cli("history", "import", measured, "--history", history, cwd=tmp_path)
     assert result.code == 0, result.stderr
-    assert "3 sessions, 3 calibrations, 1 verifications" in result.stdout
+    assert "3 sessions, 3 calibrations, 1 verifications, 0 checks" in result.stdout
     # Importing again adds nothing.
     assert cli("history", "import", measured, "--history", history, cwd=tmp_path).code == 0
     robots = cli("history", "--history", history, cwd=tmp_path)

@@ -59,6 +59,13 @@ def test_monthly_checks_and_the_history_alarms_agree(tmp_path):
     assert verdicts[8]["verdict"] in ("drifted", "recalibrate")
     assert f"{verdicts[8]['verdict']}: measured" in found[0].message
     assert "joint 2 zero moved +0.4" in found[0].message
+    # A history imported from the files says the same (the checks' poses beside
+    # their JSON are not sessions).
+    imported = cli("history", "import", tmp_path, "--history", "again.sqlite", cwd=tmp_path)
+    assert "1 sessions, 1 calibrations, 0 verifications, 3 checks" in imported.stdout
+    with open_history(tmp_path / "again.sqlite") as store:
+        again = load(store, robot)
+    assert [c["document"] for c in again.checks] == [c["document"] for c in data.checks]
     # The command line says the same.
     shown = cli("history", robot, "--history", history, cwd=tmp_path)
     (line,) = [s for s in shown.stdout.splitlines() if s.startswith("ALARM")]
