@@ -134,3 +134,22 @@ def test_a_recorded_joint_term_payload_meets_the_payload_rules(tmp_path):
         cli("compensate", "c.json", "t.csv", "-o", "o.csv", "--payload-kg", "1e308", cwd=tmp_path)
     )
     assert "--payload-kg: 1e+308 kg is more than the limit of 100 kg" in line
+
+
+@pytest.mark.parametrize(
+    ("link", "says"),
+    [
+        ("{mass_kg: 1e308, com_mm: [0, 0, 0]}", "link 1 mass_kg: 1e+308 kg is more than the limit"),
+        ("{mass_kg: '5', com_mm: [0, 0, 0]}", "link 1 mass_kg: must be a number, got '5'"),
+        ("{mass_kg: 5, com_mm: [0, 0, 1e308]}", "link 1 com_mm: 1e+308 mm is beyond +-5000 mm"),
+        ("{mass_kg: 5, com_mm: [0, 0, 0], extra: 1}", "link 1 needs exactly mass_kg"),
+    ],
+)
+def test_a_mass_model_file_holds_robot_links(tmp_path, link, says):
+    (tmp_path / "s.yaml").write_text("links:\n  2: {outer_mm: 120, inner_mm: 100}\n")
+    (tmp_path / "m.yaml").write_text("links:\n" + f"  - {link}\n" * 6)
+    line = one_line_error(
+        cli("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", "--masses",
+            "m.yaml", cwd=tmp_path)
+    )  # fmt: skip
+    assert "m.yaml: " in line and says in line, line
