@@ -153,3 +153,36 @@ def test_a_mass_model_file_holds_robot_links(tmp_path, link, says):
             "m.yaml", cwd=tmp_path)
     )  # fmt: skip
     assert "m.yaml: " in line and says in line, line
+
+
+@pytest.mark.parametrize(
+    ("where", "value", "says"),
+    [
+        ("footer", 1e308, "the session's payload_kg: 1e+308 kg is more than the limit of 100 kg"),
+        ("footer", "5", "the session's payload_kg: must be a number, got '5'"),
+        ("column", 1e6, "the session's payload_kg column: 1e+06 kg is more than the limit"),
+        ("column", -1.0, "the session's payload_kg column: must be a number >= 0, got -1"),
+    ],
+)
+def test_a_sessions_recorded_payload_meets_the_payload_rule(tmp_path, where, value, says):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    done = cli("simulate", "--model", "ur10e", "--poses", "30", "-o", "s.parquet", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    table = pq.read_table(tmp_path / "s.parquet")
+    meta = dict(table.schema.metadata)
+    if where == "footer":
+        doc = json.loads(meta[b"calibrator"])
+        doc["payload_kg"] = value
+        meta[b"calibrator"] = json.dumps(doc).encode()
+    else:
+        table = table.append_column("payload_kg", pa.array([value] * table.num_rows))
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "p.parquet")
+    before = listing(tmp_path)
+    line = one_line_error(
+        cli("identify", "p.parquet", "--joint-terms", "scale", "-o", "c.json", "-q",
+            "--method", "lm", cwd=tmp_path)
+    )  # fmt: skip
+    assert says in line, line
+    assert listing(tmp_path) == before
