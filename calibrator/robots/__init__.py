@@ -150,9 +150,11 @@ def _read_file_once(
 
 
 def _read_file(name: str, base_link: str | None, tip_link: str | None) -> RobotDescription:
+    from calibrator import outputs
     from calibrator.robots import urdf
 
     path, _, links = name.partition("#")
+    outputs.note_input(path)  # an input of the command: no output may replace it
     if links:
         if base_link is not None or tip_link is not None:
             raise DescriptionError(f"{name}: give the links once, in the name or as options")

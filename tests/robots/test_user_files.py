@@ -271,3 +271,20 @@ def test_a_changed_file_is_read_again(tmp_path):
     assert get_model(str(path)).mdh is not first.mdh  # each caller its own arrays
     path.write_text(KUKA.replace('xyz="0.455 0 0"', 'xyz="0.5 0 0"'))
     assert get_model(str(path)).mdh[1, 0] == pytest.approx(500.0)
+
+
+def test_no_command_writes_over_the_description_it_read(tmp_path):
+    path = tmp_path / "arm.urdf"
+    path.write_text(KUKA)
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "calibrator", "plan", "--model", str(path)),
+            *("--tracker-at", "2500,300,300", "-o", str(path)),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "refusing to overwrite" in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    assert path.read_text() == KUKA
