@@ -16,6 +16,7 @@ def compensate(
     ),
     targets_path: Path = typer.Argument(..., metavar="TARGETS", help="CSV of targets."),
     output: Path = opts.output(..., "CSV to write."),
+    force: bool = opts.force(),
     payload_kg: float = typer.Option(
         None,
         callback=checks.finite(minimum=0.0),
@@ -33,7 +34,7 @@ def compensate(
     from calibrator import calibration, outputs
     from calibrator import compensate as comp
 
-    outputs.check(output, inputs=[calibration_path, targets_path])
+    outputs.check(output, inputs=[calibration_path, targets_path], force=force)
     cal = calibration.load(calibration_path)
     if payload_kg is not None and not cal.joint_terms.needs_torque:
         typer.echo("note: --payload-kg changes nothing: the calibration has no compliance terms")

@@ -25,13 +25,14 @@ def export_params(
     ),
     fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     output: Path = opts.output(None, "File to write [default: stdout]."),
+    force: bool = opts.force(),
 ) -> None:
     """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export, outputs
 
     name = export.choose(None if fmt is None else fmt.value, output)
     if output is not None:
-        outputs.check(output, inputs=[calibration_path])
+        outputs.check(output, inputs=[calibration_path], force=force)
     result = export.export(calibration.load(calibration_path), name)
     for note in result.notes:
         typer.echo(f"note: {note}", err=True)

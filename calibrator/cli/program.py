@@ -27,6 +27,7 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 def program(
     plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
     output: Path = opts.output(..., "Program file to write."),
+    force: bool = opts.force(),
     fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
@@ -54,7 +55,7 @@ def program(
     from calibrator.models import get_model
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
-    outputs.check(output, inputs=[plan_path])
+    outputs.check(output, inputs=[plan_path], force=force)
     arm = get_model(model)
     given = plans.read_plan(plan_path)
     q = plans.validate(given.q_rad, arm.joint_limits_rad)

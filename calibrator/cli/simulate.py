@@ -35,6 +35,7 @@ def simulate(
         Path("session.parquet"),
         "Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
+    force: bool = opts.force(),
     model: str = opts.model("er10l-c10", "Named nominal model."),
     poses: int = typer.Option(
         32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
@@ -76,8 +77,8 @@ def simulate(
     from calibrator import outputs, session
     from calibrator import simulate as sim
 
-    outputs.check(output)
-    truth_path = outputs.check(output.with_suffix(".truth.json"))
+    outputs.check(output, force=force)
+    truth_path = outputs.check(output.with_suffix(".truth.json"), force=force)
     errors_value = errors or ("ref003" if model.lower() == "er10l-c10" else "random")
     try:
         table, meta, truth = sim.simulate(

@@ -309,7 +309,12 @@ def test_the_shortfall_names_the_models_own_minimum(tmp_path):
 @pytest.mark.parametrize(
     ("existing", "args", "message"),
     [
-        ("s.parquet", (), "s.parquet exists: choose another -o, remove it, or pass --resume"),
+        (
+            "s.parquet",
+            (),
+            "s.parquet exists: remove it, choose another -o, pass --force to replace it, "
+            "or --resume to continue its run",
+        ),
         (
             "s.parquet.journal",
             (),

@@ -96,7 +96,11 @@ def test_input_reached_through_a_link_is_refused(folder):
 def test_output_through_a_symlink_writes_its_target(folder):
     (folder / "real.csv").write_text("old")
     (folder / "link.csv").symlink_to("real.csv")
-    done = cli("export-params", "c.json", "--format", "csv", "-o", "link.csv", cwd=folder)
+    refused = one_line_error(cli("export-params", "c.json", "-o", "link.csv", cwd=folder))
+    assert "link.csv exists" in refused and (folder / "real.csv").read_text() == "old"
+    done = cli(
+        "export-params", "c.json", "--format", "csv", "-o", "link.csv", "--force", cwd=folder
+    )
     assert done.code == 0, done.stderr
     assert (folder / "link.csv").is_symlink() and (folder / "real.csv").read_text().startswith(
         "element,parameter,"

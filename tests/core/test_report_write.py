@@ -89,7 +89,7 @@ def test_inside_a_batch_the_report_appears_with_the_batch(tmp_path):
     # The batch's own inputs are what a report may not overwrite.
     other = outputs.Outputs(inputs=[tmp_path / "rep" / "index.html"])
     with pytest.raises(outputs.OutputError, match="it is an input"):
-        report.write(tmp_path / "rep", document(0.5), batch=other)
+        report.write(tmp_path / "rep", document(0.5), batch=other, force=True)
     other.discard()
 
 
