@@ -237,7 +237,7 @@ def build(
                 table[i - 1, 2] = value
         table[:, 0] *= _DEG
         pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
-        return craig_arm(table, pose * _DEG, name="paper arm (seed 000, Table 2)")
+        return craig_arm(table, pose * _DEG, name="paper arm (the misalignment paper, Table 2)")
     mdh = models.get_model(key).mdh.copy()
     for name, value in lengths.items():
         mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value

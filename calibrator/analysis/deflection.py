@@ -468,7 +468,7 @@ _SEED_LINE_X_MM = 600.0 * np.cos(45 * _DEG)
 def seed_arm() -> FlexArm:
     """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
     return FlexArm(
-        name="seed 001 example (5 axes, rod D 50 / d 30 mm)",
+        name="Chen and Zhang example (5 axes, rod D 50 / d 30 mm)",
         frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
         mass_kg=SEED_MASS_KG,
         com_mm=SEED_COM_MM,
