@@ -5,16 +5,22 @@ worst of N clean poses would. A pose's squared error is its residual
 vector's squared Mahalanobis distance, position (3 rows) and with
 orientation data the weighted orientation (3 more), under a covariance
 fitted to the residuals themselves: a tracker's noise is not the same along
-its beam as across it, so one scale for every axis over-weights the noisy
-axes. The covariance is a reweighted robust estimate (start from
+its beam as across it, and grows with range, so one scale for every axis
+over-weights the noisy axes and the far poses. Points in the tracker frame
+are therefore first turned into each pose's beam frame and scaled by the
+tracker noise model's shape at its range (:func:`beam_axes`). Each residual
+is divided by the part of the noise the fit leaves in it (its leverage).
+The covariance is a reweighted robust estimate (start from
 ``1.4826 * median(|residual|)`` on every axis, keep the poses inside the
 97.5 % chi-square point, re-estimate with the truncation's consistency
 factor), so the test is not blinded by the outliers it looks for. Under
-that noise model the distances of clean poses are chi-square with 3 (or 6)
-degrees of freedom; a pose is an outlier when its distance exceeds the
-``1 - FAMILY_ALPHA / N`` quantile (Bonferroni). Clean data of any size then
-warns in at most about ``FAMILY_ALPHA`` of sessions, where a fixed per-pose
-quantile warns more often the more poses a session has.
+that noise model the distance of a clean pose is Hotelling's T^2 (the
+covariance comes from N poses less the fit's share of them; a chi-square
+with 3 or 6 degrees of freedom for many poses); a pose is an outlier when
+its distance exceeds the ``1 - FAMILY_ALPHA / N`` quantile (Bonferroni).
+Clean data of any size then warns in at most about ``FAMILY_ALPHA`` of
+sessions, where a fixed per-pose quantile warns more often the more poses a
+session has, and the more often the fewer poses estimate the noise.
 """
 
 from __future__ import annotations
@@ -79,10 +85,58 @@ def chi2_sf(x: float, dof: int) -> float:
     raise ValueError(f"dof must be 3 or 6, got {dof}")
 
 
-def threshold(n_poses: int, dof: int, alpha: float = FAMILY_ALPHA) -> float:
+def hotelling_sf(x: float, dof: int, nu: float) -> float:
+    """``P(T^2 > x)`` for Hotelling's T^2 of ``dof`` dimensions, covariance from ``nu`` degrees.
+
+    ``T^2 = dof nu / (nu - dof + 1) F(dof, nu - dof + 1)``: the squared distance
+    of a clean vector whitened by a covariance estimated from ``nu`` degrees of
+    freedom (a chi-square as ``nu`` grows; heavier-tailed for few poses).
+    """
+    if x <= 0:
+        return 1.0
+    d2 = nu - dof + 1
+    f = x * d2 / (dof * nu)
+    return _betainc(d2 / 2, dof / 2, d2 / (d2 + dof * f))
+
+
+def _betainc(a: float, b: float, x: float) -> float:
+    """Regularized incomplete beta ``I_x(a, b)`` (continued fraction, modified Lentz)."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    front = math.exp(
+        math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
+    )
+    if x > (a + 1) / (a + b + 2):  # the fraction converges fast on this side only
+        return 1.0 - _betainc(b, a, 1.0 - x)
+    tiny = 1e-300
+    c, d = 1.0, 1.0 - (a + b) * x / (a + 1)
+    d = 1.0 / (d if abs(d) > tiny else tiny)
+    h = d
+    for m in range(1, 300):
+        for num in (
+            m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m)),
+            -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1)),
+        ):
+            d = 1.0 + num * d
+            d = 1.0 / (d if abs(d) > tiny else tiny)
+            c = 1.0 + num / c
+            c = c if abs(c) > tiny else tiny
+            h *= d * c
+        if abs(d * c - 1.0) < 1e-15:
+            break
+    return front * h / a
+
+
+def threshold(
+    n_poses: int, dof: int, alpha: float = FAMILY_ALPHA, nu: float | None = None
+) -> float:
     """Squared distance the largest of ``n_poses`` clean ones exceeds with chance ``alpha``.
 
-    The Bonferroni bound: the chi-square ``1 - alpha / n_poses`` quantile.
+    The Bonferroni bound: the ``1 - alpha / n_poses`` quantile of a chi-square,
+    or with ``nu`` of Hotelling's T^2 (:func:`hotelling_sf`), which allows for
+    a covariance estimated from few poses.
 
     Parameters
     ----------
@@ -91,19 +145,25 @@ def threshold(n_poses: int, dof: int, alpha: float = FAMILY_ALPHA) -> float:
         Residual rows per pose (position, or position and orientation).
     alpha : float
         Family-wise false-alarm chance.
+    nu : float, optional
+        Degrees of freedom of the covariance estimate (at least ``dof``).
 
     Returns
     -------
     float
         Squared whitened distance (dimensionless).
     """
+    if nu is None:
+        sf = lambda x: chi2_sf(x, dof)  # noqa: E731
+    else:
+        sf = lambda x: hotelling_sf(x, dof, max(float(nu), dof))  # noqa: E731
     target = alpha / max(int(n_poses), 1)
     lo, hi = 0.0, 1.0
-    while chi2_sf(hi, dof) > target:
+    while sf(hi) > target:
         lo, hi = hi, 2 * hi
     for _ in range(60):  # bisection to double precision
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if chi2_sf(mid, dof) > target else (lo, mid)
+        lo, hi = (mid, hi) if sf(mid) > target else (lo, mid)
     return hi
 
 
@@ -168,16 +228,28 @@ def _studentize(white: np.ndarray, jacobian: np.ndarray, lowers_of) -> np.ndarra
 
 
 def beam_axes(points_mm: np.ndarray) -> np.ndarray:
-    """Each point's beam frame, rows ``(along the beam, across, across)``: (N, 3, 3).
+    """Each point's beam frame scaled by the tracker's noise there: (N, 3, 3).
+
+    Rows: along the beam and two axes across it (:func:`calibrator.simulate.beam_frame`),
+    each divided by the standard deviation the tracker noise model gives at
+    that range (:data:`calibrator.simulate.TRACKER_NOISE`: a laser tracker's
+    MPE, a constant plus a part growing with range, smaller along the beam
+    than across it). Only the model's shape matters: the outlier test fits
+    the covariance of the transformed residuals, so the overall scale and
+    the along/across ratio are still estimated from the data.
 
     Parameters
     ----------
     points_mm : ndarray, shape (N, 3)
         Measured points in the tracker frame (the tracker at the origin), mm.
     """
-    from calibrator.simulate import beam_frame  # the tracker model's own frame
+    from calibrator.simulate import TRACKER_NOISE, beam_frame  # the tracker model's own
 
-    return np.array([np.array(beam_frame(p)) for p in np.asarray(points_mm, dtype=float)])
+    out = []
+    for p in np.asarray(points_mm, dtype=float):
+        along, across = TRACKER_NOISE.sigmas_mm(p)
+        out.append(np.array(beam_frame(p)) / np.array([[along], [across], [across]]))
+    return np.array(out)
 
 
 def _to_beams(rows: np.ndarray, n_poses: int, axes: np.ndarray) -> np.ndarray:
@@ -215,9 +287,9 @@ def distances(
     beams : ndarray, shape (N, 3, 3), optional
         :func:`beam_axes` of the measured points, when they are in the
         tracker frame: the position residuals are then whitened along and
-        across each pose's own beam, since a tracker's noise is set by the
-        beam (its direction changes from pose to pose), not by the frame's
-        axes.
+        across each pose's own beam and scaled to its range, since a
+        tracker's noise is set by the beam (its direction and length change
+        from pose to pose), not by the frame's axes.
 
     Returns
     -------
@@ -264,8 +336,12 @@ def outliers(
     ndarray of int
     """
     d2 = distances(res, n_poses, reference, jacobian, beams)
-    dof = 3 * (len(res) // (3 * n_poses))
-    return np.flatnonzero(d2 > threshold(n_poses, dof, alpha))
+    blocks = len(res) // (3 * n_poses)
+    nu = None
+    if jacobian is not None and reference is None:
+        # Each axis's variance is estimated from N poses less its share of the fit.
+        nu = n_poses - np.shape(jacobian)[1] / (3 * blocks)
+    return np.flatnonzero(d2 > threshold(n_poses, 3 * blocks, alpha, nu))
 
 
 def huber(

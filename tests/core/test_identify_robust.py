@@ -58,6 +58,12 @@ def test_threshold_is_the_bonferroni_chi_square_point(dof):
         assert robust.threshold(n, dof) == pytest.approx(expected, rel=1e-9)
     # More poses, a higher bar for the worst of them.
     assert robust.threshold(1000, dof) > robust.threshold(32, dof) > robust.threshold(1, dof)
+    # A covariance from nu degrees of freedom: Hotelling's T^2, a chi-square as nu grows.
+    for n, nu in ((16, 13.0), (40, 37.0), (200, 197.0), (50_000, 49_990.0)):
+        d2 = nu - dof + 1
+        expected = dof * nu / d2 * stats.f.isf(robust.FAMILY_ALPHA / n, dof, d2)
+        assert robust.threshold(n, dof, nu=nu) == pytest.approx(expected, rel=1e-8)
+    assert robust.threshold(50_000, dof, nu=1e9) == pytest.approx(robust.threshold(50_000, dof))
 
 
 def test_truncation_constants_are_the_chi_square_values():

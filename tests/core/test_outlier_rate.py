@@ -47,7 +47,7 @@ def named(space, obs):
     )
 
 
-@pytest.mark.parametrize(("poses", "sessions"), [(16, 120), (40, 120), (200, 40)])
+@pytest.mark.parametrize(("poses", "sessions"), [(16, 100), (40, 100), (200, 30)])
 def test_clean_sessions_of_any_size_rarely_warn(poses, sessions):
     rng = np.random.default_rng(poses)
     warned = sum(len(named(*session(poses, rng))) > 0 for _ in range(sessions))
