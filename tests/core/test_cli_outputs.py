@@ -13,13 +13,9 @@ from calibrator import outputs
 
 
 @pytest.fixture(scope="module")
-def work(tmp_path_factory):
-    """A session and its calibration, made once; tests copy them."""
-    folder = tmp_path_factory.mktemp("work")
-    assert cli("simulate", "-o", "s.parquet", "--poses", "20", cwd=folder).code == 0
-    done = cli("identify", "s.parquet", "-o", "c.json", "--method", "lm", "-q", cwd=folder)
-    assert done.code == 0, done.stderr
-    return {name: (folder / name).read_bytes() for name in ("s.parquet", "c.json")}
+def work(simulated_calibration):
+    """A session and its calibration, made once per run (conftest); tests copy them."""
+    return simulated_calibration
 
 
 @pytest.fixture

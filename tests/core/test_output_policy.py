@@ -4,17 +4,16 @@
 import pytest
 from cli_testkit import cli, listing, one_line_error
 
-PLAN = ("--poses", "12", "--candidates", "600", "--tracker-at", "2500,400,300")
+PLAN = ("--poses", "12", "--candidates", "1500", "--tracker-at", "2500,400,300")
 TARGETS = "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0.1,-1.2,1.4,-1.8,-1.5,0.3\n"
 
 
 @pytest.fixture(scope="module")
-def work(tmp_path_factory):
-    """A session, its calibration and a small plan, made once; tests copy them."""
+def work(tmp_path_factory, simulated_calibration):
+    """A session, its calibration (conftest) and a small plan, made once; tests copy them."""
     folder = tmp_path_factory.mktemp("policy")
-    assert cli("simulate", "-o", "s.parquet", "--poses", "20", cwd=folder).code == 0
-    done = cli("identify", "s.parquet", "-o", "c.json", "--method", "lm", "-q", cwd=folder)
-    assert done.code == 0, done.stderr
+    for name, data in simulated_calibration.items():
+        (folder / name).write_bytes(data)
     made = cli("plan", "-o", "plan.csv", *PLAN, cwd=folder)
     assert made.code == 0, made.stderr
     (folder / "targets.csv").write_text(TARGETS)
