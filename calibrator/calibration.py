@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
+from calibrator.identify import option_rules
 from calibrator.joint_terms import JointTerms
 
 FORMAT = "calibrator.calibration"
@@ -126,39 +127,19 @@ class Provenance:
     created: str | None = None
 
     #: Keys of the options that decide the identified parameters.
-    OPTION_KEYS = (
-        "method",
-        "loss",
-        "seed",
-        "validation_fraction",
-        "k",
-        "noise_mm",
-        "tool_known",
-        "particles",
-        "generations",
-        "swarm_poses",
-    )
+    OPTION_KEYS = option_rules.PIPELINE
     #: Keys of the joint-term options (``identify --joint-terms`` and its companions).
-    JOINT_OPTION_KEYS = ("joint_term_groups", "mass_model", "payload_kg", "payload_com_mm")
+    JOINT_OPTION_KEYS = option_rules.JOINT
+    #: JSON type of each key; the options' come from their rules.
     _TYPES = {
         "session_sha256": str,
         "nominal_source": str,
         "nominal_file": str,
         "nominal_sha256": str,
-        "method": str,
-        "loss": str,
-        "seed": int,
-        "validation_fraction": float,
-        "k": float,
-        "noise_mm": float,
-        "tool_known": bool,
-        "particles": int,
-        "generations": int,
-        "swarm_poses": int,
-        "joint_term_groups": str,
-        "mass_model": str,
-        "payload_kg": float,
-        "payload_com_mm": list,
+        **{
+            key: list if rule.kind is tuple else rule.kind
+            for key, rule in option_rules.RULES.items()
+        },
         "versions": dict,
         "created": str,
     }
@@ -210,6 +191,33 @@ class Provenance:
         The joint-term options are the attributes named in :attr:`JOINT_OPTION_KEYS`.
         """
         return {k: getattr(self, k) for k in self.OPTION_KEYS if getattr(self, k) is not None}
+
+    def checked_options(
+        self, where: str | Path = "calibration", keys: Iterable[str] | None = None
+    ) -> dict[str, Any]:
+        """The recorded options ``keys`` (default: all, pipeline and joint terms), checked.
+
+        The rules are those the command line applies
+        (:data:`calibrator.identify.option_rules.RULES`), so a recorded value
+        is taken only if it could have been typed.
+
+        Returns
+        -------
+        dict
+            ``{key: value}`` for the recorded options (``None`` left out);
+            ``payload_com_mm`` as a tuple of 3 floats (mm).
+
+        Raises
+        ------
+        CalibrationError
+            ``cal.json: particles: must be a whole number >= 2, got -5``.
+        """
+        out = {}
+        for key in option_rules.RULES if keys is None else keys:
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = option_rules.RULES[key].check(value, f"{where}: {key}")
+        return out
 
 
 def _is_number(value: Any) -> bool:
@@ -682,7 +690,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     version = doc.get("version")
     if type(version) is not int or version != VERSION:
         raise CalibrationError(
-            f"{where}: calibration version {version!r} is not supported "
+            f"{where}: calibration version {strict.shown(version)} is not supported "
             f"(this program reads version {VERSION})"
         )
     nominal = check.table(doc, "nominal_mdh", (6, 5))
@@ -704,14 +712,21 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
             transforms[key] = frames.check_transform(arr, key)
         except ValueError as exc:
             raise CalibrationError(f"{where}: {exc}") from None
+    # The bounds a session's frames meet: every export derives from these.
+    from calibrator import plausibility
+
+    plausibility.check_frames(transforms, str(where))
     free = doc.get("free_parameters")
     if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
         raise CalibrationError(f"{where}: 'free_parameters' must be a list of names")
     unknown = [n for n in free if n not in parameters.ALL_NAMES]
-    if unknown or len(set(free)) != len(free):
+    if unknown:
         raise CalibrationError(
-            f"{where}: 'free_parameters' has unknown or repeated names {unknown or free}"
+            f"{where}: 'free_parameters' has unknown names {strict.shown(unknown, 60)}"
         )
+    repeated = sorted({n for n in free if free.count(n) > 1})
+    if repeated:
+        raise CalibrationError(f"{where}: 'free_parameters' repeats {', '.join(repeated)}")
     deltas = doc.get("deltas", {})
     if not isinstance(deltas, dict) or set(deltas) != set(free):
         raise CalibrationError(f"{where}: 'deltas' must map each free parameter to its value")
@@ -728,7 +743,9 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
             raise CalibrationError(f"{where}: '{key}' must be a string or null")
     frame = doc.get("frame", "base")
     if frame not in FRAMES:
-        raise CalibrationError(f"{where}: 'frame' must be 'base' or 'tracker', got {frame!r}")
+        raise CalibrationError(
+            f"{where}: 'frame' must be 'base' or 'tracker', got {strict.shown(frame)}"
+        )
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
     try:
@@ -743,7 +760,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         free=tuple(free),
         deltas={k: float(v) for k, v in deltas.items()},
         dropped=dropped,
-        model=doc.get("model"),
+        model=_model_name(doc.get("model")),
         frame=frame,
         session=doc.get("session"),
         diagnostics=diagnostics,
@@ -752,6 +769,18 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     )
     consistency.check_calibration(calibration, str(where))
     return calibration
+
+
+def _model_name(name: str | None) -> str | None:
+    """A named model as the catalogue spells it (``"UR10E"`` is ``"ur10e"``); others as written.
+
+    Model names compare case-insensitively everywhere (``--model UR10e``), so
+    a hand-written file's spelling must not make it "another arm".
+    """
+    from calibrator.models import MODEL_NAMES
+
+    key = name.strip().lower() if name is not None else None
+    return key if key in MODEL_NAMES else name
 
 
 def _check_fixed(mdh, nominal, free, where):

@@ -22,7 +22,9 @@ A result outside the joint limits is reported, never clipped.
 from __future__ import annotations
 
 import os
+import re
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -44,6 +46,12 @@ TOL_RAD = 1e-9
 MAX_ITER = 50
 #: Weight of a rotation error against a position error (mm/rad).
 ROT_WEIGHT_MM = 1000.0
+#: Largest turn of a joint between a target's nominal and calibrated solution
+#: (deg). A calibration moves joints by tenths of a degree (about 1 deg for
+#: the large errors of the simulated arms); much more means the
+#: target sits near a singularity, where a tiny pose change swings the wrist
+#: or the arm, and the corrected target would not move the arm as planned.
+MAX_JOINT_CHANGE_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -79,6 +87,11 @@ def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: np.ndarray) -> np.ndar
     return kinematics.chain(mdh, q) @ flange2tool
 
 
+def _tool_rows(tool, idx):
+    """The tool of the targets ``idx``: one (4, 4) for all, or the rows of an (N, 4, 4)."""
+    return tool if tool.ndim == 2 else tool[idx]
+
+
 def _jacobian_and_pose(mdh, q, flange2tool):
     _, link_frames = kinematics.chain(mdh, q, all_frames=True)
     pose = link_frames[:, 6] @ flange2tool
@@ -112,7 +125,9 @@ def inverse(
         Desired tool poses, base frame (mm).
     q0 : array_like, shape (N, 6)
         Start (rad): the nominal solution.
-    flange2tool : array_like, shape (4, 4), optional
+    flange2tool : array_like, shape (4, 4) or (N, 4, 4), optional
+        One tool for every target, or one per target (a program's targets
+        name their own tools).
     limits : array_like, shape (6, 2), optional
         Joint limits (rad); all within when omitted.
 
@@ -142,7 +157,7 @@ def inverse(
         damp = lam[idx, None, None] * (np.eye(6) * np.diagonal(jtj, axis1=1, axis2=2)[:, None, :])
         dq = np.linalg.solve(jtj + damp, jt @ e[..., None])[..., 0]
         trial_q = q[idx] + dq
-        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, tool)
+        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, _tool_rows(tool, idx))
         trial_err = _pose_error(targets[idx], trial_pose)
         better = np.sum((trial_err * weight) ** 2, axis=1) < np.sum(e**2, axis=1)
         take = idx[better]
@@ -198,6 +213,8 @@ def compensate(
     q_nominal: ArrayLike | None = None,
     limits: ArrayLike | None = None,
     payload_kg: float | None = None,
+    tool: ArrayLike | None = None,
+    nominal_solved: bool = False,
 ) -> Compensation:
     """Compensate targets for a calibrated arm.
 
@@ -216,12 +233,18 @@ def compensate(
     payload_kg : float, optional
         Working payload for the calibration's compliance terms (default: the
         payload it was calibrated at).
+    tool : array_like, shape (4, 4) or (N, 4, 4), optional
+        The controller's TCP (flange to tool, mm), one or one per target
+        (default: the calibration's ``flange2tool``).
+    nominal_solved : bool
+        ``q_nominal`` already is the nominal solution of ``desired`` (a
+        program filter solved it in the target's configuration): not refined.
 
     Returns
     -------
     Compensation
     """
-    tool = calibration.flange2tool
+    tool = calibration.flange2tool if tool is None else np.asarray(tool, dtype=float)
     if q_nominal is None:
         # A default only because ``desired`` before it has one: the solver must start somewhere.
         raise ValueError("q_nominal is required: the nominal joints of each target")
@@ -231,7 +254,8 @@ def compensate(
         desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
     else:
         desired = np.asarray(desired, dtype=float)
-        q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
+        if not nominal_solved:
+            q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
     sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
     # Joint terms: the IK gives the angles the joints must really turn to;
     # command the read-back angles whose effective angles those are.
@@ -301,6 +325,111 @@ def _repeated_header_names(path):
     return sorted({name for name in header if header.count(name) > 1})
 
 
+#: Targets read, solved and written together by :func:`run`.
+BLOCK = 10_000
+
+
+def _read_table(path, **kw):
+    """pandas' reader of a targets CSV as text, one error line for anything it refuses."""
+    import pandas as pd
+
+    try:
+        # As text: numbers are read by the one strict grammar, not pandas' own.
+        # index_col=False and the warning as an error: a row longer than the
+        # header must not turn its first field into a silent index.
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            yield from pd.read_csv(
+                path, dtype=str, keep_default_na=False, index_col=False, chunksize=BLOCK, **kw
+            )
+    except pd.errors.ParserWarning:
+        raise CalibrationError(f"{path}: a row has more fields than the header") from None
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise CalibrationError(f"{path}: not a readable CSV ({str(exc).splitlines()[0]})") from None
+
+
+#: A block of cells joined by newlines, every one a number of the strict grammar.
+_CELLS = re.compile(
+    rf"(?:[^\S\n]*(?:{strict.NUMBER.pattern})[^\S\n]*\n)*[^\S\n]*(?:{strict.NUMBER.pattern})[^\S\n]*"
+)
+
+
+def _numbers_fast(cells: np.ndarray) -> np.ndarray | None:
+    """The cells (n, m) as floats when every one is in the strict grammar, else None.
+
+    One regular-expression pass over the block instead of one call per cell:
+    the same grammar as :func:`calibrator.strict.parse_number`, at a fraction
+    of its cost. None sends the block to the cell-by-cell reader, which names
+    the first bad cell.
+    """
+    flat = cells.ravel()
+    if not len(flat) or not all(isinstance(c, str) for c in flat):
+        return None
+    if max(map(len, flat)) > 64 or not _CELLS.fullmatch("\n".join(flat)):
+        return None
+    return flat.astype(float).reshape(cells.shape)
+
+
+def iter_targets(
+    path: str | os.PathLike[str],
+) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
+    """Blocks of at most :data:`BLOCK` targets from a targets CSV, in order.
+
+    Yields
+    ------
+    first : int
+        Row number (from 0) of the block's first target.
+    q : ndarray, shape (n, 6)
+        Nominal joints (rad).
+    desired : ndarray, shape (n, 4, 4) or None
+        Desired poses, when the file has pose columns.
+
+    Raises
+    ------
+    CalibrationError
+        Missing or repeated columns, non-numeric or non-finite values, a
+        partial pose, no targets.
+    """
+    first = 0
+    present: list = []
+    for table in _read_table(path):
+        if first == 0:
+            missing = [c for c in JOINT_COLUMNS if c not in table.columns]
+            if missing:
+                raise CalibrationError(f"{path}: missing column(s) {', '.join(missing)}")
+            present = [c for c in POSE_COLUMNS if c in table.columns]
+            if present and len(present) != len(POSE_COLUMNS):
+                raise CalibrationError(f"{path}: a pose needs all of {', '.join(POSE_COLUMNS)}")
+            repeated = _repeated_header_names(path)
+            if repeated:
+                # pandas renames a repeated "q1_rad" to "q1_rad.1" and would read the first.
+                raise CalibrationError(f"{path}: repeated column(s) {', '.join(repeated)}")
+
+        def numbers(cols, table=table, first=first):
+            cells = table[list(cols)].to_numpy(dtype=object)
+            values = _numbers_fast(cells)
+            if values is None:  # something is off: the cell-by-cell reading names it
+                try:
+                    values = strict.parse_columns(cells, cols, str(path), first)
+                except strict.StrictError as exc:
+                    raise CalibrationError(str(exc)) from None
+            bad = ~np.isfinite(values)
+            if bad.any():
+                row = first + int(np.argwhere(bad)[0, 0]) + 1
+                raise CalibrationError(f"{path}: NaN or infinite value in row {row}")
+            return values
+
+        q = numbers(JOINT_COLUMNS)
+        desired = None
+        if present:
+            pose = numbers(POSE_COLUMNS)
+            desired = frames.transform(frames.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
+        yield first, q, desired
+        first += len(q)
+    if first == 0:
+        raise CalibrationError(f"{path}: no targets")
+
+
 def read_targets(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray | None]:
     """Nominal joints (N, 6) and desired poses (N, 4, 4) or None from a targets CSV.
 
@@ -310,50 +439,11 @@ def read_targets(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray |
         Missing or repeated columns, non-numeric or non-finite values, a
         partial pose, no targets.
     """
-    import pandas as pd
-
-    try:
-        # As text: numbers are read by the one strict grammar, not pandas' own.
-        # index_col=False and the warning as an error: a row longer than the
-        # header must not turn its first field into a silent index.
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", pd.errors.ParserWarning)
-            table = pd.read_csv(path, dtype=str, keep_default_na=False, index_col=False)
-    except pd.errors.ParserWarning:
-        raise CalibrationError(f"{path}: a row has more fields than the header") from None
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise CalibrationError(f"{path}: not a readable CSV ({str(exc).splitlines()[0]})") from None
-    missing = [c for c in JOINT_COLUMNS if c not in table.columns]
-    if missing:
-        raise CalibrationError(f"{path}: missing column(s) {', '.join(missing)}")
-    present = [c for c in POSE_COLUMNS if c in table.columns]
-    if present and len(present) != len(POSE_COLUMNS):
-        raise CalibrationError(f"{path}: a pose needs all of {', '.join(POSE_COLUMNS)}")
-    repeated = _repeated_header_names(path)
-    if repeated:
-        # pandas renames a repeated "q1_rad" to "q1_rad.1" and would read the first.
-        raise CalibrationError(f"{path}: repeated column(s) {', '.join(repeated)}")
-    if len(table) == 0:
-        raise CalibrationError(f"{path}: no targets")
-
-    def numbers(cols):
-        try:
-            values = strict.parse_columns(table[list(cols)].to_numpy(dtype=object), cols, str(path))
-        except strict.StrictError as exc:
-            raise CalibrationError(str(exc)) from None
-        bad = ~np.isfinite(values)
-        if bad.any():
-            raise CalibrationError(
-                f"{path}: NaN or infinite value in row {int(np.argwhere(bad)[0, 0]) + 1}"
-            )
-        return values
-
-    q = numbers(JOINT_COLUMNS)
-    if not present:
+    blocks = list(iter_targets(path))
+    q = np.concatenate([b[1] for b in blocks])
+    if blocks[0][2] is None:
         return q, None
-    pose = numbers(POSE_COLUMNS)
-    desired = frames.transform(frames.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
-    return q, desired
+    return q, np.concatenate([b[2] for b in blocks])
 
 
 def run(
@@ -362,87 +452,172 @@ def run(
     output: str | os.PathLike[str],
     payload_kg: float | None = None,
 ) -> Report:
-    """Compensate a targets CSV and write the result CSV atomically.
+    """Compensate a targets CSV and write the result CSV atomically, block by block.
 
     Output columns: ``target`` (row number, from 0, as plans number their
-    poses), ``status`` (``ok``, ``outside joint limits`` or ``not
-    reached``), ``q1_rad..q6_rad`` (joints of the calibrated arm; empty
-    when not ok), ``x_mm .. rz_rad`` (corrected target for a nominal
-    controller, base frame, rotation vector; empty when not ok),
-    ``correction_mm`` and ``correction_mrad`` (how far the corrected target
-    is from the desired one: distance and turn), ``joint_correction_mrad``
-    (largest change of a joint from the nominal solution), ``iterations``,
-    ``error_mm``.
+    poses), ``status`` (``ok``, ``outside joint limits``, ``not reached`` or
+    ``large joint change``: a joint would turn more than
+    :data:`MAX_JOINT_CHANGE_DEG` between the nominal and the calibrated
+    solution, near a singularity), ``q1_rad..q6_rad`` (joints of the
+    calibrated arm; empty when not ok), ``x_mm .. rz_rad`` (corrected target
+    for a nominal controller, base frame, rotation vector; empty when not
+    ok), ``correction_mm`` and ``correction_mrad`` (how far the corrected
+    target is from the desired one: distance and turn),
+    ``joint_correction_mrad`` (largest change of a joint from the nominal
+    solution), ``iterations``, ``error_mm``.
+
+    Targets are read, solved and written :data:`BLOCK` at a time, so memory
+    does not grow with the file.
 
     Returns
     -------
     Report
     """
-    import pandas as pd
-
     from calibrator import outputs
     from calibrator.models import get_model
 
-    q_nom, desired = read_targets(targets_path)
     limits = None
     try:
         limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
+    tally = _Tally()
+
+    def write(tmp):
+        import pyarrow.csv as pa_csv
+
+        with open(tmp, "wb") as fh:
+            for first, q_nom, desired in iter_targets(targets_path):
+                block = _solve_block(calibration, q_nom, desired, limits, payload_kg, first)
+                # pyarrow's writer: numbers in C, shortest text that reads back exactly.
+                options = pa_csv.WriteOptions(
+                    include_header=first == 0, quoting_style="none", quoting_header="none"
+                )
+                pa_csv.write_csv(block.frame, fh, options)
+                tally.add(block, calibration, limits)
+
+    outputs.write_with(output, write, inputs=[targets_path])
+    return tally.report(calibration, limits, output)
+
+
+@dataclass
+class _Block:
+    frame: object  # pyarrow.Table of the output rows
+    first: int
+    solution: Solution
+    q_nominal: np.ndarray
+    size: dict
+    jump: np.ndarray
+
+
+def _solve_block(calibration, q_nom, desired, limits, payload_kg, first):
+    import pyarrow as pa
+
     result = compensate(calibration, desired, q_nom, limits, payload_kg)
     sol = result.solution
-    status = np.where(sol.ok, "ok", np.where(sol.converged, "outside joint limits", "not reached"))
+    # A joint swinging far between the nominal and calibrated solution: near a singularity.
+    jump = np.degrees(np.max(np.abs(result.q - result.q_nominal), axis=1))
+    ok = sol.ok & (jump <= MAX_JOINT_CHANGE_DEG)
+    status = np.where(
+        ok,
+        "ok",
+        np.where(
+            ~sol.converged,
+            "not reached",
+            np.where(sol.within_limits, "large joint change", "outside joint limits"),
+        ),
+    )
     corrected = np.concatenate(
         [result.corrected[:, :3, 3], frames.matrix_to_rotvec(result.corrected[:, :3, :3])], axis=1
     )
     size = correction_sizes(result, q_nom if desired is None else None)
-    data = {"target": np.arange(len(status)), "status": status}
+    data = {"target": pa.array(first + np.arange(len(status))), "status": pa.array(status)}
     for k, col in enumerate(JOINT_COLUMNS):
-        data[col] = np.where(sol.ok, sol.q[:, k], np.nan)
+        data[col] = pa.array(sol.q[:, k], mask=~ok)  # empty when not ok
     for k, col in enumerate(POSE_COLUMNS):
-        data[col] = np.where(sol.ok, corrected[:, k], np.nan)
+        data[col] = pa.array(corrected[:, k], mask=~ok)
     for col, values in size.items():
-        data[col] = np.where(sol.ok, values, np.nan)
-    data["iterations"] = sol.iterations
-    data["error_mm"] = sol.error_mm
-    outputs.write_text(
-        output,
-        pd.DataFrame(data).to_csv(index=False, float_format="%.12g"),
-        inputs=[targets_path],
-    )
-    failed = np.flatnonzero(~sol.ok)
-    lines = [
-        f"{len(status) - len(failed)} of {len(status)} targets compensated"
-        + ("" if limits is not None else " (no joint limits known for this model)")
-        + f"; wrote {output}"
-    ]
-    if sol.ok.any():
-        lines.append(
-            "corrections: up to "
-            f"{np.max(size['correction_mm'][sol.ok]):.3f} mm and "
-            f"{np.max(size['correction_mrad'][sol.ok]):.3f} mrad on the targets, "
-            f"{np.max(size['joint_correction_mrad'][sol.ok]):.3f} mrad on a joint"
-        )
-    for i in failed[:10]:
-        if sol.converged[i] and limits is not None:  # converged yet failed: outside the limits
-            lo, hi = limits[:, 0], limits[:, 1]
-            joints = [j + 1 for j in range(6) if not lo[j] <= sol.q[i, j] <= hi[j]]
-            lines.append(
-                f"target {i}: unreachable within the joint limits "
-                f"(joint {', '.join(map(str, joints))})"
-            )
-        else:
-            lines.append(
-                f"target {i}: not reached "
-                f"({sol.error_mm[i]:.3g} mm off after {sol.iterations[i]} iterations)"
-            )
-    if len(failed) > 10:
-        lines.append(f"... and {len(failed) - 10} more (see the status column)")
-    # Targets outside the joint ranges the calibration was fitted on: extrapolated.
-    ranges = calibration.fit.fitted_joint_ranges_rad
-    if np.shape(ranges) == (6, 2):
-        from calibrator.identify.uncertainty import range_warnings
+        data[col] = pa.array(values, mask=~ok)
+    data["iterations"] = pa.array(sol.iterations)
+    data["error_mm"] = pa.array(sol.error_mm)
+    return _Block(pa.table(data), first, sol, result.q_nominal, size, jump)
 
-        fitted = np.asarray(ranges, dtype=float).T
-        lines += [f"warning: {w}" for w in range_warnings(fitted, sol.q[sol.ok], "target")]
-    return Report(len(failed) == 0, lines)
+
+class _Tally:
+    """What the blocks of :func:`run` add up to: counts, largest corrections, failures."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.failed = 0
+        self.largest = np.zeros(3)
+        self.any_ok = False
+        self.lines: list = []
+        self.ok_q: list = []
+
+    def add(self, block: _Block, calibration, limits) -> None:
+        from calibrator.filtering.configuration import nearest_singularity
+
+        sol = block.solution
+        ok = sol.ok & (block.jump <= MAX_JOINT_CHANGE_DEG)
+        self.n += len(ok)
+        if ok.any():
+            self.any_ok = True
+            sizes = [
+                block.size[k][ok]
+                for k in ("correction_mm", "correction_mrad", "joint_correction_mrad")
+            ]
+            self.largest = np.maximum(self.largest, [np.max(v) for v in sizes])
+            self.ok_q.append(sol.q[ok])
+        failed = np.flatnonzero(~ok)
+        self.failed += len(failed)
+        room = max(0, 10 - len(self.lines))
+        show = failed[:room]
+        near = (
+            nearest_singularity(calibration.nominal_mdh, block.q_nominal[show]) if len(show) else []
+        )
+        for i, why in zip(show, near, strict=True):
+            number = block.first + i
+            if not sol.converged[i]:
+                self.lines.append(
+                    f"target {number}: not reached ({sol.error_mm[i]:.3g} mm off after "
+                    f"{sol.iterations[i]} iterations{'; ' + why if why else ''})"
+                )
+            elif not sol.within_limits[i] and limits is not None:
+                lo, hi = limits[:, 0], limits[:, 1]
+                joints = [j + 1 for j in range(6) if not lo[j] <= sol.q[i, j] <= hi[j]]
+                self.lines.append(
+                    f"target {number}: unreachable within the joint limits "
+                    f"(joint {', '.join(map(str, joints))})"
+                )
+            else:
+                j = int(np.argmax(np.abs(sol.q[i] - block.q_nominal[i])))
+                self.lines.append(
+                    f"target {number}: large joint change: joint {j + 1} would turn "
+                    f"{block.jump[i]:.1f} deg between the nominal and the calibrated solution"
+                    + (f" ({why})" if why else "")
+                )
+
+    def report(self, calibration, limits, output) -> Report:
+        lines = [
+            f"{self.n - self.failed} of {self.n} targets compensated"
+            + ("" if limits is not None else " (no joint limits known for this model)")
+            + f"; wrote {output}"
+        ]
+        if self.any_ok:
+            mm, mrad, joint = self.largest
+            lines.append(
+                f"corrections: up to {mm:.3f} mm and {mrad:.3f} mrad on the targets, "
+                f"{joint:.3f} mrad on a joint"
+            )
+        lines += self.lines
+        if self.failed > 10:
+            lines.append(f"... and {self.failed - 10} more (see the status column)")
+        # Targets outside the joint ranges the calibration was fitted on: extrapolated.
+        ranges = calibration.fit.fitted_joint_ranges_rad
+        if np.shape(ranges) == (6, 2) and self.ok_q:
+            from calibrator.identify.uncertainty import range_warnings
+
+            fitted = np.asarray(ranges, dtype=float).T
+            q_ok = np.concatenate(self.ok_q)
+            lines += [f"warning: {w}" for w in range_warnings(fitted, q_ok, "target")]
+        return Report(self.failed == 0, lines)

@@ -46,9 +46,11 @@ def parse_groups(text: str) -> tuple[str, ...]:
     groups = tuple(dict.fromkeys(g.strip().lower() for g in str(text).split(",") if g.strip()))
     bad = [g for g in groups if g not in GROUPS]
     if bad or not groups:
+        from calibrator.strict import shown
+
+        named = ", ".join(shown(b, 30).strip("'") for b in bad[:5]) or shown(text, 30)
         raise CalibrationError(
-            f"--joint-terms: unknown term {', '.join(bad) or repr(text)}; "
-            f"use any of {', '.join(GROUPS)}"
+            f"--joint-terms: unknown term {named}; use any of {', '.join(GROUPS)}"
         )
     return groups
 
@@ -152,13 +154,19 @@ class JointTerms:
         comp = doc.get("compliance") or {}
         if not isinstance(harmonic, dict) or not isinstance(comp, dict):
             raise CalibrationError("joint_terms harmonic and compliance must be objects")
-        try:
-            payload = float(comp.get("payload_kg", 0.0))
-            com = np.array(comp.get("payload_com_mm", [0.0, 0.0, 0.0]), dtype=float)
-        except (TypeError, ValueError):
-            raise CalibrationError("joint_terms compliance payload must be numbers") from None
-        if com.shape != (3,) or not (np.isfinite(payload) and payload >= 0):
-            raise CalibrationError("joint_terms compliance payload must be >= 0 kg and 3 mm values")
+        # The rules of identify's --payload-kg and --payload-com-mm: a file
+        # cannot hold what the command line refuses.
+        from calibrator.identify.option_rules import RULES
+
+        payload = RULES["payload_kg"].check(comp.get("payload_kg", 0.0), "joint_terms payload_kg")
+        com = np.array(
+            RULES["payload_com_mm"].check(
+                comp.get("payload_com_mm", [0.0, 0.0, 0.0]), "joint_terms payload_com_mm"
+            )
+        )
+        mass_model = comp.get("mass_model", "")
+        if not isinstance(mass_model, str):
+            raise CalibrationError("joint_terms mass_model must be text (a named arm or a YAML)")
         return cls(
             six(doc.get("scale"), "scale"),
             six(harmonic.get("cos"), "harmonic cos"),
@@ -166,7 +174,7 @@ class JointTerms:
             six(comp.get("rad_per_Nm"), "compliance rad_per_Nm"),
             payload,
             com,
-            str(comp.get("mass_model", "")),
+            mass_model,
         )
 
 

@@ -7,12 +7,10 @@ whose tables are standard DH, this is exactly the manufacturer's DH frame).
 
 Sources
 -------
-``ur5e``, ``ur10e``, ``ur10``
-    Universal Robots' published "DH parameters for calculations of
-    kinematics and dynamics" tables (mass and centre of mass per link, in the
-    DH frame of the link). No inertia tensors are published there; they are
-    zero here (only gravity uses them in this project).
-Other arms (``er10l-c10`` has no published mass data)
+Named arms
+    The masses of the arm's description (:mod:`calibrator.robots`, each
+    module names its source). No inertia tensors: only gravity uses them.
+Other arms (those whose description has no masses)
     A YAML file read by :func:`load`::
 
         links:
@@ -63,59 +61,40 @@ class MassModel:
             object.__setattr__(self, field, value)
 
 
-# UR publishes the same centres of mass for the UR10 and the UR10e (m, DH frame of the link).
-_UR10_COM_M = [
-    [0.021, 0.0, 0.027],
-    [0.38, 0.0, 0.158],
-    [0.24, 0.0, 0.068],
-    [0.0, 0.007, 0.018],
-    [0.0, 0.007, 0.018],
-    [0.0, 0.0, -0.026],
-]
+def names() -> tuple[str, ...]:
+    """Named arms whose description carries masses."""
+    from calibrator import robots
 
-# Universal Robots' published tables (kg; centre of mass in m, DH frame of the link).
-_UR_PUBLISHED = {
-    "ur5e": (
-        [3.761, 8.058, 2.846, 1.37, 1.3, 0.365],
-        [
-            [0.0, -0.02561, 0.00193],
-            [0.2125, 0.0, 0.11336],
-            [0.15, 0.0, 0.0265],
-            [0.0, -0.0018, 0.01634],
-            [0.0, 0.0018, 0.01634],
-            [0.0, 0.0, -0.001159],
-        ],
-    ),
-    "ur10e": (
-        [7.369, 13.051, 3.989, 2.1, 1.98, 0.615],
-        _UR10_COM_M,
-    ),
-    "ur10": (
-        [7.1, 12.7, 4.27, 2.0, 2.0, 0.365],
-        _UR10_COM_M,
-    ),
-}
+    return tuple(n for n in robots.names() if robots.get(n).has_masses)
 
-#: Named arms that carry a published mass model.
-NAMES = tuple(sorted(_UR_PUBLISHED))
+
+def __getattr__(name: str) -> tuple[str, ...]:
+    # NAMES is computed when read: the arms are the modules of calibrator.robots.
+    if name == "NAMES":
+        return names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def get(name: str) -> MassModel:
-    """The published mass model of a named arm.
+    """The published mass model of a named arm (from its robot description).
 
     Raises
     ------
     CalibrationError
         If the arm has no published mass model (give a YAML file instead).
     """
-    key = str(name).strip().lower()
-    if key not in _UR_PUBLISHED:
+    from calibrator import robots
+
+    try:
+        description = robots.get(name)
+    except robots.DescriptionError:
+        description = None
+    if description is None or description.mass_kg is None or description.com_mm is None:
         raise CalibrationError(
-            f"no published mass model for {name!r} (known: {', '.join(NAMES)}); "
+            f"no published mass model for {name!r} (known: {', '.join(names())}); "
             "give a mass-model YAML file"
         )
-    mass, com_m = _UR_PUBLISHED[key]
-    return MassModel(key, np.array(mass), np.array(com_m) * 1000.0)
+    return MassModel(description.name, description.mass_kg, description.com_mm)
 
 
 def load(path: Path | str) -> MassModel:
@@ -126,13 +105,10 @@ def load(path: Path | str) -> MassModel:
     CalibrationError
         Naming the file and what is wrong in it.
     """
-    import yaml
+    from calibrator import yamlfile
 
     path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(f"{path}: cannot read mass model ({type(exc).__name__})") from None
+    doc = yamlfile.read(path, "a mass-model file", 2**20)
     links = doc.get("links") if isinstance(doc, dict) else None
     if not isinstance(links, list) or len(links) != 6:
         raise CalibrationError(f"{path}: needs a 'links' list of 6 entries")
@@ -150,8 +126,10 @@ def load(path: Path | str) -> MassModel:
 
 
 def resolve(source: str | Path) -> MassModel:
-    """A named arm's published model, or the YAML file at ``source``."""
+    """A named arm's masses, a robot description's, or the mass-model YAML at ``source``."""
+    from calibrator import robots
+
     text = str(source)
-    if text.lower().endswith((".yaml", ".yml")):
+    if text.lower().endswith((".yaml", ".yml")) and not robots.files.is_description(text):
         return load(text)
     return get(text)

@@ -162,21 +162,27 @@ def observability(
     flange2tool: ArrayLike | None = None,
     frame: str = "tracker",
     tool_known: bool = False,
+    names: tuple | None = None,
 ) -> Observability:
     """Scaled identification Jacobian of each pose (position rows), nominal arm.
 
     The free set is the one ``identify`` starts from
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
-    the measured poses then pin down is decided at identification.
+    the measured poses then pin down is decided at identification. ``names``
+    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset
 
     q = np.atleast_2d(np.asarray(q, dtype=float))
     tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
-    free = freeset.decide(mdh, frame, tool_known, False, tool0=tool)
-    kept = free.names
-    space = free.space
+    if names is None:
+        free = freeset.decide(mdh, frame, tool_known, False, tool0=tool)
+        kept, space = free.names, free.space
+    else:
+        space = parameters.ParameterSpace(np.asarray(mdh, float), tool0=tool, free=tuple(names))
+        kept = space.free
     pose = measurement.predict(space, np.zeros(space.size), q)
     obs = measurement.Observations(q, pose[:, :3, 3])
     jac = measurement.jacobian(space, np.zeros(space.size), obs)
@@ -432,6 +438,41 @@ def write_csv(
 # ---- plans with via poses, checked in the cell and ordered for time
 
 
+#: Reflector on the flange when neither the run nor the plan says, mm.
+DEFAULT_TOOL_MM = (0.0, 0.0, 100.0)
+#: Columns of a plan file that record what it was made for (the same on every row).
+ORIGIN_COLUMNS = (
+    "model",
+    "tracker_x_mm",
+    "tracker_y_mm",
+    "tracker_z_mm",
+    "tool_x_mm",
+    "tool_y_mm",
+    "tool_z_mm",
+)
+#: A run's tracker or tool farther than this from the plan's is another cell, mm.
+ORIGIN_TOLERANCE_MM = 1.0
+
+
+@dataclass(frozen=True)
+class PlanOrigin:
+    """What a plan was made for: its checks hold for this arm, tracker and tool only.
+
+    Attributes
+    ----------
+    model : str
+        The arm's model name.
+    tool_mm : tuple of 3 float
+        Reflector position on the flange, mm.
+    tracker_at_mm : tuple of 3 float, optional
+        Tracker position in the robot base frame, mm; None: the aim was not checked.
+    """
+
+    model: str
+    tool_mm: tuple[float, float, float]
+    tracker_at_mm: tuple[float, float, float] | None = None
+
+
 @dataclass(frozen=True)
 class Plan:
     """The whole motion of a run: measured poses in visiting order, and vias between.
@@ -442,10 +483,14 @@ class Plan:
         Measured poses in visiting order, rad; a pose's number is its row.
     via_rad : tuple of N ndarrays, shape (k_i, 6)
         Joint vectors moved through (not measured) before pose i, rad.
+    origin : PlanOrigin, optional
+        The arm, tracker and tool the plan was made and checked for (plan files
+        written by ``calibrator plan`` record it); None: not recorded.
     """
 
     q_rad: np.ndarray
     via_rad: tuple = ()
+    origin: PlanOrigin | None = None
 
     def __post_init__(self) -> None:
         q = np.asarray(self.q_rad, dtype=float)
@@ -489,6 +534,7 @@ def read_plan(path: str | os.PathLike[str]) -> Plan:
         via rows after the last measured pose.
     """
     q, via = _read_rows(path)
+    origin = _read_origin(path)
     if via[-1]:
         raise PlanError(f"{path}: via rows after the last measured pose (they lead nowhere)")
     _refuse_repeats(q[~via], path, np.flatnonzero(~via) + 2)
@@ -499,7 +545,118 @@ def read_plan(path: str | os.PathLike[str]) -> Plan:
         else:
             vias.append(np.array(pending).reshape(-1, 6))
             pending = []
-    return Plan(q[~via], tuple(vias))
+    return Plan(q[~via], tuple(vias), origin)
+
+
+def _read_origin(path) -> PlanOrigin | None:
+    """The plan's :class:`PlanOrigin` from its :data:`ORIGIN_COLUMNS`, or None without them."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        fields = reader.fieldnames or []
+        if "model" not in fields:
+            return None
+        missing = [c for c in ORIGIN_COLUMNS if c not in fields]
+        if missing:
+            raise PlanError(f"{path}: has a model column but not {', '.join(missing)}")
+        rows = {tuple(str(r[c]).strip() for c in ORIGIN_COLUMNS) for r in reader}
+    if len(rows) != 1:
+        raise PlanError(f"{path}: the model, tracker and tool columns differ between rows")
+    model, *numbers = rows.pop()
+    if not model:
+        raise PlanError(f"{path}: the model column is empty")
+    tracker_text, tool_text = numbers[:3], numbers[3:]
+    try:
+        tool = strict.parse_columns([tool_text], ORIGIN_COLUMNS[4:], str(path))[0]
+        tracker = None
+        if any(tracker_text):
+            tracker = strict.parse_columns([tracker_text], ORIGIN_COLUMNS[1:4], str(path))[0]
+    except strict.StrictError as exc:
+        raise PlanError(str(exc)) from None
+    # Points in a robot cell: a tool on the flange, a tracker in the room.
+    for what, v, limit in (("tool", tool, 2_000.0), ("tracker", tracker, 100_000.0)):
+        if v is not None and np.abs(v).max() > limit:
+            raise PlanError(f"{path}: the {what} position {_text(v)} mm is beyond +-{limit:g} mm")
+    return PlanOrigin(
+        model,
+        (float(tool[0]), float(tool[1]), float(tool[2])),
+        None if tracker is None else (float(tracker[0]), float(tracker[1]), float(tracker[2])),
+    )
+
+
+def made_for(
+    plan: Plan,
+    model: str,
+    tracker_at_mm: ArrayLike | None,
+    tool_mm: ArrayLike | None,
+    source: str | os.PathLike[str] = "the plan",
+) -> tuple[tuple[float, float, float] | None, tuple[float, float, float]]:
+    """The tracker position and tool a run of ``plan`` uses; a run it was not made for is refused.
+
+    A plan's checks (capsules with its tool, aim at its tracker) hold for the
+    arm, tracker and tool it was made for: a run on another arm, with the
+    tracker elsewhere or another reflector is refused naming both. What the run
+    does not give is taken from the plan.
+
+    Parameters
+    ----------
+    plan : Plan
+    model : str
+        The run's model name (``--model``).
+    tracker_at_mm : array_like, shape (3,), optional
+        The run's tracker position (``--tracker-at`` or the cell file's), base frame, mm.
+    tool_mm : array_like, shape (3,), optional
+        The run's reflector on the flange (``--tool``), mm.
+    source : str or path
+        The plan's file, for the message.
+
+    Returns
+    -------
+    tracker_at_mm : tuple of 3 float or None
+    tool_mm : tuple of 3 float
+
+    Raises
+    ------
+    PlanError
+        Another model, or a tracker or tool farther than :data:`ORIGIN_TOLERANCE_MM`.
+    """
+    tracker = None if tracker_at_mm is None else _point(tracker_at_mm)
+    tool = None if tool_mm is None else _point(tool_mm)
+    origin = plan.origin
+    if origin is None:
+        return tracker, tool if tool is not None else DEFAULT_TOOL_MM
+    if origin.model.strip().lower() != model.strip().lower():
+        raise PlanError(
+            f"{source} was made for a {origin.model}, not a {model} (--model): make a plan "
+            "for this arm"
+        )
+    if tool is not None and _apart(tool, origin.tool_mm):
+        raise PlanError(
+            f"{source} was made for the reflector at {_text(origin.tool_mm)} mm on the flange, "
+            f"not {_text(tool)} (--tool)"
+        )
+    if tracker is not None and origin.tracker_at_mm is not None:
+        if _apart(tracker, origin.tracker_at_mm):
+            raise PlanError(
+                f"{source} was made for the tracker at {_text(origin.tracker_at_mm)} mm, not "
+                f"{_text(tracker)} (--tracker-at or the cell file): make a plan for this cell"
+            )
+    return (
+        tracker if tracker is not None else origin.tracker_at_mm,
+        tool if tool is not None else origin.tool_mm,
+    )
+
+
+def _point(v: ArrayLike) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in np.asarray(v, dtype=float).reshape(3))
+    return x, y, z
+
+
+def _apart(a: ArrayLike, b: ArrayLike) -> bool:
+    return bool(np.linalg.norm(np.subtract(a, b)) > ORIGIN_TOLERANCE_MM)
+
+
+def _text(v: ArrayLike) -> str:
+    return ",".join(f"{c:g}" for c in np.asarray(v, dtype=float))
 
 
 def _read_rows(path) -> tuple[np.ndarray, np.ndarray]:
@@ -521,19 +678,33 @@ def write_plan(
 ) -> None:
     """Write a :class:`Plan` (``pose,via,q1_rad..q6_rad``) atomically.
 
-    A via row has an empty ``pose`` and ``via`` 1. ``inputs`` are files the
-    command read, which the plan must not overwrite.
+    A via row has an empty ``pose`` and ``via`` 1. A plan with an origin gets
+    the :data:`ORIGIN_COLUMNS` too, the same on every row (the tracker's empty
+    when unknown). ``inputs`` are files the command read, which the plan must
+    not overwrite.
     """
     from calibrator import outputs
 
+    outputs.write_text(path, plan_text(plan), inputs=inputs)
+
+
+def plan_text(plan: Plan) -> str:
+    """A :class:`Plan` as the CSV text :func:`write_plan` writes."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(("pose", "via", *JOINT_COLUMNS))
+    origin: tuple = ()
+    if plan.origin is not None:
+        o = plan.origin
+        tracker = ("", "", "") if o.tracker_at_mm is None else o.tracker_at_mm
+        origin = (o.model, *(repr(float(v)) if v != "" else "" for v in tracker))
+        origin += tuple(repr(float(v)) for v in o.tool_mm)
+    # Before the joints: a reader taking the last six columns still finds them there.
+    writer.writerow(("pose", "via", *(ORIGIN_COLUMNS if origin else ()), *JOINT_COLUMNS))
     for i, (q, vias) in enumerate(zip(plan.q_rad, plan.via_rad, strict=True)):
         for v in vias:
-            writer.writerow(("", 1, *(repr(float(x)) for x in v)))
-        writer.writerow((i, 0, *(repr(float(x)) for x in q)))
-    outputs.write_text(path, buf.getvalue(), inputs=inputs)
+            writer.writerow(("", 1, *origin, *(repr(float(x)) for x in v)))
+        writer.writerow((i, 0, *origin, *(repr(float(x)) for x in q)))
+    return buf.getvalue()
 
 
 #: Candidates closer than this on every joint are one pose (rad).
@@ -597,6 +768,7 @@ def make_checked(
     settle_s: float = 0.5,
     readings: int = 10,
     rate_hz: float = 10.0,
+    names: tuple | None = None,
     speed_rad_s: float | None = None,
     accel_rad_s2: float | None = None,
 ) -> PlanReport:
@@ -630,6 +802,9 @@ def make_checked(
         As :func:`make`.
     settle_s, readings, rate_hz
         For the time estimate (:func:`calibrator.cell.cell_time`).
+    names : tuple of str, optional
+        Parameters the D-optimal choice serves (see :func:`observability`);
+        default every one the model can identify.
     speed_rad_s, accel_rad_s2 : float, optional
         Leading-joint speed (rad/s) and acceleration (rad/s^2) of the time
         estimate: those the run will move at. Default the model's ceilings,
@@ -676,7 +851,7 @@ def make_checked(
     # The free set is the model's (from a rich reference set of poses), not what these
     # candidates happen to see: too few or too alike candidates must fail the rank test.
     reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
-    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm))
+    full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm), names=names)
     obs = Observability(full.names, full.blocks[len(reference) :])
     # Any two poses must be joinable: through the arm upright if not directly. A pose
     # the arm cannot leave upwards safely (the shoulder past horizontal on the far
@@ -707,6 +882,13 @@ def make_checked(
     chosen = pool[picks]
     speed, accel = model.move_speed_cap_rad_s, model.move_accel_cap_rad_s2
     plan = _order_safely(chk, chosen, box, speed, accel)
+    # What the plan's checks held for, recorded in its file (read_plan, made_for).
+    at = cell.tracker_at_mm
+    plan = Plan(
+        plan.q_rad,
+        plan.via_rad,
+        PlanOrigin(model.name, _point(tool_mm), None if at is None else _point(at)),
+    )
     # The estimate at the speeds the run will move at (the order is made at the ceilings).
     speed = speed if speed_rad_s is None else speed_rad_s
     accel = accel if accel_rad_s2 is None else accel_rad_s2
@@ -816,6 +998,7 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
         for a, b in bad:
             times[a, b] = times[b, a] = np.inf
         order = cells.order_poses(times)
+    order = _close_safely(chk, q, order, times, verdict)
     vias = []
     for k, i in enumerate(order):
         if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
@@ -831,6 +1014,36 @@ def _order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: floa
             )
         vias.append(via)
     return Plan(q[order], tuple(vias))
+
+
+def _close_safely(
+    chk, q: np.ndarray, order: np.ndarray, times: np.ndarray, verdict: dict
+) -> np.ndarray:
+    """``order`` turned so that the move from its last pose back to its first is safe.
+
+    A program returns from the last pose to its home, by default the first
+    pose, along the joint-space line: that closing move must pass the same
+    checks as every other. If it does not, the cycle starts after its longest
+    safe direct move instead (the old closing move becomes an inner one, given
+    vias like any other). ``verdict`` maps ``(a, b)`` to the move's faults and
+    gains the closing move's.
+    """
+    from calibrator import cell as cells
+
+    if len(order) < 2:
+        return order
+    first, last = int(order[0]), int(order[-1])
+    if (last, first) not in verdict:
+        faults = cells.motion_faults(chk, q[last][None], q[first][None])[0]
+        verdict[(last, first)] = verdict[(first, last)] = faults
+    if not verdict[(last, first)].any():
+        return order
+    pairs = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
+    safe = [k for k, e in enumerate(pairs) if not verdict[e].any()]
+    if not safe:
+        return order  # every move needs vias: the closing one is refused where it is used
+    k = max(safe, key=lambda j: times[pairs[j]] if np.isfinite(times[pairs[j]]) else 0.0)
+    return np.roll(order, -(k + 1))
 
 
 def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:

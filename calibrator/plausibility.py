@@ -329,3 +329,40 @@ def check_deltas(nominal_mdh: np.ndarray, identified_mdh: np.ndarray) -> list[st
                     f"identified {name} is {shown} from nominal (plausible: within {limit})"
                 )
     return warnings
+
+
+def check_frames(frames: dict[str, np.ndarray], where: str = "calibration") -> None:
+    """Refuse frames no cell has, with the bounds the session loader applies.
+
+    A tool frame (``flange2tool``, ``tool0``) further than
+    :data:`calibrator.consistency.MAX_MDH` mm from the flange is refused, as
+    :func:`calibrator.session.load` refuses it in a session; a base frame
+    (``base2tracker``, ``base0``) beyond :data:`MAX_ABS_MM`, as a measured
+    point is. Everything derived from the frames (exports, compensation)
+    is then as plausible as a session.
+
+    Parameters
+    ----------
+    frames : dict of str to ndarray, shape (4, 4)
+        By name (``"flange2tool"``...); translations in mm.
+    where : str
+        Named in the error (a path).
+
+    Raises
+    ------
+    CalibrationError
+        ``cal.json: 'flange2tool' puts the tool 9e+11 mm from the flange (more than 100000 mm)``.
+    """
+    from calibrator.consistency import MAX_MDH
+
+    for name, frame in frames.items():
+        is_tool = "tool" in name
+        limit = MAX_MDH["mm"] if is_tool else MAX_ABS_MM
+        offset = float(np.max(np.abs(np.asarray(frame, dtype=float)[:3, 3])))
+        if not offset <= limit:
+            what = "the tool" if is_tool else "the robot base"
+            origin = "the flange" if is_tool else "the tracker"
+            raise CalibrationError(
+                f"{where}: '{name}' puts {what} {offset:.6g} mm from {origin} "
+                f"(more than {limit:g} mm: a unit mistake or a hand edit?)"
+            )

@@ -14,7 +14,18 @@ rz_rad``                      frame (6-DoF probes); all three or none
 sz_mm``
 ``n_readings``      no        readings averaged into the row
 ``timestamp``       no        when the pose was measured
+``air_temperature_c no        the measuring conditions the devices reported
+air_pressure_hpa              at the pose (null where they did not): the air
+air_humidity_pct              at the tracker (degC, hPa, %RH), the tracker's
+tracker_on_s                  time since power-on (s), each joint's
+j1_temperature_c              temperature (degC)
+.. j6_temperature_c``
 =================== ========= ==================================================
+
+``tracker_warmed_up`` (bool, null where the tracker did not say) tells
+whether the tracker said it was warmed up at the pose.
+:func:`conditions_summary` sums the columns up over the session; sessions
+written before these columns existed read as they always did.
 
 The file metadata key ``calibrator`` holds JSON::
 
@@ -69,6 +80,17 @@ FRAMES = ("base", "tracker")
 #: Largest standard deviation of a pose's readings (mm): a spread of a metre
 #: is not a measurement of one point.
 MAX_SPREAD_MM = 1000.0
+#: Optional per-pose measuring conditions (:func:`to_table`'s ``conditions``): column
+#: and the key of a pose's conditions it holds (joint temperatures: by joint).
+CONDITION_COLUMNS = {
+    "air_temperature_c": "air_temperature_c",
+    "air_pressure_hpa": "air_pressure_hpa",
+    "air_humidity_pct": "air_humidity_pct",
+    "tracker_on_s": "on_s",
+    **{f"j{j}_temperature_c": f"joint_temperatures_c[{j - 1}]" for j in range(1, 7)},
+}
+#: Whether the tracker said it was warmed up at the pose (bool, nullable).
+WARMED_UP_COLUMN = "tracker_warmed_up"
 
 
 @dataclass
@@ -129,6 +151,12 @@ class Session:
     table: pa.Table
     meta: SessionMeta
     warnings: list = field(default_factory=list)
+
+    def conditions(self) -> dict:
+        """The session's measuring conditions (:func:`conditions_summary`); empty if none."""
+        names = [*CONDITION_COLUMNS, WARMED_UP_COLUMN]
+        present = {c: self.table[c].to_pylist() for c in names if c in self.table.column_names}
+        return conditions_summary(present)
 
     def array(self, columns: Sequence[str]) -> np.ndarray:
         """Columns as one float array, shape (N, len(columns))."""
@@ -320,6 +348,7 @@ def _validate_table(table, path, meta):
     if table.num_rows == 0:
         raise SessionError(f"{path}: the session has no poses")
     numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in names]
+    _check_conditions(table, path)
     for col in numeric:
         kind = table.schema.field(col).type
         if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
@@ -365,6 +394,24 @@ def _validate_table(table, path, meta):
     return table.sort_by("pose")
 
 
+def _check_conditions(table, path):
+    """Condition columns: numbers, finite where present (a null is a pose that did not say)."""
+    if WARMED_UP_COLUMN in table.column_names:
+        kind = table.schema.field(WARMED_UP_COLUMN).type
+        if not pa.types.is_boolean(kind):
+            raise SessionError(f"{path}: column {WARMED_UP_COLUMN} is not true/false ({kind})")
+    for col in CONDITION_COLUMNS:
+        if col not in table.column_names:
+            continue
+        kind = table.schema.field(col).type
+        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
+            raise SessionError(f"{path}: column {col} is not numeric ({kind})")
+        values = np.array([np.nan if v is None else v for v in table[col].to_pylist()], float)
+        given = np.array([v is not None for v in table[col].to_pylist()])
+        if np.any(given & ~np.isfinite(values)):
+            raise SessionError(f"{path}: column {col} has NaN or infinite values")
+
+
 def _floats(table, column):
     """A column as float64, nulls as NaN.
 
@@ -386,6 +433,7 @@ def to_table(
     spread: ArrayLike | None = None,
     n_readings: ArrayLike | None = None,
     timestamps: ArrayLike | None = None,
+    conditions: Sequence[dict] | None = None,
 ) -> pa.Table:
     """Build the rows of a session from arrays.
 
@@ -401,6 +449,10 @@ def to_table(
         Standard deviation of the readings (mm).
     n_readings : array_like, shape (N,), optional
     timestamps : array_like, shape (N,), optional
+    conditions : sequence of N dict, optional
+        Each pose's measuring conditions (``calibrator.acquire.rows.conditions_of``);
+        a :data:`CONDITION_COLUMNS` column is written when some pose reports it,
+        null where a pose does not.
 
     Returns
     -------
@@ -418,7 +470,71 @@ def to_table(
         data["n_readings"] = np.asarray(n_readings, dtype=np.int64)
     if timestamps is not None:
         data["timestamp"] = timestamps
+    for column, values in condition_columns(conditions or []).items():
+        kind = pa.bool_() if column == WARMED_UP_COLUMN else pa.float64()
+        data[column] = pa.array(values, kind)
     return pa.table(data)
+
+
+def condition_columns(conditions: Sequence[dict]) -> dict[str, list]:
+    """The condition columns some pose reports (None where a pose does not), by column name.
+
+    Parameters
+    ----------
+    conditions : sequence of dict
+        Each pose's conditions (``calibrator.acquire.rows.conditions_of``).
+    """
+    out: dict[str, list] = {}
+    warm = [row.get("warmed_up") for row in conditions]
+    if any(w is not None for w in warm):
+        out[WARMED_UP_COLUMN] = [None if w is None else bool(w) for w in warm]
+    for column, key in CONDITION_COLUMNS.items():
+        name, _, index = key.partition("[")
+        values = []
+        for row in conditions:
+            value = row.get(name)
+            if value is not None and index:
+                value = value[int(index[:-1])]
+            values.append(None if value is None else float(value))
+        if any(v is not None for v in values):
+            out[column] = values
+    return out
+
+
+def conditions_summary(columns: dict[str, list]) -> dict:
+    """The measuring conditions over a session: each column's least, mean and most.
+
+    Parameters
+    ----------
+    columns : dict
+        Condition columns by name (:func:`condition_columns`, or a table's),
+        values per pose, None where a pose did not say.
+
+    Returns
+    -------
+    dict
+        ``{column: {"min", "mean", "max"}}`` for each numeric column with a
+        value, ``tracker_warmed_up`` (every reporting pose warmed up, or None),
+        ``poses_reporting``; empty when no pose reported anything.
+    """
+    out: dict = {}
+    reporting = 0
+    for column in CONDITION_COLUMNS:
+        values = np.array([v for v in columns.get(column, []) if v is not None], dtype=float)
+        if values.size:
+            reporting = max(reporting, values.size)
+            out[column] = {
+                "min": float(values.min()),
+                "mean": float(values.mean()),
+                "max": float(values.max()),
+            }
+    warm = [w for w in columns.get(WARMED_UP_COLUMN, []) if w is not None]
+    if warm:
+        out[WARMED_UP_COLUMN] = all(warm)
+        reporting = max(reporting, len(warm))
+    if out:
+        out["poses_reporting"] = reporting
+    return out
 
 
 def write(

@@ -9,7 +9,7 @@ can check what ``identify`` recovers.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import frames, kinematics, parameters
 from calibrator.models import get_model
+from calibrator.robots import ipso_paper
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -25,16 +26,7 @@ if TYPE_CHECKING:
 
 
 #: Seed 003, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
-SEED_ERRORS = np.array(
-    [
-        [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
-        [0.2565, 0.0092, -0.0003, 0.0, -0.0028],
-        [-0.3366, 0.0031, 0.0060, 0.3409, 0.0],
-        [-0.1827, -0.0093, -0.0072, 0.1420, 0.0],
-        [-0.1117, 0.0070, -0.0016, 0.1753, 0.0],
-        [-0.2536, 0.0087, 0.0083, 0.1531, 0.0],
-    ]
-)
+SEED_ERRORS = np.array(ipso_paper.TABLE_2_ERRORS)
 #: A tool point on a bracket off the flange (mm), the default probe position.
 DEFAULT_TOOL_POINT = np.array([0.0, 0.0, 100.0])
 
@@ -204,6 +196,15 @@ class SimWorld:
         The true arm's load-side joint errors (positioning spread, backlash);
         None: it lands exactly where commanded. Drawn from
         :meth:`repeatability_rng`.
+    noise_seed : int, optional
+        Seed of the trackers' noise; None: ``seed``. A world file pins the
+        arm's seed and leaves each run's noise to the run's own seed.
+    air : tuple of 3 float, optional
+        The air around the tracker: degC, hPa, %RH (None: the simulator's
+        standard air).
+    tracker_on_s : float, optional
+        The tracker's time since power-on when the run starts, s (None: the
+        simulator's default, warmed up).
     """
 
     model: object
@@ -213,6 +214,9 @@ class SimWorld:
     flange2tool: np.ndarray
     tracker_at_mm: np.ndarray
     repeatability: object = None
+    noise_seed: int | None = None
+    air: tuple | None = None
+    tracker_on_s: float | None = None
 
     @classmethod
     def make(cls, model_name: str, seed: int, repeatability: object = None) -> SimWorld:
@@ -240,6 +244,19 @@ class SimWorld:
             SIM_TRACKER_AT_MM.copy(),
             repeatability,
         )
+
+    def with_tracker_at(self, at_mm: ArrayLike) -> SimWorld:
+        """This world with the tracker moved to ``at_mm`` (3,), robot base frame, mm.
+
+        The tracker is shifted by ``at_mm - tracker_at_mm`` and keeps its
+        orientation, so anything else the world holds between base and
+        tracker (a base that moved: :mod:`calibrator.world`) stays; the arm,
+        tool and seed are unchanged.
+        """
+        at = np.asarray(at_mm, dtype=float).reshape(3)
+        shift = frames.transform(translation=at - np.asarray(self.tracker_at_mm, dtype=float))
+        tracker2base = shift @ frames.invert(self.base2tracker)
+        return replace(self, base2tracker=frames.invert(tracker2base), tracker_at_mm=at.copy())
 
     def repeatability_rng(self) -> np.random.Generator:
         """The generator of the arm's joint errors: its own stream of the world's seed."""
@@ -311,7 +328,7 @@ def tracker_readings(
 
 
 def simulate(
-    model: str = "er10l-c10",
+    model: str = ipso_paper.NAME,
     poses: int = 32,
     seed: int = 3,
     frame: str = "base",
@@ -366,12 +383,12 @@ def simulate(
     robot = get_model(model)
     errors = "ref003" if errors == "seed" else errors  # its old name
     if errors == "ref003":
-        if robot.name != "er10l-c10":
+        if robot.reference_errors is None:
             raise ValueError(
-                "the ref003 error table (paper 003, Table 2) is for er10l-c10; "
+                f"the ref003 error table (paper 003, Table 2) is for {ipso_paper.NAME}; "
                 "use random errors for other models"
             )
-        delta = SEED_ERRORS
+        delta = np.array(robot.reference_errors)
     elif errors == "random":
         delta = random_errors(robot.mdh, rng)
     elif errors == "none":

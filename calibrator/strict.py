@@ -14,8 +14,13 @@ here, so a quirk of one parser cannot turn into silently wrong data:
 - :func:`load_yaml` does the same for YAML: duplicate keys, ``.nan``/``.inf``,
   hex/octal/sexagesimal/underscored numbers are refused, and a plain
   ``1e-3`` reads as the number YAML 1.2 says it is (YAML 1.1 reads it as text).
+  It is :func:`calibrator.yamlfile.loads`, the one YAML reader, which also
+  limits size, depth and alias expansion.
 - :func:`check_budget` is the one size/time budget check: an option that
   allocates or waits is refused above its limit before any work starts.
+- :class:`Rule` declares once what an option may be (type, bounds, budget,
+  meaning); the same rule checks the value typed on a command line and the
+  value recorded in a file (``identify --like``).
 
 Every refusal is a :class:`StrictError` (a
 :class:`~calibrator.errors.CalibrationError`): one line, exit code 2 at the CLI.
@@ -28,6 +33,7 @@ Use::
     doc = strict.load_json(text, "calibration.json")
     doc = strict.load_yaml(text, "kinematics.yaml")
     strict.check_budget("--trials", 10**12, 10**9, "trials")
+    strict.Rule("particles", int, 2, 1_000, unit="particles").check(-5)  # raises
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ import json
 import math
 import re
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +52,7 @@ from calibrator.errors import CalibrationError
 
 __all__ = [
     "MAX_INT",
+    "Rule",
     "StrictError",
     "check_budget",
     "load_json",
@@ -53,6 +61,7 @@ __all__ = [
     "parse_number",
     "parse_numbers",
     "read_text",
+    "shown",
 ]
 
 #: Largest integer magnitude a file may hold: int64 (seeds, counts, pose numbers).
@@ -108,7 +117,7 @@ def parse_numbers(cells: Any, what: str = "value") -> np.ndarray:
     return out
 
 
-def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
+def parse_columns(rows: Any, names: Any, what: str, first: int = 0) -> np.ndarray:
     """The cells of a CSV's columns as floats, shape (N, len(names)).
 
     Parameters
@@ -119,6 +128,8 @@ def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
         Column names, for the error.
     what : str
         The file, for the error.
+    first : int
+        Data rows of the file before ``rows`` (a file read in blocks).
 
     Raises
     ------
@@ -131,7 +142,7 @@ def parse_columns(rows: Any, names: Any, what: str) -> np.ndarray:
     for i, row in enumerate(rows):
         for j, cell in enumerate(row):
             out[i, j] = parse_number(
-                "" if cell is None else cell, f"{what}: line {i + 2}, {names[j]}"
+                "" if cell is None else cell, f"{what}: line {first + i + 2}, {names[j]}"
             )
     return out
 
@@ -279,92 +290,43 @@ def _bounded_int(text: str) -> int | _Bad:
     return int(text)
 
 
-def _shown(text: str) -> str:
+def _shown(text: Any) -> str:
+    """A value for a message, at most about 30 characters (a document's value may be huge)."""
+    if isinstance(text, bool) or not isinstance(text, str | int | float):
+        return shown(text)
     text = str(text)
     return repr(text if len(text) <= 24 else text[:20] + "...")
 
 
+def shown(value: Any, width: int = 40) -> str:
+    """``repr`` of a parsed value for a one-line message, cut to about ``width`` characters.
+
+    Built with :mod:`reprlib`, so a value of a million nested items costs no
+    more than a short one (an alias-expanded list never reaches a message whole).
+    """
+    import reprlib
+
+    short = reprlib.Repr()
+    short.maxlevel, short.maxlist, short.maxdict, short.maxstring, short.maxother = 2, 4, 4, 30, 30
+    text = " ".join(short.repr(value).split())
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
 def load_yaml(text: str, where: str = "YAML") -> Any:
-    """Parse YAML (safe subset) with the strict number grammar and unique keys.
+    """Parse YAML text: :func:`calibrator.yamlfile.loads` (the one YAML reader).
 
     Numbers are what :data:`NUMBER` matches, in YAML 1.2 fashion (``1e-3`` is
     a number); ``0x1F``, ``0o17``, ``1_000``, ``1:30``, ``.nan`` and ``.inf``
-    are refused, not silently converted.
+    are refused, not silently converted; so are duplicate keys, deep nesting
+    and alias expansion beyond the reader's limits.
 
     Raises
     ------
     StrictError
-        Not YAML, a duplicate key, a number outside the grammar or too
-        large, nesting too deep.
     """
-    import yaml  # type: ignore[import-untyped]
+    from calibrator import yamlfile
 
-    try:
-        return yaml.load(text, Loader=_strict_loader())  # noqa: S506 (a SafeLoader subclass)
-    except StrictError as exc:
-        raise StrictError(f"{where}: {exc}") from None
-    except RecursionError:
-        raise StrictError(f"{where} is not JSON (nested too deeply)") from None
-    except yaml.YAMLError as exc:
-        raise StrictError(f"{where}: not YAML ({str(exc).splitlines()[0]})") from None
-
-
-_LOADER = None
-
-
-def _strict_loader():
-    """A SafeLoader subclass, built once (PyYAML is imported only when needed)."""
-    global _LOADER
-    if _LOADER is not None:
-        return _LOADER
-    import yaml  # type: ignore[import-untyped]
-
-    class StrictLoader(yaml.SafeLoader):
-        pass
-
-    # Own copy of the resolver table: add_implicit_resolver would append to
-    # lists shared with SafeLoader.
-    StrictLoader.yaml_implicit_resolvers = {
-        ch: list(v) for ch, v in yaml.SafeLoader.yaml_implicit_resolvers.items()
-    }
-    StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", NUMBER, list("-+0123456789."))
-
-    def mapping(loader, node, deep=False):
-        seen = set()
-        for key_node, _ in node.value:
-            key = loader.construct_object(key_node, deep=True)
-            try:
-                duplicate = key in seen
-            except TypeError:
-                continue  # an unhashable key: SafeLoader refuses it itself
-            if duplicate:
-                raise StrictError(
-                    f"key {key!r} appears more than once (line {key_node.start_mark.line + 1})"
-                )
-            seen.add(key)
-        return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-    def integer(loader, node):
-        s = loader.construct_scalar(node)
-        # "017" is octal in YAML 1.1 and decimal in 1.2: ambiguous, so refused.
-        if not _INTEGER.fullmatch(s.strip()) or re.fullmatch(r"[+-]?0[0-9]+", s.strip()):
-            raise StrictError(
-                f"{_shown(s)} (line {node.start_mark.line + 1}) is not a decimal number"
-            )
-        value = _bounded_int(s.strip())
-        if isinstance(value, _Bad):
-            raise StrictError(f"line {node.start_mark.line + 1}: {value.reason}")
-        return value
-
-    def real(loader, node):
-        s = loader.construct_scalar(node)
-        return parse_number(s, f"line {node.start_mark.line + 1}")
-
-    StrictLoader.construct_mapping = mapping
-    StrictLoader.add_constructor("tag:yaml.org,2002:int", integer)
-    StrictLoader.add_constructor("tag:yaml.org,2002:float", real)
-    _LOADER = StrictLoader
-    return _LOADER
+    return yamlfile.loads(text, where)
 
 
 def check_budget(what: str, value: float, limit: float, unit: str = "") -> None:
@@ -386,8 +348,9 @@ def check_budget(what: str, value: float, limit: float, unit: str = "") -> None:
     """
     if not value <= limit:
         unit = f" {unit}" if unit else ""
+        where = f"{what}: " if what else ""
         raise StrictError(
-            f"{what}: {_amount(value)}{unit} is more than the limit of {_amount(limit)}{unit}"
+            f"{where}{_amount(value)}{unit} is more than the limit of {_amount(limit)}{unit}"
         )
 
 
@@ -396,4 +359,142 @@ def _amount(value: float) -> str:
     if isinstance(value, int):
         text = str(value) if abs(value) < 10**30 else f"about 1e{len(str(abs(value))) - 1}"
         return text
-    return f"{value:g}"
+    short = f"{value:g}"
+    # %g keeps 6 digits: 1000000000001 would read as its own limit 1e+12.
+    return short if float(short) == value else repr(float(value))
+
+
+@dataclass(frozen=True)
+class Rule:
+    """What one option may be, declared once for the command line and for files.
+
+    Attributes
+    ----------
+    key : str
+        Its name where it is recorded (a file's key, a settings attribute).
+    kind : {int, float, bool, str, tuple}
+        ``tuple``: ``size`` numbers, given as a list or as comma-separated text.
+    low, high : float or None
+        Bounds of a number (each coordinate of a tuple: ``|v| <= high``);
+        ``high`` is the budget (what a typo must not reach).
+    open_low, open_high : bool
+        The bound itself is excluded.
+    unit : str
+        Unit named in messages (``"kg"``, ``"particles"``).
+    meaning : str
+        One phrase saying what it is (help texts, docs).
+    flag : str or None
+        The command-line option that sets it, if any.
+    choices : tuple of str
+        The allowed values of a ``str`` (empty: any, or ``parse`` decides).
+    parse : callable or None
+        ``parse(value) -> value`` for what a range cannot say (a named arm
+        or a file); raises :class:`~calibrator.errors.CalibrationError`.
+    size : int
+        Numbers in a ``tuple``.
+    group : str
+        Which record it belongs to (e.g. ``"pipeline"``, ``"joint"``).
+    """
+
+    key: str
+    kind: type
+    low: float | None = None
+    high: float | None = None
+    open_low: bool = False
+    open_high: bool = False
+    unit: str = ""
+    meaning: str = ""
+    flag: str | None = None
+    choices: tuple[str, ...] = ()
+    parse: Callable[[Any], Any] | None = field(default=None, compare=False)
+    size: int = 3
+    group: str = ""
+
+    def check(self, value: Any, where: str = "") -> Any:
+        """``value`` checked and normalised (a float for ``float``, a tuple for ``tuple``).
+
+        ``None`` (not given, not recorded) passes unchanged.
+
+        Raises
+        ------
+        StrictError
+            One line: ``where: must be a whole number >= 2, got -5``.
+        """
+        if value is None:
+            return None
+        try:
+            return self._check(value)
+        except CalibrationError as exc:
+            message = str(exc)
+            raise StrictError(f"{where}: {message}" if where else message) from None
+
+    def _check(self, value: Any) -> Any:
+        if self.kind is bool:
+            if not isinstance(value, bool):
+                raise StrictError(f"must be true or false, got {_shown(value)}")
+            return value
+        if self.kind is str:
+            if not isinstance(value, str):
+                raise StrictError(f"must be text, got {_shown(value)}")
+            if self.choices and value not in self.choices:
+                raise StrictError(
+                    f"{_shown(value)} is not one of {', '.join(map(repr, self.choices))}"
+                )
+            return self.parse(value) if self.parse is not None else value
+        if self.kind is tuple:
+            return self._numbers(value)
+        return self._number(value)
+
+    def _number(self, value: Any) -> int | float:
+        whole = self.kind is int
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise StrictError(f"must be a {'whole ' if whole else ''}number, got {_shown(value)}")
+        if whole and not isinstance(value, int):
+            raise StrictError(f"must be a whole number, got {_shown(value)}")
+        if not whole:
+            if isinstance(value, int) and abs(value) > MAX_INT:
+                raise StrictError(f"the number {_amount(value)} is too large")
+            value = float(value)
+            if not math.isfinite(value):
+                raise StrictError(f"must be a finite number, got {value}")
+        low_bad = self.low is not None and (
+            value <= self.low if self.open_low else value < self.low
+        )
+        high_bad = self.open_high and self.high is not None and value >= self.high
+        if low_bad or high_bad:
+            raise StrictError(f"must be {self._span()}, got {_amount(value)}")
+        if self.high is not None:
+            check_budget("", value, self.high, self.unit)
+        return value
+
+    def _span(self) -> str:
+        """The bounds in words: ``a whole number >= 2``, ``in [0, 1)``."""
+        if self.open_high and self.high is not None:
+            if self.low is None:
+                return f"below {self.high:g}"
+            return f"in {'(' if self.open_low else '['}{self.low:g}, {self.high:g})"
+        kind = "a whole number" if self.kind is int else "a number"
+        return f"{kind} {'>' if self.open_low else '>='} {self.low:g}"
+
+    def _numbers(self, value: Any) -> tuple[float, ...]:
+        if isinstance(value, str):
+            parts = value.split(",")
+            if len(parts) != self.size:
+                raise StrictError(f"needs {self.size} comma-separated numbers, got {_shown(value)}")
+            numbers = [parse_number(p, "a coordinate") for p in parts]
+        elif isinstance(value, list | tuple) and len(value) == self.size:
+            numbers = list(value)
+        else:
+            raise StrictError(f"needs {self.size} numbers, got {_shown(value)}")
+        out = []
+        for v in numbers:
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise StrictError(f"needs {self.size} numbers, got {_shown(v)}")
+            if self.high is not None and not abs(v) <= self.high:
+                raise StrictError(
+                    f"{_amount(v)} {self.unit} is beyond +-{self.high:g} {self.unit}".replace(
+                        "  ", " "
+                    )
+                )
+            out.append(float(v))
+        return tuple(out)

@@ -30,6 +30,14 @@ def tracker_url(request):
 
 
 @pytest.fixture(scope="session")
+def checked_plan():
+    """:func:`plan_testkit.checked_plan`, made once per test session."""
+    from plan_testkit import checked_plan as make
+
+    return make()
+
+
+@pytest.fixture(scope="session")
 def simulated_calibration(tmp_path_factory):
     """``s.parquet`` (``calibrator simulate --poses 20``) and its ``c.json`` (``identify
     --method lm``), made once per test run: ``{name: bytes}``; tests copy what they use."""

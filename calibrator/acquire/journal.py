@@ -210,7 +210,11 @@ def read(
         raise JournalError(f"{path} is not a calibrator journal")
     version = header.get("version")
     if type(version) is not int or version not in READABLE_VERSIONS:
-        raise JournalError(f"{path}: journal version {version!r} is not supported")
+        raise JournalError(
+            f"{path}: journal version {strict.shown(version)} is not supported (this program "
+            f"reads versions {', '.join(map(str, READABLE_VERSIONS))}); finish it with the "
+            "program that wrote it, or remove it to start over"
+        )
     crc = version >= 2
     if crc:
         header = _parse(lines[0], crc=True)

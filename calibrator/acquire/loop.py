@@ -263,7 +263,7 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
         # Read back after the readings: these are the joints the arm held while measured.
         q = robot.actual_joints()
         state.last_point_mm = avg.mean_mm
-        return rows.measured_record(pose, q, avg, attempt)
+        return rows.measured_record(pose, q, avg, attempt, rows.conditions_of(robot, tracker))
     return rows.failed_record(pose, "; ".join(lost), options.retries + 1, dict(causes))
 
 

@@ -111,6 +111,12 @@ REPORTS_TRUE_POSE = "reports_true_pose"
 #: Its ``check_plan`` gets the measured poses only, and ``move_joints`` to a via returns
 #: at once (the controller passes through vias without a stop).
 WATCHES_TRACKER = "watches_tracker"
+#: ``conditions()``: the tracker reports what it measures of its surroundings, a dict
+#: (``air_temperature_c``, ``air_pressure_hpa``, ``air_humidity_pct``, ``on_s``: time since
+#: power-on, ``warmed_up``; any may be None when it does not say), or None.
+REPORTS_CONDITIONS = "reports_conditions"
+#: ``joint_temperatures()``: the robot reports its joints' temperatures, shape (6,), degC.
+REPORTS_TEMPERATURES = "reports_temperatures"
 
 
 class TrackerState(Protocol):

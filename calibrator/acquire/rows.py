@@ -4,16 +4,24 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from datetime import UTC, datetime
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
 from numpy.typing import ArrayLike
 
 from calibrator import session
+from calibrator.acquire import ports
 from calibrator.acquire.averaging import AveragedReading
 
 
-def measured_record(pose: int, q_rad: ArrayLike, avg: AveragedReading, attempts: int) -> dict:
+def measured_record(
+    pose: int,
+    q_rad: ArrayLike,
+    avg: AveragedReading,
+    attempts: int,
+    conditions: dict | None = None,
+) -> dict:
     """The journal record of a measured pose.
 
     Parameters
@@ -26,6 +34,9 @@ def measured_record(pose: int, q_rad: ArrayLike, avg: AveragedReading, attempts:
         Tracker frame, mm and rad.
     attempts : int
         Sets of readings taken (1 when nothing went wrong).
+    conditions : dict, optional
+        What the devices reported of the measuring conditions at the pose
+        (:func:`conditions_of`); kept under ``"conditions"``.
     """
     record = {
         "pose": int(pose),
@@ -43,7 +54,55 @@ def measured_record(pose: int, q_rad: ArrayLike, avg: AveragedReading, attempts:
     }
     if avg.rotvec_mean_rad is not None:
         record["rotvec_rad"] = avg.rotvec_mean_rad.tolist()
+    if conditions:
+        record["conditions"] = conditions
     return record
+
+
+def conditions_of(robot: Any, tracker: Any) -> dict:
+    """What the robot and the tracker report of the measuring conditions now.
+
+    The tracker's air (temperature degC, pressure hPa, humidity %RH), its time
+    since power-on (s) and whether it says it is warmed up, with
+    :data:`~calibrator.acquire.ports.REPORTS_CONDITIONS`; the joints'
+    temperatures (degC, ``joint_temperatures_c``) with
+    :data:`~calibrator.acquire.ports.REPORTS_TEMPERATURES`. A device that cannot
+    say (or whose link fails on the query) adds nothing: the pose is measured
+    all the same.
+    """
+    out: dict = {}
+    if ports.REPORTS_CONDITIONS in getattr(tracker, "capabilities", ()):
+        try:
+            reported = tracker.conditions()
+        except (ports.PortError, OSError):
+            reported = None
+        for key, value in (reported or {}).items():
+            if key in CONDITION_KEYS and value is not None:
+                out[key] = bool(value) if key == "warmed_up" else float(value)
+    if ports.REPORTS_TEMPERATURES in getattr(robot, "capabilities", ()):
+        try:
+            temps = np.asarray(robot.joint_temperatures(), dtype=float).reshape(-1)
+        except (ports.PortError, OSError, ValueError, RuntimeError):  # ur_rtde: RuntimeError
+            temps = np.zeros(0)
+        if temps.shape == (6,) and np.all(np.isfinite(temps)):
+            out["joint_temperatures_c"] = temps.tolist()
+    return out
+
+
+#: The tracker's condition keys a record keeps.
+CONDITION_KEYS = (
+    "air_temperature_c",
+    "air_pressure_hpa",
+    "air_humidity_pct",
+    "on_s",
+    "warmed_up",
+)
+
+
+def summarise(records: Iterable[dict]) -> dict:
+    """The conditions over the measured records (:func:`calibrator.session.conditions_summary`)."""
+    measured = [r.get("conditions", {}) for r in records if r.get("status") == "measured"]
+    return session.conditions_summary(session.condition_columns(measured))
 
 
 def failed_record(pose: int, reason: str, attempts: int, causes: dict | None = None) -> dict:
@@ -82,6 +141,7 @@ def to_table(records: Iterable[dict]) -> pa.Table:
         spread=np.array([r["std_mm"] for r in rows]),
         n_readings=np.array([r["n_readings"] for r in rows]),
         timestamps=pa.array([r["timestamp"] for r in rows], pa.string()),
+        conditions=[r.get("conditions", {}) for r in rows],
     )
     # Pose numbers are plan rows, so a failed pose leaves a visible gap.
     poses = pa.array([int(r["pose"]) for r in rows], pa.int64())

@@ -181,9 +181,12 @@ class MeasureRun:
             steer = tracker.set_target  # type: ignore[attr-defined]
         self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
+        # Where the tracker is: --tracker-at, else the cell file's, else the
+        # simulated world's (which open_run places at either of the first two).
+        given = tracker_position(options)
         self.tracker_at_mm = (
-            np.asarray(options.tracker_at_mm, float)
-            if options.tracker_at_mm is not None
+            np.asarray(given, float)
+            if given is not None
             else (world.tracker_at_mm.copy() if world is not None else None)
         )
         self.plan: np.ndarray | None = None
@@ -289,12 +292,15 @@ class MeasureRun:
         need = opts.need_poses
         if need is None:
             need = plans.min_poses(self.model.mdh)
-        q_plan = plans.validate(q_plan, self.model.joint_limits_rad, need=need)
         vias = self._check_vias(len(q_plan))
-        # Before anything moves: every pose, every via and every joint-space
-        # move between them, against the arm's capsules and the cell.
+        # Before anything moves, the one whole-plan check every runner uses
+        # (``calibrator program`` too): limits, count, every pose, via and
+        # joint-space move against the arm's capsules, the cell and the tracker.
         via_rad = opts.via_rad if opts.via_rad is not None else [np.zeros((0, 6))] * len(q_plan)
-        cells.check_plan(plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm)
+        q_plan = np.asarray(q_plan, dtype=float)
+        cells.check_whole_plan(
+            plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
+        )
         if ports.CHECKS_PLAN in self.robot.capabilities:
             motion = np.concatenate([q_plan, *vias]) if vias else q_plan
             if ports.WATCHES_TRACKER in self.robot.capabilities:
@@ -332,20 +338,12 @@ class MeasureRun:
         )
 
     def _check_vias(self, n: int) -> list[np.ndarray]:
-        """Via poses: N arrays of shape (k_i, 6), inside the joint limits."""
-        from calibrator import plan as plans
-
+        """Via poses: N arrays of shape (k_i, 6); their limits are checked with the plan."""
         if self.options.via_rad is None:
             return []
         vias = [np.asarray(v, dtype=float).reshape(-1, 6) for v in self.options.via_rad]
         if len(vias) != n:
             raise CalibrationError(f"via poses given for {len(vias)} poses; the plan has {n}")
-        for pose, via in enumerate(vias):
-            if len(via):
-                try:
-                    plans.validate(via, self.model.joint_limits_rad)
-                except CalibrationError as exc:
-                    raise CalibrationError(f"via poses before pose {pose}: {exc}") from None
         return [v for v in vias if len(v)]
 
     def header(self, meta: Any) -> dict:
@@ -553,6 +551,19 @@ class MeasureRun:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def tracker_position(options: RunOptions) -> tuple[float, float, float] | None:
+    """The tracker's position the run was given (robot base frame, mm), or None.
+
+    ``--tracker-at`` wins over the cell file's ``tracker.at_mm``; a simulated
+    tracker is placed there too, so a cell file's tracker is never silently
+    replaced by the simulator's default position.
+    """
+    if options.tracker_at_mm is not None:
+        return options.tracker_at_mm
+    cell = options.cell
+    return None if cell is None else cell.tracker_at_mm
 
 
 def _steer_to(steer: Callable[[np.ndarray, np.ndarray], None], pose: np.ndarray) -> None:

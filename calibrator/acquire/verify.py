@@ -156,6 +156,11 @@ def admissible(
         Default the bare cell (the model's mounting plane, 20 mm margin).
     tracker_at_mm : array_like, shape (3,), optional
         With it the tracker's checks (line of sight, range, acceptance) apply.
+
+    Raises
+    ------
+    calibrator.cell.CellError
+        The tracker stands where the arm could hit it.
     """
     from calibrator import cell as cells
 
@@ -163,6 +168,8 @@ def admissible(
     at = None if tracker_at_mm is None else tuple(np.asarray(tracker_at_mm, float).reshape(3))
     where = (cell if cell is not None else cells.Cell()).with_tracker(at)
     chk = cells.checker(cells.arm_geometry(model.name, model.mdh, tool_mm), where)
+    # A tracker the arm could hit is refused as such, not as "no cube fits".
+    cells.check_tracker_placement(chk)
     return iso9283.Admissible(
         poses=lambda q: np.asarray(~cells.pose_faults(chk, q).any(axis=1)),
         moves=lambda qa, qb: np.asarray(~cells.motion_faults(chk, qa, qb).any(axis=1)),

@@ -27,23 +27,15 @@ from numpy.typing import ArrayLike
 
 from calibrator import kinematics
 from calibrator.errors import CalibrationError
+from calibrator.robots import misalignment_paper
 
 _DEG = np.pi / 180.0
 
 #: The misalignment paper's arm (its Table 2), Craig modified DH:
 #: rows ``[alpha_{i-1} (deg), a_{i-1} (mm), d_i (mm)]``.
-PAPER_CRAIG = np.array(
-    [
-        [0.0, 0.0, 0.0],
-        [-90.0, 200.0, 0.0],
-        [90.0, 200.0, 1000.0],
-        [0.0, 0.0, 1000.0],
-        [0.0, 200.0, 100.0],
-        [0.0, 0.0, 100.0],
-    ]
-)
+PAPER_CRAIG = misalignment_paper.CRAIG_TABLE
 #: The paper's pose, joint angles theta_1..6 (deg).
-PAPER_POSE_DEG = np.array([100.0, 60.0, -10.0, -120.0, 90.0, 0.0])
+PAPER_POSE_DEG = misalignment_paper.POSE_DEG
 
 
 def rot_x(angle: ArrayLike) -> np.ndarray:
@@ -221,7 +213,9 @@ def build(
     from calibrator import models
 
     lengths = dict(lengths or {})
-    key = (model or PAPER).strip().lower()
+    key = (model or PAPER).strip()
+    # Names are matched without case; a description file's path keeps its own.
+    key = PAPER if key.lower() == PAPER else key
     unknown = sorted(set(lengths) - set(length_names(key)))
     if unknown:
         raise CalibrationError(
@@ -237,9 +231,10 @@ def build(
                 table[i - 1, 2] = value
         table[:, 0] *= _DEG
         pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
-        return craig_arm(table, pose * _DEG, name="paper arm (the misalignment paper, Table 2)")
-    mdh = models.get_model(key).mdh.copy()
+        return craig_arm(table, pose * _DEG, name=misalignment_paper.TITLE)
+    described = models.get_model(key)
+    mdh = described.mdh.copy()
     for name, value in lengths.items():
         mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value
     pose = np.zeros(6) if pose_deg is None else np.asarray(pose_deg, dtype=float)
-    return mdh_arm(mdh, pose * _DEG, name=key)
+    return mdh_arm(mdh, pose * _DEG, name=described.name)

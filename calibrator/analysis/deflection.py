@@ -35,6 +35,17 @@ import numpy as np
 
 from calibrator.errors import CalibrationError
 from calibrator.mass_models import GRAVITY_MM_S2
+from calibrator.robots import chen_zhang
+from calibrator.strict import Rule, shown
+
+#: What each value of a section may be: a robot link, not 1e-300 mm (its
+#: stiffness underflows to nan) nor 1e308 mm (its D^4 overflows).
+SECTION_RULES = {
+    "outer_mm": Rule("outer_mm", float, 1.0, 2_000.0, unit="mm", meaning="outer diameter"),
+    "inner_mm": Rule("inner_mm", float, 0.0, 2_000.0, unit="mm", meaning="inner diameter"),
+    "e_mpa": Rule("e_mpa", float, 100.0, 1e6, unit="MPa", meaning="Young's modulus"),
+    "poisson": Rule("poisson", float, 0.0, 0.5, open_high=True, meaning="Poisson's ratio"),
+}
 
 
 @dataclass(frozen=True)
@@ -57,9 +68,8 @@ class Section:
     poisson: float = 0.3
 
     def __post_init__(self) -> None:
-        values = (self.outer_mm, self.inner_mm, self.e_mpa, self.poisson)
-        if not all(np.isfinite(v) for v in values):
-            raise CalibrationError("section values must be finite numbers")
+        for name, rule in SECTION_RULES.items():
+            rule.check(getattr(self, name), name)
         if not (self.outer_mm > 0 and 0 <= self.inner_mm < self.outer_mm):
             raise CalibrationError(
                 f"section needs outer diameter > inner >= 0, got {self.outer_mm}, {self.inner_mm}"
@@ -424,56 +434,41 @@ def standard_dh_frames(
 
 _DEG = np.pi / 180.0
 
-#: Seed 001's example (its Fig. 4 is missing from the text), our reading:
-#: joint 1 turns the column about the vertical (s1 = 1100 mm); joint 2 pitches
-#: the arm about a horizontal axis, the rod's axis h2 = 142 mm above it; joint 3
-#: slides the rod (link 3, s3, 600 mm out at the end pose, clamped at frame 2);
-#: joint 4 rolls about the rod, joint 5 turns the hand about the vertical with
-#: the hand frame h5 = 260 mm below the rod's tip, z5 up, x5 across the arm.
+#: Seed 001's example (Chen and Zhang's arm): its data live in
+#: :mod:`calibrator.robots.chen_zhang`, which says how the table was read.
 #: Rows ``[theta_offset, s, h, alpha]`` (rad, mm).
-SEED_TABLE = np.array(
-    [
-        [0.0, 1100.0, 0.0, -90 * _DEG],
-        [-90 * _DEG, 0.0, 142.0, -90 * _DEG],
-        [0.0, 0.0, 0.0, 0.0],
-        [-90 * _DEG, 0.0, 0.0, -90 * _DEG],
-        [0.0, -260.0, 0.0, 0.0],
-    ]
-)
-SEED_PRISMATIC = np.array([False, False, True, False, False])
+SEED_TABLE = chen_zhang.TABLE
+SEED_PRISMATIC = chen_zhang.PRISMATIC
 #: The seed's mass table: masses (kg, link 5 includes the 5 kg workpiece),
-#: centres of mass (m in the table, mm here) and principal inertias (kg m^2).
-SEED_MASS_KG = np.array([61.46, 27.8, 18.72, 5.33, 6.5 + 5.0])
-SEED_COM_MM = np.array(
-    [[0, -800, 0], [0, 0, 0], [0, 0, -400], [0, 0, 0], [-100, 0, 0]], dtype=float
-)
-SEED_INERTIA_KG_M2 = np.array(
-    [
-        [0.15, 0.1, 0.172],
-        [1.5, 1.8, 1.7],
-        [1.3, 1.2, 1.1],
-        [0.007, 0.009, 0.004],
-        [0.01, 0.01, 0.014],
-    ]
-)
+#: centres of mass (mm) and principal inertias (kg m^2).
+SEED_MASS_KG = chen_zhang.MASS_KG
+SEED_COM_MM = chen_zhang.COM_MM
+SEED_INERTIA_KG_M2 = chen_zhang.INERTIA_KG_M2
 #: Link 3, the piston rod: hollow steel, E = 2.1e11 Pa, D = 0.05 m, d = 0.03 m.
-SEED_ROD = Section(outer_mm=50.0, inner_mm=30.0, e_mpa=2.1e5)
+SEED_ROD = Section(
+    outer_mm=chen_zhang.ROD_OUTER_MM, inner_mm=chen_zhang.ROD_INNER_MM, e_mpa=chen_zhang.ROD_E_MPA
+)
 #: The seed's task: the hand's origin on a straight line while x5 turns from 0
-#: to 45 deg with theta_1, in 1 s. Our line: base x = 600 cos 45 deg, so the
-#: rod is out s3 = 600 mm (the seed's s3') at the end, B.
-SEED_DURATION_S = 1.0
-_SEED_LINE_X_MM = 600.0 * np.cos(45 * _DEG)
+#: to 45 deg with theta_1, in 1 s.
+SEED_DURATION_S = chen_zhang.DURATION_S
+_SEED_LINE_X_MM = chen_zhang.LINE_X_MM
+#: Joint ranges taken for the example (rad; joint 3 in mm): the text gives
+#: none, so half a turn either way for the revolute joints and the rod out
+#: between 0 and 1,500 mm (2.5 times its 600 mm at the task's end).
+SEED_LIMITS = np.array(
+    [[-np.pi, np.pi], [-np.pi, np.pi], [0.0, 1500.0], [-np.pi, np.pi], [-np.pi, np.pi]]
+)
 
 
 def seed_arm() -> FlexArm:
     """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
     return FlexArm(
-        name="Chen and Zhang example (5 axes, rod D 50 / d 30 mm)",
+        name=chen_zhang.TITLE,
         frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
         mass_kg=SEED_MASS_KG,
         com_mm=SEED_COM_MM,
         inertia_kg_mm2=np.array([np.diag(v) for v in SEED_INERTIA_KG_M2]) * 1e6,
-        sections={3: SEED_ROD},
+        sections={chen_zhang.ROD_LINK: SEED_ROD},
     )
 
 
@@ -513,7 +508,7 @@ def named_arm(model: str, sections: dict[int, Section], masses: object = None) -
     from calibrator import kinematics, mass_models, models
 
     m = models.get_model(model)
-    mm = mass_models.get(model) if masses is None else masses
+    mm = mass_models.get(m.name) if masses is None else masses
     mdh = np.array(m.mdh)
 
     def frames(q: np.ndarray) -> np.ndarray:
@@ -546,31 +541,28 @@ def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
     """
     from pathlib import Path
 
-    import yaml
+    from calibrator import yamlfile
 
     path = Path(str(path))
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(f"{path}: cannot read sections ({type(exc).__name__})") from None
+    doc = yamlfile.read(path, "a link-section file", 2**20)
     links = doc.get("links") if isinstance(doc, dict) else None
     if not isinstance(links, dict) or not links:
         raise CalibrationError(f"{path}: needs a 'links' mapping, link number -> section")
     sections = {}
     for key, spec in links.items():
         if not (isinstance(key, int) and 1 <= key <= 6 and isinstance(spec, dict)):
-            raise CalibrationError(f"{path}: link {key!r}: keys are link numbers 1..6")
+            raise CalibrationError(f"{path}: link {shown(key)}: keys are link numbers 1..6")
         unknown = set(spec) - {"outer_mm", "inner_mm", "e_mpa", "poisson"}
         if unknown or "outer_mm" not in spec:
             raise CalibrationError(
                 f"{path}: link {key}: needs outer_mm, may give inner_mm, e_mpa, poisson"
-                + (f"; unknown {', '.join(sorted(map(str, unknown)))}" if unknown else "")
+                + (f"; unknown {', '.join(sorted(map(shown, unknown))[:5])}" if unknown else "")
             )
         try:
-            sections[key] = Section(**{k: float(v) for k, v in spec.items()})
-        except (TypeError, ValueError):
-            raise CalibrationError(f"{path}: link {key}: values must be numbers") from None
+            sections[key] = Section(**{k: SECTION_RULES[k].check(v, k) for k, v in spec.items()})
         except CalibrationError as exc:
             raise CalibrationError(f"{path}: link {key}: {exc}") from None
     model = doc.get("mass_model")
-    return sections, None if model is None else str(model)
+    if model is not None and not isinstance(model, str):
+        raise CalibrationError(f"{path}: mass_model must be a named arm or a YAML path (text)")
+    return sections, model

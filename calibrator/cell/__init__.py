@@ -53,6 +53,7 @@ __all__ = [
     "cell_time",
     "check_plan",
     "check_tracker_placement",
+    "check_whole_plan",
     "checker",
     "describe",
     "estimate",
@@ -67,13 +68,80 @@ __all__ = [
 ]
 
 
-def check_plan(plan: Plan, model: RobotModel, cell: Cell, tool_mm: ArrayLike) -> None:
+def check_whole_plan(
+    plan: Plan,
+    model: RobotModel,
+    cell: Cell,
+    tool_mm: ArrayLike,
+    *,
+    home_rad: ArrayLike | None = None,
+    need: int = 0,
+) -> Plan:
+    """Everything a plan must pass before its first motion, whoever runs it.
+
+    The one gate of ``measure`` (any robot) and ``program`` (the only gate
+    for an arm the controller runs on its own), and of ``verify``'s test
+    poses: the joint limits of every pose, via and home pose; enough poses;
+    then :func:`check_plan` (the cell, the tracker, every motion, those from
+    and back to home included).
+
+    Parameters
+    ----------
+    plan : calibrator.plan.Plan
+    model : calibrator.models.RobotModel
+    cell : Cell
+        With its tracker position when known (the aim checks run only then).
+    tool_mm : array_like, shape (3,)
+        Reflector position on the flange, mm.
+    home_rad : array_like, shape (6,), optional
+        The pose the program starts and ends at, rad; its two moves are checked.
+    need : int
+        Fewest measured poses (what identification needs).
+
+    Returns
+    -------
+    calibrator.plan.Plan
+        The plan, as checked.
+
+    Raises
+    ------
+    calibrator.errors.CalibrationError
+        ``PlanError`` (limits, count) or :class:`CellError`, naming the first
+        bad pose, via or motion and why.
+    """
+    from calibrator import plan as plans
+
+    plans.validate(plan.q_rad, model.joint_limits_rad, need=need)
+    for pose, via in enumerate(plan.via_rad):
+        if len(via):
+            try:
+                plans.validate(via, model.joint_limits_rad)
+            except plans.PlanError as exc:
+                raise plans.PlanError(f"via poses before pose {pose}: {exc}") from None
+    if home_rad is not None:
+        try:
+            plans.validate(np.reshape(home_rad, (1, 6)), model.joint_limits_rad)
+        except plans.PlanError as exc:
+            raise plans.PlanError(f"home pose: {exc}") from None
+    check_plan(plan, model, cell, tool_mm, home_rad=home_rad)
+    return plan
+
+
+def check_plan(
+    plan: Plan,
+    model: RobotModel,
+    cell: Cell,
+    tool_mm: ArrayLike,
+    *,
+    home_rad: ArrayLike | None = None,
+) -> None:
     """Check a whole plan in its cell before the first motion.
 
     Every measured pose passes all of :data:`REASONS` (the tracker's only when
-    the cell has a tracker position), every via pose the collision ones, and
-    every motion between consecutive rows (vias included) the collision ones
-    along its whole joint-space line.
+    the cell has a tracker position), every via pose and the home pose the
+    collision ones, and every motion between consecutive rows (vias included,
+    and from home to the first row and from the last pose back home) the
+    collision ones along its whole joint-space line.
 
     Parameters
     ----------
@@ -83,6 +151,8 @@ def check_plan(plan: Plan, model: RobotModel, cell: Cell, tool_mm: ArrayLike) ->
     cell : Cell
     tool_mm : array_like, shape (3,)
         Reflector position on the flange, mm.
+    home_rad : array_like, shape (6,), optional
+        Start and end pose of a program, rad.
 
     Raises
     ------
@@ -107,6 +177,11 @@ def check_plan(plan: Plan, model: RobotModel, cell: Cell, tool_mm: ArrayLike) ->
             labels.append(f"via {k} before pose {i}")
         rows.append(q)
         labels.append(f"pose {i}")
+    if home_rad is not None:
+        # A program leaves home for the first row and returns from the last pose.
+        home = np.asarray(home_rad, dtype=float).reshape(6)
+        rows = [home, *rows, home]
+        labels = ["home", *labels, "home"]
     path = np.asarray(rows, dtype=float)
     via_faults = pose_faults(chk, path)[:, : len(MOTION_REASONS)]
     for r in np.flatnonzero(via_faults.any(axis=1)):

@@ -24,12 +24,12 @@ import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.strict import shown
 
 
 class CellError(CalibrationError):
@@ -98,35 +98,64 @@ class Cell:
         return replace(self, tracker_at_mm=(x, y, z))
 
 
+#: Largest cell file (bytes): 100 obstacles with comments are about 15 kB; a
+#: 280 kB file took 2.5 s to read, so this bounds a refused one's cost too.
+MAX_BYTES = 256 * 2**10
+#: Most obstacles: every pose and move is checked against each. A UR10e move
+#: of up to 2 rad per joint took 5 ms with 10 obstacles, 18 ms with 100, 75 ms
+#: with 500 and 700 ms with 5,000 (pose_faults/motion_faults on 100 random
+#: poses, one core); 100 keeps a 2,000-pose plan's check under a minute.
+MAX_OBSTACLES = 100
+#: Longest obstacle name (characters).
+MAX_NAME = 80
+
 _TOP = {"mounting_plane_z_mm", "margin_mm", "tracker", "obstacles", "beam_clearance_mm"}
 _TRACKER = {"at_mm", "min_range_mm", "max_range_mm", "acceptance_deg"}
 
 
 def _number(value, where: str, *, low: float = -1e6, high: float = 1e6) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise CellError(f"{where}: expected a number, got {value!r}")
+        raise CellError(f"{where}: expected a number, got {shown(value)}")
     # Compare before float(): a huge int would overflow there.
     if not (low <= value <= high) or not math.isfinite(float(value)):
-        raise CellError(f"{where}: {value!r} is not within [{low:g}, {high:g}]")
+        raise CellError(f"{where}: {shown(value)} is not within [{low:g}, {high:g}]")
     return float(value)
 
 
 def _vector(value, n: int, where: str) -> tuple[float, ...]:
     if not isinstance(value, list) or len(value) != n:
-        raise CellError(f"{where}: expected a list of {n} numbers, got {value!r}")
+        raise CellError(f"{where}: expected a list of {n} numbers, got {shown(value)}")
     return tuple(_number(v, f"{where}[{i}]") for i, v in enumerate(value))
 
 
 def _keys(doc, allowed: set[str], required: set[str], where: str) -> dict:
     if not isinstance(doc, dict):
         raise CellError(f"{where}: expected a mapping, got {type(doc).__name__}")
-    unknown = sorted(str(k) for k in doc if k not in allowed)
+    # Plain keys as written; anything else (long, odd or not text) shortened.
+    unknown = sorted(
+        k if isinstance(k, str) and len(k) <= 40 and k.isprintable() else shown(k)
+        for k in doc
+        if k not in allowed
+    )
     if unknown:
-        raise CellError(f"{where}: unknown key(s) {', '.join(unknown)}")
+        raise CellError(f"{where}: unknown key(s) {', '.join(unknown[:5])}")
     missing = sorted(required - set(doc))
     if missing:
         raise CellError(f"{where}: missing {', '.join(missing)}")
     return doc
+
+
+def _name(spec: dict, default: str, where: str) -> str:
+    """An obstacle's name: text of one line, short enough for a message."""
+    name = spec.get("name", default)
+    if isinstance(name, bool) or not isinstance(name, str | int | float):
+        raise CellError(f"{where}.name: expected a name (text), got {shown(name)}")
+    name = str(name)
+    if len(name) > MAX_NAME or not name.isprintable():
+        raise CellError(
+            f"{where}.name: {shown(name)} is not a name (one line of at most {MAX_NAME} characters)"
+        )
+    return name
 
 
 def _obstacle(item, i: int) -> Box | Cylinder:
@@ -144,7 +173,7 @@ def _obstacle(item, i: int) -> Box | Cylinder:
         )
         if not all(a < b for a, b in zip(lo, hi, strict=True)):
             raise CellError(f"{where}: min_mm must be below max_mm on every axis")
-        return Box(str(spec.get("name", f"box {i}")), lo, hi)  # type: ignore[arg-type]
+        return Box(_name(spec, f"box {i}", where), lo, hi)  # type: ignore[arg-type]
     spec = _keys(
         spec,
         {"name", "centre_xy_mm", "radius_mm", "z_mm"},
@@ -156,7 +185,8 @@ def _obstacle(item, i: int) -> Box | Cylinder:
     z = _vector(spec["z_mm"], 2, f"{where}.z_mm")
     if not z[0] < z[1] or radius <= 0.0:
         raise CellError(f"{where}: needs radius_mm > 0 and z_mm [low, high] with low < high")
-    return Cylinder(str(spec.get("name", f"cylinder {i}")), xy, radius, z[0], z[1])  # type: ignore[arg-type]
+    name = _name(spec, f"cylinder {i}", where)
+    return Cylinder(name, xy, radius, z[0], z[1])  # type: ignore[arg-type]
 
 
 def parse_cell(doc: Any) -> Cell:
@@ -184,6 +214,11 @@ def parse_cell(doc: Any) -> Cell:
     obstacles = doc.get("obstacles") or []
     if not isinstance(obstacles, list):
         raise CellError("obstacles: expected a list")
+    if len(obstacles) > MAX_OBSTACLES:
+        raise CellError(
+            f"obstacles: {len(obstacles)} is more than the limit of {MAX_OBSTACLES} "
+            "(every pose and move is checked against each; merge small ones into boxes)"
+        )
     parsed = [_obstacle(item, i) for i, item in enumerate(obstacles)]
     kwargs["boxes"] = tuple(o for o in parsed if isinstance(o, Box))
     kwargs["cylinders"] = tuple(o for o in parsed if isinstance(o, Cylinder))
@@ -194,17 +229,17 @@ def parse_cell(doc: Any) -> Cell:
 
 
 def read_cell(path: str | os.PathLike[str]) -> Cell:
-    """Read a cell file (YAML); one :class:`CellError` line naming what is wrong."""
-    import yaml  # type: ignore[import-untyped]
+    """Read a cell file (YAML); one :class:`CellError` line naming what is wrong.
 
-    path = Path(path)
+    The text is read by :func:`calibrator.yamlfile.read` (size, depth and
+    alias limits, duplicate keys refused, strict numbers).
+    """
+    from calibrator import strict, yamlfile
+
     try:
-        text = path.read_text(encoding="utf-8")
-        doc = yaml.safe_load(text)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CellError(f"cannot read cell file {path}: {exc}") from None
-    except yaml.YAMLError as exc:
-        raise CellError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        doc = yamlfile.read(path, "a cell file", MAX_BYTES)
+    except strict.StrictError as exc:
+        raise CellError(str(exc)) from None
     try:
         return parse_cell(doc)
     except CellError as exc:

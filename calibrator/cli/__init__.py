@@ -30,9 +30,11 @@ COMMANDS = {
     "export-params": "export",
     "compensate": "compensate",
     "verify": "verify",
+    "check": "check",
     "report": "report",
     "analyze": "analyze",
     "simulate": "simulate",
+    "history": "history",
 }
 
 

@@ -41,6 +41,8 @@ import math
 import os
 import re
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import typer
 from typer._click import exceptions as _click_errors
@@ -53,11 +55,13 @@ __all__ = [
     "at_least",
     "cores",
     "count",
+    "file_rows",
     "finite",
     "fraction",
     "one_line",
     "plan_work",
     "point_mm",
+    "rule",
     "seconds",
     "seed",
     "strict_numbers",
@@ -72,10 +76,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "plan_poses": (2_000, "poses"),
     "candidates": (200_000, "candidates"),
     "plan_work": (2e7, "poses x candidates"),
-    # identify: the swarm holds particles x parameters and one cost per generation;
-    # 2,000 generations of 20 particles take seconds, 100,000 of 1,000 hours.
-    "particles": (1_000, "particles"),
-    "generations": (100_000, "generations"),
+    # identify's options (particles, generations, payload, ...) are bounded by
+    # their rules in calibrator.identify.option_rules: --like reads them too.
     # simulate: as many poses as identify takes.
     "simulate_poses": (50_000, "poses"),
     # analyze misalignment: about 100,000 trials/s on one core.
@@ -86,10 +88,21 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "tolerance_poses": (10_000, "poses"),
     "samples": (100_000, "samples"),
     "tolerance_work": (2_000_000, "poses x samples"),
+    # verify: ISO 9283 asks 30 cycles of 5 poses; 1,000 cycles measure for days.
+    "cycles": (1_000, "cycles"),
+    # analyze deflection: a trajectory of 100,000 samples took 3 s and 380 MB.
+    "trajectory_samples": (20_000, "samples"),
     # measure (the lead wires these): readings per pose, seconds of settling.
     "readings": (1_000, "readings"),
     "settle": (60.0, "s"),
     "retries": (100, "retries"),
+    # measure --robot external: a band wider than 1 mm takes a slow move for a stop, a
+    # window past 10 s outlasts any dwell, a tolerance past 50 mm is another arm, and a
+    # program silent for an hour has ended.
+    "stop_band": (1.0, "mm"),
+    "settle_window": (10.0, "s"),
+    "match_tolerance": (50.0, "mm"),
+    "stop_timeout": (3600.0, "s"),
     # simulate: noise and offsets a simulated cell can have (beyond them the
     # session is nonsense that identify refuses later).
     "noise_mm": (100.0, "mm"),
@@ -98,6 +111,8 @@ BUDGETS: dict[str, tuple[float, str]] = {
     # Points in a robot cell, mm: a tool on the flange, a tracker in the room.
     "tool": (2_000.0, "mm"),
     "tracker_at": (100_000.0, "mm"),
+    # program: a digital output number (KRL's $OUT[] goes to 4096).
+    "pulse": (4096, "outputs"),
 }
 #: Largest seed: a JSON-safe 64-bit integer (seeds are written into results).
 MAX_SEED = strict.MAX_INT
@@ -125,10 +140,31 @@ def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
     return check
 
 
-def seconds(budget: str) -> Callable[[float | None], float | None]:
-    """Callback for a time in seconds: finite, >= 0, at most ``BUDGETS[budget]``."""
+def rule(option: strict.Rule) -> Callable[[Any], Any]:
+    """Callback checking a value against its declared :class:`calibrator.strict.Rule`.
+
+    The rule is the one a file's recorded value meets too (``identify
+    --like``); the callback returns the checked value (a float for a number,
+    a tuple for ``X,Y,Z``).
+    """
+
+    def check(value: Any) -> Any:
+        try:
+            option.check(value)
+        except strict.StrictError as exc:
+            raise typer.BadParameter(str(exc)) from None
+        return value
+
+    return check
+
+
+def seconds(budget: str, positive: bool = False) -> Callable[[float | None], float | None]:
+    """Callback for a time (or any amount in the budget's unit): finite, >= 0, <= the budget.
+
+    ``positive=True`` refuses 0 too (a window or a band of nothing).
+    """
     limit, unit = BUDGETS[budget]
-    base = finite(minimum=0.0)
+    base = finite(minimum=0.0, inclusive=not positive)
 
     def check(value: float | None) -> float | None:
         value = base(value)
@@ -216,6 +252,47 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
     if selection == "d-optimal":
         strict.check_budget(
             "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
+        )
+
+
+def file_rows(option: str, path: Path, poses: int, selection: str) -> None:
+    """Refuse a candidate file with more rows than ``--candidates`` may give.
+
+    A file of candidates costs what sampled ones cost (checks and selection
+    per row), so it meets the same budgets (:func:`plan_work`). The rows are
+    counted before any is parsed, reading at most the budget's worth of lines.
+
+    Parameters
+    ----------
+    option : str
+        The option naming the file (``"--from"``).
+    path : Path
+        A missing file is left to its reader (which names it).
+    poses, selection : int, str
+        As for :func:`plan_work`.
+
+    Raises
+    ------
+    calibrator.strict.StrictError
+    """
+    limit = int(BUDGETS["candidates"][0])
+    rows = -1  # the header
+    try:
+        with open(path, "rb") as fh:
+            for rows, _ in enumerate(fh):
+                if rows > limit:
+                    break
+    except OSError:
+        return
+    if rows > limit:
+        raise strict.StrictError(
+            f"{option} {path}: more than {limit} rows of candidates (the limit of --candidates)"
+        )
+    if selection == "d-optimal":
+        strict.check_budget(
+            f"{option} {path}: its rows x --poses (lower either)",
+            poses * max(rows, 0),
+            *BUDGETS["plan_work"],
         )
 
 

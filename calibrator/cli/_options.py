@@ -86,9 +86,12 @@ def yes(help: str) -> Any:
     return typer.Option(False, "--yes", help=help)
 
 
-def tool(help: str) -> Any:
-    """``--tool X,Y,Z``: a point on the flange, mm, within the tool budget."""
-    return typer.Option("0,0,100", callback=checks.point_mm("tool"), help=help)
+def tool(help: str, default: str | None = "0,0,100") -> Any:
+    """``--tool X,Y,Z``: a point on the flange, mm, within the tool budget.
+
+    ``default`` None: the command takes it from its plan file (else 0,0,100).
+    """
+    return typer.Option(default, callback=checks.point_mm("tool"), help=help)
 
 
 def tracker_at(help: str) -> Any:

@@ -279,6 +279,8 @@ def open_run(
     sim_repeatability: bool = False,
     sim_probe_6dof: bool = False,
     external: Any = None,
+    world_file: Any = None,
+    place_tracker: bool = True,
 ) -> Any:
     """The devices named by URL (the drivers' registries) and the run over them.
 
@@ -293,13 +295,19 @@ def open_run(
         The simulated tracker's probe reports its orientation too.
     external : drivers.robot.external.setup.ExternalOptions, optional
         Stop detection and association of ``--robot external``.
+    place_tracker : bool
+        Move the simulated tracker to the run's tracker position (``--tracker-at``,
+        the cell file's or the plan file's); False when that position is only an
+        estimate of where the simulated one stands (a calibration's registration).
+    world_file : calibrator.world.World, optional
+        ``--world``: the simulated cell's true arm changed as the file says.
 
     Returns
     -------
     calibrator.acquire.run.MeasureRun
         Not connected yet; enter it (``with``) so its devices are closed.
     """
-    from calibrator.acquire.run import MeasureRun
+    from calibrator.acquire.run import MeasureRun, tracker_position
     from calibrator.errors import CalibrationError
     from calibrator.simulate import SimWorld
     from drivers.robot import RobotOptions, open_robot
@@ -308,11 +316,19 @@ def open_run(
     world = None
     if "sim" in (robot_url, tracker_url):
         repeatability = None
-        if sim_repeatability:
+        if sim_repeatability or (world_file is not None and world_file.repeatability):
             from drivers.robot.simulated import JointRepeatability
 
             repeatability = JointRepeatability.typical()
-        world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
+        if world_file is not None:
+            world = world_file.build(arm.name, options.seed, repeatability)
+            sim_noise = sim_noise and world_file.noise
+        else:
+            world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
+        at = tracker_position(options)
+        if at is not None and place_tracker:
+            # The simulated tracker stands where the user (or the cell file) says.
+            world = world.with_tracker_at(at)
     try:
         tracker = open_tracker(
             tracker_url,
@@ -352,6 +368,27 @@ def _sim_control(url: str, robot: Any, stack: ExitStack) -> Any:
         fail(f"--sim-control {url}: {exc}")
     stack.callback(control.close)
     return control.set_target
+
+
+#: ``--world``: a world file for the simulated cell (docs/check.md).
+WORLD_HELP = (
+    "World file (YAML, docs/check.md) of the simulated cell: the true arm's wear, "
+    "joint-zero shifts, base, reflector and noise."
+)
+
+
+def read_world(path: Path | None, robot_url: str, tracker_url: str) -> Any:
+    """``--world FILE`` parsed (exit 2 on a bad file), or None; only for a simulated cell."""
+    if path is None:
+        return None
+    if "sim" not in (robot_url, tracker_url):
+        fail("--world is for the simulated cell (--robot sim or --tracker sim)")
+    from calibrator.world import WorldError, read_world
+
+    try:
+        return read_world(path)
+    except WorldError as exc:
+        fail(str(exc))
 
 
 def pose_fields(progress: Any) -> dict:

@@ -114,7 +114,7 @@ def _row(label, stats):
 def misalignment(
     model: str = opts.model(
         "paper",
-        "'paper' (the misalignment paper's arm, Craig DH) or a named model (er10l-c10, ur5e, ...).",
+        "'paper' (the misalignment paper's arm, Craig DH) or a named model (ur5e, ur10e, ...).",
     ),
     pose: str = typer.Option(
         None, help="Six joint angles, deg [default: the paper's pose; zeros for a named model]."

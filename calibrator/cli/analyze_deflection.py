@@ -5,18 +5,40 @@ from pathlib import Path
 
 import typer
 
+from calibrator import strict
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli.analyze import analyze_app
 from calibrator.errors import CalibrationError
+from calibrator.identify.option_rules import RULES
 
 _DEG = 3.141592653589793 / 180.0
+#: A motion's time: below 10 ms its accelerations are not a robot's (1e-300 s
+#: made them overflow to nan); above an hour it is not one motion.
+_DURATION = strict.Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
+#: Share of the time accelerating: below 1 % the accelerations overflow (5e-324 gave nan).
+_RAMP = strict.Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
 
 
-def _vector(text: str, n: int, what: str, prismatic: list[bool]) -> list[float]:
-    """Joint values from the command line: deg, or mm for prismatic joints."""
+def _vector(text: str, what: str, prismatic: list[bool], limits) -> list[float]:
+    """Joint values from the command line (deg, or mm for prismatic joints), within ``limits``.
+
+    ``limits`` (n, 2) are in rad (mm for prismatic joints); a value beyond
+    them is refused naming the joint (the model would be evaluated where the
+    arm cannot go, or at 1e308 degrees).
+    """
+    n = len(prismatic)
     values = opts.floats(text, n, what, f"{n} comma-separated numbers (deg, or mm if prismatic)")
-    return [v if p else v * _DEG for v, p in zip(values, prismatic, strict=True)]
+    out = []
+    for j, (v, p, (low, high)) in enumerate(zip(values, prismatic, limits, strict=True)):
+        unit, scale = ("mm", 1.0) if p else ("deg", _DEG)
+        if not low <= v * scale <= high:
+            opts.fail(
+                f"{what}: joint {j + 1} at {v:g} {unit} is beyond its limits "
+                f"[{low / scale:g}, {high / scale:g}] {unit}"
+            )
+        out.append(v * scale)
+    return out
 
 
 def _direction(vector_mm, size_mm: float) -> str:
@@ -37,7 +59,9 @@ def deflection(
         None, help="Link-section YAML (flexible links, diameters, material); named models only."
     ),
     masses: str = typer.Option(
-        None, help="Mass model: a named arm or a YAML file [default: the model's published one]."
+        None,
+        callback=checks.rule(RULES["mass_model"]),
+        help="Mass model: a named arm or a YAML file [default: the model's published one].",
     ),
     start: str = typer.Option(
         None, help="Trajectory start, joint values (deg; mm for prismatic) [paper: its task]."
@@ -46,16 +70,24 @@ def deflection(
         None, help="End pose, joint values (deg; mm for prismatic) [paper: its task's end]."
     ),
     duration: float = typer.Option(
-        1.0, callback=checks.finite(minimum=0.0, inclusive=False), help="Motion time (s)."
+        1.0,
+        callback=checks.rule(_DURATION),
+        help="Motion time (s, 0.01..3600).",
     ),
     ramp: float = typer.Option(
         0.25,
-        callback=checks.finite(minimum=0.0, maximum=0.5),
-        help="Share of the time spent accelerating (and decelerating), in (0, 0.5].",
+        callback=checks.rule(_RAMP),
+        help="Share of the time spent accelerating (and decelerating), in [0.01, 0.5].",
     ),
-    samples: int = typer.Option(201, callback=checks.at_least(3), help="Trajectory samples."),
+    samples: int = typer.Option(
+        201,
+        callback=checks.count("trajectory_samples", 3),
+        help="Trajectory samples (3..20000).",
+    ),
     payload_kg: float = typer.Option(
-        0.0, callback=checks.finite(minimum=0.0), help="Payload at the hand (kg), named models."
+        0.0,
+        callback=checks.rule(RULES["payload_kg"]),
+        help="Payload at the hand (kg, 0..100), named models.",
     ),
     plot: Path = typer.Option(None, help="Write a deflection map of the workspace (PNG)."),
     json_out: Path = typer.Option(None, "--json", help="Write the results to this JSON file."),
@@ -64,11 +96,9 @@ def deflection(
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
 
-    from calibrator import mass_models, outputs
+    from calibrator import mass_models, models, outputs
     from calibrator.analysis import deflection as dfl
 
-    if ramp == 0.0:
-        raise CalibrationError("--ramp: must be in (0, 0.5], got 0")
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
             outputs.check(path, inputs=[sections], force=force, option=option)
@@ -86,8 +116,9 @@ def deflection(
         if duration != dfl.SEED_DURATION_S:
             dt *= duration / dfl.SEED_DURATION_S
         if start is not None or pose is not None:
-            q0 = q[0] if start is None else np.array(_vector(start, 5, "--start", prismatic))
-            q1 = q[-1] if pose is None else np.array(_vector(pose, 5, "--pose", prismatic))
+            limits = dfl.SEED_LIMITS
+            q0 = q[0] if start is None else np.array(_vector(start, "--start", prismatic, limits))
+            q1 = q[-1] if pose is None else np.array(_vector(pose, "--pose", prismatic, limits))
             q, dt = dfl.trapezoid(q0, q1, duration, samples, ramp)
         map_joints, map_ranges = (1, 2), ((-30 * _DEG, 30 * _DEG), (300.0, 800.0))
     else:
@@ -97,8 +128,11 @@ def deflection(
         source = masses or from_file or model
         arm = dfl.named_arm(model, table, mass_models.resolve(source))
         prismatic = [False] * 6
-        q0 = np.zeros(6) if start is None else np.array(_vector(start, 6, "--start", prismatic))
-        q1 = np.zeros(6) if pose is None else np.array(_vector(pose, 6, "--pose", prismatic))
+        limits = models.get_model(model).joint_limits_rad
+        q0 = (
+            np.zeros(6) if start is None else np.array(_vector(start, "--start", prismatic, limits))
+        )
+        q1 = np.zeros(6) if pose is None else np.array(_vector(pose, "--pose", prismatic, limits))
         q, dt = dfl.trapezoid(q0, q1, duration, samples, ramp)
         map_joints, map_ranges = (1, 2), ((-np.pi, 0.0), (-np.pi * 0.9, np.pi * 0.9))
     static = dfl.deflect(arm, q[-1:], payload_kg=payload_kg)

@@ -26,18 +26,36 @@ def export_params(
     fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     output: Path = opts.output(None, "File to write [default: stdout]."),
     force: bool = opts.force(),
+    like: Path = typer.Option(
+        None,
+        "--like",
+        help="With --format urdf: write this URDF back with only its chain's joint origins "
+        "calibrated (the URDF identify's --model named).",
+    ),
+    base_link: str = typer.Option(None, "--base-link", help="With --like: the chain's base link."),
+    tip_link: str = typer.Option(None, "--tip-link", help="With --like: the chain's tip link."),
 ) -> None:
     """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export, outputs
+    from calibrator.errors import CalibrationError
 
     name = export.choose(None if fmt is None else fmt.value, output)
+    inputs = [calibration_path] + ([like] if like is not None else [])
+    if like is None and (base_link or tip_link):
+        raise CalibrationError("--base-link and --tip-link go with --like")
+    if like is not None and name != "urdf":
+        raise CalibrationError(f"--like writes a URDF, not {name}")
     if output is not None:
-        outputs.check(output, inputs=[calibration_path], force=force)
-    result = export.export(calibration.load(calibration_path), name)
+        outputs.check(output, inputs=inputs, force=force)
+    cal = calibration.load(calibration_path)
+    if like is not None:
+        result = export.export_like(cal, like, base_link, tip_link)
+    else:
+        result = export.export(cal, name)
     for note in result.notes:
         typer.echo(f"note: {note}", err=True)
     if output is None:
         sys.stdout.write(result.text)
         return
-    outputs.write_text(output, result.text, inputs=[calibration_path])
+    outputs.write_text(output, result.text, inputs=inputs)
     typer.echo(f"wrote {output} ({name})")

@@ -12,6 +12,11 @@ from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError, IdentifiabilityError
+from calibrator.identify.option_rules import RULES
+from calibrator.strict import Rule
+
+#: --target-mm: below 0.1 um (no tracker's noise) the pose count overflows.
+_TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error to reach")
 
 
 class Method(StrEnum):
@@ -48,29 +53,33 @@ def identify(
         "minimax: smallest worst-pose error.",
     ),
     particles: int = typer.Option(
-        20, callback=checks.count("particles", 2), help="Swarm size (particles, >= 2)."
+        20, callback=checks.rule(RULES["particles"]), help="Swarm size (particles, 2..1000)."
     ),
     generations: int = typer.Option(
-        2000, callback=checks.count("generations", 0), help="Swarm generations (>= 0)."
+        2000, callback=checks.rule(RULES["generations"]), help="Swarm generations (0..100000)."
     ),
     orientation_weight: float = typer.Option(
         None,
         "--orientation-weight",
-        callback=checks.finite(minimum=0.0),
+        callback=checks.rule(RULES["k"]),
         help="Weight k of orientation errors (mm^2/rad^2, >= 0) [default: 1e4].",
     ),
     k: float = typer.Option(
-        None, "--k", hidden=True, callback=checks.finite(minimum=0.0), help="Old name."
+        None, "--k", hidden=True, callback=checks.rule(RULES["k"]), help="Old name."
     ),
     validation_fraction: float = typer.Option(
         0.2,
-        callback=checks.fraction(),
+        callback=checks.rule(RULES["validation_fraction"]),
         help="Share of poses held out for checking, in [0, 1) (0 = fit all).",
     ),
-    seed: int = opts.seed(0, "Random seed of the hold-out split and the swarm."),
+    seed: int = typer.Option(
+        0,
+        callback=checks.rule(RULES["seed"]),
+        help="Random seed of the hold-out split and the swarm.",
+    ),
     noise_mm: float = typer.Option(
         0.05,
-        callback=checks.finite(minimum=0.0, inclusive=False),
+        callback=checks.rule(RULES["noise_mm"]),
         help="Measurement noise (mm per axis) assumed when deciding what the poses identify.",
     ),
     tool_known: bool = typer.Option(
@@ -96,27 +105,38 @@ def identify(
     joint_terms_text: str = typer.Option(
         None,
         "--joint-terms",
+        callback=checks.rule(RULES["joint_term_groups"]),
         help="Also fit joint terms: any of scale,harmonic,compliance; each kept only if "
         "it lowers the cross-validated error.",
     ),
     mass_model: str = typer.Option(
-        None, help="Mass model for compliance: a named arm or a YAML [default: the model's]."
+        None,
+        callback=checks.rule(RULES["mass_model"]),
+        help="Mass model for compliance: a named arm or a YAML [default: the model's].",
     ),
     payload_kg: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0),
-        help="Payload (kg) of sessions that do not record one [default: 0].",
+        callback=checks.rule(RULES["payload_kg"]),
+        help="Payload (kg, 0..100) of sessions that do not record one [default: 0].",
     ),
     payload_com_mm: str = typer.Option(
-        "0,0,0", help="Payload centre of mass in the flange frame, x,y,z (mm)."
+        "0,0,0",
+        callback=checks.rule(RULES["payload_com_mm"]),
+        help="Payload centre of mass in the flange frame, x,y,z (mm, each within +-2000).",
     ),
     target_mm: float = typer.Option(
         None,
-        callback=checks.finite(minimum=0.0, inclusive=False),
+        callback=checks.rule(_TARGET),
         help="Print how many more poses would bring the parameter part of the held-out "
-        "error below this (mm).",
+        "error below this (mm, 0.0001..10000).",
     ),
     quiet: bool = opts.quiet(),
+    history: str = typer.Option(
+        None,
+        "--history",
+        metavar="FILE|URL",
+        help="Also record it in this history (docs/history.md).",
+    ),
 ) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
     import numpy as np
@@ -145,10 +165,10 @@ def identify(
             ctx, like, session_path, options, model, nominal_file, joint
         )
     groups = ()
-    if joint.groups is not None:
+    if joint.joint_term_groups is not None:
         from calibrator import joint_terms
 
-        groups = joint_terms.parse_groups(joint.groups)
+        groups = joint_terms.parse_groups(joint.joint_term_groups)
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
     inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs, force=force)
@@ -255,51 +275,36 @@ def identify(
         typer.echo(_target_line(result, target_mm))
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+    if history is not None:
+        from calibrator.cli.history import record
+
+        record(history, "calibration", output)
 
 
 @dataclass(frozen=True)
 class JointOptions:
-    """The joint-term options as given (``None``: not given), for ``--like`` to fill in."""
+    """The joint-term options as given (``None``: not given), for ``--like`` to fill in.
 
-    groups: str | None = None
+    Named as recorded (:data:`calibrator.identify.option_rules.JOINT`).
+    """
+
+    joint_term_groups: str | None = None
     mass_model: str | None = None
     payload_kg: float | None = None
     payload_com_mm: str = "0,0,0"
 
 
-#: CLI parameter of each recorded joint-term option.
-_JOINT_PARAMS = {
-    "joint_term_groups": ("joint_terms_text", "groups"),
-    "mass_model": ("mass_model", "mass_model"),
-    "payload_kg": ("payload_kg", "payload_kg"),
-    "payload_com_mm": ("payload_com_mm", "payload_com_mm"),
-}
-
-
-#: CLI parameter of each recorded option (``k`` is ``--orientation-weight``).
-_OPTION_PARAMS = {
-    "method": "method",
-    "loss": "loss",
-    "seed": "seed",
-    "validation_fraction": "validation_fraction",
-    "k": "orientation_weight",
-    "noise_mm": "noise_mm",
-    "tool_known": "tool_known",
-    "particles": "particles",
-    "generations": "generations",
-}
-
-
 def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
     """Options, model, nominal file and joint-term options of ``--like``.
 
-    Recorded ones are taken unless given here.
+    Recorded ones are taken unless given here; each is checked by the rule
+    its option has on the command line (:mod:`calibrator.identify.option_rules`).
 
     Raises
     ------
     CalibrationError
-        A calibration that records no options, or a recorded nominal file
-        that is gone or changed.
+        A calibration that records no options, a recorded option its rule
+        refuses, or a recorded nominal file that is gone or changed.
     """
     from calibrator import calibration
 
@@ -310,27 +315,34 @@ def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
             f"--like {like}: the file records no options (written before they were recorded)"
         )
 
-    def given(name):
-        # By name: typer may carry its own copy of click's ParameterSource.
-        source = ctx.get_parameter_source(name)
-        return source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
+    def given(flag):
+        # The parameter that has this flag (--k is the old --orientation-weight).
+        names = [p.name for p in ctx.command.params if flag in getattr(p, "opts", ())]
+        if flag == "--orientation-weight":
+            names.append("k")
+        for name in names:
+            # By name: typer may carry its own copy of click's ParameterSource.
+            source = ctx.get_parameter_source(name)
+            if source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP"):
+                return True
+        return False
 
-    given_k = given("k") or given("orientation_weight")
-    chosen = {
-        key: value
-        for key, value in recorded.items()
-        if key == "swarm_poses" or not (given_k if key == "k" else given(_OPTION_PARAMS[key]))
-    }
-    options = replace(options, **chosen)
-    for key, (param, attr) in _JOINT_PARAMS.items():
-        value = getattr(cal.provenance, key)
-        if value is None or given(param):
+    # What the command line does not give is taken from the file, if its rule allows it.
+    taken = cal.provenance.checked_options(
+        f"--like {like}", [k for k, r in RULES.items() if r.flag is None or not given(r.flag)]
+    )
+    options = replace(
+        options, **{k: v for k, v in taken.items() if k in calibration.Provenance.OPTION_KEYS}
+    )
+    for key in calibration.Provenance.JOINT_OPTION_KEYS:
+        if key not in taken:
             continue
+        value = taken[key]
         if key == "payload_com_mm":
             value = ",".join(repr(float(v)) for v in value)
         elif key == "joint_term_groups":
             value = value or None  # "" recorded: no joint terms
-        joint = replace(joint, **{attr: value})
+        joint = replace(joint, **{key: value})
     missing = [k for k in calibration.Provenance.OPTION_KEYS if k not in recorded]
     if missing:
         typer.echo(

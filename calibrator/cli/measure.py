@@ -42,13 +42,25 @@ def measure(
     tracker_at: str = opts.tracker_at(
         "Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
     ),
-    tool: str = opts.tool("Reflector position on the flange X,Y,Z, mm (first guess; identified)."),
+    tool: str = opts.tool(
+        "Reflector position on the flange X,Y,Z, mm (first guess; identified) [default: the "
+        "plan file's, else 0,0,100].",
+        default=None,
+    ),
     seed: int = opts.seed(0, "Seed of the plan and of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     retry_pause: float = typer.Option(
         0.2,
         callback=checks.finite(minimum=0.0, maximum=60.0),
         help="Pause before re-measuring a pose after a lost reading, s; doubled each "
         "further retry (up to 8 times).",
+    ),
+    warm_up: float = typer.Option(
+        0.0,
+        "--warm-up",
+        callback=checks.finite(minimum=0.0, maximum=600.0),
+        help="Move through the plan's moves for about this long first, without measuring, "
+        "min (warms the arm; docs/measure.md).",
     ),
     ask_relock: bool = typer.Option(
         True,
@@ -56,15 +68,26 @@ def measure(
     ),
     quiet: bool = opts.quiet(),
     # --robot external: how the tracker's stream is cut into stops and matched to poses.
-    stop_band: float = opts.positive(0.05, "--robot external: stationarity band of a stop, mm."),
-    settle_window: float = opts.positive(
-        0.5, "--robot external: how long readings stay in the band to make a stop, s."
+    stop_band: float = typer.Option(
+        0.05,
+        callback=checks.seconds("stop_band", positive=True),
+        help="--robot external: stationarity band of a stop, mm.",
     ),
-    match_tolerance: float = opts.positive(
-        15.0, "--robot external: largest distance of a stop from its expected pose, mm."
+    settle_window: float = typer.Option(
+        0.5,
+        callback=checks.seconds("settle_window", positive=True),
+        help="--robot external: how long readings stay in the band to make a stop, s.",
     ),
-    stop_timeout: float = opts.positive(
-        30.0, "--robot external: no stop for this long ends the program's poses (missing), s."
+    match_tolerance: float = typer.Option(
+        15.0,
+        callback=checks.seconds("match_tolerance", positive=True),
+        help="--robot external: most the nominal arm may be off, mm (the bound of the "
+        "tolerance a stop is matched with; docs/external-robots.md).",
+    ),
+    stop_timeout: float = typer.Option(
+        30.0,
+        callback=checks.seconds("stop_timeout", positive=True),
+        help="--robot external: no stop for this long ends the program's poses (missing), s.",
     ),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
@@ -88,7 +111,7 @@ def measure(
     from calibrator.acquire.run import RunOptions
 
     output = Path(output)
-    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay) if p is not None]
+    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
     outputs.check(output, inputs=inputs, force=True)
     if not (run_args.force or run_args.resume) and output.exists():
         raise outputs.existing(output, resumable=True)  # before any device is opened
@@ -96,19 +119,29 @@ def measure(
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
 
     user_plan = plans.read_plan(plan_path) if plan_path is not None else None
+    cell = None if cell_file is None else cells.read_cell(cell_file)
+    tracker_mm: tuple[float, float, float] | None = _triple(tracker_at, "--tracker-at")
+    if tracker_mm is None and cell is not None:
+        tracker_mm = cell.tracker_at_mm
+    tool_mm = _triple(tool, "--tool")
+    if user_plan is not None:
+        # A plan made for another arm, tracker or reflector is refused; what the
+        # command line leaves out comes from the plan file.
+        tracker_mm, tool_mm = plans.made_for(user_plan, arm.name, tracker_mm, tool_mm, plan_path)
     options = RunOptions(
         plan_rad=None if user_plan is None else user_plan.q_rad,
         via_rad=None if user_plan is None else user_plan.via_rad,
-        cell=None if cell_file is None else cells.read_cell(cell_file),
+        cell=cell,
         poses=poses,
         seed=seed,
         readings=readings,
         retry_pause_s=retry_pause,
-        tool_mm=_triple(tool, "--tool"),
-        tracker_at_mm=_triple(tracker_at, "--tracker-at"),
+        tool_mm=tool_mm if tool_mm is not None else plans.DEFAULT_TOOL_MM,
+        tracker_at_mm=tracker_mm,
         **run_args.run_fields(),
     )
     external = _external_options(
@@ -118,10 +151,13 @@ def measure(
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                       sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=run_args.max_speed, external=external)
+                      sim_control=sim_control, max_speed=run_args.max_speed, external=external,
+                      world_file=world_file)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)
+        for line in _warmup_warnings(run, warm_up, robot):
+            typer.echo(f"warning: {line}", err=True)
         marks.append(("connect (simulator start, links)", time.perf_counter()))
         run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
         marks.append(("plan (make and check)", time.perf_counter()))
@@ -147,6 +183,7 @@ def measure(
             _StopOnSigint() as interrupt,
             reporter.task("measure", len(run.plan), "poses") as task,
         ):
+            _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
             run.measure(
                 should_stop=lambda: interrupt.requested,
                 on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
@@ -162,6 +199,24 @@ def measure(
     for line in summary.notes:
         typer.echo(line)
     _report(summary, options)
+
+
+def _warmup_warnings(run, minutes: float, robot: str) -> list[str]:
+    from calibrator.acquire import warmup
+
+    if minutes > 0 and robot == "external":
+        _fail("--warm-up is for robots measure drives (the external robot runs its own program)")
+    return [w for w in [warmup.tracker_warning(run.tracker)] if w]
+
+
+def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
+    """``--warm-up``: the plan's moves, forwards and backwards, for about ``minutes``."""
+    from calibrator.acquire import warmup
+
+    if minutes > 0:
+        passes = warmup.warm_up_run(run, minutes, should_stop)
+        if not quiet:
+            typer.echo(f"warmed up: {passes} pass(es) of the plan's moves, no readings", err=True)
 
 
 def _external_options(

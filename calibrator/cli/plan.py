@@ -97,6 +97,8 @@ def plan(
 
     if joints is None and candidates is not None:
         checks.plan_work(poses, candidates, selection.value)
+    if joints is not None:
+        checks.file_rows("--from", joints, poses, selection.value)
     inputs = [p for p in (joints, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
     robot = _run.check_motion_caps(model, speed, accel, None)

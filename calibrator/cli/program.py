@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from enum import StrEnum
 from pathlib import Path
 
@@ -14,6 +13,7 @@ from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 from calibrator.program import REGISTRY
+from calibrator.program.spec import MAX_DWELL_S, MIN_ACCEL_RAD_S2, MIN_SPEED_RAD_S, PULSE_S
 
 #: The ``--format`` choices, generated from the writer registry.
 # mypy cannot type a functional Enum whose members come from a registry at run time.
@@ -32,46 +32,86 @@ def program(
     model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
     accel: float = _run.accel_option(None, "[default: the model's ceiling; only lower]"),
-    dwell: float = opts.positive(
-        2.0, "Wait at each pose, s: more than the settle window plus the readings' time."
+    dwell: float = typer.Option(
+        2.0,
+        callback=checks.finite(PULSE_S, MAX_DWELL_S, inclusive=False),
+        help="Wait at each pose, s: more than the settle window plus the readings' time "
+        f"(at most {MAX_DWELL_S:g}).",
     ),
     pulse: int = typer.Option(
-        None, callback=checks.at_least(0), help="Digital output pulsed at each arrival."
+        None,
+        callback=checks.count("pulse", 0),
+        help="Digital output pulsed at each arrival (URScript 0-7, KRL and Fanuc from 1).",
     ),
     home: str = typer.Option(
         None,
         help="Safe start and end pose J1,...,J6 in degrees [default: the plan's first pose].",
     ),
+    cell_file: Path = opts.cell(
+        "Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker; every pose "
+        "and move of the program, from and back to home included, is checked against it."
+    ),
+    tracker_at: str = opts.tracker_at(
+        "Tracker position in the robot base frame X,Y,Z (mm; overrides the cell's): the "
+        "poses' aim and line of sight are checked only when it is known."
+    ),
+    tool: str = opts.tool(
+        "Reflector position on the flange X,Y,Z, mm [default: the plan file's, else 0,0,100].",
+        default=None,
+    ),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
     Via rows of the plan become joint moves without dwell or pulse before their pose.
+    The program is the only gate for an arm the controller runs on its own, so it
+    runs the whole-plan check of ``measure`` first and writes nothing it refuses.
     """
     import numpy as np
 
+    from calibrator import cell as cells
     from calibrator import outputs
     from calibrator import plan as plans
     from calibrator import program as programs
     from calibrator.models import get_model
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
-    outputs.check(output, inputs=[plan_path], force=force)
+    # KRL and Fanuc want the program named as its file; no language takes a keyword.
+    name = programs.name_for(chosen, output)
+    inputs = [p for p in (plan_path, cell_file) if p is not None]
+    outputs.check(output, inputs=inputs, force=force)
     arm = get_model(model)
     given = plans.read_plan(plan_path)
-    q = plans.validate(given.q_rad, arm.joint_limits_rad)
-    # Vias too: the controller moves through them on the path the plan checked.
-    plans.validate(given.path_rad, arm.joint_limits_rad)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
         fail(f"--speed {speed} rad/s above the {arm.name} ceiling {arm.move_speed_cap_rad_s}")
     if accel > arm.move_accel_cap_rad_s2:
         fail(f"--accel {accel} rad/s^2 above the {arm.name} ceiling {arm.move_accel_cap_rad_s2}")
-    home_rad = q[0] if home is None else np.radians(_degrees(home))
-    plans.validate(home_rad[None], arm.joint_limits_rad)
-    # KRL and Fanuc want the program named as its file.
-    stem = re.sub(r"\W", "_", output.name.split(".")[0]) or "calibrator_measure"
-    name = stem if stem[0].isalpha() else f"p_{stem}"
+    # Slower than this is a typo, and a program never rounds a speed to zero.
+    if speed < MIN_SPEED_RAD_S:
+        fail(f"--speed {speed:g} rad/s below {MIN_SPEED_RAD_S:g} rad/s (a 1 rad move: 17 min)")
+    if accel < MIN_ACCEL_RAD_S2:
+        fail(f"--accel {accel:g} rad/s^2 below {MIN_ACCEL_RAD_S2:g} rad/s^2")
+    home_rad = given.q_rad[0] if home is None else np.radians(_degrees(home))
+    cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
+    cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
+    # A plan made for another arm, tracker or reflector is refused; what the
+    # command line leaves out comes from the plan file.
+    tracker_mm, tool_mm = plans.made_for(
+        given, arm.name, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
+    )
+    cell = cell.with_tracker(tracker_mm)
+    # What measure --robot external would refuse is refused here, before a
+    # program exists: the controller runs it without asking calibrator again.
+    cells.check_whole_plan(
+        given,
+        arm,
+        cell,
+        tool_mm,
+        home_rad=home_rad,
+        need=plans.min_poses(arm.mdh),
+    )
+    q = given.q_rad
     spec = programs.ProgramSpec(
         plan_rad=q,
         home_rad=home_rad,
@@ -83,8 +123,16 @@ def program(
         name=name,
         model=arm.name,
         via_rad=given.via_rad,
+        joint_limits_rad=arm.joint_limits_rad,
+        convention=arm.convention,
     )
-    outputs.write_text(output, programs.render(spec, chosen), inputs=[plan_path])
+    outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
+    if cell.tracker_at_mm is None:
+        typer.echo(
+            "note: no --tracker-at and no tracker in the cell: the poses' aim and line of "
+            "sight were not checked",
+            err=True,
+        )
     typer.echo(
         f"wrote {output} ({chosen}): {len(q)} poses"
         + (f" and {given.n_vias} vias" if given.n_vias else "")

@@ -10,6 +10,7 @@ from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
+from calibrator.robots import ipso_paper
 
 
 class Frame(StrEnum):
@@ -29,6 +30,16 @@ def _errors_choice(value: str | None):
     raise typer.BadParameter(f"must be one of {', '.join(ERRORS)}, got {value!r}")
 
 
+def _has_reference_errors(model: str) -> bool:
+    """Whether the arm's description carries a paper's table of true errors."""
+    from calibrator.models import get_model
+
+    try:
+        return get_model(model).reference_errors is not None
+    except CalibrationError:
+        return False  # sim.simulate names the unknown model
+
+
 @app.command()
 def simulate(
     output: Path = opts.output(
@@ -36,7 +47,7 @@ def simulate(
         "Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
     force: bool = opts.force(),
-    model: str = opts.model("er10l-c10", "Named nominal model."),
+    model: str = opts.model(ipso_paper.NAME, "Named nominal model."),
     poses: int = typer.Option(
         32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
     ),
@@ -62,8 +73,8 @@ def simulate(
         None,
         metavar="ref003|random|none",
         callback=_errors_choice,
-        help="True MDH errors: ref003 = Table 2 of paper 003 (er10l-c10 only), random, "
-        "or none [default: ref003 for er10l-c10, else random].",
+        help=f"True MDH errors: ref003 = Table 2 of paper 003 ({ipso_paper.NAME} only), random, "
+        f"or none [default: ref003 for {ipso_paper.NAME}, else random].",
     ),
     tool_offset_mm: float = typer.Option(
         0.0,
@@ -79,7 +90,7 @@ def simulate(
 
     outputs.check(output, force=force)
     truth_path = outputs.check(output.with_suffix(".truth.json"), force=force)
-    errors_value = errors or ("ref003" if model.lower() == "er10l-c10" else "random")
+    errors_value = errors or ("ref003" if _has_reference_errors(model) else "random")
     try:
         table, meta, truth = sim.simulate(
             model=model,

@@ -38,6 +38,10 @@ def _cube(text: str | None) -> Any:
     values = opts.floats(text, 4, "--cube", needs)
     if values[3] <= 0:
         fail(f"--cube needs {needs}, got {text!r}")
+    # Checked before any arithmetic: 1e308 overflows where the corners are computed.
+    limit, unit = checks.BUDGETS["tracker_at"]
+    if max(abs(v) for v in values) > limit:
+        fail(f"--cube: {text!r} is beyond +-{limit:g} {unit} (not a cube in a robot cell)")
     return Cube(np.array(values[:3]), values[3])
 
 
@@ -67,7 +71,9 @@ def verify(
         "--calibration or --register: the simulated cell's surveyed base, or a best fit "
         "on hardware; see docs/verify.md].",
     ),
-    cycles: int = typer.Option(30, callback=checks.at_least(2), help="Cycles P5..P1."),
+    cycles: int = typer.Option(
+        30, callback=checks.count("cycles", 2), help="Cycles P5..P1 (2..1000)."
+    ),
     cube: str = typer.Option(
         None, help="Test cube X,Y,Z,SIDE, mm, base frame [default: the largest that fits]."
     ),
@@ -76,9 +82,16 @@ def verify(
         Path("verify.json"), "Figures (JSON) to write; the attained poses go beside it (.parquet)."
     ),
     run_args: _run.RunArgs,
-    tracker_at: str = opts.tracker_at("Tracker position in the robot base frame X,Y,Z (mm)."),
+    tracker_at: str = opts.tracker_at(
+        "Tracker position in the robot base frame X,Y,Z (mm; overrides the cell's)."
+    ),
+    cell_file: Path = opts.cell(
+        "Cell file (YAML, docs/cell.md): mounting plane, obstacles, tracker; the test "
+        "cube, its poses and every move of the cycle are checked against it."
+    ),
     tool: str = opts.tool("Nominal TCP on the flange X,Y,Z, mm (the controller's tool)."),
     seed: int = opts.seed(0, "Seed of the simulated cell."),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     quiet: bool = opts.quiet(),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_repeatability: bool = typer.Option(
@@ -89,6 +102,12 @@ def verify(
         False, hidden=True, help="The simulated tracker's probe reports its orientation."
     ),
     sim_control: str = typer.Option(None, hidden=True),
+    history: str = typer.Option(
+        None,
+        "--history",
+        metavar="FILE|URL",
+        help="Also record it in this history (docs/history.md).",
+    ),
 ) -> None:
     """ISO 9283 pose test: P5..P1 for --cycles cycles; AP and RP per test pose.
 
@@ -111,7 +130,9 @@ def verify(
     if register_path is not None and base_frame is not None:
         fail("give one registration: --register or --base-frame")
     surveyed_base = _base_frame(base_frame)
-    inputs = [p for p in (calibration_path, register_path, sim_faults) if p is not None]
+    inputs = [
+        p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
+    ]
     replace_ok = run_args.force or run_args.resume
     outputs.check(output, inputs=inputs, force=replace_ok)
     outputs.check(data_path, inputs=inputs, force=True)
@@ -122,6 +143,7 @@ def verify(
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
@@ -129,18 +151,24 @@ def verify(
     for doc, path in ((cal, calibration_path), (reg_cal, register_path)):
         if doc is not None and doc.model and doc.model != run_args.model.strip().lower():
             fail(f"{path} calibrates a {doc.model}, not --model {run_args.model}")
-    # The test poses face the tracker: given, or where the simulated cell puts it.
+    from calibrator import cell as cells
+
+    cell = cells.read_cell(cell_file) if cell_file is not None else None
+    # The test poses face the tracker: given, the cell's, or where the simulated cell puts it.
     tracker_at_mm = triple(tracker_at, "--tracker-at")
+    if tracker_at_mm is None and cell is not None:
+        tracker_at_mm = cell.tracker_at_mm
     if tracker_at_mm is None and (robot == "sim" or tracker == "sim"):
         from calibrator.simulate import SimWorld
 
         tracker_at_mm = tuple(SimWorld.make(arm.name, seed).tracker_at_mm)
     # The plan first: a cube out of reach is refused before any device is opened.
     vplan = run.make_plan(
-        arm, frames.transform(translation=tool_mm), cycles, given_cube, cal, tracker_at_mm
+        arm, frames.transform(translation=tool_mm), cycles, given_cube, cal, tracker_at_mm, cell
     )
     options = run.run_options(
         vplan,
+        cell=cell,
         seed=seed,
         readings=readings,
         tool_mm=tool_mm,
@@ -152,19 +180,12 @@ def verify(
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
                      sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof)
+                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof,
+                     world_file=world_file)
         )  # fmt: skip
         mrun.check_files()
-        mrun.connect(tracker)
-        mrun.make_plan()
-        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
-        mrun.open_journal(confirm=None if run_args.yes else confirm)
-        reporter = progress.Reporter.for_cli(quiet)
-        with StopOnSigint() as interrupt, reporter.task("verify", len(vplan.plan), "poses") as task:
-            mrun.measure(
-                should_stop=lambda: interrupt.requested,
-                on_pose=lambda p: task.update(p.done, **pose_fields(p)),
-            )
+        # Every option is turned into what the run uses before the first motion:
+        # a registration that cannot be made is refused with nothing moved.
         if cal is not None:
             registration = run.from_calibration(cal, calibration_path)
         elif reg_cal is not None:
@@ -175,6 +196,16 @@ def verify(
             registration = run.sim_survey(mrun.world)
         else:
             registration = None  # a best fit on the attained poses
+        mrun.connect(tracker)
+        mrun.make_plan()
+        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
+        mrun.open_journal(confirm=None if run_args.yes else confirm)
+        reporter = progress.Reporter.for_cli(quiet)
+        with StopOnSigint() as interrupt, reporter.task("verify", len(vplan.plan), "poses") as task:
+            mrun.measure(
+                should_stop=lambda: interrupt.requested,
+                on_pose=lambda p: task.update(p.done, **pose_fields(p)),
+            )
         info = {
             "model": arm.name,
             "robot": mrun.robot_id,
@@ -215,17 +246,35 @@ def verify(
             err=True,
         )
     _print_table(written["doc"], output, data_path)
+    if history is not None:
+        from calibrator.cli.history import record
+
+        record(history, "verification", output)
 
 
 def _base_frame(text: str | None) -> Any:
-    """``X,Y,Z,RX,RY,RZ`` to base2tracker (4, 4), or None."""
+    """``X,Y,Z,RX,RY,RZ`` to base2tracker (4, 4), or None (exit 2 on values no cell has).
+
+    The origin is a point in a robot cell (within the ``tracker_at`` budget, mm);
+    the rotation vector's length is its angle, at most 2 pi rad.
+    """
     if text is None:
         return None
     import numpy as np
 
     from calibrator import frames
 
-    values = np.array(opts.floats(text, 6, "--base-frame", "X,Y,Z,RX,RY,RZ (mm, rad)"))
+    needs = "X,Y,Z,RX,RY,RZ (mm, rad)"
+    values = np.array(opts.floats(text, 6, "--base-frame", needs))
+    limit, unit = checks.BUDGETS["tracker_at"]
+    if np.any(np.abs(values[:3]) > limit):
+        fail(f"--base-frame: origin {values[:3].tolist()} {unit} is beyond +-{limit:g} {unit}")
+    # Each component first: the norm of a 1e308 component overflows.
+    if np.abs(values[3:]).max() > 2 * np.pi or np.linalg.norm(values[3:]) > 2 * np.pi:
+        fail(
+            f"--base-frame: rotation vector {values[3:].tolist()} is longer than 2 pi rad "
+            "(its length is the angle)"
+        )
     return frames.transform(frames.rotvec_to_matrix(values[3:]), values[:3])
 
 

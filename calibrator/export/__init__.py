@@ -94,7 +94,22 @@ def choose(fmt: str | None = None, output: outputs.PathLike | None = None) -> st
 def export(calibration: Calibration, fmt: str) -> Exported:
     """Write ``calibration`` in format ``fmt``; returns :class:`Exported`."""
     outputs.known_format(REGISTRY, fmt)
-    result = REGISTRY[fmt].write(calibration)
+    return _with_losses(REGISTRY[fmt].write(calibration), calibration, fmt)
+
+
+def export_like(
+    calibration: Calibration,
+    like: outputs.PathLike,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+) -> Exported:
+    """The user's URDF ``like`` with its chain calibrated (:func:`calibrator.export.urdf.like`)."""
+    from calibrator.export import urdf
+
+    return _with_losses(urdf.like(calibration, like, base_link, tip_link), calibration, "urdf")
+
+
+def _with_losses(result: Exported, calibration: Calibration, fmt: str) -> Exported:
     # No format holds the joint terms: say what is lost.
     from calibrator.joint_terms import loss_note
 

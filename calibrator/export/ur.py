@@ -37,8 +37,9 @@ from calibrator.errors import CalibrationError
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
+from calibrator import robots
 from calibrator.export import Exported, exporter
-from calibrator.models import MODEL_NAMES, get_model
+from calibrator.robots import ur as ur_family
 
 #: Keys of the deltas and the MDH column each applies to, in file order.
 KEYS = (
@@ -54,8 +55,8 @@ _ANGLES = (kinematics.THETA, kinematics.ALPHA)
 
 
 def ur_models() -> tuple[str, ...]:
-    """Named models that have a published UR DH table."""
-    return tuple(n for n in MODEL_NAMES if n.startswith("ur"))
+    """Named models of the UR family (a published UR DH table the deltas are against)."""
+    return tuple(n for n in robots.names() if robots.get(n).family == ur_family.FAMILY)
 
 
 def nominal_dh(model: str | None) -> np.ndarray:
@@ -64,7 +65,7 @@ def nominal_dh(model: str | None) -> np.ndarray:
         raise CalibrationError(
             f"the UR calibration form needs a UR model ({', '.join(ur_models())}); got {model!r}"
         )
-    return get_model(model).mdh
+    return robots.get(model).mdh
 
 
 def deltas_from_mdh(mdh: ArrayLike, model: str | None) -> tuple[np.ndarray, np.ndarray]:

@@ -10,6 +10,8 @@ identified ``flange2tool``). The joint origins are those of
 
 from __future__ import annotations
 
+import os
+import re
 from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
@@ -80,3 +82,127 @@ def to_urdf(cal: Calibration) -> Exported:
         ]
     out.append("</robot>")
     return Exported("\n".join(out) + "\n")
+
+
+def like(
+    cal: Calibration,
+    path: str | os.PathLike[str],
+    base_link: str | None = None,
+    tip_link: str | None = None,
+) -> Exported:
+    """The user's own URDF with only the chain's joint origins calibrated.
+
+    Every moving joint's ``<origin>`` between ``base_link`` and ``tip_link``
+    and the first fixed joint after joint 6 (the flange) take the calibrated
+    kinematics; every other byte of the file is kept. For URDF angles ``q``
+    the written chain gives ``base_offset . A_1...A_6(to_model(q)) .
+    flange_offset`` with the calibrated table: each link keeps its place
+    relative to the joint axis it turns about (meshes, inertias and limits
+    ride along unchanged). The calibration's tool and base placement are not
+    part of a URDF and are not written.
+
+    Parameters
+    ----------
+    cal : Calibration
+        Identified against this URDF's chain (``--model arm.urdf``).
+    path : str or path-like
+        The URDF the calibration's nominal model came from.
+    base_link, tip_link : str, optional
+        As for :func:`calibrator.robots.urdf.read_chain`.
+
+    Raises
+    ------
+    CalibrationError
+        The calibration was not made against this chain, or the chain has
+        no fixed joint after joint 6 to hold the flange.
+    """
+    from calibrator import kinematics
+    from calibrator.robots import urdf as robot_urdf
+
+    chain = robot_urdf.read_chain(path, base_link, tip_link)
+    kin = robot_urdf.kinematics_of(chain)
+    gap = float(np.abs(np.asarray(cal.nominal_mdh) - kin.mdh).max())
+    if gap > 1e-6:
+        raise CalibrationError(
+            f"{path}: the calibration's nominal model is not this URDF's chain "
+            f"({chain.base_link} to {chain.tip_link}; tables differ by {gap:.3g}); "
+            f"it was made for {cal.model!r}"
+        )
+    nominal = kin.base_offset @ kinematics.chain(kin.mdh, np.zeros(6), all_frames=True)[1][0]
+    fitted = kin.base_offset @ kinematics.chain(cal.mdh, np.zeros(6), all_frames=True)[1][0]
+    frames = chain.link_frames()
+    moved = {chain.base_link: np.eye(4)}  # calibrated link frames at the zero pose
+    changed: dict[str, np.ndarray] = {}
+    fixed_after = [j for j in chain.joints[chain.joints.index(chain.moving[5]) + 1 :]]
+    if not fixed_after:
+        raise CalibrationError(
+            f"{path}: {chain.tip_link!r} is joint 6's own link: no fixed joint to hold the "
+            "calibrated flange (name a tip link below it with --tip-link)"
+        )
+    rest = np.eye(4)
+    for joint in fixed_after[1:]:
+        rest = rest @ joint.origin
+    index = 0
+    for joint in chain.joints:
+        parent = moved[joint.parent]
+        if joint.kind in ("revolute", "continuous"):
+            # The link keeps its place relative to the axis it turns about.
+            keep = np.linalg.inv(nominal[index]) @ frames[joint.child]
+            target = fitted[index] @ keep
+            changed[joint.name] = np.linalg.inv(parent) @ target
+            moved[joint.child] = target
+            index += 1
+        elif joint is fixed_after[0]:
+            tip = kin.base_offset @ kinematics.chain(cal.mdh, np.zeros(6))[0] @ kin.flange_offset
+            changed[joint.name] = np.linalg.inv(parent) @ tip @ np.linalg.inv(rest)
+            moved[joint.child] = parent @ changed[joint.name]
+        else:
+            moved[joint.child] = parent @ joint.origin
+    text = chain.path.read_text(encoding="utf-8")
+    for name, transform in changed.items():
+        text = _set_origin(text, name, transform, path)
+    return Exported(text)
+
+
+def _origin_attributes(transform: np.ndarray) -> dict[str, str]:
+    values = origin_values(transform)
+    values[:3] /= _M
+    return {
+        "xyz": " ".join(repr(float(v)) for v in values[:3]),
+        "rpy": " ".join(repr(float(v)) for v in values[3:]),
+    }
+
+
+def _quoted(value: str):
+    """A ``re.sub`` replacement keeping the attribute's name and quotes, with ``value``."""
+
+    def replace(match: re.Match[str]) -> str:
+        return f"{match.group(1)}{match.group(2)}{value}{match.group(2)}"
+
+    return replace
+
+
+def _set_origin(text: str, joint: str, transform: np.ndarray, path: object) -> str:
+    """``text`` with the ``<origin>`` of one joint element rewritten, nothing else."""
+    start_tag = re.compile(r"<joint\b[^>]*?\bname\s*=\s*([\"'])" + re.escape(joint) + r"\1[^>]*>")
+    found = list(start_tag.finditer(text))
+    if len(found) != 1:
+        raise CalibrationError(f"{path}: cannot find joint {joint!r} once in the text")
+    head = found[0]
+    end = text.find("</joint>", head.end())
+    body = text[head.end() : end]
+    attrs = _origin_attributes(transform)
+    origin = re.search(r"<origin\b[^>]*?/?>", body)
+    if origin is None:
+        # No <origin>: the identity; add one right after the start tag.
+        new = f'<origin xyz="{attrs["xyz"]}" rpy="{attrs["rpy"]}"/>'
+        return text[: head.end()] + new + text[head.end() :]
+    tag = origin.group(0)
+    for key, value in attrs.items():
+        pattern = re.compile(r"(\b" + key + r"\s*=\s*)([\"'])[^\"']*\2")
+        if pattern.search(tag):
+            tag = pattern.sub(_quoted(value), tag, 1)
+        else:
+            tag = tag.replace("<origin", f'<origin {key}="{value}"', 1)
+    at = head.end() + origin.start()
+    return text[:at] + tag + text[at + len(origin.group(0)) :]

@@ -14,21 +14,22 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import measurement, parameters, plausibility
+from calibrator import measurement, parameters, plausibility, strict
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
     fitters,
     freeset,
     identifiability,
     initial,
+    option_rules,
     report,
     robust,
     uncertainty,
 )
 from calibrator.identify.problem import Problem
 
-METHODS = ("hybrid", "pso", "lm")
-LOSSES = ("lsq", "huber", "trimmed", "minimax")
+METHODS = option_rules.METHODS
+LOSSES = option_rules.LOSSES
 #: Default orientation weight (mm^2/rad^2): 1 mrad weighs as 0.1 mm, about
 #: the ratio of a 6-DoF probe's angular noise to a tracker's point noise.
 DEFAULT_K = 1.0e4
@@ -36,7 +37,7 @@ DEFAULT_K = 1.0e4
 #: the poses (about 10 kB and 0.1 ms of CPU per pose, least squares and uncertainty);
 #: beyond this, thin the session (more poses than this add nothing a
 #: well-spread subset does not give).
-MAX_POSES = 50_000
+MAX_POSES = option_rules.MAX_POSES
 #: Most fitting poses the swarm sees (see the module docstring).
 SWARM_POSES = 32
 #: A residual noise above this multiple of ``Options.noise_mm`` gives a warning.
@@ -53,7 +54,8 @@ class Options:
     poses can identify (one residual row, mm; orientation rows count in
     their ``sqrt(k)`` weighted units). ``on_generation(generation,
     best_cost)`` is called after each swarm generation and ``progress(text)``
-    at each stage, for progress displays.
+    at each stage, for progress displays. What each setting may be is
+    :data:`calibrator.identify.option_rules.RULES` (checked by :func:`identify`).
     """
 
     method: str = "hybrid"
@@ -285,16 +287,10 @@ def _noise_warning(unc, noise_mm):
 
 
 def _check_options(options):
-    if options.method not in METHODS:
-        raise IdentifiabilityError(f"unknown method {options.method!r}; use one of {METHODS}")
-    if options.loss not in LOSSES:
-        raise IdentifiabilityError(f"unknown loss {options.loss!r}; use one of {LOSSES}")
-    if options.k is not None and not float(options.k) >= 0:
-        raise IdentifiabilityError(f"orientation weight k must be >= 0, got {options.k}")
-    if not options.noise_mm > 0:
-        raise IdentifiabilityError(f"noise_mm must be > 0, got {options.noise_mm}")
-    if options.swarm_poses < 1:
-        raise IdentifiabilityError(f"swarm_poses must be >= 1, got {options.swarm_poses}")
+    try:
+        option_rules.check_settings(options)
+    except strict.StrictError as exc:
+        raise IdentifiabilityError(str(exc)) from None
 
 
 def _pose_numbers(session, n):

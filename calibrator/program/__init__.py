@@ -31,6 +31,7 @@ __all__ = [
     "choose",
     "degrees",
     "move_duration_s",
+    "name_for",
     "render",
     "title",
     "writer",
@@ -39,26 +40,51 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Format:
-    """A registered program format: name, file suffixes, one-line help, writer, angle unit."""
+    """A registered program format: name, file suffixes, one-line help, writer, naming rule.
+
+    ``program_name(stem)`` turns the file name before its first dot into the
+    program's name by the language's rules (:mod:`calibrator.program.names`),
+    or raises :class:`~calibrator.errors.CalibrationError`.
+    """
 
     name: str
     suffixes: tuple
     help: str
     write: Callable[[ProgramSpec], str]
+    program_name: Callable[[str], str] | None = None
 
 
 #: name -> Format, in registration order.
 REGISTRY: dict[str, Format] = {}
 
 
-def writer(name: str, suffixes: tuple, help: str) -> Callable:
-    """Register ``func(spec) -> str`` as program format ``name`` (files ending in ``suffixes``)."""
+def writer(
+    name: str, suffixes: tuple, help: str, naming: Callable[[str], str] | None = None
+) -> Callable:
+    """Register ``func(spec) -> str`` as program format ``name`` (files ending in ``suffixes``).
+
+    ``naming(stem)`` is the language's naming rule (None: the program has no name).
+    """
 
     def register(func: Callable[[ProgramSpec], str]) -> Callable[[ProgramSpec], str]:
-        REGISTRY[name] = Format(name, tuple(suffixes), help, func)
+        REGISTRY[name] = Format(name, tuple(suffixes), help, func, naming)
         return func
 
     return register
+
+
+def name_for(fmt: str, output: str | os.PathLike) -> str:
+    """The program name a file ``output`` of format ``fmt`` gets (its name before the first dot).
+
+    Raises
+    ------
+    CalibrationError
+        The language cannot name a program so (see :mod:`calibrator.program.names`).
+    """
+    outputs.known_format(REGISTRY, fmt)
+    stem = os.path.basename(os.fspath(output)).split(".")[0]
+    naming = REGISTRY[fmt].program_name
+    return "calibrator_measure" if naming is None else naming(stem)
 
 
 def choose(fmt: str | None, output: str | os.PathLike) -> str:

@@ -12,13 +12,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator.program import ProgramSpec, between_homes, degrees, writer
-from calibrator.program.spec import DEG_DECIMALS, PULSE_S
+from calibrator.errors import CalibrationError
+from calibrator.program import ProgramSpec, between_homes, writer
+from calibrator.program.names import program_name
+from calibrator.program.spec import PULSE_S
+
+#: Longest program name on an R-30iB.
+MAX_NAME = 36
 
 
-def _position(index: int, q_rad, comment: str) -> list[str]:
-    deg = degrees(q_rad)
-    axes = [f"J{i + 1}= {v:.{DEG_DECIMALS}f} deg" for i, v in enumerate(deg)]
+def _name(stem: str) -> str:
+    # The pendant lists the program under its /PROG name, which MakeTP takes from the file.
+    return program_name(
+        stem, language="Fanuc LS", reserved=frozenset(), max_length=MAX_NAME, same_as_file=True
+    ).upper()
+
+
+def _position(spec: ProgramSpec, index: int, q_rad, comment: str) -> list[str]:
+    axes = [f"J{i + 1}= {v} deg" for i, v in enumerate(spec.angles(q_rad, "deg"))]
     return [
         f'P[{index}:"{comment}"]{{',
         "   GP1:",
@@ -29,10 +40,12 @@ def _position(index: int, q_rad, comment: str) -> list[str]:
     ]
 
 
-@writer("fanuc-ls", (".ls",), "Fanuc LS for R-30iB / R-30iB Plus (MakeTP); deg")
+@writer("fanuc-ls", (".ls",), "Fanuc LS for R-30iB / R-30iB Plus (MakeTP); deg", _name)
 def write(spec: ProgramSpec) -> str:
-    name = spec.name.upper()[:36]
-    pct = max(1, int(spec.speed_percent().min()))
+    if spec.pulse_output is not None and spec.pulse_output < 1:
+        raise CalibrationError("Fanuc DO outputs are numbered from 1, not 0")
+    name = spec.name.upper()
+    pct = int(spec.speed_percent(1.0, "Fanuc LS").min())
     # P[1..N] are the poses, P[N+1] home, P[N+2..] the vias in path order.
     home = len(spec.plan_rad) + 1
     vias: list[tuple[int, int, np.ndarray]] = []  # (P index, pose it leads to, joints)
@@ -64,9 +77,9 @@ def write(spec: ProgramSpec) -> str:
     lines += [f"{n:4d}:  {stmt} ;" for n, stmt in enumerate(body, start=1)]
     lines.append("/POS")
     for pose, q in enumerate(spec.plan_rad):
-        lines += _position(pose + 1, q, f"pose {pose}")
-    lines += _position(home, spec.home_rad, "HOME")
+        lines += _position(spec, pose + 1, q, f"pose {pose}")
+    lines += _position(spec, home, spec.home_rad, "HOME")
     for index, pose, q in vias:
-        lines += _position(index, q, f"via before pose {pose}")
+        lines += _position(spec, index, q, f"via before pose {pose}")
     lines += ["/END", ""]
     return "\n".join(lines)

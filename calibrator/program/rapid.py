@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator.program import ProgramSpec, between_homes, degrees, move_duration_s, title, writer
-from calibrator.program.spec import DEG_DECIMALS, PULSE_S
+from calibrator.program import ProgramSpec, between_homes, move_duration_s, title, writer
+from calibrator.program.names import program_name, words
+from calibrator.program.spec import PULSE_S
 
 #: Name of the digital output pulsed at each arrival.
 SIGNAL = "do_calibrator"
@@ -24,8 +25,36 @@ SIGNAL = "do_calibrator"
 FIRST_SPEED = "v100"
 
 
-def _target(q_rad) -> str:
-    robax = ",".join(f"{v:.{DEG_DECIMALS}f}" for v in degrees(q_rad))
+#: RAPID's reserved words and the names this module uses (RAPID is case-insensitive).
+RESERVED = words(
+    "ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF "
+    "ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC "
+    "GOTO IF INOUT LOCAL MOD MODULE NOSTEPIN NOT NOVIEW OR PERS PROC RAISE READONLY RECORD "
+    "RETRY RETURN STEP SYSMODULE TEST THEN TO TRAP TRUE TRYNEXT UNDO VAR VIEWONLY WHILE "
+    "WITH XOR MAIN JHOME MOVEABSJ WAITTIME PULSEDO TOOL0 FINE V100 JOINTTARGET " + SIGNAL.upper()
+)
+#: Longest RAPID identifier.
+MAX_NAME = 32
+
+
+def _module(name: str) -> str:
+    """The module name: the program name's words capitalised (``cal_run`` -> ``CalRun``)."""
+    return "".join(w.capitalize() for w in name.split("_")) or "CalibratorMeasure"
+
+
+def _name(stem: str) -> str:
+    name = program_name(
+        stem, language="RAPID", reserved=frozenset(), max_length=MAX_NAME, same_as_file=False
+    )
+    # The module is named from it: that is the name that must not clash.
+    program_name(
+        _module(name), language="RAPID", reserved=RESERVED, max_length=MAX_NAME, same_as_file=True
+    )
+    return name
+
+
+def _target(spec: ProgramSpec, q_rad) -> str:
+    robax = ",".join(spec.angles(q_rad, "deg"))
     return f"[[{robax}],[9E9,9E9,9E9,9E9,9E9,9E9]]"
 
 
@@ -34,15 +63,20 @@ def _time(seconds: float) -> str:
     return f"{max(np.ceil(seconds * 100.0) / 100.0, 0.1):.2f}"
 
 
-@writer("rapid", (".mod",), "ABB RAPID for IRC5 (RobotWare 6) and OmniCore (RobotWare 7); deg")
+@writer(
+    "rapid",
+    (".mod",),
+    "ABB RAPID for IRC5 (RobotWare 6) and OmniCore (RobotWare 7); deg",
+    _name,
+)
 def write(spec: ProgramSpec) -> str:
-    module = "".join(w.capitalize() for w in spec.name.split("_")) or "CalibratorMeasure"
+    module = _module(spec.name)
     lines = [
         f"MODULE {module}",
         f"  ! {title(spec)}",
         "  ! joints in deg; each move timed (\\T) to keep the leading joint under "
         f"{spec.speed_rad_s:g} rad/s",
-        f"  CONST jointtarget jHome := {_target(spec.home_rad)};",
+        f"  CONST jointtarget jHome := {_target(spec, spec.home_rad)};",
         "  PROC main()",
     ]
 
@@ -56,7 +90,7 @@ def write(spec: ProgramSpec) -> str:
     lines += between_homes(
         spec,
         move=lambda kind, pose, start, q: (
-            f"    MoveAbsJ {_target(q)}, {timed(start, q)}, fine, tool0;"
+            f"    MoveAbsJ {_target(spec, q)}, {timed(start, q)}, fine, tool0;"
         ),
         pulse=lambda output: [f"    PulseDO \\PLength:={PULSE_S:.2f}, {SIGNAL};"],
         dwell=lambda wait: f"    WaitTime \\InPos, {wait:.3f};",

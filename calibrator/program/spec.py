@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from decimal import ROUND_CEILING, ROUND_FLOOR, ROUND_HALF_EVEN, Decimal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
+from calibrator.robots import JointConvention
 
 #: Decimals written for angles: 1e-6 deg and 1e-9 rad, far below the 1e-6 rad round trip
 #: (a controller storing 32-bit floats keeps about 3e-7 rad at 180 deg).
@@ -15,6 +17,12 @@ DEG_DECIMALS = 6
 RAD_DECIMALS = 9
 #: Length of the optional digital-output pulse at each arrival, s.
 PULSE_S = 0.1
+#: Slowest leading-joint speed (rad/s) and acceleration (rad/s^2) a program is
+#: written with: a 1 rad move then takes over 15 minutes; slower is a typo.
+MIN_SPEED_RAD_S = 1e-3
+MIN_ACCEL_RAD_S2 = 1e-3
+#: Longest dwell at a pose, s (the readings of a pose take seconds).
+MAX_DWELL_S = 600.0
 
 
 @dataclass(frozen=True)
@@ -43,6 +51,14 @@ class ProgramSpec:
         Joint vectors moved through before pose i, rad (:attr:`calibrator.plan.Plan.via_rad`):
         joint moves without dwell or pulse, so the controller follows the path the plan
         checked in the cell. Default: none.
+    joint_limits_rad : numpy.ndarray, shape (6, 2), optional
+        The arm's joint limits (model angles), rad: written angles are rounded
+        toward their inside (:meth:`angles`), so a target at a limit is never
+        written past it.
+    convention : calibrator.robots.JointConvention, optional
+        How the controller's angles relate to the model's (sign, zero offset,
+        coupled axes): programs are written in the controller's angles. None:
+        the same angles.
     """
 
     plan_rad: np.ndarray
@@ -55,6 +71,8 @@ class ProgramSpec:
     name: str = "calibrator_measure"
     model: str = ""
     via_rad: tuple = ()
+    joint_limits_rad: np.ndarray | None = None
+    convention: JointConvention | None = None
 
     def __post_init__(self) -> None:
         plan = np.asarray(self.plan_rad, dtype=float)
@@ -66,10 +84,20 @@ class ProgramSpec:
         object.__setattr__(self, "via_rad", via or tuple(np.zeros((0, 6)) for _ in plan))
         if np.asarray(self.home_rad).shape != (6,):
             raise CalibrationError("the home pose needs 6 joint angles")
-        if not (self.speed_rad_s > 0 and self.accel_rad_s2 > 0):
-            raise CalibrationError("speed and acceleration must be positive")
-        if not self.dwell_s > PULSE_S:
-            raise CalibrationError(f"dwell must be longer than the {PULSE_S} s pulse")
+        if not self.speed_rad_s >= MIN_SPEED_RAD_S:
+            raise CalibrationError(
+                f"speed {self.speed_rad_s:g} rad/s is below {MIN_SPEED_RAD_S:g} rad/s "
+                "(a 1 rad move would take over 15 minutes)"
+            )
+        if not self.accel_rad_s2 >= MIN_ACCEL_RAD_S2:
+            raise CalibrationError(
+                f"acceleration {self.accel_rad_s2:g} rad/s^2 is below {MIN_ACCEL_RAD_S2:g} rad/s^2"
+            )
+        if not PULSE_S < self.dwell_s <= MAX_DWELL_S:
+            raise CalibrationError(
+                f"dwell {self.dwell_s:g} s is not in ({PULSE_S}, {MAX_DWELL_S:g}] s "
+                "(longer than the pulse, at most 10 minutes)"
+            )
         if not self.name.isidentifier() or not self.name.isascii():
             raise CalibrationError(f"program name {self.name!r} is not an identifier")
 
@@ -91,10 +119,67 @@ class ProgramSpec:
         out.append(("home", None, here, np.asarray(self.home_rad, dtype=float)))
         return out
 
-    def speed_percent(self) -> np.ndarray:
-        """Per-axis speed as a percentage of each axis's top speed, shape (6,), rounded down."""
-        pct = 100.0 * self.speed_rad_s / np.asarray(self.max_joint_speed_rad_s, dtype=float)
-        return np.clip(np.floor(pct * 10.0) / 10.0, 0.1, 100.0)
+    def speed_percent(self, step: float = 0.1, language: str = "KRL") -> np.ndarray:
+        """Per-axis speed as a percentage of each axis's top speed, shape (6,), rounded down.
+
+        ``step`` is the finest percentage the language states (KRL 0.1, Fanuc 1),
+        also its smallest: a speed below it on any axis cannot be written without
+        moving faster than asked, and is refused.
+
+        Raises
+        ------
+        CalibrationError
+            The speed is below ``step`` percent of an axis's top speed.
+        """
+        top = np.asarray(self.max_joint_speed_rad_s, dtype=float)
+        pct = 100.0 * self.speed_rad_s / top
+        # A hair of tolerance: 0.3 % computed as 0.29999999 is 0.3 %.
+        floored = np.floor(pct / step + 1e-9) * step
+        if np.any(floored < step):
+            slowest = step / 100.0 * float(top.max())
+            raise CalibrationError(
+                f"speed {self.speed_rad_s:g} rad/s is below {step:g} % of an axis's top speed, "
+                f"the slowest {language} can state ({slowest:.4g} rad/s): give at least that"
+            )
+        return np.minimum(floored, 100.0)
+
+    def angles(self, q_rad: ArrayLike, unit: str) -> list[str]:
+        """The six joint angles of ``q_rad`` as program text: the controller's, rounded inward.
+
+        Parameters
+        ----------
+        q_rad : array_like, shape (6,)
+            The model's joint angles, rad.
+        unit : {'rad', 'deg'}
+            Written with :data:`RAD_DECIMALS` or :data:`DEG_DECIMALS` decimals.
+
+        Returns
+        -------
+        list of 6 str
+            The angles the controller displays and programs use
+            (:attr:`convention`), each rounded to nearest except where that would
+            cross the joint limit (``q3`` of exactly pi is written 3.141592653,
+            not 3.141592654). A joint coupled to earlier ones (Fanuc's J3) is
+            bounded with their angles as written.
+        """
+        convention = self.convention if self.convention is not None else JointConvention()
+        ctrl = convention.to_controller(np.asarray(q_rad, dtype=float).reshape(6))
+        scale, decimals = (180.0 / np.pi, DEG_DECIMALS) if unit == "deg" else (1.0, RAD_DECIMALS)
+        limits = self.joint_limits_rad
+        texts: list[str] = []
+        written = np.zeros(6)  # controller angles as written, rad
+        for j in range(6):
+            low = high = None
+            if limits is not None:
+                # model_j = sign_j * ctrl_j + offset_j + sum(f * ctrl_k): solve for ctrl_j.
+                base = convention.offset_rad[j] + sum(
+                    f * written[k] for jj, k, f in convention.couplings if jj == j
+                )
+                ends = sorted((float(lim) - base) / convention.sign[j] for lim in limits[j])
+                low, high = ends[0] * scale, ends[1] * scale
+            texts.append(inward(ctrl[j] * scale, decimals, low, high))
+            written[j] = float(texts[-1]) / scale
+        return texts
 
 
 def trapezoid_duration_s(distance_rad: float, speed_rad_s: float, accel_rad_s2: float) -> float:
@@ -120,3 +205,25 @@ def move_duration_s(
     """
     lead = float(np.max(np.abs(np.asarray(end_rad, float) - np.asarray(start_rad, float))))
     return trapezoid_duration_s(lead, speed_rad_s, accel_rad_s2)
+
+
+def inward(value: float, decimals: int, low: float | None, high: float | None) -> str:
+    """``value`` with ``decimals`` decimals, rounded to nearest unless that leaves [low, high].
+
+    Exact decimal arithmetic: the text, read back, is never beyond a limit.
+    """
+    step = Decimal(1).scaleb(-decimals)
+    d = Decimal(float(value)).quantize(step, ROUND_HALF_EVEN)
+    if high is not None and d > Decimal(float(high)):
+        d = Decimal(float(high)).quantize(step, ROUND_FLOOR)
+    if low is not None and d < Decimal(float(low)):
+        d = Decimal(float(low)).quantize(step, ROUND_CEILING)
+    return f"{d:f}"
+
+
+def number(value: float) -> str:
+    """A speed, acceleration or time as the shortest decimal that reads back as ``value``.
+
+    Never rounded to zero, never in exponent notation (not every language reads it).
+    """
+    return np.format_float_positional(float(value), trim="0")

@@ -11,10 +11,7 @@ from __future__ import annotations
 import csv
 import io
 
-import numpy as np
-
-from calibrator.program import ProgramSpec, degrees, writer
-from calibrator.program.spec import DEG_DECIMALS, RAD_DECIMALS
+from calibrator.program import ProgramSpec, writer
 
 COLUMNS = (
     "step",
@@ -33,8 +30,8 @@ def write(spec: ProgramSpec) -> str:
     out = csv.writer(buf, lineterminator="\n")
     out.writerow(COLUMNS)
     for step, (kind, pose, _, q) in enumerate(spec.moves()):
-        deg = [f"{v:.{DEG_DECIMALS}f}" for v in degrees(q)]
-        rad = [f"{v:.{RAD_DECIMALS}f}" for v in np.asarray(q, float)]
+        deg = spec.angles(q, "deg")
+        rad = spec.angles(q, "rad")
         dwell = f"{spec.dwell_s:.3f}" if kind == "pose" else "0"
         out.writerow(
             [step, kind, "" if pose is None else pose, *deg, *rad, spec.speed_rad_s, dwell]

@@ -10,29 +10,57 @@ measured) is a ``movej`` after a ``# via before pose i`` comment, with no sleep.
 
 from __future__ import annotations
 
-import numpy as np
-
+from calibrator.errors import CalibrationError
 from calibrator.program import ProgramSpec, between_homes, title, writer
-from calibrator.program.spec import PULSE_S, RAD_DECIMALS
+from calibrator.program.names import program_name, words
+from calibrator.program.spec import PULSE_S, number
+
+#: URScript's keywords and the names this program uses (case-sensitive).
+RESERVED = words(
+    "def end if elif else while for in return break continue thread run join kill global "
+    "local and or not xor True False pass sec halt enter_critical exit_critical "
+    "movej sleep set_standard_digital_out home",
+    upper=False,
+)
 
 
-def _joints(q) -> str:
-    return "[" + ", ".join(f"{v:.{RAD_DECIMALS}f}" for v in np.asarray(q, float)) + "]"
+def _name(stem: str) -> str:
+    return program_name(
+        stem,
+        language="URScript",
+        reserved=RESERVED,
+        max_length=63,
+        same_as_file=False,
+        case_sensitive=True,
+    )
 
 
-@writer("urscript", (".script", ".urscript"), "URScript for UR controllers (CB3, e-Series); rad")
+def _joints(spec: ProgramSpec, q) -> str:
+    return "[" + ", ".join(spec.angles(q, "rad")) + "]"
+
+
+@writer(
+    "urscript",
+    (".script", ".urscript"),
+    "URScript for UR controllers (CB3, e-Series); rad",
+    _name,
+)
 def write(spec: ProgramSpec) -> str:
-    move = f"a={spec.accel_rad_s2:.4f}, v={spec.speed_rad_s:.4f}"
+    if spec.pulse_output is not None and not 0 <= spec.pulse_output <= 7:
+        raise CalibrationError(
+            f"URScript's standard digital outputs are 0-7, not {spec.pulse_output}"
+        )
+    move = f"a={number(spec.accel_rad_s2)}, v={number(spec.speed_rad_s)}"
     lines = [
         f"# {spec.name}: {title(spec)}",
         "# joints in rad; speed and acceleration of the leading joint in rad/s and rad/s^2",
         f"def {spec.name}():",
-        f"  home = {_joints(spec.home_rad)}",
+        f"  home = {_joints(spec, spec.home_rad)}",
         f"  movej(home, {move})",
     ]
     lines += between_homes(
         spec,
-        move=lambda kind, pose, start, q: f"  movej({_joints(q)}, {move})",
+        move=lambda kind, pose, start, q: f"  movej({_joints(spec, q)}, {move})",
         pulse=lambda output: [
             f"  set_standard_digital_out({output}, True)",
             f"  sleep({PULSE_S:.3f})",

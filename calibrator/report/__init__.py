@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
-__all__ = ["FILES", "write"]
+__all__ = ["FILES", "check_page_free", "write"]
 
 #: Every file the report may write into its folder.
 FILES = (
@@ -126,3 +126,15 @@ def write(
     if own:
         batch.commit()
     return written
+
+
+def check_page_free(folder: Path, force: bool = False, option: str = "-o") -> None:
+    """Refuse a folder that already holds an ``index.html`` unless ``force`` (the output policy).
+
+    Raises
+    ------
+    calibrator.outputs.OutputError
+    """
+    from calibrator import outputs
+
+    outputs.check_folder(folder, files=("index.html",), force=force, option=option)

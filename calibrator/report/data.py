@@ -187,6 +187,46 @@ def _session_facts(session):
         if counts:
             low, high = min(counts), max(counts)
             facts.append(("readings per pose", str(low) if low == high else f"{low} to {high}"))
+    return facts + _condition_facts(session.conditions())
+
+
+def _condition_facts(said):
+    """The measuring conditions the session recorded (session.conditions()), as report facts."""
+
+    def span(column, unit, digits):
+        low, high = said[column]["min"], said[column]["max"]
+        if round(low, digits) == round(high, digits):
+            return f"{low:.{digits}f} {unit}"
+        return f"{low:.{digits}f} to {high:.{digits}f} {unit}"
+
+    facts = []
+    air = [
+        span(c, u, d)
+        for c, u, d in (
+            ("air_temperature_c", "°C", 1),
+            ("air_pressure_hpa", "hPa", 1),
+            ("air_humidity_pct", "%RH", 0),
+        )
+        if c in said
+    ]
+    if air:
+        facts.append(("air at the tracker", ", ".join(air)))
+    if "tracker_warmed_up" in said or "tracker_on_s" in said:
+        on = said.get("tracker_on_s")
+        text = {True: "warmed up", False: "NOT warmed up", None: "warm-up not reported"}[
+            said.get("tracker_warmed_up")
+        ]
+        if on:
+            low, high = round(on["min"] / 60), round(on["max"] / 60)
+            text += f", on for {low} min" if low == high else f", on for {low} to {high} min"
+        facts.append(("tracker warm-up", text))
+    joints = [
+        f"J{j} {span(f'j{j}_temperature_c', '°C', 1)}"
+        for j in range(1, 7)
+        if f"j{j}_temperature_c" in said
+    ]
+    if joints:
+        facts.append(("joint temperatures", ", ".join(joints)))
     return facts
 
 

@@ -87,11 +87,11 @@ def _open_sim(url: str, options: RobotOptions) -> Robot:
 
 
 def _open_ur(url: str, options: RobotOptions) -> Robot:
+    from drivers import urls
     from drivers.robot.ur_rtde_adapter import UrRtdeRobot
 
-    host = url.split("://", 1)[1].strip("/")
-    if not host:
-        raise ValueError("ur:// needs a host, e.g. ur://192.168.1.10")
+    # The controller's ports are fixed (RTDE 30004, dashboard 29999): a host only.
+    host = urls.parse(url, "ur", port="none").host
     limits = MotionLimits.from_model(
         options.model, options.max_speed_rad_s, options.max_accel_rad_s2
     )

@@ -226,6 +226,10 @@ class GuardedRobot(Robot):
     def safety_state(self) -> object:
         return self.robot.safety_state()
 
+    def joint_temperatures(self) -> np.ndarray:
+        """The inner robot's joint temperatures, degC (with ``REPORTS_TEMPERATURES``)."""
+        return self.robot.joint_temperatures()  # type: ignore[attr-defined]
+
     def stop(self) -> None:
         self.robot.stop()
 

@@ -86,7 +86,7 @@ class UrRtdeRobot(Robot):
         command without an answer by then means the link is lost.
     """
 
-    capabilities = frozenset({ports.MOVES_HARDWARE})
+    capabilities = frozenset({ports.MOVES_HARDWARE, ports.REPORTS_TEMPERATURES})
 
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
     start_grace_s = 0.1
@@ -172,6 +172,11 @@ class UrRtdeRobot(Robot):
     def actual_joints(self) -> np.ndarray:
         self._check_link()
         return np.array(self._receive.getActualQ(), dtype=float)
+
+    def joint_temperatures(self) -> np.ndarray:
+        """The joints' temperatures the controller reports (RTDE ``joint_temperatures``), degC."""
+        self._check_link()
+        return np.array(self._receive.getJointTemperatures(), dtype=float)
 
     def safety_state(self) -> SafetyState:
         self._check_link()

@@ -24,12 +24,22 @@ from drivers.tracker.errors import (
     FrameError,
     IdentityChanged,
     LinkDropped,
+    TrackerError,
     TrackerGone,
     TrackerTimeout,
 )
 from drivers.tracker.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
-from drivers.tracker.protocol import Reading, Reply, format_number, parse_reading
+from drivers.tracker.protocol import (
+    ErrorCode,
+    Reading,
+    Reply,
+    format_number,
+    parse_number,
+    parse_reading,
+)
 from drivers.tracker.recording import Recorder
+from drivers.urls import LOGGING
+from drivers.urls import parse as parse_url
 
 
 @dataclass(frozen=True)
@@ -96,7 +106,7 @@ class LaserTracker:
         Meteo data :meth:`connect` sends when it is given none.
     """
 
-    capabilities = frozenset({ports.INITIALISE})
+    capabilities = frozenset({ports.INITIALISE, ports.REPORTS_CONDITIONS})
 
     def __init__(
         self,
@@ -227,6 +237,34 @@ class LaserTracker:
             format_number(environment.pressure_hpa, 2),
             format_number(environment.humidity_pct, 1),
         )
+
+    def conditions(self) -> dict | None:
+        """``COND?``: the air the station measures, time since power-on, warmed up.
+
+        Returns
+        -------
+        dict or None
+            ``air_temperature_c``, ``air_pressure_hpa``, ``air_humidity_pct``,
+            ``on_s`` (s since power-on) and ``warmed_up`` (bool); None from a
+            tracker (or bridge) that does not know the query.
+        """
+        try:
+            reply = self._query("COND?", idempotent=True)
+        except TrackerError as exc:
+            if exc.code == ErrorCode.UNKNOWN_COMMAND:
+                return None
+            raise
+        f = reply.fields
+        if len(f) != 5 or f[4] not in ("0", "1"):
+            raise FrameError(f"bad COND? reply fields {f!r}")
+        t, p, h, on_s = (parse_number(v) for v in f[:4])
+        return {
+            "air_temperature_c": t,
+            "air_pressure_hpa": p,
+            "air_humidity_pct": h,
+            "on_s": on_s,
+            "warmed_up": f[4] == "1",
+        }
 
     def set_mode(self, mode: str) -> None:
         """``MODE,<FAST|STANDARD|PRECISE>``: stationary measurement profile."""
@@ -407,9 +445,35 @@ def _parse_status(reply: Reply) -> Status:
     return Status(f[0], f[1] == "1", f[2] == "1", f[3] == "P6", f[4])
 
 
+#: Query parameters pyserial's network transports take (``logging`` is checked
+#: here: pyserial reports a bad level, and a port above 65535, as the level list).
+_URL_PARAMS: dict = {
+    "socket": {"logging": LOGGING},
+    "rfc2217": {"logging": LOGGING, "ign_set_control": None, "poll_modem": None, "timeout": None},
+}
+
+
+def check_url(url: str) -> None:
+    """Refuse a malformed ``socket://HOST:PORT``, ``rfc2217://HOST:PORT`` or ``loop://``.
+
+    ``loop://`` takes ``logging`` only; device paths are left to pyserial.
+
+    Raises
+    ------
+    ValueError
+        Missing host, missing or out-of-range port, unknown parameter.
+    """
+    kind = url.split("://", 1)[0].lower() if "://" in url else ""
+    if kind == "loop":  # pyserial's loopback: no host, logging only
+        parse_url(url, kind, host=False, params={"logging": LOGGING})
+    elif kind in _URL_PARAMS:
+        parse_url(url, kind, port="required", params=_URL_PARAMS[kind])
+
+
 def open_line_tracker(url: str, options: OpenOptions) -> LaserTracker:
     """The registry's opener for the line protocol (device paths and pyserial URLs)."""
     if options.world is not None or options.sim_faults or options.sim_replay:
         raise ValueError(f"{url}: simulator options need --tracker sim")
+    check_url(url)
     # Standard air until the user's meteo is wired in: what measure always sent.
     return LaserTracker(url, record=options.record, environment=Environment())

@@ -239,7 +239,7 @@ def test_a_ur_robot_is_guarded_by_the_models_limits_and_the_users_caps():
     assert robot.device_id == "ur://10.0.0.5:ur10e"
     with pytest.raises(ValueError) as exc:
         open_robot("ur:///", options)
-    assert str(exc.value) == "ur:// needs a host, e.g. ur://192.168.1.10"
+    assert str(exc.value) == "'ur:///': missing host (use ur://HOST)"
     assert open_robot("ur://Xarm.local", options).device_id == "ur://Xarm.local:ur10e"
 
 
@@ -281,7 +281,10 @@ def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steer
 
 @pytest.mark.parametrize(
     ("url", "message"),
-    [("emscon://", "^expected emscon://HOST"), ("emscon://h?meteo=1,2", "^meteo needs T,P,H")],
+    [
+        ("emscon://", "^'emscon://': missing host"),
+        ("emscon://h?meteo=1,2", "^'emscon://h.meteo=1,2': meteo needs T,P,H"),
+    ],
 )
 def test_bad_emscon_urls_are_refused(url, message):
     with pytest.raises(ValueError, match=message):

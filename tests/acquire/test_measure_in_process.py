@@ -283,10 +283,13 @@ def write_plans(folder):
             "--tracker: unknown tracker 'gopher://x'; use sim, a device path or one of "
             "socket://, rfc2217://, loop://, emscon://",
         ),
-        (("--robot", "ur://"), "--robot: ur:// needs a host, e.g. ur://192.168.1.10"),
+        (("--robot", "ur://"), "--robot: 'ur://': missing host (use ur://HOST)"),
         (("--plan", "bad.csv"), "plan row 6 joint 3: 4 rad outside"),
         (("--tracker", "socket://127.0.0.1:1"), "tracker at socket://127.0.0.1:1: "),
-        (("--tracker", "emscon://127.0.0.1:1?meteo=20,1013"), "--tracker: meteo needs T,P,H"),
+        (
+            ("--tracker", "emscon://127.0.0.1:1?meteo=20,1013"),
+            "--tracker: 'emscon://127.0.0.1:1?meteo=20,1013': meteo needs T,P,H",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_leaves_nothing(tmp_path, args, message):
@@ -381,8 +384,11 @@ def test_first_ctrl_c_asks_for_a_stop_the_second_interrupts(capsys):
 
 def test_a_replayed_exchange_gives_the_recorded_session_and_is_recorded_again(tmp_path):
     fixtures = Path(__file__).resolve().parents[2] / "fixtures" / "measure"
+    from test_measure_replay import fixture_plan
+
     done = measure(
-        "--poses", "9", "--readings", "5", "--no-sim-noise", "-q", "-o", "s.parquet",
+        "--plan", fixture_plan(tmp_path), "--readings", "5", "--no-sim-noise", "-q",
+        "-o", "s.parquet",
         "--sim-replay", fixtures / "exchange.jsonl", "--sim-record", "again.jsonl",
         cwd=tmp_path,
     )  # fmt: skip

@@ -43,7 +43,7 @@ def test_the_shoulder_bound_is_the_wrist_centres_distance_from_axis_1():
     assert np.array_equal(near, radial < checks.SHOULDER_MIN_MM)
 
 
-@pytest.mark.parametrize("n", [30, 60])
+@pytest.mark.parametrize("n", [30])
 def test_planned_poses_keep_clear_of_every_singularity(n):
     made = plans.make_checked(UR10E, n, TRACKER, (0.0, 0.0, 100.0))
     q = made.plan.q_rad

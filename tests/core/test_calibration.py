@@ -124,7 +124,7 @@ CASES = {
     "not_rigid": "not a proper rotation",
     "fixed_changed": "d2 is not a free parameter",
     "metres": "a3 differs from nominal by 300 mm",
-    "unknown_free": "unknown or repeated names",
+    "unknown_free": "has unknown names",
     "deltas": "'deltas' must map each free parameter",
     "record_keys": "joint 4 must have exactly the keys",
     "frame": "'frame' must be 'base' or 'tracker'",

@@ -219,7 +219,7 @@ CASES = [
     (edit(free_parameters=["a2", 3]), "{path}: 'free_parameters' must be a list of names"),
     (
         edit(free_parameters=FREE + ["tool_x", "a2"]),
-        "{path}: 'free_parameters' has unknown or repeated names " + str(FREE + ["tool_x", "a2"]),
+        "{path}: 'free_parameters' repeats a2",
     ),
     (edit(deltas=[]), "{path}: 'deltas' must map each free parameter to its value"),
     (

@@ -20,9 +20,23 @@ def inputs(tmp_path_factory):
     return folder
 
 
+def _value(template, inputs):
+    """``{last_pose}``: the plan's last pose J1..J5 (deg), so a home differing in J6 is safe.
+
+    Turning J6 alone turns the reflector about its own axis: that home and the
+    moves to and from it pass the program's cell check whatever J6 is.
+    """
+    import numpy as np
+
+    from calibrator import plan as plans
+
+    last = np.degrees(plans.read_plan(inputs / "plan.csv").q_rad[-1])
+    return template.replace("{last_pose}", ",".join(repr(float(v)) for v in last[:5]))
+
+
 # (arguments before the option, the option, a good value with one place to spoil)
 OPTIONS = [
-    (("program", "{plan}", "-o", "p.script"), "--home", "0,-90,{},0,90,0"),
+    (("program", "{plan}", "-o", "p.script"), "--home", "{last_pose},{}"),
     (("analyze", "deflection"), "--pose", "0,-90,{},0,90"),
     (("analyze", "deflection"), "--start", "0,-90,{},0,90"),
     (("analyze", "misalignment", "--trials", "10000"), "--pose", "0,0,{},0,0,0"),
@@ -42,7 +56,7 @@ def test_a_number_python_would_read_is_refused_in_one_line(
     inputs, tmp_path, before, option, value, spoiled
 ):
     args = [a.format(plan=inputs / "plan.csv", session=inputs / "s.parquet") for a in before]
-    out = cli(*args, option, value.format(spoiled), cwd=tmp_path)
+    out = cli(*args, option, _value(value, inputs).format(spoiled), cwd=tmp_path)
     line = one_line_error(out)
     assert out.code == 2, out
     assert option in line and line.startswith("calibrator: error: ")
@@ -52,5 +66,5 @@ def test_a_number_python_would_read_is_refused_in_one_line(
 @pytest.mark.parametrize(("before", "option", "value"), OPTIONS[:3])
 def test_the_same_list_written_plainly_is_taken(inputs, tmp_path, before, option, value):
     args = [a.format(plan=inputs / "plan.csv", session=inputs / "s.parquet") for a in before]
-    out = cli(*args, option, value.format("5"), cwd=tmp_path)
+    out = cli(*args, option, _value(value, inputs).format("5"), cwd=tmp_path)
     assert out.code == 0, out.stderr

@@ -143,7 +143,7 @@ _NUMBERS = st.one_of(
 _RULES = {
     "--particles": lambda v: float(v) == int(float(v)) and 2 <= int(float(v)) <= 1_000,
     "--generations": lambda v: float(v) == int(float(v)) and 0 <= int(float(v)) <= 100_000,
-    "--orientation-weight": lambda v: math.isfinite(v) and v >= 0,
+    "--orientation-weight": lambda v: math.isfinite(v) and 0 <= v <= 1e12,
     "--validation-fraction": lambda v: math.isfinite(v) and 0 <= v < 1,
     "--seed": lambda v: float(v) == int(float(v)) and 0 <= int(float(v)) <= 2**63 - 1,
 }

@@ -95,10 +95,12 @@ def test_help_still_lists_every_command_in_workflow_order():
         "export-params",
         "compensate",
         "verify",
+        "check",
         "report",
         "simulate",
         "tracker",
         "analyze",
+        "history",
     ]
 
 

@@ -99,8 +99,10 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
     done = run("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     out = pd.read_csv(tmp_path / "out.csv")
     expected = compensate.compensate(cal, pose, q_nom + 0.01)
-    ok = expected.solution.ok
-    assert not ok[0] and ok[1:].mean() > 0.8
+    jump = np.degrees(np.max(np.abs(expected.q - expected.q_nominal), axis=1))
+    # Near the shoulder singularity a joint swings: refused, not "ok" (issue 32).
+    ok = expected.solution.ok & (jump <= compensate.MAX_JOINT_CHANGE_DEG)
+    assert not ok[0] and ok[1:].mean() > 0.6 and (jump[1:] > 5).any()
     assert (out.status == "ok").tolist() == ok.tolist()
     np.testing.assert_allclose(
         out.loc[ok, [f"q{i}_rad" for i in range(1, 7)]].to_numpy(), expected.q[ok], atol=1e-8

@@ -95,17 +95,17 @@ def test_split_refuses_a_fraction_outside_zero_to_one(fraction):
     [
         (
             pipeline.Options(loss="l1"),
-            "unknown loss 'l1'; use one of ('lsq', 'huber', 'trimmed', 'minimax')",
+            "loss: 'l1' is not one of 'lsq', 'huber', 'trimmed', 'minimax'",
         ),
         (
             pipeline.Options(method="bfgs"),
-            "unknown method 'bfgs'; use one of ('hybrid', 'pso', 'lm')",
+            "method: 'bfgs' is not one of 'hybrid', 'pso', 'lm'",
         ),
-        (pipeline.Options(k=float("nan")), "orientation weight k must be >= 0, got nan"),
-        (pipeline.Options(k=-0.001), "orientation weight k must be >= 0, got -0.001"),
-        (pipeline.Options(noise_mm=0.0), "noise_mm must be > 0, got 0.0"),
-        (pipeline.Options(noise_mm=float("nan")), "noise_mm must be > 0, got nan"),
-        (pipeline.Options(swarm_poses=0), "swarm_poses must be >= 1, got 0"),
+        (pipeline.Options(k=float("nan")), "k: must be a finite number, got nan"),
+        (pipeline.Options(k=-0.001), "k: must be a number >= 0, got -0.001"),
+        (pipeline.Options(noise_mm=0.0), "noise_mm: must be a number >= 1e-09, got 0"),
+        (pipeline.Options(noise_mm=float("nan")), "noise_mm: must be a finite number, got nan"),
+        (pipeline.Options(swarm_poses=0), "swarm_poses: must be a whole number >= 1, got 0"),
     ],
 )
 def test_bad_options_are_refused_with_their_message(options, message):

@@ -159,9 +159,12 @@ def test_analyse_predicts_at_the_held_out_poses_it_is_given():
     jv = fd_jacobian(space, x, val, 0.0).reshape(3, 3, -1)
     var = np.einsum("nid,de,nie->n", jv, cov, jv)
     pred = unc["predicted_validation_mm"]
-    assert pred["model_rms_max"] == pytest.approx(np.sqrt(var).max(), rel=1e-4)
+    # The root of s2 from few degrees of freedom is low by c4 on average: divided out.
+    c4 = uncertainty.sigma_bias(jac.shape[0] - jac.shape[1])
+    assert c4 < 0.99
+    assert pred["model_rms_max"] == pytest.approx(np.sqrt(var).max() / c4, rel=1e-4)
     assert pred["error_mean"] == pytest.approx(
-        np.sqrt(8 / (3 * np.pi)) * np.sqrt(var + 3 * s2).mean(), rel=1e-4
+        np.sqrt(8 / (3 * np.pi)) * np.sqrt(var + 3 * s2).mean() / c4, rel=1e-4
     )
     assert "predicted_validation_mm" not in uncertainty.analyse(Problem.of(space, fit, 0.0), x)
     assert "predicted_validation_mm" not in uncertainty.analyse(

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from calibrator import kinematics, session
 from calibrator.errors import SessionError
-from calibrator.models import get_model
+from calibrator.models import MODEL_NAMES, get_model
 
 META = {"format": "calibrator.session", "version": 1, "frame": "tracker", "model": "ur5e"}
 N = 6
@@ -65,7 +65,7 @@ def floats(values):
          "metadata 'tool_known' must be true or false (JSON booleans), got 'no'"),
         (lambda c, m: m.pop("model"), "metadata names neither 'model' nor 'nominal_mdh'"),
         (lambda c, m: m.update(model="kr16"),
-         "unknown model 'kr16'; known: er10l-c10, ur10, ur10e, ur5e"),
+         "unknown model 'kr16'; known: " + ", ".join(MODEL_NAMES)),
         (lambda c, m: m.update(flange2tool=[[1, 0], [0, 1]]),
          "metadata 'flange2tool' must be (4, 4), got (2, 2)"),
         (lambda c, m: m.update(flange2tool=[[1, 0, 0, 0]] * 3 + [[0, 0, 0, "1"]]),

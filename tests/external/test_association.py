@@ -1,11 +1,13 @@
-"""Stops matched to plan poses: skipped poses, pauses, double stops and a poor tool guess."""
+"""Stops matched to plan poses: skips, pauses, double and wrong stops, a poor tool guess."""
 
 import numpy as np
 import pytest
 
-from calibrator import kinematics
+from calibrator import frames, kinematics
 from calibrator.simulate import SimWorld, sample_joints
 from drivers.robot.external import Assigned, Associator, Rejected, Stop
+from drivers.robot.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
+from drivers.robot.external.registration import register
 
 CELL = SimWorld.make("ur10e", 5)
 NOISE_MM = 0.005  # a mean of 10 readings
@@ -16,14 +18,35 @@ def _plan(n=30, seed=1):
     return sample_joints(CELL.model.joint_limits_rad * 0.8, n, rng)
 
 
-def _true_points(q):
-    return kinematics.forward(CELL.true_mdh, q, CELL.flange2tool, CELL.base2tracker)[:, :3, 3]
+def _true_points(q, cell=None):
+    """True reflector points (tracker frame, mm) of joints ``q`` in ``cell`` (mdh, tool, base)."""
+    mdh, tool, base = (CELL.true_mdh, CELL.flange2tool, CELL.base2tracker) if cell is None else cell
+    return kinematics.forward(mdh, q, tool, base)[:, :3, 3]
 
 
-def _run(plan, stop_joints, tool_guess=(0.0, 0.0, 100.0), tolerance=15.0, seed=0):
-    """Decisions for stops at the true points of ``stop_joints`` (in time order)."""
+def _cell(seed, scale=1.0, tool_mm=None):
+    """A hidden cell: ``measure``'s simulated one, its arm errors scaled, its reflector moved."""
+    world = SimWorld.make("ur10e", seed)
+    mdh = world.model.mdh + scale * (world.true_mdh - world.model.mdh)
+    tool = world.flange2tool
+    if tool_mm is not None:
+        tool = frames.transform(translation=tool_mm)
+    return mdh, tool, world.base2tracker
+
+
+def _run(
+    plan, stop_joints, tool_guess=(0.0, 0.0, 100.0), tolerance=15.0, seed=0, cell=None, off=None
+):
+    """Decisions for stops at the true points of ``stop_joints`` (in time order).
+
+    ``off``: {stop number: mm}, stops that far (random direction) from their true point.
+    """
     rng = np.random.default_rng(seed)
-    points = _true_points(np.asarray(stop_joints)) + rng.normal(0, NOISE_MM, (len(stop_joints), 3))
+    points = _true_points(np.asarray(stop_joints), cell)
+    points += rng.normal(0, NOISE_MM, (len(stop_joints), 3))
+    for k, mm in (off or {}).items():
+        direction = rng.normal(size=3)
+        points[k] += mm * direction / np.linalg.norm(direction)
     assoc = Associator(kinematics.forward(CELL.model.mdh, plan), tool_guess, tolerance)
     decisions = []
     for k, p in enumerate(points):
@@ -32,6 +55,8 @@ def _run(plan, stop_joints, tool_guess=(0.0, 0.0, 100.0), tolerance=15.0, seed=0
     assigned = {d.stop.number: d.pose for d in decisions if isinstance(d, Assigned)}
     rejected = sorted(d.stop.number for d in decisions if isinstance(d, Rejected))
     assert len(assigned) + len(rejected) == len(points)  # every stop decided once
+    _run.reasons = {d.stop.number: d.reason for d in decisions if isinstance(d, Rejected)}
+    _run.tolerance = assoc.tolerance()
     return assigned, rejected
 
 
@@ -115,3 +140,87 @@ def test_no_stop_is_ever_assigned_to_a_pose_it_is_not():
         recorded = {truth[n] for n in assigned}
         expected = {t for t in truth if t is not None}
         assert len(expected - recorded) <= 1, trial  # at most the bootstrap's ambiguity
+
+
+# A stop that is not where its pose belongs (a controller that stopped short, a
+# wrong point in the program, a bumped reflector) must never be recorded as that
+# pose: it is held to the tolerance the registration's own misfits set.
+@pytest.mark.parametrize(
+    ("cell_seed", "scale", "wrong", "mm"),
+    [
+        (5, 1.0, 1, 9.8),  # the arm measure simulates: ~1.5 mm misfits
+        (5, 1.0, 7, 9.8),
+        (6, 1.0, 22, 8.0),
+        (7, 0.3, 4, 4.0),  # an arm closer to nominal: a few mm stand out
+        (8, 0.3, 7, 3.0),
+        (9, 0.3, 33, 3.0),
+        (10, 0.1, 2, 2.0),
+    ],
+)
+def test_a_wrong_stop_is_rejected_named_and_its_pose_missing(cell_seed, scale, wrong, mm):
+    plan = _plan(40, seed=cell_seed)
+    cell = _cell(cell_seed, scale)
+    assigned, rejected = _run(plan, plan, cell=cell, off={wrong: mm}, seed=cell_seed)
+    assert rejected == [wrong], _run.reasons
+    assert f"nearest is pose {wrong} at" in _run.reasons[wrong]
+    assert assigned == {k: k for k in range(len(plan)) if k != wrong}
+    assert _run.tolerance < mm  # tightened to the arm's misfits, well below the bound
+
+
+@pytest.mark.parametrize(
+    ("true_tool", "guess"),
+    [
+        ((11.3, -6.8, 96.2), (0.0, 0.0, 100.0)),  # 14 mm off, the default guess
+        ((-9.0, 12.0, 118.0), (0.0, 0.0, 100.0)),  # 23 mm off
+        ((20.0, 0.0, 100.0), (0.0, 0.0, 100.0)),  # 20 mm, sideways
+        ((0.0, 0.0, 100.0), (-14.0, 8.0, 104.0)),  # a guess off the other way
+    ],
+)
+@pytest.mark.parametrize("cell_seed", [11, 12])
+def test_a_reflector_guess_far_off_keeps_every_good_stop(true_tool, guess, cell_seed):
+    plan = _plan(40, seed=cell_seed)
+    cell = _cell(cell_seed, 1.0, tool_mm=true_tool)
+    # with a home stop first and one pose skipped, as a program runs
+    run = [k for k in range(len(plan)) if k != 13]
+    home = plan.mean(axis=0)
+    assigned, rejected = _run(plan, [home, *plan[run]], tool_guess=guess, cell=cell)
+    assert rejected == [0], _run.reasons
+    assert assigned == {n + 1: k for n, k in enumerate(run)}
+
+
+def test_the_tolerance_follows_the_arm_not_the_bound():
+    """40-pose runs on arms 0.1 and 1 times as far off as measure simulates them."""
+    tolerances = {0.1: [], 1.0: []}
+    for seed in range(1, 9):
+        plan = _plan(40, seed=seed)
+        for scale, out in tolerances.items():
+            _run(plan, plan, cell=_cell(seed, scale))
+            out.append(_run.tolerance)
+    print({scale: (round(min(t), 2), round(max(t), 2)) for scale, t in tolerances.items()})
+    assert all(TOLERANCE_FLOOR_MM <= t < 2.0 for t in tolerances[0.1])
+    assert all(3.0 < t < 10.0 for t in tolerances[1.0])
+
+
+def test_a_good_stop_lands_within_the_tolerance_factor_of_its_prediction():
+    """The factor's measurement: prediction misfit over the LOO RMS, from RULE_STOPS stops on."""
+    ratios = []
+    for seed in range(1, 13):  # arms 0.1 to 2 times measure's simulated errors, guess 14 mm off
+        plan = _plan(40, seed=seed)
+        cell = _cell(seed, (0.1, 0.5, 1.0, 2.0)[seed % 4], tool_mm=(11.3, -6.8, 96.2))
+        points = _true_points(plan, cell)
+        flange = kinematics.forward(CELL.model.mdh, plan)
+        for n in range(RULE_STOPS, len(plan), 2):
+            reg = register(flange[:n], points[:n], (0.0, 0.0, 100.0))
+            miss = np.linalg.norm(reg.predict(flange[n : n + 1])[0] - points[n])
+            ratios.append(miss / reg.loo_rms_mm())
+    print(f"largest {max(ratios):.2f}, 99 % {np.percentile(ratios, 99):.2f} of {len(ratios)}")
+    assert max(ratios) < TOLERANCE_FACTOR
+
+
+def test_a_reflector_beyond_its_bound_places_no_stop_and_says_what_to_check():
+    """45 mm from the guess is no plausible guess error: nothing is recorded, nothing wrongly."""
+    plan = _plan(30, seed=4)
+    cell = _cell(4, 1.0, tool_mm=(45.0, 0.0, 100.0))
+    assigned, rejected = _run(plan, plan, cell=cell)
+    assert assigned == {} and rejected == list(range(len(plan)))
+    assert all("--tool" in why for why in _run.reasons.values()), _run.reasons

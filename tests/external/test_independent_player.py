@@ -5,9 +5,15 @@ test moves a hidden true arm (its own errors, tool and tracker placement)
 through the plan in joint space and sends the reflector's true position to
 the line-protocol tracker simulator as raw ``SIM,TARGET`` frames over its
 TCP control link every 20 ms, dwelling 1 s at each pose and skipping one.
-``calibrator measure --robot external`` only reads the tracker, with its
-default options (a 0.5 s settle window: a 1 s dwell leaves it the time for
-its readings).
+The plan is the first 24 poses of the session's shared plan, made for a
+reflector at 11.3,-6.8,96.2 (conftest.py); the hidden reflector is there,
+14 mm from the default guess (0,0,100) that ``calibrator measure --robot
+external`` keeps, with all its other options at their defaults too (a 0.5 s
+settle window: a 1 s dwell leaves it the time for its readings).
+
+The player runs on its own clock twice as fast as the wall clock: its moves
+take half the time, its dwells are written 2 s long so that the tracker sees
+them 1 s long, as a real controller's would be.
 
 Then ``identify`` on the session must come within 1.5x of least squares
 started from the truth on the same fitting poses: in residual RMS and in the
@@ -24,7 +30,7 @@ import time
 import numpy as np
 import pyarrow.parquet as pq
 from cli_process import run_cli
-from external_cell import Watching, tracker_simulator
+from external_cell import TOOL_MM, Watching, first_poses, tracker_simulator
 
 from calibrator import calibration, frames, kinematics, parameters, session
 from calibrator import plan as plans
@@ -34,8 +40,9 @@ from calibrator.identify.refine import refine
 from calibrator.models import get_model
 
 SKIPPED = 9
-PERIOD_S = 0.02  # one SIM,TARGET every 20 ms, as a controller's position stream
-DWELL_S = 1.0
+PERIOD_S = 0.02  # one SIM,TARGET every 20 ms (wall clock), as a controller's position stream
+SCALE = 2.0  # the player's seconds per wall-clock second
+DWELL_S = 2.0  # player's seconds: 1 s on the wall clock, what the default settle window needs
 SPEED_RAD_S = 3.0  # leading joint, mean of a smooth (smoothstep) profile: a brisk controller
 MIN_MOVE_S = 0.1
 
@@ -48,7 +55,7 @@ def _hidden_arm(seed: int = 11):
     mdh[:, [0, 3]] += rng.uniform(-0.5, 0.5, (6, 2))  # a, d: mm
     mdh[:, [1, 2]] += rng.uniform(-1e-3, 1e-3, (6, 2))  # alpha, theta: rad
     mdh[1:3, 4] += rng.uniform(-1e-3, 1e-3, 2)  # beta of the parallel joints 2 and 3
-    tool = frames.transform(translation=[1.1, -0.7, 101.3])
+    tool = frames.transform(translation=np.add(TOOL_MM, rng.uniform(-1.0, 1.0, 3)))
     tracker2base = frames.transform(
         frames.rotvec_to_matrix(np.array([0.03, -0.08, 2.9])), np.array([2480.0, 420.0, 310.0])
     )
@@ -75,7 +82,7 @@ class _Player(threading.Thread):
             with socket.create_connection(("127.0.0.1", self.port), timeout=5) as sock:
                 replies = sock.makefile("rb")
                 start = self.plan.mean(axis=0)
-                self._hold(sock, replies, start, 1.0)
+                self._hold(sock, replies, start, 2.0)
                 here = start
                 for pose, q in enumerate(self.plan):
                     if pose == self.skip:
@@ -96,30 +103,31 @@ class _Player(threading.Thread):
         reply = replies.readline()
         assert reply.startswith(b"OK,"), reply
 
+    @staticmethod
+    def _clock() -> float:
+        """The player's own clock, s: ``SCALE`` times the wall clock."""
+        return SCALE * time.monotonic()
+
     def _hold(self, sock, replies, q, seconds: float) -> None:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
+        end = self._clock() + seconds
+        while self._clock() < end:
             self._send(sock, replies, q)
             time.sleep(PERIOD_S)
 
     def _move(self, sock, replies, q0, q1) -> None:
         duration = max(float(np.max(np.abs(q1 - q0))) / SPEED_RAD_S, MIN_MOVE_S)
-        t0 = time.monotonic()
-        while (u := (time.monotonic() - t0) / duration) < 1.0:
+        t0 = self._clock()
+        while (u := (self._clock() - t0) / duration) < 1.0:
             s = u * u * (3 - 2 * u)
             self._send(sock, replies, q0 + (q1 - q0) * s)
             time.sleep(PERIOD_S)
 
 
 def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_the_truth(
-    tmp_path,
+    tmp_path, plan40
 ):
-    done = run_cli(
-        "plan", "--poses", "24", "--tracker-at", "2500,400,300", "-o", "plan.csv",
-        "--seed", "4", cwd=tmp_path,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr
-    plan = plans.read_csv(tmp_path / "plan.csv")
+    first_poses(plan40, 24, tmp_path / "plan.csv")
+    plan = plans.read_plan(tmp_path / "plan.csv").q_rad
     truth = _hidden_arm()
     with tracker_simulator(seed=6) as url:
         # the operator starts the program once the run is watching

@@ -7,16 +7,18 @@ and ``calibrator measure`` reading the tracker over its own connection.
 The controller runs its program five times faster than real time
 (``--time-scale``): moves, dwells, pauses and ringing alike. The run watches
 with a settle window to match (``--settle-window``, as an operator sets it for
-a program with short dwells); everything else is as in a cell.
+a program with short dwells); everything else is as in a cell. The plan is
+the session's shared one (conftest.py), made for a reflector 14 mm from the
+default guess the runs measure with; the controller's reflector is there.
 """
 
 import json
+import re
 
 import numpy as np
 import pyarrow.parquet as pq
-import pytest
 from cli_process import run_cli
-from external_cell import Watching, start_player, tracker_simulator
+from external_cell import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
 
 from calibrator import plan as plans
 
@@ -30,59 +32,61 @@ WINDOW = ("--settle-window", "0.3")
 
 def _play(plan, url, cwd, *args):
     """The simulated controller (hidden arm seed 3) runs ``plan`` on the tracker at ``url``."""
-    return start_player(plan, url, "--seed", 3, *FAST, "--dwell", DWELL, *args, cwd=cwd)
-
-
-@pytest.fixture(scope="module")
-def plan40(tmp_path_factory):
-    cwd = tmp_path_factory.mktemp("plan")
-    done = run_cli(
-        "plan",
-        "--poses",
-        "40",
-        "--tracker-at",
-        "2500,400,300",
-        "-o",
-        "plan.csv",
-        "--seed",
-        "1",
-        cwd=cwd,
+    tool = ",".join(map(str, TOOL_MM))
+    return start_player(
+        plan, url, "--seed", 3, "--tool", tool, *FAST, "--dwell", DWELL, *args, cwd=cwd
     )
-    assert done.returncode == 0, done.stderr
-    return cwd / "plan.csv"
 
 
-def test_a_40_pose_program_with_a_skip_and_a_pause_reaches_the_noise_floor(tmp_path, plan40):
+def test_a_40_pose_program_with_a_skip_a_pause_and_wrong_stops_reaches_the_noise_floor(
+    tmp_path, plan40
+):
+    """Pose 7 skipped, a pause on the way to 20, ringing, and the controller stopping
+    9.8 mm from where poses 1 and 25 belong (a wrong point in its program): with
+    ``-q`` too, the wrong stops are rejected and named in the summary, their poses
+    missing, and the other 37 poses recorded under their own numbers."""
+    plan40 = first_poses(plan40, 40, tmp_path / "plan.csv")  # measured with the default guess
+    wrong = _moved(plan40, tmp_path / "played.csv", {1: 9.8, 25: 9.8})
     with tracker_simulator(seed=2) as url:
         measure = Watching(
             "--plan", plan40, "--tracker", url, "-o", "s.parquet", *WINDOW,
             # Longer than the longest move: a move to a pose may pass through
             # the plan's vias (the arm upright) without stopping.
-            "--stop-timeout", "15",
+            "--stop-timeout", "15", "-q",
             cwd=tmp_path,
         )  # fmt: skip
         player = _play(
-            plan40, url, tmp_path, "--skip", "7", "--pause", f"20:0.5:{DWELL}",
+            wrong, url, tmp_path, "--skip", "7", "--pause", f"20:0.5:{DWELL}",
             "--vibration", "0.3", "--start-delay", "1",
         )  # fmt: skip
         done = measure.result(timeout=600)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert done.returncode == 0, done.stderr
-    # the skipped pose is reported missing under its own number
-    assert "missing: 1 pose(s) the program did not stop at: [7]" in done.stdout
-    assert "1 pose(s) failed" in done.stdout and "[7]" in done.stdout
-    # the pause midway (stop before pose 20) was a stop that matched no pose
+    assert not [line for line in done.stderr.splitlines() if line.startswith("stop ")]  # -q
+    # the skipped pose and the two stopped wrongly at are missing under their own numbers
+    missed = [1, 7, 25]
+    assert f"missing: 3 pose(s) the program did not stop at: {missed}" in done.stdout, done.stdout
+    assert "3 pose(s) failed" in done.stdout and str(missed) in done.stdout
     rejected = [line for line in done.stdout.splitlines() if line.startswith("rejected stop")]
-    assert any("matches no expected pose" in line for line in rejected), done.stdout
+    # the pause midway (stop before pose 20) was a stop that matched no pose
+    others = [line for line in rejected if not re.search(r"nearest is pose (1|25) at", line)]
+    assert any("matches no expected pose" in line for line in others), done.stdout
+    for pose in (1, 25):  # each wrong stop named: its pose, how far, the tolerance it missed
+        named = [line for line in rejected if f"nearest is pose {pose} at" in line]
+        assert len(named) == 1, done.stdout
+        off = float(named[0].split(f"nearest is pose {pose} at ")[1].split(" mm")[0])
+        tolerance = float(named[0].split("(tolerance ")[1].split(" mm")[0])
+        assert tolerance < off and 7.0 < off < 13.0, named
 
     table = pq.read_table(tmp_path / "s.parquet").to_pydict()
-    assert table["pose"] == [p for p in range(40) if p != 7]  # no pose number shifted
+    kept = [p for p in range(40) if p not in missed]
+    assert table["pose"] == kept  # no pose number shifted
     q = np.column_stack([table[f"q{i}_rad"] for i in range(1, 7)])
-    np.testing.assert_array_equal(q, np.delete(plans.read_plan(plan40).q_rad, 7, axis=0))
+    np.testing.assert_array_equal(q, plans.read_plan(plan40).q_rad[kept])
     # each recorded point is where the true arm put the reflector at that pose
     truth_done = run_truth(plan40, tmp_path)
     points = np.column_stack([table[c] for c in ("x_mm", "y_mm", "z_mm")])
-    assert np.max(np.linalg.norm(points - np.delete(truth_done, 7, axis=0), axis=1)) < 0.1
+    assert np.max(np.linalg.norm(points - truth_done[kept], axis=1)) < 0.1
 
     spread = np.column_stack([table[c] for c in ("sx_mm", "sy_mm", "sz_mm")])
     floor = float(np.sqrt(np.mean(np.sum(spread**2, axis=1)) / 10))
@@ -98,25 +102,12 @@ def run_truth(plan_path, cwd):
     from drivers.robot.external_sim.player import Player, PlayerOptions
 
     q = plans.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
-    player = Player.for_model(q, "ur10e", 3, PlayerOptions())
+    player = Player.for_model(q, "ur10e", 3, PlayerOptions(), tool_mm=TOOL_MM)
     return player.tool_points(q)
 
 
-def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):
-    done = run_cli(
-        "plan",
-        "--poses",
-        "14",
-        "--tracker-at",
-        "2500,400,300",
-        "-o",
-        "plan.csv",
-        "--seed",
-        "2",
-        cwd=tmp_path,
-    )
-    assert done.returncode == 0, done.stderr
-    plan = tmp_path / "plan.csv"
+def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path, plan40):
+    plan = first_poses(plan40, 14, tmp_path / "plan.csv")
     common = ("--plan", plan, "-o", "s.parquet", *WINDOW, "--stop-timeout", "4")
     with tracker_simulator(seed=4) as url:
         # the operator stops the program after pose 8
@@ -139,3 +130,19 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path):
     truth = run_truth(plan, tmp_path)
     points = np.column_stack([table[c] for c in ("x_mm", "y_mm", "z_mm")])
     assert np.max(np.linalg.norm(points - truth, axis=1)) < 0.1
+
+
+def _moved(plan_path, out_path, shifts_mm):
+    """A copy of the plan: poses {pose: mm} put the reflector that far off (turning joint 1)."""
+    from calibrator import frames, kinematics
+    from calibrator.models import get_model
+
+    plan = plans.read_plan(plan_path)
+    q = plan.q_rad.copy()
+    tool = frames.transform(translation=[0.0, 0.0, 100.0])
+    points = kinematics.forward(get_model("ur10e").mdh, q, tool)[:, :3, 3]
+    for pose, mm in shifts_mm.items():
+        radius = float(np.hypot(*points[pose, :2]))  # the reflector's distance from joint 1's axis
+        q[pose, 0] += 2.0 * np.arcsin(mm / (2.0 * radius))
+    plans.write_plan(out_path, plans.Plan(q, plan.via_rad))
+    return out_path

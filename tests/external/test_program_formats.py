@@ -120,22 +120,24 @@ def test_csv_rows_round_trip(tmp_path):
 
 
 @pytest.fixture
-def plan_csv(tmp_path):
+def plan_csv(tmp_path, checked_plan):
+    """A plan the whole-plan check passes (program refuses any other)."""
     path = tmp_path / "plan.csv"
-    plans.write_csv(path, _plan(10))
+    plans.write_plan(path, checked_plan)
     return path
 
 
 @pytest.mark.parametrize(
     ("name", "fmt"),
-    [("run.script", "urscript"), ("RUN.src", "krl"), ("run.mod", "rapid"), ("run.ls", "fanuc-ls")],
+    [("cal.script", "urscript"), ("CAL.src", "krl"), ("cal.mod", "rapid"), ("cal.ls", "fanuc-ls")],
 )
 def test_cli_picks_the_format_from_the_extension(tmp_path, plan_csv, name, fmt):
     done = cli("program", plan_csv, "-o", name, "--pulse", "1", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert f"({fmt})" in done.stdout
     parsed = PARSERS[fmt]((tmp_path / name).read_text())
-    np.testing.assert_allclose(parsed.targets()[1:-1], plans.read_csv(plan_csv), atol=1e-6)
+    path = plans.read_plan(plan_csv).path_rad
+    np.testing.assert_allclose(parsed.targets()[1:-1], path, atol=1e-6)
 
 
 def test_cli_names_the_program_after_its_file(tmp_path, plan_csv):
@@ -231,14 +233,12 @@ def test_csv_table_names_the_vias(tmp_path):
 
 
 @pytest.mark.parametrize("fmt", ["urscript", "fanuc-ls"])
-def test_cli_writes_a_plan_with_vias(tmp_path, fmt):
-    q = _plan(10)
-    plan = plans.Plan(q, _vias(q))
-    plans.write_plan(tmp_path / "plan.csv", plan)
-    name = {"urscript": "run.script", "fanuc-ls": "run.ls"}[fmt]
+def test_cli_writes_a_plan_with_vias(tmp_path, fmt, checked_plan):
+    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    name = {"urscript": "cal.script", "fanuc-ls": "cal.ls"}[fmt]
     done = cli("program", "plan.csv", "-o", name, cwd=tmp_path)
     assert done.code == 0, done.stderr
-    assert "10 poses and 3 vias" in done.stdout
+    assert f"10 poses and {checked_plan.n_vias} vias" in done.stdout
     parsed = PARSERS[fmt]((tmp_path / name).read_text())
-    np.testing.assert_allclose(parsed.targets()[1:-1], plan.path_rad, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(parsed.targets()[1:-1], checked_plan.path_rad, rtol=0, atol=1e-6)
     assert len(parsed.waits) == 10

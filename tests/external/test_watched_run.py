@@ -12,8 +12,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from external_cell import TOOL_MM, first_poses
 
-from calibrator import cell as cells
 from calibrator import frames, kinematics
 from calibrator import plan as plans
 from calibrator.acquire import ports
@@ -78,12 +78,12 @@ class _ArmOnItsOwnClock:
         return _Reading(point + self.rng.normal(0.0, 0.003, 3))
 
 
-def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path):
+def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, plan40):
     arm = get_model("ur10e")
     # A plan the run's cell check passes (every pose and move clear of the cell),
-    # as `calibrator plan` makes them.
-    tool_mm = (0.0, 0.0, 100.0)
-    made = plans.make_checked(arm, 14, cells.Cell(), tool_mm, seed=3).plan
+    # as `calibrator plan` makes them: the first 14 poses of the shared one.
+    tool_mm = TOOL_MM
+    made = plans.read_plan(first_poses(plan40, 14, tmp_path / "plan.csv"))
     plan = made.q_rad
     tool = frames.transform(translation=tool_mm)
     points = kinematics.forward(arm.mdh, plan, tool)[:, :3, 3]

@@ -377,11 +377,12 @@ def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
 def test_open_tracker_names_what_is_wrong_with_a_url():
     assert open_tracker("emscon://h/").host == "h"
     cases = {
-        "socket://h": "expected emscon://HOST",
-        "emscon://h:99999": "bad port in 'emscon://h:99999'",
+        "socket://h": "'socket://h': expected emscon://HOST\\[:PORT\\]",
+        "emscon://h:99999": "'emscon://h:99999': port 99999 is out of 1..65535",
         "emscon://h?meteo=": "meteo needs T,P,H",
-        "emscon://h?&meteo=21,1000,40": "bad query in 'emscon://h?&meteo=21,1000,40'",
-        "emscon://h?temp=20": "the only query is meteo=T,P,H",
+        "emscon://h?&meteo=21,1000,40": "'emscon://h?&meteo=21,1000,40': parameters must be",
+        "emscon://h?temp=20": "unknown parameter 'temp'",
+        "emscon://h?meteo=1,2,3&meteo=1,2,3": "parameter 'meteo' given twice",
     }
     for url, message in cases.items():
         with pytest.raises(ValueError, match=message.replace("?", r"\?")):

@@ -1,30 +1,43 @@
 """Which plan pose is each stop? Checked against the nominal arm, never assumed from order.
 
 The program runs the plan in order, but a controller may skip a pose, pause
-between two, or dwell twice at one; the tracker only sees where the arm
-stops. Each stop is matched to a plan pose in two stages:
+between two, dwell twice at one, or stop somewhere a pose is not; the
+tracker only sees where the arm stops. Nothing about the cell is known
+beforehand but the nominal arm: the tracker-to-robot registration (the base)
+is unknown, the reflector on the flange (the tool) known only to within
+:data:`~.registration.TOOL_BOUND_MM` of the ``--tool`` guess. Every stop is
+held to the same rule:
 
-1. **Bootstrap (no registration yet).** Distances are frame-free: the tracker
-   frame is unknown, but the distance between two stops must equal the
-   distance between their poses' nominal tool points (within the tolerance).
-   The first three stops whose three pairwise distances fit three poses
-   ``i < j < k`` of the plan (at most :data:`BOOTSTRAP_SKIPS` poses skipped
-   among them) are assigned; a triangle of distances is far harder to match
-   by chance than one distance. Stops before or among them that fit nothing
-   are rejected. When several pose triples fit, the one skipping fewest poses
-   (then with the smallest distance error) wins.
-2. **Registration.** From then on a closed-form registration (Kabsch) of the
-   nominal tool points onto the assigned stops, with the tool point itself
-   re-estimated once five poses are assigned (the guess from ``--tool`` may be
-   off by millimetres), predicts where every later pose should appear in the
-   tracker frame. A stop is given the nearest later pose within the
-   tolerance, or rejected when none is that close.
+**A stop is pose p when the registration fitted to the other stops puts pose
+p within the tolerance of it.** The tolerance is :data:`TOLERANCE_FACTOR`
+times the RMS leave-one-out misfit of the stops that registration was fitted
+to (how far the nominal arm's prediction of a stop it was not fitted to
+lands, measured on this very run), at least :data:`TOLERANCE_FLOOR_MM`, at
+most the bound ``tolerance_mm`` (``--match-tolerance``: the most the nominal
+arm may be off). See :mod:`.registration` for the fit.
+
+1. **Bootstrap.** No registration exists yet. The first
+   :data:`BOOTSTRAP_STOPS` stops that fit as many poses of the plan, in plan
+   order (at most :data:`BOOTSTRAP_SKIPS` poses skipped and
+   :data:`BOOTSTRAP_REJECTS` stops rejected among them), are found by a
+   search: pairs of stops must be as far apart as their poses (within the
+   bound plus what a tool anywhere within its bound changes that distance),
+   every candidate set is registered (base and tool fitted) and every one of
+   its stops must pass the rule against the registration of the others.
+   Of the sets that pass, the one rejecting and skipping fewest wins (then
+   the smallest misfit). Stops before or among them that are not in it are
+   rejected.
+2. **Registration.** From then on each stop is compared with where the
+   registration of the stops recorded so far puts every later pose: it is
+   the nearest later pose within the tolerance, or rejected. Base, tool and
+   tolerance are refitted after every recorded stop, so the tolerance
+   tightens to what the arm shows.
 
 A decision waits for the next stop (lag one): when the arm stops twice near
 the same pose, the two are compared. Within :data:`SAME_PLACE_MM` of each
 other they are one place (the arm settled twice): the later is kept. Else the
 stop closer to the prediction is kept when it is clearly closer (by three
-times the registration's RMS residual); when it is not, neither is recorded
+times the registration's RMS misfit); when it is not, neither is recorded
 and the pose is reported missing. So no reading is ever assigned to a pose
 the arm merely passed near. Assignments only move forward through the plan; the
 poses jumped over are the ones the program skipped.
@@ -35,27 +48,41 @@ Units: mm; nominal points in the robot base frame, stops in the tracker frame.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames
+from drivers.robot.external.registration import TOOL_BOUND_MM, Registration, register
 from drivers.robot.external.stops import Stop
 
-#: Most poses the bootstrap lets the program have skipped among its first three stops.
+#: Fewest stops a registration is fitted to before its leave-one-out misfits set the
+#: tolerance (below, the bound does: a handful of nearby stops underestimates the spread).
+RULE_STOPS = 8
+#: Stops the bootstrap places together before the first decision: each is judged
+#: against the registration of the :data:`RULE_STOPS` others.
+BOOTSTRAP_STOPS = RULE_STOPS + 1
+#: Most poses the program may have skipped among the bootstrap's stops.
 BOOTSTRAP_SKIPS = 4
-#: Assigned poses from which the tool point is re-estimated with the registration.
-TOOL_FIT_POSES = 5
-#: Assigned poses from which stops are matched to the registered prediction (before: distances).
-REGISTRATION_POSES = 6
+#: Most stops the bootstrap may reject before or among its stops (home, pauses, a wrong stop).
+BOOTSTRAP_REJECTS = 4
+#: Tolerance = this many times the RMS leave-one-out misfit of the registration's stops.
+#: Measured: a good stop lands at most 2.1 of them from its prediction (192 stops of 12
+#: simulated cells, from 8 stops on; tests/external/test_association.py -k factor).
+TOLERANCE_FACTOR = 4.0
+#: The tolerance never goes below this, mm: a reflector re-seated, a stop still settling.
+TOLERANCE_FLOOR_MM = 1.0
 #: Two stops closer than this are the same place (the arm settled twice), mm.
 SAME_PLACE_MM = 0.5
+#: What to check when the first stops fit no poses of the plan.
+_CHECK = (
+    "is it the plan the program was made from, the reflector within "
+    f"{TOOL_BOUND_MM:g} mm of --tool, the arm within --match-tolerance of nominal?"
+)
 
 
 @dataclass(frozen=True)
 class Assigned:
-    """A stop recorded as plan pose ``pose``; ``error_mm``: its misfit (distance or prediction)."""
+    """A stop recorded as plan pose ``pose``; ``error_mm``: its distance from the prediction."""
 
     stop: Stop
     pose: int
@@ -64,7 +91,7 @@ class Assigned:
 
 @dataclass(frozen=True)
 class Rejected:
-    """A stop that is no plan pose (a pause, an extra stop, the program's start or end pose)."""
+    """A stop that is no plan pose (a pause, an extra or a wrong stop, the start or end pose)."""
 
     stop: Stop
     reason: str
@@ -78,90 +105,92 @@ class Associator:
     flange_poses : array_like, shape (N, 4, 4)
         Nominal flange poses of the plan, robot base frame, mm.
     tool_mm : array_like, shape (3,)
-        Guessed reflector position on the flange, mm.
+        Guessed reflector position on the flange, mm (the fit may move it by
+        up to ``tool_bound_mm``).
     tolerance_mm : float
-        Largest accepted misfit, mm.
+        Bound of the tolerance: the most the nominal arm may be off, mm.
     first_pose : int
         Lowest plan row a stop may be (a resumed run starts past its done poses).
+    tool_bound_mm : float
+        Largest distance of the reflector from ``tool_mm``, mm.
     """
 
     def __init__(
-        self, flange_poses: ArrayLike, tool_mm: ArrayLike, tolerance_mm: float, first_pose: int = 0
+        self,
+        flange_poses: ArrayLike,
+        tool_mm: ArrayLike,
+        tolerance_mm: float,
+        first_pose: int = 0,
+        tool_bound_mm: float = TOOL_BOUND_MM,
     ) -> None:
         self.flange = np.asarray(flange_poses, dtype=float)
-        self.tool_mm = np.asarray(tool_mm, dtype=float).reshape(3).copy()
-        self.tolerance_mm = float(tolerance_mm)
+        self.tool_guess_mm = np.asarray(tool_mm, dtype=float).reshape(3).copy()
+        self.bound_mm = float(tolerance_mm)
+        self.tool_bound_mm = float(tool_bound_mm)
         self.next_pose = int(first_pose)
-        self.base2tracker: np.ndarray | None = None
-        self.residual_rms_mm = 0.0
-        self._unplaced: list[Stop] = []  # bootstrap: stops not yet part of a triangle
+        self.registration: Registration | None = None
+        self._unplaced: list[Stop] = []  # bootstrap: stops not placed yet
         self._pending: Assigned | None = None  # lag one: the last match, not yet final
-        self._pairs: list[tuple[int, np.ndarray]] = []  # (pose, stop point) assigned
+        self._pairs: list[tuple[int, np.ndarray]] = []  # (pose, stop point) recorded
 
     # ------------------------------------------------------------ geometry
 
-    def nominal_points(self) -> np.ndarray:
-        """Nominal tool points of every plan pose with the current tool estimate, (N, 3), mm."""
-        return self.flange[:, :3, :3] @ self.tool_mm + self.flange[:, :3, 3]
+    @property
+    def tool_mm(self) -> np.ndarray:
+        """Current reflector estimate on the flange, shape (3,), mm."""
+        reg = self.registration
+        return self.tool_guess_mm if reg is None else reg.tool_mm
+
+    @property
+    def residual_rms_mm(self) -> float:
+        """RMS misfit of the recorded stops to the registration, mm (0 before it)."""
+        return 0.0 if self.registration is None else self.registration.rms_mm
 
     def predicted(self) -> np.ndarray | None:
         """Where each pose should appear, tracker frame, (N, 3), mm; None before registration."""
-        if self.base2tracker is None:
-            return None
-        rot, shift = self.base2tracker[:3, :3], self.base2tracker[:3, 3]
-        return self.nominal_points() @ rot.T + shift
+        return None if self.registration is None else self.registration.predict(self.flange)
+
+    def tolerance(self, registration: Registration | None = None) -> float:
+        """The tolerance the registration (default the current one) holds a stop to, mm.
+
+        :data:`TOLERANCE_FACTOR` times its RMS leave-one-out misfit, within
+        ``[TOLERANCE_FLOOR_MM, tolerance_mm]``; the bound before any registration
+        and for a registration fitted to fewer than :data:`RULE_STOPS` stops.
+        """
+        reg = self.registration if registration is None else registration
+        if reg is None or len(reg.loo_mm) < RULE_STOPS:
+            return self.bound_mm
+        scaled = TOLERANCE_FACTOR * reg.loo_rms_mm()
+        return float(min(max(scaled, TOLERANCE_FLOOR_MM), self.bound_mm))
 
     def _register(self) -> None:
-        poses = np.array([p for p, _ in self._pairs])
-        measured = np.array([m for _, m in self._pairs])
-        flange = self.flange[poses]
-        fit_tool = len(poses) >= TOOL_FIT_POSES
-        for _ in range(20 if fit_tool else 1):
-            points = flange[:, :3, :3] @ self.tool_mm + flange[:, :3, 3]
-            self.base2tracker = frames.fit_rigid(points, measured)
-            if not fit_tool:
-                break
-            # With the registration fixed the tool point is linear:
-            # R (A_k t + b_k) + o = m_k  =>  A_k t = R^T (m_k - o) - b_k.
-            rot, shift = self.base2tracker[:3, :3], self.base2tracker[:3, 3]
-            rhs = (measured - shift) @ rot - flange[:, :3, 3]
-            tool, *_ = np.linalg.lstsq(
-                flange[:, :3, :3].reshape(-1, 3), rhs.reshape(-1), rcond=None
-            )
-            step = np.linalg.norm(tool - self.tool_mm)
-            self.tool_mm = tool
-            if step < 1e-6:
-                break
-        points = flange[:, :3, :3] @ self.tool_mm + flange[:, :3, 3]
-        fitted = frames.fit_rigid(points, measured)
-        self.base2tracker = fitted
-        rot, shift = fitted[:3, :3], fitted[:3, 3]
-        misfit = np.linalg.norm(points @ rot.T + shift - measured, axis=1)
-        self.residual_rms_mm = float(np.sqrt(np.mean(misfit**2)))
+        poses = [p for p, _ in self._pairs]
+        reg = register(
+            self.flange[poses],
+            np.array([m for _, m in self._pairs]),
+            self.tool_guess_mm,
+            self.tool_bound_mm,
+            start_mm=self.tool_mm,
+        )
+        if reg is not None:  # stops that each passed the rule: None only in a degenerate cell
+            self.registration = reg
 
     # ------------------------------------------------------------ decisions
 
     def add(self, stop: Stop) -> list[Assigned | Rejected]:
         """Take one stop; return the decisions now final (about this or earlier stops)."""
-        if self.base2tracker is None:
-            return self._bootstrap(stop)
+        if self.registration is None:
+            self._unplaced.append(stop)
+            return self._bootstrap(BOOTSTRAP_STOPS)
         floor = self.next_pose if self._pending is None else self._pending.pose
         if floor >= len(self.flange):
             return [Rejected(stop, "after the last plan pose")]
-        errors = self._misfits(stop.point_mm, floor)
-        best = int(np.argmin(errors))
-        pose, error = floor + best, float(errors[best])
-        if error > self.tolerance_mm:
+        pose, error = self._nearest(stop, floor)
+        if error > self.tolerance():
             # A stop far from the last pose of the plan shows the arm has left it.
             last = self._pending is not None and self._pending.pose == len(self.flange) - 1
             out = self._settle() if last else []
-            return out + [
-                Rejected(
-                    stop,
-                    f"matches no expected pose: nearest is pose {pose} at {error:.1f} mm "
-                    f"(tolerance {self.tolerance_mm:g} mm)",
-                )
-            ]
+            return out + [Rejected(stop, self._no_match(pose, error))]
         match = Assigned(stop, pose, error)
         if self._pending is not None and self._pending.pose == pose:
             return self._twice(self._pending, match)
@@ -170,42 +199,48 @@ class Associator:
         return out
 
     def finish(self) -> list[Assigned | Rejected]:
-        """No more stops are coming (for now): make the last match final."""
-        if self.base2tracker is None:
-            out: list[Assigned | Rejected] = [
-                Rejected(s, "too few stops to place (fewer than three fit the plan)")
+        """No more stops are coming (for now): make the last match final.
+
+        Before the bootstrap has placed its stops, the stops seen are placed
+        with as many as fit (at least three; below :data:`BOOTSTRAP_STOPS`
+        the leave-one-out check is weak, and the bound is what mostly holds).
+        """
+        if self.registration is None:
+            out: list[Assigned | Rejected] = []
+            # BOOTSTRAP_STOPS itself was tried as each stop came
+            for size in range(min(BOOTSTRAP_STOPS - 1, len(self._unplaced)), 2, -1):
+                out += self._bootstrap(size)
+                if self.registration is not None:
+                    return out + self._settle()
+            out += [
+                Rejected(s, f"too few stops to place (fewer than three fit the plan; {_CHECK})")
                 for s in self._unplaced
             ]
             self._unplaced = []
             return out
         return self._settle()
 
-    def _misfits(self, point_mm: np.ndarray, floor: int) -> np.ndarray:
-        """Misfit of a stop (shape (3,), tracker frame) to every pose from ``floor``, mm.
+    def _nearest(self, stop: Stop, floor: int) -> tuple[int, float]:
+        """The pose from ``floor`` on predicted nearest to ``stop``, and how near, mm."""
+        predicted = self.predicted()
+        assert predicted is not None
+        errors = np.linalg.norm(predicted[floor:] - stop.point_mm, axis=1)
+        best = int(np.argmin(errors))
+        return floor + best, float(errors[best])
 
-        With at least :data:`REGISTRATION_POSES` poses assigned: the distance
-        to the registered prediction. Before that a registration from three or
-        four points extrapolates poorly (a millimetre of model error turns the
-        frame by milliradians), so the misfit is the worst disagreement between
-        the stop's distances to the assigned stops and the pose's nominal
-        distances to their poses: frame-free, like the bootstrap.
-        """
-        pairs = list(self._pairs)
-        if self._pending is not None:
-            pairs.append((self._pending.pose, np.asarray(self._pending.stop.point_mm, float)))
-        if len(self._pairs) >= REGISTRATION_POSES:
-            predicted = self.predicted()
-            assert predicted is not None
-            return np.linalg.norm(predicted[floor:] - point_mm, axis=1)
-        nominal = self.nominal_points()
-        poses = np.array([p for p, _ in pairs])
-        seen = np.array([m for _, m in pairs])
-        measured = np.linalg.norm(seen - point_mm, axis=1)  # (K,)
-        expected = np.linalg.norm(nominal[floor:, None, :] - nominal[None, poses, :], axis=2)
-        misfit = np.abs(expected - measured[None, :])
-        # a pose compared with itself (a second stop there) is no evidence either way
-        misfit[poses[None, :] == np.arange(floor, len(nominal))[:, None]] = 0.0
-        return misfit.max(axis=1)
+    def _no_match(self, pose: int, error: float) -> str:
+        """Why a stop is no pose: the nearest prediction and the tolerance it missed."""
+        reg = self.registration
+        stops = 0 if reg is None else len(reg.loo_mm)
+        rule = f"{TOLERANCE_FACTOR:g} x the leave-one-out RMS of {stops} recorded stops"
+        if stops < RULE_STOPS:
+            rule = "--match-tolerance"
+        elif self.tolerance() >= self.bound_mm:
+            rule = f"--match-tolerance, less than {rule}"
+        return (
+            f"matches no expected pose: nearest is pose {pose} at {error:.1f} mm "
+            f"(tolerance {self.tolerance():.1f} mm: {rule})"
+        )
 
     def _twice(self, first: Assigned, second: Assigned) -> list[Assigned | Rejected]:
         """Two stops match one pose: keep the one that is surely it, or neither."""
@@ -234,7 +269,7 @@ class Associator:
     def ambiguity_mm(self) -> float:
         """How much closer to its prediction a stop must be to win over another, mm.
 
-        Three times the registration's RMS residual (how well the nominal arm
+        Three times the registration's RMS misfit (how well the nominal arm
         predicts a stop), at least :data:`SAME_PLACE_MM`.
         """
         return max(3.0 * self.residual_rms_mm, SAME_PLACE_MM)
@@ -251,56 +286,140 @@ class Associator:
         self._pairs.append((pose, np.asarray(stop.point_mm, dtype=float)))
         self.next_pose = pose + 1
 
-    def _bootstrap(self, stop: Stop) -> list[Assigned | Rejected]:
-        self._unplaced.append(stop)
-        if len(self._unplaced) < 3:
+    # ------------------------------------------------------------ bootstrap
+
+    def _bootstrap(self, size: int) -> list[Assigned | Rejected]:
+        """Place ``size`` of the unplaced stops if they fit; the decisions (maybe none)."""
+        if len(self._unplaced) < size:
             return []
-        found = self._triangle()
+        found = _Search(self, size).best()
         if found is None:
-            return []
-        (a, b, c), (i, j, k), error = found
+            if len(self._unplaced) < size + BOOTSTRAP_REJECTS:
+                return []
+            # The oldest stop fits with no set of the others: it is no pose of the plan's start.
+            oldest = self._unplaced.pop(0)
+            return [Rejected(oldest, f"fits no pose together with the stops after it ({_CHECK})")]
+        chosen, self.registration = found
+        first_pose, last_stop = self.next_pose, chosen[-1][0]
+        placed = dict(chosen)
         out: list[Assigned | Rejected] = []
-        for n, s in enumerate(self._unplaced[:-1]):
-            if n == a:
-                out.append(Assigned(s, i, error))
-            elif n == b:
-                out.append(Assigned(s, j, error))
+        unplaced, self._unplaced = self._unplaced, []
+        for n, stop in enumerate(unplaced[: last_stop + 1]):
+            if n not in placed:
+                # Named with the registration of the stops placed (it was fitted without this one).
+                pose, error = self._nearest(stop, first_pose)
+                why = (
+                    self._no_match(pose, error)
+                    if error > self.tolerance()
+                    else f"near pose {pose} ({error:.1f} mm) but out of order with the stops placed"
+                )
+                out.append(Rejected(stop, why))
+                continue
+            pose = placed[n]
+            error = float(
+                np.linalg.norm(
+                    self.registration.predict(self.flange[pose : pose + 1])[0] - stop.point_mm
+                )
+            )
+            if n == last_stop:
+                self._pending = Assigned(stop, pose, error)
             else:
-                out.append(Rejected(s, "fits no pose of the first three stops' triangle"))
-        self._unplaced = []
-        self._accept(i, self._unplaced_stop(out, i))
-        self._accept(j, self._unplaced_stop(out, j))
-        self._pending = Assigned(stop, k, error)
-        self._pairs.append((k, np.asarray(stop.point_mm, dtype=float)))
+                out.append(Assigned(stop, pose, error))
+                self._accept(pose, stop)
         self._register()
-        self._pairs.pop()  # the newest stop stays pending (lag one) like every other
+        for stop in unplaced[last_stop + 1 :]:  # later stops: matched to the registration
+            out += self.add(stop)
         return out
 
-    @staticmethod
-    def _unplaced_stop(out: list, pose: int) -> Stop:
-        return next(d.stop for d in out if isinstance(d, Assigned) and d.pose == pose)
 
-    def _triangle(self):
-        """Best (stops (a, b, newest), poses (i, j, k), max distance error) or None."""
-        stops = np.array([s.point_mm for s in self._unplaced])
-        c = len(stops) - 1
-        first = self.next_pose
-        last = min(len(self.flange), first + 3 + BOOTSTRAP_SKIPS)
-        nominal = self.nominal_points()
-        best = None
-        for a, b in combinations(range(c), 2):
-            d_ab = np.linalg.norm(stops[a] - stops[b])
-            d_ac = np.linalg.norm(stops[a] - stops[c])
-            d_bc = np.linalg.norm(stops[b] - stops[c])
-            for i, j, k in combinations(range(first, last), 3):
-                error = max(
-                    abs(d_ab - np.linalg.norm(nominal[i] - nominal[j])),
-                    abs(d_ac - np.linalg.norm(nominal[i] - nominal[k])),
-                    abs(d_bc - np.linalg.norm(nominal[j] - nominal[k])),
-                )
-                if error > self.tolerance_mm:
+class _Search:
+    """The bootstrap's search: ``size`` unplaced stops onto plan poses in order.
+
+    Depth first over the stops in time order, each either placed on a later
+    pose or left out, with the cost (stops left out + poses skipped) as the
+    bound: the cheapest set whose every stop passes the rule wins.
+    """
+
+    def __init__(self, assoc: Associator, size: int):
+        self.assoc, self.size = assoc, size
+        self.points = np.array([s.point_mm for s in assoc._unplaced])
+        self.first = assoc.next_pose
+        stop = min(len(assoc.flange), self.first + size + BOOTSTRAP_SKIPS)
+        self.flange = assoc.flange[:stop]
+        nominal = self.flange[:, :3, :3] @ assoc.tool_guess_mm + self.flange[:, :3, 3]
+        self.pose_apart = np.linalg.norm(nominal[:, None] - nominal[None], axis=2)
+        self.stop_apart = np.linalg.norm(self.points[:, None] - self.points[None], axis=2)
+        # A tool t from the guess moves the distance of poses i, j by at most
+        # |(R_i - R_j) t| <= 2 sin(angle_ij / 2) |t|.
+        rot = self.flange[:, :3, :3]
+        cos = (np.einsum("iab,jab->ij", rot, rot) - 1.0) / 2.0
+        chord = 2.0 * np.sin(np.arccos(np.clip(cos, -1.0, 1.0)) / 2.0)
+        self.slack = assoc.bound_mm + chord * assoc.tool_bound_mm
+        self.best_cost = BOOTSTRAP_SKIPS + BOOTSTRAP_REJECTS
+        self.found: tuple[tuple[int, float], list, Registration] | None = None
+
+    def best(self) -> tuple[list[tuple[int, int]], Registration] | None:
+        """``([(stop index, pose), ...], registration)`` of the winning set, or None."""
+        self._extend([])
+        return None if self.found is None else (self.found[1], self.found[2])
+
+    def _cost(self, chosen) -> int:
+        stop, pose = chosen[-1]
+        return (stop + 1 - len(chosen)) + (pose - self.first + 1 - len(chosen))
+
+    def _extend(self, chosen: list[tuple[int, int]]) -> None:
+        if len(chosen) == self.size:
+            self._judge(chosen)
+            return
+        need = self.size - len(chosen)
+        after_stop = chosen[-1][0] + 1 if chosen else 0
+        after_pose = chosen[-1][1] + 1 if chosen else self.first
+        for a in range(after_stop, len(self.points) - need + 1):
+            for i in range(after_pose, len(self.flange) - need + 1):
+                trial = [*chosen, (a, i)]
+                if self._cost(trial) > self.best_cost:
+                    break
+                if not self._distances_fit(chosen, a, i):
                     continue
-                key = (k - first - 2, error)
-                if best is None or key < best[0]:
-                    best = (key, (a, b, c), (i, j, k), error)
-        return None if best is None else best[1:]
+                if len(trial) >= 4 and len(trial) < self.size and not self._fits(trial):
+                    continue
+                self._extend(trial)
+
+    def _distances_fit(self, chosen, a: int, i: int) -> bool:
+        if not chosen:
+            return True
+        stops = [b for b, _ in chosen]
+        poses = [j for _, j in chosen]
+        error = np.abs(self.stop_apart[a, stops] - self.pose_apart[i, poses])
+        return bool(np.all(error <= self.slack[i, poses]))
+
+    def _fits(self, chosen) -> bool:
+        """A partial set: registered within the bound (a cheap cut before the full check)."""
+        reg = self._register(chosen)
+        return reg is not None and bool(np.max(reg.misfit_mm) <= self.assoc.bound_mm)
+
+    def _register(self, chosen, without: int | None = None) -> Registration | None:
+        kept = [c for n, c in enumerate(chosen) if n != without]
+        return register(
+            self.flange[[i for _, i in kept]],
+            self.points[[a for a, _ in kept]],
+            self.assoc.tool_guess_mm,
+            self.assoc.tool_bound_mm,
+        )
+
+    def _judge(self, chosen) -> None:
+        """Keep ``chosen`` if every stop passes the rule against the others and it is cheapest."""
+        whole = self._register(chosen)
+        if whole is None or np.max(whole.misfit_mm) > self.assoc.bound_mm:
+            return
+        for k, (a, i) in enumerate(chosen):
+            others = self._register(chosen, without=k)
+            if others is None:
+                return
+            miss = np.linalg.norm(others.predict(self.flange[i : i + 1])[0] - self.points[a])
+            if miss > self.assoc.tolerance(others):
+                return
+        key = (self._cost(chosen), whole.rms_mm)
+        if self.found is None or key < self.found[0]:
+            self.found = (key, list(chosen), whole)
+            self.best_cost = key[0]

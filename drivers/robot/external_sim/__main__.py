@@ -28,6 +28,21 @@ def _poses(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"expected pose numbers like 3,7, got {text!r}") from None
 
 
+def _point(text: str) -> tuple[float, float, float]:
+    from calibrator import strict
+
+    parts = text.split(",")
+    try:
+        if len(parts) != 3:
+            raise strict.StrictError("three numbers")
+        x, y, z = (strict.parse_number(p, "coordinate") for p in parts)
+    except strict.StrictError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in mm, got {text!r}") from None
+    if max(abs(x), abs(y), abs(z)) > 2000.0:
+        raise argparse.ArgumentTypeError(f"a reflector within 2000 mm of the flange, got {text!r}")
+    return x, y, z
+
+
 def _pause(text: str) -> tuple[int, float, float]:
     try:
         pose, fraction, seconds = text.split(":")
@@ -49,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--control", required=True, help="tracker simulator control URL")
     parser.add_argument("--model", default="ur10e")
     parser.add_argument("--seed", type=int, default=0, help="seed of the hidden true arm")
+    parser.add_argument(
+        "--world", help="world file (YAML, docs/check.md): the hidden arm worn, crashed, moved"
+    )
     # Named as PlayerOptions' fields, so _options takes them over by name.
     for flag, dest, default, what in (
         ("--speed", "speed_rad_s", 1.0, "leading-joint speed, rad/s"),
@@ -73,6 +91,12 @@ def main(argv: list[str] | None = None) -> int:
         default=[],
         help="POSE:FRACTION:SECONDS: stop that long that far into the move to POSE",
     )
+    parser.add_argument(
+        "--tool",
+        type=_point,
+        default=None,
+        help="true reflector X,Y,Z on the flange, mm [default: the hidden cell's, near 0,0,100]",
+    )
     parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
     args = parser.parse_args(argv)
     from calibrator.errors import CalibrationError
@@ -81,7 +105,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         plan = read_plan(args.plan)
         options = _options(args)
-        player = Player.for_model(plan.q_rad, args.model, args.seed, options, plan.via_rad)
+        world = None
+        if args.world:
+            from calibrator.world import read_world
+
+            world = read_world(args.world)
+        player = Player.for_model(
+            plan.q_rad, args.model, args.seed, options, plan.via_rad, world=world, tool_mm=args.tool
+        )
     except (CalibrationError, ValueError) as exc:
         print(f"external_sim: error: {exc}", file=sys.stderr)
         return 2

@@ -16,6 +16,7 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -135,15 +136,26 @@ class Player:
         seed: int,
         options: PlayerOptions,
         via_rad: Sequence[ArrayLike] = (),
+        world: Any = None,
+        tool_mm: ArrayLike | None = None,
     ) -> Player:
-        """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``."""
+        """The hidden cell of ``measure``'s simulation for ``model`` and ``seed``.
+
+        ``world`` (a :class:`calibrator.world.World`) changes it as its file says;
+        ``tool_mm`` (shape (3,), mm) puts the reflector there on the flange
+        instead of where the hidden cell has it (near the default guess).
+        """
+        from calibrator import frames
         from calibrator.simulate import SimWorld
 
-        cell = SimWorld.make(model, seed)
+        cell = SimWorld.make(model, seed) if world is None else world.build(model, seed)
+        tool = cell.flange2tool
+        if tool_mm is not None:
+            tool = frames.transform(translation=np.asarray(tool_mm, dtype=float).reshape(3))
         return cls(
             plan_rad,
             cell.true_mdh,
-            cell.flange2tool,
+            tool,
             cell.base2tracker,
             options,
             via_rad=via_rad,

@@ -73,6 +73,12 @@ MODE_POWER_OFF, MODE_IDLE, MODE_RUNNING = 3, 5, 7
 UNLOCK_DELAY_S = 5.0
 
 # A plausible UR5e pose away from singularities (rad).
+#: The fake arm's joint temperatures (RTDE ``joint_temperatures``): the room, degC,
+#: the rise of each joint once warm (shoulder and elbow motors the most), degC, and
+#: the time constant of the warming, s of controller time.
+ROOM_C = 22.0
+JOINT_RISE_C = np.array([9.0, 12.0, 10.0, 6.0, 5.0, 5.0])
+WARM_TAU_S = 1800.0
 HOME_Q = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
 
 
@@ -291,6 +297,16 @@ class FakeController:
             return self.frozen_timestamp
         return time.monotonic() - self._t0
 
+    def joint_temperatures_c(self) -> np.ndarray:
+        """The joints' temperatures, degC: the room plus a rise that settles as the arm runs.
+
+        Each joint warms from :data:`ROOM_C` towards its own rise
+        (:data:`JOINT_RISE_C`) with the time constant :data:`WARM_TAU_S`
+        (controller time): what a real arm reports over its first hour.
+        """
+        warmed = 1.0 - np.exp(-self.timestamp() / WARM_TAU_S)
+        return ROOM_C + JOINT_RISE_C * warmed
+
     def snapshot(self) -> dict[str, Any]:
         """Values of the outputs a client may request, by RTDE name (units as UR: m, rad)."""
         with self.lock:
@@ -315,6 +331,7 @@ class FakeController:
                 | (STATUS_PROGRAM_RUNNING if playing else 0),
                 "speed_scaling": 1.0,
                 "target_speed_fraction": 1.0,
+                "joint_temperatures": tuple(self.joint_temperatures_c()),
             }
             for i in range(48):
                 values[f"output_int_register_{i}"] = int(self.out_int[i])

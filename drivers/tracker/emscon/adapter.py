@@ -56,8 +56,9 @@ DEFAULT_PORT = 700  # emScon's default TCP port
 MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
 MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the server is sick
 #: What the adapter declares to the acquisition ports: it can initialise the
-#: tracker (on request only) and search for a lost reflector (FindReflector).
-CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH})
+#: tracker (on request only), search for a lost reflector (FindReflector) and
+#: report its environment parameters (GetEnvironmentParams).
+CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH, ports.REPORTS_CONDITIONS})
 
 
 @dataclass(frozen=True)
@@ -201,6 +202,27 @@ class EmsconTracker:
     def status(self) -> EmsconStatus:
         """``GetSystemStatus`` + ``GetTrackerStatus``."""
         return self._retrying(lambda link: self._status(link))
+
+    def conditions(self) -> dict:
+        """``GetEnvironmentParams``: the air the server corrects its distances for.
+
+        With a meteo station on the tracker these are its readings; emScon
+        reports neither the time since power-on nor a warm-up state (it refuses
+        a measurement with ``ADM_STARTUP_BUSY`` while warming up).
+
+        Returns
+        -------
+        dict
+            ``air_temperature_c`` (degC), ``air_pressure_hpa`` (hPa),
+            ``air_humidity_pct`` (%RH), in the units the adapter set on connect.
+        """
+
+        def query(link: EmsconLink) -> tuple[float, float, float]:
+            reply = link.transact(pk.Command.GET_ENVIRONMENT_PARAMS, timeout_s=self.timeout_s)
+            return pk.parse_env(reply.body)
+
+        t, p, h = self._retrying(query)
+        return {"air_temperature_c": t, "air_pressure_hpa": p, "air_humidity_pct": h}
 
     def initialise(self, timeout_s: float | None = None) -> None:
         """``Initialize``: moves the head for tens of seconds. Only ever on the user's request."""
@@ -447,24 +469,14 @@ def open_tracker(url: str, **options: Any) -> EmsconTracker:
     ValueError
         Not an ``emscon://`` URL, a bad port, or a bad query.
     """
-    from urllib.parse import parse_qs, urlsplit
+    from drivers import urls
 
-    parts = urlsplit(url)
-    if parts.scheme != "emscon" or not parts.hostname or parts.path not in ("", "/"):
-        raise ValueError(f"expected emscon://HOST[:PORT][?meteo=T,P,H], got {url!r}")
-    try:
-        port = parts.port or DEFAULT_PORT
-    except ValueError as exc:
-        raise ValueError(f"bad port in {url!r}: {exc}") from None
-    try:
-        query = parse_qs(parts.query, keep_blank_values=True, strict_parsing=bool(parts.query))
-    except ValueError as exc:
-        raise ValueError(f"bad query in {url!r}: {exc}") from None
-    if set(query) - {"meteo"} or any(len(v) != 1 for v in query.values()):
-        raise ValueError(f"{url!r}: the only query is meteo=T,P,H (once)")
-    if "meteo" in query:
-        options["environment"] = _parse_meteo(query["meteo"][0])
-    return EmsconTracker(parts.hostname, port, **options)
+    where = urls.parse(
+        url, "emscon", port="optional", default_port=DEFAULT_PORT, params={"meteo": _parse_meteo}
+    )
+    if "meteo" in where.params:
+        options["environment"] = _parse_meteo(where.params["meteo"])
+    return EmsconTracker(where.host, where.port or DEFAULT_PORT, **options)
 
 
 def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
@@ -474,11 +486,20 @@ def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
     return open_tracker(url)
 
 
+#: Air a tracker measures in (degC, hPa, %RH): beyond these the refractive
+#: index correction is not air's, and a typo (1e308) would pass unseen.
+METEO_RANGES = ((-40.0, 60.0), (500.0, 1200.0), (0.0, 100.0))
+
+
 def _parse_meteo(text: str) -> Environment:
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
     if len(values) != 3 or not all(np.isfinite(values)):
-        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r}")
+        raise ValueError(f"meteo needs T,P,H (degC, hPa, %RH), got {text!r:.40}")
+    names = ("T degC", "P hPa", "H %RH")
+    for value, (low, high), what in zip(values, METEO_RANGES, names, strict=True):
+        if not low <= value <= high:
+            raise ValueError(f"meteo {what} {value:g} is outside [{low:g}, {high:g}]")
     return Environment(*values)

@@ -63,6 +63,30 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _air(text: str) -> tuple[float, float, float]:
+    try:
+        values = [parse_number(v.strip()) for v in text.split(",")]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    limits = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))
+    inside = len(values) == 3 and all(
+        lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)
+    )
+    if not inside:
+        raise argparse.ArgumentTypeError("expected T,P,H in -10..50 degC, 500..1200 hPa, 0..100 %")
+    return values[0], values[1], values[2]
+
+
+def _on_time(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 <= value <= 1e8):
+        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
+    return value
+
+
 def _seed(text: str) -> int:
     if not text.isascii() or not text.isdigit():
         raise argparse.ArgumentTypeError(f"seed must be a whole number >= 0, got {text!r}")
@@ -95,6 +119,20 @@ def build_parser() -> argparse.ArgumentParser:
         help="initial true target, mm (and rad); default none",
     )
     p.add_argument("--initialised", action="store_true", help="start already initialised")
+    p.add_argument(
+        "--air",
+        type=_air,
+        default=(20.0, 1013.25, 50.0),
+        metavar="T,P,H",
+        help="air the station's sensors measure (COND?): degC, hPa, %%RH",
+    )
+    p.add_argument(
+        "--on-time",
+        type=_on_time,
+        default=3 * 3600.0,
+        metavar="S",
+        help="time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)",
+    )
     p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
     p.add_argument(
         "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
@@ -171,6 +209,8 @@ def _build_server(args) -> SimulatorServer:
             init_time_s=args.init_time,
             initialised=args.initialised,
             serial=args.serial,
+            air=args.air,
+            on_s=args.on_time,
         )
         if args.target:
             simulator.set_target(args.target[:3], args.target[3:] or None)

@@ -27,6 +27,7 @@ from drivers.tracker.protocol import (
     decode_frame,
     encode_frame,
     error_body,
+    format_number,
     ok_body,
     parse_command,
     parse_number,
@@ -43,6 +44,9 @@ MAX_RANGE_MM = 80_000.0
 UNSTABLE_SIGMA_MM = 0.05  # extra scatter of a moving target ("outliers of tens of um")
 MODES = ("FAST", "STANDARD", "PRECISE")
 METEO_LIMITS = {"T": (-10.0, 50.0), "P": (500.0, 1200.0), "H": (0.0, 100.0)}
+#: Time a tracker needs after power-on before it measures to its specification, s
+#: (a Leica AT960: about two hours; its warm-up errors reach tenths of a millimetre).
+WARM_UP_S = 2 * 3600.0
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,11 @@ class TrackerSimulator:
         Serial number reported by ``ID?``.
     clock : callable
         Monotonic clock in seconds (device timestamps, INIT duration).
+    air : tuple of float
+        What the station's sensors measure of the air: degC, hPa, %RH (``COND?``).
+    on_s : float
+        Time since power-on at start, s (``COND?``; warmed up after
+        :data:`WARM_UP_S`).
     """
 
     def __init__(
@@ -95,6 +104,8 @@ class TrackerSimulator:
         initialised: bool = False,
         serial: str = "SIM-0001",
         clock: Callable[[], float] = time.monotonic,
+        air: tuple[float, float, float] = (20.0, 1013.25, 50.0),
+        on_s: float = 3 * 3600.0,
     ):
         self._rng = np.random.default_rng(seed)
         self.noise = noise if noise is not None else NoiseModel()
@@ -115,6 +126,8 @@ class TrackerSimulator:
         self._units = ("MM", "RAD")
         self._env = (20.0, 1013.25, 50.0)
         self._mode = "STANDARD"
+        self.air = tuple(float(v) for v in air)
+        self._on_s0 = float(on_s)
 
     # ------------------------------------------------------------ in-process control
 
@@ -261,6 +274,13 @@ class TrackerSimulator:
     def _env_query(self, cmd, now, post):
         return ok_body(cmd.seq, *(f"{v:.2f}" for v in self._env))
 
+    def _cond_query(self, cmd, now, post):
+        if cmd.args:
+            raise ValueError(cmd.args)
+        on_s = self._on_s0 + (now - self._t0)
+        air = (format_number(v, 2) for v in self.air)
+        return ok_body(cmd.seq, *air, format_number(on_s, 1), int(on_s >= WARM_UP_S))
+
     def _mode_cmd(self, cmd, now, post):
         (mode,) = cmd.args
         if mode not in MODES:
@@ -327,6 +347,7 @@ _HANDLERS = {
     "UNITS": TrackerSimulator._units_cmd,
     "ENV": TrackerSimulator._env_cmd,
     "ENV?": TrackerSimulator._env_query,
+    "COND?": TrackerSimulator._cond_query,
     "MODE": TrackerSimulator._mode_cmd,
     "MEAS": TrackerSimulator._meas,
     "STOP": TrackerSimulator._stop,

@@ -100,6 +100,10 @@ class SimulatorProcess:
         Fault script file.
     replay : str or Path, optional
         Recorded log to answer from instead of simulating.
+    air : tuple of float, optional
+        Air the station's sensors measure (``COND?``): degC, hPa, %RH.
+    on_s : float, optional
+        Time since power-on at start, s (``COND?``).
     """
 
     def __init__(
@@ -112,8 +116,12 @@ class SimulatorProcess:
         init_time_s: float = 0.2,
         faults: str | Path | None = None,
         replay: str | Path | None = None,
+        air: tuple[float, float, float] | None = None,
+        on_s: float | None = None,
     ):
         args = ["--pty", "--tcp", "0", "--seed", str(seed), "--init-time", str(init_time_s)]
+        args += ["--air", ",".join(format_number(v, 4) for v in air)] if air else []
+        args += ["--on-time", repr(float(on_s))] if on_s is not None else []
         args += [] if noise else ["--no-noise"]
         args += ["--probe-6dof"] if probe_6dof else []
         args += ["--initialised"] if initialised else []

@@ -35,9 +35,13 @@ class SimulatedTracker(LaserTracker):
         Log the raw exchange.
     probe_6dof : bool
         The probe reports its orientation too (``P6`` readings).
+    air : tuple of 3 float, optional
+        The air the tracker's station measures (degC, hPa, %RH).
+    on_s : float, optional
+        The tracker's time since power-on at start, s.
     """
 
-    capabilities = frozenset({ports.INITIALISE, ports.STEER})
+    capabilities = frozenset({ports.INITIALISE, ports.STEER, ports.REPORTS_CONDITIONS})
 
     def __init__(
         self,
@@ -48,6 +52,8 @@ class SimulatedTracker(LaserTracker):
         replay: str | Path | None = None,
         record: str | Path | None = None,
         probe_6dof: bool = False,
+        air: tuple | None = None,
+        on_s: float | None = None,
     ) -> None:
         # The pty path is known once started; standard air, as the line opener sends.
         super().__init__("sim://", record=record, environment=Environment())
@@ -56,6 +62,9 @@ class SimulatedTracker(LaserTracker):
         self._faults = faults
         self._replay = replay
         self._probe_6dof = probe_6dof
+        self._air, self._on_s = air, on_s
+        if replay is not None:  # conditions are no reading: a replay does not ask for them
+            self.capabilities = self.capabilities - {ports.REPORTS_CONDITIONS}
         self._process: SimulatorProcess | None = None
 
     def connect(self, environment: Environment | None = None, mode: str | None = None) -> Status:
@@ -68,6 +77,8 @@ class SimulatedTracker(LaserTracker):
                 initialised=True,
                 faults=self._faults,
                 replay=self._replay,
+                air=self._air,
+                on_s=self._on_s,
             )
             self._url = self._process.url
         return super().connect(environment, mode)
@@ -102,10 +113,12 @@ def open_simulated_tracker(url: str, options: OpenOptions) -> SimulatedTracker:
     if options.world is None:
         raise ValueError("--tracker sim needs the simulated world (measure builds it)")
     return SimulatedTracker(
-        seed=options.world.seed,
+        seed=options.world.seed if options.world.noise_seed is None else options.world.noise_seed,
         noise=options.sim_noise,
         faults=options.sim_faults,
         replay=options.sim_replay,
         record=options.record,
         probe_6dof=options.sim_probe_6dof,
+        air=options.world.air,
+        on_s=options.world.tracker_on_s,
     )

@@ -1,0 +1,160 @@
+"""Filtering a long machining program against compensating the same targets as CSV.
+
+Run::
+
+    .venv/bin/python benchmarks/compensate_programs.py [--targets 1000000] [--repeats 3]
+
+An ER10L-C10 with hidden MDH errors (0.3 mm, 0.5 mrad), a tool 180 mm off
+the flange and a work base; a machining path of ``--targets`` Cartesian
+targets (a raster over a part, one configuration) written twice: as one KUKA
+KRL program (inline ``LIN`` aggregates with ``S``/``T``, tool and base from a
+``$config.dat``) and as a targets CSV (the nominal joints and the base-frame
+pose of each target). Each is compensated in a fresh process, ``--repeats``
+times; the median wall time and the largest peak resident memory (the
+child's ``VmHWM``, Linux) are printed, with their ratio.
+"""
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+
+def _setup(folder: Path, n: int) -> None:
+    from calibrator import compensate, frames, parameters, simulate
+    from calibrator.calibration import Calibration
+    from calibrator.filtering import Job, frames_file, rotations
+    from calibrator.filtering.krl import KRL
+    from calibrator.filtering.solve import Solver
+    from calibrator.models import get_model
+
+    model = get_model("er10l-c10")
+    errors = simulate.random_errors(model.mdh, np.random.default_rng(3), mm=0.3, rad=0.0005)
+    free = tuple(np.array(parameters.MDH_NAMES)[errors.ravel() != 0])
+    cal = Calibration(
+        nominal_mdh=model.mdh, mdh=model.mdh + errors, model=model.name, free=free,
+        deltas=dict(zip(free, errors.ravel()[errors.ravel() != 0], strict=True)),
+    )  # fmt: skip
+    cal.save(folder / "cal.json")
+    tool = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
+    base = frames.transform(rotations.zyx_to_matrix([[25.0, 0.0, 0.0]])[0], [900.0, -250.0, 120.0])
+    # A raster over the part: rows of steps of joints around a working pose, clear of
+    # the turn bits' boundaries (a joint at 0 deg) and of singularities.
+    t = np.arange(n)
+    rows = max(1, int(np.sqrt(n / 4)))
+    u = (t % (n // rows)) / (n // rows)
+    v = (t // (n // rows)) / rows
+    q = np.column_stack(
+        [
+            0.05 + 0.8 * u,
+            0.1 + 0.3 * v,
+            -0.3 + 0.2 * v,
+            0.3 + 0.3 * np.sin(3 * u),
+            0.9 + 0.2 * u,
+            0.2 + 0.5 * v,
+        ]
+    )
+    lang = KRL.__new__(KRL)
+    codes = Solver(lang, Job(calibration=cal, frames=frames_file.FrameTable())).code_of(q)
+    with open(folder / "path.src", "w", newline="") as src, open(folder / "path.csv", "w") as csv:
+        src.write("DEF PATH()\r\n$TOOL = TOOL_DATA[1]\r\n$BASE = BASE_DATA[1]\r\n")
+        csv.write(",".join(compensate.JOINT_COLUMNS + compensate.POSE_COLUMNS) + "\n")
+        for s in range(0, n, 100_000):
+            sl = slice(s, min(n, s + 100_000))
+            in_base = compensate.tool_poses(model.mdh, q[sl], tool)
+            pose = frames.invert(base) @ in_base
+            abc = rotations.matrix_to_zyx(pose[:, :3, :3], np.zeros((len(pose), 3)))
+            rv = frames.matrix_to_rotvec(in_base[:, :3, :3])
+            lines = []
+            for p, a, c in zip(pose[:, :3, 3], abc, codes[sl], strict=True):
+                lines.append(
+                    f"LIN {{X {p[0]:.3f},Y {p[1]:.3f},Z {p[2]:.3f},A {a[0]:.4f},B {a[1]:.4f},"
+                    f"C {a[2]:.4f},S {c[0]},T {c[1]}}} C_DIS\r\n"
+                )
+            src.write("".join(lines))
+            rows_csv = np.column_stack([q[sl], in_base[:, :3, 3], rv])
+            np.savetxt(csv, rows_csv, fmt="%.10g", delimiter=",")
+        src.write("END\r\n")
+    with open(folder / "config.dat", "w") as cfg:
+        for name, f in (("TOOL_DATA", tool), ("BASE_DATA", base)):
+            a = rotations.matrix_to_zyx(f[None, :3, :3], np.zeros((1, 3)))[0]
+            cfg.write(
+                f"{name}[1]={{X {f[0, 3]:.4f},Y {f[1, 3]:.4f},Z {f[2, 3]:.4f},"
+                f"A {a[0]:.6f},B {a[1]:.6f},C {a[2]:.6f}}}\n"
+            )
+
+
+def _child(kind: str, folder: Path) -> None:
+    from calibrator import calibration, compensate
+    from calibrator.filtering import Job, engine, frames_file
+    from calibrator.models import get_model
+
+    cal = calibration.load(folder / "cal.json")
+    out = folder / ("o.csv" if kind == "csv" else "o.src")
+    if out.exists():
+        out.unlink()
+    t = time.perf_counter()
+    if kind == "csv":
+        report = compensate.run(cal, folder / "path.csv", out)
+        failed = 0 if report.ok else -1
+    else:
+        job = Job(
+            calibration=cal, frames=frames_file.FrameTable(),
+            limits=get_model(cal.model).joint_limits_rad, config_dat=folder / "config.dat",
+        )  # fmt: skip
+        failed = engine.Filter("krl", job, folder / "path.src").run(out, []).n_failed
+    wall = time.perf_counter() - t
+    # VmHWM: this process's own peak resident memory. (ru_maxrss of a process
+    # started by fork and exec starts at its parent's peak on Linux.)
+    status = Path("/proc/self/status").read_text()
+    peak_kib = int(status.split("VmHWM:")[1].split()[0])
+    print(f"{wall:.3f} {failed} {peak_kib}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--targets", type=int, default=1_000_000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--child", choices=["csv", "krl"])
+    ap.add_argument("--folder", type=Path)
+    args = ap.parse_args()
+    if args.child:
+        _child(args.child, args.folder)
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        t = time.perf_counter()
+        _setup(folder, args.targets)
+        print(f"{args.targets} targets written in {time.perf_counter() - t:.1f} s")
+        results = {}
+        for kind in ("csv", "krl"):
+            walls, peaks = [], []
+            for _ in range(args.repeats):
+                done = subprocess.run(
+                    [sys.executable, __file__, "--child", kind, "--folder", str(folder)],
+                    capture_output=True, text=True, check=True, env=dict(os.environ),
+                )  # fmt: skip
+                wall, failed, peak = done.stdout.split()
+                walls.append(float(wall))
+                peaks.append(int(peak))  # the child's own peak resident memory (KiB)
+                if int(failed):
+                    print(f"{kind}: {failed} failed targets")
+            results[kind] = (statistics.median(walls), max(peaks) / 1024)
+            print(
+                f"{kind}: median {results[kind][0]:.2f} s of {args.repeats} "
+                f"(min {min(walls):.2f}), peak RSS {results[kind][1]:.0f} MiB"
+            )
+        ratio = results["krl"][0] / results["csv"][0]
+        print(f"program / CSV time: {ratio:.2f}x")
+
+
+if __name__ == "__main__":
+    main()

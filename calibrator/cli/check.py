@@ -1,0 +1,295 @@
+"""``calibrator check``: a quick re-check of a calibrated arm (docs/check.md).
+
+Parses and prints only: the poses come from :mod:`calibrator.check.poses`,
+the run is a :class:`calibrator.acquire.run.MeasureRun` (same plan checks,
+journal, resume, confirmation and Ctrl-C as ``measure``), the verdict and
+its explanation from :mod:`calibrator.check`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
+from calibrator.cli import _run
+from calibrator.cli._app import app
+from calibrator.cli._options import fail
+from calibrator.cli._run import StopOnSigint, confirm, open_run, pose_fields, triple
+
+#: Exit code of a finished check per verdict (a script can alarm on it).
+EXIT_CODES = {"ok": 0, "drifted": 3, "recalibrate": 4}
+
+
+@app.command()
+@_run.run_command
+def check(
+    *,
+    robot: str = _run.robot_option(external=True),
+    tracker: str = _run.tracker_option(),
+    calibration_path: Path = typer.Option(
+        ..., "--calibration", help="The calibration to check (calibration.json)."
+    ),
+    poses: int = typer.Option(
+        8, callback=checks.at_least(5), help="Check poses (chosen for joint zeros, base, tool)."
+    ),
+    cell_file: Path = opts.cell(
+        "Cell file (YAML, docs/cell.md): every pose and move is checked against it."
+    ),
+    readings: int = _run.readings_option("pose"),
+    tolerance: float = opts.positive(
+        None,
+        "Mean error (mm) above which a changed arm needs recalibrating [default: twice the "
+        "predicted error].",
+    ),
+    output: Path = opts.output(
+        Path("check.json"), "Verdict (JSON) to write; the check's poses go beside it (.parquet)."
+    ),
+    run_args: _run.RunArgs,
+    tracker_at: str = opts.tracker_at(
+        "Tracker position in the robot base frame X,Y,Z (mm) [default: where the "
+        "calibration's base frame puts it]."
+    ),
+    seed: int = opts.seed(
+        0,
+        "Seed of the pose choice and of the simulated cell (its hidden arm: the seed the "
+        "calibration was measured with, unless a --world file gives one).",
+    ),
+    world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
+    history: str = typer.Option(
+        None, "--history", help="Record the check in this history (a file or a database URL)."
+    ),
+    quiet: bool = opts.quiet(),
+    sim_noise: bool = typer.Option(True, hidden=True),
+    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
+    sim_control: str = typer.Option(None, hidden=True),
+) -> None:
+    """Measure a few poses and compare them with the calibration: ok, drifted or recalibrate.
+
+    Writes OUTPUT (JSON) and the measured poses beside it (.parquet). Exit code
+    0 ok, 3 drifted, 4 recalibrate, 1 when the run did not finish.
+    """
+    import contextlib
+    from dataclasses import replace
+
+    import numpy as np
+
+    from calibrator import calibration as calibrations
+    from calibrator import cell as cells
+    from calibrator import frames, outputs, progress
+    from calibrator.acquire.run import RunOptions
+    from calibrator.check import document as documents
+    from calibrator.check import poses as check_poses
+    from calibrator.check.model import Calibrated
+
+    output = Path(output)
+    data_path = documents.data_path(output)
+    if output.suffix.lower() == ".parquet":
+        fail(f"-o {output}: give the JSON file; the check's poses go beside it as .parquet")
+    inputs = [p for p in (calibration_path, cell_file, sim_faults, world) if p is not None]
+    replace_ok = run_args.force or run_args.resume
+    outputs.check(output, inputs=inputs, force=replace_ok)
+    outputs.check(data_path, inputs=inputs, force=True)
+    if not replace_ok and data_path.exists():
+        raise outputs.existing(data_path, resumable=True)
+    if sim_faults is not None and not Path(sim_faults).is_file():
+        fail(f"file not found: {sim_faults}")
+    if robot == "external" and run_args.resume:
+        fail("--resume is not for --robot external: run the check again")
+    arm = run_args.arm()
+    world_file = _run.read_world(world, robot, tracker)
+    if history is not None:
+        _open_history(history).close()  # one it cannot open is refused before anything moves
+    cal = calibrations.load(calibration_path)
+    if cal.model and cal.model != arm.name:
+        fail(f"{calibration_path} calibrates a {cal.model}, not --model {run_args.model}")
+    if cal.frame != "tracker":
+        fail(
+            f"{calibration_path} was identified in the robot base frame: a check compares "
+            "tracker readings with a calibration that registered the tracker (measure's sessions)"
+        )
+    model = Calibrated.of(cal)
+    if not model.sigma_mm > 0:
+        fail(
+            f"{calibration_path} records no residual noise (its uncertainty): the check cannot "
+            "predict its error; identify the session again with this version"
+        )
+    tool_mm = tuple(float(v) for v in cal.flange2tool[:3, 3])
+    # Where the calibration found the tracker, unless told otherwise.
+    at = triple(tracker_at, "--tracker-at")
+    tracker_at_mm = at if at is not None else tuple(frames.invert(cal.base2tracker)[:3, 3])
+    given_cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
+    # The simulated tracker moves only to a position the user gave, never to the
+    # calibration's estimate of where it already stands.
+    cell_given = given_cell.tracker_at_mm is not None
+    if at is None and cell_given:
+        tracker_at_mm = given_cell.tracker_at_mm
+    cell = given_cell.with_tracker(tracker_at_mm)
+    chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
+    options = RunOptions(
+        plan_rad=chosen.q_rad,
+        via_rad=chosen.via_rad,
+        cell=cell,
+        seed=seed,
+        readings=readings,
+        tool_mm=tool_mm,  # type: ignore[arg-type]
+        tracker_at_mm=tracker_at_mm,  # type: ignore[arg-type]
+        need_poses=poses,
+        **run_args.run_fields(),
+    )
+    external = _external(robot, output, chosen, arm, readings, tool_mm, quiet)
+    with contextlib.ExitStack() as stack:
+        mrun = stack.enter_context(
+            open_run(robot, tracker, arm, options, data_path, stack, sim_noise=sim_noise,
+                     sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
+                     external=external, world_file=world_file,
+                     place_tracker=at is not None or cell_given)
+        )  # fmt: skip
+        mrun.check_files()
+        mrun.connect(tracker)
+        mrun.make_plan()
+        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
+        estimate = f"estimated cell time: {mrun.estimate()}"
+        shown: list[bool] = []
+
+        def ask(robot_id: str, n: int) -> None:
+            typer.echo(estimate, err=True)
+            shown.append(True)
+            confirm(robot_id, n)
+
+        mrun.open_journal(confirm=None if run_args.yes else ask)
+        if not shown and not quiet:
+            typer.echo(estimate, err=True)
+        reporter = progress.Reporter.for_cli(quiet)
+        with (
+            StopOnSigint() as interrupt,
+            reporter.task("check", len(chosen.q_rad), "poses") as task,
+        ):
+            mrun.measure(
+                should_stop=lambda: interrupt.requested,
+                on_pose=lambda p: task.update(p.done, **pose_fields(p)),
+            )
+        written: dict = {}
+
+        def write(outcome: Any) -> Path | None:
+            from calibrator.acquire import rows
+
+            numbers, q, points, stderr = documents.measured(outcome.records)
+            result = documents.evaluate(model, q, points, stderr, tolerance)
+            info = {
+                "model": arm.name,
+                "robot": mrun.robot_id,
+                "tracker": mrun.tracker_id,
+                "calibration": str(calibration_path),
+                "calibration_sha256": calibrations.digest(calibration_path),
+                "readings": readings,
+                "poses_planned": len(chosen.q_rad),
+                "data": data_path.name,
+                "conditions": _conditions(outcome.records),
+            }
+            doc = documents.document(result, numbers, q, points, info=info)
+            table = rows.to_table(outcome.records.values())
+            documents.write(output, doc, table, mrun.meta, inputs)
+            written["doc"] = doc
+            return output
+
+        summary = mrun.finish(write)
+    hint = f"rerun the same command with --resume to continue ({summary.journal})"
+    if summary.stopped or "doc" not in written:
+        typer.echo(f"stopped: {summary.stopped or 'no pose measured'}; {hint}", err=True)
+        raise typer.Exit(1)
+    doc = written["doc"]
+    if summary.failed:
+        typer.echo(
+            f"{len(summary.failed)} check pose(s) failed ({summary.failed[:10]}): the verdict "
+            f"is from {len(doc['poses'])} poses",
+            err=True,
+        )
+    if history is not None:
+        _record(history, doc)
+    _print(doc, output, data_path, np)
+    raise typer.Exit(EXIT_CODES[doc["verdict"]])
+
+
+def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
+    """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
+    if robot != "external":
+        return None
+    from calibrator import outputs
+    from calibrator import plan as plans
+    from calibrator import program as programs
+    from calibrator.cli.measure import _external_options
+
+    plan_file = output.with_suffix(".plan.csv")
+    program_file = output.with_suffix(".program.csv")
+    spec = programs.ProgramSpec(
+        plan_rad=plan.q_rad,
+        home_rad=plan.q_rad[0],
+        speed_rad_s=arm.move_speed_cap_rad_s,
+        accel_rad_s2=arm.move_accel_cap_rad_s2,
+        max_joint_speed_rad_s=arm.max_joint_speed_rad_s,
+        dwell_s=2.0,
+        pulse_output=None,
+        name="calibrator_check",
+        model=arm.name,
+        via_rad=plan.via_rad,
+    )
+    with outputs.Outputs() as batch:
+        batch.text(plan_file, plans.plan_text(plan))
+        batch.text(program_file, programs.render(spec, "csv"))
+    typer.echo(
+        f"wrote {plan_file} and {program_file}: run them on the controller "
+        f"(`calibrator program {plan_file} -o FILE` for its language) once the check waits",
+        err=True,
+    )
+    return _external_options(0.05, 0.5, 15.0, 30.0, readings, tool_mm, quiet)
+
+
+def _conditions(records: dict) -> dict:
+    """The measuring conditions the run recorded: its span, the spread, what the devices said."""
+    import numpy as np
+
+    from calibrator.acquire import rows
+
+    measured = [r for r in records.values() if r["status"] == "measured"]
+    times = sorted(r["timestamp"] for r in measured if "timestamp" in r)
+    spread = [float(np.linalg.norm(r["std_mm"])) for r in measured]
+    return {
+        "started": times[0] if times else None,
+        "ended": times[-1] if times else None,
+        "reading_spread_mm": {"mean": float(np.mean(spread)), "max": float(np.max(spread))},
+        **rows.summarise(measured),
+    }
+
+
+def _open_history(url: str) -> Any:
+    """``--history``: the history opened (the history package, imported only when asked)."""
+    try:
+        from calibrator.history import open_history  # type: ignore[import-not-found]
+    except ImportError:
+        fail("--history: this installation has no history support (calibrator.history)")
+    return open_history(url)
+
+
+def _record(url: str, doc: dict) -> None:
+    """Record the check in the history at ``url``."""
+    with _open_history(url) as store:
+        number = store.record_check(doc)
+    typer.echo(f"recorded check {number} in {url}")
+
+
+def _print(doc: dict, output: Path, data_path: Path, np: Any) -> None:
+    typer.echo("pose   distance mm   predicted RMS mm")
+    for p in doc["poses"]:
+        typer.echo(f"{p['pose']:4d}   {p['distance_mm']:11.4f}   {p['predicted_rms_mm']:16.4f}")
+    typer.echo(
+        f"measured {doc['measured_mm']:.4f} mm mean error, predicted {doc['predicted_mm']:.4f} mm "
+        f"(chi2 {doc['chi2']:.1f} on {doc['dof']}, p = {doc['p_value']:.2g})"
+    )
+    typer.echo(f"verdict: {doc['verdict']}")
+    for line in doc["explanation_text"]:
+        typer.echo(f"  {line}")
+    typer.echo(f"wrote {output} and {data_path}")

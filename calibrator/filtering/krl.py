@@ -1,0 +1,349 @@
+"""KUKA KRL (KR C4, KSS 8.x): a ``.src`` with its ``.dat``.
+
+Read from KUKA's KSS expert programming manual:
+
+- Targets are ``E6POS``/``POS``/``FRAME`` (``X, Y, Z`` mm, ``A, B, C`` deg,
+  ``Rz(A) Ry(B) Rx(C)``; ``S`` status and ``T`` turn on ``E6POS``/``POS``) or
+  ``E6AXIS``/``AXIS`` (``A1..A6`` deg), declared (``DECL E6POS XP1={...}``,
+  usually in the ``.dat``; or declared without a value and assigned
+  ``NAME = {...}``) or written inline in ``PTP``/``LIN``/``CIRC``
+  (and ``SPTP``/``SLIN``/``SCIRC``). External axes (``E1..E6``) are kept.
+- The tool and base a target is meant in are those active where it is moved
+  to: ``$TOOL = TOOL_DATA[n]``, ``$BASE = BASE_DATA[n]``, ``BAS(#TOOL, n)``,
+  ``BAS(#BASE, n)`` or ``FDAT_ACT = FPx`` (the ``FDAT``'s ``TOOL_NO``,
+  ``BASE_NO``), read in a first pass over the ``.src``. ``TOOL_DATA[n]`` and
+  ``BASE_DATA[n]`` come from the controller's ``$config.dat`` (``--config-dat``)
+  or ``--frames``; number 0 is the flange / the robot base.
+- Status ``S`` (bit 0: wrist centre behind axis 1, "overhead area"; bit 1:
+  elbow up; bit 2: ``A5`` negative) and turn ``T`` (bit i: axis i+1 negative),
+  as :mod:`calibrator.filtering.configuration` reads them. Only those bits are
+  compared; a target without ``S``/``T`` (or a ``FRAME``) takes the
+  configuration of the target before it.
+
+A declared target used under two different tool/base pairs cannot be
+corrected for both and is refused with both lines. A partial aggregate
+(``LIN {X 100}``) changes some coordinates only: it cannot be corrected and
+fails. Everything after ``;`` is a comment.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from calibrator import frames
+from calibrator.filtering import (
+    FilterError,
+    Language,
+    Layout,
+    Target,
+    Unit,
+    configuration,
+    language,
+    read_lines,
+    rotations,
+    split_ending,
+)
+
+_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_FIELD = re.compile(r"([A-Za-z]\w*)\s+(" + _NUM + r"|'[Bb][01]+'|'[Hh][0-9A-Fa-f]+')")
+_DECL = re.compile(
+    r"^\s*(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Za-z_$]\w*)\s*=\s*\{",
+    re.IGNORECASE,
+)
+_ASSIGN = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*\{")
+_MOTION = re.compile(r"^\s*(S?PTP|S?LIN|S?CIRC)\b\s*(.*)$", re.IGNORECASE)
+_TOOL_SET = re.compile(r"\$TOOL\s*=\s*TOOL_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
+_BASE_SET = re.compile(r"\$BASE\s*=\s*BASE_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
+_BAS = re.compile(r"\bBAS\s*\(\s*#(TOOL|BASE)\s*,\s*(\d+)\s*\)", re.IGNORECASE)
+_FDAT_ACT = re.compile(r"\bFDAT_ACT\s*=\s*([A-Za-z_]\w*)", re.IGNORECASE)
+_FDAT = re.compile(r"^\s*DECL\s+(?:GLOBAL\s+)?FDAT\s+([A-Za-z_]\w*)\s*=\s*\{(.*)\}", re.IGNORECASE)
+_FRAME_WORDS = re.compile(r"\$TOOL|\$BASE|BAS\s*\(|FDAT_ACT", re.IGNORECASE)
+_CONFIG = re.compile(
+    r"^\s*(TOOL_DATA|BASE_DATA)\s*\[\s*(\d+)\s*\]\s*=\s*\{([^}]*)\}", re.IGNORECASE
+)
+
+POSE_FIELDS = ("X", "Y", "Z", "A", "B", "C")
+AXIS_FIELDS = ("A1", "A2", "A3", "A4", "A5", "A6")
+
+
+def _decode_pose(v):
+    return frames.transform(rotations.zyx_to_matrix(v[:, 3:]), v[:, :3])
+
+
+def _encode_pose(pose, old):
+    return np.concatenate(
+        [pose[:, :3, 3], rotations.matrix_to_zyx(pose[:, :3, :3], old[:, 3:])], axis=1
+    )
+
+
+POSE = Layout("pose", ("mm",) * 3 + ("deg",) * 3, _decode_pose, _encode_pose)
+JOINTS = Layout("joints", ("deg",) * 6, lambda v: np.radians(v), lambda q, old: np.degrees(q))
+
+
+def _code(text: str) -> str:
+    """A KRL line without its comment (``;`` outside a string)."""
+    if '"' not in text:
+        cut = text.find(";")
+        return text if cut < 0 else text[:cut]
+    quote = False
+    for i, ch in enumerate(text):
+        if ch == '"':
+            quote = not quote
+        elif ch == ";" and not quote:
+            return text[:i]
+    return text
+
+
+def _int(text: str) -> int:
+    t = text.strip("'")
+    if t[:1] in "Bb":
+        return int(t[1:], 2)
+    if t[:1] in "Hh":
+        return int(t[1:], 16)
+    return int(float(t))
+
+
+#: The usual full E6POS/POS aggregate, in the order KUKA's editors write it.
+_FULL_POSE = re.compile(
+    (
+        r"\{\s*X\s+(?P<X>NUM)\s*,\s*Y\s+(?P<Y>NUM)\s*,\s*Z\s+(?P<Z>NUM)\s*,\s*A\s+(?P<A>NUM)"
+        r"\s*,\s*B\s+(?P<B>NUM)\s*,\s*C\s+(?P<C>NUM)\s*(?:,\s*S\s+(?P<S>NUM|'[Bb][01]+')\s*"
+        r",\s*T\s+(?P<T>NUM|'[Bb][01]+'))?\s*[,}]"
+    ).replace("NUM", _NUM)
+)
+
+
+def _fields(body: str, start: int) -> dict:
+    """Components of an aggregate ``{...}`` starting at ``start``: name -> (text, start, end)."""
+    m = _FULL_POSE.match(body, start)
+    if m and m.group(0).endswith("}"):
+        return {k: (v, m.start(k), m.end(k)) for k, v in m.groupdict().items() if v is not None}
+    end = body.find("}", start)
+    if end < 0:
+        return {}
+    out = {}
+    for m in _FIELD.finditer(body, start, end):
+        out[m.group(1).upper()] = (m.group(2), m.start(2), m.end(2))
+    return out
+
+
+def read_config_dat(path: Path | None) -> dict:
+    """``{("tool", n): (4, 4), ("base", n): (4, 4)}`` from a controller's ``$config.dat``."""
+    out: dict = {}
+    if path is None:
+        return out
+    for number, line in read_lines(path):
+        m = _CONFIG.match(_code(line))
+        if not m:
+            continue
+        f = _fields("{" + m.group(3) + "}", 0)
+        if not all(k in f for k in POSE_FIELDS):
+            raise FilterError(
+                f"{path}:{number}: {m.group(1)}[{m.group(2)}] lacks one of X Y Z A B C"
+            )
+        v = np.array([[float(f[k][0]) for k in POSE_FIELDS]])
+        kind = "tool" if m.group(1).upper() == "TOOL_DATA" else "base"
+        out[(kind, int(m.group(2)))] = _decode_pose(v)[0]
+    return out
+
+
+def _sibling_dat(src: Path) -> Path | None:
+    for cand in src.parent.iterdir() if src.parent.is_dir() else []:
+        if cand.stem.lower() == src.stem.lower() and cand.suffix.lower() == ".dat":
+            return cand
+    return None
+
+
+@language("krl", (".src",), "KUKA KRL .src with its .dat (mm, deg; A-B-C, S/T)")
+class KRL(Language):
+    comment = ";"
+
+    def __init__(self, job, program: Path) -> None:
+        super().__init__(job, program)
+        self.dat = _sibling_dat(self.program)
+        self.config = read_config_dat(job.config_dat)
+        fdat: dict = {}
+        if self.dat is not None:
+            for _, line in read_lines(self.dat):
+                m = _FDAT.match(_code(line))
+                if m:
+                    f = _fields("{" + m.group(2) + "}", 0)
+                    tool = _int(f["TOOL_NO"][0]) if "TOOL_NO" in f else None
+                    base = _int(f["BASE_NO"][0]) if "BASE_NO" in f else None
+                    fdat[m.group(1).upper()] = (tool, base)
+        # First pass over the .src: the tool and base of each named target's uses.
+        self.uses: dict = {}
+        state: list = [None, None]
+        for number, line in read_lines(self.program):
+            code = _code(line)
+            self._update(code, state, fdat)
+            m = _MOTION.match(code)
+            if not m:
+                continue
+            for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(m.group(2))):
+                if name.upper() in {"C_PTP", "C_DIS", "C_VEL", "C_ORI", "C_SPL", "CA"}:
+                    continue
+                key = name.upper()
+                seen = self.uses.get(key)
+                now = (state[0], state[1], number)
+                if seen is not None and seen[:2] != now[:2]:
+                    raise FilterError(
+                        f"{self.program}:{number}: {name} is moved to with tool {now[0]} and base "
+                        f"{now[1]} here and tool {seen[0]} and base {seen[1]} on line {seen[2]}; "
+                        f"one target cannot be corrected for two frames"
+                    )
+                self.uses[key] = now
+        self.fdat = fdat
+
+    @staticmethod
+    def _update(code: str, state: list, fdat: dict) -> None:
+        if not _FRAME_WORDS.search(code):
+            return  # most lines set no frame
+        for m in _TOOL_SET.finditer(code):
+            state[0] = int(m.group(1))
+        for m in _BASE_SET.finditer(code):
+            state[1] = int(m.group(1))
+        for m in _BAS.finditer(code):
+            state[0 if m.group(1).upper() == "TOOL" else 1] = int(m.group(2))
+        for m in _FDAT_ACT.finditer(code):
+            tool, base = fdat.get(m.group(1).upper(), (None, None))
+            state[0] = tool if tool is not None else state[0]
+            state[1] = base if base is not None else state[1]
+
+    def files(self, output: Path):
+        pairs = []
+        if self.dat is not None:
+            pairs.append((self.dat, Path(output).with_suffix(".dat")))
+        pairs.append((self.program, Path(output)))
+        return pairs
+
+    def _frame(self, kind: str, number: int | None, where: str):
+        """The (4, 4) of TOOL_DATA/BASE_DATA[number]; (None, problem) when unknown."""
+        if number is None:
+            return (
+                None,
+                f"no {kind} is set before its use ({'$TOOL' if kind == 'tool' else '$BASE'})",
+            )
+        if number == 0:
+            return np.eye(4), None
+        if (kind, number) in self.config:
+            return self.config[(kind, number)], None
+        table = self.job.frames.tools if kind == "tool" else self.job.frames.bases
+        if str(number) in table:
+            return table[str(number)], None
+        data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
+        return None, f"{data}[{number}] is defined neither in --config-dat nor in --frames"
+
+    def scan(self, path: Path):
+        in_src = path == self.program
+        state: list = [None, None]
+        for number, line in read_lines(path):
+            body, _ = split_ending(line)
+            code = _code(body)
+            unit = Unit([line])
+            if in_src:
+                self._update(code, state, self.fdat)
+            decl = _DECL.match(code)
+            if decl:
+                use = self.uses.get(decl.group(2).upper())
+                if use is not None:  # declared and moved to: a target
+                    unit.targets.append(
+                        self._target(
+                            path,
+                            number,
+                            decl.group(2),
+                            decl.group(1).upper(),
+                            code,
+                            decl.end() - 1,
+                            use[:2],
+                        )
+                    )
+            elif (assign := _ASSIGN.match(code)) and assign.group(1).upper() in self.uses:
+                # ``HOMEPOS = {A1 0, ...}``: a target declared without a value, assigned here.
+                name, brace = assign.group(1), assign.end() - 1
+                axis = re.match(r"\{\s*A[1-6]\s", code[brace:], re.IGNORECASE)
+                use = self.uses[name.upper()]
+                unit.targets.append(
+                    self._target(
+                        path, number, name, "AXIS" if axis else "E6POS", code, brace, use[:2]
+                    )
+                )
+            elif in_src:
+                m = _MOTION.match(code)
+                if m:
+                    for pos in _top_braces(code, m.start(2)):
+                        kind = (
+                            "AXIS"
+                            if re.match(r"\{\s*A[1-6]\s", code[pos:], re.IGNORECASE)
+                            else "E6POS"
+                        )
+                        unit.targets.append(
+                            self._target(
+                                path, number, m.group(1).upper(), kind, code, pos, tuple(state)
+                            )
+                        )
+            yield unit
+
+    def _target(self, path, number, label, kind, code, brace, frames_used):
+        f = _fields(code, brace)
+        joints = kind in ("E6AXIS", "AXIS")
+        names = AXIS_FIELDS if joints else POSE_FIELDS
+        target = Target(
+            file=str(path),
+            line=number,
+            label=label,
+            layout=JOINTS if joints else POSE,
+            tokens=[],
+            spans=[],
+        )
+        if not all(k in f for k in names):
+            target.tokens, target.problem = ["0"] * 6, "a partial aggregate cannot be corrected"
+            return target
+        target.tokens = [f[k][0] for k in names]
+        target.spans = [(0, f[k][1], f[k][2]) for k in names]
+        where = f"{path}:{number}"
+        tool, p1 = self._frame("tool", frames_used[0], where)
+        base, p2 = (None, None) if joints else self._frame("base", frames_used[1], where)
+        target.tool, target.base, target.problem = tool, base, p1 or p2
+        if not joints and "S" in f and "T" in f:
+            target.code = (_int(f["S"][0]) & 7, _int(f["T"][0]) & 63)
+        return target
+
+    def code(self, q_deg, bits):
+        bits = np.asarray(bits)
+        s = bits[:, 0] + 2 * (1 - bits[:, 1]) + 4 * bits[:, 2]
+        t = np.sum(configuration.negative(q_deg) << np.arange(6), axis=1)
+        return np.column_stack([s, t])
+
+    def code_bits(self, code):
+        s = np.asarray(code)[:, 0]
+        return np.column_stack([s & 1, 1 - ((s >> 1) & 1), (s >> 2) & 1])
+
+    def describe(self, code):
+        return f"S {code[0]} T {code[1]}"
+
+
+def _strip_aggregates(text: str) -> str:
+    return re.sub(r"\{[^}]*\}", " ", text)
+
+
+def _top_braces(code: str, start: int) -> list[int]:
+    if code.count("{") == 1:
+        at = code.find("{", start)
+        return [at] if at >= 0 else []
+    if code.count("{") == code.count("}") == len(re.findall(r"\{[^{}]*\}", code)):
+        return [m.start() for m in re.finditer(r"\{", code[start:])] and [
+            start + m.start() for m in re.finditer(r"\{", code[start:])
+        ]  # no nesting: every brace opens a target
+    out, depth = [], 0
+    for i in range(start, len(code)):
+        if code[i] == "{":
+            if depth == 0:
+                out.append(i)
+            depth += 1
+        elif code[i] == "}":
+            depth -= 1
+    return out

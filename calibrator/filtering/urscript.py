@@ -1,0 +1,190 @@
+"""URScript (Universal Robots): ``movej``/``movel``/``movep``/``movec`` targets.
+
+Read from the URScript manual: a pose ``p[x, y, z, rx, ry, rz]`` is in m
+and a rotation vector (rad), in the robot base frame, for the TCP set by the
+last ``set_tcp(p[...])`` (the flange when none); a joint list ``[q1, ..., q6]``
+is in rad. A move's target is its first argument (``movec``: its first two),
+written inline or as a variable assigned ``name = p[...]`` (or ``[...]``) on
+its own line. The controller solves a pose target nearest the joints it
+comes from, so a pose keeps the configuration of the target before it.
+
+A variable moved to under two different TCPs cannot be corrected for both:
+the reader refuses it, naming both lines. Everything after ``#`` is a
+comment.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from calibrator import frames
+from calibrator.filtering import (
+    FilterError,
+    Language,
+    Layout,
+    Target,
+    Unit,
+    configuration,
+    language,
+    numbers,
+    read_lines,
+    split_ending,
+)
+
+_MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
+_TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")
+_ASSIGN = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[([^\]]*)\]\s*$")
+
+
+def _decode_pose(v):
+    return frames.transform(frames.rotvec_to_matrix(v[:, 3:]), 1000.0 * v[:, :3])
+
+
+def _encode_pose(pose, old):
+    rv = frames.matrix_to_rotvec(pose[:, :3, :3])
+    # r and r - 2 pi r/|r| are the same rotation: keep the one nearer the program's.
+    angle = np.linalg.norm(rv, axis=1, keepdims=True)
+    alt = rv - 2.0 * np.pi * rv / np.maximum(angle, 1e-12)
+    pick = np.linalg.norm(alt - old[:, 3:], axis=1) < np.linalg.norm(rv - old[:, 3:], axis=1)
+    rv = np.where(pick[:, None], alt, rv)
+    return np.concatenate([pose[:, :3, 3] / 1000.0, rv], axis=1)
+
+
+POSE = Layout("pose", ("m",) * 3 + ("rad",) * 3, _decode_pose, _encode_pose)
+JOINTS = Layout("joints", ("rad",) * 6, lambda v: v, lambda q, old: q)
+
+
+def _code_part(body: str) -> str:
+    """The line without its comment (a ``#`` outside a string)."""
+    quote = None
+    for i, ch in enumerate(body):
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            return body[:i]
+    return body
+
+
+def _numbers_in(text: str, offset: int) -> list[tuple[str, int, int]]:
+    return [
+        (m.group(), offset + m.start(), offset + m.end()) for m in numbers.NUMBER.finditer(text)
+    ]
+
+
+def _arguments(code: str, start: int) -> list[tuple[int, int]]:
+    """Spans of the top-level arguments of the call whose ``(`` is at ``start - 1``."""
+    depth, begin, out = 0, start, []
+    for i in range(start, len(code)):
+        ch = code[i]
+        if ch in "([":
+            depth += 1
+        elif ch in ")]":
+            if depth == 0:
+                out.append((begin, i))
+                return out
+            depth -= 1
+        elif ch == "," and depth == 0:
+            out.append((begin, i))
+            begin = i + 1
+    return out
+
+
+def _tcp(text: str, where: str) -> np.ndarray:
+    values = [float(t) for t, _, _ in _numbers_in(text, 0)]
+    if len(values) != 6:
+        raise FilterError(f"{where}: set_tcp needs a pose of 6 numbers")
+    return _decode_pose(np.array([values]))[0]
+
+
+@language("urscript", (".script",), "Universal Robots URScript (m, rad; set_tcp)")
+class URScript(Language):
+    comment = "#"
+
+    def __init__(self, job, program: Path) -> None:
+        super().__init__(job, program)
+        # First pass: the TCP each pose variable is moved to with.
+        self.var_tool: dict[str, tuple] = {}
+        tool, tool_line = None, 0
+        for number, line in read_lines(program):
+            code = _code_part(split_ending(line)[0])
+            m = _TCP.search(code)
+            if m:
+                tool, tool_line = _tcp(m.group(1), f"{program}:{number}"), number
+            for call in _MOVE.finditer(code):
+                for a, b in _arguments(code, call.end())[: 2 if call.group(1) == "movec" else 1]:
+                    name = code[a:b].strip()
+                    if not re.fullmatch(r"[A-Za-z_]\w*", name):
+                        continue
+                    seen = self.var_tool.get(name)
+                    if seen is not None and not _same(seen[0], tool):
+                        raise FilterError(
+                            f"{program}:{number}: {name} is moved to with the TCP set on line "
+                            f"{tool_line or 'none'} here and the TCP of line {seen[1] or 'none'} "
+                            f"before; one target cannot be corrected for two tools"
+                        )
+                    self.var_tool[name] = (tool, tool_line)
+
+    def scan(self, path: Path):
+        tool = None
+        for number, line in read_lines(path):
+            body, _ = split_ending(line)
+            code = _code_part(body)
+            unit = Unit([line])
+            m = _TCP.search(code)
+            if m:
+                tool = _tcp(m.group(1), f"{path}:{number}")
+            assign = _ASSIGN.match(code)
+            if assign and assign.group(1) in self.var_tool:
+                name, is_pose = assign.group(1), assign.group(2) == "p"
+                nums = _numbers_in(assign.group(3), assign.start(3))
+                target = self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
+                if target is not None:
+                    unit.targets.append(target)
+            for call in _MOVE.finditer(code):
+                args = _arguments(code, call.end())
+                for a, b in args[: 2 if call.group(1) == "movec" else 1]:
+                    arg = code[a:b]
+                    lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
+                    if not lit:
+                        continue
+                    nums = _numbers_in(lit.group(2), a + lit.start(2))
+                    target = self._target(
+                        path, number, call.group(1), nums, lit.group(1) == "p", tool
+                    )
+                    if target is not None:
+                        unit.targets.append(target)
+            yield unit
+
+    def _target(self, path, number, label, nums, is_pose, tool):
+        if len(nums) != 6:
+            return None  # not a 6-number literal: not a target we can read
+        layout = POSE if is_pose else JOINTS
+        return Target(
+            file=str(path),
+            line=number,
+            label=label,
+            layout=layout,
+            tokens=[t for t, _, _ in nums],
+            spans=[(0, s, e) for _, s, e in nums],
+            tool=tool,
+        )
+
+    def code(self, q_deg, bits):
+        return np.asarray(bits)
+
+    def code_bits(self, code):
+        return np.asarray(code)
+
+    def describe(self, code):
+        return configuration.describe_bits(code)
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, atol=1e-9))

@@ -1,0 +1,1 @@
+"""Revisions of the history's schema, one a file (Alembic loads them)."""

@@ -1,0 +1,327 @@
+"""What the history stores of each file: one row a record, read and checked before writing.
+
+Pure functions of a file or document (no database): each returns the row
+(a dict of column values) and what names its robot and tracker. Anything
+wrong is a :class:`HistoryError` in one line naming the file and the field;
+the store writes nothing then.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from calibrator.errors import CalibrationError
+
+
+class HistoryError(CalibrationError):
+    """A record the history refuses, or a history it cannot open."""
+
+
+#: ``calibrator check``'s verdicts, best first.
+VERDICTS = ("ok", "drifted", "recalibrate")
+_HEX64 = re.compile(r"^[0-9a-f]{64}$")
+
+
+@dataclass
+class Record:
+    """A row to write and who it belongs to.
+
+    Attributes
+    ----------
+    row : dict
+        Column values of its table (robot and tracker ids left out).
+    robot : str or None
+        The robot's name as the file gives it (``None``: the file names none).
+    tracker : str or None
+        The tracker's ``vendor:model:serial`` (``None``: not recorded).
+    model : str or None
+        The arm's model name, for a robot seen the first time.
+    session : str or None
+        A calibration's session file, to find its robot when the history
+        has not seen the session.
+    """
+
+    row: dict
+    robot: str | None = None
+    tracker: str | None = None
+    model: str | None = None
+    session: str | None = None
+    extra: dict = field(default_factory=dict)
+
+
+@contextmanager
+def _as_history_error() -> Iterator[None]:
+    """A file the domain refuses is a record the history refuses (same one line)."""
+    try:
+        yield
+    except HistoryError:
+        raise
+    except CalibrationError as exc:
+        raise HistoryError(str(exc)) from None
+
+
+def sha256_bytes(data: bytes) -> str:
+    """SHA-256 of bytes (hex)."""
+    return hashlib.sha256(data).hexdigest()
+
+
+def document_sha256(doc: Any) -> str:
+    """SHA-256 of a JSON document in canonical form (sorted keys, no spaces)."""
+    text = json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return sha256_bytes(text.encode())
+
+
+def utc(text: Any, where: str) -> datetime:
+    """An ISO 8601 time as a naive UTC datetime (a time without zone is taken as UTC)."""
+    if not isinstance(text, str):
+        raise HistoryError(f"{where}: time must be an ISO 8601 string, got {text!r:.40}")
+    try:
+        when = datetime.fromisoformat(text)
+    except ValueError:
+        raise HistoryError(f"{where}: {text!r:.40} is not an ISO 8601 time") from None
+    if when.tzinfo is not None:
+        when = when.astimezone(UTC).replace(tzinfo=None)
+    return when
+
+
+def file_time(path: Path) -> datetime:
+    """A file's modification time, naive UTC (for files that record no time)."""
+    return datetime.fromtimestamp(path.stat().st_mtime, UTC).replace(tzinfo=None)
+
+
+def _number(doc: dict, key: str, where: str) -> float:
+    value = doc.get(key)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise HistoryError(f"{where}: '{key}' must be a finite number, got {value!r:.40}")
+    return float(value)
+
+
+def _get(doc: Any, *keys: str) -> Any:
+    for key in keys:
+        if not isinstance(doc, dict):
+            return None
+        doc = doc.get(key)
+    return doc
+
+
+def calibration(path: Path) -> Record:
+    """The record of a calibration.json (checked by :func:`calibrator.calibration.load`).
+
+    The row holds the free parameters' deltas (mm, rad), their standard
+    errors, the fit statistics (mm, deg), the provenance, and the held-out,
+    predicted and fitted mean position errors (mm).
+    """
+    from calibrator import calibration as calibrations
+
+    path = Path(path)
+    with _as_history_error():
+        cal = calibrations.load(path)
+    where = str(path)
+    stats = cal.fit.stats
+    unc = cal.fit.uncertainty
+    created = cal.provenance.created
+    row = {
+        "sha256": calibrations.digest(path),
+        "file": str(path),
+        "created": utc(created, f"{where}: 'created'") if created else file_time(path),
+        "model": cal.model,
+        "session_sha256": cal.provenance.session_sha256,
+        "held_out_rms_mm": _get(stats, "validation", "after", "position_mm", "mean"),
+        "predicted_mm": _get(unc, "predicted_validation_mm", "error_mean"),
+        "fit_rms_mm": _get(stats, "fit", "after", "position_mm", "mean"),
+        "parameters": {k: float(v) for k, v in cal.deltas.items()},
+        "uncertainties": {
+            k: float(v) for k, v in (unc.get("standard_errors") or {}).items() if k in cal.deltas
+        },
+        "statistics": {
+            "stats": stats,
+            "residual_sigma": unc.get("residual_sigma"),
+            "predicted_validation_mm": unc.get("predicted_validation_mm"),
+            "warnings": cal.fit.warnings,
+        },
+        "provenance": {
+            **cal.provenance.to_json(),
+            "session": cal.session,
+            "free_parameters": list(cal.free),
+            "dropped_parameters": cal.dropped,
+        },
+    }
+    for key in ("held_out_rms_mm", "predicted_mm", "fit_rms_mm"):
+        value = row[key]
+        row[key] = float(value) if isinstance(value, int | float) else None
+    return Record(row, model=cal.model, session=cal.session)
+
+
+def verification(path: Path) -> Record:
+    """The record of verify's JSON (docs/verify.md): the largest AP and RP over the test poses."""
+    from calibrator import strict
+
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise HistoryError(f"verify file not found: {path}")
+    data = path.read_bytes()
+    with _as_history_error():
+        doc = strict.load_json(data, where)
+    if not isinstance(doc, dict) or doc.get("format") != "calibrator.verify":
+        raise HistoryError(f"{where} is not a calibrator verify file")
+    poses = doc.get("poses")
+    if not isinstance(poses, list) or not poses or not all(isinstance(p, dict) for p in poses):
+        raise HistoryError(f"{where}: 'poses' must be a list of test poses")
+    ap = max(_number(p, "AP_mm", where) for p in poses)
+    rp = max(_number(p, "RP_mm", where) for p in poses)
+    robot = doc.get("robot")
+    tracker = doc.get("tracker")
+    row = {
+        "sha256": sha256_bytes(data),
+        "file": str(path),
+        # verify.json records no time: the file's is when it was written.
+        "measured_at": utc(doc["time"], where) if "time" in doc else file_time(path),
+        "compensated": bool(doc.get("compensated")),
+        "ap_mm": ap,
+        "rp_mm": rp,
+        "document": doc,
+    }
+    return Record(
+        row,
+        robot=robot if isinstance(robot, str) and robot else None,
+        tracker=tracker if isinstance(tracker, str) and tracker else None,
+        model=doc.get("model") if isinstance(doc.get("model"), str) else None,
+    )
+
+
+def session(path: Path) -> Record:
+    """The record of a session file: digest, time, poses, conditions, robot and tracker.
+
+    The robot is the one the footer's ``measured`` names (``measure`` writes
+    it); a simulated session's is named like the simulated robot
+    (``sim:MODEL:seed=N``). Conditions are the footer's ``conditions``
+    object (``{}`` when it has none).
+    """
+    import pyarrow.parquet as pq
+
+    from calibrator import calibration as calibrations
+    from calibrator import session as sessions
+
+    path = Path(path)
+    with _as_history_error():
+        loaded = sessions.load(path)
+    extra = loaded.meta.extra
+    found = extra.get("measured")
+    measured: dict = found if isinstance(found, dict) else {}
+    robot = measured.get("robot")
+    simulated = extra.get("simulated")
+    if not robot and isinstance(simulated, dict) and loaded.meta.model:
+        robot = f"sim:{loaded.meta.model}:seed={simulated.get('seed')}"
+    measured_at = _first_time(loaded.table) or file_time(path).replace(microsecond=0)
+    conditions = extra.get("conditions")
+    row = {
+        "sha256": calibrations.digest(path),
+        "file": str(path.resolve()),
+        "measured_at": measured_at,
+        "model": loaded.meta.model,
+        "poses": pq.ParquetFile(path).metadata.num_rows,
+        "conditions": conditions if isinstance(conditions, dict) else {},
+    }
+    tracker = measured.get("tracker")
+    return Record(
+        row,
+        robot=str(robot) if robot else None,
+        tracker=str(tracker) if tracker else None,
+        model=loaded.meta.model,
+    )
+
+
+def _first_time(table: Any) -> datetime | None:
+    """The earliest ``timestamp`` of a session's rows (naive UTC), if it records them."""
+    if "timestamp" not in table.column_names:
+        return None
+    stamps = []
+    for value in table.column("timestamp").to_pylist():
+        if isinstance(value, datetime):
+            aware = value.tzinfo is not None
+            stamps.append(value.astimezone(UTC).replace(tzinfo=None) if aware else value)
+        elif isinstance(value, str):
+            try:
+                stamps.append(utc(value, "timestamp"))
+            except HistoryError:
+                continue
+    return min(stamps) if stamps else None
+
+
+#: Fields of a check document: name -> what it must be.
+CHECK_FIELDS = {
+    "robot": "the robot's name (text)",
+    "time": "when it was measured (ISO 8601)",
+    "calibration_sha256": "the SHA-256 of the calibration checked (64 hex digits)",
+    "verdict": "one of " + ", ".join(VERDICTS),
+    "measured_mm": "the measured error (mm, a finite number >= 0)",
+    "predicted_mm": "the error the calibration predicts (mm, a finite number >= 0)",
+    "pose_errors_mm": "the error at each pose (mm, a list of finite numbers)",
+    "explanation": "what explains a change (a list, empty when none)",
+}
+
+
+def check(doc: Any, where: str = "check") -> Record:
+    """The record of a ``calibrator check`` document (fields: :data:`CHECK_FIELDS`).
+
+    Extra keys (conditions, tracker, the poses, ...) are kept in the stored
+    document. Its identity is the digest of the canonical JSON, so the same
+    check recorded twice is one record.
+    """
+    if not isinstance(doc, dict):
+        raise HistoryError(f"{where}: a check must be a JSON object")
+    missing = [k for k in CHECK_FIELDS if k not in doc]
+    if missing:
+        raise HistoryError(
+            f"{where}: missing {missing[0]!r}: {CHECK_FIELDS[missing[0]]}"
+            + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
+        )
+    robot = doc["robot"]
+    if not isinstance(robot, str) or not robot.strip():
+        raise HistoryError(f"{where}: 'robot' must be {CHECK_FIELDS['robot']}")
+    digest = doc["calibration_sha256"]
+    if not isinstance(digest, str) or not _HEX64.match(digest):
+        need = CHECK_FIELDS["calibration_sha256"]
+        raise HistoryError(f"{where}: 'calibration_sha256' must be {need}")
+    if doc["verdict"] not in VERDICTS:
+        raise HistoryError(
+            f"{where}: 'verdict' must be {CHECK_FIELDS['verdict']}, got {doc['verdict']!r:.40}"
+        )
+    measured = _number(doc, "measured_mm", where)
+    predicted = _number(doc, "predicted_mm", where)
+    if measured < 0 or predicted < 0:
+        raise HistoryError(f"{where}: 'measured_mm' and 'predicted_mm' must be >= 0")
+    errors = doc["pose_errors_mm"]
+    if not isinstance(errors, list) or not all(
+        isinstance(e, int | float) and not isinstance(e, bool) and math.isfinite(e) for e in errors
+    ):
+        raise HistoryError(f"{where}: 'pose_errors_mm' must be {CHECK_FIELDS['pose_errors_mm']}")
+    if not isinstance(doc["explanation"], list):
+        raise HistoryError(f"{where}: 'explanation' must be {CHECK_FIELDS['explanation']}")
+    try:
+        sha = document_sha256(doc)
+    except (TypeError, ValueError) as exc:
+        raise HistoryError(f"{where}: not plain JSON ({exc})") from None
+    row = {
+        "sha256": sha,
+        "time": utc(doc["time"], f"{where}: 'time'"),
+        "calibration_sha256": digest,
+        "verdict": doc["verdict"],
+        "measured_mm": measured,
+        "predicted_mm": predicted,
+        "pose_errors_mm": [float(e) for e in errors],
+        "explanation": doc["explanation"],
+        "document": json.loads(json.dumps(doc)),
+    }
+    tracker = doc.get("tracker")
+    return Record(row, robot=robot.strip(), tracker=tracker if isinstance(tracker, str) else None)

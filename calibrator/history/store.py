@@ -1,0 +1,431 @@
+"""The history database: open (and upgrade) it, record into it, read it back.
+
+Every record is one transaction: the robot and tracker it names are
+created if new, its row is inserted, and all of it lands or none does. A
+file recorded twice is one record (its SHA-256 is unique), so two processes
+recording the same or different files at once lose nothing and duplicate
+nothing. On SQLite a writer takes the file's write lock when its transaction
+begins (``BEGIN IMMEDIATE``) and others wait for it; on PostgreSQL rows are
+inserted with ``ON CONFLICT DO NOTHING`` and the schema upgrade holds an
+advisory lock.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+from calibrator.history import migrations, records, schema
+from calibrator.history.records import HistoryError, Record
+
+#: Environment variable naming the history when ``--history`` is not given.
+ENV_VAR = "CALIBRATOR_HISTORY"
+#: How long a writer waits for another's lock on an SQLite file (s).
+SQLITE_WAIT_S = 60.0
+#: Key of the PostgreSQL advisory lock that serialises schema upgrades.
+_UPGRADE_LOCK = 0x63616C69
+
+
+def default_path() -> Path:
+    """The history file used when none is named: ``$XDG_DATA_HOME/calibrator/history.sqlite``.
+
+    ``XDG_DATA_HOME`` defaults to ``~/.local/share``.
+    """
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "calibrator" / "history.sqlite"
+
+
+def resolve(target: str | os.PathLike | None) -> str:
+    """The database URL of ``--history`` (a file or a URL), ``$CALIBRATOR_HISTORY`` or the default.
+
+    A file path becomes ``sqlite:///PATH``; ``postgresql://`` gets the
+    psycopg driver.
+    """
+    if target is None or str(target) == "":
+        target = os.environ.get(ENV_VAR) or None
+    if target is None:
+        path = default_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return f"sqlite:///{path}"
+    text = str(target)
+    if text.startswith(("postgresql://", "postgres://")):
+        return "postgresql+psycopg://" + text.split("://", 1)[1]
+    if "://" in text:
+        return text
+    return f"sqlite:///{Path(text).expanduser()}"
+
+
+def _engine(url: str, create: bool) -> Any:
+    from sqlalchemy import create_engine, event
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        raise HistoryError(
+            f"--history {url}: not a file or a database URL "
+            "(give an SQLite file or postgresql://USER@HOST/DB)"
+        ) from None
+    if parsed.get_backend_name() == "sqlite":
+        path = Path(parsed.database or "")
+        if not parsed.database or parsed.database == ":memory:":
+            raise HistoryError("--history: give a file for SQLite (a history in memory is lost)")
+        if not path.exists():
+            if not create:
+                raise HistoryError(f"no history at {path}")
+            if not path.parent.is_dir():
+                raise HistoryError(f"--history {path}: folder {path.parent} does not exist")
+        elif not path.is_file():
+            raise HistoryError(f"--history {path}: not a file")
+        engine = create_engine(parsed, connect_args={"timeout": SQLITE_WAIT_S})
+
+        @event.listens_for(engine, "connect")
+        def _connect(dbapi_connection: Any, _record: Any) -> None:
+            # pysqlite's own BEGIN comes late and deferred; ours comes first and
+            # takes the write lock, so two writers queue instead of deadlocking.
+            dbapi_connection.isolation_level = None
+            dbapi_connection.execute("PRAGMA foreign_keys = ON")
+            # A commit appends to the write-ahead log and syncs it once, where the
+            # rollback journal syncs the journal and the file: a record took 29 ms
+            # with the journal and 10 ms with the log (300 records,
+            # benchmarks/history_records.py). Readers no longer wait for a writer.
+            dbapi_connection.execute("PRAGMA journal_mode = WAL")
+
+        @event.listens_for(engine, "begin")
+        def _begin(connection: Any) -> None:
+            connection.exec_driver_sql("BEGIN IMMEDIATE")
+
+        return engine
+    try:
+        return create_engine(parsed, pool_pre_ping=True)
+    except Exception as exc:  # a driver missing or an option it refuses
+        raise HistoryError(
+            f"--history {parsed.render_as_string()}: {_one_line(exc)} "
+            "(give an SQLite file or postgresql://USER@HOST/DB)"
+        ) from None
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(getattr(exc, "orig", None) or exc)
+    return " ".join(text.split())[:300]
+
+
+class History:
+    """A history database, upgraded to the newest schema. Use :func:`open_history`.
+
+    Parameters
+    ----------
+    engine : sqlalchemy.engine.Engine
+    where : str
+        How to name it in messages (a path or the URL without password).
+    """
+
+    def __init__(self, engine: Any, where: str) -> None:
+        self.engine = engine
+        self.where = where
+
+    # -- opening ---------------------------------------------------------------
+
+    def upgrade(self) -> str | None:
+        """Bring the schema to :data:`migrations.HEAD`; return the revision it was at."""
+        from sqlalchemy import inspect
+
+        with self._begin() as conn:
+            if conn.dialect.name == "postgresql":
+                conn.exec_driver_sql(f"SELECT pg_advisory_xact_lock({_UPGRADE_LOCK})")
+            was = migrations.current(conn)
+            if was is None and inspect(conn).get_table_names():
+                raise HistoryError(f"{self.where} is a database, but not a calibrator history")
+            if was is not None and was not in migrations.REVISIONS:
+                raise HistoryError(
+                    f"{self.where} is at schema revision {was}, newer than this calibrator "
+                    f"reads ({migrations.HEAD}): upgrade calibrator"
+                )
+            if was != migrations.HEAD:
+                migrations.upgrade(conn)
+        return was
+
+    def close(self) -> None:
+        """Close every connection."""
+        self.engine.dispose()
+
+    def __enter__(self) -> History:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @contextmanager
+    def _begin(self) -> Iterator[Any]:
+        from sqlalchemy.exc import DBAPIError, StatementError
+
+        try:
+            with self.engine.begin() as conn:
+                yield conn
+        except HistoryError:
+            raise
+        except (DBAPIError, StatementError) as exc:
+            raise HistoryError(f"history {self.where}: {_one_line(exc)}") from None
+
+    # -- recording -------------------------------------------------------------
+
+    def record_session(self, path: str | os.PathLike, robot: str | None = None) -> int:
+        """Record a session file (Parquet); return its id (the existing one if recorded).
+
+        Raises
+        ------
+        HistoryError
+            The file is not a session, or names no robot and none is given.
+        """
+        record = records.session(Path(path))
+        with self._begin() as conn:
+            return self._session(conn, record, robot, path)
+
+    def record_calibration(self, path: str | os.PathLike, robot: str | None = None) -> int:
+        """Record a calibration.json; return its id (the existing one if recorded).
+
+        Its robot is ``robot`` if given, else its session's: the one the
+        history holds with the calibration's session digest, else the
+        session file it names (recorded with it, in the same transaction).
+        """
+        record = records.calibration(Path(path))
+        record.row["file"] = str(Path(path).resolve())
+        session_file = _session_file(record.session, Path(path))
+        with self._begin() as conn:
+            session_id, session_robot = self._session_of(conn, record.row["session_sha256"])
+            if session_id is None and session_file is not None:
+                found = records.session(session_file)
+                if found.row["sha256"] == record.row["session_sha256"]:
+                    session_id = self._session(conn, found, robot, session_file)
+                    session_robot = self._robot_name(conn, session_id)
+            name = robot or session_robot
+            if name is None:
+                raise HistoryError(
+                    f"{path}: its session is not in the history and names no robot: "
+                    "give the robot (--robot)"
+                )
+            record.row["session_id"] = session_id
+            return self._insert(conn, schema.calibrations, record, name)
+
+    def record_verification(self, path: str | os.PathLike, robot: str | None = None) -> int:
+        """Record verify's JSON (ISO 9283 pose test); return its id."""
+        record = records.verification(Path(path))
+        record.row["file"] = str(Path(path).resolve())
+        with self._begin() as conn:
+            return self._insert(conn, schema.verifications, record, robot or record.robot, path)
+
+    def record_check(self, doc: dict) -> int:
+        """Record a ``calibrator check`` document (:data:`records.CHECK_FIELDS`); return its id."""
+        record = records.check(doc)
+        with self._begin() as conn:
+            return self._insert(conn, schema.checks, record, record.robot)
+
+    def describe_robot(
+        self,
+        name: str,
+        model: str | None = None,
+        serial: str | None = None,
+        description: str | None = None,
+    ) -> int:
+        """Create a robot or set what is given of its model, serial and description."""
+        values = {"model": model, "serial": serial, "description": description}
+        return self._describe(schema.robots, name, values)
+
+    def describe_tracker(
+        self,
+        name: str,
+        model: str | None = None,
+        serial: str | None = None,
+        certificate_date: date | None = None,
+    ) -> int:
+        """Create a tracker or set what is given of its model, serial and certificate date."""
+        values = {"model": model, "serial": serial, "certificate_date": certificate_date}
+        return self._describe(schema.trackers, name, values)
+
+    def _describe(self, table: Any, name: str, values: dict) -> int:
+        from sqlalchemy import update
+
+        if not name.strip():
+            raise HistoryError("a robot or tracker needs a name")
+        given = {k: v for k, v in values.items() if v is not None}
+        with self._begin() as conn:
+            row_id = self._ensure(conn, table, name.strip(), {})
+            if given:
+                conn.execute(update(table).where(table.c.id == row_id).values(**given))
+            return row_id
+
+    def _session(self, conn: Any, record: Record, robot: str | None, path: Any) -> int:
+        return self._insert(conn, schema.sessions, record, robot or record.robot, path)
+
+    def _insert(
+        self, conn: Any, table: Any, record: Record, robot: str | None, path: Any = None
+    ) -> int:
+        if not robot:
+            raise HistoryError(f"{path or 'record'}: names no robot: give the robot (--robot)")
+        row = dict(record.row)
+        row["robot_id"] = self._ensure(conn, schema.robots, robot, {"model": record.model})
+        if "tracker_id" in table.c:
+            row["tracker_id"] = (
+                self._ensure(conn, schema.trackers, record.tracker, _tracker_parts(record.tracker))
+                if record.tracker
+                else None
+            )
+        return self._insert_or_get(conn, table, row, "sha256")
+
+    def _ensure(self, conn: Any, table: Any, name: str, values: dict) -> int:
+        return self._insert_or_get(conn, table, {"name": name, **values}, "name")
+
+    @staticmethod
+    def _insert_or_get(conn: Any, table: Any, row: dict, key: str) -> int:
+        from sqlalchemy import select
+        from sqlalchemy.dialects import postgresql, sqlite
+
+        dialect = postgresql if conn.dialect.name == "postgresql" else sqlite
+        conn.execute(
+            dialect.insert(table).values(**row).on_conflict_do_nothing(index_elements=[key])
+        )
+        return int(conn.execute(select(table.c.id).where(table.c[key] == row[key])).scalar_one())
+
+    def _session_of(self, conn: Any, digest: str | None) -> tuple[int | None, str | None]:
+        from sqlalchemy import select
+
+        if not digest:
+            return None, None
+        s, r = schema.sessions, schema.robots
+        found = conn.execute(
+            select(s.c.id, r.c.name).join(r, r.c.id == s.c.robot_id).where(s.c.sha256 == digest)
+        ).first()
+        return (None, None) if found is None else (int(found[0]), str(found[1]))
+
+    @staticmethod
+    def _robot_name(conn: Any, session_id: int) -> str:
+        from sqlalchemy import select
+
+        s, r = schema.sessions, schema.robots
+        return str(
+            conn.execute(
+                select(r.c.name).join(s, s.c.robot_id == r.c.id).where(s.c.id == session_id)
+            ).scalar_one()
+        )
+
+    # -- reading ---------------------------------------------------------------
+
+    def robots(self) -> list[dict]:
+        """Every robot: ``{"name", "model", "serial", "description", "calibrations"}``."""
+        from sqlalchemy import func, select
+
+        r, c = schema.robots, schema.calibrations
+        count = select(func.count(c.c.id)).where(c.c.robot_id == r.c.id).scalar_subquery()
+        query = select(
+            r.c.name, r.c.model, r.c.serial, r.c.description, count.label("calibrations")
+        )
+        with self._begin() as conn:
+            return [dict(row._mapping) for row in conn.execute(query.order_by(r.c.name))]
+
+    def trackers(self) -> list[dict]:
+        """Every tracker: ``{"name", "model", "serial", "certificate_date"}``."""
+        from sqlalchemy import select
+
+        t = schema.trackers
+        query = select(t.c.name, t.c.model, t.c.serial, t.c.certificate_date).order_by(t.c.name)
+        with self._begin() as conn:
+            return [dict(row._mapping) for row in conn.execute(query)]
+
+    def calibrations(self, robot: str) -> list[dict]:
+        """A robot's calibrations, oldest first: every column and ``session_file``."""
+        s = schema.sessions
+        return self._rows(schema.calibrations, robot, "created", [s.c.file.label("session_file")])
+
+    def sessions(self, robot: str) -> list[dict]:
+        """A robot's sessions, oldest first (every column and ``tracker``)."""
+        return self._rows(schema.sessions, robot, "measured_at")
+
+    def verifications(self, robot: str) -> list[dict]:
+        """A robot's ISO 9283 tests, oldest first (every column and ``tracker``)."""
+        return self._rows(schema.verifications, robot, "measured_at")
+
+    def checks(self, robot: str) -> list[dict]:
+        """A robot's checks, oldest first (every column)."""
+        return self._rows(schema.checks, robot, "time")
+
+    def _rows(self, table: Any, robot: str, order: str, more: list | None = None) -> list[dict]:
+        from sqlalchemy import select
+
+        r, s, t = schema.robots, schema.sessions, schema.trackers
+        query = select(table, *(more or []))
+        if table is schema.calibrations:
+            query = query.outerjoin(s, s.c.id == table.c.session_id)
+        if "tracker_id" in table.c:
+            query = query.add_columns(t.c.name.label("tracker")).outerjoin(
+                t, t.c.id == table.c.tracker_id
+            )
+        query = (
+            query.join(r, r.c.id == table.c.robot_id)
+            .where(r.c.name == robot)
+            .order_by(table.c[order], table.c.id)
+        )
+        with self._begin() as conn:
+            if conn.execute(select(r.c.id).where(r.c.name == robot)).first() is None:
+                names = [str(n) for (n,) in conn.execute(select(r.c.name).order_by(r.c.name))]
+                known = ", ".join(names) if names else "none yet"
+                raise HistoryError(f"no robot {robot!r} in the history {self.where} ({known})")
+            return [dict(row._mapping) for row in conn.execute(query)]
+
+
+def _session_file(named: str | None, calibration: Path) -> Path | None:
+    """The session file a calibration names: as given (relative to where identify ran),
+    else beside the calibration; ``None`` when neither is there."""
+    if not named:
+        return None
+    for path in (Path(named), calibration.parent / named):
+        if path.is_file():
+            return path
+    return None
+
+
+def _tracker_parts(name: str | None) -> dict:
+    """Model and serial of a ``vendor:model:serial`` tracker id (``{}`` otherwise)."""
+    parts = (name or "").split(":")
+    return {"model": parts[1], "serial": parts[2]} if len(parts) == 3 else {}
+
+
+def open_history(target: str | os.PathLike | None = None, create: bool = True) -> History:
+    """Open a history, creating or upgrading its schema (a context manager).
+
+    Parameters
+    ----------
+    target : str or path-like, optional
+        An SQLite file, ``sqlite:///FILE``, ``postgresql://USER@HOST/DB``;
+        default ``$CALIBRATOR_HISTORY``, else :func:`default_path`.
+    create : bool
+        Create an SQLite file that does not exist (else: HistoryError).
+
+    Returns
+    -------
+    History
+
+    Raises
+    ------
+    HistoryError
+        Not a file or URL, no such file (``create=False``), a database
+        that is not a history, a newer schema, or a server that does not answer.
+    """
+    url = resolve(target)
+    engine = _engine(url, create)
+    where = (
+        str(engine.url.database)
+        if engine.url.get_backend_name() == "sqlite"
+        else (engine.url.render_as_string(hide_password=True))
+    )
+    history = History(engine, where)
+    try:
+        history.upgrade()
+    except BaseException:
+        history.close()
+        raise
+    return history

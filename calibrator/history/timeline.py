@@ -1,0 +1,132 @@
+"""A robot's records as one table over time (what ``history ROBOT`` prints and ``--csv`` writes)."""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+from typing import Any
+
+#: Columns of the table, in order.
+COLUMNS = (
+    "time",
+    "record",
+    "id",
+    "held_out_mm",
+    "predicted_mm",
+    "ap_mm",
+    "rp_mm",
+    "verdict",
+    "file",
+)
+
+
+@dataclass
+class Timeline:
+    """Everything the history holds of one robot, each list oldest first."""
+
+    robot: dict
+    calibrations: list = field(default_factory=list)
+    sessions: list = field(default_factory=list)
+    verifications: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
+    trackers: list = field(default_factory=list)
+
+
+def load(store: Any, robot: str) -> Timeline:
+    """A robot's records from a :class:`calibrator.history.History`."""
+    calibrations = store.calibrations(robot)  # refuses an unknown robot first
+    about = next(r for r in store.robots() if r["name"] == robot)
+    sessions = store.sessions(robot)
+    verifications = store.verifications(robot)
+    used = {s["tracker"] for s in sessions} | {v["tracker"] for v in verifications}
+    return Timeline(
+        robot=about,
+        calibrations=calibrations,
+        sessions=sessions,
+        verifications=verifications,
+        checks=store.checks(robot),
+        trackers=[t for t in store.trackers() if t["name"] in used],
+    )
+
+
+def table(data: Timeline) -> list[dict]:
+    """One row per record (``COLUMNS``), oldest first; figures in mm, absent ones ``None``."""
+    rows = []
+    for s in data.sessions:
+        rows.append(_row(s["measured_at"], "session", s["id"], file=s["file"]))
+    for c in data.calibrations:
+        rows.append(
+            _row(
+                c["created"],
+                "calibration",
+                c["id"],
+                held_out_mm=c["held_out_rms_mm"],
+                predicted_mm=c["predicted_mm"],
+                file=c["file"],
+            )
+        )
+    for v in data.verifications:
+        kind = "iso9283 compensated" if v["compensated"] else "iso9283 nominal"
+        rows.append(
+            _row(
+                v["measured_at"], kind, v["id"], ap_mm=v["ap_mm"], rp_mm=v["rp_mm"], file=v["file"]
+            )
+        )
+    for c in data.checks:
+        rows.append(
+            _row(
+                c["time"],
+                "check",
+                c["id"],
+                held_out_mm=c["measured_mm"],
+                predicted_mm=c["predicted_mm"],
+                verdict=c["verdict"],
+            )
+        )
+    return sorted(rows, key=lambda r: (r["time"], r["record"], r["id"]))
+
+
+def _row(time: Any, record: str, number: int, **values: Any) -> dict:
+    row = dict.fromkeys(COLUMNS)
+    row.update(time=time, record=record, id=number, **values)
+    return row
+
+
+def _cell(value: Any, width: int = 0) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return f"{value:.4f}"
+    if hasattr(value, "isoformat"):
+        return value.isoformat(sep=" ", timespec="seconds")
+    return str(value)
+
+
+def format_table(rows: list[dict]) -> str:
+    """The table as text (mm, UTC times); a check's measured error in the held-out column."""
+    head = f"{'time (UTC)':19s}  {'record':20s} {'id':>5s} {'held-out':>9s} {'predicted':>9s} "
+    head += f"{'AP':>8s} {'RP':>8s}  verdict"
+    lines = [head + "   (mm)"]
+    for r in rows:
+        lines.append(
+            f"{_cell(r['time']):19s}  {r['record']:20s} {r['id']:5d} {_cell(r['held_out_mm']):>9s} "
+            f"{_cell(r['predicted_mm']):>9s} {_cell(r['ap_mm']):>8s} {_cell(r['rp_mm']):>8s}  "
+            f"{r['verdict'] or ''}"
+        )
+    return "\n".join(lines)
+
+
+def csv_text(rows: list[dict]) -> str:
+    """The table as CSV (``COLUMNS``; times ISO 8601 UTC; numbers as stored, mm)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for r in rows:
+        writer.writerow(
+            [
+                r[c].isoformat() if hasattr(r[c], "isoformat") else ("" if r[c] is None else r[c])
+                for c in COLUMNS
+            ]
+        )
+    return out.getvalue()

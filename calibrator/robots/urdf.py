@@ -1,0 +1,617 @@
+"""Robot descriptions from a URDF: the serial chain from a base link to a tip link.
+
+The chain's joint axes at the zero pose are converted exactly to an MDH table
+(:func:`calibrator.chains.fit_links`, the conversion the ROS kinematics
+import uses), with Hayati's ``beta`` where neighbouring axes are parallel;
+what the table cannot hold is kept: ``base_offset`` (MDH frame 0 in the base
+link) and ``flange_offset`` (the tip link in the MDH flange frame), so that
+for URDF joint angles ``q``::
+
+    base_link2tip(q) = base_offset . A_1...A_6(to_model(q)) . flange_offset
+
+Model angles are the URDF's, except that joint 1 turns about the base's +z
+and joint 6 about the axis pointing out of the flange (so the MDH flange
+frame's z points where the tool is, as on a UR): where the URDF's axis points
+the other way (KUKA's A1, several A6/J6), the model angle is its negative,
+recorded as the joint convention's sign. URDF angles are taken to
+be the controller's (ROS-Industrial drivers pass them through; where a
+controller differs, such as Fanuc's J2/J3 coupling, a description file
+declares it).
+
+Also read: position and velocity limits (``<limit>``; continuous joints get
++-2 pi), masses and centres of mass (``<inertial>`` of each moving link and
+the links fixed to it), the collision geometry (boxes, cylinders, spheres;
+meshes through trimesh when the file can be found) fitted with capsules at a
+stated margin. Arms that are not serial 6R chains are refused in one line.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from calibrator import chains, kinematics, strict
+from calibrator.robots.description import (
+    Body,
+    Capsule,
+    DescriptionError,
+    JointConvention,
+    RobotDescription,
+)
+
+#: Refuse URDF files larger than this (a 6-axis arm's is tens of kilobytes).
+MAX_BYTES = 16 * 2**20
+_M = 1000.0
+#: Base links tried when none is given, in order.
+BASE_LINKS = ("base_link",)
+#: Tip links tried when none is given, in order.
+TIP_LINKS = ("tool0", "flange")
+#: Margin added to every fitted capsule radius, mm.
+FIT_MARGIN_MM = 10.0
+#: Radius of a capsule along a link that has no collision geometry, mm.
+BARE_LINK_RADIUS_MM = 60.0
+_MOVING = ("revolute", "continuous")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One joint of the chain, as the URDF gives it (mm, rad)."""
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: np.ndarray  # (4, 4) child joint frame in the parent link frame, mm
+    axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    lower: float | None = None
+    upper: float | None = None
+    velocity: float | None = None
+
+
+@dataclass(frozen=True)
+class Chain:
+    """The serial chain from ``base_link`` to ``tip_link`` of a URDF file."""
+
+    path: Path
+    robot: str
+    base_link: str
+    tip_link: str
+    joints: tuple[Joint, ...]
+    root: ET.Element
+
+    @property
+    def moving(self) -> tuple[Joint, ...]:
+        return tuple(j for j in self.joints if j.kind in _MOVING)
+
+    def link_frames(self) -> dict[str, np.ndarray]:
+        """Every chain link's frame in the base link at the zero pose, mm."""
+        frames = {self.base_link: np.eye(4)}
+        for joint in self.joints:
+            frames[joint.child] = frames[joint.parent] @ joint.origin
+        return frames
+
+
+def _fail(path: Path | str, what: str) -> DescriptionError:
+    return DescriptionError(f"{path}: {what}")
+
+
+def _numbers(text: str | None, count: int, default: tuple[float, ...], where: str) -> np.ndarray:
+    if text is None:
+        return np.array(default, dtype=float)
+    parts = text.split()
+    try:
+        values = np.array([strict.parse_number(p, where) for p in parts], dtype=float)
+    except strict.StrictError:
+        raise DescriptionError(f"{where}: {text!r} is not {count} numbers") from None
+    if values.shape != (count,):
+        raise DescriptionError(f"{where}: {text!r} is not {count} numbers")
+    return values
+
+
+def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
+    """The transform of an ``<origin xyz rpy>`` element (mm), identity if absent."""
+    from calibrator.export.ros import origin_transform
+
+    if element is None:
+        return np.eye(4)
+    xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
+    rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
+    return origin_transform(np.concatenate([xyz * _M, rpy]))
+
+
+def read_chain(
+    path: str | os.PathLike[str], base_link: str | None = None, tip_link: str | None = None
+) -> Chain:
+    """The serial chain of a URDF file between two links.
+
+    Parameters
+    ----------
+    path : str or Path
+    base_link, tip_link : str, optional
+        Defaults: :data:`BASE_LINKS`, then the first of :data:`TIP_LINKS` present.
+
+    Raises
+    ------
+    DescriptionError
+        Unreadable, not a URDF, a link missing, or links not on one chain.
+    """
+    path = Path(path)
+    try:
+        text = strict.read_text(path, MAX_BYTES, "a URDF file")
+    except strict.StrictError as exc:
+        raise DescriptionError(str(exc)) from None
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise _fail(path, f"not a URDF file (XML error: {exc})") from None
+    if root.tag != "robot":
+        raise _fail(path, f"not a URDF file (the root element is <{root.tag}>, not <robot>)")
+    links = {e.get("name") for e in root.findall("link")}
+    by_child: dict[str, ET.Element] = {}
+    for element in root.findall("joint"):
+        child = element.find("child")
+        if child is not None and child.get("link"):
+            by_child[str(child.get("link"))] = element
+
+    def pick(given: str | None, defaults: tuple[str, ...], what: str) -> str:
+        if given is not None:
+            if given not in links:
+                raise _fail(
+                    path, f"no {what} link {given!r} (links: {', '.join(sorted(map(str, links)))})"
+                )
+            return given
+        for name in defaults:
+            if name in links:
+                return name
+        raise _fail(path, f"no {what} link ({' or '.join(defaults)}); name it with --{what}-link")
+
+    base = pick(base_link, BASE_LINKS, "base")
+    tip = pick(tip_link, TIP_LINKS, "tip")
+    elements: list[ET.Element] = []
+    link = tip
+    while link != base:
+        found = by_child.get(link)
+        if found is None:
+            raise _fail(path, f"link {tip!r} is not below {base!r} on one chain")
+        element = found
+        elements.append(element)
+        parent = element.find("parent")
+        link = str(parent.get("link")) if parent is not None else ""
+        if len(elements) > len(by_child):
+            raise _fail(path, "the joints form a loop")
+    joints = tuple(_joint(path, e) for e in reversed(elements))
+    return Chain(path, str(root.get("name") or path.stem), base, tip, joints, root)
+
+
+def _joint(path: Path, element: ET.Element) -> Joint:
+    name = str(element.get("name"))
+    kind = str(element.get("type"))
+    where = f"{path}: joint {name!r}"
+    if element.find("mimic") is not None:
+        raise DescriptionError(f"{where} mimics another joint: coupled chains are not supported")
+    if kind not in (*_MOVING, "fixed"):
+        what = {"prismatic": "a linear axis or track", "planar": "a planar joint"}.get(
+            kind, f"a {kind} joint"
+        )
+        raise DescriptionError(
+            f"{where} is {kind} ({what}): only serial 6-axis arms of revolute joints are supported"
+        )
+    parent, child = element.find("parent"), element.find("child")
+    axis = _numbers(
+        element.find("axis").get("xyz") if element.find("axis") is not None else None,  # type: ignore[union-attr]
+        3,
+        (1.0, 0.0, 0.0),
+        f"{where} axis",
+    )
+    if kind in _MOVING and not np.linalg.norm(axis) > 1e-9:
+        raise DescriptionError(f"{where}: its axis is zero")
+    limit = element.find("limit")
+    lower = upper = velocity = None
+    if limit is not None:
+        for key in ("lower", "upper", "velocity"):
+            if limit.get(key) is not None:
+                value = _numbers(limit.get(key), 1, (0.0,), f"{where} limit {key}")[0]
+                if key == "lower":
+                    lower = value
+                elif key == "upper":
+                    upper = value
+                else:
+                    velocity = value
+    return Joint(
+        name=name,
+        kind=kind,
+        parent=str(parent.get("link")) if parent is not None else "",
+        child=str(child.get("link")) if child is not None else "",
+        origin=origin_of(element.find("origin"), where),
+        axis=axis / max(float(np.linalg.norm(axis)), 1e-300),
+        lower=lower,
+        upper=upper,
+        velocity=velocity,
+    )
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """A chain's MDH table and what it cannot hold (see the module docstring)."""
+
+    mdh: np.ndarray
+    base_offset: np.ndarray
+    flange_offset: np.ndarray
+    sign: np.ndarray  # (6,) model angle = sign * URDF angle
+
+
+def joint_axes(chain: Chain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each moving joint's frame (z = its axis as turned) and the tip, at the zero pose.
+
+    Returns
+    -------
+    joints : ndarray, shape (6, 4, 4)
+        Base-link frame of each joint, z along the axis the model turns about (mm).
+    tip : ndarray, shape (4, 4)
+    sign : ndarray, shape (6,)
+    """
+    moving = chain.moving
+    if len(moving) != 6:
+        extra = " (a 7-axis arm or an arm on a track is not supported)" if len(moving) > 6 else ""
+        raise _fail(
+            chain.path,
+            f"{len(moving)} moving joints between {chain.base_link!r} and {chain.tip_link!r}: "
+            f"only serial 6-axis arms are supported{extra}",
+        )
+    frames = chain.link_frames()
+    out = np.empty((6, 4, 4))
+    sign = np.ones(6)
+    tip = frames[chain.tip_link]
+    # Axis 6 out of the flange, so the MDH flange frame's z points away from the wrist
+    # (where the tool is): from joint 5 towards the tip, else the tip frame's z.
+    outward = tip[:3, 3] - frames[moving[4].child][:3, 3]
+    if np.linalg.norm(outward) < 1e-6:
+        outward = tip[:3, 2]
+    for i, joint in enumerate(moving):
+        # The joint turns the child frame about the axis given in that (child) frame.
+        at = frames[joint.child]
+        z = at[:3, :3] @ joint.axis
+        if i == 0 and z[2] < -1e-12:
+            sign[0] = -1.0  # joint 1 about the base's +z: the model angle is the URDF's negative
+        if i == 5 and z @ outward < -1e-12:
+            sign[5] = -1.0  # joint 6 about the outward axis: the model angle is the negative
+        out[i] = _frame_on(at[:3, 3], sign[i] * z)
+    return out, tip, sign
+
+
+def _frame_on(origin: np.ndarray, z: np.ndarray) -> np.ndarray:
+    z = z / np.linalg.norm(z)
+    x = np.cross([0.0, 1.0, 0.0], z) if abs(z[1]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    out = np.eye(4)
+    out[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    out[:3, 3] = origin
+    return out
+
+
+def kinematics_of(chain: Chain) -> Kinematics:
+    """The chain's MDH table, exactly (see the module docstring)."""
+    joints, tip, sign = joint_axes(chain)
+    z = joints[:, :3, 2]
+    parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < 1e-9
+    mdh, base2frame0, residual = chains.fit_links(joints, tip, np.zeros((6, 5)), parallel)
+    if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(residual))):
+        raise _fail(chain.path, "the joint axes do not describe a 6R arm")
+    return Kinematics(mdh, base2frame0, residual, sign)
+
+
+def _limits(chain: Chain, sign: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    limits = np.empty((6, 2))
+    speeds = np.empty(6)
+    for i, joint in enumerate(chain.moving):
+        if joint.kind == "continuous" and (joint.lower is None or joint.upper is None):
+            lo, hi = -2 * np.pi, 2 * np.pi
+        elif joint.lower is None or joint.upper is None:
+            raise _fail(chain.path, f"joint {joint.name!r} has no lower and upper limit")
+        else:
+            lo, hi = joint.lower, joint.upper
+        if not lo < hi:
+            raise _fail(chain.path, f"joint {joint.name!r}: lower limit {lo} is not below {hi}")
+        limits[i] = (lo, hi) if sign[i] > 0 else (-hi, -lo)
+        if joint.velocity is None or not joint.velocity > 0:
+            raise _fail(chain.path, f"joint {joint.name!r} has no velocity limit > 0")
+        speeds[i] = joint.velocity
+    return limits, speeds
+
+
+def _groups(chain: Chain) -> list[list[str]]:
+    """Link names riding on the base (0) and on each moving joint (1..6)."""
+    groups: list[list[str]] = [[chain.base_link]]
+    for joint in chain.joints:
+        if joint.kind in _MOVING:
+            groups.append([])
+        groups[-1].append(joint.child)
+    return groups
+
+
+def _masses(chain: Chain, model_frames: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    frames = chain.link_frames()
+    mass = np.zeros(6)
+    com = np.zeros((6, 3))
+    for i, names in enumerate(_groups(chain)[1:]):
+        total, moment = 0.0, np.zeros(3)
+        for name in names:
+            inertial = chain.root.find(f"link[@name='{name}']/inertial")
+            if inertial is None or inertial.find("mass") is None:
+                continue
+            where = f"{chain.path}: link {name!r} inertial"
+            m = _numbers(inertial.find("mass").get("value"), 1, (0.0,), where)[0]  # type: ignore[union-attr]
+            if m < 0:
+                raise _fail(chain.path, f"link {name!r} has a negative mass")
+            point = frames[name] @ origin_of(inertial.find("origin"), where)[:, 3]
+            total += m
+            moment += m * point[:3]
+        if total > 0:
+            mass[i] = total
+            local = np.linalg.inv(model_frames[i + 1]) @ np.append(moment / total, 1.0)
+            com[i] = local[:3]
+    return (mass, com) if mass.any() else None
+
+
+def describe(
+    path: str | Path,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    name: str | None = None,
+    margin_mm: float = FIT_MARGIN_MM,
+    link_radius_mm: np.ndarray | None = None,
+) -> RobotDescription:
+    """A robot description of the chain of a URDF file.
+
+    Parameters
+    ----------
+    path : str or Path
+    base_link, tip_link : str, optional
+        See :func:`read_chain`.
+    name : str, optional
+        The description's name [default: the path as given].
+    margin_mm, link_radius_mm
+        See :func:`fit_body`.
+
+    Raises
+    ------
+    DescriptionError
+        One line naming what is wrong or unsupported.
+    """
+    chain = read_chain(path, base_link, tip_link)
+    kin = kinematics_of(chain)
+    limits, speeds = _limits(chain, kin.sign)
+    # Base link -> MDH frame i at the zero pose.
+    model_frames = kin.base_offset @ kinematics.chain(kin.mdh, np.zeros(6), all_frames=True)[1][0]
+    masses = _masses(chain, model_frames)
+    body = fit_body(chain, model_frames, margin_mm, link_radius_mm)
+    return RobotDescription(
+        name=name or str(path),
+        mdh=kin.mdh,
+        joint_limits_rad=limits,
+        max_joint_speed_rad_s=speeds,
+        body=body,
+        configurations={
+            "home": (0.0,) * 6,
+            "upright": upright(kin.mdh, limits, kin.base_offset),
+        },
+        mass_kg=None if masses is None else masses[0],
+        com_mm=None if masses is None else masses[1],
+        convention=JointConvention(
+            sign=tuple(float(s) for s in kin.sign),
+            source="the URDF's joint angles (ROS-Industrial drivers pass the controller's through)",
+        ),
+        base_offset=kin.base_offset,
+        flange_offset=kin.flange_offset,
+        source=f"URDF {Path(path).name} ({chain.robot}), {chain.base_link} to {chain.tip_link}",
+    )
+
+
+def upright(mdh: np.ndarray, limits: np.ndarray, base_offset: np.ndarray) -> tuple[float, ...]:
+    """Model angles holding the arm straight up with the flange pointing up.
+
+    Joints 2 and 3 put the wrist (frame 5's origin) highest above the base
+    link; joints 4 and 5 then point the flange's z axis most nearly up. Found
+    on a 5-degree grid within the limits, refined on a half-degree one (the
+    cell's via poses need no more).
+    """
+
+    def best(q0: np.ndarray, joints: tuple[int, int], score, step_deg: float, span_deg: float):
+        axes = []
+        for j in joints:
+            grid = q0[j] + np.radians(np.arange(-span_deg, span_deg + step_deg / 2, step_deg))
+            axes.append(grid[(grid >= limits[j, 0]) & (grid <= limits[j, 1])])
+        a, b = np.meshgrid(*axes, indexing="ij")
+        q = np.tile(q0, (a.size, 1))
+        q[:, joints[0]], q[:, joints[1]] = a.ravel(), b.ravel()
+        # Ties (a flat optimum) go to the smallest angles.
+        return q[np.argmax(score(q) - 1e-6 * np.abs(q[:, joints]).sum(axis=1))]
+
+    def wrist_height(q: np.ndarray) -> np.ndarray:
+        return (base_offset @ kinematics.chain(mdh, q, all_frames=True)[1][:, 5])[:, 2, 3]
+
+    def flange_up(q: np.ndarray) -> np.ndarray:
+        return (base_offset @ kinematics.chain(mdh, q))[:, 2, 2]
+
+    q = np.zeros(6)
+    for score, joints in ((wrist_height, (1, 2)), (flange_up, (3, 4))):
+        q = best(q, joints, score, 5.0, 360.0)
+        q = best(q, joints, score, 0.5, 5.0)
+    return tuple(float(v) for v in q)
+
+
+def _short_of(point: np.ndarray, flange: np.ndarray, back: np.ndarray, r: float) -> np.ndarray:
+    """``point`` drawn back by ``r`` along ``-back`` if it is the flange point."""
+    return flange - back * r if np.linalg.norm(point - flange) < 1e-6 else point
+
+
+def fit_body(
+    chain: Chain,
+    model_frames: np.ndarray,
+    margin_mm: float = FIT_MARGIN_MM,
+    link_radius_mm: np.ndarray | None = None,
+) -> Body:
+    """Capsules enclosing the chain's collision geometry, ``margin_mm`` larger.
+
+    Boxes, cylinders and spheres are enclosed exactly; meshes through trimesh
+    (their vertices' principal axis) when the file can be found beside the
+    URDF. A moving link with no collision geometry gets a capsule from its
+    joint to the next one of :data:`BARE_LINK_RADIUS_MM` (or ``link_radius_mm``),
+    drawn back from the flange by its radius. The base link's geometry
+    becomes the base cylinder.
+    """
+    frames = chain.link_frames()
+    capsules: list[Capsule] = []
+    base_ends: list[np.ndarray] = []  # end points of the base link's capsules, base link, mm
+    base_radii: list[float] = []
+    bare: list[int] = []  # links drawn along their joints, without geometry
+    groups = _groups(chain)
+    anchors = [frames[j.child][:, 3] for j in chain.moving] + [frames[chain.tip_link][:, 3]]
+    flange = anchors[6][:3]
+    back = flange - anchors[4][:3]  # from the wrist towards the flange
+    back = back / np.linalg.norm(back) if np.linalg.norm(back) > 1e-9 else model_frames[5][:3, 2]
+    for i, names in enumerate(groups):
+        to_model = np.linalg.inv(model_frames[i])
+        found = False
+        for name in names:
+            for k, collision in enumerate(chain.root.findall(f"link[@name='{name}']/collision")):
+                fitted = _fit(chain, name, collision)
+                if fitted is None:
+                    continue
+                p, q, r = fitted
+                at = frames[name]
+                p_base, q_base = at @ np.append(p, 1.0), at @ np.append(q, 1.0)
+                if i == 0:
+                    base_ends += [p_base[:3], q_base[:3]]
+                    base_radii.append(r)
+                    found = True
+                    continue
+                pm, qm = to_model @ p_base, to_model @ q_base
+                capsules.append(
+                    Capsule(
+                        f"{name}" + (f" {k + 1}" if k else ""),
+                        i,
+                        tuple(float(v) for v in pm[:3]),  # type: ignore[arg-type]
+                        tuple(float(v) for v in qm[:3]),  # type: ignore[arg-type]
+                        float(r + margin_mm),
+                    )
+                )
+                found = True
+        if not found and i > 0:
+            # Along the link: from its joint's origin to the next joint's (or the tip).
+            bare.append(i)
+            r = BARE_LINK_RADIUS_MM if link_radius_mm is None else float(link_radius_mm[i - 1])
+            start, end = anchors[i - 1][:3], anchors[i][:3]
+            # A housing ends at the flange face: a cap reaching past it would swallow
+            # the tool, so ends at the flange are drawn back by the radius.
+            start, end = (_short_of(p, flange, back, r + margin_mm) for p in (start, end))
+            capsules.append(
+                Capsule(
+                    f"link {i}",
+                    i,
+                    tuple(float(v) for v in (to_model @ np.append(start, 1.0))[:3]),  # type: ignore[arg-type]
+                    tuple(float(v) for v in (to_model @ np.append(end, 1.0))[:3]),  # type: ignore[arg-type]
+                    r + margin_mm,
+                )
+            )
+    joint1 = model_frames[0]
+    if base_ends:
+        # A vertical cylinder about the base z axis around every base capsule.
+        pts, r_max = np.array(base_ends), max(base_radii)
+        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + r_max + margin_mm)
+        top = float(pts[:, 2].max() + r_max)
+        bottom = float(min(0.0, pts[:, 2].min() - r_max))
+    else:
+        # No geometry: a base under the shoulder, half its height.
+        radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
+        top = float(joint1[2, 3] + model_frames[1][2, 3]) / 2
+    # The cell works in MDH frame 0: base cylinder heights and the shoulder in it.
+    shift = float(joint1[2, 3]) if np.allclose(joint1[:3, :3], np.eye(3)) else 0.0
+    d1_point = model_frames[1][:3, 3] if len(model_frames) > 1 else joint1[:3, 3]
+    return Body(
+        capsules=tuple(capsules),
+        base_radius_mm=radius,
+        base_top_mm=top - shift,
+        mount_z_mm=bottom - shift,
+        shoulder_mm=(0.0, 0.0, float(d1_point[2] - shift)),
+        margin_mm=margin_mm,
+        source=_body_source(chain, bare, margin_mm),
+    )
+
+
+def _body_source(chain: Chain, bare: list[int], margin_mm: float) -> str:
+    fitted = f"fitted to the collision geometry of {chain.path.name}"
+    along = "capsules along the links between the joint origins"
+    if not bare:
+        return f"{fitted}, +{margin_mm:g} mm"
+    if len(bare) == 6:
+        return f"{along} (no collision geometry found), +{margin_mm:g} mm"
+    return f"{fitted}; links {', '.join(map(str, bare))}: {along}; +{margin_mm:g} mm"
+
+
+def _fit(
+    chain: Chain, link: str, collision: ET.Element
+) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """A capsule (end points in the link frame, mm, and radius) enclosing one collision."""
+    where = f"{chain.path}: link {link!r} collision"
+    at = origin_of(collision.find("origin"), where)
+    geometry = collision.find("geometry")
+    if geometry is None or not len(geometry):
+        return None
+    shape = geometry[0]
+    if shape.tag == "sphere":
+        r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} sphere")[0] * _M
+        return at[:3, 3], at[:3, 3], float(r)
+    if shape.tag == "cylinder":
+        r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} cylinder")[0] * _M
+        half = _numbers(shape.get("length"), 1, (0.0,), f"{where} cylinder")[0] * _M / 2
+        axis = at[:3, 2] * half
+        return at[:3, 3] - axis, at[:3, 3] + axis, float(r)
+    if shape.tag == "box":
+        size = _numbers(shape.get("size"), 3, (0.0, 0.0, 0.0), f"{where} box") * _M
+        k = int(np.argmax(size))
+        others = np.delete(size, k)
+        axis = at[:3, k] * size[k] / 2
+        return at[:3, 3] - axis, at[:3, 3] + axis, float(np.hypot(*others) / 2)
+    if shape.tag == "mesh":
+        return _fit_mesh(chain, shape, at, where)
+    return None
+
+
+def _fit_mesh(
+    chain: Chain, shape: ET.Element, at: np.ndarray, where: str
+) -> tuple[np.ndarray, np.ndarray, float] | None:
+    filename = str(shape.get("filename") or "")
+    if filename.startswith("package://"):
+        # package://pkg/rest: found when the URDF sits in the package (pkg/urdf/x.urdf).
+        rest = filename[len("package://") :].split("/", 1)
+        candidates = [chain.path.parent.parent / rest[1]] if len(rest) == 2 else []
+    else:
+        candidates = [chain.path.parent / filename.removeprefix("file://")]
+    found = next((c for c in candidates if c.is_file()), None)
+    if found is None:
+        return None
+    import trimesh
+
+    try:
+        mesh = trimesh.load(found, force="mesh")
+    except Exception as exc:  # trimesh raises many kinds for bad files
+        raise DescriptionError(f"{where}: cannot read mesh {found.name} ({exc})") from None
+    scale = _numbers(shape.get("scale"), 3, (1.0, 1.0, 1.0), f"{where} mesh scale")
+    points = np.asarray(getattr(mesh, "vertices", []), dtype=float) * scale * _M
+    if points.ndim != 2 or len(points) < 2:
+        return None
+    points = points @ at[:3, :3].T + at[:3, 3]
+    centre = points.mean(axis=0)
+    _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
+    axis = vt[0]
+    t = (points - centre) @ axis
+    radial = np.linalg.norm((points - centre) - np.outer(t, axis), axis=1)
+    r = float(radial.max())
+    # The segment is shortened by the radius at each end only where that still encloses.
+    lo, hi = float(t.min()), float(t.max())
+    return centre + axis * lo, centre + axis * hi, r

@@ -1,0 +1,48 @@
+"""A plan file records the arm, tracker and reflector it was made for; measure holds to them."""
+
+import numpy as np
+import pandas as pd
+from cli_testkit import cli, listing, one_line_error
+
+from calibrator import frames, kinematics
+from calibrator import plan as plans
+from calibrator.models import get_model
+
+
+def test_plan_files_record_what_they_were_made_for(tmp_path):
+    done = cli("plan", "-o", "p.csv", "--poses", "10", "--tracker-at", "-400,2600,500",
+               "--tool", "10,0,90", cwd=tmp_path)  # fmt: skip
+    assert done.code == 0, done.stderr
+    origin = plans.read_plan(tmp_path / "p.csv").origin
+    assert origin == plans.PlanOrigin("ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0))
+
+
+def test_measure_refuses_a_plan_made_for_another_arm_or_tracker(tmp_path, checked_plan):
+    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    before = listing(tmp_path)
+    line = one_line_error(
+        cli("measure", "--plan", "plan.csv", "--model", "ur5e", "-o", "s.parquet", cwd=tmp_path)
+    )
+    assert "plan.csv was made for a ur10e, not a ur5e (--model)" in line
+    line = one_line_error(
+        cli("measure", "--plan", "plan.csv", "--tracker-at", "2500,-400,300", cwd=tmp_path)
+    )
+    assert "made for the tracker at 2500,400,300 mm, not 2500,-400,300" in line
+    assert listing(tmp_path) == before
+
+
+def test_measure_takes_the_plan_files_tracker_and_tool(tmp_path):
+    at = np.array([-400.0, 2600.0, 500.0])
+    assert cli("plan", "-o", "p.csv", "--poses", "10", "--tracker-at", "-400,2600,500",
+               "--tool", "10,0,90", cwd=tmp_path).code == 0  # fmt: skip
+    done = cli("measure", "-q", "--plan", "p.csv", "-o", "s.parquet", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    table = pd.read_parquet(tmp_path / "s.parquet")
+    q = table[[f"q{i}_rad" for i in range(1, 7)]].to_numpy()
+    # The simulated tracker stands where the plan says: ranges agree within the hidden
+    # errors (the simulated arm's true reflector is its own, 0,0,100 and 1.5 mm off).
+    nominal = kinematics.forward(
+        get_model("ur10e").mdh, q, frames.transform(translation=(0.0, 0.0, 100.0))
+    )[:, :3, 3]
+    measured = np.linalg.norm(table[["x_mm", "y_mm", "z_mm"]].to_numpy(), axis=1)
+    assert np.max(np.abs(measured - np.linalg.norm(nominal - at, axis=1))) < 10.0

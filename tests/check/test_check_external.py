@@ -1,0 +1,50 @@
+"""``check --robot external``: its plan and program written; an unseen controller plays them.
+
+Real processes: the tracker simulator on loopback TCP, the external-robot
+player (its hidden arm crashed by a world file) steering the target, and
+``calibrator check`` watching the tracker.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+from cli_process import run_cli
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "external"))
+from external_cell import Watching, start_player, tracker_simulator  # noqa: E402
+
+CRASH = "world: 1\nmodel: ur10e\njoint_zero_shifts_rad: [0, 0, 4.0e-4, 0, 0, 0]\n"
+
+
+def test_an_external_robots_crash_is_found_from_the_checks_own_program(tmp_path):
+    # The calibration of the player's hidden arm (seed 3), measured on the simulated cell.
+    done = run_cli(
+        "measure", "--model", "ur10e", "--seed", "3", "--poses", "30", "-o", "cal.parquet", "-q",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    done = run_cli("identify", "cal.parquet", "-o", "cal.json", "-q", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (tmp_path / "crash.yaml").write_text(CRASH)
+    with tracker_simulator(seed=2) as url:
+        check = Watching(
+            "--model", "ur10e", "--calibration", "cal.json", "--tracker", url, "-o", "check.json",
+            cwd=tmp_path, command="check",
+        )  # fmt: skip
+        plan = tmp_path / "check.plan.csv"
+        assert plan.exists() and (tmp_path / "check.program.csv").exists()
+        player = start_player(
+            plan, url, "--seed", 3, "--world", "crash.yaml", "--speed", "3", "--accel", "6",
+            "--time-scale", 5, "--dwell", 5, cwd=tmp_path,
+        )  # fmt: skip
+        result = check.result(timeout=300)
+        assert player.wait(timeout=60) == 0, player.stderr.read()
+    assert result.returncode == 4, result.stderr
+    doc = json.loads((tmp_path / "check.json").read_text())
+    assert doc["verdict"] == "recalibrate" and len(doc["poses"]) == 8
+    assert doc["explanation"][0]["causes"] == ["joint 3 zero"], doc["explanation_text"]
+    # The crash shifted joint 3's zero by 0.4 mrad: found within its standard error.
+    change = doc["explanation"][0]["parameters"][0]
+    assert abs(change["change"] - 0.4e-3) < 5 * change["standard_error"] + 2e-5, change
+    assert doc["explanation_text"][0].startswith("joint 3 zero moved +0.")

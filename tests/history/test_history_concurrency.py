@@ -1,0 +1,63 @@
+"""Two processes recording into one history at once lose nothing and duplicate nothing."""
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from history_testkit import check_doc
+
+from calibrator.history import open_history
+
+#: A writer: waits for the start file, then records checks of days FIRST..FIRST+COUNT-1.
+_WRITER = """
+import sys, time
+from pathlib import Path
+sys.path.insert(0, {here!r})
+from history_testkit import check_doc
+from calibrator.history import open_history
+start = Path({start!r})
+while not start.exists():
+    time.sleep(0.005)
+with open_history({url!r}) as h:
+    for day in range({first}, {first} + {count}):
+        h.record_check(check_doc(robot="arm-1", day=day, measured=0.01 * day))
+print("done")
+"""
+
+
+def _writers(url, tmp_path, ranges):
+    start = tmp_path / "start"
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-c",
+                _WRITER.format(
+                    here=str(Path(__file__).parent), start=str(start), url=url, first=a, count=n
+                ),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for a, n in ranges
+    ]
+    time.sleep(0.5)  # both waiting for the start file, imports done
+    start.touch()
+    outcomes = [p.communicate(timeout=120) for p in procs]
+    for p, (out, err) in zip(procs, outcomes, strict=True):
+        assert p.returncode == 0, err
+        assert out.strip() == "done"
+
+
+def test_two_writers_at_once_lose_nothing(history_url, tmp_path):
+    # Neither process finds a history: both create its schema at once, too.
+    # Days 0..39 and 20..59: 20 checks both record, 60 in all.
+    _writers(history_url, tmp_path, [(0, 40), (20, 40)])
+    with open_history(history_url) as h:
+        checks = h.checks("arm-1")
+        assert [c["document"] for c in checks] == [
+            check_doc(robot="arm-1", day=d, measured=0.01 * d) for d in range(60)
+        ]
+        assert [r["name"] for r in h.robots()] == ["arm-1"]
