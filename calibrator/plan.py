@@ -784,6 +784,8 @@ def make_checked(
     readings: int = 10,
     rate_hz: float = 10.0,
     names: tuple | None = None,
+    speed_rad_s: float | None = None,
+    accel_rad_s2: float | None = None,
 ) -> PlanReport:
     """A plan of ``n`` poses every check of :mod:`calibrator.cell` allows, in time-optimal order.
 
@@ -818,6 +820,10 @@ def make_checked(
     names : tuple of str, optional
         Parameters the D-optimal choice serves (see :func:`observability`);
         default every one the model can identify.
+    speed_rad_s, accel_rad_s2 : float, optional
+        Leading-joint speed (rad/s) and acceleration (rad/s^2) of the time
+        estimate: those the run will move at. Default the model's ceilings,
+        at which the order is made either way.
 
     Raises
     ------
@@ -898,6 +904,9 @@ def make_checked(
         plan.via_rad,
         PlanOrigin(model.name, _point(tool_mm), None if at is None else _point(at), model.digest),
     )
+    # The estimate at the speeds the run will move at (the order is made at the ceilings).
+    speed = speed if speed_rad_s is None else speed_rad_s
+    accel = accel if accel_rad_s2 is None else accel_rad_s2
     index = [int(np.flatnonzero(np.all(chosen == q, axis=1))[0]) for q in plan.q_rad]
     return PlanReport(
         plan=plan,
@@ -951,6 +960,10 @@ def _passing_chunk(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, 
         "outside joint limits less margin",
     )
     # Cheap checks first: the aim drops most candidates before the capsules are placed.
+    near = cells.checks.singularity_faults(chk, pool)
+    for r, reason in enumerate(cells.checks.SINGULARITY_REASONS):
+        keep(~near[:, r], reason)
+        near = near[~near[:, r]]
     keep(~cells.checks.aim_faults(chk, pool)[:, 1], "acceptance angle")
     keep(~cells.checks.aim_faults(chk, pool)[:, 0], "tracker range")
     hits = cells.checks.collision_faults(chk, pool)

@@ -112,7 +112,9 @@ def measure(
 
     output = Path(output)
     inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
-    outputs.check(output, inputs=inputs)
+    outputs.check(output, inputs=inputs, force=True)
+    if not (run_args.force or run_args.resume) and output.exists():
+        raise outputs.existing(output, resumable=True)  # before any device is opened
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")

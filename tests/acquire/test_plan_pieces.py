@@ -335,12 +335,16 @@ def test_plan_command_writes_the_plan_the_library_makes(tmp_path):
     cell = cells.Cell(tracker_at_mm=(2500.0, 400.0, 300.0), acceptance_deg=40.0,
                       mounting_plane_z_mm=-50.0)  # fmt: skip
     made = plans.make_checked(UR10E, 12, cell, (5.0, 0.0, 90.0), margin_rad=np.radians(10),
-                              n_candidates=3000, method="random", seed=3)  # fmt: skip
+                              n_candidates=3000, method="random", seed=3,
+                              speed_rad_s=0.5, accel_rad_s2=1.0)  # fmt: skip
     written = plans.read_plan(tmp_path / "p.csv")
     np.testing.assert_array_equal(written.path_rad, made.plan.path_rad)
     lines = done.stdout.splitlines()
     assert lines[0].startswith(f"candidates: 3000, dropped {sum(made.dropped.values())} (")
-    assert lines[1].startswith(f"estimated cell time {made.ordered_time} at 1 rad/s, 2 rad/s^2")
+    # At measure's default speed and acceleration: the time measure will take.
+    assert lines[1].startswith(
+        f"estimated cell time {made.ordered_time} at 0.5 rad/s, 1 rad/s^2 (measure's --speed, "
+    )
     assert lines[2] == (
         "wrote p.csv: 12 poses"
         + (f" and {made.plan.n_vias} via rows" if made.plan.n_vias else "")
