@@ -186,3 +186,11 @@ def test_a_sessions_recorded_payload_meets_the_payload_rule(tmp_path, where, val
     )  # fmt: skip
     assert says in line, line
     assert listing(tmp_path) == before
+
+
+def test_a_section_keyed_true_is_not_link_1(tmp_path):
+    (tmp_path / "s.yaml").write_text("links:\n  true: {outer_mm: 120, inner_mm: 100}\n")
+    line = one_line_error(
+        cli("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", cwd=tmp_path)
+    )
+    assert "s.yaml: link True: keys are link numbers 1..6" in line
