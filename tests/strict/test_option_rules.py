@@ -41,6 +41,7 @@ BAD_RECORDED = [
     ({"k": -1.0}, "k: must be a number >= 0, got -1"),
     ({"method": "newton"}, "method: 'newton' is not one of 'hybrid', 'pso', 'lm'"),
     ({"joint_term_groups": "bogus"}, "joint_term_groups: unknown term bogus"),
+    ({"joint_term_groups": "x" * 5000}, "joint_term_groups: unknown term xxxxxxxxxxxx...x"),
 ]
 
 
@@ -54,7 +55,7 @@ def test_a_bad_recorded_option_is_refused_as_the_typed_one_is(made, edit, says):
         cli("identify", "s.parquet", "--like", "bad.json", "-o", "out.json", "-q", cwd=made)
     )
     assert line.startswith("calibrator: error: --like bad.json: ")
-    assert says in line
+    assert says in line and len(line) < 200
     assert listing(made) == before  # nothing written
 
 
@@ -152,3 +153,13 @@ def test_fuzz_recorded_options(made, edits):
         if key in option_rules.RULES:
             option_rules.RULES[key].check(value)  # only what its rule allows was taken
     (made / "fz.json").unlink()
+
+
+def test_a_recorded_nominal_source_is_one_of_three(made):
+    doc = json.loads((made / "cal.json").read_text())
+    doc["nominal_source"] = "elsewhere"
+    (made / "bad.json").write_text(json.dumps(doc))
+    line = one_line_error(
+        cli("identify", "s.parquet", "--like", "bad.json", "-o", "out.json", "-q", cwd=made)
+    )
+    assert "bad.json: 'nominal_source' must be one of session, model, file" in line
