@@ -100,6 +100,10 @@ def test_every_rule_is_a_provenance_field_and_every_flag_an_identify_option():
     for rule in option_rules.RULES.values():
         assert rule.flag is None or rule.flag in flags, rule.key
         assert rule.meaning
+    helps = {o: p.help for p in command.params for o in p.opts}
+    for key in ("particles", "generations", "k", "validation_fraction", "noise_mm", "payload_kg"):
+        rule = option_rules.RULES[key]
+        assert rule.bounds in " ".join(helps[rule.flag].split()), (key, helps[rule.flag])
 
 
 def test_the_limits_themselves_pass():
