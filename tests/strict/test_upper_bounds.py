@@ -19,6 +19,7 @@ from cli_testkit import cli, listing, one_line_error
             ["verify", "--cube", "976,0,621,1e308"],
             "--cube: '976,0,621,1e308' is beyond +-100000 mm",
         ),
+        (["verify", "--cube", "976,0,621,1e-300"], "--cube: an edge of 1e-300 mm is below 10 mm"),
         (["analyze", "deflection", "--samples", "1000000000"], "--samples: 1000000000 samples"),
         (["analyze", "deflection", "--pose", "1e308,0,0,0,0"], "--pose: joint 1 at 1e+308 deg"),
         (["analyze", "deflection", "--pose", "400,0,0,0,0"], "beyond its limits [-180, 180] deg"),
