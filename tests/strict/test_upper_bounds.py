@@ -19,6 +19,7 @@ from cli_testkit import cli, listing, one_line_error
             ["verify", "--cube", "976,0,621,1e308"],
             "--cube: '976,0,621,1e308' is beyond +-100000 mm",
         ),
+        (["verify", "--cube", "976,0,621,1e-300"], "--cube: an edge of 1e-300 mm is below 10 mm"),
         (["analyze", "deflection", "--samples", "1000000000"], "--samples: 1000000000 samples"),
         (["analyze", "deflection", "--pose", "1e308,0,0,0,0"], "--pose: joint 1 at 1e+308 deg"),
         (["analyze", "deflection", "--pose", "400,0,0,0,0"], "beyond its limits [-180, 180] deg"),
@@ -186,3 +187,11 @@ def test_a_sessions_recorded_payload_meets_the_payload_rule(tmp_path, where, val
     )  # fmt: skip
     assert says in line, line
     assert listing(tmp_path) == before
+
+
+def test_a_section_keyed_true_is_not_link_1(tmp_path):
+    (tmp_path / "s.yaml").write_text("links:\n  true: {outer_mm: 120, inner_mm: 100}\n")
+    line = one_line_error(
+        cli("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", cwd=tmp_path)
+    )
+    assert "s.yaml: link True: keys are link numbers 1..6" in line
