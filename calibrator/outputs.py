@@ -5,6 +5,10 @@ Every file a command writes goes through here, so that
 - a bad output path is refused before any work, in one line naming the
   user's path (a missing folder, a folder given as a file, an input of the
   command, a folder without write permission);
+- an existing output is refused unless the user passed ``--force`` (one
+  policy for every command; the message names the option that gave the
+  path: ``-o``, ``--report``...). Commands apply it in their first check,
+  before any work; the writers below then replace what the command cleared;
 - a file appears whole or not at all: it is written to a hidden temporary
   file beside the target, flushed to disk, then renamed over it;
 - nothing is left behind after a failure, not even when the second of
@@ -16,7 +20,7 @@ API::
 
     from calibrator import outputs
 
-    outputs.check(path, inputs=[session_path])     # before the work; returns the Path
+    outputs.check(path, inputs=[session_path], force=force)  # before the work; returns the Path
     outputs.write_text(path, text, inputs=[...])   # one file
     outputs.write_with(path, lambda tmp: pq.write_table(table, tmp))
 
@@ -47,14 +51,40 @@ from calibrator.errors import CalibrationError
 #: A file name as the commands take it.
 PathLike = str | os.PathLike
 
-__all__ = ["OutputError", "Outputs", "check", "check_folder", "show", "write_text", "write_with"]
+__all__ = [
+    "OutputError",
+    "Outputs",
+    "check",
+    "check_folder",
+    "existing",
+    "note_input",
+    "show",
+    "write_text",
+    "write_with",
+]
 
 
 class OutputError(CalibrationError):
     """An output path that cannot or must not be written."""
 
 
-def check(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
+#: Files this process read as inputs besides those a command names (a robot
+#: description given as ``--model arm.urdf``): no output may overwrite them.
+_NOTED: set[Path] = set()
+
+
+def note_input(path: PathLike) -> None:
+    """Record a file this process read, so that no output overwrites it."""
+    _NOTED.add(Path(path))
+
+
+def check(
+    path: PathLike,
+    inputs: Iterable[PathLike | None] = (),
+    *,
+    force: bool = False,
+    option: str = "-o",
+) -> Path:
     """Refuse an output path that cannot or must not be written.
 
     Parameters
@@ -64,6 +94,11 @@ def check(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
     inputs : iterable of str or Path
         Files the command reads; none of them may be overwritten (None: an
         optional input not given, skipped).
+    force : bool
+        The user's ``--force``: an existing file may be replaced. Without
+        it an existing file is refused.
+    option : str
+        The option that named ``path``, for the message.
 
     Returns
     -------
@@ -80,27 +115,56 @@ def check(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
         raise OutputError(f"cannot write {show(path)}: it is a folder; give a file name")
     if kind == "other":
         raise OutputError(f"cannot write {show(path)}: it exists and is not a regular file")
-    for source in inputs:
+    for source in [*inputs, *_NOTED]:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(
                 f"refusing to overwrite {show(path)}: it is an input of this command; "
                 "choose another output"
             )
+    if kind == "file" and not force:
+        raise existing(path, option)
     _check_parent(path)
     return Path(path)
 
 
-def check_folder(path: PathLike, inputs: Iterable[PathLike | None] = ()) -> Path:
+def existing(path: PathLike, option: str = "-o", resumable: bool = False) -> OutputError:
+    """The one refusal of an existing output: what to do instead, naming ``option``.
+
+    ``resumable``: the command can also continue the run that wrote it (``--resume``).
+    """
+    if resumable:
+        return OutputError(
+            f"{show(path)} exists: remove it, choose another {option}, pass --force to "
+            "replace it, or --resume to continue its run"
+        )
+    return OutputError(
+        f"{show(path)} exists: remove it, choose another {option}, or pass --force to replace it"
+    )
+
+
+def check_folder(
+    path: PathLike,
+    inputs: Iterable[PathLike | None] = (),
+    *,
+    files: Iterable[str] = (),
+    force: bool = False,
+    option: str = "-o",
+) -> Path:
     """Refuse an output folder that cannot be used (its parent is checked as for a file).
 
-    An existing folder is fine (its files are replaced one by one); a missing
-    one is created by :meth:`Outputs.folder`.
+    An existing folder is fine unless it holds one of ``files`` (the names
+    the command writes into it): that is an existing output, refused without
+    ``force`` as :func:`check` refuses a file. A missing folder is created by
+    :meth:`Outputs.folder`.
     """
     path = _no_nul(path)
+    if _kind(path) == "folder":
+        for name in files:
+            check(Path(path) / name, inputs, force=force, option=option)
     kind = _kind(path)
     if kind not in (None, "folder"):
         raise OutputError(f"cannot write into {show(path)}: it exists and is not a folder")
-    for source in inputs:
+    for source in [*inputs, *_NOTED]:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(
                 f"refusing to write into {show(path)}: it is an input of this command"
@@ -198,7 +262,7 @@ class Outputs:
 
     def folder(self, path: PathLike) -> Path:
         """Make sure the output folder ``path`` exists (created now, removed on failure)."""
-        path = check_folder(path, self.inputs)
+        path = check_folder(path, self.inputs, force=True)
         if not path.is_dir():
             try:
                 path.mkdir()
@@ -223,12 +287,15 @@ class Outputs:
     def file(self, path: PathLike, writer: Callable[[Path], object]) -> Path:
         """Add a file written by ``writer(tmp_path)`` (it must write the whole file there).
 
+        An existing file is replaced: the command applied the ``--force``
+        policy (:func:`check`) before its work.
+
         Returns
         -------
         Path
             The user's path.
         """
-        path = check(path, self.inputs)
+        path = check(path, self.inputs, force=True)
         target = path.resolve()  # through a symlink, never over it
         if any(target == t for _, t, _ in self._pending):
             raise OutputError(f"cannot write {show(path)} twice in one command")

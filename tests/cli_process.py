@@ -30,13 +30,15 @@ def run_cli(*args, cwd=None, timeout=120, env=None, **kwargs):
     )
 
 
-def start_cli(*args, cwd=None):
+def start_cli(*args, cwd=None, own_group=False):
     """``python -m calibrator ARGS`` started in ``cwd`` and left running (text pipes).
 
     The child takes Ctrl-C as a terminal user's command does, even when the
     test run itself ignores SIGINT (started in the background by a
     non-interactive shell, or under ``nohup``), which children inherit and
-    Python then leaves ignored.
+    Python then leaves ignored. ``own_group``: the child leads a process group
+    of its own, like a terminal's foreground job, so ``os.killpg(child.pid,
+    SIGINT)`` is a terminal's Ctrl-C (it reaches the children it starts too).
     """
     return subprocess.Popen(
         [sys.executable, "-m", "calibrator", *map(str, args)],
@@ -46,6 +48,7 @@ def start_cli(*args, cwd=None):
         text=True,
         env=child_env(None),
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        start_new_session=own_group,
     )
 
 

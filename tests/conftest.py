@@ -35,3 +35,17 @@ def checked_plan():
     from plan_testkit import checked_plan as make
 
     return make()
+
+
+@pytest.fixture(scope="session")
+def simulated_calibration(tmp_path_factory):
+    """``s.parquet`` (``calibrator simulate --poses 20``) and its ``c.json`` (``identify
+    --method lm``), made once per test run: ``{name: bytes}``; tests copy what they use."""
+    from cli_testkit import cli
+
+    folder = tmp_path_factory.mktemp("simulated_calibration")
+    made = cli("simulate", "-o", "s.parquet", "--poses", "20", cwd=folder)
+    assert made.code == 0, made.stderr
+    done = cli("identify", "s.parquet", "-o", "c.json", "--method", "lm", "-q", cwd=folder)
+    assert done.code == 0, done.stderr
+    return {name: (folder / name).read_bytes() for name in ("s.parquet", "c.json")}

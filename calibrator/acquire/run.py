@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames
+from calibrator import frames, outputs
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, ports
 from calibrator.errors import CalibrationError
@@ -70,6 +70,9 @@ class RunOptions(loop.LoopOptions):
         first motion. None: the default cell (:class:`calibrator.cell.Cell`).
     resume : bool
         Continue the run recorded in the journal beside the output.
+    force : bool
+        Replace an existing output (``--force``); a journal is still only
+        resumed or removed.
     lead_in : bool
         Before the first pose still to measure, move to the plan row before it
         (row 0: the last row), so that pose is approached as in an
@@ -88,6 +91,7 @@ class RunOptions(loop.LoopOptions):
     tracker_at_mm: tuple[float, float, float] | None = None
     cell: Any = None
     resume: bool = False
+    force: bool = False
     lead_in: bool = False
     need_poses: int | None = None
 
@@ -197,10 +201,8 @@ class MeasureRun:
     def check_files(self) -> None:
         """Refuse to start over an existing session or journal, or to resume nothing."""
         output, jpath = self.output, self.journal_path
-        if not self.options.resume and output.exists():
-            raise CalibrationError(
-                f"{output} exists: choose another -o, remove it, or pass --resume"
-            )
+        if not self.options.resume and not self.options.force and output.exists():
+            raise outputs.existing(output, resumable=True)
         if not self.options.resume and jpath.exists():
             raise CalibrationError(
                 f"{jpath} exists (an unfinished run): pass --resume to continue it, or remove it"
@@ -376,6 +378,8 @@ class MeasureRun:
                     "robot": self.robot_id,
                     "tracker": self.tracker_id,
                     "plan_sha256": plans.digest(self.plan),
+                    # Which description of the arm: the same name may be edited.
+                    "description": {"name": self.model.name, "sha256": self.model.digest},
                 }
             },
         )

@@ -59,6 +59,13 @@ def output(default: Path | EllipsisType | None, help: str) -> Any:
     return typer.Option(default, "-o", "--output", help=help)
 
 
+def force() -> Any:
+    """``--force``: replace existing outputs (without it every command refuses them)."""
+    return typer.Option(
+        False, "--force", help="Replace existing output files (refused without it)."
+    )
+
+
 def model(default: str | None = "ur10e", help: str = "Named model of the arm.") -> Any:
     """``--model``: a named arm model (``calibrator.models``)."""
     return typer.Option(default, help=help)

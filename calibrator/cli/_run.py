@@ -123,8 +123,9 @@ class RunArgs:
 
     Attributes
     ----------
-    resume, yes : bool
-        ``--resume`` and ``--yes``.
+    resume, yes, force : bool
+        ``--resume``, ``--yes`` and ``--force`` (replace an existing output;
+        an unfinished run's journal is still only resumed or removed).
     model : str
         ``--model``, a named arm.
     settle : float or None
@@ -138,6 +139,7 @@ class RunArgs:
 
     resume: bool
     yes: bool
+    force: bool
     model: str
     settle: float | None
     retries: int
@@ -156,6 +158,7 @@ class RunArgs:
             "speed_rad_s": self.speed,
             "accel_rad_s2": self.accel,
             "resume": self.resume,
+            "force": self.force,
         }
 
     def settle_s(self, moves_hardware: bool) -> float:
@@ -170,6 +173,7 @@ def _run_args_options() -> list[inspect.Parameter]:
     declared = {
         "resume": resume_option(),
         "yes": yes_option(),
+        "force": opts.force(),
         "model": opts.model(),
         "settle": settle_option(),
         "retries": retries_option(),

@@ -113,7 +113,8 @@ def _row(label, stats):
 @analyze_app.command("misalignment")
 def misalignment(
     model: str = opts.model(
-        "paper", "'paper' (the seed's arm, Craig DH) or a named model (ur5e, ur10e, ...)."
+        "paper",
+        "'paper' (the misalignment paper's arm, Craig DH) or a named model (ur5e, ur10e, ...).",
     ),
     pose: str = typer.Option(
         None, help="Six joint angles, deg [default: the paper's pose; zeros for a named model]."
@@ -132,6 +133,7 @@ def misalignment(
         None, metavar="DIR", help="Folder to write the PNG figures into (created if missing)."
     ),
     json_out: Path = typer.Option(None, "--json", help="Write all statistics to this JSON file."),
+    force: bool = opts.force(),
     chunk: int = typer.Option(
         None,
         callback=checks.count("trials"),
@@ -155,9 +157,9 @@ def misalignment(
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")
     if json_out is not None:
-        outputs.check(json_out)
+        outputs.check(json_out, force=force, option="--json")
     if plots is not None:
-        outputs.check_folder(plots)
+        outputs.check_folder(plots, files=MISALIGNMENT_FIGURES, force=force, option="--plots")
     pose_deg = None if pose is None else _floats(pose, "--pose", 6, "pose")
     r0_mm = np.array(_floats(r0, "--r0", 6, "r0"))
     h_mm = np.array(_floats(h, "--h", 6, "h") if h is not None else [mc.PAPER_H_MM] * 6)
@@ -229,6 +231,10 @@ def misalignment(
         typer.echo(f"wrote {json_out}")
 
 
+#: The figures every ``misalignment --plots`` run writes (sweeps add more).
+MISALIGNMENT_FIGURES = ("cloud.png", "orientation.png", "pdf_cdf.png")
+
+
 def _misalignment_plots(batch, folder, results):
     """Add every figure of the runs to an output batch."""
     from calibrator.analysis import plots
@@ -296,6 +302,7 @@ def tolerance(
         10, callback=checks.at_least(0), help="Rows of the sensitivity ranking to print."
     ),
     json_out: Path = typer.Option(None, "--json", help="Write the budget to this JSON file."),
+    force: bool = opts.force(),
 ) -> None:
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
@@ -309,7 +316,7 @@ def tolerance(
     if (model is None) == (calibration is None):
         raise CalibrationError("give exactly one of --model and --calibration")
     if json_out is not None:
-        outputs.check(json_out, inputs=[calibration])
+        outputs.check(json_out, inputs=[calibration], force=force, option="--json")
     if calibration is not None:
         from calibrator import calibration as cal
 

@@ -1,4 +1,4 @@
-"""``calibrator analyze deflection``: hand error from link bending (seed 001's kinetostatics)."""
+"""``calibrator analyze deflection``: hand error from link bending (Chen and Zhang, 1984)."""
 
 import json
 from pathlib import Path
@@ -41,10 +41,19 @@ def _vector(text: str, what: str, prismatic: list[bool], limits) -> list[float]:
     return out
 
 
+def _direction(vector_mm, size_mm: float) -> str:
+    """The unit direction of a deflection, ``(+0.99, -0.10, +0.00)``, or "(none)" for zero."""
+    if not size_mm > 0:
+        return "(none)"
+    return "(" + ", ".join(f"{v / size_mm:+.2f}" for v in vector_mm) + ")"
+
+
 @analyze_app.command("deflection")
 def deflection(
     model: str = opts.model(
-        "seed", "'seed' (seed 001's five-axis example) or a named model with --sections."
+        "paper",
+        "'paper' (the five-axis example of the source paper, Chen and Zhang 1984) "
+        "or a named model with --sections.",
     ),
     sections: Path = typer.Option(
         None, help="Link-section YAML (flexible links, diameters, material); named models only."
@@ -55,10 +64,10 @@ def deflection(
         help="Mass model: a named arm or a YAML file [default: the model's published one].",
     ),
     start: str = typer.Option(
-        None, help="Trajectory start, joint values (deg; mm for prismatic) [seed: its task]."
+        None, help="Trajectory start, joint values (deg; mm for prismatic) [paper: its task]."
     ),
     pose: str = typer.Option(
-        None, help="End pose, joint values (deg; mm for prismatic) [seed: its task's end]."
+        None, help="End pose, joint values (deg; mm for prismatic) [paper: its task's end]."
     ),
     duration: float = typer.Option(
         1.0,
@@ -82,6 +91,7 @@ def deflection(
     ),
     plot: Path = typer.Option(None, help="Write a deflection map of the workspace (PNG)."),
     json_out: Path = typer.Option(None, "--json", help="Write the results to this JSON file."),
+    force: bool = opts.force(),
 ) -> None:
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
@@ -89,14 +99,16 @@ def deflection(
     from calibrator import mass_models, models, outputs
     from calibrator.analysis import deflection as dfl
 
-    for path in (json_out, plot):
+    for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
-            outputs.check(path, inputs=[sections])
-    if model.strip().lower() == "seed":
+            outputs.check(path, inputs=[sections], force=force, option=option)
+    # 'seed' is the example's old name (the project called its source papers seeds).
+    paper = model.strip().lower() in ("paper", "seed")
+    if paper:
         if sections is not None or masses is not None or payload_kg:
             raise CalibrationError(
                 "--sections, --masses and --payload-kg apply to named models; "
-                "the seed's example has its own"
+                "the paper's example has its own"
             )
         arm = dfl.seed_arm()
         prismatic = list(dfl.SEED_PRISMATIC)
@@ -129,6 +141,11 @@ def deflection(
     dz_end = float(static.hand_mm[0, 2])
     zs = moving.hand_mm[:, 2]
     worst = int(np.argmax(np.abs(zs)))
+    size_end = float(np.linalg.norm(static.hand_mm[0]))
+    sizes = np.linalg.norm(moving.hand_mm, axis=1)
+    largest = int(np.argmax(sizes))
+    axes = f"(x{n}, y{n}, z{n})"
+    law_note = "; the source paper's own law is in its Fig. 6, missing from the text" * paper
     t = np.arange(len(q)) * dt
     typer.echo(f"{arm.name}: flexible links {', '.join(str(i) for i in sorted(arm.sections))}")
     for i, s in sorted(arm.sections.items()):
@@ -148,16 +165,19 @@ def deflection(
         + " mrad"
     )
     typer.echo(
-        f"along the motion ({duration:g} s, trapezoidal velocity law, {100 * ramp:g} % ramps; "
-        "the seed's own law is in its Fig. 6, missing from the text): "
-        f"largest |dz{n}| {abs(zs[worst]):.4f} mm at t = {t[worst]:.3f} s, "
-        f"{zs[-1]:+.4f} mm at the end"
+        f"along the motion ({duration:g} s, trapezoidal velocity law, {100 * ramp:g} % ramps"
+        f"{law_note}): largest deflection {sizes[largest]:.4f} mm at t = {t[largest]:.3f} s, "
+        f"{sizes[-1]:.4f} mm at the end (largest |dz{n}| {abs(zs[worst]):.4f} mm)"
     )
-    typer.echo(f"hand deflection along z{n} at the end pose: {dz_end:+.3f} mm")
+    typer.echo(
+        f"hand deflection at the end pose: {size_end:.3f} mm, direction "
+        f"{_direction(static.hand_mm[0], size_end)} in {axes}; z{n} component {dz_end:+.3f} mm"
+    )
     document = {
         "model": model,
         "arm": arm.name,
         f"hand_dz{n}_mm": dz_end,
+        "hand_deflection_mm": size_end,
         "end_pose": q[-1].tolist(),
         "static": {
             "hand_mm": static.hand_mm[0].tolist(),
@@ -173,6 +193,7 @@ def deflection(
             "hand_mm": moving.hand_mm.tolist(),
             "hand_rot_rad": moving.hand_rot_rad.tolist(),
             f"max_abs_dz{n}_mm": float(abs(zs[worst])),
+            "max_deflection_mm": float(sizes[largest]),
         },
     }
     figure = None

@@ -90,8 +90,11 @@ def check(
     if output.suffix.lower() == ".parquet":
         fail(f"-o {output}: give the JSON file; the check's poses go beside it as .parquet")
     inputs = [p for p in (calibration_path, cell_file, sim_faults, world) if p is not None]
-    outputs.check(output, inputs=inputs)
-    outputs.check(data_path, inputs=inputs)
+    replace_ok = run_args.force or run_args.resume
+    outputs.check(output, inputs=inputs, force=replace_ok)
+    outputs.check(data_path, inputs=inputs, force=True)
+    if not replace_ok and data_path.exists():
+        raise outputs.existing(data_path, resumable=True)
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:

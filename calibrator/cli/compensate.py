@@ -21,6 +21,7 @@ def compensate(
         help="CSV of targets, or a robot program (.script, .src, .mod/.prg/.modx, .ls, .jbi).",
     ),
     output: Path = opts.output(..., "CSV or program to write (KRL: the .src; its .dat beside it)."),
+    force: bool = opts.force(),
     payload_kg: float = typer.Option(
         None,
         callback=checks.rule(RULES["payload_kg"]),
@@ -67,16 +68,26 @@ def compensate(
     from calibrator import compensate as comp
 
     is_csv = fmt is None and targets_path.suffix.lower() == ".csv"
-    outputs.check(output, inputs=[calibration_path, targets_path])
+    outputs.check(output, inputs=[calibration_path, targets_path], force=force)
     if summary_path is not None:
-        outputs.check(summary_path, inputs=[calibration_path, targets_path, output])
+        outputs.check(
+            summary_path,
+            inputs=[calibration_path, targets_path, output],
+            force=force,
+            option="--summary",
+        )
     if joint_targets not in ("keep", "correct"):
         opts.fail(f"--joint-targets must be keep or correct, got {joint_targets!r}")
     max_mm, max_deg = opts.floats(max_correction, 2, "--max-correction", "MM,DEG")
     if not (0 < max_mm <= 1000 and 0 < max_deg <= 90):
         opts.fail("--max-correction needs 0 < MM <= 1000 and 0 < DEG <= 90")
     if is_csv:
-        for name, value in (("--frames", frames_path), ("--config-dat", config_dat)):
+        for name, value in (
+            ("--frames", frames_path),
+            ("--config-dat", config_dat),
+            ("--keep-failed", keep_failed or None),
+            ("--joint-targets", None if joint_targets == "keep" else joint_targets),
+        ):
             if value is not None:
                 opts.fail(f"{name} applies to robot programs, not to a targets CSV")
     cal = calibration.load(calibration_path)

@@ -25,6 +25,7 @@ def export_params(
     ),
     fmt: ExportFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     output: Path = opts.output(None, "File to write [default: stdout]."),
+    force: bool = opts.force(),
     like: Path = typer.Option(
         None,
         "--like",
@@ -45,7 +46,7 @@ def export_params(
     if like is not None and name != "urdf":
         raise CalibrationError(f"--like writes a URDF, not {name}")
     if output is not None:
-        outputs.check(output, inputs=inputs)
+        outputs.check(output, inputs=inputs, force=force)
     cal = calibration.load(calibration_path)
     if like is not None:
         result = export.export_like(cal, like, base_link, tip_link)

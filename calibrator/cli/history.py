@@ -17,6 +17,7 @@ import typer
 from typer.core import TyperGroup
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 
@@ -83,6 +84,7 @@ def show(
     html_dir: Path = typer.Option(
         None, "--html", metavar="DIR", help="Write the history page (index.html) into DIR."
     ),
+    force: bool = opts.force(),
     held_out_limit: float = typer.Option(
         None,
         "--held-out-limit-mm",
@@ -109,11 +111,12 @@ def show(
     inputs = []
     if history and "://" not in history:
         inputs.append(Path(history))
-    for path in (csv_path,):
-        if path is not None:
-            outputs.check(path, inputs=inputs)
+    if csv_path is not None:
+        outputs.check(csv_path, inputs=inputs, force=force, option="--csv")
     if html_dir is not None:
-        outputs.check_folder(html_dir, inputs=inputs)
+        outputs.check_folder(
+            html_dir, inputs=inputs, files=("index.html",), force=force, option="--html"
+        )
     with open_history(history, create=False) as store:
         if robot is None:
             if csv_path is not None or html_dir is not None:
@@ -134,9 +137,7 @@ def show(
             batch.text(csv_path, timeline.csv_text(rows))
         if html_dir is not None:
             from calibrator.history import page
-            from calibrator.report import check_page_free
 
-            check_page_free(html_dir)
             batch.text(batch.folder(html_dir) / "index.html", page.html(data, found, limits))
     for what, path in (("table", csv_path), ("page", html_dir)):
         if path is not None:

@@ -41,6 +41,7 @@ def identify(
         help="Session file(s) (Parquet); several: one arm, e.g. at several payloads.",
     ),
     output: Path = opts.output(Path("calibration.json"), "Calibration file to write (JSON)."),
+    force: bool = opts.force(),
     model: str = opts.model(None, "Named model instead of the session's."),
     method: Method = typer.Option(
         Method.hybrid,
@@ -170,9 +171,13 @@ def identify(
         groups = joint_terms.parse_groups(joint.joint_term_groups)
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
     inputs = [*session_paths, nominal_file, like]
-    outputs.check(output, inputs=inputs)
+    outputs.check(output, inputs=inputs, force=force)
     if report_dir is not None:
-        outputs.check_folder(report_dir, inputs=inputs)
+        from calibrator.report import FILES as REPORT_FILES
+
+        outputs.check_folder(
+            report_dir, inputs=inputs, files=REPORT_FILES, force=force, option="--report"
+        )
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
     parts = [session.load(p, model=model) for p in session_paths]
@@ -248,7 +253,7 @@ def identify(
         if report_dir is not None:
             from calibrator.report import write as write_report
 
-            write_report(report_dir, cal, loaded, batch, output, session_path)
+            write_report(report_dir, cal, loaded, batch, output, session_path, force=True)
     typer.echo(
         f"{len(result.fit_index)} fitted and {len(result.validation_index)} held-out poses, "
         f"{result.space.size} free parameters, method {options.method}, loss {options.loss}"

@@ -112,7 +112,9 @@ def measure(
 
     output = Path(output)
     inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
-    outputs.check(output, inputs=inputs)
+    outputs.check(output, inputs=inputs, force=True)
+    if not (run_args.force or run_args.resume) and output.exists():
+        raise outputs.existing(output, resumable=True)  # before any device is opened
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
@@ -129,7 +131,7 @@ def measure(
     if user_plan is not None:
         # A plan made for another arm, tracker or reflector is refused; what the
         # command line leaves out comes from the plan file.
-        tracker_mm, tool_mm = plans.made_for(user_plan, arm.name, tracker_mm, tool_mm, plan_path)
+        tracker_mm, tool_mm = plans.made_for(user_plan, arm, tracker_mm, tool_mm, plan_path)
     options = RunOptions(
         plan_rad=None if user_plan is None else user_plan.q_rad,
         via_rad=None if user_plan is None else user_plan.via_rad,

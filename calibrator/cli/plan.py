@@ -9,6 +9,7 @@ import typer
 
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
+from calibrator.cli import _run
 from calibrator.cli._app import app
 
 
@@ -26,6 +27,7 @@ class Selection(StrEnum):
 @app.command()
 def plan(
     output: Path = opts.output(Path("plan.csv"), "Plan CSV to write."),
+    force: bool = opts.force(),
     model: str = opts.model(help="Named model (joint limits, kinematics, geometry)."),
     poses: int = typer.Option(
         30,
@@ -78,6 +80,9 @@ def plan(
         callback=checks.finite(0.0, 100000.0, inclusive=False),
         help="Tracker reading rate for the estimate, Hz.",
     ),
+    # measure's own options and defaults: the estimate is the time measure will take.
+    speed: float = _run.speed_option(0.5, "for the estimate: measure's --speed (default 0.5)"),
+    accel: float = _run.accel_option(1.0, "for the estimate: measure's --accel (default 1.0)"),
     seed: int = opts.seed(0, "Seed of the random sampling and selection."),
 ) -> None:
     """Write a plan every pose and move of which is clear of the cell, in time-optimal order."""
@@ -89,18 +94,28 @@ def plan(
     from calibrator import outputs
     from calibrator import plan as plans
     from calibrator.cli._run import triple as _triple
-    from calibrator.models import get_model
 
     if joints is None and candidates is not None:
         checks.plan_work(poses, candidates, selection.value)
     if joints is not None:
         checks.file_rows("--from", joints, poses, selection.value)
     inputs = [p for p in (joints, cell_file) if p is not None]
-    outputs.check(output, inputs=inputs)
-    robot = get_model(model)
+    outputs.check(output, inputs=inputs, force=force)
+    robot = _run.check_motion_caps(model, speed, accel, None)
     tool_mm = _triple(tool, "--tool")
     cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
     cell = cell.with_tracker(_triple(tracker_at, "--tracker-at"))
+    if cell.tracker_at_mm is None:
+        # Every pose's aim is checked: without a position, at the simulated
+        # cell's tracker (what measure's simulated tracker faces), said out loud.
+        from calibrator.simulate import SIM_TRACKER_AT_MM
+
+        cell = cell.with_tracker(SIM_TRACKER_AT_MM)
+        typer.echo(
+            "note: no --tracker-at and no tracker in the cell: the poses face the simulated "
+            f"cell's tracker at {','.join(f'{v:g}' for v in SIM_TRACKER_AT_MM)} mm",
+            err=True,
+        )
     if acceptance_deg is not None:
         cell = dataclasses.replace(cell, acceptance_deg=acceptance_deg)
     if floor_mm is not None:
@@ -120,6 +135,8 @@ def plan(
         settle_s=settle,
         readings=readings,
         rate_hz=rate_hz,
+        speed_rad_s=speed,
+        accel_rad_s2=accel,
     )
     plans.write_plan(output, made.plan, inputs=inputs)
     lost = sum(made.dropped.values())
@@ -128,8 +145,8 @@ def plan(
     before, after = made.selection_time.total_s, made.ordered_time.total_s
     saving = f"saving {before - after:.0f} s ({100 * (before - after) / before:.0f} %)"
     typer.echo(
-        f"estimated cell time {made.ordered_time} at {robot.move_speed_cap_rad_s:g} rad/s, "
-        f"{robot.move_accel_cap_rad_s2:g} rad/s^2; selection order "
+        f"estimated cell time {made.ordered_time} at {speed:g} rad/s, "
+        f"{accel:g} rad/s^2 (measure's --speed, --accel); selection order "
         f"{made.selection_time.moves_s:.0f} s of moves, {saving}"
     )
     typer.echo(
@@ -138,5 +155,4 @@ def plan(
         + f", {selection.value} selection, "
         f"log det(J^T J) {plans.log_det(made.blocks):.2f}, "
         f"smallest singular value {plans.min_singular(made.blocks):.4g}"
-        + ("" if cell.tracker_at_mm is not None else " (no tracker position: aim not checked)")
     )

@@ -27,6 +27,7 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 def program(
     plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
     output: Path = opts.output(..., "Program file to write."),
+    force: bool = opts.force(),
     fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
     model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
@@ -77,7 +78,7 @@ def program(
     # KRL and Fanuc want the program named as its file; no language takes a keyword.
     name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
-    outputs.check(output, inputs=inputs)
+    outputs.check(output, inputs=inputs, force=force)
     arm = get_model(model)
     given = plans.read_plan(plan_path)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
@@ -97,7 +98,7 @@ def program(
     # A plan made for another arm, tracker or reflector is refused; what the
     # command line leaves out comes from the plan file.
     tracker_mm, tool_mm = plans.made_for(
-        given, arm.name, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
+        given, arm, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
     )
     cell = cell.with_tracker(tracker_mm)
     # What measure --robot external would refuse is refused here, before a

@@ -19,17 +19,20 @@ def report(
         help="Session it was identified from (Parquet); needed for the per-pose plots.",
     ),
     output: Path = opts.output(Path("report"), "Folder to write the PNGs and index.html into."),
+    force: bool = opts.force(),
     verify_paths: list[Path] = typer.Option(
         None, "--verify", help="ISO 9283 result (calibrator verify), repeatable: before, after."
     ),
 ) -> None:
     """Write the calibration report: PNG plots and one self-contained HTML page."""
     from calibrator import calibration, consistency, outputs, session
-    from calibrator.report import verify_section, write
+    from calibrator.report import FILES, verify_section, write
 
     verify_paths = list(verify_paths or [])
     extra = verify_paths + verify_section.data_paths(verify_paths)
-    outputs.check_folder(output, inputs=[calibration_path, session_path, *extra])
+    outputs.check_folder(
+        output, inputs=[calibration_path, session_path, *extra], files=FILES, force=force
+    )
     cal = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
     if loaded is not None:
@@ -37,7 +40,9 @@ def report(
     runs = verify_section.load(verify_paths)
     batch = outputs.Outputs(inputs=[calibration_path, session_path, *extra])
     with batch:
-        written = write(output, cal, loaded, batch, calibration_path, session_path, runs)
+        written = write(
+            output, cal, loaded, batch, calibration_path, session_path, runs, force=force
+        )
     names = ", ".join(p.name for p in written)
     files = "1 file" if len(written) == 1 else f"{len(written)} files"
     typer.echo(f"wrote {files} into {output}: {names}")

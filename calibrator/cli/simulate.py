@@ -46,6 +46,7 @@ def simulate(
         Path("session.parquet"),
         "Session to write (Parquet); its truth goes beside it as NAME.truth.json.",
     ),
+    force: bool = opts.force(),
     model: str = opts.model(ipso_paper.NAME, "Named nominal model."),
     poses: int = typer.Option(
         32, callback=checks.count("simulate_poses"), help="Number of poses (>= 1)."
@@ -87,8 +88,8 @@ def simulate(
     from calibrator import outputs, session
     from calibrator import simulate as sim
 
-    outputs.check(output)
-    truth_path = outputs.check(output.with_suffix(".truth.json"))
+    outputs.check(output, force=force)
+    truth_path = outputs.check(output.with_suffix(".truth.json"), force=force)
     errors_value = errors or ("ref003" if _has_reference_errors(model) else "random")
     try:
         table, meta, truth = sim.simulate(

@@ -133,10 +133,11 @@ def verify(
     inputs = [
         p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
     ]
-    outputs.check(output, inputs=inputs)
-    outputs.check(data_path, inputs=inputs)
-    if not run_args.resume and data_path.exists():
-        fail(f"{data_path} exists: choose another -o, remove it, or pass --resume")
+    replace_ok = run_args.force or run_args.resume
+    outputs.check(output, inputs=inputs, force=replace_ok)
+    outputs.check(data_path, inputs=inputs, force=True)
+    if not replace_ok and data_path.exists():
+        raise outputs.existing(data_path, resumable=True)
     if sim_probe_6dof and tracker != "sim":
         fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
     if sim_faults is not None and not Path(sim_faults).is_file():

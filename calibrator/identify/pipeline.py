@@ -183,7 +183,9 @@ def identify(session: Any, options: Options = Options()) -> Result:
     x = found.x
     # A fit can absorb a unit or model mistake into huge deltas: refuse or warn.
     warnings += plausibility.check_deltas(meta.nominal_mdh, problem.space.unpack(x)[0])
-    outlier_idx, inliers, doubts = _outliers(problem, found, options.loss)
+    # Points in the tracker frame: the outlier test whitens along each pose's beam.
+    beams = robust.beam_axes(fit.points) if meta.frame == "tracker" else None
+    outlier_idx, inliers, doubts = _outliers(problem, found, options.loss, beams)
     if len(doubts):
         warnings.append(
             f"pose(s) {_names(pose_numbers[fit_idx[doubts]])} fit far worse than the "
@@ -251,7 +253,7 @@ def _settings(options, say):
     )
 
 
-def _outliers(problem, found, loss):
+def _outliers(problem, found, loss, beams=None):
     """Outlier poses, the inlier problem, and poses to warn about (indices into the fit).
 
     A robust loss sets its outliers aside; ``lsq`` and ``minimax`` set nothing
@@ -260,17 +262,17 @@ def _outliers(problem, found, loss):
     if loss not in ("lsq", "minimax"):
         keep = np.setdiff1d(np.arange(len(problem)), found.outliers)
         return found.outliers, problem.subset(keep), np.array([], dtype=int)
-    suspects = _suspects(problem, found.x)
+    suspects = _suspects(problem, found.x, beams)
     return (suspects if loss == "lsq" else found.outliers), problem, suspects
 
 
-def _suspects(problem, x):
+def _suspects(problem, x, beams=None):
     """Fitting poses that fit far worse than the rest (indices), for lsq and minimax."""
     # Without redundancy the residuals are too few and too small to judge poses by.
     if problem.rows < identifiability.MIN_VALUES_PER_PARAMETER * problem.space.size:
         return np.array([], dtype=int)
     res = problem.residuals(x)
-    return robust.outliers(res, len(problem), robust.robust_scales(res, len(problem)))
+    return robust.outliers(res, len(problem), jacobian=problem.jacobian(x), beams=beams)
 
 
 def _noise_warning(unc, noise_mm):

@@ -70,6 +70,8 @@ def write(
     calibration_path: str | Path | None = None,
     session_path: str | Path | None = None,
     verify: Sequence = (),
+    force: bool = False,
+    option: str = "-o",
 ) -> list[Path]:
     """Render the report into ``folder`` (created if missing).
 
@@ -87,6 +89,11 @@ def write(
         ``inputs`` count).
     verify : list of calibrator.report.verify_section.VerifyRun
         ISO 9283 runs (``calibrator verify``): a section of their own.
+    force : bool
+        Replace the report's files if ``folder`` already holds them
+        (refused otherwise, naming ``option``: see :mod:`calibrator.outputs`).
+    option : str
+        The command's option that named ``folder``.
 
     Returns
     -------
@@ -98,11 +105,8 @@ def write(
 
     own = batch is None
     batch = outputs.Outputs(inputs=[calibration_path, session_path]) if own else batch
-    # Refuse a file of the report that is an input before drawing anything.
-    if Path(folder).is_dir():
-        for name in FILES:
-            outputs.check(Path(folder) / name, batch.inputs)
-        check_page_free(Path(folder))
+    # Refuse a file of the report that is an input, or exists, before drawing anything.
+    outputs.check_folder(folder, batch.inputs, files=FILES, force=force, option=option)
     content = data.collect(cal, session, calibration_path, session_path)
     images = plots.draw(content)
     html = page.html(content, images)
@@ -124,18 +128,13 @@ def write(
     return written
 
 
-def check_page_free(folder: Path) -> None:
-    """Refuse a report folder that already holds an ``index.html``: never replaced.
-
-    Commands that write a report after long work (``identify --report``)
-    call this before the work as well.
+def check_page_free(folder: Path, force: bool = False, option: str = "-o") -> None:
+    """Refuse a folder that already holds an ``index.html`` unless ``force`` (the output policy).
 
     Raises
     ------
     calibrator.outputs.OutputError
     """
-    from calibrator.outputs import OutputError
+    from calibrator import outputs
 
-    page = folder / "index.html"
-    if page.exists() or page.is_symlink():
-        raise OutputError(f"{page} already exists; remove it or name another folder with -o")
+    outputs.check_folder(folder, files=("index.html",), force=force, option=option)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import html as _html
+import math
 from collections.abc import Mapping
 
 from calibrator.report.data import Content, unit_of
@@ -23,6 +24,7 @@ th:first-child, td:first-child { text-align: left; }
 img { max-width: 100%; }
 .note { color: #666; font-style: italic; }
 .warning { color: #a40; }
+.wide { overflow-x: auto; }
 """
 
 
@@ -67,7 +69,7 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     parts.append("</section>")
     parts.append('<section id="dropped"><h2>Parameters not identified</h2>')
     if content.dropped:
-        parts.append("<table><tr><th>parameter</th><th>reason</th></tr>")
+        parts.append('<table><tr><th>parameter</th><th style="text-align:left">reason</th></tr>')
         parts += [
             f'<tr><td>{esc(d["name"])}</td><td style="text-align:left">{esc(d["reason"])}</td></tr>'
             for d in content.dropped
@@ -113,34 +115,66 @@ def _quantities(entry):
 
 
 def _parameters_table(records, deltas, errors):
-    """Nominal, identified, delta and standard error of each free parameter, mm and mrad.
+    """Nominal, identified, delta and standard error of each free parameter, mm and deg.
 
     ``records`` (:meth:`calibrator.calibration.Calibration.parameter_records`)
     give nominal and identified values; a name without a record (a newer
-    parameter kind) still gets its delta.
+    parameter kind) still gets its delta. Every number of one unit is shown
+    to the same decimals (:func:`_decimals`), so a column reads down evenly.
     """
     if not deltas:
         return ""
     known = {r["name"]: r for r in records}
+    errors = errors or {}
+    places = {
+        unit: _decimals([errors.get(n) for n in deltas if unit_of(n) == unit], unit)
+        for unit in ("mm", "rad")
+    }
     rows = [
         "<table><tr><th>parameter</th><th>unit</th><th>nominal</th><th>identified</th>"
         "<th>delta</th><th>standard error</th></tr>"
     ]
     for name, value in deltas.items():
-        scale, unit = (1e3, "mrad") if unit_of(name) == "rad" else (1.0, "mm")
+        kind = unit_of(name)
+        scale, unit = (_DEG_PER_RAD, "deg") if kind == "rad" else (1.0, "mm")
+        digits = places[kind]
+
+        def fixed(v, scale=scale, digits=digits):
+            return f"{v * scale + 0.0:.{digits}f}"  # + 0.0: no "-0.000"
+
         rec = known.get(name)
-        nominal = "" if rec is None else f"{rec['nominal'] * scale:.6g}"
-        identified = "" if rec is None else f"{rec['identified'] * scale:.6g}"
-        err = (errors or {}).get(name)
-        err_text = "not recorded" if err is None else f"{err * scale:.3g}"
+        nominal = "" if rec is None else fixed(rec["nominal"])
+        identified = "" if rec is None else fixed(rec["identified"])
+        err = errors.get(name)
+        err_text = "not recorded" if err is None else fixed(err)
         rows.append(
             f"<tr><td>{name}</td><td>{unit}</td><td>{nominal}</td><td>{identified}</td>"
-            f"<td>{value * scale:.6g}</td><td>{err_text}</td></tr>"
+            f"<td>{fixed(value)}</td><td>{err_text}</td></tr>"
         )
     rows.append("</table>")
     rows.append(
-        '<p class="note">Angles in mrad, lengths in mm. A frame delta (base_*, tool_*) is '
+        '<p class="note">Angles in degrees, lengths in mm, each to the decimals that show '
+        "two digits of its smallest standard error. A frame delta (base_*, tool_*) is "
         "the move from the first guess expressed in the first-guess frame, as in "
         "calibration.json and the CSV export.</p>"
     )
     return "\n".join(rows)
+
+
+#: Degrees per radian: the report shows angles as an engineer reads them.
+_DEG_PER_RAD = 180.0 / math.pi
+#: Decimals without standard errors: 0.1 um and 0.01 mdeg.
+_DEFAULT_DECIMALS = {"mm": 4, "rad": 5}
+
+
+def _decimals(errors, unit):
+    """Decimals that show two significant digits of the smallest standard error.
+
+    ``errors`` in mm or rad (``unit``); shown in mm or deg. Without any, a
+    default per unit; never more than 9.
+    """
+    scale = _DEG_PER_RAD if unit == "rad" else 1.0
+    known = [abs(e) * scale for e in errors if e is not None and e > 0 and math.isfinite(e)]
+    if not known:
+        return _DEFAULT_DECIMALS[unit]
+    return int(min(max(1 - math.floor(math.log10(min(known))), 0), 9))

@@ -131,6 +131,10 @@ def _convergence(fig, curve):
     ax.set(xlabel="generation", ylabel="best cost (mm^2)", title="Swarm convergence")
 
 
+#: Millidegrees per radian: angles in degrees, as the report's table shows them.
+_MDEG = 180e3 / np.pi
+
+
 def _deltas(fig, deltas, errors):
     names = list(deltas)
     # Joints and frames in panels of their own: a base offset of metres (a
@@ -142,9 +146,9 @@ def _deltas(fig, deltas, errors):
         (g, s, u, title)
         for g, s, u, title in (
             ([n for n in joint if unit_of(n) == "mm"], 1.0, "mm", "joint lengths"),
-            ([n for n in joint if unit_of(n) == "rad"], 1e3, "mrad", "joint angles"),
+            ([n for n in joint if unit_of(n) == "rad"], _MDEG, "mdeg", "joint angles"),
             ([n for n in framed if unit_of(n) == "mm"], 1.0, "mm", "base and tool offsets"),
-            ([n for n in framed if unit_of(n) == "rad"], 1e3, "mrad", "base and tool turns"),
+            ([n for n in framed if unit_of(n) == "rad"], _MDEG, "mdeg", "base and tool turns"),
         )
         if g
     ]

@@ -3,8 +3,9 @@
 ``calibrator report ... --verify before.json --verify after.json`` adds one
 section: the per-pose table (AP, APx, APy, APz, RP, and the orientation
 figures when measured), the runs side by side in the order given, and
-``verify_clouds.png``: the attained positions of each run around each
-commanded pose (x-y deviations, mm), read from the ``verify.parquet`` beside
+``verify_clouds.png``: for each test pose, each run's barycentre about the
+commanded position and its attained positions about the barycentre (x-y
+deviations, mm, one scale per row), read from the ``verify.parquet`` beside
 each JSON. A run without its parquet is tabled and the plot says so.
 """
 
@@ -17,6 +18,7 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -119,12 +121,15 @@ def section_html(runs: list[VerifyRun], images: dict) -> str:
     if all(_ORIENTATION[0] in run.doc["poses"][0] for run in runs):
         keys += _ORIENTATION
     names = [f"{i + 1}: {run.label.split(':')[0]}" for i, run in enumerate(runs)]
-    head = "".join(f"<th>{esc(k)}<br>{esc(name)}</th>" for k in keys for name in names)
-    parts.append(f"<table><tr><th>test pose</th>{head}</tr>")
+    # One row per pose and run, one column per figure: as narrow as the page for
+    # any number of runs (a column per run and figure overflowed it).
+    head = "".join(f"<th>{esc(k)}</th>" for k in keys)
+    parts.append(f'<div class="wide"><table><tr><th>test pose</th><th>run</th>{head}</tr>')
     for k in range(5):
-        cells = "".join(f"<td>{run.doc['poses'][k][key]:.4f}</td>" for key in keys for run in runs)
-        parts.append(f"<tr><td>P{k + 1}</td>{cells}</tr>")
-    parts.append("</table>")
+        for name, run in zip(names, runs, strict=True):
+            cells = "".join(f"<td>{run.doc['poses'][k][key]:.4f}</td>" for key in keys)
+            parts.append(f"<tr><td>P{k + 1}</td><td>{esc(name)}</td>{cells}</tr>")
+    parts.append("</table></div>")
     if CLOUDS_PNG in images:
         import base64
 
@@ -139,33 +144,76 @@ def section_html(runs: list[VerifyRun], images: dict) -> str:
 
 
 def clouds_png(runs: list[VerifyRun]) -> bytes:
-    """Attained x-y deviations from the commanded position, one panel per test pose."""
+    """:func:`clouds_figure` as PNG bytes."""
+    buf = io.BytesIO()
+    clouds_figure(runs).savefig(buf, format="png", metadata={"Software": None})
+    return buf.getvalue()
+
+
+def clouds_figure(runs: list[VerifyRun]) -> Any:
+    """Accuracy and repeatability of each test pose, every panel of a row at one scale.
+
+    Top row: each run's barycentre of the attained positions, x-y deviation
+    from the commanded position (AP). Bottom row: each attained position about
+    its run's barycentre (RP). One scale per row, so panels compare; the
+    repeatability row has its own, so its clouds are not dots beside a
+    millimetre offset.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Ten panels: ``axes[k]`` the barycentres at P(k+1), ``axes[5 + k]`` the cloud.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(12, 3.2), dpi=100)
+    fig = Figure(figsize=(12, 6.0), dpi=100)
     FigureCanvasAgg(fig)
-    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.85, wspace=0.4)
-    for k in range(5):
-        ax = fig.add_subplot(1, 5, k + 1)
-        for run, colour in zip(runs, _COLOURS, strict=False):
-            assert run.table is not None  # add() draws only when every run has its table
-            rows = run.table[run.table["test_pose"] == k + 1]
-            dx = rows["x_mm"].to_numpy() - rows["cmd_x_mm"].to_numpy()
-            dy = rows["y_mm"].to_numpy() - rows["cmd_y_mm"].to_numpy()
-            ax.scatter(dx, dy, s=6, color=colour, label=run.label)
-            ax.scatter([np.mean(dx)], [np.mean(dy)], marker="x", color=colour)
-        ax.scatter([0.0], [0.0], marker="+", s=80, color="black", label="commanded")
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title(f"P{k + 1}")
-        ax.set_xlabel("x deviation (mm)")
+    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.09, top=0.88, wspace=0.35, hspace=0.45)
+    deviations = [[_deviations(run, k) for k in range(5)] for run in runs]
+    centres = [[(dx.mean(), dy.mean()) for dx, dy in row] for row in deviations]
+    reach = max(max(abs(c) for xy in row for c in xy) for row in centres) * 1.15 or 1e-3
+    spread = (
+        max(
+            max(np.abs(dx - dx.mean()).max(), np.abs(dy - dy.mean()).max())
+            for row in deviations
+            for dx, dy in row
+        )
+        * 1.15
+        or 1e-3
+    )
+    tops = [fig.add_subplot(2, 5, k + 1) for k in range(5)]
+    bottoms = [fig.add_subplot(2, 5, k + 6) for k in range(5)]
+    for k, (top, bottom) in enumerate(zip(tops, bottoms, strict=True)):
+        for i, (run, colour) in enumerate(zip(runs, _COLOURS, strict=False)):
+            dx, dy = deviations[i][k]
+            cx, cy = centres[i][k]
+            top.scatter([cx], [cy], marker="x", s=40, color=colour, label=run.label)
+            bottom.scatter(dx - cx, dy - cy, s=6, color=colour)
+        top.scatter([0.0], [0.0], marker="+", s=80, color="black", label="commanded")
+        for ax, half in ((top, reach), (bottom, spread)):
+            ax.set_xlim(-half, half)
+            ax.set_ylim(-half, half)
+            ax.set_aspect("equal")
+            ax.tick_params(labelsize="small")
+        top.set_title(f"P{k + 1}: barycentre")
+        bottom.set_title(f"P{k + 1}: about it")
+        bottom.set_xlabel("x (mm)")
         if k == 0:
-            ax.set_ylabel("y deviation (mm)")
+            top.set_ylabel("y deviation from\ncommanded (mm)")
+            bottom.set_ylabel("y deviation from\nbarycentre (mm)")
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="upper center", ncol=len(labels), fontsize="small")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata={"Software": None})
-    return buf.getvalue()
+    return fig
+
+
+def _deviations(run: VerifyRun, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of the attained positions at test pose ``k + 1`` less the commanded, mm."""
+    assert run.table is not None  # add() draws only when every run has its table
+    rows = run.table[run.table["test_pose"] == k + 1]
+    dx = rows["x_mm"].to_numpy() - rows["cmd_x_mm"].to_numpy()
+    dy = rows["y_mm"].to_numpy() - rows["cmd_y_mm"].to_numpy()
+    return dx, dy
 
 
 def add(html: str, runs: list[VerifyRun]) -> tuple[str, dict]:

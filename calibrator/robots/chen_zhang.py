@@ -20,7 +20,7 @@ import numpy as np
 _DEG = np.pi / 180.0
 
 #: What reports call the arm.
-TITLE = "seed 001 example (5 axes, rod D 50 / d 30 mm)"
+TITLE = "Chen and Zhang example (5 axes, rod D 50 / d 30 mm)"
 #: Standard DH rows ``[theta_offset, s, h, alpha]`` (rad, mm).
 TABLE = np.array(
     [

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 #: What reports call the arm.
-TITLE = "paper arm (seed 000, Table 2)"
+TITLE = "paper arm (the misalignment paper, Table 2)"
 
 #: Craig modified DH, rows ``[alpha_{i-1} (deg), a_{i-1} (mm), d_i (mm)]``.
 CRAIG_TABLE = np.array(

@@ -312,7 +312,12 @@ def test_the_shortfall_names_the_models_own_minimum(tmp_path):
 @pytest.mark.parametrize(
     ("existing", "args", "message"),
     [
-        ("s.parquet", (), "s.parquet exists: choose another -o, remove it, or pass --resume"),
+        (
+            "s.parquet",
+            (),
+            "s.parquet exists: remove it, choose another -o, pass --force to replace it, "
+            "or --resume to continue its run",
+        ),
         (
             "s.parquet.journal",
             (),
@@ -379,8 +384,11 @@ def test_first_ctrl_c_asks_for_a_stop_the_second_interrupts(capsys):
 
 def test_a_replayed_exchange_gives_the_recorded_session_and_is_recorded_again(tmp_path):
     fixtures = Path(__file__).resolve().parents[2] / "fixtures" / "measure"
+    from test_measure_replay import fixture_plan
+
     done = measure(
-        "--poses", "9", "--readings", "5", "--no-sim-noise", "-q", "-o", "s.parquet",
+        "--plan", fixture_plan(tmp_path), "--readings", "5", "--no-sim-noise", "-q",
+        "-o", "s.parquet",
         "--sim-replay", fixtures / "exchange.jsonl", "--sim-record", "again.jsonl",
         cwd=tmp_path,
     )  # fmt: skip

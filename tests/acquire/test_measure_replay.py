@@ -16,11 +16,23 @@ FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "measure"
 COLUMNS = ("pose", "q1_rad", "q6_rad", "x_mm", "y_mm", "z_mm", "sx_mm", "sz_mm", "n_readings")
 
 
+def fixture_plan(folder):
+    """The recorded session's joints as a plan file in ``folder``: the replay measures
+    exactly those poses, whatever the planner would choose today."""
+    import numpy as np
+
+    from calibrator import plan as plans
+
+    table = pq.read_table(FIXTURES / "session.parquet").to_pydict()
+    plans.write_csv(folder / "plan.csv", np.array([table[f"q{i}_rad"] for i in range(1, 7)]).T)
+    return folder / "plan.csv"
+
+
 def test_replayed_exchange_gives_the_recorded_session_row_for_row(tmp_path):
     done = run_cli(
         "measure",
-        "--poses",
-        "9",
+        "--plan",
+        fixture_plan(tmp_path),
         "--readings",
         "5",
         "--no-sim-noise",  # a live simulator would now differ; the replay cannot

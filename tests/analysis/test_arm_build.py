@@ -39,7 +39,7 @@ def test_the_paper_arm_with_overrides_and_a_pose_is_its_craig_chain():
     pose = [10.0, -20.0, 30.0, -40.0, 50.0, -60.0]
     posed = arm.build("Paper", pose_deg=pose, lengths={"a2": 250.0, "d3": 1100.0})
     np.testing.assert_allclose(posed.base2hand(), craig_hand(table, pose)[:3], atol=1e-9)
-    assert posed.name == "paper arm (seed 000, Table 2)"
+    assert posed.name == "paper arm (the misalignment paper, Table 2)"
     default = arm.build()
     expected = craig_hand(arm.PAPER_CRAIG, arm.PAPER_POSE_DEG)[:3]
     np.testing.assert_allclose(default.base2hand(), expected, atol=1e-9)

@@ -154,11 +154,12 @@ def test_trapezoid_law_has_three_phases_and_ends_at_rest():
         dfl.trapezoid(np.zeros(1), np.ones(1), 1.0, 10, ramp=0.6)
 
 
-def test_cli_default_is_the_seed_example(tmp_path):
+def test_cli_default_is_the_source_papers_example(tmp_path):
     out = cli("analyze", "deflection", "--json", "d.json", "--plot", "map.png", cwd=tmp_path)
     assert out.code == 0, out.stderr
-    line = [s for s in out.stdout.splitlines() if s.startswith("hand deflection along z5")][0]
-    value = float(line.split(":")[1].split()[0])
+    line = out.stdout.splitlines()[-3]
+    assert line.startswith("hand deflection at the end pose: "), out.stdout
+    value = float(line.split("z5 component ")[1].split()[0])
     assert 0.25 <= abs(value) <= 0.35
     doc = json.loads((tmp_path / "d.json").read_text())
     assert doc["hand_dz5_mm"] == pytest.approx(value, abs=5e-4)
@@ -180,6 +181,29 @@ def test_cli_named_model_with_sections(tmp_path):
     doc = json.loads((tmp_path / "d.json").read_text())
     assert set(doc["static"]["links"]) == {"2", "3"}
     assert doc["hand_dz6_mm"] != 0.0
+
+
+def test_the_last_line_gives_the_size_and_direction_not_one_small_component(tmp_path):
+    # At the stretched-out end pose the UR10e's hand moves mostly across z6:
+    # its z6 component alone reads as if nothing bent.
+    (tmp_path / "s.yaml").write_text(
+        "links:\n  2: {outer_mm: 100, inner_mm: 80, e_mpa: 70000}\n"
+        "  3: {outer_mm: 90, inner_mm: 74, e_mpa: 70000}\n"
+    )
+    out = cli(*["analyze", "deflection", *UR, "--json", "d.json"], cwd=tmp_path)
+    assert out.code == 0, out.stderr
+    hand = np.array(json.loads((tmp_path / "d.json").read_text())["static"]["hand_mm"])
+    size = float(np.linalg.norm(hand))
+    assert abs(hand[2]) < 0.1 * size  # the case the old line hid
+    last = [s for s in out.stdout.splitlines() if s.startswith("hand deflection at the end")]
+    assert last == [
+        f"hand deflection at the end pose: {size:.3f} mm, direction ("
+        + ", ".join(f"{v / size:+.2f}" for v in hand)
+        + f") in (x6, y6, z6); z6 component {hand[2]:+.3f} mm"
+    ]
+    assert json.loads((tmp_path / "d.json").read_text())["hand_deflection_mm"] == pytest.approx(
+        size
+    )
 
 
 UR = ["--model", "ur10e", "--sections", "s.yaml"]

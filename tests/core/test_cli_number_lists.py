@@ -13,7 +13,9 @@ from cli_testkit import cli, one_line_error
 def inputs(tmp_path_factory):
     """A plan and a session for the commands that need one before they read the option."""
     folder = tmp_path_factory.mktemp("inputs")
-    assert cli("plan", "-o", "plan.csv", "--poses", "30", "--seed", "1", cwd=folder).code == 0
+    # A small plan: the commands only need a valid one (a 30-pose plan took 5 s).
+    made = cli("plan", "-o", "plan.csv", "--poses", "12", "--candidates", "600", cwd=folder)
+    assert made.code == 0, made.stderr
     assert cli("simulate", "-o", "s.parquet", "--poses", "12", cwd=folder).code == 0
     return folder
 

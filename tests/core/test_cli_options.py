@@ -211,7 +211,9 @@ def test_measure_and_verify_take_the_shared_run_options_alike_in_the_same_place(
     # Declared once (cli/_run.py RunArgs): same flags, defaults, help and checks in
     # both commands, listed where each command's own options put them.
     commands = get_command(app).commands
-    shared = ["resume", "yes", "model", "settle", "retries", "speed", "accel", "max_speed"]
+    shared = [
+        "resume", "yes", "force", "model", "settle", "retries", "speed", "accel", "max_speed"
+    ]  # fmt: skip
     seen = {}
     for name in ("measure", "verify"):
         params = {p.name: p for p in commands[name].params}

@@ -13,13 +13,9 @@ from calibrator import outputs
 
 
 @pytest.fixture(scope="module")
-def work(tmp_path_factory):
-    """A session and its calibration, made once; tests copy them."""
-    folder = tmp_path_factory.mktemp("work")
-    assert cli("simulate", "-o", "s.parquet", "--poses", "20", cwd=folder).code == 0
-    done = cli("identify", "s.parquet", "-o", "c.json", "--method", "lm", "-q", cwd=folder)
-    assert done.code == 0, done.stderr
-    return {name: (folder / name).read_bytes() for name in ("s.parquet", "c.json")}
+def work(simulated_calibration):
+    """A session and its calibration, made once per run (conftest); tests copy them."""
+    return simulated_calibration
 
 
 @pytest.fixture
@@ -96,7 +92,11 @@ def test_input_reached_through_a_link_is_refused(folder):
 def test_output_through_a_symlink_writes_its_target(folder):
     (folder / "real.csv").write_text("old")
     (folder / "link.csv").symlink_to("real.csv")
-    done = cli("export-params", "c.json", "--format", "csv", "-o", "link.csv", cwd=folder)
+    refused = one_line_error(cli("export-params", "c.json", "-o", "link.csv", cwd=folder))
+    assert "link.csv exists" in refused and (folder / "real.csv").read_text() == "old"
+    done = cli(
+        "export-params", "c.json", "--format", "csv", "-o", "link.csv", "--force", cwd=folder
+    )
     assert done.code == 0, done.stderr
     assert (folder / "link.csv").is_symlink() and (folder / "real.csv").read_text().startswith(
         "element,parameter,"

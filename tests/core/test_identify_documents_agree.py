@@ -141,6 +141,7 @@ def test_table_without_orientation_and_with_one_or_no_held_out_pose(tmp_path, ca
             "lm",
             "--validation-fraction",
             fraction,
+            "--force",  # the second fraction replaces the first one's file
         )
         assert held_out in printed
         assert "orientation X" not in printed

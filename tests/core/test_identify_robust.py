@@ -4,8 +4,8 @@ Huber: at the answer the gradient of ``sum rho_c(r_i / s_i)`` vanishes,
 with ``rho_c`` quadratic within ``c = 1.345`` and linear beyond, i.e. the
 textbook weights ``min(1, c / |z|)``. Trimmed: the answer is the plain
 least-squares fit (scipy, finite differences) of the poses it keeps, and
-it sets aside exactly the poses whose whitened error exceeds the chi-square
-99.9 % quantile.
+it sets aside exactly the poses whose whitened error exceeds the Bonferroni
+chi-square point of the outlier test.
 """
 
 import warnings
@@ -49,9 +49,39 @@ def lsq(space, obs, k, x0):
     return fit.x
 
 
-def test_chi_square_quantiles_are_the_99_9_percent_points():
-    assert robust.CHI2_999[3] == pytest.approx(stats.chi2.ppf(0.999, 3), abs=1e-3)
-    assert robust.CHI2_999[6] == pytest.approx(stats.chi2.ppf(0.999, 6), abs=1e-3)
+@pytest.mark.parametrize("dof", [3, 6])
+def test_threshold_is_the_bonferroni_chi_square_point(dof):
+    for x in (0.5, 3.0, 16.266, 40.0):
+        assert robust.chi2_sf(x, dof) == pytest.approx(stats.chi2.sf(x, dof), rel=1e-9)
+    for n in (1, 32, 1000, 50_000):
+        expected = stats.chi2.isf(robust.FAMILY_ALPHA / n, dof)
+        assert robust.threshold(n, dof) == pytest.approx(expected, rel=1e-9)
+    # More poses, a higher bar for the worst of them.
+    assert robust.threshold(1000, dof) > robust.threshold(32, dof) > robust.threshold(1, dof)
+    # A covariance from nu degrees of freedom: Hotelling's T^2, a chi-square as nu grows.
+    for n, nu in ((16, 13.0), (40, 37.0), (200, 197.0), (50_000, 49_990.0)):
+        d2 = nu - dof + 1
+        expected = dof * nu / d2 * stats.f.isf(robust.FAMILY_ALPHA / n, dof, d2)
+        assert robust.threshold(n, dof, nu=nu) == pytest.approx(expected, rel=1e-8)
+    assert robust.threshold(50_000, dof, nu=1e9) == pytest.approx(robust.threshold(50_000, dof))
+
+
+def test_truncation_constants_are_the_chi_square_values():
+    q = stats.chi2.ppf(0.975, 3)
+    assert robust._KEEP_Q3 == pytest.approx(q, abs=1e-4)
+    assert robust._KEEP_FACTOR == pytest.approx(stats.chi2.cdf(q, 5) / 0.975, abs=1e-5)
+
+
+def test_whitener_recovers_an_anisotropic_covariance_despite_outliers():
+    rng = np.random.default_rng(7)
+    cov = np.array([[4.0, 1.0, 0.0], [1.0, 2.0, 0.3], [0.0, 0.3, 0.25]]) * 1e-4
+    v = rng.multivariate_normal(np.zeros(3), cov, 4000)
+    v[:100] += rng.normal(0, 1.0, (100, 3))  # 2.5 % gross errors, 100 sigmas
+    got = np.linalg.inv(robust.whitener(v))
+    np.testing.assert_allclose(got, cov, rtol=0, atol=0.06 * cov.max())
+    # Clean vectors whitened by it are chi-square(3): mean 3.
+    d2 = np.einsum("ij,jk,ik->i", v[100:], robust.whitener(v), v[100:])
+    assert d2.mean() == pytest.approx(3.0, rel=0.05)
 
 
 def test_robust_scales_are_1_4826_times_the_median_absolute_residual_per_block():
@@ -70,21 +100,26 @@ def test_robust_scales_are_1_4826_times_the_median_absolute_residual_per_block()
         np.testing.assert_allclose(robust.robust_scales(res[:6], 2), 1.4826 * 3.5)
 
 
-@pytest.mark.parametrize(("blocks", "limit"), [(1, 16.266), (2, 22.458)])
-def test_outlier_threshold_is_inclusive_just_at_the_quantile(blocks, limit):
-    n = 3
-    res = np.zeros(3 * n * blocks)
-    res[0] = np.sqrt(limit * 0.9999)  # pose 0 just inside
-    res[3] = np.sqrt(limit * 1.0001)  # pose 1 just outside
-    scale = np.ones_like(res)
-    assert robust.outliers(res, n, scale).tolist() == [1]
-    if blocks == 2:
-        # A pose's error sums over its position and orientation rows.
-        res[:] = 0.0
-        res[6] = res[3 * n + 6] = np.sqrt(limit * 0.5001)  # pose 2, half in each block
-        assert robust.outliers(res, n, scale).tolist() == [2]
-    # Whitened by the scale: the same residuals with twice the scale pass.
-    assert robust.outliers(res, n, 2 * scale).tolist() == []
+@pytest.mark.parametrize("blocks", [1, 2])
+def test_outlier_threshold_is_inclusive_just_at_the_bonferroni_point(blocks):
+    n = 40
+    rng = np.random.default_rng(2)
+    res = rng.normal(0, 1.0, (blocks, n, 3))
+    res[:, :2] = 0.0
+    flat = res.ravel()
+    limit = robust.threshold(n, 3 * blocks)
+    d2 = robust.distances(flat, n)
+    assert d2[2:].max() < limit  # clean: nothing named
+    # Pose 1 just outside, pose 0 just inside, along the whitened axes.
+    w = robust.whitener(res[0, 2:])  # the zeros of poses 0 and 1 barely move it
+    scale = 1.0 / np.sqrt(np.diag(w))
+    flat = res.copy()
+    flat[0, 0, 0] = scale[0] * np.sqrt(0.99 * limit)
+    flat[0, 1, 0] = scale[0] * np.sqrt(1.01 * limit)
+    d2 = robust.distances(flat.ravel(), n)
+    assert d2[0] < limit < d2[1]
+    assert 1 in robust.outliers(flat.ravel(), n).tolist()
+    assert 0 not in robust.outliers(flat.ravel(), n).tolist()
 
 
 def fd_jacobian(space, x, obs, k, h=1e-7):
@@ -177,16 +212,13 @@ def test_trimmed_answer_is_least_squares_on_the_poses_it_keeps(orientation):
     kept = obs.subset(keep)
     assert ssr(space, out.x, kept, k) == pytest.approx(ssr(space, x, kept, k), rel=1e-9)
     np.testing.assert_allclose(out.x, x, rtol=0, atol=1e-5)
-    # The set it keeps is exactly what the chi-square test passes, with the
-    # scale of each block taken on the kept poses only.
+    # The set it keeps is exactly what the outlier test passes, with the
+    # covariance of each block taken on the kept poses only.
     n = len(obs)
-    res = measurement.residuals(space, out.x, obs, k).reshape(-1, n, 3)
-    kept_res = res[:, keep]
-    z = 0.0
-    for b in range(res.shape[0]):
-        s = 1.4826 * np.median(np.abs(kept_res[b]))
-        z = z + np.sum((res[b] / s) ** 2, axis=1)
-    limit = stats.chi2.ppf(0.999, 3 * res.shape[0])
+    res = measurement.residuals(space, out.x, obs, k)
+    kept_res = res.reshape(-1, n, 3)[:, keep].ravel()
+    z = robust.distances(res, n, reference=kept_res)
+    limit = stats.chi2.isf(robust.FAMILY_ALPHA / n, len(res) // n)
     assert np.flatnonzero(z > limit).tolist() == expected
     assert out.evaluations > 2
 

@@ -35,12 +35,22 @@ def no_write_permission(monkeypatch):
 # --- check: a file ---------------------------------------------------------------
 
 
-def test_check_accepts_a_new_or_existing_file_and_returns_a_path(tmp_path):
+def test_check_accepts_a_new_file_or_with_force_an_existing_one_and_returns_a_path(tmp_path):
     (tmp_path / "old.json").write_text("{}")
     assert outputs.check(str(tmp_path / "new.json")) == tmp_path / "new.json"
-    assert outputs.check(tmp_path / "old.json", inputs=[None, tmp_path / "other"]) == (
+    assert outputs.check(tmp_path / "old.json", inputs=[None, tmp_path / "other"], force=True) == (
         tmp_path / "old.json"
     )
+    with pytest.raises(outputs.OutputError, match=r"old.json exists: .* another --json, or pass"):
+        outputs.check(tmp_path / "old.json", option="--json")
+    # A folder holding a file the command writes is an existing output; others are not.
+    (tmp_path / "rep").mkdir()
+    (tmp_path / "rep" / "notes.txt").write_text("mine")
+    assert outputs.check_folder(tmp_path / "rep", files=["index.html"]) == tmp_path / "rep"
+    (tmp_path / "rep" / "index.html").write_text("old")
+    with pytest.raises(outputs.OutputError, match=r"index.html exists: .* another --report,"):
+        outputs.check_folder(tmp_path / "rep", files=["index.html"], option="--report")
+    assert outputs.check_folder(tmp_path / "rep", files=["index.html"], force=True)
 
 
 def test_check_refusals_name_the_path(tmp_path, no_write_permission):

@@ -255,17 +255,19 @@ def test_deltas_table_values_standard_errors_and_units():
     ]
     shown = content(deltas=deltas, standard_errors=errors, parameters=records)
     parsed = Parsed(page.html(shown, IMAGES))
-    # One unit system, as the plots: mm and mrad; nominal and identified beside the delta.
+    # Angles in degrees, lengths in mm; every number of one unit to the decimals of two
+    # digits of that unit's smallest standard error (mm: 0.0123 -> 3; deg: 2e-8 rad is
+    # 1.15e-6 deg -> 7), so columns read down evenly; nominal and identified beside the delta.
     assert parsed.rows("deltas") == [
         ["parameter", "unit", "nominal", "identified", "delta", "standard error"],
-        ["a1", "mm", "0", "0.123457", "0.123457", "0.0123"],
-        ["theta2", "mrad", "1500", "1498.77", "-1.23457", "0.0457"],
-        ["tool_x", "mm", "", "", "2.5", "not recorded"],
-        ["tool_rz", "mrad", "", "", "0.0001", "2e-05"],
+        ["a1", "mm", "0.000", "0.123", "0.123", "0.012"],
+        ["theta2", "deg", "85.9436693", "85.8729337", "-0.0707355", "0.0026172"],
+        ["tool_x", "mm", "", "", "2.500", "not recorded"],
+        ["tool_rz", "deg", "", "", "0.0000057", "0.0000011"],
     ]
     assert len(parsed.paras("deltas")) == 1  # the units note; standard errors were recorded
     bare = Parsed(page.html(content(deltas={"d4": 0.5}), IMAGES))
-    assert bare.rows("deltas")[1] == ["d4", "mm", "", "", "0.5", "not recorded"]
+    assert bare.rows("deltas")[1] == ["d4", "mm", "", "", "0.5000", "not recorded"]
 
 
 def test_dropped_parameters_with_their_reasons_or_none():

@@ -14,6 +14,9 @@ from calibrator.report import data, plots
 
 FIT, HELD = to_rgba("#1f77b4"), to_rgba("#d62728")
 
+#: Millidegrees per radian: the report's angles are in degrees.
+MDEG = 180e3 / np.pi
+
 
 def _recorder(monkeypatch, render):
     saved = []
@@ -249,7 +252,7 @@ def _bars(ax):
     return [rect.get_width() for rect in bars.patches], bars
 
 
-def test_deltas_are_bars_in_mm_and_mrad_with_their_standard_errors(figures):
+def test_deltas_are_bars_in_mm_and_mdeg_with_their_standard_errors(figures):
     deltas = {"a1": 0.25, "theta2": -0.002, "d3": -0.5, "tool_rx": 0.001}
     errors = {"a1": 0.05, "theta2": 0.0004, "tool_rx": 0.0002}  # none for d3
     plots.draw(content(deltas=deltas, standard_errors=errors))
@@ -260,8 +263,8 @@ def test_deltas_are_bars_in_mm_and_mrad_with_their_standard_errors(figures):
     lengths, angles, turns = fig.axes
     for ax, names, scale, unit, title in (
         (lengths, ["a1", "d3"], 1.0, "mm", "joint lengths"),
-        (angles, ["theta2"], 1e3, "mrad", "joint angles"),
-        (turns, ["tool_rx"], 1e3, "mrad", "base and tool turns"),
+        (angles, ["theta2"], MDEG, "mdeg", "joint angles"),
+        (turns, ["tool_rx"], MDEG, "mdeg", "base and tool turns"),
     ):
         assert ax.get_title() == title
         widths, bars = _bars(ax)
@@ -289,8 +292,8 @@ def test_deltas_without_standard_errors_or_of_one_kind(figures):
     assert fig.get_suptitle() == "Identified deltas"
     (ax,) = fig.axes
     widths, bars = _bars(ax)
-    np.testing.assert_allclose(widths, [1.0, -3.0])
-    assert ax.get_xlabel() == "delta (mrad)"
+    np.testing.assert_allclose(widths, [1.0 * MDEG / 1e3, -3.0 * MDEG / 1e3])
+    assert ax.get_xlabel() == "delta (mdeg)"
     assert bars.errorbar is None
     assert tuple(fig.get_size_inches()) == pytest.approx((9, 1.4))
 
@@ -302,4 +305,4 @@ def test_joint_deltas_stay_visible_beside_metre_scale_base_offsets(figures):
     assert [t.get_text() for t in joints.get_yticklabels()] == ["a2", "d4"]
     assert [t.get_text() for t in offsets.get_yticklabels()] == ["base_tx"]
     assert max(abs(v) for v in joints.get_xlim()) < 1.0  # a 0.1 mm bar fills its panel
-    assert offsets.get_title() == "base and tool offsets" and turns.get_xlabel() == "delta (mrad)"
+    assert offsets.get_title() == "base and tool offsets" and turns.get_xlabel() == "delta (mdeg)"

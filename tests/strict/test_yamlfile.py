@@ -32,8 +32,8 @@ def _bomb(levels: int, where: str) -> str:
 
 HOSTILE = {
     "nested 1,000 deep (flow)": ("obstacles: " + "[" * 1000 + "]" * 1000 + "\n", "nested more"),
-    "nested 1,000 deep (block)": (
-        "a:\n" + "".join("  " * i + f"k{i}:\n" for i in range(1, 1000)) + "  " * 1000 + "x: 1\n",
+    "nested 300 deep (block)": (
+        "a:\n" + "".join("  " * i + f"k{i}:\n" for i in range(1, 300)) + "  " * 300 + "x: 1\n",
         "nested more than 64 deep",
     ),
     "a duplicate key": ("margin_mm: 20\nmargin_mm: 30\n", "key 'margin_mm' appears more than once"),

@@ -28,6 +28,23 @@ from drivers.tracker.protocol import format_number
 CONTROL_TIMEOUT_S = 5.0  # control replies are immediate; generous for loaded machines
 
 
+def spawn(module: str, args: list[str]) -> subprocess.Popen[str]:
+    """``python -m module args`` as a child in a session of its own, stdout piped (text).
+
+    A terminal's Ctrl-C goes to its whole foreground process group: a
+    simulator in the caller's group would die with it while the command is
+    still finishing the pose in hand, and the run would end "tracker
+    unavailable" instead of stopping cleanly. In its own session the child
+    is stopped only by :meth:`SimulatorProcess.stop` (or when its pipe closes).
+    """
+    return subprocess.Popen(
+        [sys.executable, "-m", module, *args],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
 class SimulatorControl:
     """Client for the simulator-only commands over any pyserial URL.
 
@@ -110,11 +127,7 @@ class SimulatorProcess:
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []
         args += ["--replay", str(replay)] if replay else []
-        self._proc = subprocess.Popen(
-            [sys.executable, "-m", "drivers.tracker.simulator", *args],
-            stdout=subprocess.PIPE,
-            text=True,
-        )
+        self._proc = spawn("drivers.tracker.simulator", args)
         stdout = self._proc.stdout
         assert stdout is not None  # stdout=PIPE above
         path, port = (stdout.readline().strip() for _ in range(2))

@@ -9,11 +9,9 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
-from drivers.tracker.simulator.launch import SimulatorProcess
+from drivers.tracker.simulator.launch import SimulatorProcess, spawn
 
 
 class EmsconSimulatorProcess(SimulatorProcess):
@@ -43,11 +41,7 @@ class EmsconSimulatorProcess(SimulatorProcess):
         args += [] if noise else ["--no-noise"]
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []
-        self._proc = subprocess.Popen(
-            [sys.executable, "-m", "drivers.tracker.emscon.simulator", *args],
-            stdout=subprocess.PIPE,
-            text=True,
-        )
+        self._proc = spawn("drivers.tracker.emscon.simulator", args)
         stdout = self._proc.stdout
         assert stdout is not None  # stdout=PIPE above
         port, control = (stdout.readline().strip() for _ in range(2))
