@@ -86,7 +86,8 @@ def plan(
             if calibration.digest(path) != s["sha256"]:
                 on_skip(s["file"], "the file changed since it was recorded (SHA-256 differs)")
                 continue
-            output = folder / f"{path.stem}-{s['sha256'][:12]}.json"
+            # Absolute: a scheduler's workers do not run in this process's folder.
+            output = folder.resolve() / f"{path.stem}-{s['sha256'][:12]}.json"
             if output.exists():
                 raise HistoryError(f"{output} exists: choose another -o folder or remove it")
             jobs.append(Job(name, str(path), str(output)))

@@ -39,17 +39,18 @@ def default_path() -> Path:
     return Path(base) / "calibrator" / "history.sqlite"
 
 
-def resolve(target: str | os.PathLike | None) -> str:
+def resolve(target: str | os.PathLike | None, create: bool = True) -> str:
     """The database URL of ``--history`` (a file or a URL), ``$CALIBRATOR_HISTORY`` or the default.
 
     A file path becomes ``sqlite:///PATH``; ``postgresql://`` gets the
-    psycopg driver.
+    psycopg driver. With ``create``, the default file's folder is made.
     """
     if target is None or str(target) == "":
         target = os.environ.get(ENV_VAR) or None
     if target is None:
         path = default_path()
-        path.parent.mkdir(parents=True, exist_ok=True)
+        if create:  # a look at a history that is not there makes no folder
+            path.parent.mkdir(parents=True, exist_ok=True)
         return f"sqlite:///{path}"
     text = str(target)
     if text.startswith(("postgresql://", "postgres://")):
@@ -415,7 +416,7 @@ def open_history(target: str | os.PathLike | None = None, create: bool = True) -
         Not a file or URL, no such file (``create=False``), a database
         that is not a history, a newer schema, or a server that does not answer.
     """
-    url = resolve(target)
+    url = resolve(target, create)
     engine = _engine(url, create)
     where = (
         str(engine.url.database)

@@ -115,8 +115,42 @@ def test_reidentify_gives_what_identify_gives(tmp_path, measured):
             doc = json.loads(got.read_text())
             del doc["created"]
             assert doc == expected
+    from calibrator.calibration import digest
+
     with open_history(history) as h:
-        assert len(h.calibrations(ROBOT)) == 6
-        assert len({c["session_id"] for c in h.calibrations(ROBOT)}) == 3
+        recorded = h.calibrations(ROBOT)
+    # Every file written is recorded (two runs of a session in the same second
+    # write the same bytes: one record), each with its session.
+    assert {c["sha256"] for c in recorded} == {digest(f) for f in runs["here"] + runs["dask"]}
+    assert len({c["session_id"] for c in recorded}) == 3
     again = cli("history", "reidentify", "--history", history, "-o", "here", cwd=tmp_path)
     assert "exists: choose another -o folder" in one_line_error(again)
+
+
+def test_reidentify_on_a_running_scheduler(tmp_path, measured):
+    """--scheduler: a cluster someone else started (here a local one, by its address)."""
+    from calibrator.analysis import engine
+
+    history = tmp_path / "h.sqlite"
+    shutil.copy(measured / "s1.parquet", tmp_path / "s1.parquet")
+    with open_history(history) as h:
+        h.record_session(tmp_path / "s1.parquet")
+    cluster = engine.local_cluster(1)
+    try:
+        result = cli(
+            "history", "reidentify", "--history", history, "-o", "out", "-q",
+            "--identify-options", "--method lm", "--scheduler", cluster.scheduler_address,
+            cwd=tmp_path,
+        )  # fmt: skip
+    finally:
+        cluster.close()
+    assert result.code == 0, result.stderr
+    (written,) = (tmp_path / "out").glob("*.json")
+    assert cli("identify", tmp_path / "s1.parquet", "-o", "one.json", "--method", "lm",
+               cwd=tmp_path).code == 0  # fmt: skip
+    got, expected = json.loads(written.read_text()), json.loads((tmp_path / "one.json").read_text())
+    del got["created"], expected["created"]
+    assert got == expected
+    both = cli("history", "reidentify", "--history", history, "--workers", "1",
+               "--scheduler", "tcp://127.0.0.1:1", cwd=tmp_path)  # fmt: skip
+    assert "give --workers or --scheduler, not both" in one_line_error(both)

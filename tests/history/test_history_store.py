@@ -171,6 +171,9 @@ def test_opening_refuses_what_is_not_a_history(tmp_path):
 def test_default_location_and_environment(tmp_path, monkeypatch):
     monkeypatch.delenv(store_module.ENV_VAR, raising=False)
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    with pytest.raises(HistoryError, match="no history at"):
+        open_history(create=False)
+    assert not (tmp_path / "data").exists()
     with open_history() as h:
         h.record_check(check_doc())
     assert (tmp_path / "data" / "calibrator" / "history.sqlite").is_file()
