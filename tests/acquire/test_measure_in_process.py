@@ -93,6 +93,7 @@ def test_session_holds_the_simulated_arm_pose_for_pose(tmp_path):
         "robot": "sim:ur10e:seed=2",
         "tracker": SIM_IDENTITY,
         "plan_sha256": plans.digest(q_plan),  # what a resume checks an existing file against
+        "description": {"name": "ur10e", "sha256": UR10E.digest},  # which arm, exactly
     }
 
     lines = progress_lines(done.stderr)

@@ -10,12 +10,13 @@ from cli_testkit import cli, one_line_error
 
 
 @pytest.fixture(scope="module")
-def inputs(tmp_path_factory):
+def inputs(tmp_path_factory, checked_plan):
     """A plan and a session for the commands that need one before they read the option."""
+    from calibrator import plan as plans
+
     folder = tmp_path_factory.mktemp("inputs")
-    # A small plan: the commands only need a valid one (a 30-pose plan took 5 s).
-    made = cli("plan", "-o", "plan.csv", "--poses", "12", "--candidates", "600", cwd=folder)
-    assert made.code == 0, made.stderr
+    # The commands only need a valid plan: the session's shared one.
+    plans.write_plan(folder / "plan.csv", checked_plan)
     assert cli("simulate", "-o", "s.parquet", "--poses", "12", cwd=folder).code == 0
     return folder
 

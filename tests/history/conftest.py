@@ -45,6 +45,16 @@ def new_pg_database(server) -> str:
     return server.get_uri(name)
 
 
+@pytest.fixture
+def new_pg(pg_server):
+    """A maker of fresh databases on the test session's server (their URLs).
+
+    A fixture rather than an import: ``conftest`` is no importable name when
+    several test folders have one.
+    """
+    return lambda: new_pg_database(pg_server)
+
+
 @pytest.fixture(params=["sqlite", "postgresql"])
 def history_url(request, tmp_path):
     """An empty history target on each backend: an SQLite file, a PostgreSQL database."""

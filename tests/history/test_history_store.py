@@ -53,11 +53,9 @@ def test_a_file_recorded_twice_is_one_record(history_url, measured):
         assert len(h.checks("arm-1")) == 1
 
 
-def test_same_files_give_identical_histories_on_both_backends(tmp_path, pg_server, measured):
-    from conftest import new_pg_database
-
+def test_same_files_give_identical_histories_on_both_backends(tmp_path, new_pg, measured):
     dumps = []
-    for target in (str(tmp_path / "h.sqlite"), new_pg_database(pg_server)):
+    for target in (str(tmp_path / "h.sqlite"), new_pg()):
         with open_history(target) as h:
             for i in range(3):
                 h.record_calibration(measured / f"cal{i}.json")

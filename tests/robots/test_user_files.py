@@ -279,7 +279,8 @@ def test_no_command_writes_over_the_description_it_read(tmp_path):
     done = subprocess.run(
         [
             *(sys.executable, "-m", "calibrator", "plan", "--model", str(path)),
-            *("--tracker-at", "2500,300,300", "-o", str(path)),
+            # --force: replacing an earlier output is allowed, the description never.
+            *("--tracker-at", "2500,300,300", "-o", str(path), "--force"),
         ],
         capture_output=True,
         text=True,
