@@ -1,8 +1,6 @@
 """``calibrator identify``: MDH parameters from a session, written to calibration.json."""
 
-import time
-from dataclasses import dataclass, replace
-from datetime import UTC, datetime
+from dataclasses import replace
 from enum import StrEnum
 from pathlib import Path
 
@@ -11,7 +9,8 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
-from calibrator.errors import CalibrationError, IdentifiabilityError
+from calibrator.errors import CalibrationError
+from calibrator.identify.calibrate import JointOptions, calibrate
 from calibrator.identify.option_rules import RULES
 from calibrator.strict import Rule
 
@@ -147,9 +146,8 @@ def identify(
     ),
 ) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
-    import numpy as np
 
-    from calibrator import calibration, outputs, progress, session
+    from calibrator import outputs, progress
     from calibrator.identify import pipeline, report, uncertainty
 
     if k is not None and orientation_weight is not None:
@@ -172,12 +170,7 @@ def identify(
         options, model, nominal_file, joint = _recorded(
             ctx, like, session_path, options, model, nominal_file, joint
         )
-    groups = ()
-    if joint.joint_term_groups is not None:
-        from calibrator import joint_terms
-
-        groups = joint_terms.parse_groups(joint.joint_term_groups)
-    payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
+    _three(joint.payload_com_mm, "--payload-com-mm")  # refused before any work
     inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs, force=force)
     if report_dir is not None:
@@ -188,74 +181,20 @@ def identify(
         )
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
-    parts = [session.load(p, model=model) for p in session_paths]
-    loaded = parts[0]
-    if len(parts) > 1 or groups:
-        # Joint terms and several sessions only: a plain identify does not load them.
-        from calibrator import joint_fit
-
-        loaded = joint_fit.combine(parts, [str(p) for p in session_paths])
-        payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
-    for doubt in loaded.warnings:
-        typer.echo(f"warning: {doubt}", err=True)
-    if nominal_file is not None:
-        from calibrator import nominal
-
-        typer.echo(nominal.apply(loaded.meta, nominal_file))
     reporter = progress.Reporter.for_cli(quiet)
-    started = time.perf_counter()
-    try:
-        if options.method == Method.lm.value:
-            result = pipeline.identify(loaded, options)
-        else:
-            with reporter.task("swarm", options.generations, "generations") as task:
-                shown = replace(options, on_generation=lambda g, best: task.update(g, best=best))
-                result = pipeline.identify(loaded, shown)
-    except IdentifiabilityError as exc:
-        raise CalibrationError(
-            _too_few_hint(session_path, exc, len(loaded.table), options)
-        ) from None
-    found = None
-    if groups:
-        from calibrator import mass_models
-
-        source = joint.mass_model or loaded.meta.model
-        masses = None
-        if "compliance" in groups and source:
-            masses = mass_models.resolve(source)
-        result, found = joint_fit.run(
-            result, loaded, payloads, groups, masses, payload_com, options.noise_mm
+    if options.method == Method.lm.value:
+        done = calibrate(
+            session_paths, options, model=model, nominal_file=nominal_file, joint=joint
         )
-    took = time.perf_counter() - started
-    provenance = calibration.Provenance(
-        session_sha256=calibration.digest(session_path),
-        nominal_source="file" if nominal_file else "model" if model else "session",
-        nominal_file=None if nominal_file is None else str(nominal_file),
-        nominal_sha256=None if nominal_file is None else calibration.digest(nominal_file),
-        joint_term_groups=",".join(groups),
-        mass_model=joint.mass_model,
-        payload_kg=joint.payload_kg,
-        payload_com_mm=[float(v) for v in payload_com],
-        versions=calibration.versions(),
-        created=datetime.now(UTC).isoformat(timespec="seconds"),
-    )
-    cal = calibration.Calibration.from_result(
-        result, session_path, loaded.meta.model, loaded.meta.frame, provenance
-    )
-    if found is not None and found.terms.needs_torque:
-        cal.joint_terms = replace(
-            cal.joint_terms,
-            payload_kg=float(np.median(payloads)),
-            payload_com_mm=payload_com,
-            mass_model=str(joint.mass_model or loaded.meta.model),
-        )
-    if len(session_paths) > 1:
-        cal.diagnostics["sessions"] = [str(p) for p in session_paths]
-    # compensate warns about targets outside the joint ranges the fit saw.
-    fitted_q = loaded.observations.q[result.fit_index]
-    cal.fit.fitted_joint_ranges_rad = np.column_stack(
-        [fitted_q.min(axis=0), fitted_q.max(axis=0)]
-    ).tolist()
+    else:
+        with reporter.task("swarm", options.generations, "generations") as task:
+            done = calibrate(
+                session_paths, options, model=model, nominal_file=nominal_file, joint=joint,
+                on_generation=lambda g, best: task.update(g, best=best),
+            )  # fmt: skip
+    for note in done.notes:
+        typer.echo(note, err=note.startswith("warning: "))
+    cal, result, found, loaded = done.calibration, done.result, done.joint, done.session
     with outputs.Outputs(inputs=inputs) as batch:
         cal.save(output, batch=batch)
         if report_dir is not None:
@@ -277,29 +216,18 @@ def identify(
         typer.echo(line)
     typer.echo(uncertainty.noise_floor_line(result.uncertainty))
     if found is not None:
+        from calibrator import joint_fit
+
         for line in joint_fit.summary_lines(found):
             typer.echo(line)
     if target_mm is not None:
         typer.echo(_target_line(result, target_mm))
     also = f" and the report in {report_dir}" if report_dir is not None else ""
-    typer.echo(f"identified in {took:.2f} s; wrote {output}{also}")
+    typer.echo(f"identified in {done.took_s:.2f} s; wrote {output}{also}")
     if history is not None:
         from calibrator.cli.history import record
 
         record(history, "calibration", output)
-
-
-@dataclass(frozen=True)
-class JointOptions:
-    """The joint-term options as given (``None``: not given), for ``--like`` to fill in.
-
-    Named as recorded (:data:`calibrator.identify.option_rules.JOINT`).
-    """
-
-    joint_term_groups: str | None = None
-    mass_model: str | None = None
-    payload_kg: float | None = None
-    payload_com_mm: str = "0,0,0"
 
 
 def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
@@ -407,15 +335,3 @@ def _three(text, what):
     import numpy as np
 
     return np.array(opts.floats(text, 3, what, "three numbers x,y,z"))
-
-
-def _too_few_hint(path, exc, n_poses, options):
-    """The identification error, naming the file and, if poses are held out, the option."""
-    message = f"{path}: {exc}"
-    held_out = int(round(options.validation_fraction * n_poses))
-    if held_out:
-        message += (
-            f" ({held_out} of {n_poses} poses held out by "
-            f"--validation-fraction {options.validation_fraction:g}; lower it to fit more)"
-        )
-    return message
