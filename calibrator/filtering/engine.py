@@ -256,6 +256,8 @@ class Filter:
             texts = numbers.write_many(tokens, old, enc, layout.units)
             self.summary.corrected[layout.kind] += len(good)
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
+                if toks == new:
+                    continue
                 unit = items[i][0]
                 for span, tok, text in zip(targets[i].spans, toks, new, strict=True):
                     if text != tok:
@@ -265,9 +267,13 @@ class Filter:
         for (_, li), changes in edits.items():
             unit = changes[0][3]
             body, ending = _split(unit.lines[li])
-            for start_, end_, text, _ in sorted(changes, key=lambda c: -c[0]):
-                body = body[:start_] + text + body[end_:]
-            unit.lines[li] = body + ending
+            # Spliced in one pass, left to right (spans index the original line).
+            parts, at = [], 0
+            for start_, end_, text, _ in sorted(changes, key=lambda c: c[0]):
+                parts += [body[at:start_], text]
+                at = end_
+            parts.append(body[at:])
+            unit.lines[li] = "".join(parts) + ending
         last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
         if len(last):
             i = last[-1]
