@@ -168,11 +168,12 @@ class Filter:
     # -- solving -----------------------------------------------------------------------
     def _solve(self, items: list) -> None:
         job, lang = self.job, self.lang
-        for u, t in items:
-            if t.problem is not None:
-                self.summary.found[t.layout.kind] += 1
-                self._mark(u, t, t.problem)
-        items = [(u, t) for u, t in items if t.problem is None]
+        if any(t.problem is not None for _, t in items):
+            for u, t in items:
+                if t.problem is not None:
+                    self.summary.found[t.layout.kind] += 1
+                    self._mark(u, t, t.problem)
+            items = [(u, t) for u, t in items if t.problem is None]
         if not items:
             return
         targets = [t for _, t in items]
@@ -256,8 +257,22 @@ class Filter:
             texts = numbers.write_many(tokens, old, enc, layout.units)
             self.summary.corrected[layout.kind] += len(good)
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
+                if toks == new:
+                    continue
                 unit = items[i][0]
-                for span, tok, text in zip(targets[i].spans, toks, new, strict=True):
+                spans = targets[i].spans
+                line = spans[0][0]
+                if len(unit.targets) == 1 and all(sp[0] == line for sp in spans):
+                    # The usual case, one target on its line: spliced here in one pass.
+                    body, ending = _split(unit.lines[line])
+                    parts, at = [], 0
+                    for (_, start_, end_), text in zip(spans, new, strict=True):
+                        parts += [body[at:start_], text]
+                        at = end_
+                    parts.append(body[at:])
+                    unit.lines[line] = "".join(parts) + ending
+                    continue
+                for span, tok, text in zip(spans, toks, new, strict=True):
                     if text != tok:
                         edits[(id(unit), span[0])].append((span[1], span[2], text, unit))
         for i in np.flatnonzero((~ok & active) | (~active & is_pose)).tolist():
@@ -265,9 +280,13 @@ class Filter:
         for (_, li), changes in edits.items():
             unit = changes[0][3]
             body, ending = _split(unit.lines[li])
-            for start_, end_, text, _ in sorted(changes, key=lambda c: -c[0]):
-                body = body[:start_] + text + body[end_:]
-            unit.lines[li] = body + ending
+            # Spliced in one pass, left to right (spans index the original line).
+            parts, at = [], 0
+            for start_, end_, text, _ in sorted(changes, key=lambda c: c[0]):
+                parts += [body[at:start_], text]
+                at = end_
+            parts.append(body[at:])
+            unit.lines[li] = "".join(parts) + ending
         last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
         if len(last):
             i = last[-1]
@@ -373,10 +392,15 @@ class Filter:
 def _stack(transforms: list) -> np.ndarray:
     """(N, 4, 4) of per-target transforms (None: identity); targets share a few objects."""
     index: dict = {}
-    rows = [index.setdefault(id(t), len(index)) for t in transforms]
-    unique = {id(t): t for t in transforms}
-    table = np.array([np.eye(4) if unique[k] is None else unique[k] for k in index])
-    return table[np.array(rows)]
+    unique: list = []
+    rows = []
+    for t in transforms:
+        k = index.get(id(t))
+        if k is None:
+            k = index[id(t)] = len(unique)
+            unique.append(np.eye(4) if t is None else t)
+        rows.append(k)
+    return np.array(unique)[np.array(rows)]
 
 
 def _split(line: str) -> tuple[str, str]:

@@ -199,6 +199,7 @@ class KRL(Language):
                     )
                 self.uses[key] = now
         self.fdat = fdat
+        self._frames: dict = {}  # (kind, number) -> (transform, problem), looked up once
 
     @staticmethod
     def _update(code: str, state: list, fdat: dict) -> None:
@@ -224,6 +225,12 @@ class KRL(Language):
 
     def _frame(self, kind: str, number: int | None, where: str):
         """The (4, 4) of TOOL_DATA/BASE_DATA[number]; (None, problem) when unknown."""
+        key = (kind, number)
+        if key not in self._frames:
+            self._frames[key] = self._look_up(kind, number)
+        return self._frames[key]
+
+    def _look_up(self, kind: str, number: int | None):
         if number is None:
             return (
                 None,

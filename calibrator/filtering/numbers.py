@@ -106,14 +106,20 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
         rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
     out = [list(row) for row in tokens]
-    for i, j in zip(*np.nonzero(~same | ~plain), strict=True):
-        if plain[i, j]:
-            text = f"{new[i, j]:.{places[i, j]}f}"
-            if text.startswith("-") and float(text) == 0.0:
-                text = text[1:]
-            if tokens[i][j].startswith("+") and not text.startswith("-"):
-                text = "+" + text
-            out[i][j] = text
-        else:
-            out[i][j] = write(tokens[i][j], float(new[i, j]), units[j])
+    rows, cols = np.nonzero(~same | ~plain)
+    values = new[rows, cols].tolist()
+    digits = places[rows, cols].tolist()
+    simple = plain[rows, cols].tolist()
+    # Plain Python from here: numpy scalars are slow to format one by one.
+    for i, j, v, d, easy in zip(rows.tolist(), cols.tolist(), values, digits, simple, strict=True):
+        token = tokens[i][j]
+        if not easy:
+            out[i][j] = write(token, v, units[j])
+            continue
+        text = f"{v:.{d}f}"
+        if text[0] == "-" and float(text) == 0.0:
+            text = text[1:]
+        if token[0] == "+" and text[0] != "-":
+            text = "+" + text
+        out[i][j] = text
     return out

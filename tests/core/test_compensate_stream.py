@@ -2,10 +2,12 @@
 
 import numpy as np
 import pandas as pd
+import pytest
 from test_cli import run
 
 from calibrator import compensate, parameters, simulate
 from calibrator.calibration import Calibration
+from calibrator.errors import CalibrationError
 from calibrator.models import get_model
 
 
@@ -71,3 +73,14 @@ def test_a_large_joint_change_near_the_wrist_singularity_is_refused(tmp_path):
     assert "wrist singularity: axes 4 and 6 are 0.20 deg from parallel" in done.stderr
     (line,) = [x for x in done.stderr.splitlines() if x.startswith("target 3: not reached")]
     assert line.endswith("; wrist singularity: axes 4 and 6 are 0.05 deg from parallel)")
+
+
+def test_the_fast_reading_refuses_what_the_strict_grammar_refuses(tmp_path):
+    # float() reads these; the strict grammar does not, nor does the block reader.
+    for cell in ("1_0", "\u0661", "nan", "infinity", "1e400"):
+        _csv(tmp_path / "t.csv", _joints(3))
+        lines = (tmp_path / "t.csv").read_text(encoding="utf-8").splitlines()
+        lines[2] = cell + lines[2][lines[2].index(",") :]
+        (tmp_path / "t.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        with pytest.raises(CalibrationError, match="line 3, q1_rad"):
+            compensate.read_targets(tmp_path / "t.csv")
