@@ -11,7 +11,8 @@ KRL program (inline ``LIN`` aggregates with ``S``/``T``, tool and base from a
 ``$config.dat``) and as a targets CSV (the nominal joints and the base-frame
 pose of each target). Each is compensated in a fresh process, ``--repeats``
 times; the median wall time and the largest peak resident memory (the
-child's ``VmHWM``, Linux) are printed, with their ratio.
+child's ``VmHWM``, Linux) are printed, with their ratio. The two are run in turn,
+so a change in the machine's load falls on both alike.
 """
 
 import argparse
@@ -134,24 +135,29 @@ def main() -> None:
         t = time.perf_counter()
         _setup(folder, args.targets)
         print(f"{args.targets} targets written in {time.perf_counter() - t:.1f} s")
-        results = {}
-        for kind in ("csv", "krl"):
-            walls, peaks = [], []
-            for _ in range(args.repeats):
+        walls: dict = {"csv": [], "krl": []}
+        peaks: dict = {"csv": [], "krl": []}
+        # Alternating, so a change in the machine's load falls on both alike.
+        for _ in range(args.repeats):
+            for kind in ("csv", "krl"):
                 done = subprocess.run(
                     [sys.executable, __file__, "--child", kind, "--folder", str(folder)],
                     capture_output=True, text=True, check=True, env=dict(os.environ),
                 )  # fmt: skip
                 wall, failed, peak = done.stdout.split()
-                walls.append(float(wall))
-                peaks.append(int(peak))  # the child's own peak resident memory (KiB)
+                walls[kind].append(float(wall))
+                peaks[kind].append(int(peak))  # the child's own peak resident memory (KiB)
                 if int(failed):
                     print(f"{kind}: {failed} failed targets")
-            results[kind] = (statistics.median(walls), max(peaks) / 1024)
+        results = {}
+        for kind in ("csv", "krl"):
+            results[kind] = (statistics.median(walls[kind]), max(peaks[kind]) / 1024)
             print(
                 f"{kind}: median {results[kind][0]:.2f} s of {args.repeats} "
-                f"(min {min(walls):.2f}), peak RSS {results[kind][1]:.0f} MiB"
+                f"(min {min(walls[kind]):.2f}), peak RSS {results[kind][1]:.0f} MiB"
             )
+        pairs = [k / c for k, c in zip(walls["krl"], walls["csv"], strict=True)]
+        print(f"program / CSV per pair: {', '.join(f'{r:.2f}' for r in pairs)}")
         ratio = results["krl"][0] / results["csv"][0]
         print(f"program / CSV time: {ratio:.2f}x")
 

@@ -50,6 +50,8 @@ from calibrator.joint_terms import JointTerms
 FORMAT = "calibrator.calibration"
 VERSION = 1
 FRAMES = ("base", "tracker")
+#: Where a calibration's nominal table came from (:attr:`Provenance.nominal_source`).
+NOMINAL_SOURCES = ("session", "model", "file")
 _FIELDS = kinematics.FIELDS
 #: Refuse files larger than this: a calibration is a few kB.
 MAX_BYTES = 16 * 2**20
@@ -176,6 +178,12 @@ class Provenance:
                     f"{where}: '{key}' must be a JSON {_JSON_TYPE[kind]}, got {value!r:.40}"
                 )
             values[key] = value
+        source = values.get("nominal_source")
+        if source is not None and source not in NOMINAL_SOURCES:
+            raise CalibrationError(
+                f"{where}: 'nominal_source' must be one of {', '.join(NOMINAL_SOURCES)}, "
+                f"got {strict.shown(source)}"
+            )
         com = values.get("payload_com_mm")
         if com is not None:
             if len(com) != 3 or not all(_is_number(v) for v in com):

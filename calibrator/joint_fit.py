@@ -291,20 +291,19 @@ def session_payload(sess: Session, default_kg: float | None = None) -> np.ndarra
     From a ``payload_kg`` column, else the footer's ``payload_kg``, else
     ``default_kg`` (the ``--payload-kg`` option), else 0.
     """
-    from calibrator.errors import SessionError
+    from calibrator.identify.option_rules import RULES
 
-    n = sess.table.num_rows
+    # The rule of --payload-kg: a session cannot record what the option refuses.
+    rule, n = RULES["payload_kg"], sess.table.num_rows
     if "payload_kg" in sess.table.column_names:
         values = np.array(sess.table["payload_kg"].to_pylist(), dtype=float)
+        for extreme in (values.min(), values.max()) if n else ():
+            rule.check(float(extreme), "the session's payload_kg column")
     elif "payload_kg" in sess.meta.extra:
-        try:
-            values = np.full(n, float(sess.meta.extra["payload_kg"]))
-        except (TypeError, ValueError):
-            raise SessionError("the session's payload_kg is not a number") from None
+        value = rule.check(sess.meta.extra["payload_kg"], "the session's payload_kg")
+        values = np.full(n, value)
     else:
-        values = np.full(n, 0.0 if default_kg is None else float(default_kg))
-    if not np.all(np.isfinite(values)) or np.any(values < 0):
-        raise SessionError("payload_kg must be finite and >= 0")
+        values = np.full(n, 0.0 if default_kg is None else rule.check(default_kg, "--payload-kg"))
     return values
 
 

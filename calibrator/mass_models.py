@@ -24,9 +24,16 @@ from pathlib import Path
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.strict import Rule
 
 #: Standard gravity, mm/s^2.
 GRAVITY_MM_S2 = 9810.0
+#: What a link of a mass-model file may be: a robot link, not 1e308 kg (its
+#: torques overflow to nan) nor a string read as a number.
+LINK_RULES = {
+    "mass_kg": Rule("mass_kg", float, 0.0, 2_000.0, unit="kg", meaning="mass of a link"),
+    "com_mm": Rule("com_mm", tuple, high=5_000.0, unit="mm", meaning="centre of mass, link frame"),
+}
 
 
 @dataclass(frozen=True)
@@ -112,13 +119,14 @@ def load(path: Path | str) -> MassModel:
     links = doc.get("links") if isinstance(doc, dict) else None
     if not isinstance(links, list) or len(links) != 6:
         raise CalibrationError(f"{path}: needs a 'links' list of 6 entries")
-    try:
-        mass = [float(link["mass_kg"]) for link in links]
-        com = [[float(v) for v in link["com_mm"]] for link in links]
-    except (TypeError, KeyError, ValueError):
-        raise CalibrationError(
-            f"{path}: every link needs mass_kg (number) and com_mm ([x, y, z] mm)"
-        ) from None
+    mass, com = [], []
+    for i, link in enumerate(links):
+        if not isinstance(link, dict) or set(link) != {"mass_kg", "com_mm"}:
+            raise CalibrationError(
+                f"{path}: link {i + 1} needs exactly mass_kg (number) and com_mm ([x, y, z] mm)"
+            )
+        mass.append(LINK_RULES["mass_kg"].check(link["mass_kg"], f"{path}: link {i + 1} mass_kg"))
+        com.append(LINK_RULES["com_mm"].check(link["com_mm"], f"{path}: link {i + 1} com_mm"))
     try:
         return MassModel(path.name, np.array(mass), np.array(com))
     except CalibrationError as exc:

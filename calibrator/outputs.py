@@ -57,6 +57,7 @@ __all__ = [
     "check",
     "check_folder",
     "existing",
+    "note_input",
     "show",
     "write_text",
     "write_with",
@@ -65,6 +66,16 @@ __all__ = [
 
 class OutputError(CalibrationError):
     """An output path that cannot or must not be written."""
+
+
+#: Files this process read as inputs besides those a command names (a robot
+#: description given as ``--model arm.urdf``): no output may overwrite them.
+_NOTED: set[Path] = set()
+
+
+def note_input(path: PathLike) -> None:
+    """Record a file this process read, so that no output overwrites it."""
+    _NOTED.add(Path(path))
 
 
 def check(
@@ -104,7 +115,7 @@ def check(
         raise OutputError(f"cannot write {show(path)}: it is a folder; give a file name")
     if kind == "other":
         raise OutputError(f"cannot write {show(path)}: it exists and is not a regular file")
-    for source in inputs:
+    for source in [*inputs, *_NOTED]:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(
                 f"refusing to overwrite {show(path)}: it is an input of this command; "
@@ -153,7 +164,7 @@ def check_folder(
     kind = _kind(path)
     if kind not in (None, "folder"):
         raise OutputError(f"cannot write into {show(path)}: it exists and is not a folder")
-    for source in inputs:
+    for source in [*inputs, *_NOTED]:
         if source is not None and _same_file(path, Path(source)):
             raise OutputError(
                 f"refusing to write into {show(path)}: it is an input of this command"

@@ -35,7 +35,7 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -443,6 +443,7 @@ DEFAULT_TOOL_MM = (0.0, 0.0, 100.0)
 #: Columns of a plan file that record what it was made for (the same on every row).
 ORIGIN_COLUMNS = (
     "model",
+    "model_sha256",
     "tracker_x_mm",
     "tracker_y_mm",
     "tracker_z_mm",
@@ -450,8 +451,9 @@ ORIGIN_COLUMNS = (
     "tool_y_mm",
     "tool_z_mm",
 )
-#: A run's tracker or tool farther than this from the plan's is another cell, mm.
-ORIGIN_TOLERANCE_MM = 1.0
+#: A run's tracker farther than this from the plan's is another cell, mm (the
+#: whole-plan check then re-checks every aim with the run's position anyway).
+ORIGIN_TOLERANCE_MM = 50.0
 
 
 @dataclass(frozen=True)
@@ -466,11 +468,15 @@ class PlanOrigin:
         Reflector position on the flange, mm.
     tracker_at_mm : tuple of 3 float, optional
         Tracker position in the robot base frame, mm; None: the aim was not checked.
+    model_sha256 : str, optional
+        The description's digest (:attr:`calibrator.robots.RobotDescription.digest`):
+        the same name with other kinematics, limits or body is another arm.
     """
 
     model: str
     tool_mm: tuple[float, float, float]
     tracker_at_mm: tuple[float, float, float] | None = None
+    model_sha256: str | None = None
 
 
 @dataclass(frozen=True)
@@ -561,15 +567,17 @@ def _read_origin(path) -> PlanOrigin | None:
         rows = {tuple(str(r[c]).strip() for c in ORIGIN_COLUMNS) for r in reader}
     if len(rows) != 1:
         raise PlanError(f"{path}: the model, tracker and tool columns differ between rows")
-    model, *numbers = rows.pop()
+    model, digest, *numbers = rows.pop()
     if not model:
         raise PlanError(f"{path}: the model column is empty")
+    if digest and not re.fullmatch(r"sha256:[0-9a-f]{64}", digest):
+        raise PlanError(f"{path}: model_sha256 is not a sha256: digest: {digest[:80]!r}")
     tracker_text, tool_text = numbers[:3], numbers[3:]
     try:
-        tool = strict.parse_columns([tool_text], ORIGIN_COLUMNS[4:], str(path))[0]
+        tool = strict.parse_columns([tool_text], ORIGIN_COLUMNS[5:], str(path))[0]
         tracker = None
         if any(tracker_text):
-            tracker = strict.parse_columns([tracker_text], ORIGIN_COLUMNS[1:4], str(path))[0]
+            tracker = strict.parse_columns([tracker_text], ORIGIN_COLUMNS[2:5], str(path))[0]
     except strict.StrictError as exc:
         raise PlanError(str(exc)) from None
     # Points in a robot cell: a tool on the flange, a tracker in the room.
@@ -580,28 +588,30 @@ def _read_origin(path) -> PlanOrigin | None:
         model,
         (float(tool[0]), float(tool[1]), float(tool[2])),
         None if tracker is None else (float(tracker[0]), float(tracker[1]), float(tracker[2])),
+        digest or None,
     )
 
 
 def made_for(
     plan: Plan,
-    model: str,
+    model: Any,
     tracker_at_mm: ArrayLike | None,
     tool_mm: ArrayLike | None,
     source: str | os.PathLike[str] = "the plan",
 ) -> tuple[tuple[float, float, float] | None, tuple[float, float, float]]:
     """The tracker position and tool a run of ``plan`` uses; a run it was not made for is refused.
 
-    A plan's checks (capsules with its tool, aim at its tracker) hold for the
-    arm, tracker and tool it was made for: a run on another arm, with the
-    tracker elsewhere or another reflector is refused naming both. What the run
-    does not give is taken from the plan.
+    A plan's checks hold for the arm and tracker it was made for: a run on
+    another arm, or with the tracker elsewhere, is refused naming both. The
+    reflector is a first guess that identification corrects, so a run's
+    ``--tool`` is taken as given (the whole-plan check runs with it). What the
+    run does not give is taken from the plan.
 
     Parameters
     ----------
     plan : Plan
-    model : str
-        The run's model name (``--model``).
+    model : calibrator.robots.RobotDescription
+        The run's arm (``--model``).
     tracker_at_mm : array_like, shape (3,), optional
         The run's tracker position (``--tracker-at`` or the cell file's), base frame, mm.
     tool_mm : array_like, shape (3,), optional
@@ -617,22 +627,23 @@ def made_for(
     Raises
     ------
     PlanError
-        Another model, or a tracker or tool farther than :data:`ORIGIN_TOLERANCE_MM`.
+        Another model (name or description digest), or a tracker farther than
+        :data:`ORIGIN_TOLERANCE_MM`.
     """
     tracker = None if tracker_at_mm is None else _point(tracker_at_mm)
     tool = None if tool_mm is None else _point(tool_mm)
     origin = plan.origin
     if origin is None:
         return tracker, tool if tool is not None else DEFAULT_TOOL_MM
-    if origin.model.strip().lower() != model.strip().lower():
+    if origin.model.strip().lower() != model.name.strip().lower():
         raise PlanError(
-            f"{source} was made for a {origin.model}, not a {model} (--model): make a plan "
+            f"{source} was made for a {origin.model}, not a {model.name} (--model): make a plan "
             "for this arm"
         )
-    if tool is not None and _apart(tool, origin.tool_mm):
+    if origin.model_sha256 is not None and origin.model_sha256 != model.digest:
         raise PlanError(
-            f"{source} was made for the reflector at {_text(origin.tool_mm)} mm on the flange, "
-            f"not {_text(tool)} (--tool)"
+            f"{source} was made for another description of the {origin.model} "
+            f"({origin.model_sha256[:19]}, not {model.digest[:19]}): make a plan for this one"
         )
     if tracker is not None and origin.tracker_at_mm is not None:
         if _apart(tracker, origin.tracker_at_mm):
@@ -696,7 +707,11 @@ def plan_text(plan: Plan) -> str:
     if plan.origin is not None:
         o = plan.origin
         tracker = ("", "", "") if o.tracker_at_mm is None else o.tracker_at_mm
-        origin = (o.model, *(repr(float(v)) if v != "" else "" for v in tracker))
+        origin = (
+            o.model,
+            o.model_sha256 or "",
+            *(repr(float(v)) if v != "" else "" for v in tracker),
+        )
         origin += tuple(repr(float(v)) for v in o.tool_mm)
     # Before the joints: a reader taking the last six columns still finds them there.
     writer.writerow(("pose", "via", *(ORIGIN_COLUMNS if origin else ()), *JOINT_COLUMNS))
@@ -887,7 +902,7 @@ def make_checked(
     plan = Plan(
         plan.q_rad,
         plan.via_rad,
-        PlanOrigin(model.name, _point(tool_mm), None if at is None else _point(at)),
+        PlanOrigin(model.name, _point(tool_mm), None if at is None else _point(at), model.digest),
     )
     # The estimate at the speeds the run will move at (the order is made at the ceilings).
     speed = speed if speed_rad_s is None else speed_rad_s

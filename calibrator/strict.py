@@ -467,6 +467,24 @@ class Rule:
             check_budget("", value, self.high, self.unit)
         return value
 
+    @property
+    def bounds(self) -> str:
+        """The bounds for a help text: ``2..1000``, ``[0, 1)``, ``each within +-2000 mm``."""
+        unit = f" {self.unit}" if self.unit and self.unit != self.key else ""
+        if self.kind is tuple:
+            return f"each within +-{self.high:g}{unit}"
+        if self.open_high or self.open_low:
+            return (
+                self._span()
+                .removeprefix("in ")
+                .replace("a number ", "")
+                .replace("a whole number ", "")
+                + unit
+            )
+        if self.high is None:
+            return f">= {self.low:g}{unit}"
+        return f"{self.low:g}..{self.high:g}{unit}"
+
     def _span(self) -> str:
         """The bounds in words: ``a whole number >= 2``, ``in [0, 1)``."""
         if self.open_high and self.high is not None:

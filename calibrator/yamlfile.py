@@ -30,7 +30,13 @@ Use::
     from calibrator import yamlfile
 
     doc = yamlfile.read("cell.yaml", "a cell file")          # a path
+    doc = yamlfile.read("ur10e.yaml", "a robot description", max_bytes=2**20)
     doc = yamlfile.loads(text, "kinematics.yaml")           # text already read
+
+``what`` names the kind of file in errors about the file itself
+(``ur10e.yaml: 5000000 bytes is too large for a robot description``); wrap
+the :class:`~calibrator.strict.StrictError` in your own error class if your
+package has one (``cellfile`` raises ``CellError(str(exc))``).
 
 Readers then check the document's shape and types themselves (a reader of
 lengths checks that ``min_mm`` is a list of three numbers); this module

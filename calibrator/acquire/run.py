@@ -378,6 +378,8 @@ class MeasureRun:
                     "robot": self.robot_id,
                     "tracker": self.tracker_id,
                     "plan_sha256": plans.digest(self.plan),
+                    # Which description of the arm: the same name may be edited.
+                    "description": {"name": self.model.name, "sha256": self.model.digest},
                 }
             },
         )

@@ -550,7 +550,7 @@ def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
         raise CalibrationError(f"{path}: needs a 'links' mapping, link number -> section")
     sections = {}
     for key, spec in links.items():
-        if not (isinstance(key, int) and 1 <= key <= 6 and isinstance(spec, dict)):
+        if not (type(key) is int and 1 <= key <= 6 and isinstance(spec, dict)):
             raise CalibrationError(f"{path}: link {shown(key)}: keys are link numbers 1..6")
         unknown = set(spec) - {"outer_mm", "inner_mm", "e_mpa", "poisson"}
         if unknown or "outer_mm" not in spec:

@@ -82,7 +82,12 @@ def compensate(
     if not (0 < max_mm <= 1000 and 0 < max_deg <= 90):
         opts.fail("--max-correction needs 0 < MM <= 1000 and 0 < DEG <= 90")
     if is_csv:
-        for name, value in (("--frames", frames_path), ("--config-dat", config_dat)):
+        for name, value in (
+            ("--frames", frames_path),
+            ("--config-dat", config_dat),
+            ("--keep-failed", keep_failed or None),
+            ("--joint-targets", None if joint_targets == "keep" else joint_targets),
+        ):
             if value is not None:
                 opts.fail(f"{name} applies to robot programs, not to a targets CSV")
     cal = calibration.load(calibration_path)

@@ -53,16 +53,20 @@ def identify(
         "minimax: smallest worst-pose error.",
     ),
     particles: int = typer.Option(
-        20, callback=checks.rule(RULES["particles"]), help="Swarm size (particles, 2..1000)."
+        20,
+        callback=checks.rule(RULES["particles"]),
+        help=f"Swarm size ({RULES['particles'].bounds}).",
     ),
     generations: int = typer.Option(
-        2000, callback=checks.rule(RULES["generations"]), help="Swarm generations (0..100000)."
+        2000,
+        callback=checks.rule(RULES["generations"]),
+        help=f"Swarm generations ({RULES['generations'].bounds}).",
     ),
     orientation_weight: float = typer.Option(
         None,
         "--orientation-weight",
         callback=checks.rule(RULES["k"]),
-        help="Weight k of orientation errors (mm^2/rad^2, >= 0) [default: 1e4].",
+        help=f"Weight k of orientation errors ({RULES['k'].bounds}) [default: 1e4].",
     ),
     k: float = typer.Option(
         None, "--k", hidden=True, callback=checks.rule(RULES["k"]), help="Old name."
@@ -70,7 +74,8 @@ def identify(
     validation_fraction: float = typer.Option(
         0.2,
         callback=checks.rule(RULES["validation_fraction"]),
-        help="Share of poses held out for checking, in [0, 1) (0 = fit all).",
+        help=f"Share of poses held out for checking, in {RULES['validation_fraction'].bounds} "
+        "(0 = fit all).",
     ),
     seed: int = typer.Option(
         0,
@@ -80,7 +85,8 @@ def identify(
     noise_mm: float = typer.Option(
         0.05,
         callback=checks.rule(RULES["noise_mm"]),
-        help="Measurement noise (mm per axis) assumed when deciding what the poses identify.",
+        help="Measurement noise (mm per axis) assumed when deciding what the poses identify "
+        f"({RULES['noise_mm'].bounds}).",
     ),
     tool_known: bool = typer.Option(
         None,
@@ -117,12 +123,14 @@ def identify(
     payload_kg: float = typer.Option(
         None,
         callback=checks.rule(RULES["payload_kg"]),
-        help="Payload (kg, 0..100) of sessions that do not record one [default: 0].",
+        help=f"Payload ({RULES['payload_kg'].bounds}) of sessions that do not record one "
+        "[default: 0].",
     ),
     payload_com_mm: str = typer.Option(
         "0,0,0",
         callback=checks.rule(RULES["payload_com_mm"]),
-        help="Payload centre of mass in the flange frame, x,y,z (mm, each within +-2000).",
+        help="Payload centre of mass in the flange frame, x,y,z "
+        f"({RULES['payload_com_mm'].bounds}).",
     ),
     target_mm: float = typer.Option(
         None,

@@ -131,7 +131,7 @@ def measure(
     if user_plan is not None:
         # A plan made for another arm, tracker or reflector is refused; what the
         # command line leaves out comes from the plan file.
-        tracker_mm, tool_mm = plans.made_for(user_plan, arm.name, tracker_mm, tool_mm, plan_path)
+        tracker_mm, tool_mm = plans.made_for(user_plan, arm, tracker_mm, tool_mm, plan_path)
     options = RunOptions(
         plan_rad=None if user_plan is None else user_plan.q_rad,
         via_rad=None if user_plan is None else user_plan.via_rad,

@@ -105,6 +105,13 @@ def plan(
     tool_mm = _triple(tool, "--tool")
     cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
     cell = cell.with_tracker(_triple(tracker_at, "--tracker-at"))
+    assumed_tracker = cell.tracker_at_mm is None
+    if assumed_tracker:
+        # Every pose's aim is checked: without a position, at the simulated
+        # cell's tracker (what measure's simulated tracker faces), said once written.
+        from calibrator.simulate import SIM_TRACKER_AT_MM
+
+        cell = cell.with_tracker(SIM_TRACKER_AT_MM)
     if acceptance_deg is not None:
         cell = dataclasses.replace(cell, acceptance_deg=acceptance_deg)
     if floor_mm is not None:
@@ -144,5 +151,14 @@ def plan(
         + f", {selection.value} selection, "
         f"log det(J^T J) {plans.log_det(made.blocks):.2f}, "
         f"smallest singular value {plans.min_singular(made.blocks):.4g}"
-        + ("" if cell.tracker_at_mm is not None else " (no tracker position: aim not checked)")
     )
+    if assumed_tracker:
+        typer.echo(
+            "note: no --tracker-at and no tracker in the cell: the poses face the simulated "
+            f"cell's tracker at {_triple_text(cell.tracker_at_mm)} mm",
+            err=True,
+        )
+
+
+def _triple_text(values) -> str:
+    return ",".join(f"{float(v):g}" for v in values)

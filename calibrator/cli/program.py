@@ -98,7 +98,7 @@ def program(
     # A plan made for another arm, tracker or reflector is refused; what the
     # command line leaves out comes from the plan file.
     tracker_mm, tool_mm = plans.made_for(
-        given, arm.name, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
+        given, arm, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
     )
     cell = cell.with_tracker(tracker_mm)
     # What measure --robot external would refuse is refused here, before a

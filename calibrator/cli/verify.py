@@ -25,6 +25,10 @@ from calibrator.cli._run import (
     triple,
 )
 
+#: Smallest test cube edge (mm): ISO 9283's five poses spread over the cube (an edge
+#: of 1e-300 mm ran a test of five poses at one point).
+MIN_CUBE_MM = 10.0
+
 
 def _cube(text: str | None) -> Any:
     """``X,Y,Z,SIDE`` (mm) to a cube, or None."""
@@ -42,6 +46,11 @@ def _cube(text: str | None) -> Any:
     limit, unit = checks.BUDGETS["tracker_at"]
     if max(abs(v) for v in values) > limit:
         fail(f"--cube: {text!r} is beyond +-{limit:g} {unit} (not a cube in a robot cell)")
+    if values[3] < MIN_CUBE_MM:
+        fail(
+            f"--cube: an edge of {values[3]:g} mm is below {MIN_CUBE_MM:g} mm "
+            "(the test poses would coincide)"
+        )
     return Cube(np.array(values[:3]), values[3])
 
 

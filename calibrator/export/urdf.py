@@ -94,7 +94,8 @@ def like(
 
     Every moving joint's ``<origin>`` between ``base_link`` and ``tip_link``
     and the first fixed joint after joint 6 (the flange) take the calibrated
-    kinematics; every other byte of the file is kept. For URDF angles ``q``
+    kinematics (an origin the calibration leaves where it was keeps its
+    text); every other byte of the file is kept. For URDF angles ``q``
     the written chain gives ``base_offset . A_1...A_6(to_model(q)) .
     flange_offset`` with the calibrated table: each link keeps its place
     relative to the joint axis it turns about (meshes, inertias and limits
@@ -159,8 +160,11 @@ def like(
         else:
             moved[joint.child] = parent @ joint.origin
     text = chain.path.read_text(encoding="utf-8")
+    given = {joint.name: joint.origin for joint in chain.joints}
     for name, transform in changed.items():
-        text = _set_origin(text, name, transform, path)
+        # An origin the calibration left as it was keeps its own text.
+        if np.abs(transform - given[name]).max() > 1e-12:
+            text = _set_origin(text, name, transform, path)
     return Exported(text)
 
 

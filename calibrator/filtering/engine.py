@@ -175,55 +175,57 @@ class Filter:
         items = [(u, t) for u, t in items if t.problem is None]
         if not items:
             return
+        targets = [t for _, t in items]
         conv = job.convention
-        n = len(items)
+        n = len(targets)
+        # Numbers decoded per layout (every target of a layout has the same numbers).
         by_layout: dict = defaultdict(list)
-        for i, (_, t) in enumerate(items):
+        for i, t in enumerate(targets):
             by_layout[id(t.layout)].append(i)
-        decoded: list = [None] * n
-        values: list = [None] * n
-        for rows in by_layout.values():
-            layout = items[rows[0]][1].layout
-            vals = np.array([items[i][1].tokens for i in rows]).astype(float)
-            dec = layout.decode(vals)
-            for j, i in enumerate(rows):
-                decoded[i], values[i] = dec[j], vals[j]
-        tool = _stack([t.tool for _, t in items])
-        base = _stack([t.base for _, t in items])
-        is_pose = np.array([t.layout.kind == "pose" for _, t in items])
-        for _, t in items:
-            self.summary.found[t.layout.kind] += 1
+        groups = []
+        pose_in_frame = np.full((n, 4, 4), np.nan)
+        joints = np.full((n, 6), np.nan)
+        for members in by_layout.values():
+            rows = np.array(members)
+            layout = targets[members[0]].layout
+            vals = np.array([targets[i].tokens for i in members], dtype=float)
+            if layout.kind == "pose":
+                pose_in_frame[rows] = layout.decode(vals)
+            else:
+                joints[rows] = layout.decode(vals)
+            groups.append((layout, rows, vals))
+            self.summary.found[layout.kind] += len(rows)
+        tool = _stack([t.tool for t in targets])
+        base = _stack([t.base for t in targets])
+        is_pose = np.zeros(n, dtype=bool)
+        for layout, rows, _ in groups:
+            is_pose[rows] = layout.kind == "pose"
         result_q = np.full((n, 6), np.nan)  # model joints of the corrected target
-        new: list = [None] * n
         reasons: list = [None] * n
         # Joint targets: known joints (also the arm's position for the poses after them).
         known_q = np.full((n, 6), np.nan)
-        for i in np.flatnonzero(~is_pose).tolist():
-            known_q[i] = convention.to_model(decoded[i], conv)
-        pose_rows = np.flatnonzero(is_pose)
         joint_rows = np.flatnonzero(~is_pose)
+        known_q[joint_rows] = convention.to_model(joints[joint_rows], conv)
+        pose_rows = np.flatnonzero(is_pose)
         q_nom = np.full((n, 6), np.nan)
         desired = np.full((n, 4, 4), np.nan)
         if len(pose_rows):
-            desired[pose_rows] = base[pose_rows] @ np.array([decoded[i] for i in pose_rows])
+            desired[pose_rows] = base[pose_rows] @ pose_in_frame[pose_rows]
+            stated_codes = [targets[i].code for i in pose_rows.tolist()]
+            stated = np.array([c is not None for c in stated_codes])
             k = len(self.solver.code_of(np.zeros((1, 6)))[0])
-            codes = np.zeros((n, k), dtype=int)
-            stated = np.zeros(n, dtype=bool)
-            for i in pose_rows.tolist():
-                c = items[i][1].code
-                if c is not None:
-                    codes[i], stated[i] = c, True
+            codes = np.zeros((len(pose_rows), k), dtype=int)
+            if stated.any():
+                codes[stated] = np.array([c for c in stated_codes if c is not None])
             start = self._start(known_q, pose_rows[0])
-            q, found = self.solver.solve(
-                desired[pose_rows], tool[pose_rows], codes[pose_rows], stated[pose_rows], start
-            )
+            q, found = self.solver.solve(desired[pose_rows], tool[pose_rows], codes, stated, start)
             q_nom[pose_rows] = q
-            for j, i in enumerate(pose_rows.tolist()):
-                if not found[j]:
-                    want = lang.describe(tuple(codes[i])) if stated[i] else "the previous target's"
-                    reasons[i] = f"no nominal joint solution found in the configuration ({want})"
-        if len(joint_rows):
-            q_nom[joint_rows] = known_q[joint_rows]
+            for j in np.flatnonzero(~found).tolist():
+                want = lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"
+                reasons[pose_rows[j]] = (
+                    f"no nominal joint solution found in the configuration ({want})"
+                )
+        q_nom[joint_rows] = known_q[joint_rows]
         # Which rows go through the calibrated solver.
         active = np.zeros(n, dtype=bool)
         active[pose_rows] = ~np.isnan(q_nom[pose_rows, 0])
@@ -233,48 +235,38 @@ class Filter:
             self.summary.kept["joints"] += len(joint_rows)
         rows = np.flatnonzero(active)
         if len(rows):
-            self._compensate(items, rows, desired, tool, q_nom, is_pose, reasons, result_q)
-        # Encode what changed, by layout.
-        for lrows in by_layout.values():
-            layout = items[lrows[0]][1].layout
-            good = [i for i in lrows if active[i] and reasons[i] is None]
-            if not good:
+            self._compensate(targets, rows, desired, tool, q_nom, is_pose, reasons, result_q)
+        # Encode what changed, by layout, and rewrite the tokens that read differently.
+        ok = active & np.array([r is None for r in reasons])
+        edits: dict = defaultdict(list)
+        for layout, lrows, vals in groups:
+            keep = ok[lrows]
+            good = lrows[keep]
+            if not len(good):
                 continue
-            old = np.array([values[i] for i in good])
+            old = vals[keep]
             if layout.kind == "pose":
-                corrected = frames.invert(base[good]) @ (
-                    compensate.tool_poses(
-                        self.job.calibration.nominal_mdh, result_q[good], tool[good]
-                    )
+                nominal = compensate.tool_poses(
+                    job.calibration.nominal_mdh, result_q[good], tool[good]
                 )
-                enc = layout.encode(corrected, old)
+                enc = layout.encode(frames.invert(base[good]) @ nominal, old)
             else:
                 enc = layout.encode(convention.to_controller(result_q[good], conv), old)
-            texts = numbers.write_many([items[i][1].tokens for i in good], old, enc, layout.units)
-            for j, i in enumerate(good):
-                new[i] = texts[j]
-        # Rewrite tokens (right to left within a line so spans stay valid).
-        edits: dict = defaultdict(list)
-        for i, (u, t) in enumerate(items):
-            if reasons[i] is not None:
-                self._mark(u, t, reasons[i])
-                continue
-            if new[i] is None:
-                continue
-            self.summary.corrected[t.layout.kind] += 1
-            for (li, s, e), tok, text in zip(t.spans, t.tokens, new[i], strict=True):
-                if text != tok:
-                    edits[(id(u), li)].append((s, e, text, u))
+            tokens = [targets[i].tokens for i in good.tolist()]
+            texts = numbers.write_many(tokens, old, enc, layout.units)
+            self.summary.corrected[layout.kind] += len(good)
+            for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
+                unit = items[i][0]
+                for span, tok, text in zip(targets[i].spans, toks, new, strict=True):
+                    if text != tok:
+                        edits[(id(unit), span[0])].append((span[1], span[2], text, unit))
+        for i in np.flatnonzero((~ok & active) | (~active & is_pose)).tolist():
+            self._mark(items[i][0], targets[i], reasons[i])
         for (_, li), changes in edits.items():
             unit = changes[0][3]
             body, ending = _split(unit.lines[li])
-            marks = [c for c in changes if c[0] is None]
-            for s, e, text, _ in sorted(
-                (c for c in changes if c[0] is not None), key=lambda c: -c[0]
-            ):
-                body = body[:s] + text + body[e:]
-            for _, _, text, _ in marks:
-                body += text
+            for start_, end_, text, _ in sorted(changes, key=lambda c: -c[0]):
+                body = body[:start_] + text + body[end_:]
             unit.lines[li] = body + ending
         last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
         if len(last):
@@ -314,8 +306,8 @@ class Filter:
         # The configuration to keep: the one the target states, else its nominal solution's.
         keep = self.solver.code_of(comp.q_nominal)
         for j, i in enumerate(rows.tolist()):
-            if pose[j] and items[i][1].code is not None:
-                keep[j] = items[i][1].code
+            if pose[j] and items[i].code is not None:
+                keep[j] = items[i].code
         code_cal = self.solver.code_of(q_cal)
         kept = np.all(code_cal == keep, axis=1)
         if not kept.all():  # within the boundary tolerance?
@@ -329,50 +321,53 @@ class Filter:
                 axis=1,
             )
             kept[~pose] = same
-        singular = None
-        for j, i in enumerate(rows):
-            t = items[i][1]
-            reason = None
+        limits = job.limits
+        outside = ~sol.within_limits
+        jumped = jump.max(axis=1) > compensate.MAX_JOINT_CHANGE_DEG
+        too_big = (move_mm > job.max_mm) | (turn_deg > job.max_deg)
+        bad = ~sol.converged | ~kept | outside | jumped | too_big
+        near = dict.fromkeys(rows[bad].tolist(), "")
+        if (bad & (~sol.converged | jumped)).any():
+            pick = np.flatnonzero(bad & (~sol.converged | jumped))
+            named = configuration.nearest_singularity(cal.nominal_mdh, q0[pick])
+            near.update(zip(rows[pick].tolist(), named, strict=True))
+        for j in np.flatnonzero(bad).tolist():
+            i = int(rows[j])
             if not sol.converged[j]:
-                singular = singular or dict(
-                    zip(rows, configuration.nearest_singularity(cal.nominal_mdh, q0), strict=False)
+                where = f"; {near[i]}" if near[i] else ""
+                reasons[i] = (
+                    f"the calibrated arm cannot reach it ({sol.error_mm[j]:.3g} mm off{where})"
                 )
-                near = f"; {singular[i]}" if singular[i] else ""
-                reason = f"the calibrated arm cannot reach it ({sol.error_mm[j]:.3g} mm off{near})"
             elif not kept[j]:
-                reason = (
+                reasons[i] = (
                     f"the configuration would change from {self.lang.describe(tuple(keep[j]))} "
                     f"to {self.lang.describe(tuple(code_cal[j]))}"
                 )
-            elif not sol.within_limits[j]:
-                lim = job.limits
-                bad = [k + 1 for k in range(6) if not lim[k, 0] <= q_cal[j, k] <= lim[k, 1]]
-                reason = f"outside the joint limits (joint {', '.join(map(str, bad))})"
-            elif jump[j].max() > compensate.MAX_JOINT_CHANGE_DEG:
+            elif outside[j]:
+                joints = [
+                    k + 1 for k in range(6) if not limits[k, 0] <= q_cal[j, k] <= limits[k, 1]
+                ]
+                reasons[i] = f"outside the joint limits (joint {', '.join(map(str, joints))})"
+            elif jumped[j]:
                 k = int(np.argmax(jump[j]))
-                singular = singular or dict(
-                    zip(rows, configuration.nearest_singularity(cal.nominal_mdh, q0), strict=False)
-                )
-                near = f" ({singular[i]})" if singular[i] else ""
-                reason = (
+                where = f" ({near[i]})" if near[i] else ""
+                reasons[i] = (
                     f"joint {k + 1} would turn {jump[j, k]:.2f} deg between the nominal and the "
-                    f"calibrated solution{near}"
+                    f"calibrated solution{where}"
                 )
-            elif move_mm[j] > job.max_mm or turn_deg[j] > job.max_deg:
-                reason = (
+            else:
+                reasons[i] = (
                     f"correction {move_mm[j]:.3f} mm / {turn_deg[j]:.3f} deg exceeds "
                     f"--max-correction {job.max_mm:g},{job.max_deg:g} "
                     "(a wrong frame or calibration?)"
                 )
-            if reason is not None:
-                reasons[i] = reason
-                continue
-            result_q[i] = q_cal[j]
-            self.summary.max_mm = max(self.summary.max_mm, float(move_mm[j]))
-            self.summary.max_deg = max(self.summary.max_deg, float(turn_deg[j]))
-            self.summary.sum_mm += float(move_mm[j])
-            self.summary.sum_deg += float(turn_deg[j])
-            del t
+        good = ~bad
+        result_q[rows[good]] = q_cal[good]
+        if good.any():
+            self.summary.max_mm = max(self.summary.max_mm, float(move_mm[good].max()))
+            self.summary.max_deg = max(self.summary.max_deg, float(turn_deg[good].max()))
+            self.summary.sum_mm += float(move_mm[good].sum())
+            self.summary.sum_deg += float(turn_deg[good].sum())
 
 
 def _stack(transforms: list) -> np.ndarray:

@@ -23,6 +23,7 @@ positions unchanged without a mark.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -68,7 +69,7 @@ JOINTS = Layout("joints", ("deg",) * 6, np.radians, lambda q, old: np.degrees(q)
 class FanucLS(Language):
     comment = None
 
-    def scan(self, path: Path):
+    def scan(self, path: Path) -> Iterator[Unit]:
         in_pos = False
         block: list = []
         first = 0
@@ -145,7 +146,7 @@ class FanucLS(Language):
         what = "tool frame UT" if kind == "tool" else "user frame UF"
         return None, f"{what} {number} is not in --frames"
 
-    def code(self, q_deg, bits):
+    def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         b = np.asarray(bits)
         q = np.asarray(q_deg)
         return np.column_stack(
@@ -153,10 +154,10 @@ class FanucLS(Language):
              configuration.turn(q[:, 3]), configuration.turn(q[:, 5])]
         )  # fmt: skip
 
-    def code_bits(self, code):
+    def code_bits(self, code: np.ndarray) -> np.ndarray:
         c = np.asarray(code)
         return np.column_stack([c[:, 2], c[:, 1], c[:, 0]])
 
-    def describe(self, code):
+    def describe(self, code: tuple) -> str:
         f, d, b, t1, t4, t6 = code
         return f"'{'NF'[f]} {'UD'[d]} {'TB'[b]}, {t1}, {t4}, {t6}'"

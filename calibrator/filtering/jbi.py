@@ -27,12 +27,14 @@ unchanged without a mark.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from calibrator import frames
 from calibrator.filtering import (
+    Job,
     Language,
     Layout,
     Target,
@@ -64,7 +66,7 @@ POSE = Layout("pose", ("mm",) * 3 + ("deg",) * 3, _decode_pose, _encode_pose)
 class JBI(Language):
     comment = None
 
-    def __init__(self, job, program: Path) -> None:
+    def __init__(self, job: Job, program: Path) -> None:
         super().__init__(job, program)
         ppd = job.frames.pulses_per_degree
         zero = job.frames.zero_pulses
@@ -80,7 +82,7 @@ class JBI(Language):
             "joints", ("pulse",) * 6, lambda v: np.full((len(v), 6), np.nan), lambda q, old: old
         )
 
-    def scan(self, path: Path):
+    def scan(self, path: Path) -> Iterator[Unit]:
         in_pos = False
         tool = user = 0
         postype, rectan, rconf = "PULSE", False, None
@@ -149,7 +151,7 @@ class JBI(Language):
             return table[str(number)], None
         return None, f"{'TOOL' if kind == 'tool' else 'USER'} {number} is not in --frames"
 
-    def code(self, q_deg, bits):
+    def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         b = np.asarray(bits)
         q = np.asarray(q_deg)
         return np.column_stack(
@@ -157,9 +159,9 @@ class JBI(Language):
              configuration.beyond_half_turn(q[:, 5]), configuration.beyond_half_turn(q[:, 0])]
         )  # fmt: skip
 
-    def code_bits(self, code):
+    def code_bits(self, code: np.ndarray) -> np.ndarray:
         c = np.asarray(code)
         return np.column_stack([c[:, 2], c[:, 1], c[:, 0]])
 
-    def describe(self, code):
+    def describe(self, code: tuple) -> str:
         return "RCONF " + ",".join(str(c) for c in code)

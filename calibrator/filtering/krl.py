@@ -29,6 +29,7 @@ fails. Everything after ``;`` is a comment.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ import numpy as np
 from calibrator import frames
 from calibrator.filtering import (
     FilterError,
+    Job,
     Language,
     Layout,
     Target,
@@ -161,7 +163,7 @@ def _sibling_dat(src: Path) -> Path | None:
 class KRL(Language):
     comment = ";"
 
-    def __init__(self, job, program: Path) -> None:
+    def __init__(self, job: Job, program: Path) -> None:
         super().__init__(job, program)
         self.dat = _sibling_dat(self.program)
         self.config = read_config_dat(job.config_dat)
@@ -213,7 +215,7 @@ class KRL(Language):
             state[0] = tool if tool is not None else state[0]
             state[1] = base if base is not None else state[1]
 
-    def files(self, output: Path):
+    def files(self, output: Path) -> list[tuple[Path, Path]]:
         pairs = []
         if self.dat is not None:
             pairs.append((self.dat, Path(output).with_suffix(".dat")))
@@ -237,7 +239,7 @@ class KRL(Language):
         data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
         return None, f"{data}[{number}] is defined neither in --config-dat nor in --frames"
 
-    def scan(self, path: Path):
+    def scan(self, path: Path) -> Iterator[Unit]:
         in_src = path == self.program
         state: list = [None, None]
         for number, line in read_lines(path):
@@ -312,17 +314,17 @@ class KRL(Language):
             target.code = (_int(f["S"][0]) & 7, _int(f["T"][0]) & 63)
         return target
 
-    def code(self, q_deg, bits):
+    def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         bits = np.asarray(bits)
         s = bits[:, 0] + 2 * (1 - bits[:, 1]) + 4 * bits[:, 2]
         t = np.sum(configuration.negative(q_deg) << np.arange(6), axis=1)
         return np.column_stack([s, t])
 
-    def code_bits(self, code):
+    def code_bits(self, code: np.ndarray) -> np.ndarray:
         s = np.asarray(code)[:, 0]
         return np.column_stack([s & 1, 1 - ((s >> 1) & 1), (s >> 2) & 1])
 
-    def describe(self, code):
+    def describe(self, code: tuple) -> str:
         return f"S {code[0]} T {code[1]}"
 
 

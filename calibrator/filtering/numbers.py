@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 #: How close a written value must be to the computed one, per field unit.
 #: Well inside what a corrected target must achieve (0.05 mm, 0.01 deg).
 RESOLUTION = {
@@ -74,7 +76,7 @@ def write(token: str, value: float, unit: str) -> str:
     return text
 
 
-def write_many(tokens: list, old, new, units: tuple) -> list:
+def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> list:
     """:func:`write` for a block of targets of one layout, vectorised where it can be.
 
     Parameters
@@ -89,8 +91,6 @@ def write_many(tokens: list, old, new, units: tuple) -> list:
     list of list of str
         The text for each token (the token itself where it reads the same).
     """
-    import numpy as np
-
     tok = np.asarray(tokens, dtype=str)
     plain = ~(np.char.count(tok, "e") + np.char.count(tok, "E")).astype(bool)
     dot = np.char.find(tok, ".")

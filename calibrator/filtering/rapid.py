@@ -27,6 +27,7 @@ A statement may span lines (it ends at ``;``); ``!`` starts a comment.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ import numpy as np
 from calibrator import frames
 from calibrator.filtering import (
     FilterError,
+    Job,
     Language,
     Layout,
     Target,
@@ -158,7 +160,7 @@ def _move_args(code: str, m) -> dict:
 class RAPID(Language):
     comment = "!"
 
-    def __init__(self, job, program: Path) -> None:
+    def __init__(self, job: Job, program: Path) -> None:
         super().__init__(job, program)
         self.tools: dict = {"tool0": np.eye(4)}
         self.wobjs: dict = {"wobj0": np.eye(4)}
@@ -219,7 +221,7 @@ class RAPID(Language):
         what = "tooldata" if kind == "tool" else "wobjdata"
         return None, f"{what} {name} is defined neither in the module nor in --frames"
 
-    def scan(self, path: Path):
+    def scan(self, path: Path) -> Iterator[Unit]:
         for number, lines, code, offsets in _statements(path):
             unit = Unit(lines)
             decl = _DECL.match(code)
@@ -272,7 +274,7 @@ class RAPID(Language):
             target.code = tuple(int(float(t)) for t, _, _ in nums[7:11])
         return target
 
-    def code(self, q_deg, bits):
+    def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         b = np.asarray(bits)
         q = np.asarray(q_deg)
         return np.column_stack(
@@ -280,9 +282,9 @@ class RAPID(Language):
              configuration.quadrant(q[:, 5]), 4 * b[:, 0] + 2 * b[:, 1] + b[:, 2]]
         )  # fmt: skip
 
-    def code_bits(self, code):
+    def code_bits(self, code: np.ndarray) -> np.ndarray:
         cfx = np.asarray(code)[:, 3]
         return np.column_stack([(cfx >> 2) & 1, (cfx >> 1) & 1, cfx & 1])
 
-    def describe(self, code):
+    def describe(self, code: tuple) -> str:
         return "[" + ",".join(str(c) for c in code) + "]"

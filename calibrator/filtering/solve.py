@@ -6,9 +6,9 @@ in order of preference,
 
 1. the solution of a neighbouring target of the program (programs move in
    small steps, so the neighbour's joints are a close start): every
-   :data:`STRIDE`-th target is an anchor, every other target starts from the
-   anchor before it, and a target that still failed from the target before
-   it;
+   ``STRIDES[0]``-th target is an anchor, each finer level starts
+   from the nearest solved target of the level above, and a target that still
+   failed from the target before it;
 2. a fixed library of the nominal arm's poses (:class:`Library`, drawn
    once per model with a fixed seed): the nearest flange poses of the
    configuration the target states.
@@ -27,10 +27,12 @@ import itertools
 import numpy as np
 
 from calibrator import compensate, frames, kinematics
-from calibrator.filtering import configuration, convention
+from calibrator.filtering import Job, Language, configuration, convention
 
-#: Every STRIDE-th target of a block is solved first and starts its followers.
-STRIDE = 16
+#: Every STRIDES[0]-th target of a block is solved first (from the library or
+#: the target before); each finer level starts from the nearest solved target
+#: of the level above (16 times coarser), the last level is every target.
+STRIDES = (256, 16)
 #: Poses in the start library.
 LIBRARY_SIZE = 20_000
 #: A joint this close to a boundary of the configuration data counts on either side (deg).
@@ -87,7 +89,7 @@ class Library:
 class Solver:
     """Nominal solutions of Cartesian targets in their configurations, for one language."""
 
-    def __init__(self, lang, job) -> None:
+    def __init__(self, lang: Language, job: Job) -> None:
         self.lang = lang
         self.job = job
         self.mdh = job.calibration.nominal_mdh
@@ -168,7 +170,14 @@ class Solver:
             ok[free] &= np.all(configuration.arm_bits(self.mdh, q[free]) == ref_bits[free], axis=1)
         return q, ok
 
-    def solve(self, desired, tool, code, stated, start_q):
+    def solve(
+        self,
+        desired: np.ndarray,
+        tool: np.ndarray,
+        code: np.ndarray,
+        stated: np.ndarray,
+        start_q: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Nominal joints of a block of targets.
 
         Parameters
@@ -192,7 +201,7 @@ class Solver:
         q = np.full((n, 6), np.nan)
         found = np.zeros(n, dtype=bool)
         lib_points = features(desired @ frames.invert(tool))
-        anchors = np.arange(0, n, STRIDE)
+        anchors = np.arange(0, n, STRIDES[0])
         nan_bits = np.full((n, 3), np.nan)
         # Anchors that state their configuration: library starts.
         a_st = anchors[stated[anchors]]
@@ -212,23 +221,20 @@ class Solver:
                 self._nearest(np.array([a]), desired, tool, prev, lib_points, q, found)
             if found[a]:
                 prev = q[a]
-        # Every other target from its anchor, then from the target before it.
-        rest = np.setdiff1d(np.arange(n), anchors)
-        for _ in range(4):
-            rest = rest[~found[rest]]
+        # Each finer level from the nearest solved target of the level above, then
+        # whatever failed from the target before it.
+        done_levels = anchors
+        for stride in STRIDES[1:] + (1,):
+            level = np.setdiff1d(np.arange(0, n, stride), done_levels)
+            self._from_neighbours(level, (level // (stride * 16)) * (stride * 16), desired, tool,
+                                  code, stated, q, found)  # fmt: skip
+            done_levels = np.union1d(done_levels, level)
+        for _ in range(3):
+            rest = np.flatnonzero(~found)
+            rest = rest[rest > 0]
             if not len(rest):
                 break
-            if _ == 0:
-                src = (rest // STRIDE) * STRIDE
-            else:
-                src = rest - 1
-            have = found[src]
-            rows, src = rest[have], src[have]
-            if not len(rows):
-                continue
-            ref = configuration.arm_bits(self.mdh, q[src]).astype(float)
-            qa, ok = self._try(desired[rows], tool[rows], q[src], code[rows], stated[rows], ref)
-            q[rows[ok]], found[rows[ok]] = qa[ok], True
+            self._from_neighbours(rest, rest - 1, desired, tool, code, stated, q, found)
         # Whatever is left: library starts (in the stated configuration, or the
         # solution nearest the joints of the target before).
         left = np.flatnonzero(~found & stated)
@@ -238,6 +244,18 @@ class Solver:
             before = q[i - 1] if i > 0 and found[i - 1] else (prev if i == 0 else None)
             self._nearest(np.array([i]), desired, tool, before, lib_points, q, found)
         return q, found
+
+    def _from_neighbours(self, rows, src, desired, tool, code, stated, q, found):
+        """Solve ``rows`` from the solutions of ``src`` (where found), in place."""
+        todo = ~found[rows]
+        rows, src = rows[todo], src[todo]
+        have = found[src]
+        rows, src = rows[have], src[have]
+        if not len(rows):
+            return
+        ref = configuration.arm_bits(self.mdh, q[src]).astype(float)
+        qa, ok = self._try(desired[rows], tool[rows], q[src], code[rows], stated[rows], ref)
+        q[rows[ok]], found[rows[ok]] = qa[ok], True
 
     def _nearest(self, rows, desired, tool, ref_q, lib_points, q, found):
         """Of the solutions from library starts, the one nearest ``ref_q`` (any configuration)."""

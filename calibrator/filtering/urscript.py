@@ -16,6 +16,7 @@ comment.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ import numpy as np
 from calibrator import frames
 from calibrator.filtering import (
     FilterError,
+    Job,
     Language,
     Layout,
     Target,
@@ -105,7 +107,7 @@ def _tcp(text: str, where: str) -> np.ndarray:
 class URScript(Language):
     comment = "#"
 
-    def __init__(self, job, program: Path) -> None:
+    def __init__(self, job: Job, program: Path) -> None:
         super().__init__(job, program)
         # First pass: the TCP each pose variable is moved to with.
         self.var_tool: dict[str, tuple] = {}
@@ -129,7 +131,7 @@ class URScript(Language):
                         )
                     self.var_tool[name] = (tool, tool_line)
 
-    def scan(self, path: Path):
+    def scan(self, path: Path) -> Iterator[Unit]:
         tool = None
         for number, line in read_lines(path):
             body, _ = split_ending(line)
@@ -174,13 +176,13 @@ class URScript(Language):
             tool=tool,
         )
 
-    def code(self, q_deg, bits):
+    def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         return np.asarray(bits)
 
-    def code_bits(self, code):
+    def code_bits(self, code: np.ndarray) -> np.ndarray:
         return np.asarray(code)
 
-    def describe(self, code):
+    def describe(self, code: tuple) -> str:
         return configuration.describe_bits(code)
 
 

@@ -197,7 +197,7 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
     for c in checks:
         if c["verdict"] == "ok":
             continue
-        why = "; ".join(explanation_text(e) for e in c["explanation"]) or "no explanation recorded"
+        why = "; ".join(explanations(c)) or "no explanation recorded"
         alarms.append(
             Alarm(
                 c["time"],
@@ -208,6 +208,19 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
             )
         )
     return alarms
+
+
+def explanations(check: dict) -> list[str]:
+    """A check's explanation as sentences.
+
+    ``calibrator check`` writes them as ``explanation_text`` beside the
+    structured ``explanation``; a document without them gives each item's
+    ``text`` (or the item itself).
+    """
+    texts = (check.get("document") or {}).get("explanation_text")
+    if isinstance(texts, list) and all(isinstance(s, str) for s in texts):
+        return list(texts)
+    return [explanation_text(e) for e in check["explanation"]]
 
 
 def explanation_text(item: object) -> str:

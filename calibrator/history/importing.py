@@ -7,21 +7,29 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from calibrator.errors import CalibrationError
 from calibrator.history.records import HistoryError
 
 
 def kind_of(path: Path) -> str | None:
-    """``session``, ``calibration``, ``verification`` or ``None`` (a file none of these)."""
+    """``session``, ``calibration``, ``verification``, ``check`` or ``None`` (none of these)."""
     suffix = path.suffix.lower()
     if suffix == ".parquet":
-        # verify writes its attained poses beside its JSON: those are not a session.
+        # verify and check write their poses beside their JSON: those are not sessions.
         beside = path.with_suffix(".json")
-        return None if beside.is_file() and _format(beside) == "calibrator.verify" else "session"
+        poses_of = ("calibrator.verify", "calibrator.check")
+        return None if beside.is_file() and _format(beside) in poses_of else "session"
     if suffix == ".json":
-        return {"calibrator.calibration": "calibration", "calibrator.verify": "verification"}.get(
-            _format(path) or ""
-        )
+        return _KINDS.get(_format(path) or "")
     return None
+
+
+#: The JSON files import records: format -> kind.
+_KINDS = {
+    "calibrator.calibration": "calibration",
+    "calibrator.verify": "verification",
+    "calibrator.check": "check",
+}
 
 
 def _format(path: Path) -> str | None:
@@ -33,13 +41,24 @@ def _format(path: Path) -> str | None:
     return doc.get("format") if isinstance(doc, dict) else None
 
 
+def _document(path: Path) -> dict:
+    """A check file's document (checked by ``record_check``)."""
+    from calibrator import strict
+
+    try:
+        doc = strict.load_json(path.read_bytes(), str(path))
+    except CalibrationError as exc:
+        raise HistoryError(str(exc)) from None
+    return doc if isinstance(doc, dict) else {}
+
+
 def import_folder(
     store: Any,
     folder: Path,
     robot: str | None = None,
     on_skip: Callable[[Path, str], None] = lambda path, why: None,
 ) -> dict[str, int]:
-    """Record every session, calibration and verify file under ``folder``.
+    """Record every session, calibration, verify and check file under ``folder``.
 
     Sessions go first so calibrations find their robot. Each file is its own
     transaction: a file refused (``on_skip(path, reason)``) leaves the others
@@ -48,9 +67,15 @@ def import_folder(
     Returns
     -------
     dict
-        ``{"session": n, "calibration": n, "verification": n}`` recorded or already there.
+        ``{"session": n, "calibration": n, "verification": n, "check": n}`` recorded
+        or already there.
     """
-    found: dict[str, list[Path]] = {"session": [], "calibration": [], "verification": []}
+    found: dict[str, list[Path]] = {
+        "session": [],
+        "calibration": [],
+        "verification": [],
+        "check": [],
+    }
     for path in sorted(p for p in folder.rglob("*") if p.is_file()):
         kind = kind_of(path)
         if kind is not None:
@@ -59,6 +84,7 @@ def import_folder(
         "session": store.record_session,
         "calibration": store.record_calibration,
         "verification": store.record_verification,
+        "check": lambda path, robot: store.record_check(_document(path)),
     }
     counts = dict.fromkeys(found, 0)
     for kind, paths in found.items():

@@ -10,7 +10,7 @@ import html as _html
 from collections.abc import Sequence
 from typing import Any
 
-from calibrator.history.alarms import Alarm, Limits
+from calibrator.history.alarms import Alarm, Limits, explanations
 from calibrator.history.timeline import Timeline, table
 from calibrator.report import page as report_page
 from calibrator.report import plots as report_plots
@@ -35,7 +35,10 @@ def images(data: Timeline, limits: Limits) -> dict[str, bytes]:
         )
     series = _conditions(data.sessions)
     if series:
-        out["conditions.png"] = report_plots._png(_plot_conditions, series)
+        rows = -(-len(series) // 3)
+        out["conditions.png"] = report_plots._png(
+            _plot_conditions, series, size=(10, 0.5 + 2.0 * rows)
+        )
     return out
 
 
@@ -93,6 +96,11 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits) -> str:
                 '<p class="note">Each identified delta with a band of three standard errors '
                 "either side; angles in mrad, lengths in mm.</p>"
             )
+        if key == "conditions" and png in pictures:
+            parts.append(
+                '<p class="note">Each session\'s mean over its poses; units in the names '
+                "(degC, hPa, %RH, s).</p>"
+            )
         parts.append("</section>")
     parts.append('<section id="checks"><h2>Checks</h2>')
     parts.append(_checks_table(data.checks))
@@ -110,9 +118,7 @@ def _checks_table(checks: list) -> str:
         "<th>predicted mm</th><th>explanation</th></tr>"
     ]
     for c in checks:
-        why = "; ".join(
-            str(e.get("text", e)) if isinstance(e, dict) else str(e) for e in c["explanation"]
-        )
+        why = "; ".join(explanations(c))
         rows.append(
             f"<tr><td>{c['time']:%Y-%m-%d %H:%M}</td><td>{_ESC(c['verdict'])}</td>"
             f"<td>{c['measured_mm']:.4f}</td><td>{c['predicted_mm']:.4f}</td>"
@@ -239,7 +245,9 @@ def _conditions(sessions: list) -> dict[str, list]:
             for k, v in value.items():
                 walk(f"{prefix}.{k}" if prefix else str(k), v, when)
         elif isinstance(value, int | float) and not isinstance(value, bool):
-            series.setdefault(prefix, []).append((when, float(value)))
+            # A column's summary: its mean stands for it.
+            if not prefix.endswith((".min", ".max")) and prefix != "poses_reporting":
+                series.setdefault(prefix, []).append((when, float(value)))
 
     for s in sessions:
         walk("", s["conditions"], s["measured_at"])
@@ -247,20 +255,23 @@ def _conditions(sessions: list) -> dict[str, list]:
 
 
 def _plot_conditions(fig: Any, series: dict) -> None:
-    ax = fig.add_subplot()
-    for key, points in sorted(series.items()):
-        ax.plot(*zip(*points, strict=True), "o-", label=key)
-    ax.set_ylabel("value (unit in the name)")
-    ax.set_xlabel("date (UTC)")
-    ax.legend(fontsize="small")
-    _dates(ax)
+    """One small plot per condition: each has its own unit (in its name: _c, _hpa, _pct, _s)."""
+    cols = 3
+    rows = -(-len(series) // cols)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.1, top=0.92, hspace=0.9, wspace=0.4)
+    for i, (key, points) in enumerate(sorted(series.items())):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        ax.plot(*zip(*points, strict=True), "o-", markersize=3)
+        ax.set_title(key.removesuffix(".mean"), fontsize="small")
+        ax.tick_params(labelsize="x-small")
+        _dates(ax, ticks=4)
 
 
 def _dates(ax: Any, ticks: int = 6) -> None:
     """Dates on the x axis, few and short (matplotlib's concise format)."""
     from matplotlib import dates
 
-    low, high = ax.get_xlim()
+    low, high = ax.dataLim.intervalx
     if high - low < 3:  # days: records made together are shown over three days
         middle = (low + high) / 2
         ax.set_xlim(middle - 1.5, middle + 1.5)

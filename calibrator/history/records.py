@@ -204,8 +204,9 @@ def session(path: Path) -> Record:
 
     The robot is the one the footer's ``measured`` names (``measure`` writes
     it); a simulated session's is named like the simulated robot
-    (``sim:MODEL:seed=N``). Conditions are the footer's ``conditions``
-    object (``{}`` when it has none).
+    (``sim:MODEL:seed=N``). Conditions are the session's summary of its
+    condition columns (``{column: {"min", "mean", "max"}, ...}``), or a
+    footer's ``conditions`` object; ``{}`` when it has none.
     """
     import pyarrow.parquet as pq
 
@@ -223,7 +224,10 @@ def session(path: Path) -> Record:
     if not robot and isinstance(simulated, dict) and loaded.meta.model:
         robot = f"sim:{loaded.meta.model}:seed={simulated.get('seed')}"
     measured_at = _first_time(loaded.table) or file_time(path).replace(microsecond=0)
-    conditions = extra.get("conditions")
+    # The per-pose condition columns summed up (Session.conditions, where this
+    # calibrator has it), else a ``conditions`` object in the footer.
+    summed = getattr(loaded, "conditions", None)
+    conditions = summed() if callable(summed) else extra.get("conditions")
     row = {
         "sha256": calibrations.digest(path),
         "file": str(path.resolve()),

@@ -20,6 +20,7 @@ import functools
 import importlib
 import pkgutil
 from collections.abc import Callable
+from pathlib import Path
 
 from calibrator.robots import files
 from calibrator.robots.description import (
@@ -129,9 +130,31 @@ def _built(path: tuple[str, ...], key: str) -> RobotDescription:
 
 
 def _from_file(name: str, base_link: str | None, tip_link: str | None) -> RobotDescription:
-    from calibrator.robots import files, urdf
+    path, _, links = name.partition("#")
+    try:
+        stat = Path(path).stat()
+    except OSError:
+        stat = None
+    if stat is None:
+        return _read_file(name, base_link, tip_link)
+    # A file is read again only when it changed (commands look an arm up several times).
+    key = (name, base_link, tip_link, str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+    return dataclasses.replace(_read_file_once(*key))
+
+
+@functools.lru_cache(maxsize=16)
+def _read_file_once(
+    name: str, base_link: str | None, tip_link: str | None, *_stamp: object
+) -> RobotDescription:
+    return _read_file(name, base_link, tip_link)
+
+
+def _read_file(name: str, base_link: str | None, tip_link: str | None) -> RobotDescription:
+    from calibrator import outputs
+    from calibrator.robots import urdf
 
     path, _, links = name.partition("#")
+    outputs.note_input(path)  # an input of the command: no output may replace it
     if links:
         if base_link is not None or tip_link is not None:
             raise DescriptionError(f"{name}: give the links once, in the name or as options")

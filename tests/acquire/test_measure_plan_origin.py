@@ -1,10 +1,13 @@
 """A plan file records the arm, tracker and reflector it was made for; measure holds to them."""
 
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 from cli_testkit import cli, listing, one_line_error
 
-from calibrator import frames, kinematics
+from calibrator import frames, kinematics, robots
 from calibrator import plan as plans
 from calibrator.models import get_model
 
@@ -14,7 +17,26 @@ def test_plan_files_record_what_they_were_made_for(tmp_path):
                "--tool", "10,0,90", cwd=tmp_path)  # fmt: skip
     assert done.code == 0, done.stderr
     origin = plans.read_plan(tmp_path / "p.csv").origin
-    assert origin == plans.PlanOrigin("ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0))
+    digest = get_model("ur10e").digest
+    assert origin == plans.PlanOrigin("ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0), digest)
+
+
+def test_a_plan_for_another_description_of_the_same_name_is_refused(tmp_path):
+    # A user's description file edited after the plan was made: same name, another arm.
+    data = Path(robots.__file__).parent / "data"
+    for name in ("kuka-kr6-r900.yaml", "kuka-kr6-r900.urdf"):
+        shutil.copy(data / name, tmp_path / name)
+    arm = tmp_path / "kuka-kr6-r900.yaml"
+    done = cli("plan", "--model", arm.name, "-o", "p.csv", "--poses", "10", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert plans.read_plan(tmp_path / "p.csv").origin.model_sha256 == get_model(str(arm)).digest
+    arm.write_text(arm.read_text().replace("margin_mm: 10", "margin_mm: 12"))
+    before = listing(tmp_path)
+    line = one_line_error(
+        cli("program", "p.csv", "--model", arm.name, "-o", "cal.src", cwd=tmp_path)
+    )
+    assert "was made for another description of the" in line
+    assert listing(tmp_path) == before
 
 
 def test_measure_refuses_a_plan_made_for_another_arm_or_tracker(tmp_path, checked_plan):

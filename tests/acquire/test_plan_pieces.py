@@ -353,20 +353,22 @@ def test_plan_command_writes_the_plan_the_library_makes(tmp_path):
     )
 
 
-def test_plan_command_from_candidates_with_defaults_says_the_aim_is_unchecked(tmp_path):
+def test_plan_command_without_a_tracker_aims_at_the_simulated_cells_and_says_so(tmp_path):
     from calibrator import cell as cells
+    from calibrator.simulate import SIM_TRACKER_AT_MM
 
-    given = plans.sample(plans.joint_box(UR10E.joint_limits_rad, 0.1), 400, "random", seed=8)
+    given = plans.sample(plans.joint_box(UR10E.joint_limits_rad, 0.1), 3000, "random", seed=8)
     plans.write_csv(tmp_path / "c.csv", given)
     done = cli("plan", "--from", "c.csv", "--poses", "9", "--selection", "first", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert "9 poses" in done.stdout and ", first selection, log det(J^T J) " in done.stdout
-    assert done.stdout.endswith(" (no tracker position: aim not checked)\n")
-    expected = plans.make_checked(UR10E, 9, cells.Cell(), (0.0, 0.0, 100.0), candidates=given,
+    assert "the poses face the simulated cell's tracker at 2500,400,300 mm" in done.stderr
+    cell = cells.Cell(tracker_at_mm=tuple(SIM_TRACKER_AT_MM))
+    expected = plans.make_checked(UR10E, 9, cell, (0.0, 0.0, 100.0), candidates=given,
                                   selection="first")  # fmt: skip
-    np.testing.assert_array_equal(
-        plans.read_plan(tmp_path / "plan.csv").path_rad, expected.plan.path_rad
-    )
+    written = plans.read_plan(tmp_path / "plan.csv")
+    np.testing.assert_array_equal(written.path_rad, expected.plan.path_rad)
+    assert written.origin.tracker_at_mm == (2500.0, 400.0, 300.0)
 
 
 def test_plan_command_refuses_to_overwrite_its_candidates(tmp_path):

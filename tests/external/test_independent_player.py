@@ -31,12 +31,10 @@ import numpy as np
 import pyarrow.parquet as pq
 from cli_process import run_cli
 from external_cell import TOOL_MM, Watching, first_poses, tracker_simulator
+from truth_kit import against_least_squares_from_truth
 
-from calibrator import calibration, frames, kinematics, parameters, session
+from calibrator import frames, kinematics
 from calibrator import plan as plans
-from calibrator.identify import pipeline
-from calibrator.identify.problem import Problem
-from calibrator.identify.refine import refine
 from calibrator.models import get_model
 
 SKIPPED = 9
@@ -152,37 +150,7 @@ def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_th
 
     ident = run_cli("identify", "s.parquet", "-o", "cal.json", cwd=tmp_path)
     assert ident.returncode == 0, ident.stderr
-    figures = _against_least_squares_from_truth(tmp_path, truth, plan, true_points)
+    figures = against_least_squares_from_truth(tmp_path, truth, plan, true_points)
     print(figures)  # the figure of the acceptance check (pytest -s)
     assert figures["rms_ratio"] <= 1.5, figures
     assert figures["prediction_ratio"] <= 1.5, figures
-
-
-def _against_least_squares_from_truth(cwd, truth, plan, true_points) -> dict:
-    """identify's result vs least squares started from the truth, on the same fitting poses."""
-    cal = calibration.load(cwd / "cal.json")
-    obs = session.load(cwd / "s.parquet").observations
-    space = parameters.ParameterSpace(cal.nominal_mdh, cal.base0, cal.tool0, cal.free)
-    fit_idx, _ = pipeline.split(len(obs), cal.provenance.validation_fraction, cal.provenance.seed)
-    problem = Problem.of(space, obs.subset(fit_idx), 0.0)
-    found = space.pack(cal.mdh, cal.base2tracker, cal.flange2tool)
-    mdh, tool, base2tracker = truth
-    baseline = refine(problem, space.pack(mdh, base2tracker, tool))
-
-    def rms(x):
-        return float(np.sqrt(np.mean(problem.residuals(x) ** 2)))
-
-    def prediction(x):  # over every plan pose, the skipped (never measured) one included
-        mdh, base2tracker, tool = space.unpack(x)
-        model = kinematics.forward(mdh, plan, tool, base2tracker)[:, :3, 3]
-        return float(np.sqrt(np.mean(np.sum((model - true_points) ** 2, axis=1))))
-
-    out = {
-        "identify_rms_mm": rms(found),
-        "baseline_rms_mm": rms(baseline.x),
-        "identify_prediction_mm": prediction(found),
-        "baseline_prediction_mm": prediction(baseline.x),
-    }
-    out["rms_ratio"] = out["identify_rms_mm"] / out["baseline_rms_mm"]
-    out["prediction_ratio"] = out["identify_prediction_mm"] / out["baseline_prediction_mm"]
-    return out

@@ -108,11 +108,9 @@ def test_a_plan_made_for_another_tracker_position_is_refused_naming_both(tmp_pat
     assert f"made for the tracker at {x:g},{y:g},{z:g} mm, not {-x:g},{-y:g},{z:g}" in line
 
 
-def test_a_plan_made_for_another_arm_or_reflector_is_refused_naming_both(tmp_path, checked_plan):
+def test_a_plan_made_for_another_arm_is_refused_naming_both(tmp_path, checked_plan):
     line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--model", "ur5e")
     assert "was made for a ur10e, not a ur5e (--model)" in line
-    line = _refused(tmp_path, checked_plan, "-o", "cal.ls", "--tool", "0,0,150")
-    assert "reflector at 0,0,100 mm on the flange, not 0,0,150 (--tool)" in line
 
 
 def test_the_plan_files_tracker_is_checked_without_tracker_at(tmp_path, checked_plan):

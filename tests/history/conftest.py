@@ -28,6 +28,11 @@ def pg_server():
 
     folder = tempfile.mkdtemp(prefix="calibrator-pg-")
     server = pgserver.get_server(folder, cleanup_mode="stop")
+    # A server thrown away after the tests need not sync to disk: its stop (a
+    # checkpoint) took 7-18 s on the loaded machine with syncing.
+    server.psql("ALTER SYSTEM SET fsync = off;")
+    server.psql("ALTER SYSTEM SET synchronous_commit = off;")
+    server.psql("SELECT pg_reload_conf();")
     yield server
     server.cleanup()
     shutil.rmtree(folder, ignore_errors=True)
@@ -51,7 +56,8 @@ def history_url(request, tmp_path):
 @pytest.fixture(scope="session")
 def measured(tmp_path_factory) -> Path:
     """A folder as a user has it: three sessions of one simulated arm, their
-    calibrations (identify), and an ISO 9283 test (verify), made by the commands."""
+    calibrations (identify), and an ISO 9283 test (verify, recorded in
+    ``verify-history.sqlite`` by ``--history``), made by the commands."""
     folder = tmp_path_factory.mktemp("measured")
     for i, noise in enumerate(("0.02", "0.04", "0.06")):
         session = f"s{i}.parquet"
@@ -61,7 +67,7 @@ def measured(tmp_path_factory) -> Path:
         assert result.code == 0, result.stderr
     result = cli(
         "verify", "--model", "er10l-c10", "--cycles", "2", "--readings", "1", "-q",
-        "--seed", "3", "-o", "verify.json", cwd=folder,
+        "--seed", "3", "-o", "verify.json", "--history", "verify-history.sqlite", cwd=folder,
     )  # fmt: skip
     assert result.code == 0, result.stderr
     return folder

@@ -16,7 +16,7 @@ def test_import_then_table_and_csv(tmp_path, measured):
     history = tmp_path / "h.sqlite"
     result = cli("history", "import", measured, "--history", history, cwd=tmp_path)
     assert result.code == 0, result.stderr
-    assert "3 sessions, 3 calibrations, 1 verifications" in result.stdout
+    assert "3 sessions, 3 calibrations, 1 verifications, 0 checks" in result.stdout
     # Importing again adds nothing.
     assert cli("history", "import", measured, "--history", history, cwd=tmp_path).code == 0
     robots = cli("history", "--history", history, cwd=tmp_path)
@@ -48,6 +48,14 @@ def test_identify_records_with_history(tmp_path, measured):
     with open_history(tmp_path / "h.sqlite") as h:
         (cal,) = h.calibrations(ROBOT)
         assert cal["parameters"] == json.loads((tmp_path / "c.json").read_text())["deltas"]
+
+
+def test_verify_records_with_history(measured):
+    doc = json.loads((measured / "verify.json").read_text())
+    with open_history(measured / "verify-history.sqlite", create=False) as h:
+        (test,) = h.verifications(ROBOT)
+    assert test["document"] == doc and test["compensated"] is False
+    assert test["rp_mm"] == max(p["RP_mm"] for p in doc["poses"])
 
 
 def test_refusals_are_one_line(tmp_path, measured):

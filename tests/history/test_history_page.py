@@ -2,6 +2,7 @@
 
 import shutil
 import subprocess
+from datetime import datetime, timedelta
 
 import numpy as np
 import pytest
@@ -71,3 +72,17 @@ def test_page_renders_in_headless_chromium(page, tmp_path):
     # parameters' uncertainty bars (matplotlib's blue).
     assert count((0xBB, 0, 0)) > 200
     assert count((0x1F, 0x77, 0xB4)) > 2000
+
+
+def test_conditions_plotted_are_the_numbers_of_each_session():
+    from calibrator.history import page
+
+    sessions = [
+        {"measured_at": datetime(2026, 1, 1) + timedelta(days=30 * m), "conditions": {
+            "air_temperature_c": {"min": 20.0 + m, "mean": 20.5 + m, "max": 21.0 + m},
+            "tracker_warmed_up": True, "poses_reporting": 30}}
+        for m in range(2)
+    ] + [{"measured_at": datetime(2026, 3, 2), "conditions": {}}]  # fmt: skip
+    assert page._conditions(sessions) == {
+        "air_temperature_c.mean": [(datetime(2026, 1, 1), 20.5), (datetime(2026, 1, 31), 21.5)]
+    }

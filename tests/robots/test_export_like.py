@@ -75,8 +75,15 @@ def test_only_the_chains_joint_origins_change(user_urdf):
     after = export_like(cal, user_urdf).text.splitlines()
     assert len(after) == len(before)
     changed = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a != b]
-    # Six joints and the flange's fixed joint: one origin line each.
-    assert len(changed) == 7
+    # Joints 2 to 6 and the flange's fixed joint: one origin line each. Joint 1
+    # turns about the base's own axis, which a calibration in the base frame keeps:
+    # its origin keeps its text too.
+    assert len(changed) == 6
+    joint_1 = next(i for i, line in enumerate(before) if 'name="joint_a1"' in line)
+    assert before[joint_1 + 1].strip().startswith("<origin ") and joint_1 + 1 not in changed
+    owners = [f"joint_a{k}" for k in range(2, 7)] + ["link_6-flange"]
+    for i, owner in zip(changed, owners, strict=True):
+        assert f'<joint name="{owner}"' in before[i - 1]
     for i in changed:
         assert before[i].strip().startswith("<origin ") and after[i].strip().startswith("<origin ")
         assert before[i].split("<origin")[0] == after[i].split("<origin")[0]  # indentation kept

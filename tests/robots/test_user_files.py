@@ -261,3 +261,30 @@ def test_a_collision_mesh_of_the_package_is_enclosed(tmp_path):
     distance = np.linalg.norm(points - (p + t[:, None] * (q - p)), axis=1)
     assert distance.max() <= cap.radius_mm - 10.0 + 1e-9  # enclosed, margin on top
     assert cap.radius_mm - 10.0 < 70.0  # and not a blob: the box's half cross-diagonal is 64
+
+
+def test_a_changed_file_is_read_again(tmp_path):
+    path = tmp_path / "arm.urdf"
+    path.write_text(KUKA)
+    first = get_model(str(path))
+    assert get_model(str(path)).digest == first.digest
+    assert get_model(str(path)).mdh is not first.mdh  # each caller its own arrays
+    path.write_text(KUKA.replace('xyz="0.455 0 0"', 'xyz="0.5 0 0"'))
+    assert get_model(str(path)).mdh[1, 0] == pytest.approx(500.0)
+
+
+def test_no_command_writes_over_the_description_it_read(tmp_path):
+    path = tmp_path / "arm.urdf"
+    path.write_text(KUKA)
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "calibrator", "plan", "--model", str(path)),
+            *("--tracker-at", "2500,300,300", "-o", str(path)),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "refusing to overwrite" in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    assert path.read_text() == KUKA

@@ -19,6 +19,7 @@ from cli_testkit import cli, listing, one_line_error
             ["verify", "--cube", "976,0,621,1e308"],
             "--cube: '976,0,621,1e308' is beyond +-100000 mm",
         ),
+        (["verify", "--cube", "976,0,621,1e-300"], "--cube: an edge of 1e-300 mm is below 10 mm"),
         (["analyze", "deflection", "--samples", "1000000000"], "--samples: 1000000000 samples"),
         (["analyze", "deflection", "--pose", "1e308,0,0,0,0"], "--pose: joint 1 at 1e+308 deg"),
         (["analyze", "deflection", "--pose", "400,0,0,0,0"], "beyond its limits [-180, 180] deg"),
@@ -134,3 +135,63 @@ def test_a_recorded_joint_term_payload_meets_the_payload_rules(tmp_path):
         cli("compensate", "c.json", "t.csv", "-o", "o.csv", "--payload-kg", "1e308", cwd=tmp_path)
     )
     assert "--payload-kg: 1e+308 kg is more than the limit of 100 kg" in line
+
+
+@pytest.mark.parametrize(
+    ("link", "says"),
+    [
+        ("{mass_kg: 1e308, com_mm: [0, 0, 0]}", "link 1 mass_kg: 1e+308 kg is more than the limit"),
+        ("{mass_kg: '5', com_mm: [0, 0, 0]}", "link 1 mass_kg: must be a number, got '5'"),
+        ("{mass_kg: 5, com_mm: [0, 0, 1e308]}", "link 1 com_mm: 1e+308 mm is beyond +-5000 mm"),
+        ("{mass_kg: 5, com_mm: [0, 0, 0], extra: 1}", "link 1 needs exactly mass_kg"),
+    ],
+)
+def test_a_mass_model_file_holds_robot_links(tmp_path, link, says):
+    (tmp_path / "s.yaml").write_text("links:\n  2: {outer_mm: 120, inner_mm: 100}\n")
+    (tmp_path / "m.yaml").write_text("links:\n" + f"  - {link}\n" * 6)
+    line = one_line_error(
+        cli("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", "--masses",
+            "m.yaml", cwd=tmp_path)
+    )  # fmt: skip
+    assert "m.yaml: " in line and says in line, line
+
+
+@pytest.mark.parametrize(
+    ("where", "value", "says"),
+    [
+        ("footer", 1e308, "the session's payload_kg: 1e+308 kg is more than the limit of 100 kg"),
+        ("footer", "5", "the session's payload_kg: must be a number, got '5'"),
+        ("column", 1e6, "the session's payload_kg column: 1e+06 kg is more than the limit"),
+        ("column", -1.0, "the session's payload_kg column: must be a number >= 0, got -1"),
+    ],
+)
+def test_a_sessions_recorded_payload_meets_the_payload_rule(tmp_path, where, value, says):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    done = cli("simulate", "--model", "ur10e", "--poses", "30", "-o", "s.parquet", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    table = pq.read_table(tmp_path / "s.parquet")
+    meta = dict(table.schema.metadata)
+    if where == "footer":
+        doc = json.loads(meta[b"calibrator"])
+        doc["payload_kg"] = value
+        meta[b"calibrator"] = json.dumps(doc).encode()
+    else:
+        table = table.append_column("payload_kg", pa.array([value] * table.num_rows))
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "p.parquet")
+    before = listing(tmp_path)
+    line = one_line_error(
+        cli("identify", "p.parquet", "--joint-terms", "scale", "-o", "c.json", "-q",
+            "--method", "lm", cwd=tmp_path)
+    )  # fmt: skip
+    assert says in line, line
+    assert listing(tmp_path) == before
+
+
+def test_a_section_keyed_true_is_not_link_1(tmp_path):
+    (tmp_path / "s.yaml").write_text("links:\n  true: {outer_mm: 120, inner_mm: 100}\n")
+    line = one_line_error(
+        cli("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", cwd=tmp_path)
+    )
+    assert "s.yaml: link True: keys are link numbers 1..6" in line

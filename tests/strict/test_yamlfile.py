@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 from cli_testkit import cli, listing, one_line_error
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from calibrator import strict, yamlfile
 
@@ -32,8 +34,8 @@ def _bomb(levels: int, where: str) -> str:
 
 HOSTILE = {
     "nested 1,000 deep (flow)": ("obstacles: " + "[" * 1000 + "]" * 1000 + "\n", "nested more"),
-    "nested 1,000 deep (block)": (
-        "a:\n" + "".join("  " * i + f"k{i}:\n" for i in range(1, 1000)) + "  " * 1000 + "x: 1\n",
+    "nested 300 deep (block)": (
+        "a:\n" + "".join("  " * i + f"k{i}:\n" for i in range(1, 300)) + "  " * 300 + "x: 1\n",
         "nested more than 64 deep",
     ),
     "a duplicate key": ("margin_mm: 20\nmargin_mm: 30\n", "key 'margin_mm' appears more than once"),
@@ -90,8 +92,8 @@ def test_numbers_follow_the_strict_grammar():
 
 def test_every_yaml_input_reads_through_this_reader():
     """No module of the package parses YAML any other way."""
-    root = Path(__file__).resolve().parents[2] / "calibrator"
-    for path in root.rglob("*.py"):
+    root = Path(__file__).resolve().parents[2]
+    for path in [*(root / "calibrator").rglob("*.py"), *(root / "drivers").rglob("*.py")]:
         if path.name == "yamlfile.py":
             continue
         text = path.read_text()
@@ -114,3 +116,24 @@ def test_sections_and_mass_models_read_through_it_too(tmp_path, name, text, says
         cli("analyze", "deflection", "--model", "ur10e", option, name, *extra, cwd=tmp_path)
     )
     assert f"{name}: " in line and says in line
+
+
+# Fuzz: any text is a document or one StrictError line, within the limits, quickly.
+_PIECES = st.sampled_from(
+    ["a: ", "- ", "[", "]", "{", "}", ", ", ": ", "&x ", "*x", "&y ", "*y", "<<: ", "\n", "  ",
+     "1", "1e-3", "0x1F", ".nan", "017", "'q'", '"\\u0000"', "!!binary aGk=", "!!python/name:os",
+     "? ", "|\n  t", "%YAML 1.1\n", "---\n", "...\n", "~", "true", "b: ", "a: "]
+)  # fmt: skip
+
+
+@settings(max_examples=300, deadline=None)
+@given(pieces=st.lists(_PIECES, max_size=40))
+def test_fuzz_any_text_is_a_document_or_one_line(pieces):
+    text = "".join(pieces)
+    started = time.perf_counter()
+    try:
+        yamlfile.loads(text, "f.yaml")
+    except strict.StrictError as exc:
+        message = str(exc)
+        assert message.startswith("f.yaml: ") and "\n" not in message and len(message) < 300
+    assert time.perf_counter() - started < 2

@@ -71,6 +71,12 @@ BOOTSTRAP_REJECTS = 4
 TOLERANCE_FACTOR = 4.0
 #: The tolerance never goes below this, mm: a reflector re-seated, a stop still settling.
 TOLERANCE_FLOOR_MM = 1.0
+#: Stops of a bootstrap set (those nearest to failing) judged against a registration
+#: refitted without them; the others against the whole set's leave-one-out misfits.
+JUDGED_EXACTLY = 3
+#: Depths of the bootstrap's search at which a partial set is registered to cut it short
+#: (at every depth it costs more fits than it saves; at none a hopeless search runs long).
+PRUNE_DEPTHS = (5, 7)
 #: Two stops closer than this are the same place (the arm settled twice), mm.
 SAME_PLACE_MM = 0.5
 #: What to check when the first stops fit no poses of the plan.
@@ -363,6 +369,14 @@ class _Search:
         self._extend([])
         return None if self.found is None else (self.found[1], self.found[2])
 
+    def _tolerance_of(self, loo_mm: np.ndarray, k: int) -> float:
+        """The rule's tolerance from the leave-one-out misfits of all stops but ``k``, mm."""
+        others = np.delete(loo_mm, k)
+        if len(others) < RULE_STOPS:
+            return self.assoc.bound_mm
+        scaled = TOLERANCE_FACTOR * float(np.sqrt(np.mean(others**2)))
+        return min(max(scaled, TOLERANCE_FLOOR_MM), self.assoc.bound_mm)
+
     def _cost(self, chosen) -> int:
         stop, pose = chosen[-1]
         return (stop + 1 - len(chosen)) + (pose - self.first + 1 - len(chosen))
@@ -381,7 +395,7 @@ class _Search:
                     break
                 if not self._distances_fit(chosen, a, i):
                     continue
-                if len(trial) >= 4 and len(trial) < self.size and not self._fits(trial):
+                if len(trial) in PRUNE_DEPTHS and len(trial) < self.size and not self._fits(trial):
                     continue
                 self._extend(trial)
 
@@ -395,25 +409,40 @@ class _Search:
 
     def _fits(self, chosen) -> bool:
         """A partial set: registered within the bound (a cheap cut before the full check)."""
-        reg = self._register(chosen)
+        reg = self._register(chosen, leave_one_out=False)
         return reg is not None and bool(np.max(reg.misfit_mm) <= self.assoc.bound_mm)
 
-    def _register(self, chosen, without: int | None = None) -> Registration | None:
+    def _register(
+        self, chosen, without: int | None = None, leave_one_out: bool = True
+    ) -> Registration | None:
         kept = [c for n, c in enumerate(chosen) if n != without]
         return register(
             self.flange[[i for _, i in kept]],
             self.points[[a for a, _ in kept]],
             self.assoc.tool_guess_mm,
             self.assoc.tool_bound_mm,
+            leave_one_out=leave_one_out,
         )
 
     def _judge(self, chosen) -> None:
-        """Keep ``chosen`` if every stop passes the rule against the others and it is cheapest."""
+        """Keep ``chosen`` if every stop passes the rule against the others and it is cheapest.
+
+        The whole set's fit gives every stop's leave-one-out misfit at once; the
+        tolerance of the others, though, must not feel the stop judged (a wrong
+        stop inflates the others' misfits). So the stops nearest to failing
+        (:data:`JUDGED_EXACTLY`) are judged against a registration refitted
+        without them, the rest against the whole set's others.
+        """
         whole = self._register(chosen)
         if whole is None or np.max(whole.misfit_mm) > self.assoc.bound_mm:
             return
-        for k, (a, i) in enumerate(chosen):
-            others = self._register(chosen, without=k)
+        n = len(chosen)
+        loose = np.array([self._tolerance_of(whole.loo_mm, k) for k in range(n)])
+        if np.any(whole.loo_mm > loose):
+            return
+        for k in np.argsort(loose - whole.loo_mm)[:JUDGED_EXACTLY]:
+            a, i = chosen[k]
+            others = self._register(chosen, without=int(k))
             if others is None:
                 return
             miss = np.linalg.norm(others.predict(self.flange[i : i + 1])[0] - self.points[a])

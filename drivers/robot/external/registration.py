@@ -31,8 +31,9 @@ TOOL_BOUND_MM = 30.0
 TOOL_FIT_STOPS = 4
 #: Most Gauss-Newton steps of the base and tool fit (it takes 3 to 5).
 _ITERATIONS = 20
-#: The fit has converged when a step moves the tool less than this, mm.
-_CONVERGED_MM = 1e-6
+#: The fit has converged when a step moves a point less than this, mm (decisions are
+#: at the millimetre; the misfits are then exact to far better than the tracker).
+_CONVERGED_MM = 1e-4
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,7 @@ def register(
     tool_guess_mm: ArrayLike,
     tool_bound_mm: float = TOOL_BOUND_MM,
     start_mm: ArrayLike | None = None,
+    leave_one_out: bool = True,
 ) -> Registration | None:
     """Fit base and tool to stops matched to poses.
 
@@ -97,6 +99,8 @@ def register(
         Largest distance of the fitted tool from the guess, mm.
     start_mm : array_like, shape (3,), optional
         Where the tool fit starts (a previous fit's tool), mm; default the guess.
+    leave_one_out : bool
+        False skips the leave-one-out misfits (``loo_mm`` is then all ``inf``).
 
     Returns
     -------
@@ -115,7 +119,10 @@ def register(
     rot, shift = base[:3, :3], base[:3, 3]
     local = flange[:, :3, :3] @ tool + flange[:, :3, 3]  # (n, 3) base frame
     residual = local @ rot.T + shift - measured  # (n, 3)
-    loo = _leave_one_out(flange, local, rot, residual, fit_tool)
+    if leave_one_out:
+        loo = _leave_one_out(flange, local, rot, residual, fit_tool)
+    else:
+        loo = np.full(len(measured), np.inf)
     return Registration(base, tool, np.linalg.norm(residual, axis=1), loo)
 
 
@@ -133,8 +140,9 @@ def _fit(flange, measured, tool, fit_tool: bool):
     for _ in range(_ITERATIONS):
         local = rotations @ tool + origins
         residual = local @ rot.T + shift - measured
-        jac = _jacobian(flange, local, rot, fit_tool=True)
-        step, *_ = np.linalg.lstsq(jac.reshape(-1, 9), -residual.reshape(-1), rcond=None)
+        jac = _jacobian(flange, local, rot, fit_tool=True).reshape(-1, 9)
+        # normal equations: 9 unknowns, well conditioned once the tool is seen (4+ stops)
+        step = np.linalg.lstsq(jac.T @ jac, -jac.T @ residual.reshape(-1), rcond=None)[0]
         rot = frames.rotvec_to_matrix(step[:3]) @ rot
         shift = shift + step[3:6]
         tool = tool + step[6:]
