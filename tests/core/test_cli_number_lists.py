@@ -14,7 +14,7 @@ def inputs(tmp_path_factory):
     """A plan and a session for the commands that need one before they read the option."""
     folder = tmp_path_factory.mktemp("inputs")
     # A small plan: the commands only need a valid one (a 30-pose plan took 5 s).
-    made = cli("plan", "-o", "plan.csv", "--poses", "12", "--candidates", "600", cwd=folder)
+    made = cli("plan", "-o", "plan.csv", "--poses", "12", "--candidates", "1500", cwd=folder)
     assert made.code == 0, made.stderr
     assert cli("simulate", "-o", "s.parquet", "--poses", "12", cwd=folder).code == 0
     return folder
