@@ -43,7 +43,7 @@ def main():
             [*CLI, "simulate", "-o", session, "--poses", "30"], check=True, capture_output=True
         )
         rows = [
-            run([*CLI, "identify", session, "-o", Path(tmp) / "cal.json"])
+            run([*CLI, "identify", session, "-o", Path(tmp) / "cal.json", "--force"])
             for _ in range(args.repeats)
         ]
         bare = run([sys.executable, "-c", "pass"])

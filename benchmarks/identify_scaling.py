@@ -51,7 +51,7 @@ def main():
                 capture_output=True,
             )
             rows = [
-                run([*CLI, "identify", session, "-o", Path(tmp) / "c.json"])
+                run([*CLI, "identify", session, "-o", Path(tmp) / "c.json", "--force"])
                 for _ in range(args.repeats)
             ]
             times = [r[0] for r in rows]

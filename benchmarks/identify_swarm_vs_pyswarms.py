@@ -97,7 +97,7 @@ def main():
         def identify(generations):
             out = Path(tmp) / "cal.json"
             row = run(
-                [*CLI, "identify", session, "-o", out, "--method", "pso"]
+                [*CLI, "identify", session, "-o", out, "--force", "--method", "pso"]
                 + ["--generations", str(generations)]
             )
             out.unlink()

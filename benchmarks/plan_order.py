@@ -35,7 +35,7 @@ def _command_time(poses: int, seed: int, tracker: tuple, folder: Path) -> tuple[
     before = os.times()
     start = time.perf_counter()
     subprocess.run(
-        [sys.executable, "-m", "calibrator", "plan", "-o", folder / f"p{seed}.csv",
+        [sys.executable, "-m", "calibrator", "plan", "-o", folder / f"p{seed}.csv", "--force",
          "--poses", str(poses), "--tracker-at", at, "--seed", str(seed)],
         check=True, capture_output=True,
     )  # fmt: skip

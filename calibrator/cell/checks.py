@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
+from calibrator import kinematics, singularities
 from calibrator.cell import distance
 from calibrator.cell.cellfile import Cell, CellError, obstacle_arrays
 from calibrator.cell.geometry import ArmGeometry, place
@@ -37,13 +37,13 @@ MOTION_REASONS = REASONS[:4]
 #: cannot be commanded well (a small move of the tool asks a large one of a
 #: joint, and the controller's inverse kinematics flips): not a collision, so
 #: ``measure`` and ``program`` still take such a pose from a user's plan.
-SINGULARITY_REASONS = ("near wrist singularity", "arm stretched out", "wrist centre near axis 1")
+SINGULARITY_REASONS = ("near wrist singularity", "arm stretched out", "near shoulder singularity")
 #: Least angle between axes 4 and 6 (the wrist singularity: they line up), deg.
 WRIST_MIN_DEG = 10.0
-#: Least angle from collinear of the shoulder (axis 2), elbow (axis 3) and wrist
-#: (axis 4) seen along axis 2: stretched out (180 deg) or folded (0 deg), deg.
+#: Least angle of the upper arm and forearm from parallel: stretched out or folded, deg.
 ELBOW_MIN_DEG = 10.0
-#: Least distance of the wrist centre (frame 5's origin) from axis 1, mm.
+#: Least distance of the wrist centre from the plane through axis 1 parallel to
+#: axis 2 (the shoulder singularity), mm.
 SHOULDER_MIN_MM = 100.0
 #: Largest joint step between samples of a motion, rad (0.5 deg).
 MOTION_STEP_RAD = np.radians(0.5)
@@ -239,35 +239,13 @@ def pose_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
 def singularity_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
     """Each reason of :data:`SINGULARITY_REASONS` per pose, shape (N, 3) bool (True: too near).
 
-    Wrist: ``|sin|`` of the angle between axes 4 and 6 below ``sin(WRIST_MIN_DEG)``
-    (for a UR arm, ``|sin q5|``). Elbow: points on axes 2, 3 and 4 (the
-    shoulder, the elbow, the wrist) seen along axis 2 within ``ELBOW_MIN_DEG``
-    of a line (for a UR arm, ``|sin q3|``). Shoulder: the wrist centre (the
-    point of axis 5 the chain places, on a spherical wrist its centre) closer
-    than ``SHOULDER_MIN_MM`` to axis 1.
+    Nearer than :data:`WRIST_MIN_DEG`, :data:`ELBOW_MIN_DEG` or
+    :data:`SHOULDER_MIN_MM` by the measures of :func:`calibrator.singularities.margins`
+    (on a UR arm the first two are ``|q5|`` and ``|q3|`` from 0 or 180 deg).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    _, frames = kinematics.chain(chk.geometry.mdh, q, all_frames=True)
-    # frames[:, j] lies on joint j + 1's axis, its z along that axis.
-    axis = frames[:, :, :3, 2]
-    origin = frames[:, :, :3, 3]
-    wrist = np.linalg.norm(np.cross(axis[:, 3], axis[:, 5]), axis=1)
-    along = axis[:, 1]
-    upper, fore = origin[:, 1] - origin[:, 2], origin[:, 3] - origin[:, 2]
-    # In the plane normal to axis 2: the sine of the elbow's angle.
-    upper = upper - np.sum(upper * along, axis=1, keepdims=True) * along
-    fore = fore - np.sum(fore * along, axis=1, keepdims=True) * along
-    sine = np.abs(np.sum(np.cross(upper, fore) * along, axis=1)) / np.maximum(
-        np.linalg.norm(upper, axis=1) * np.linalg.norm(fore, axis=1), 1e-12
-    )
-    radial = np.linalg.norm(origin[:, 4, :2], axis=1)  # axis 1 is the base's z axis
-    return np.column_stack(
-        [
-            wrist < np.sin(np.radians(WRIST_MIN_DEG)),
-            sine < np.sin(np.radians(ELBOW_MIN_DEG)),
-            radial < SHOULDER_MIN_MM,
-        ]
-    )
+    bounds = np.array([WRIST_MIN_DEG, ELBOW_MIN_DEG, SHOULDER_MIN_MM])
+    return singularities.margins(chk.geometry.mdh, q) < bounds
 
 
 def describe(chk: Checker, q: ArrayLike, reason: str) -> str:

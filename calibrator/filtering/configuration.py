@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
+from calibrator import kinematics, singularities
 
 #: Names of the three geometric bits, in column order of :func:`arm_bits`.
 BITS = ("shoulder", "elbow", "wrist")
@@ -47,10 +47,7 @@ BIT_NAMES = (("front", "back"), ("up", "down"), ("noflip", "flip"))
 
 
 def _points(mdh: ArrayLike, q_model: ArrayLike):
-    _, link = kinematics.chain(mdh, q_model, all_frames=True)
-    o1, o2, w = link[:, 1, :3, 3], link[:, 2, :3, 3], link[:, 4, :3, 3]
-    x1, z1, z3, z5 = link[:, 1, :3, 0], link[:, 1, :3, 2], link[:, 3, :3, 2], link[:, 5, :3, 2]
-    return o1, o2, w, x1, z1, z3, z5
+    return singularities.points(mdh, q_model)
 
 
 def arm_bits(mdh: ArrayLike, q_model: ArrayLike) -> np.ndarray:
@@ -125,20 +122,9 @@ def nearest_singularity(mdh: ArrayLike, q_model: ArrayLike) -> list[str]:
         empty where no singularity is within :data:`NEAR_DEG` (or
         :data:`NEAR_MM` for the shoulder).
     """
-    q_model = kinematics.check_joints(q_model)
-    o1, o2, w, x1, z1, z3, z5 = _points(mdh, q_model)
-    wrist = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", z3, z5)), 0.0, 1.0)))
-    upper, fore = o2 - o1, w - o2
-    cos_elbow = np.einsum("ij,ij->i", upper, fore) / (
-        np.linalg.norm(upper, axis=1) * np.linalg.norm(fore, axis=1)
-    )
-    elbow = np.degrees(np.arccos(np.clip(np.abs(cos_elbow), 0.0, 1.0)))
-    # The shoulder is singular where the wrist centre crosses the plane through
-    # axis 1 parallel to axis 2 (over axis 1 on an arm without a shoulder offset).
-    a1 = np.arctan2(x1[:, 1], x1[:, 0])
-    shoulder = np.abs(w[:, 0] * np.cos(a1) + w[:, 1] * np.sin(a1))
     out = []
-    for a, b, c in zip(wrist, elbow, shoulder, strict=True):
+    # The one measure of each singularity (the planner keeps its poses clear by it).
+    for a, b, c in singularities.margins(mdh, q_model):
         margins = [a / NEAR_DEG, b / NEAR_DEG, c / NEAR_MM]
         pick = int(np.argmin(margins))
         if margins[pick] > 1.0:

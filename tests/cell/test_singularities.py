@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from calibrator import cell as cells
-from calibrator import kinematics
 from calibrator import plan as plans
+from calibrator import singularities
 from calibrator.cell import checks
 from calibrator.models import get_model
 
@@ -31,16 +31,32 @@ def test_on_a_ur_arm_the_wrist_and_elbow_bounds_are_sin_q5_and_sin_q3(joint):
     assert not faults[:, [c for c in range(3) if c != column]].any()
 
 
-def test_the_shoulder_bound_is_the_wrist_centres_distance_from_axis_1():
-    model = get_model("er10l-c10")  # a spherical wrist that can reach over its base
-    chk = checker(model)
-    rng = np.random.default_rng(1)
-    q = rng.uniform(-np.pi, np.pi, (4000, 6))
-    _, frames = kinematics.chain(model.mdh, q, all_frames=True)
-    radial = np.linalg.norm(frames[:, 4, :2, 3], axis=1)
-    near = checks.singularity_faults(chk, q)[:, 2]
-    assert near.any() and (~near).any()
-    assert np.array_equal(near, radial < checks.SHOULDER_MIN_MM)
+def test_the_shoulder_bound_is_the_wrist_centres_distance_from_the_shoulder_plane():
+    # On a UR arm the wrist centre sweeps the plane through axis 1 parallel to axis 2
+    # as q3 bends the arm back over its base: find that q3, then step off it.
+    chk = checker(UR10E)
+
+    def margin(q3):
+        q = np.array([[0.4, -1.9, q3, -1.0, 1.2, 0.0]])
+        return singularities.margins(UR10E.mdh, q)[0, 2], q
+
+    def sign(q3):  # which side of the plane (its normal: x of the frame on axis 2, level)
+        _, _, w, x1, *_ = singularities.points(UR10E.mdh, margin(q3)[1])
+        return np.sign(w[0, :2] @ x1[0, :2])
+
+    grid = np.linspace(-2.8, 2.8, 57)
+    flips = [k for k in range(len(grid) - 1) if sign(grid[k]) != sign(grid[k + 1])]
+    lo, hi = grid[flips[0]], grid[flips[0] + 1]
+    assert sign(lo) != sign(hi)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if sign(mid) == sign(lo) else (lo, mid)
+    on, q_on = margin(lo)
+    assert on < 1e-6
+    assert checks.singularity_faults(chk, q_on)[0].tolist() == [False, False, True]
+    off = np.array([[0.4, -1.9, lo - 0.3, -1.0, 1.2, 0.0]])
+    assert singularities.margins(UR10E.mdh, off)[0, 2] > checks.SHOULDER_MIN_MM
+    assert not checks.singularity_faults(chk, off)[0, 2]
 
 
 @pytest.mark.parametrize("n", [30])

@@ -39,9 +39,11 @@ def test_base_and_tool_deltas_agree_in_report_json_and_csv(tmp_path):
         row = next(r for r in rows if r["element"] == element and r["parameter"] == kind)
         delta = doc["deltas"][name]
         assert float(row["delta"]) == delta == records[name]["delta"], name
-        scale = 1e3 if kind.endswith("_rad") else 1.0
+        scale = np.degrees(1.0) if kind.endswith("_rad") else 1.0  # the report: mm and deg
         shown = re.search(rf"<tr><td>{name}</td>(?:<td>[^<]*</td>){{3}}<td>([^<]*)</td>", page)
-        assert shown and float(shown.group(1)) == float(f"{delta * scale:.6g}"), name
+        assert shown, name
+        decimals = len(shown.group(1).split(".")[1])  # as the column shows them
+        assert float(shown.group(1)) == round(delta * scale, decimals), name
     # The base is turned against the tracker: its translation delta is in the
     # first-guess base frame, not a difference of tracker coordinates.
     cal = calibration.load(tmp_path / "c.json")

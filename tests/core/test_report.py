@@ -121,7 +121,14 @@ def test_standard_errors_and_convergence_when_recorded_and_not(identified, tmp_p
     assert "not recorded" not in page.sections["deltas"]["text"]
     assert "warning: poses 3 and 4 are the same pose" in page.sections["summary"]["text"]
     assert page.sections["convergence"]["images"]
-    assert f"{0.001 * len(doc['deltas']):.3g}" in page.sections["deltas"]["text"]
+    # The largest standard error, to its unit's decimals (two digits of its smallest).
+    last = list(doc["deltas"])[-1]
+    rad = data.unit_of(last) == "rad"
+    scale = np.degrees(1.0) if rad else 1.0
+    same = [e for n, e in errors.items() if (data.unit_of(n) == "rad") == rad]
+    decimals = 1 - int(np.floor(np.log10(min(same) * scale)))
+    shown = f"{errors[last] * scale:.{decimals}f}"
+    assert shown in page.sections["deltas"]["text"]
     for plot in ("pose_errors", "error_cdf", "error_vs_distance"):  # no session given
         assert page.sections[plot]["images"] == []
         assert "give the session file" in page.sections[plot]["text"]
