@@ -72,7 +72,7 @@ def test_bad_options_and_files_are_refused_in_one_line(tmp_path):
 def test_program_options_are_refused_for_a_targets_csv(tmp_path):
     calibration().save(tmp_path / "cal.json")
     header = "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad"
-    (tmp_path / "t.csv").write_text(f"{header}\n0,0.2,-0.2,0,0.8,0\n")
+    (tmp_path / "t.csv").write_text(header + "\n0,0.2,-0.2,0,0.8,0\n")
     for extra in (["--keep-failed"], ["--frames", "f.yaml"], ["--joint-targets", "correct"]):
         done = run_cli("compensate", "cal.json", "t.csv", "-o", "o.csv", *extra, cwd=tmp_path)
         assert done.returncode == 2 and "applies to robot programs" in done.stderr
