@@ -126,7 +126,7 @@ class Job:
     payload_kg : float or None
     config_dat : Path or None
         KUKA ``$config.dat`` holding ``TOOL_DATA`` / ``BASE_DATA``.
-    convention : calibrator.filtering.convention.Convention
+    convention : calibrator.robots.JointConvention
     """
 
     calibration: Any
@@ -205,6 +205,19 @@ def language(name: str, suffixes: tuple, help: str) -> Callable:
 def choose(fmt: str | None, program: str | os.PathLike) -> str:
     """The language of ``program``: ``fmt`` if given (it must fit the extension), else by suffix."""
     return outputs.choose_format(FORMATS, fmt, program)
+
+
+def target_tool(job: Job, joints: bool, found: tuple[Any, str | None]) -> tuple[Any, str | None]:
+    """``(tool, problem)`` of a target from its frame look-up ``found``.
+
+    A joint target kept as taught (no ``--joint-targets correct``) needs no
+    tool: a program that moves only in joints may define none, and its targets
+    are kept, not failed, whatever frame is (or is not) active.
+    """
+    tool, problem = found
+    if joints and not job.correct_joints and problem is not None:
+        return np.eye(4), None
+    return tool, problem
 
 
 def read_lines(path: Path) -> Iterator[tuple[int, str]]:

@@ -1,54 +1,44 @@
 """Joint values as a controller states them, and as the model reads them.
 
 A controller's joint angles can differ from the kinematic model's by a sign
-and a zero offset per joint (and, on some arms, a coupling of joints 2 and 3).
-Every joint value the filter reads or writes passes through
-:func:`to_model` and :func:`to_controller`, so an arm description that
-states its controller's convention plugs in here and nowhere else. The arms
-known today (:mod:`calibrator.models`) state their joints as the model does:
-both functions are the identity for them.
+and a zero offset per joint, and on some arms by a coupling of joints 2 and 3
+(Fanuc's J2/J3). The arm's description states it
+(:class:`calibrator.robots.JointConvention`); every joint value the filter
+reads or writes passes through :func:`to_model` and :func:`to_controller`
+with the convention of the calibration's arm (:func:`for_model`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calibrator.robots import JointConvention
 
-@dataclass(frozen=True)
-class Convention:
-    """A controller's joint convention: ``q_model = sign * q_controller + offset``.
+#: The model's own angles (an arm whose controller states joints as its model does).
+IDENTITY = JointConvention()
 
-    Attributes
-    ----------
-    sign : ndarray, shape (6,)
-        +1 or -1 per joint.
-    offset_rad : ndarray, shape (6,)
-        Model angle at the controller's zero (rad).
+
+def for_model(name: str | None) -> JointConvention:
+    """The controller convention of the arm ``name`` (a model or description file).
+
+    Raises
+    ------
+    calibrator.errors.CalibrationError
+        No arm of that name (the calibration names an arm this program cannot find).
     """
+    if not name:
+        return IDENTITY
+    from calibrator.models import get_model
 
-    sign: np.ndarray = field(default_factory=lambda: np.ones(6))
-    offset_rad: np.ndarray = field(default_factory=lambda: np.zeros(6))
-
-
-#: The convention of every arm in :mod:`calibrator.models`.
-IDENTITY = Convention()
+    return get_model(name).convention
 
 
-def for_model(name: str | None) -> Convention:
-    """The controller convention of a model (today: the identity for every known arm)."""
-    return IDENTITY
-
-
-def to_model(q_controller: ArrayLike, convention: Convention = IDENTITY) -> np.ndarray:
+def to_model(q_controller: ArrayLike, convention: JointConvention = IDENTITY) -> np.ndarray:
     """Controller joint angles (rad), shape (N, 6), to the model's (rad)."""
-    q = np.asarray(q_controller, dtype=float)
-    return q * convention.sign + convention.offset_rad
+    return convention.to_model(q_controller)
 
 
-def to_controller(q_model: ArrayLike, convention: Convention = IDENTITY) -> np.ndarray:
+def to_controller(q_model: ArrayLike, convention: JointConvention = IDENTITY) -> np.ndarray:
     """The model's joint angles (rad), shape (N, 6), to the controller's (rad)."""
-    q = np.asarray(q_model, dtype=float)
-    return (q - convention.offset_rad) * convention.sign
+    return convention.to_controller(q_model)

@@ -38,6 +38,7 @@ from calibrator.filtering import (
     language,
     read_lines,
     rotations,
+    target_tool,
 )
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
@@ -127,7 +128,7 @@ class FanucLS(Language):
             tokens=[found[k][0] for k in keys],
             spans=[found[k][1:] for k in keys], code=None if joints else config,
         )  # fmt: skip
-        target.tool, p1 = self._frame("tool", ut)
+        target.tool, p1 = target_tool(self.job, joints, self._frame("tool", ut))
         target.base, p2 = (None, None) if joints else self._frame("base", uf)
         target.problem = p1 or p2
         if not joints and config is None:

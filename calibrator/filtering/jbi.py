@@ -45,6 +45,7 @@ from calibrator.filtering import (
     read_lines,
     rotations,
     split_ending,
+    target_tool,
 )
 
 _POSITION = re.compile(r"^(C\d+)=(.*)$")
@@ -127,7 +128,7 @@ class JBI(Language):
         if len(nums) < 6:
             target.tokens, target.problem = ["0"] * 6, "fewer than 6 values"
             return target
-        target.tool, problem = self._frame("tool", tool_no)
+        target.tool, problem = target_tool(self.job, not rectan, self._frame("tool", tool_no))
         if rectan:
             if postype == "USER":
                 target.base, p2 = self._frame("base", user_no)

@@ -47,6 +47,7 @@ from calibrator.filtering import (
     read_lines,
     rotations,
     split_ending,
+    target_tool,
 )
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
@@ -314,7 +315,7 @@ class KRL(Language):
         target.tokens = [f[k][0] for k in names]
         target.spans = [(0, f[k][1], f[k][2]) for k in names]
         where = f"{path}:{number}"
-        tool, p1 = self._frame("tool", frames_used[0], where)
+        tool, p1 = target_tool(self.job, joints, self._frame("tool", frames_used[0], where))
         base, p2 = (None, None) if joints else self._frame("base", frames_used[1], where)
         target.tool, target.base, target.problem = tool, base, p1 or p2
         if not joints and "S" in f and "T" in f:

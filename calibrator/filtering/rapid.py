@@ -46,6 +46,7 @@ from calibrator.filtering import (
     read_lines,
     rotations,
     split_ending,
+    target_tool,
 )
 
 _DECL = re.compile(
@@ -267,7 +268,7 @@ class RAPID(Language):
             target.spans.append((li, col, col + (e - s)))
         target.line = number + target.spans[0][0]
         target.mark_line = len(offsets) - 1
-        tool, p1 = self._frame("tool", tool_name)
+        tool, p1 = target_tool(self.job, joints, self._frame("tool", tool_name))
         base, p2 = (None, None) if joints else self._frame("wobj", wobj_name)
         target.tool, target.base, target.problem = tool, base, p1 or p2
         if not joints:
