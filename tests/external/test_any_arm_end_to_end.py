@@ -44,7 +44,7 @@ def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
 
 def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(tmp_path):
     made = run_cli(
-        "plan", "--model", ARM, "--poses", "24", "--tracker-at", "2500,400,300",
+        "plan", "--model", ARM, "--poses", "16", "--tracker-at", "2500,400,300",
         "-o", "plan.csv", "--seed", "2", cwd=tmp_path,
     )  # fmt: skip
     assert made.returncode == 0, made.stderr
