@@ -236,6 +236,9 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
         name="calibrator_check",
         model=arm.name,
         via_rad=plan.via_rad,
+        # The controller's angles, rounded inside the limits, as `program` writes them.
+        joint_limits_rad=arm.joint_limits_rad,
+        convention=arm.convention,
     )
     with outputs.Outputs() as batch:
         batch.text(plan_file, plans.plan_text(plan))
