@@ -2,12 +2,12 @@
 
 KUKA's KSS loads a ``.src`` only when its ``DEF`` name is the file's name, and
 Fanuc's ``/PROG`` name is the program's name on the pendant: for those the
-file name must already be a valid name (nothing is renamed behind the user's
-back). URScript and RAPID do not tie the name to the file, so an unusable
-character becomes ``_``; in every language a name that is a keyword, or a
-name the program itself uses (``movej``, ``PTP``, ``MoveAbsJ``, ...), is
-refused: ``def end():`` does not parse, and a procedure named ``movej``
-shadows the built-in the program calls.
+file name must already be a valid name, not a keyword nor a name the program
+uses (``PTP``, ``END``), or it is refused (nothing is renamed behind the
+user's back). URScript and RAPID do not tie the name to the file: an
+unusable character becomes ``_``, and a keyword or a name the program itself
+calls gets ``_program`` appended (``end.script`` holds ``def end_program():``,
+``movej.script`` no procedure that shadows the ``movej`` it calls).
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ def program_name(
     max_length : int
         Longest name the language takes.
     same_as_file : bool
-        The controller requires the name to be the file's: refuse rather than rename.
+        The controller requires the name to be the file's: refuse rather than rename
+        (otherwise a reserved name gets ``_program`` appended).
     case_sensitive : bool
 
     Returns
@@ -70,13 +71,19 @@ def program_name(
                 f"{stem!r}: a {language} name has at most {max_length} characters: "
                 "choose a shorter file name"
             )
-    key = name if case_sensitive else name.upper()
-    if key in reserved:
-        raise CalibrationError(
-            f"{stem!r}: {name} is a {language} keyword or a name the program uses: "
-            "choose another file name"
-        )
+    if taken(name, reserved, case_sensitive):
+        if same_as_file:
+            raise CalibrationError(
+                f"{stem!r}: {name} is a {language} keyword or a name the program uses: "
+                "choose another file name"
+            )
+        name = f"{name}_program"  # free to differ from the file's name: never a keyword
     return name
+
+
+def taken(name: str, reserved: frozenset[str], case_sensitive: bool = False) -> bool:
+    """Whether ``name`` is one of ``reserved`` (upper-cased unless ``case_sensitive``)."""
+    return (name if case_sensitive else name.upper()) in reserved
 
 
 def words(text: str, *, upper: bool = True) -> frozenset[str]:

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibrator.errors import CalibrationError
 from calibrator.program import ProgramSpec, between_homes, move_duration_s, title, writer
-from calibrator.program.names import program_name, words
+from calibrator.program.names import program_name, taken, words
 from calibrator.program.spec import PULSE_S
 
 #: Name of the digital output pulsed at each arrival.
@@ -47,9 +48,13 @@ def _name(stem: str) -> str:
         stem, language="RAPID", reserved=frozenset(), max_length=MAX_NAME, same_as_file=False
     )
     # The module is named from it: that is the name that must not clash.
-    program_name(
-        _module(name), language="RAPID", reserved=RESERVED, max_length=MAX_NAME, same_as_file=True
-    )
+    if taken(_module(name), RESERVED):
+        name = f"{name}_program"
+    if len(_module(name)) > MAX_NAME:
+        raise CalibrationError(
+            f"{stem!r}: a RAPID module name has at most {MAX_NAME} characters: "
+            "choose a shorter file name"
+        )
     return name
 
 

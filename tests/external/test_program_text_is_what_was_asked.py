@@ -48,14 +48,31 @@ def _refused(folder, *args):
     return line
 
 
-@pytest.mark.parametrize(
-    "name",
-    ["end.script", "movej.script", "sleep.script", "DEF.src", "PTP.src", "END.src", "wait.src",
-     "main.mod", "ENDMODULE.mod", "MoveAbsJ.mod"],
-)  # fmt: skip
-def test_a_keyword_or_a_name_the_program_calls_is_refused(folder, name):
+@pytest.mark.parametrize("name", ["DEF.src", "PTP.src", "END.src", "wait.src"])
+def test_krl_refuses_a_keyword_or_a_name_the_program_uses_as_its_file_name(folder, name):
+    # KSS names the program after its file: renaming it inside would not load.
     line = _refused(folder, "-o", name)
     assert "keyword or a name the program uses" in line
+
+
+@pytest.mark.parametrize(
+    ("name", "fmt", "expected"),
+    [
+        ("end.script", "urscript", "def end_program():"),
+        ("movej.script", "urscript", "def movej_program():"),
+        ("run.script", "urscript", "def run_program():"),
+        ("cal.script", "urscript", "def cal():"),
+        ("main.mod", "rapid", "MODULE MainProgram"),
+        ("ENDMODULE.mod", "rapid", "MODULE EndmoduleProgram"),
+    ],
+)
+def test_urscript_and_rapid_never_use_a_keyword_or_a_called_name(folder, name, fmt, expected):
+    # Their procedure or module name may differ from the file's: it gets _program.
+    done = cli("program", "plan.csv", "-o", name, cwd=folder)
+    assert done.code == 0, done.stderr
+    text = (folder / name).read_text()
+    assert expected in text
+    PARSERS[fmt](text)  # still every statement of the language
 
 
 @pytest.mark.parametrize(
