@@ -207,6 +207,18 @@ def choose(fmt: str | None, program: str | os.PathLike) -> str:
     return outputs.choose_format(FORMATS, fmt, program)
 
 
+def numbered_frame(job: Job, kind: str, number: int) -> Any:
+    """Frame ``number`` (4, 4) of ``kind`` (``"tool"`` or ``"base"``) from ``--frames``, or None.
+
+    Number 0 is the flange (tool) or the robot base (base) itself, as on
+    KUKA, Fanuc and Yaskawa controllers.
+    """
+    if number == 0:
+        return np.eye(4)
+    table = job.frames.tools if kind == "tool" else job.frames.bases
+    return table.get(str(number))
+
+
 def target_tool(job: Job, joints: bool, found: tuple[Any, str | None]) -> tuple[Any, str | None]:
     """``(tool, problem)`` of a target from its frame look-up ``found``.
 

@@ -36,6 +36,7 @@ from calibrator.filtering import (
     Unit,
     configuration,
     language,
+    numbered_frame,
     read_lines,
     rotations,
     target_tool,
@@ -139,11 +140,9 @@ class FanucLS(Language):
     def _frame(self, kind, number):
         if number is None:
             return None, f"no {'UT' if kind == 'tool' else 'UF'} number"
-        if number == 0:
-            return np.eye(4), None
-        table = self.job.frames.tools if kind == "tool" else self.job.frames.bases
-        if str(number) in table:
-            return table[str(number)], None
+        frame = numbered_frame(self.job, kind, number)
+        if frame is not None:
+            return frame, None
         what = "tool frame UT" if kind == "tool" else "user frame UF"
         return None, f"{what} {number} is not in --frames"
 

@@ -41,6 +41,7 @@ from calibrator.filtering import (
     Unit,
     configuration,
     language,
+    numbered_frame,
     numbers,
     read_lines,
     rotations,
@@ -145,11 +146,9 @@ class JBI(Language):
         return target
 
     def _frame(self, kind, number):
-        if number == 0:
-            return np.eye(4), None
-        table = self.job.frames.tools if kind == "tool" else self.job.frames.bases
-        if str(number) in table:
-            return table[str(number)], None
+        frame = numbered_frame(self.job, kind, number)
+        if frame is not None:
+            return frame, None
         return None, f"{'TOOL' if kind == 'tool' else 'USER'} {number} is not in --frames"
 
     def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:

@@ -44,6 +44,7 @@ from calibrator.filtering import (
     Unit,
     configuration,
     language,
+    numbered_frame,
     read_lines,
     rotations,
     split_ending,
@@ -237,13 +238,11 @@ class KRL(Language):
                 None,
                 f"no {kind} is set before its use ({'$TOOL' if kind == 'tool' else '$BASE'})",
             )
-        if number == 0:
-            return np.eye(4), None
-        if (kind, number) in self.config:
+        if (kind, number) in self.config:  # $config.dat wins over --frames
             return self.config[(kind, number)], None
-        table = self.job.frames.tools if kind == "tool" else self.job.frames.bases
-        if str(number) in table:
-            return table[str(number)], None
+        frame = numbered_frame(self.job, kind, number)
+        if frame is not None:
+            return frame, None
         data = "TOOL_DATA" if kind == "tool" else "BASE_DATA"
         return None, f"{data}[{number}] is defined neither in --config-dat nor in --frames"
 
