@@ -170,7 +170,6 @@ def identify(
         options, model, nominal_file, joint = _recorded(
             ctx, like, session_path, options, model, nominal_file, joint
         )
-    _three(joint.payload_com_mm, "--payload-com-mm")  # refused before any work
     inputs = [*session_paths, nominal_file, like]
     outputs.check(output, inputs=inputs, force=force)
     if report_dir is not None:
@@ -328,10 +327,3 @@ def _target_line(result, target_mm):
         f"from {pred['model_rms_mean']:.4f} to {target_mm:g} mm RMS; the mean held-out error "
         f"then approaches the noise floor {floor:.4f} mm"
     )
-
-
-def _three(text, what):
-    """``'x,y,z'`` -> ndarray (3,) of finite numbers (the strict grammar), or exit 2."""
-    import numpy as np
-
-    return np.array(opts.floats(text, 3, what, "three numbers x,y,z"))
