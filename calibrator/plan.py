@@ -583,7 +583,9 @@ def _read_origin(path) -> PlanOrigin | None:
     # Points in a robot cell: a tool on the flange, a tracker in the room.
     for what, v, limit in (("tool", tool, 2_000.0), ("tracker", tracker, 100_000.0)):
         if v is not None and np.abs(v).max() > limit:
-            raise PlanError(f"{path}: the {what} position {_text(v)} mm is beyond +-{limit:g} mm")
+            raise PlanError(
+                f"{path}: the {what} position {point_text(v)} mm is beyond +-{limit:g} mm"
+            )
     return PlanOrigin(
         model,
         (float(tool[0]), float(tool[1]), float(tool[2])),
@@ -648,8 +650,8 @@ def made_for(
     if tracker is not None and origin.tracker_at_mm is not None:
         if _apart(tracker, origin.tracker_at_mm):
             raise PlanError(
-                f"{source} was made for the tracker at {_text(origin.tracker_at_mm)} mm, not "
-                f"{_text(tracker)} (--tracker-at or the cell file): make a plan for this cell"
+                f"{source} was made for the tracker at {point_text(origin.tracker_at_mm)} mm, not "
+                f"{point_text(tracker)} (--tracker-at or the cell file): make a plan for this cell"
             )
     return (
         tracker if tracker is not None else origin.tracker_at_mm,
@@ -666,7 +668,8 @@ def _apart(a: ArrayLike, b: ArrayLike) -> bool:
     return bool(np.linalg.norm(np.subtract(a, b)) > ORIGIN_TOLERANCE_MM)
 
 
-def _text(v: ArrayLike) -> str:
+def point_text(v: ArrayLike) -> str:
+    """``x,y,z`` as the messages write a point (mm), e.g. ``2500,400,300``."""
     return ",".join(f"{c:g}" for c in np.asarray(v, dtype=float))
 
 

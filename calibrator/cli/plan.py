@@ -155,10 +155,6 @@ def plan(
     if assumed_tracker:
         typer.echo(
             "note: no --tracker-at and no tracker in the cell: the poses face the simulated "
-            f"cell's tracker at {_triple_text(cell.tracker_at_mm)} mm",
+            f"cell's tracker at {plans.point_text(SIM_TRACKER_AT_MM)} mm",
             err=True,
         )
-
-
-def _triple_text(values) -> str:
-    return ",".join(f"{float(v):g}" for v in values)
