@@ -13,6 +13,7 @@ advisory lock.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import date
@@ -95,7 +96,7 @@ def _engine(url: str, create: bool) -> Any:
             # rollback journal syncs the journal and the file: a record took 29 ms
             # with the journal and 10 ms with the log (300 records,
             # benchmarks/history_records.py). Readers no longer wait for a writer.
-            dbapi_connection.execute("PRAGMA journal_mode = WAL")
+            _write_ahead_log(dbapi_connection)
 
         @event.listens_for(engine, "begin")
         def _begin(connection: Any) -> None:
@@ -109,6 +110,35 @@ def _engine(url: str, create: bool) -> Any:
             f"--history {parsed.render_as_string()}: {_one_line(exc)} "
             "(give an SQLite file or postgresql://USER@HOST/DB)"
         ) from None
+
+
+def _write_ahead_log(dbapi_connection: Any) -> None:
+    """Put an SQLite file in write-ahead-log mode, waiting up to :data:`SQLITE_WAIT_S` for it.
+
+    The mode is kept in the file, so only its first connections change it.
+    SQLite answers a change of journal mode that meets another connection's
+    lock with "database is locked" at once, without the busy timeout every
+    other statement waits for: two processes opening a new history together
+    lost one of them that way (1 run in 5). So the change is retried here.
+    """
+    import sqlite3
+
+    deadline = time.monotonic() + SQLITE_WAIT_S
+    pause = 0.001
+    while True:
+        try:
+            (mode,) = dbapi_connection.execute("PRAGMA journal_mode").fetchone()
+            if str(mode).lower() == "wal":
+                return
+            dbapi_connection.execute("PRAGMA journal_mode = WAL")
+            return
+        except sqlite3.OperationalError as exc:
+            if "locked" not in str(exc) and "busy" not in str(exc):
+                raise
+            if time.monotonic() + pause > deadline:
+                raise
+        time.sleep(pause)
+        pause = min(2 * pause, 0.05)
 
 
 def _one_line(exc: BaseException) -> str:
