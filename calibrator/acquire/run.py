@@ -266,7 +266,7 @@ class MeasureRun:
             than :data:`MAX_POSES`, or refused by the robot's own check.
         """
         from calibrator import cell as cells
-        from calibrator import plan as plans
+        from calibrator import planning
 
         opts = self.options
         cell = (opts.cell if opts.cell is not None else cells.Cell()).with_tracker(
@@ -279,7 +279,7 @@ class MeasureRun:
                 on_note("no --tracker-at: the plan ignores the acceptance angle")
             # The one planner of `calibrator plan`: every pose and move clear
             # of the mounting plane, the arm itself and the cell, in time order.
-            made = plans.make_checked(
+            made = planning.make_checked(
                 self.model, opts.poses, cell, opts.tool_mm, seed=opts.seed
             ).plan
             q_plan = made.q_rad
@@ -291,15 +291,15 @@ class MeasureRun:
             )
         need = opts.need_poses
         if need is None:
-            need = plans.min_poses(self.model.mdh)
+            need = planning.min_poses(self.model.mdh)
         vias = self._check_vias(len(q_plan))
         # Before anything moves, the one whole-plan check every runner uses
         # (``calibrator program`` too): limits, count, every pose, via and
         # joint-space move against the arm's capsules, the cell and the tracker.
         via_rad = opts.via_rad if opts.via_rad is not None else [np.zeros((0, 6))] * len(q_plan)
         q_plan = np.asarray(q_plan, dtype=float)
-        cells.check_whole_plan(
-            plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
+        planning.check_plan(
+            planning.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
         )
         if ports.CHECKS_PLAN in self.robot.capabilities:
             motion = np.concatenate([q_plan, *vias]) if vias else q_plan
@@ -321,15 +321,14 @@ class MeasureRun:
         -------
         calibrator.cell.CellTime
         """
-        from calibrator import cell as cells
-        from calibrator import plan as plans
+        from calibrator import planning
 
         if self.plan is None:
             raise CalibrationError("no plan yet: call make_plan first")
         o = self.options
         vias = o.via_rad if o.via_rad is not None else [np.zeros((0, 6))] * len(self.plan)
-        return cells.estimate(
-            plans.Plan(self.plan, tuple(vias)),
+        return planning.estimate(
+            planning.Plan(self.plan, tuple(vias)),
             self.model,
             o.speed_rad_s,
             o.accel_rad_s2,
@@ -348,11 +347,11 @@ class MeasureRun:
 
     def header(self, meta: Any) -> dict:
         """The journal header: what a resume must match."""
-        from calibrator import plan as plans
+        from calibrator import planning
 
         assert self.plan is not None, "make_plan() first"
         return {
-            "plan_sha256": plans.digest(self.plan),
+            "plan_sha256": planning.digest(self.plan),
             "robot": self.robot_id,
             "tracker": self.tracker_id,
             "readings": self.options.readings,
@@ -362,8 +361,7 @@ class MeasureRun:
 
     def session_meta(self) -> Any:
         """The session's metadata (nominal arm, tool guess, devices and the plan's digest)."""
-        from calibrator import plan as plans
-        from calibrator import session
+        from calibrator import planning, session
 
         assert self.plan is not None, "make_plan() first"
 
@@ -377,7 +375,7 @@ class MeasureRun:
                 "measured": {
                     "robot": self.robot_id,
                     "tracker": self.tracker_id,
-                    "plan_sha256": plans.digest(self.plan),
+                    "plan_sha256": planning.digest(self.plan),
                     # Which description of the arm: the same name may be edited.
                     "description": {"name": self.model.name, "sha256": self.model.digest},
                 }

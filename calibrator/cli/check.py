@@ -218,8 +218,7 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
         return None
-    from calibrator import outputs
-    from calibrator import plan as plans
+    from calibrator import outputs, planning
     from calibrator import program as programs
     from calibrator.cli.measure import _external_options
 
@@ -241,7 +240,7 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
         convention=arm.convention,
     )
     with outputs.Outputs() as batch:
-        batch.text(plan_file, plans.plan_text(plan))
+        batch.text(plan_file, planning.plan_text(plan))
         batch.text(program_file, programs.render(spec, "csv"))
     typer.echo(
         f"wrote {plan_file} and {program_file}: run them on the controller "

@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 from cli_testkit import cli, listing, one_line_error
 
-from calibrator import cell
-from calibrator import plan as plans
+from calibrator import cell, planning
 from calibrator.models import get_model
 
 UR10E = get_model("ur10e")
@@ -24,7 +23,7 @@ D = np.radians
 def good_plan():
     # The cases below splice into a plan without vias: the first seed that gives one.
     for seed in range(1, 20):
-        made = plans.make_checked(
+        made = planning.make_checked(
             UR10E, 12, cell.Cell(tracker_at_mm=TRACKER_AT), TOOL_MM, seed=seed
         )
         if made.plan.n_vias == 0:
@@ -33,7 +32,7 @@ def good_plan():
 
 
 def _measure(folder, q):
-    plans.write_csv(folder / "plan.csv", q)
+    planning.write_plan(folder / "plan.csv", planning.Plan(q))
     before = listing(folder)
     done = cli(
         "measure", "--plan", "plan.csv", "--tracker-at", ",".join(map(str, TRACKER_AT)),
@@ -61,7 +60,7 @@ def test_a_user_plan_whose_move_sweeps_under_the_mounting_plane_is_refused(tmp_p
 
 
 def test_a_checked_plan_is_measured_and_its_time_estimated(tmp_path, good_plan):
-    plans.write_csv(tmp_path / "plan.csv", good_plan)
+    planning.write_plan(tmp_path / "plan.csv", planning.Plan(good_plan))
     done = cli(
         "measure", "--plan", "plan.csv", "--tracker-at", ",".join(map(str, TRACKER_AT)),
         "--readings", "2", "-o", "s.parquet", cwd=tmp_path,

@@ -13,7 +13,7 @@ import pytest
 from cli_testkit import cli, listing, one_line_error
 from grammars import PARSERS
 
-from calibrator import plan as plans
+from calibrator import planning
 from calibrator import program as programs
 from calibrator.models import get_model
 
@@ -37,7 +37,7 @@ def _spec(q, **kw):
 
 @pytest.fixture
 def folder(tmp_path, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     return tmp_path
 
 

@@ -14,8 +14,7 @@ import time
 import numpy as np
 from external_cell import TOOL_MM, first_poses
 
-from calibrator import frames, kinematics
-from calibrator import plan as plans
+from calibrator import frames, kinematics, planning
 from calibrator.acquire import ports
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.models import get_model
@@ -83,7 +82,7 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, pla
     # A plan the run's cell check passes (every pose and move clear of the cell),
     # as `calibrator plan` makes them: the first 14 poses of the shared one.
     tool_mm = TOOL_MM
-    made = plans.read_plan(first_poses(plan40, 14, tmp_path / "plan.csv"))
+    made = planning.read_plan(first_poses(plan40, 14, tmp_path / "plan.csv"))
     plan = made.q_rad
     tool = frames.transform(translation=tool_mm)
     points = kinematics.forward(arm.mdh, plan, tool)[:, :3, 3]
