@@ -130,8 +130,7 @@ def check(
     cell = given_cell.with_tracker(tracker_at_mm)
     chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
     options = RunOptions(
-        plan_rad=chosen.q_rad,
-        via_rad=chosen.via_rad,
+        plan=chosen,
         cell=cell,
         seed=seed,
         readings=readings,

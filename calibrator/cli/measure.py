@@ -132,8 +132,7 @@ def measure(
         # command line leaves out comes from the plan file.
         tracker_mm, tool_mm = planning.made_for(user_plan, arm, tracker_mm, tool_mm, plan_path)
     options = RunOptions(
-        plan_rad=None if user_plan is None else user_plan.q_rad,
-        via_rad=None if user_plan is None else user_plan.via_rad,
+        plan=user_plan,
         cell=cell,
         poses=poses,
         seed=seed,
@@ -180,7 +179,7 @@ def measure(
         relock = _ask_relock if ask_relock and sys.stdin.isatty() else None
         with (
             _StopOnSigint() as interrupt,
-            reporter.task("measure", len(run.plan), "poses") as task,
+            reporter.task("measure", len(run.plan.q_rad), "poses") as task,
         ):
             _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
             run.measure(

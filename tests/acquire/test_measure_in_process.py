@@ -189,14 +189,38 @@ def test_progress_marks_a_failed_pose(tmp_path):
     assert "failed: beam broken x1 (after 0 retries: poses [3])" in done.stdout
 
 
-def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
+def measured_poses_moved_to(plan):
+    """Which moves of the simulated robot go to a pose of ``plan`` (N, 6) (not a via)."""
+    return lambda q: bool(np.all(plan == np.asarray(q), axis=1).any())
+
+
+def test_a_made_plan_is_moved_along_whole_vias_included(tmp_path, monkeypatch):
     move = SimulatedRobot.move_joints
     moves = []
 
+    def recorded(self, q, speed, accel):
+        moves.append(np.array(q, dtype=float))
+        return move(self, q, speed, accel)
+
+    monkeypatch.setattr(SimulatedRobot, "move_joints", recorded)
+    done = measure(*FAST, cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    cell = cells.Cell(tracker_at_mm=tuple(float(v) for v in SIM_TRACKER_AT_MM))
+    made = planning.make_checked(UR10E, 10, cell, (0.0, 0.0, 100.0), seed=0).plan
+    assert made.n_vias  # the moves the cell check passed only through vias
+    np.testing.assert_array_equal(np.array(moves), made.path_rad)
+
+
+def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
+    move = SimulatedRobot.move_joints
+    is_pose = measured_poses_moved_to(expected_plan())
+    moves = []  # moves to measured poses (vias are moved through on the way)
+
     def ctrl_c_during_pose_3(self, q, speed, accel):
-        if len(moves) == 3:
-            os.kill(os.getpid(), signal.SIGINT)
-        moves.append(q)
+        if is_pose(q):
+            if len(moves) == 3:
+                os.kill(os.getpid(), signal.SIGINT)
+            moves.append(q)
         return move(self, q, speed, accel)
 
     monkeypatch.setattr(SimulatedRobot, "move_joints", ctrl_c_during_pose_3)
@@ -217,12 +241,14 @@ def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monk
 
 def test_a_halted_robot_stops_the_run_with_the_operators_next_steps(tmp_path, monkeypatch):
     move = SimulatedRobot.move_joints
-    moves = []
+    is_pose = measured_poses_moved_to(expected_plan())
+    moves = []  # moves to measured poses
 
     def trips_at_pose_4(self, q, speed, accel):  # the arm's safety system trips at pose 4
-        if len(moves) == 4:
-            self.inject_protective_stop()
-        moves.append(q)
+        if is_pose(q):
+            if len(moves) == 4:
+                self.inject_protective_stop()
+            moves.append(q)
         return move(self, q, speed, accel)
 
     monkeypatch.setattr(SimulatedRobot, "move_joints", trips_at_pose_4)

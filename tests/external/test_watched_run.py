@@ -91,9 +91,7 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, pla
     robot = open_robot("external", RobotOptions(arm, tracker=tracker, external=external))
     assert {ports.WATCHES_TRACKER, ports.CHECKS_PLAN} <= robot.capabilities
     # Pauses of 0.7, 1.4 and 2.8 s between re-reads: each longer than a dwell.
-    options = RunOptions(
-        plan_rad=plan, via_rad=made.via_rad, tool_mm=tool_mm, readings=5, retry_pause_s=0.7
-    )
+    options = RunOptions(plan=made, tool_mm=tool_mm, readings=5, retry_pause_s=0.7)
     with MeasureRun(robot, tracker, arm, options, tmp_path / "s.parquet") as run:
         run.check_files()
         run.connect()
