@@ -20,8 +20,9 @@ import time
 
 import numpy as np
 
-from calibrator import compensate, frames, simulate
+from calibrator import compensate, simulate
 from calibrator.calibration import Calibration
+from calibrator.model import frames
 from calibrator.models import get_model
 
 

@@ -30,11 +30,12 @@ HERE = Path(__file__).resolve().parent
 
 
 def _setup(folder: Path, n: int) -> None:
-    from calibrator import compensate, frames, parameters, simulate
+    from calibrator import compensate, simulate
     from calibrator.calibration import Calibration
     from calibrator.filtering import Job, frames_file, rotations
     from calibrator.filtering.krl import KRL
     from calibrator.filtering.solve import Solver
+    from calibrator.model import frames, parameters
     from calibrator.models import get_model
 
     model = get_model("er10l-c10")

@@ -7,7 +7,7 @@ Run::
 A simulated UR10e (MDH errors 0.3 mm / 3 mrad, 6-DoF data, 0.02 mm and
 20 urad noise) with wrist gear-ratio errors (1, 2, -1.5 per mille on joints
 4-6). For each session size: median wall time of
-:func:`calibrator.joint_fit.fit` with ``scale,harmonic`` (free-set decision,
+:func:`calibrator.identify.joint_fit.fit` with ``scale,harmonic`` (free-set decision,
 cross-validation of both groups, final fit and uncertainty), and the mean
 held-out position error of the geometry alone and with the kept terms.
 """
@@ -24,8 +24,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "joint"))
 
 import jointkit  # noqa: E402
 
-from calibrator import joint_fit, joint_terms, measurement  # noqa: E402
+from calibrator.identify import joint_fit  # noqa: E402
 from calibrator.identify.problem import Problem  # noqa: E402
+from calibrator.model import joint_terms, measurement
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)

@@ -31,8 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "core"))
 import identify_arms as arms  # noqa: E402
 
-from calibrator import frames  # noqa: E402
 from calibrator.identify import pipeline  # noqa: E402
+from calibrator.model import frames  # noqa: E402
 
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 

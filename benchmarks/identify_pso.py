@@ -19,9 +19,9 @@ import time
 import numpy as np
 import pyswarms  # imported before any timing: its import is slow
 
-from calibrator import parameters
-from calibrator.identify import pipeline, pso, refine, report
+from calibrator.identify import accuracy, pipeline, pso, refine
 from calibrator.identify.problem import Problem
+from calibrator.model import parameters
 from calibrator.session import Session
 from calibrator.simulate import simulate
 
@@ -44,7 +44,7 @@ def seed_case(seed):
 
 
 def held_out(space, x, val):
-    return report.error_stats(space, x, val)["position_mm"]["mean"]
+    return accuracy.error_stats(space, x, val)["position_mm"]["mean"]
 
 
 def run_pyswarms(swarm, lower, upper, particles, generations, seed, per_particle):

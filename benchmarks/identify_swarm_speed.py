@@ -26,9 +26,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the swarm use
 
 import numpy as np  # noqa: E402
 
-from calibrator import parameters  # noqa: E402
 from calibrator.identify import pipeline, pso  # noqa: E402
 from calibrator.identify.problem import Problem  # noqa: E402
+from calibrator.model import parameters  # noqa: E402
 from calibrator.session import Session  # noqa: E402
 from calibrator.simulate import simulate  # noqa: E402
 

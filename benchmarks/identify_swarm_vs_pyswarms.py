@@ -31,9 +31,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the swarm use
 import numpy as np  # noqa: E402
 from identify_scaling import run  # noqa: E402,I001 - the sibling benchmark script
 
-from calibrator import kinematics, parameters  # noqa: E402
 from calibrator import session as session_io  # noqa: E402
 from calibrator.identify import pipeline, pso  # noqa: E402
+from calibrator.model import kinematics, parameters  # noqa: E402
 
 CLI = [sys.executable, "-m", "calibrator"]
 pyswarms = None  # imported in main(), in a temporary folder

@@ -30,8 +30,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics, strict
+from calibrator import strict
 from calibrator.errors import CalibrationError
+from calibrator.model import frames, joint_terms, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration

@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import kinematics, parameters
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics, parameters
 
 __all__ = [
     "check_mdh_sane",

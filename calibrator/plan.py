@@ -40,10 +40,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, measurement, parameters, strict
+from calibrator import strict
 from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
+from calibrator.model import kinematics, measurement, parameters
 
 if TYPE_CHECKING:
     from calibrator.cell import Cell
@@ -170,7 +171,7 @@ def observability(
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
     the measured poses then pin down is decided at identification. ``names``
-    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    (of :data:`calibrator.model.parameters.ALL_NAMES`) replaces it, e.g. with what
     drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset

@@ -60,9 +60,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from numpy.typing import ArrayLike
 
-from calibrator import consistency, frames, kinematics, outputs, plausibility, strict
+from calibrator import consistency, outputs, plausibility, strict
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.measurement import Observations
+from calibrator.model import frames, kinematics
+from calibrator.model.measurement import Observations
 from calibrator.models import get_model
 
 if TYPE_CHECKING:
@@ -164,7 +165,7 @@ class Session:
 
     @property
     def observations(self) -> Observations:
-        """The rows as :class:`calibrator.measurement.Observations`."""
+        """The rows as :class:`calibrator.model.measurement.Observations`."""
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
             rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, kinematics, parameters
+from calibrator.model import frames, kinematics, parameters
 from calibrator.models import get_model
 from calibrator.robots import ipso_paper
 

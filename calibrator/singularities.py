@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
+from calibrator.model import kinematics
 
 
 def points(mdh: ArrayLike, q: ArrayLike) -> tuple[np.ndarray, ...]:

@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, kinematics, parameters
 from calibrator.errors import CalibrationError
+from calibrator.model import frames, kinematics, parameters
 from calibrator.simulate import SimWorld
 
 FORMAT_VERSION = 1

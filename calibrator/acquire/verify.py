@@ -32,10 +32,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from calibrator import compensate, frames, iso9283, outputs
+from calibrator import compensate, iso9283, outputs
 from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 
 #: Columns of verify.parquet, in order (base frame, mm).
 COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")

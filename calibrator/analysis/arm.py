@@ -10,7 +10,7 @@ joint i is inserted right there: ``L_1 E_1 L_2 E_2 ... L_6 E_6 F``.
 
 - Craig's modified DH (the misalignment paper's arm, columns
   ``alpha_{i-1}, a_{i-1}, d_i``): ``B_i = Rx(alpha_{i-1}) Tx(a_{i-1})``, ``F = I``.
-- This project's Hayati MDH tables (:mod:`calibrator.kinematics`):
+- This project's Hayati MDH tables (:mod:`calibrator.model.kinematics`):
   ``A_i = Rz(theta_i + q_i) Tz(d_i) . Tx(a_i) Rx(alpha_i) Ry(beta_i)``, so
   ``B_1 = I``, ``B_{i+1}`` and ``F`` are the ``Tx Rx Ry`` tail of the previous link.
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 from calibrator.robots import misalignment_paper
 
 _DEG = np.pi / 180.0
@@ -147,7 +147,7 @@ def craig_arm(table: ArrayLike, pose_rad: ArrayLike, name: str = "craig") -> Pos
 
 
 def mdh_arm(mdh: ArrayLike, pose_rad: ArrayLike, name: str = "mdh") -> PosedArm:
-    """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.kinematics`).
+    """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.model.kinematics`).
 
     Parameters
     ----------

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.mass_models import GRAVITY_MM_S2
+from calibrator.model.mass_models import GRAVITY_MM_S2
 from calibrator.robots import chen_zhang
 from calibrator.strict import Rule, shown
 
@@ -505,7 +505,8 @@ def named_arm(model: str, sections: dict[int, Section], masses: object = None) -
     masses : MassModel, optional
         Defaults to the model's published mass model.
     """
-    from calibrator import kinematics, mass_models, models
+    from calibrator import models
+    from calibrator.model import kinematics, mass_models
 
     m = models.get_model(model)
     mm = mass_models.get(m.name) if masses is None else masses

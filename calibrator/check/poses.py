@@ -16,7 +16,7 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from calibrator import parameters
+from calibrator.model import parameters
 
 #: Check poses by default.
 DEFAULT_POSES = 8

@@ -150,9 +150,10 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress, strict
+    from calibrator import outputs, strict
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
+    from calibrator.cli import progress
 
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")

@@ -96,8 +96,9 @@ def deflection(
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
 
-    from calibrator import mass_models, models, outputs
+    from calibrator import models, outputs
     from calibrator.analysis import deflection as dfl
+    from calibrator.model import mass_models
 
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:

@@ -26,9 +26,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import chains, kinematics, strict
+from calibrator import strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
+from calibrator.model import conventions, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -59,7 +60,7 @@ def origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     out = np.empty((6, 4, 4))
     prev = np.eye(4)
     for i in range(6):
-        out[i] = prev @ chains.rz(mdh[i, kinematics.THETA]) @ tz[i]
+        out[i] = prev @ conventions.rz(mdh[i, kinematics.THETA]) @ tz[i]
         prev = after[i]
     return out, after[5]
 
@@ -84,7 +85,7 @@ def origin_transform(values: np.ndarray) -> np.ndarray:
 
 def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
-    mm, rad = chains.residual_size(trailing)
+    mm, rad = conventions.residual_size(trailing)
     if mm < 1e-9 and rad < 1e-12:
         return []
     return [

@@ -117,7 +117,7 @@ def like(
         The calibration was not made against this chain, or the chain has
         no fixed joint after joint 6 to hold the flange.
     """
-    from calibrator import kinematics
+    from calibrator.model import kinematics
     from calibrator.robots import urdf as robot_urdf
 
     chain = robot_urdf.read_chain(path, base_link, tip_link)

@@ -38,7 +38,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, singularities
+from calibrator import singularities
+from calibrator.model import kinematics
 
 #: Names of the three geometric bits, in column order of :func:`arm_bits`.
 BITS = ("shoulder", "elbow", "wrist")

@@ -43,8 +43,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import frames, kinematics
-from calibrator.parameters import JOINT_TERM_START, N_MDH, TOOL_START
+from calibrator.model import frames, kinematics
+from calibrator.model.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
     from calibrator.identify.problem import Problem

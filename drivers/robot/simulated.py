@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
-from calibrator.kinematics import check_mdh, forward
+from calibrator.model.kinematics import check_mdh, forward
 from calibrator.models import get_model
 from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop

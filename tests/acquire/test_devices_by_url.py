@@ -18,11 +18,11 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics
 from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 from calibrator.models import get_model
 from calibrator.simulate import (
     DEFAULT_TOOL_POINT,

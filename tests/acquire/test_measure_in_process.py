@@ -23,9 +23,10 @@ from cli_testkit import cli, one_line_error
 from measure_testkit import session_rows
 
 from calibrator import cell as cells
-from calibrator import frames, session
 from calibrator import plan as plans
+from calibrator import session
 from calibrator.cli import measure as measure_cli
+from calibrator.model import frames
 from calibrator.models import get_model
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.simulated import SimulatedRobot

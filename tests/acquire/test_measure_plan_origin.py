@@ -7,8 +7,9 @@ import numpy as np
 import pandas as pd
 from cli_testkit import cli, listing, one_line_error
 
-from calibrator import frames, kinematics, robots
 from calibrator import plan as plans
+from calibrator import robots
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from cli_process import run_cli
 
-from calibrator import frames, kinematics, measurement, session
 from calibrator import plan as plans
+from calibrator import session
 from calibrator.identify import pipeline
+from calibrator.model import frames, kinematics, measurement
 from calibrator.models import get_model
 from calibrator.simulate import DEFAULT_TOOL_POINT, SIM_TRACKER_AT_MM, SimWorld
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from cli_testkit import cli, one_line_error
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 from calibrator.simulate import SIM_TRACKER_AT_MM
 

@@ -1,7 +1,7 @@
 """``arm.build``: named arms, link-length overrides and poses against chains written out here.
 
 The Craig chain of the paper's arm is multiplied out link by link with scipy
-rotations; the MDH arms are compared with :func:`calibrator.kinematics.chain`.
+rotations; the MDH arms are compared with :func:`calibrator.model.kinematics.chain`.
 """
 
 import numpy as np
@@ -9,9 +9,10 @@ import pytest
 from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, models
+from calibrator import models
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 
 
 def craig_hand(table_deg_mm, pose_deg):

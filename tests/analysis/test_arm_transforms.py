@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, models
+from calibrator import models
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 
 ANGLES = np.array([-2.5, -0.4, 0.0, 0.3, 1.2, 3.0])
 

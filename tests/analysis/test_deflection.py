@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from cli_testkit import cli, listing, one_line_error
 
-from calibrator import mass_models
 from calibrator.analysis import deflection as dfl
 from calibrator.errors import CalibrationError
+from calibrator.model import mass_models
 
 G = 9.81  # N/kg, as mass_models.GRAVITY_MM_S2 / 1000
 ROD = dfl.SEED_ROD

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from calibrator import kinematics, models
+from calibrator import models
 from calibrator.analysis import arm, engine
 from calibrator.analysis import misalignment as mc
+from calibrator.model import kinematics
 
 
 def run_stats(r0=0.05, h=mc.PAPER_H_MM, trials=20000, seed=0, **kwargs):

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from calibrator import cell, kinematics
+from calibrator import cell
 from calibrator import plan as plans
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 UR10E = get_model("ur10e")

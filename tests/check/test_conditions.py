@@ -8,9 +8,10 @@ import pyarrow.parquet as pq
 import pytest
 from cli_testkit import cli
 
-from calibrator import kinematics, session
+from calibrator import session
 from calibrator.acquire import warmup
 from calibrator.errors import SessionError
+from calibrator.model import kinematics
 from calibrator.models import get_model
 from drivers.robot.fake_ur.controller import JOINT_RISE_C, ROOM_C, WARM_TAU_S, FakeController
 from drivers.robot.simulated import SimulatedRobot

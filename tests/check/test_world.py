@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from cli_testkit import cli, one_line_error
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld
 from calibrator.world import WorldError, parse_world, read_world
 

@@ -2,8 +2,9 @@
 
 import numpy as np
 
-from calibrator import frames, kinematics, parameters, simulate
+from calibrator import simulate
 from calibrator.calibration import Calibration
+from calibrator.model import frames, kinematics, parameters
 from calibrator.models import get_model
 
 

@@ -8,7 +8,8 @@ truth, an outlier pose, the same poses under many noise draws.
 
 import numpy as np
 
-from calibrator import frames, kinematics, session
+from calibrator import session
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 from calibrator.simulate import random_errors, sample_joints
 

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import calibration, parameters
+from calibrator import calibration
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
+from calibrator.model import parameters
 from calibrator.models import get_model
 
 

@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calibrator import calibration, frames, outputs, parameters
+from calibrator import calibration, outputs
 from calibrator.calibration import Calibration, FitReport, Provenance
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
+from calibrator.model import frames, parameters
 from calibrator.models import get_model
 
 NOMINAL = get_model("ur5e").mdh

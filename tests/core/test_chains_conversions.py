@@ -7,8 +7,8 @@ import pytest
 from export_kit import calibrated, poses, rot
 from scipy.spatial.transform import Rotation
 
-from calibrator import chains, kinematics
-from calibrator.kinematics import ALPHA, BETA, THETA, A, D
+from calibrator.model import conventions, kinematics
+from calibrator.model.kinematics import ALPHA, BETA, THETA, A, D
 from calibrator.models import get_model
 
 
@@ -27,8 +27,8 @@ def test_link_and_joint_frames_are_the_products_of_the_rows():
     mdh = calibrated("ur10e", seed=51).mdh
     mdh[5, BETA] = 0.003
     for row in mdh:
-        np.testing.assert_allclose(chains.link(row), link_by_hand(row), atol=1e-12)
-    joints, flange = chains.joint_frames(mdh)
+        np.testing.assert_allclose(conventions.link(row), link_by_hand(row), atol=1e-12)
+    joints, flange = conventions.joint_frames(mdh)
     assert joints.shape == (6, 4, 4) and flange.shape == (4, 4)
     t = np.eye(4)
     for i in range(6):
@@ -42,19 +42,19 @@ def test_an_mdh_table_with_beta6_converts_to_itself():
     cal = calibrated("ur10e", seed=52)
     mdh = cal.mdh.copy()
     mdh[5, BETA] = 0.002
-    back, residual = chains.dh_to_mdh(mdh, get_model("ur10e").mdh)
+    back, residual = conventions.dh_to_mdh(mdh, get_model("ur10e").mdh)
     np.testing.assert_allclose(back, mdh, atol=1e-9)
     np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
     # Standard DH has no beta6: the residual is exactly the turn it leaves.
-    dh, residual = chains.mdh_to_dh(mdh, get_model("ur10e").mdh)
+    dh, residual = conventions.mdh_to_dh(mdh, get_model("ur10e").mdh)
     assert np.all(dh[:, BETA] == 0.0)
-    assert chains.residual_size(residual)[1] == pytest.approx(0.002, rel=1e-6)
+    assert conventions.residual_size(residual)[1] == pytest.approx(0.002, rel=1e-6)
 
 
 def test_a_calibrated_reference_keeps_hayati_where_its_axes_are_nearly_parallel():
     reference = calibrated("ur10e", seed=53).mdh  # axes 2-3-4 parallel to a few mrad
     arm = calibrated("ur10e", seed=54).mdh
-    mdh, residual = chains.dh_to_mdh(arm, reference)
+    mdh, residual = conventions.dh_to_mdh(arm, reference)
     np.testing.assert_allclose(mdh[1:3, D], reference[1:3, D], atol=1e-9)
     q = poses(40, seed=2)
     got = kinematics.chain(mdh, q) @ residual
@@ -69,11 +69,11 @@ def mounted_fit(seed, rotation, origin):
     followed by the fitted table must be the mounted arm. Returns frame 0.
     """
     arm = calibrated("ur10e", seed=seed, trailing=False).mdh
-    joints, flange = chains.joint_frames(arm)
+    joints, flange = conventions.joint_frames(arm)
     mount = np.eye(4)
     mount[:3, :3], mount[:3, 3] = rotation, origin
     joints, flange = mount @ joints, mount @ flange
-    mdh, base2frame0, residual = chains.fit_links(
+    mdh, base2frame0, residual = conventions.fit_links(
         joints, flange, arm, kinematics.parallel_axes(arm, tol=0.1), beta6=True
     )
     r = base2frame0[:3, :3]
@@ -100,7 +100,7 @@ def test_residual_size_is_the_offset_and_the_rotation_angle(angle):
     t = np.eye(4)
     t[:3, :3] = Rotation.from_rotvec(angle * axis).as_matrix()
     t[:3, 3] = [3.0, -4.0, 12.0]
-    mm, rad = chains.residual_size(t)
+    mm, rad = conventions.residual_size(t)
     assert mm == pytest.approx(13.0, rel=1e-15)
     assert rad == pytest.approx(angle, rel=1e-7)
 
@@ -110,14 +110,14 @@ def test_residual_size_of_a_half_turn_is_pi(axis):
     axis = np.array(axis) / np.linalg.norm(axis)
     t = np.eye(4)
     t[:3, :3] = Rotation.from_rotvec(np.pi * axis).as_matrix()
-    mm, rad = chains.residual_size(t)  # the trace may round a hair below -1
+    mm, rad = conventions.residual_size(t)  # the trace may round a hair below -1
     assert mm == 0.0 and rad == pytest.approx(np.pi, abs=1e-7)
 
 
 def round_trip_reproduces(mdh, reference):
     """mdh -> standard DH -> MDH again: the same table, the same chain."""
-    dh, res_dh = chains.mdh_to_dh(mdh, reference)
-    back, res_back = chains.dh_to_mdh(dh, reference)
+    dh, res_dh = conventions.mdh_to_dh(mdh, reference)
+    back, res_back = conventions.dh_to_mdh(dh, reference)
     q = poses(30, seed=9)
     want = kinematics.chain(mdh, q)
     for table, residual in ((dh, res_dh), (back, res_back)):
@@ -158,12 +158,12 @@ def test_a_flange_turned_half_way_round_is_read_off_exactly():
     mdh[5, ALPHA] = np.pi - 0.003
     mdh[5, BETA] = 0.002
     mdh[5, A] = 0.4
-    back, residual = chains.dh_to_mdh(mdh, reference)
+    back, residual = conventions.dh_to_mdh(mdh, reference)
     np.testing.assert_allclose(back, mdh, atol=1e-9)
     np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
     # Standard DH (no beta6) of the same flange without beta6: exact as well.
     mdh[5, BETA] = 0.0
-    dh, residual = chains.mdh_to_dh(mdh, reference)
+    dh, residual = conventions.mdh_to_dh(mdh, reference)
     np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
     assert dh[5, ALPHA] == pytest.approx(np.pi - 0.003, abs=1e-9) and dh[5, BETA] == 0.0
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from cli_testkit import cli
 
-from calibrator import progress
+from calibrator.cli import progress
 from calibrator.identify import pso
 
 

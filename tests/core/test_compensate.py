@@ -5,9 +5,10 @@ import pandas as pd
 import pytest
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import compensate, frames, kinematics, session, simulate
+from calibrator import compensate, session, simulate
 from calibrator.calibration import Calibration
 from calibrator.identify import pipeline
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 

@@ -10,9 +10,10 @@ from cli_testkit import cli, one_line_error
 from export_kit import rot
 from scipy.spatial.transform import Rotation
 
-from calibrator import compensate, frames, kinematics, parameters, simulate
+from calibrator import compensate, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import frames, kinematics, parameters
 from calibrator.models import get_model
 
 UR10E = get_model("ur10e")

@@ -5,9 +5,10 @@ import pandas as pd
 import pytest
 from test_cli import run
 
-from calibrator import compensate, parameters, simulate
+from calibrator import compensate, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import parameters
 from calibrator.models import get_model
 
 

@@ -7,7 +7,8 @@ import re
 import numpy as np
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import calibration, frames
+from calibrator import calibration
+from calibrator.model import frames
 
 
 def test_base_and_tool_deltas_agree_in_report_json_and_csv(tmp_path):

@@ -10,10 +10,11 @@ import yaml
 import yourdfpy
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import export, frames, kinematics, simulate
+from calibrator import export, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 
@@ -179,7 +180,7 @@ def test_cli_export_formats(tmp_path):
 
 
 def test_ros_kinematics_imports_as_nominal(tmp_path):
-    from calibrator import nominal
+    from calibrator.model import nominal
 
     cal = calibrated(a6_alpha6=False)
     path = tmp_path / "kin.yaml"
@@ -234,7 +235,7 @@ def test_ur_published_kinematics_yaml(model):
     """UR's own files: our catalogue table, our import and our export agree with them."""
     from pathlib import Path
 
-    from calibrator import nominal
+    from calibrator.model import nominal
 
     path = Path(__file__).parents[2] / "fixtures" / "ur" / "description"
     path = path / f"{model}_default_kinematics.yaml"

@@ -8,9 +8,10 @@ import pytest
 import yaml
 from export_kit import calibrated, rot, urdf_origin
 
-from calibrator import export, kinematics
+from calibrator import export
 from calibrator.errors import CalibrationError
 from calibrator.export import ros
+from calibrator.model import kinematics
 
 JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calibrator import kinematics, nominal
 from calibrator.calibration import Calibration
 from calibrator.export import ur
+from calibrator.model import kinematics, nominal
 from calibrator.models import get_model
 
 DATA = json.loads(

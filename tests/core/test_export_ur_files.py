@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from export_kit import calibrated, poses
 
-from calibrator import export, kinematics
+from calibrator import export
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 KEYS = ("delta_theta", "delta_a", "delta_d", "delta_alpha")
@@ -162,7 +163,7 @@ def test_exported_angle_deltas_lie_within_plus_minus_pi(tmp_path):
     angle delta is in (-pi, pi] and the chain is unchanged."""
     from test_export_ur import SETS, write_ur_file
 
-    from calibrator import nominal
+    from calibrator.model import nominal
 
     for i, delta_set in enumerate(SETS):
         write_ur_file(tmp_path / "f.conf", delta_set)

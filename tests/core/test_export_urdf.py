@@ -14,7 +14,8 @@ import pytest
 import yourdfpy
 from export_kit import calibrated, poses, rot, urdf_origin
 
-from calibrator import export, kinematics
+from calibrator import export
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 REVOLUTE = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")

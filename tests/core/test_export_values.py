@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from calibrator.cli import main
-from calibrator.kinematics import COLUMNS
+from calibrator.model.kinematics import COLUMNS
 from calibrator.models import get_model
 
 NOMINAL = get_model("er10l-c10").mdh

@@ -4,8 +4,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.stats import qmc
 
-from calibrator import frames
 from calibrator.identify.halton import halton
+from calibrator.model import frames
 
 
 def test_rotvec_conversions_match_scipy_including_tiny_and_half_turns():

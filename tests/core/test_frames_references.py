@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import frames
+from calibrator.model import frames
 
 
 def test_a_transform_is_checked_for_shape_last_row_and_a_proper_rotation():

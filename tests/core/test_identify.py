@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from session_kit import simulated
 
-from calibrator.identify import pipeline, pso, refine, report
+from calibrator.identify import accuracy, pipeline, pso, refine
 from calibrator.identify.problem import Problem
 
 
@@ -40,7 +40,7 @@ def test_seed_case_with_noise_holds_out_to_the_noise_floor(tmp_path, seed):
 
 
 def held_out_mean(space, x, obs):
-    return report.error_stats(space, x, obs)["position_mm"]["mean"]
+    return accuracy.error_stats(space, x, obs)["position_mm"]["mean"]
 
 
 @pytest.mark.parametrize("orientation", [False, True])
@@ -88,7 +88,7 @@ def test_methods_agree_on_the_least_squares_optimum(tmp_path):
 
 
 def test_swarm_objective_equals_the_sum_of_squared_residuals(tmp_path):
-    from calibrator import measurement
+    from calibrator.model import measurement
 
     loaded, _ = simulated(
         tmp_path,

@@ -13,9 +13,9 @@ import re
 import numpy as np
 import pytest
 
-from calibrator import parameters
 from calibrator.cli import main
-from calibrator.kinematics import FIELDS
+from calibrator.model import parameters
+from calibrator.model.kinematics import FIELDS
 from calibrator.models import get_model
 
 NOMINAL = get_model("er10l-c10").mdh

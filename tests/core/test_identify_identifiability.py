@@ -11,13 +11,13 @@ import warnings
 import numpy as np
 import pytest
 
-from calibrator import measurement, parameters
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import identifiability as idf
 from calibrator.identify.problem import Problem
+from calibrator.model import measurement, parameters
 from calibrator.models import get_model
 
-# Plausible ranges (see calibrator.parameters.PLAUSIBLE): a1 1 mm, alpha1 0.01 rad,
+# Plausible ranges (see calibrator.model.parameters.PLAUSIBLE): a1 1 mm, alpha1 0.01 rad,
 # base_tx 5 mm, base_rx 0.02 rad.
 NAMES = ["a1", "alpha1", "base_tx", "base_rx"]
 RANGES = np.array([1.0, 0.01, 5.0, 0.02])

@@ -13,8 +13,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 from session_kit import simulated, written
 
-from calibrator import kinematics, session
+from calibrator import session
 from calibrator.identify import pipeline, pso
+from calibrator.model import kinematics
 from calibrator.models import get_model
 from calibrator.simulate import SEED_ERRORS, simulate
 

@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from calibrator import measurement, parameters, session
+from calibrator import session
 from calibrator.identify import levmar, pipeline, refine
 from calibrator.identify.problem import Problem
+from calibrator.model import measurement, parameters
 from calibrator.models import get_model
 from calibrator.simulate import simulate
 

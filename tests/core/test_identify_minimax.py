@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import frames, kinematics, measurement, parameters
 from calibrator.identify import minimax
 from calibrator.identify.problem import Problem
+from calibrator.model import frames, kinematics, measurement, parameters
 from calibrator.models import get_model
 
 K = 1.0e4

@@ -9,8 +9,8 @@ arm, squared position errors, and ``k (3 - trace(R_meas^T R_model))``.
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics, measurement, parameters
 from calibrator.identify.problem import Problem
+from calibrator.model import frames, kinematics, measurement, parameters
 from calibrator.models import get_model
 
 K = 1.0e4

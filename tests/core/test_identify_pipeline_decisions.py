@@ -12,9 +12,10 @@ import pyarrow as pa
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, measurement, parameters, session
+from calibrator import session
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import freeset, pipeline
+from calibrator.model import kinematics, measurement, parameters
 from calibrator.models import get_model
 
 

@@ -15,9 +15,9 @@ import pytest
 from scipy import stats
 from scipy.optimize import least_squares
 
-from calibrator import frames, measurement, parameters
 from calibrator.identify import refine, robust
 from calibrator.identify.problem import Problem
+from calibrator.model import frames, measurement, parameters
 from calibrator.models import get_model
 
 K = 1.0e4

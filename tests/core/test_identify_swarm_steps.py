@@ -9,10 +9,10 @@ per swarm size; its results must not depend on earlier calls.
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics, measurement, parameters
 from calibrator.identify import pso
 from calibrator.identify.halton import halton
 from calibrator.identify.problem import Problem
+from calibrator.model import frames, kinematics, measurement, parameters
 from calibrator.models import get_model
 
 

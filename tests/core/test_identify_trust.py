@@ -8,10 +8,11 @@ import pyarrow as pa
 import pytest
 from cli_process import run_cli
 
-from calibrator import frames, session
+from calibrator import session
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import pipeline
 from calibrator.identify.problem import Problem
+from calibrator.model import frames
 from calibrator.simulate import simulate
 
 DEG = np.pi / 180
@@ -280,7 +281,7 @@ def test_the_default_loss_is_least_squares_and_the_cli_writes_the_new_keys(tmp_p
 
 @pytest.mark.parametrize("frame", ["base", "tracker"])
 def test_swarm_objective_with_the_full_tool_frame_matches_the_residuals(frame):
-    from calibrator import measurement, parameters
+    from calibrator.model import measurement, parameters
 
     robot, true = arms.truth_arm("ur10e", seed=3)
     q = arms.joints(robot, 12, seed=4)

@@ -9,9 +9,9 @@ sandwich written out with plain matrix inverses.
 import numpy as np
 import pytest
 
-from calibrator import frames, measurement, parameters
 from calibrator.identify import uncertainty
 from calibrator.identify.problem import Problem
+from calibrator.model import frames, measurement, parameters
 from calibrator.models import get_model
 
 K = 1.0e4

@@ -7,7 +7,7 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics
+from calibrator.model import kinematics
 from calibrator.models import MODEL_NAMES, get_model
 
 FIXTURES = Path(__file__).parents[2] / "fixtures" / "ur"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 

@@ -10,8 +10,8 @@ import numpy as np
 from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
-from calibrator import frames, kinematics
 from calibrator.identify.halton import halton
+from calibrator.model import frames, kinematics
 
 
 def reference_chain(mdh, q):

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import frames, measurement
+from calibrator.model import frames, measurement
+from calibrator.model.parameters import ParameterSpace
 from calibrator.models import get_model
-from calibrator.parameters import ParameterSpace
 
 FREE = ("a2", "theta3", "d4", "base_tx", "base_rz", "tool_x", "tool_rx")
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from calibrator.errors import CalibrationError
-from calibrator.kinematics import ALPHA, BETA, THETA, A, D
+from calibrator.model.kinematics import ALPHA, BETA, THETA, A, D
 from calibrator.models import MODEL_NAMES, RobotModel, get_model
 
 # name: (d1, a2, a3, d4, d5, d6) in metres, from UR's DH article.

@@ -7,9 +7,10 @@ import yaml
 from export_kit import calibrated, poses
 from test_export_ur_files import ur_file
 
-from calibrator import export, kinematics, nominal
+from calibrator import export
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
+from calibrator.model import kinematics, nominal
 from calibrator.models import get_model
 from calibrator.session import SessionMeta
 

@@ -8,11 +8,11 @@ with range), averaged over 10 readings per pose, as ``measure`` records it.
 import numpy as np
 import pytest
 
-from calibrator import measurement, parameters
 from calibrator import session as sessions
 from calibrator.identify import refine, robust
 from calibrator.identify.pipeline import Options, identify
 from calibrator.identify.problem import Problem
+from calibrator.model import measurement, parameters
 from calibrator.models import get_model
 from calibrator.simulate import NoiseModel, simulate
 

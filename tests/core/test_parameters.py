@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from calibrator import frames, measurement, parameters
+from calibrator.model import frames, measurement, parameters
+from calibrator.model.parameters import ALL_NAMES, ParameterSpace
 from calibrator.models import get_model
-from calibrator.parameters import ALL_NAMES, ParameterSpace
 
 SEED_24 = [
     "a1",

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import frames, parameters
 from calibrator.errors import IdentifiabilityError
+from calibrator.model import frames, parameters
+from calibrator.model.parameters import ALL_NAMES, ParameterSpace
 from calibrator.models import get_model
-from calibrator.parameters import ALL_NAMES, ParameterSpace
 
 
 def test_every_name_has_its_unit_and_plausible_size():

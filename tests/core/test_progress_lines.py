@@ -7,11 +7,11 @@ from types import SimpleNamespace
 
 import pytest
 
-from calibrator import progress
+from calibrator.cli import progress
 
 
 class Clock:
-    """Stands in for ``time`` in calibrator.progress: the test sets the time."""
+    """Stands in for ``time`` in calibrator.cli.progress: the test sets the time."""
 
     def __init__(self):
         self.now = 100.0

@@ -7,8 +7,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from calibrator import frames, session
+from calibrator import session
 from calibrator.errors import SessionError
+from calibrator.model import frames
 from calibrator.models import get_model
 from calibrator.simulate import simulate
 

@@ -13,8 +13,9 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, session
+from calibrator import session
 from calibrator.errors import SessionError
+from calibrator.model import kinematics
 from calibrator.models import MODEL_NAMES, get_model
 
 META = {"format": "calibrator.session", "version": 1, "frame": "tracker", "model": "ur5e"}

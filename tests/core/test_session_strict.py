@@ -82,7 +82,7 @@ def test_small_joint_values_in_degrees_do_not_pass_as_radians(tmp_path):
     rng = np.random.default_rng(2)
     table, meta = _simulated("ur10e", poses=30)
     q = rng.uniform(-3.0, 3.0, (30, 6))  # degrees, small: would be legal radians
-    from calibrator import kinematics
+    from calibrator.model import kinematics
 
     points = kinematics.forward(np.asarray(meta["nominal_mdh"]), q / RAD2DEG)[:, :3, 3]
     for i, name in enumerate(JOINTS):

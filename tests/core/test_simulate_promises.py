@@ -13,8 +13,9 @@ import pytest
 from cli_testkit import cli, one_line_error
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, session
+from calibrator import session
 from calibrator import simulate as sim
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 # Seed 003, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed again from the

@@ -19,8 +19,8 @@ from external_cell import Watching, start_player, tracker_simulator
 from grammars import PARSERS
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import kinematics
 from calibrator import plan as plans
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 ARM = "kuka-kr6-r900"

@@ -33,8 +33,8 @@ from cli_process import run_cli
 from external_cell import TOOL_MM, Watching, first_poses, tracker_simulator
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 SKIPPED = 9

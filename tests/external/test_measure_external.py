@@ -134,7 +134,7 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path, plan40):
 
 def _moved(plan_path, out_path, shifts_mm):
     """A copy of the plan: poses {pose: mm} put the reflector that far off (turning joint 1)."""
-    from calibrator import frames, kinematics
+    from calibrator.model import frames, kinematics
     from calibrator.models import get_model
 
     plan = plans.read_plan(plan_path)

@@ -12,8 +12,8 @@ from cli_testkit import cli, listing, one_line_error
 from plan_testkit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell as cells
-from calibrator import frames, kinematics
 from calibrator import plan as plans
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 ARM = get_model("ur10e")

@@ -14,10 +14,10 @@ import time
 import numpy as np
 from external_cell import TOOL_MM, first_poses
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
 from calibrator.acquire import ports
 from calibrator.acquire.run import MeasureRun, RunOptions
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.external.setup import ExternalOptions

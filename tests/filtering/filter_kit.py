@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator import compensate, frames, kinematics, parameters, simulate
+from calibrator import compensate, simulate
 from calibrator.calibration import Calibration
 from calibrator.filtering import Job, configuration, frames_file, rotations
+from calibrator.model import frames, kinematics, parameters
 from calibrator.models import get_model
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])

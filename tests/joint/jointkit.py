@@ -2,8 +2,9 @@
 
 import numpy as np
 
-from calibrator import frames, joint_terms, kinematics, mass_models, models, session, simulate
+from calibrator import models, session, simulate
 from calibrator.identify import pipeline
+from calibrator.model import frames, joint_terms, kinematics, mass_models
 
 
 def sessions(
@@ -19,7 +20,7 @@ def sessions(
 ):
     """One simulated 6-DoF session (base frame) per payload, and the truth.
 
-    ``terms`` is a :class:`calibrator.joint_terms.JointTerms` applied to the
+    ``terms`` is a :class:`calibrator.model.joint_terms.JointTerms` applied to the
     read-back angles: ``q_true = q_eff(q_read)``; the gravity torques come from
     the model's published mass model and each session's payload (a point mass
     100 mm out on the flange axis, the probe's side). ``narrow_first=(n, f)``

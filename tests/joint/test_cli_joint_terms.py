@@ -8,7 +8,8 @@ import pytest
 from cli_testkit import cli, listing, one_line_error
 from jointkit import sessions
 
-from calibrator import frames, joint_terms, kinematics, mass_models, session
+from calibrator import session
+from calibrator.model import frames, joint_terms, kinematics, mass_models
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)

@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 from jointkit import geometric_fit, merged, sessions
 
-from calibrator import joint_fit, joint_terms, kinematics, mass_models, measurement, models
+from calibrator import models
 from calibrator.errors import CalibrationError
+from calibrator.identify import joint_fit
 from calibrator.identify.problem import Problem
-from calibrator.parameters import ParameterSpace
+from calibrator.model import joint_terms, kinematics, mass_models, measurement
+from calibrator.model.parameters import ParameterSpace
 
 
 def _terms(scale=None, cos=None, sin=None, comp=None):

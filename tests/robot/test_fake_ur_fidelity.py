@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from robot_testkit import wait_until
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 from drivers.robot.fake_ur.controller import (
     HOME_Q,

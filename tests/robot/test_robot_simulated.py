@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator.kinematics import forward, parallel_axes
+from calibrator.model.kinematics import forward, parallel_axes
 from calibrator.models import get_model
 from calibrator.simulate import random_errors
 from drivers.robot.simulated import SimulatedRobot

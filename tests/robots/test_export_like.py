@@ -9,10 +9,11 @@ import pytest
 import yourdfpy
 from robot_files import KUKA, with_geometry
 
-from calibrator import kinematics, parameters, simulate
+from calibrator import simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import export_like
+from calibrator.model import kinematics, parameters
 from calibrator.models import get_model
 
 

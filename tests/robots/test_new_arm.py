@@ -7,10 +7,11 @@ import textwrap
 import numpy as np
 import pytest
 
-from calibrator import cell, export, mass_models, robots, session
+from calibrator import cell, export, robots, session
 from calibrator import plan as plans
 from calibrator.calibration import Calibration
 from calibrator.identify.pipeline import Options, identify
+from calibrator.model import mass_models
 from calibrator.models import get_model
 from calibrator.simulate import simulate
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from calibrator import cell, kinematics, robots
+from calibrator import cell, robots
 from calibrator import plan as plans
+from calibrator.model import kinematics
 from calibrator.models import get_model
 
 DATA = Path(robots.__file__).with_name("data")

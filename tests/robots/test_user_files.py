@@ -8,7 +8,7 @@ import pytest
 import yourdfpy
 from robot_files import KUKA, with_geometry
 
-from calibrator import kinematics
+from calibrator.model import kinematics
 from calibrator.models import get_model
 from calibrator.robots import DescriptionError
 
@@ -226,7 +226,7 @@ def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
 
 
 def test_a_description_files_masses_are_its_mass_model(tmp_path):
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     path = tmp_path / "arm.yaml"
     masses = "masses:\n  mass_kg: [20, 15, 8, 3, 2, 0.5]\n  com_mm: " + str([[0, 0, 10]] * 6) + "\n"

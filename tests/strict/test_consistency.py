@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from calibrator import consistency, parameters
+from calibrator import consistency
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import parameters
 from calibrator.models import get_model
 from calibrator.session import SessionMeta
 

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import frames, iso9283
+from calibrator import iso9283
+from calibrator.model import frames
 from calibrator.models import get_model
 
 

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from cli_testkit import cli, listing, one_line_error
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 ARM = get_model("ur10e")

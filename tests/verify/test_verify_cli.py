@@ -190,7 +190,7 @@ def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrate
 
 
 def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path):
-    from calibrator import frames
+    from calibrator.model import frames
     from calibrator.simulate import SimWorld
 
     done = cli("verify", "-q", "--cycles", "2", "--sim-probe-6dof", "-o", "v.json", cwd=tmp_path)

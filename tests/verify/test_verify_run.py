@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from calibrator import frames
 from calibrator.acquire import verify as run
+from calibrator.model import frames
 from calibrator.models import get_model
 
 TOOL = frames.transform(translation=[0, 0, 100.0])

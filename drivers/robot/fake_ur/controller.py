@@ -9,7 +9,7 @@ than the wall clock so tests stay short.
 
 The arm is a named model from :mod:`calibrator.models` (UR5e by default);
 ``actual_TCP_pose`` is its nominal forward kinematics with the TCP set by
-``setTcp``, the rotation as :func:`calibrator.frames.matrix_to_rotvec` gives it
+``setTcp``, the rotation as :func:`calibrator.model.frames.matrix_to_rotvec` gives it
 (the one conversion of the project, exact near pi).
 
 Power and brakes follow a real controller: an e-stop powers the arm off;
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.models import get_model
 
 # runtime_state values (UR RTDE guide)

@@ -9,11 +9,11 @@ angle fed to the same MDH chain::
             + k_j tau_j                          compliance under gravity torque
 
 ``tau_j`` is the gravity torque about joint ``j`` (N m) from a mass model
-(:mod:`calibrator.mass_models`) and the payload, computed with the nominal
+(:mod:`calibrator.model.mass_models`) and the payload, computed with the nominal
 geometry (a sub-millimetre geometric error changes it by a fraction of a
 per cent). ``s`` is dimensionless, ``c``, ``d`` rad, ``k`` rad/(N m).
 
-Parameter names (in :data:`calibrator.parameters.ALL_NAMES` when wired):
+Parameter names (in :data:`calibrator.model.parameters.ALL_NAMES` when wired):
 ``scale1..6``, ``hcos1..6``, ``hsin1..6``, ``comp1..6``. Every function is
 vectorized over poses (and over a leading batch of term sets).
 """
@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calibrator import kinematics
 from calibrator.errors import CalibrationError
-from calibrator.mass_models import GRAVITY_MM_S2, MassModel
+from calibrator.model import kinematics
+from calibrator.model.mass_models import GRAVITY_MM_S2, MassModel
 
 #: The term groups ``--joint-terms`` accepts, and their parameter name prefixes.
 GROUPS = {"scale": ("scale",), "harmonic": ("hcos", "hsin"), "compliance": ("comp",)}
@@ -278,7 +278,7 @@ def torque_function(
     """
     if not terms.needs_torque:
         return None
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     if not terms.mass_model:
         raise CalibrationError("the compliance terms name no mass model")

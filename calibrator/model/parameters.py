@@ -29,14 +29,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics
 from calibrator.errors import IdentifiabilityError
+from calibrator.model import frames, joint_terms, kinematics
 
 MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMNS)
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
 TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
 TOOL_ROTATION_NAMES = ("tool_rx", "tool_ry", "tool_rz")
-# Opt-in joint error terms (scale, harmonic, compliance), see calibrator.joint_terms.
+# Opt-in joint error terms (scale, harmonic, compliance), see calibrator.model.joint_terms.
 JOINT_TERM_NAMES = joint_terms.NAMES
 ALL_NAMES = MDH_NAMES + BASE_NAMES + TOOL_NAMES + TOOL_ROTATION_NAMES
 #: Every name a space can free: the geometry, then the opt-in joint terms.
@@ -123,7 +123,7 @@ class ParameterSpace:
         return tuple(unit(n) for n in self.free)
 
     def joint_terms(self, x: ArrayLike) -> np.ndarray:
-        """Joint-term values (zeros where not free), shape (..., 24); see calibrator.joint_terms."""
+        """Joint-term values (zeros where not free), shape (..., 24); see model.joint_terms."""
         x = np.asarray(x, dtype=float)
         if not self.has_joint_terms:
             return np.zeros(x.shape[:-1] + (len(JOINT_TERM_NAMES),))

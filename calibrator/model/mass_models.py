@@ -2,7 +2,7 @@
 
 A :class:`MassModel` gives, for each link ``i`` (1..6), its mass and the
 position of its centre of mass in link frame ``i``, the frame at the end of
-``A_1 ... A_i`` in :func:`calibrator.kinematics.chain` (for the UR arms,
+``A_1 ... A_i`` in :func:`calibrator.model.kinematics.chain` (for the UR arms,
 whose tables are standard DH, this is exactly the manufacturer's DH frame).
 
 Sources

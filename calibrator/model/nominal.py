@@ -3,7 +3,7 @@
 Starting an identification from the robot's own factory calibration, rather
 than the catalogue table, measures what the factory calibration leaves.
 Both formats are converted exactly to an MDH table through the joint axes
-(:mod:`calibrator.chains`), keeping the catalogue table's structure
+(:mod:`calibrator.model.conventions`), keeping the catalogue table's structure
 (Hayati's ``beta`` where its axes are parallel) so the same parameters are
 identified.
 """
@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import chains, consistency, kinematics
+from calibrator import consistency
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
+from calibrator.model import conventions, kinematics
 
 if TYPE_CHECKING:
     from calibrator.session import SessionMeta
@@ -80,7 +81,7 @@ def load(path: str | Path, reference: ArrayLike | None = None, model: str | None
         if reference is None:
             reference = ur.nominal_dh(model)
         joints, flange = ros.read(path)
-        mdh, base, offset = chains.fit_links(
+        mdh, base, offset = conventions.fit_links(
             joints, flange, reference, kinematics.parallel_axes(reference, tol=0.1), beta6=True
         )
         source = "ros-kinematics"
@@ -116,7 +117,7 @@ def apply(meta: SessionMeta, path: str | Path) -> str:
         points are in the base frame (that offset would be silently lost).
     """
     imported = load(path, reference=meta.nominal_mdh, model=meta.model)
-    mm, rad = chains.residual_size(imported.base2frame0)
+    mm, rad = conventions.residual_size(imported.base2frame0)
     if meta.frame == "base" and (mm > 1e-6 or rad > 1e-9):
         raise CalibrationError(
             f"{path} moves joint 1's axis by {mm:.3g} mm, {rad:.3g} rad from its base frame; "

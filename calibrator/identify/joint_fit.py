@@ -2,7 +2,7 @@
 
 After :func:`calibrator.identify.pipeline.identify` has fitted the geometry,
 :func:`fit` adds the requested joint-term groups (``scale``, ``harmonic``,
-``compliance``, see :mod:`calibrator.joint_terms`):
+``compliance``, see :mod:`calibrator.model.joint_terms`):
 
 1. the terms join the geometric free set in the *same* free-set decision
    (:func:`calibrator.identify.freeset.offer`: redundancy, then what these
@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import joint_terms, measurement, parameters
-from calibrator.identify import freeset, refine, report, uncertainty
+from calibrator.identify import accuracy, freeset, refine, uncertainty
 from calibrator.identify.problem import Problem
+from calibrator.model import joint_terms, measurement, parameters
 
 if TYPE_CHECKING:
     from calibrator.identify.pipeline import Result
-    from calibrator.mass_models import MassModel
+    from calibrator.model.mass_models import MassModel
     from calibrator.session import Session
 
 #: Up to this many fitting poses cross-validation leaves one out at a time.
@@ -117,7 +117,7 @@ def fit(
     validation : Observations
         Held-out poses (with ``torque`` for compliance).
     groups : tuple of str
-        Requested groups, from :data:`calibrator.joint_terms.GROUPS`.
+        Requested groups, from :data:`calibrator.model.joint_terms.GROUPS`.
     noise_mm : float
         Noise per residual row assumed by the free-set decision.
     payload_kg : ndarray, shape (len(problem),), optional
@@ -193,7 +193,7 @@ def fit(
     final_space, final_x = solve(current, fit_obs)
     unc = uncertainty.analyse(Problem(final_space, fit_obs, problem.k), final_x, validation)
     stats = {
-        part: report.before_after(final_space, final_x, o)
+        part: accuracy.before_after(final_space, final_x, o)
         for part, o in (("fit", fit_obs), ("validation", validation))
     }
     return JointFit(
@@ -366,7 +366,7 @@ def run(
         Payload of every pose of the session (kg).
     groups : tuple of str
         Requested groups.
-    masses : calibrator.mass_models.MassModel or None
+    masses : calibrator.model.mass_models.MassModel or None
         For the gravity torques of compliance.
     payload_com_mm : ndarray, shape (3,)
         Payload centre of mass, flange frame (mm).

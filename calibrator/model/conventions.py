@@ -39,8 +39,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, kinematics
-from calibrator.kinematics import ALPHA, BETA, THETA
+from calibrator.model import frames, kinematics
+from calibrator.model.kinematics import ALPHA, BETA, THETA
 
 #: Axes closer than this (rad) are treated as exactly parallel in standard DH:
 #: the common normal is then taken at the reference ``d``.

@@ -7,11 +7,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import measurement
+from calibrator.model import measurement
 
 if TYPE_CHECKING:
-    from calibrator.measurement import Observations
-    from calibrator.parameters import ParameterSpace
+    from calibrator.model.measurement import Observations
+    from calibrator.model.parameters import ParameterSpace
 
 _AXES = ("x", "y", "z")
 
@@ -21,9 +21,9 @@ def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> dict:
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
     x : array_like, shape (space.size,)
-    obs : calibrator.measurement.Observations
+    obs : calibrator.model.measurement.Observations
 
     Returns
     -------

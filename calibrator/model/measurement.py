@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics
-from calibrator.parameters import (
+from calibrator.model import frames, joint_terms, kinematics
+from calibrator.model.parameters import (
     JOINT_TERM_START,
     N_MDH,
     NAMES_WITH_TERMS,
@@ -72,7 +72,7 @@ def predict(
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
     x : array_like, shape (..., space.size)
     q : array_like, shape (N, 6)
         Joint angles (rad).
@@ -114,7 +114,7 @@ def residuals(space: ParameterSpace, x: ArrayLike, obs: Observations, k: float =
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
     x : array_like, shape (space.size,)
     obs : Observations
     k : float
@@ -172,13 +172,13 @@ def jacobian(
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
     x : array_like, shape (space.size,)
     obs : Observations
     k : float
         Orientation weight.
     names : sequence of str, optional
-        Columns to return, from :data:`calibrator.parameters.ALL_NAMES`;
+        Columns to return, from :data:`calibrator.model.parameters.ALL_NAMES`;
         defaults to ``space.free``.
 
     Returns

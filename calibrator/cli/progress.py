@@ -2,7 +2,7 @@
 
 Progress goes to stderr, so stdout keeps only results. Use::
 
-    from calibrator import progress
+    from calibrator.cli import progress
 
     reporter = progress.Reporter.for_cli(quiet)          # mode from stderr: a tty or not
     with reporter.task("swarm", total=generations, unit="generations") as task:
