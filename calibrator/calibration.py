@@ -786,10 +786,10 @@ def _model_name(name: str | None) -> str | None:
     Model names compare case-insensitively everywhere (``--model UR10e``), so
     a hand-written file's spelling must not make it "another arm".
     """
-    from calibrator.models import MODEL_NAMES
+    from calibrator import robots
 
     key = name.strip().lower() if name is not None else None
-    return key if key in MODEL_NAMES else name
+    return key if key in robots.names() else name
 
 
 def _check_fixed(mdh, nominal, free, where):

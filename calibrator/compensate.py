@@ -477,12 +477,11 @@ def run(
     -------
     Report
     """
-    from calibrator import outputs
-    from calibrator.models import get_model
+    from calibrator import outputs, robots
 
     limits = None
     try:
-        limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
+        limits = robots.get(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
     tally = _Tally()

@@ -47,8 +47,8 @@ from calibrator.identify.halton import halton
 from calibrator.model import kinematics, measurement, parameters
 
 if TYPE_CHECKING:
+    from calibrator import robots
     from calibrator.cell import Cell
-    from calibrator.models import RobotModel
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
 ANGLE_SCALE_MM = 1000.0
@@ -773,7 +773,7 @@ def distinct(q: ArrayLike) -> np.ndarray:
 
 
 def make_checked(
-    model: RobotModel,
+    model: robots.RobotDescription,
     n: int,
     cell: Cell,
     tool_mm: ArrayLike,
@@ -804,7 +804,7 @@ def make_checked(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     n : int
     cell : calibrator.cell.Cell
     tool_mm : array_like, shape (3,)

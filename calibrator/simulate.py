@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calibrator import robots
 from calibrator.model import frames, kinematics, parameters
-from calibrator.models import get_model
 from calibrator.robots import ipso_paper
 
 if TYPE_CHECKING:
@@ -181,7 +181,7 @@ class SimWorld:
 
     Attributes
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The nominal arm (what the session says it measured).
     seed : int
     true_mdh : ndarray, shape (6, 5)
@@ -226,7 +226,7 @@ class SimWorld:
         errors; it draws from its own stream, so the hidden arm is the same
         with or without it.
         """
-        model = get_model(model_name)
+        model = robots.get(model_name)
         rng = np.random.default_rng(seed)
         true_mdh = model.mdh + random_errors(model.mdh, rng, mm=0.5, rad=1e-3)
         offset = rng.standard_normal(3)
@@ -380,7 +380,7 @@ def simulate(
     from calibrator import session  # the session module imports the model layer
 
     rng = np.random.default_rng(seed)
-    robot = get_model(model)
+    robot = robots.get(model)
     errors = "ref003" if errors == "seed" else errors  # its old name
     if errors == "ref003":
         if robot.reference_errors is None:

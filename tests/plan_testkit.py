@@ -13,9 +13,9 @@ def checked_plan():
     """
     from calibrator import cell as cells
     from calibrator import plan as plans
-    from calibrator.models import get_model
+    from calibrator import robots
 
     cell = cells.Cell(tracker_at_mm=CHECKED_PLAN_TRACKER_MM)
-    made = plans.make_checked(get_model("ur10e"), 10, cell, (0, 0, 100), seed=0).plan
+    made = plans.make_checked(robots.get("ur10e"), 10, cell, (0, 0, 100), seed=0).plan
     assert made.n_vias, "the shared plan is meant to have vias"
     return made

@@ -148,7 +148,7 @@ class MeasureRun:
     ----------
     robot : calibrator.acquire.ports.Robot
     tracker : calibrator.acquire.ports.Tracker
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The named arm (nominal MDH, joint limits).
     options : RunOptions
     output : Path

@@ -89,7 +89,7 @@ def make_plan(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The controller's nominal model.
     flange2tool : array_like, shape (4, 4)
         Nominal TCP on the flange (mm): the cube and the test poses use it,
@@ -150,7 +150,7 @@ def admissible(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     flange2tool : array_like, shape (4, 4)
         Tool on the flange, mm: its origin is the reflector the capsule model carries.
     cell : calibrator.cell.Cell, optional

@@ -200,7 +200,7 @@ def build(
     model : str
         ``'paper'`` (the misalignment paper's arm, Craig DH: lengths ``a0..a5``
         are ``a_{i-1}``, ``d1..d6`` are ``d_i``) or a name known to
-        :func:`calibrator.models.get_model` (Hayati MDH: ``a1..a6``, ``d1..d6``).
+        :func:`calibrator.robots.get` (Hayati MDH: ``a1..a6``, ``d1..d6``).
     pose_deg : array_like, shape (6,), optional
         Joint angles (deg); the paper's pose for ``'paper'``, zeros otherwise.
     lengths : dict of str to float, optional
@@ -210,7 +210,7 @@ def build(
     -------
     PosedArm
     """
-    from calibrator import models
+    from calibrator import robots
 
     lengths = dict(lengths or {})
     key = (model or PAPER).strip()
@@ -232,7 +232,7 @@ def build(
         table[:, 0] *= _DEG
         pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
         return craig_arm(table, pose * _DEG, name=misalignment_paper.TITLE)
-    described = models.get_model(key)
+    described = robots.get(key)
     mdh = described.mdh.copy()
     for name, value in lengths.items():
         mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value

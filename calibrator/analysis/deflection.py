@@ -494,21 +494,21 @@ def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray,
 
 
 def named_arm(model: str, sections: dict[int, Section], masses: object = None) -> FlexArm:
-    """A named model (MDH table of :mod:`calibrator.models`) with flexible links.
+    """A named model (MDH table of :mod:`calibrator.robots`) with flexible links.
 
     Parameters
     ----------
     model : str
-        A name known to :func:`calibrator.models.get_model`.
+        A name known to :func:`calibrator.robots.get`.
     sections : dict of int to Section
         Flexible links (1..6).
     masses : MassModel, optional
         Defaults to the model's published mass model.
     """
-    from calibrator import models
+    from calibrator import robots
     from calibrator.model import kinematics, mass_models
 
-    m = models.get_model(model)
+    m = robots.get(model)
     mm = mass_models.get(m.name) if masses is None else masses
     mdh = np.array(m.mdh)
 

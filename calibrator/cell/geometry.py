@@ -97,7 +97,7 @@ def arm_geometry(
     Parameters
     ----------
     model : str or RobotDescription
-        The arm's description, or its name (:func:`calibrator.models.get_model`).
+        The arm's description, or its name (:func:`calibrator.robots.get`).
     mdh : array_like, shape (6, 5)
         The model's nominal MDH table (mm, rad).
     tool_mm : array_like, shape (3,)

@@ -96,7 +96,7 @@ def deflection(
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
 
-    from calibrator import models, outputs
+    from calibrator import outputs, robots
     from calibrator.analysis import deflection as dfl
     from calibrator.model import mass_models
 
@@ -129,7 +129,7 @@ def deflection(
         source = masses or from_file or model
         arm = dfl.named_arm(model, table, mass_models.resolve(source))
         prismatic = [False] * 6
-        limits = models.get_model(model).joint_limits_rad
+        limits = robots.get(model).joint_limits_rad
         q0 = (
             np.zeros(6) if start is None else np.array(_vector(start, "--start", prismatic, limits))
         )

@@ -32,10 +32,10 @@ def _errors_choice(value: str | None):
 
 def _has_reference_errors(model: str) -> bool:
     """Whether the arm's description carries a paper's table of true errors."""
-    from calibrator.models import get_model
+    from calibrator import robots
 
     try:
-        return get_model(model).reference_errors is not None
+        return robots.get(model).reference_errors is not None
     except CalibrationError:
         return False  # sim.simulate names the unknown model
 

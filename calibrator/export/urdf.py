@@ -17,10 +17,10 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from calibrator import robots
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
 from calibrator.export.ros import JOINTS, origin_values, origins
-from calibrator.models import get_model
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -43,7 +43,7 @@ def _limits(model):
     if model is None:
         return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
     try:
-        robot = get_model(model)
+        robot = robots.get(model)
     except CalibrationError:
         return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
     return robot.joint_limits_rad, robot.max_joint_speed_rad_s

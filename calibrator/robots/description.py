@@ -12,6 +12,16 @@ arm's name.
 Frames and units: mm and rad; link ``i`` (1..6) is frame ``i`` of
 :func:`calibrator.model.kinematics.chain` (the end of ``A_1 ... A_i``), link 0 the
 robot base frame (MDH frame 0).
+
+Motion ceilings
+---------------
+Every arm carries a fixed ceiling on the speed (1.0 rad/s) and acceleration
+(2.0 rad/s^2, or the lowest published acceleration limit if lower) of the
+moves a calibration run commands. They sit well below the data sheets (UR's
+slowest joints turn at 2.09 rad/s; URScript's default ``movej`` acceleration
+is 1.4 rad/s^2 and ur-rtde accepts up to 40), because a calibration run gains
+nothing from fast moves and a tracker cell is crowded. Options such as
+``--speed``, ``--accel`` and ``--max-speed`` can only lower them.
 """
 
 from __future__ import annotations

@@ -24,15 +24,14 @@ from measure_testkit import session_rows
 
 from calibrator import cell as cells
 from calibrator import plan as plans
-from calibrator import session
+from calibrator import robots, session
 from calibrator.cli import measure as measure_cli
 from calibrator.model import frames
-from calibrator.models import get_model
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.simulated import SimulatedRobot
 from drivers.tracker import read_log
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 FAST = ("--poses", "10", "--readings", "3", "--no-sim-noise", "-q", "-o", "s.parquet")
 SIM_IDENTITY = "CALIBRATOR:TRACKER-SIM:SIM-0001"  # what the tracker simulator says it is
 

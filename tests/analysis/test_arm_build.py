@@ -9,7 +9,7 @@ import pytest
 from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
-from calibrator import models
+from calibrator import robots
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
 from calibrator.model import kinematics
@@ -47,7 +47,7 @@ def test_the_paper_arm_with_overrides_and_a_pose_is_its_craig_chain():
 
 
 def test_a_named_arm_with_overrides_and_a_pose_is_its_mdh_chain():
-    mdh = models.get_model("ur5e").mdh.copy()
+    mdh = robots.get("ur5e").mdh.copy()
     mdh[1, kinematics.A] = -500.0  # a2
     mdh[3, kinematics.D] = 150.0  # d4
     pose = np.array([15.0, -70.0, 80.0, -20.0, 45.0, 100.0])
@@ -56,7 +56,7 @@ def test_a_named_arm_with_overrides_and_a_pose_is_its_mdh_chain():
     np.testing.assert_allclose(posed.base2hand(), expected[:3], atol=1e-9)
     assert posed.name == "ur5e"
     zero = arm.build("ur5e")
-    expected = kinematics.chain(models.get_model("ur5e").mdh, np.zeros((1, 6)))[0]
+    expected = kinematics.chain(robots.get("ur5e").mdh, np.zeros((1, 6)))[0]
     np.testing.assert_allclose(zero.base2hand(), expected[:3], atol=1e-9)
 
 
@@ -77,7 +77,7 @@ def test_an_unknown_length_is_named_with_the_known_ones():
 @pytest.mark.parametrize("pose", [np.zeros(5), [0, 0, np.nan, 0, 0, 0]])
 def test_a_pose_must_be_six_finite_angles(pose):
     with pytest.raises(CalibrationError) as info:
-        arm.mdh_arm(models.get_model("ur5e").mdh, pose)
+        arm.mdh_arm(robots.get("ur5e").mdh, pose)
     assert str(info.value) == (
         f"a pose is six finite joint angles, got shape {np.asarray(pose).shape}"
     )

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import models
+from calibrator import robots
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
 from calibrator.model import kinematics
@@ -25,7 +25,7 @@ def test_elementary_rotations_are_scipys(axis, build):
 
 def test_mdh_arm_with_tilted_axes_matches_the_kinematics():
     # Nonzero beta on every joint: the Ry part of each link tail is exercised.
-    mdh = models.get_model("ur5e").mdh.copy()
+    mdh = robots.get("ur5e").mdh.copy()
     mdh[:, kinematics.BETA] = [0.01, -0.02, 0.015, 0.03, -0.01, 0.02]
     q = np.radians([15.0, -70.0, 80.0, -20.0, 45.0, 100.0])
     posed = arm.mdh_arm(mdh, q)

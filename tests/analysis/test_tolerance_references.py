@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import models
+from calibrator import robots
 from calibrator.analysis import tolerance as tl
 from calibrator.errors import CalibrationError
 from calibrator.model import kinematics
 
-MDH = models.get_model("ur10e").mdh
+MDH = robots.get("ur10e").mdh
 Q = np.random.default_rng(21).uniform(-np.pi, np.pi, (8, 6))
 N_LINK = 30
 

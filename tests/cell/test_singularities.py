@@ -5,11 +5,10 @@ import pytest
 
 from calibrator import cell as cells
 from calibrator import plan as plans
-from calibrator import singularities
+from calibrator import robots, singularities
 from calibrator.cell import checks
-from calibrator.models import get_model
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TRACKER = cells.Cell(tracker_at_mm=(2500.0, 400.0, 300.0))
 
 

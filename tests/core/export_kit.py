@@ -2,10 +2,9 @@
 
 import numpy as np
 
-from calibrator import simulate
+from calibrator import robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.model import frames, kinematics, parameters
-from calibrator.models import get_model
 
 
 def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
@@ -14,7 +13,7 @@ def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
     With ``trailing`` false, ``a6`` and ``alpha6`` keep their nominal values.
     """
     rng = np.random.default_rng(seed)
-    nominal = get_model(model).mdh
+    nominal = robots.get(model).mdh
     mdh = nominal + simulate.random_errors(nominal, rng, mm=mm, rad=rad)
     if not trailing:
         mdh[5, [kinematics.A, kinematics.ALPHA]] = nominal[5, [kinematics.A, kinematics.ALPHA]]

@@ -8,15 +8,14 @@ truth, an outlier pose, the same poses under many noise draws.
 
 import numpy as np
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.model import frames, kinematics
-from calibrator.models import get_model
 from calibrator.simulate import random_errors, sample_joints
 
 
 def truth_arm(model="er10l-c10", seed=0):
     """Nominal table and a true table with seed-sized random errors."""
-    robot = get_model(model)
+    robot = robots.get(model)
     rng = np.random.default_rng(seed)
     return robot, robot.mdh + random_errors(robot.mdh, rng)
 

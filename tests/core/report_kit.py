@@ -29,10 +29,9 @@ def calibration_of(doc):
     """
     import numpy as np
 
-    from calibrator import calibration
-    from calibrator.models import get_model
+    from calibrator import calibration, robots
 
-    nominal = np.asarray(doc.get("nominal_mdh", get_model("ur10e").mdh), dtype=float)
+    nominal = np.asarray(doc.get("nominal_mdh", robots.get("ur10e").mdh), dtype=float)
     deltas = {k: float(v) for k, v in doc.get("deltas", {}).items()}
     free = doc.get("free_parameters", list(deltas))
     mdh = nominal.copy()

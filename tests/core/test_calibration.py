@@ -6,17 +6,16 @@ import numpy as np
 import pytest
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import calibration
+from calibrator import calibration, robots
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
 from calibrator.model import parameters
-from calibrator.models import get_model
 
 
 def result(uncertainty=None):
     """An identification result as the pipeline makes one."""
-    nominal = get_model("ur5e").mdh
+    nominal = robots.get("ur5e").mdh
     free, _ = parameters.structural_candidates(nominal, "base", True)
     space = parameters.ParameterSpace(nominal, free=free)
     x = np.random.default_rng(0).uniform(-1e-3, 1e-3, space.size)

@@ -10,14 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from calibrator import calibration, outputs
+from calibrator import calibration, outputs, robots
 from calibrator.calibration import Calibration, FitReport, Provenance
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
 from calibrator.model import frames, parameters
-from calibrator.models import get_model
 
-NOMINAL = get_model("ur5e").mdh
+NOMINAL = robots.get("ur5e").mdh
 KEYS = ("a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad")
 FREE = parameters.structural_candidates(NOMINAL, "base", True)[0]
 

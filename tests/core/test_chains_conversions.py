@@ -7,9 +7,9 @@ import pytest
 from export_kit import calibrated, poses, rot
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.model import conventions, kinematics
 from calibrator.model.kinematics import ALPHA, BETA, THETA, A, D
-from calibrator.models import get_model
 
 
 def link_by_hand(row):
@@ -42,11 +42,11 @@ def test_an_mdh_table_with_beta6_converts_to_itself():
     cal = calibrated("ur10e", seed=52)
     mdh = cal.mdh.copy()
     mdh[5, BETA] = 0.002
-    back, residual = conventions.dh_to_mdh(mdh, get_model("ur10e").mdh)
+    back, residual = conventions.dh_to_mdh(mdh, robots.get("ur10e").mdh)
     np.testing.assert_allclose(back, mdh, atol=1e-9)
     np.testing.assert_allclose(residual, np.eye(4), atol=1e-9)
     # Standard DH has no beta6: the residual is exactly the turn it leaves.
-    dh, residual = conventions.mdh_to_dh(mdh, get_model("ur10e").mdh)
+    dh, residual = conventions.mdh_to_dh(mdh, robots.get("ur10e").mdh)
     assert np.all(dh[:, BETA] == 0.0)
     assert conventions.residual_size(residual)[1] == pytest.approx(0.002, rel=1e-6)
 
@@ -130,7 +130,7 @@ def round_trip_reproduces(mdh, reference):
 def test_intersecting_axes_with_turned_links_convert_exactly():
     """a = 0 where axes meet (joints 1-2, 4-5, 5-6 of a UR): the x axis lies along
     the common perpendicular, wherever theta turned it."""
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     mdh = nominal.copy()
     mdh[:, THETA] += [0.02, -0.01, 0.015, 0.03, -0.025, 0.01]
     mdh[:, ALPHA] += [0.001, 0.0, 0.0, -0.002, 0.0015, 0.0]
@@ -143,7 +143,7 @@ def test_intersecting_axes_with_turned_links_convert_exactly():
 def test_a_table_with_quarter_turn_thetas_comes_back_unchanged():
     """The ER10L-C10 has theta2 = -90 deg: of the two equivalent x axes, the one
     nearer the reference is kept, so the table comes back as it was."""
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     mdh = calibrated("er10l-c10", seed=56, trailing=False).mdh
     back, _ = round_trip_reproduces(mdh, nominal)
     np.testing.assert_allclose(back, mdh, atol=1e-9)
@@ -152,7 +152,7 @@ def test_a_table_with_quarter_turn_thetas_comes_back_unchanged():
 def test_a_flange_turned_half_way_round_is_read_off_exactly():
     """alpha6 near pi (a flange mounted upside down): arcsin alone gives the wrong
     branch; the table still holds alpha6 and beta6 exactly."""
-    reference = get_model("ur10e").mdh.copy()
+    reference = robots.get("ur10e").mdh.copy()
     reference[5, ALPHA] = np.pi
     mdh = reference.copy()
     mdh[5, ALPHA] = np.pi - 0.003

@@ -5,11 +5,10 @@ import pandas as pd
 import pytest
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import compensate, session, simulate
+from calibrator import compensate, robots, session, simulate
 from calibrator.calibration import Calibration
 from calibrator.identify import pipeline
 from calibrator.model import frames, kinematics
-from calibrator.models import get_model
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +49,7 @@ def targets(n, seed=2):
 def test_corrected_targets_land_within_held_out_error(identified):
     cal, truth, held_out = identified
     q_nom = targets(200)
-    out = compensate.compensate(cal, q_nominal=q_nom, limits=get_model("ur10e").joint_limits_rad)
+    out = compensate.compensate(cal, q_nominal=q_nom, limits=robots.get("ur10e").joint_limits_rad)
     ok = out.solution.ok
     # The simulated errors are large (0.5 deg): a few poses near the edge of
     # the work space have no solution on the real arm; they are reported.

@@ -10,13 +10,12 @@ from cli_testkit import cli, one_line_error
 from export_kit import rot
 from scipy.spatial.transform import Rotation
 
-from calibrator import compensate, simulate
+from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import frames, kinematics, parameters
-from calibrator.models import get_model
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 
 
 def calibrated(seed=5, model="ur10e", tool_xy=(0.0, 0.0)):

@@ -5,15 +5,14 @@ import pandas as pd
 import pytest
 from test_cli import run
 
-from calibrator import compensate, simulate
+from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import parameters
-from calibrator.models import get_model
 
 
 def _calibration(seed=3):
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     errors = simulate.random_errors(nominal, np.random.default_rng(seed), mm=0.3, rad=0.0005)
     free = tuple(np.array(parameters.MDH_NAMES)[errors.ravel() != 0])
     return Calibration(
@@ -39,7 +38,7 @@ def test_blocks_give_the_same_answer_as_one_call(tmp_path, monkeypatch):
     _csv(tmp_path / "t.csv", q)
     report = compensate.run(cal, tmp_path / "t.csv", tmp_path / "o.csv")
     out = pd.read_csv(tmp_path / "o.csv")
-    whole = compensate.compensate(cal, None, q, get_model("ur10e").joint_limits_rad)
+    whole = compensate.compensate(cal, None, q, robots.get("ur10e").joint_limits_rad)
     assert out["target"].tolist() == list(range(30))
     ok = (out["status"] == "ok").to_numpy()
     np.testing.assert_allclose(out.loc[ok, list(compensate.JOINT_COLUMNS)], whole.q[ok], atol=1e-9)

@@ -10,12 +10,11 @@ import yaml
 import yourdfpy
 from test_cli import run  # the CLI as a user runs it: a real process
 
-from calibrator import export, simulate
+from calibrator import export, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
 from calibrator.model import frames, kinematics
-from calibrator.models import get_model
 
 
 def calibrated(a6_alpha6=False, seed=4):
@@ -115,7 +114,7 @@ def test_ur_calibration_converts_back(tmp_path):
     np.testing.assert_allclose(got[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
     np.testing.assert_allclose(got[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
     # UR's form is standard DH: nearly parallel axes 2-3 give a large d.
-    dh = get_model("ur10e").mdh + deltas
+    dh = robots.get("ur10e").mdh + deltas
     assert abs(dh[1, kinematics.D]) > 1000.0
 
 
@@ -151,7 +150,7 @@ def test_json_and_csv_hold_the_whole_model():
     assert free[("joint2", "beta_rad")] == 1 and free[("joint2", "d_mm")] == 0
     assert free[("flange2tool", "x_mm")] == 1 and free[("base2tracker", "x_mm")] == 0
     nominal = table.set_index(["element", "parameter"])["nominal"]
-    assert nominal[("joint1", "d_mm")] == get_model("ur10e").mdh[0, kinematics.D]
+    assert nominal[("joint1", "d_mm")] == robots.get("ur10e").mdh[0, kinematics.D]
 
 
 def test_format_choice():
@@ -201,7 +200,7 @@ def test_identify_with_factory_nominal(tmp_path):
     from calibrator import session
 
     rng = np.random.default_rng(7)
-    nominal_mdh = get_model("ur10e").mdh
+    nominal_mdh = robots.get("ur10e").mdh
     factory = nominal_mdh + simulate.random_errors(nominal_mdh, rng, mm=0.5, rad=0.002)
     factory[5, [kinematics.A, kinematics.ALPHA]] = 0.0
     conf = Calibration(nominal_mdh=factory, mdh=factory, model="ur10e")
@@ -241,7 +240,7 @@ def test_ur_published_kinematics_yaml(model):
     path = path / f"{model}_default_kinematics.yaml"
     q = poses()
     theirs = yaml_fk(yaml.safe_load(path.read_text()), q)
-    catalogue = get_model(model).mdh
+    catalogue = robots.get(model).mdh
     np.testing.assert_allclose(
         kinematics.chain(catalogue, q)[:, :3, 3], theirs[:, :3, 3] * 1000.0, rtol=0, atol=1e-6
     )

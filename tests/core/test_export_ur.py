@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.calibration import Calibration
 from calibrator.export import ur
 from calibrator.model import kinematics, nominal
-from calibrator.models import get_model
 
 DATA = json.loads(
     (Path(__file__).parents[2] / "fixtures" / "ur" / "ur_calibration_test_data.json").read_text()
@@ -81,7 +81,7 @@ def test_factory_deltas_import_reproduce_ur_chain(tmp_path, index):
     np.testing.assert_allclose(ours[:, :3, :3], expected[:, :3, :3], rtol=0, atol=1e-9)
     # Hayati form: beta where axes 2-3 and 3-4 are parallel, small deltas, no
     # huge d (the factory file has d2, d3 of hundreds of metres).
-    nominal_mdh = get_model("ur10").mdh
+    nominal_mdh = robots.get("ur10").mdh
     assert np.all(np.abs(imported.mdh[:, kinematics.D] - nominal_mdh[:, kinematics.D]) < 10.0)
     assert max(abs(d) for d in delta["d_m"]) > 1.0 or index == 0
     np.testing.assert_allclose(imported.flange_offset, np.eye(4), atol=1e-9)
@@ -117,7 +117,7 @@ def test_factory_deltas_export_back(tmp_path, index):
 
 
 def test_ur10_model_reproduces_fw_kinematics_real():
-    mdh = get_model("ur10").mdh
+    mdh = robots.get("ur10").mdh
     for case in DATA["ur10_fw_kinematics_real"]:
         pose = kinematics.chain(mdh, np.array([case["joints_rad"]]))[0]
         np.testing.assert_allclose(

@@ -8,11 +8,10 @@ import numpy as np
 import pytest
 from export_kit import calibrated, poses
 
-from calibrator import export
+from calibrator import export, robots
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
 from calibrator.model import kinematics
-from calibrator.models import get_model
 
 KEYS = ("delta_theta", "delta_a", "delta_d", "delta_alpha")
 
@@ -111,7 +110,7 @@ def test_deltas_keep_the_reference_tables_hayati_lengths(tmp_path):
     keeps that d2 and still describes the same arm."""
     cal = calibrated("ur10e", seed=31, trailing=False)
     deltas, _ = ur.deltas_from_mdh(cal.mdh, "ur10e")
-    reference = get_model("ur10e").mdh.copy()
+    reference = robots.get("ur10e").mdh.copy()
     reference[1, kinematics.D] = 40.0
     mdh, residual = ur.mdh_from_deltas(deltas, "ur10e", reference)
     assert mdh[1, kinematics.D] == pytest.approx(40.0, abs=1e-9)

@@ -14,9 +14,8 @@ import pytest
 import yourdfpy
 from export_kit import calibrated, poses, rot, urdf_origin
 
-from calibrator import export
+from calibrator import export, robots
 from calibrator.model import kinematics
-from calibrator.models import get_model
 
 REVOLUTE = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
 
@@ -122,7 +121,7 @@ def test_urdf_limits_are_the_named_models():
     lower, upper, speed, _ = limits_of(parsed(calibrated("er10l-c10")))
     np.testing.assert_allclose(upper, np.full(6, np.pi), rtol=1e-15)
     np.testing.assert_allclose(lower, -upper, rtol=0)
-    np.testing.assert_allclose(speed, get_model("er10l-c10").max_joint_speed_rad_s)
+    np.testing.assert_allclose(speed, robots.get("er10l-c10").max_joint_speed_rad_s)
 
 
 @pytest.mark.parametrize("model", [None, "my-own-arm"])

@@ -13,11 +13,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from calibrator import robots
 from calibrator.cli import main
 from calibrator.model.kinematics import COLUMNS
-from calibrator.models import get_model
 
-NOMINAL = get_model("er10l-c10").mdh
+NOMINAL = robots.get("er10l-c10").mdh
 #: How to turn a value in the unit its column names into mm / rad.
 TO_INTERNAL = {"mm": 1.0, "rad": 1.0, "deg": np.pi / 180.0}
 

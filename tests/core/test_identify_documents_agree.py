@@ -13,12 +13,12 @@ import re
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.cli import main
 from calibrator.model import parameters
 from calibrator.model.kinematics import FIELDS
-from calibrator.models import get_model
 
-NOMINAL = get_model("er10l-c10").mdh
+NOMINAL = robots.get("er10l-c10").mdh
 
 
 def cli(capsys, *args):

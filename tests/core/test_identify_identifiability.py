@@ -11,11 +11,11 @@ import warnings
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import identifiability as idf
 from calibrator.identify.problem import Problem
 from calibrator.model import measurement, parameters
-from calibrator.models import get_model
 
 # Plausible ranges (see calibrator.model.parameters.PLAUSIBLE): a1 1 mm, alpha1 0.01 rad,
 # base_tx 5 mm, base_rx 0.02 rad.
@@ -257,7 +257,7 @@ def test_require_some_refuses_an_empty_free_set_only():
 
 @pytest.mark.parametrize("k", [0.0, 1.0e4])
 def test_jacobian_on_is_the_derivative_at_the_first_guess(k):
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     free = ("a2", "d3", "theta4", "base_tx", "tool_rx")
     names = ["a2", "theta4", "tool_rx"]  # the columns asked for, a subset of the free
     space = parameters.ParameterSpace(robot.mdh, free=free)

@@ -13,10 +13,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 from session_kit import simulated, written
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.identify import pipeline, pso
 from calibrator.model import kinematics
-from calibrator.models import get_model
 from calibrator.simulate import SEED_ERRORS, simulate
 
 K = 1.0e4  # orientation weight used throughout (mm^2/rad^2)
@@ -69,7 +68,7 @@ def assert_stats(reported, poses, obs):
 
 def outside_the_box_session(tmp_path):
     """ER10L-C10 whose a2 is 5 mm off: outside the swarm's +-2 mm box on MDH lengths."""
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     truth = nominal + SEED_ERRORS
     truth[1, kinematics.A] += 5.0
     tool = np.eye(4)
@@ -191,7 +190,7 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
     # Wrist joint 5 never moves: axes 4 and 6 stay aligned, and the data
     # cannot tell several wrist parameters apart, though the model can. (The
     # tool point is off axis 6: on it, theta4 would move nothing at q5 = 0.)
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     tool = np.eye(4)
     tool[:3, 3] = [30.0, 20.0, 100.0]
     q = np.random.default_rng(0).uniform(-2, 2, (30, 6))

@@ -16,11 +16,10 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.identify import levmar, pipeline, refine
 from calibrator.identify.problem import Problem
 from calibrator.model import measurement, parameters
-from calibrator.models import get_model
 from calibrator.simulate import simulate
 
 
@@ -157,7 +156,7 @@ def test_badly_scaled_meyer_function_reaches_its_known_minimum_like_scipy():
 
 def small_problem(names, q, noise_mm, seed):
     """Position-only problem on ER10L-C10 joint angles ``q`` with the given free names."""
-    space = parameters.ParameterSpace(get_model("er10l-c10").mdh, free=names)
+    space = parameters.ParameterSpace(robots.get("er10l-c10").mdh, free=names)
     rng = np.random.default_rng(seed)
     x = rng.normal(0, 0.02, len(names))
     points = measurement.predict(space, x, q)[:, :3, 3] + rng.normal(0, noise_mm, (len(q), 3))

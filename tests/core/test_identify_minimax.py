@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.identify import minimax
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, kinematics, measurement, parameters
-from calibrator.models import get_model
 
 K = 1.0e4
 TRANSLATION = ("base_tx", "base_ty", "base_tz")
@@ -22,7 +22,7 @@ TRANSLATION = ("base_tx", "base_ty", "base_tz")
 def ball_problem(offsets, seed=0):
     """Observations whose points are the nominal ones plus ``offsets`` (N, 3)."""
     offsets = np.asarray(offsets, dtype=float)
-    space = parameters.ParameterSpace(get_model("er10l-c10").mdh, free=TRANSLATION)
+    space = parameters.ParameterSpace(robots.get("er10l-c10").mdh, free=TRANSLATION)
     q = np.random.default_rng(seed).uniform(-2, 2, (len(offsets), 6))
     nominal = measurement.predict(space, np.zeros(3), q)[:, :3, 3]
     return space, measurement.Observations(q, nominal + offsets)
@@ -33,7 +33,7 @@ OFFSETS = [[-1, 0, 0], [3, 0, 0], [1, 1, 0], [1, -1.5, 0], [1, 0, 1], [0.5, 0.5,
 
 
 def test_pose_errors_are_squared_distance_plus_k_squared_turn():
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     space = parameters.ParameterSpace(robot.mdh, free=("a2", "theta3", "tool_rx"))
     rng = np.random.default_rng(1)
     q = rng.uniform(-2, 2, (4, 6))
@@ -59,7 +59,7 @@ def test_pose_errors_are_squared_distance_plus_k_squared_turn():
 
 @pytest.mark.parametrize("k", [0.0, K])
 def test_pose_error_gradient_matches_finite_differences(k):
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     space = parameters.ParameterSpace(
         robot.mdh, free=("a2", "alpha2", "theta4", "base_tx", "tool_ry")
     )
@@ -192,7 +192,7 @@ def test_at_exactly_all_poses_every_pose_is_a_constraint_from_the_start(monkeypa
 def test_minimax_with_orientation_lowers_the_worst_pose_below_least_squares():
     from calibrator.identify import refine
 
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     space = parameters.ParameterSpace(robot.mdh, free=("a2", "alpha2", "theta3", "d4"))
     rng = np.random.default_rng(6)
     q = rng.uniform(-2, 2, (12, 6))

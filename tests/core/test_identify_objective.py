@@ -9,12 +9,12 @@ arm, squared position errors, and ``k (3 - trace(R_meas^T R_model))``.
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, kinematics, measurement, parameters
-from calibrator.models import get_model
 
 K = 1.0e4
-ROBOT = get_model("er10l-c10")
+ROBOT = robots.get("er10l-c10")
 BASE0 = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
 TOOL0 = frames.transform(frames.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
 

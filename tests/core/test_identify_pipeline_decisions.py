@@ -12,11 +12,10 @@ import pyarrow as pa
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import freeset, pipeline
 from calibrator.model import kinematics, measurement, parameters
-from calibrator.models import get_model
 
 
 def small(n=16, noise_mm=0.0, orientation=False, numbers=None, bad=None, seed=0):
@@ -25,7 +24,7 @@ def small(n=16, noise_mm=0.0, orientation=False, numbers=None, bad=None, seed=0)
     ``numbers``: the pose numbers stored in the table; ``bad``: index of a pose
     whose point is moved 3 mm.
     """
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     true = robot.mdh.copy()  # errors the fit can take up exactly
     true[1, kinematics.A] += 0.3
     true[2, kinematics.ALPHA] -= 0.002
@@ -152,7 +151,7 @@ def test_names_lists_up_to_eight_then_counts_the_rest():
 
 @pytest.mark.parametrize("orientation", [False, True])
 def test_generic_poses_are_the_nominal_arm_at_spread_joints(orientation):
-    robot = get_model("er10l-c10")
+    robot = robots.get("er10l-c10")
     tool = np.eye(4)
     tool[:3, 3] = [0.0, 0.0, 100.0]
     space = parameters.ParameterSpace(robot.mdh, np.eye(4), tool, ("a1",))

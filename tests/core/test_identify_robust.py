@@ -15,10 +15,10 @@ import pytest
 from scipy import stats
 from scipy.optimize import least_squares
 
+from calibrator import robots
 from calibrator.identify import refine, robust
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, measurement, parameters
-from calibrator.models import get_model
 
 K = 1.0e4
 NAMES = ("a2", "alpha2", "d4", "theta5", "base_tx", "base_ty", "base_rz")
@@ -27,7 +27,7 @@ NAMES = ("a2", "alpha2", "d4", "theta5", "base_tx", "base_ty", "base_rz")
 def problem(orientation, n=24, seed=3):
     """Small ER10L-C10 problem: noise 0.05 mm / 1 mrad, pose 5 off by 3 mm,
     and with orientation data pose 11 turned by 20 mrad."""
-    space = parameters.ParameterSpace(get_model("er10l-c10").mdh, free=NAMES)
+    space = parameters.ParameterSpace(robots.get("er10l-c10").mdh, free=NAMES)
     rng = np.random.default_rng(seed)
     q = rng.uniform(-1.5, 1.5, (n, 6))
     x = rng.normal(0, 0.02, len(NAMES))

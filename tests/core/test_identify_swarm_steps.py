@@ -9,11 +9,11 @@ per swarm size; its results must not depend on earlier calls.
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.identify import pso
 from calibrator.identify.halton import halton
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, kinematics, measurement, parameters
-from calibrator.models import get_model
 
 
 def plain_ipso(objective, lower, upper, particles, generations, seed, c1=2.05, c2=2.05):
@@ -72,7 +72,7 @@ def test_a_generator_passed_in_is_left_where_the_plain_loop_leaves_it():
     assert ours.random() == plain.random()
 
 
-ROBOT = get_model("er10l-c10")
+ROBOT = robots.get("er10l-c10")
 TOOL0 = frames.transform(frames.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
 BASE0 = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
 

@@ -9,10 +9,10 @@ sandwich written out with plain matrix inverses.
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.identify import uncertainty
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, measurement, parameters
-from calibrator.models import get_model
 
 K = 1.0e4
 NAMES = ("a2", "alpha2", "a3", "d3", "theta4", "d4", "base_tx", "base_tz", "base_rz")
@@ -20,7 +20,7 @@ NAMES = ("a2", "alpha2", "a3", "d3", "theta4", "d4", "base_tx", "base_tz", "base
 
 def problem(orientation, n=10, seed=4, span=0.3):
     """A space, true deltas and noisy observations of a small ER10L-C10 problem."""
-    space = parameters.ParameterSpace(get_model("er10l-c10").mdh, free=NAMES)
+    space = parameters.ParameterSpace(robots.get("er10l-c10").mdh, free=NAMES)
     rng = np.random.default_rng(seed)
     q = rng.uniform(-span, span, (n, 6))
     x = rng.normal(0, 0.01, len(NAMES))

@@ -7,8 +7,8 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.model import kinematics
-from calibrator.models import MODEL_NAMES, get_model
 
 FIXTURES = Path(__file__).parents[2] / "fixtures" / "ur"
 ROS_JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
@@ -36,7 +36,7 @@ def ros_description_fk(name, q):
 @pytest.mark.parametrize("name", ["ur5e", "ur10e"])
 def test_ur_models_match_the_ros_description(name):
     q = np.random.default_rng(7).uniform(-np.pi, np.pi, (20, 6))
-    ours = kinematics.forward(get_model(name).mdh, q)
+    ours = kinematics.forward(robots.get(name).mdh, q)
     theirs = np.array([ros_description_fk(name, qq) for qq in q])
     # The ROS file rounds pi/2 to 10 digits: 1e-6 mm at 1.3 m reach.
     np.testing.assert_allclose(ours[:, :3, 3], theirs[:, :3, 3], atol=1e-6)
@@ -55,13 +55,13 @@ def test_er10l_flange_positions_worked_by_hand(q_deg, flange_mm):
     """ER10L-C10 at zero: a1 = 170 forward, a2 = 780 up (theta2 = -90 deg),
     a3 = 140 up, then d4 = 1060 and d6 = 125 forward: (1355, 0, 920).
     With q2 = +90 deg the upper arm lies along x0 and the forearm points down."""
-    t = kinematics.forward(get_model("er10l-c10").mdh, np.radians([q_deg]))
+    t = kinematics.forward(robots.get("er10l-c10").mdh, np.radians([q_deg]))
     np.testing.assert_allclose(t[0, :3, 3], flange_mm, atol=1e-9)
 
 
 def test_batches_over_parameter_sets_and_poses():
     rng = np.random.default_rng(1)
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     swarm = nominal + rng.normal(0, 0.01, (4, 3, 6, 5))
     q = rng.uniform(-3, 3, (7, 6))
     out = kinematics.forward(swarm, q)
@@ -72,7 +72,7 @@ def test_batches_over_parameter_sets_and_poses():
 
 
 def test_beta_is_a_turn_about_the_link_y_axis():
-    mdh = get_model("er10l-c10").mdh.copy()
+    mdh = robots.get("er10l-c10").mdh.copy()
     q = np.zeros((1, 6))
     before = kinematics.chain(mdh, q, all_frames=True)[1][0, 2]
     mdh[1, kinematics.BETA] = 0.01
@@ -88,21 +88,21 @@ def test_beta_is_a_turn_about_the_link_y_axis():
 
 def test_all_frames_end_at_the_flange():
     q = np.random.default_rng(2).uniform(-3, 3, (5, 6))
-    flange, link = kinematics.chain(get_model("er10l-c10").mdh, q, all_frames=True)
+    flange, link = kinematics.chain(robots.get("er10l-c10").mdh, q, all_frames=True)
     assert link.shape == (5, 7, 4, 4)
     np.testing.assert_allclose(link[:, 0], np.broadcast_to(np.eye(4), (5, 4, 4)))
     np.testing.assert_allclose(link[:, 6], flange)
 
 
 def test_parallel_axes_of_the_models():
-    assert kinematics.parallel_axes(get_model("er10l-c10").mdh).tolist() == [
+    assert kinematics.parallel_axes(robots.get("er10l-c10").mdh).tolist() == [
         False,
         True,
         False,
         False,
         False,
     ]
-    assert kinematics.parallel_axes(get_model("ur10e").mdh).tolist() == [
+    assert kinematics.parallel_axes(robots.get("ur10e").mdh).tolist() == [
         False,
         True,
         True,
@@ -111,9 +111,9 @@ def test_parallel_axes_of_the_models():
     ]
 
 
-@pytest.mark.parametrize("name", MODEL_NAMES)
+@pytest.mark.parametrize("name", robots.names())
 def test_models_have_joint_limits_and_speeds(name):
-    m = get_model(name)
+    m = robots.get(name)
     assert m.mdh.shape == (6, 5)
     assert np.all(m.joint_limits_rad[:, 0] < m.joint_limits_rad[:, 1])
     assert np.all(m.max_joint_speed_rad_s > 0)

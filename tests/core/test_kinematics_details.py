@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.model import kinematics
-from calibrator.models import get_model
 
 
 def test_parallel_axes_uses_a_tight_angle_tolerance():
@@ -20,7 +20,7 @@ def test_parallel_axes_uses_a_tight_angle_tolerance():
 
 
 def test_a_single_pose_may_be_given_as_one_row():
-    mdh = get_model("ur5e").mdh
+    mdh = robots.get("ur5e").mdh
     q = np.array([0.1, -0.5, 1.0, 0.3, -0.2, 0.7])
     np.testing.assert_array_equal(kinematics.forward(mdh, q), kinematics.forward(mdh, q[None]))
     assert kinematics.check_joints(q.tolist()).shape == (1, 6)
@@ -45,7 +45,7 @@ def test_link_constants_are_tz_tx_rx_ry_written_with_scipy():
 
 def test_the_fast_path_gives_the_flange_rows_only_unless_frames_are_asked():
     rng = np.random.default_rng(4)
-    mdh = get_model("er10l-c10").mdh + rng.normal(0, 0.01, (2, 6, 5))
+    mdh = robots.get("er10l-c10").mdh + rng.normal(0, 0.01, (2, 6, 5))
     q = rng.uniform(-3, 3, (5, 6))
     out = kinematics.chain_parts(
         kinematics.link_constants(mdh),

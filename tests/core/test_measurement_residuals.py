@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.model import frames, measurement
 from calibrator.model.parameters import ParameterSpace
-from calibrator.models import get_model
 
 FREE = ("a2", "theta3", "d4", "base_tx", "base_rz", "tool_x", "tool_rx")
 
@@ -19,7 +19,7 @@ FREE = ("a2", "theta3", "d4", "base_tx", "base_rz", "tool_x", "tool_rx")
 def a_space():
     base = frames.transform(Rotation.from_rotvec([0.3, -0.2, 1.1]).as_matrix(), [2500, 300, -80])
     tool = frames.transform(Rotation.from_rotvec([0.0, 0.4, 0.0]).as_matrix(), [10, -20, 150])
-    return ParameterSpace(get_model("ur10e").mdh, base, tool, FREE)
+    return ParameterSpace(robots.get("ur10e").mdh, base, tool, FREE)
 
 
 def shifted_observations(space, x, rng, n=6):

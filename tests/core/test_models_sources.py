@@ -1,6 +1,6 @@
 """The named models against their published sources, number by number.
 
-The tables below are typed from the sources, not from ``calibrator.models``:
+The tables below are typed from the sources, not from ``calibrator.robots``:
 
 - Universal Robots, "DH parameters for calculations of kinematics and
   dynamics" (UR support article): standard DH, metres and radians,
@@ -16,9 +16,9 @@ The tables below are typed from the sources, not from ``calibrator.models``:
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.errors import CalibrationError
 from calibrator.model.kinematics import ALPHA, BETA, THETA, A, D
-from calibrator.models import MODEL_NAMES, RobotModel, get_model
 
 # name: (d1, a2, a3, d4, d5, d6) in metres, from UR's DH article.
 UR_DH_M = {
@@ -46,7 +46,7 @@ ER10L_TABLE_1 = (
 @pytest.mark.parametrize("name", sorted(UR_DH_M))
 def test_ur_tables_are_the_published_dh_parameters(name):
     d1, a2, a3, d4, d5, d6 = UR_DH_M[name]
-    mdh = get_model(name).mdh
+    mdh = robots.get(name).mdh
     assert mdh.shape == (6, 5)
     assert mdh.dtype == np.float64
     np.testing.assert_allclose(mdh[:, A], np.array([0, a2, a3, 0, 0, 0]) * 1000, atol=1e-9)
@@ -58,7 +58,7 @@ def test_ur_tables_are_the_published_dh_parameters(name):
 
 @pytest.mark.parametrize("name", sorted(UR_DH_M))
 def test_ur_limits_and_speeds_are_those_of_the_ros_description(name):
-    m = get_model(name)
+    m = robots.get(name)
     two_turns = np.radians(360.0)
     expected = np.array([[-two_turns, two_turns]] * 6)
     expected[2] = [-np.pi, np.pi]
@@ -71,7 +71,7 @@ def test_ur_limits_and_speeds_are_those_of_the_ros_description(name):
 
 
 def test_er10l_table_is_table_1_of_the_seed():
-    mdh = get_model("er10l-c10").mdh
+    mdh = robots.get("er10l-c10").mdh
     table = np.array(ER10L_TABLE_1)
     np.testing.assert_allclose(mdh[:, A], table[:, 0], atol=1e-12)
     np.testing.assert_allclose(mdh[:, ALPHA], np.radians(table[:, 1]), atol=1e-15)
@@ -81,35 +81,35 @@ def test_er10l_table_is_table_1_of_the_seed():
 
 
 def test_er10l_joint_range_is_the_seeds_simulation_range():
-    limits = get_model("er10l-c10").joint_limits_rad
+    limits = robots.get("er10l-c10").joint_limits_rad
     np.testing.assert_allclose(limits, np.tile([-np.pi, np.pi], (6, 1)), rtol=1e-15)
 
 
 def test_model_tables_are_read_only_and_fresh_per_call():
-    m = get_model("ur10e")
+    m = robots.get("ur10e")
     for field in (m.mdh, m.joint_limits_rad, m.max_joint_speed_rad_s):
         with pytest.raises(ValueError, match="read-only"):
             field[0] = 1.0
-    assert get_model("ur10e").mdh is not m.mdh
+    assert robots.get("ur10e").mdh is not m.mdh
 
 
 def test_names_are_matched_without_case_or_surrounding_spaces():
-    m = get_model("  UR10E \n")
+    m = robots.get("  UR10E \n")
     assert m.name == "ur10e"
-    np.testing.assert_array_equal(m.mdh, get_model("ur10e").mdh)
-    assert {"er10l-c10", "ur10", "ur10e", "ur5e"} <= set(MODEL_NAMES)
-    assert MODEL_NAMES == tuple(sorted(MODEL_NAMES))
+    np.testing.assert_array_equal(m.mdh, robots.get("ur10e").mdh)
+    assert {"er10l-c10", "ur10", "ur10e", "ur5e"} <= set(robots.names())
+    assert robots.names() == tuple(sorted(robots.names()))
 
 
 def test_an_unknown_name_is_refused_with_the_known_ones():
     with pytest.raises(CalibrationError) as info:
-        get_model("kr16")
-    assert str(info.value) == f"unknown model 'kr16'; known: {', '.join(MODEL_NAMES)}"
+        robots.get("kr16")
+    assert str(info.value) == f"unknown model 'kr16'; known: {', '.join(robots.names())}"
     assert "er10l-c10, fanuc-m20ia, kuka-kr6-r900" in str(info.value)
 
 
 def test_a_model_built_from_integer_lists_holds_read_only_float_arrays():
-    m = RobotModel("arm", [[1, 0, 0, 2, 0]] * 6, [[-3, 3]] * 6, [2] * 6)
+    m = robots.RobotDescription("arm", [[1, 0, 0, 2, 0]] * 6, [[-3, 3]] * 6, [2] * 6)
     for value in (m.mdh, m.joint_limits_rad, m.max_joint_speed_rad_s):
         assert value.dtype == np.float64 and not value.flags.writeable
     assert (m.mdh / 4)[0, 0] == 0.25

@@ -7,11 +7,10 @@ import yaml
 from export_kit import calibrated, poses
 from test_export_ur_files import ur_file
 
-from calibrator import export
+from calibrator import export, robots
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
 from calibrator.model import kinematics, nominal
-from calibrator.models import get_model
 from calibrator.session import SessionMeta
 
 
@@ -62,7 +61,7 @@ def test_ur_deltas_without_a_model_take_the_callers(tmp_path):
     np.testing.assert_array_equal(imported.base2frame0, np.eye(4))
     same_chain(imported.mdh, imported.flange_offset, cal.mdh)
     # A reference table with d2 elsewhere: the table keeps it, same arm.
-    reference = get_model("ur10").mdh.copy()
+    reference = robots.get("ur10").mdh.copy()
     reference[1, kinematics.D] = -25.0
     moved = nominal.load(path, reference=reference, model="ur10")
     assert moved.mdh[1, kinematics.D] == pytest.approx(-25.0, abs=1e-9)
@@ -97,7 +96,7 @@ def test_a_file_that_is_not_a_6r_arm_is_refused(tmp_path):
 def meta(frame="base", model="ur10e"):
     tool = np.eye(4)
     tool[:3, 3] = [1.0, 2.0, 150.0]
-    return SessionMeta(frame, get_model("ur10e").mdh, model, tool)
+    return SessionMeta(frame, robots.get("ur10e").mdh, model, tool)
 
 
 def test_apply_makes_the_file_the_sessions_nominal(tmp_path):

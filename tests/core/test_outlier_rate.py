@@ -8,12 +8,12 @@ with range), averaged over 10 readings per pose, as ``measure`` records it.
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator import session as sessions
 from calibrator.identify import refine, robust
 from calibrator.identify.pipeline import Options, identify
 from calibrator.identify.problem import Problem
 from calibrator.model import measurement, parameters
-from calibrator.models import get_model
 from calibrator.simulate import NoiseModel, simulate
 
 NAMES = ("a2", "alpha2", "d3", "a3", "d4", "theta5", "base_tx", "base_ty", "base_rz")
@@ -25,7 +25,7 @@ LM = Options(method="lm")
 
 def session(n, rng, outlier_mm=0.0):
     """A clean (or one-outlier) UR10e session: joints, points; truth deltas."""
-    space = parameters.ParameterSpace(get_model("ur10e").mdh, free=NAMES)
+    space = parameters.ParameterSpace(robots.get("ur10e").mdh, free=NAMES)
     q = rng.uniform(-2.0, 2.0, (n, 6))
     x = rng.normal(0, 0.02, len(NAMES))
     points = measurement.predict(space, x, q)[:, :3, 3]

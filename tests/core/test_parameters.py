@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.model import frames, measurement, parameters
 from calibrator.model.parameters import ALL_NAMES, ParameterSpace
-from calibrator.models import get_model
 
 SEED_24 = [
     "a1",
@@ -44,7 +44,7 @@ def random_frame(rng, distance_mm):
 def test_pack_unpack_round_trip_every_parameter():
     rng = np.random.default_rng(11)
     space = ParameterSpace(
-        get_model("ur10e").mdh, random_frame(rng, 2000), random_frame(rng, 100), ALL_NAMES
+        robots.get("ur10e").mdh, random_frame(rng, 2000), random_frame(rng, 100), ALL_NAMES
     )
     for _ in range(5):
         x = rng.normal(0, 0.05, space.size)
@@ -54,7 +54,7 @@ def test_pack_unpack_round_trip_every_parameter():
 def test_unpack_of_a_swarm_equals_unpack_of_each_particle():
     rng = np.random.default_rng(12)
     space = ParameterSpace(
-        get_model("er10l-c10").mdh,
+        robots.get("er10l-c10").mdh,
         random_frame(rng, 2000),
         np.eye(4),
         ("a2", "beta2", "base_rx", "base_tz", "tool_y"),
@@ -68,7 +68,7 @@ def test_unpack_of_a_swarm_equals_unpack_of_each_particle():
 
 
 def test_pack_ignores_differences_in_fixed_parameters():
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     space = ParameterSpace(nominal, free=("a1", "theta6"))
     mdh = nominal.copy()
     mdh[0, 0] += 0.3  # a1, free
@@ -80,7 +80,7 @@ def test_pack_ignores_differences_in_fixed_parameters():
 def test_jacobian_matches_finite_differences(orientation):
     rng = np.random.default_rng(13)
     space = ParameterSpace(
-        get_model("er10l-c10").mdh, random_frame(rng, 3000), random_frame(rng, 150), ALL_NAMES
+        robots.get("er10l-c10").mdh, random_frame(rng, 3000), random_frame(rng, 150), ALL_NAMES
     )
     q = rng.uniform(-np.pi, np.pi, (9, 6))
     x = rng.normal(0, 0.01, space.size)
@@ -107,7 +107,7 @@ def test_jacobian_matches_finite_differences(orientation):
 
 def prune_for(model, frame, tool_known, orientation, n_poses=30, seed=5):
     rng = np.random.default_rng(seed)
-    nominal = get_model(model).mdh
+    nominal = robots.get(model).mdh
     base = random_frame(rng, 3000) if frame == "tracker" else np.eye(4)
     tool = frames.transform(translation=[20.0, -10.0, 120.0])
     candidates, structural = parameters.structural_candidates(nominal, frame, tool_known)
@@ -160,7 +160,7 @@ def test_too_few_poses_is_refused():
 
 
 def test_full_tool_frame_replaces_joint_6_constant_part():
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     with_rot, dropped = parameters.structural_candidates(nominal, "tracker", False, True)
     assert {"tool_rx", "tool_ry", "tool_rz", "tool_x"} <= set(with_rot)
     assert not {"a6", "alpha6", "theta6", "d6", "beta6"} & set(with_rot)

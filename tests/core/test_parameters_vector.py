@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from calibrator import robots
 from calibrator.errors import IdentifiabilityError
 from calibrator.model import frames, parameters
 from calibrator.model.parameters import ALL_NAMES, ParameterSpace
-from calibrator.models import get_model
 
 
 def test_every_name_has_its_unit_and_plausible_size():
@@ -32,7 +32,7 @@ def test_every_name_has_its_unit_and_plausible_size():
 
 
 def test_free_names_are_checked_deduplicated_and_put_in_canonical_order():
-    nominal = get_model("ur5e").mdh
+    nominal = robots.get("ur5e").mdh
     with pytest.raises(ValueError, match=r"unknown parameter names: \['a7', 'tool'\]"):
         ParameterSpace(nominal, free=("a1", "a7", "tool"))
     space = ParameterSpace(nominal, free=("tool_x", "d2", "base_rx", "a1", "d2"))
@@ -59,7 +59,7 @@ def test_unpack_builds_the_frames_the_docstring_names():
     rng = np.random.default_rng(0)
     base0 = frames.transform(Rotation.from_rotvec([0.2, 1.0, -0.4]).as_matrix(), [2800, -50, 20])
     tool0 = frames.transform(Rotation.from_rotvec([0.5, 0.0, 0.3]).as_matrix(), [5, 6, 140])
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     space = ParameterSpace(nominal, base0, tool0, ALL_NAMES)
     x = rng.normal(0, 0.05, 42)
     mdh, base, tool = space.unpack(x)
@@ -85,7 +85,7 @@ def test_unpack_builds_the_frames_the_docstring_names():
 
 def test_pack_of_frames_alone_and_of_the_table_alone():
     base0 = frames.transform(Rotation.from_rotvec([0.0, 0.0, 1.2]).as_matrix(), [3000, 0, 0])
-    space = ParameterSpace(get_model("ur10e").mdh, base0, np.eye(4), ALL_NAMES)
+    space = ParameterSpace(robots.get("ur10e").mdh, base0, np.eye(4), ALL_NAMES)
     turn = Rotation.from_euler("XYZ", [0.01, -0.02, 0.03]).as_matrix()
     moved = base0 @ frames.transform(turn, [1.0, -2.0, 3.0])
     x = space.pack(base2tracker=moved)
@@ -94,7 +94,7 @@ def test_pack_of_frames_alone_and_of_the_table_alone():
     tool = frames.transform(Rotation.from_euler("XYZ", [0.0, 0.05, 0.0]).as_matrix(), [0, 0, 90])
     y = space.pack(flange2tool=tool)
     np.testing.assert_allclose(y[36:], [0, 0, 90, 0, 0.05, 0], atol=1e-12)
-    mdh = get_model("ur10e").mdh.copy()
+    mdh = robots.get("ur10e").mdh.copy()
     mdh[2, 3] += 0.7
     z = space.pack(mdh=mdh)
     assert z[13] == pytest.approx(0.7) and np.count_nonzero(z) == 1
@@ -102,7 +102,7 @@ def test_pack_of_frames_alone_and_of_the_table_alone():
 
 def test_search_box_by_block_and_unit():
     space = ParameterSpace(
-        get_model("ur5e").mdh, free=("a1", "alpha1", "base_tx", "base_rx", "tool_x", "tool_rz")
+        robots.get("ur5e").mdh, free=("a1", "alpha1", "base_tx", "base_rx", "tool_x", "tool_rz")
     )
     lower, upper = space.bounds()
     np.testing.assert_array_equal(upper, [2.0, 0.04, 10.0, 0.04, 10.0, 0.04])
@@ -112,7 +112,7 @@ def test_search_box_by_block_and_unit():
 
 
 def test_structural_reasons_name_the_axes_and_the_rule():
-    _, dropped = parameters.structural_candidates(get_model("ur10e").mdh, "base", False, True)
+    _, dropped = parameters.structural_candidates(robots.get("ur10e").mdh, "base", False, True)
     reasons = {d["name"]: d["reason"] for d in dropped}
     assert reasons["d2"] == "axes 2 and 3 are parallel: beta2 is identified instead (Hayati)"
     assert reasons["d3"] == "axes 3 and 4 are parallel: beta3 is identified instead (Hayati)"
@@ -125,7 +125,7 @@ def test_structural_reasons_name_the_axes_and_the_rule():
     assert reasons["beta6"] == (
         "no axis after joint 6: a turn about the flange y axis belongs to the tool frame"
     )
-    candidates, _ = parameters.structural_candidates(get_model("ur10e").mdh, "base", False, True)
+    candidates, _ = parameters.structural_candidates(robots.get("ur10e").mdh, "base", False, True)
     assert not any(n.startswith("base_") for n in candidates)
     assert candidates[-6:] == ["tool_x", "tool_y", "tool_z", "tool_rx", "tool_ry", "tool_rz"]
 
@@ -179,7 +179,7 @@ def test_enough_residuals_is_at_least_one_per_free_parameter():
 
 
 def test_a_space_built_from_lists_holds_checked_arrays():
-    nominal = get_model("ur5e").mdh
+    nominal = robots.get("ur5e").mdh
     base0 = frames.transform(translation=[3000.0, 0.0, 0.0])
     space = ParameterSpace(nominal.tolist(), base0.tolist(), np.eye(4).tolist(), ("a1",))
     for value, expected in ((space.nominal_mdh, nominal), (space.base0, base0)):

@@ -3,12 +3,11 @@
 import numpy as np
 import pytest
 
-from calibrator import plausibility
+from calibrator import plausibility, robots
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.model import kinematics
-from calibrator.models import get_model
 
-ROBOT = get_model("er10l-c10")
+ROBOT = robots.get("er10l-c10")
 REACH = 170 + 780 + 140 + 1060 + 125  # sum |a| + sum |d| of the ER10L-C10, mm
 
 

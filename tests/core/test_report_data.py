@@ -5,9 +5,8 @@ import pyarrow as pa
 import pytest
 from report_kit import calibration_of
 
-from calibrator import calibration
+from calibrator import calibration, robots
 from calibrator.errors import CalibrationError
-from calibrator.models import get_model
 from calibrator.report import data
 from calibrator.session import Session
 from calibrator.simulate import simulate
@@ -174,7 +173,7 @@ def known_arm(frame="tracker", errors="none", tool_offset_mm=0.0, poses=12):
     numbers = pa.array([10 * (i + 1) for i in range(poses)], type=table.schema.field("pose").type)
     table = table.set_column(table.schema.get_field_index("pose"), "pose", numbers)
     doc = {
-        "nominal_mdh": get_model("ur10e").mdh.tolist(),
+        "nominal_mdh": robots.get("ur10e").mdh.tolist(),
         "mdh": calibration.mdh_records(truth.mdh),
         "base2tracker": truth.base2tracker.tolist(),
         "flange2tool": truth.flange2tool.tolist(),

@@ -7,11 +7,10 @@ import pytest
 from cli_testkit import cli, listing, one_line_error
 from report_kit import calibration_of
 
-from calibrator import calibration, outputs, report, session
-from calibrator.models import get_model
+from calibrator import calibration, outputs, report, robots, session
 from calibrator.simulate import simulate
 
-NOMINAL = get_model("ur10e").mdh
+NOMINAL = robots.get("ur10e").mdh
 
 
 def document(a2_delta=0.0, **extra):

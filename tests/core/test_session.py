@@ -7,10 +7,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.errors import SessionError
 from calibrator.model import frames
-from calibrator.models import get_model
 from calibrator.simulate import simulate
 
 
@@ -47,7 +46,7 @@ def test_round_trip_keeps_rows_and_metadata(tmp_path):
     loaded = session.load(path)
     assert loaded.table.equals(table)
     assert loaded.meta.frame == "base" and loaded.meta.model == "er10l-c10"
-    np.testing.assert_array_equal(loaded.meta.nominal_mdh, get_model("er10l-c10").mdh)
+    np.testing.assert_array_equal(loaded.meta.nominal_mdh, robots.get("er10l-c10").mdh)
     assert loaded.meta.extra["simulated"]["seed"] == 1
     obs = loaded.observations
     np.testing.assert_allclose(
@@ -61,12 +60,12 @@ def test_a_file_written_by_another_tool_loads(tmp_path):
     loaded = session.load(path)
     assert loaded.table["pose"].to_pylist() == list(range(8))  # sorted by pose
     assert loaded.observations.q.shape == (8, 6) and loaded.observations.rotations is None
-    np.testing.assert_array_equal(loaded.meta.nominal_mdh, get_model("ur5e").mdh)
+    np.testing.assert_array_equal(loaded.meta.nominal_mdh, robots.get("ur5e").mdh)
     np.testing.assert_array_equal(loaded.meta.flange2tool, np.eye(4))
 
 
 def test_nominal_mdh_in_the_file_is_used(tmp_path):
-    mdh = get_model("ur10e").mdh + 0.5
+    mdh = robots.get("ur10e").mdh + 0.5
     meta = dict(BASE_META, nominal_mdh=mdh.tolist())
     del meta["model"]
     loaded = session.load(write_foreign(tmp_path / "m.parquet", foreign_columns(), meta))
@@ -121,4 +120,4 @@ def test_missing_file_not_parquet_and_no_metadata(tmp_path):
 
 def test_model_option_overrides_the_file(tmp_path):
     loaded = session.load(bad(tmp_path), model="ur10e")
-    np.testing.assert_array_equal(loaded.meta.nominal_mdh, get_model("ur10e").mdh)
+    np.testing.assert_array_equal(loaded.meta.nominal_mdh, robots.get("ur10e").mdh)

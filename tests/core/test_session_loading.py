@@ -13,9 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.errors import SessionError
-from calibrator.models import get_model
 
 META = {"format": "calibrator.session", "version": 1, "frame": "tracker", "model": "ur10e"}
 N = 7
@@ -78,7 +77,7 @@ def test_round_trip_equals_the_arrays_written(tmp_path):
     points = rng.normal(0, 800, (N, 3))
     rotvecs = rng.normal(0, 1, (N, 3))
     # A nominal table of its own (not the named model's): the file must carry it.
-    nominal = get_model("er10l-c10").mdh + rng.normal(0, 0.1, (6, 5))
+    nominal = robots.get("er10l-c10").mdh + rng.normal(0, 0.1, (6, 5))
     meta = session.SessionMeta("base", nominal, "er10l-c10")
     path = tmp_path / "s.parquet"
     session.write(path, session.to_table(q, points, rotvecs), meta)
@@ -104,7 +103,7 @@ def refused(path):
 def test_non_finite_metadata_is_refused(tmp_path, key, value):
     poses, q, points, _ = raw_arrays()
     meta = dict(META)
-    matrix = get_model("ur10e").mdh.copy() if key == "nominal_mdh" else np.eye(4)
+    matrix = robots.get("ur10e").mdh.copy() if key == "nominal_mdh" else np.eye(4)
     matrix[2, 0 if key == "nominal_mdh" else 3] = value
     meta[key] = matrix.tolist()
     path = tmp_path / "m.parquet"
@@ -191,7 +190,7 @@ def test_optional_columns_and_a_pandas_index_survive_a_round_trip(tmp_path):
     table = session.to_table(q, points, spread=spread, n_readings=n, timestamps=stamps)
     frame = table.to_pandas()
     frame.index = np.arange(N) * 7 + 3  # an index a pandas user might carry along
-    meta = session.SessionMeta("tracker", get_model("ur5e").mdh, "ur5e")
+    meta = session.SessionMeta("tracker", robots.get("ur5e").mdh, "ur5e")
     path = tmp_path / "o.parquet"
     session.write(path, frame, meta)
     loaded = session.load(path).table

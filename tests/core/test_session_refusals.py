@@ -13,10 +13,9 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator.errors import SessionError
 from calibrator.model import kinematics
-from calibrator.models import MODEL_NAMES, get_model
 
 META = {"format": "calibrator.session", "version": 1, "frame": "tracker", "model": "ur5e"}
 N = 6
@@ -66,7 +65,7 @@ def floats(values):
          "metadata 'tool_known' must be true or false (JSON booleans), got 'no'"),
         (lambda c, m: m.pop("model"), "metadata names neither 'model' nor 'nominal_mdh'"),
         (lambda c, m: m.update(model="kr16"),
-         "unknown model 'kr16'; known: " + ", ".join(MODEL_NAMES)),
+         "unknown model 'kr16'; known: " + ", ".join(robots.names())),
         (lambda c, m: m.update(flange2tool=[[1, 0], [0, 1]]),
          "metadata 'flange2tool' must be (4, 4), got (2, 2)"),
         (lambda c, m: m.update(flange2tool=[[1, 0, 0, 0]] * 3 + [[0, 0, 0, "1"]]),
@@ -168,13 +167,13 @@ def test_loaded_rows_are_sorted_and_read_as_written(tmp_path):
 
 
 def test_a_model_given_by_the_caller_replaces_the_files_table_and_name(tmp_path):
-    own = (get_model("ur5e").mdh + 0.25).tolist()
+    own = (robots.get("ur5e").mdh + 0.25).tolist()
     path = write(tmp_path / "m.parquet", columns(), dict(META, nominal_mdh=own))
     from_file = session.load(path).meta
     np.testing.assert_array_equal(from_file.nominal_mdh, own)
     assert from_file.model == "ur5e"
     overridden = session.load(path, model=" UR10E ").meta
-    np.testing.assert_array_equal(overridden.nominal_mdh, get_model("ur10e").mdh)
+    np.testing.assert_array_equal(overridden.nominal_mdh, robots.get("ur10e").mdh)
     assert overridden.model == "ur10e"
 
 
@@ -183,7 +182,7 @@ def test_joint_limits_come_from_the_named_model_only(tmp_path):
     cols["q3_rad"] = floats([0.1, 0.2, 3.3, 0.1, 0.2, 0.3])  # elbow beyond +-pi
     named = write(tmp_path / "named.parquet", cols)
     assert "q3_rad" in refusal(named)
-    custom = dict(META, model="my-arm", nominal_mdh=get_model("ur5e").mdh.tolist())
+    custom = dict(META, model="my-arm", nominal_mdh=robots.get("ur5e").mdh.tolist())
     loaded = session.load(write(tmp_path / "custom.parquet", cols, custom))
     assert loaded.meta.model == "my-arm"
 
@@ -202,7 +201,7 @@ def test_metadata_json_keeps_extra_keys_under_the_known_ones():
 
 def test_written_sessions_keep_other_footer_keys_and_read_back(tmp_path):
     q = np.linspace(-1, 1, 18).reshape(3, 6)
-    points = kinematics.forward(get_model("ur5e").mdh, q)[:, :3, 3] + [2000.0, 0.0, 0.0]
+    points = kinematics.forward(robots.get("ur5e").mdh, q)[:, :3, 3] + [2000.0, 0.0, 0.0]
     table = session.to_table(q, points, n_readings=[3, 4, 5], timestamps=["a", "b", "c"])
     assert table.column_names == [
         "pose",
@@ -214,7 +213,7 @@ def test_written_sessions_keep_other_footer_keys_and_read_back(tmp_path):
     assert table["pose"].to_pylist() == [0, 1, 2] and table.schema.field("pose").type == pa.int64()
     assert table.schema.field("n_readings").type == pa.int64()
     table = table.replace_schema_metadata({b"origin": b"lab 3"})
-    meta = session.SessionMeta("tracker", get_model("ur5e").mdh, "ur5e")
+    meta = session.SessionMeta("tracker", robots.get("ur5e").mdh, "ur5e")
     session.write(tmp_path / "w.parquet", table, meta)
     footer = pq.read_schema(tmp_path / "w.parquet").metadata
     assert footer[b"origin"] == b"lab 3"
@@ -239,7 +238,7 @@ def test_rotation_vectors_up_to_100_rad_are_accepted(tmp_path):
 
 
 def test_an_integer_nominal_table_is_read_as_floats(tmp_path):
-    table = np.rint(get_model("ur5e").mdh).astype(int).tolist()
+    table = np.rint(robots.get("ur5e").mdh).astype(int).tolist()
     meta = session.load(
         write(tmp_path / "i.parquet", columns(), dict(META, nominal_mdh=table))
     ).meta
@@ -259,7 +258,7 @@ def test_a_long_tool_in_the_metadata_is_part_of_the_plausibility_check(tmp_path)
     tool = np.eye(4)
     tool[:3, 3] = [1500.0, 0.0, 300.0]
     q = np.random.default_rng(0).uniform(-3.0, 3.0, (20, 6))
-    points = kinematics.forward(get_model("ur5e").mdh, q, tool)[:, :3, 3]
+    points = kinematics.forward(robots.get("ur5e").mdh, q, tool)[:, :3, 3]
     cols = {"pose": pa.array(np.arange(20), pa.int64())}
     cols.update({f"q{i + 1}_rad": q[:, i] for i in range(6)})
     cols.update(x_mm=points[:, 0], y_mm=points[:, 1], z_mm=points[:, 2])

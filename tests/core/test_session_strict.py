@@ -104,9 +104,9 @@ def test_joint_beyond_the_model_limits_is_refused(tmp_path):
 
 
 def test_deltas_after_fit_are_judged_against_plausible_ranges():
-    from calibrator.models import get_model
+    from calibrator import robots
 
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     small = nominal + np.array([0.3, 1e-3, 1e-3, 0.3, 1e-3])  # mm and rad, per column
     assert plausibility.check_deltas(nominal, small) == []
     far = nominal.copy()

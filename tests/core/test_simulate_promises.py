@@ -13,10 +13,9 @@ import pytest
 from cli_testkit import cli, one_line_error
 from scipy.spatial.transform import Rotation
 
-from calibrator import session
+from calibrator import robots, session
 from calibrator import simulate as sim
 from calibrator.model import kinematics
-from calibrator.models import get_model
 
 # Seed 003, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed again from the
 # paper on purpose: an independent copy to hold calibrator.simulate's own against (importing
@@ -41,13 +40,13 @@ def joints(table):
 
 def test_ref003_truth_is_table_2_of_the_seed_on_the_flange():
     table, meta, truth = sim.simulate(poses=5, orientation=False)
-    np.testing.assert_allclose(truth.mdh - get_model("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12)
+    np.testing.assert_allclose(truth.mdh - robots.get("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12)
     # The seed measures the flange itself: the tool is the identity and known.
     np.testing.assert_array_equal(truth.flange2tool, np.eye(4))
     np.testing.assert_array_equal(meta.flange2tool, np.eye(4))
     assert meta.tool_known is True
     assert meta.model == "er10l-c10" and meta.frame == "base"
-    np.testing.assert_array_equal(meta.nominal_mdh, get_model("er10l-c10").mdh)
+    np.testing.assert_array_equal(meta.nominal_mdh, robots.get("er10l-c10").mdh)
     assert meta.extra["simulated"] == {
         "seed": 3,
         "noise_mm": 0.0,
@@ -132,7 +131,7 @@ def test_an_unknown_tool_lies_the_offset_away_from_the_guess():
 def test_no_errors_is_the_nominal_arm_and_32_poses_the_default():
     table, _, truth = sim.simulate(model="ur10", errors="none")
     assert table.num_rows == 32
-    np.testing.assert_array_equal(truth.mdh, get_model("ur10").mdh)
+    np.testing.assert_array_equal(truth.mdh, robots.get("ur10").mdh)
 
 
 def test_point_noise_has_the_rms_asked_for_and_spreads_of_single_readings():
@@ -226,7 +225,7 @@ def test_a_noiseless_tracker_reads_the_points_exactly_even_at_its_origin():
 
 
 def test_random_errors_touch_only_identifiable_parameters_within_their_size():
-    nominal = get_model("er10l-c10").mdh
+    nominal = robots.get("er10l-c10").mdh
     draws = np.array([sim.random_errors(nominal, np.random.default_rng(s)) for s in range(60)])
     # ER10L-C10: axes 2 and 3 are parallel, so d2 is replaced by beta2 (Hayati);
     # no other beta is a parameter.
@@ -317,7 +316,7 @@ def test_cli_random_errors_are_the_default_off_the_seeds_arm(tmp_path):
     assert meta["simulated"]["errors"] == "ref003"
     truth = json.loads((tmp_path / "s.truth.json").read_text())
     np.testing.assert_allclose(
-        np.array(truth["mdh"]) - get_model("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12
+        np.array(truth["mdh"]) - robots.get("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12
     )
     line = one_line_error(cli("simulate", "--errors", "tiny", cwd=tmp_path))
     assert "must be one of ref003, random, none, got 'tiny'" in line

@@ -11,10 +11,10 @@ from grammars import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscri
 
 from calibrator import plan as plans
 from calibrator import program as programs
-from calibrator.models import get_model
+from calibrator import robots
 from calibrator.program.spec import move_duration_s
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _plan(n=25, seed=4):

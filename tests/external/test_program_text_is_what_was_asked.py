@@ -15,9 +15,9 @@ from grammars import PARSERS
 
 from calibrator import plan as plans
 from calibrator import program as programs
-from calibrator.models import get_model
+from calibrator import robots
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _spec(q, **kw):

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from calibrator import models, session, simulate
+from calibrator import robots, session, simulate
 from calibrator.identify import pipeline
 from calibrator.model import frames, joint_terms, kinematics, mass_models
 
@@ -33,7 +33,7 @@ def sessions(
     truth : dict with ``mdh``, ``tool``
     """
     rng = np.random.default_rng(seed)
-    robot = models.get_model(model)
+    robot = robots.get(model)
     masses = mass_models.get(model)
     delta = simulate.random_errors(robot.mdh, rng, mm=0.3, rad=0.003)
     delta[:, kinematics.BETA] = 0.0

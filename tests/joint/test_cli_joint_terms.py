@@ -56,9 +56,9 @@ def _reached(folder, truth, terms, payload_kg=0.0):
 
 
 def _nominal():
-    from calibrator import models
+    from calibrator import robots
 
-    return models.get_model("ur10e").mdh
+    return robots.get("ur10e").mdh
 
 
 def test_identify_keeps_wrist_scale_terms_and_compensate_reaches_targets(tmp_path):

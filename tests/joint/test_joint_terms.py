@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from jointkit import geometric_fit, merged, sessions
 
-from calibrator import models
+from calibrator import robots
 from calibrator.errors import CalibrationError
 from calibrator.identify import joint_fit
 from calibrator.identify.problem import Problem
@@ -21,7 +21,7 @@ def _terms(scale=None, cos=None, sin=None, comp=None):
 
 def test_gravity_torque_is_minus_the_gradient_of_potential_energy():
     """tau_j = -dU/dq_j, U = sum m g z_com (+ payload): an independent check by differences."""
-    robot, masses = models.get_model("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (5, 6))
     com_payload = np.array([10.0, -5.0, 100.0])
 
@@ -60,7 +60,7 @@ def test_effective_angles_and_their_derivatives():
 
 
 def test_measurement_jacobian_of_joint_terms_matches_differences():
-    robot, masses = models.get_model("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
     rng = np.random.default_rng(2)
     q = rng.uniform(-np.pi, np.pi, (12, 6))
     tau = joint_terms.gravity_torques(robot.mdh, q, masses, 3.0)

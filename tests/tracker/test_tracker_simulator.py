@@ -149,7 +149,7 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
     # calibrator.model.conventions).
     allowed = {
         "calibrator", "calibrator.acquire", "calibrator.acquire.ports", "calibrator.simulate",
-        "calibrator.errors", "calibrator.models", "calibrator.model", "calibrator.model.frames",
+        "calibrator.errors", "calibrator.model", "calibrator.model.frames",
         "calibrator.model.kinematics", "calibrator.model.parameters",
         "calibrator.model.joint_terms", "calibrator.model.mass_models",
         "calibrator.robots", "calibrator.robots.description", "calibrator.robots.files",

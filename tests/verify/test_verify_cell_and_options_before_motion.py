@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 from cli_testkit import cli, listing, one_line_error
 
+from calibrator import robots
 from calibrator.model import frames, kinematics
-from calibrator.models import get_model
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _cell(tmp_path, text):
