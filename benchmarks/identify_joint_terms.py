@@ -22,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "joint"))
 
-import jointkit  # noqa: E402
+import joint_kit  # noqa: E402
 
 from calibrator.identify import joint_fit  # noqa: E402
 from calibrator.identify.problem import Problem  # noqa: E402
@@ -40,9 +40,9 @@ def main() -> None:
     args = parser.parse_args()
     print(f"{'poses':>6s} {'median s':>9s} {'kept':>16s} {'held-out geo':>13s} {'with terms':>11s}")
     for n in (int(v) for v in args.poses.split(",")):
-        parts, _ = jointkit.sessions(WRIST, poses=n, seed=1)
-        sess, tau, payload = jointkit.merged(parts)
-        geo = jointkit.geometric_fit(sess, 0.2)
+        parts, _ = joint_kit.sessions(WRIST, poses=n, seed=1)
+        sess, tau, payload = joint_kit.merged(parts)
+        geo = joint_kit.geometric_fit(sess, 0.2)
         o = sess.observations
         obs = measurement.Observations(o.q, o.points, o.rotations, tau)
         fit_obs, val_obs = obs.subset(geo.fit_index), obs.subset(geo.validation_index)

@@ -8,7 +8,7 @@ no journal, no session (so nothing moved).
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 from calibrator import cell, robots
 from calibrator import plan as plans

@@ -13,7 +13,7 @@ import sys
 import time
 
 import numpy as np
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import robots
 from calibrator.acquire.run import MAX_POSES

@@ -2,7 +2,7 @@
 
 The end-to-end tests (test_measure_*.py) run the command in a new process,
 which imports the unmutated package. Here the same command runs through
-``main()`` (tests/core/cli_testkit.py): the session is checked against the
+``main()`` (tests/cli_kit.py): the session is checked against the
 simulated arm's hidden truth, the journal and ``--resume`` against a clean
 run, and every refusal is one line with exit 2 that leaves nothing behind.
 Noise-free, with 3 readings per pose, so a run takes about a second.
@@ -19,8 +19,8 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import typer
-from cli_testkit import cli, one_line_error
-from measure_testkit import session_rows
+from cli_kit import cli, one_line_error
+from measure_kit import session_rows
 
 from calibrator import cell as cells
 from calibrator import plan as plans

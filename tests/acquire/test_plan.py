@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import plan as plans
 from calibrator import robots, session

@@ -11,7 +11,7 @@ import struct
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 from calibrator import plan as plans
 from calibrator import robots

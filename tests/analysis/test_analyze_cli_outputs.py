@@ -10,7 +10,7 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 from calibrator import robots
 from calibrator.analysis import plots

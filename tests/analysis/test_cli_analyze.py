@@ -6,7 +6,7 @@ import signal
 import numpy as np
 import pytest
 from analyze_kit import analyze, analyze_json
-from cli_process import start_cli
+from cli_process_kit import start_cli
 
 from calibrator import calibration, robots
 from calibrator.cli import main

@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 from calibrator.analysis import deflection as dfl
 from calibrator.errors import CalibrationError

@@ -6,7 +6,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from cli_testkit import cli
+from cli_kit import cli
 
 from calibrator import robots, session
 from calibrator.acquire import warmup

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld

@@ -14,9 +14,9 @@ import json
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import Watching, start_player, tracker_simulator
-from grammars import PARSERS
+from cli_process_kit import run_cli
+from external_cell_kit import Watching, start_player, tracker_simulator
+from grammar_kit import PARSERS
 from truth_kit import against_least_squares_from_truth
 
 from calibrator import plan as plans

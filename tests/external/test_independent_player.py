@@ -29,8 +29,8 @@ import time
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import TOOL_MM, Watching, first_poses, tracker_simulator
+from cli_process_kit import run_cli
+from external_cell_kit import TOOL_MM, Watching, first_poses, tracker_simulator
 from truth_kit import against_least_squares_from_truth
 
 from calibrator import plan as plans

@@ -17,8 +17,8 @@ import re
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
+from cli_process_kit import run_cli
+from external_cell_kit import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
 
 from calibrator import plan as plans
 

@@ -8,8 +8,8 @@ the controller uses, and a plan made for that arm, written and parsed back
 
 import numpy as np
 import pytest
-from cli_testkit import cli
-from grammars import PARSERS
+from cli_kit import cli
+from grammar_kit import PARSERS
 
 from calibrator import cell as cells
 from calibrator import plan as plans

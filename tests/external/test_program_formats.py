@@ -6,8 +6,8 @@ import re
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
-from grammars import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
+from cli_kit import cli, one_line_error
+from grammar_kit import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
 
 from calibrator import plan as plans
 from calibrator import program as programs

@@ -8,8 +8,8 @@ language.
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
-from plan_testkit import CHECKED_PLAN_TRACKER_MM
+from cli_kit import cli, listing, one_line_error
+from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell as cells
 from calibrator import plan as plans

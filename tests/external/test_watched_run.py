@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from external_cell import TOOL_MM, first_poses
+from external_cell_kit import TOOL_MM, first_poses
 
 from calibrator import plan as plans
 from calibrator import robots

@@ -4,7 +4,7 @@ import json
 import re
 
 import numpy as np
-from cli_process import run_cli
+from cli_process_kit import run_cli
 from filter_kit import calibration, job, path_joints
 
 from calibrator import compensate

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, listing, one_line_error
-from jointkit import sessions
+from cli_kit import cli, listing, one_line_error
+from joint_kit import sessions
 
 from calibrator import session
 from calibrator.model import frames, joint_terms, kinematics, mass_models

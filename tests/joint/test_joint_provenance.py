@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli
-from jointkit import sessions
+from cli_kit import cli
+from joint_kit import sessions
 
 from calibrator import calibration, session
 from calibrator.errors import CalibrationError

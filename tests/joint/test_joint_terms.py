@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from jointkit import geometric_fit, merged, sessions
+from joint_kit import geometric_fit, merged, sessions
 
 from calibrator import robots
 from calibrator.errors import CalibrationError
@@ -183,7 +183,7 @@ def test_a_huge_kept_term_is_warned_about():
 def test_held_out_error_against_least_squares_from_the_truth(wrist):
     """W1's shape: with wrist gear errors the terms reach least squares from the truth
     and beat the geometry twice over; without, they are not kept and cost nothing."""
-    from jointkit import sessions as make
+    from joint_kit import sessions as make
 
     from calibrator.identify import refine
 

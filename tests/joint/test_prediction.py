@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from jointkit import sessions
+from joint_kit import sessions
 
 from calibrator import session
 from calibrator.identify import pipeline, uncertainty

@@ -6,7 +6,7 @@ commands the fake does not emulate); the power and unlock rules in-process.
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 from calibrator import robots
 from calibrator.model import frames, kinematics

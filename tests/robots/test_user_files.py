@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 import yourdfpy
-from robot_files import KUKA, with_geometry
+from robot_files_kit import KUKA, with_geometry
 
 from calibrator import robots
 from calibrator.model import kinematics

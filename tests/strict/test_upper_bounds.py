@@ -4,7 +4,7 @@ import json
 import re
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from tracker_testkit import REPO, live_tracker
+from tracker_kit import REPO, live_tracker
 
 from drivers.tracker import (
     BeamBroken,

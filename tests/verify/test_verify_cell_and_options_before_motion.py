@@ -7,7 +7,7 @@ no journal, no session and no figures behind.
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 from calibrator import robots
 from calibrator.model import frames, kinematics

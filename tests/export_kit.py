@@ -1,4 +1,6 @@
-"""Calibrated arms for the mutation tests of the exporters (not a test module)."""
+"""Calibrated arms and UR calibration files for the exporter tests (not a test module)."""
+
+import json
 
 import numpy as np
 
@@ -59,3 +61,19 @@ def urdf_origin(xyz, rpy):
     t[:3, :3] = rot("z", rpy[2]) @ rot("y", rpy[1]) @ rot("x", rpy[0])
     t[:3, 3] = xyz
     return t
+
+
+#: The delta sections of a UR calibration file.
+KEYS = ("delta_theta", "delta_a", "delta_d", "delta_alpha")
+
+
+def ur_file(tmp_path, values=None, model="ur10", name="cal.conf", drop=()):
+    """A UR calibration file written by hand: ``values[key]`` lists (m, rad)."""
+    values = values or {k: [0, 0, 0, 0, 0, 0] for k in KEYS}
+    lines = ["[mounting]"]
+    lines += [f"{k} = {json.dumps(values[k])}" for k in KEYS if k not in drop]
+    if model is not None:
+        lines += ["", "[calibrator]", f"model = {model}"]
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n")
+    return path

@@ -6,26 +6,12 @@ import json
 
 import numpy as np
 import pytest
-from export_kit import calibrated, poses
+from export_kit import KEYS, calibrated, poses, ur_file
 
 from calibrator import export, robots
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
 from calibrator.model import kinematics
-
-KEYS = ("delta_theta", "delta_a", "delta_d", "delta_alpha")
-
-
-def ur_file(tmp_path, values=None, model="ur10", name="cal.conf", drop=()):
-    """A UR calibration file written by hand: ``values[key]`` lists (m, rad)."""
-    values = values or {k: [0, 0, 0, 0, 0, 0] for k in KEYS}
-    lines = ["[mounting]"]
-    lines += [f"{k} = {json.dumps(values[k])}" for k in KEYS if k not in drop]
-    if model is not None:
-        lines += ["", "[calibrator]", f"model = {model}"]
-    path = tmp_path / name
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def test_hand_written_deltas_are_read_in_mm_and_rad(tmp_path):

@@ -5,7 +5,7 @@ import json
 import re
 
 import numpy as np
-from test_cli import run  # the CLI as a user runs it: a real process
+from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 
 from calibrator import calibration
 from calibrator.model import frames
@@ -13,17 +13,17 @@ from calibrator.model import frames
 
 def test_base_and_tool_deltas_agree_in_report_json_and_csv(tmp_path):
     # A tracker-frame session: the base is metres away and turned, the tool unknown.
-    sim = run(
+    sim = run_cli(
         "simulate", "-o", "s.parquet", "--poses", "30", "--frame", "tracker",
         "--tool-offset-mm", "3", cwd=tmp_path,
     )  # fmt: skip
     assert sim.returncode == 0, sim.stderr
-    ident = run(
+    ident = run_cli(
         "identify", "s.parquet", "-o", "c.json", "--method", "lm", "--report", "rep",
         cwd=tmp_path,
     )  # fmt: skip
     assert ident.returncode == 0, ident.stderr
-    exported = run("export-params", "c.json", "-o", "c.csv", cwd=tmp_path)
+    exported = run_cli("export-params", "c.json", "-o", "c.csv", cwd=tmp_path)
     assert exported.returncode == 0, exported.stderr
     doc = json.loads((tmp_path / "c.json").read_text())
     records = {r["name"]: r for r in doc["parameters"]}

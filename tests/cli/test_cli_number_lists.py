@@ -6,7 +6,7 @@ one line (exit 2), never run with a value the user did not write.
 """
 
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 (one line, exit 2, naming the option that gave it) unless ``--force``."""
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 PLAN = ("--poses", "12", "--candidates", "1500", "--tracker-at", "2500,400,300")
 TARGETS = "q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad\n0.1,-1.2,1.4,-1.8,-1.5,0.3\n"

@@ -4,8 +4,7 @@ the imported table keeps, and what :func:`nominal.apply` does to a session."""
 import numpy as np
 import pytest
 import yaml
-from export_kit import calibrated, poses
-from test_export_ur_files import ur_file
+from export_kit import calibrated, poses, ur_file
 
 from calibrator import export, robots
 from calibrator.errors import CalibrationError

@@ -9,7 +9,7 @@ import math
 
 import pytest
 import typer
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 from typer._click import exceptions as click_errors
 
 from calibrator.cli import _checks as checks

@@ -6,7 +6,7 @@ import json
 
 import pytest
 import yaml
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 from export_kit import calibrated
 
 from calibrator import export

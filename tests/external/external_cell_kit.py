@@ -9,7 +9,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from cli_process import child_env, start_cli
+from cli_process_kit import child_env, start_cli
 
 from calibrator import plan as plans
 
@@ -114,7 +114,7 @@ class Watching:
         self._ready.set()  # it ended before watching: the caller reports why
 
     def result(self, timeout: float) -> subprocess.CompletedProcess:
-        """Wait for the run to end; its exit code and output, as :func:`cli_process.run_cli`."""
+        """Wait for the run to end; its exit code and output, as :func:`cli_process_kit.run_cli`."""
         # stdout holds one line per pose: far below a pipe's capacity, read once at the end.
         code = self.proc.wait(timeout=timeout)
         stdout = self.proc.stdout.read()

@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 from scipy.spatial.transform import Rotation
 
 from calibrator import robots, session

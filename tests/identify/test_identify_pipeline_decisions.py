@@ -6,7 +6,7 @@ own ``pose`` column), the noise warning against the residuals, and the
 minimax worst error against the distances of the returned arm.
 """
 
-import identify_arms as arms
+import identify_kit as arms
 import numpy as np
 import pyarrow as pa
 import pytest

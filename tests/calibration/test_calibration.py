@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from test_cli import run  # the CLI as a user runs it: a real process
+from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 
 from calibrator import calibration, robots
 from calibrator.calibration import Calibration
@@ -141,6 +141,6 @@ def test_load_refuses_bad_files(tmp_path, how):
 
 def test_export_params_refuses_bad_file_in_one_line(tmp_path):
     (tmp_path / "c.json").write_text(corrupt(good_doc(), "nan"))
-    out = run("export-params", "c.json", "-o", "p.csv", cwd=tmp_path)
+    out = run_cli("export-params", "c.json", "-o", "p.csv", cwd=tmp_path)
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "NaN" in out.stderr
     assert not (tmp_path / "p.csv").exists()

@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
-from test_cli import run  # the CLI as a user runs it: a real process
+from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 
 from calibrator import compensate, robots, session, simulate
 from calibrator.calibration import Calibration
@@ -96,7 +96,7 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
         zip(("rx_rad", "ry_rad", "rz_rad"), frames.matrix_to_rotvec(pose[:, :3, :3]).T, strict=True)
     )
     pd.DataFrame(data).to_csv(tmp_path / "t.csv", index=False)
-    done = run("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
+    done = run_cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)
     out = pd.read_csv(tmp_path / "out.csv")
     expected = compensate.compensate(cal, pose, q_nom + 0.01)
     jump = np.degrees(np.max(np.abs(expected.q - expected.q_nominal), axis=1))
@@ -116,6 +116,6 @@ def test_bad_targets_file(identified, tmp_path):
     cal, _, _ = identified
     cal.save(tmp_path / "cal.json")
     (tmp_path / "t.csv").write_text("q1_rad,q2_rad\n0,0\n")
-    done = run("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
+    done = run_cli("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
     assert done.returncode == 2 and "missing column(s) q3_rad" in done.stderr
     assert not (tmp_path / "o.csv").exists()

@@ -12,7 +12,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import plausibility, session
 from calibrator.errors import CalibrationError, SessionError

@@ -4,7 +4,7 @@ import os
 from pathlib import Path
 
 import pytest
-from cli_testkit import listing
+from cli_kit import listing
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError

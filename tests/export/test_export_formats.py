@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 import yaml
 import yourdfpy
-from test_cli import run  # the CLI as a user runs it: a real process
+from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 
 from calibrator import export, robots, simulate
 from calibrator.calibration import Calibration
@@ -166,15 +166,15 @@ def test_format_choice():
 
 def test_cli_export_formats(tmp_path):
     calibrated().save(tmp_path / "cal.json")
-    out = run("export-params", "cal.json", "-o", "arm.urdf", cwd=tmp_path)
+    out = run_cli("export-params", "cal.json", "-o", "arm.urdf", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert "(urdf)" in out.stdout and (tmp_path / "arm.urdf").read_text().startswith("<?xml")
-    bad = run("export-params", "cal.json", "--format", "json", "-o", "out.xml", cwd=tmp_path)
+    bad = run_cli("export-params", "cal.json", "--format", "json", "-o", "out.xml", cwd=tmp_path)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "out.xml" in bad.stderr
     assert not (tmp_path / "out.xml").exists()
-    noted = run("export-params", "cal.json", "-o", "k.yaml", cwd=tmp_path)
+    noted = run_cli("export-params", "cal.json", "-o", "k.yaml", cwd=tmp_path)
     assert noted.returncode == 0 and noted.stderr == ""
-    same = run("export-params", "cal.json", "-o", "cal.json", cwd=tmp_path)
+    same = run_cli("export-params", "cal.json", "-o", "cal.json", cwd=tmp_path)
     assert same.returncode == 2 and "overwrite" in same.stderr
 
 
@@ -211,7 +211,7 @@ def test_identify_with_factory_nominal(tmp_path):
     table = session.to_table(q, pose[:, :3, 3], frames.matrix_to_rotvec(pose[:, :3, :3]))
     meta = session.SessionMeta("base", nominal_mdh, "ur10e", tool, tool_known=True)
     session.write(tmp_path / "s.parquet", table, meta)
-    out = run(
+    out = run_cli(
         "identify",
         "s.parquet",
         "--method",

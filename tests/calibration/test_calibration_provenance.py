@@ -12,8 +12,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from cli_testkit import refused_line
-from test_cli import run  # the CLI as a user runs it: a real process
+from cli_kit import refused_line
+from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 
 from calibrator.identify import pipeline
 
@@ -41,7 +41,7 @@ OPTIONS = (
 def outlier_session(tmp_path_factory):
     """A 30-pose simulated session whose fitted pose 6 was reseated 2 mm off."""
     folder = tmp_path_factory.mktemp("provenance")
-    sim = run("simulate", "-o", "s.parquet", "--poses", "30", cwd=folder)
+    sim = run_cli("simulate", "-o", "s.parquet", "--poses", "30", cwd=folder)
     assert sim.returncode == 0, sim.stderr
     table = pq.read_table(folder / "s.parquet")
     fit_idx, _ = pipeline.split(30, 0.25, 3)
@@ -51,7 +51,9 @@ def outlier_session(tmp_path_factory):
     table = table.set_column(table.schema.get_field_index("x_mm"), "x_mm", pa.array(x))
     pq.write_table(table, folder / "s.parquet")  # keeps the footer's session metadata
     pose = table["pose"].to_pylist()[row]
-    ident = run("identify", "s.parquet", "-o", "c.json", "--report", "rep", *OPTIONS, cwd=folder)
+    ident = run_cli(
+        "identify", "s.parquet", "-o", "c.json", "--report", "rep", *OPTIONS, cwd=folder
+    )
     assert ident.returncode == 0, ident.stderr
     return folder, pose
 
@@ -98,14 +100,14 @@ def test_a_huber_fit_shows_its_outlier_poses_in_the_report(outlier_session):
     summary = page[page.index('<section id="summary">') : page.index('<section id="accuracy">')]
     assert f"<tr><th>outlier poses set aside</th><td>{pose}</td></tr>" in summary
     # The report command reads the same file the same way.
-    again = run("report", "c.json", "s.parquet", "-o", "rep2", cwd=folder)
+    again = run_cli("report", "c.json", "s.parquet", "-o", "rep2", cwd=folder)
     assert again.returncode == 0, again.stderr
     assert f"<td>{pose}</td>" in (folder / "rep2" / "index.html").read_text()
 
 
 def test_identify_like_reproduces_the_parameters_bit_for_bit(outlier_session):
     folder, _ = outlier_session
-    like = run("identify", "s.parquet", "-o", "again.json", "--like", "c.json", cwd=folder)
+    like = run_cli("identify", "s.parquet", "-o", "again.json", "--like", "c.json", cwd=folder)
     assert like.returncode == 0, like.stderr
     first = json.loads((folder / "c.json").read_text())
     again = json.loads((folder / "again.json").read_text())
@@ -115,7 +117,7 @@ def test_identify_like_reproduces_the_parameters_bit_for_bit(outlier_session):
     for key in ("loss", "seed", "validation_fraction", "noise_mm", "tool_known", "k"):
         assert again[key] == first[key], key
     # Given options win over the recorded ones.
-    other = run(
+    other = run_cli(
         "identify", "s.parquet", "-o", "other.json", "--like", "c.json", "--seed", "4", cwd=folder
     )
     assert other.returncode == 0, other.stderr
@@ -135,7 +137,7 @@ def test_like_with_a_calibration_that_records_no_options_is_one_line(outlier_ses
         doc.pop(key)
     (tmp_path / "old.json").write_text(json.dumps(doc))
     (tmp_path / "s.parquet").write_bytes((folder / "s.parquet").read_bytes())
-    out = run("identify", "s.parquet", "-o", "n.json", "--like", "old.json", cwd=tmp_path)
+    out = run_cli("identify", "s.parquet", "-o", "n.json", "--like", "old.json", cwd=tmp_path)
     assert refused_line(out).endswith(
         "--like old.json: the file records no options (written before they were recorded)"
     )
@@ -149,7 +151,7 @@ def test_like_with_an_older_file_says_which_options_it_does_not_record(outlier_s
         doc.pop(key)  # what files written before provenance lack
     (tmp_path / "old.json").write_text(json.dumps(doc))
     (tmp_path / "s.parquet").write_bytes((folder / "s.parquet").read_bytes())
-    out = run("identify", "s.parquet", "-o", "n.json", "--like", "old.json", "-q", cwd=tmp_path)
+    out = run_cli("identify", "s.parquet", "-o", "n.json", "--like", "old.json", "-q", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert (
         "note: old.json does not record noise_mm, tool_known, particles, generations, "

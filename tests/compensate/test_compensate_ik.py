@@ -6,7 +6,7 @@ bad input in one line."""
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 from export_kit import rot
 from scipy.spatial.transform import Rotation
 

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from cli_process import run_cli
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
+from cli_process_kit import run_cli
 
 from calibrator import calibration
 

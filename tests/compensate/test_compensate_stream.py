@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
-from test_cli import run
+from cli_process_kit import run_cli
 
 from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
@@ -53,7 +53,7 @@ def test_a_bad_cell_in_a_later_block_names_its_line(tmp_path, monkeypatch):
     (tmp_path / "t.csv").write_text("\n".join(text) + "\n")
     cal = _calibration()
     cal.save(tmp_path / "cal.json")
-    done = run("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
+    done = run_cli("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
     assert done.returncode == 2 and "line 10, q1_rad: '0_5'" in done.stderr
     assert not (tmp_path / "o.csv").exists()
 
@@ -65,7 +65,7 @@ def test_a_large_joint_change_near_the_wrist_singularity_is_refused(tmp_path):
     q[1, 4] = np.radians(0.2)  # wrist axes 4 and 6 all but aligned
     q[3, 4] = np.radians(0.05)  # closer still: the calibrated arm has no solution
     _csv(tmp_path / "t.csv", q)
-    done = run("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
+    done = run_cli("compensate", "cal.json", "t.csv", "-o", "o.csv", cwd=tmp_path)
     out = pd.read_csv(tmp_path / "o.csv")
     assert out["status"].tolist() == ["ok", "large joint change", "ok", "not reached"]
     assert done.returncode == 1

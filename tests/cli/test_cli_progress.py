@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli
+from cli_kit import cli
 
 from calibrator.cli import progress
 from calibrator.identify import pso

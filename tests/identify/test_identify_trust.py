@@ -2,11 +2,11 @@
 
 import json
 
-import identify_arms as arms
+import identify_kit as arms
 import numpy as np
 import pyarrow as pa
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import session
 from calibrator.errors import IdentifiabilityError
