@@ -1,4 +1,4 @@
-"""Hand error from link deflection, by kinetostatics (seed 001, eqs. 42-51).
+"""Hand error from link deflection, by kinetostatics (the deflection paper, eqs. 42-51).
 
 Method
 ------
@@ -9,13 +9,13 @@ origin of frame ``i``, with a circular (solid or hollow) section. Its loads:
 - the weight and d'Alembert inertia of everything beyond it (links ``i+1..n``
   and the payload), reduced to one force and one moment at its tip;
 - its own weight and inertia, spread evenly along the beam (a rod's weight is
-  distributed; the seed lumps it at the centre of mass), plus the moment of
+  distributed; the deflection paper lumps it at the centre of mass), plus the moment of
   its centre of mass's offset from the beam axis, applied at the station of
   the centre of mass.
 
 Beam theory (Euler-Bernoulli, no shear) gives the tip's small rotation
 ``phi`` and translation ``delta`` from these loads (the influence
-coefficients of the seed's eq. 48). Each tip deformation moves everything
+coefficients of the deflection paper's eq. 48). Each tip deformation moves everything
 beyond it rigidly, so the hand moves by ``delta + phi x (p_hand - p_tip)``
 and turns by ``phi``; the contributions of all flexible links are expressed
 in the hand frame and summed (eqs. 49-51).
@@ -35,7 +35,7 @@ import numpy as np
 
 from calibrator.errors import CalibrationError
 from calibrator.model.mass_models import GRAVITY_MM_S2
-from calibrator.robots import chen_zhang
+from calibrator.robots import deflection_paper
 from calibrator.strict import Rule, shown
 
 #: What each value of a section may be: a robot link, not 1e-300 mm (its
@@ -399,7 +399,7 @@ def trapezoid(
 def standard_dh_frames(
     table: np.ndarray, prismatic: np.ndarray, q: np.ndarray, hand: np.ndarray | None = None
 ) -> np.ndarray:
-    """Frames of a standard-DH chain, the seed's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
+    """Standard-DH frames, the deflection paper's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
 
     Parameters
     ----------
@@ -434,48 +434,50 @@ def standard_dh_frames(
 
 _DEG = np.pi / 180.0
 
-#: Seed 001's example (Chen and Zhang's arm): its data live in
-#: :mod:`calibrator.robots.chen_zhang`, which says how the table was read.
+#: The deflection paper's example (Chen and Zhang's arm): its data live in
+#: :mod:`calibrator.robots.deflection_paper`, which says how the table was read.
 #: Rows ``[theta_offset, s, h, alpha]`` (rad, mm).
-SEED_TABLE = chen_zhang.TABLE
-SEED_PRISMATIC = chen_zhang.PRISMATIC
-#: The seed's mass table: masses (kg, link 5 includes the 5 kg workpiece),
+PAPER_TABLE = deflection_paper.TABLE
+PAPER_PRISMATIC = deflection_paper.PRISMATIC
+#: The deflection paper's mass table: masses (kg, link 5 includes the 5 kg workpiece),
 #: centres of mass (mm) and principal inertias (kg m^2).
-SEED_MASS_KG = chen_zhang.MASS_KG
-SEED_COM_MM = chen_zhang.COM_MM
-SEED_INERTIA_KG_M2 = chen_zhang.INERTIA_KG_M2
+PAPER_MASS_KG = deflection_paper.MASS_KG
+PAPER_COM_MM = deflection_paper.COM_MM
+PAPER_INERTIA_KG_M2 = deflection_paper.INERTIA_KG_M2
 #: Link 3, the piston rod: hollow steel, E = 2.1e11 Pa, D = 0.05 m, d = 0.03 m.
-SEED_ROD = Section(
-    outer_mm=chen_zhang.ROD_OUTER_MM, inner_mm=chen_zhang.ROD_INNER_MM, e_mpa=chen_zhang.ROD_E_MPA
+PAPER_ROD = Section(
+    outer_mm=deflection_paper.ROD_OUTER_MM,
+    inner_mm=deflection_paper.ROD_INNER_MM,
+    e_mpa=deflection_paper.ROD_E_MPA,
 )
-#: The seed's task: the hand's origin on a straight line while x5 turns from 0
+#: The deflection paper's task: the hand's origin on a straight line while x5 turns from 0
 #: to 45 deg with theta_1, in 1 s.
-SEED_DURATION_S = chen_zhang.DURATION_S
-_SEED_LINE_X_MM = chen_zhang.LINE_X_MM
+PAPER_DURATION_S = deflection_paper.DURATION_S
+_PAPER_LINE_X_MM = deflection_paper.LINE_X_MM
 #: Joint ranges taken for the example (rad; joint 3 in mm): the text gives
 #: none, so half a turn either way for the revolute joints and the rod out
 #: between 0 and 1,500 mm (2.5 times its 600 mm at the task's end).
-SEED_LIMITS = np.array(
+PAPER_LIMITS = np.array(
     [[-np.pi, np.pi], [-np.pi, np.pi], [0.0, 1500.0], [-np.pi, np.pi], [-np.pi, np.pi]]
 )
 
 
-def seed_arm() -> FlexArm:
-    """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
+def paper_arm() -> FlexArm:
+    """The deflection paper's five-axis example, link 3 (the rod) flexible, the others rigid."""
     return FlexArm(
-        name=chen_zhang.TITLE,
-        frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
-        mass_kg=SEED_MASS_KG,
-        com_mm=SEED_COM_MM,
-        inertia_kg_mm2=np.array([np.diag(v) for v in SEED_INERTIA_KG_M2]) * 1e6,
-        sections={chen_zhang.ROD_LINK: SEED_ROD},
+        name=deflection_paper.TITLE,
+        frames=lambda q: standard_dh_frames(PAPER_TABLE, PAPER_PRISMATIC, q),
+        mass_kg=PAPER_MASS_KG,
+        com_mm=PAPER_COM_MM,
+        inertia_kg_mm2=np.array([np.diag(v) for v in PAPER_INERTIA_KG_M2]) * 1e6,
+        sections={deflection_paper.ROD_LINK: PAPER_ROD},
     )
 
 
-def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray, float]:
-    """The seed's task: theta_1 0 -> 45 deg in 1 s (trapezoidal law), hand on a line.
+def paper_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray, float]:
+    """The deflection paper's task: theta_1 0 -> 45 deg in 1 s (trapezoidal law), hand on a line.
 
-    The seed's own velocity law is in its Fig. 6, missing from the text; a
+    The paper's own velocity law is in its Fig. 6, missing from the text; a
     trapezoid with ``ramp`` of the time accelerating and decelerating stands in.
     Joint 3 follows ``s3 = x / cos(theta_1)`` so the hand's origin stays on the
     line; joints 2, 4, 5 stay at zero (z5 keeps its direction, x5 turns with theta_1).
@@ -486,10 +488,10 @@ def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray,
         Joint coordinates (rad; joint 3 in mm).
     dt : float
     """
-    theta, dt = trapezoid(np.zeros(1), np.array([45 * _DEG]), SEED_DURATION_S, samples, ramp)
+    theta, dt = trapezoid(np.zeros(1), np.array([45 * _DEG]), PAPER_DURATION_S, samples, ramp)
     q = np.zeros((samples, 5))
     q[:, 0] = theta[:, 0]
-    q[:, 2] = _SEED_LINE_X_MM / np.cos(theta[:, 0])
+    q[:, 2] = _PAPER_LINE_X_MM / np.cos(theta[:, 0])
     return q, dt
 
 

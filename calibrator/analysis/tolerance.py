@@ -1,4 +1,4 @@
-"""Tolerance budget (seed 001): hand error from link-parameter and joint deviations.
+"""Tolerance budget (the deflection paper): hand error from link-parameter and joint deviations.
 
 To first order the hand's small displacement ``dS`` (three rotations, then
 three translations, in the hand frame) is linear in the deviations::

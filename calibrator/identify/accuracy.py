@@ -1,4 +1,4 @@
-"""Accuracy statistics in the form of the seed's Table 3, and their text table."""
+"""Accuracy statistics in the form of the IPSO paper's Table 3, and their text table."""
 
 from __future__ import annotations
 
@@ -53,13 +53,13 @@ def before_after(space: ParameterSpace, x: np.ndarray, obs: Observations) -> dic
 
 
 def _summary(values):
-    # Sample standard deviation, as in the seed's tables.
+    # Sample standard deviation, as in the IPSO paper's tables.
     std = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
     return {"mean": float(np.mean(values)), "std": std, "max": float(np.max(values))}
 
 
 def format_table(stats: dict) -> str:
-    """Before/after table like the seed's Table 3.
+    """Before/after table like the IPSO paper's Table 3.
 
     Parameters
     ----------

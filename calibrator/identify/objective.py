@@ -1,4 +1,4 @@
-"""The seed's objective (7), evaluated for a whole swarm at once.
+"""The IPSO paper's objective (7), evaluated for a whole swarm at once.
 
     f = sum_j [ k * |delta_j|^2 + |dp_j|^2 ]
 

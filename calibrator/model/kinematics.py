@@ -1,6 +1,6 @@
 """Hayati-modified DH (MDH) kinematics, batched over poses and parameter sets.
 
-One link of the MDH model (seed 003, eq. 1) is::
+One link of the MDH model (the IPSO paper, eq. 1) is::
 
     A_i = Rz(theta_i + q_i) . Tz(d_i) . Tx(a_i) . Rx(alpha_i) . Ry(beta_i)
 

@@ -8,7 +8,7 @@ flange2tool`` (rotation part). Residuals are model minus measurement:
 * orientation rows, ``sqrt(k) * rotvec(R_model R_measured^T)`` (rad), three
   per pose, when the session has orientation and ``k > 0``.
 
-Their sum of squares is the seed's objective (7).
+Their sum of squares is the IPSO paper's objective (7).
 """
 
 from __future__ import annotations
@@ -118,7 +118,7 @@ def residuals(space: ParameterSpace, x: ArrayLike, obs: Observations, k: float =
     x : array_like, shape (space.size,)
     obs : Observations
     k : float
-        Orientation weight of the seed's objective (mm^2/rad^2).
+        Orientation weight of the IPSO paper's objective (mm^2/rad^2).
 
     Returns
     -------

@@ -63,7 +63,7 @@ def unit(name: str) -> str:
 
 #: Plausible size of a delta (one standard deviation of a prior), by block and
 #: unit: MDH errors of a machined arm are a fraction of a millimetre and about
-#: 10 mrad at most (the seed's injected errors); the frames start from
+#: 10 mrad at most (the IPSO paper's injected errors); the frames start from
 #: closed-form guesses a few millimetres and milliradians off.
 PLAUSIBLE = {("mdh", "mm"): 1.0, ("mdh", "rad"): 0.01, ("frame", "mm"): 5.0, ("frame", "rad"): 0.02}
 
@@ -226,7 +226,7 @@ class ParameterSpace:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Symmetric search box around zero deltas for the swarm.
 
-        The seed starts its swarm within +-0.5 mm and +-0.01 rad, just
+        The IPSO paper starts its swarm within +-0.5 mm and +-0.01 rad, just
         covering its injected errors; the box is four times that so that
         particles are not pinned against its walls (pinned particles lose
         their velocity and the swarm stalls). The base frame and tool point

@@ -81,7 +81,7 @@ def test_csv_deltas_are_identified_minus_nominal(calibrated, capsys):
     np.testing.assert_allclose(value, truth, rtol=0, atol=1e-6)
     np.testing.assert_allclose(delta, value - nominal, rtol=0, atol=1e-11)
     np.testing.assert_allclose(delta, truth - NOMINAL, rtol=0, atol=1e-6)
-    assert np.abs(delta).max() > 0.1  # the seed's errors: not a trivial zero
+    assert np.abs(delta).max() > 0.1  # the IPSO paper's errors: not a trivial zero
 
 
 def test_json_nominal_block_is_the_nominal_arm(calibrated, capsys):

@@ -9,7 +9,7 @@ from calibrator.identify.problem import Problem
 
 
 def seed_case(tmp_path, noise_mm=0.0, seed=3):
-    # Seed 003: ER10L-C10, Table 2 errors, 32 poses, base frame, orientation.
+    # The IPSO paper: ER10L-C10, Table 2 errors, 32 poses, base frame, orientation.
     return simulated(
         tmp_path,
         model="er10l-c10",

@@ -16,7 +16,7 @@ from session_kit import simulated, written
 from calibrator import robots, session
 from calibrator.identify import pipeline, pso
 from calibrator.model import kinematics
-from calibrator.simulate import SEED_ERRORS, simulate
+from calibrator.simulate import IPSO_PAPER_ERRORS, simulate
 
 K = 1.0e4  # orientation weight used throughout (mm^2/rad^2)
 
@@ -39,7 +39,7 @@ def rotation_errors(poses, obs):
 
 
 def ssr(poses, obs, k):
-    """The seed's objective: squared position errors plus k times squared turn angles."""
+    """The IPSO paper's objective: squared position errors plus k times squared turn angles."""
     total = np.sum((poses[:, :3, 3] - obs.points) ** 2)
     if k and obs.rotations is not None:
         total += k * np.sum(rotation_errors(poses, obs) ** 2)
@@ -69,7 +69,7 @@ def assert_stats(reported, poses, obs):
 def outside_the_box_session(tmp_path):
     """ER10L-C10 whose a2 is 5 mm off: outside the swarm's +-2 mm box on MDH lengths."""
     nominal = robots.get("er10l-c10").mdh
-    truth = nominal + SEED_ERRORS
+    truth = nominal + IPSO_PAPER_ERRORS
     truth[1, kinematics.A] += 5.0
     tool = np.eye(4)
     tool[:3, 3] = [0.0, 0.0, 100.0]
@@ -195,7 +195,7 @@ def test_parameters_these_poses_cannot_separate_are_not_left_free(tmp_path):
     tool[:3, 3] = [30.0, 20.0, 100.0]
     q = np.random.default_rng(0).uniform(-2, 2, (30, 6))
     q[:, 4] = 0.0
-    points = kinematics.forward(nominal + SEED_ERRORS, q, tool)[:, :3, 3]
+    points = kinematics.forward(nominal + IPSO_PAPER_ERRORS, q, tool)[:, :3, 3]
     meta = session.SessionMeta("base", nominal, "er10l-c10", tool, tool_known=True)
     loaded = written(tmp_path, session.to_table(q, points), meta)
     result = pipeline.identify(loaded, pipeline.Options(method="lm", validation_fraction=0))

@@ -1,4 +1,4 @@
-"""The swarm objective against the seed's formula, written out per particle with ``forward``.
+"""The swarm objective against the IPSO paper's formula, written out per particle with ``forward``.
 
 Every branch of the batched evaluation (base frame free, fixed or the
 identity; tool point and tool turn free or not; least squares or the worst

@@ -2,7 +2,7 @@
 
 ``pso.ipso`` draws its random numbers several generations at a time and forms
 both pulls in one array; the plain loop below draws once per generation and
-forms each term as the seed writes it. The swarm objective keeps work arrays
+forms each term as the IPSO paper writes it. The swarm objective keeps work arrays
 per swarm size; its results must not depend on earlier calls.
 """
 
@@ -17,7 +17,7 @@ from calibrator.model import frames, kinematics, measurement, parameters
 
 
 def plain_ipso(objective, lower, upper, particles, generations, seed, c1=2.05, c2=2.05):
-    """The seed's IPSO, one draw of r1, r2 per generation, each term on its own."""
+    """The IPSO paper's swarm, one draw of r1, r2 per generation, each term on its own."""
     rng = np.random.default_rng(seed) if isinstance(seed, int) else seed
     dim = lower.size
     centre, half = (upper + lower) / 2, (upper - lower) / 2

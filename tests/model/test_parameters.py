@@ -7,7 +7,7 @@ from calibrator import robots
 from calibrator.model import frames, measurement, parameters
 from calibrator.model.parameters import ALL_NAMES, ParameterSpace
 
-SEED_24 = [
+IPSO_PAPER_24 = [
     "a1",
     "a2",
     "a3",
@@ -122,7 +122,7 @@ def prune_for(model, frame, tool_known, orientation, n_poses=30, seed=5):
 
 def test_seed_robot_in_base_frame_with_orientation_keeps_the_seeds_24():
     kept, structural, pruned = prune_for("er10l-c10", "base", True, True)
-    assert sorted(kept) == sorted(SEED_24)
+    assert sorted(kept) == sorted(IPSO_PAPER_24)
     assert sorted(d["name"] for d in structural) == [
         "beta1",
         "beta3",

@@ -9,7 +9,7 @@ The tables below are typed from the sources, not from ``calibrator.robots``:
   ``config/<model>/joint_limits.yaml``): +-360 deg on every joint but the
   elbow (+-180 deg); speeds 180 deg/s on the UR5e, 120 deg/s on the first two
   joints and 180 deg/s on the others on the UR10 and UR10e.
-- ER10L-C10: seed 003, Table 1 (a mm, alpha deg, theta deg, d mm), and its
+- ER10L-C10: the IPSO paper, Table 1 (a mm, alpha deg, theta deg, d mm), and its
   simulation range [-pi, pi] on every joint.
 """
 
@@ -32,7 +32,7 @@ UR_SPEED_DEG_S = {
     "ur10e": (120, 120, 180, 180, 180, 180),
     "ur10": (120, 120, 180, 180, 180, 180),
 }
-# Seed 003, Table 1: joint, a (mm), alpha (deg), theta (deg), d (mm).
+# The IPSO paper, Table 1: joint, a (mm), alpha (deg), theta (deg), d (mm).
 ER10L_TABLE_1 = (
     (170.0, -90.0, 0.0, 0.0),
     (780.0, 0.0, -90.0, 0.0),

@@ -17,10 +17,10 @@ from calibrator import robots, session
 from calibrator import simulate as sim
 from calibrator.model import kinematics
 
-# Seed 003, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed again from the
+# The IPSO paper, Table 2 (a mm, alpha rad, theta rad, d mm, beta rad), typed again from the
 # paper on purpose: an independent copy to hold calibrator.simulate's own against (importing
 # it would make the test pass whatever the simulator's table says).
-SEED_TABLE_2 = [
+IPSO_TABLE_2 = [
     [-0.4751, 0.0058, 0.0091, -0.4221, 0.0],
     [0.2565, 0.0092, -0.0003, 0.0, -0.0028],
     [-0.3366, 0.0031, 0.0060, 0.3409, 0.0],
@@ -40,8 +40,8 @@ def joints(table):
 
 def test_ref003_truth_is_table_2_of_the_seed_on_the_flange():
     table, meta, truth = sim.simulate(poses=5, orientation=False)
-    np.testing.assert_allclose(truth.mdh - robots.get("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12)
-    # The seed measures the flange itself: the tool is the identity and known.
+    np.testing.assert_allclose(truth.mdh - robots.get("er10l-c10").mdh, IPSO_TABLE_2, atol=1e-12)
+    # The IPSO paper measures the flange itself: the tool is the identity and known.
     np.testing.assert_array_equal(truth.flange2tool, np.eye(4))
     np.testing.assert_array_equal(meta.flange2tool, np.eye(4))
     assert meta.tool_known is True
@@ -122,7 +122,7 @@ def test_an_unknown_tool_lies_the_offset_away_from_the_guess():
     assert np.linalg.norm(offset) == pytest.approx(7.5, rel=1e-12)
     assert np.all(offset != 0)
     np.testing.assert_array_equal(truth.flange2tool[:3, :3], np.eye(3))
-    # On the seed's arm the guess is the default probe too, not the flange.
+    # On the IPSO paper's arm the guess is the default probe too, not the flange.
     _, meta, truth = sim.simulate(poses=3, tool_offset_mm=2.0)
     np.testing.assert_allclose(meta.flange2tool[:3, 3], [0.0, 0.0, 100.0])
     assert np.linalg.norm(truth.flange2tool[:3, 3] - [0, 0, 100]) == pytest.approx(2.0)
@@ -316,7 +316,7 @@ def test_cli_random_errors_are_the_default_off_the_seeds_arm(tmp_path):
     assert meta["simulated"]["errors"] == "ref003"
     truth = json.loads((tmp_path / "s.truth.json").read_text())
     np.testing.assert_allclose(
-        np.array(truth["mdh"]) - robots.get("er10l-c10").mdh, SEED_TABLE_2, atol=1e-12
+        np.array(truth["mdh"]) - robots.get("er10l-c10").mdh, IPSO_TABLE_2, atol=1e-12
     )
     line = one_line_error(cli("simulate", "--errors", "tiny", cwd=tmp_path))
     assert "must be one of ref003, random, none, got 'tiny'" in line

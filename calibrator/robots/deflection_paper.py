@@ -1,4 +1,4 @@
-"""Chen and Zhang's example arm (reference paper 001, 1984), for the deflection analysis.
+"""Chen and Zhang's example arm (the deflection paper, 1984), for the deflection analysis.
 
 Not a calibration target: five axes, joint 3 a sliding rod. The paper's
 Fig. 4 is missing from the text; the table below is our reading of it:
