@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.model import conventions, kinematics
 from calibrator.model.mass_models import GRAVITY_MM_S2
 from calibrator.robots import deflection_paper
 from calibrator.strict import Rule, shown
@@ -396,40 +397,35 @@ def trapezoid(
 # --- arms ----------------------------------------------------------------------
 
 
-def standard_dh_frames(
-    table: np.ndarray, prismatic: np.ndarray, q: np.ndarray, hand: np.ndarray | None = None
-) -> np.ndarray:
+def standard_dh_frames(table: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Standard-DH frames, the deflection paper's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
+
+    The model's own forward kinematics (:func:`calibrator.model.kinematics.chain`)
+    of the table converted to MDH (:func:`calibrator.model.conventions.standard_dh_to_mdh`);
+    a sliding joint's coordinate goes into its table's ``s``, so each pose has
+    its own table.
 
     Parameters
     ----------
-    table : ndarray, shape (n, 4)
+    table : ndarray, shape (n, 4), n <= 6
         Rows ``[theta_offset (rad), s (mm), h (mm), alpha (rad)]``.
     prismatic : ndarray of bool, shape (n,)
         Joints whose coordinate adds to ``s`` (mm) instead of ``theta`` (rad).
     q : ndarray, shape (N, n)
-    hand : ndarray, shape (4, 4), optional
-        Frame n to hand.
 
     Returns
     -------
     ndarray, shape (N, n+1, 4, 4)
+        Base to frame i (mm); index 0 the base.
     """
-    q = np.atleast_2d(q)
-    out = np.zeros((len(q), len(table) + 1, 4, 4))
-    out[:, 0] = np.eye(4)
-    for i, (th0, s0, h, alpha) in enumerate(table):
-        th = np.full(len(q), th0) if prismatic[i] else th0 + q[:, i]
-        s = s0 + q[:, i] if prismatic[i] else np.full(len(q), s0)
-        ct, st, ca, sa = np.cos(th), np.sin(th), np.cos(alpha), np.sin(alpha)
-        m = np.zeros((len(q), 4, 4))
-        m[:, 0] = np.stack([ct, -st * ca, st * sa, h * ct], axis=-1)
-        m[:, 1] = np.stack([st, ct * ca, -ct * sa, h * st], axis=-1)
-        m[:, 2, 1], m[:, 2, 2], m[:, 2, 3], m[:, 3, 3] = sa, ca, s, 1.0
-        out[:, i + 1] = out[:, i] @ m
-    if hand is not None:
-        out[:, -1] = out[:, -1] @ hand
-    return out
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    n = len(table)
+    posed = np.repeat(np.asarray(table, dtype=float)[np.newaxis], len(q), axis=0)
+    posed[..., 0] += np.where(prismatic, 0.0, q)
+    posed[..., 1] += np.where(prismatic, q, 0.0)
+    mdh = conventions.standard_dh_to_mdh(posed)
+    _, frames = kinematics.chain(mdh, np.zeros((1, 6)), all_frames=True)
+    return frames[:, 0, : n + 1]
 
 
 _DEG = np.pi / 180.0
@@ -508,7 +504,7 @@ def named_arm(model: str, sections: dict[int, Section], masses: object = None) -
         Defaults to the model's published mass model.
     """
     from calibrator import robots
-    from calibrator.model import kinematics, mass_models
+    from calibrator.model import mass_models
 
     m = robots.get(model)
     mm = mass_models.get(m.name) if masses is None else masses

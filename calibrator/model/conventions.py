@@ -47,17 +47,12 @@ from calibrator.model.kinematics import ALPHA, BETA, THETA
 _PARALLEL_EPS = 1e-12
 
 
-def rz(angle: float) -> np.ndarray:
-    """Rotation by ``angle`` (rad) about z, (4, 4)."""
-    c, s = np.cos(angle), np.sin(angle)
-    t = np.eye(4)
-    t[:2, :2] = [[c, -s], [s, c]]
-    return t
-
-
 def link(row: np.ndarray) -> np.ndarray:
     """``A_i`` at ``q_i = 0`` for one MDH row ``[a, alpha, theta, d, beta]``, (4, 4)."""
-    return rz(row[THETA]) @ kinematics.link_constants(np.tile(row, (6, 1)))[0]
+    # The kinematics' own chain, of a table whose other links are the identity.
+    table = np.zeros((6, 5))
+    table[0] = row
+    return kinematics.chain(table, np.zeros((1, 6)))[0]
 
 
 def joint_frames(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +191,7 @@ def _last_link(frame, flange, ref, beta6):
     for alpha, beta, shift in ((alpha0, beta0, 0.0), (np.pi - alpha0, beta0 + np.pi, np.pi)):
         if not beta6 and shift:
             beta = 0.0
-        rest = rot @ (_rx(alpha) @ _ry(beta)).T
+        rest = rot @ frames.rotations_xyz([alpha, beta, 0.0]).T
         theta = _wrap_near(np.arctan2(rest[1, 0], rest[0, 0]), ref[THETA])
         alpha = _wrap_near(alpha, ref[ALPHA])
         beta = _wrap_near(beta, ref[BETA])
@@ -207,16 +202,6 @@ def _last_link(frame, flange, ref, beta6):
             best = (cost, row)
     row = best[1]
     return row, link(row)
-
-
-def _rx(angle):
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def _ry(angle):
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 def residual_size(transform: ArrayLike) -> tuple[float, float]:
@@ -270,3 +255,64 @@ def dh_to_mdh(dh: ArrayLike, reference: ArrayLike) -> tuple[np.ndarray, np.ndarr
         joints, flange, reference, kinematics.parallel_axes(reference, tol=0.1), beta6=True
     )
     return mdh, base @ residual
+
+
+def craig_to_mdh(table: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """MDH table and base offset of an arm given in Craig's modified DH.
+
+    Craig's link ``i`` is ``Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``.
+    ``Rx`` and ``Tx`` commute, so the chain regroups exactly into
+    ``Rx(alpha_0) Tx(a_0) . A_1 ... A_6`` with MDH links ``A_i = Rz(theta_i)
+    Tz(d_i) Tx(a_i) Rx(alpha_i)`` (``beta = 0``) and ``a_6 = alpha_6 = 0``.
+
+    Parameters
+    ----------
+    table : array_like, shape (6, 3)
+        Rows ``[alpha_{i-1} (rad), a_{i-1} (mm), d_i (mm)]``; joint offsets 0.
+
+    Returns
+    -------
+    base2frame0 : ndarray, shape (4, 4)
+        ``Rx(alpha_0) Tx(a_0)``: MDH frame 0 in Craig's base frame (mm).
+    mdh : ndarray, shape (6, 5)
+    """
+    table = np.asarray(table, dtype=float)
+    if table.shape != (6, 3):
+        raise ValueError(f"Craig DH table must be 6 x 3, got {table.shape}")
+    mdh = np.zeros((6, 5))
+    mdh[:5, kinematics.A] = table[1:, 1]
+    mdh[:5, ALPHA] = table[1:, 0]
+    mdh[:, kinematics.D] = table[:, 2]
+    # Rx(alpha_0) leaves the x axis where it is: the offset is a_0 along x.
+    base2frame0 = frames.transform(
+        frames.rotations_xyz([table[0, 0], 0.0, 0.0]), [table[0, 1], 0, 0]
+    )
+    return base2frame0, mdh
+
+
+def standard_dh_to_mdh(table: ArrayLike) -> np.ndarray:
+    """MDH table of an arm given in standard DH, up to six joints.
+
+    Standard DH's ``M_i = Rz(theta_i) Tz(s_i) Tx(h_i) Rx(alpha_i)`` is the MDH
+    link with ``beta = 0``: only the columns differ. Missing joints (an arm
+    of fewer than six) are identity links at the end.
+
+    Parameters
+    ----------
+    table : array_like, shape (..., n, 4), n <= 6
+        Rows ``[theta_offset (rad), s (mm), h (mm), alpha (rad)]``.
+
+    Returns
+    -------
+    ndarray, shape (..., 6, 5)
+    """
+    table = np.asarray(table, dtype=float)
+    n = table.shape[-2]
+    if table.shape[-1] != 4 or not 1 <= n <= 6:
+        raise ValueError(f"standard DH table must have shape (..., n <= 6, 4), got {table.shape}")
+    mdh = np.zeros(table.shape[:-2] + (6, 5))
+    mdh[..., :n, THETA] = table[..., 0]
+    mdh[..., :n, kinematics.D] = table[..., 1]
+    mdh[..., :n, kinematics.A] = table[..., 2]
+    mdh[..., :n, ALPHA] = table[..., 3]
+    return mdh

@@ -243,6 +243,46 @@ def forward(
     return t
 
 
+def joint_origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The chain regrouped at the joints: each joint's frame before it turns.
+
+    ``A_i = Rz(theta_i + q_i) Tz(d_i) . T_i`` with ``T_i = Tx(a_i) Rx(alpha_i)
+    Ry(beta_i)``; since ``Rz(q_i)`` commutes with ``Tz(d_i)``::
+
+        A_1 ... A_6 (q) = O_1 Rz(q_1) ... O_6 Rz(q_6) . T_6,
+        O_i = T_{i-1} Rz(theta_i) Tz(d_i),  T_0 = I.
+
+    ``O_i`` places joint i (z on its axis, origin on it) in the frame of the
+    joint before: the form of ROS and URDF joint origins, and of the posed
+    arms of :mod:`calibrator.analysis.arm`, where an error transform is
+    inserted at each joint.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (..., 6, 5)
+        MDH tables (mm, rad).
+
+    Returns
+    -------
+    origins : ndarray, shape (..., 6, 4, 4)
+        ``O_i`` (mm).
+    trailing : ndarray, shape (..., 4, 4)
+        ``T_6``, joint 6's frame after it turns to the flange frame (mm).
+    """
+    mdh = check_mdh(mdh)
+    tails = link_constants(mdh)  # Tz(d) Tx(a) Rx(alpha) Ry(beta), with the Tz taken out below
+    tails[..., 2, 3] -= mdh[..., D]
+    heads = np.zeros_like(tails)  # Rz(theta_i) Tz(d_i)
+    c, s = np.cos(mdh[..., THETA]), np.sin(mdh[..., THETA])
+    heads[..., 0, 0], heads[..., 0, 1], heads[..., 1, 0], heads[..., 1, 1] = c, -s, s, c
+    heads[..., 2, 2] = heads[..., 3, 3] = 1.0
+    heads[..., 2, 3] = mdh[..., D]
+    before = np.concatenate(
+        [np.broadcast_to(np.eye(4), tails[..., :1, :, :].shape), tails[..., :5, :, :]], axis=-3
+    )
+    return before @ heads, tails[..., 5, :, :]
+
+
 def parallel_axes(mdh: ArrayLike, tol: float = 1e-6) -> np.ndarray:
     """Which consecutive joint axes are parallel in a nominal table.
 

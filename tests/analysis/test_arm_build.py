@@ -87,9 +87,3 @@ def test_a_craig_table_must_be_six_by_three():
     with pytest.raises(CalibrationError) as info:
         arm.craig_arm(np.zeros((5, 3)), np.zeros(6))
     assert str(info.value) == "Craig DH table must be 6 x 3, got (5, 3)"
-
-
-def test_trans_puts_each_coordinate_in_its_row():
-    out = arm.trans([1.0, 4.0], 2.0, 3.0)
-    np.testing.assert_array_equal(out[:, :, 3], [[1.0, 2.0, 3.0], [4.0, 2.0, 3.0]])
-    np.testing.assert_array_equal(out[:, :, :3], np.broadcast_to(np.eye(3), (2, 3, 3)))

@@ -65,9 +65,8 @@ def test_ros_kinematics_round_trip(a6_alpha6):
     if a6_alpha6:
         # The file cannot hold a6/alpha6: the export says so, with the residual.
         assert len(result.notes) == 1 and "cannot hold a6, alpha6" in result.notes[0]
-        from calibrator.export.ros import origins
 
-        trailing = origins(cal.mdh)[1]
+        trailing = kinematics.joint_origins(cal.mdh)[1]
         got[:, :3, 3] *= 1000.0
         got = got @ trailing
         got[:, :3, 3] /= 1000.0

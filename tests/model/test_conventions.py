@@ -173,3 +173,50 @@ def test_a_first_axis_along_the_base_x_axis_gives_a_rigid_frame_0():
     base2frame0 = mounted_fit(57, rot("y", np.pi / 2), [0.0, 50.0, 700.0])
     np.testing.assert_allclose(base2frame0[:3, 2], [1.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(base2frame0[:3, 3], [0.0, 50.0, 700.0], atol=1e-9)
+
+
+def craig_chain_by_hand(table, q):
+    """Craig's ``Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(q_i) Tz(d_i)``, multiplied out, (4, 4)."""
+    out = np.eye(4)
+    for (alpha, a, d), qi in zip(table, q, strict=True):
+        rx, tx, rz, tz = np.eye(4), np.eye(4), np.eye(4), np.eye(4)
+        rx[:3, :3], rz[:3, :3] = rot("x", alpha), rot("z", qi)
+        tx[0, 3], tz[2, 3] = a, d
+        out = out @ rx @ tx @ rz @ tz
+    return out
+
+
+def test_a_craig_table_is_an_mdh_table_after_a_base_offset():
+    rng = np.random.default_rng(5)
+    table = np.column_stack(
+        [rng.uniform(-np.pi, np.pi, 6), rng.uniform(-500, 500, 6), rng.uniform(-500, 500, 6)]
+    )
+    base, mdh = conventions.craig_to_mdh(table)
+    assert np.all(mdh[:, BETA] == 0) and np.all(mdh[:, THETA] == 0)
+    q = rng.uniform(-np.pi, np.pi, (5, 6))
+    for pose, hand in zip(q, kinematics.chain(mdh, q), strict=True):
+        np.testing.assert_allclose(base @ hand, craig_chain_by_hand(table, pose), atol=1e-9)
+    with pytest.raises(ValueError, match=r"Craig DH table must be 6 x 3, got \(5, 3\)"):
+        conventions.craig_to_mdh(table[:5])
+
+
+def test_standard_dh_is_mdh_without_beta_and_short_arms_end_in_identity_links():
+    rng = np.random.default_rng(6)
+    table = np.column_stack(  # [theta_offset, s, h, alpha], five joints
+        [rng.uniform(-np.pi, np.pi, 5), rng.uniform(-900, 900, 5), rng.uniform(-900, 900, 5),
+         rng.uniform(-np.pi, np.pi, 5)]
+    )  # fmt: skip
+    mdh = conventions.standard_dh_to_mdh(table)
+    assert mdh.shape == (6, 5) and np.all(mdh[5] == 0) and np.all(mdh[:, BETA] == 0)
+    q = rng.uniform(-np.pi, np.pi, 6)
+    _, frames = kinematics.chain(mdh, q, all_frames=True)
+    t = np.eye(4)
+    for i, (theta, s, h, alpha) in enumerate(table):
+        m = np.eye(4)
+        m[:3, :3] = rot("z", theta + q[i]) @ rot("x", alpha)
+        m[:3, 3] = [h * np.cos(theta + q[i]), h * np.sin(theta + q[i]), s]
+        t = t @ m
+        np.testing.assert_allclose(frames[0, i + 1], t, atol=1e-9)
+    np.testing.assert_array_equal(conventions.standard_dh_to_mdh(table[np.newaxis])[0], mdh)
+    with pytest.raises(ValueError, match="standard DH table"):
+        conventions.standard_dh_to_mdh(np.zeros((7, 4)))

@@ -43,6 +43,34 @@ def test_link_constants_are_tz_tx_rx_ry_written_with_scipy():
         np.testing.assert_allclose(consts[i], expected, atol=1e-12)
 
 
+def test_joint_origins_regroup_the_chain_at_the_joints_written_with_scipy():
+    # O_i = T_{i-1} Rz(theta_i) Tz(d_i), T_i = Tx(a_i) Rx(alpha_i) Ry(beta_i): the
+    # elementary rotations are scipy's, and O_1 Rz(q_1) ... O_6 Rz(q_6) T_6 is the chain.
+    rng = np.random.default_rng(4)
+    mdh = rng.normal(0, 1, (6, 5)) * [300, 1, 1, 300, 0.2]
+    origins, trailing = kinematics.joint_origins(mdh)
+    before = np.eye(4)
+    for i in range(6):
+        head = np.eye(4)
+        head[:3, :3] = Rotation.from_euler("z", mdh[i, kinematics.THETA]).as_matrix()
+        head[2, 3] = mdh[i, kinematics.D]
+        np.testing.assert_allclose(origins[i], before @ head, atol=1e-12)
+        before = np.eye(4)
+        before[:3, :3] = Rotation.from_euler(
+            "XY", [mdh[i, kinematics.ALPHA], mdh[i, kinematics.BETA]]
+        ).as_matrix()
+        before[0, 3] = mdh[i, kinematics.A]
+    np.testing.assert_allclose(trailing, before, atol=1e-12)
+    q = rng.uniform(-np.pi, np.pi, 6)
+    t = np.eye(4)
+    for i in range(6):
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_euler("z", q[i]).as_matrix()
+        t = t @ origins[i] @ turn
+    np.testing.assert_allclose(t @ trailing, kinematics.chain(mdh, q)[0], atol=1e-9)
+    assert kinematics.joint_origins(np.stack([mdh, mdh]))[0].shape == (2, 6, 4, 4)
+
+
 def test_the_fast_path_gives_the_flange_rows_only_unless_frames_are_asked():
     rng = np.random.default_rng(4)
     mdh = robots.get("er10l-c10").mdh + rng.normal(0, 0.01, (2, 6, 5))
