@@ -13,7 +13,9 @@
   residuals and their Jacobian;
 - :mod:`~calibrator.model.joint_terms` and
   :mod:`~calibrator.model.mass_models`: joint error terms and the link masses
-  their gravity torques need.
+  their gravity torques need;
+- :mod:`~calibrator.model.singularities`: how far a pose is from each of the
+  arm's singularities.
 
 The named arms' tables live in :mod:`calibrator.robots`; nothing here does I/O
 to hardware.

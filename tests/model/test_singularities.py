@@ -5,8 +5,9 @@ import pytest
 
 from calibrator import cell as cells
 from calibrator import plan as plans
-from calibrator import robots, singularities
+from calibrator import robots
 from calibrator.cell import checks
+from calibrator.model import singularities
 
 UR10E = robots.get("ur10e")
 TRACKER = cells.Cell(tracker_at_mm=(2500.0, 400.0, 300.0))
