@@ -159,9 +159,9 @@ def calibrate(
         payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     notes = [f"warning: {doubt}" for doubt in loaded.warnings]
     if nominal_file is not None:
-        from calibrator.model import nominal
+        from calibrator.identify import factory_calibration
 
-        notes.append(nominal.apply(loaded.meta, nominal_file))
+        notes.append(factory_calibration.apply(loaded.meta, nominal_file))
     started = time.perf_counter()
     shown = options if on_generation is None else replace(options, on_generation=on_generation)
     try:

@@ -7,8 +7,6 @@
   families (MDH, standard DH, Craig's modified DH);
 - :mod:`~calibrator.model.parameters`: which parameters are free and how
   they map to one vector;
-- :mod:`~calibrator.model.nominal`: a factory calibration (UR deltas, ROS
-  kinematics YAML) as the nominal table;
 - :mod:`~calibrator.model.measurement`: where the tracker sees the tool,
   residuals and their Jacobian;
 - :mod:`~calibrator.model.joint_terms` and

@@ -178,12 +178,12 @@ def test_cli_export_formats(tmp_path):
 
 
 def test_ros_kinematics_imports_as_nominal(tmp_path):
-    from calibrator.model import nominal
+    from calibrator.identify import factory_calibration
 
     cal = calibrated(a6_alpha6=False)
     path = tmp_path / "kin.yaml"
     path.write_text(export.export(cal, "ros-kinematics").text)
-    imported = nominal.load(path, model="ur10e")
+    imported = factory_calibration.load(path, model="ur10e")
     assert imported.source == "ros-kinematics"
     q = poses()
     got = kinematics.chain(imported.mdh, q) @ imported.flange_offset
@@ -233,7 +233,7 @@ def test_ur_published_kinematics_yaml(model):
     """UR's own files: our catalogue table, our import and our export agree with them."""
     from pathlib import Path
 
-    from calibrator.model import nominal
+    from calibrator.identify import factory_calibration
 
     path = Path(__file__).parents[2] / "fixtures" / "ur" / "description"
     path = path / f"{model}_default_kinematics.yaml"
@@ -243,7 +243,7 @@ def test_ur_published_kinematics_yaml(model):
     np.testing.assert_allclose(
         kinematics.chain(catalogue, q)[:, :3, 3], theirs[:, :3, 3] * 1000.0, rtol=0, atol=1e-6
     )
-    imported = nominal.load(path, model=model)
+    imported = factory_calibration.load(path, model=model)
     np.testing.assert_allclose(imported.mdh, catalogue, atol=1e-9)
     ours = Calibration(nominal_mdh=catalogue, mdh=catalogue, model=model)
     exported = yaml_fk(yaml.safe_load(export.export(ours, "ros-kinematics").text), q)

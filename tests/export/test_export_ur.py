@@ -15,7 +15,8 @@ import pytest
 from calibrator import robots
 from calibrator.calibration import Calibration
 from calibrator.export import ur
-from calibrator.model import kinematics, nominal
+from calibrator.identify import factory_calibration
+from calibrator.model import kinematics
 
 DATA = json.loads(
     (Path(__file__).parents[2] / "fixtures" / "ur" / "ur_calibration_test_data.json").read_text()
@@ -66,7 +67,7 @@ def random_poses(n=1000, seed=0):
 def test_factory_deltas_import_reproduce_ur_chain(tmp_path, index):
     delta = SETS[index]
     write_ur_file(tmp_path / "cal.conf", delta)
-    imported = nominal.load(tmp_path / "cal.conf")
+    imported = factory_calibration.load(tmp_path / "cal.conf")
     d, a, theta, alpha = nominal_ur10()
     q = random_poses(seed=index)
     expected = ur_dh_fk(
@@ -90,7 +91,7 @@ def test_factory_deltas_import_reproduce_ur_chain(tmp_path, index):
 @pytest.mark.parametrize("index", range(len(SETS)))
 def test_factory_deltas_export_back(tmp_path, index):
     write_ur_file(tmp_path / "cal.conf", SETS[index])
-    imported = nominal.load(tmp_path / "cal.conf")
+    imported = factory_calibration.load(tmp_path / "cal.conf")
     cal = Calibration(nominal_mdh=imported.mdh, mdh=imported.mdh, model="ur10")
     exported = ur.to_ur(cal)
     assert exported.notes == []

@@ -148,11 +148,11 @@ def test_exported_angle_deltas_lie_within_plus_minus_pi(tmp_path):
     angle delta is in (-pi, pi] and the chain is unchanged."""
     from test_export_ur import SETS, write_ur_file
 
-    from calibrator.model import nominal
+    from calibrator.identify import factory_calibration
 
     for i, delta_set in enumerate(SETS):
         write_ur_file(tmp_path / "f.conf", delta_set)
-        imported = nominal.load(tmp_path / "f.conf")
+        imported = factory_calibration.load(tmp_path / "f.conf")
         deltas, _ = ur.deltas_from_mdh(imported.mdh, "ur10")
         angles = deltas[:, [kinematics.THETA, kinematics.ALPHA]]
         assert np.all(angles > -np.pi) and np.all(angles <= np.pi), i

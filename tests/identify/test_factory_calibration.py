@@ -1,5 +1,5 @@
 """A factory calibration as the nominal model: which reader a file goes to, what
-the imported table keeps, and what :func:`nominal.apply` does to a session."""
+the imported table keeps, and what :func:`factory_calibration.apply` does to a session."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,8 @@ from export_kit import calibrated, poses, ur_file
 from calibrator import export, robots
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
-from calibrator.model import kinematics, nominal
+from calibrator.identify import factory_calibration
+from calibrator.model import kinematics
 from calibrator.session import SessionMeta
 
 
@@ -33,14 +34,14 @@ def same_chain(mdh, offset, want_mdh, n=40):
 
 def test_a_missing_file_is_named(tmp_path):
     with pytest.raises(CalibrationError) as info:
-        nominal.load(tmp_path / "none.conf", model="ur10")
+        factory_calibration.load(tmp_path / "none.conf", model="ur10")
     assert str(info.value) == f"nominal file not found: {tmp_path / 'none.conf'}"
 
 
 @pytest.mark.parametrize("name", ["kin.yml", "KIN.YML", "kin.Yaml"])
 def test_yaml_and_yml_files_are_ros_kinematics(tmp_path, name):
     cal = calibrated("ur10e", seed=41, trailing=False)
-    imported = nominal.load(ros_file(tmp_path, cal, name), model="ur10e")
+    imported = factory_calibration.load(ros_file(tmp_path, cal, name), model="ur10e")
     assert imported.source == "ros-kinematics" and imported.model == "ur10e"
     np.testing.assert_allclose(imported.mdh, cal.mdh, atol=1e-9)
 
@@ -55,14 +56,14 @@ def test_ur_deltas_without_a_model_take_the_callers(tmp_path):
         "delta_alpha": deltas[:, kinematics.ALPHA].tolist(),
     }
     path = ur_file(tmp_path, values, model=None)
-    imported = nominal.load(path, model="ur10")
+    imported = factory_calibration.load(path, model="ur10")
     assert imported.source == "ur-calibration" and imported.model == "ur10"
     np.testing.assert_array_equal(imported.base2frame0, np.eye(4))
     same_chain(imported.mdh, imported.flange_offset, cal.mdh)
     # A reference table with d2 elsewhere: the table keeps it, same arm.
     reference = robots.get("ur10").mdh.copy()
     reference[1, kinematics.D] = -25.0
-    moved = nominal.load(path, reference=reference, model="ur10")
+    moved = factory_calibration.load(path, reference=reference, model="ur10")
     assert moved.mdh[1, kinematics.D] == pytest.approx(-25.0, abs=1e-9)
     same_chain(moved.mdh, moved.flange_offset, cal.mdh)
 
@@ -75,7 +76,7 @@ def test_a_calibrated_reference_keeps_its_hayati_structure(tmp_path):
     arm = calibrated("ur10e", seed=44, trailing=False).mdh
     cal = calibrated("ur10e")
     cal.mdh = arm
-    imported = nominal.load(ros_file(tmp_path, cal), reference=reference, model="ur10e")
+    imported = factory_calibration.load(ros_file(tmp_path, cal), reference=reference, model="ur10e")
     np.testing.assert_allclose(
         imported.mdh[1:3, kinematics.D], reference[1:3, kinematics.D], atol=1e-9
     )
@@ -88,7 +89,7 @@ def test_a_file_that_is_not_a_6r_arm_is_refused(tmp_path):
     cal = calibrated("ur10e", seed=45, trailing=False)
     path = ros_file(tmp_path, cal, wrist_2=("x", 1e306))  # finite in the file, inf in mm
     with pytest.raises(CalibrationError) as info:
-        nominal.load(path, model="ur10e")
+        factory_calibration.load(path, model="ur10e")
     assert str(info.value) == f"{path}: the kinematics do not describe a 6R arm"
 
 
@@ -103,12 +104,12 @@ def test_apply_makes_the_file_the_sessions_nominal(tmp_path):
     path = ros_file(tmp_path, cal)
     m = meta()
     tool = m.flange2tool.copy()
-    line = nominal.apply(m, path)
+    line = factory_calibration.apply(m, path)
     assert line == f"nominal model from {path} (ros-kinematics against ur10e)"
     np.testing.assert_allclose(m.nominal_mdh, cal.mdh, atol=1e-9)
     np.testing.assert_allclose(m.flange2tool, tool, atol=1e-9)
     unnamed = meta(model=None)
-    assert nominal.apply(unnamed, path) == f"nominal model from {path} (ros-kinematics)"
+    assert factory_calibration.apply(unnamed, path) == f"nominal model from {path} (ros-kinematics)"
     np.testing.assert_allclose(unnamed.nominal_mdh, cal.mdh, atol=1e-9)
 
 
@@ -120,7 +121,7 @@ def test_apply_refuses_a_moved_joint_1_axis_for_a_base_frame_session(tmp_path, s
     before = m.nominal_mdh.copy()
     if refused:
         with pytest.raises(CalibrationError) as info:
-            nominal.apply(m, path)
+            factory_calibration.apply(m, path)
         mm = shift_m * 1000.0
         assert str(info.value) == (
             f"{path} moves joint 1's axis by {mm:.3g} mm, 0 rad from its base frame; "
@@ -128,11 +129,11 @@ def test_apply_refuses_a_moved_joint_1_axis_for_a_base_frame_session(tmp_path, s
         )
         np.testing.assert_array_equal(m.nominal_mdh, before)
     else:
-        nominal.apply(m, path)
+        factory_calibration.apply(m, path)
         np.testing.assert_allclose(m.nominal_mdh, cal.mdh, atol=1e-6)
     # In the tracker frame, base2tracker absorbs where joint 1 is.
     t = meta("tracker")
-    nominal.apply(t, path)
+    factory_calibration.apply(t, path)
     np.testing.assert_allclose(t.nominal_mdh, cal.mdh, atol=1e-6)
 
 
@@ -140,7 +141,7 @@ def test_apply_refuses_a_tilted_joint_1_axis_for_a_base_frame_session(tmp_path):
     cal = calibrated("ur10e", seed=48, trailing=False)
     path = ros_file(tmp_path, cal, shoulder=("roll", 1e-6))
     with pytest.raises(CalibrationError, match=r" mm, 1e-06 rad from its base frame"):
-        nominal.apply(meta("base"), path)
+        factory_calibration.apply(meta("base"), path)
 
 
 def test_apply_refuses_a_joint_1_axis_tilted_about_the_base_origin(tmp_path):
@@ -156,5 +157,5 @@ def test_apply_refuses_a_joint_1_axis_tilted_about_the_base_origin(tmp_path):
     path = tmp_path / "kin.yaml"
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(CalibrationError) as info:
-        nominal.apply(meta("base"), path)
+        factory_calibration.apply(meta("base"), path)
     assert f"{path} moves joint 1's axis by 0 mm, 1e-06 rad from its base frame" in str(info.value)
