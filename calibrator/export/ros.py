@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
+from calibrator.frames import from_xyz_rpy, xyz_rpy
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -64,24 +65,6 @@ def origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return out, after[5]
 
 
-def origin_values(transform: np.ndarray) -> np.ndarray:
-    """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad) of a transform."""
-    from scipy.spatial.transform import Rotation
-
-    rpy = Rotation.from_matrix(transform[:3, :3]).as_euler("xyz")
-    return np.concatenate([transform[:3, 3], rpy])
-
-
-def origin_transform(values: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`origin_values`: (x, y, z mm, roll, pitch, yaw) -> (4, 4)."""
-    from scipy.spatial.transform import Rotation
-
-    out = np.eye(4)
-    out[:3, :3] = Rotation.from_euler("xyz", values[3:]).as_matrix()
-    out[:3, 3] = values[:3]
-    return out
-
-
 def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
     mm, rad = chains.residual_size(trailing)
@@ -99,7 +82,7 @@ def to_ros(cal: Calibration) -> Exported:
     frames, trailing = origins(cal.mdh)
     lines = ["kinematics:"]
     for name, origin in zip(JOINTS, frames, strict=True):
-        values = origin_values(origin)
+        values = xyz_rpy(origin)
         values[:3] /= _M
         lines.append(f"  {name}:")
         lines += [f"    {k}: {float(v)!r}" for k, v in zip(KEYS, values, strict=True)]
@@ -138,6 +121,6 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             )
         values = np.asarray(raw, dtype=float)
         values[:3] *= _M
-        frame = frame @ origin_transform(values)
+        frame = frame @ from_xyz_rpy(values)
         joints[i] = frame
     return joints, frame.copy()

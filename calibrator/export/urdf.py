@@ -19,7 +19,8 @@ import numpy as np
 
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
-from calibrator.export.ros import JOINTS, origin_values, origins
+from calibrator.export.ros import JOINTS, origins
+from calibrator.frames import xyz_rpy
 from calibrator.models import get_model
 
 if TYPE_CHECKING:
@@ -32,7 +33,7 @@ LINKS = ("base_link",) + tuple(f"{j}_link" for j in JOINTS)
 
 
 def _origin(transform):
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     xyz = " ".join(repr(float(v)) for v in values[:3])
     rpy = " ".join(repr(float(v)) for v in values[3:])
@@ -169,7 +170,7 @@ def like(
 
 
 def _origin_attributes(transform: np.ndarray) -> dict[str, str]:
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     return {
         "xyz": " ".join(repr(float(v)) for v in values[:3]),

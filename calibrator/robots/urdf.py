@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrator import chains, kinematics, strict
+from calibrator.frames import from_xyz_rpy
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -114,13 +115,11 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
 
 def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
     """The transform of an ``<origin xyz rpy>`` element (mm), identity if absent."""
-    from calibrator.export.ros import origin_transform
-
     if element is None:
         return np.eye(4)
     xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
     rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
-    return origin_transform(np.concatenate([xyz * _M, rpy]))
+    return from_xyz_rpy(np.concatenate([xyz * _M, rpy]))
 
 
 def read_chain(
