@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics, strict
+from calibrator import frames, joint_terms, kinematics, singularities, strict
 from calibrator.errors import CalibrationError
 
 if TYPE_CHECKING:
@@ -558,8 +558,6 @@ class _Tally:
         self.ok_q: list = []
 
     def add(self, block: _Block, calibration, limits) -> None:
-        from calibrator.filtering.configuration import nearest_singularity
-
         sol = block.solution
         ok = sol.ok & (block.jump <= MAX_JOINT_CHANGE_DEG)
         self.n += len(ok)
@@ -576,7 +574,9 @@ class _Tally:
         room = max(0, 10 - len(self.lines))
         show = failed[:room]
         near = (
-            nearest_singularity(calibration.nominal_mdh, block.q_nominal[show]) if len(show) else []
+            singularities.nearest(calibration.nominal_mdh, block.q_nominal[show])
+            if len(show)
+            else []
         )
         for i, why in zip(show, near, strict=True):
             number = block.first + i
