@@ -9,13 +9,9 @@ import typer
 
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
-from calibrator.cli._app import app
+from calibrator.cli._app import analyze_app, app
 from calibrator.errors import CalibrationError
 
-analyze_app = typer.Typer(
-    no_args_is_help=True,
-    help="Accuracy analysis: how accurate can this arm be, which tolerances matter.",
-)
 app.add_typer(analyze_app, name="analyze")
 
 

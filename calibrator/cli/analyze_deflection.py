@@ -8,7 +8,7 @@ import typer
 from calibrator import strict
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
-from calibrator.cli.analyze import analyze_app
+from calibrator.cli._app import analyze_app
 from calibrator.errors import CalibrationError
 from calibrator.identify.option_rules import RULES
 
