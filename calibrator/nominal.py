@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import chains, consistency, kinematics
+from calibrator import chains, kinematics
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
+from calibrator.inputs import consistency
 
 if TYPE_CHECKING:
     from calibrator.session import SessionMeta

@@ -26,10 +26,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import chains, kinematics, strict
+from calibrator import chains, kinematics
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
 from calibrator.frames import from_xyz_rpy, xyz_rpy
+from calibrator.inputs import textfile, yamlfile
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -105,7 +106,7 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     ------
     CalibrationError
     """
-    doc = strict.load_yaml(strict.read_text(path, MAX_BYTES, "YAML"), str(path))
+    doc = yamlfile.loads(textfile.read_text(path, MAX_BYTES, "YAML"), str(path))
     kin = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(kin, dict) or not all(isinstance(kin.get(j), dict) for j in JOINTS):
         raise CalibrationError(f"{path}: no 'kinematics' with the joints {', '.join(JOINTS)}")

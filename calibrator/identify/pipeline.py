@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import measurement, parameters, plausibility, strict
+from calibrator import measurement, parameters
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
     fitters,
@@ -27,6 +27,8 @@ from calibrator.identify import (
     uncertainty,
 )
 from calibrator.identify.problem import Problem
+from calibrator.inputs import plausibility
+from calibrator.inputs.errors import StrictError
 
 METHODS = option_rules.METHODS
 LOSSES = option_rules.LOSSES
@@ -289,7 +291,7 @@ def _noise_warning(unc, noise_mm):
 def _check_options(options):
     try:
         option_rules.check_settings(options)
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 
 

@@ -34,8 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import chains, kinematics, strict
+from calibrator import chains, kinematics
 from calibrator.frames import from_xyz_rpy
+from calibrator.inputs import grammar, textfile
+from calibrator.inputs.errors import StrictError
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -105,8 +107,8 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
         return np.array(default, dtype=float)
     parts = text.split()
     try:
-        values = np.array([strict.parse_number(p, where) for p in parts], dtype=float)
-    except strict.StrictError:
+        values = np.array([grammar.parse_number(p, where) for p in parts], dtype=float)
+    except StrictError:
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers") from None
     if values.shape != (count,):
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers")
@@ -140,8 +142,8 @@ def read_chain(
     """
     path = Path(path)
     try:
-        text = strict.read_text(path, MAX_BYTES, "a URDF file")
-    except strict.StrictError as exc:
+        text = textfile.read_text(path, MAX_BYTES, "a URDF file")
+    except StrictError as exc:
         raise DescriptionError(str(exc)) from None
     try:
         root = ET.fromstring(text)

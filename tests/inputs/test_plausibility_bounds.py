@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from calibrator import kinematics, plausibility
+from calibrator import kinematics
 from calibrator.errors import CalibrationError, SessionError
+from calibrator.inputs import plausibility
 from calibrator.models import get_model
 
 ROBOT = get_model("er10l-c10")
