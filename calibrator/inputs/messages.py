@@ -28,9 +28,9 @@ def shown(value: Any, width: int = 40) -> str:
     """
     import reprlib
 
-    short = reprlib.Repr()
-    short.maxlevel, short.maxlist, short.maxdict, short.maxstring, short.maxother = 2, 4, 4, 30, 30
-    text = " ".join(short.repr(value).split())
+    cut = reprlib.Repr()
+    cut.maxlevel, cut.maxlist, cut.maxdict, cut.maxstring, cut.maxother = 2, 4, 4, 30, 30
+    text = " ".join(cut.repr(value).split())
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
@@ -39,6 +39,6 @@ def amount(value: float) -> str:
     if isinstance(value, int):
         text = str(value) if abs(value) < 10**30 else f"about 1e{len(str(abs(value))) - 1}"
         return text
-    short = f"{value:g}"
+    text = f"{value:g}"
     # %g keeps 6 digits: 1000000000001 would read as its own limit 1e+12.
-    return short if float(short) == value else repr(float(value))
+    return text if float(text) == value else repr(float(value))
