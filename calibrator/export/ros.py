@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import chains, kinematics
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
 from calibrator.frames import from_xyz_rpy, xyz_rpy
 from calibrator.inputs import textfile, yamlfile
 

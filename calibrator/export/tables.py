@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator import frames, kinematics
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration

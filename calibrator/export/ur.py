@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 from calibrator import robots
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
 from calibrator.robots import ur as ur_family
 
 #: Keys of the deltas and the MDH column each applies to, in file order.

@@ -18,7 +18,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
 from calibrator.export.ros import JOINTS, origins
 from calibrator.frames import xyz_rpy
 from calibrator.models import get_model

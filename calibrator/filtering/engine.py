@@ -28,7 +28,8 @@ from typing import IO
 import numpy as np
 
 from calibrator import compensate, frames, outputs, singularities
-from calibrator.filtering import REGISTRY, Job, Target, Unit, configuration, convention, numbers
+from calibrator.filtering import configuration, convention, numbers
+from calibrator.filtering.base import REGISTRY, Job, Target, Unit
 from calibrator.filtering.solve import Solver
 
 #: Targets solved together.

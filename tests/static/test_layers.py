@@ -23,6 +23,7 @@ Each failure prints what breaks the contract and, for a cycle, its edges.
 from __future__ import annotations
 
 import ast
+import functools
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -113,15 +114,6 @@ KNOWN: dict[tuple[str, str], str] = {
     ("drivers.robot.external.setup", "drivers.robot"): (
         "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
     ),
-    ("calibrator.export.*", "calibrator.export"): (
-        "an exporter registers itself on its package's table, which imports the exporters last"
-    ),
-    ("calibrator.program.*", "calibrator.program"): (
-        "a program writer registers itself on its package's table, which imports the writers last"
-    ),
-    ("calibrator.filtering.*", "calibrator.filtering"): (
-        "a language registers itself on its package's table, which imports the languages last"
-    ),
 }
 
 
@@ -174,8 +166,14 @@ def imports(name: str, path: Path, known: Iterable[str]) -> set[str]:
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
     """Module -> the modules it imports, over :data:`PACKAGES`."""
+    return {name: set(targets) for name, targets in _parsed(root).items()}
+
+
+@functools.cache
+def _parsed(root: Path) -> dict[str, frozenset[str]]:
+    # Parsed once per run: every test reads the same tree.
     found = modules(root)
-    return {name: imports(name, path, found) for name, path in found.items()}
+    return {name: frozenset(imports(name, path, found)) for name, path in found.items()}
 
 
 def checked_graph() -> dict[str, set[str]]:
