@@ -30,10 +30,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics, singularities
 from calibrator.errors import CalibrationError
 from calibrator.inputs import grammar
 from calibrator.inputs.errors import StrictError
+from calibrator.model import frames, joint_terms, kinematics, singularities
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -478,12 +478,11 @@ def run(
     -------
     Report
     """
-    from calibrator import outputs
-    from calibrator.models import get_model
+    from calibrator import outputs, robots
 
     limits = None
     try:
-        limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
+        limits = robots.get(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
     tally = _Tally()

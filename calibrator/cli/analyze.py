@@ -147,9 +147,10 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress
+    from calibrator import outputs
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
+    from calibrator.cli import progress
     from calibrator.inputs import budgets
 
     if workers is not None and scheduler is not None:
@@ -305,7 +306,7 @@ def tolerance(
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models, outputs
+    from calibrator import outputs, robots
     from calibrator.analysis import tolerance as tl
     from calibrator.inputs import budgets
 
@@ -323,9 +324,9 @@ def tolerance(
 
         loaded = cal.load(calibration)
         nominal, source = loaded.mdh, f"{calibration} (identified table)"
-        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
+        limits = robots.get(loaded.model).joint_limits_rad if loaded.model else None
     else:
-        m = models.get_model(model)
+        m = robots.get(model)
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
     overrides = {}
     for item in tol or []:

@@ -29,7 +29,7 @@ poses.
 
 A near-singular pose (the wrist's axes 4 and 6 aligned, the arm stretched,
 the wrist centre on axis 1) is where a small pose change turns the joints a
-lot; :func:`calibrator.singularities.nearest` names the closest one, to
+lot; :func:`calibrator.model.singularities.nearest` names the closest one, to
 explain a compensation that failed or jumped.
 """
 
@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, singularities
+from calibrator.model import kinematics, singularities
 
 #: Names of the three geometric bits, in column order of :func:`arm_bits`.
 BITS = ("shoulder", "elbow", "wrist")

@@ -27,10 +27,11 @@ from typing import IO
 
 import numpy as np
 
-from calibrator import compensate, frames, outputs, singularities
+from calibrator import compensate, outputs
 from calibrator.filtering import configuration, convention, numbers
 from calibrator.filtering.base import REGISTRY, Job, Target, Unit
 from calibrator.filtering.solve import Solver
+from calibrator.model import frames, singularities
 
 #: Targets solved together.
 BLOCK = 10_000

@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import configuration, rotations
 from calibrator.filtering.base import (
     Language,
@@ -40,6 +39,7 @@ from calibrator.filtering.base import (
     read_lines,
     target_tool,
 )
+from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")

@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.errors import CalibrationError
 from calibrator.filtering import rotations
 from calibrator.inputs import textfile, yamlfile
+from calibrator.model import frames
 
 #: Largest frames file read (bytes).
 MAX_BYTES = 1_000_000

@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import configuration, numbers, rotations
 from calibrator.filtering.base import (
     Job,
@@ -46,6 +45,7 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _POSITION = re.compile(r"^(C\d+)=(.*)$")
 

@@ -28,10 +28,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from calibrator import joint_terms
 from calibrator.errors import CalibrationError
 from calibrator.inputs.grammar import MAX_INT
 from calibrator.inputs.rules import Rule
+from calibrator.model import joint_terms
 
 __all__ = ["JOINT", "LOSSES", "METHODS", "PIPELINE", "RULES", "check_settings"]
 
@@ -52,7 +52,7 @@ def _groups(text: str) -> str:
 
 def _mass_model(text: str) -> str:
     """A named arm with a published mass model, or a mass-model YAML that reads."""
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     if text.strip().lower() in mass_models.NAMES:
         return text

@@ -17,8 +17,10 @@ line (exit code 2 at the CLI):
 - :mod:`~calibrator.inputs.plausibility`: data and results plausible for the arm;
 - :mod:`~calibrator.inputs.errors`: :class:`StrictError` and :class:`ConsistencyError`.
 
-The package sits below the arm's model and documents (it imports only
-:mod:`calibrator.errors` and :mod:`calibrator.kinematics`): a document
-reader hands these checks what they compare with (a catalogue table, a
-session's column names), so the readers can all use them.
+The package sits below the arm's model and documents, which read their files
+through it: a document reader hands these checks what they compare with (a
+catalogue table, a session's column names). Its one import from above is
+:mod:`calibrator.model.kinematics` (the MDH table's columns, and the forward
+kinematics the scale check of :mod:`~calibrator.inputs.plausibility` needs),
+listed in ``tests/static/test_layers.py`` until it has a home.
 """

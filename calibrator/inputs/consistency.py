@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import kinematics
 from calibrator.inputs.errors import ConsistencyError
+from calibrator.model import kinematics
 
 __all__ = [
     "check_mdh_sane",

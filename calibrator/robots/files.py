@@ -51,9 +51,9 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import kinematics
 from calibrator.inputs import textfile, yamlfile
 from calibrator.inputs.errors import StrictError
+from calibrator.model import kinematics
 from calibrator.robots import urdf
 from calibrator.robots.description import (
     FORMAT,

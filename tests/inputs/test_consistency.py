@@ -3,15 +3,15 @@
 import numpy as np
 import pytest
 
-from calibrator import parameters
+from calibrator import robots
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.inputs import consistency
 from calibrator.inputs.errors import ConsistencyError
-from calibrator.models import MODEL_NAMES, get_model
+from calibrator.model import parameters
 from calibrator.session import SessionMeta
 
-UR10E = get_model("ur10e").mdh
+UR10E = robots.get("ur10e").mdh
 FREE = ("a2", "d4", "theta3")
 
 
@@ -31,8 +31,8 @@ def calibration(nominal=UR10E, model="ur10e", change=None, frame="base"):
 
 def check(cal, where="calibration"):
     """check_calibration as reading a file calls it: with the catalogue's table of the model."""
-    named = cal.model is not None and cal.model.lower() in MODEL_NAMES
-    consistency.check_calibration(cal, where, get_model(cal.model).mdh if named else None)
+    named = cal.model is not None and cal.model.lower() in robots.names()
+    consistency.check_calibration(cal, where, robots.get(cal.model).mdh if named else None)
 
 
 def test_a_consistent_calibration_passes():
@@ -95,11 +95,11 @@ def test_a_session_of_the_same_arm_passes():
     ("session", "message"),
     [
         (
-            meta(model="ur5e", nominal=get_model("ur5e").mdh),
+            meta(model="ur5e", nominal=robots.get("ur5e").mdh),
             "s.parquet is of a ur5e, the calibration of a ur10e",
         ),
         (
-            meta(model=None, nominal=get_model("ur5e").mdh),
+            meta(model=None, nominal=robots.get("ur5e").mdh),
             "its nominal MDH table is not the calibration's (a2",
         ),
         (meta(frame="tracker"), "records points in the tracker frame"),

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from calibrator import kinematics
+from calibrator import robots
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.inputs import plausibility
-from calibrator.models import get_model
+from calibrator.model import kinematics
 
-ROBOT = get_model("er10l-c10")
+ROBOT = robots.get("er10l-c10")
 REACH = 170 + 780 + 140 + 1060 + 125  # sum |a| + sum |d| of the ER10L-C10, mm
 
 
