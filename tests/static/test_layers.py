@@ -340,5 +340,6 @@ if __name__ == "__main__":
         print(f"[{layer}]")
         for name in sorted(n for n in edges if layer_of(n) == layer):
             print(f"  {name} -> {', '.join(sorted(edges[name])) or '-'}")
-    for component in cycles(edges) + cycles(package_graph(edges)):
-        print(_describe(component, edges), file=sys.stderr)
+    for found in (edges, package_graph(edges)):
+        for component in cycles(found):
+            print(_describe(component, found), file=sys.stderr)
