@@ -5,11 +5,11 @@ Build an arm's capsule model with :func:`arm_geometry`, read a cell file with
 (:func:`motion_faults`). A whole plan is checked with these before anything
 moves by :func:`calibrator.planning.check_plan`::
 
+    from calibrator import robots
     from calibrator.cell import Cell
-    from calibrator.models import get_model
     from calibrator.planning import check_plan
 
-    check_plan(plan, get_model("ur10e"), Cell(tracker_at_mm=(2500, 400, 300)), (0, 0, 100))
+    check_plan(plan, robots.get("ur10e"), Cell(tracker_at_mm=(2500, 400, 300)), (0, 0, 100))
 
 Everything is in the robot base frame, mm and rad; nothing here touches hardware.
 """

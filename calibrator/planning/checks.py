@@ -25,7 +25,7 @@ from calibrator import cell as cells
 from calibrator.planning.plan import Plan, PlanError
 
 if TYPE_CHECKING:
-    from calibrator.models import RobotModel
+    from calibrator import robots
 
 
 def check_limits(q: ArrayLike, joint_limits_rad: ArrayLike, *, need: int = 0) -> np.ndarray:
@@ -67,7 +67,7 @@ def check_limits(q: ArrayLike, joint_limits_rad: ArrayLike, *, need: int = 0) ->
 
 def check_plan(
     plan: Plan,
-    model: RobotModel,
+    model: robots.RobotDescription,
     cell: cells.Cell,
     tool_mm: ArrayLike,
     *,
@@ -86,7 +86,7 @@ def check_plan(
     Parameters
     ----------
     plan : Plan
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     cell : calibrator.cell.Cell
         With its tracker position when known (the aim checks run only then).
     tool_mm : array_like, shape (3,)
@@ -127,7 +127,7 @@ def check_plan(
 
 def _check_in_cell(
     plan: Plan,
-    model: RobotModel,
+    model: robots.RobotDescription,
     cell: cells.Cell,
     tool_mm: ArrayLike,
     home_rad: ArrayLike | None,

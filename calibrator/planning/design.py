@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import measurement, parameters
+from calibrator.model import measurement, parameters
 from calibrator.planning.plan import PlanError
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
@@ -57,7 +57,7 @@ def observability(
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
     the measured poses then pin down is decided at identification. ``names``
-    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    (of :data:`calibrator.model.parameters.ALL_NAMES`) replaces it, e.g. with what
     drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset

@@ -17,10 +17,12 @@ from calibrator import cell as cells
 from calibrator.planning.plan import Plan, PlanError
 
 if TYPE_CHECKING:
-    from calibrator.models import RobotModel
+    from calibrator import robots
 
 
-def order_safely(chk, q: np.ndarray, box: np.ndarray, speed: float, accel: float) -> Plan:
+def order_safely(
+    chk: cells.Checker, q: np.ndarray, box: np.ndarray, speed: float, accel: float
+) -> Plan:
     """The poses in a short-time order whose every move is safe, with vias where needed."""
     times = cells.time_matrix(q, speed, accel)
     verdict: dict[tuple[int, int], np.ndarray] = {}
@@ -107,7 +109,7 @@ def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
     ]
 
 
-def can_rise(chk, q: np.ndarray) -> np.ndarray:
+def can_rise(chk: cells.Checker, q: np.ndarray) -> np.ndarray:
     """Which poses of ``q`` (N, 6) have a safe way up (:func:`_rise_paths`), shape (N,) bool."""
     ok = np.zeros(len(q), dtype=bool)
     for vias in _rise_paths(chk, q):
@@ -148,7 +150,11 @@ def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.nd
 
 
 def estimate(
-    plan: Plan, model: RobotModel, speed_rad_s: float, accel_rad_s2: float, **kwargs: Any
+    plan: Plan,
+    model: robots.RobotDescription,
+    speed_rad_s: float,
+    accel_rad_s2: float,
+    **kwargs: Any,
 ) -> cells.CellTime:
     """:func:`calibrator.cell.cell_time` of a :class:`Plan` (all its rows, vias included).
 

@@ -24,7 +24,7 @@ from calibrator.planning.plan import Plan, PlanError, PlanOrigin, point
 from calibrator.planning.sampling import distinct, joint_box, sample
 
 if TYPE_CHECKING:
-    from calibrator.models import RobotModel
+    from calibrator import robots
 
 SELECTIONS = ("d-optimal", "random", "first")
 
@@ -60,7 +60,7 @@ class PlanReport:
 
 
 def make_checked(
-    model: RobotModel,
+    model: robots.RobotDescription,
     n: int,
     cell: cells.Cell,
     tool_mm: ArrayLike,
@@ -91,7 +91,7 @@ def make_checked(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     n : int
     cell : calibrator.cell.Cell
     tool_mm : array_like, shape (3,)

@@ -10,11 +10,10 @@ import subprocess
 
 import numpy as np
 import pytest
-from cli_process import run_cli
-from measure_testkit import session_rows
+from cli_process_kit import run_cli
+from measure_kit import session_rows
 
-from calibrator import cell, planning
-from calibrator.models import get_model
+from calibrator import cell, planning, robots
 from calibrator.simulate import SIM_TRACKER_AT_MM
 from drivers.robot.fake_ur.launcher import FakeUrProcess
 
@@ -31,7 +30,7 @@ def fake():
 def made_plan(n):
     """The plan ``measure --poses n`` makes on the simulated cell (vias included)."""
     where = cell.Cell(tracker_at_mm=tuple(float(v) for v in SIM_TRACKER_AT_MM))
-    return planning.make_checked(get_model("ur10e"), n, where, (0.0, 0.0, 100.0), seed=0).plan
+    return planning.make_checked(robots.get("ur10e"), n, where, (0.0, 0.0, 100.0), seed=0).plan
 
 
 def assert_matches_reference(path, reference):

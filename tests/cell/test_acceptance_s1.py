@@ -13,8 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import cell, planning
-from calibrator.models import get_model
+from calibrator import cell, planning, robots
 
 # UR10e, UR's published DH table (standard DH): d, a, alpha.
 _D = (180.7, 0.0, 0.0, 174.15, 119.85, 116.55)
@@ -80,7 +79,7 @@ def test_the_judge_sees_the_issues_plans_fail():
     assert not _bad(np.array([qa, qb])).any() and _bad_moves(np.array([qa, qb])) == [0]
     # And a plan made as the old planner did (poses inside the joint margin that
     # face the issue's tracker position, nothing more) fails it.
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     where = cell.Cell(tracker_at_mm=(2500.0, 400.0, 300.0))
     chk = cell.checker(cell.arm_geometry(model.name, model.mdh, TOOL), where)
     pool = planning.sample(planning.joint_box(model.joint_limits_rad, np.radians(5)), 4000)
@@ -91,7 +90,7 @@ def test_the_judge_sees_the_issues_plans_fail():
 
 @pytest.mark.parametrize("tracker_at", [(2500, 400, 300), (0, 2500, 500), (-2000, -1500, 800)])
 def test_s1_60_pose_plans_have_no_bad_pose_and_no_bad_move(tracker_at):
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     made = planning.make_checked(model, 60, cell.Cell(tracker_at_mm=tracker_at), TOOL)
     path = made.plan.path_rad
     assert len(made.plan.q_rad) == 60

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import cell, planning
 
@@ -68,10 +68,10 @@ def test_plan_command_prints_counts_estimate_and_saving(tmp_path):
     assert wrote.startswith("wrote p.csv: 20 poses")
     plan = planning.read_plan(tmp_path / "p.csv")
     # The plan passes the very check measure makes, in the same cell.
-    from calibrator.models import get_model
+    from calibrator import robots
 
     planning.check_plan(
-        plan, get_model("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100)
+        plan, robots.get("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100)
     )
 
 

@@ -1,7 +1,6 @@
 """Ordering (calibrator/planning/ordering.py): a made plan's way back home is safe.
 
 A made plan's move from its last pose back to its first (a program's home) is safe:
-
 ``program`` returns home (by default the first pose) after the last pose along
 the joint-space line, and refuses a plan whose way back collides: the planner
 starts its cycle after a safe move so that its own plans always pass.
@@ -10,10 +9,9 @@ starts its cycle after a safe move so that its own plans always pass.
 import pytest
 
 from calibrator import cell as cells
-from calibrator import planning
-from calibrator.models import get_model
+from calibrator import planning, robots
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 
 

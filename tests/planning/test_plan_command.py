@@ -2,14 +2,14 @@
 
 import numpy as np
 import pytest
-from cli_process import run_cli
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
+from cli_process_kit import run_cli
 
-from calibrator import frames, planning, session
-from calibrator.models import get_model
+from calibrator import planning, robots, session
+from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 TOOL_MM = (0.0, 0.0, 100.0)
 
@@ -119,7 +119,7 @@ def test_the_plan_size_for_three_values_per_parameter_after_the_hold_out():
     """30 poses of a UR10e in the tracker frame leave 2.9 values per parameter: 31 leave 3."""
     from calibrator.identify import freeset, identifiability
 
-    mdh = get_model("ur10e").mdh
+    mdh = robots.get("ur10e").mdh
     n = freeset.poses_for(mdh, "tracker", False, 0.2)
     free = len(freeset.decide(mdh, "tracker", False, False).names)
     assert free == 25 and n == 31

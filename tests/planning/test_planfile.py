@@ -6,11 +6,11 @@ No column or value silently dropped; the via rows and the origin columns round-t
 import numpy as np
 import pytest
 
-from calibrator import frames, planning
-from calibrator.models import get_model
+from calibrator import planning, robots
+from calibrator.model import frames
 from calibrator.planning import PlanError
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 TOOL_MM = (0.0, 0.0, 100.0)
 LIMITS = np.tile([-2.0, 3.0], (6, 1))

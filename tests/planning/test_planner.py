@@ -5,14 +5,14 @@ Checked candidates, distinct poses, the margin, the aim, the choice among candid
 
 import numpy as np
 import pytest
-from plan_testkit import CHECKED_PLAN_TRACKER_MM
+from plan_kit import CHECKED_PLAN_TRACKER_MM
 
-from calibrator import cell, frames, kinematics, measurement, planning, session
+from calibrator import cell, planning, robots, session
 from calibrator.identify import pipeline
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics, measurement
 from calibrator.simulate import DEFAULT_TOOL_POINT, SIM_TRACKER_AT_MM, SimWorld
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 TOOL_MM = (0.0, 0.0, 100.0)
 SIM_TOOL_MM = tuple(float(v) for v in DEFAULT_TOOL_POINT)
