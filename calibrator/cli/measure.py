@@ -229,8 +229,8 @@ def _external_options(
     quiet: bool,
 ):
     """``--robot external``: stop detection and association (used by that kind only)."""
+    from calibrator.acquire.external.stops import StopOptions
     from drivers.robot.external.setup import ExternalOptions
-    from drivers.robot.external.stops import StopOptions
 
     stops = StopOptions(band_mm, window_s, tolerance_mm, timeout_s)
     log = None if quiet else (lambda line: typer.echo(line, err=True))

@@ -17,11 +17,11 @@ from external_cell import TOOL_MM, first_poses
 from calibrator import frames, kinematics
 from calibrator import plan as plans
 from calibrator.acquire import ports
+from calibrator.acquire.external.stops import StopOptions
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.models import get_model
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.external.setup import ExternalOptions
-from drivers.robot.external.stops import StopOptions
 
 MOVE_S, DWELL_S = 0.2, 0.6  # a 0.3 s settle window and 5 readings fit in the dwell
 SKIPPED = 3

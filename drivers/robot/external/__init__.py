@@ -2,20 +2,10 @@
 
 For any brand: load the program from ``calibrator program`` on the
 controller, start it, and measure with ``--robot external``. See
-``docs/external-robots.md``.
+``docs/external-robots.md``. Stop detection and association are domain
+logic in :mod:`calibrator.acquire.external`.
 """
 
-from drivers.robot.external.associate import Assigned, Associator, Rejected
 from drivers.robot.external.robot import ExternalRobot, PoseMissing
-from drivers.robot.external.stops import Stop, StopDetector, StopOptions
 
-__all__ = [
-    "Assigned",
-    "Associator",
-    "ExternalRobot",
-    "PoseMissing",
-    "Rejected",
-    "Stop",
-    "StopDetector",
-    "StopOptions",
-]
+__all__ = ["ExternalRobot", "PoseMissing"]

@@ -31,10 +31,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import kinematics
+from calibrator.acquire.external.associate import Assigned, Associator, Rejected
+from calibrator.acquire.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions
 from calibrator.acquire.ports import CHECKS_PLAN, WATCHES_TRACKER, ReadingLost
 from drivers.robot.errors import LimitsViolation
-from drivers.robot.external.associate import Assigned, Associator, Rejected
-from drivers.robot.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions
 from drivers.robot.interface import Robot
 
 #: After the program was taken as ended, each later pose first looks this many settle

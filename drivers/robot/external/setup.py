@@ -7,9 +7,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from calibrator import frames
+from calibrator.acquire.external.stops import StopOptions
 from calibrator.simulate import DEFAULT_TOOL_POINT
 from drivers.robot.external.robot import ExternalRobot
-from drivers.robot.external.stops import StopOptions
 
 if TYPE_CHECKING:
     from drivers.robot import RobotOptions

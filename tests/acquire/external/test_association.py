@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from calibrator import frames, kinematics
+from calibrator.acquire.external import Assigned, Associator, Rejected, Stop
+from calibrator.acquire.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
+from calibrator.acquire.external.registration import register
 from calibrator.simulate import SimWorld, sample_joints
-from drivers.robot.external import Assigned, Associator, Rejected, Stop
-from drivers.robot.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
-from drivers.robot.external.registration import register
 
 CELL = SimWorld.make("ur10e", 5)
 NOISE_MM = 0.005  # a mean of 10 readings

@@ -52,8 +52,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivers.robot.external.registration import TOOL_BOUND_MM, Registration, register
-from drivers.robot.external.stops import Stop
+from calibrator.acquire.external.registration import TOOL_BOUND_MM, Registration, register
+from calibrator.acquire.external.stops import Stop
 
 #: Fewest stops a registration is fitted to before its leave-one-out misfits set the
 #: tolerance (below, the bound does: a handful of nearby stops underestimates the spread).
