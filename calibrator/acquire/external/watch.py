@@ -7,6 +7,8 @@ happens and hands the stops to the association (:mod:`.associate`).
 stop that is that pose (:class:`~.associate.Assigned`) or why there is none
 (:class:`Missing`: the program skipped it, or ended before it).
 
+Everything is timed by the tracker's clock (:mod:`.clock`): the settle
+window, the stop timeout and the pause between polls are tracker seconds.
 Beam loss while the arm moves is expected: it only restarts the settle
 window. A tracker that is gone (:class:`~calibrator.acquire.ports.TrackerUnavailable`)
 propagates, and ends the run as for any robot.
@@ -25,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire.external.associate import Assigned, Associator, Rejected
+from calibrator.acquire.external.clock import TrackerClock
 from calibrator.acquire.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions
 from calibrator.acquire.ports import ReadingLost, Tracker
 
@@ -60,7 +63,8 @@ class StopWatcher:
         Readings taken at each stop (what the pose records).
     options : StopOptions
     clock, sleep : callables
-        Monotonic clock (s) and sleep, replaceable in tests.
+        The host's monotonic clock (s) and sleep, replaceable in tests; the
+        watching itself runs on the tracker's clock (:class:`TrackerClock`).
     on_event : callable, optional
         Called with one line per stop decision (for a log).
     """
@@ -82,7 +86,8 @@ class StopWatcher:
         self.tool_mm = np.asarray(tool_mm, dtype=float).reshape(3)
         self.readings = int(readings)
         self.options = options = options or StopOptions()
-        self.clock, self.sleep = clock, sleep
+        self.sleep = sleep
+        self.clock = TrackerClock(clock)
         self.on_event = on_event
         self.rejected: list[Rejected] = []
         self.missing: list[int] = []
@@ -173,10 +178,10 @@ class StopWatcher:
         At the end of a full ``timeout_s`` without a stop the stops seen are
         placed (the last match settled) and the program is taken as ended.
         """
-        last_activity = self.clock()
+        last_activity = self.clock.now()
         moved, previous = False, None
         while not self._decided:
-            if self.clock() - last_activity > budget_s:
+            if self.clock.now() - last_activity > budget_s:
                 if budget_s >= self.options.timeout_s:
                     # Taken as ended even when the stops seen are only now placed: the
                     # poses after them are looked for briefly, not a whole timeout each.
@@ -187,7 +192,7 @@ class StopWatcher:
                 reading = self.tracker.measure()
             except ReadingLost:  # beam lost while moving: expected
                 self._detector.lost()
-                self.sleep(self.options.poll_s)
+                self.sleep(self.clock.host_seconds(self.options.poll_s))
                 continue
             if not reading.accurate:
                 self._detector.lost()
@@ -196,14 +201,15 @@ class StopWatcher:
             if previous is not None and np.linalg.norm(point - previous) > self._moving_mm:
                 moved = True
             previous = point
-            centre = self._detector.add(self.clock(), point)
+            now = self.clock.stamp(reading.device_time_us)
+            centre = self._detector.add(now, point)
             if centre is not None:
-                last_activity, moved = self.clock(), True
+                last_activity, moved = now, True
                 stop = self._take(centre)
                 if stop is not None:
                     self._decide(self._associator.add(stop))
                 continue
-            self.sleep(self.options.poll_s)
+            self.sleep(self.clock.host_seconds(self.options.poll_s))
         return True
 
     def _take(self, centre) -> Stop | None:
@@ -212,6 +218,7 @@ class StopWatcher:
         try:
             for _ in range(self.readings):
                 taken.append(self.tracker.measure())
+                self.clock.stamp(taken[-1].device_time_us)
         except ReadingLost as exc:
             self._reject_short(centre, f"a reading was lost at the stop ({exc})")
             return None
@@ -220,9 +227,9 @@ class StopWatcher:
             self._reject_short(centre, "the arm moved on during the readings (dwell too short)")
             return None
         number, self._stops = self._stops, self._stops + 1
-        return Stop(number, self.clock(), points.mean(axis=0), tuple(taken))
+        return Stop(number, self.clock.now(), points.mean(axis=0), tuple(taken))
 
     def _reject_short(self, centre, why: str) -> None:
         number, self._stops = self._stops, self._stops + 1
         self._detector.lost()
-        self._decide([Rejected(Stop(number, self.clock(), np.asarray(centre)), why)])
+        self._decide([Rejected(Stop(number, self.clock.now(), np.asarray(centre)), why)])

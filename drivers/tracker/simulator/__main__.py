@@ -87,6 +87,16 @@ def _on_time(text: str) -> float:
     return value
 
 
+def _time_scale(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.01 <= value <= 100.0):
+        raise argparse.ArgumentTypeError(f"expected a time scale in 0.01..100, got {text!r}")
+    return value
+
+
 def _seed(text: str) -> int:
     if not text.isascii() or not text.isdigit():
         raise argparse.ArgumentTypeError(f"seed must be a whole number >= 0, got {text!r}")
@@ -134,6 +144,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)",
     )
     p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
+    p.add_argument(
+        "--time-scale",
+        type=_time_scale,
+        default=1.0,
+        metavar="X",
+        help="its clock runs X times faster than the wall clock (reading stamps, INIT, time "
+        "on); with the external-robot simulator at the same scale, a watched run is X times "
+        "faster (default 1: real time)",
+    )
     p.add_argument(
         "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
     )
@@ -184,6 +203,13 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _scaled_clock(scale: float):
+    """The wall clock (monotonic, s) run ``scale`` times faster; itself at scale 1."""
+    if scale == 1.0:
+        return time.monotonic
+    return lambda: scale * time.monotonic()
+
+
 def _build_server(args) -> SimulatorServer:
     """Engine and endpoints from the options; endpoints printed only once all opened."""
     if args.replay:
@@ -211,6 +237,7 @@ def _build_server(args) -> SimulatorServer:
             serial=args.serial,
             air=args.air,
             on_s=args.on_time,
+            clock=_scaled_clock(args.time_scale),
         )
         if args.target:
             simulator.set_target(args.target[:3], args.target[3:] or None)

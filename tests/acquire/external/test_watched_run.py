@@ -52,13 +52,18 @@ class _Reading:
 
 
 class _ArmOnItsOwnClock:
-    """A tracker seeing an arm that moves through ``points`` (tracker frame) by ``clock``."""
+    """A tracker seeing an arm that moves through ``points`` (tracker frame) by ``clock``.
+
+    ``scale``: the program and the tracker's clock (its stamps) run that many
+    times faster than ``clock``, as simulators run with ``--time-scale``.
+    """
 
     capabilities: frozenset[str] = frozenset()
     device_id = "scripted:1"
 
-    def __init__(self, points, clock: Clock, seed: int = 0):
+    def __init__(self, points, clock: Clock, seed: int = 0, scale: float = 1.0):
         start = points.mean(axis=0)
+        self.scale = scale
         self.stops = [start, *points, start]
         self.clock = clock
         self.rng = np.random.default_rng(seed)
@@ -79,7 +84,7 @@ class _ArmOnItsOwnClock:
             self.t0 = self.clock.now()
         self.clock.sleep(READING_S)
         self.read += 1
-        t = self.clock.now() - self.t0
+        t = (self.clock.now() - self.t0) * self.scale
         leg, into = divmod(t, MOVE_S + DWELL_S)
         k = int(leg)
         if k + 1 >= len(self.stops):
@@ -89,7 +94,7 @@ class _ArmOnItsOwnClock:
         else:
             u = (into - DWELL_S) / MOVE_S
             point = self.stops[k] + (self.stops[k + 1] - self.stops[k]) * u
-        return _Reading(point + self.rng.normal(0.0, 0.003, 3), self.clock.now())
+        return _Reading(point + self.rng.normal(0.0, 0.003, 3), t)
 
 
 def _arm(clock: Clock, timeout_s: float = 5.0, cap: float = float("inf")) -> ProgramArm:
@@ -115,10 +120,16 @@ def _points(plan):
     return kinematics.forward(get_model("ur10e").mdh, plan.q_rad, tool)[:, :3, 3]
 
 
-def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, checked_plan):
-    """The plan's vias are no stops; pose 3 skipped is missing, every other pose is its own."""
+@pytest.mark.parametrize("scale", [1.0, 10.0])
+def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, checked_plan, scale):
+    """The plan's vias are no stops; pose 3 skipped is missing, every other pose is its own.
+
+    With the program and the tracker's clock ten times faster than the host's,
+    the run decides the same in a tenth of the time: it runs on the tracker's clock.
+    """
     clock = Clock()
-    tracker = _ArmOnItsOwnClock(np.delete(_points(checked_plan), SKIPPED, axis=0), clock)
+    points = np.delete(_points(checked_plan), SKIPPED, axis=0)
+    tracker = _ArmOnItsOwnClock(points, clock, scale=scale)
     # Pauses of 0.7, 1.4 and 2.8 s before re-reading a lost pose: each longer than a dwell.
     summary = _run(tmp_path, checked_plan, tracker, _arm(clock), retry_pause_s=0.7)
     n = len(checked_plan.q_rad)
@@ -126,7 +137,7 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, che
     assert summary.measured == [p for p in range(n) if p != SKIPPED]
     assert summary.notes[0] == f"missing: 1 pose(s) the program did not stop at: [{SKIPPED}]"
     # the run ends once the last pose is placed: the arm's move home, not a timeout
-    assert clock.now() < (n + 2) * (MOVE_S + DWELL_S) + 1.0
+    assert clock.now() < ((n + 2) * (MOVE_S + DWELL_S) + 1.0) / scale
 
 
 def test_a_program_that_ends_early_leaves_the_rest_missing_after_the_timeout(
