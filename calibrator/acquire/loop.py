@@ -128,6 +128,28 @@ class Outcome:
         return sorted(p for p, r in self.records.items() if r["status"] == "failed")
 
 
+@dataclass(frozen=True)
+class Hooks:
+    """What a run hands its acquisition besides the plan and options: resume state, callbacks.
+
+    Attributes
+    ----------
+    done : dict
+        ``{pose: record}`` already in the journal (resume).
+    via_rad : sequence of N arrays of shape (k_i, 6), optional
+        Via poses (rad) moved through before measured pose i.
+    after_move, should_stop, on_pose, on_beam_lost : callables
+        As for :func:`run`.
+    """
+
+    done: dict = field(default_factory=dict)
+    via_rad: Sequence[np.ndarray] | None = None
+    after_move: Callable[[np.ndarray], None] | None = None
+    should_stop: Callable[[], bool] = lambda: False
+    on_pose: Callable[[Progress], None] | None = None
+    on_beam_lost: Callable[[int, int], None] | None = None
+
+
 def run(
     plan_rad: ArrayLike,
     robot: Robot,

@@ -310,7 +310,7 @@ class MeasureRun:
             plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
         )
         try:
-            self.acquisition.check_plan(q_plan, vias, opts.speed_rad_s, opts.accel_rad_s2)
+            self.acquisition.check_plan(q_plan, vias, opts)
         except ValueError as exc:
             raise CalibrationError(str(exc)) from None
         self.plan = q_plan
@@ -455,17 +455,8 @@ class MeasureRun:
         assert self.plan is not None and self.journal is not None
         o = self.options
         via_rad = self._with_lead_in(o.via_rad)
-        self.outcome = self.acquisition.measure(
-            self.plan,
-            self.journal,
-            o,
-            done=self.done,
-            after_move=self._after_move,
-            should_stop=should_stop,
-            on_pose=on_pose,
-            on_beam_lost=on_beam_lost,
-            via_rad=via_rad,
-        )
+        hooks = loop.Hooks(self.done, via_rad, self._after_move, should_stop, on_pose, on_beam_lost)
+        self.outcome = self.acquisition.measure(self.plan, self.journal, o, hooks)
         # The journal stays open, and so locked, until finish() has removed it:
         # a --resume started in between must find it in use, not half gone.
         return self.outcome

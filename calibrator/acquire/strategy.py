@@ -14,7 +14,7 @@ same for both: the whole-plan check, the journal, resume, the session file.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
@@ -30,30 +30,17 @@ class Acquisition(Protocol):
     """What a run asks of the way its poses are measured."""
 
     def check_plan(
-        self,
-        plan_rad: np.ndarray,
-        vias: Sequence[np.ndarray],
-        speed_rad_s: float,
-        accel_rad_s2: float,
+        self, plan_rad: np.ndarray, vias: Sequence[np.ndarray], options: loop.LoopOptions
     ) -> None:
         """Refuse (``ValueError``) a plan the robot's own limits forbid, before anything moves.
 
-        ``plan_rad`` shape (N, 6) and the non-empty via arrays (k, 6), rad.
+        ``plan_rad`` shape (N, 6) and the non-empty via arrays (k, 6), rad, run at
+        ``options.speed_rad_s`` and ``options.accel_rad_s2``.
         """
         ...
 
     def measure(
-        self,
-        plan_rad: np.ndarray,
-        journal: Journal,
-        options: loop.LoopOptions,
-        *,
-        done: dict,
-        via_rad: Sequence[np.ndarray] | None = None,
-        after_move: Callable[[np.ndarray], None] | None = None,
-        should_stop: Callable[[], bool] = lambda: False,
-        on_pose: Callable[[loop.Progress], None] | None = None,
-        on_beam_lost: Callable[[int, int], None] | None = None,
+        self, plan_rad: np.ndarray, journal: Journal, options: loop.LoopOptions, hooks: loop.Hooks
     ) -> loop.Outcome:
         """Measure every pose not finished yet (as :func:`calibrator.acquire.loop.run`)."""
         ...
@@ -76,29 +63,16 @@ class Commanded:
         self.robot, self.tracker = robot, tracker
 
     def check_plan(
-        self,
-        plan_rad: np.ndarray,
-        vias: Sequence[np.ndarray],
-        speed_rad_s: float,
-        accel_rad_s2: float,
+        self, plan_rad: np.ndarray, vias: Sequence[np.ndarray], options: loop.LoopOptions
     ) -> None:
         """The robot's own check of every pose and via it will move to, when it has one."""
         if ports.CHECKS_PLAN in self.robot.capabilities:
             motion = np.concatenate([plan_rad, *vias]) if vias else plan_rad
-            self.robot.check_plan(motion, speed_rad_s, accel_rad_s2)  # type: ignore[attr-defined]
+            speed, accel = options.speed_rad_s, options.accel_rad_s2
+            self.robot.check_plan(motion, speed, accel)  # type: ignore[attr-defined]
 
     def measure(
-        self,
-        plan_rad: np.ndarray,
-        journal: Journal,
-        options: loop.LoopOptions,
-        *,
-        done: dict,
-        via_rad: Sequence[np.ndarray] | None = None,
-        after_move: Callable[[np.ndarray], None] | None = None,
-        should_stop: Callable[[], bool] = lambda: False,
-        on_pose: Callable[[loop.Progress], None] | None = None,
-        on_beam_lost: Callable[[int, int], None] | None = None,
+        self, plan_rad: np.ndarray, journal: Journal, options: loop.LoopOptions, hooks: loop.Hooks
     ) -> loop.Outcome:
         return loop.run(
             plan_rad,
@@ -106,12 +80,12 @@ class Commanded:
             self.tracker,
             journal,
             options,
-            done=done,
-            after_move=after_move,
-            should_stop=should_stop,
-            on_pose=on_pose,
-            on_beam_lost=on_beam_lost,
-            via_rad=via_rad,
+            done=hooks.done,
+            after_move=hooks.after_move,
+            should_stop=hooks.should_stop,
+            on_pose=hooks.on_pose,
+            on_beam_lost=hooks.on_beam_lost,
+            via_rad=hooks.via_rad,
         )
 
     def notes(self) -> list[str]:

@@ -15,7 +15,7 @@ the run only checks them with the plan (cell, limits).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -50,31 +50,22 @@ class Watched:
         self.watcher: StopWatcher | None = None
 
     def check_plan(
-        self, plan_rad: np.ndarray, vias: Sequence[np.ndarray], speed_rad_s: float, _accel: float
+        self, plan_rad: np.ndarray, vias: Sequence[np.ndarray], options: loop.LoopOptions
     ) -> None:
         """Refuse a plan the program would run faster than the arm's ceiling (ValueError)."""
-        cap = self.arm.speed_cap_rad_s
-        if not speed_rad_s <= cap:
-            raise ValueError(f"speed {speed_rad_s} rad/s above the ceiling {cap} rad/s")
+        speed, cap = options.speed_rad_s, self.arm.speed_cap_rad_s
+        if not speed <= cap:
+            raise ValueError(f"speed {speed} rad/s above the ceiling {cap} rad/s")
 
     def measure(
-        self,
-        plan_rad: np.ndarray,
-        journal: Journal,
-        options: loop.LoopOptions,
-        *,
-        done: dict,
-        via_rad: Sequence[np.ndarray] | None = None,
-        after_move: Callable[[np.ndarray], None] | None = None,
-        should_stop: Callable[[], bool] = lambda: False,
-        on_pose: Callable[[loop.Progress], None] | None = None,
-        on_beam_lost: Callable[[int, int], None] | None = None,
+        self, plan_rad: np.ndarray, journal: Journal, options: loop.LoopOptions, hooks: loop.Hooks
     ) -> loop.Outcome:
         """Watch for every pose not finished yet; the loop journals each as it is decided.
 
-        ``via_rad``, ``after_move`` and ``on_beam_lost`` are a commanded run's: the
-        program moves through its vias itself, and a lost beam only restarts the
-        settle window (nobody is asked to re-lock it: the arm does not wait).
+        Of the ``hooks``, ``via_rad``, ``after_move`` and ``on_beam_lost`` are a
+        commanded run's: the program moves through its vias itself, and a lost
+        beam only restarts the settle window (nobody is asked to re-lock it: the
+        arm does not wait).
         """
         plan = np.asarray(plan_rad, dtype=float)
         ext = self.arm.options
@@ -100,7 +91,13 @@ class Watched:
             return rows.measured_record(pose, plan[pose], avg, 1)
 
         return loop.drive(
-            len(plan), one, journal, options, done=done, should_stop=should_stop, on_pose=on_pose
+            len(plan),
+            one,
+            journal,
+            options,
+            done=hooks.done,
+            should_stop=hooks.should_stop,
+            on_pose=hooks.on_pose,
         )
 
     def notes(self) -> list[str]:

@@ -53,14 +53,19 @@ def _port(text: str) -> int:
     return int(text)
 
 
-def _seconds(text: str) -> float:
+def _number_within(text: str, low: float, high: float, expected: str) -> float:
+    """``text`` as a finite number in ``[low, high]``, else a usage error naming ``expected``."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and 0.0 <= value <= 3600.0):
-        raise argparse.ArgumentTypeError(f"expected seconds in 0..3600, got {text!r}")
+    if not (math.isfinite(value) and low <= value <= high):
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
     return value
+
+
+def _seconds(text: str) -> float:
+    return _number_within(text, 0.0, 3600.0, "seconds in 0..3600")
 
 
 def _air(text: str) -> tuple[float, float, float]:
@@ -78,23 +83,11 @@ def _air(text: str) -> tuple[float, float, float]:
 
 
 def _on_time(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.0 <= value <= 1e8):
-        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
-    return value
+    return _number_within(text, 0.0, 1e8, "seconds >= 0")
 
 
 def _time_scale(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.01 <= value <= 100.0):
-        raise argparse.ArgumentTypeError(f"expected a time scale in 0.01..100, got {text!r}")
-    return value
+    return _number_within(text, 0.01, 100.0, "a time scale in 0.01..100")
 
 
 def _seed(text: str) -> int:
