@@ -31,12 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, outputs
+from calibrator import outputs
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, ports
 from calibrator.acquire.external.arm import ProgramArm
 from calibrator.acquire.strategy import Acquisition, acquisition_for
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
 
 #: Most poses a plan may hold: the most ``identify`` accepts
@@ -154,7 +155,7 @@ class MeasureRun:
         A robot the run commands, or an arm running the plan as its own
         program (the run then watches the tracker for its stops).
     tracker : calibrator.acquire.ports.Tracker
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The named arm (nominal MDH, joint limits).
     options : RunOptions
     output : Path

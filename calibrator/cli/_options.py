@@ -67,7 +67,7 @@ def force() -> Any:
 
 
 def model(default: str | None = "ur10e", help: str = "Named model of the arm.") -> Any:
-    """``--model``: a named arm model (``calibrator.models``)."""
+    """``--model``: a named arm model (``calibrator.robots``)."""
     return typer.Option(default, help=help)
 
 

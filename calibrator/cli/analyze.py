@@ -150,9 +150,10 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress, strict
+    from calibrator import outputs, strict
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
+    from calibrator.cli import progress
 
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")
@@ -307,7 +308,7 @@ def tolerance(
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models, outputs, strict
+    from calibrator import outputs, robots, strict
     from calibrator.analysis import tolerance as tl
 
     n_poses = 1 if pose is not None else poses
@@ -322,9 +323,9 @@ def tolerance(
 
         loaded = cal.load(calibration)
         nominal, source = loaded.mdh, f"{calibration} (identified table)"
-        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
+        limits = robots.get(loaded.model).joint_limits_rad if loaded.model else None
     else:
-        m = models.get_model(model)
+        m = robots.get(model)
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
     overrides = {}
     for item in tol or []:

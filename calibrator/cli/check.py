@@ -79,11 +79,13 @@ def check(
 
     from calibrator import calibration as calibrations
     from calibrator import cell as cells
-    from calibrator import frames, outputs, progress
+    from calibrator import outputs
     from calibrator.acquire.run import RunOptions
     from calibrator.check import document as documents
     from calibrator.check import poses as check_poses
     from calibrator.check.model import Calibrated
+    from calibrator.cli import progress
+    from calibrator.model import frames
 
     output = Path(output)
     data_path = documents.data_path(output)

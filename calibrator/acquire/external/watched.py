@@ -20,13 +20,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
 from calibrator.acquire import loop, rows
 from calibrator.acquire.averaging import average
 from calibrator.acquire.external.arm import ProgramArm
 from calibrator.acquire.external.watch import Missing, PoseMissing, StopWatcher
 from calibrator.acquire.journal import Journal
 from calibrator.acquire.ports import ReadingLost, Tracker
+from calibrator.model import kinematics
 
 
 class Watched:

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics
 from calibrator.acquire.external import Assigned, Associator, Rejected, Stop
 from calibrator.acquire.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
 from calibrator.acquire.external.registration import register
+from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld, sample_joints
 
 CELL = SimWorld.make("ur10e", 5)

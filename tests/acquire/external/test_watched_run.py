@@ -13,16 +13,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics
+from calibrator import robots
 from calibrator.acquire.external import ExternalOptions, ProgramArm, StopOptions
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.errors import CalibrationError
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics
 
 MOVE_S, DWELL_S = 0.2, 0.6  # a 0.3 s settle window and 5 readings fit in the dwell
 READING_S = 0.002  # a reading takes time
 SKIPPED = 3
-TOOL_MM = (0.0, 0.0, 100.0)  # the shared checked plan's reflector (tests/plan_testkit.py)
+TOOL_MM = (0.0, 0.0, 100.0)  # the shared checked plan's reflector (tests/plan_kit.py)
 
 
 class Clock:
@@ -106,7 +106,7 @@ def _run(tmp_path, plan, tracker, arm, **options):
     run_options = RunOptions(
         plan_rad=plan.q_rad, via_rad=plan.via_rad, tool_mm=TOOL_MM, readings=5, **options
     )
-    with MeasureRun(arm, tracker, get_model("ur10e"), run_options, tmp_path / "s.parquet") as run:
+    with MeasureRun(arm, tracker, robots.get("ur10e"), run_options, tmp_path / "s.parquet") as run:
         run.check_files()
         run.connect()
         run.make_plan()
@@ -117,7 +117,7 @@ def _run(tmp_path, plan, tracker, arm, **options):
 
 def _points(plan):
     tool = frames.transform(translation=TOOL_MM)
-    return kinematics.forward(get_model("ur10e").mdh, plan.q_rad, tool)[:, :3, 3]
+    return kinematics.forward(robots.get("ur10e").mdh, plan.q_rad, tool)[:, :3, 3]
 
 
 @pytest.mark.parametrize("scale", [1.0, 10.0])
