@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire import rows
-from calibrator.acquire.averaging import measure_average
+from calibrator.acquire.averaging import AveragedReading, measure_average
 from calibrator.acquire.journal import Journal
 from calibrator.acquire.ports import (
     SEARCH,
@@ -336,7 +336,7 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
 MAX_COORD_MM = 1e6
 
 
-def checked(avg):
+def checked(avg: AveragedReading) -> AveragedReading:
     """The averaged reading, or :class:`BadReading` if a number in it cannot be true.
 
     Whatever a driver let through (NaN, inf, 1e300 from a well-formed packet)
