@@ -17,7 +17,7 @@ from pathlib import Path
 
 from cli_process_kit import child_env, start_cli
 
-from calibrator import plan as plans
+from calibrator import planning
 
 #: Simulated seconds per wall-clock second of both simulators.
 TIME_SCALE = 10
@@ -33,8 +33,8 @@ def first_poses(plan_path: Path, n: int, out: Path) -> Path:
     made for, as an older plan file is: ``measure`` then keeps the default
     reflector guess (0,0,100), 14 mm from where the shared plan's reflector is.
     """
-    plan = plans.read_plan(plan_path)
-    plans.write_plan(out, plans.Plan(plan.q_rad[:n], plan.via_rad[:n]))
+    plan = planning.read_plan(plan_path)
+    planning.write_plan(out, planning.Plan(plan.q_rad[:n], plan.via_rad[:n]))
     return out
 
 

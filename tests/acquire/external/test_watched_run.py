@@ -103,9 +103,7 @@ def _arm(clock: Clock, timeout_s: float = 5.0, cap: float = float("inf")) -> Pro
 
 
 def _run(tmp_path, plan, tracker, arm, **options):
-    run_options = RunOptions(
-        plan_rad=plan.q_rad, via_rad=plan.via_rad, tool_mm=TOOL_MM, readings=5, **options
-    )
+    run_options = RunOptions(plan=plan, tool_mm=TOOL_MM, readings=5, **options)
     with MeasureRun(arm, tracker, robots.get("ur10e"), run_options, tmp_path / "s.parquet") as run:
         run.check_files()
         run.connect()
