@@ -3,8 +3,11 @@
 ``calibrator measure`` parses options into :class:`RunOptions`, opens the
 two devices by URL (``drivers.tracker.open_tracker``,
 ``drivers.robot.open_robot``) and hands them here; other commands that
-drive a robot past a tracker (a verification run, an external robot) use
-the same object::
+drive a robot past a tracker (a verification run, a check) use the same
+object. How the poses are measured is the strategy the run picks for its
+robot (:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
+running the plan as its own program (``--robot external``) whose stops the
+tracker is watched for::
 
     run = MeasureRun(robot, tracker, model, RunOptions(plan=Plan(q)), output)
     run.connect()                      # tracker initialised? robot reachable?
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +34,8 @@ import numpy as np
 from calibrator import outputs
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, ports
+from calibrator.acquire.external.arm import ProgramArm
+from calibrator.acquire.strategy import Acquisition, acquisition_for
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
@@ -118,8 +123,8 @@ class Summary:
     complete : bool
         Every pose measured; the journal was removed.
     notes : list of str
-        The robot's own end-of-run lines (a robot that watches the tracker:
-        poses its program skipped, stops that matched no pose).
+        The acquisition's own end-of-run lines (an arm running its own
+        program: poses it skipped, stops that matched no pose).
     """
 
     written: Path | None
@@ -147,7 +152,9 @@ class MeasureRun:
 
     Parameters
     ----------
-    robot : calibrator.acquire.ports.Robot
+    robot : calibrator.acquire.ports.Robot or calibrator.acquire.external.arm.ProgramArm
+        A robot the run commands, or an arm running the plan as its own
+        program (the run then watches the tracker for its stops).
     tracker : calibrator.acquire.ports.Tracker
     model : calibrator.robots.RobotDescription
         The named arm (nominal MDH, joint limits).
@@ -165,7 +172,7 @@ class MeasureRun:
 
     def __init__(
         self,
-        robot: ports.Robot,
+        robot: ports.Robot | ProgramArm,
         tracker: ports.Tracker,
         model: Any,
         options: RunOptions,
@@ -183,6 +190,7 @@ class MeasureRun:
             steer = tracker.set_target  # type: ignore[attr-defined]
         self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
+        self.acquisition: Acquisition = acquisition_for(robot, tracker, model.mdh, options.tool_mm)
         # Where the tracker is: --tracker-at, else the cell file's, else the
         # simulated world's (which open_run places at either of the first two).
         given = tracker_position(options)
@@ -241,7 +249,7 @@ class MeasureRun:
             steer = self._steer
             # The orientation too: a 6-DoF probe reports it (others ignore it).
             if ports.REPORTS_TRUE_POSE in self.robot.capabilities:
-                self.robot.listener = lambda pose: _steer_to(steer, pose)  # type: ignore[attr-defined]
+                self.robot.listener = lambda pose: _steer_to(steer, pose)  # type: ignore[union-attr]
             elif self.world is not None:
                 world = self.world
                 self._after_move = lambda q: _steer_to(steer, world.tool_pose(q))
@@ -295,16 +303,10 @@ class MeasureRun:
         # (``calibrator program`` too): limits, count, every pose, via and
         # joint-space move against the arm's capsules, the cell and the tracker.
         planning.check_plan(plan, self.model, cell, opts.tool_mm, need=need)
-        if ports.CHECKS_PLAN in self.robot.capabilities:
-            motion = np.concatenate([plan.q_rad, *plan.via_rad])
-            if ports.WATCHES_TRACKER in self.robot.capabilities:
-                # It finds the measured poses among the stops: vias (passed
-                # through by its own program, checked above) are none of them.
-                motion = plan.q_rad
-            try:
-                self.robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)  # type: ignore[attr-defined]
-            except ValueError as exc:
-                raise CalibrationError(str(exc)) from None
+        try:
+            self.acquisition.check_plan(plan.q_rad, list(plan.via_rad), opts)
+        except ValueError as exc:
+            raise CalibrationError(str(exc)) from None
         self.plan = plan
         return plan
 
@@ -426,35 +428,17 @@ class MeasureRun:
         on_pose: Callable[[loop.Progress], None] | None = None,
         on_beam_lost: Callable[[int, int], None] | None = None,
     ) -> loop.Outcome:
-        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`).
+        """Every pose not finished yet, as the run's acquisition measures them.
 
-        A robot that declares :data:`~calibrator.acquire.ports.WATCHES_TRACKER`
-        finds each pose by watching the raw tracker; the loop then reads the
-        tracker port it hands out (``robot.readings_port()``).
+        See :func:`calibrator.acquire.loop.run` (a commanded robot) and
+        :class:`calibrator.acquire.external.watched.Watched` (an arm running its
+        own program).
         """
         assert self.plan is not None and self.journal is not None
         o = self.options
         via_rad = self._with_lead_in(self.plan)
-        tracker, retry_pause_s = self.tracker, o.retry_pause_s
-        if ports.WATCHES_TRACKER in self.robot.capabilities:
-            tracker = self.robot.readings_port()  # type: ignore[attr-defined]
-            # The arm runs on without us: a pause before re-reading a pose's stop
-            # (nothing comes back) would leave the tracker unwatched through the
-            # next poses' dwells and lose them.
-            retry_pause_s = 0.0
-        self.outcome = loop.run(
-            self.plan.q_rad,
-            self.robot,
-            tracker,
-            self.journal,
-            replace(o, retry_pause_s=retry_pause_s),
-            done=self.done,
-            after_move=self._after_move,
-            should_stop=should_stop,
-            on_pose=on_pose,
-            on_beam_lost=on_beam_lost,
-            via_rad=via_rad,
-        )
+        hooks = loop.Hooks(self.done, via_rad, self._after_move, should_stop, on_pose, on_beam_lost)
+        self.outcome = self.acquisition.measure(self.plan.q_rad, self.journal, o, hooks)
         # The journal stays open, and so locked, until finish() has removed it:
         # a --resume started in between must find it in use, not half gone.
         return self.outcome
@@ -500,9 +484,7 @@ class MeasureRun:
             self.journal_path.unlink()
         if self.journal is not None:
             self.journal.close()  # releases the lock, after the unlink
-        notes: list[str] = []
-        if ports.WATCHES_TRACKER in self.robot.capabilities:
-            notes = list(self.robot.summary())  # type: ignore[attr-defined]
+        notes = self.acquisition.notes()
         return Summary(
             written,
             measured,

@@ -142,7 +142,7 @@ def check(
         need_poses=poses,
         **run_args.run_fields(),
     )
-    external = _external(robot, output, chosen, arm, readings, tool_mm, quiet)
+    external = _external(robot, output, chosen, arm, quiet)
     with contextlib.ExitStack() as stack:
         mrun = stack.enter_context(
             open_run(robot, tracker, arm, options, data_path, stack, sim_noise=sim_noise,
@@ -216,7 +216,7 @@ def check(
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
-def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
+def _external(robot, output, plan, arm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
         return None
@@ -249,7 +249,7 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
         f"(`calibrator program {plan_file} -o FILE` for its language) once the check waits",
         err=True,
     )
-    return _external_options(0.05, 0.5, 15.0, 30.0, readings, tool_mm, quiet)
+    return _external_options(0.05, 0.5, 15.0, 30.0, quiet)
 
 
 def _conditions(records: dict) -> dict:

@@ -144,9 +144,7 @@ def measure(
         tracker_at_mm=tracker_mm,
         **run_args.run_fields(),
     )
-    external = _external_options(
-        stop_band, settle_window, match_tolerance, stop_timeout, readings, options.tool_mm, quiet
-    )
+    external = _external_options(stop_band, settle_window, match_tolerance, stop_timeout, quiet)
     with contextlib.ExitStack() as stack:
         run = stack.enter_context(
             _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
@@ -220,21 +218,13 @@ def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
 
 
 def _external_options(
-    band_mm: float,
-    window_s: float,
-    tolerance_mm: float,
-    timeout_s: float,
-    readings: int,
-    tool_mm: tuple[float, float, float],
-    quiet: bool,
+    band_mm: float, window_s: float, tolerance_mm: float, timeout_s: float, quiet: bool
 ):
     """``--robot external``: stop detection and association (used by that kind only)."""
-    from drivers.robot.external.setup import ExternalOptions
-    from drivers.robot.external.stops import StopOptions
+    from calibrator.acquire.external import ExternalOptions, StopOptions
 
-    stops = StopOptions(band_mm, window_s, tolerance_mm, timeout_s)
     log = None if quiet else (lambda line: typer.echo(line, err=True))
-    return ExternalOptions(stops, readings, tool_mm, log)
+    return ExternalOptions(StopOptions(band_mm, window_s, tolerance_mm, timeout_s), log)
 
 
 def _report(summary, options) -> None:

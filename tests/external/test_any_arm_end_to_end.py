@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 from cli_process_kit import run_cli
-from external_cell_kit import Watching, start_player, tracker_simulator
+from external_cell_kit import Watching, press_start, start_player, tracker_simulator
 from grammar_kit import PARSERS
 from truth_kit import against_least_squares_from_truth
 
@@ -24,8 +24,7 @@ from calibrator.model import kinematics
 
 ARM = "kuka-kr6-r900"
 SKIPPED = 5
-SCALE = 5  # controller seconds per wall-clock second
-DWELL = 3.5
+DWELL = 3.0  # controller seconds (both simulators at external_cell_kit.TIME_SCALE)
 
 
 def _read_back(program_text: str, fmt: str, plan: planning.Plan) -> planning.Plan:
@@ -59,15 +58,16 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
     planning.write_plan(tmp_path / "played.csv", played)
 
     with tracker_simulator(seed=2) as url:
-        run = Watching(
-            "--model", ARM, "--plan", "plan.csv", "--tracker", url, "-o", "s.parquet",
-            "--settle-window", "0.3", "--stop-timeout", "15", cwd=tmp_path,
-        )  # fmt: skip
         player = start_player(
             tmp_path / "played.csv", url, "--model", ARM, "--seed", 3, "--speed", "3",
-            "--accel", "6", "--time-scale", SCALE, "--dwell", DWELL, "--skip", SKIPPED,
+            "--accel", "6", "--dwell", DWELL, "--skip", SKIPPED,
             "--truth", "truth.json", cwd=tmp_path,
         )  # fmt: skip
+        run = Watching(
+            "--model", ARM, "--plan", "plan.csv", "--tracker", url, "-o", "s.parquet",
+            "--stop-timeout", "15", cwd=tmp_path,
+        )  # fmt: skip
+        press_start(player)
         done = run.result(timeout=600)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert done.returncode == 0, done.stderr
