@@ -242,7 +242,7 @@ _JSON_TYPE = {
 }
 
 
-@dataclass
+@dataclass(frozen=True)
 class FitReport:
     """How the fit went: statistics, uncertainty, warnings, outliers, solver.
 
@@ -388,7 +388,7 @@ TYPED_KEYS = (
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class Calibration:
     """A calibrated arm: nominal and identified model, frames and what was free.
 
@@ -447,11 +447,18 @@ class Calibration:
     joint_terms: JointTerms = field(default_factory=JointTerms.zero)
 
     def __post_init__(self) -> None:
-        self.nominal_mdh = kinematics.check_mdh(self.nominal_mdh).copy()
-        self.mdh = kinematics.check_mdh(self.mdh).copy()
+        # Frozen, arrays included: checked read-only copies go in once, here;
+        # derive a changed calibration with dataclasses.replace().
+        tables = {
+            name: kinematics.check_mdh(getattr(self, name)) for name in ("nominal_mdh", "mdh")
+        }
         for name in ("base2tracker", "flange2tool", "base0", "tool0"):
-            setattr(self, name, frames.check_transform(getattr(self, name), name).copy())
-        self.free = tuple(self.free)
+            tables[name] = frames.check_transform(getattr(self, name), name)
+        for name, table in tables.items():
+            table = table.copy()
+            table.setflags(write=False)
+            object.__setattr__(self, name, table)
+        object.__setattr__(self, "free", tuple(self.free))
 
     @classmethod
     def from_result(

@@ -51,7 +51,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -93,7 +93,7 @@ CONDITION_COLUMNS = {
 WARMED_UP_COLUMN = "tracker_warmed_up"
 
 
-@dataclass
+@dataclass(frozen=True)
 class SessionMeta:
     """What the footer says about a session.
 
@@ -120,6 +120,13 @@ class SessionMeta:
     tool_known: bool = False
     extra: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # Frozen, arrays included: derive a changed footer with dataclasses.replace().
+        for name in ("nominal_mdh", "flange2tool"):
+            table = np.array(getattr(self, name), dtype=float)
+            table.setflags(write=False)
+            object.__setattr__(self, name, table)
+
     def to_json(self) -> dict:
         out = dict(self.extra)
         out.update(
@@ -135,7 +142,7 @@ class SessionMeta:
         return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class Session:
     """A loaded session.
 
@@ -200,7 +207,7 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
     loaded = Session(_validate_table(table, path, meta), meta)
     limits = _model_limits(meta.model)
     try:
-        loaded.warnings = plausibility.check_observations(
+        doubts = plausibility.check_observations(
             loaded.array(JOINT_COLUMNS),
             loaded.array(POINT_COLUMNS),
             meta.nominal_mdh,
@@ -210,7 +217,7 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
         )
     except SessionError as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return loaded
+    return replace(loaded, warnings=doubts)
 
 
 def _model_limits(name):

@@ -161,7 +161,9 @@ def calibrate(
     if nominal_file is not None:
         from calibrator import nominal
 
-        notes.append(nominal.apply(loaded.meta, nominal_file))
+        meta, line = nominal.apply(loaded.meta, nominal_file)
+        loaded = replace(loaded, meta=meta)
+        notes.append(line)
     started = time.perf_counter()
     shown = options if on_generation is None else replace(options, on_generation=on_generation)
     try:
@@ -196,21 +198,27 @@ def calibrate(
     cal = calibration.Calibration.from_result(
         result, first, loaded.meta.model, loaded.meta.frame, provenance
     )
+    terms = cal.joint_terms
     if found is not None and found.terms.needs_torque:
         assert payloads is not None  # loaded with the joint terms
-        cal.joint_terms = replace(
-            cal.joint_terms,
+        terms = replace(
+            terms,
             payload_kg=float(np.median(payloads)),
             payload_com_mm=payload_com,
             mass_model=str(joint.mass_model or loaded.meta.model),
         )
+    diagnostics = dict(cal.diagnostics)
     if len(paths) > 1:
-        cal.diagnostics["sessions"] = [str(p) for p in paths]
+        diagnostics["sessions"] = [str(p) for p in paths]
     # compensate warns about targets outside the joint ranges the fit saw.
     fitted_q = loaded.observations.q[result.fit_index]
-    cal.fit.fitted_joint_ranges_rad = np.column_stack(
-        [fitted_q.min(axis=0), fitted_q.max(axis=0)]
-    ).tolist()
+    ranges = np.column_stack([fitted_q.min(axis=0), fitted_q.max(axis=0)]).tolist()
+    cal = replace(
+        cal,
+        joint_terms=terms,
+        diagnostics=diagnostics,
+        fit=replace(cal.fit, fitted_joint_ranges_rad=ranges),
+    )
     return Calibrated(cal, result, loaded, found, notes, took)
 
 
