@@ -37,7 +37,7 @@ import platform
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -45,7 +45,11 @@ from numpy.typing import ArrayLike
 from calibrator import consistency, frames, kinematics, outputs, parameters, strict
 from calibrator.errors import CalibrationError
 from calibrator.identify import option_rules
+from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
 from calibrator.joint_terms import JointTerms
+
+if TYPE_CHECKING:
+    from calibrator.identify.pipeline import Result
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -124,8 +128,8 @@ class Provenance:
     joint_term_groups: str | None = None
     mass_model: str | None = None
     payload_kg: float | None = None
-    payload_com_mm: list | None = None
-    versions: dict = field(default_factory=dict)
+    payload_com_mm: list[float] | None = None
+    versions: dict[str, str] = field(default_factory=dict)
     created: str | None = None
 
     #: Keys of the options that decide the identified parameters.
@@ -228,7 +232,7 @@ class Provenance:
         return out
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
 
 
@@ -248,10 +252,10 @@ class FitReport:
 
     Attributes
     ----------
-    stats : dict
+    stats : calibrator.identify.records.FitStats
         ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
         :func:`calibrator.identify.report.error_stats` (mm, deg).
-    uncertainty : dict
+    uncertainty : calibrator.identify.records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` (standard errors in
         the units of ``deltas``, residual sigma, predicted held-out error,
         correlations).
@@ -261,7 +265,7 @@ class FitReport:
         Pose numbers a robust loss set aside (with ``lsq``: flagged).
     validation_poses : list of int
         Row indices (0-based, session order) of the held-out poses.
-    solver : dict
+    solver : calibrator.identify.records.SolverDetails
         What each fitter reported (cost, evaluations, message), and the
         swarm's ``convergence`` as ``[[generation, best cost], ...]``.
     fitted_joint_ranges_rad : list
@@ -270,13 +274,13 @@ class FitReport:
         not recorded.
     """
 
-    stats: dict = field(default_factory=dict)
-    uncertainty: dict = field(default_factory=dict)
-    warnings: list = field(default_factory=list)
-    outliers: list = field(default_factory=list)
-    validation_poses: list = field(default_factory=list)
-    solver: dict = field(default_factory=dict)
-    fitted_joint_ranges_rad: list = field(default_factory=list)
+    stats: FitStats = field(default_factory=lambda: FitStats())
+    uncertainty: Uncertainty = field(default_factory=lambda: Uncertainty())
+    warnings: list[str] = field(default_factory=list)
+    outliers: list[int] = field(default_factory=list)
+    validation_poses: list[int] = field(default_factory=list)
+    solver: SolverDetails = field(default_factory=lambda: SolverDetails())
+    fitted_joint_ranges_rad: list[list[float]] = field(default_factory=list)
 
     #: Keys of calibration.json this part reads and writes.
     KEYS = (
@@ -433,9 +437,9 @@ class Calibration:
     mdh: np.ndarray
     base2tracker: np.ndarray = field(default_factory=lambda: np.eye(4))
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
-    free: tuple = ()
-    deltas: dict = field(default_factory=dict)
-    dropped: list = field(default_factory=list)
+    free: tuple[str, ...] = ()
+    deltas: dict[str, float] = field(default_factory=dict)
+    dropped: list[dict[str, str]] = field(default_factory=list)
     model: str | None = None
     frame: str = "base"
     base0: np.ndarray = field(default_factory=lambda: np.eye(4))
@@ -443,7 +447,7 @@ class Calibration:
     session: str | None = None
     provenance: Provenance = field(default_factory=Provenance)
     fit: FitReport = field(default_factory=FitReport)
-    diagnostics: dict = field(default_factory=dict)
+    diagnostics: dict[str, object] = field(default_factory=dict)
     joint_terms: JointTerms = field(default_factory=JointTerms.zero)
 
     def __post_init__(self) -> None:
@@ -463,7 +467,7 @@ class Calibration:
     @classmethod
     def from_result(
         cls,
-        result: Any,
+        result: Result,
         session_path: str | Path | None = None,
         model: str | None = None,
         frame: str = "base",
@@ -654,7 +658,7 @@ def mdh_from_records(records: Iterable[Mapping[str, Any]]) -> np.ndarray:
     return np.array([[float(r[f]) for f in _FIELDS] for r in records])
 
 
-def write(path: outputs.PathLike, document: Any, batch: outputs.Outputs | None = None) -> None:
+def write(path: outputs.PathLike, document: object, batch: outputs.Outputs | None = None) -> None:
     """Write a JSON document atomically (strict JSON: ValueError on NaN/inf).
 
     With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
@@ -697,7 +701,7 @@ def load(path: outputs.PathLike) -> Calibration:
     return from_json(doc, path)
 
 
-def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
+def from_json(doc: object, where: str | Path = "calibration") -> Calibration:
     """A :class:`Calibration` from a parsed document, validated like :func:`load`."""
     check = _Checker(where)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -33,6 +33,7 @@ import numpy as np
 from calibrator import joint_terms, measurement, parameters
 from calibrator.identify import freeset, refine, report, uncertainty
 from calibrator.identify.problem import Problem
+from calibrator.identify.records import FitStats, Uncertainty
 
 if TYPE_CHECKING:
     from calibrator.identify.pipeline import Result
@@ -67,9 +68,9 @@ class JointFit:
         Terms the free-set decision left out, ``{"name", "reason"}``.
     cv_geometry, cv_final : dict
         Cross-validated errors of the geometry alone and of the final model.
-    uncertainty : dict
+    uncertainty : calibrator.identify.records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` of the final model.
-    stats : dict
+    stats : calibrator.identify.records.FitStats
         Before/after statistics as in the pipeline's result.
     """
 
@@ -80,8 +81,8 @@ class JointFit:
     dropped: list[dict] = field(default_factory=list)
     cv_geometry: dict = field(default_factory=dict)
     cv_final: dict = field(default_factory=dict)
-    uncertainty: dict = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
+    uncertainty: Uncertainty = field(default_factory=lambda: Uncertainty())
+    stats: FitStats = field(default_factory=lambda: FitStats())
 
     @property
     def terms(self) -> joint_terms.JointTerms:
@@ -192,10 +193,7 @@ def fit(
             kept_groups.append(group)
     final_space, final_x = solve(current, fit_obs)
     unc = uncertainty.analyse(Problem(final_space, fit_obs, problem.k), final_x, validation)
-    stats = {
-        part: report.before_after(final_space, final_x, o)
-        for part, o in (("fit", fit_obs), ("validation", validation))
-    }
+    stats = report.fit_stats(final_space, final_x, fit_obs, validation)
     return JointFit(
         final_space,
         final_x,
@@ -398,7 +396,7 @@ def run(
     warnings = list(result.warnings)
     if found.kept:
         warnings = _rejudged_warnings(result, found, noise_mm) + implausible_terms(found)
-    details = dict(result.details)
+    details = result.details.copy()
     details["joint_terms"] = {
         "requested": list(groups),
         "kept": list(found.kept),

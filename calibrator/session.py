@@ -118,7 +118,7 @@ class SessionMeta:
     model: str | None = None
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool_known: bool = False
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         # Frozen, arrays included: derive a changed footer with dataclasses.replace().
@@ -127,7 +127,8 @@ class SessionMeta:
             table.setflags(write=False)
             object.__setattr__(self, name, table)
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, object]:
+        """The footer's JSON document (the ``calibrator`` metadata key)."""
         out = dict(self.extra)
         out.update(
             format=FORMAT,
@@ -157,7 +158,7 @@ class Session:
 
     table: pa.Table
     meta: SessionMeta
-    warnings: list = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def conditions(self) -> dict:
         """The session's measuring conditions (:func:`conditions_summary`); empty if none."""

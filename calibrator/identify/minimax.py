@@ -13,6 +13,7 @@ import numpy as np
 
 from calibrator import parameters
 from calibrator.identify.problem import FitResult, Problem
+from calibrator.identify.records import StepInfo
 
 #: Up to this many poses, every pose is a constraint from the start.
 ALL_POSES = 500
@@ -85,5 +86,5 @@ def refine_minimax(
             break
         active = np.union1d(active, missing)
     worst = float(np.sqrt(e_best.max()))
-    info = {"worst_mm": worst, "iterations": iterations}
+    info = StepInfo(worst_mm=worst, iterations=iterations)
     return FitResult(best, float(e_best.max()), iterations, message, info=info)
