@@ -30,12 +30,17 @@ Use::
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from calibrator import kinematics, parameters
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+    from calibrator.session import SessionMeta
 
 __all__ = [
     "check_mdh_sane",
@@ -61,7 +66,7 @@ class ConsistencyError(CalibrationError):
     """Two parts of the inputs that must agree do not."""
 
 
-def check_calibration(cal: Any, where: str = "calibration") -> None:
+def check_calibration(cal: Calibration, where: str = "calibration") -> None:
     """Refuse a calibration whose parts disagree.
 
     Parameters
@@ -97,7 +102,7 @@ def check_calibration(cal: Any, where: str = "calibration") -> None:
             )
 
 
-def check_mdh_sane(table: Any, what: str) -> np.ndarray:
+def check_mdh_sane(table: ArrayLike, what: str) -> np.ndarray:
     """Refuse an MDH table that cannot be an arm's: entries beyond :data:`MAX_MDH`.
 
     Parameters
@@ -130,7 +135,7 @@ def check_mdh_sane(table: Any, what: str) -> np.ndarray:
     return arr
 
 
-def check_session_matches(cal: Any, meta: Any, where: str = "session") -> None:
+def check_session_matches(cal: Calibration, meta: SessionMeta, where: str = "session") -> None:
     """Refuse a session that is not of the calibration's arm.
 
     Parameters
@@ -162,7 +167,7 @@ def check_session_matches(cal: Any, meta: Any, where: str = "session") -> None:
         )
 
 
-def check_model_table(model: str | None, table: Any, what: str) -> None:
+def check_model_table(model: str | None, table: ArrayLike, what: str) -> None:
     """Refuse a table said to be ``model``'s that is further than :data:`MODEL_TOL` from it.
 
     Parameters
@@ -187,7 +192,7 @@ def check_model_table(model: str | None, table: Any, what: str) -> None:
         raise ConsistencyError(f"{what} is not a {model} ({gap}): the wrong 'model'?")
 
 
-def _table_gap(expected: np.ndarray, table: np.ndarray) -> str | None:
+def _table_gap(expected: ArrayLike, table: ArrayLike) -> str | None:
     """The largest difference beyond :data:`MODEL_TOL` between two MDH tables, as text."""
     diff = np.abs(np.asarray(table, dtype=float) - np.asarray(expected, dtype=float))
     angles = [kinematics.ALPHA, kinematics.THETA, kinematics.BETA]

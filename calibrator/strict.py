@@ -41,7 +41,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -108,7 +108,7 @@ def parse_number(text: str, what: str = "value") -> float:
     return value
 
 
-def parse_numbers(cells: Any, what: str = "value") -> np.ndarray:
+def parse_numbers(cells: object, what: str = "value") -> np.ndarray:
     """:func:`parse_number` over an array of texts, any shape, as float64."""
     arr = np.asarray(cells, dtype=object)
     out = np.empty(arr.shape, dtype=float)
@@ -225,7 +225,9 @@ class _Bad:
 _PLAIN_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
-def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tuple[str, Any] | None:
+def first_leaf(
+    value: object, test: Callable[[object], bool], where: str = ""
+) -> tuple[str, object] | None:
     """The first leaf of a parsed document that ``test`` picks, with its key path.
 
     Parameters
@@ -244,7 +246,7 @@ def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tupl
     if test(value):
         return where, value
     if isinstance(value, dict):
-        items: Any = value.items()
+        items: Iterable[tuple[object, object]] = value.items()
     elif isinstance(value, list):
         items = enumerate(value)
     else:
@@ -252,7 +254,7 @@ def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tupl
     for key, item in items:
         if isinstance(key, int):
             path = f"{where}[{key}]"
-        elif _PLAIN_KEY.fullmatch(key):
+        elif isinstance(key, str) and _PLAIN_KEY.fullmatch(key):
             path = f"{where}.{key}" if where else key
         else:  # a key a message cannot show as is (a newline, a dot, nothing): quoted
             path = f"{where}[{key!r}]"
@@ -262,13 +264,16 @@ def first_leaf(value: Any, test: Callable[[Any], bool], where: str = "") -> tupl
     return None
 
 
-def _first_bad(value: Any) -> tuple[str, _Bad] | None:
+def _first_bad(value: object) -> tuple[str, _Bad] | None:
     """Key path and marker of the first refused number in a parsed document."""
-    return first_leaf(value, lambda leaf: isinstance(leaf, _Bad))
+    found = first_leaf(value, lambda leaf: isinstance(leaf, _Bad))
+    if found is None or not isinstance(found[1], _Bad):
+        return None
+    return found[0], found[1]
 
 
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
-    out: dict = {}
+def _unique_keys(pairs: list[tuple[str, object]]) -> dict[str, object]:
+    out: dict[str, object] = {}
     for key, value in pairs:
         if key in out:
             raise StrictError(f"key {key!r} appears more than once")
@@ -290,7 +295,7 @@ def _bounded_int(text: str) -> int | _Bad:
     return int(text)
 
 
-def _shown(text: Any) -> str:
+def _shown(text: object) -> str:
     """A value for a message, at most about 30 characters (a document's value may be huge)."""
     if isinstance(text, bool) or not isinstance(text, str | int | float):
         return shown(text)
@@ -298,7 +303,7 @@ def _shown(text: Any) -> str:
     return repr(text if len(text) <= 24 else text[:20] + "...")
 
 
-def shown(value: Any, width: int = 40) -> str:
+def shown(value: object, width: int = 40) -> str:
     """``repr`` of a parsed value for a one-line message, cut to about ``width`` characters.
 
     Built with :mod:`reprlib`, so a value of a million nested items costs no

@@ -22,12 +22,17 @@ import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
+    from calibrator.filtering.frames_file import FrameTable
+    from calibrator.robots import JointConvention
 
 
 class FilterError(CalibrationError):
@@ -93,8 +98,8 @@ class Target:
     layout: Layout
     tokens: list
     spans: list
-    tool: Any = None
-    base: Any = None
+    tool: np.ndarray | None = None
+    base: np.ndarray | None = None
     code: tuple | None = None
     mark_line: int = 0
     problem: str | None = None
@@ -126,19 +131,20 @@ class Job:
     payload_kg : float or None
     config_dat : Path or None
         KUKA ``$config.dat`` holding ``TOOL_DATA`` / ``BASE_DATA``.
-    convention : calibrator.robots.JointConvention
+    convention : calibrator.robots.JointConvention, optional
+        How the controller states joints; None: as the model does.
     """
 
-    calibration: Any
-    frames: Any
-    limits: Any = None
+    calibration: Calibration
+    frames: FrameTable
+    limits: np.ndarray | None = None
     correct_joints: bool = False
     max_mm: float = 5.0
     max_deg: float = 0.5
     keep_failed: bool = False
     payload_kg: float | None = None
     config_dat: Path | None = None
-    convention: Any = None
+    convention: JointConvention | None = None
 
 
 class Language:
@@ -207,7 +213,7 @@ def choose(fmt: str | None, program: str | os.PathLike) -> str:
     return outputs.choose_format(FORMATS, fmt, program)
 
 
-def numbered_frame(job: Job, kind: str, number: int) -> Any:
+def numbered_frame(job: Job, kind: str, number: int) -> np.ndarray | None:
     """Frame ``number`` (4, 4) of ``kind`` (``"tool"`` or ``"base"``) from ``--frames``, or None.
 
     Number 0 is the flange (tool) or the robot base (base) itself, as on
@@ -219,7 +225,9 @@ def numbered_frame(job: Job, kind: str, number: int) -> Any:
     return table.get(str(number))
 
 
-def target_tool(job: Job, joints: bool, found: tuple[Any, str | None]) -> tuple[Any, str | None]:
+def target_tool(
+    job: Job, joints: bool, found: tuple[np.ndarray | None, str | None]
+) -> tuple[np.ndarray | None, str | None]:
     """``(tool, problem)`` of a target from its frame look-up ``found``.
 
     A joint target kept as taught (no ``--joint-targets correct``) needs no

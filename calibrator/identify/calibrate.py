@@ -25,13 +25,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibrator import calibration, session
 from calibrator.errors import CalibrationError, IdentifiabilityError
 from calibrator.identify import pipeline
+
+if TYPE_CHECKING:
+    from calibrator.joint_fit import JointFit
 
 __all__ = ["Calibrated", "JointOptions", "calibrate", "created_now"]
 
@@ -72,7 +75,7 @@ class Calibrated:
         The identification (statistics, uncertainty, dropped parameters, warnings).
     session : calibrator.session.Session
         The session identified (several combined into one).
-    joint : object, optional
+    joint : calibrator.joint_fit.JointFit, optional
         The joint-term fit (:func:`calibrator.joint_fit.run`), when terms were asked.
     notes : list of str
         What the loading said: doubts about the session, the nominal file applied.
@@ -80,10 +83,10 @@ class Calibrated:
         Identification time, s.
     """
 
-    calibration: Any
-    result: Any
-    session: Any
-    joint: Any = None
+    calibration: calibration.Calibration
+    result: pipeline.Result
+    session: session.Session
+    joint: JointFit | None = None
     notes: list[str] = field(default_factory=list)
     took_s: float = 0.0
 
