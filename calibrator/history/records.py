@@ -34,9 +34,9 @@ VERDICTS = ("ok", "drifted", "recalibrate")
 _HEX64 = re.compile(r"^[0-9a-f]{64}$")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Record:
-    """A row to write and who it belongs to.
+    """A row to write and who it belongs to (derive with ``dataclasses.replace()``).
 
     Attributes
     ----------
