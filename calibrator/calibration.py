@@ -42,11 +42,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import consistency, frames, kinematics, outputs, parameters, strict
+from calibrator import consistency, outputs, strict
 from calibrator.errors import CalibrationError
 from calibrator.identify import option_rules
 from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
-from calibrator.joint_terms import JointTerms
+from calibrator.model import frames, kinematics, parameters
+from calibrator.model.joint_terms import JointTerms
 
 if TYPE_CHECKING:
     from calibrator.identify.pipeline import Result
@@ -254,7 +255,7 @@ class FitReport:
     ----------
     stats : calibrator.identify.records.FitStats
         ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
-        :func:`calibrator.identify.report.error_stats` (mm, deg).
+        :func:`calibrator.identify.accuracy.error_stats` (mm, deg).
     uncertainty : calibrator.identify.records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` (standard errors in
         the units of ``deltas``, residual sigma, predicted held-out error,
@@ -408,7 +409,7 @@ class Calibration:
     flange2tool : ndarray, shape (4, 4)
         Tool frame in the flange frame (mm); only its translation is identified.
     free : tuple of str
-        Identified parameters (names of :data:`calibrator.parameters.ALL_NAMES`).
+        Identified parameters (names of :data:`calibrator.model.parameters.ALL_NAMES`).
     deltas : dict
         Solver value of each free parameter (mm or rad, see ``docs/conventions.md``).
     dropped : list of dict
@@ -429,7 +430,7 @@ class Calibration:
     diagnostics : dict
         Every other key of the file (what later versions add), JSON values.
     joint_terms : JointTerms
-        Joint error terms (:mod:`calibrator.joint_terms`), zero when not used;
+        Joint error terms (:mod:`calibrator.model.joint_terms`), zero when not used;
         written under ``"joint_terms"`` only when some term is nonzero.
     """
 
@@ -545,12 +546,12 @@ class Calibration:
         """One record per candidate parameter: nominal, identified, free or fixed.
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
-        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.frames.angles_xyz`)
+        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.model.frames.angles_xyz`)
         of ``base2tracker`` (nominal: of ``base0``); ``tool_x/y/z`` the tool
         point in the flange frame and ``tool_rx/ry/rz`` the angles of its
         rotation (nominal: of ``tool0``).
 
-        ``delta`` is :func:`calibrator.parameters.all_deltas`: for the base
+        ``delta`` is :func:`calibrator.model.parameters.all_deltas`: for the base
         frame the move in the nominal base frame (as the solver, the report
         and the CSV export give it), not ``identified - nominal``.
 
@@ -576,7 +577,7 @@ class Calibration:
         ]
 
     def all_deltas(self) -> dict[str, float]:
-        """The delta of every named parameter (:func:`calibrator.parameters.all_deltas`).
+        """The delta of every named parameter (:func:`calibrator.model.parameters.all_deltas`).
 
         Free parameters give their recorded solver value (:attr:`deltas`), so
         every reader shows the same number to the last bit; the others are
@@ -585,7 +586,7 @@ class Calibration:
         Returns
         -------
         dict
-            ``{name: delta}`` in :data:`calibrator.parameters.ALL_NAMES` order (mm, rad).
+            ``{name: delta}`` in :data:`calibrator.model.parameters.ALL_NAMES` order (mm, rad).
         """
         values = parameters.all_deltas(
             self.nominal_mdh, self.base0, self.tool0, self.mdh, self.base2tracker, self.flange2tool
@@ -796,10 +797,10 @@ def _model_name(name: str | None) -> str | None:
     Model names compare case-insensitively everywhere (``--model UR10e``), so
     a hand-written file's spelling must not make it "another arm".
     """
-    from calibrator.models import MODEL_NAMES
+    from calibrator import robots
 
     key = name.strip().lower() if name is not None else None
-    return key if key in MODEL_NAMES else name
+    return key if key in robots.names() else name
 
 
 def _check_fixed(mdh, nominal, free, where):

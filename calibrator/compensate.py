@@ -30,8 +30,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics, strict
+from calibrator import strict
 from calibrator.errors import CalibrationError
+from calibrator.model import frames, joint_terms, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -476,12 +477,11 @@ def run(
     -------
     Report
     """
-    from calibrator import outputs
-    from calibrator.models import get_model
+    from calibrator import outputs, robots
 
     limits = None
     try:
-        limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
+        limits = robots.get(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
     tally = _Tally()

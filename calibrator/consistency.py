@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, parameters
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics, parameters
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -183,11 +183,11 @@ def check_model_table(model: str | None, table: ArrayLike, what: str) -> None:
     ------
     ConsistencyError
     """
-    from calibrator.models import MODEL_NAMES, get_model
+    from calibrator import robots
 
-    if model is None or model.lower() not in MODEL_NAMES:
+    if model is None or model.lower() not in robots.names():
         return  # a name only the table itself describes
-    gap = _table_gap(get_model(model).mdh, table)
+    gap = _table_gap(robots.get(model).mdh, table)
     if gap is not None:
         raise ConsistencyError(f"{what} is not a {model} ({gap}): the wrong 'model'?")
 

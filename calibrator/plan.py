@@ -40,14 +40,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, measurement, parameters, strict
+from calibrator import strict
 from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
+from calibrator.model import kinematics, measurement, parameters
 
 if TYPE_CHECKING:
+    from calibrator import robots
     from calibrator.cell import Cell
-    from calibrator.models import RobotModel
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
 ANGLE_SCALE_MM = 1000.0
@@ -170,7 +171,7 @@ def observability(
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
     the measured poses then pin down is decided at identification. ``names``
-    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    (of :data:`calibrator.model.parameters.ALL_NAMES`) replaces it, e.g. with what
     drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset
@@ -772,7 +773,7 @@ def distinct(q: ArrayLike) -> np.ndarray:
 
 
 def make_checked(
-    model: RobotModel,
+    model: robots.RobotDescription,
     n: int,
     cell: Cell,
     tool_mm: ArrayLike,
@@ -803,7 +804,7 @@ def make_checked(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     n : int
     cell : calibrator.cell.Cell
     tool_mm : array_like, shape (3,)

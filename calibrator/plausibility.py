@@ -35,9 +35,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from calibrator import kinematics
 from calibrator.calibration import PLAUSIBLE_DELTA
 from calibrator.errors import CalibrationError, SessionError
+from calibrator.model import kinematics
 
 MAX_ABS_MM = 1.0e9  # 1000 km: no unit mistake explains it (um are named by the scale check)
 MAX_ABS_RAD = 100.0  # 16 turns: an absurd angle (rotation vectors; joints meet their limits)

@@ -60,10 +60,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from numpy.typing import ArrayLike
 
-from calibrator import consistency, frames, kinematics, outputs, plausibility, strict
+from calibrator import consistency, outputs, plausibility, robots, strict
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.measurement import Observations
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics
+from calibrator.model.measurement import Observations
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -172,7 +172,7 @@ class Session:
 
     @property
     def observations(self) -> Observations:
-        """The rows as :class:`calibrator.measurement.Observations`."""
+        """The rows as :class:`calibrator.model.measurement.Observations`."""
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
             rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
@@ -226,7 +226,7 @@ def _model_limits(name):
     if name is None:
         return None
     try:
-        return get_model(name).joint_limits_rad
+        return robots.get(name).joint_limits_rad
     except CalibrationError:
         return None
 
@@ -268,8 +268,8 @@ def _parse_meta(raw, path, model):
         if model is not None or "nominal_mdh" not in meta:
             if name is None:
                 raise SessionError(f"{path}: metadata names neither 'model' nor 'nominal_mdh'")
-            nominal = get_model(name).mdh
-            name = get_model(name).name
+            nominal = robots.get(name).mdh
+            name = robots.get(name).name
         else:
             nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
         tool = meta.get("flange2tool")

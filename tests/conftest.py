@@ -31,8 +31,8 @@ def tracker_url(request):
 
 @pytest.fixture(scope="session")
 def checked_plan():
-    """:func:`plan_testkit.checked_plan`, made once per test session."""
-    from plan_testkit import checked_plan as make
+    """:func:`plan_kit.checked_plan`, made once per test session."""
+    from plan_kit import checked_plan as make
 
     return make()
 
@@ -41,7 +41,7 @@ def checked_plan():
 def simulated_calibration(tmp_path_factory):
     """``s.parquet`` (``calibrator simulate --poses 20``) and its ``c.json`` (``identify
     --method lm``), made once per test run: ``{name: bytes}``; tests copy what they use."""
-    from cli_testkit import cli
+    from cli_kit import cli
 
     folder = tmp_path_factory.mktemp("simulated_calibration")
     made = cli("simulate", "-o", "s.parquet", "--poses", "20", cwd=folder)

@@ -111,6 +111,7 @@ def _row(label, stats):
 
 
 @analyze_app.command("misalignment")
+@opts.urdf_links
 def misalignment(
     model: str = opts.model(
         "paper",
@@ -150,9 +151,10 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress, strict
+    from calibrator import outputs, strict
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
+    from calibrator.cli import progress
 
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")
@@ -262,6 +264,7 @@ def _misalignment_plots(batch, folder, results):
 
 
 @analyze_app.command("tolerance")
+@opts.urdf_links
 def tolerance(
     model: str = opts.model(None, "Named model giving the nominal table."),
     calibration: Path = typer.Option(
@@ -307,7 +310,7 @@ def tolerance(
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models, outputs, strict
+    from calibrator import outputs, robots, strict
     from calibrator.analysis import tolerance as tl
 
     n_poses = 1 if pose is not None else poses
@@ -322,9 +325,9 @@ def tolerance(
 
         loaded = cal.load(calibration)
         nominal, source = loaded.mdh, f"{calibration} (identified table)"
-        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
+        limits = robots.get(loaded.model).joint_limits_rad if loaded.model else None
     else:
-        m = models.get_model(model)
+        m = robots.get(model)
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
     overrides = {}
     for item in tol or []:

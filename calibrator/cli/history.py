@@ -262,7 +262,8 @@ def reidentify(
     """
     import time
 
-    from calibrator import outputs, progress
+    from calibrator import outputs
+    from calibrator.cli import progress
     from calibrator.history import open_history
     from calibrator.history import reidentify as redo
 

@@ -111,7 +111,7 @@ def export_like(
 
 def _with_losses(result: Exported, calibration: Calibration, fmt: str) -> Exported:
     # No format holds the joint terms: say what is lost.
-    from calibrator.joint_terms import loss_note
+    from calibrator.model.joint_terms import loss_note
 
     lost = loss_note(calibration.joint_terms)
     if lost:

@@ -24,11 +24,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from calibrator import chains, kinematics, strict
+from calibrator import strict
 from calibrator.errors import CalibrationError
 from calibrator.export import Exported, exporter
+from calibrator.model import conventions, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -39,29 +39,6 @@ KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 _M = 1000.0
 #: Refuse kinematics YAML files larger than this: one is about a kilobyte.
 MAX_BYTES = 2**20
-
-
-def origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Joint origins of an MDH table (mm) and the trailing transform.
-
-    Returns
-    -------
-    origins : ndarray, shape (6, 4, 4)
-    trailing : ndarray, shape (4, 4)
-        ``A_1...A_6 (q) = origin_1 Rz(q_1) ... origin_6 Rz(q_6) . trailing``.
-    """
-    mdh = kinematics.check_mdh(mdh)
-    consts = kinematics.link_constants(mdh)  # Tz(d) Tx(a) Rx(alpha) Ry(beta)
-    tz = np.tile(np.eye(4), (6, 1, 1))
-    tz[:, 2, 3] = mdh[:, kinematics.D]
-    # Tx(a) Rx(alpha) Ry(beta) = Tz(-d) . consts
-    after = np.linalg.inv(tz) @ consts
-    out = np.empty((6, 4, 4))
-    prev = np.eye(4)
-    for i in range(6):
-        out[i] = prev @ chains.rz(mdh[i, kinematics.THETA]) @ tz[i]
-        prev = after[i]
-    return out, after[5]
 
 
 def origin_values(transform: np.ndarray) -> np.ndarray:
@@ -84,7 +61,7 @@ def origin_transform(values: np.ndarray) -> np.ndarray:
 
 def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
-    mm, rad = chains.residual_size(trailing)
+    mm, rad = conventions.residual_size(trailing)
     if mm < 1e-9 and rad < 1e-12:
         return []
     return [
@@ -96,7 +73,7 @@ def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
 @exporter("ros-kinematics", (".yaml", ".yml"), "ur_description kinematics parameters (m, rad)")
 def to_ros(cal: Calibration) -> Exported:
     """The calibrated arm as a ``kinematics:`` YAML with its ``hash``."""
-    frames, trailing = origins(cal.mdh)
+    frames, trailing = kinematics.joint_origins(cal.mdh)
     lines = ["kinematics:"]
     for name, origin in zip(JOINTS, frames, strict=True):
         values = origin_values(origin)

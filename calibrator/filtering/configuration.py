@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, singularities
+from calibrator.model import kinematics, singularities
 
 #: Names of the three geometric bits, in column order of :func:`arm_bits`.
 BITS = ("shoulder", "elbow", "wrist")

@@ -27,9 +27,10 @@ from typing import IO
 
 import numpy as np
 
-from calibrator import compensate, frames, outputs
+from calibrator import compensate, outputs
 from calibrator.filtering import REGISTRY, Job, Target, Unit, configuration, convention, numbers
 from calibrator.filtering.solve import Solver
+from calibrator.model import frames
 
 #: Targets solved together.
 BLOCK = 10_000

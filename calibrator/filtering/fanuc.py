@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import (
     Language,
     Layout,
@@ -41,6 +40,7 @@ from calibrator.filtering import (
     rotations,
     target_tool,
 )
+from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")

@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames, strict
+from calibrator import strict
 from calibrator.errors import CalibrationError
 from calibrator.filtering import rotations
+from calibrator.model import frames
 
 #: Largest frames file read (bytes).
 MAX_BYTES = 1_000_000

@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import (
     Job,
     Language,
@@ -48,6 +47,7 @@ from calibrator.filtering import (
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _POSITION = re.compile(r"^(C\d+)=(.*)$")
 

@@ -34,7 +34,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import (
     FilterError,
     Job,
@@ -50,6 +49,7 @@ from calibrator.filtering import (
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _FIELD = re.compile(r"([A-Za-z]\w*)\s+(" + _NUM + r"|'[Bb][01]+'|'[Hh][0-9A-Fa-f]+')")

@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.filtering import (
     FilterError,
     Job,
@@ -35,6 +34,7 @@ from calibrator.filtering import (
     read_lines,
     split_ending,
 )
+from calibrator.model import frames
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
 _TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")

@@ -34,7 +34,7 @@ from calibrator.errors import CalibrationError, IdentifiabilityError
 from calibrator.identify import pipeline
 
 if TYPE_CHECKING:
-    from calibrator.joint_fit import JointFit
+    from calibrator.identify.joint_fit import JointFit
 
 __all__ = ["Calibrated", "JointOptions", "calibrate", "created_now"]
 
@@ -75,8 +75,8 @@ class Calibrated:
         The identification (statistics, uncertainty, dropped parameters, warnings).
     session : calibrator.session.Session
         The session identified (several combined into one).
-    joint : calibrator.joint_fit.JointFit, optional
-        The joint-term fit (:func:`calibrator.joint_fit.run`), when terms were asked.
+    joint : calibrator.identify.joint_fit.JointFit, optional
+        The joint-term fit (:func:`calibrator.identify.joint_fit.run`), when terms were asked.
     notes : list of str
         What the loading said: doubts about the session, the nominal file applied.
     took_s : float
@@ -147,7 +147,7 @@ def calibrate(
     first = paths[0]
     groups: tuple[str, ...] = ()
     if joint.joint_term_groups is not None:
-        from calibrator import joint_terms
+        from calibrator.model import joint_terms
 
         groups = tuple(joint_terms.parse_groups(joint.joint_term_groups))
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
@@ -156,15 +156,15 @@ def calibrate(
     payloads = None
     if len(parts) > 1 or groups:
         # Joint terms and several sessions only: a plain identify does not load them.
-        from calibrator import joint_fit
+        from calibrator.identify import joint_fit
 
         loaded = joint_fit.combine(parts, [str(p) for p in paths])
         payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     notes = [f"warning: {doubt}" for doubt in loaded.warnings]
     if nominal_file is not None:
-        from calibrator import nominal
+        from calibrator.identify import factory_calibration
 
-        meta, line = nominal.apply(loaded.meta, nominal_file)
+        meta, line = factory_calibration.apply(loaded.meta, nominal_file)
         loaded = replace(loaded, meta=meta)
         notes.append(line)
     started = time.perf_counter()
@@ -175,7 +175,8 @@ def calibrate(
         raise CalibrationError(_too_few_hint(first, exc, len(loaded.table), options)) from None
     found = None
     if groups:
-        from calibrator import joint_fit, mass_models
+        from calibrator.identify import joint_fit
+        from calibrator.model import mass_models
 
         source = joint.mass_model or loaded.meta.model
         masses = None

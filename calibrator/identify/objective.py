@@ -1,4 +1,4 @@
-"""The seed's objective (7), evaluated for a whole swarm at once.
+"""The IPSO paper's objective (7), evaluated for a whole swarm at once.
 
     f = sum_j [ k * |delta_j|^2 + |dp_j|^2 ]
 
@@ -43,8 +43,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import frames, kinematics
-from calibrator.parameters import JOINT_TERM_START, N_MDH, TOOL_START
+from calibrator.model import frames, kinematics
+from calibrator.model.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
     from calibrator.identify.problem import Problem

@@ -43,7 +43,7 @@ MAX_POSES = 50_000
 
 
 def _groups(text: str) -> str:
-    from calibrator import joint_terms
+    from calibrator.model import joint_terms
 
     if text:  # "" is recorded when no joint terms were asked for
         try:
@@ -55,7 +55,7 @@ def _groups(text: str) -> str:
 
 def _mass_model(text: str) -> str:
     """A named arm with a published mass model, or a mass-model YAML that reads."""
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     if text.strip().lower() in mass_models.NAMES:
         return text

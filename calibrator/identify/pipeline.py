@@ -14,20 +14,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import measurement, parameters, plausibility, strict
+from calibrator import plausibility, strict
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
+    accuracy,
     fitters,
     freeset,
     identifiability,
     initial,
     option_rules,
-    report,
     robust,
     uncertainty,
 )
 from calibrator.identify.problem import Problem
 from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
+from calibrator.model import measurement, parameters
 
 if TYPE_CHECKING:
     from calibrator.session import Session
@@ -204,7 +205,7 @@ def identify(session: "Session", options: Options = Options()) -> Result:
     # Held-out poses beyond the fitted joint ranges: the model is extrapolated there.
     warnings += uncertainty.range_warnings(fit.q, val.q)
     warnings += _noise_warning(unc, options.noise_mm)
-    stats = report.fit_stats(problem.space, x, fit, val)
+    stats = accuracy.fit_stats(problem.space, x, fit, val)
     return Result(
         problem.space,
         x,

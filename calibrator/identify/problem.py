@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calibrator import measurement, parameters
 from calibrator.identify import objective
 from calibrator.identify.records import StepInfo, StepRecord
+from calibrator.model import measurement, parameters
 
 
 @dataclass(frozen=True)
@@ -35,9 +35,9 @@ class Problem:
 
     Attributes
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
         Free parameters and the first guesses they are deltas from.
-    obs : calibrator.measurement.Observations
+    obs : calibrator.model.measurement.Observations
         Fitting poses (tracker or base frame, mm and rad).
     k : float
         Orientation weight (mm^2/rad^2); 0 when the poses have no orientation.

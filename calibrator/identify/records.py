@@ -34,7 +34,7 @@ class AxesSummary(TypedDict):
 
 
 class ErrorStats(TypedDict):
-    """Errors of one parameter set on some poses (:func:`calibrator.identify.report.error_stats`).
+    """Errors of one parameter set on some poses (:func:`calibrator.identify.accuracy.error_stats`).
 
     Attributes
     ----------
@@ -193,7 +193,7 @@ class SolverDetails(TypedDict, total=False):
     convergence : list
         The swarm's ``[[generation, best cost (mm^2)], ...]``.
     joint_terms : dict
-        The joint-term decisions (:func:`calibrator.joint_fit.run`).
+        The joint-term decisions (:func:`calibrator.identify.joint_fit.run`).
     """
 
     loss: str

@@ -8,8 +8,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import calibration, kinematics, parameters
+from calibrator import calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics, parameters
 
 if TYPE_CHECKING:
     from calibrator.identify.records import FitStats

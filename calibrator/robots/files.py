@@ -51,7 +51,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import kinematics, strict
+from calibrator import strict
+from calibrator.model import kinematics
 from calibrator.robots import urdf
 from calibrator.robots.description import (
     FORMAT,

@@ -1,7 +1,7 @@
 """Robot descriptions from a URDF: the serial chain from a base link to a tip link.
 
 The chain's joint axes at the zero pose are converted exactly to an MDH table
-(:func:`calibrator.chains.fit_links`, the conversion the ROS kinematics
+(:func:`calibrator.model.conventions.fit_links`, the conversion the ROS kinematics
 import uses), with Hayati's ``beta`` where neighbouring axes are parallel;
 what the table cannot hold is kept: ``base_offset`` (MDH frame 0 in the base
 link) and ``flange_offset`` (the tip link in the MDH flange frame), so that
@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import chains, kinematics, strict
+from calibrator import strict
+from calibrator.model import conventions, kinematics
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -298,7 +299,7 @@ def kinematics_of(chain: Chain) -> Kinematics:
     joints, tip, sign = joint_axes(chain)
     z = joints[:, :3, 2]
     parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < 1e-9
-    mdh, base2frame0, residual = chains.fit_links(joints, tip, np.zeros((6, 5)), parallel)
+    mdh, base2frame0, residual = conventions.fit_links(joints, tip, np.zeros((6, 5)), parallel)
     if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(residual))):
         raise _fail(chain.path, "the joint axes do not describe a 6R arm")
     return Kinematics(mdh, base2frame0, residual, sign)

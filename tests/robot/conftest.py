@@ -9,7 +9,7 @@ itself when the test process dies (``--parent-pid``).
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 from drivers.robot.fake_ur.launcher import FakeUrProcess, acquire_ports, release_ports
 from drivers.robot.simulated import SimulatedRobot

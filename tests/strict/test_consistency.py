@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from calibrator import consistency, parameters
+from calibrator import consistency, robots
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
-from calibrator.models import get_model
+from calibrator.model import parameters
 from calibrator.session import SessionMeta
 
-UR10E = get_model("ur10e").mdh
+UR10E = robots.get("ur10e").mdh
 FREE = ("a2", "d4", "theta3")
 
 
@@ -87,11 +87,11 @@ def test_a_session_of_the_same_arm_passes():
     ("session", "message"),
     [
         (
-            meta(model="ur5e", nominal=get_model("ur5e").mdh),
+            meta(model="ur5e", nominal=robots.get("ur5e").mdh),
             "s.parquet is of a ur5e, the calibration of a ur10e",
         ),
         (
-            meta(model=None, nominal=get_model("ur5e").mdh),
+            meta(model=None, nominal=robots.get("ur5e").mdh),
             "its nominal MDH table is not the calibration's (a2",
         ),
         (meta(frame="tracker"), "records points in the tracker frame"),

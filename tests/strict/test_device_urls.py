@@ -1,7 +1,7 @@
 """Device URLs: one parser names what is wrong with a tracker's or a robot's URL in one line."""
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 from drivers import urls
 

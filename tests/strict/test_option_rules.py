@@ -5,7 +5,7 @@ import json
 
 import pytest
 import typer.main
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -4,7 +4,7 @@ import json
 import re
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 
 @pytest.mark.parametrize(
@@ -120,7 +120,7 @@ def test_identify_report_options_are_bounded(tmp_path, args, says):
 
 def test_a_recorded_joint_term_payload_meets_the_payload_rules(tmp_path):
     from calibrator.errors import CalibrationError
-    from calibrator.joint_terms import JointTerms
+    from calibrator.model.joint_terms import JointTerms
 
     for comp, says in [
         ({"payload_kg": 1e308}, "payload_kg: 1e+308 kg is more than the limit of 100 kg"),

@@ -5,7 +5,7 @@ import time
 from pathlib import Path
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import serial
 from serial import rfc2217
-from tracker_testkit import live_tracker
+from tracker_kit import live_tracker
 
 from drivers.tracker import measure_average
 
