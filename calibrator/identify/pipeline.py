@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import plausibility, strict
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
     accuracy,
@@ -28,6 +27,8 @@ from calibrator.identify import (
 )
 from calibrator.identify.problem import Problem
 from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
+from calibrator.inputs import plausibility
+from calibrator.inputs.errors import StrictError
 from calibrator.model import measurement, parameters
 
 if TYPE_CHECKING:
@@ -294,7 +295,7 @@ def _noise_warning(unc, noise_mm):
 def _check_options(options):
     try:
         option_rules.check_settings(options)
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 
 
