@@ -37,23 +37,20 @@ import platform
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
+from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import option_rules
-from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
 from calibrator.inputs import consistency, jsonfile, messages, plausibility
 from calibrator.inputs.json_fields import Fields
 from calibrator.inputs.plausibility import PLAUSIBLE_DELTA
 from calibrator.model import frames, kinematics, parameters
 from calibrator.model.joint_terms import JointTerms
-
-if TYPE_CHECKING:
-    from calibrator.identify.pipeline import Result
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -253,10 +250,10 @@ class FitReport:
 
     Attributes
     ----------
-    stats : calibrator.identify.records.FitStats
+    stats : calibrator.fit_records.FitStats
         ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
         :func:`calibrator.identify.accuracy.error_stats` (mm, deg).
-    uncertainty : calibrator.identify.records.Uncertainty
+    uncertainty : calibrator.fit_records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` (standard errors in
         the units of ``deltas``, residual sigma, predicted held-out error,
         correlations).
@@ -266,7 +263,7 @@ class FitReport:
         Pose numbers a robust loss set aside (with ``lsq``: flagged).
     validation_poses : list of int
         Row indices (0-based, session order) of the held-out poses.
-    solver : calibrator.identify.records.SolverDetails
+    solver : calibrator.fit_records.SolverDetails
         What each fitter reported (cost, evaluations, message), and the
         swarm's ``convergence`` as ``[[generation, best cost], ...]``.
     fitted_joint_ranges_rad : list
@@ -468,7 +465,8 @@ class Calibration:
     @classmethod
     def from_result(
         cls,
-        result: Result,
+        # calibrator.identify.pipeline.Result: identify sits above the documents it writes.
+        result: Any,
         session_path: str | Path | None = None,
         model: str | None = None,
         frame: str = "base",

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.identify.records import AxesSummary, BeforeAfter, ErrorStats, FitStats, Summary
+from calibrator.fit_records import AxesSummary, BeforeAfter, ErrorStats, FitStats, Summary
 from calibrator.model import measurement
 
 if TYPE_CHECKING:

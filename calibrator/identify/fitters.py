@@ -29,9 +29,9 @@ from typing import Literal
 
 import numpy as np
 
+from calibrator.fit_records import SolverDetails, StepInfo
 from calibrator.identify import minimax, pso, refine, robust
 from calibrator.identify.problem import FitResult, Problem
-from calibrator.identify.records import SolverDetails, StepInfo
 
 #: Most points of the swarm's convergence curve kept for calibration.json.
 CONVERGENCE_POINTS = 500

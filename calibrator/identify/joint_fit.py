@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from calibrator.fit_records import FitStats, Uncertainty
 from calibrator.identify import accuracy, freeset, refine, uncertainty
 from calibrator.identify.problem import Problem
-from calibrator.identify.records import FitStats, Uncertainty
 from calibrator.model import joint_terms, measurement, parameters
 
 if TYPE_CHECKING:
@@ -68,9 +68,9 @@ class JointFit:
         Terms the free-set decision left out, ``{"name", "reason"}``.
     cv_geometry, cv_final : dict
         Cross-validated errors of the geometry alone and of the final model.
-    uncertainty : calibrator.identify.records.Uncertainty
+    uncertainty : calibrator.fit_records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` of the final model.
-    stats : calibrator.identify.records.FitStats
+    stats : calibrator.fit_records.FitStats
         Before/after statistics as in the pipeline's result.
     """
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator.errors import IdentifiabilityError
+from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import (
     accuracy,
     fitters,
@@ -26,7 +27,6 @@ from calibrator.identify import (
     uncertainty,
 )
 from calibrator.identify.problem import Problem
-from calibrator.identify.records import FitStats, SolverDetails, Uncertainty
 from calibrator.inputs import plausibility
 from calibrator.inputs.errors import StrictError
 from calibrator.model import measurement, parameters
@@ -83,12 +83,12 @@ class Result:
     """Everything ``identify`` found, ready for calibration.json (derive with ``replace()``).
 
     ``dropped`` the ``{"name", "reason"}`` of each candidate left out;
-    ``stats`` the before/after statistics (:class:`.records.FitStats`);
-    ``details`` what the fitters reported (:class:`.records.SolverDetails`);
+    ``stats`` the before/after statistics (:class:`calibrator.fit_records.FitStats`);
+    ``details`` what the fitters reported (:class:`calibrator.fit_records.SolverDetails`);
     ``warnings`` are sentences about the session (redundancy, duplicates,
     conditioning, suspected outliers); ``outliers`` the pose numbers a
     robust loss set aside (or, with ``lsq``, flagged); ``uncertainty``
-    :func:`calibrator.identify.uncertainty.analyse` (:class:`.records.Uncertainty`).
+    :func:`calibrator.identify.uncertainty.analyse` (:class:`calibrator.fit_records.Uncertainty`).
     """
 
     space: parameters.ParameterSpace

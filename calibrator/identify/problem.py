@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from calibrator.fit_records import StepInfo, StepRecord
 from calibrator.identify import objective
-from calibrator.identify.records import StepInfo, StepRecord
 from calibrator.model import measurement, parameters
 
 

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.identify.records import CorrelatedPair, Prediction, Uncertainty
+from calibrator.fit_records import CorrelatedPair, Prediction, Uncertainty
 from calibrator.model import measurement, parameters
 
 if TYPE_CHECKING:

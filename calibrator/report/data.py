@@ -13,7 +13,7 @@ from calibrator.errors import CalibrationError
 from calibrator.model import kinematics, parameters
 
 if TYPE_CHECKING:
-    from calibrator.identify.records import FitStats
+    from calibrator.fit_records import FitStats
     from calibrator.session import Session
 
 

@@ -13,25 +13,21 @@ import pytest
 
 from calibrator import robots, session
 
-GOLDEN = Path(__file__).parent / "golden"
-NOMINAL = robots.get("ur10e").mdh
-
-
-def tool():
-    out = np.eye(4)
-    out[:3, 3] = [1.5, -2.0, 150.0]
-    return out
+FOOTER = Path(__file__).parent / "golden" / "session_footer.json"
 
 
 def test_a_session_footer_is_the_golden_bytes(tmp_path):
     extra = {"simulated": {"seed": 1}}
-    meta = session.SessionMeta("tracker", NOMINAL, "ur10e", tool(), True, extra)
+    flange2tool = np.eye(4)
+    flange2tool[:3, 3] = [1.5, -2.0, 150.0]
+    nominal = robots.get("ur10e").mdh
+    meta = session.SessionMeta("tracker", nominal, "ur10e", flange2tool, True, extra)
     q = np.linspace(-1.0, 1.0, 36).reshape(6, 6)
     points = np.arange(18, dtype=float).reshape(6, 3) * 100.0 + 500.0
     table = session.to_table(q, points, spread=np.full((6, 3), 0.01), n_readings=np.full(6, 10))
     session.write(tmp_path / "s.parquet", table, meta)
     footer = pq.ParquetFile(tmp_path / "s.parquet").schema_arrow.metadata[session.META_KEY]
-    assert footer == (GOLDEN / "session_footer.json").read_bytes()
+    assert footer == FOOTER.read_bytes()
     loaded = session.load(tmp_path / "s.parquet")
     with pytest.raises(FrozenInstanceError):
         loaded.meta.frame = "base"  # type: ignore[misc]

@@ -9,7 +9,9 @@ Keys a file may lack are not required (``total=False``); readers of a loaded
 file use ``.get`` for them.
 
 Units are in the key names where a key holds a quantity (``_mm``, ``_deg``,
-``_rad``); the docstrings give the rest.
+``_rad``); the docstrings give the rest. They sit beside
+:mod:`calibrator.calibration` (the documents' layer), below ``identify``,
+which fills them.
 """
 
 from __future__ import annotations
