@@ -101,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
     args = parser.parse_args(argv)
     from calibrator.errors import CalibrationError
-    from calibrator.plan import read_plan
+    from calibrator.planning import read_plan
 
     try:
         plan = read_plan(args.plan)
