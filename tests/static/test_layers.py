@@ -61,6 +61,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     # sessions, calibrations.
     "model": (
         "calibrator.calibration",
+        "calibrator.fit_records",
         "calibrator.model",
         "calibrator.robots",
         "calibrator.session",
