@@ -53,6 +53,10 @@ BASE_LINKS = ("base_link",)
 TIP_LINKS = ("tool0", "flange")
 #: Margin added to every fitted capsule radius, mm.
 FIT_MARGIN_MM = 10.0
+#: Neighbouring axes closer than this (rad) get Hayati's ``beta``, as the ROS
+#: kinematics import does: a slightly tilted axis (a measured or perturbed
+#: URDF) would otherwise put the common normal metres away (a huge ``d``).
+NEAR_PARALLEL_RAD = 0.1
 #: Radius of a capsule along a link that has no collision geometry, mm.
 BARE_LINK_RADIUS_MM = 60.0
 _MOVING = ("revolute", "continuous")
@@ -298,11 +302,34 @@ def kinematics_of(chain: Chain) -> Kinematics:
     """The chain's MDH table, exactly (see the module docstring)."""
     joints, tip, sign = joint_axes(chain)
     z = joints[:, :3, 2]
-    parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < 1e-9
-    mdh, base2frame0, residual = conventions.fit_links(joints, tip, np.zeros((6, 5)), parallel)
+    parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < np.sin(NEAR_PARALLEL_RAD)
+    flange = _flange_on_axis(tip, z[5])
+    mdh, base2frame0, residual = conventions.fit_links(joints, flange, np.zeros((6, 5)), parallel)
     if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(residual))):
         raise _fail(chain.path, "the joint axes do not describe a 6R arm")
-    return Kinematics(mdh, base2frame0, residual, sign)
+    return Kinematics(mdh, base2frame0, residual @ np.linalg.inv(flange) @ tip, sign)
+
+
+def _flange_on_axis(tip: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The tip frame turned so its z is axis 6 (``z``), x as near the tip's as it goes.
+
+    ``theta_6`` is read off the flange frame's x axis about z: from a tip
+    frame whose z is not axis 6 (a ``tool0`` with x out of the flange, a
+    ``link_6`` frame) it would depend on how a hair's tilt resolves, and a
+    slightly perturbed copy of the arm would get a flange frame turned by 90
+    or 180 degrees. The tip's x, or its y where x lies within 30 degrees of
+    the axis, projected across the axis, is stable. A tip already on the axis
+    is returned as it is.
+    """
+    z = z / np.linalg.norm(z)
+    if np.linalg.norm(np.cross(tip[:3, 2], z)) < 1e-9:
+        return tip
+    x = tip[:3, 0] if abs(tip[:3, 0] @ z) < np.cos(np.radians(30.0)) else tip[:3, 1]
+    x = x - z * (x @ z)
+    x /= np.linalg.norm(x)
+    out = tip.copy()
+    out[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return out
 
 
 def _limits(chain: Chain, sign: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
