@@ -534,6 +534,12 @@ def fit_body(
             bare.append(i)
             r = BARE_LINK_RADIUS_MM if link_radius_mm is None else float(link_radius_mm[i - 1])
             start, end = anchors[i - 1][:3], anchors[i][:3]
+            if i == 1 and not base_ends:
+                # Link 1 only turns about the base's vertical axis and sits on the base:
+                # from a joint origin on the mounting plane (ABB's, Yaskawa's) its capsule
+                # would lie in the plane at every pose, and no pose would pass.
+                start = start.copy()
+                start[2] = max(start[2], _bare_base_top(model_frames))
             # A housing ends at the flange face: a cap reaching past it would swallow
             # the tool, so ends at the flange are drawn back by the radius.
             start, end = (_short_of(p, flange, back, r + margin_mm) for p in (start, end))
@@ -556,7 +562,7 @@ def fit_body(
     else:
         # No geometry: a base under the shoulder, half its height.
         radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
-        top = float(joint1[2, 3] + model_frames[1][2, 3]) / 2
+        top = _bare_base_top(model_frames)
     # The cell works in MDH frame 0: base cylinder heights and the shoulder in it.
     shift = float(joint1[2, 3]) if np.allclose(joint1[:3, :3], np.eye(3)) else 0.0
     d1_point = model_frames[1][:3, 3] if len(model_frames) > 1 else joint1[:3, 3]
@@ -569,6 +575,11 @@ def fit_body(
         margin_mm=margin_mm,
         source=_body_source(chain, bare, margin_mm),
     )
+
+
+def _bare_base_top(model_frames: np.ndarray) -> float:
+    """Top of the base cylinder drawn without geometry: half the shoulder height, mm."""
+    return float(model_frames[0][2, 3] + model_frames[1][2, 3]) / 2
 
 
 def _body_source(chain: Chain, bare: list[int], margin_mm: float) -> str:
