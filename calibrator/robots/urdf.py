@@ -497,6 +497,7 @@ def fit_body(
     base_ends: list[np.ndarray] = []  # end points of the base link's capsules, base link, mm
     base_radii: list[float] = []
     bare: list[int] = []  # links drawn along their joints, without geometry
+    missing: list[str] = []  # collision meshes named but not found
     groups = _groups(chain)
     anchors = [frames[j.child][:, 3] for j in chain.moving] + [frames[chain.tip_link][:, 3]]
     flange = anchors[6][:3]
@@ -507,7 +508,11 @@ def fit_body(
         found = False
         for name in names:
             for k, collision in enumerate(chain.root.findall(f"link[@name='{name}']/collision")):
-                fitted = _fit(chain, name, collision)
+                try:
+                    fitted = _fit(chain, name, collision)
+                except _MeshMissing as exc:
+                    missing.append(str(exc))
+                    continue
                 if fitted is None:
                     continue
                 p, q, r = fitted
@@ -573,7 +578,7 @@ def fit_body(
         mount_z_mm=bottom - shift,
         shoulder_mm=(0.0, 0.0, float(d1_point[2] - shift)),
         margin_mm=margin_mm,
-        source=_body_source(chain, bare, margin_mm),
+        source=_body_source(chain, bare, margin_mm, missing),
     )
 
 
@@ -582,14 +587,25 @@ def _bare_base_top(model_frames: np.ndarray) -> float:
     return float(model_frames[0][2, 3] + model_frames[1][2, 3]) / 2
 
 
-def _body_source(chain: Chain, bare: list[int], margin_mm: float) -> str:
+def _body_source(chain: Chain, bare: list[int], margin_mm: float, missing: list[str]) -> str:
     fitted = f"fitted to the collision geometry of {chain.path.name}"
     along = "capsules along the links between the joint origins"
+    # Named but absent meshes are said, with where they were looked for: the
+    # capsules drawn instead are an approximation, not the arm's housings.
+    lost = (
+        f" (collision meshes not found: {missing[0]}"
+        + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
+        + "; looked beside the URDF's package folder, in the folders above it and in "
+        "ROS_PACKAGE_PATH)"
+        if missing
+        else " (no collision geometry found)"
+    )
     if not bare:
         return f"{fitted}, +{margin_mm:g} mm"
     if len(bare) == 6:
-        return f"{along} (no collision geometry found), +{margin_mm:g} mm"
-    return f"{fitted}; links {', '.join(map(str, bare))}: {along}; +{margin_mm:g} mm"
+        return f"{along}{lost}, +{margin_mm:g} mm"
+    note = lost if missing else ""
+    return f"{fitted}; links {', '.join(map(str, bare))}: {along}{note}; +{margin_mm:g} mm"
 
 
 def _fit(
@@ -621,19 +637,36 @@ def _fit(
     return None
 
 
+class _MeshMissing(Exception):
+    """A collision mesh the URDF names and that cannot be found (its file name)."""
+
+
+def mesh_file(urdf: Path, filename: str) -> Path | None:
+    """The file a URDF's ``<mesh filename>`` names, where it can be found.
+
+    ``package://pkg/rest`` is looked for as ROS finds it: in ``pkg`` beside
+    the URDF's folder (the URDF in ``pkg/urdf/``), in a folder ``pkg`` in
+    any folder above the URDF (a workspace), and in each folder of
+    ``ROS_PACKAGE_PATH``. Other names are relative to the URDF's folder.
+    """
+    if not filename.startswith("package://"):
+        found = urdf.parent / filename.removeprefix("file://")
+        return found if found.is_file() else None
+    package, _, rest = filename[len("package://") :].partition("/")
+    roots = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    candidates = [urdf.parent.parent / rest]
+    candidates += [up / package / rest for up in urdf.resolve().parents]
+    candidates += [Path(root) / package / rest for root in roots]
+    return next((c for c in candidates if c.is_file()), None)
+
+
 def _fit_mesh(
     chain: Chain, shape: ET.Element, at: np.ndarray, where: str
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     filename = str(shape.get("filename") or "")
-    if filename.startswith("package://"):
-        # package://pkg/rest: found when the URDF sits in the package (pkg/urdf/x.urdf).
-        rest = filename[len("package://") :].split("/", 1)
-        candidates = [chain.path.parent.parent / rest[1]] if len(rest) == 2 else []
-    else:
-        candidates = [chain.path.parent / filename.removeprefix("file://")]
-    found = next((c for c in candidates if c.is_file()), None)
+    found = mesh_file(chain.path, filename)
     if found is None:
-        return None
+        raise _MeshMissing(filename)
     import trimesh
 
     try:
