@@ -133,8 +133,7 @@ def check(
     cell = given_cell.with_tracker(tracker_at_mm)
     chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
     options = RunOptions(
-        plan_rad=chosen.q_rad,
-        via_rad=chosen.via_rad,
+        plan=chosen,
         cell=cell,
         seed=seed,
         readings=readings,
@@ -221,8 +220,7 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
         return None
-    from calibrator import outputs
-    from calibrator import plan as plans
+    from calibrator import outputs, planning
     from calibrator import program as programs
     from calibrator.cli.measure import _external_options
 
@@ -244,7 +242,7 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
         convention=arm.convention,
     )
     with outputs.Outputs() as batch:
-        batch.text(plan_file, plans.plan_text(plan))
+        batch.text(plan_file, planning.plan_text(plan))
         batch.text(program_file, programs.render(spec, "csv"))
     typer.echo(
         f"wrote {plan_file} and {program_file}: run them on the controller "

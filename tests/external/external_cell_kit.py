@@ -11,7 +11,7 @@ from pathlib import Path
 
 from cli_process_kit import child_env, start_cli
 
-from calibrator import plan as plans
+from calibrator import planning
 
 #: Where the shared plan's reflector is on the flange, mm (14 mm from the default guess
 #: 0,0,100, with which every run here measures).
@@ -25,8 +25,8 @@ def first_poses(plan_path: Path, n: int, out: Path) -> Path:
     made for, as an older plan file is: ``measure`` then keeps the default
     reflector guess (0,0,100), 14 mm from where the shared plan's reflector is.
     """
-    plan = plans.read_plan(plan_path)
-    plans.write_plan(out, plans.Plan(plan.q_rad[:n], plan.via_rad[:n]))
+    plan = planning.read_plan(plan_path)
+    planning.write_plan(out, planning.Plan(plan.q_rad[:n], plan.via_rad[:n]))
     return out
 
 

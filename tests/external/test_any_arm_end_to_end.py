@@ -19,8 +19,7 @@ from external_cell_kit import Watching, start_player, tracker_simulator
 from grammar_kit import PARSERS
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import kinematics
 
 ARM = "kuka-kr6-r900"
@@ -29,7 +28,7 @@ SCALE = 5  # controller seconds per wall-clock second
 DWELL = 3.5
 
 
-def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
+def _read_back(program_text: str, fmt: str, plan: planning.Plan) -> planning.Plan:
     """The program's targets in the description's angles, as a plan (home moves dropped)."""
     ctrl = np.array(PARSERS[fmt](program_text).targets())[1:-1]
     path = robots.get(ARM).convention.to_model(ctrl)
@@ -39,7 +38,7 @@ def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
         rows.append(path[i + len(via)])
         i += len(via) + 1
     assert i == len(path)
-    return plans.Plan(np.array(rows), tuple(vias))
+    return planning.Plan(np.array(rows), tuple(vias))
 
 
 def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(tmp_path):
@@ -48,7 +47,7 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
         "-o", "plan.csv", "--seed", "2", cwd=tmp_path,
     )  # fmt: skip
     assert made.returncode == 0, made.stderr
-    plan = plans.read_plan(tmp_path / "plan.csv")
+    plan = planning.read_plan(tmp_path / "plan.csv")
     for name, fmt in (("cal.src", "krl"), ("cal.mod", "rapid")):
         done = run_cli("program", "plan.csv", "--model", ARM, "-o", name, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
@@ -57,7 +56,7 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
         np.testing.assert_allclose(back.path_rad, plan.path_rad, rtol=0, atol=2e-8)
     # What the controller runs: the KRL program's joints, back in the description's angles.
     played = _read_back((tmp_path / "cal.src").read_text(), "krl", plan)
-    plans.write_plan(tmp_path / "played.csv", played)
+    planning.write_plan(tmp_path / "played.csv", played)
 
     with tracker_simulator(seed=2) as url:
         run = Watching(

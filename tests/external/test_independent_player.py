@@ -33,8 +33,7 @@ from cli_process_kit import run_cli
 from external_cell_kit import TOOL_MM, Watching, first_poses, tracker_simulator
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import frames, kinematics
 
 SKIPPED = 9
@@ -125,7 +124,7 @@ def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_th
     tmp_path, plan40
 ):
     first_poses(plan40, 24, tmp_path / "plan.csv")
-    plan = plans.read_plan(tmp_path / "plan.csv").q_rad
+    plan = planning.read_plan(tmp_path / "plan.csv").q_rad
     truth = _hidden_arm()
     with tracker_simulator(seed=6) as url:
         # the operator starts the program once the run is watching

@@ -20,7 +20,7 @@ import pyarrow.parquet as pq
 from cli_process_kit import run_cli
 from external_cell_kit import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
 
-from calibrator import plan as plans
+from calibrator import planning
 
 SCALE = 5  # controller seconds per wall-clock second
 FAST = ("--speed", "3", "--accel", "6", "--time-scale", SCALE)  # quicker than the cap, too
@@ -82,7 +82,7 @@ def test_a_40_pose_program_with_a_skip_a_pause_and_wrong_stops_reaches_the_noise
     kept = [p for p in range(40) if p not in missed]
     assert table["pose"] == kept  # no pose number shifted
     q = np.column_stack([table[f"q{i}_rad"] for i in range(1, 7)])
-    np.testing.assert_array_equal(q, plans.read_plan(plan40).q_rad[kept])
+    np.testing.assert_array_equal(q, planning.read_plan(plan40).q_rad[kept])
     # each recorded point is where the true arm put the reflector at that pose
     truth_done = run_truth(plan40, tmp_path)
     points = np.column_stack([table[c] for c in ("x_mm", "y_mm", "z_mm")])
@@ -101,7 +101,7 @@ def run_truth(plan_path, cwd):
     """True reflector points (tracker frame, mm) of the player's hidden arm for the plan."""
     from drivers.robot.external_sim.player import Player, PlayerOptions
 
-    q = plans.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
+    q = planning.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
     player = Player.for_model(q, "ur10e", 3, PlayerOptions(), tool_mm=TOOL_MM)
     return player.tool_points(q)
 
@@ -137,12 +137,12 @@ def _moved(plan_path, out_path, shifts_mm):
     from calibrator import robots
     from calibrator.model import frames, kinematics
 
-    plan = plans.read_plan(plan_path)
+    plan = planning.read_plan(plan_path)
     q = plan.q_rad.copy()
     tool = frames.transform(translation=[0.0, 0.0, 100.0])
     points = kinematics.forward(robots.get("ur10e").mdh, q, tool)[:, :3, 3]
     for pose, mm in shifts_mm.items():
         radius = float(np.hypot(*points[pose, :2]))  # the reflector's distance from joint 1's axis
         q[pose, 0] += 2.0 * np.arcsin(mm / (2.0 * radius))
-    plans.write_plan(out_path, plans.Plan(q, plan.via_rad))
+    planning.write_plan(out_path, planning.Plan(q, plan.via_rad))
     return out_path

@@ -14,8 +14,7 @@ import time
 import numpy as np
 from external_cell_kit import TOOL_MM, first_poses
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.acquire import ports
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.model import frames, kinematics
@@ -83,7 +82,7 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, pla
     # A plan the run's cell check passes (every pose and move clear of the cell),
     # as `calibrator plan` makes them: the first 14 poses of the shared one.
     tool_mm = TOOL_MM
-    made = plans.read_plan(first_poses(plan40, 14, tmp_path / "plan.csv"))
+    made = planning.read_plan(first_poses(plan40, 14, tmp_path / "plan.csv"))
     plan = made.q_rad
     tool = frames.transform(translation=tool_mm)
     points = kinematics.forward(arm.mdh, plan, tool)[:, :3, 3]
@@ -92,9 +91,7 @@ def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, pla
     robot = open_robot("external", RobotOptions(arm, tracker=tracker, external=external))
     assert {ports.WATCHES_TRACKER, ports.CHECKS_PLAN} <= robot.capabilities
     # Pauses of 0.7, 1.4 and 2.8 s between re-reads: each longer than a dwell.
-    options = RunOptions(
-        plan_rad=plan, via_rad=made.via_rad, tool_mm=tool_mm, readings=5, retry_pause_s=0.7
-    )
+    options = RunOptions(plan=made, tool_mm=tool_mm, readings=5, retry_pause_s=0.7)
     with MeasureRun(robot, tracker, arm, options, tmp_path / "s.parquet") as run:
         run.check_files()
         run.connect()
