@@ -42,10 +42,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import outputs
+from calibrator import outputs, recorded_options
 from calibrator.errors import CalibrationError
 from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
-from calibrator.identify import option_rules
 from calibrator.inputs import jsonfile, messages
 from calibrator.inputs.json_fields import Fields
 from calibrator.model import consistency, frames, kinematics, parameters, plausibility
@@ -131,9 +130,9 @@ class Provenance:
     created: str | None = None
 
     #: Keys of the options that decide the identified parameters.
-    OPTION_KEYS = option_rules.PIPELINE
+    OPTION_KEYS = recorded_options.PIPELINE
     #: Keys of the joint-term options (``identify --joint-terms`` and its companions).
-    JOINT_OPTION_KEYS = option_rules.JOINT
+    JOINT_OPTION_KEYS = recorded_options.JOINT
     #: JSON type of each key; the options' come from their rules.
     _TYPES = {
         "session_sha256": str,
@@ -142,7 +141,7 @@ class Provenance:
         "nominal_sha256": str,
         **{
             key: list if rule.kind is tuple else rule.kind
-            for key, rule in option_rules.RULES.items()
+            for key, rule in recorded_options.RULES.items()
         },
         "versions": dict,
         "created": str,
@@ -208,7 +207,7 @@ class Provenance:
         """The recorded options ``keys`` (default: all, pipeline and joint terms), checked.
 
         The rules are those the command line applies
-        (:data:`calibrator.identify.option_rules.RULES`), so a recorded value
+        (:data:`calibrator.recorded_options.RULES`), so a recorded value
         is taken only if it could have been typed.
 
         Returns
@@ -223,10 +222,10 @@ class Provenance:
             ``cal.json: particles: must be a whole number >= 2, got -5``.
         """
         out = {}
-        for key in option_rules.RULES if keys is None else keys:
+        for key in recorded_options.RULES if keys is None else keys:
             value = getattr(self, key)
             if value is not None:
-                out[key] = option_rules.RULES[key].check(value, f"{where}: {key}")
+                out[key] = recorded_options.RULES[key].check(value, f"{where}: {key}")
         return out
 
 

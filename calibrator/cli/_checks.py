@@ -79,7 +79,7 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "candidates": (200_000, "candidates"),
     "plan_work": (2e7, "poses x candidates"),
     # identify's options (particles, generations, payload, ...) are bounded by
-    # their rules in calibrator.identify.option_rules: --like reads them too.
+    # their rules in calibrator.recorded_options: --like reads them too.
     # simulate: as many poses as identify takes.
     "simulate_poses": (50_000, "poses"),
     # analyze misalignment: about 100,000 trials/s on one core.

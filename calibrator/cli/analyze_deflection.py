@@ -9,8 +9,8 @@ from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import analyze_app
 from calibrator.errors import CalibrationError
-from calibrator.identify.option_rules import RULES
 from calibrator.inputs.rules import Rule
+from calibrator.recorded_options import RULES
 
 _DEG = 3.141592653589793 / 180.0
 #: A motion's time: below 10 ms its accelerations are not a robot's (1e-300 s

@@ -7,7 +7,7 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
-from calibrator.identify.option_rules import RULES
+from calibrator.recorded_options import RULES
 
 
 @app.command()

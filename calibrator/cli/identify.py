@@ -11,8 +11,8 @@ from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 from calibrator.identify.calibrate import JointOptions, calibrate
-from calibrator.identify.option_rules import RULES
 from calibrator.inputs.rules import Rule
+from calibrator.recorded_options import RULES
 
 #: --target-mm: below 0.1 um (no tracker's noise) the pose count overflows.
 _TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error to reach")
@@ -235,7 +235,7 @@ def _recorded(ctx, like, session_path, options, model, nominal_file, joint):
     """Options, model, nominal file and joint-term options of ``--like``.
 
     Recorded ones are taken unless given here; each is checked by the rule
-    its option has on the command line (:mod:`calibrator.identify.option_rules`).
+    its option has on the command line (:mod:`calibrator.recorded_options`).
 
     Raises
     ------

@@ -43,7 +43,7 @@ __all__ = ["Calibrated", "JointOptions", "calibrate", "created_now"]
 class JointOptions:
     """The joint-term options as given (``None``: not given), for ``--like`` to fill in.
 
-    Named as recorded (:data:`calibrator.identify.option_rules.JOINT`).
+    Named as recorded (:data:`calibrator.recorded_options.JOINT`).
 
     Attributes
     ----------

@@ -289,7 +289,7 @@ def session_payload(sess: Session, default_kg: float | None = None) -> np.ndarra
     From a ``payload_kg`` column, else the footer's ``payload_kg``, else
     ``default_kg`` (the ``--payload-kg`` option), else 0.
     """
-    from calibrator.identify.option_rules import RULES
+    from calibrator.recorded_options import RULES
 
     # The rule of --payload-kg: a session cannot record what the option refuses.
     rule, n = RULES["payload_kg"], sess.table.num_rows

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from calibrator import recorded_options
 from calibrator.errors import IdentifiabilityError
 from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import (
@@ -22,7 +23,6 @@ from calibrator.identify import (
     freeset,
     identifiability,
     initial,
-    option_rules,
     robust,
     uncertainty,
 )
@@ -33,8 +33,8 @@ from calibrator.model import measurement, parameters, plausibility
 if TYPE_CHECKING:
     from calibrator.session import Session
 
-METHODS = option_rules.METHODS
-LOSSES = option_rules.LOSSES
+METHODS = recorded_options.METHODS
+LOSSES = recorded_options.LOSSES
 #: Default orientation weight (mm^2/rad^2): 1 mrad weighs as 0.1 mm, about
 #: the ratio of a 6-DoF probe's angular noise to a tracker's point noise.
 DEFAULT_K = 1.0e4
@@ -42,7 +42,7 @@ DEFAULT_K = 1.0e4
 #: the poses (about 10 kB and 0.1 ms of CPU per pose, least squares and uncertainty);
 #: beyond this, thin the session (more poses than this add nothing a
 #: well-spread subset does not give).
-MAX_POSES = option_rules.MAX_POSES
+MAX_POSES = recorded_options.MAX_POSES
 #: Most fitting poses the swarm sees (see the module docstring).
 SWARM_POSES = 32
 #: A residual noise above this multiple of ``Options.noise_mm`` gives a warning.
@@ -60,7 +60,7 @@ class Options:
     their ``sqrt(k)`` weighted units). ``on_generation(generation,
     best_cost)`` is called after each swarm generation and ``progress(text)``
     at each stage, for progress displays. What each setting may be is
-    :data:`calibrator.identify.option_rules.RULES` (checked by :func:`identify`).
+    :data:`calibrator.recorded_options.RULES` (checked by :func:`identify`).
     """
 
     method: str = "hybrid"
@@ -293,7 +293,7 @@ def _noise_warning(unc, noise_mm):
 
 def _check_options(options):
     try:
-        option_rules.check_settings(options)
+        recorded_options.check_settings(options)
     except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 

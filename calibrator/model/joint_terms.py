@@ -46,7 +46,7 @@ MAX_PAYLOAD_KG = 100.0
 #: Farthest payload centre of mass from the flange (mm): the tool budget of the CLI.
 MAX_PAYLOAD_COM_MM = 2_000.0
 #: The payload options (``--payload-kg``, ``--payload-com-mm``), one of
-#: :data:`calibrator.identify.option_rules.RULES` each: the same rules check
+#: :data:`calibrator.recorded_options.RULES` each: the same rules check
 #: the payload a calibration's ``joint_terms`` records.
 PAYLOAD_KG = Rule(
     "payload_kg",

@@ -63,6 +63,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "calibrator.calibration",
         "calibrator.fit_records",
         "calibrator.model",
+        "calibrator.recorded_options",
         "calibrator.robots",
         "calibrator.session",
     ),
@@ -81,12 +82,6 @@ DRIVER_USERS = ("calibrator.cli",)
 #: ``pkg``. The contracts are checked on the graph without these edges, and
 #: an entry that no longer matches an import fails the test (delete it).
 KNOWN: dict[tuple[str, str], str] = {
-    ("calibrator.calibration", "calibrator.identify.option_rules"): (
-        "Provenance's keys and --like checks come from identify's option rules, "
-        "which check joint-term groups and mass models (model knowledge, so they "
-        "cannot sit in calibrator.inputs below it); issue #33 items 3 and 7 derive "
-        "provenance from the options' own fields"
-    ),
     ("drivers.robot.external.setup", "drivers.robot"): (
         "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
     ),

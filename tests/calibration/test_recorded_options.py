@@ -9,9 +9,8 @@ from cli_kit import cli, listing, one_line_error
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calibrator import calibration
+from calibrator import calibration, recorded_options
 from calibrator.cli import _app
-from calibrator.identify import option_rules
 
 
 @pytest.fixture(scope="module")
@@ -91,18 +90,18 @@ def test_a_typed_option_overrides_a_bad_recorded_one(made):
 
 def test_every_rule_is_a_provenance_field_and_every_flag_an_identify_option():
     names = {f.name for f in dataclasses.fields(calibration.Provenance)}
-    assert set(option_rules.RULES) <= names
+    assert set(recorded_options.RULES) <= names
     assert calibration.Provenance.OPTION_KEYS + calibration.Provenance.JOINT_OPTION_KEYS == tuple(
-        option_rules.RULES
+        recorded_options.RULES
     )
     command = typer.main.get_command(_app.app).commands["identify"]  # type: ignore[attr-defined]
     flags = {o for p in command.params for o in p.opts}
-    for rule in option_rules.RULES.values():
+    for rule in recorded_options.RULES.values():
         assert rule.flag is None or rule.flag in flags, rule.key
         assert rule.meaning
     helps = {o: p.help for p in command.params for o in p.opts}
     for key in ("particles", "generations", "k", "validation_fraction", "noise_mm", "payload_kg"):
-        rule = option_rules.RULES[key]
+        rule = recorded_options.RULES[key]
         assert rule.bounds in " ".join(helps[rule.flag].split()), (key, helps[rule.flag])
 
 
@@ -116,7 +115,7 @@ def test_the_limits_themselves_pass():
         ("mass_model", "UR10e"),
         ("joint_term_groups", ""),
     ]:
-        option_rules.RULES[key].check(value)
+        recorded_options.RULES[key].check(value)
 
 
 # Fuzz: any recorded value is either taken (then its rule passes) or refused in one line.
@@ -129,7 +128,7 @@ _VALUES = st.one_of(
     st.lists(st.floats(-1e308, 1e308), max_size=4),
     st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
 )
-_KEYS = st.sampled_from([*option_rules.RULES, "model", "frame", "nominal_source", "created"])
+_KEYS = st.sampled_from([*recorded_options.RULES, "model", "frame", "nominal_source", "created"])
 
 
 @settings(
@@ -154,8 +153,8 @@ def test_fuzz_recorded_options(made, edits):
         return
     assert result.code == 0, result.stderr
     for key, value in edits.items():
-        if key in option_rules.RULES:
-            option_rules.RULES[key].check(value)  # only what its rule allows was taken
+        if key in recorded_options.RULES:
+            recorded_options.RULES[key].check(value)  # only what its rule allows was taken
     (made / "fz.json").unlink()
 
 

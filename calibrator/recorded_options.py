@@ -13,15 +13,16 @@ same rule checks
 
 so a hand-edited ``generations: 1000000000`` is refused in one line exactly
 as ``--generations 1000000000`` is. The recorded key of each rule is a field
-of :class:`calibrator.calibration.Provenance`.
+of :class:`calibrator.calibration.Provenance`; the table sits beside the
+documents that record it, below ``identify``, which reads it too.
 
 Use::
 
-    from calibrator.identify import option_rules
+    from calibrator import recorded_options
 
-    option_rules.RULES["particles"].check(-5, "cal.json: particles")  # StrictError
-    option_rules.PIPELINE        # keys of the pipeline's options, in file order
-    option_rules.JOINT           # keys of the joint-term options
+    recorded_options.RULES["particles"].check(-5, "cal.json: particles")  # StrictError
+    recorded_options.PIPELINE        # keys of the pipeline's options, in file order
+    recorded_options.JOINT           # keys of the joint-term options
 """
 
 from __future__ import annotations
