@@ -111,6 +111,7 @@ def _row(label, stats):
 
 
 @analyze_app.command("misalignment")
+@opts.urdf_links
 def misalignment(
     model: str = opts.model(
         "paper",
@@ -263,6 +264,7 @@ def _misalignment_plots(batch, folder, results):
 
 
 @analyze_app.command("tolerance")
+@opts.urdf_links
 def tolerance(
     model: str = opts.model(None, "Named model giving the nominal table."),
     calibration: Path = typer.Option(

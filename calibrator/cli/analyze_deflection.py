@@ -54,6 +54,7 @@ PAPER_ALIASES = ("seed",)
 
 
 @analyze_app.command("deflection")
+@opts.urdf_links
 def deflection(
     model: str = opts.model(
         "paper",

@@ -25,6 +25,7 @@ EXIT_CODES = {"ok": 0, "drifted": 3, "recalibrate": 4}
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def check(
     *,

@@ -32,6 +32,7 @@ class Loss(StrEnum):
 
 
 @app.command()
+@opts.urdf_links
 def identify(
     ctx: typer.Context,
     session_paths: list[Path] = typer.Argument(

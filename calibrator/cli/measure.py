@@ -21,6 +21,7 @@ from calibrator.cli._run import triple as _triple
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def measure(
     *,

@@ -24,6 +24,7 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 
 
 @app.command()
+@opts.urdf_links
 def program(
     plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
     output: Path = opts.output(..., "Program file to write."),

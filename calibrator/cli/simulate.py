@@ -41,6 +41,7 @@ def _has_reference_errors(model: str) -> bool:
 
 
 @app.command()
+@opts.urdf_links
 def simulate(
     output: Path = opts.output(
         Path("session.parquet"),

@@ -55,6 +55,7 @@ def _cube(text: str | None) -> Any:
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def verify(
     *,

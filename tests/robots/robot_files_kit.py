@@ -34,3 +34,18 @@ def with_geometry(text):
         .replace('<link name="link_4"/>', link_4)
         .replace('<link name="link_6"/>', link_6)
     )
+
+
+def on_a_track(text):
+    """The URDF ``text`` mounted on a linear track: a prismatic joint below ``base_link``."""
+    track = """<link name="world"/>
+  <link name="carriage"/>
+  <joint name="track" type="prismatic">
+    <parent link="world"/><child link="carriage"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="3" effort="0" velocity="1"/>
+  </joint>
+  <joint name="carriage-base" type="fixed">
+    <parent link="carriage"/><child link="base_link"/>
+  </joint>
+</robot>"""
+    return text.replace("</robot>", track)

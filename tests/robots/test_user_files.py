@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 import yourdfpy
-from robot_files_kit import KUKA, with_geometry
+from robot_files_kit import KUKA, on_a_track, with_geometry
 
 from calibrator import robots
 from calibrator.model import kinematics
@@ -82,20 +82,6 @@ def seven_axes(text):
     start = text.index('<joint name="flange-tool0"')
     end = text.index("</joint>", start) + len("</joint>")
     return (text[:start] + text[end:]).replace("</robot>", extra)
-
-
-def on_a_track(text):
-    track = """<link name="world"/>
-  <link name="carriage"/>
-  <joint name="track" type="prismatic">
-    <parent link="world"/><child link="carriage"/><axis xyz="1 0 0"/>
-    <limit lower="0" upper="3" effort="0" velocity="1"/>
-  </joint>
-  <joint name="carriage-base" type="fixed">
-    <parent link="carriage"/><child link="base_link"/>
-  </joint>
-</robot>"""
-    return text.replace("</robot>", track)
 
 
 @pytest.mark.parametrize(
