@@ -151,13 +151,14 @@ class World:
 
 def read_world(path: str | os.PathLike[str]) -> World:
     """Read a world file (YAML); one :class:`WorldError` line naming what is wrong."""
-    from calibrator import strict, yamlfile
+    from calibrator.inputs import yamlfile
+    from calibrator.inputs.errors import StrictError
 
     path = Path(path)
     try:
         # The one YAML reader: size, depth and alias limits, duplicate keys refused.
         doc = yamlfile.read(path, "a world file")
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise WorldError(str(exc)) from None
     try:
         return parse_world(doc)

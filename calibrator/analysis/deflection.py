@@ -34,10 +34,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.inputs.messages import shown
+from calibrator.inputs.rules import Rule
 from calibrator.model import conventions, kinematics
 from calibrator.model.mass_models import GRAVITY_MM_S2
 from calibrator.robots import deflection_paper
-from calibrator.strict import Rule, shown
 
 #: What each value of a section may be: a robot link, not 1e-300 mm (its
 #: stiffness underflows to nan) nor 1e308 mm (its D^4 overflows).
@@ -540,7 +541,7 @@ def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
     """
     from pathlib import Path
 
-    from calibrator import yamlfile
+    from calibrator.inputs import yamlfile
 
     path = Path(str(path))
     doc = yamlfile.read(path, "a link-section file", 2**20)

@@ -26,8 +26,9 @@ from typing import Any, NoReturn, get_type_hints
 
 import typer
 
-from calibrator import strict
 from calibrator.cli import _checks as checks
+from calibrator.inputs import grammar
+from calibrator.inputs.errors import StrictError
 
 
 def fail(message: str) -> NoReturn:
@@ -44,8 +45,8 @@ def floats(text: str, n: int, option: str, needs: str) -> list[float]:
     exit code 2.
     """
     try:
-        values = [strict.parse_number(v, option) for v in str(text).split(",")]
-    except strict.StrictError as exc:
+        values = [grammar.parse_number(v, option) for v in str(text).split(",")]
+    except StrictError as exc:
         fail(f"{option} needs {needs}, got {text!r} ({str(exc).removeprefix(option + ': ')})")
     if len(values) != n:
         fail(f"{option} needs {needs}, got {text!r}")

@@ -5,19 +5,19 @@ from pathlib import Path
 
 import typer
 
-from calibrator import strict
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
-from calibrator.cli.analyze import analyze_app
+from calibrator.cli._app import analyze_app
 from calibrator.errors import CalibrationError
 from calibrator.identify.option_rules import RULES
+from calibrator.inputs.rules import Rule
 
 _DEG = 3.141592653589793 / 180.0
 #: A motion's time: below 10 ms its accelerations are not a robot's (1e-300 s
 #: made them overflow to nan); above an hour it is not one motion.
-_DURATION = strict.Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
+_DURATION = Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
 #: Share of the time accelerating: below 1 % the accelerations overflow (5e-324 gave nan).
-_RAMP = strict.Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
+_RAMP = Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
 
 
 def _vector(text: str, what: str, prismatic: list[bool], limits) -> list[float]:

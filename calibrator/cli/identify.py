@@ -12,7 +12,7 @@ from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 from calibrator.identify.calibrate import JointOptions, calibrate
 from calibrator.identify.option_rules import RULES
-from calibrator.strict import Rule
+from calibrator.inputs.rules import Rule
 
 #: --target-mm: below 0.1 um (no tracker's noise) the pose count overflows.
 _TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error to reach")

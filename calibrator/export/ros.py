@@ -25,10 +25,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import strict
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
+from calibrator.inputs import textfile, yamlfile
 from calibrator.model import conventions, kinematics
+from calibrator.model.frames import from_xyz_rpy, xyz_rpy
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -39,24 +40,6 @@ KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 _M = 1000.0
 #: Refuse kinematics YAML files larger than this: one is about a kilobyte.
 MAX_BYTES = 2**20
-
-
-def origin_values(transform: np.ndarray) -> np.ndarray:
-    """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad) of a transform."""
-    from scipy.spatial.transform import Rotation
-
-    rpy = Rotation.from_matrix(transform[:3, :3]).as_euler("xyz")
-    return np.concatenate([transform[:3, 3], rpy])
-
-
-def origin_transform(values: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`origin_values`: (x, y, z mm, roll, pitch, yaw) -> (4, 4)."""
-    from scipy.spatial.transform import Rotation
-
-    out = np.eye(4)
-    out[:3, :3] = Rotation.from_euler("xyz", values[3:]).as_matrix()
-    out[:3, 3] = values[:3]
-    return out
 
 
 def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
@@ -76,7 +59,7 @@ def to_ros(cal: Calibration) -> Exported:
     frames, trailing = kinematics.joint_origins(cal.mdh)
     lines = ["kinematics:"]
     for name, origin in zip(JOINTS, frames, strict=True):
-        values = origin_values(origin)
+        values = xyz_rpy(origin)
         values[:3] /= _M
         lines.append(f"  {name}:")
         lines += [f"    {k}: {float(v)!r}" for k, v in zip(KEYS, values, strict=True)]
@@ -99,7 +82,7 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     ------
     CalibrationError
     """
-    doc = strict.load_yaml(strict.read_text(path, MAX_BYTES, "YAML"), str(path))
+    doc = yamlfile.loads(textfile.read_text(path, MAX_BYTES, "YAML"), str(path))
     kin = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(kin, dict) or not all(isinstance(kin.get(j), dict) for j in JOINTS):
         raise CalibrationError(f"{path}: no 'kinematics' with the joints {', '.join(JOINTS)}")
@@ -115,6 +98,6 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             )
         values = np.asarray(raw, dtype=float)
         values[:3] *= _M
-        frame = frame @ origin_transform(values)
+        frame = frame @ from_xyz_rpy(values)
         joints[i] = frame
     return joints, frame.copy()

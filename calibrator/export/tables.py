@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
 from calibrator.model import frames, kinematics
 
 if TYPE_CHECKING:

@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import strict
 from calibrator.errors import CalibrationError
 from calibrator.model import conventions, kinematics
 
@@ -39,7 +38,9 @@ if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 from calibrator import robots
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
+from calibrator.inputs import jsonfile, textfile
+from calibrator.inputs.errors import StrictError
 from calibrator.robots import ur as ur_family
 
 #: Keys of the deltas and the MDH column each applies to, in file order.
@@ -158,7 +159,7 @@ def read(path: str | Path, model: str | None = None) -> tuple[np.ndarray, str]:
     # No interpolation: a '%' in a value is text, not a configparser reference.
     parser = configparser.ConfigParser(interpolation=None)
     try:
-        parser.read_string(strict.read_text(path, MAX_BYTES, "a UR calibration file"), str(path))
+        parser.read_string(textfile.read_text(path, MAX_BYTES, "a UR calibration file"), str(path))
     except configparser.Error as exc:
         raise CalibrationError(
             f"{path}: not a UR calibration file ({str(exc).splitlines()[0]})"
@@ -175,8 +176,8 @@ def read(path: str | Path, model: str | None = None) -> tuple[np.ndarray, str]:
         if raw is None:
             raise CalibrationError(f"{path}: [mounting] has no {key}")
         try:
-            values = strict.load_json(raw, f"{path}: {key}")
-        except strict.StrictError:
+            values = jsonfile.load_json(raw, f"{path}: {key}")
+        except StrictError:
             values = None  # NaN, 1e400, an integer beyond 64 bits: all refused below
         if (
             not isinstance(values, list)

@@ -19,9 +19,10 @@ import numpy as np
 
 from calibrator import robots
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
-from calibrator.export.ros import JOINTS, origin_values
+from calibrator.export.registry import Exported, exporter
+from calibrator.export.ros import JOINTS
 from calibrator.model import kinematics
+from calibrator.model.frames import xyz_rpy
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -33,7 +34,7 @@ LINKS = ("base_link",) + tuple(f"{j}_link" for j in JOINTS)
 
 
 def _origin(transform):
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     xyz = " ".join(repr(float(v)) for v in values[:3])
     rpy = " ".join(repr(float(v)) for v in values[3:])
@@ -170,7 +171,7 @@ def like(
 
 
 def _origin_attributes(transform: np.ndarray) -> dict[str, str]:
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     return {
         "xyz": " ".join(repr(float(v)) for v in values[:3]),

@@ -28,16 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import (
+from calibrator.filtering import configuration, rotations
+from calibrator.filtering.base import (
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
     numbered_frame,
     read_lines,
-    rotations,
     target_tool,
 )
 from calibrator.model import frames

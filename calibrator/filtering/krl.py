@@ -34,18 +34,17 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import (
+from calibrator.filtering import configuration, rotations
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
     numbered_frame,
     read_lines,
-    rotations,
     split_ending,
     target_tool,
 )

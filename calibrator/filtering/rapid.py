@@ -32,18 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import (
+from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
-    numbers,
     read_lines,
-    rotations,
     split_ending,
     target_tool,
 )

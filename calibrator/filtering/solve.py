@@ -27,7 +27,8 @@ import itertools
 import numpy as np
 
 from calibrator import compensate
-from calibrator.filtering import Job, Language, configuration, convention
+from calibrator.filtering import configuration, convention
+from calibrator.filtering.base import Job, Language
 from calibrator.model import frames, kinematics
 
 #: Every STRIDES[0]-th target of a block is solved first (from the library or

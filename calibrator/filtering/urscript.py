@@ -21,16 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import (
+from calibrator.filtering import configuration, numbers
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
-    numbers,
     read_lines,
     split_ending,
 )

@@ -217,12 +217,12 @@ def calibrate(
 
 def _three(text: str, what: str) -> np.ndarray:
     """``'x,y,z'`` -> ndarray (3,) of finite numbers (the strict grammar)."""
-    from calibrator import strict
+    from calibrator.inputs import grammar
 
     parts = str(text).split(",")
     if len(parts) != 3:
         raise CalibrationError(f"{what} needs three numbers x,y,z, got {text!r}")
-    return np.array([strict.parse_number(p, what) for p in parts])
+    return np.array([grammar.parse_number(p, what) for p in parts])
 
 
 def _too_few_hint(path: Path, exc: Exception, n_poses: int, options: pipeline.Options) -> str:

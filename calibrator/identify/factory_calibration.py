@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import consistency
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
+from calibrator.inputs import consistency
 from calibrator.model import conventions, kinematics
 
 if TYPE_CHECKING:

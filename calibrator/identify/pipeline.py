@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import plausibility, strict
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
     accuracy,
@@ -27,6 +26,8 @@ from calibrator.identify import (
     uncertainty,
 )
 from calibrator.identify.problem import Problem
+from calibrator.inputs import plausibility
+from calibrator.inputs.errors import StrictError
 from calibrator.model import measurement, parameters
 
 METHODS = option_rules.METHODS
@@ -290,7 +291,7 @@ def _noise_warning(unc, noise_mm):
 def _check_options(options):
     try:
         option_rules.check_settings(options)
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 
 

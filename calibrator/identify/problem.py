@@ -98,7 +98,7 @@ class Problem:
 
     def swarm_objective(self, loss: str = "lsq") -> objective.SwarmObjective:
         """``f(X)`` for a swarm, shape (P, D) -> (P,): sum over poses, or the worst (minimax)."""
-        return objective.SwarmObjective(self, loss)
+        return objective.SwarmObjective(self.space, self.obs, self.k, loss)
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,30 @@ def transform(
     return out
 
 
+def xyz_rpy(transform: ArrayLike) -> np.ndarray:
+    """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad, ``Rz(yaw) Ry(pitch) Rx(roll)``) of a (4, 4).
+
+    The ``<origin xyz rpy>`` of a URDF joint and the ROS kinematics YAML's
+    joint origins; :func:`from_xyz_rpy` is its inverse.
+    """
+    from scipy.spatial.transform import Rotation
+
+    t = np.asarray(transform, dtype=float)
+    rpy = Rotation.from_matrix(t[:3, :3]).as_euler("xyz")
+    return np.concatenate([t[:3, 3], rpy])
+
+
+def from_xyz_rpy(values: ArrayLike) -> np.ndarray:
+    """Inverse of :func:`xyz_rpy`: (x, y, z mm, roll, pitch, yaw rad) -> (4, 4)."""
+    from scipy.spatial.transform import Rotation
+
+    values = np.asarray(values, dtype=float)
+    out = np.eye(4)
+    out[:3, :3] = Rotation.from_euler("xyz", values[3:]).as_matrix()
+    out[:3, 3] = values[:3]
+    return out
+
+
 def invert(t: ArrayLike) -> np.ndarray:
     """Inverse of stacked rigid transforms (..., 4, 4)."""
     t = np.asarray(t, dtype=float)

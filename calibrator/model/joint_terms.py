@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.inputs.rules import Rule
 from calibrator.model import kinematics
 from calibrator.model.mass_models import GRAVITY_MM_S2, MassModel
 
@@ -39,6 +40,34 @@ UNITS = {"scale": "1", "hcos": "rad", "hsin": "rad", "comp": "rad/Nm"}
 #: ratios are good to about 1e-3, harmonic errors about 1 mrad, joint
 #: compliance of a 10 kg-class arm a few 1e-6 rad/(N m).
 PLAUSIBLE = {"scale": 1e-3, "hcos": 1e-3, "hsin": 1e-3, "comp": 5e-6}
+#: Heaviest payload taken (kg): above the rating of every arm of the catalogue
+#: (30 kg), below what a typo (1e308, 1000000) gives.
+MAX_PAYLOAD_KG = 100.0
+#: Farthest payload centre of mass from the flange (mm): the tool budget of the CLI.
+MAX_PAYLOAD_COM_MM = 2_000.0
+#: The payload options (``--payload-kg``, ``--payload-com-mm``), one of
+#: :data:`calibrator.identify.option_rules.RULES` each: the same rules check
+#: the payload a calibration's ``joint_terms`` records.
+PAYLOAD_KG = Rule(
+    "payload_kg",
+    float,
+    0.0,
+    MAX_PAYLOAD_KG,
+    unit="kg",
+    flag="--payload-kg",
+    group="joint",
+    meaning="payload of sessions that record none",
+)
+PAYLOAD_COM_MM = Rule(
+    "payload_com_mm",
+    tuple,
+    high=MAX_PAYLOAD_COM_MM,
+    unit="mm",
+    size=3,
+    flag="--payload-com-mm",
+    group="joint",
+    meaning="payload centre of mass in the flange frame, x,y,z",
+)
 
 
 def parse_groups(text: str) -> tuple[str, ...]:
@@ -46,7 +75,7 @@ def parse_groups(text: str) -> tuple[str, ...]:
     groups = tuple(dict.fromkeys(g.strip().lower() for g in str(text).split(",") if g.strip()))
     bad = [g for g in groups if g not in GROUPS]
     if bad or not groups:
-        from calibrator.strict import shown
+        from calibrator.inputs.messages import shown
 
         named = ", ".join(shown(b, 30).strip("'") for b in bad[:5]) or shown(text, 30)
         raise CalibrationError(
@@ -156,11 +185,9 @@ class JointTerms:
             raise CalibrationError("joint_terms harmonic and compliance must be objects")
         # The rules of identify's --payload-kg and --payload-com-mm: a file
         # cannot hold what the command line refuses.
-        from calibrator.identify.option_rules import RULES
-
-        payload = RULES["payload_kg"].check(comp.get("payload_kg", 0.0), "joint_terms payload_kg")
+        payload = PAYLOAD_KG.check(comp.get("payload_kg", 0.0), "joint_terms payload_kg")
         com = np.array(
-            RULES["payload_com_mm"].check(
+            PAYLOAD_COM_MM.check(
                 comp.get("payload_com_mm", [0.0, 0.0, 0.0]), "joint_terms payload_com_mm"
             )
         )

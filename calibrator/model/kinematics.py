@@ -30,6 +30,8 @@ UNITS = ("mm", "rad", "rad", "mm", "rad")
 FIELDS = tuple(f"{c}_{u}" for c, u in zip(COLUMNS, UNITS, strict=True))
 A, ALPHA, THETA, D, BETA = range(5)
 N_JOINTS = 6
+#: Names of the entries of an MDH table, row by row: ``a1, alpha1, ..., beta6``.
+MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(N_JOINTS) for col in COLUMNS)
 _EYE_TOP = np.eye(4)[:3]
 
 

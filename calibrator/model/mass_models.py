@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.strict import Rule
+from calibrator.inputs.rules import Rule
 
 #: Standard gravity, mm/s^2.
 GRAVITY_MM_S2 = 9810.0
@@ -112,7 +112,7 @@ def load(path: Path | str) -> MassModel:
     CalibrationError
         Naming the file and what is wrong in it.
     """
-    from calibrator import yamlfile
+    from calibrator.inputs import yamlfile
 
     path = Path(path)
     doc = yamlfile.read(path, "a mass-model file", 2**20)

@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from calibrator.errors import IdentifiabilityError
 from calibrator.model import frames, joint_terms, kinematics
 
-MDH_NAMES = tuple(f"{col}{j + 1}" for j in range(6) for col in kinematics.COLUMNS)
+MDH_NAMES = kinematics.MDH_NAMES
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
 TOOL_NAMES = ("tool_x", "tool_y", "tool_z")
 TOOL_ROTATION_NAMES = ("tool_rx", "tool_ry", "tool_rz")

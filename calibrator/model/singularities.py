@@ -2,8 +2,8 @@
 
 One measure per singularity, used by the planner (to keep planned poses
 clear: :func:`calibrator.cell.checks.singularity_faults`) and by program
-compensation (to name the one a failed target is near:
-:func:`calibrator.filtering.configuration.nearest_singularity`):
+compensation and program filtering (to name the one a failed target is
+near: :func:`nearest`):
 
 - wrist: the angle between axes 4 and 6 (they line up; on a UR arm ``|q5|``);
 - elbow: the angle between the upper arm (axis 2 to axis 3) and the forearm
@@ -60,3 +60,44 @@ def margins(mdh: ArrayLike, q: ArrayLike) -> np.ndarray:
     a1 = np.arctan2(x1[:, 1], x1[:, 0])
     shoulder = np.abs(w[:, 0] * np.cos(a1) + w[:, 1] * np.sin(a1))
     return np.column_stack([wrist, elbow, shoulder])
+
+
+#: A pose closer than this to a wrist or elbow singularity is named near it (deg).
+NEAR_DEG = 5.0
+#: ... or closer than this to the shoulder singularity (mm).
+NEAR_MM = 50.0
+
+
+def nearest(mdh: ArrayLike, q_model: ArrayLike) -> list[str]:
+    """Name, per pose, the singularity closest to it, with its margin.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (6, 5)
+    q_model : array_like, shape (N, 6)
+        rad.
+
+    Returns
+    -------
+    list of str, length N
+        E.g. ``"wrist singularity: axes 4 and 6 are 0.8 deg from parallel"``;
+        empty where no singularity is within :data:`NEAR_DEG` (or
+        :data:`NEAR_MM` for the shoulder).
+    """
+    out = []
+    # The one measure of each singularity (the planner keeps its poses clear by it).
+    for a, b, c in margins(mdh, q_model):
+        near = [a / NEAR_DEG, b / NEAR_DEG, c / NEAR_MM]
+        pick = int(np.argmin(near))
+        if near[pick] > 1.0:
+            out.append("")
+            continue
+        out.append(
+            [
+                f"wrist singularity: axes 4 and 6 are {a:.2f} deg from parallel",
+                f"elbow singularity: the arm is {b:.1f} deg from stretched",
+                f"shoulder singularity: the wrist centre is {c:.0f} mm from the plane "
+                "through axis 1 parallel to axis 2",
+            ][pick]
+        )
+    return out

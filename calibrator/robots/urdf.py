@@ -34,8 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import strict
+from calibrator.inputs import grammar, textfile
+from calibrator.inputs.errors import StrictError
 from calibrator.model import conventions, kinematics
+from calibrator.model.frames import from_xyz_rpy
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -105,8 +107,8 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
         return np.array(default, dtype=float)
     parts = text.split()
     try:
-        values = np.array([strict.parse_number(p, where) for p in parts], dtype=float)
-    except strict.StrictError:
+        values = np.array([grammar.parse_number(p, where) for p in parts], dtype=float)
+    except StrictError:
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers") from None
     if values.shape != (count,):
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers")
@@ -115,13 +117,11 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
 
 def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
     """The transform of an ``<origin xyz rpy>`` element (mm), identity if absent."""
-    from calibrator.export.ros import origin_transform
-
     if element is None:
         return np.eye(4)
     xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
     rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
-    return origin_transform(np.concatenate([xyz * _M, rpy]))
+    return from_xyz_rpy(np.concatenate([xyz * _M, rpy]))
 
 
 def read_chain(
@@ -142,8 +142,8 @@ def read_chain(
     """
     path = Path(path)
     try:
-        text = strict.read_text(path, MAX_BYTES, "a URDF file")
-    except strict.StrictError as exc:
+        text = textfile.read_text(path, MAX_BYTES, "a URDF file")
+    except StrictError as exc:
         raise DescriptionError(str(exc)) from None
     try:
         root = ET.fromstring(text)

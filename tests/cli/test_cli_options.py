@@ -212,7 +212,8 @@ def test_measure_and_verify_take_the_shared_run_options_alike_in_the_same_place(
     # both commands, listed where each command's own options put them.
     commands = get_command(app).commands
     shared = [
-        "resume", "yes", "force", "model", "settle", "retries", "speed", "accel", "max_speed"
+        "resume", "yes", "force", "model", "base_link", "tip_link", "settle", "retries",
+        "speed", "accel", "max_speed",
     ]  # fmt: skip
     seen = {}
     for name in ("measure", "verify"):

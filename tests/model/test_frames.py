@@ -44,6 +44,26 @@ def test_rigid_fit_recovers_a_transform_and_inverts():
     np.testing.assert_allclose(frames.invert(truth) @ truth, np.eye(4), atol=1e-12)
 
 
+def test_urdf_origins_are_rz_ry_rx_and_read_back():
+    # URDF's <origin xyz rpy>: translate, then Rz(yaw) Ry(pitch) Rx(roll) (fixed axes).
+    def rot(axis, a):
+        c, s = np.cos(a), np.sin(a)
+        i, j = [(1, 2), (2, 0), (0, 1)][axis]
+        r = np.eye(3)
+        r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+        return r
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        xyz, (roll, pitch, yaw) = rng.normal(0, 500, 3), rng.uniform(-1.5, 1.5, 3)
+        built = frames.from_xyz_rpy([*xyz, roll, pitch, yaw])
+        np.testing.assert_allclose(
+            built[:3, :3], rot(2, yaw) @ rot(1, pitch) @ rot(0, roll), atol=1e-14
+        )
+        np.testing.assert_allclose(built[:3, 3], xyz)
+        np.testing.assert_allclose(frames.xyz_rpy(built), [*xyz, roll, pitch, yaw], atol=1e-12)
+
+
 def test_halton_is_scipys_sequence_and_scrambling_is_seeded():
     np.testing.assert_array_equal(
         halton(64, 48, scramble=False), qmc.Halton(d=48, scramble=False).random(64)

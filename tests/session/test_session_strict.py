@@ -14,8 +14,9 @@ import pyarrow.parquet as pq
 import pytest
 from cli_process_kit import run_cli
 
-from calibrator import plausibility, session
+from calibrator import session
 from calibrator.errors import CalibrationError, SessionError
+from calibrator.inputs import plausibility
 from calibrator.simulate import simulate
 
 RAD2DEG = 180.0 / np.pi

@@ -154,7 +154,10 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
         "calibrator.model.joint_terms", "calibrator.model.mass_models",
         "calibrator.robots", "calibrator.robots.description", "calibrator.robots.files",
         "calibrator.robots.ipso_paper", "calibrator.robots.urdf", "calibrator.robots.ur",
-        "calibrator.robots.shipped", "calibrator.model.conventions", "calibrator.strict",
+        "calibrator.robots.shipped", "calibrator.model.conventions", "calibrator.inputs",
+        "calibrator.inputs.errors", "calibrator.inputs.grammar", "calibrator.inputs.messages",
+        "calibrator.inputs.textfile", "calibrator.inputs.yamlfile", "calibrator.inputs.rules",
+        "calibrator.inputs.budgets",
     }  # fmt: skip
     code = (
         "import sys, drivers.tracker.simulator.__main__ as m; "

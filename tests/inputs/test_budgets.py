@@ -6,6 +6,7 @@ import pytest
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.inputs.errors import StrictError
 
 
 @pytest.mark.parametrize(
@@ -55,8 +56,8 @@ def test_a_point_in_the_cell_is_returned_as_given():
 def test_plan_work_counts_the_default_candidates():
     checks.plan_work(30, None, "d-optimal")  # 2000 candidates by default
     checks.plan_work(2000, 200_000, "first")  # no selection work
-    with pytest.raises(checks.strict.StrictError, match="default for 4000 poses"):
+    with pytest.raises(StrictError, match="default for 4000 poses"):
         checks.plan_work(4000, None, "first")
-    with pytest.raises(checks.strict.StrictError, match="poses x candidates"):
+    with pytest.raises(StrictError, match="poses x candidates"):
         checks.plan_work(1000, 30_000, "d-optimal")  # 3e7 selection steps x candidates
     checks.plan_work(1000, 30_000, "random")

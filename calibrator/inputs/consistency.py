@@ -22,10 +22,13 @@ Derived values must match to rounding (:data:`DERIVED_TOL`).
 
 Use::
 
-    from calibrator import consistency
+    from calibrator.inputs import consistency
 
-    consistency.check_calibration(cal)                   # after reading calibration.json
-    consistency.check_session_matches(cal, session.meta)  # before drawing one over the other
+    consistency.check_calibration(cal, "cal.json", ur10e.mdh)  # the catalogue's table of cal.model
+    consistency.check_session_matches(cal, session.meta)       # before drawing one over the other
+
+The caller looks a named model up in the catalogue (this package sits below
+the arm's model, :mod:`calibrator.inputs`).
 """
 
 from __future__ import annotations
@@ -34,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator.errors import CalibrationError
-from calibrator.model import kinematics, parameters
+from calibrator.inputs.errors import ConsistencyError
+from calibrator.model import kinematics
 
 __all__ = [
     "check_mdh_sane",
@@ -55,13 +58,14 @@ MAX_MDH = {"mm": 1e5, "rad": 100.0}
 #: Largest difference between a stored derived value and what it derives from (mm, rad).
 DERIVED_TOL = {"mm": 1e-6, "rad": 1e-9}
 _LENGTH_COLUMNS = (kinematics.A, kinematics.D)
+_MDH_NAMES = kinematics.MDH_NAMES
+#: Unit of each MDH entry by name.
+_MDH_UNITS = dict(zip(_MDH_NAMES, kinematics.UNITS * kinematics.N_JOINTS, strict=True))
 
 
-class ConsistencyError(CalibrationError):
-    """Two parts of the inputs that must agree do not."""
-
-
-def check_calibration(cal: Any, where: str = "calibration") -> None:
+def check_calibration(
+    cal: Any, where: str = "calibration", model_mdh: np.ndarray | None = None
+) -> None:
     """Refuse a calibration whose parts disagree.
 
     Parameters
@@ -72,6 +76,9 @@ def check_calibration(cal: Any, where: str = "calibration") -> None:
         (``{name: value}``, mm or rad).
     where : str
         Named in the error (the file's path).
+    model_mdh : ndarray, shape (6, 5), optional
+        The catalogue's MDH table of ``cal.model`` (mm, rad); None when the
+        name is not a catalogue arm's (the file's table describes it).
 
     Raises
     ------
@@ -81,15 +88,15 @@ def check_calibration(cal: Any, where: str = "calibration") -> None:
     """
     check_mdh_sane(cal.nominal_mdh, f"{where}: 'nominal_mdh'")
     check_mdh_sane(cal.mdh, f"{where}: 'mdh'")
-    check_model_table(cal.model, cal.nominal_mdh, f"{where}: 'nominal_mdh'")
+    check_model_table(cal.model, model_mdh, cal.nominal_mdh, f"{where}: 'nominal_mdh'")
     # MDH deltas only: frame deltas are relative to first guesses (base0, tool0)
     # that older files do not record, so they cannot be re-derived from every file.
-    derived = dict(zip(parameters.MDH_NAMES, (cal.mdh - cal.nominal_mdh).ravel(), strict=True))
+    derived = dict(zip(_MDH_NAMES, (cal.mdh - cal.nominal_mdh).ravel(), strict=True))
     for name in cal.free:
         if name not in derived:
             continue
         stored, value = float(cal.deltas[name]), float(derived[name])
-        unit = parameters.unit(name)
+        unit = _MDH_UNITS[name]
         if not abs(stored - value) <= DERIVED_TOL[unit] * max(1.0, abs(value)):
             raise ConsistencyError(
                 f"{where}: deltas.{name} is {stored:.9g} {unit} but mdh minus nominal_mdh "
@@ -124,7 +131,7 @@ def check_mdh_sane(table: Any, what: str) -> np.ndarray:
         joint, col = (int(i) for i in np.argwhere(bad)[0])
         unit = "mm" if lengths[col] else "rad"
         raise ConsistencyError(
-            f"{what}: {parameters.MDH_NAMES[joint * arr.shape[-1] + col]} = {arr[joint, col]:.6g} "
+            f"{what}: {_MDH_NAMES[joint * arr.shape[-1] + col]} = {arr[joint, col]:.6g} "
             f"{unit} is beyond {MAX_MDH[unit]:g} {unit}: not an arm's table"
         )
     return arr
@@ -162,13 +169,18 @@ def check_session_matches(cal: Any, meta: Any, where: str = "session") -> None:
         )
 
 
-def check_model_table(model: str | None, table: Any, what: str) -> None:
+def check_model_table(
+    model: str | None, model_mdh: np.ndarray | None, table: Any, what: str
+) -> None:
     """Refuse a table said to be ``model``'s that is further than :data:`MODEL_TOL` from it.
 
     Parameters
     ----------
     model : str or None
-        A catalogue name (others, and None, pass: the table describes them).
+        The name the document gives, for the error.
+    model_mdh : ndarray, shape (6, 5), or None
+        The catalogue's table of ``model`` (mm, rad); None (a name only the
+        table itself describes, or no name) passes.
     table : array_like, shape (6, 5)
         MDH table (mm, rad).
     what : str
@@ -178,11 +190,9 @@ def check_model_table(model: str | None, table: Any, what: str) -> None:
     ------
     ConsistencyError
     """
-    from calibrator import robots
-
-    if model is None or model.lower() not in robots.names():
+    if model is None or model_mdh is None:
         return  # a name only the table itself describes
-    gap = _table_gap(robots.get(model).mdh, table)
+    gap = _table_gap(model_mdh, table)
     if gap is not None:
         raise ConsistencyError(f"{what} is not a {model} ({gap}): the wrong 'model'?")
 
@@ -197,6 +207,6 @@ def _table_gap(expected: np.ndarray, table: np.ndarray) -> str | None:
             joint, col = np.unravel_index(
                 int(np.nanargmax(np.nan_to_num(part, nan=np.inf))), part.shape
             )
-            name = parameters.MDH_NAMES[joint * len(kinematics.FIELDS) + col]
+            name = _MDH_NAMES[joint * len(kinematics.FIELDS) + col]
             return f"{name} differs by {part[joint, col]:.4g} {unit}"
     return None

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from calibrator import plausibility, robots
+from calibrator import robots
 from calibrator.errors import CalibrationError, SessionError
+from calibrator.inputs import plausibility
 from calibrator.model import kinematics
 
 ROBOT = robots.get("er10l-c10")

@@ -13,12 +13,12 @@ reads numbers in the project's strict grammar:
   (every alias counted as the node it stands for) at most
   :data:`MAX_NODES` nodes and :data:`MAX_CHARS` characters of scalars;
 - keys: a key written twice in one mapping is refused;
-- numbers: decimal only (:data:`calibrator.strict.NUMBER`, YAML 1.2 style:
+- numbers: decimal only (:data:`calibrator.inputs.grammar.NUMBER`, YAML 1.2 style:
   ``1e-3`` is a number); ``0x1F``, ``0o17``, ``017``, ``1_000``, ``1:30``,
   ``.nan``, ``.inf`` and integers beyond 64 bits are refused, not converted.
 
 Every refusal is one line naming the file and what is wrong, as a
-:class:`calibrator.strict.StrictError` (a
+:class:`calibrator.inputs.errors.StrictError` (a
 :class:`~calibrator.errors.CalibrationError`; exit code 2 at the CLI)::
 
     cell.yaml: nested more than 64 deep (line 65)
@@ -27,7 +27,7 @@ Every refusal is one line naming the file and what is wrong, as a
 
 Use::
 
-    from calibrator import yamlfile
+    from calibrator.inputs import yamlfile
 
     doc = yamlfile.read("cell.yaml", "a cell file")          # a path
     doc = yamlfile.read("ur10e.yaml", "a robot description", max_bytes=2**20)
@@ -35,7 +35,7 @@ Use::
 
 ``what`` names the kind of file in errors about the file itself
 (``ur10e.yaml: 5000000 bytes is too large for a robot description``); wrap
-the :class:`~calibrator.strict.StrictError` in your own error class if your
+the :class:`~calibrator.inputs.errors.StrictError` in your own error class if your
 package has one (``cellfile`` raises ``CellError(str(exc))``).
 
 Readers then check the document's shape and types themselves (a reader of
@@ -50,8 +50,9 @@ import re
 from pathlib import Path
 from typing import Any
 
-from calibrator import strict
-from calibrator.strict import StrictError
+from calibrator.inputs import grammar, messages
+from calibrator.inputs.errors import StrictError
+from calibrator.inputs.textfile import read_text
 
 __all__ = ["MAX_ALIASES", "MAX_BYTES", "MAX_CHARS", "MAX_DEPTH", "MAX_NODES", "loads", "read"]
 
@@ -87,12 +88,12 @@ def read(
 
     Raises
     ------
-    calibrator.strict.StrictError
+    calibrator.inputs.errors.StrictError
         Missing, too large, not UTF-8, not YAML, too deep, too many or too
         large aliases, a duplicate key, a number outside the grammar. One
         line, starting with the path.
     """
-    return loads(strict.read_text(Path(path), max_bytes, what), str(path))
+    return loads(read_text(Path(path), max_bytes, what), str(path))
 
 
 def loads(text: str, where: str = "YAML") -> Any:
@@ -202,7 +203,7 @@ def _loader() -> Any:
         ch: list(v) for ch, v in yaml.SafeLoader.yaml_implicit_resolvers.items()
     }
     StrictLoader.add_implicit_resolver(
-        "tag:yaml.org,2002:float", strict.NUMBER, list("-+0123456789.")
+        "tag:yaml.org,2002:float", grammar.NUMBER, list("-+0123456789.")
     )
 
     def mapping(loader: Any, node: Any, deep: bool = False) -> Any:
@@ -217,7 +218,7 @@ def _loader() -> Any:
                 continue  # an unhashable key: SafeLoader refuses it itself
             if duplicate:
                 raise StrictError(
-                    f"key {strict._shown(key)} appears more than once "
+                    f"key {messages.short(key)} appears more than once "
                     f"(line {key_node.start_mark.line + 1})"
                 )
             seen.add(key)
@@ -228,13 +229,13 @@ def _loader() -> Any:
         line = node.start_mark.line + 1
         # "017" is octal in YAML 1.1 and decimal in 1.2: ambiguous, so refused.
         if not _INTEGER.fullmatch(s) or re.fullmatch(r"[+-]?0[0-9]+", s):
-            raise StrictError(f"{strict._shown(s)} (line {line}) is not a decimal number")
-        if len(s.lstrip("+-")) > 19 or abs(int(s)) > strict.MAX_INT:
-            raise StrictError(f"line {line}: the integer {strict._shown(s)} is beyond 64 bits")
+            raise StrictError(f"{messages.short(s)} (line {line}) is not a decimal number")
+        if len(s.lstrip("+-")) > 19 or abs(int(s)) > grammar.MAX_INT:
+            raise StrictError(f"line {line}: the integer {messages.short(s)} is beyond 64 bits")
         return int(s)
 
     def real(loader: Any, node: Any) -> float:
-        return strict.parse_number(
+        return grammar.parse_number(
             loader.construct_scalar(node), f"line {node.start_mark.line + 1}"
         )
 

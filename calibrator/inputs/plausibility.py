@@ -35,8 +35,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from calibrator.calibration import PLAUSIBLE_DELTA
 from calibrator.errors import CalibrationError, SessionError
+from calibrator.inputs.consistency import MAX_MDH
 from calibrator.model import kinematics
 
 MAX_ABS_MM = 1.0e9  # 1000 km: no unit mistake explains it (um are named by the scale check)
@@ -57,6 +57,10 @@ LENGTH_UNITS = {
     "micrometres (um)": 1e-3,
 }
 
+#: Identified values further than this from nominal are not a calibration of
+#: that arm (a unit mistake or a wrong nominal): (mm, rad). Reading a
+#: calibration.json refuses them too (:func:`calibrator.calibration.load`).
+PLAUSIBLE_DELTA = {"mm": 100.0, "rad": 0.5}
 #: Identified-minus-nominal MDH deltas beyond these are reported (mm, rad).
 DELTA_WARN_MM = 20.0
 DELTA_WARN_RAD = np.deg2rad(5.0)
@@ -335,7 +339,7 @@ def check_frames(frames: dict[str, np.ndarray], where: str = "calibration") -> N
     """Refuse frames no cell has, with the bounds the session loader applies.
 
     A tool frame (``flange2tool``, ``tool0``) further than
-    :data:`calibrator.consistency.MAX_MDH` mm from the flange is refused, as
+    :data:`calibrator.inputs.consistency.MAX_MDH` mm from the flange is refused, as
     :func:`calibrator.session.load` refuses it in a session; a base frame
     (``base2tracker``, ``base0``) beyond :data:`MAX_ABS_MM`, as a measured
     point is. Everything derived from the frames (exports, compensation)
@@ -353,8 +357,6 @@ def check_frames(frames: dict[str, np.ndarray], where: str = "calibration") -> N
     CalibrationError
         ``cal.json: 'flange2tool' puts the tool 9e+11 mm from the flange (more than 100000 mm)``.
     """
-    from calibrator.consistency import MAX_MDH
-
     for name, frame in frames.items():
         is_tool = "tool" in name
         limit = MAX_MDH["mm"] if is_tool else MAX_ABS_MM

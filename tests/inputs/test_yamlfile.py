@@ -9,7 +9,8 @@ from cli_kit import cli, listing, one_line_error
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calibrator import strict, yamlfile
+from calibrator.inputs import yamlfile
+from calibrator.inputs.errors import StrictError
 
 
 def _bomb(levels: int, where: str) -> str:
@@ -69,14 +70,14 @@ def test_a_hostile_cell_file_is_one_line_naming_the_file(tmp_path, case):
 def test_a_file_above_its_size_is_refused_unread(tmp_path):
     path = tmp_path / "big.yaml"
     path.write_text("a: " + "x" * 2000 + "\n")
-    with pytest.raises(strict.StrictError, match=r"big.yaml: 2004 bytes is too large .*1000"):
+    with pytest.raises(StrictError, match=r"big.yaml: 2004 bytes is too large .*1000"):
         yamlfile.read(path, "a test file", max_bytes=1000)
 
 
 def test_the_limits_themselves_pass():
     n = yamlfile.MAX_DEPTH - 1  # inside the top mapping
     assert yamlfile.loads("a: " + "[" * n + "]" * n + "\n") is not None
-    with pytest.raises(strict.StrictError, match="nested more than 64 deep"):
+    with pytest.raises(StrictError, match="nested more than 64 deep"):
         yamlfile.loads("a: " + "[" * (n + 1) + "]" * (n + 1) + "\n")
     # A few aliases that expand modestly are ordinary YAML and read as such.
     doc = yamlfile.loads("base: &b {x: 1.5, y: 2}\none: *b\ntwo: {<<: *b, y: 3}\n")
@@ -86,7 +87,7 @@ def test_the_limits_themselves_pass():
 def test_numbers_follow_the_strict_grammar():
     assert yamlfile.loads("x: 1e-3\nn: -2\n") == {"x": 0.001, "n": -2}
     for text in ("x: 0x10\n", "x: 1_000\n", "x: .inf\n", "x: 017\n", "x: 99999999999999999999\n"):
-        with pytest.raises(strict.StrictError, match="^f.yaml: "):
+        with pytest.raises(StrictError, match="^f.yaml: "):
             yamlfile.loads(text, "f.yaml")
 
 
@@ -133,7 +134,7 @@ def test_fuzz_any_text_is_a_document_or_one_line(pieces):
     started = time.perf_counter()
     try:
         yamlfile.loads(text, "f.yaml")
-    except strict.StrictError as exc:
+    except StrictError as exc:
         message = str(exc)
         assert message.startswith("f.yaml: ") and "\n" not in message and len(message) < 300
     assert time.perf_counter() - started < 2

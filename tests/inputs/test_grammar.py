@@ -1,12 +1,13 @@
-"""The one number grammar, JSON loader, YAML loader and budget check (calibrator.strict)."""
+"""The one number grammar, JSON loader, YAML loader and budget check (calibrator.inputs)."""
 
 import json
 
 import numpy as np
 import pytest
 
-from calibrator import strict
 from calibrator.errors import CalibrationError
+from calibrator.inputs import budgets, grammar, jsonfile, textfile, yamlfile
+from calibrator.inputs.errors import StrictError
 
 
 @pytest.mark.parametrize(
@@ -14,33 +15,33 @@ from calibrator.errors import CalibrationError
     [("0.5", 0.5), ("-1e-3", -0.001), (".5", 0.5), ("5.", 5.0), (" 3 ", 3.0), ("+2E+2", 200.0)],
 )
 def test_decimal_numbers_read_as_numbers(text, value):
-    assert strict.parse_number(text) == value
+    assert grammar.parse_number(text) == value
 
 
 @pytest.mark.parametrize(
     "text", ["0_5", "1_000.0", "0x10", "nan", "NaN", "inf", "-Infinity", "", "1,5", "1e400", "١"]
 )
 def test_anything_else_is_refused_naming_the_text(text):
-    with pytest.raises(strict.StrictError) as info:
-        strict.parse_number(text, "plan.csv row 2, q1_rad")
+    with pytest.raises(StrictError) as info:
+        grammar.parse_number(text, "plan.csv row 2, q1_rad")
     assert str(info.value).startswith("plan.csv row 2, q1_rad: ")
 
 
 def test_python_float_would_have_read_an_underscore_as_a_digit_separator():
     # The reason for the grammar: float() reads "0_5" as 5.0, silently.
     assert float("0_5") == 5.0
-    with pytest.raises(strict.StrictError, match="'0_5' is not a decimal number"):
-        strict.parse_number("0_5")
+    with pytest.raises(StrictError, match="'0_5' is not a decimal number"):
+        grammar.parse_number("0_5")
 
 
 def test_parse_columns_names_line_and_column():
-    assert strict.parse_columns([["1", "2"], ["3", "4.5"]], "ab", "t").tolist() == [
+    assert grammar.parse_columns([["1", "2"], ["3", "4.5"]], "ab", "t").tolist() == [
         [1, 2],
         [3, 4.5],
     ]
-    with pytest.raises(strict.StrictError, match=r"^t.csv: line 3, a: '0x1' is not"):
-        strict.parse_columns([["1", "2"], ["0x1", "4"]], "ab", "t.csv")
-    assert strict.parse_numbers(["1", "-2e1"]).tolist() == [1.0, -20.0]
+    with pytest.raises(StrictError, match=r"^t.csv: line 3, a: '0x1' is not"):
+        grammar.parse_columns([["1", "2"], ["0x1", "4"]], "ab", "t.csv")
+    assert grammar.parse_numbers(["1", "-2e1"]).tolist() == [1.0, -20.0]
 
 
 @pytest.mark.parametrize(
@@ -71,13 +72,13 @@ def test_parse_columns_names_line_and_column():
 )
 def test_json_refusals_are_one_line_naming_the_key(text, message):
     with pytest.raises(CalibrationError) as info:
-        strict.load_json(text, "f")
+        jsonfile.load_json(text, "f")
     assert str(info.value) == message
 
 
 def test_json_keeps_what_python_reads_the_same():
     text = '{"a": [1, -2.5e-3, true, null, "x"], "b": {"c": 9223372036854775807}}'
-    assert strict.load_json(text) == json.loads(text)
+    assert jsonfile.load_json(text) == json.loads(text)
 
 
 @pytest.mark.parametrize(
@@ -97,15 +98,15 @@ def test_json_keeps_what_python_reads_the_same():
     ],
 )
 def test_yaml_refuses_what_yaml_1_1_would_convert_silently(text):
-    with pytest.raises(strict.StrictError) as info:
-        strict.load_yaml(text, "k.yaml")
+    with pytest.raises(StrictError) as info:
+        yamlfile.loads(text, "k.yaml")
     assert str(info.value).startswith("k.yaml")
     assert "\n" not in str(info.value)
 
 
 def test_yaml_reads_numbers_by_the_same_grammar():
     # YAML 1.1 (PyYAML) reads "1e-3" as text; the grammar reads it as the number it is.
-    assert strict.load_yaml("x: 1e-3\ny: 1.5\nz: -2\nw: [0.5, 3]\nn: name") == {
+    assert yamlfile.loads("x: 1e-3\ny: 1.5\nz: -2\nw: [0.5, 3]\nn: name") == {
         "x": 0.001,
         "y": 1.5,
         "z": -2,
@@ -115,27 +116,27 @@ def test_yaml_reads_numbers_by_the_same_grammar():
 
 
 def test_budget_refuses_above_the_limit_in_one_line():
-    strict.check_budget("--trials", 10**9, 10**9, "trials")
-    with pytest.raises(strict.StrictError) as info:
-        strict.check_budget("--trials", 10**12, 10**9, "trials")
+    budgets.check_budget("--trials", 10**9, 10**9, "trials")
+    with pytest.raises(StrictError) as info:
+        budgets.check_budget("--trials", 10**12, 10**9, "trials")
     assert (
         str(info.value)
         == "--trials: 1000000000000 trials is more than the limit of 1000000000 trials"
     )
-    with pytest.raises(strict.StrictError, match="about 1e400"):
-        strict.check_budget("--poses", 10**400, 50_000)
-    with pytest.raises(strict.StrictError):
-        strict.check_budget("--settle", float("nan"), 60.0, "s")
+    with pytest.raises(StrictError, match="about 1e400"):
+        budgets.check_budget("--poses", 10**400, 50_000)
+    with pytest.raises(StrictError):
+        budgets.check_budget("--settle", float("nan"), 60.0, "s")
 
 
 def test_read_text_refuses_large_or_binary_files(tmp_path):
     path = tmp_path / "f.yaml"
     path.write_bytes(b"a: 1\n")
-    assert strict.read_text(path, 5) == "a: 1\n"
-    with pytest.raises(strict.StrictError, match="6 bytes is too large"):
+    assert textfile.read_text(path, 5) == "a: 1\n"
+    with pytest.raises(StrictError, match="6 bytes is too large"):
         path.write_bytes(b"a: 1\n\n")
-        strict.read_text(path, 5)
+        textfile.read_text(path, 5)
     path.write_bytes(b"\xff\xfe")
-    with pytest.raises(strict.StrictError, match="not a text file \\(not UTF-8 text\\)"):
-        strict.read_text(path, 5)
-    assert np.isfinite(strict.MAX_INT)
+    with pytest.raises(StrictError, match="not a text file \\(not UTF-8 text\\)"):
+        textfile.read_text(path, 5)
+    assert np.isfinite(grammar.MAX_INT)
