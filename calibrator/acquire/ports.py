@@ -104,13 +104,6 @@ CHECKS_PLAN = "checks_plan"
 #: ``listener``: a simulated robot calls ``listener(tool2tracker)`` (4x4, mm) after
 #: each move, so a simulated tracker can follow the true probe.
 REPORTS_TRUE_POSE = "reports_true_pose"
-#: The robot finds its poses by watching the tracker (an arm running its own program,
-#: ``--robot external``): ``readings_port()`` returns the tracker port the loop must
-#: read instead of the raw tracker (the readings taken at the stop that is the pose),
-#: and ``summary()`` returns lines for the end of the run (poses missing, stops rejected).
-#: Its ``check_plan`` gets the measured poses only, and ``move_joints`` to a via returns
-#: at once (the controller passes through vias without a stop).
-WATCHES_TRACKER = "watches_tracker"
 #: ``conditions()``: the tracker reports what it measures of its surroundings, a dict
 #: (``air_temperature_c``, ``air_pressure_hpa``, ``air_humidity_pct``, ``on_s``: time since
 #: power-on, ``warmed_up``; any may be None when it does not say), or None.
@@ -180,7 +173,7 @@ class Robot(Protocol):
     ----------
     capabilities : frozenset of str
         Which of :data:`MOVES_HARDWARE`, :data:`CHECKS_PLAN`,
-        :data:`REPORTS_TRUE_POSE`, :data:`WATCHES_TRACKER` it offers.
+        :data:`REPORTS_TRUE_POSE`, :data:`REPORTS_TEMPERATURES` it offers.
     """
 
     capabilities: frozenset[str] = frozenset()

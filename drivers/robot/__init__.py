@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers.robot.errors import (
     EmergencyStop,
@@ -20,6 +20,9 @@ from drivers.robot.errors import (
 )
 from drivers.robot.interface import Robot, SafetyState
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
+
+if TYPE_CHECKING:
+    from calibrator.acquire.external.arm import ProgramArm
 
 __all__ = [
     "ROBOT_KINDS",
@@ -50,10 +53,7 @@ class RobotOptions:
         The simulated world (the ``sim`` kind needs it).
     max_speed_rad_s, max_accel_rad_s2 : float, optional
         Lower the model's fixed motion caps (never raise them).
-    tracker : calibrator.acquire.ports.Tracker, optional
-        The raw tracker, for a robot that finds its poses by watching it
-        (the ``external`` kind needs it; the caller connects it).
-    external : drivers.robot.external.setup.ExternalOptions, optional
+    external : calibrator.acquire.external.arm.ExternalOptions, optional
         Stop detection and association of the ``external`` kind.
     """
 
@@ -61,11 +61,11 @@ class RobotOptions:
     world: Any = None
     max_speed_rad_s: float | None = None
     max_accel_rad_s2: float | None = None
-    tracker: Any = None
     external: Any = None
 
 
-RobotOpener = Callable[[str, RobotOptions], Robot]
+#: An opener builds a robot, or (``external``) an arm running its own program.
+RobotOpener = Callable[[str, RobotOptions], "Robot | ProgramArm"]
 
 
 def _open_sim(url: str, options: RobotOptions) -> Robot:
@@ -100,7 +100,7 @@ def _open_ur(url: str, options: RobotOptions) -> Robot:
     return robot
 
 
-def _open_external(url: str, options: RobotOptions) -> Robot:
+def _open_external(url: str, options: RobotOptions) -> ProgramArm:
     from drivers.robot.external.setup import open_external
 
     return open_external(url, options)
@@ -117,21 +117,23 @@ def register_robot(kind: str, opener: RobotOpener) -> None:
     ROBOT_KINDS[kind.lower()] = opener
 
 
-def open_robot(url: str, options: RobotOptions) -> Robot:
+def open_robot(url: str, options: RobotOptions) -> Robot | ProgramArm:
     """The robot named by ``url``, not yet connected, with a ``device_id`` for the journal.
 
     Parameters
     ----------
     url : str
         ``sim``, ``ur://HOST``, ``external`` (an arm running the plan as its
-        own program, watched through ``options.tracker``), or a registered scheme.
+        own program, which the run watches through its tracker), or a
+        registered scheme.
     options : RobotOptions
 
     Returns
     -------
-    drivers.robot.interface.Robot
+    drivers.robot.interface.Robot or calibrator.acquire.external.arm.ProgramArm
         Every move of a robot that moves hardware is checked against the
-        model's limits first (:class:`GuardedRobot`).
+        model's limits first (:class:`GuardedRobot`); ``external`` gives a
+        :class:`~calibrator.acquire.external.arm.ProgramArm` (nothing to command).
 
     Raises
     ------
