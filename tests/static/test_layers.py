@@ -97,10 +97,6 @@ KNOWN: dict[tuple[str, str], str] = {
         "to go, the model-aware checks need a home above the model or the model "
         "one below the readers"
     ),
-    ("calibrator.model.mass_models", "calibrator.robots"): (
-        "masses looked up by arm name in the descriptions; issue #33 item 1 puts "
-        "the masses in RobotDescription"
-    ),
     ("drivers.robot.external.setup", "drivers.robot"): (
         "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
     ),
