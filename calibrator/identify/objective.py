@@ -47,8 +47,8 @@ from calibrator.model import frames, kinematics
 from calibrator.model.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
-    from calibrator.measurement import Observations
-    from calibrator.parameters import ParameterSpace
+    from calibrator.model.measurement import Observations
+    from calibrator.model.parameters import ParameterSpace
 
 
 class SwarmObjective:
@@ -62,9 +62,9 @@ class SwarmObjective:
 
     Parameters
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
         The free set, over D parameters.
-    obs : calibrator.measurement.Observations
+    obs : calibrator.model.measurement.Observations
         The fitting poses (N of them).
     k : float
         Orientation weight (mm^2/rad^2), as the problem resolved it.

@@ -262,7 +262,7 @@ def joint_origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     mdh : array_like, shape (..., 6, 5)
-        MDH tables (mm, rad).
+        MDH tables (mm, rad), each turned to its pose if ``theta`` holds one.
 
     Returns
     -------
