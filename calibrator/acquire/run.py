@@ -177,8 +177,8 @@ class MeasureRun:
         self.output = Path(output)
         self.journal_path = journals.journal_path(self.output)
         self.world = world
-        if steer is None and world is not None and ports.STEER in tracker.capabilities:
-            steer = tracker.set_target  # type: ignore[attr-defined]
+        if steer is None and world is not None and ports.STEER.offered_by(tracker):
+            steer = tracker.set_target
         self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
         # Where the tracker is: --tracker-at, else the cell file's, else the
@@ -238,8 +238,8 @@ class MeasureRun:
         if self._steer is not None:
             steer = self._steer
             # The orientation too: a 6-DoF probe reports it (others ignore it).
-            if ports.REPORTS_TRUE_POSE in self.robot.capabilities:
-                self.robot.listener = lambda pose: _steer_to(steer, pose)  # type: ignore[attr-defined]
+            if ports.REPORTS_TRUE_POSE.offered_by(self.robot):
+                self.robot.listener = lambda pose: _steer_to(steer, pose)
             elif self.world is not None:
                 world = self.world
                 self._after_move = lambda q: _steer_to(steer, world.tool_pose(q))
@@ -301,14 +301,15 @@ class MeasureRun:
         cells.check_whole_plan(
             plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
         )
-        if ports.CHECKS_PLAN in self.robot.capabilities:
+        robot = self.robot
+        if ports.CHECKS_PLAN.offered_by(robot):
             motion = np.concatenate([q_plan, *vias]) if vias else q_plan
-            if ports.WATCHES_TRACKER in self.robot.capabilities:
+            if ports.WATCHES_TRACKER.offered_by(self.robot):
                 # It finds the measured poses among the stops: vias (passed
                 # through by its own program, checked above) are none of them.
                 motion = q_plan
             try:
-                self.robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)  # type: ignore[attr-defined]
+                robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)
             except ValueError as exc:
                 raise CalibrationError(str(exc)) from None
         self.plan = q_plan
@@ -454,8 +455,8 @@ class MeasureRun:
         o = self.options
         via_rad = self._with_lead_in(o.via_rad)
         tracker, retry_pause_s = self.tracker, o.retry_pause_s
-        if ports.WATCHES_TRACKER in self.robot.capabilities:
-            tracker = self.robot.readings_port()  # type: ignore[attr-defined]
+        if ports.WATCHES_TRACKER.offered_by(self.robot):
+            tracker = self.robot.readings_port()
             # The arm runs on without us: a pause before re-reading a pose's stop
             # (nothing comes back) would leave the tracker unwatched through the
             # next poses' dwells and lose them.
@@ -523,8 +524,8 @@ class MeasureRun:
         if self.journal is not None:
             self.journal.close()  # releases the lock, after the unlink
         notes: list[str] = []
-        if ports.WATCHES_TRACKER in self.robot.capabilities:
-            notes = list(self.robot.summary())  # type: ignore[attr-defined]
+        if ports.WATCHES_TRACKER.offered_by(self.robot):
+            notes = list(self.robot.summary())
         return Summary(
             written,
             measured,

@@ -73,7 +73,8 @@ def init(
         if state.initialised:
             typer.echo(f"{device.device_id}: already initialised")
             return
-        if INITIALISE not in device.capabilities:
+        head = device
+        if not INITIALISE.offered_by(head):
             _fail(f"the tracker at {tracker} cannot be initialised from here")
         if not yes:
             if not sys.stdin.isatty():
@@ -83,7 +84,7 @@ def init(
             ):
                 _fail("not confirmed; nothing moved")
         try:
-            device.initialise()  # type: ignore[attr-defined]
+            head.initialise()
             state = device.status()
         except (PortError, OSError) as exc:
             _fail(f"initialising the tracker at {tracker} failed: {exc}")
