@@ -36,6 +36,7 @@ from calibrator.models import get_model
 from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop
 from drivers.robot.interface import N_JOINTS, Robot, SafetyState, check_move_args
+from drivers.robot.options import RobotOptions
 
 
 @dataclass(frozen=True)
@@ -280,3 +281,20 @@ def _check_transform(t: ArrayLike, name: str) -> np.ndarray:
     if t.shape != (4, 4):
         raise ValueError(f"{name} must have shape (4, 4), got {t.shape}")
     return t.copy()
+
+
+def open_url(url: str, options: RobotOptions) -> SimulatedRobot:
+    """The robot registry's handler of ``sim``: the true arm of ``options.world``."""
+    world = options.world
+    if world is None:
+        raise ValueError("--robot sim needs the simulated world (measure builds it)")
+    repeatability = world.repeatability
+    robot = SimulatedRobot(
+        world.true_mdh,
+        world.base2tracker,
+        world.flange2tool,
+        repeatability=repeatability,
+        rng=world.repeatability_rng() if repeatability is not None else None,
+    )
+    robot.device_id = f"sim:{world.model.name}:seed={world.seed}"
+    return robot

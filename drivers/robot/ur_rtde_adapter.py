@@ -36,6 +36,7 @@ from drivers.robot.errors import (
     ProtectiveStop,
 )
 from drivers.robot.interface import Robot, SafetyState, check_move_args
+from drivers.robot.options import RobotOptions
 
 #: ``robot_mode`` of an arm that is powered on with its brakes released (UR RTDE guide).
 ROBOT_MODE_RUNNING = 7
@@ -428,3 +429,18 @@ class UrRtdeRobot(Robot):
                 raise DriverTimeout(f"timed out after {timeout_s:.1f} s waiting for {what}")
             self._check_link()
             time.sleep(self.poll_s)
+
+
+def open_url(url: str, options: RobotOptions) -> Robot:
+    """The robot registry's handler of ``ur://HOST``: the adapter behind the model's limits."""
+    from drivers import urls
+    from drivers.robot.safety import GuardedRobot, MotionLimits
+
+    # The controller's ports are fixed (RTDE 30004, dashboard 29999): a host only.
+    host = urls.parse(url, "ur", port="none").host
+    limits = MotionLimits.from_model(
+        options.model, options.max_speed_rad_s, options.max_accel_rad_s2
+    )
+    robot = GuardedRobot(UrRtdeRobot(host), limits)
+    robot.device_id = f"ur://{host}:{options.model.name}"
+    return robot

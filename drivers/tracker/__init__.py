@@ -16,12 +16,12 @@ Any tracker kind is opened by URL (:func:`open_tracker`, registry in
 The simulator lives in :mod:`drivers.tracker.simulator` (imported on demand).
 """
 
+from drivers.registry import UnknownKind
 from drivers.tracker.averaging import measure_average
 from drivers.tracker.base import (
-    TRACKER_KINDS,
+    TRACKERS,
     Environment,
     OpenOptions,
-    UnknownKind,
     open_tracker,
     register_tracker,
 )
@@ -45,7 +45,7 @@ from drivers.tracker.protocol import Reading, ReadingStatus
 from drivers.tracker.recording import Recorder, read_log
 
 __all__ = [
-    "TRACKER_KINDS",
+    "TRACKERS",
     "AveragedReading",
     "BeamBroken",
     "ChecksumError",

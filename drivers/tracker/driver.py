@@ -470,7 +470,7 @@ def check_url(url: str) -> None:
         parse_url(url, kind, port="required", params=_URL_PARAMS[kind])
 
 
-def open_line_tracker(url: str, options: OpenOptions) -> LaserTracker:
+def open_url(url: str, options: OpenOptions) -> LaserTracker:
     """The registry's opener for the line protocol (device paths and pyserial URLs)."""
     if options.world is not None or options.sim_faults or options.sim_replay:
         raise ValueError(f"{url}: simulator options need --tracker sim")

@@ -30,11 +30,11 @@ from calibrator.simulate import (
     SIM_TRACKER_ROTVEC,
     SimWorld,
 )
+from drivers.registry import Registry, UnknownKind
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.safety import GuardedRobot
 from drivers.robot.simulated import SimulatedRobot
-from drivers.tracker import LaserTracker, OpenOptions, open_tracker
-from drivers.tracker.base import scheme
+from drivers.tracker import TRACKERS, LaserTracker, OpenOptions, open_tracker
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 from drivers.tracker.simulator import SimulatorProcess
@@ -59,7 +59,10 @@ Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
     ],
 )
 def test_scheme_is_the_lowercase_part_before_the_separator(url, kind):
-    assert scheme(url) == kind
+    from drivers.robot import ROBOTS
+
+    registry = ROBOTS if kind == "ur" else TRACKERS
+    assert registry.kind_of(url) == kind
 
 
 def test_the_simulated_world_is_seeded_and_its_errors_are_small_but_real():
@@ -247,8 +250,27 @@ def test_unknown_schemes_are_refused_naming_the_known_ones():
     known = "use sim or ur://HOST or external"
     with pytest.raises(ValueError, match=f"^unknown robot 'kuka://x'; {known}$"):
         open_robot("kuka://x", RobotOptions(UR10E))
-    with pytest.raises(ValueError, match="^unknown tracker 'ftp://x'; use sim, a device path"):
+    with pytest.raises(UnknownKind, match="^unknown tracker 'ftp://x'; use sim or a device path"):
         open_tracker("ftp://x")
+    with pytest.raises(UnknownKind, match="^unknown robot 'kuka'; use sim or ur://HOST or"):
+        open_robot("kuka", RobotOptions(UR10E))
+
+
+def test_a_registry_opens_a_module_handler_a_named_function_or_a_callable():
+    registry: Registry = Registry("gadget", bare=("sim",), bare_default="serial")
+    registry.register("sim", "drivers.tracker.simulator.world")
+    registry.register("emscon", "drivers.tracker.emscon.adapter:open_url")
+    registry.register("echo", lambda url, options: (url, options), usage="echo://ANY")
+    assert registry.kinds() == ["sim", "emscon", "echo"]
+    assert registry.open("ECHO://x", 7) == ("ECHO://x", 7)
+    assert isinstance(registry.open("emscon://h", OpenOptions()), EmsconTracker)
+    with pytest.raises(ValueError, match="needs the simulated world"):
+        registry.open("sim", OpenOptions())  # the module's open_url refused it
+    with pytest.raises(UnknownKind) as err:
+        registry.open("/dev/ttyUSB0", None)  # a bare path is serial: not registered here
+    assert str(err.value) == ("unknown gadget '/dev/ttyUSB0'; use sim or emscon:// or echo://ANY")
+    # What the CLI already maps to one line: a ValueError, and a driver error.
+    assert isinstance(err.value, ValueError) and isinstance(err.value, OSError)
 
 
 def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steers(tmp_path):

@@ -479,7 +479,7 @@ def open_tracker(url: str, **options: Any) -> EmsconTracker:
     return EmsconTracker(where.host, where.port or DEFAULT_PORT, **options)
 
 
-def open_emscon_tracker(url: str, options: OpenOptions) -> EmsconTracker:
+def open_url(url: str, options: OpenOptions) -> EmsconTracker:
     """The tracker registry's opener for ``emscon://`` (see :mod:`drivers.tracker.base`)."""
     if options.record is not None or options.world is not None:
         raise ValueError(f"{url}: --sim-record and simulator options need a line-protocol tracker")

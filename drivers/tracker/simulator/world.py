@@ -108,7 +108,7 @@ class SimulatedTracker(LaserTracker):
             self._process = None
 
 
-def open_simulated_tracker(url: str, options: OpenOptions) -> SimulatedTracker:
+def open_url(url: str, options: OpenOptions) -> SimulatedTracker:
     """The tracker registry's opener for ``sim``: needs the simulated world (its seed)."""
     if options.world is None:
         raise ValueError("--tracker sim needs the simulated world (measure builds it)")
