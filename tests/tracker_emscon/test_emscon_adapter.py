@@ -22,11 +22,11 @@ from drivers.tracker.emscon.errors import (
     BeamBroken,
     EmsconRefused,
     FrameError,
-    LinkDown,
+    IdentityChanged,
+    LinkDropped,
     NotInitialised,
-    ReadingInterrupted,
     TargetUnstable,
-    TrackerReplaced,
+    TrackerGone,
     TrackerTimeout,
     UnknownStatus,
 )
@@ -101,7 +101,7 @@ def test_dropped_connection_reconnects_without_repeating_the_reading(tracker):
     sim, trk = tracker
     sim.arm_fault("MEAS+1 hangup")
     before = sim.measurements
-    with Timer() as t, pytest.raises(ReadingInterrupted) as err:
+    with Timer() as t, pytest.raises(LinkDropped) as err:
         trk.measure()
     assert isinstance(err.value, ReadingLost) and isinstance(err.value, DriverError)
     assert t.elapsed < trk.measure_timeout_s + DEADLINE_SLACK_S
@@ -118,7 +118,7 @@ def test_server_gone_is_tracker_unavailable_within_bounded_reconnects(served):
     trk = EmsconTracker("127.0.0.1", server.port, timeout_s=0.5, reconnect_delay_s=0.01)
     trk.connect()
     server.stop()
-    with Timer() as t, pytest.raises(LinkDown, match="attempts failed: cannot connect") as err:
+    with Timer() as t, pytest.raises(TrackerGone, match="attempts failed: cannot connect") as err:
         trk.measure(timeout_s=0.5)
     assert isinstance(err.value, TrackerUnavailable)
     assert t.elapsed < 0.5 + trk.reconnect_attempts * (0.5 + 0.01) + DEADLINE_SLACK_S
@@ -213,9 +213,9 @@ def test_another_tracker_after_a_reconnect_stops_the_run(served):
     replacement.open(port)
     replacement.start()
     try:
-        with pytest.raises(TrackerReplaced, match=f"serial {sim.serial + 1}, not {sim.serial}"):
+        with pytest.raises(IdentityChanged, match=f"serial {sim.serial + 1}, not {sim.serial}"):
             trk.measure()
-        assert issubclass(TrackerReplaced, TrackerUnavailable)
+        assert issubclass(IdentityChanged, TrackerUnavailable)
         assert other.measurements == 0  # nothing was measured on the wrong tracker
     finally:
         trk.close()
@@ -228,7 +228,7 @@ def test_lost_initialisation_is_reported_and_never_repaired_even_across_reconnec
     with pytest.raises(NotInitialised):
         trk.measure()
     sim.arm_fault("MEAS+1 hangup")
-    with pytest.raises(ReadingInterrupted):
+    with pytest.raises(LinkDropped):
         trk.measure()  # reconnected and re-applied its settings ...
     assert not sim.initialised  # ... without initialising
     assert not trk.last_status.initialised
@@ -430,5 +430,5 @@ def test_a_server_that_does_not_confirm_the_units_is_refused_naming_both(served)
 
 
 def test_nobody_listening_is_link_down_naming_the_address():
-    with pytest.raises(LinkDown, match=r"^cannot connect to emScon at 127\.0\.0\.1:1: "):
+    with pytest.raises(TrackerGone, match=r"^cannot connect to emScon at 127\.0\.0\.1:1: "):
         EmsconTracker("127.0.0.1", 1, timeout_s=0.5).connect()

@@ -45,9 +45,9 @@ from drivers.tracker.emscon.errors import (
     BeamBroken,
     ConnectionLost,
     FrameError,
-    LinkDown,
-    ReadingInterrupted,
-    TrackerReplaced,
+    IdentityChanged,
+    LinkDropped,
+    TrackerGone,
     TrackerTimeout,
 )
 from drivers.tracker.emscon.link import EmsconLink
@@ -274,11 +274,11 @@ class EmsconTracker:
         BeamBroken
             No reflector locked; the adapter already ran ``FindReflector`` (when
             enabled and a distance is known). Measure the pose again.
-        TargetUnstable, TrackerTimeout, FrameError, BadReading, ReadingInterrupted
+        TargetUnstable, TrackerTimeout, FrameError, BadReading, LinkDropped
             This reading is lost (all :class:`ReadingLost`); never re-requested here.
         NotInitialised, TrackerBusy, EmsconRefused, UnknownStatus
             The server refused.
-        LinkDown
+        TrackerGone
             The connection is gone and could not be re-established.
         """
         timeout_s = timeout_s or self.measure_timeout_s
@@ -339,7 +339,7 @@ class EmsconTracker:
             sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
         except OSError as exc:
             msg = f"cannot connect to emScon at {self.host}:{self.port}: {exc}"
-            raise LinkDown(msg) from exc
+            raise TrackerGone(msg) from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         # A packet that starts must finish like an ordinary reply: a silence inside it
         # longer than timeout_s is a stall, not a slow measurement.
@@ -394,15 +394,15 @@ class EmsconTracker:
                 self._stalls += 1
                 if self._stalls >= MAX_STALLS:
                     self.close()
-                    raise LinkDown(
+                    raise TrackerGone(
                         f"emScon server cut {self._stalls} packets short in a row, "
                         "each on a fresh connection: giving up"
                     ) from None
                 self._reconnect()
             raise
         except ConnectionLost as exc:
-            self._reconnect()  # raises LinkDown when it cannot
-            raise ReadingInterrupted(
+            self._reconnect()  # raises TrackerGone when it cannot
+            raise LinkDropped(
                 f"emScon connection lost during {pk.Command(command).name}; "
                 "reconnected, command not repeated"
             ) from exc
@@ -411,7 +411,7 @@ class EmsconTracker:
         """An idempotent query: retried once after a broken frame or a reconnect."""
         try:
             return operation(self._usable_link())
-        except TrackerReplaced:
+        except IdentityChanged:
             raise
         except (ConnectionLost, FrameError):
             pass  # once more, on a reconnected link if this one broke
@@ -420,7 +420,7 @@ class EmsconTracker:
     def _reconnect(self) -> EmsconLink:
         """Bounded reconnect: reopen, re-apply settings, check the serial. Never initialises."""
         if self.serial is None:
-            raise LinkDown("not connected: call connect() first")
+            raise TrackerGone("not connected: call connect() first")
         last: Exception | None = None
         for _ in range(self.reconnect_attempts):
             time.sleep(self.reconnect_delay_s)
@@ -432,10 +432,10 @@ class EmsconTracker:
                 continue
             if status.serial != self.serial:
                 self.close()
-                raise TrackerReplaced(f"reconnected to serial {status.serial}, not {self.serial}")
+                raise IdentityChanged(f"reconnected to serial {status.serial}, not {self.serial}")
             return link
         self.close()
-        raise LinkDown(
+        raise TrackerGone(
             f"emScon connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
         ) from last
 
