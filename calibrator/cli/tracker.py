@@ -25,9 +25,10 @@ URL_HELP = (
 def _connected(url: str):
     """The tracker at ``url``, connected (never initialised), and its state."""
     from calibrator.acquire.ports import PortError
+    from calibrator.cli._run import is_sim
     from drivers.tracker import open_tracker
 
-    if url == "sim":
+    if is_sim(url):
         _fail("--tracker sim is started by measure itself, initialised; give a tracker's URL")
     try:
         tracker = open_tracker(url)

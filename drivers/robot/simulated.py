@@ -283,12 +283,34 @@ def _check_transform(t: ArrayLike, name: str) -> np.ndarray:
     return t.copy()
 
 
+#: What ``sim://?...`` takes: ``repeatability=typical`` gives the arm a typical
+#: arm's joint positioning error and backlash (:meth:`JointRepeatability.typical`),
+#: ``none`` lands it exactly; left out, the world's own (``SimWorld.repeatability``).
+URL_PARAMS: dict = {"repeatability": ("typical", "none")}
+
+
 def open_url(url: str, options: RobotOptions) -> SimulatedRobot:
-    """The robot registry's handler of ``sim``: the true arm of ``options.world``."""
+    """The robot registry's handler of ``sim`` and ``sim://?repeatability=typical|none``.
+
+    The true arm, base and tool are those of ``options.world`` (required).
+
+    Raises
+    ------
+    ValueError
+        No world, or a malformed URL.
+    """
+    from drivers import urls
+
+    params = urls.settings(url, "sim", URL_PARAMS)
     world = options.world
     if world is None:
         raise ValueError("--robot sim needs the simulated world (measure builds it)")
-    repeatability = world.repeatability
+    chosen = params.get("repeatability")
+    repeatability = (
+        world.repeatability
+        if chosen is None
+        else (JointRepeatability.typical() if chosen == "typical" else None)
+    )
     robot = SimulatedRobot(
         world.true_mdh,
         world.base2tracker,

@@ -48,21 +48,13 @@ class OpenOptions:
     record : str or Path, optional
         Log every raw exchange there (kinds that can; others refuse it).
     world : calibrator.simulate.SimWorld, optional
-        The simulated world (the ``sim`` kind only; it needs one).
-    sim_noise : bool
-        The ``sim`` kind's readings carry the tracker's noise (False: exact).
-    sim_faults, sim_replay : str or Path, optional
-        The ``sim`` kind's fault script, or a recorded exchange it answers from.
-    sim_probe_6dof : bool
-        The ``sim`` kind's probe reports its orientation too (a 6-DoF probe).
+        The simulated world (the ``sim`` kind only; it needs one). The simulator's
+        own settings (noise, probe, faults, replay) are in its URL
+        (``sim://?noise=off&probe=6dof``), as pyserial configures ``loop://``.
     """
 
     record: str | Path | None = None
     world: Any = None
-    sim_noise: bool = True
-    sim_faults: str | Path | None = None
-    sim_replay: str | Path | None = None
-    sim_probe_6dof: bool = False
 
 
 #: Tracker kinds by URL scheme (:mod:`drivers.registry`): each module opens its

@@ -472,7 +472,7 @@ def check_url(url: str) -> None:
 
 def open_url(url: str, options: OpenOptions) -> LaserTracker:
     """The registry's opener for the line protocol (device paths and pyserial URLs)."""
-    if options.world is not None or options.sim_faults or options.sim_replay:
+    if options.world is not None:
         raise ValueError(f"{url}: simulator options need --tracker sim")
     check_url(url)
     # Standard air until the user's meteo is wired in: what measure always sent.

@@ -93,9 +93,10 @@ def test_the_worlds_tool_pose_is_the_true_arm_seen_from_the_tracker():
 def sim_run(tmp_path, tracker_url="sim", seed=3, noise=False, **options):
     world = SimWorld.make("ur10e", seed)
     robot = open_robot("sim", RobotOptions(UR10E, world))
+    if tracker_url == "sim" and not noise:
+        tracker_url = "sim://?noise=off"  # the simulator's settings are in its URL
     tracker = open_tracker(
-        tracker_url,
-        OpenOptions(world=world if tracker_url == "sim" else None, sim_noise=noise),
+        tracker_url, OpenOptions(world=world if tracker_url.startswith("sim") else None)
     )
     run = MeasureRun(
         robot, tracker, UR10E, RunOptions(seed=seed, **options), tmp_path / "s.parquet", world=world
@@ -155,7 +156,7 @@ class PlainRobot(SimulatedRobot):
 def test_a_robot_without_true_poses_places_the_simulated_target_after_each_move(tmp_path):
     world = SimWorld.make("ur10e", 2)
     robot = PlainRobot(world.true_mdh, world.base2tracker, world.flange2tool)
-    tracker = open_tracker("sim", OpenOptions(world=world, sim_noise=False))
+    tracker = open_tracker("sim://?noise=off", OpenOptions(world=world))
     run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet", world=world)
     with run:
         run.connect()
@@ -394,3 +395,49 @@ def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     growth = s_trans - simulate.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
     np.testing.assert_allclose(readings[:, 1:].std(axis=0), growth, rtol=0.03)
     assert readings[:, 0].std() < 1e-8  # along the beam: the session's own sigma
+
+
+# ------------------------------------------------- simulators configured by their URL
+
+
+def test_the_simulators_take_their_settings_from_their_urls():
+    world = SimWorld.make("ur10e", 1)
+    exact = open_tracker("sim://?noise=off&probe=6dof", OpenOptions(world=world))
+    assert isinstance(exact, SimulatedTracker)
+    assert (exact._noise, exact._probe_6dof) == (False, True)
+    bare = open_tracker("sim", OpenOptions(world=world))
+    assert (bare._noise, bare._probe_6dof, bare._faults) == (True, False, None)
+    with pytest.raises(ValueError, match="noise='maybe' is not one of on, off"):
+        open_tracker("sim://?noise=maybe", OpenOptions(world=world))
+    with pytest.raises(ValueError, match="unknown parameter 'colour'"):
+        open_robot("sim://?colour=red", RobotOptions(UR10E, world))
+
+    def landing_error_mm(url):
+        robot = open_robot(url, RobotOptions(UR10E, world))
+        robot.connect()
+        robot.move_joints(Q, 0.5, 1.0)
+        return np.linalg.norm(robot.true_tool_pose()[:3, 3] - world.tool_pose(Q)[:3, 3])
+
+    assert world.repeatability is None
+    assert 0.0 < landing_error_mm("sim://?repeatability=typical") < 0.2
+    assert landing_error_mm("sim") < 1e-9
+
+
+def test_the_cli_writes_its_hidden_simulator_options_into_the_urls(tmp_path):
+    from calibrator.cli import _run
+
+    faults = tmp_path / "faults file.txt"
+    robot, tracker = _run.device_urls(
+        "sim", "sim", noise=False, faults=faults, probe_6dof=True, repeatability=True
+    )
+    assert robot == "sim://?repeatability=typical"
+    assert tracker.startswith("sim://?noise=off&probe=6dof&faults=")
+    world = SimWorld.make("ur10e", 1)
+    opened = open_tracker(tracker, OpenOptions(world=world))
+    assert opened._faults == str(faults) and not opened._noise
+    # A typed URL keeps its own settings; nothing said leaves the URLs alone.
+    assert _run.device_urls("sim://?repeatability=none", "sim://?probe=6dof", noise=False) == (
+        "sim://?repeatability=none",
+        "sim://?probe=6dof&noise=off",
+    )
+    assert _run.device_urls("ur://h", "socket://h:1", noise=False) == ("ur://h", "socket://h:1")

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from calibrator.acquire import ports
+from drivers import urls
 from drivers.errors import DriverError
 from drivers.tracker.base import Environment, OpenOptions
 from drivers.tracker.driver import LaserTracker, Status
@@ -108,17 +109,42 @@ class SimulatedTracker(LaserTracker):
             self._process = None
 
 
+#: What ``sim://?...`` takes: the simulator is configured by its URL, as
+#: pyserial's ``loop://?logging=debug``, not by fields of the generic options.
+URL_PARAMS: dict = {
+    "noise": ("on", "off"),  # off: exact readings
+    "probe": ("3dof", "6dof"),  # 6dof: the probe reports its orientation too
+    "faults": None,  # a fault script (drivers.tracker.simulator.faults)
+    "replay": None,  # a recorded exchange to answer from
+}
+
+
 def open_url(url: str, options: OpenOptions) -> SimulatedTracker:
-    """The tracker registry's opener for ``sim``: needs the simulated world (its seed)."""
+    """The tracker registry's handler of ``sim`` and ``sim://?noise=off&probe=6dof&...``.
+
+    Parameters
+    ----------
+    url : str
+        ``sim`` (noise on, a 3-DoF reflector) or ``sim://?`` with any of
+        ``noise=on|off``, ``probe=3dof|6dof``, ``faults=PATH``, ``replay=PATH``.
+    options : OpenOptions
+        ``world`` (required: its seed, air and power-on time), ``record``.
+
+    Raises
+    ------
+    ValueError
+        No world, or a malformed URL (an unknown parameter, a value it does not take).
+    """
+    params = urls.settings(url, "sim", URL_PARAMS)
     if options.world is None:
         raise ValueError("--tracker sim needs the simulated world (measure builds it)")
     return SimulatedTracker(
         seed=options.world.seed if options.world.noise_seed is None else options.world.noise_seed,
-        noise=options.sim_noise,
-        faults=options.sim_faults,
-        replay=options.sim_replay,
+        noise=params.get("noise", "on") == "on",
+        faults=params.get("faults"),
+        replay=params.get("replay"),
         record=options.record,
-        probe_6dof=options.sim_probe_6dof,
+        probe_6dof=params.get("probe") == "6dof",
         air=options.world.air,
         on_s=options.world.tracker_on_s,
     )
