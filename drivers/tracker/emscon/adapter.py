@@ -164,6 +164,7 @@ class EmsconTracker:
         self.last_distance_mm: float | None = None
         self.searches = 0  # FindReflector runs after beam breaks (diagnostics)
         self._link: EmsconLink | None = None
+        self._closed = False
         self._stalls = 0  # packets cut short in a row, without a good reading since
 
     # ------------------------------------------------------------ lifecycle
@@ -176,6 +177,7 @@ class EmsconTracker:
         stationary time and the environment. Never sends ``Initialize``: that
         moves the head; call :meth:`initialise` when ``initialised`` is False.
         """
+        self._closed = False
         status = self._settle(self._open())
         self.serial = status.serial
         return status
@@ -186,7 +188,16 @@ class EmsconTracker:
         return f"emscon:serial={self.serial}" if self.serial is not None else ""
 
     def close(self) -> None:
-        """Close the connection; safe to call twice or after a failure."""
+        """Close the connection; safe to call twice or after a failure.
+
+        Until :meth:`connect` is called again, a command raises :class:`TrackerGone`
+        rather than reconnecting (as the line-protocol driver does).
+        """
+        self._closed = True
+        self._drop()
+
+    def _drop(self) -> None:
+        """Close the connection, leaving the driver free to reconnect."""
         if self._link is not None:
             self._link.close()
             self._link = None
@@ -334,7 +345,7 @@ class EmsconTracker:
             exc.add_note(f"FindReflector failed: {search_exc}")
 
     def _open(self) -> EmsconLink:
-        self.close()
+        self._drop()
         try:
             sock = socket.create_connection((self.host, self.port), timeout=self.timeout_s)
         except OSError as exc:
@@ -378,6 +389,8 @@ class EmsconTracker:
         return self.last_status
 
     def _usable_link(self) -> EmsconLink:
+        if self._closed:
+            raise TrackerGone("the emScon driver was closed: call connect() first")
         if self._link is None or self._link.broken:
             return self._reconnect()
         return self._link
@@ -393,7 +406,7 @@ class EmsconTracker:
             if link.broken:  # a packet stopped half-way: reconnect now, bounded
                 self._stalls += 1
                 if self._stalls >= MAX_STALLS:
-                    self.close()
+                    self._drop()
                     raise TrackerGone(
                         f"emScon server cut {self._stalls} packets short in a row, "
                         "each on a fresh connection: giving up"
@@ -431,10 +444,10 @@ class EmsconTracker:
                 last = exc
                 continue
             if status.serial != self.serial:
-                self.close()
+                self._drop()
                 raise IdentityChanged(f"reconnected to serial {status.serial}, not {self.serial}")
             return link
-        self.close()
+        self._drop()
         raise TrackerGone(
             f"emScon connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
         ) from last
