@@ -32,7 +32,7 @@ that exercise it: ``--prepare MODULE FOLDER`` copies the repository's tracked
 files to ``FOLDER`` (outside the work tree) with ``[tool.mutmut]`` narrowed
 to that module and its tests (``DRIVER_RUNS``); then, in ``FOLDER``::
 
-    nice -n 15 ../path/.venv/bin/mutmut run --max-children 1 "drivers.robot.ur_rtde_adapter*"
+    nice -n 15 ../path/.venv/bin/mutmut run --max-children 1 "drivers.robot.ur.device*"
 """
 
 import argparse
@@ -66,7 +66,7 @@ DRIVER_RUNS = {
         ],
         1,
     ),
-    "drivers.tracker.link": (
+    "drivers.tracker.line.link": (
         [
             "tests/tracker/test_tracker_link_frames.py",
             "tests/tracker/test_tracker_faults.py",
@@ -81,7 +81,7 @@ DRIVER_RUNS = {
         ],
         1,
     ),
-    "drivers.robot.ur_rtde_adapter": (
+    "drivers.robot.ur.device": (
         [
             "tests/robot/test_robot_ur_rtde.py",
             "tests/robot/test_robot_timestamp_stall.py",

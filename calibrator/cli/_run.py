@@ -411,7 +411,7 @@ def open_run(
 def _sim_control(url: str, robot: Any, stack: ExitStack) -> Any:
     """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
     from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.simulator.launch import SimulatorControl
+    from drivers.tracker.line.simulator.launch import SimulatorControl
 
     if REPORTS_TRUE_POSE not in robot.capabilities:
         fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")

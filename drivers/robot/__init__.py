@@ -41,8 +41,8 @@ __all__ = [
 #: Robot kinds by URL scheme (:mod:`drivers.registry`): each module opens its
 #: URLs with ``open_url(url, options)``.
 ROBOTS: Registry[Robot, RobotOptions] = Registry("robot", bare=("sim", "external"))
-ROBOTS.register("sim", "drivers.robot.simulated")
-ROBOTS.register("ur", "drivers.robot.ur_rtde_adapter", usage="ur://HOST")
+ROBOTS.register("sim", "drivers.robot.sim.device")
+ROBOTS.register("ur", "drivers.robot.ur.device", usage="ur://HOST")
 ROBOTS.register("external", "drivers.robot.external.setup:open_external")
 
 

@@ -61,13 +61,13 @@ class OpenOptions:
 #: URLs with ``open_url(url, options)``. pyserial's URL schemes and bare device
 #: paths go to the line-protocol driver.
 TRACKERS: Registry[Tracker, OpenOptions] = Registry("tracker", bare=("sim",), bare_default="serial")
-_LINE = "drivers.tracker.driver"
-TRACKERS.register("sim", "drivers.tracker.simulator.world")
+_LINE = "drivers.tracker.line.device"
+TRACKERS.register("sim", "drivers.tracker.line.simulator.world")
 TRACKERS.register("serial", _LINE, usage="a device path")
 TRACKERS.register("socket", _LINE, usage="socket://HOST:PORT")
 TRACKERS.register("rfc2217", _LINE, usage="rfc2217://HOST:PORT")
 TRACKERS.register("loop", _LINE)
-TRACKERS.register("emscon", "drivers.tracker.emscon.adapter", usage="emscon://HOST[:PORT]")
+TRACKERS.register("emscon", "drivers.tracker.emscon.device", usage="emscon://HOST[:PORT]")
 
 
 def register_tracker(

@@ -82,7 +82,7 @@ class TrackerError(DriverError):
     Attributes
     ----------
     code : int
-        Numeric error code (see :class:`drivers.tracker.protocol.ErrorCode`).
+        Numeric error code (see :class:`drivers.tracker.line.protocol.ErrorCode`).
     text : str
         The code's name as sent by the tracker.
     detail : str

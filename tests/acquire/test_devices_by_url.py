@@ -33,12 +33,12 @@ from calibrator.simulate import (
 from drivers.registry import Registry, UnknownKind
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.safety import GuardedRobot
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import TRACKERS, LaserTracker, OpenOptions, open_tracker
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
-from drivers.tracker.simulator import SimulatorProcess
-from drivers.tracker.simulator.world import SimulatedTracker
+from drivers.tracker.line.simulator import SimulatorProcess
+from drivers.tracker.line.simulator.world import SimulatedTracker
 
 UR10E = get_model("ur10e")
 Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
@@ -259,8 +259,8 @@ def test_unknown_schemes_are_refused_naming_the_known_ones():
 
 def test_a_registry_opens_a_module_handler_a_named_function_or_a_callable():
     registry: Registry = Registry("gadget", bare=("sim",), bare_default="serial")
-    registry.register("sim", "drivers.tracker.simulator.world")
-    registry.register("emscon", "drivers.tracker.emscon.adapter:open_url")
+    registry.register("sim", "drivers.tracker.line.simulator.world")
+    registry.register("emscon", "drivers.tracker.emscon.device:open_url")
     registry.register("echo", lambda url, options: (url, options), usage="echo://ANY")
     assert registry.kinds() == ["sim", "emscon", "echo"]
     assert registry.open("ECHO://x", 7) == ("ECHO://x", 7)
@@ -276,7 +276,7 @@ def test_a_registry_opens_a_module_handler_a_named_function_or_a_callable():
 
 def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steers(tmp_path):
     with EmsconSimulatorProcess(noise=False, initialised=True) as sim:
-        from drivers.tracker.simulator.launch import SimulatorControl
+        from drivers.tracker.line.simulator.launch import SimulatorControl
 
         control = SimulatorControl(sim.control_url)
         url = sim.url + "?meteo=21.5,1000,40"
@@ -385,7 +385,7 @@ def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_c
 def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     from calibrator import simulate
     from drivers.tracker.emscon.simulator import engine as emscon_engine
-    from drivers.tracker.simulator import NoiseModel, engine
+    from drivers.tracker.line.simulator import NoiseModel, engine
 
     assert NoiseModel is simulate.NoiseModel is engine.NoiseModel is emscon_engine.NoiseModel
     # A synthetic session's transverse noise grows with range as the model's does.

@@ -28,7 +28,7 @@ from calibrator import plan as plans
 from calibrator.cli import measure as measure_cli
 from calibrator.models import get_model
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import read_log
 
 UR10E = get_model("ur10e")

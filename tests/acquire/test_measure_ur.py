@@ -13,7 +13,7 @@ import pytest
 from cli_process import run_cli
 from measure_testkit import session_rows
 
-from drivers.robot.fake_ur.launcher import FakeUrProcess
+from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
 UR = ("measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--no-sim-noise")
 UR += ("--speed", "1.0", "--accel", "2.0", "-o", "s.parquet")

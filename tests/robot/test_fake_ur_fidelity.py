@@ -10,7 +10,7 @@ from robot_testkit import wait_until
 
 from calibrator import frames, kinematics
 from calibrator.models import get_model
-from drivers.robot.fake_ur.controller import (
+from drivers.robot.ur.simulator.controller import (
     HOME_Q,
     MODE_IDLE,
     MODE_POWER_OFF,
@@ -166,7 +166,7 @@ def test_fake_exits_on_its_own_when_its_parent_is_killed(fake_manager):
     fake_manager.discard()  # free the fixed ports; this module still holds their lock
     parent_code = (
         "import os, subprocess, sys, time\n"
-        "fake = subprocess.Popen([sys.executable, '-m', 'drivers.robot.fake_ur', "
+        "fake = subprocess.Popen([sys.executable, '-m', 'drivers.robot.ur.simulator', "
         "'--parent-pid', str(os.getpid())], stdout=subprocess.PIPE)\n"
         "print(fake.pid, flush=True)\n"
         "print(fake.stdout.readline().decode().strip(), flush=True)\n"

@@ -11,16 +11,16 @@ import time
 
 import pytest
 
-from drivers.robot.fake_ur.launcher import (
+from drivers.robot.ur.device import UrRtdeRobot
+from drivers.robot.ur.simulator.launcher import (
     FakeUrProcess,
     acquire_ports,
     release_ports,
     shutdown_leftover,
 )
-from drivers.robot.fake_ur.servers import GREETING
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+from drivers.robot.ur.simulator.servers import GREETING
 
-FAKE = [sys.executable, "-m", "drivers.robot.fake_ur", "--time-scale", "50"]
+FAKE = [sys.executable, "-m", "drivers.robot.ur.simulator", "--time-scale", "50"]
 
 
 @pytest.fixture(autouse=True)

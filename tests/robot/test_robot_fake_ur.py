@@ -13,8 +13,8 @@ import sys
 import numpy as np
 import pytest
 
-from drivers.robot.fake_ur import wire
-from drivers.robot.fake_ur.controller import (
+from drivers.robot.ur.simulator import wire
+from drivers.robot.ur.simulator.controller import (
     CMD_IS_STEADY,
     CMD_MOVEJ,
     CMD_STOP_SCRIPT,
@@ -136,7 +136,7 @@ def test_dashboard_commands(fake_ur):
 
 def test_runs_as_a_module_with_help():
     out = subprocess.run(
-        [sys.executable, "-m", "drivers.robot.fake_ur", "--help"],
+        [sys.executable, "-m", "drivers.robot.ur.simulator", "--help"],
         capture_output=True,
         text=True,
         timeout=60,
@@ -219,7 +219,7 @@ def test_no_program_runs_while_safety_stopped():
 
 @pytest.mark.parametrize("travel, speed, accel", [(1.0, 0.5, 1.0), (0.01, 0.5, 1.0), (0.0, 1, 1)])
 def test_joint_move_profile(travel, speed, accel):
-    from drivers.robot.ur_rtde_adapter import expected_move_time
+    from drivers.robot.ur.device import expected_move_time
 
     q0 = np.zeros(6)
     q1 = np.array([travel, -travel / 2, 0, 0, 0, 0])
@@ -241,7 +241,7 @@ def test_time_scale_must_be_positive():
 
 def test_launcher_replaces_a_leftover_fake(fake_manager):
     # a fake nobody stopped (e.g. from a crashed run) must not block the next one
-    from drivers.robot.fake_ur.launcher import FakeUrProcess
+    from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
     leftover = fake_manager.running()
     fresh = FakeUrProcess(time_scale=10.0).start()
@@ -259,7 +259,7 @@ def test_launcher_kills_a_hung_leftover(fake_manager):
     import os
     import signal
 
-    from drivers.robot.fake_ur.launcher import FakeUrProcess
+    from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
     fake_manager.discard()
     hung = FakeUrProcess(time_scale=10.0).start()

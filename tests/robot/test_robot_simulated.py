@@ -6,7 +6,7 @@ import pytest
 from calibrator.kinematics import forward, parallel_axes
 from calibrator.models import get_model
 from calibrator.simulate import random_errors
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 
 def transform(rotvec_z, xyz):

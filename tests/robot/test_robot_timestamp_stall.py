@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from drivers.errors import ConnectionLost
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+from drivers.robot.ur.device import UrRtdeRobot
 
 pytest.importorskip("rtde_receive")
 

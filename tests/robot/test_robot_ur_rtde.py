@@ -16,8 +16,8 @@ from robot_testkit import wait_until
 from calibrator.acquire.ports import RobotHalted
 from drivers.errors import ConnectionLost, DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, MotionFailed, ProtectiveStop
-from drivers.robot.fake_ur.launcher import shutdown_leftover
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot, expected_move_time
+from drivers.robot.ur.device import UrRtdeRobot, expected_move_time
+from drivers.robot.ur.simulator.launcher import shutdown_leftover
 
 rtde_control = pytest.importorskip("rtde_control")
 rtde_receive = pytest.importorskip("rtde_receive")

@@ -2,7 +2,7 @@
 
 import pytest
 
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+from drivers.robot.ur.device import UrRtdeRobot
 
 pytest.importorskip("rtde_control")
 

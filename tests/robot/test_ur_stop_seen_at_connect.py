@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from drivers.robot.errors import ProtectiveStop
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+from drivers.robot.ur.device import UrRtdeRobot
 
 pytest.importorskip("rtde_control")
 

@@ -20,8 +20,8 @@ from tracker_testkit import ScriptedTransport, host
 
 from drivers.errors import DriverError
 from drivers.tracker import FrameError
-from drivers.tracker.link import Link
-from drivers.tracker.protocol import (
+from drivers.tracker.line.link import Link
+from drivers.tracker.line.protocol import (
     MAX_FRAME,
     ReadingStatus,
     crc16,

@@ -16,7 +16,7 @@ import serial
 from tracker_testkit import ScriptedTransport, host, trk
 
 from drivers.tracker.errors import TrackerTimeout
-from drivers.tracker.link import Link, LinkCounters, close_for_good
+from drivers.tracker.line.link import Link, LinkCounters, close_for_good
 
 
 class NotReading(ScriptedTransport):

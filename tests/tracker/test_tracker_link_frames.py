@@ -7,7 +7,7 @@ from tracker_testkit import CONNECT_PAIRS, ScriptedTransport, expected_exchange,
 
 from drivers.tracker import LaserTracker
 from drivers.tracker.errors import FrameError, TrackerTimeout
-from drivers.tracker.protocol import TERMINATOR
+from drivers.tracker.line.protocol import TERMINATOR
 
 
 def test_a_valid_frame_that_is_no_reply_and_no_echo_is_a_frame_error_at_once():
@@ -49,7 +49,7 @@ def test_a_frame_written_in_part_drops_the_queue_and_the_next_line_ends_it():
 
 
 def test_frame_starts_are_every_tag_after_the_first_byte_in_order():
-    from drivers.tracker.link import _frame_starts
+    from drivers.tracker.line.link import _frame_starts
 
     assert _frame_starts(b"OK,1,xER,2OK,3EV,4OK,") == [6, 10, 14, 18]
     assert _frame_starts(b"xOK,") == [1]
@@ -76,7 +76,7 @@ class Leftovers(ScriptedTransport):
 
 def test_discarding_input_counts_buffered_and_waiting_bytes_and_ends_a_skip():
     from drivers.tracker.errors import ConnectionLost
-    from drivers.tracker.link import Link
+    from drivers.tracker.line.link import Link
 
     port = Leftovers(b"12345")
     link = Link(port)
@@ -92,6 +92,6 @@ def test_discarding_input_counts_buffered_and_waiting_bytes_and_ends_a_skip():
 
 
 def test_every_later_frame_start_is_found_not_only_the_last():
-    from drivers.tracker.link import _frame_starts
+    from drivers.tracker.line.link import _frame_starts
 
     assert _frame_starts(b"xOK,OK,OK,OK,") == [1, 4, 7, 10]

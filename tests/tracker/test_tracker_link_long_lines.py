@@ -13,8 +13,8 @@ import pytest
 from tracker_testkit import ScriptedTransport, host, trk
 
 from drivers.tracker.errors import FrameError, TrackerTimeout
-from drivers.tracker.link import Link, LinkCounters
-from drivers.tracker.protocol import MAX_FRAME
+from drivers.tracker.line.link import Link, LinkCounters
+from drivers.tracker.line.protocol import MAX_FRAME
 
 REPLY = "OK,{},READY,1,1,P3,STANDARD"
 

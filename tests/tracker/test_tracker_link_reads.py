@@ -14,8 +14,8 @@ import pytest
 from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
 
 from drivers.tracker.errors import FrameError
-from drivers.tracker.link import Link
-from drivers.tracker.protocol import MAX_FRAME
+from drivers.tracker.line.link import Link
+from drivers.tracker.line.protocol import MAX_FRAME
 
 REPLY = "OK,1,READY,1,1,P3,STANDARD"
 

@@ -12,7 +12,7 @@ import pytest
 from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
 
 from drivers.tracker.errors import ConnectionLost
-from drivers.tracker.link import Link
+from drivers.tracker.line.link import Link
 
 REPLY = "OK,1,READY,1,1,P3,STANDARD"
 

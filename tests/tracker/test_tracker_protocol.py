@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from drivers.tracker.errors import ChecksumError, FrameError
-from drivers.tracker.protocol import (
+from drivers.tracker.line.protocol import (
     MAX_FRAME,
     ErrorCode,
     ReadingStatus,
@@ -25,8 +25,8 @@ from drivers.tracker.protocol import (
     parse_reply,
     reading_fields,
 )
-from drivers.tracker.simulator.faults import FaultSchedule, parse_fault, parse_script
-from drivers.tracker.simulator.noise import NoiseModel, beam_frame
+from drivers.tracker.line.simulator.faults import FaultSchedule, parse_fault, parse_script
+from drivers.tracker.line.simulator.noise import NoiseModel, beam_frame
 
 
 def test_crc16_is_ccitt_false_check_value():

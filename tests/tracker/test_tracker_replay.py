@@ -16,14 +16,14 @@ from tracker_testkit import REPO, live_tracker
 
 from drivers.errors import DriverError
 from drivers.tracker import Environment, measure_average, read_log
-from drivers.tracker.protocol import (
+from drivers.tracker.line.protocol import (
     ReplyKind,
     decode_frame,
     encode_frame,
     parse_reading,
     parse_reply,
 )
-from drivers.tracker.simulator import (
+from drivers.tracker.line.simulator import (
     ReplaySimulator,
     SimulatorServer,
     TrackerSimulator,

@@ -22,7 +22,7 @@ from drivers.tracker import (
     TrackerTimeout,
     read_log,
 )
-from drivers.tracker.protocol import ErrorCode
+from drivers.tracker.line.protocol import ErrorCode
 
 
 def test_connect_identifies_sets_units_and_reads_status():

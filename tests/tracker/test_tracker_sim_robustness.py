@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from tracker_testkit import REPO, host
 
-from drivers.tracker.protocol import decode_frame, parse_reply
-from drivers.tracker.simulator import SimulatorServer, TrackerSimulator
-from drivers.tracker.simulator.faults import parse_fault, parse_script
+from drivers.tracker.line.protocol import decode_frame, parse_reply
+from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
+from drivers.tracker.line.simulator.faults import parse_fault, parse_script
 
 BAD_FAULTS = [
     "MEAS+1 error code=FOO",
@@ -123,7 +123,7 @@ def test_parse_script_names_the_line():
 
 def _run_cli(*args, timeout=20):
     return subprocess.run(
-        [sys.executable, "-m", "drivers.tracker.simulator", *args],
+        [sys.executable, "-m", "drivers.tracker.line.simulator", *args],
         cwd=REPO,
         capture_output=True,
         text=True,

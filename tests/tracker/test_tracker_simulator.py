@@ -20,13 +20,13 @@ from drivers.tracker import (
     TrackerTimeout,
     measure_average,
 )
-from drivers.tracker.simulator import (
+from drivers.tracker.line.simulator import (
     NoiseModel,
     SimulatorProcess,
     SimulatorServer,
     TrackerSimulator,
 )
-from drivers.tracker.simulator.noise import beam_frame
+from drivers.tracker.line.simulator.noise import beam_frame
 
 TARGET = np.array([3000.0, 1000.0, 500.0])  # ~3.2 m from the tracker
 N_READINGS = 600
@@ -155,7 +155,7 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
         "calibrator.robots.shipped", "calibrator.chains", "calibrator.strict",
     }  # fmt: skip
     code = (
-        "import sys, drivers.tracker.simulator.__main__ as m; "
+        "import sys, drivers.tracker.line.simulator.__main__ as m; "
         "mods = {n for n in sys.modules if n.split('.')[0] == 'calibrator'}; "
         f"extra = mods - {allowed!r}; "
         "assert not extra, f'calibrator imported: {sorted(extra)}'; "
@@ -169,7 +169,7 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
 
 def test_command_line_needs_an_endpoint():
     out = subprocess.run(
-        [sys.executable, "-m", "drivers.tracker.simulator"],
+        [sys.executable, "-m", "drivers.tracker.line.simulator"],
         cwd=REPO,
         capture_output=True,
         text=True,

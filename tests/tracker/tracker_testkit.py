@@ -18,8 +18,8 @@ import serial
 from serial import rfc2217
 
 from drivers.tracker import LaserTracker
-from drivers.tracker.protocol import encode_frame
-from drivers.tracker.simulator.engine import Send
+from drivers.tracker.line.protocol import encode_frame
+from drivers.tracker.line.simulator.engine import Send
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -242,10 +242,10 @@ def engine_responder(engine, meas_delay_s: float = 0.0):
 
 
 def stat_half_second_left(port) -> None:
-    """One ``STAT?`` through a :class:`~drivers.tracker.link.Link` on ``port``, 0.5 s left
+    """One ``STAT?`` through a :class:`~drivers.tracker.line.link.Link` on ``port``, 0.5 s left
     at every read and write (a stopped clock); the reply must be read and the script used up.
     """
-    from drivers.tracker.link import Link
+    from drivers.tracker.line.link import Link
 
     link = Link(port, clock=lambda: 1000.0)
     assert link.transact("STAT?", timeout_s=0.5).seq == 1

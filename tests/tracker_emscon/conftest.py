@@ -7,7 +7,7 @@ from emscon_testkit import ENV, TARGET_MM
 
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
-from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.noise import NoiseModel
 
 
 @pytest.fixture

@@ -17,7 +17,7 @@ from calibrator.acquire.ports import ReadingLost, Tracker, TrackerUnavailable
 from drivers.errors import DriverError
 from drivers.tracker.averaging import measure_average
 from drivers.tracker.emscon import EmsconTracker, open_tracker
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import (
     BeamBroken,
     EmsconRefused,
@@ -362,7 +362,7 @@ def test_find_reflector_checks_its_prediction_and_never_uses_the_adm(tracker):
 
 
 def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
-    from drivers.tracker.emscon.adapter import _quaternion_to_rotvec
+    from drivers.tracker.emscon.device import _quaternion_to_rotvec
 
     half = np.array([np.cos(0.25), 0.0, 0.0, np.sin(0.25)])
     np.testing.assert_allclose(_quaternion_to_rotvec(3.0 * half), [0.0, 0.0, 0.5])

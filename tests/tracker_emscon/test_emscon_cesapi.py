@@ -15,7 +15,7 @@ from CESAPI.command import CommandSync
 from CESAPI.connection import Connection
 from emscon_testkit import TARGET_MM
 
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 
 
 def test_our_server_packets_parse_in_cesapi_with_the_same_fields():

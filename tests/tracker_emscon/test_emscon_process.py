@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker.emscon import open_tracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 

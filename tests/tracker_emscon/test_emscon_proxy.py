@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 import pytest
 from cli_process import run_cli
 
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 
 SHIFT_MM = 50.0

@@ -16,7 +16,7 @@ from emscon_testkit import TARGET_MM
 
 from drivers.tracker.averaging import measure_average
 from drivers.tracker.emscon import EmsconTracker
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import (
     BadReading,
     EmsconRefused,
@@ -27,8 +27,8 @@ from drivers.tracker.emscon.errors import (
 )
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
 from drivers.tracker.emscon.simulator.engine import FAULT_NAMES
-from drivers.tracker.simulator.engine import Send
-from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.engine import Send
+from drivers.tracker.line.simulator.noise import NoiseModel
 
 
 class ScriptedSimulator(EmsconSimulator):

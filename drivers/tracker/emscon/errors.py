@@ -31,7 +31,7 @@ Only :class:`EmsconRefused` and :class:`UnknownStatus` are emScon's own.
 
 from __future__ import annotations
 
-from drivers.tracker.emscon.packets import KNOWN_STATUS, ResultStatus
+from drivers.tracker.emscon.protocol import KNOWN_STATUS, ResultStatus
 from drivers.tracker.errors import (
     BadReading,
     BeamBroken,

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 from calibrator.acquire import ports
 from drivers.errors import DriverError
 from drivers.tracker.base import Environment, OpenOptions
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import (
     BadReading,
     BeamBroken,

@@ -1,4 +1,4 @@
-"""Command line: ``python -m drivers.tracker.simulator (--pty | --tcp PORT) [options]``.
+"""Command line: ``python -m drivers.tracker.line.simulator (--pty | --tcp PORT) [options]``.
 
 Prints one line per endpoint on stdout, in this order, then serves until
 SIGTERM/SIGINT, until its parent process exits (unless ``--outlive-parent``),
@@ -22,12 +22,12 @@ import threading
 import time
 from pathlib import Path
 
-from drivers.tracker.protocol import parse_number
-from drivers.tracker.simulator.engine import TrackerSimulator
-from drivers.tracker.simulator.faults import parse_script
-from drivers.tracker.simulator.noise import NoiseModel
-from drivers.tracker.simulator.replay import ReplaySimulator
-from drivers.tracker.simulator.server import SimulatorServer
+from drivers.tracker.line.protocol import parse_number
+from drivers.tracker.line.simulator.engine import TrackerSimulator
+from drivers.tracker.line.simulator.faults import parse_script
+from drivers.tracker.line.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.replay import ReplaySimulator
+from drivers.tracker.line.simulator.server import SimulatorServer
 
 
 class _Parser(argparse.ArgumentParser):
@@ -104,7 +104,7 @@ def _serial(text: str) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
-        prog="python -m drivers.tracker.simulator",
+        prog="python -m drivers.tracker.line.simulator",
         description="Simulated laser tracker over a pty and/or 127.0.0.1 TCP.",
     )
     p.add_argument("--pty", action="store_true", help="serve on a new pty; print its slave path")

@@ -1,7 +1,7 @@
 """The simulated tracker: turns one received line into the bytes to send back.
 
 No I/O here: :class:`TrackerSimulator` is a state machine that the servers
-in :mod:`drivers.tracker.simulator.server` feed with lines. Its true target
+in :mod:`drivers.tracker.line.simulator.server` feed with lines. Its true target
 is set in-process with :meth:`TrackerSimulator.set_target` or over the wire
 with ``SIM,TARGET,x,y,z[,rx,ry,rz]`` (mm and rad whatever ``UNITS`` says).
 """
@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from drivers.tracker.errors import FrameError
-from drivers.tracker.protocol import (
+from drivers.tracker.line.protocol import (
     ANGLE_UNITS,
     EVENT_SEQ,
     LENGTH_UNITS,
@@ -33,8 +33,8 @@ from drivers.tracker.protocol import (
     parse_number,
     reading_fields,
 )
-from drivers.tracker.simulator.faults import Fault, FaultSchedule, parse_fault
-from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.faults import Fault, FaultSchedule, parse_fault
+from drivers.tracker.line.simulator.noise import NoiseModel
 
 VENDOR = "CALIBRATOR"
 MODEL = "TRACKER-SIM"

@@ -16,9 +16,9 @@ from calibrator.acquire import ports
 from drivers import urls
 from drivers.errors import DriverError
 from drivers.tracker.base import Environment, OpenOptions
-from drivers.tracker.driver import LaserTracker, Status
 from drivers.tracker.errors import TrackerGone
-from drivers.tracker.simulator.launch import SimulatorProcess
+from drivers.tracker.line.device import LaserTracker, Status
+from drivers.tracker.line.simulator.launch import SimulatorProcess
 
 
 class SimulatedTracker(LaserTracker):
@@ -114,7 +114,7 @@ class SimulatedTracker(LaserTracker):
 URL_PARAMS: dict = {
     "noise": ("on", "off"),  # off: exact readings
     "probe": ("3dof", "6dof"),  # 6dof: the probe reports its orientation too
-    "faults": None,  # a fault script (drivers.tracker.simulator.faults)
+    "faults": None,  # a fault script (drivers.tracker.line.simulator.faults)
     "replay": None,  # a recorded exchange to answer from
 }
 

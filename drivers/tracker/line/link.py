@@ -12,7 +12,7 @@ Why a reading always belongs to its command:
 - The sequence counter lives in :class:`LinkCounters`, which the driver
   keeps across reconnects, so a late reply to a command sent before a
   reconnect never carries the number of a command sent after it (numbers
-  repeat only after :data:`~drivers.tracker.protocol.SEQ_MAX` commands).
+  repeat only after :data:`~drivers.tracker.line.protocol.SEQ_MAX` commands).
 - A line longer than a frame is not kept: only its last bytes are, and when
   its line end comes a valid frame is looked for at their end (junk glued
   to the front of a reply). Memory stays bounded against an endless line.
@@ -33,7 +33,8 @@ from typing import Protocol
 import serial
 
 from drivers.tracker.errors import ConnectionLost, FrameError, TrackerTimeout
-from drivers.tracker.protocol import (
+from drivers.tracker.line.errors import error_from_reply
+from drivers.tracker.line.protocol import (
     MAX_FRAME,
     TERMINATOR,
     Reply,
@@ -41,7 +42,6 @@ from drivers.tracker.protocol import (
     command_body,
     decode_frame,
     encode_frame,
-    error_from_reply,
     next_seq,
     parse_command,
     parse_reply,
@@ -185,7 +185,7 @@ class Link:
         FrameError, ChecksumError
             A line arrived that is not a valid frame (raised at once).
         TrackerError
-            The tracker answered ``ER`` (typed by code, see ``protocol.error_from_reply``).
+            The tracker answered ``ER`` (typed by code, see ``errors.error_from_reply``).
         ConnectionLost
             The transport failed.
         """

@@ -23,7 +23,7 @@ import tempfile
 import threading
 import time
 
-from drivers.robot.fake_ur.servers import DASHBOARD_PORT, HOST, RTDE_PORT, SCRIPT_PORT
+from drivers.robot.ur.simulator.servers import DASHBOARD_PORT, HOST, RTDE_PORT, SCRIPT_PORT
 
 _LOCK_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.lock")
 _PID_PATH = os.path.join(tempfile.gettempdir(), "calibrator-fake-ur-127.0.0.1.pid")
@@ -136,7 +136,7 @@ def _kill_recorded_fake() -> None:
     except (OSError, ValueError):
         return  # no record, or the process is gone
     # The pid was not reused by something else, and it is a launcher's fake, not a user's.
-    if b"drivers.robot.fake_ur" in cmdline and b"--parent-pid" in cmdline:
+    if b"drivers.robot.ur.simulator" in cmdline and b"--parent-pid" in cmdline:
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
@@ -187,7 +187,7 @@ class FakeUrProcess:
         cmd = [
             sys.executable,
             "-m",
-            "drivers.robot.fake_ur",
+            "drivers.robot.ur.simulator",
             "--time-scale",
             str(self.time_scale),
             "--parent-pid",

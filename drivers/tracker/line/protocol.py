@@ -23,16 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.tracker.errors import (
-    BeamBroken,
-    ChecksumError,
-    FrameError,
-    FrameRejected,
-    NotInitialised,
-    TargetUnstable,
-    TrackerBusy,
-    TrackerError,
-)
+from drivers.tracker.errors import ChecksumError, FrameError
 
 TERMINATOR = b"\r\n"
 MAX_FRAME = 256  # bytes including "*HHHH\r\n"; keeps a frame inside one small buffer
@@ -290,22 +281,6 @@ def error_body(seq: int, code: ErrorCode, detail: str = "") -> str:
         text = "".join(c if " " <= c <= "~" else "?" for c in detail)
         fields.append(text.replace(",", ";").replace("*", "x")[:room])
     return ",".join(fields)
-
-
-_ERROR_CLASSES: dict[int, type[TrackerError]] = {
-    ErrorCode.BUSY: TrackerBusy,
-    ErrorCode.NOT_INITIALISED: NotInitialised,
-    ErrorCode.NO_TARGET: BeamBroken,
-    ErrorCode.BEAM_BROKEN: BeamBroken,
-    ErrorCode.TARGET_UNSTABLE: TargetUnstable,
-    ErrorCode.BAD_FRAME: FrameRejected,
-}
-
-
-def error_from_reply(reply: Reply, command: str = "") -> TrackerError:
-    """The typed exception for an ``ER`` reply (not raised, returned)."""
-    cls = _ERROR_CLASSES.get(reply.code, TrackerError)
-    return cls(reply.code, reply.text, reply.detail, command)
 
 
 # ---------------------------------------------------------------- readings

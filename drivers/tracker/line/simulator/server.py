@@ -18,8 +18,8 @@ import tty
 from collections import deque
 from typing import Protocol
 
-from drivers.tracker.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.simulator.engine import HangUp, Output, Send, internal_error_reply
+from drivers.tracker.line.protocol import MAX_FRAME, TERMINATOR
+from drivers.tracker.line.simulator.engine import HangUp, Output, Send, internal_error_reply
 
 
 class LineEngine(Protocol):

@@ -18,7 +18,7 @@ The same line can be armed over the wire with ``SIM,FAULT,<line>``.
 Every value is checked here (a bad one is a ``ValueError`` naming it), so a
 fault line from the wire can never stop or stall the simulator: counts are
 1..999999, delays are protocol decimals in 0..:data:`MAX_DELAY_S` seconds,
-codes are :class:`~drivers.tracker.protocol.ErrorCode` names or numbers.
+codes are :class:`~drivers.tracker.line.protocol.ErrorCode` names or numbers.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from drivers.tracker.protocol import ErrorCode, parse_number
+from drivers.tracker.line.protocol import ErrorCode, parse_number
 
 KINDS = frozenset(
     {

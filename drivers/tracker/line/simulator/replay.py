@@ -14,7 +14,7 @@ import threading
 from pathlib import Path
 
 from drivers.tracker.errors import FrameError
-from drivers.tracker.protocol import (
+from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
     encode_frame,
@@ -22,8 +22,8 @@ from drivers.tracker.protocol import (
     parse_command,
     parse_reply,
 )
+from drivers.tracker.line.simulator.engine import Output, Send, bad_frame_reply
 from drivers.tracker.recording import group_exchanges, read_log
-from drivers.tracker.simulator.engine import Output, Send, bad_frame_reply
 
 
 class ReplaySimulator:

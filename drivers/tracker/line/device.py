@@ -28,8 +28,8 @@ from drivers.tracker.errors import (
     TrackerGone,
     TrackerTimeout,
 )
-from drivers.tracker.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
-from drivers.tracker.protocol import (
+from drivers.tracker.line.link import TRANSPORT_ERRORS, Link, LinkCounters, SerialLike
+from drivers.tracker.line.protocol import (
     ErrorCode,
     Reading,
     Reply,

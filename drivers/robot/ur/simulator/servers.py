@@ -2,7 +2,7 @@
 
 All three listen on 127.0.0.1 only, with ``SO_REUSEADDR`` so a fake can start
 right after another one died. Each client connection gets its own thread; the
-shared :class:`~drivers.robot.fake_ur.controller.FakeController` holds the state.
+shared :class:`~drivers.robot.ur.simulator.controller.FakeController` holds the state.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import socket
 import threading
 import time
 
-from drivers.robot.fake_ur.controller import ROBOT_MODES, FakeController, safety_mode
-from drivers.robot.fake_ur.rtde_session import RtdeSession
+from drivers.robot.ur.simulator.controller import ROBOT_MODES, FakeController, safety_mode
+from drivers.robot.ur.simulator.rtde_session import RtdeSession
 
 HOST = "127.0.0.1"
 RTDE_PORT = 30004

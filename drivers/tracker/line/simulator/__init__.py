@@ -3,7 +3,7 @@
 Of the ``calibrator`` package it imports only the port contract and the one
 simulated world's noise model (:class:`calibrator.simulate.NoiseModel`);
 otherwise numpy (scipy for 6-DoF orientation noise) and
-:mod:`drivers.tracker.protocol`.
+:mod:`drivers.tracker.line.protocol`.
 
 In-process::
 
@@ -19,15 +19,15 @@ As a child process, target steered over a loopback control link::
         sim.set_target([2000.0, 0.0, 0.0])
         tracker = LaserTracker(sim.url)
 
-From a shell: ``python -m drivers.tracker.simulator --pty`` (see ``--help``).
+From a shell: ``python -m drivers.tracker.line.simulator --pty`` (see ``--help``).
 """
 
-from drivers.tracker.simulator.engine import HangUp, Send, TrackerSimulator
-from drivers.tracker.simulator.faults import Fault, parse_fault, parse_script
-from drivers.tracker.simulator.launch import SimulatorControl, SimulatorProcess
-from drivers.tracker.simulator.noise import NoiseModel
-from drivers.tracker.simulator.replay import ReplaySimulator
-from drivers.tracker.simulator.server import SimulatorServer
+from drivers.tracker.line.simulator.engine import HangUp, Send, TrackerSimulator
+from drivers.tracker.line.simulator.faults import Fault, parse_fault, parse_script
+from drivers.tracker.line.simulator.launch import SimulatorControl, SimulatorProcess
+from drivers.tracker.line.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.replay import ReplaySimulator
+from drivers.tracker.line.simulator.server import SimulatorServer
 
 __all__ = [
     "Fault",

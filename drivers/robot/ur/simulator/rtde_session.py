@@ -15,10 +15,10 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from drivers.robot.fake_ur import wire
+from drivers.robot.ur.simulator import wire
 
 if TYPE_CHECKING:
-    from drivers.robot.fake_ur.controller import FakeController
+    from drivers.robot.ur.simulator.controller import FakeController
 
 CONTROLLER_VERSION = (5, 11, 1, 108318)
 

@@ -1,4 +1,4 @@
-"""Run the fake controller: ``python -m drivers.robot.fake_ur [--time-scale X]``."""
+"""Run the fake controller: ``python -m drivers.robot.ur.simulator [--time-scale X]``."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import os
 import sys
 import time
 
-from drivers.robot.fake_ur.controller import UNLOCK_DELAY_S, FakeController
-from drivers.robot.fake_ur.servers import (
+from drivers.robot.ur.simulator.controller import UNLOCK_DELAY_S, FakeController
+from drivers.robot.ur.simulator.servers import (
     DASHBOARD_PORT,
     HOST,
     RTDE_PORT,
@@ -20,7 +20,7 @@ from drivers.robot.fake_ur.servers import (
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m drivers.robot.fake_ur",
+        prog="python -m drivers.robot.ur.simulator",
         description="Loopback fake UR controller (default 127.0.0.1 ports 30004, 29999, 30003).",
     )
     parser.add_argument(

@@ -22,8 +22,8 @@ import numpy as np
 import serial
 from numpy.typing import ArrayLike
 
-from drivers.tracker.link import Link, close_for_good
-from drivers.tracker.protocol import format_number
+from drivers.tracker.line.link import Link, close_for_good
+from drivers.tracker.line.protocol import format_number
 
 CONTROL_TIMEOUT_S = 5.0  # control replies are immediate; generous for loaded machines
 
@@ -82,7 +82,7 @@ class SimulatorControl:
 
 
 class SimulatorProcess:
-    """``python -m drivers.tracker.simulator --pty --tcp 0`` as a child process.
+    """``python -m drivers.tracker.line.simulator --pty --tcp 0`` as a child process.
 
     Parameters
     ----------
@@ -127,7 +127,7 @@ class SimulatorProcess:
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []
         args += ["--replay", str(replay)] if replay else []
-        self._proc = spawn("drivers.tracker.simulator", args)
+        self._proc = spawn("drivers.tracker.line.simulator", args)
         stdout = self._proc.stdout
         assert stdout is not None  # stdout=PIPE above
         path, port = (stdout.readline().strip() for _ in range(2))
