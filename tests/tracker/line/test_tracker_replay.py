@@ -2,7 +2,7 @@
 
 The fixtures were produced by this module's scenarios against the seeded
 live simulator with the driver recording; regenerate them with
-``.venv/bin/python tests/tracker/test_tracker_replay.py``.
+``.venv/bin/python tests/tracker/line/test_tracker_replay.py``.
 """
 
 from __future__ import annotations
