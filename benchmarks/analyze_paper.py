@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from calibrator.analysis import arm, engine
 from calibrator.analysis import misalignment as mc
 
-PAPER = {  # R0: PDF peak, CDF 50 %, CDF 90 %, CDF 98 % (mm), seed 000 Table 3
+PAPER = {  # R0: PDF peak, CDF 50 %, CDF 90 %, CDF 98 % (mm), the misalignment paper's Table 3
     0.025: (0.159, 0.22, 0.42, 0.56),
     0.05: (0.314, 0.44, 0.84, 1.12),
     0.075: (0.484, 0.66, 1.26, 1.70),

@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
-from calibrator import compensate, frames, simulate
+from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
-from calibrator.models import get_model
+from calibrator.model import frames
 
 
 def work_cell(n, rng):
@@ -43,7 +43,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--targets", type=int, default=10_000)
     args = ap.parse_args()
-    robot = get_model("ur10e")
+    robot = robots.get("ur10e")
     for rad in (0.002, 0.01):
         rng = np.random.default_rng(0)
         cal = Calibration(

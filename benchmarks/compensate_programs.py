@@ -30,14 +30,14 @@ HERE = Path(__file__).resolve().parent
 
 
 def _setup(folder: Path, n: int) -> None:
-    from calibrator import compensate, frames, parameters, simulate
+    from calibrator import compensate, robots, simulate
     from calibrator.calibration import Calibration
     from calibrator.filtering import Job, frames_file, rotations
     from calibrator.filtering.krl import KRL
     from calibrator.filtering.solve import Solver
-    from calibrator.models import get_model
+    from calibrator.model import frames, parameters
 
-    model = get_model("er10l-c10")
+    model = robots.get("er10l-c10")
     errors = simulate.random_errors(model.mdh, np.random.default_rng(3), mm=0.3, rad=0.0005)
     free = tuple(np.array(parameters.MDH_NAMES)[errors.ravel() != 0])
     cal = Calibration(
@@ -94,9 +94,8 @@ def _setup(folder: Path, n: int) -> None:
 
 
 def _child(kind: str, folder: Path) -> None:
-    from calibrator import calibration, compensate
+    from calibrator import calibration, compensate, robots
     from calibrator.filtering import Job, engine, frames_file
-    from calibrator.models import get_model
 
     cal = calibration.load(folder / "cal.json")
     out = folder / ("o.csv" if kind == "csv" else "o.src")
@@ -109,7 +108,7 @@ def _child(kind: str, folder: Path) -> None:
     else:
         job = Job(
             calibration=cal, frames=frames_file.FrameTable(),
-            limits=get_model(cal.model).joint_limits_rad, config_dat=folder / "config.dat",
+            limits=robots.get(cal.model).joint_limits_rad, config_dat=folder / "config.dat",
         )  # fmt: skip
         failed = engine.Filter("krl", job, folder / "path.src").run(out, []).n_failed
     wall = time.perf_counter() - t

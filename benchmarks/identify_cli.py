@@ -4,7 +4,7 @@ Run::
 
     .venv/bin/python benchmarks/identify_cli.py [--repeats 7]
 
-Simulates the seed 003 robot (30 poses, orientation, 0.02 mm noise) into a
+Simulates the IPSO paper's robot (30 poses, orientation, 0.02 mm noise) into a
 temporary folder, then times the whole command as a user runs it (a new
 process each time: interpreter start, imports, load, IPSO 20 x 2000, least
 squares, report, write). Reports wall time and CPU time (user + system of

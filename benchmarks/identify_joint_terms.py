@@ -7,7 +7,7 @@ Run::
 A simulated UR10e (MDH errors 0.3 mm / 3 mrad, 6-DoF data, 0.02 mm and
 20 urad noise) with wrist gear-ratio errors (1, 2, -1.5 per mille on joints
 4-6). For each session size: median wall time of
-:func:`calibrator.joint_fit.fit` with ``scale,harmonic`` (free-set decision,
+:func:`calibrator.identify.joint_fit.fit` with ``scale,harmonic`` (free-set decision,
 cross-validation of both groups, final fit and uncertainty), and the mean
 held-out position error of the geometry alone and with the kept terms.
 """
@@ -22,10 +22,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "joint"))
 
-import jointkit  # noqa: E402
+import joint_kit  # noqa: E402
 
-from calibrator import joint_fit, joint_terms, measurement  # noqa: E402
+from calibrator.identify import joint_fit  # noqa: E402
 from calibrator.identify.problem import Problem  # noqa: E402
+from calibrator.model import joint_terms, measurement
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)
@@ -39,9 +40,9 @@ def main() -> None:
     args = parser.parse_args()
     print(f"{'poses':>6s} {'median s':>9s} {'kept':>16s} {'held-out geo':>13s} {'with terms':>11s}")
     for n in (int(v) for v in args.poses.split(",")):
-        parts, _ = jointkit.sessions(WRIST, poses=n, seed=1)
-        sess, tau, payload = jointkit.merged(parts)
-        geo = jointkit.geometric_fit(sess, 0.2)
+        parts, _ = joint_kit.sessions(WRIST, poses=n, seed=1)
+        sess, tau, payload = joint_kit.merged(parts)
+        geo = joint_kit.geometric_fit(sess, 0.2)
         o = sess.observations
         obs = measurement.Observations(o.q, o.points, o.rotations, tau)
         fit_obs, val_obs = obs.subset(geo.fit_index), obs.subset(geo.validation_index)

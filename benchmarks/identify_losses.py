@@ -18,7 +18,7 @@ and noise; 30 % of the poses held out (20 % for the outlier case):
 
 Reports the held-out position error (mean and max) and the worst fitted
 pose of each loss, as medians over the seeds. The session builders are the
-tests' (``tests/core/identify_arms.py``).
+tests' (``tests/identify/identify_kit.py``).
 """
 
 import argparse
@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "core"))
-import identify_arms as arms  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "identify"))
+import identify_kit as arms  # noqa: E402
 
-from calibrator import frames  # noqa: E402
 from calibrator.identify import pipeline  # noqa: E402
+from calibrator.model import frames  # noqa: E402
 
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 

@@ -1,11 +1,11 @@
-"""IPSO against pyswarms and the seed's 220 s, on the seed 003 simulation case.
+"""IPSO against pyswarms and the IPSO paper's 220 s, on the IPSO paper's simulation case.
 
 Run (pyswarms is a benchmark-only dependency)::
 
     .venv/bin/pip install -e '.[bench]'
     .venv/bin/python benchmarks/identify_pso.py [--repeats 5]
 
-Seed 003 case: ER10L-C10 with the Table 2 errors, 32 poses uniform in
+The IPSO paper's case: ER10L-C10 with the Table 2 errors, 32 poses uniform in
 [-pi, pi], base frame, orientation, no noise; 20 % held out. Every
 optimiser gets 20 particles x 2000 generations on the same objective (7)
 over the same 24 free parameters and the same search box; the held-out
@@ -19,9 +19,9 @@ import time
 import numpy as np
 import pyswarms  # imported before any timing: its import is slow
 
-from calibrator import parameters
-from calibrator.identify import pipeline, pso, refine, report
+from calibrator.identify import accuracy, pipeline, pso, refine
 from calibrator.identify.problem import Problem
+from calibrator.model import parameters
 from calibrator.session import Session
 from calibrator.simulate import simulate
 
@@ -44,7 +44,7 @@ def seed_case(seed):
 
 
 def held_out(space, x, val):
-    return report.error_stats(space, x, val)["position_mm"]["mean"]
+    return accuracy.error_stats(space, x, val)["position_mm"]["mean"]
 
 
 def run_pyswarms(swarm, lower, upper, particles, generations, seed, per_particle):
@@ -74,7 +74,7 @@ def run_case(seed, args, record):
     space, fit, val, _ = seed_case(seed)
     swarm = Problem.of(space, fit, pipeline.DEFAULT_K).swarm_objective()
     lower, upper = space.bounds()
-    # The seed's own box: the start box (+-0.5 mm, +-0.01 rad) is also the bound.
+    # The IPSO paper's own box: the start box (+-0.5 mm, +-0.01 rad) is also the bound.
     seed_lower, seed_upper = space.bounds(mm=0.5, rad=0.01)
 
     def timed(name, run):
@@ -105,7 +105,7 @@ def run_case(seed, args, record):
             lambda: run_pyswarms(swarm, lower, upper, p, g, seed, per_particle=True),
         )
     timed(
-        "IPSO in the seed's box (bound = start box)",
+        "IPSO in the IPSO paper's box (bound = start box)",
         lambda: (
             pso.ipso(
                 swarm,
@@ -119,7 +119,7 @@ def run_case(seed, args, record):
         ),
     )
     timed(
-        "pyswarms in the seed's box",
+        "pyswarms in the IPSO paper's box",
         lambda: run_pyswarms(swarm, seed_lower, seed_upper, p, g, seed, per_particle=False),
     )
     hybrid = refine.refine(Problem.of(space, fit, pipeline.DEFAULT_K), best)
@@ -154,7 +154,7 @@ def main():
         run_case(3 + rep, args, record)
 
     print(
-        f"seed 003 case, {p} particles x {g} generations, {args.repeats} seeds, "
+        f"IPSO paper case, {p} particles x {g} generations, {args.repeats} seeds, "
         f"{platform.processor() or platform.machine()}, numpy {np.__version__}"
     )
     print(f"{'optimiser':50s}{'time s (median)':>17s}{'held-out mean mm (median / worst)':>36s}")
@@ -163,7 +163,7 @@ def main():
         errs = np.array([v[1] for v in values])
         t = "-" if np.all(np.isnan(secs)) else f"{np.nanmedian(secs):.3f}"
         print(f"{name:50s}{t:>17s}{np.median(errs):>20.4f} / {errs.max():.4f}")
-    print("seed 003 (MATLAB, i5-4570): 220 s for 2000 generations, 1.78 mm on its real robot")
+    print("IPSO paper (MATLAB, i5-4570): 220 s for 2000 generations, 1.78 mm on its real robot")
     print(f"hybrid objective equals the least-squares optimum in all {args.repeats} runs")
 
 

@@ -4,7 +4,7 @@ Run::
 
     .venv/bin/python benchmarks/identify_scaling.py [--poses 30 300 3000 10000] [--repeats 3]
 
-For each pose count, simulates the default session (ER10L-C10, seed errors,
+For each pose count, simulates the default session (ER10L-C10, the IPSO paper's errors,
 orientation, 0.02 mm noise) into a temporary folder, then runs the whole
 command as a user does (a new process: start-up, load, identify with the
 defaults, hybrid + lsq, write). Reports the median wall time, the median

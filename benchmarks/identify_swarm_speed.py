@@ -4,7 +4,7 @@ Run::
 
     .venv/bin/python benchmarks/identify_swarm_speed.py [--repeats 7]
 
-The objective of the seed 003 case (ER10L-C10, 26 fitting poses, 24 free
+The objective of the IPSO paper's case (ER10L-C10, 26 fitting poses, 24 free
 parameters, orientation) is evaluated for a swarm of 20 particles, as in
 one IPSO generation. Its useful arithmetic is counted by hand (per particle
 and pose: six links, each a 3x4 by 4x4 product, 96 multiply-adds, and a
@@ -26,9 +26,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the swarm use
 
 import numpy as np  # noqa: E402
 
-from calibrator import parameters  # noqa: E402
 from calibrator.identify import pipeline, pso  # noqa: E402
 from calibrator.identify.problem import Problem  # noqa: E402
+from calibrator.model import parameters  # noqa: E402
 from calibrator.session import Session  # noqa: E402
 from calibrator.simulate import simulate  # noqa: E402
 
@@ -89,7 +89,7 @@ def main():
     ]
     peak = machine_gflops()
     flops = flops_per_evaluation(20, len(fit), True)
-    print(f"seed 003 case: 20 particles x {len(fit)} poses, {space.size} parameters")
+    print(f"IPSO paper case: 20 particles x {len(fit)} poses, {space.size} parameters")
     for loss, t, w in rows:
         print(
             f"objective ({loss}): {t * 1e6:.0f} us CPU per swarm evaluation, {1 / t:.0f}"

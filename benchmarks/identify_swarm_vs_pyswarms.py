@@ -5,7 +5,7 @@ Run (pyswarms is a benchmark-only dependency)::
     .venv/bin/pip install -e '.[bench]'
     .venv/bin/python benchmarks/identify_swarm_vs_pyswarms.py [--repeats 5]
 
-Seed 003 case (ER10L-C10, Table 2 errors, 32 poses, base frame,
+The IPSO paper's case (ER10L-C10, Table 2 errors, 32 poses, base frame,
 orientation, no noise). IPSO's time is that of the swarm as a user runs it:
 the difference between ``identify --method pso --generations 2000`` and
 ``--generations 1`` (a new process each, alternating, median CPU time of
@@ -31,9 +31,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the swarm use
 import numpy as np  # noqa: E402
 from identify_scaling import run  # noqa: E402,I001 - the sibling benchmark script
 
-from calibrator import kinematics, parameters  # noqa: E402
 from calibrator import session as session_io  # noqa: E402
 from calibrator.identify import pipeline, pso  # noqa: E402
+from calibrator.model import kinematics, parameters  # noqa: E402
 
 CLI = [sys.executable, "-m", "calibrator"]
 pyswarms = None  # imported in main(), in a temporary folder
@@ -115,7 +115,7 @@ def main():
     ipso_wall, ipso_cpu = med(full, 0) - med(short, 0), med(full, 1) - med(short, 1)
     ref_wall, ref_cpu = med(ref, 0), med(ref, 1)
     print(
-        f"seed 003 case, {len(fit)} fitting poses, {space.size} parameters, 20 particles x {g};"
+        f"IPSO paper case, {len(fit)} fitting poses, {space.size} parameters, 20 particles x {g};"
         f" medians of {args.repeats}"
     )
     print(

@@ -9,7 +9,7 @@ cell (its own plan, the tracker simulator's noise over its pty), then
 ``calibrator identify``; prints the seeds whose identify output says
 "possible outliers". In-process, a few seconds per seed (the plan is most
 of it); the test suite checks the same with ``calibrator.simulate``
-(tests/core/test_outlier_rate.py).
+(tests/identify/test_outlier_rate.py).
 """
 
 import argparse
@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from cli_testkit import cli  # noqa: E402
+from cli_kit import cli  # noqa: E402
 
 
 def main() -> None:

@@ -22,9 +22,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from calibrator import cell
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
 
 TRACKERS = ((2500.0, 400.0, 300.0), (0.0, 2500.0, 500.0), (-2000.0, -1500.0, 800.0))
 
@@ -51,7 +50,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--poses", type=int, nargs="+", default=[30, 60, 100])
     args = ap.parse_args()
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     print("poses  selection order  ordered (vias)  saving   plan wall  plan CPU   (medians)")
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.poses:

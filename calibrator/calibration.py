@@ -42,10 +42,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import consistency, frames, kinematics, outputs, parameters, strict
+from calibrator import outputs
 from calibrator.errors import CalibrationError
 from calibrator.identify import option_rules
-from calibrator.joint_terms import JointTerms
+from calibrator.inputs import consistency, jsonfile, messages, plausibility
+from calibrator.inputs.json_fields import Fields
+from calibrator.inputs.plausibility import PLAUSIBLE_DELTA
+from calibrator.model import frames, kinematics, parameters
+from calibrator.model.joint_terms import JointTerms
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -57,9 +61,6 @@ _FIELDS = kinematics.FIELDS
 MAX_BYTES = 16 * 2**20
 #: A fixed parameter may differ from its nominal value by this much (rounding).
 _FIXED_TOL = 1e-9
-#: Identified values further than this from nominal are not a calibration of
-#: that arm (a unit mistake or a wrong nominal): (mm, rad).
-PLAUSIBLE_DELTA = {"mm": 100.0, "rad": 0.5}
 
 
 @dataclass(frozen=True)
@@ -182,7 +183,7 @@ class Provenance:
         if source is not None and source not in NOMINAL_SOURCES:
             raise CalibrationError(
                 f"{where}: 'nominal_source' must be one of {', '.join(NOMINAL_SOURCES)}, "
-                f"got {strict.shown(source)}"
+                f"got {messages.shown(source)}"
             )
         com = values.get("payload_com_mm")
         if com is not None:
@@ -250,7 +251,7 @@ class FitReport:
     ----------
     stats : dict
         ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
-        :func:`calibrator.identify.report.error_stats` (mm, deg).
+        :func:`calibrator.identify.accuracy.error_stats` (mm, deg).
     uncertainty : dict
         :func:`calibrator.identify.uncertainty.analyse` (standard errors in
         the units of ``deltas``, residual sigma, predicted held-out error,
@@ -404,7 +405,7 @@ class Calibration:
     flange2tool : ndarray, shape (4, 4)
         Tool frame in the flange frame (mm); only its translation is identified.
     free : tuple of str
-        Identified parameters (names of :data:`calibrator.parameters.ALL_NAMES`).
+        Identified parameters (names of :data:`calibrator.model.parameters.ALL_NAMES`).
     deltas : dict
         Solver value of each free parameter (mm or rad, see ``docs/conventions.md``).
     dropped : list of dict
@@ -425,7 +426,7 @@ class Calibration:
     diagnostics : dict
         Every other key of the file (what later versions add), JSON values.
     joint_terms : JointTerms
-        Joint error terms (:mod:`calibrator.joint_terms`), zero when not used;
+        Joint error terms (:mod:`calibrator.model.joint_terms`), zero when not used;
         written under ``"joint_terms"`` only when some term is nonzero.
     """
 
@@ -534,12 +535,12 @@ class Calibration:
         """One record per candidate parameter: nominal, identified, free or fixed.
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
-        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.frames.angles_xyz`)
+        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.model.frames.angles_xyz`)
         of ``base2tracker`` (nominal: of ``base0``); ``tool_x/y/z`` the tool
         point in the flange frame and ``tool_rx/ry/rz`` the angles of its
         rotation (nominal: of ``tool0``).
 
-        ``delta`` is :func:`calibrator.parameters.all_deltas`: for the base
+        ``delta`` is :func:`calibrator.model.parameters.all_deltas`: for the base
         frame the move in the nominal base frame (as the solver, the report
         and the CSV export give it), not ``identified - nominal``.
 
@@ -565,7 +566,7 @@ class Calibration:
         ]
 
     def all_deltas(self) -> dict[str, float]:
-        """The delta of every named parameter (:func:`calibrator.parameters.all_deltas`).
+        """The delta of every named parameter (:func:`calibrator.model.parameters.all_deltas`).
 
         Free parameters give their recorded solver value (:attr:`deltas`), so
         every reader shows the same number to the last bit; the others are
@@ -574,7 +575,7 @@ class Calibration:
         Returns
         -------
         dict
-            ``{name: delta}`` in :data:`calibrator.parameters.ALL_NAMES` order (mm, rad).
+            ``{name: delta}`` in :data:`calibrator.model.parameters.ALL_NAMES` order (mm, rad).
         """
         values = parameters.all_deltas(
             self.nominal_mdh, self.base0, self.tool0, self.mdh, self.base2tracker, self.flange2tool
@@ -620,7 +621,7 @@ class Calibration:
             Naming the first key that holds a non-finite number; nothing is written.
         """
         doc = self.to_json()
-        found = strict.first_leaf(
+        found = jsonfile.first_leaf(
             doc, lambda leaf: isinstance(leaf, float) and not math.isfinite(leaf)
         )
         bad = None if found is None else (found[0] or "value")
@@ -686,19 +687,19 @@ def load(path: outputs.PathLike) -> Calibration:
         raise CalibrationError(
             f"{path}: {path.stat().st_size} bytes is too large for a calibration"
         )
-    doc = strict.load_json(path.read_bytes(), str(path))
+    doc = jsonfile.load_json(path.read_bytes(), str(path))
     return from_json(doc, path)
 
 
 def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     """A :class:`Calibration` from a parsed document, validated like :func:`load`."""
-    check = _Checker(where)
+    check = Fields(where)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise CalibrationError(f"{where} is not a calibrator calibration file")
     version = doc.get("version")
     if type(version) is not int or version != VERSION:
         raise CalibrationError(
-            f"{where}: calibration version {strict.shown(version)} is not supported "
+            f"{where}: calibration version {messages.shown(version)} is not supported "
             f"(this program reads version {VERSION})"
         )
     nominal = check.table(doc, "nominal_mdh", (6, 5))
@@ -721,8 +722,6 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         except ValueError as exc:
             raise CalibrationError(f"{where}: {exc}") from None
     # The bounds a session's frames meet: every export derives from these.
-    from calibrator import plausibility
-
     plausibility.check_frames(transforms, str(where))
     free = doc.get("free_parameters")
     if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
@@ -730,7 +729,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     unknown = [n for n in free if n not in parameters.ALL_NAMES]
     if unknown:
         raise CalibrationError(
-            f"{where}: 'free_parameters' has unknown names {strict.shown(unknown, 60)}"
+            f"{where}: 'free_parameters' has unknown names {messages.shown(unknown, 60)}"
         )
     repeated = sorted({n for n in free if free.count(n) > 1})
     if repeated:
@@ -752,7 +751,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
     frame = doc.get("frame", "base")
     if frame not in FRAMES:
         raise CalibrationError(
-            f"{where}: 'frame' must be 'base' or 'tracker', got {strict.shown(frame)}"
+            f"{where}: 'frame' must be 'base' or 'tracker', got {messages.shown(frame)}"
         )
     _check_fixed(mdh, nominal, free, where)
     diagnostics = {k: v for k, v in doc.items() if k not in TYPED_KEYS}
@@ -775,7 +774,7 @@ def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
         joint_terms=terms,
         **transforms,
     )
-    consistency.check_calibration(calibration, str(where))
+    consistency.check_calibration(calibration, str(where), _catalogue_mdh(calibration.model))
     return calibration
 
 
@@ -785,10 +784,19 @@ def _model_name(name: str | None) -> str | None:
     Model names compare case-insensitively everywhere (``--model UR10e``), so
     a hand-written file's spelling must not make it "another arm".
     """
-    from calibrator.models import MODEL_NAMES
+    from calibrator import robots
 
     key = name.strip().lower() if name is not None else None
-    return key if key in MODEL_NAMES else name
+    return key if key in robots.names() else name
+
+
+def _catalogue_mdh(name: str | None) -> np.ndarray | None:
+    """The catalogue's MDH table of a named model (mm, rad); None for other names."""
+    from calibrator import robots
+
+    if name is None or name.strip().lower() not in robots.names():
+        return None
+    return robots.get(name).mdh
 
 
 def _check_fixed(mdh, nominal, free, where):
@@ -807,37 +815,6 @@ def _check_fixed(mdh, nominal, free, where):
                 f"{where}: {name} differs from nominal by {delta[i]:.6g} {unit}, more than "
                 f"{PLAUSIBLE_DELTA[unit]:g} {unit}: a unit mistake or the wrong nominal model?"
             )
-
-
-class _Checker:
-    def __init__(self, where):
-        self.where = where
-
-    def number(self, value, what):
-        # bool is an int in Python; a JSON true is not a number here.
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise CalibrationError(f"{self.where}: {what} must be a number, got {value!r:.40}")
-        if not math.isfinite(value) or abs(value) > 1e12:
-            raise CalibrationError(f"{self.where}: {what} is not a finite, sane number")
-        return float(value)
-
-    def table(self, doc, key, shape):
-        value = doc.get(key)
-        rows, cols = shape
-        if (
-            not isinstance(value, list)
-            or len(value) != rows
-            or not all(isinstance(r, list) and len(r) == cols for r in value)
-        ):
-            raise CalibrationError(
-                f"{self.where}: '{key}' must be a {rows}x{cols} table of numbers"
-            )
-        return np.array(
-            [
-                [self.number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)]
-                for i, r in enumerate(value)
-            ]
-        )
 
 
 def _flat_values(mdh, base2tracker, tool):

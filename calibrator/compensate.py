@@ -30,8 +30,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, joint_terms, kinematics, strict
 from calibrator.errors import CalibrationError
+from calibrator.inputs import grammar
+from calibrator.inputs.errors import StrictError
+from calibrator.model import frames, joint_terms, kinematics, singularities
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -351,7 +353,7 @@ def _numbers_fast(cells: np.ndarray) -> np.ndarray | None:
     """The cells (n, m) as floats when every one is plainly in the strict grammar, else None.
 
     Python's ``float`` reads every number of the strict grammar
-    (:func:`calibrator.strict.parse_number`) and more: underscores, non-ASCII
+    (:func:`calibrator.inputs.grammar.parse_number`) and more: underscores, non-ASCII
     digits, ``nan`` and ``inf``. A block with none of those (no ``_``, ASCII
     only, every value finite, no cell over 64 characters) that ``float``
     reads whole is read at C speed; anything else returns None and goes
@@ -413,8 +415,8 @@ def iter_targets(
             values = _numbers_fast(cells)
             if values is None:  # something is off: the cell-by-cell reading names it
                 try:
-                    values = strict.parse_columns(cells, cols, str(path), first)
-                except strict.StrictError as exc:
+                    values = grammar.parse_columns(cells, cols, str(path), first)
+                except StrictError as exc:
                     raise CalibrationError(str(exc)) from None
             bad = ~np.isfinite(values)
             if bad.any():
@@ -476,12 +478,11 @@ def run(
     -------
     Report
     """
-    from calibrator import outputs
-    from calibrator.models import get_model
+    from calibrator import outputs, robots
 
     limits = None
     try:
-        limits = get_model(calibration.model).joint_limits_rad if calibration.model else None
+        limits = robots.get(calibration.model).joint_limits_rad if calibration.model else None
     except CalibrationError:
         limits = None
     tally = _Tally()
@@ -558,8 +559,6 @@ class _Tally:
         self.ok_q: list = []
 
     def add(self, block: _Block, calibration, limits) -> None:
-        from calibrator.filtering.configuration import nearest_singularity
-
         sol = block.solution
         ok = sol.ok & (block.jump <= MAX_JOINT_CHANGE_DEG)
         self.n += len(ok)
@@ -576,7 +575,9 @@ class _Tally:
         room = max(0, 10 - len(self.lines))
         show = failed[:room]
         near = (
-            nearest_singularity(calibration.nominal_mdh, block.q_nominal[show]) if len(show) else []
+            singularities.nearest(calibration.nominal_mdh, block.q_nominal[show])
+            if len(show)
+            else []
         )
         for i, why in zip(show, near, strict=True):
             number = block.first + i

@@ -31,8 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from calibrator import compensate, frames
+from calibrator import compensate
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 
 #: Visiting order of one cycle (test pose numbers), as the standard gives it.
 CYCLE_ORDER = (5, 4, 3, 2, 1)
@@ -201,7 +202,7 @@ def orientation_figures(
     ----------
     attained_rad : array_like, shape (P, n, 3)
         Attained orientation angles ``(a, b, c)`` about x, y, z
-        (:func:`calibrator.frames.angles_xyz`), rad.
+        (:func:`calibrator.model.frames.angles_xyz`), rad.
     commanded_rad : array_like, shape (P, 3)
         Commanded angles, rad.
 

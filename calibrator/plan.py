@@ -40,14 +40,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, measurement, parameters, strict
 from calibrator.cell.timing import CellTime
 from calibrator.errors import CalibrationError
 from calibrator.identify.halton import halton
+from calibrator.inputs import grammar
+from calibrator.inputs.errors import StrictError
+from calibrator.model import kinematics, measurement, parameters
 
 if TYPE_CHECKING:
+    from calibrator import robots
     from calibrator.cell import Cell
-    from calibrator.models import RobotModel
 
 #: Scale of angle columns (mm per rad) before computing the criterion: about an arm's reach.
 ANGLE_SCALE_MM = 1000.0
@@ -170,7 +172,7 @@ def observability(
     (:func:`calibrator.identify.freeset.decide` without a session: Hayati's
     structural candidates less the model's own redundancies); which of them
     the measured poses then pin down is decided at identification. ``names``
-    (of :data:`calibrator.parameters.ALL_NAMES`) replaces it, e.g. with what
+    (of :data:`calibrator.model.parameters.ALL_NAMES`) replaces it, e.g. with what
     drifts (``calibrator check``'s joint zeros, base and tool).
     """
     from calibrator.identify import freeset
@@ -328,7 +330,7 @@ def digest(q: ArrayLike) -> str:
 def read_csv(path: str | os.PathLike[str], *, _allow_via: bool = False) -> np.ndarray:
     """Joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
 
-    Numbers follow the strict grammar of :func:`calibrator.strict.parse_number`
+    Numbers follow the strict grammar of :func:`calibrator.inputs.grammar.parse_number`
     (``0_5``, ``0x1``, ``nan`` are refused, not read). Other columns (``pose``,
     notes) are ignored, except joint columns beyond the six used (``q7_rad``,
     or a ``q2_deg`` beside ``q1_rad..q6_rad``): those mean another arm or a
@@ -384,8 +386,8 @@ def read_csv(path: str | os.PathLike[str], *, _allow_via: bool = False) -> np.nd
     if not _allow_via and "via" in fields and any(str(r["via"]).strip() != "0" for r in rows):
         raise PlanError(f"{path}: has via rows (moved through, not measured): read it as a Plan")
     try:
-        q = strict.parse_columns([[r[c] for c in columns] for r in rows], columns, str(path))
-    except strict.StrictError as exc:
+        q = grammar.parse_columns([[r[c] for c in columns] for r in rows], columns, str(path))
+    except StrictError as exc:
         raise PlanError(str(exc)) from None
     q = q * factor
     if not _allow_via:
@@ -574,11 +576,11 @@ def _read_origin(path) -> PlanOrigin | None:
         raise PlanError(f"{path}: model_sha256 is not a sha256: digest: {digest[:80]!r}")
     tracker_text, tool_text = numbers[:3], numbers[3:]
     try:
-        tool = strict.parse_columns([tool_text], ORIGIN_COLUMNS[5:], str(path))[0]
+        tool = grammar.parse_columns([tool_text], ORIGIN_COLUMNS[5:], str(path))[0]
         tracker = None
         if any(tracker_text):
-            tracker = strict.parse_columns([tracker_text], ORIGIN_COLUMNS[2:5], str(path))[0]
-    except strict.StrictError as exc:
+            tracker = grammar.parse_columns([tracker_text], ORIGIN_COLUMNS[2:5], str(path))[0]
+    except StrictError as exc:
         raise PlanError(str(exc)) from None
     # Points in a robot cell: a tool on the flange, a tracker in the room.
     for what, v, limit in (("tool", tool, 2_000.0), ("tracker", tracker, 100_000.0)):
@@ -772,7 +774,7 @@ def distinct(q: ArrayLike) -> np.ndarray:
 
 
 def make_checked(
-    model: RobotModel,
+    model: robots.RobotDescription,
     n: int,
     cell: Cell,
     tool_mm: ArrayLike,
@@ -803,7 +805,7 @@ def make_checked(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     n : int
     cell : calibrator.cell.Cell
     tool_mm : array_like, shape (3,)

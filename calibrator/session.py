@@ -41,7 +41,7 @@ both are present. Other keys are kept and ignored. Every known key must have
 its JSON type (``"false"`` is not ``false``).
 
 Loading also checks the data against the model
-(:func:`calibrator.plausibility.check_observations`): joints against the
+(:func:`calibrator.inputs.plausibility.check_observations`): joints against the
 joint limits, the point cloud against the arm's reach. A likely unit mistake
 is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
@@ -49,7 +49,6 @@ is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 from __future__ import annotations
 
 import json
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,10 +59,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from numpy.typing import ArrayLike
 
-from calibrator import consistency, frames, kinematics, outputs, plausibility, strict
+from calibrator import outputs, robots
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.measurement import Observations
-from calibrator.models import get_model
+from calibrator.inputs import consistency, jsonfile, plausibility, session_table
+from calibrator.inputs.errors import StrictError
+from calibrator.model import frames, kinematics
+from calibrator.model.measurement import Observations
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -91,6 +92,16 @@ CONDITION_COLUMNS = {
 }
 #: Whether the tracker said it was warmed up at the pose (bool, nullable).
 WARMED_UP_COLUMN = "tracker_warmed_up"
+#: The columns :func:`load` checks a table against.
+_SCHEMA = session_table.Schema(
+    JOINT_COLUMNS,
+    POINT_COLUMNS,
+    ROTVEC_COLUMNS,
+    SPREAD_COLUMNS,
+    tuple(CONDITION_COLUMNS),
+    WARMED_UP_COLUMN,
+    MAX_SPREAD_MM,
+)
 
 
 @dataclass
@@ -160,11 +171,11 @@ class Session:
 
     def array(self, columns: Sequence[str]) -> np.ndarray:
         """Columns as one float array, shape (N, len(columns))."""
-        return np.column_stack([_floats(self.table, c) for c in columns])
+        return np.column_stack([session_table.floats(self.table, c) for c in columns])
 
     @property
     def observations(self) -> Observations:
-        """The rows as :class:`calibrator.measurement.Observations`."""
+        """The rows as :class:`calibrator.model.measurement.Observations`."""
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
             rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
@@ -197,7 +208,7 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
         raise SessionError(f"{path} is not a readable Parquet file ({_first_line(exc)})") from None
     meta_raw = (pf.schema_arrow.metadata or {}).get(META_KEY)
     meta = _parse_meta(meta_raw, path, model)
-    loaded = Session(_validate_table(table, path, meta), meta)
+    loaded = Session(session_table.check_table(table, path, _SCHEMA), meta)
     limits = _model_limits(meta.model)
     try:
         loaded.warnings = plausibility.check_observations(
@@ -218,7 +229,7 @@ def _model_limits(name):
     if name is None:
         return None
     try:
-        return get_model(name).joint_limits_rad
+        return robots.get(name).joint_limits_rad
     except CalibrationError:
         return None
 
@@ -231,8 +242,8 @@ def _parse_meta(raw, path, model):
     if raw is None:
         raise SessionError(f"{path} has no '{META_KEY.decode()}' metadata (not a session file v1)")
     try:
-        meta = strict.load_json(raw, f"{path}: the '{META_KEY.decode()}' metadata")
-    except strict.StrictError as exc:
+        meta = jsonfile.load_json(raw, f"{path}: the '{META_KEY.decode()}' metadata")
+    except StrictError as exc:
         raise SessionError(str(exc)) from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SessionError(f"{path}: metadata format is not '{FORMAT}'")
@@ -260,8 +271,8 @@ def _parse_meta(raw, path, model):
         if model is not None or "nominal_mdh" not in meta:
             if name is None:
                 raise SessionError(f"{path}: metadata names neither 'model' nor 'nominal_mdh'")
-            nominal = get_model(name).mdh
-            name = get_model(name).name
+            nominal = robots.get(name).mdh
+            name = robots.get(name).name
         else:
             nominal = _matrix(meta["nominal_mdh"], (6, 5), "nominal_mdh", path)
         tool = meta.get("flange2tool")
@@ -318,112 +329,6 @@ def _is_number_table(value):
         and all(isinstance(v, int | float) and not isinstance(v, bool) for v in row)
         for row in value
     )
-
-
-def _validate_table(table, path, meta):
-    names = table.column_names
-    seen = set()
-    for name in names:
-        if name in seen:
-            raise SessionError(f"{path}: column {name} appears more than once")
-        seen.add(name)
-    extra_joints = sorted(
-        c for c in names if c.startswith("q") and c.endswith("_rad") and c not in JOINT_COLUMNS
-    )
-    if extra_joints:
-        raise SessionError(
-            f"{path}: columns {extra_joints} imply more than 6 joints; "
-            "this program calibrates 6-axis arms"
-        )
-    required = ("pose",) + JOINT_COLUMNS + POINT_COLUMNS
-    missing = [c for c in required if c not in names]
-    if missing:
-        raise SessionError(f"{path}: missing column(s) {', '.join(missing)}")
-    rot_present = [c for c in ROTVEC_COLUMNS if c in names]
-    if rot_present and len(rot_present) != 3:
-        raise SessionError(
-            f"{path}: orientation needs all of {', '.join(ROTVEC_COLUMNS)}, "
-            f"found only {', '.join(rot_present)}"
-        )
-    if table.num_rows == 0:
-        raise SessionError(f"{path}: the session has no poses")
-    numeric = list(required) + rot_present + [c for c in SPREAD_COLUMNS if c in names]
-    _check_conditions(table, path)
-    for col in numeric:
-        kind = table.schema.field(col).type
-        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
-            raise SessionError(f"{path}: column {col} is not numeric ({kind})")
-        if pa.types.is_float16(kind):
-            # 11 significant bits: 2500.3 mm reads back as 2500, 1.2345 rad as 1.234.
-            raise SessionError(
-                f"{path}: column {col} is float16 (about 3 significant digits); "
-                "store float32 or float64"
-            )
-        if col == "pose":
-            continue  # checked exactly below: large integers do not survive float64
-        values = _floats(table, col)
-        bad = ~np.isfinite(values)
-        if bad.any():
-            raise SessionError(
-                f"{path}: column {col} has NaN or infinite values (pose {_poses(table, bad)})"
-            )
-        if col in ROTVEC_COLUMNS and np.any(np.abs(values) > plausibility.MAX_ABS_RAD):
-            raise SessionError(f"{path}: column {col} has absurd values (beyond 100 rad)")
-        if col in SPREAD_COLUMNS and np.any(values < 0):
-            raise SessionError(f"{path}: column {col} (a standard deviation) has negative values")
-        if col in SPREAD_COLUMNS and np.any(values > MAX_SPREAD_MM):
-            raise SessionError(
-                f"{path}: column {col} (a standard deviation) has absurd values "
-                f"(beyond {MAX_SPREAD_MM:g} mm)"
-            )
-    poses = table["pose"].to_pylist()
-    if any(p is None or (isinstance(p, float) and not np.isfinite(p)) for p in poses):
-        raise SessionError(f"{path}: column pose has NaN, infinite or null values")
-    if any(isinstance(p, float) and (p != int(p) or abs(p) > 2**53) for p in poses):
-        raise SessionError(f"{path}: column pose must hold whole numbers")
-    if any(abs(int(p)) > strict.MAX_INT for p in poses):
-        # uint64 above 2**63 fits no signed index (sorting, numpy, the journal).
-        raise SessionError(f"{path}: column pose has numbers beyond 64-bit signed integers")
-    duplicates = sorted(p for p, c in Counter(int(p) for p in poses).items() if c > 1)
-    if duplicates:
-        raise SessionError(f"{path}: duplicate pose number(s) {duplicates[:5]}")
-    if all(a < b for a, b in zip(poses, poses[1:], strict=False)):
-        # Already in order, as every session this program writes: sort_by would
-        # import pyarrow.compute, a tenth of a second of every command's start.
-        return table
-    return table.sort_by("pose")
-
-
-def _check_conditions(table, path):
-    """Condition columns: numbers, finite where present (a null is a pose that did not say)."""
-    if WARMED_UP_COLUMN in table.column_names:
-        kind = table.schema.field(WARMED_UP_COLUMN).type
-        if not pa.types.is_boolean(kind):
-            raise SessionError(f"{path}: column {WARMED_UP_COLUMN} is not true/false ({kind})")
-    for col in CONDITION_COLUMNS:
-        if col not in table.column_names:
-            continue
-        kind = table.schema.field(col).type
-        if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)):
-            raise SessionError(f"{path}: column {col} is not numeric ({kind})")
-        values = np.array([np.nan if v is None else v for v in table[col].to_pylist()], float)
-        given = np.array([v is not None for v in table[col].to_pylist()])
-        if np.any(given & ~np.isfinite(values)):
-            raise SessionError(f"{path}: column {col} has NaN or infinite values")
-
-
-def _floats(table, column):
-    """A column as float64, nulls as NaN.
-
-    Through Python lists on purpose: pyarrow's numpy conversions import
-    pandas (a third of a second), and sessions have hundreds of rows, not
-    millions.
-    """
-    return np.array(table[column].to_pylist(), dtype=float)
-
-
-def _poses(table, mask):
-    return np.array(table["pose"].to_pylist())[mask][:5].tolist()
 
 
 def to_table(

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, kinematics, parameters
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics, parameters
 from calibrator.robots import ipso_paper
 
 if TYPE_CHECKING:
@@ -25,8 +25,8 @@ if TYPE_CHECKING:
     from calibrator.session import SessionMeta
 
 
-#: Seed 003, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
-SEED_ERRORS = np.array(ipso_paper.TABLE_2_ERRORS)
+#: The IPSO paper, Table 2: the errors injected into the ER10L-C10 (a, alpha, theta, d, beta).
+IPSO_PAPER_ERRORS = np.array(ipso_paper.TABLE_2_ERRORS)
 #: A tool point on a bracket off the flange (mm), the default probe position.
 DEFAULT_TOOL_POINT = np.array([0.0, 0.0, 100.0])
 
@@ -181,7 +181,7 @@ class SimWorld:
 
     Attributes
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The nominal arm (what the session says it measured).
     seed : int
     true_mdh : ndarray, shape (6, 5)
@@ -226,7 +226,7 @@ class SimWorld:
         errors; it draws from its own stream, so the hidden arm is the same
         with or without it.
         """
-        model = get_model(model_name)
+        model = robots.get(model_name)
         rng = np.random.default_rng(seed)
         true_mdh = model.mdh + random_errors(model.mdh, rng, mm=0.5, rad=1e-3)
         offset = rng.standard_normal(3)
@@ -272,7 +272,7 @@ class SimWorld:
 def random_errors(
     nominal_mdh: np.ndarray, rng: np.random.Generator, mm: float = 0.5, rad: float = 0.01
 ) -> np.ndarray:
-    """MDH errors of the seed's size on the parameters an identification can see.
+    """MDH errors of the IPSO paper's size on the parameters an identification can see.
 
     Uniform in +-``mm`` for lengths and +-``rad`` for angles, on Hayati's
     parameter set (``beta_i`` only where axes i and i+1 are parallel, no
@@ -380,7 +380,7 @@ def simulate(
     from calibrator import session  # the session module imports the model layer
 
     rng = np.random.default_rng(seed)
-    robot = get_model(model)
+    robot = robots.get(model)
     errors = "ref003" if errors == "seed" else errors  # its old name
     if errors == "ref003":
         if robot.reference_errors is None:
@@ -399,7 +399,7 @@ def simulate(
 
     tool_guess = frames.transform(translation=DEFAULT_TOOL_POINT)
     if errors == "ref003" and not tool_offset_mm:
-        tool_guess = np.eye(4)  # the seed measures the flange itself
+        tool_guess = np.eye(4)  # the IPSO paper measures the flange itself
     true_tool = tool_guess.copy()
     if tool_offset_mm:
         direction = rng.standard_normal(3)

@@ -11,7 +11,7 @@ so that ``measure``, ``check`` and ``verify`` can be run against it
     model: ur10e                   # optional: must be the run's --model
     seed: 3                        # the arm drawn as the simulation draws it [the run's --seed]
     arm:
-      errors: seed                 # seed: the seed's hidden errors; none: exactly nominal
+      errors: drawn                # drawn: the errors drawn from the seed; none: exactly nominal
       deltas: {a2: 0.05, alpha3: 0.0001}   # added to its MDH table (mm, rad)
     joint_zero_shifts_rad: [0, 0.0004, 0, 0, 0, 0]   # true angle = read angle + shift
     base: {translation_mm: [0.1, 0, 0], rotvec_rad: [0, 0, 0]}  # the base moved (its frame)
@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, kinematics, parameters
 from calibrator.errors import CalibrationError
+from calibrator.model import frames, kinematics, parameters
 from calibrator.simulate import SimWorld
 
 FORMAT_VERSION = 1
@@ -52,6 +52,9 @@ _KEYS = {
     "repeatability",
     "tracker",
 }
+#: Old spellings of ``arm.errors`` values, still read: ``seed`` said where the
+#: hidden errors come from in a word that now means only the random seed.
+ERRORS_ALIASES = {"seed": "drawn"}
 #: Largest change a world file may make (a world, not a different arm): mm, rad.
 MAX_CHANGE = {"mm": 50.0, "rad": 0.2}
 
@@ -70,8 +73,9 @@ class World:
         The named arm it is for (None: any).
     seed : int or None
         Seed of the hidden arm (None: the run's seed).
-    errors : {'seed', 'none'}
-        Start from the seed's hidden MDH errors, or from the nominal table.
+    errors : {'drawn', 'none'}
+        Start from the hidden MDH errors drawn from the seed, or from the
+        nominal table. A file's ``seed`` is read as ``drawn`` (its old spelling).
     deltas : dict
         MDH deltas added to the true arm ``{name: value}`` (mm, rad).
     joint_zero_shifts_rad : ndarray, shape (6,)
@@ -94,7 +98,7 @@ class World:
 
     model: str | None = None
     seed: int | None = None
-    errors: str = "seed"
+    errors: str = "drawn"
     deltas: dict = field(default_factory=dict)
     joint_zero_shifts_rad: np.ndarray = field(default_factory=lambda: np.zeros(6))
     base_translation_mm: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -124,7 +128,7 @@ class World:
         if self.model is not None and self.model != model_name.strip().lower():
             raise WorldError(f"the world file is for a {self.model}, not --model {model_name}")
         world = SimWorld.make(model_name, seed if self.seed is None else self.seed, repeatability)
-        mdh = world.true_mdh.copy() if self.errors == "seed" else world.model.mdh.copy()  # type: ignore[attr-defined]
+        mdh = world.true_mdh.copy() if self.errors == "drawn" else world.model.mdh.copy()  # type: ignore[attr-defined]
         for name, value in self.deltas.items():
             i = parameters.MDH_NAMES.index(name)
             mdh[i // 5, i % 5] += value
@@ -147,13 +151,14 @@ class World:
 
 def read_world(path: str | os.PathLike[str]) -> World:
     """Read a world file (YAML); one :class:`WorldError` line naming what is wrong."""
-    from calibrator import strict, yamlfile
+    from calibrator.inputs import yamlfile
+    from calibrator.inputs.errors import StrictError
 
     path = Path(path)
     try:
         # The one YAML reader: size, depth and alias limits, duplicate keys refused.
         doc = yamlfile.read(path, "a world file")
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise WorldError(str(exc)) from None
     try:
         return parse_world(doc)
@@ -184,10 +189,11 @@ def parse_world(doc: Any) -> World:
         raise WorldError(f"seed: expected a non-negative integer, got {seed!r}")
     arm = doc.get("arm") or {}
     if not isinstance(arm, dict) or set(arm) - {"errors", "deltas"}:
-        raise WorldError("arm: expected a mapping with errors (seed|none) and deltas")
-    errors = arm.get("errors", "seed")
-    if errors not in ("seed", "none"):
-        raise WorldError(f"arm.errors: expected seed or none, got {errors!r}")
+        raise WorldError("arm: expected a mapping with errors (drawn|none) and deltas")
+    errors = arm.get("errors", "drawn")
+    errors = ERRORS_ALIASES.get(errors, errors) if isinstance(errors, str) else errors
+    if errors not in ("drawn", "none"):
+        raise WorldError(f"arm.errors: expected drawn or none, got {errors!r}")
     deltas = arm.get("deltas") or {}
     if not isinstance(deltas, dict):
         raise WorldError("arm.deltas: expected a mapping of MDH names to deltas (mm, rad)")

@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrator import frames
 from calibrator.acquire.ports import BadReading, ReadingLost, Tracker, TrackerReading
+from calibrator.model import frames
 
 OUTLIER_Z = 3.5  # Iglewicz & Hoaglin's cut-off for the MAD-based modified z-score
 MAD_TO_SIGMA = 1.4826  # 1 / Phi^-1(3/4): MAD of a Gaussian times this is its sigma

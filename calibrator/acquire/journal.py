@@ -31,8 +31,9 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import strict
 from calibrator.errors import CalibrationError
+from calibrator.inputs import jsonfile, messages
+from calibrator.inputs.errors import StrictError
 
 FORMAT = "calibrator.journal"
 #: 2 adds a CRC-32 to every line; version 1 journals (no CRC) are still read.
@@ -211,7 +212,7 @@ def read(
     version = header.get("version")
     if type(version) is not int or version not in READABLE_VERSIONS:
         raise JournalError(
-            f"{path}: journal version {strict.shown(version)} is not supported (this program "
+            f"{path}: journal version {messages.shown(version)} is not supported (this program "
             f"reads versions {', '.join(map(str, READABLE_VERSIONS))}); finish it with the "
             "program that wrote it, or remove it to start over"
         )
@@ -246,8 +247,8 @@ def _parse(raw: bytes, *, crc: bool | None) -> Any:
     try:
         text = raw.decode("utf-8")
         # The one strict JSON reader: no duplicate keys, NaN, 1e400 or 64-bit overflow.
-        obj = strict.load_json(text, "journal line")
-    except (UnicodeDecodeError, strict.StrictError):
+        obj = jsonfile.load_json(text, "journal line")
+    except (UnicodeDecodeError, StrictError):
         return None
     if crc is None or not isinstance(obj, dict):
         return obj

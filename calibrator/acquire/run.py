@@ -28,10 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, outputs
+from calibrator import outputs
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, ports
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
 
 #: Most poses a plan may hold: the most ``identify`` accepts
@@ -147,7 +148,7 @@ class MeasureRun:
     ----------
     robot : calibrator.acquire.ports.Robot
     tracker : calibrator.acquire.ports.Tracker
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The named arm (nominal MDH, joint limits).
     options : RunOptions
     output : Path

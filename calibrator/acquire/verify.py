@@ -32,10 +32,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from calibrator import compensate, frames, iso9283, outputs
+from calibrator import compensate, iso9283, outputs
 from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 
 #: Columns of verify.parquet, in order (base frame, mm).
 COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")
@@ -88,7 +89,7 @@ def make_plan(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The controller's nominal model.
     flange2tool : array_like, shape (4, 4)
         Nominal TCP on the flange (mm): the cube and the test poses use it,
@@ -149,7 +150,7 @@ def admissible(
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     flange2tool : array_like, shape (4, 4)
         Tool on the flange, mm: its origin is the reflector the capsule model carries.
     cell : calibrator.cell.Cell, optional

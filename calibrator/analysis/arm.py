@@ -10,9 +10,14 @@ joint i is inserted right there: ``L_1 E_1 L_2 E_2 ... L_6 E_6 F``.
 
 - Craig's modified DH (the misalignment paper's arm, columns
   ``alpha_{i-1}, a_{i-1}, d_i``): ``B_i = Rx(alpha_{i-1}) Tx(a_{i-1})``, ``F = I``.
-- This project's Hayati MDH tables (:mod:`calibrator.kinematics`):
+- This project's Hayati MDH tables (:mod:`calibrator.model.kinematics`):
   ``A_i = Rz(theta_i + q_i) Tz(d_i) . Tx(a_i) Rx(alpha_i) Ry(beta_i)``, so
   ``B_1 = I``, ``B_{i+1}`` and ``F`` are the ``Tx Rx Ry`` tail of the previous link.
+
+Both are built by the model's one forward kinematics: a Craig table is first
+converted exactly to MDH (:func:`calibrator.model.conventions.craig_to_mdh`),
+and ``L_i`` is :func:`calibrator.model.kinematics.joint_origins` of the table
+turned to the pose.
 
 All transforms are stored as their top three rows, shape ``(..., 3, 4)`` (mm).
 """
@@ -25,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
 from calibrator.errors import CalibrationError
+from calibrator.model import conventions, kinematics
 from calibrator.robots import misalignment_paper
 
 _DEG = np.pi / 180.0
@@ -36,45 +41,6 @@ _DEG = np.pi / 180.0
 PAPER_CRAIG = misalignment_paper.CRAIG_TABLE
 #: The paper's pose, joint angles theta_1..6 (deg).
 PAPER_POSE_DEG = misalignment_paper.POSE_DEG
-
-
-def rot_x(angle: ArrayLike) -> np.ndarray:
-    """Top rows of Rx(angle), shape ``angle.shape + (3, 4)``."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros(np.shape(angle) + (3, 4))
-    out[..., 0, 0] = 1.0
-    out[..., 1, 1], out[..., 1, 2] = c, -s
-    out[..., 2, 1], out[..., 2, 2] = s, c
-    return out
-
-
-def rot_y(angle: ArrayLike) -> np.ndarray:
-    """Top rows of Ry(angle)."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros(np.shape(angle) + (3, 4))
-    out[..., 1, 1] = 1.0
-    out[..., 0, 0], out[..., 0, 2] = c, s
-    out[..., 2, 0], out[..., 2, 2] = -s, c
-    return out
-
-
-def rot_z(angle: ArrayLike) -> np.ndarray:
-    """Top rows of Rz(angle)."""
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros(np.shape(angle) + (3, 4))
-    out[..., 2, 2] = 1.0
-    out[..., 0, 0], out[..., 0, 1] = c, -s
-    out[..., 1, 0], out[..., 1, 1] = s, c
-    return out
-
-
-def trans(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> np.ndarray:
-    """Top rows of Trans(x, y, z) (mm); arguments broadcast."""
-    x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
-    out = np.zeros(x.shape + (3, 4))
-    out[..., 0, 0] = out[..., 1, 1] = out[..., 2, 2] = 1.0
-    out[..., 0, 3], out[..., 1, 3], out[..., 2, 3] = x, y, z
-    return out
 
 
 def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -135,19 +101,16 @@ def craig_arm(table: ArrayLike, pose_rad: ArrayLike, name: str = "craig") -> Pos
     pose_rad : array_like, shape (6,)
         Joint angles theta_i (rad).
     """
-    table = np.asarray(table, dtype=float)
     q = _check_pose(pose_rad)
-    if table.shape != (6, 3):
-        raise CalibrationError(f"Craig DH table must be 6 x 3, got {table.shape}")
-    links = compose(
-        compose(rot_x(table[:, 0]), trans(table[:, 1], 0.0, 0.0)),
-        compose(rot_z(q), trans(0.0, 0.0, table[:, 2])),
-    )
-    return PosedArm(links=links, tail=trans(0.0, 0.0, 0.0), name=name)
+    try:
+        base2frame0, mdh = conventions.craig_to_mdh(table)
+    except ValueError as exc:
+        raise CalibrationError(str(exc)) from None
+    return _posed(mdh, q, base2frame0, name)
 
 
 def mdh_arm(mdh: ArrayLike, pose_rad: ArrayLike, name: str = "mdh") -> PosedArm:
-    """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.kinematics`).
+    """A :class:`PosedArm` from a Hayati MDH table (:mod:`calibrator.model.kinematics`).
 
     Parameters
     ----------
@@ -161,13 +124,19 @@ def mdh_arm(mdh: ArrayLike, pose_rad: ArrayLike, name: str = "mdh") -> PosedArm:
     except ValueError as exc:
         raise CalibrationError(str(exc)) from None
     q = _check_pose(pose_rad)
-    k = kinematics
-    tails = compose(
-        compose(trans(mdh[:, k.A], 0.0, 0.0), rot_x(mdh[:, k.ALPHA])), rot_y(mdh[:, k.BETA])
-    )
-    heads = np.concatenate([trans(0.0, 0.0, 0.0)[np.newaxis], tails[:5]])
-    links = compose(heads, compose(rot_z(mdh[:, k.THETA] + q), trans(0.0, 0.0, mdh[:, k.D])))
-    return PosedArm(links=links, tail=tails[5], name=name)
+    return _posed(mdh, q, None, name)
+
+
+def _posed(mdh: np.ndarray, q: np.ndarray, base2frame0: np.ndarray | None, name: str) -> PosedArm:
+    """The :class:`PosedArm` of an MDH table at pose ``q``, after an optional base offset."""
+    # Turned to the pose, the table's joint origins are the links: O_i Rz(q_i)
+    # is O_i with theta_i + q_i.
+    posed = mdh.copy()
+    posed[:, kinematics.THETA] += q
+    origins, trailing = kinematics.joint_origins(posed)
+    if base2frame0 is not None:
+        origins[0] = base2frame0 @ origins[0]
+    return PosedArm(links=origins[:, :3].copy(), tail=trailing[:3].copy(), name=name)
 
 
 def _check_pose(pose):
@@ -200,7 +169,7 @@ def build(
     model : str
         ``'paper'`` (the misalignment paper's arm, Craig DH: lengths ``a0..a5``
         are ``a_{i-1}``, ``d1..d6`` are ``d_i``) or a name known to
-        :func:`calibrator.models.get_model` (Hayati MDH: ``a1..a6``, ``d1..d6``).
+        :func:`calibrator.robots.get` (Hayati MDH: ``a1..a6``, ``d1..d6``).
     pose_deg : array_like, shape (6,), optional
         Joint angles (deg); the paper's pose for ``'paper'``, zeros otherwise.
     lengths : dict of str to float, optional
@@ -210,7 +179,7 @@ def build(
     -------
     PosedArm
     """
-    from calibrator import models
+    from calibrator import robots
 
     lengths = dict(lengths or {})
     key = (model or PAPER).strip()
@@ -232,7 +201,7 @@ def build(
         table[:, 0] *= _DEG
         pose = PAPER_POSE_DEG if pose_deg is None else np.asarray(pose_deg, dtype=float)
         return craig_arm(table, pose * _DEG, name=misalignment_paper.TITLE)
-    described = models.get_model(key)
+    described = robots.get(key)
     mdh = described.mdh.copy()
     for name, value in lengths.items():
         mdh[int(name[1:]) - 1, kinematics.A if name[0] == "a" else kinematics.D] = value

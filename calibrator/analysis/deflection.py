@@ -1,4 +1,4 @@
-"""Hand error from link deflection, by kinetostatics (seed 001, eqs. 42-51).
+"""Hand error from link deflection, by kinetostatics (the deflection paper, eqs. 42-51).
 
 Method
 ------
@@ -9,13 +9,13 @@ origin of frame ``i``, with a circular (solid or hollow) section. Its loads:
 - the weight and d'Alembert inertia of everything beyond it (links ``i+1..n``
   and the payload), reduced to one force and one moment at its tip;
 - its own weight and inertia, spread evenly along the beam (a rod's weight is
-  distributed; the seed lumps it at the centre of mass), plus the moment of
+  distributed; the deflection paper lumps it at the centre of mass), plus the moment of
   its centre of mass's offset from the beam axis, applied at the station of
   the centre of mass.
 
 Beam theory (Euler-Bernoulli, no shear) gives the tip's small rotation
 ``phi`` and translation ``delta`` from these loads (the influence
-coefficients of the seed's eq. 48). Each tip deformation moves everything
+coefficients of the deflection paper's eq. 48). Each tip deformation moves everything
 beyond it rigidly, so the hand moves by ``delta + phi x (p_hand - p_tip)``
 and turns by ``phi``; the contributions of all flexible links are expressed
 in the hand frame and summed (eqs. 49-51).
@@ -34,9 +34,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.mass_models import GRAVITY_MM_S2
-from calibrator.robots import chen_zhang
-from calibrator.strict import Rule, shown
+from calibrator.inputs.messages import shown
+from calibrator.inputs.rules import Rule
+from calibrator.model import conventions, kinematics
+from calibrator.model.mass_models import GRAVITY_MM_S2
+from calibrator.robots import deflection_paper
 
 #: What each value of a section may be: a robot link, not 1e-300 mm (its
 #: stiffness underflows to nan) nor 1e308 mm (its D^4 overflows).
@@ -396,86 +398,83 @@ def trapezoid(
 # --- arms ----------------------------------------------------------------------
 
 
-def standard_dh_frames(
-    table: np.ndarray, prismatic: np.ndarray, q: np.ndarray, hand: np.ndarray | None = None
-) -> np.ndarray:
-    """Frames of a standard-DH chain, the seed's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
+def standard_dh_frames(table: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Standard-DH frames, the deflection paper's ``M_i = Rz(theta) Tz(s) Tx(h) Rx(alpha)``.
+
+    The model's own forward kinematics (:func:`calibrator.model.kinematics.chain`)
+    of the table converted to MDH (:func:`calibrator.model.conventions.standard_dh_to_mdh`);
+    a sliding joint's coordinate goes into its table's ``s``, so each pose has
+    its own table.
 
     Parameters
     ----------
-    table : ndarray, shape (n, 4)
+    table : ndarray, shape (n, 4), n <= 6
         Rows ``[theta_offset (rad), s (mm), h (mm), alpha (rad)]``.
     prismatic : ndarray of bool, shape (n,)
         Joints whose coordinate adds to ``s`` (mm) instead of ``theta`` (rad).
     q : ndarray, shape (N, n)
-    hand : ndarray, shape (4, 4), optional
-        Frame n to hand.
 
     Returns
     -------
     ndarray, shape (N, n+1, 4, 4)
+        Base to frame i (mm); index 0 the base.
     """
-    q = np.atleast_2d(q)
-    out = np.zeros((len(q), len(table) + 1, 4, 4))
-    out[:, 0] = np.eye(4)
-    for i, (th0, s0, h, alpha) in enumerate(table):
-        th = np.full(len(q), th0) if prismatic[i] else th0 + q[:, i]
-        s = s0 + q[:, i] if prismatic[i] else np.full(len(q), s0)
-        ct, st, ca, sa = np.cos(th), np.sin(th), np.cos(alpha), np.sin(alpha)
-        m = np.zeros((len(q), 4, 4))
-        m[:, 0] = np.stack([ct, -st * ca, st * sa, h * ct], axis=-1)
-        m[:, 1] = np.stack([st, ct * ca, -ct * sa, h * st], axis=-1)
-        m[:, 2, 1], m[:, 2, 2], m[:, 2, 3], m[:, 3, 3] = sa, ca, s, 1.0
-        out[:, i + 1] = out[:, i] @ m
-    if hand is not None:
-        out[:, -1] = out[:, -1] @ hand
-    return out
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    n = len(table)
+    posed = np.repeat(np.asarray(table, dtype=float)[np.newaxis], len(q), axis=0)
+    posed[..., 0] += np.where(prismatic, 0.0, q)
+    posed[..., 1] += np.where(prismatic, q, 0.0)
+    mdh = conventions.standard_dh_to_mdh(posed)
+    _, frames = kinematics.chain(mdh, np.zeros((1, 6)), all_frames=True)
+    return frames[:, 0, : n + 1]
 
 
 _DEG = np.pi / 180.0
 
-#: Seed 001's example (Chen and Zhang's arm): its data live in
-#: :mod:`calibrator.robots.chen_zhang`, which says how the table was read.
+#: The deflection paper's example (Chen and Zhang's arm): its data live in
+#: :mod:`calibrator.robots.deflection_paper`, which says how the table was read.
 #: Rows ``[theta_offset, s, h, alpha]`` (rad, mm).
-SEED_TABLE = chen_zhang.TABLE
-SEED_PRISMATIC = chen_zhang.PRISMATIC
-#: The seed's mass table: masses (kg, link 5 includes the 5 kg workpiece),
+PAPER_TABLE = deflection_paper.TABLE
+PAPER_PRISMATIC = deflection_paper.PRISMATIC
+#: The deflection paper's mass table: masses (kg, link 5 includes the 5 kg workpiece),
 #: centres of mass (mm) and principal inertias (kg m^2).
-SEED_MASS_KG = chen_zhang.MASS_KG
-SEED_COM_MM = chen_zhang.COM_MM
-SEED_INERTIA_KG_M2 = chen_zhang.INERTIA_KG_M2
+PAPER_MASS_KG = deflection_paper.MASS_KG
+PAPER_COM_MM = deflection_paper.COM_MM
+PAPER_INERTIA_KG_M2 = deflection_paper.INERTIA_KG_M2
 #: Link 3, the piston rod: hollow steel, E = 2.1e11 Pa, D = 0.05 m, d = 0.03 m.
-SEED_ROD = Section(
-    outer_mm=chen_zhang.ROD_OUTER_MM, inner_mm=chen_zhang.ROD_INNER_MM, e_mpa=chen_zhang.ROD_E_MPA
+PAPER_ROD = Section(
+    outer_mm=deflection_paper.ROD_OUTER_MM,
+    inner_mm=deflection_paper.ROD_INNER_MM,
+    e_mpa=deflection_paper.ROD_E_MPA,
 )
-#: The seed's task: the hand's origin on a straight line while x5 turns from 0
+#: The deflection paper's task: the hand's origin on a straight line while x5 turns from 0
 #: to 45 deg with theta_1, in 1 s.
-SEED_DURATION_S = chen_zhang.DURATION_S
-_SEED_LINE_X_MM = chen_zhang.LINE_X_MM
+PAPER_DURATION_S = deflection_paper.DURATION_S
+_PAPER_LINE_X_MM = deflection_paper.LINE_X_MM
 #: Joint ranges taken for the example (rad; joint 3 in mm): the text gives
 #: none, so half a turn either way for the revolute joints and the rod out
 #: between 0 and 1,500 mm (2.5 times its 600 mm at the task's end).
-SEED_LIMITS = np.array(
+PAPER_LIMITS = np.array(
     [[-np.pi, np.pi], [-np.pi, np.pi], [0.0, 1500.0], [-np.pi, np.pi], [-np.pi, np.pi]]
 )
 
 
-def seed_arm() -> FlexArm:
-    """Seed 001's five-axis example, link 3 (the rod) flexible, the others rigid."""
+def paper_arm() -> FlexArm:
+    """The deflection paper's five-axis example, link 3 (the rod) flexible, the others rigid."""
     return FlexArm(
-        name=chen_zhang.TITLE,
-        frames=lambda q: standard_dh_frames(SEED_TABLE, SEED_PRISMATIC, q),
-        mass_kg=SEED_MASS_KG,
-        com_mm=SEED_COM_MM,
-        inertia_kg_mm2=np.array([np.diag(v) for v in SEED_INERTIA_KG_M2]) * 1e6,
-        sections={chen_zhang.ROD_LINK: SEED_ROD},
+        name=deflection_paper.TITLE,
+        frames=lambda q: standard_dh_frames(PAPER_TABLE, PAPER_PRISMATIC, q),
+        mass_kg=PAPER_MASS_KG,
+        com_mm=PAPER_COM_MM,
+        inertia_kg_mm2=np.array([np.diag(v) for v in PAPER_INERTIA_KG_M2]) * 1e6,
+        sections={deflection_paper.ROD_LINK: PAPER_ROD},
     )
 
 
-def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray, float]:
-    """The seed's task: theta_1 0 -> 45 deg in 1 s (trapezoidal law), hand on a line.
+def paper_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray, float]:
+    """The deflection paper's task: theta_1 0 -> 45 deg in 1 s (trapezoidal law), hand on a line.
 
-    The seed's own velocity law is in its Fig. 6, missing from the text; a
+    The paper's own velocity law is in its Fig. 6, missing from the text; a
     trapezoid with ``ramp`` of the time accelerating and decelerating stands in.
     Joint 3 follows ``s3 = x / cos(theta_1)`` so the hand's origin stays on the
     line; joints 2, 4, 5 stay at zero (z5 keeps its direction, x5 turns with theta_1).
@@ -486,28 +485,29 @@ def seed_trajectory(samples: int = 201, ramp: float = 0.25) -> tuple[np.ndarray,
         Joint coordinates (rad; joint 3 in mm).
     dt : float
     """
-    theta, dt = trapezoid(np.zeros(1), np.array([45 * _DEG]), SEED_DURATION_S, samples, ramp)
+    theta, dt = trapezoid(np.zeros(1), np.array([45 * _DEG]), PAPER_DURATION_S, samples, ramp)
     q = np.zeros((samples, 5))
     q[:, 0] = theta[:, 0]
-    q[:, 2] = _SEED_LINE_X_MM / np.cos(theta[:, 0])
+    q[:, 2] = _PAPER_LINE_X_MM / np.cos(theta[:, 0])
     return q, dt
 
 
 def named_arm(model: str, sections: dict[int, Section], masses: object = None) -> FlexArm:
-    """A named model (MDH table of :mod:`calibrator.models`) with flexible links.
+    """A named model (MDH table of :mod:`calibrator.robots`) with flexible links.
 
     Parameters
     ----------
     model : str
-        A name known to :func:`calibrator.models.get_model`.
+        A name known to :func:`calibrator.robots.get`.
     sections : dict of int to Section
         Flexible links (1..6).
     masses : MassModel, optional
         Defaults to the model's published mass model.
     """
-    from calibrator import kinematics, mass_models, models
+    from calibrator import robots
+    from calibrator.model import mass_models
 
-    m = models.get_model(model)
+    m = robots.get(model)
     mm = mass_models.get(m.name) if masses is None else masses
     mdh = np.array(m.mdh)
 
@@ -541,7 +541,7 @@ def load_sections(path: object) -> tuple[dict[int, Section], str | None]:
     """
     from pathlib import Path
 
-    from calibrator import yamlfile
+    from calibrator.inputs import yamlfile
 
     path = Path(str(path))
     doc = yamlfile.read(path, "a link-section file", 2**20)

@@ -1,4 +1,4 @@
-"""Joint-axis misalignment Monte Carlo (seed 000): the hand error from bearing clearances.
+"""Joint-axis misalignment Monte Carlo (the misalignment paper): hand error from bearing clearances.
 
 Model
 -----

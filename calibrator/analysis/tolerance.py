@@ -1,4 +1,4 @@
-"""Tolerance budget (seed 001): hand error from link-parameter and joint deviations.
+"""Tolerance budget (the deflection paper): hand error from link-parameter and joint deviations.
 
 To first order the hand's small displacement ``dS`` (three rotations, then
 three translations, in the hand frame) is linear in the deviations::
@@ -7,7 +7,7 @@ three translations, in the hand frame) is linear in the deviations::
     dS ~ J* dq    (dq: joint-coordinate deviations; J* is J's theta columns)
 
 J is the identification Jacobian of calibration
-(:func:`calibrator.measurement.jacobian`) used forwards. Given a tolerance
+(:func:`calibrator.model.measurement.jacobian`) used forwards. Given a tolerance
 ``+-t_j`` per parameter and a distribution inside it (uniform, or normal with
 ``t = 3 sigma``) this module gives
 
@@ -36,9 +36,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, measurement, parameters
 from calibrator.errors import CalibrationError
-from calibrator.parameters import MDH_NAMES, ParameterSpace
+from calibrator.model import kinematics, measurement, parameters
+from calibrator.model.parameters import MDH_NAMES, ParameterSpace
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -172,7 +172,7 @@ def nonlinear_displacement(mdh: np.ndarray, q: np.ndarray, dp: np.ndarray) -> np
         Rotation vector of ``R_nom^T R`` (rad), then ``R_nom^T (p - p_nom)`` (mm),
         directly comparable with ``J dp``.
     """
-    from calibrator import frames
+    from calibrator.model import frames
 
     nominal = kinematics.chain(mdh, q)
     real = perturbed_hand(mdh, q, dp)

@@ -5,10 +5,10 @@ Build an arm's capsule model with :func:`arm_geometry`, read a cell file with
 pose and every motion, vias included) before anything moves::
 
     from calibrator.cell import Cell, check_plan
-    from calibrator.models import get_model
+    from calibrator import robots
     from calibrator.plan import Plan
 
-    check_plan(plan, get_model("ur10e"), Cell(tracker_at_mm=(2500, 400, 300)), (0, 0, 100))
+    check_plan(plan, robots.get("ur10e"), Cell(tracker_at_mm=(2500, 400, 300)), (0, 0, 100))
 
 Everything is in the robot base frame, mm and rad; nothing here touches hardware.
 """
@@ -35,7 +35,7 @@ from calibrator.cell.geometry import ArmGeometry, Capsule, arm_geometry, place
 from calibrator.cell.timing import CellTime, cell_time, move_times, order_poses, time_matrix
 
 if TYPE_CHECKING:
-    from calibrator.models import RobotModel
+    from calibrator import robots
     from calibrator.plan import Plan
 
 __all__ = [
@@ -70,7 +70,7 @@ __all__ = [
 
 def check_whole_plan(
     plan: Plan,
-    model: RobotModel,
+    model: robots.RobotDescription,
     cell: Cell,
     tool_mm: ArrayLike,
     *,
@@ -88,7 +88,7 @@ def check_whole_plan(
     Parameters
     ----------
     plan : calibrator.plan.Plan
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     cell : Cell
         With its tracker position when known (the aim checks run only then).
     tool_mm : array_like, shape (3,)
@@ -129,7 +129,7 @@ def check_whole_plan(
 
 def check_plan(
     plan: Plan,
-    model: RobotModel,
+    model: robots.RobotDescription,
     cell: Cell,
     tool_mm: ArrayLike,
     *,
@@ -147,7 +147,7 @@ def check_plan(
     ----------
     plan : calibrator.plan.Plan
         Measured poses ``q_rad`` (N, 6) and the vias before each.
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     cell : Cell
     tool_mm : array_like, shape (3,)
         Reflector position on the flange, mm.
@@ -200,7 +200,11 @@ def check_plan(
 
 
 def estimate(
-    plan: Plan, model: RobotModel, speed_rad_s: float, accel_rad_s2: float, **kwargs: Any
+    plan: Plan,
+    model: robots.RobotDescription,
+    speed_rad_s: float,
+    accel_rad_s2: float,
+    **kwargs: Any,
 ) -> CellTime:
     """:func:`cell_time` of a :class:`calibrator.plan.Plan` (all its rows, vias included).
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.strict import shown
+from calibrator.inputs.messages import shown
 
 
 class CellError(CalibrationError):
@@ -231,14 +231,15 @@ def parse_cell(doc: Any) -> Cell:
 def read_cell(path: str | os.PathLike[str]) -> Cell:
     """Read a cell file (YAML); one :class:`CellError` line naming what is wrong.
 
-    The text is read by :func:`calibrator.yamlfile.read` (size, depth and
+    The text is read by :func:`calibrator.inputs.yamlfile.read` (size, depth and
     alias limits, duplicate keys refused, strict numbers).
     """
-    from calibrator import strict, yamlfile
+    from calibrator.inputs import yamlfile
+    from calibrator.inputs.errors import StrictError
 
     try:
         doc = yamlfile.read(path, "a cell file", MAX_BYTES)
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise CellError(str(exc)) from None
     try:
         return parse_cell(doc)

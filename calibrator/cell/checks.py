@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, singularities
 from calibrator.cell import distance
 from calibrator.cell.cellfile import Cell, CellError, obstacle_arrays
 from calibrator.cell.geometry import ArmGeometry, place
+from calibrator.model import kinematics, singularities
 
 #: Reasons a pose is refused, in the order checks report them.
 REASONS = (
@@ -240,7 +240,7 @@ def singularity_faults(chk: Checker, q: ArrayLike) -> np.ndarray:
     """Each reason of :data:`SINGULARITY_REASONS` per pose, shape (N, 3) bool (True: too near).
 
     Nearer than :data:`WRIST_MIN_DEG`, :data:`ELBOW_MIN_DEG` or
-    :data:`SHOULDER_MIN_MM` by the measures of :func:`calibrator.singularities.margins`
+    :data:`SHOULDER_MIN_MM` by the measures of :func:`calibrator.model.singularities.margins`
     (on a UR arm the first two are ``|q5|`` and ``|q3|`` from 0 or 180 deg).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))

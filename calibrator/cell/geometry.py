@@ -2,7 +2,7 @@
 
 Each link is one or more capsules (a segment and a radius) fixed in the frame
 of that link, placed at each pose from the nominal MDH frames
-(:func:`calibrator.kinematics.chain`); the base is a vertical cylinder on the
+(:func:`calibrator.model.kinematics.chain`); the base is a vertical cylinder on the
 mounting plane; the tool (reflector holder) is a capsule from the flange
 origin to the tool point.
 
@@ -22,8 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, robots
+from calibrator import robots
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 from calibrator.robots import Capsule, RobotDescription
 
 __all__ = ["ArmGeometry", "Capsule", "arm_geometry", "place"]
@@ -96,7 +97,7 @@ def arm_geometry(
     Parameters
     ----------
     model : str or RobotDescription
-        The arm's description, or its name (:func:`calibrator.models.get_model`).
+        The arm's description, or its name (:func:`calibrator.robots.get`).
     mdh : array_like, shape (6, 5)
         The model's nominal MDH table (mm, rad).
     tool_mm : array_like, shape (3,)

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import measurement, parameters
 from calibrator.check.model import Calibrated
 from calibrator.check.verdict import ALARM_P, p_value
+from calibrator.model import measurement, parameters
 
 #: Causes a check can name: their label and parameters.
 CAUSES = tuple((f"joint {j} zero", (f"theta{j}",)) for j in range(1, 7)) + (

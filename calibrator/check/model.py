@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import joint_terms, kinematics, measurement, parameters
+from calibrator.model import joint_terms, kinematics, measurement, parameters
 
 
 @dataclass(frozen=True)
@@ -24,7 +24,7 @@ class Calibrated:
 
     Attributes
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
         Free parameters of the calibration, nominal values at the calibrated
         arm (deltas ``x = 0`` are the calibration).
     cov : ndarray, shape (P, P)
@@ -32,7 +32,7 @@ class Calibrated:
         calibration records no uncertainty.
     sigma_mm : float
         Residual noise per axis of the calibration's fit, mm.
-    terms : calibrator.joint_terms.JointTerms
+    terms : calibrator.model.joint_terms.JointTerms
     noise_dof : int or None
         Residual degrees of freedom ``sigma_mm`` was estimated from (the fitted
         poses' position rows less the free parameters); None when not recorded.

@@ -16,7 +16,7 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from calibrator import parameters
+from calibrator.model import parameters
 
 #: Check poses by default.
 DEFAULT_POSES = 8
@@ -31,7 +31,7 @@ def choose(model: Any, n: int, cell: Any, tool_mm: ArrayLike, seed: int = 0) -> 
 
     Parameters
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
     n : int
         At least 5 (the drift parameters need 13 rows or more).
     cell : calibrator.cell.Cell

@@ -1,4 +1,4 @@
-"""The typer application every command module registers on."""
+"""The typer application every command module registers on, and groups spread over modules."""
 
 import typer
 
@@ -9,6 +9,13 @@ app = typer.Typer(
     rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},
     help="Calibrate 6-axis robot arms with a laser tracker in the loop.",
+)
+
+#: ``calibrator analyze``: its commands live in ``analyze.py`` and
+#: ``analyze_deflection.py``; ``analyze.py`` adds the group to :data:`app`.
+analyze_app = typer.Typer(
+    no_args_is_help=True,
+    help="Accuracy analysis: how accurate can this arm be, which tolerances matter.",
 )
 
 

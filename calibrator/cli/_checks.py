@@ -32,7 +32,7 @@ is measured in ``benchmarks/``); use them through :func:`count`,
     seed: int = typer.Option(0, callback=checks.seed(), help="...")
 
 A budget over several options (poses times samples) is checked in the
-command with :func:`calibrator.strict.check_budget`.
+command with :func:`calibrator.inputs.budgets.check_budget`.
 """
 
 from __future__ import annotations
@@ -47,7 +47,9 @@ from typing import Any
 import typer
 from typer._click import exceptions as _click_errors
 
-from calibrator import strict
+from calibrator.inputs import budgets, grammar
+from calibrator.inputs.errors import StrictError
+from calibrator.inputs.rules import Rule
 
 __all__ = [
     "BUDGETS",
@@ -115,7 +117,7 @@ BUDGETS: dict[str, tuple[float, str]] = {
     "pulse": (4096, "outputs"),
 }
 #: Largest seed: a JSON-safe 64-bit integer (seeds are written into results).
-MAX_SEED = strict.MAX_INT
+MAX_SEED = grammar.MAX_INT
 
 
 def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
@@ -140,8 +142,8 @@ def count(budget: str, minimum: int = 1) -> Callable[[int | None], int | None]:
     return check
 
 
-def rule(option: strict.Rule) -> Callable[[Any], Any]:
-    """Callback checking a value against its declared :class:`calibrator.strict.Rule`.
+def rule(option: Rule) -> Callable[[Any], Any]:
+    """Callback checking a value against its declared :class:`calibrator.inputs.rules.Rule`.
 
     The rule is the one a file's recorded value meets too (``identify
     --like``); the callback returns the checked value (a float for a number,
@@ -151,7 +153,7 @@ def rule(option: strict.Rule) -> Callable[[Any], Any]:
     def check(value: Any) -> Any:
         try:
             option.check(value)
-        except strict.StrictError as exc:
+        except StrictError as exc:
             raise typer.BadParameter(str(exc)) from None
         return value
 
@@ -217,8 +219,8 @@ def point_mm(budget: str) -> Callable[[str | None], str | None]:
         if len(parts) != 3:
             raise typer.BadParameter(f"needs X,Y,Z (three numbers, mm), got {value!r}")
         try:
-            numbers = [strict.parse_number(p, "coordinate") for p in parts]
-        except strict.StrictError as exc:
+            numbers = [grammar.parse_number(p, "coordinate") for p in parts]
+        except StrictError as exc:
             raise typer.BadParameter(str(exc).removeprefix("coordinate: ")) from None
         for v in numbers:
             if abs(v) > limit:
@@ -244,13 +246,13 @@ def plan_work(poses: int, candidates: int | None, selection: str) -> None:
 
     Raises
     ------
-    calibrator.strict.StrictError
+    calibrator.inputs.errors.StrictError
     """
     n = max(60 * poses, 2000) if candidates is None else candidates
     what = "--candidates" if candidates is not None else f"--candidates (default for {poses} poses)"
-    strict.check_budget(what, n, *BUDGETS["candidates"])
+    budgets.check_budget(what, n, *BUDGETS["candidates"])
     if selection == "d-optimal":
-        strict.check_budget(
+        budgets.check_budget(
             "--poses x --candidates (lower either)", poses * n, *BUDGETS["plan_work"]
         )
 
@@ -273,7 +275,7 @@ def file_rows(option: str, path: Path, poses: int, selection: str) -> None:
 
     Raises
     ------
-    calibrator.strict.StrictError
+    calibrator.inputs.errors.StrictError
     """
     limit = int(BUDGETS["candidates"][0])
     rows = -1  # the header
@@ -285,11 +287,11 @@ def file_rows(option: str, path: Path, poses: int, selection: str) -> None:
     except OSError:
         return
     if rows > limit:
-        raise strict.StrictError(
+        raise StrictError(
             f"{option} {path}: more than {limit} rows of candidates (the limit of --candidates)"
         )
     if selection == "d-optimal":
-        strict.check_budget(
+        budgets.check_budget(
             f"{option} {path}: its rows x --poses (lower either)",
             poses * max(rows, 0),
             *BUDGETS["plan_work"],
@@ -306,7 +308,7 @@ def strict_numbers(root: typer.Typer, argv: list[str]) -> None:
     ``int()``) reads ``0_5`` as 5 and ``1_000`` as 1000. This walks the
     command line before typer does and checks the text of every ``int`` and
     ``float`` option: whole numbers are ``[+-]digits``, others follow
-    :func:`calibrator.strict.parse_number` (finite, no underscores, no hex).
+    :func:`calibrator.inputs.grammar.parse_number` (finite, no underscores, no hex).
 
     Parameters
     ----------
@@ -360,8 +362,8 @@ def _check_number_text(param, text: str) -> None:
         raise typer.BadParameter(f"not a whole number, got {text!r}", param=param)
     if kind == "float":
         try:
-            strict.parse_number(text)
-        except strict.StrictError:
+            grammar.parse_number(text)
+        except StrictError:
             raise typer.BadParameter(
                 f"must be a finite decimal number, got {text!r}", param=param
             ) from None
@@ -369,8 +371,8 @@ def _check_number_text(param, text: str) -> None:
 
 def _within(value: float, limit: float, unit: str) -> None:
     try:
-        strict.check_budget("", value, limit, unit)
-    except strict.StrictError as exc:
+        budgets.check_budget("", value, limit, unit)
+    except StrictError as exc:
         raise typer.BadParameter(str(exc).removeprefix(": ")) from None
 
 

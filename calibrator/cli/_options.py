@@ -17,14 +17,18 @@ The options of the commands that move the arm (``--readings``, ``--speed``,
 
 from __future__ import annotations
 
+import functools
+import inspect
+from collections.abc import Callable
 from pathlib import Path
 from types import EllipsisType
-from typing import Any, NoReturn
+from typing import Any, NoReturn, get_type_hints
 
 import typer
 
-from calibrator import strict
 from calibrator.cli import _checks as checks
+from calibrator.inputs import grammar
+from calibrator.inputs.errors import StrictError
 
 
 def fail(message: str) -> NoReturn:
@@ -41,8 +45,8 @@ def floats(text: str, n: int, option: str, needs: str) -> list[float]:
     exit code 2.
     """
     try:
-        values = [strict.parse_number(v, option) for v in str(text).split(",")]
-    except strict.StrictError as exc:
+        values = [grammar.parse_number(v, option) for v in str(text).split(",")]
+    except StrictError as exc:
         fail(f"{option} needs {needs}, got {text!r} ({str(exc).removeprefix(option + ': ')})")
     if len(values) != n:
         fail(f"{option} needs {needs}, got {text!r}")
@@ -67,8 +71,60 @@ def force() -> Any:
 
 
 def model(default: str | None = "ur10e", help: str = "Named model of the arm.") -> Any:
-    """``--model``: a named arm model (``calibrator.models``)."""
+    """``--model``: a named arm model (``calibrator.robots``)."""
     return typer.Option(default, help=help)
+
+
+def urdf_links(command: Callable[..., None]) -> Callable[..., None]:
+    """Give ``command`` ``--base-link`` and ``--tip-link`` beside its ``--model``.
+
+    They name the chain of a URDF ``--model`` (default: ``base_link`` to
+    ``tool0``, else ``flange``), and the command receives them folded into the
+    model's name as ``arm.urdf#BASE:TIP``, the name a calibration records and
+    every command reads back. Use it below ``@app.command()`` (above
+    :func:`~calibrator.cli._run.run_command`, which supplies ``--model``).
+    """
+    signature = inspect.signature(command)
+    if "model" not in signature.parameters:
+        raise TypeError(f"{command.__name__} has no --model")
+    hints = get_type_hints(command)
+    params: list[inspect.Parameter] = []
+    for p in signature.parameters.values():
+        params.append(p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints[p.name]))
+        if p.name == "model":
+            params += [
+                inspect.Parameter(
+                    name,
+                    inspect.Parameter.KEYWORD_ONLY,
+                    default=typer.Option(None, flag, help=f"With a URDF --model: {what}."),
+                    annotation=str | None,
+                )
+                for name, flag, what in (
+                    ("base_link", "--base-link", "the chain's first link [default: base_link]"),
+                    ("tip_link", "--tip-link", "its last link [default: tool0, else flange]"),
+                )
+            ]
+
+    @functools.wraps(command)
+    def linked(**given: Any) -> None:
+        given["model"] = chain_name(given["model"], given.pop("base_link"), given.pop("tip_link"))
+        command(**given)
+
+    linked.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    linked.__annotations__ = {p.name: p.annotation for p in params}
+    return linked
+
+
+def chain_name(model: str | None, base_link: str | None, tip_link: str | None) -> str | None:
+    """``--model`` with ``--base-link`` and ``--tip-link`` folded in: ``arm.urdf#BASE:TIP``."""
+    if base_link is None and tip_link is None:
+        return model
+    path, named, _ = (model or "").partition("#")
+    if not path.strip().lower().endswith(".urdf"):
+        fail(f"--base-link and --tip-link go with a URDF --model, not {model!r}")
+    if named:
+        fail(f"--model {model} names its links already: give them once")
+    return f"{path}#{base_link or ''}:{tip_link or ''}"
 
 
 def seed(default: int, help: str) -> Any:

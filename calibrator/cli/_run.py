@@ -235,14 +235,14 @@ def triple(text: str | None, option: str) -> tuple[float, float, float] | None:
 def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: float | None) -> Any:
     """Refuse motion options above the model's fixed ceilings (exit 2); the named model.
 
-    The ceilings (:attr:`calibrator.models.RobotModel.move_speed_cap_rad_s` and
+    The ceilings (:attr:`calibrator.robots.RobotDescription.move_speed_cap_rad_s` and
     ``move_accel_cap_rad_s2``) are fixed per model; options can lower them only.
     """
+    from calibrator import robots
     from calibrator.errors import CalibrationError
-    from calibrator.models import get_model
 
     try:
-        arm = get_model(model_name)
+        arm = robots.get(model_name)
     except CalibrationError as exc:
         fail(str(exc))
     speed_cap, accel_cap = arm.move_speed_cap_rad_s, arm.move_accel_cap_rad_s2
@@ -349,7 +349,7 @@ def open_run(
     ----------
     robot_url, tracker_url : str
         Simulators carry their settings in their URLs (:func:`device_urls`).
-    arm : calibrator.models.RobotModel
+    arm : calibrator.robots.RobotDescription
     options : calibrator.acquire.run.RunOptions
     record : Path, optional
         Log the tracker's raw exchange there (``--sim-record``; line-protocol kinds).

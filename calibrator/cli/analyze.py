@@ -9,13 +9,9 @@ import typer
 
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
-from calibrator.cli._app import app
+from calibrator.cli._app import analyze_app, app
 from calibrator.errors import CalibrationError
 
-analyze_app = typer.Typer(
-    no_args_is_help=True,
-    help="Accuracy analysis: how accurate can this arm be, which tolerances matter.",
-)
 app.add_typer(analyze_app, name="analyze")
 
 
@@ -29,7 +25,7 @@ class Distribution(StrEnum):
 #: (low, high, unit); a bearing's radial clearance is microns to a millimetre,
 #: the distance between its end faces millimetres to a metre.
 RANGES = {
-    "length": (-1e5, 1e5, "mm"),  # as any MDH length (calibrator.consistency.MAX_MDH)
+    "length": (-1e5, 1e5, "mm"),  # as any MDH length (calibrator.inputs.consistency.MAX_MDH)
     "r0": (0.0, 10.0, "mm"),
     "h": (1.0, 10_000.0, "mm"),
     "pose": (-360.0, 360.0, "deg"),
@@ -43,12 +39,13 @@ def _floats(text, what, n=None, bounds=None):
 
     ``bounds`` is a key of :data:`RANGES` every value must lie in.
     """
-    from calibrator import strict
+    from calibrator.inputs import grammar
+    from calibrator.inputs.errors import StrictError
 
     try:
         # Every item, an empty one too: "0.05," is a value missing, not one value.
-        values = [strict.parse_number(v, what) for v in str(text).split(",")]
-    except strict.StrictError as exc:
+        values = [grammar.parse_number(v, what) for v in str(text).split(",")]
+    except StrictError as exc:
         reason = str(exc).removeprefix(f"{what}: ")
         raise CalibrationError(
             f"{what} must be comma-separated numbers, got {text!r} ({reason})"
@@ -111,6 +108,7 @@ def _row(label, stats):
 
 
 @analyze_app.command("misalignment")
+@opts.urdf_links
 def misalignment(
     model: str = opts.model(
         "paper",
@@ -150,9 +148,11 @@ def misalignment(
     """Joint-axis misalignment Monte Carlo: hand error statistics and figures."""
     import numpy as np
 
-    from calibrator import outputs, progress, strict
+    from calibrator import outputs
     from calibrator.analysis import arm, engine
     from calibrator.analysis import misalignment as mc
+    from calibrator.cli import progress
+    from calibrator.inputs import budgets
 
     if workers is not None and scheduler is not None:
         raise CalibrationError("give --workers or --scheduler, not both")
@@ -170,8 +170,8 @@ def misalignment(
     if sweep_length is not None:
         name, values = _assignment(sweep_length, "--sweep-length", "length")
         cases += [(f"{name}={v:g}", {name: v}, r0_mm) for v in values]
-    strict.check_budget("sweep values", len(cases) - 1, *checks.BUDGETS["sweep_values"])
-    strict.check_budget("--trials x cases", trials * len(cases), *checks.BUDGETS["sweep_work"])
+    budgets.check_budget("sweep values", len(cases) - 1, *checks.BUDGETS["sweep_values"])
+    budgets.check_budget("--trials x cases", trials * len(cases), *checks.BUDGETS["sweep_work"])
     # Build every arm and study first: a bad option fails before any work.
     studies = [
         (label, mc.Study(arm.build(model, pose_deg, lengths), r, h_mm, trials, seed))
@@ -262,6 +262,7 @@ def _misalignment_plots(batch, folder, results):
 
 
 @analyze_app.command("tolerance")
+@opts.urdf_links
 def tolerance(
     model: str = opts.model(None, "Named model giving the nominal table."),
     calibration: Path = typer.Option(
@@ -307,11 +308,14 @@ def tolerance(
     """Tolerance budget: worst-case and statistical hand error, and what to tighten first."""
     import numpy as np
 
-    from calibrator import models, outputs, strict
+    from calibrator import outputs, robots
     from calibrator.analysis import tolerance as tl
+    from calibrator.inputs import budgets
 
     n_poses = 1 if pose is not None else poses
-    strict.check_budget("--poses x --samples", n_poses * samples, *checks.BUDGETS["tolerance_work"])
+    budgets.check_budget(
+        "--poses x --samples", n_poses * samples, *checks.BUDGETS["tolerance_work"]
+    )
 
     if (model is None) == (calibration is None):
         raise CalibrationError("give exactly one of --model and --calibration")
@@ -322,9 +326,9 @@ def tolerance(
 
         loaded = cal.load(calibration)
         nominal, source = loaded.mdh, f"{calibration} (identified table)"
-        limits = models.get_model(loaded.model).joint_limits_rad if loaded.model else None
+        limits = robots.get(loaded.model).joint_limits_rad if loaded.model else None
     else:
-        m = models.get_model(model)
+        m = robots.get(model)
         nominal, source, limits = m.mdh, m.name, m.joint_limits_rad
     overrides = {}
     for item in tol or []:

@@ -5,19 +5,19 @@ from pathlib import Path
 
 import typer
 
-from calibrator import strict
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
-from calibrator.cli.analyze import analyze_app
+from calibrator.cli._app import analyze_app
 from calibrator.errors import CalibrationError
 from calibrator.identify.option_rules import RULES
+from calibrator.inputs.rules import Rule
 
 _DEG = 3.141592653589793 / 180.0
 #: A motion's time: below 10 ms its accelerations are not a robot's (1e-300 s
 #: made them overflow to nan); above an hour it is not one motion.
-_DURATION = strict.Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
+_DURATION = Rule("duration", float, 0.01, 3600.0, unit="s", meaning="motion time")
 #: Share of the time accelerating: below 1 % the accelerations overflow (5e-324 gave nan).
-_RAMP = strict.Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
+_RAMP = Rule("ramp", float, 0.01, 0.5, meaning="share of the time accelerating")
 
 
 def _vector(text: str, what: str, prismatic: list[bool], limits) -> list[float]:
@@ -48,12 +48,18 @@ def _direction(vector_mm, size_mm: float) -> str:
     return "(" + ", ".join(f"{v / size_mm:+.2f}" for v in vector_mm) + ")"
 
 
+#: Old spellings of ``--model paper``, still accepted: the project once called
+#: its source papers "seeds", a word that now means only the random seed.
+PAPER_ALIASES = ("seed",)
+
+
 @analyze_app.command("deflection")
+@opts.urdf_links
 def deflection(
     model: str = opts.model(
         "paper",
-        "'paper' (the five-axis example of the source paper, Chen and Zhang 1984) "
-        "or a named model with --sections.",
+        "'paper' (the five-axis example of the deflection paper, Chen and Zhang 1984; "
+        "'seed' is its old spelling) or a named model with --sections.",
     ),
     sections: Path = typer.Option(
         None, help="Link-section YAML (flexible links, diameters, material); named models only."
@@ -96,27 +102,28 @@ def deflection(
     """Link bending by kinetostatics: hand deflection at the end pose and along a motion."""
     import numpy as np
 
-    from calibrator import mass_models, models, outputs
+    from calibrator import outputs, robots
     from calibrator.analysis import deflection as dfl
+    from calibrator.model import mass_models
 
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
             outputs.check(path, inputs=[sections], force=force, option=option)
-    # 'seed' is the example's old name (the project called its source papers seeds).
-    paper = model.strip().lower() in ("paper", "seed")
+    paper = model.strip().lower() in ("paper", *PAPER_ALIASES)
     if paper:
+        model = "paper"  # recorded under its name, whichever spelling was typed
         if sections is not None or masses is not None or payload_kg:
             raise CalibrationError(
                 "--sections, --masses and --payload-kg apply to named models; "
                 "the paper's example has its own"
             )
-        arm = dfl.seed_arm()
-        prismatic = list(dfl.SEED_PRISMATIC)
-        q, dt = dfl.seed_trajectory(samples, ramp)
-        if duration != dfl.SEED_DURATION_S:
-            dt *= duration / dfl.SEED_DURATION_S
+        arm = dfl.paper_arm()
+        prismatic = list(dfl.PAPER_PRISMATIC)
+        q, dt = dfl.paper_trajectory(samples, ramp)
+        if duration != dfl.PAPER_DURATION_S:
+            dt *= duration / dfl.PAPER_DURATION_S
         if start is not None or pose is not None:
-            limits = dfl.SEED_LIMITS
+            limits = dfl.PAPER_LIMITS
             q0 = q[0] if start is None else np.array(_vector(start, "--start", prismatic, limits))
             q1 = q[-1] if pose is None else np.array(_vector(pose, "--pose", prismatic, limits))
             q, dt = dfl.trapezoid(q0, q1, duration, samples, ramp)
@@ -128,7 +135,7 @@ def deflection(
         source = masses or from_file or model
         arm = dfl.named_arm(model, table, mass_models.resolve(source))
         prismatic = [False] * 6
-        limits = models.get_model(model).joint_limits_rad
+        limits = robots.get(model).joint_limits_rad
         q0 = (
             np.zeros(6) if start is None else np.array(_vector(start, "--start", prismatic, limits))
         )

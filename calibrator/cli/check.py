@@ -25,6 +25,7 @@ EXIT_CODES = {"ok": 0, "drifted": 3, "recalibrate": 4}
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def check(
     *,
@@ -79,11 +80,13 @@ def check(
 
     from calibrator import calibration as calibrations
     from calibrator import cell as cells
-    from calibrator import frames, outputs, progress
+    from calibrator import outputs
     from calibrator.acquire.run import RunOptions
     from calibrator.check import document as documents
     from calibrator.check import poses as check_poses
     from calibrator.check.model import Calibrated
+    from calibrator.cli import progress
+    from calibrator.model import frames
 
     output = Path(output)
     data_path = documents.data_path(output)

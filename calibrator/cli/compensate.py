@@ -108,9 +108,8 @@ def compensate(
 
 def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm, max_deg,
             keep_failed, summary_path, payload_kg):  # fmt: skip
-    from calibrator import filtering
+    from calibrator import filtering, robots
     from calibrator.filtering import engine, frames_file
-    from calibrator.models import get_model
 
     language = filtering.choose(fmt, program)
     filtering.choose(language, output)  # the output must carry the same extension
@@ -118,7 +117,7 @@ def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm,
         opts.fail(f"{program}: no such file")
     if config_dat is not None and not config_dat.is_file():
         opts.fail(f"{config_dat}: no such file")
-    limits = get_model(cal.model).joint_limits_rad if cal.model else None
+    limits = robots.get(cal.model).joint_limits_rad if cal.model else None
     job = filtering.Job(
         calibration=cal,
         frames=frames_file.read(frames_path),

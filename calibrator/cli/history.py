@@ -259,7 +259,8 @@ def reidentify(
     """
     import time
 
-    from calibrator import outputs, progress
+    from calibrator import outputs
+    from calibrator.cli import progress
     from calibrator.history import open_history
     from calibrator.history import reidentify as redo
 
@@ -278,7 +279,7 @@ def reidentify(
         failed = 0
         with reporter.task("reidentify", len(jobs), "sessions") as task:
             for done, (job, code, error) in enumerate(
-                redo.run(jobs, options, workers, scheduler), start=1
+                redo.run(jobs, identify_one, options, workers, scheduler), start=1
             ):
                 if code == 0:
                     store.record_calibration(job.output, robot=job.robot)
@@ -294,3 +295,32 @@ def reidentify(
         )
     if failed:
         raise typer.Exit(1)
+
+
+def identify_one(session: str, output: str, options: tuple[str, ...]) -> tuple[int, str]:
+    """Run ``calibrator identify SESSION -o OUTPUT OPTIONS`` in this process.
+
+    What ``history reidentify`` runs on each session (in a Dask worker, which
+    finds this function by its name): the command's own code, so a result is
+    what ``identify`` writes.
+
+    Returns
+    -------
+    code : int
+        identify's exit code (0: written).
+    error : str
+        What it printed on stderr.
+    """
+    from contextlib import redirect_stderr, redirect_stdout
+    from io import StringIO
+
+    from calibrator.cli import main
+
+    out, err = StringIO(), StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            main(["identify", session, "-o", output, "--quiet", *options])
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    return code, err.getvalue()

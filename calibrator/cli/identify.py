@@ -12,7 +12,7 @@ from calibrator.cli._app import app
 from calibrator.errors import CalibrationError
 from calibrator.identify.calibrate import JointOptions, calibrate
 from calibrator.identify.option_rules import RULES
-from calibrator.strict import Rule
+from calibrator.inputs.rules import Rule
 
 #: --target-mm: below 0.1 um (no tracker's noise) the pose count overflows.
 _TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error to reach")
@@ -32,6 +32,7 @@ class Loss(StrEnum):
 
 
 @app.command()
+@opts.urdf_links
 def identify(
     ctx: typer.Context,
     session_paths: list[Path] = typer.Argument(
@@ -147,8 +148,9 @@ def identify(
 ) -> None:
     """Identify MDH parameters from a session and write calibration.json."""
 
-    from calibrator import outputs, progress
-    from calibrator.identify import pipeline, report, uncertainty
+    from calibrator import outputs
+    from calibrator.cli import progress
+    from calibrator.identify import accuracy, pipeline, uncertainty
 
     if k is not None and orientation_weight is not None:
         raise CalibrationError("give --orientation-weight only (--k is its old name)")
@@ -210,12 +212,12 @@ def identify(
         typer.echo(f"warning: {text}")
     if result.outliers and options.loss in ("huber", "trimmed"):
         typer.echo(f"outlier poses set aside: {', '.join(map(str, result.outliers))}")
-    typer.echo(report.format_table(result.stats))
+    typer.echo(accuracy.format_table(result.stats))
     for line in uncertainty.summary_lines(result.uncertainty):
         typer.echo(line)
     typer.echo(uncertainty.noise_floor_line(result.uncertainty))
     if found is not None:
-        from calibrator import joint_fit
+        from calibrator.identify import joint_fit
 
         for line in joint_fit.summary_lines(found):
             typer.echo(line)

@@ -21,6 +21,7 @@ from calibrator.cli._run import triple as _triple
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def measure(
     *,
@@ -106,9 +107,10 @@ def measure(
 
     marks = [("start", time.perf_counter())]
 
-    from calibrator import outputs, progress
+    from calibrator import outputs
     from calibrator import plan as plans
     from calibrator.acquire.run import RunOptions
+    from calibrator.cli import progress
 
     output = Path(output)
     inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]

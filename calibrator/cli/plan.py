@@ -25,6 +25,7 @@ class Selection(StrEnum):
 
 
 @app.command()
+@opts.urdf_links
 def plan(
     output: Path = opts.output(Path("plan.csv"), "Plan CSV to write."),
     force: bool = opts.force(),

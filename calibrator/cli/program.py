@@ -24,6 +24,7 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 
 
 @app.command()
+@opts.urdf_links
 def program(
     plan_path: Path = typer.Argument(..., metavar="PLAN", help="Plan CSV (calibrator plan)."),
     output: Path = opts.output(..., "Program file to write."),
@@ -69,17 +70,16 @@ def program(
     import numpy as np
 
     from calibrator import cell as cells
-    from calibrator import outputs
+    from calibrator import outputs, robots
     from calibrator import plan as plans
     from calibrator import program as programs
-    from calibrator.models import get_model
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
     # KRL and Fanuc want the program named as its file; no language takes a keyword.
     name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
-    arm = get_model(model)
+    arm = robots.get(model)
     given = plans.read_plan(plan_path)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel

@@ -32,15 +32,16 @@ def _errors_choice(value: str | None):
 
 def _has_reference_errors(model: str) -> bool:
     """Whether the arm's description carries a paper's table of true errors."""
-    from calibrator.models import get_model
+    from calibrator import robots
 
     try:
-        return get_model(model).reference_errors is not None
+        return robots.get(model).reference_errors is not None
     except CalibrationError:
         return False  # sim.simulate names the unknown model
 
 
 @app.command()
+@opts.urdf_links
 def simulate(
     output: Path = opts.output(
         Path("session.parquet"),
@@ -73,8 +74,8 @@ def simulate(
         None,
         metavar="ref003|random|none",
         callback=_errors_choice,
-        help=f"True MDH errors: ref003 = Table 2 of paper 003 ({ipso_paper.NAME} only), random, "
-        f"or none [default: ref003 for {ipso_paper.NAME}, else random].",
+        help=f"True MDH errors: ref003 = Table 2 of the IPSO paper ({ipso_paper.NAME} only), "
+        f"random, or none [default: ref003 for {ipso_paper.NAME}, else random].",
     ),
     tool_offset_mm: float = typer.Option(
         0.0,

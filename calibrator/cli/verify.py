@@ -55,6 +55,7 @@ def _cube(text: str | None) -> Any:
 
 
 @app.command()
+@opts.urdf_links
 @_run.run_command
 def verify(
     *,
@@ -127,8 +128,10 @@ def verify(
     from dataclasses import replace
 
     from calibrator import calibration as calibrations
-    from calibrator import frames, outputs, progress
+    from calibrator import outputs
     from calibrator.acquire import verify as run
+    from calibrator.cli import progress
+    from calibrator.model import frames
 
     output = Path(output)
     data_path = run.data_path(output)
@@ -272,7 +275,7 @@ def _base_frame(text: str | None) -> Any:
         return None
     import numpy as np
 
-    from calibrator import frames
+    from calibrator.model import frames
 
     needs = "X,Y,Z,RX,RY,RZ (mm, rad)"
     values = np.array(opts.floats(text, 6, "--base-frame", needs))

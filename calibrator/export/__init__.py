@@ -3,80 +3,33 @@
 A format is one function registered with :func:`exporter`: it takes a
 Calibration and returns an :class:`Exported` (the file's text and notes on
 what the format could not hold). The CLI's ``--format`` choices and the
-file-extension lookup come from :data:`REGISTRY`. Importing this package
-imports every format module, which registers its functions.
+file-extension lookup come from :data:`REGISTRY`. The table and the
+decorator live in :mod:`calibrator.export.registry` (the format modules
+import them from there); importing this package imports every format
+module, which registers its functions.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from calibrator import outputs
+from calibrator.export.registry import REGISTRY, Exported, Format, Writer, exporter, format_names
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
-
-@dataclass(frozen=True)
-class Exported:
-    """What an exporter produced.
-
-    Attributes
-    ----------
-    text : str
-        The file's content.
-    notes : list of str
-        One line per thing the format cannot express, with the residual it
-        leaves (empty when the export is exact).
-    """
-
-    text: str
-    notes: list = field(default_factory=list)
-
-
-@dataclass(frozen=True)
-class Format:
-    """A registered format: its name, file suffixes, one-line help and writer."""
-
-    name: str
-    suffixes: tuple
-    help: str
-    write: Writer
-
-
-#: An exporter: a calibration in, the file's text and notes out.
-Writer = Callable[["Calibration"], Exported]
-
-#: name -> Format, in registration order.
-REGISTRY: dict[str, Format] = {}
-
-
-def exporter(name: str, suffixes: Iterable[str], help: str) -> Callable[[Writer], Writer]:
-    """Register ``func(calibration) -> Exported`` as format ``name``.
-
-    Parameters
-    ----------
-    name : str
-        The ``--format`` value.
-    suffixes : tuple of str
-        Output file name endings that select this format (``".json"``).
-    help : str
-        One line for ``--help``.
-    """
-
-    def register(func: Writer) -> Writer:
-
-        REGISTRY[name] = Format(name, tuple(suffixes), help, func)
-        return func
-
-    return register
-
-
-def format_names() -> tuple[str, ...]:
-    """Registered format names, in registration order."""
-    return tuple(REGISTRY)
+__all__ = [
+    "REGISTRY",
+    "Exported",
+    "Format",
+    "Writer",
+    "choose",
+    "export",
+    "export_like",
+    "exporter",
+    "format_names",
+]
 
 
 def choose(fmt: str | None = None, output: outputs.PathLike | None = None) -> str:
@@ -111,7 +64,7 @@ def export_like(
 
 def _with_losses(result: Exported, calibration: Calibration, fmt: str) -> Exported:
     # No format holds the joint terms: say what is lost.
-    from calibrator.joint_terms import loss_note
+    from calibrator.model.joint_terms import loss_note
 
     lost = loss_note(calibration.joint_terms)
     if lost:

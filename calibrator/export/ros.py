@@ -24,11 +24,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
-from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
+from calibrator.inputs import textfile, yamlfile
+from calibrator.model import conventions, kinematics
+from calibrator.model.frames import from_xyz_rpy, xyz_rpy
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -41,50 +42,9 @@ _M = 1000.0
 MAX_BYTES = 2**20
 
 
-def origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Joint origins of an MDH table (mm) and the trailing transform.
-
-    Returns
-    -------
-    origins : ndarray, shape (6, 4, 4)
-    trailing : ndarray, shape (4, 4)
-        ``A_1...A_6 (q) = origin_1 Rz(q_1) ... origin_6 Rz(q_6) . trailing``.
-    """
-    mdh = kinematics.check_mdh(mdh)
-    consts = kinematics.link_constants(mdh)  # Tz(d) Tx(a) Rx(alpha) Ry(beta)
-    tz = np.tile(np.eye(4), (6, 1, 1))
-    tz[:, 2, 3] = mdh[:, kinematics.D]
-    # Tx(a) Rx(alpha) Ry(beta) = Tz(-d) . consts
-    after = np.linalg.inv(tz) @ consts
-    out = np.empty((6, 4, 4))
-    prev = np.eye(4)
-    for i in range(6):
-        out[i] = prev @ chains.rz(mdh[i, kinematics.THETA]) @ tz[i]
-        prev = after[i]
-    return out, after[5]
-
-
-def origin_values(transform: np.ndarray) -> np.ndarray:
-    """``x y z`` (mm) and URDF ``roll pitch yaw`` (rad) of a transform."""
-    from scipy.spatial.transform import Rotation
-
-    rpy = Rotation.from_matrix(transform[:3, :3]).as_euler("xyz")
-    return np.concatenate([transform[:3, 3], rpy])
-
-
-def origin_transform(values: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`origin_values`: (x, y, z mm, roll, pitch, yaw) -> (4, 4)."""
-    from scipy.spatial.transform import Rotation
-
-    out = np.eye(4)
-    out[:3, :3] = Rotation.from_euler("xyz", values[3:]).as_matrix()
-    out[:3, 3] = values[:3]
-    return out
-
-
 def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
-    mm, rad = chains.residual_size(trailing)
+    mm, rad = conventions.residual_size(trailing)
     if mm < 1e-9 and rad < 1e-12:
         return []
     return [
@@ -96,10 +56,10 @@ def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
 @exporter("ros-kinematics", (".yaml", ".yml"), "ur_description kinematics parameters (m, rad)")
 def to_ros(cal: Calibration) -> Exported:
     """The calibrated arm as a ``kinematics:`` YAML with its ``hash``."""
-    frames, trailing = origins(cal.mdh)
+    frames, trailing = kinematics.joint_origins(cal.mdh)
     lines = ["kinematics:"]
     for name, origin in zip(JOINTS, frames, strict=True):
-        values = origin_values(origin)
+        values = xyz_rpy(origin)
         values[:3] /= _M
         lines.append(f"  {name}:")
         lines += [f"    {k}: {float(v)!r}" for k, v in zip(KEYS, values, strict=True)]
@@ -122,7 +82,7 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     ------
     CalibrationError
     """
-    doc = strict.load_yaml(strict.read_text(path, MAX_BYTES, "YAML"), str(path))
+    doc = yamlfile.loads(textfile.read_text(path, MAX_BYTES, "YAML"), str(path))
     kin = doc.get("kinematics") if isinstance(doc, dict) else None
     if not isinstance(kin, dict) or not all(isinstance(kin.get(j), dict) for j in JOINTS):
         raise CalibrationError(f"{path}: no 'kinematics' with the joints {', '.join(JOINTS)}")
@@ -138,6 +98,6 @@ def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             )
         values = np.asarray(raw, dtype=float)
         values[:3] *= _M
-        frame = frame @ origin_transform(values)
+        frame = frame @ from_xyz_rpy(values)
         joints[i] = frame
     return joints, frame.copy()

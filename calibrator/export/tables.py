@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import frames, kinematics
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
+from calibrator.model import frames, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration

@@ -5,8 +5,8 @@ A Universal Robots controller stores its factory calibration as deltas
 added to the model's published standard-DH table. Standard DH has no
 ``beta``: where two axes are nearly parallel the common normal lies far
 away, so ``d`` becomes huge (hundreds of metres in real factory data) and
-``a``/``theta`` jump. :func:`calibrator.chains.mdh_to_dh` and
-:func:`calibrator.chains.dh_to_mdh` convert exactly through the joint axes;
+``a``/``theta`` jump. :func:`calibrator.model.conventions.mdh_to_dh` and
+:func:`calibrator.model.conventions.dh_to_mdh` convert exactly through the joint axes;
 ``docs/exports.md`` gives the formulas.
 
 File layout (an INI text, the ``[mounting]`` section as on the controller)::
@@ -31,14 +31,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import chains, kinematics, strict
 from calibrator.errors import CalibrationError
+from calibrator.model import conventions, kinematics
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 from calibrator import robots
-from calibrator.export import Exported, exporter
+from calibrator.export.registry import Exported, exporter
+from calibrator.inputs import jsonfile, textfile
+from calibrator.inputs.errors import StrictError
 from calibrator.robots import ur as ur_family
 
 #: Keys of the deltas and the MDH column each applies to, in file order.
@@ -79,7 +81,7 @@ def deltas_from_mdh(mdh: ArrayLike, model: str | None) -> tuple[np.ndarray, np.n
         ``A(mdh)(q) = A(nominal + deltas)(q) @ residual`` (identity if exact).
     """
     nominal = nominal_dh(model)
-    dh, residual = chains.mdh_to_dh(mdh, nominal)
+    dh, residual = conventions.mdh_to_dh(mdh, nominal)
     deltas = dh - nominal
     deltas[:, _ANGLES] = (deltas[:, _ANGLES] + np.pi) % (2 * np.pi) - np.pi
     return deltas, residual
@@ -105,7 +107,7 @@ def mdh_from_deltas(
     residual : ndarray, shape (4, 4)
     """
     nominal = nominal_dh(model)
-    return chains.dh_to_mdh(
+    return conventions.dh_to_mdh(
         nominal + np.asarray(deltas, dtype=float), nominal if reference is None else reference
     )
 
@@ -128,7 +130,7 @@ def to_ur(cal: Calibration) -> Exported:
 
 
 def _residual_notes(residual, fmt, what):
-    mm, rad = chains.residual_size(residual)
+    mm, rad = conventions.residual_size(residual)
     if mm < 1e-9 and rad < 1e-12:
         return []
     return [f"{fmt} cannot hold {what}: the flange is off by {mm:.6g} mm and {rad:.6g} rad"]
@@ -157,7 +159,7 @@ def read(path: str | Path, model: str | None = None) -> tuple[np.ndarray, str]:
     # No interpolation: a '%' in a value is text, not a configparser reference.
     parser = configparser.ConfigParser(interpolation=None)
     try:
-        parser.read_string(strict.read_text(path, MAX_BYTES, "a UR calibration file"), str(path))
+        parser.read_string(textfile.read_text(path, MAX_BYTES, "a UR calibration file"), str(path))
     except configparser.Error as exc:
         raise CalibrationError(
             f"{path}: not a UR calibration file ({str(exc).splitlines()[0]})"
@@ -174,8 +176,8 @@ def read(path: str | Path, model: str | None = None) -> tuple[np.ndarray, str]:
         if raw is None:
             raise CalibrationError(f"{path}: [mounting] has no {key}")
         try:
-            values = strict.load_json(raw, f"{path}: {key}")
-        except strict.StrictError:
+            values = jsonfile.load_json(raw, f"{path}: {key}")
+        except StrictError:
             values = None  # NaN, 1e400, an integer beyond 64 bits: all refused below
         if (
             not isinstance(values, list)

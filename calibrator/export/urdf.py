@@ -4,7 +4,7 @@ Links ``base_link``, ``shoulder_link`` ... ``wrist_3_link`` as in UR's
 description, then fixed joints to ``flange`` (the MDH flange frame, holding
 ``a6, alpha6, beta6`` that the kinematics YAML cannot) and ``tool`` (the
 identified ``flange2tool``). The joint origins are those of
-:func:`calibrator.export.ros.origins`. Nothing is lost: the chain
+:func:`calibrator.model.kinematics.joint_origins`. Nothing is lost: the chain
 ``base_link -> flange`` is the calibrated ``A_1 ... A_6``.
 """
 
@@ -17,10 +17,12 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from calibrator import robots
 from calibrator.errors import CalibrationError
-from calibrator.export import Exported, exporter
-from calibrator.export.ros import JOINTS, origin_values, origins
-from calibrator.models import get_model
+from calibrator.export.registry import Exported, exporter
+from calibrator.export.ros import JOINTS
+from calibrator.model import kinematics
+from calibrator.model.frames import xyz_rpy
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -32,7 +34,7 @@ LINKS = ("base_link",) + tuple(f"{j}_link" for j in JOINTS)
 
 
 def _origin(transform):
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     xyz = " ".join(repr(float(v)) for v in values[:3])
     rpy = " ".join(repr(float(v)) for v in values[3:])
@@ -43,7 +45,7 @@ def _limits(model):
     if model is None:
         return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
     try:
-        robot = get_model(model)
+        robot = robots.get(model)
     except CalibrationError:
         return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
     return robot.joint_limits_rad, robot.max_joint_speed_rad_s
@@ -52,7 +54,7 @@ def _limits(model):
 @exporter("urdf", (".urdf",), "URDF of the calibrated arm with flange and tool frames (m, rad)")
 def to_urdf(cal: Calibration) -> Exported:
     """The calibrated arm as URDF text."""
-    frames, trailing = origins(cal.mdh)
+    frames, trailing = kinematics.joint_origins(cal.mdh)
     limits, speeds = _limits(cal.model)
     name = quoteattr(f"{cal.model or 'arm'}_calibrated")
     out = ['<?xml version="1.0"?>', f"<robot name={name}>"]
@@ -117,7 +119,7 @@ def like(
         The calibration was not made against this chain, or the chain has
         no fixed joint after joint 6 to hold the flange.
     """
-    from calibrator import kinematics
+    from calibrator.model import kinematics
     from calibrator.robots import urdf as robot_urdf
 
     chain = robot_urdf.read_chain(path, base_link, tip_link)
@@ -169,7 +171,7 @@ def like(
 
 
 def _origin_attributes(transform: np.ndarray) -> dict[str, str]:
-    values = origin_values(transform)
+    values = xyz_rpy(transform)
     values[:3] /= _M
     return {
         "xyz": " ".join(repr(float(v)) for v in values[:3]),

@@ -29,8 +29,8 @@ poses.
 
 A near-singular pose (the wrist's axes 4 and 6 aligned, the arm stretched,
 the wrist centre on axis 1) is where a small pose change turns the joints a
-lot; :func:`nearest_singularity` names the closest one, to explain a
-compensation that failed or jumped.
+lot; :func:`calibrator.model.singularities.nearest` names the closest one, to
+explain a compensation that failed or jumped.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics, singularities
+from calibrator.model import kinematics, singularities
 
 #: Names of the three geometric bits, in column order of :func:`arm_bits`.
 BITS = ("shoulder", "elbow", "wrist")
@@ -98,44 +98,3 @@ def beyond_half_turn(q_deg: ArrayLike) -> np.ndarray:
     """1 where a joint angle lies outside [-180, 180) deg (Yaskawa's ``>= 180`` bits)."""
     q = np.asarray(q_deg, dtype=float)
     return ((q >= 180.0) | (q < -180.0)).astype(int)
-
-
-#: A pose closer than this to a wrist or elbow singularity is named near it (deg).
-NEAR_DEG = 5.0
-#: ... or closer than this to the shoulder singularity (mm).
-NEAR_MM = 50.0
-
-
-def nearest_singularity(mdh: ArrayLike, q_model: ArrayLike) -> list[str]:
-    """Name, per pose, the singularity closest to it, with its margin.
-
-    Parameters
-    ----------
-    mdh : array_like, shape (6, 5)
-    q_model : array_like, shape (N, 6)
-        rad.
-
-    Returns
-    -------
-    list of str, length N
-        E.g. ``"wrist singularity: axes 4 and 6 are 0.8 deg from parallel"``;
-        empty where no singularity is within :data:`NEAR_DEG` (or
-        :data:`NEAR_MM` for the shoulder).
-    """
-    out = []
-    # The one measure of each singularity (the planner keeps its poses clear by it).
-    for a, b, c in singularities.margins(mdh, q_model):
-        margins = [a / NEAR_DEG, b / NEAR_DEG, c / NEAR_MM]
-        pick = int(np.argmin(margins))
-        if margins[pick] > 1.0:
-            out.append("")
-            continue
-        out.append(
-            [
-                f"wrist singularity: axes 4 and 6 are {a:.2f} deg from parallel",
-                f"elbow singularity: the arm is {b:.1f} deg from stretched",
-                f"shoulder singularity: the wrist centre is {c:.0f} mm from the plane "
-                "through axis 1 parallel to axis 2",
-            ][pick]
-        )
-    return out

@@ -29,9 +29,9 @@ def for_model(name: str | None) -> JointConvention:
     """
     if not name:
         return IDENTITY
-    from calibrator.models import get_model
+    from calibrator import robots
 
-    return get_model(name).convention
+    return robots.get(name).convention
 
 
 def to_model(q_controller: ArrayLike, convention: JointConvention = IDENTITY) -> np.ndarray:

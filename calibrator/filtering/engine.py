@@ -27,9 +27,11 @@ from typing import IO
 
 import numpy as np
 
-from calibrator import compensate, frames, outputs
-from calibrator.filtering import REGISTRY, Job, Target, Unit, configuration, convention, numbers
+from calibrator import compensate, outputs
+from calibrator.filtering import configuration, convention, numbers
+from calibrator.filtering.base import REGISTRY, Job, Target, Unit
 from calibrator.filtering.solve import Solver
+from calibrator.model import frames, singularities
 
 #: Targets solved together.
 BLOCK = 10_000
@@ -348,7 +350,7 @@ class Filter:
         near = dict.fromkeys(rows[bad].tolist(), "")
         if (bad & (~sol.converged | jumped)).any():
             pick = np.flatnonzero(bad & (~sol.converged | jumped))
-            named = configuration.nearest_singularity(cal.nominal_mdh, q0[pick])
+            named = singularities.nearest(cal.nominal_mdh, q0[pick])
             near.update(zip(rows[pick].tolist(), named, strict=True))
         for j in np.flatnonzero(bad).tolist():
             i = int(rows[j])

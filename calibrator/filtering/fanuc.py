@@ -28,19 +28,18 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
-from calibrator.filtering import (
+from calibrator.filtering import configuration, rotations
+from calibrator.filtering.base import (
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
     numbered_frame,
     read_lines,
-    rotations,
     target_tool,
 )
+from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")

@@ -26,9 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import frames, strict
 from calibrator.errors import CalibrationError
 from calibrator.filtering import rotations
+from calibrator.inputs import textfile, yamlfile
+from calibrator.model import frames
 
 #: Largest frames file read (bytes).
 MAX_BYTES = 1_000_000
@@ -99,7 +100,7 @@ def read(path: str | Path | None) -> FrameTable:
     table = FrameTable()
     if path is None:
         return table
-    doc = strict.load_yaml(strict.read_text(path, MAX_BYTES, "a frames file"), str(path))
+    doc = yamlfile.loads(textfile.read_text(path, MAX_BYTES, "a frames file"), str(path))
     if not isinstance(doc, dict):
         raise CalibrationError(f"{path}: expected a mapping with tools, bases, pulses_per_degree")
     unknown = set(doc) - _TOP

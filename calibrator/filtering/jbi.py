@@ -32,22 +32,20 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
-from calibrator.filtering import (
+from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering.base import (
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
     numbered_frame,
-    numbers,
     read_lines,
-    rotations,
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _POSITION = re.compile(r"^(C\d+)=(.*)$")
 

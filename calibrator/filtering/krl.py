@@ -34,22 +34,21 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
-from calibrator.filtering import (
+from calibrator.filtering import configuration, rotations
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
     numbered_frame,
     read_lines,
-    rotations,
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _FIELD = re.compile(r"([A-Za-z]\w*)\s+(" + _NUM + r"|'[Bb][01]+'|'[Hh][0-9A-Fa-f]+')")

@@ -32,22 +32,20 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
-from calibrator.filtering import (
+from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
-    numbers,
     read_lines,
-    rotations,
     split_ending,
     target_tool,
 )
+from calibrator.model import frames
 
 _DECL = re.compile(
     r"^\s*(?:LOCAL\s+|TASK\s+)*(?:CONST|PERS|VAR)\s+(robtarget|jointtarget|tooldata|wobjdata)"

@@ -26,8 +26,10 @@ import itertools
 
 import numpy as np
 
-from calibrator import compensate, frames, kinematics
-from calibrator.filtering import Job, Language, configuration, convention
+from calibrator import compensate
+from calibrator.filtering import configuration, convention
+from calibrator.filtering.base import Job, Language
+from calibrator.model import frames, kinematics
 
 #: Every STRIDES[0]-th target of a block is solved first (from the library or
 #: the target before); each finer level starts from the nearest solved target

@@ -21,20 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import frames
-from calibrator.filtering import (
+from calibrator.filtering import configuration, numbers
+from calibrator.filtering.base import (
     FilterError,
     Job,
     Language,
     Layout,
     Target,
     Unit,
-    configuration,
     language,
-    numbers,
     read_lines,
     split_ending,
 )
+from calibrator.model import frames
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
 _TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")

@@ -43,10 +43,10 @@ def _format(path: Path) -> str | None:
 
 def _document(path: Path) -> dict:
     """A check file's document (checked by ``record_check``)."""
-    from calibrator import strict
+    from calibrator.inputs import jsonfile
 
     try:
-        doc = strict.load_json(path.read_bytes(), str(path))
+        doc = jsonfile.load_json(path.read_bytes(), str(path))
     except CalibrationError as exc:
         raise HistoryError(str(exc)) from None
     return doc if isinstance(doc, dict) else {}

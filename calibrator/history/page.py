@@ -148,7 +148,7 @@ def _records_table(data: Timeline) -> str:
 
 
 def _order(name: str) -> tuple:
-    from calibrator import parameters
+    from calibrator.model import parameters
 
     names = list(parameters.ALL_NAMES)
     return (names.index(name) if name in names else len(names), name)

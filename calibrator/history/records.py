@@ -163,7 +163,7 @@ def calibration(path: Path) -> Record:
 
 def verification(path: Path) -> Record:
     """The record of verify's JSON (docs/verify.md): the largest AP and RP over the test poses."""
-    from calibrator import strict
+    from calibrator.inputs import jsonfile
 
     path = Path(path)
     where = str(path)
@@ -171,7 +171,7 @@ def verification(path: Path) -> Record:
         raise HistoryError(f"verify file not found: {path}")
     data = path.read_bytes()
     with _as_history_error():
-        doc = strict.load_json(data, where)
+        doc = jsonfile.load_json(data, where)
     if not isinstance(doc, dict) or doc.get("format") != "calibrator.verify":
         raise HistoryError(f"{where} is not a calibrator verify file")
     poses = doc.get("poses")

@@ -1,18 +1,17 @@
 """``history reidentify``: identify every stored session again, on Dask, and record the results.
 
-Each session is identified by ``calibrator identify`` itself (the command's
-own code, run in a worker), so a result is bit for bit what running
-``identify`` on that session gives; only its ``created`` time differs. The
-calibrations are recorded in the history in the order of the sessions.
+Each session is identified by the function the caller hands to :func:`run`:
+the command line hands it ``calibrator identify`` itself (its own code, run
+in a worker), so a result is bit for bit what running ``identify`` on that
+session gives; only its ``created`` time differs. The calibrations are
+recorded in the history in the order of the sessions.
 """
 
 from __future__ import annotations
 
 import shlex
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
-from io import StringIO
 from pathlib import Path
 from typing import Any
 
@@ -94,30 +93,14 @@ def plan(
     return jobs
 
 
-def identify_one(session: str, output: str, options: Sequence[str]) -> tuple[int, str]:
-    """Run ``calibrator identify SESSION -o OUTPUT OPTIONS`` in this process.
-
-    Returns
-    -------
-    code : int
-        identify's exit code (0: written).
-    error : str
-        What it printed on stderr.
-    """
-    from calibrator.cli import main
-
-    out, err = StringIO(), StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            main(["identify", session, "-o", output, "--quiet", *options])
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    return code, err.getvalue()
+#: ``identify(session, output, options) -> (exit code, stderr)``: identifies one
+#: session file into ``output`` with identify's command-line ``options``.
+Identify = Callable[[str, str, tuple[str, ...]], tuple[int, str]]
 
 
 def run(
     jobs: Sequence[Job],
+    identify: Identify,
     options: Sequence[str] = (),
     workers: int | None = None,
     scheduler: str | None = None,
@@ -127,6 +110,9 @@ def run(
     Parameters
     ----------
     jobs : sequence of Job
+    identify : Identify
+        Identifies one session; a module-level function, so that Dask can
+        send it to its workers by name.
     options : sequence of str
         identify's options.
     workers : int, optional
@@ -151,14 +137,14 @@ def run(
 
     if workers is None and scheduler is None:
         for job in jobs:
-            yield (job, *identify_one(job.session, job.output, tuple(options)))
+            yield (job, *identify(job.session, job.output, tuple(options)))
         return
     client, cluster = engine._connect(workers, scheduler)
     try:
         from dask.distributed import as_completed
 
         futures = [
-            client.submit(identify_one, job.session, job.output, tuple(options), pure=False)
+            client.submit(identify, job.session, job.output, tuple(options), pure=False)
             for job in jobs
         ]
         index = {f.key: i for i, f in enumerate(futures)}

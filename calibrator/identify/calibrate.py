@@ -73,7 +73,7 @@ class Calibrated:
     session : calibrator.session.Session
         The session identified (several combined into one).
     joint : object, optional
-        The joint-term fit (:func:`calibrator.joint_fit.run`), when terms were asked.
+        The joint-term fit (:func:`calibrator.identify.joint_fit.run`), when terms were asked.
     notes : list of str
         What the loading said: doubts about the session, the nominal file applied.
     took_s : float
@@ -144,7 +144,7 @@ def calibrate(
     first = paths[0]
     groups: tuple[str, ...] = ()
     if joint.joint_term_groups is not None:
-        from calibrator import joint_terms
+        from calibrator.model import joint_terms
 
         groups = tuple(joint_terms.parse_groups(joint.joint_term_groups))
     payload_com = _three(joint.payload_com_mm, "--payload-com-mm")
@@ -153,15 +153,15 @@ def calibrate(
     payloads = None
     if len(parts) > 1 or groups:
         # Joint terms and several sessions only: a plain identify does not load them.
-        from calibrator import joint_fit
+        from calibrator.identify import joint_fit
 
         loaded = joint_fit.combine(parts, [str(p) for p in paths])
         payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     notes = [f"warning: {doubt}" for doubt in loaded.warnings]
     if nominal_file is not None:
-        from calibrator import nominal
+        from calibrator.identify import factory_calibration
 
-        notes.append(nominal.apply(loaded.meta, nominal_file))
+        notes.append(factory_calibration.apply(loaded.meta, nominal_file))
     started = time.perf_counter()
     shown = options if on_generation is None else replace(options, on_generation=on_generation)
     try:
@@ -170,7 +170,8 @@ def calibrate(
         raise CalibrationError(_too_few_hint(first, exc, len(loaded.table), options)) from None
     found = None
     if groups:
-        from calibrator import joint_fit, mass_models
+        from calibrator.identify import joint_fit
+        from calibrator.model import mass_models
 
         source = joint.mass_model or loaded.meta.model
         masses = None
@@ -216,12 +217,12 @@ def calibrate(
 
 def _three(text: str, what: str) -> np.ndarray:
     """``'x,y,z'`` -> ndarray (3,) of finite numbers (the strict grammar)."""
-    from calibrator import strict
+    from calibrator.inputs import grammar
 
     parts = str(text).split(",")
     if len(parts) != 3:
         raise CalibrationError(f"{what} needs three numbers x,y,z, got {text!r}")
-    return np.array([strict.parse_number(p, what) for p in parts])
+    return np.array([grammar.parse_number(p, what) for p in parts])
 
 
 def _too_few_hint(path: Path, exc: Exception, n_poses: int, options: pipeline.Options) -> str:

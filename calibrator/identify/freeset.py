@@ -2,11 +2,11 @@
 
 Three sieves, each leaving a reason for every parameter it drops:
 
-1. structure (:func:`calibrator.parameters.structural_candidates`): what the
+1. structure (:func:`calibrator.model.parameters.structural_candidates`): what the
    nominal arm's axes, the frame of the points and the tool knowledge leave
    to identify (Hayati's ``beta`` for parallel axes, no base frame in the
    base frame, ...);
-2. the model's own redundancy (:func:`calibrator.parameters.prune` on
+2. the model's own redundancy (:func:`calibrator.model.parameters.prune` on
    :data:`GENERIC_POSES` well-spread poses of the nominal arm): what no set
    of poses could separate, and columns with no effect at all;
 3. with a session only, what its poses pin down against the assumed noise
@@ -16,7 +16,7 @@ Three sieves, each leaving a reason for every parameter it drops:
 A plan has no session yet: it stops after step 2.
 
 Parameters offered after a geometric fit (the opt-in joint error terms of
-:mod:`calibrator.joint_terms`) go through :func:`offer`: sieves 2 and 3 on
+:mod:`calibrator.model.joint_terms`) go through :func:`offer`: sieves 2 and 3 on
 the fitting poses, at the fitted deltas, together with the geometry.
 """
 
@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calibrator import measurement, parameters
 from calibrator.identify import identifiability
 from calibrator.identify.problem import Problem
+from calibrator.model import measurement, parameters
 
 #: Poses of the nominal arm that reveal the model's own redundancies.
 GENERIC_POSES = 64
@@ -39,7 +39,7 @@ class FreeSet:
 
     Attributes
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
         Free set and first guesses.
     dropped : list of dict
         ``{"name", "reason"}`` of every candidate left out.
@@ -55,7 +55,7 @@ class FreeSet:
 
     @property
     def names(self) -> tuple:
-        """Names of the free parameters, in :data:`calibrator.parameters.ALL_NAMES` order."""
+        """Names of the free parameters, in :data:`calibrator.model.parameters.ALL_NAMES` order."""
         return tuple(self.space.free)
 
 
@@ -66,7 +66,7 @@ def generic_poses(
 
     Returns
     -------
-    calibrator.measurement.Observations
+    calibrator.model.measurement.Observations
         ``n`` poses measured exactly by the first-guess model; with
         rotations when ``orientation``.
     """
@@ -103,7 +103,7 @@ def decide(
         First guesses of ``base2tracker`` and ``flange2tool`` (identity if absent).
     k : float
         Orientation weight (mm^2/rad^2), for the orientation rows.
-    fit : calibrator.measurement.Observations, optional
+    fit : calibrator.model.measurement.Observations, optional
         The session's fitting poses; without them (a plan), the structural
         and model sieves only.
     noise_mm : float, optional
@@ -148,7 +148,7 @@ def offer(problem: Problem, x: np.ndarray, names: Sequence[str], noise_mm: float
     """The free set of a fitted problem with more parameters offered (joint terms).
 
     The offered names join the problem's free set and go through the same
-    sieves as the geometry: redundancy (:func:`calibrator.parameters.prune`)
+    sieves as the geometry: redundancy (:func:`calibrator.model.parameters.prune`)
     and what these poses pin down against the noise
     (:func:`identifiability.select`), both on the fitting poses at ``x``
     (joint terms need the session's poses: compliance has no effect without
@@ -162,7 +162,7 @@ def offer(problem: Problem, x: np.ndarray, names: Sequence[str], noise_mm: float
     x : ndarray, shape (problem.space.size,)
         Its fitted deltas.
     names : sequence of str
-        Parameters offered, in :data:`calibrator.parameters.NAMES_WITH_TERMS`.
+        Parameters offered, in :data:`calibrator.model.parameters.NAMES_WITH_TERMS`.
     noise_mm : float
         Assumed noise of one residual row (mm).
 

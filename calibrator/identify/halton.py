@@ -1,4 +1,4 @@
-"""Scrambled Halton points, the swarm's quasi-random start (seed 003, section 2.1).
+"""Scrambled Halton points, the swarm's quasi-random start (the IPSO paper, section 2.1).
 
 The same construction as ``scipy.stats.qmc.Halton`` (radical inverse in the
 first d primes, digits scrambled by random permutations, Owen 2017), written

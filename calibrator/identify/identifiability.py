@@ -3,7 +3,7 @@
 A parameter is kept when the session's own poses pin it down: its standard
 error, predicted from the Jacobian at the first guess and an assumed
 measurement noise, must be at most :data:`SE_THRESHOLD` of its plausible
-size (:func:`calibrator.parameters.plausible_range`). Each column is thus
+size (:func:`calibrator.model.parameters.plausible_range`). Each column is thus
 judged by its effect in mm over its plausible range against the noise,
 not by its direction alone, so a parameter whose effect is tiny (``theta6``
 with a tool point almost on the flange axis) is not mistaken for an
@@ -21,9 +21,9 @@ from collections.abc import Sequence, Sized
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import parameters
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import uncertainty
+from calibrator.model import parameters
 
 #: Largest standard error, as a fraction of the plausible range, of a kept parameter.
 SE_THRESHOLD = 0.3
@@ -89,7 +89,7 @@ def select(
     Parameters
     ----------
     names : sequence of str
-        Candidates, in :data:`calibrator.parameters.ALL_NAMES` order.
+        Candidates, in :data:`calibrator.model.parameters.ALL_NAMES` order.
     jacobian : ndarray, shape (M, len(names))
         At the first guess, on the fitting poses.
     noise_mm : float

@@ -6,10 +6,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 
 if TYPE_CHECKING:
-    from calibrator.measurement import Observations
+    from calibrator.model.measurement import Observations
 
 
 def tool_point(base2flange: np.ndarray, base2tracker: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -80,7 +80,7 @@ def first_guess(
     Parameters
     ----------
     nominal_mdh : ndarray, shape (6, 5)
-    obs : calibrator.measurement.Observations
+    obs : calibrator.model.measurement.Observations
     flange2tool : ndarray, shape (4, 4)
         The session's first guess of the tool.
     frame : {'base', 'tracker'}

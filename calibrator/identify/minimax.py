@@ -11,8 +11,8 @@ judges all poses without a dense constraint Jacobian over thousands.
 
 import numpy as np
 
-from calibrator import parameters
 from calibrator.identify.problem import FitResult, Problem
+from calibrator.model import parameters
 
 #: Up to this many poses, every pose is a constraint from the start.
 ALL_POSES = 500

@@ -1,4 +1,4 @@
-"""The seed's objective (7), evaluated for a whole swarm at once.
+"""The IPSO paper's objective (7), evaluated for a whole swarm at once.
 
     f = sum_j [ k * |delta_j|^2 + |dp_j|^2 ]
 
@@ -43,11 +43,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import frames, kinematics
-from calibrator.parameters import JOINT_TERM_START, N_MDH, TOOL_START
+from calibrator.model import frames, kinematics
+from calibrator.model.parameters import JOINT_TERM_START, N_MDH, TOOL_START
 
 if TYPE_CHECKING:
-    from calibrator.identify.problem import Problem
+    from calibrator.measurement import Observations
+    from calibrator.parameters import ParameterSpace
 
 
 class SwarmObjective:
@@ -61,8 +62,12 @@ class SwarmObjective:
 
     Parameters
     ----------
-    problem : calibrator.identify.problem.Problem
-        The fitting poses, free set and orientation weight (resolved there).
+    space : calibrator.parameters.ParameterSpace
+        The free set, over D parameters.
+    obs : calibrator.measurement.Observations
+        The fitting poses (N of them).
+    k : float
+        Orientation weight (mm^2/rad^2), as the problem resolved it.
     loss : {'lsq', 'minimax'}
         Sum over the poses, or the worst pose.
 
@@ -73,14 +78,15 @@ class SwarmObjective:
     at once.
     """
 
-    def __init__(self, problem: "Problem", loss: str = "lsq") -> None:
+    def __init__(
+        self, space: "ParameterSpace", obs: "Observations", k: float, loss: str = "lsq"
+    ) -> None:
         if loss not in ("lsq", "minimax"):
             raise ValueError(f"swarm loss must be 'lsq' or 'minimax', got {loss!r}")
-        space, obs = problem.space, problem.obs
         self.minimax = loss == "minimax"
         self.space = space
         self.n_poses = len(obs.q)
-        self.k = problem.k
+        self.k = k
         index = space.index
         mdh_cols = np.flatnonzero(index < N_MDH)
         self.base_free = bool(np.any((index >= N_MDH) & (index < TOOL_START)))

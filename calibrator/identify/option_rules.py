@@ -1,7 +1,7 @@
 """What each option of ``identify`` may be: one table for the CLI, provenance and ``--like``.
 
 Every option that changes an identification is declared here once, as a
-:class:`calibrator.strict.Rule` (type, bounds, budget, meaning, flag). The
+:class:`calibrator.inputs.rules.Rule` (type, bounds, budget, meaning, flag). The
 same rule checks
 
 - the value typed on the command line (a typer callback,
@@ -29,24 +29,19 @@ from __future__ import annotations
 from typing import Any
 
 from calibrator.errors import CalibrationError
-from calibrator.strict import MAX_INT, Rule
+from calibrator.inputs.grammar import MAX_INT
+from calibrator.inputs.rules import Rule
+from calibrator.model import joint_terms
 
 __all__ = ["JOINT", "LOSSES", "METHODS", "PIPELINE", "RULES", "check_settings"]
 
 METHODS = ("hybrid", "pso", "lm")
 LOSSES = ("lsq", "huber", "trimmed", "minimax")
-#: Heaviest payload taken (kg): above the rating of every arm of the catalogue
-#: (30 kg), below what a typo (1e308, 1000000) gives.
-MAX_PAYLOAD_KG = 100.0
-#: Farthest payload centre of mass from the flange (mm): the tool budget of the CLI.
-MAX_PAYLOAD_COM_MM = 2_000.0
 #: Largest session identify takes (poses): also the most the swarm can see.
 MAX_POSES = 50_000
 
 
 def _groups(text: str) -> str:
-    from calibrator import joint_terms
-
     if text:  # "" is recorded when no joint terms were asked for
         try:
             joint_terms.parse_groups(text)
@@ -57,7 +52,7 @@ def _groups(text: str) -> str:
 
 def _mass_model(text: str) -> str:
     """A named arm with a published mass model, or a mass-model YAML that reads."""
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     if text.strip().lower() in mass_models.NAMES:
         return text
@@ -96,11 +91,9 @@ _TABLE = (
          meaning="joint terms asked for: any of scale,harmonic,compliance"),
     Rule("mass_model", str, parse=_mass_model, flag="--mass-model", group="joint",
          meaning="mass model for compliance: a named arm or a YAML file"),
-    Rule("payload_kg", float, 0.0, MAX_PAYLOAD_KG, unit="kg", flag="--payload-kg",
-         group="joint", meaning="payload of sessions that record none"),
-    Rule("payload_com_mm", tuple, high=MAX_PAYLOAD_COM_MM, unit="mm", size=3,
-         flag="--payload-com-mm", group="joint",
-         meaning="payload centre of mass in the flange frame, x,y,z"),
+    # Declared with the joint terms, whose files hold them too.
+    joint_terms.PAYLOAD_KG,
+    joint_terms.PAYLOAD_COM_MM,
 )  # fmt: skip
 
 #: Rule of each option, by its recorded key.
@@ -116,7 +109,7 @@ def check_settings(settings: Any, keys: tuple[str, ...] = PIPELINE) -> None:
 
     Raises
     ------
-    calibrator.strict.StrictError
+    calibrator.inputs.errors.StrictError
         Naming the option: ``particles: must be a whole number >= 2, got -5``.
     """
     for key in keys:

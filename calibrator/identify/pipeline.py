@@ -14,19 +14,21 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import measurement, parameters, plausibility, strict
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import (
+    accuracy,
     fitters,
     freeset,
     identifiability,
     initial,
     option_rules,
-    report,
     robust,
     uncertainty,
 )
 from calibrator.identify.problem import Problem
+from calibrator.inputs import plausibility
+from calibrator.inputs.errors import StrictError
+from calibrator.model import measurement, parameters
 
 METHODS = option_rules.METHODS
 LOSSES = option_rules.LOSSES
@@ -198,7 +200,7 @@ def identify(session: Any, options: Options = Options()) -> Result:
     warnings += uncertainty.range_warnings(fit.q, val.q)
     warnings += _noise_warning(unc, options.noise_mm)
     stats = {
-        part: report.before_after(problem.space, x, o)
+        part: accuracy.before_after(problem.space, x, o)
         for part, o in (("fit", fit), ("validation", val))
     }
     return Result(
@@ -289,7 +291,7 @@ def _noise_warning(unc, noise_mm):
 def _check_options(options):
     try:
         option_rules.check_settings(options)
-    except strict.StrictError as exc:
+    except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 
 

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import measurement, parameters
 from calibrator.identify import objective
+from calibrator.model import measurement, parameters
 
 
 @dataclass(frozen=True)
@@ -35,9 +35,9 @@ class Problem:
 
     Attributes
     ----------
-    space : calibrator.parameters.ParameterSpace
+    space : calibrator.model.parameters.ParameterSpace
         Free parameters and the first guesses they are deltas from.
-    obs : calibrator.measurement.Observations
+    obs : calibrator.model.measurement.Observations
         Fitting poses (tracker or base frame, mm and rad).
     k : float
         Orientation weight (mm^2/rad^2); 0 when the poses have no orientation.
@@ -98,7 +98,7 @@ class Problem:
 
     def swarm_objective(self, loss: str = "lsq") -> objective.SwarmObjective:
         """``f(X)`` for a swarm, shape (P, D) -> (P,): sum over poses, or the worst (minimax)."""
-        return objective.SwarmObjective(self, loss)
+        return objective.SwarmObjective(self.space, self.obs, self.k, loss)
 
 
 @dataclass(frozen=True)

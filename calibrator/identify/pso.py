@@ -1,4 +1,4 @@
-"""Improved particle swarm optimisation (IPSO, seed 003, section 2).
+"""Improved particle swarm optimisation (IPSO, the IPSO paper, section 2).
 
 1. Initial positions and velocities from a scrambled Halton sequence.
 2. Velocities by the constriction-factor rule
@@ -73,16 +73,16 @@ def ipso(
         Search box; positions are kept inside it.
     particles, generations : int
     c1, c2 : float
-        Cognitive and social coefficients (the seed uses 2.05 each).
+        Cognitive and social coefficients (the IPSO paper uses 2.05 each).
     init_fraction : float
         The initial swarm fills this fraction of the box around its centre
-        (with :meth:`ParameterSpace.bounds` a quarter is the seed's start,
+        (with :meth:`ParameterSpace.bounds` a quarter is the IPSO paper's start,
         +-0.01 rad and +-0.5 mm).
     seed : int or numpy.random.Generator
         Source of the Halton scrambling and of r1, r2.
     quasi_random : bool
         Start from Halton points (IPSO); False starts from pseudo-random
-        points, the plain constriction PSO the seed improves on.
+        points, the plain constriction PSO the IPSO paper improves on.
     on_generation : callable, optional
         Called as ``on_generation(generation, best_cost)`` after each
         generation (1-based), e.g. to show progress.

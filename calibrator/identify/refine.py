@@ -26,7 +26,7 @@ def refine(problem: Problem, x0: np.ndarray, max_evaluations: int = 200) -> FitR
     Returns
     -------
     FitResult
-        ``cost`` is the sum of squared residuals (the seed's objective f);
+        ``cost`` is the sum of squared residuals (the IPSO paper's objective f);
         ``evaluations`` the residual evaluations made.
     """
     found = levmar.levenberg_marquardt(

@@ -25,11 +25,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import measurement, parameters
+from calibrator.model import measurement, parameters
 
 if TYPE_CHECKING:
     from calibrator.identify.problem import Problem
-    from calibrator.measurement import Observations
+    from calibrator.model.measurement import Observations
 
 #: Pairs of free parameters with ``|correlation|`` above this are named.
 STRONG_CORRELATION = 0.9
@@ -118,7 +118,7 @@ def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = N
     problem : calibrator.identify.problem.Problem
         The poses the fit used (inliers), free set and orientation weight.
     x : ndarray, shape (space.size,)
-    validation : calibrator.measurement.Observations, optional
+    validation : calibrator.model.measurement.Observations, optional
         Held-out poses to predict the error at.
 
     Returns

@@ -12,9 +12,10 @@ pulses an output. A via (moved through, not measured) is a ``PTP`` after a
 from __future__ import annotations
 
 from calibrator.errors import CalibrationError
-from calibrator.program import ProgramSpec, between_homes, title, writer
 from calibrator.program.names import program_name, words
-from calibrator.program.spec import PULSE_S
+from calibrator.program.registry import writer
+from calibrator.program.spec import PULSE_S, ProgramSpec
+from calibrator.program.statements import between_homes, title
 
 #: KRL keywords, data types and the names this program uses (KRL is case-insensitive).
 RESERVED = words(

@@ -16,9 +16,10 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.program import ProgramSpec, between_homes, move_duration_s, title, writer
 from calibrator.program.names import program_name, taken, words
-from calibrator.program.spec import PULSE_S
+from calibrator.program.registry import writer
+from calibrator.program.spec import PULSE_S, ProgramSpec, move_duration_s
+from calibrator.program.statements import between_homes, title
 
 #: Name of the digital output pulsed at each arrival.
 SIGNAL = "do_calibrator"

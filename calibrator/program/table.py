@@ -11,7 +11,8 @@ from __future__ import annotations
 import csv
 import io
 
-from calibrator.program import ProgramSpec, writer
+from calibrator.program.registry import writer
+from calibrator.program.spec import ProgramSpec
 
 COLUMNS = (
     "step",

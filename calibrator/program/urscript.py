@@ -11,9 +11,10 @@ measured) is a ``movej`` after a ``# via before pose i`` comment, with no sleep.
 from __future__ import annotations
 
 from calibrator.errors import CalibrationError
-from calibrator.program import ProgramSpec, between_homes, title, writer
 from calibrator.program.names import program_name, words
-from calibrator.program.spec import PULSE_S, number
+from calibrator.program.registry import writer
+from calibrator.program.spec import PULSE_S, ProgramSpec, number
+from calibrator.program.statements import between_homes, title
 
 #: URScript's keywords and the names this program uses (case-sensitive).
 RESERVED = words(

@@ -8,8 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import calibration, kinematics, parameters
+from calibrator import calibration
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics, parameters
 
 
 @dataclass

@@ -6,7 +6,7 @@ import io
 
 import numpy as np
 
-from calibrator import parameters
+from calibrator.model import parameters
 from calibrator.report.data import Content, unit_of
 
 _FIT, _HELD = "#1f77b4", "#d62728"

@@ -9,8 +9,7 @@ source papers' analysis arms, which are not 6R calibration targets, keep
 their data in :mod:`~calibrator.robots.misalignment_paper` and
 :mod:`~calibrator.robots.deflection_paper`.
 
-Use :func:`get` (or :func:`calibrator.models.get_model`, the same) to look an
-arm up by name.
+Use :func:`get` to look an arm up by name (or a description file by path).
 """
 
 from __future__ import annotations

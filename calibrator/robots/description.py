@@ -1,7 +1,7 @@
 """What one arm is: :class:`RobotDescription`, the one home of an arm's data.
 
 A description holds everything the commands need to know about an arm: its
-nominal kinematics (an MDH table, :mod:`calibrator.kinematics`, with the base
+nominal kinematics (an MDH table, :mod:`calibrator.model.kinematics`, with the base
 and flange offsets a table cannot hold), its joint limits and the motion
 ceilings derived from them, masses and centres of mass, the capsule body of
 the collision checks, named configurations, the controller's joint
@@ -10,8 +10,18 @@ calibration form need). Code reads these attributes; it never switches on an
 arm's name.
 
 Frames and units: mm and rad; link ``i`` (1..6) is frame ``i`` of
-:func:`calibrator.kinematics.chain` (the end of ``A_1 ... A_i``), link 0 the
+:func:`calibrator.model.kinematics.chain` (the end of ``A_1 ... A_i``), link 0 the
 robot base frame (MDH frame 0).
+
+Motion ceilings
+---------------
+Every arm carries a fixed ceiling on the speed (1.0 rad/s) and acceleration
+(2.0 rad/s^2, or the lowest published acceleration limit if lower) of the
+moves a calibration run commands. They sit well below the data sheets (UR's
+slowest joints turn at 2.09 rad/s; URScript's default ``movej`` acceleration
+is 1.4 rad/s^2 and ur-rtde accepts up to 40), because a calibration run gains
+nothing from fast moves and a tracker cell is crowded. Options such as
+``--speed``, ``--accel`` and ``--max-speed`` can only lower them.
 """
 
 from __future__ import annotations
@@ -52,7 +62,7 @@ class Capsule:
         What it is ("upper arm", "wrist 2", ...), used in messages.
     link : int
         Link it belongs to: 0 base, 1..6 the links (frame i of
-        :func:`calibrator.kinematics.chain`), 7 the tool (on the flange).
+        :func:`calibrator.model.kinematics.chain`), 7 the tool (on the flange).
     p_mm, q_mm : tuple of 3 float
         End points in the link's frame, mm.
     radius_mm : float

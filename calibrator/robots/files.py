@@ -51,7 +51,9 @@ from typing import Any
 
 import numpy as np
 
-from calibrator import kinematics, strict
+from calibrator.inputs import textfile, yamlfile
+from calibrator.inputs.errors import StrictError
+from calibrator.model import kinematics
 from calibrator.robots import urdf
 from calibrator.robots.description import (
     FORMAT,
@@ -83,8 +85,8 @@ _KEYS = {
 def _parse(text: str, where: str) -> Any:
     """The one YAML parse of this module (strict: unique keys, strict numbers)."""
     try:
-        return strict.load_yaml(text, where)
-    except strict.StrictError as exc:
+        return yamlfile.loads(text, where)
+    except StrictError as exc:
         raise DescriptionError(str(exc)) from None
 
 
@@ -157,8 +159,8 @@ def load(path: str | Path, name: str | None = None) -> RobotDescription:
     """
     path = Path(path)
     try:
-        text = strict.read_text(path, MAX_BYTES, "a robot description")
-    except strict.StrictError as exc:
+        text = textfile.read_text(path, MAX_BYTES, "a robot description")
+    except StrictError as exc:
         raise DescriptionError(str(exc)) from None
     doc = _Doc(_parse(text, str(path)), str(path))
     unknown = sorted(set(map(str, doc.doc)) - _KEYS)

@@ -1,7 +1,7 @@
 """Robot descriptions from a URDF: the serial chain from a base link to a tip link.
 
 The chain's joint axes at the zero pose are converted exactly to an MDH table
-(:func:`calibrator.chains.fit_links`, the conversion the ROS kinematics
+(:func:`calibrator.model.conventions.fit_links`, the conversion the ROS kinematics
 import uses), with Hayati's ``beta`` where neighbouring axes are parallel;
 what the table cannot hold is kept: ``base_offset`` (MDH frame 0 in the base
 link) and ``flange_offset`` (the tip link in the MDH flange frame), so that
@@ -34,7 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import chains, kinematics, strict
+from calibrator.inputs import grammar, textfile
+from calibrator.inputs.errors import StrictError
+from calibrator.model import conventions, kinematics
+from calibrator.model.frames import from_xyz_rpy
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -104,8 +107,8 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
         return np.array(default, dtype=float)
     parts = text.split()
     try:
-        values = np.array([strict.parse_number(p, where) for p in parts], dtype=float)
-    except strict.StrictError:
+        values = np.array([grammar.parse_number(p, where) for p in parts], dtype=float)
+    except StrictError:
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers") from None
     if values.shape != (count,):
         raise DescriptionError(f"{where}: {text!r} is not {count} numbers")
@@ -114,13 +117,11 @@ def _numbers(text: str | None, count: int, default: tuple[float, ...], where: st
 
 def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
     """The transform of an ``<origin xyz rpy>`` element (mm), identity if absent."""
-    from calibrator.export.ros import origin_transform
-
     if element is None:
         return np.eye(4)
     xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
     rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
-    return origin_transform(np.concatenate([xyz * _M, rpy]))
+    return from_xyz_rpy(np.concatenate([xyz * _M, rpy]))
 
 
 def read_chain(
@@ -141,8 +142,8 @@ def read_chain(
     """
     path = Path(path)
     try:
-        text = strict.read_text(path, MAX_BYTES, "a URDF file")
-    except strict.StrictError as exc:
+        text = textfile.read_text(path, MAX_BYTES, "a URDF file")
+    except StrictError as exc:
         raise DescriptionError(str(exc)) from None
     try:
         root = ET.fromstring(text)
@@ -298,7 +299,7 @@ def kinematics_of(chain: Chain) -> Kinematics:
     joints, tip, sign = joint_axes(chain)
     z = joints[:, :3, 2]
     parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < 1e-9
-    mdh, base2frame0, residual = chains.fit_links(joints, tip, np.zeros((6, 5)), parallel)
+    mdh, base2frame0, residual = conventions.fit_links(joints, tip, np.zeros((6, 5)), parallel)
     if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(residual))):
         raise _fail(chain.path, "the joint axes do not describe a 6R arm")
     return Kinematics(mdh, base2frame0, residual, sign)

@@ -12,7 +12,7 @@ class RobotOptions:
 
     Attributes
     ----------
-    model : calibrator.models.RobotModel
+    model : calibrator.robots.RobotDescription
         The named arm (limits, data-sheet motion caps).
     world : calibrator.simulate.SimWorld, optional
         The simulated world (the ``sim`` kind needs it).

@@ -6,7 +6,7 @@ exceeds the cap, nothing moves and :class:`~drivers.robot.errors.LimitsViolation
 names the first offending pose and joint. :class:`GuardedRobot` wraps any
 :class:`~drivers.robot.interface.Robot` so that single moves are checked too.
 
-Limits come from the caller (e.g. ``calibrator.models.get_model(name)``); this
+Limits come from the caller (e.g. ``calibrator.robots.get(name)``); this
 module never picks a robot model itself.
 """
 
@@ -23,7 +23,7 @@ from drivers.robot.errors import LimitsViolation
 from drivers.robot.interface import N_JOINTS, Robot, real_array, real_scalar
 
 if TYPE_CHECKING:  # drivers need no model at run time: the caller hands one in
-    from calibrator.models import RobotModel
+    from calibrator import robots
 
 
 @dataclass(frozen=True)
@@ -77,11 +77,11 @@ class MotionLimits:
     @classmethod
     def from_model(
         cls,
-        model: RobotModel,
+        model: robots.RobotDescription,
         max_speed_rad_s: float | None = None,
         max_accel_rad_s2: float | None = None,
     ) -> MotionLimits:
-        """Limits from a ``calibrator.models.RobotModel``, optionally lowered by the user.
+        """Limits from a ``calibrator.robots.RobotDescription``, optionally lowered by the user.
 
         The model's fixed ceilings (``move_speed_cap_rad_s``,
         ``move_accel_cap_rad_s2``) are the caps; a user value may only lower

@@ -3,7 +3,7 @@
 import shutil
 
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
 

@@ -36,11 +36,11 @@ def test_a_capability_is_still_the_name_drivers_declare():
 
 
 def test_a_guarded_robot_forwards_temperatures_only_of_a_robot_that_reports_them():
-    from calibrator.models import get_model
+    from calibrator import robots
     from drivers.robot.safety import GuardedRobot, MotionLimits
     from drivers.robot.sim.device import SimulatedRobot
 
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     inner = SimulatedRobot(model.mdh, np.eye(4), np.eye(4))
     guarded = GuardedRobot(inner, MotionLimits.from_model(model))
     assert ports.CHECKS_PLAN.offered_by(guarded)

@@ -7,7 +7,7 @@ import signal
 import time
 
 import pytest
-from cli_process import start_cli
+from cli_process_kit import start_cli
 
 CASES = [
     ("measure", "--poses", "30", "--settle", "0.1", "-o", "s.parquet"),

@@ -18,12 +18,12 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics
+from calibrator import robots
 from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.errors import CalibrationError
-from calibrator.models import get_model
+from calibrator.model import kinematics
 from calibrator.simulate import (
     DEFAULT_TOOL_POINT,
     SIM_TRACKER_AT_MM,
@@ -40,7 +40,7 @@ from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 from drivers.tracker.line.simulator import SimulatorProcess
 from drivers.tracker.line.simulator.world import SimulatedTracker
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
 
 

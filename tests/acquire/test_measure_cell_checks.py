@@ -8,13 +8,12 @@ no journal, no session (so nothing moved).
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
-from calibrator import cell
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 TRACKER_AT = (2500.0, 0.0, 1500.0)  # sees the wrist-turn poses below
 D = np.radians

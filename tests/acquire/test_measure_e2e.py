@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 
 def test_measure_then_identify_recovers_hidden_errors_to_noise_floor(tmp_path):

@@ -14,8 +14,8 @@ import sys
 import time
 
 import pytest
-from cli_process import run_cli
-from measure_testkit import assert_same_session, session_rows
+from cli_process_kit import run_cli
+from measure_kit import assert_same_session, session_rows
 
 BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
 

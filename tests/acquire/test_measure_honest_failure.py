@@ -13,11 +13,11 @@ import sys
 import time
 
 import numpy as np
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
+from calibrator import robots
 from calibrator.acquire.run import MAX_POSES
 from calibrator.identify.pipeline import MAX_POSES as IDENTIFY_MAX_POSES
-from calibrator.models import get_model
 from drivers.tracker.line.simulator import SimulatorProcess
 
 BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
@@ -79,7 +79,7 @@ def test_sim_control_needs_the_simulated_robot(tmp_path):
 
 def test_a_plan_larger_than_identify_takes_is_refused_before_anything_moves(tmp_path):
     assert MAX_POSES == IDENTIFY_MAX_POSES
-    limits = get_model("ur10e").joint_limits_rad
+    limits = robots.get("ur10e").joint_limits_rad
     q = np.random.default_rng(0).uniform(limits[:, 0] / 2, limits[:, 1] / 2, (60_000, 6))
     with open(tmp_path / "big.csv", "w", newline="") as fh:
         writer = csv.writer(fh)

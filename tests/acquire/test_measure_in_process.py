@@ -2,7 +2,7 @@
 
 The end-to-end tests (test_measure_*.py) run the command in a new process,
 which imports the unmutated package. Here the same command runs through
-``main()`` (tests/core/cli_testkit.py): the session is checked against the
+``main()`` (tests/cli_kit.py): the session is checked against the
 simulated arm's hidden truth, the journal and ``--resume`` against a clean
 run, and every refusal is one line with exit 2 that leaves nothing behind.
 Noise-free, with 3 readings per pose, so a run takes about a second.
@@ -19,19 +19,19 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import typer
-from cli_testkit import cli, one_line_error
-from measure_testkit import session_rows
+from cli_kit import cli, one_line_error
+from measure_kit import session_rows
 
 from calibrator import cell as cells
-from calibrator import frames, session
 from calibrator import plan as plans
+from calibrator import robots, session
 from calibrator.cli import measure as measure_cli
-from calibrator.models import get_model
+from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import read_log
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 FAST = ("--poses", "10", "--readings", "3", "--no-sim-noise", "-q", "-o", "s.parquet")
 SIM_IDENTITY = "CALIBRATOR:TRACKER-SIM:SIM-0001"  # what the tracker simulator says it is
 

@@ -5,11 +5,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
-from calibrator import frames, kinematics, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 
 
 def test_plan_files_record_what_they_were_made_for(tmp_path):
@@ -17,7 +17,7 @@ def test_plan_files_record_what_they_were_made_for(tmp_path):
                "--tool", "10,0,90", cwd=tmp_path)  # fmt: skip
     assert done.code == 0, done.stderr
     origin = plans.read_plan(tmp_path / "p.csv").origin
-    digest = get_model("ur10e").digest
+    digest = robots.get("ur10e").digest
     assert origin == plans.PlanOrigin("ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0), digest)
 
 
@@ -29,7 +29,7 @@ def test_a_plan_for_another_description_of_the_same_name_is_refused(tmp_path):
     arm = tmp_path / "kuka-kr6-r900.yaml"
     done = cli("plan", "--model", arm.name, "-o", "p.csv", "--poses", "10", cwd=tmp_path)
     assert done.code == 0, done.stderr
-    assert plans.read_plan(tmp_path / "p.csv").origin.model_sha256 == get_model(str(arm)).digest
+    assert plans.read_plan(tmp_path / "p.csv").origin.model_sha256 == robots.get(str(arm)).digest
     arm.write_text(arm.read_text().replace("margin_mm: 10", "margin_mm: 12"))
     before = listing(tmp_path)
     line = one_line_error(
@@ -64,7 +64,7 @@ def test_measure_takes_the_plan_files_tracker_and_tool(tmp_path):
     # The simulated tracker stands where the plan says: ranges agree within the hidden
     # errors (the simulated arm's true reflector is its own, 0,0,100 and 1.5 mm off).
     nominal = kinematics.forward(
-        get_model("ur10e").mdh, q, frames.transform(translation=(0.0, 0.0, 100.0))
+        robots.get("ur10e").mdh, q, frames.transform(translation=(0.0, 0.0, 100.0))
     )[:, :3, 3]
     measured = np.linalg.norm(table[["x_mm", "y_mm", "z_mm"]].to_numpy(), axis=1)
     assert np.max(np.abs(measured - np.linalg.norm(nominal - at, axis=1))) < 10.0

@@ -8,7 +8,7 @@ recorded by the driver; regenerate both with the command in docs/measure.md.
 from pathlib import Path
 
 import pyarrow.parquet as pq
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from drivers.tracker import read_log
 

@@ -10,8 +10,8 @@ import subprocess
 
 import numpy as np
 import pytest
-from cli_process import run_cli
-from measure_testkit import session_rows
+from cli_process_kit import run_cli
+from measure_kit import session_rows
 
 from drivers.robot.ur.simulator.launcher import FakeUrProcess
 

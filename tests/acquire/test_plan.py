@@ -2,16 +2,16 @@
 
 import numpy as np
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
-from calibrator import frames, kinematics, measurement, session
 from calibrator import plan as plans
+from calibrator import robots, session
 from calibrator.identify import pipeline
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics, measurement
 from calibrator.simulate import DEFAULT_TOOL_POINT, SIM_TRACKER_AT_MM, SimWorld
 
 TOOL = frames.transform(translation=DEFAULT_TOOL_POINT)
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 
 
 def test_plan_respects_limits_margin_acceptance_angle_and_floor():
@@ -123,7 +123,7 @@ def test_the_plan_size_for_three_values_per_parameter_after_the_hold_out():
     """30 poses of a UR10e in the tracker frame leave 2.9 values per parameter: 31 leave 3."""
     from calibrator.identify import freeset, identifiability
 
-    mdh = get_model("ur10e").mdh
+    mdh = robots.get("ur10e").mdh
     n = freeset.poses_for(mdh, "tracker", False, 0.2)
     free = len(freeset.decide(mdh, "tracker", False, False).names)
     assert free == 25 and n == 31

@@ -11,14 +11,14 @@ import struct
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 from calibrator.simulate import SIM_TRACKER_AT_MM
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 LIMITS = np.tile([-2.0, 3.0], (6, 1))
 

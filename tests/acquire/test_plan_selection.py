@@ -5,9 +5,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from calibrator import plan
+from calibrator import plan, robots
 from calibrator.acquire.averaging import TooFewReadings, measure_average
-from calibrator.models import get_model
 
 
 def _greedy_by_determinant(blocks, n):
@@ -35,7 +34,7 @@ def test_greedy_d_optimal_picks_are_the_direct_determinant_ones(seed):
 
 
 def test_random_selection_takes_distinct_candidates_reproducibly():
-    ur5e = get_model("ur5e")
+    ur5e = robots.get("ur5e")
     pool = np.random.default_rng(3).uniform(-1.0, 1.0, (12, 6))
     cell = plan.CellConstraints(acceptance_rad=np.pi, floor_mm=None)
     kept = pool[plan.feasible(ur5e.mdh, pool, cell)]
@@ -50,7 +49,7 @@ def test_random_selection_takes_distinct_candidates_reproducibly():
 
 
 def test_candidates_exactly_at_a_joint_limit_are_kept():
-    ur5e = get_model("ur5e")
+    ur5e = robots.get("ur5e")
     box = plan.joint_box(ur5e.joint_limits_rad, plan.CellConstraints().margin_rad)
     at_low, at_high = np.full(6, 0.3), np.full(6, 0.3)
     at_low[1], at_high[2] = box[1, 0], box[2, 1]

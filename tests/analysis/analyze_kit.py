@@ -3,7 +3,7 @@
 import json
 from pathlib import Path
 
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 
 def analyze(*args, cwd):

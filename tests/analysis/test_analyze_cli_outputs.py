@@ -10,9 +10,9 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
-from calibrator import models
+from calibrator import robots
 from calibrator.analysis import plots
 from calibrator.analysis import tolerance as tl
 
@@ -208,7 +208,7 @@ def test_tolerance_command_prints_and_writes_the_budget(tmp_path):
     )  # fmt: skip
     assert out.code == 0, out.stderr
     doc = json.loads((tmp_path / "b.json").read_text())
-    assert doc["nominal"] == models.get_model("ur5e").name and doc["poses"] == 6
+    assert doc["nominal"] == robots.get("ur5e").name and doc["poses"] == 6
     assert doc["distribution"] == "uniform" and doc["nonlinear"]["samples"] == 60
     t = {row["name"]: row for row in doc["ranking"]}
     # Overrides in mm for lengths, deg for angles (stored in rad), the rest the defaults.
@@ -216,7 +216,7 @@ def test_tolerance_command_prints_and_writes_the_budget(tmp_path):
     assert t["alpha2"]["tolerance"] == pytest.approx(np.radians(0.05))
     assert t["alpha2"]["unit"] == "rad"
     assert t["a3"]["tolerance"] == 0.05 and t["q1"]["tolerance"] == pytest.approx(np.radians(0.01))
-    unranked = tl.without_meaning(models.get_model("ur5e").mdh)  # beta of non-parallel axes
+    unranked = tl.without_meaning(robots.get("ur5e").mdh)  # beta of non-parallel axes
     assert sorted(t) == sorted(n for n in tl.NAMES if n not in unranked)
     lines_out = out.stdout.splitlines()
     table = lines_out[lines_out.index(next(x for x in lines_out if x.startswith("tighten"))) + 2 :]

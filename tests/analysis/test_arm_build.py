@@ -1,7 +1,7 @@
 """``arm.build``: named arms, link-length overrides and poses against chains written out here.
 
 The Craig chain of the paper's arm is multiplied out link by link with scipy
-rotations; the MDH arms are compared with :func:`calibrator.kinematics.chain`.
+rotations; the MDH arms are compared with :func:`calibrator.model.kinematics.chain`.
 """
 
 import numpy as np
@@ -9,9 +9,10 @@ import pytest
 from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, models
+from calibrator import robots
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 
 
 def craig_hand(table_deg_mm, pose_deg):
@@ -46,7 +47,7 @@ def test_the_paper_arm_with_overrides_and_a_pose_is_its_craig_chain():
 
 
 def test_a_named_arm_with_overrides_and_a_pose_is_its_mdh_chain():
-    mdh = models.get_model("ur5e").mdh.copy()
+    mdh = robots.get("ur5e").mdh.copy()
     mdh[1, kinematics.A] = -500.0  # a2
     mdh[3, kinematics.D] = 150.0  # d4
     pose = np.array([15.0, -70.0, 80.0, -20.0, 45.0, 100.0])
@@ -55,7 +56,7 @@ def test_a_named_arm_with_overrides_and_a_pose_is_its_mdh_chain():
     np.testing.assert_allclose(posed.base2hand(), expected[:3], atol=1e-9)
     assert posed.name == "ur5e"
     zero = arm.build("ur5e")
-    expected = kinematics.chain(models.get_model("ur5e").mdh, np.zeros((1, 6)))[0]
+    expected = kinematics.chain(robots.get("ur5e").mdh, np.zeros((1, 6)))[0]
     np.testing.assert_allclose(zero.base2hand(), expected[:3], atol=1e-9)
 
 
@@ -76,7 +77,7 @@ def test_an_unknown_length_is_named_with_the_known_ones():
 @pytest.mark.parametrize("pose", [np.zeros(5), [0, 0, np.nan, 0, 0, 0]])
 def test_a_pose_must_be_six_finite_angles(pose):
     with pytest.raises(CalibrationError) as info:
-        arm.mdh_arm(models.get_model("ur5e").mdh, pose)
+        arm.mdh_arm(robots.get("ur5e").mdh, pose)
     assert str(info.value) == (
         f"a pose is six finite joint angles, got shape {np.asarray(pose).shape}"
     )
@@ -86,9 +87,3 @@ def test_a_craig_table_must_be_six_by_three():
     with pytest.raises(CalibrationError) as info:
         arm.craig_arm(np.zeros((5, 3)), np.zeros(6))
     assert str(info.value) == "Craig DH table must be 6 x 3, got (5, 3)"
-
-
-def test_trans_puts_each_coordinate_in_its_row():
-    out = arm.trans([1.0, 4.0], 2.0, 3.0)
-    np.testing.assert_array_equal(out[:, :, 3], [[1.0, 2.0, 3.0], [4.0, 2.0, 3.0]])
-    np.testing.assert_array_equal(out[:, :, :3], np.broadcast_to(np.eye(3), (2, 3, 3)))

@@ -1,30 +1,35 @@
-"""The posed arm's building blocks against scipy's rotations and the project's kinematics."""
+"""The posed arm against scipy's rotations and the project's kinematics."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, models
+from calibrator import robots
 from calibrator.analysis import arm
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 
 ANGLES = np.array([-2.5, -0.4, 0.0, 0.3, 1.2, 3.0])
 
 
-@pytest.mark.parametrize("axis, build", [("x", arm.rot_x), ("y", arm.rot_y), ("z", arm.rot_z)])
-def test_elementary_rotations_are_scipys(axis, build):
-    out = build(ANGLES)
-    assert out.shape == (len(ANGLES), 3, 4)
-    np.testing.assert_allclose(
-        out[..., :3], Rotation.from_euler(axis, ANGLES[:, np.newaxis]).as_matrix(), atol=1e-15
-    )
-    assert np.all(out[..., 3] == 0.0)
-    assert build(0.7).shape == (3, 4)
+def test_the_links_are_the_kinematics_joint_origins_turned_to_the_pose():
+    # The posed arm is built by the model's one forward kinematics: L_i = O_i Rz(q_i).
+    mdh = robots.get("ur5e").mdh.copy()
+    mdh[:, kinematics.BETA] = 0.01
+    q = np.radians([15.0, -70.0, 80.0, -20.0, 45.0, 100.0])
+    origins, trailing = kinematics.joint_origins(mdh)
+    posed = arm.mdh_arm(mdh, q)
+    for i in range(6):
+        turn = np.eye(4)
+        turn[:3, :3] = Rotation.from_euler("z", q[i]).as_matrix()
+        np.testing.assert_allclose(posed.links[i], (origins[i] @ turn)[:3], atol=1e-12)
+    np.testing.assert_array_equal(posed.tail, trailing[:3])
+    assert posed.links.shape == (6, 3, 4) and posed.tail.shape == (3, 4)
 
 
 def test_mdh_arm_with_tilted_axes_matches_the_kinematics():
     # Nonzero beta on every joint: the Ry part of each link tail is exercised.
-    mdh = models.get_model("ur5e").mdh.copy()
+    mdh = robots.get("ur5e").mdh.copy()
     mdh[:, kinematics.BETA] = [0.01, -0.02, 0.015, 0.03, -0.01, 0.02]
     q = np.radians([15.0, -70.0, 80.0, -20.0, 45.0, 100.0])
     posed = arm.mdh_arm(mdh, q)

@@ -6,15 +6,15 @@ import signal
 import numpy as np
 import pytest
 from analyze_kit import analyze, analyze_json
-from cli_process import start_cli
+from cli_process_kit import start_cli
 
-from calibrator import calibration, models
+from calibrator import calibration, robots
 from calibrator.cli import main
 
 
 def write_calibration(path, model, **deltas):
     """A calibration.json as ``identify`` writes it: the model with some deltas identified."""
-    nominal = models.get_model(model).mdh
+    nominal = robots.get(model).mdh
     mdh = nominal.copy()
     for name, value in deltas.items():
         mdh[int(name[-1]) - 1, "a alpha theta d beta".split().index(name[:-1])] += value

@@ -1,17 +1,17 @@
-"""Link deflection by kinetostatics (seed 001): closed-form cantilevers, the seed's example, CLI."""
+"""Link deflection by kinetostatics (the deflection paper): cantilevers, its example, CLI."""
 
 import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
-from calibrator import mass_models
 from calibrator.analysis import deflection as dfl
 from calibrator.errors import CalibrationError
+from calibrator.model import mass_models
 
 G = 9.81  # N/kg, as mass_models.GRAVITY_MM_S2 / 1000
-ROD = dfl.SEED_ROD
+ROD = dfl.PAPER_ROD
 EI = ROD.e_mpa * np.pi / 64 * (50.0**4 - 30.0**4)  # N mm^2, written out from D and d
 
 
@@ -79,8 +79,8 @@ def test_axial_and_torsion_coefficients():
 
 def test_seed_example_matches_cantilever_formulas_at_the_end_pose():
     """The rod, horizontal, 600 mm: tip load of links 4-5 and its own weight, by hand."""
-    arm = dfl.seed_arm()
-    q, _ = dfl.seed_trajectory()
+    arm = dfl.paper_arm()
+    q, _ = dfl.paper_trajectory()
     result = dfl.deflect(arm, q[-1:])
     length = 600.0
     tip_load = (5.33 + 6.5 + 5.0) * G
@@ -133,8 +133,8 @@ def test_named_arm_links_match_cantilever_formulas_when_stretched_out():
 
 
 def test_a_motion_at_rest_is_the_static_answer_and_inertia_shows_when_moving():
-    arm = dfl.seed_arm()
-    q, _ = dfl.seed_trajectory(samples=51)
+    arm = dfl.paper_arm()
+    q, _ = dfl.paper_trajectory(samples=51)
     still = np.repeat(q[-1:], 11, axis=0)
     at_rest = dfl.deflect(arm, still, dt=0.1)
     static = dfl.deflect(arm, q[-1:])
@@ -165,6 +165,18 @@ def test_cli_default_is_the_source_papers_example(tmp_path):
     assert doc["hand_dz5_mm"] == pytest.approx(value, abs=5e-4)
     assert len(doc["trajectory"]["t_s"]) == 201
     assert (tmp_path / "map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cli_model_seed_is_the_old_spelling_of_paper(tmp_path):
+    # Users typed --model seed before the source papers were named by what they are.
+    docs = {}
+    for spelling in ("paper", "seed", "Seed"):
+        out = cli("analyze", "deflection", "--model", spelling, "--json", f"{spelling}.json",
+                  "--samples", "21", cwd=tmp_path)  # fmt: skip
+        assert out.code == 0, out.stderr
+        docs[spelling] = json.loads((tmp_path / f"{spelling}.json").read_text())
+    assert docs["seed"] == docs["paper"] == docs["Seed"]
+    assert docs["seed"]["model"] == "paper"
 
 
 def test_cli_named_model_with_sections(tmp_path):

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from calibrator import kinematics, models
+from calibrator import robots
 from calibrator.analysis import arm, engine
 from calibrator.analysis import misalignment as mc
+from calibrator.model import kinematics
 
 
 def run_stats(r0=0.05, h=mc.PAPER_H_MM, trials=20000, seed=0, **kwargs):
@@ -44,7 +45,7 @@ def test_error_transform_puts_the_axis_through_the_drawn_points():
 
 
 def test_chains_match_kinematics_and_craig_dh():
-    mdh = models.get_model("er10l-c10").mdh
+    mdh = robots.get("er10l-c10").mdh
     q = np.radians([10, -20, 30, 40, -50, 60])
     np.testing.assert_allclose(
         arm.mdh_arm(mdh, q).base2hand(), kinematics.chain(mdh, q)[0, :3], atol=1e-9

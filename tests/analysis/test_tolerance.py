@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from calibrator import models
+from calibrator import robots
 from calibrator.analysis import tolerance as tl
 from calibrator.errors import CalibrationError
 
-MDH = models.get_model("er10l-c10").mdh
+MDH = robots.get("er10l-c10").mdh
 Q = np.random.default_rng(4).uniform(-np.pi, np.pi, (15, 6))
 
 

@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 from analyze_kit import analyze, analyze_json
-from cli_process import run_cli
-from cli_testkit import refused_line
+from cli_kit import refused_line
+from cli_process_kit import run_cli
 
 from calibrator import calibration
 

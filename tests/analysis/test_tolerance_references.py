@@ -1,6 +1,6 @@
 """The tolerance budget against an independent linearisation (finite differences) and Monte Carlo.
 
-Everything here is computed from :func:`calibrator.kinematics.chain` alone:
+Everything here is computed from :func:`calibrator.model.kinematics.chain` alone:
 the Jacobian by central differences of the hand pose, the nonlinear check by
 perturbing the table with this file's own random draws.
 """
@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator import kinematics, models
+from calibrator import robots
 from calibrator.analysis import tolerance as tl
 from calibrator.errors import CalibrationError
+from calibrator.model import kinematics
 
-MDH = models.get_model("ur10e").mdh
+MDH = robots.get("ur10e").mdh
 Q = np.random.default_rng(21).uniform(-np.pi, np.pi, (8, 6))
 N_LINK = 30
 

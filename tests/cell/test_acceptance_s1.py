@@ -13,9 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import cell
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
 
 # UR10e, UR's published DH table (standard DH): d, a, alpha.
 _D = (180.7, 0.0, 0.0, 174.15, 119.85, 116.55)
@@ -80,7 +79,7 @@ def test_the_judge_sees_the_issues_plans_fail():
     qa, qb = np.radians([0.0, 0.0, 0.0, -170.0, 90.0, 0.0]), np.radians([0, 0, 0, 170.0, 90, 0])
     assert not _bad(np.array([qa, qb])).any() and _bad_moves(np.array([qa, qb])) == [0]
     # And a plan the old planner makes from the issue's tracker position fails it.
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     old = plans.make(
         model.mdh,
         model.joint_limits_rad,
@@ -93,7 +92,7 @@ def test_the_judge_sees_the_issues_plans_fail():
 
 @pytest.mark.parametrize("tracker_at", [(2500, 400, 300), (0, 2500, 500), (-2000, -1500, 800)])
 def test_s1_60_pose_plans_have_no_bad_pose_and_no_bad_move(tracker_at):
-    model = get_model("ur10e")
+    model = robots.get("ur10e")
     made = plans.make_checked(model, 60, cell.Cell(tracker_at_mm=tracker_at), TOOL)
     path = made.plan.path_rad
     assert len(made.plan.q_rad) == 60

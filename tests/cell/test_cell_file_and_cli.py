@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from calibrator import cell
 from calibrator import plan as plans
@@ -69,9 +69,9 @@ def test_plan_command_prints_counts_estimate_and_saving(tmp_path):
     assert wrote.startswith("wrote p.csv: 20 poses")
     plan = plans.read_plan(tmp_path / "p.csv")
     # The plan passes the very check measure makes, in the same cell.
-    from calibrator.models import get_model
+    from calibrator import robots
 
-    cell.check_plan(plan, get_model("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100))
+    cell.check_plan(plan, robots.get("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100))
 
 
 @pytest.mark.parametrize(

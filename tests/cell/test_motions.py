@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from calibrator import cell, kinematics
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator.model import kinematics
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 D = np.radians
 
@@ -112,7 +112,7 @@ def test_cell_time_adds_moves_settle_and_readings():
 def test_swept_bound_covers_how_far_capsules_move_between_samples(model):
     # The clearance a motion sample adds must cover the farthest any capsule point
     # moves over one step: checked on 2000 random steps, end points and mid points.
-    robot = get_model(model)
+    robot = robots.get(model)
     geometry = cell.arm_geometry(model, robot.mdh, (30.0, -20.0, 150.0))
     chk = cell.checker(geometry, cell.Cell())
     rng = np.random.default_rng(5)

@@ -9,9 +9,9 @@ import pytest
 
 from calibrator import cell as cells
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 
 

@@ -3,11 +3,10 @@
 import numpy as np
 import pytest
 
-from calibrator import cell
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from calibrator import cell, kinematics
+from calibrator import cell, robots
 from calibrator.cell import checks
-from calibrator.models import get_model
+from calibrator.model import kinematics
 
-UR10E = get_model("ur10e")
+UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
 D = np.radians
 
@@ -127,7 +127,7 @@ def test_reflector_turned_away_from_the_tracker():
 
 @pytest.mark.parametrize("model", ["ur5e", "ur10", "ur10e", "er10l-c10"])
 def test_every_named_arm_has_a_model_whose_stretched_upright_pose_is_clear(model):
-    robot = get_model(model)
+    robot = robots.get(model)
     geometry = cell.arm_geometry(model, robot.mdh, TOOL_MM)
     chk = cell.checker(geometry, cell.Cell())
     upright = np.zeros(6)

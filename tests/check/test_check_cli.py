@@ -3,7 +3,7 @@
 import json
 
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 
 @pytest.fixture(scope="module")

@@ -9,10 +9,10 @@ import json
 import sys
 from pathlib import Path
 
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "external"))
-from external_cell import Watching, start_player, tracker_simulator  # noqa: E402
+from external_cell_kit import Watching, start_player, tracker_simulator  # noqa: E402
 
 CRASH = "world: 1\nmodel: ur10e\njoint_zero_shifts_rad: [0, 0, 4.0e-4, 0, 0, 0]\n"
 

@@ -6,7 +6,7 @@ The history lives on another branch; this test runs once both are merged.
 import json
 
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 history = pytest.importorskip("calibrator.history")
 

@@ -6,12 +6,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-from cli_testkit import cli
+from cli_kit import cli
 
-from calibrator import kinematics, session
+from calibrator import robots, session
 from calibrator.acquire import warmup
 from calibrator.errors import SessionError
-from calibrator.models import get_model
+from calibrator.model import kinematics
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.robot.ur.simulator.controller import JOINT_RISE_C, ROOM_C, WARM_TAU_S, FakeController
 from drivers.tracker.line.device import LaserTracker
@@ -111,7 +111,7 @@ def test_the_fake_ur_reports_joints_warming_from_the_room():
 
 
 def test_warm_up_runs_the_checked_path_forwards_then_backwards():
-    mdh = get_model("ur10e").mdh
+    mdh = robots.get("ur10e").mdh
     poses = []
     robot = SimulatedRobot(mdh, np.eye(4), np.eye(4), listener=poses.append)
     robot.connect()

@@ -7,7 +7,7 @@ as tests/acquire/test_measure_ur.py); the tracker simulator follows the joints.
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from drivers.robot.ur.simulator.controller import JOINT_RISE_C, ROOM_C
 from drivers.robot.ur.simulator.launcher import FakeUrProcess

@@ -11,7 +11,7 @@ naming joint 2.
 import json
 
 import pytest
-from cli_testkit import cli
+from cli_kit import cli
 
 CRASH_RAD = 4e-4
 

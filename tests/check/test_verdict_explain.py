@@ -5,11 +5,12 @@ import re
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics, session, simulate
+from calibrator import session, simulate
 from calibrator.calibration import Calibration
 from calibrator.check import explain, verdict
 from calibrator.check.model import Calibrated
 from calibrator.identify import pipeline
+from calibrator.model import frames, kinematics
 
 NOISE_MM = 0.02  # RMS 3-D point noise of the calibration and of the checks
 

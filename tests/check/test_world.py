@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld
 from calibrator.world import WorldError, parse_world, read_world
 
@@ -50,6 +50,17 @@ def test_no_errors_is_the_nominal_arm_and_the_run_seed_is_used_without_one():
     np.testing.assert_array_equal(built.base2tracker, SimWorld.make("ur10e", 2).base2tracker)
 
 
+def test_errors_seed_is_the_old_spelling_of_drawn():
+    # World files written before the rename say "errors: seed"; they give the same arm.
+    old = parse_world({"seed": 4, "arm": {"errors": "seed"}})
+    new = parse_world({"seed": 4, "arm": {"errors": "drawn"}})
+    assert old.errors == new.errors == "drawn"
+    np.testing.assert_array_equal(old.build("ur10e", 1).true_mdh, new.build("ur10e", 1).true_mdh)
+    np.testing.assert_array_equal(
+        parse_world({}).build("ur10e", 4).true_mdh, SimWorld.make("ur10e", 4).true_mdh
+    )
+
+
 @pytest.mark.parametrize(
     ("doc", "message"),
     [
@@ -58,7 +69,7 @@ def test_no_errors_is_the_nominal_arm_and_the_run_seed_is_used_without_one():
         ({"world": 2}, "world: 2 is not a format"),
         ({"arm": {"deltas": {"q2": 0.1}}}, "'q2' is not an MDH parameter"),
         ({"arm": {"deltas": {"a2": 80.0}}}, "arm.deltas.a2: 80.0 mm is beyond 50 mm"),
-        ({"arm": {"errors": "some"}}, "arm.errors: expected seed or none"),
+        ({"arm": {"errors": "some"}}, "arm.errors: expected drawn or none"),
         ({"joint_zero_shifts_rad": [0, 0, 0]}, "expected a list of 6 numbers"),
         ({"base": {"translation_mm": [0, 0, ".nan"]}}, "base.translation_mm[2]: expected a finite"),
         ({"noise": "yes"}, "noise: expected true or false"),

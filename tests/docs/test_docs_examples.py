@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from cli_process import child_env
+from cli_process_kit import child_env
 
 ROOT = Path(__file__).resolve().parents[2]
 FENCE = re.compile(r"^```python[^\n]*\n(.*?)^```", re.S | re.M)

@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from cli_testkit import cli
+from cli_kit import cli
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 

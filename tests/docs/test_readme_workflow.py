@@ -12,7 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from cli_process import child_env
+from cli_process_kit import child_env
 
 ROOT = Path(__file__).resolve().parents[2]
 

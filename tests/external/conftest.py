@@ -2,7 +2,7 @@
 
 Made as a user makes it (``calibrator plan``), for a reflector 14 mm from the
 default guess (``--tool 11.3,-6.8,96.2``). The runs take it through
-``external_cell.first_poses`` (its first poses, vias included, without the
+``external_cell_kit.first_poses`` (its first poses, vias included, without the
 record of the reflector it was made for), so they measure with the default
 guess and the association must find the reflector itself.
 """
@@ -12,8 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from cli_process import run_cli
-from external_cell import TOOL_MM
+from cli_process_kit import run_cli
+from external_cell_kit import TOOL_MM
 
 
 @pytest.fixture(scope="session")

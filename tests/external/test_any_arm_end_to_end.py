@@ -14,14 +14,14 @@ import json
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import Watching, start_player, tracker_simulator
-from grammars import PARSERS
+from cli_process_kit import run_cli
+from external_cell_kit import Watching, start_player, tracker_simulator
+from grammar_kit import PARSERS
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import kinematics
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import kinematics
 
 ARM = "kuka-kr6-r900"
 SKIPPED = 5
@@ -32,7 +32,7 @@ DWELL = 3.5
 def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
     """The program's targets in the description's angles, as a plan (home moves dropped)."""
     ctrl = np.array(PARSERS[fmt](program_text).targets())[1:-1]
-    path = get_model(ARM).convention.to_model(ctrl)
+    path = robots.get(ARM).convention.to_model(ctrl)
     rows, vias, i = [], [], 0
     for via in plan.via_rad:
         vias.append(path[i : i + len(via)])

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator import frames, kinematics
+from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld, sample_joints
 from drivers.robot.external import Assigned, Associator, Rejected, Stop
 from drivers.robot.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM

@@ -1,7 +1,7 @@
 """``measure --robot external``'s stop options: bounded, refused in one line before any work."""
 
 import pytest
-from cli_testkit import cli, one_line_error
+from cli_kit import cli, one_line_error
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator.models import get_model
+from calibrator import robots
 from calibrator.program.spec import move_duration_s
 from drivers.robot.external_sim.motion import JointMove, trapezoid_duration
 from drivers.robot.external_sim.player import Hold, Player, PlayerOptions
@@ -79,7 +79,7 @@ def _played(player):
 
 def test_a_time_scale_plays_the_same_program_that_many_times_faster():
     plan = np.linspace(0.1, 1.0, 4)[:, None] * np.ones((1, 6))
-    arm, tool = get_model("ur10e").mdh, np.eye(4)
+    arm, tool = robots.get("ur10e").mdh, np.eye(4)
     tool[:3, 3] = [10.0, -5.0, 100.0]  # the reflector off the flange: every joint moves it
     common = dict(dwell_s=1.5, pauses=((2, 0.5, 1.0),), vibration_mm=0.3, start_delay_s=0.5)
     real = Player(plan, arm, tool, np.eye(4), PlayerOptions(**common, tick_s=0.08))

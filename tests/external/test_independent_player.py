@@ -29,13 +29,13 @@ import time
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import TOOL_MM, Watching, first_poses, tracker_simulator
+from cli_process_kit import run_cli
+from external_cell_kit import TOOL_MM, Watching, first_poses, tracker_simulator
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 
 SKIPPED = 9
 PERIOD_S = 0.02  # one SIM,TARGET every 20 ms (wall clock), as a controller's position stream
@@ -47,7 +47,7 @@ MIN_MOVE_S = 0.1
 
 def _hidden_arm(seed: int = 11):
     """The true arm: the nominal UR10e with its own errors, tool and tracker placement."""
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     rng = np.random.default_rng(seed)
     mdh = arm.mdh.copy()
     mdh[:, [0, 3]] += rng.uniform(-0.5, 0.5, (6, 2))  # a, d: mm

@@ -17,8 +17,8 @@ import re
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
-from external_cell import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
+from cli_process_kit import run_cli
+from external_cell_kit import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
 
 from calibrator import plan as plans
 
@@ -134,13 +134,13 @@ def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path, plan40):
 
 def _moved(plan_path, out_path, shifts_mm):
     """A copy of the plan: poses {pose: mm} put the reflector that far off (turning joint 1)."""
-    from calibrator import frames, kinematics
-    from calibrator.models import get_model
+    from calibrator import robots
+    from calibrator.model import frames, kinematics
 
     plan = plans.read_plan(plan_path)
     q = plan.q_rad.copy()
     tool = frames.transform(translation=[0.0, 0.0, 100.0])
-    points = kinematics.forward(get_model("ur10e").mdh, q, tool)[:, :3, 3]
+    points = kinematics.forward(robots.get("ur10e").mdh, q, tool)[:, :3, 3]
     for pose, mm in shifts_mm.items():
         radius = float(np.hypot(*points[pose, :2]))  # the reflector's distance from joint 1's axis
         q[pose, 0] += 2.0 * np.arcsin(mm / (2.0 * radius))

@@ -8,12 +8,12 @@ the controller uses, and a plan made for that arm, written and parsed back
 
 import numpy as np
 import pytest
-from cli_testkit import cli
-from grammars import PARSERS
+from cli_kit import cli
+from grammar_kit import PARSERS
 
 from calibrator import cell as cells
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
 
 ARMS = [
     ("kuka-kr6-r900", "cal.src", "krl"),
@@ -25,7 +25,7 @@ ARMS = [
 @pytest.fixture(scope="module", params=ARMS, ids=[a[0] for a in ARMS])
 def made(request, tmp_path_factory):
     name, output, fmt = request.param
-    arm = get_model(name)
+    arm = robots.get(name)
     reach = float(np.abs(arm.mdh[:, [0, 3]]).sum())
     at = (2.2 * reach, 0.3 * reach, 300.0)
     plan = plans.make_checked(arm, 10, cells.Cell(tracker_at_mm=at), (0, 0, 100), seed=0).plan

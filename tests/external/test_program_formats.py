@@ -6,15 +6,15 @@ import re
 
 import numpy as np
 import pytest
-from cli_testkit import cli, one_line_error
-from grammars import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
+from cli_kit import cli, one_line_error
+from grammar_kit import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
 
 from calibrator import plan as plans
 from calibrator import program as programs
-from calibrator.models import get_model
+from calibrator import robots
 from calibrator.program.spec import move_duration_s
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _plan(n=25, seed=4):

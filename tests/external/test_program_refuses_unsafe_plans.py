@@ -8,15 +8,15 @@ language.
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
-from plan_testkit import CHECKED_PLAN_TRACKER_MM
+from cli_kit import cli, listing, one_line_error
+from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell as cells
-from calibrator import frames, kinematics
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 #: Elbow 496 mm below the mounting plane (the red-team's pose), rad.
 BELOW_FLOOR = np.array([-1.0647, 1.3788, -2.7751, -0.5934, 2.7751, -1.2741])
 FORMATS = ["cal.script", "CAL.src", "cal.mod", "cal.ls", "cal.csv"]

@@ -10,14 +10,14 @@ import re
 
 import numpy as np
 import pytest
-from cli_testkit import cli, listing, one_line_error
-from grammars import PARSERS
+from cli_kit import cli, listing, one_line_error
+from grammar_kit import PARSERS
 
 from calibrator import plan as plans
 from calibrator import program as programs
-from calibrator.models import get_model
+from calibrator import robots
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _spec(q, **kw):

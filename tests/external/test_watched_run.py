@@ -12,13 +12,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from external_cell import TOOL_MM, first_poses
+from external_cell_kit import TOOL_MM, first_poses
 
-from calibrator import frames, kinematics
 from calibrator import plan as plans
+from calibrator import robots
 from calibrator.acquire import ports
 from calibrator.acquire.run import MeasureRun, RunOptions
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.external.setup import ExternalOptions
 from drivers.robot.external.stops import StopOptions
@@ -79,7 +79,7 @@ class _ArmOnItsOwnClock:
 
 
 def test_a_skipped_pose_costs_no_other_pose_even_with_retry_pauses(tmp_path, plan40):
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     # A plan the run's cell check passes (every pose and move clear of the cell),
     # as `calibrator plan` makes them: the first 14 poses of the shared one.
     tool_mm = TOOL_MM
@@ -118,7 +118,7 @@ class _Untouched:
 
 
 def test_a_via_move_is_a_no_op_and_leaves_the_poses_in_order():
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     plan = np.random.default_rng(1).uniform(-1.0, 1.0, (6, 6))  # the robot checks speed only
     external = ExternalOptions(StopOptions(window_s=0.3, timeout_s=5.0), readings=5)
     robot = open_robot("external", RobotOptions(arm, tracker=_Untouched(), external=external))

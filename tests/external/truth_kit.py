@@ -11,10 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator import calibration, kinematics, parameters, session
+from calibrator import calibration, session
 from calibrator.identify import pipeline
 from calibrator.identify.problem import Problem
 from calibrator.identify.refine import refine
+from calibrator.model import kinematics, parameters
 
 
 def against_least_squares_from_truth(

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator import compensate, frames, kinematics, parameters, simulate
+from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.filtering import Job, configuration, frames_file, rotations
-from calibrator.models import get_model
+from calibrator.model import frames, kinematics, parameters
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
 TOOL2 = frames.transform(rotations.zyx_to_matrix([[90.0, 0.0, 0.0]])[0], [0.0, 40.0, 120.0])
@@ -22,7 +22,7 @@ BASE = frames.transform(rotations.zyx_to_matrix([[25.0, 0.0, 0.0]])[0], [900.0, 
 
 def calibration(model="er10l-c10", seed=3, mm=0.3, rad=0.0005):
     """A calibration of ``model`` with random MDH errors (none for mm = rad = 0)."""
-    nominal = get_model(model).mdh
+    nominal = robots.get(model).mdh
     rng = np.random.default_rng(seed)
     errors = simulate.random_errors(nominal, rng, mm=mm, rad=rad) if mm or rad else np.zeros((6, 5))
     free = tuple(np.array(parameters.MDH_NAMES)[errors.ravel() != 0])
@@ -51,7 +51,7 @@ def job(cal, frames_table=None, **kw):
     return Job(
         calibration=cal,
         frames=frames_table or frames_file.FrameTable(),
-        limits=get_model(cal.model).joint_limits_rad,
+        limits=robots.get(cal.model).joint_limits_rad,
         **kw,
     )
 

@@ -9,10 +9,11 @@ import pytest
 from filter_kit import BASE, TOOL, job
 from test_rapid import _pose, _robtarget
 
-from calibrator import compensate, frames, kinematics, session, simulate
+from calibrator import compensate, session, simulate
 from calibrator.calibration import Calibration
 from calibrator.filtering import engine, rotations
 from calibrator.identify import pipeline
+from calibrator.model import frames, kinematics
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,11 @@ import re
 import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 
-from calibrator import compensate, frames, kinematics
+from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
 from calibrator.filtering.fanuc import FanucLS
 from calibrator.filtering.solve import Solver
+from calibrator.model import frames, kinematics
 
 
 def _frames_yaml(tmp_path):

@@ -3,7 +3,7 @@
 import json
 
 import numpy as np
-from cli_process import run_cli
+from cli_process_kit import run_cli
 from filter_kit import calibration, work_joints
 from test_krl import write_program
 

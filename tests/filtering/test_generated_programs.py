@@ -7,7 +7,7 @@ tool, and the filter says so.
 """
 
 import pytest
-from cli_testkit import cli, listing
+from cli_kit import cli, listing
 
 from calibrator import plan as plans
 

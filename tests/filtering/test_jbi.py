@@ -5,10 +5,11 @@ import re
 import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 
-from calibrator import compensate, frames, kinematics
+from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
 from calibrator.filtering.jbi import JBI
 from calibrator.filtering.solve import Solver
+from calibrator.model import frames, kinematics
 
 PPD = [1341.4, 1341.4, 1145.8, 850.2, 850.2, 544.1]
 

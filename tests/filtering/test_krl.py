@@ -5,9 +5,10 @@ import re
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
 
-from calibrator import compensate, frames, kinematics
+from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
 from calibrator.filtering.krl import KRL
+from calibrator.model import frames, kinematics
 
 CRLF = "\r\n"
 

@@ -5,10 +5,11 @@ import re
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
 
-from calibrator import compensate, kinematics
+from calibrator import compensate
 from calibrator.filtering import engine, rotations
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.solve import Solver
+from calibrator.model import kinematics
 
 
 def _q(rot):
@@ -89,7 +90,7 @@ def test_filtered_targets_land_in_their_work_object(tmp_path):
     changed = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a != b]
     assert changed == [6, 7, 8, 9, 10, 17, 18, 19, 20]
     v = _read(out.read_bytes().decode("utf-8"))
-    from calibrator import frames
+    from calibrator.model import frames
 
     written = frames.transform(rotations.quaternion_to_matrix(v[:, 3:]), v[:, :3])
     bases = np.array([BASE] * 4 + [np.eye(4)] * 4)

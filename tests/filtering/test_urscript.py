@@ -4,11 +4,12 @@ import json
 import re
 
 import numpy as np
-from cli_process import run_cli
+from cli_process_kit import run_cli
 from filter_kit import calibration, job, path_joints
 
-from calibrator import compensate, frames, kinematics
+from calibrator import compensate
 from calibrator.filtering import engine
+from calibrator.model import frames, kinematics
 
 TCP = frames.transform(frames.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
 

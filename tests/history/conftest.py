@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from cli_testkit import cli
+from cli_kit import cli
 
 _numbers = itertools.count()
 

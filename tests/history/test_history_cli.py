@@ -5,7 +5,7 @@ import io
 import json
 import shutil
 
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
 from calibrator.history import open_history
 

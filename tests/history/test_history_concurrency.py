@@ -5,7 +5,7 @@ import sys
 import time
 from pathlib import Path
 
-from history_testkit import check_doc
+from history_kit import check_doc
 
 from calibrator.history import open_history
 
@@ -14,7 +14,7 @@ _WRITER = """
 import sys, time
 from pathlib import Path
 sys.path.insert(0, {here!r})
-from history_testkit import check_doc
+from history_kit import check_doc
 from calibrator.history import open_history
 start = Path({start!r})
 while not start.exists():

@@ -10,7 +10,7 @@ months of the check itself.)
 
 import json
 
-from cli_testkit import cli
+from cli_kit import cli
 
 from calibrator.history import alarms, open_history
 from calibrator.history.timeline import load

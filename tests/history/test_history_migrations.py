@@ -4,7 +4,7 @@ import sqlite3
 from datetime import date
 
 import pytest
-from history_testkit import check_doc
+from history_kit import check_doc
 
 from calibrator.history import HistoryError, migrations, open_history, schema, store
 

@@ -6,8 +6,8 @@ from datetime import datetime, timedelta
 
 import numpy as np
 import pytest
-from cli_testkit import cli
-from history_testkit import check_doc
+from cli_kit import cli
+from history_kit import check_doc
 
 from calibrator.history import open_history
 

@@ -6,7 +6,7 @@ import shutil
 from datetime import date, datetime
 
 import pytest
-from history_testkit import check_doc, dump
+from history_kit import check_doc, dump
 
 from calibrator.history import HistoryError, open_history
 from calibrator.history import store as store_module

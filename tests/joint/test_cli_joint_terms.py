@@ -5,10 +5,11 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, listing, one_line_error
-from jointkit import sessions
+from cli_kit import cli, listing, one_line_error
+from joint_kit import sessions
 
-from calibrator import frames, joint_terms, kinematics, mass_models, session
+from calibrator import session
+from calibrator.model import frames, joint_terms, kinematics, mass_models
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)
@@ -55,9 +56,9 @@ def _reached(folder, truth, terms, payload_kg=0.0):
 
 
 def _nominal():
-    from calibrator import models
+    from calibrator import robots
 
-    return models.get_model("ur10e").mdh
+    return robots.get("ur10e").mdh
 
 
 def test_identify_keeps_wrist_scale_terms_and_compensate_reaches_targets(tmp_path):

@@ -4,11 +4,12 @@ import json
 
 import numpy as np
 import pytest
-from cli_testkit import cli
-from jointkit import sessions
+from cli_kit import cli
+from joint_kit import sessions
 
-from calibrator import calibration, joint_terms, session
+from calibrator import calibration, session
 from calibrator.errors import CalibrationError
+from calibrator.model import joint_terms
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)

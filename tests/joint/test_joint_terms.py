@@ -2,12 +2,14 @@
 
 import numpy as np
 import pytest
-from jointkit import geometric_fit, merged, sessions
+from joint_kit import geometric_fit, merged, sessions
 
-from calibrator import joint_fit, joint_terms, kinematics, mass_models, measurement, models
+from calibrator import robots
 from calibrator.errors import CalibrationError
+from calibrator.identify import joint_fit
 from calibrator.identify.problem import Problem
-from calibrator.parameters import ParameterSpace
+from calibrator.model import joint_terms, kinematics, mass_models, measurement
+from calibrator.model.parameters import ParameterSpace
 
 
 def _terms(scale=None, cos=None, sin=None, comp=None):
@@ -19,7 +21,7 @@ def _terms(scale=None, cos=None, sin=None, comp=None):
 
 def test_gravity_torque_is_minus_the_gradient_of_potential_energy():
     """tau_j = -dU/dq_j, U = sum m g z_com (+ payload): an independent check by differences."""
-    robot, masses = models.get_model("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (5, 6))
     com_payload = np.array([10.0, -5.0, 100.0])
 
@@ -58,7 +60,7 @@ def test_effective_angles_and_their_derivatives():
 
 
 def test_measurement_jacobian_of_joint_terms_matches_differences():
-    robot, masses = models.get_model("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
     rng = np.random.default_rng(2)
     q = rng.uniform(-np.pi, np.pi, (12, 6))
     tau = joint_terms.gravity_torques(robot.mdh, q, masses, 3.0)
@@ -181,7 +183,7 @@ def test_a_huge_kept_term_is_warned_about():
 def test_held_out_error_against_least_squares_from_the_truth(wrist):
     """W1's shape: with wrist gear errors the terms reach least squares from the truth
     and beat the geometry twice over; without, they are not kept and cost nothing."""
-    from jointkit import sessions as make
+    from joint_kit import sessions as make
 
     from calibrator.identify import refine
 

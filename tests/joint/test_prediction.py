@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
-from jointkit import sessions
+from joint_kit import sessions
 
-from calibrator import joint_terms, measurement, session
+from calibrator import session
 from calibrator.identify import pipeline, uncertainty
+from calibrator.model import joint_terms, measurement
 
 #: An arm with an error the geometric model does not hold (joint compliance).
 UNMODELLED = joint_terms.JointTerms(

@@ -9,7 +9,7 @@ itself when the test process dies (``--parent-pid``).
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.robot.ur.simulator.launcher import FakeUrProcess, acquire_ports, release_ports

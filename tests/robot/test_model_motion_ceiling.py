@@ -10,15 +10,15 @@ import dataclasses
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.acquire import ports
-from calibrator.models import get_model
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
 from drivers.robot.sim.device import SimulatedRobot
 
 
 def test_a_cap_equal_to_the_ceiling_is_allowed():
-    ur10e = get_model("ur10e")
+    ur10e = robots.get("ur10e")
     limits = MotionLimits.from_model(
         ur10e,
         max_speed_rad_s=ur10e.move_speed_cap_rad_s,
@@ -29,7 +29,7 @@ def test_a_cap_equal_to_the_ceiling_is_allowed():
 
 def test_a_raised_cap_is_refused_with_the_rule_it_breaks():
     with pytest.raises(LimitsViolation) as refused:
-        MotionLimits.from_model(get_model("ur5e"), max_speed_rad_s=1.5)
+        MotionLimits.from_model(robots.get("ur5e"), max_speed_rad_s=1.5)
     assert str(refused.value).endswith("an option can lower a motion limit, never raise it")
 
 
@@ -42,14 +42,14 @@ def test_a_raised_cap_is_refused_with_the_rule_it_breaks():
 )
 def test_a_cap_that_is_no_number_is_refused_by_name(caps, name):
     with pytest.raises(ValueError, match=f"^{name} must be a real number"):
-        MotionLimits.from_model(get_model("ur5e"), **caps)
+        MotionLimits.from_model(robots.get("ur5e"), **caps)
 
 
 def test_the_models_joint_speeds_still_bound_a_move():
     # An arm whose wrist turns at 0.5 rad/s: a movej may make the wrist lead, so
     # 0.8 rad/s is refused although it is under the model's 1 rad/s ceiling.
     slow_wrist = dataclasses.replace(
-        get_model("ur5e"), max_joint_speed_rad_s=[3.0, 3.0, 3.0, 3.0, 0.5, 3.0]
+        robots.get("ur5e"), max_joint_speed_rad_s=[3.0, 3.0, 3.0, 3.0, 0.5, 3.0]
     )
     limits = MotionLimits.from_model(slow_wrist)
     np.testing.assert_array_equal(limits.max_joint_speed_rad_s, [3, 3, 3, 3, 0.5, 3])
@@ -60,5 +60,5 @@ def test_the_models_joint_speeds_still_bound_a_move():
 
 def test_a_guarded_robot_keeps_the_robots_capabilities_and_adds_the_plan_check():
     robot = SimulatedRobot.from_model("ur5e", np.random.default_rng(3))
-    guarded = GuardedRobot(robot, MotionLimits.from_model(get_model("ur5e")))
+    guarded = GuardedRobot(robot, MotionLimits.from_model(robots.get("ur5e")))
     assert guarded.capabilities == {ports.REPORTS_TRUE_POSE, ports.CHECKS_PLAN}

@@ -11,14 +11,14 @@ someone at the e-stop:
 import numpy as np
 import pytest
 
-from calibrator.models import get_model
+from calibrator import robots
 from drivers.robot.safety import GuardedRobot, MotionLimits
 from drivers.robot.ur.device import UrRtdeRobot
 
 STEP_RAD = 0.01  # wrist 3 only: the joint that sweeps the least space
 SPEED, ACCEL = 0.05, 0.3
 # UR5e and UR10e share their joint limits (+-2 pi, elbow +-pi)
-LIMITS = MotionLimits.from_model(get_model("ur5e"), max_speed_rad_s=0.1, max_accel_rad_s2=0.5)
+LIMITS = MotionLimits.from_model(robots.get("ur5e"), max_speed_rad_s=0.1, max_accel_rad_s2=0.5)
 
 
 @pytest.fixture

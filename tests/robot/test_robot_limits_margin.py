@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator.models import get_model
+from calibrator import robots
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
 from drivers.robot.sim.device import SimulatedRobot
@@ -15,7 +15,7 @@ ASYMMETRIC = np.array(
 )
 CASES = [
     MotionLimits(ASYMMETRIC, max_speed_rad_s=1.0, max_accel_rad_s2=2.0),
-    MotionLimits.from_model(get_model("ur10e"), max_speed_rad_s=1.0, max_accel_rad_s2=2.0),
+    MotionLimits.from_model(robots.get("ur10e"), max_speed_rad_s=1.0, max_accel_rad_s2=2.0),
 ]
 
 
@@ -44,7 +44,7 @@ def test_one_microradian_past_a_limit_is_refused_on_every_joint(limits, joint, e
 def test_a_single_guarded_move_one_microradian_out_never_reaches_the_robot(joint):
     moves = []
     robot = SimulatedRobot(
-        get_model("ur10e").mdh, np.eye(4), np.eye(4), listener=lambda pose: moves.append(pose)
+        robots.get("ur10e").mdh, np.eye(4), np.eye(4), listener=lambda pose: moves.append(pose)
     )
     limits = CASES[0]
     guarded = GuardedRobot(robot, limits)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator.models import get_model
+from calibrator import robots
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
 from drivers.robot.sim.device import SimulatedRobot
@@ -56,7 +56,7 @@ def test_speed_and_acceleration_caps(speed, accel, word):
 
 
 def test_model_limits_and_joint_speed():
-    ur10e = get_model("ur10e")
+    ur10e = robots.get("ur10e")
     limits = MotionLimits(
         ur10e.joint_limits_rad, 3.0, 3.0, max_joint_speed_rad_s=ur10e.max_joint_speed_rad_s
     )
@@ -71,7 +71,7 @@ def test_model_limits_and_joint_speed():
 
 
 def test_a_models_limits_are_its_fixed_ceilings_by_default():
-    ur10e = get_model("ur10e")
+    ur10e = robots.get("ur10e")
     limits = MotionLimits.from_model(ur10e)
     np.testing.assert_array_equal(limits.joint_limits_rad, ur10e.joint_limits_rad)
     assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (1.0, 2.0)
@@ -90,11 +90,11 @@ def test_a_models_limits_are_its_fixed_ceilings_by_default():
 )
 def test_a_user_cap_cannot_raise_a_models_ceiling(caps, word):
     with pytest.raises(LimitsViolation, match=word):
-        MotionLimits.from_model(get_model("ur10e"), **caps)
+        MotionLimits.from_model(robots.get("ur10e"), **caps)
 
 
 def test_a_user_cap_lowers_a_models_ceiling():
-    limits = MotionLimits.from_model(get_model("ur5e"), max_speed_rad_s=0.2, max_accel_rad_s2=0.5)
+    limits = MotionLimits.from_model(robots.get("ur5e"), max_speed_rad_s=0.2, max_accel_rad_s2=0.5)
     assert (limits.max_speed_rad_s, limits.max_accel_rad_s2) == (0.2, 0.5)
     with pytest.raises(LimitsViolation, match="speed 0.3"):
         check_plan(np.zeros((1, 6)), limits, 0.3, 0.5)
@@ -118,7 +118,7 @@ def test_bad_limits_rejected():
 def test_guarded_plan_refused_whole_before_any_move():
     moves = []
     robot = SimulatedRobot(
-        get_model("ur5e").mdh, np.eye(4), np.eye(4), listener=lambda pose: moves.append(pose)
+        robots.get("ur5e").mdh, np.eye(4), np.eye(4), listener=lambda pose: moves.append(pose)
     )
     guarded = GuardedRobot(robot, LIMITS)
     q = plan(10, np.random.default_rng(2))

@@ -7,18 +7,18 @@ import sys
 import numpy as np
 import pytest
 import yourdfpy
-from robot_files import KUKA, with_geometry
+from robot_files_kit import KUKA, with_geometry
 
-from calibrator import kinematics, parameters, simulate
+from calibrator import robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import export_like
-from calibrator.models import get_model
+from calibrator.model import kinematics, parameters
 
 
 def calibrated(path, seed=4):
     """A calibration of the URDF's arm with hidden MDH errors (Hayati betas included)."""
-    arm = get_model(str(path))
+    arm = robots.get(str(path))
     rng = np.random.default_rng(seed)
     mdh = arm.mdh + simulate.random_errors(arm.mdh, rng, mm=0.5, rad=0.002)
     free = parameters.structural_candidates(arm.mdh, "base", True)[0]
@@ -127,7 +127,7 @@ def test_a_urdf_arm_identified_and_written_back_moves_as_the_hidden_true_arm(use
     from calibrator.identify.pipeline import Options, identify
     from calibrator.simulate import simulate
 
-    arm = get_model(str(user_urdf))
+    arm = robots.get(str(user_urdf))
     table, meta, truth = simulate(
         model=str(user_urdf), poses=40, noise_mm=0.02, errors="random", seed=8
     )

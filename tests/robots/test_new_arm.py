@@ -7,11 +7,11 @@ import textwrap
 import numpy as np
 import pytest
 
-from calibrator import cell, export, mass_models, robots, session
+from calibrator import cell, export, robots, session
 from calibrator import plan as plans
 from calibrator.calibration import Calibration
 from calibrator.identify.pipeline import Options, identify
-from calibrator.models import get_model
+from calibrator.model import mass_models
 from calibrator.simulate import simulate
 
 TOOL_MM = (0.0, 0.0, 100.0)
@@ -60,14 +60,14 @@ def made_up_arm(tmp_path, monkeypatch):
     """The package's modules plus one more, in a directory of its own."""
     (tmp_path / "madeup.py").write_text(MADE_UP)
     monkeypatch.setattr(robots, "__path__", [*robots.__path__, str(tmp_path)])
-    yield get_model("madeup-6")
+    yield robots.get("madeup-6")
     sys.modules.pop("calibrator.robots.madeup", None)
 
 
 def test_a_new_module_is_a_new_named_arm_with_its_data(made_up_arm):
-    from calibrator import models
+    from calibrator import robots
 
-    assert "madeup-6" in models.MODEL_NAMES
+    assert "madeup-6" in robots.names()
     assert made_up_arm.move_accel_cap_rad_s2 == 1.5  # its own, lower than the fixed 2.0
     assert made_up_arm.move_speed_cap_rad_s == 1.0
     assert mass_models.get("madeup-6").mass_kg[0] == 20.0

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from calibrator import cell, kinematics, robots
+from calibrator import cell, robots
 from calibrator import plan as plans
-from calibrator.models import get_model
+from calibrator.model import kinematics
 
 DATA = Path(robots.__file__).with_name("data")
 # The tip link each shipped description names, and its controller's own joint
@@ -60,7 +60,7 @@ def test_every_brand_is_shipped():
 
 @pytest.mark.parametrize("name", sorted(ARMS))
 def test_forward_kinematics_equal_an_independent_urdf_reading(name):
-    arm = get_model(name)
+    arm = robots.get(name)
     q_ctrl = controller_poses(arm, 200, seed=1)
     expected = urdf_poses(name, ros_angles(name, q_ctrl))
     got = arm.base_offset @ kinematics.chain(arm.mdh, arm.convention.to_model(q_ctrl))
@@ -71,7 +71,7 @@ def test_forward_kinematics_equal_an_independent_urdf_reading(name):
 
 @pytest.mark.parametrize("name", sorted(ARMS))
 def test_joint_convention_round_trips(name):
-    arm = get_model(name)
+    arm = robots.get(name)
     q_ctrl = controller_poses(arm, 1000, seed=2)
     back = arm.convention.to_controller(arm.convention.to_model(q_ctrl))
     if arm.convention.couplings:
@@ -83,7 +83,7 @@ def test_joint_convention_round_trips(name):
 
 
 def test_fanuc_j3_is_coupled_to_j2_and_kuka_a1_and_a6_turn_the_other_way():
-    fanuc, kuka = get_model("fanuc-m20ia"), get_model("kuka-kr6-r900")
+    fanuc, kuka = robots.get("fanuc-m20ia"), robots.get("kuka-kr6-r900")
     q = np.radians([[10.0, 20.0, 30.0, 40.0, 50.0, 60.0]])
     np.testing.assert_allclose(fanuc.convention.to_model(q)[0, 2], np.radians(50.0))
     np.testing.assert_allclose(
@@ -93,7 +93,7 @@ def test_fanuc_j3_is_coupled_to_j2_and_kuka_a1_and_a6_turn_the_other_way():
 
 @pytest.mark.parametrize("name", sorted(ARMS))
 def test_a_plan_for_the_arm_passes_its_own_capsule_checks(name):
-    arm = get_model(name)
+    arm = robots.get(name)
     tool = (0.0, 0.0, 80.0)
     reach = cell.arm_geometry(arm, arm.mdh, tool).reach_mm
     where = cell.Cell(tracker_at_mm=(reach + 1500.0, 300.0, 300.0))

@@ -6,17 +6,17 @@ import sys
 import numpy as np
 import pytest
 import yourdfpy
-from robot_files import KUKA, with_geometry
+from robot_files_kit import KUKA, on_a_track, with_geometry
 
-from calibrator import kinematics
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import kinematics
 from calibrator.robots import DescriptionError
 
 
 def test_capsules_enclose_the_collision_primitives_with_the_stated_margin(tmp_path):
     path = tmp_path / "arm.urdf"
     path.write_text(with_geometry(KUKA))
-    arm = get_model(str(path))
+    arm = robots.get(str(path))
     assert arm.name == str(path)
     assert arm.body.margin_mm == 10.0 and "collision geometry" in arm.body.source
     frames = kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0]
@@ -49,7 +49,7 @@ def test_capsules_enclose_the_collision_primitives_with_the_stated_margin(tmp_pa
 def test_masses_and_centres_of_mass_come_from_the_inertials(tmp_path):
     path = tmp_path / "arm.urdf"
     path.write_text(with_geometry(KUKA))
-    arm = get_model(str(path))
+    arm = robots.get(str(path))
     np.testing.assert_array_equal(arm.mass_kg, [0, 8, 0, 3, 0, 0])
     # Centre of mass of link 2 in the base frame at the zero pose, by yourdfpy.
     urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
@@ -63,12 +63,12 @@ def test_masses_and_centres_of_mass_come_from_the_inertials(tmp_path):
 def test_links_of_the_chain_can_be_named(tmp_path):
     path = tmp_path / "arm.urdf"
     path.write_text(KUKA)
-    to_tool0 = get_model(f"{path}#base_link:tool0")
-    to_flange = get_model(str(path))  # tool0 is the default tip
+    to_tool0 = robots.get(f"{path}#base_link:tool0")
+    to_flange = robots.get(str(path))  # tool0 is the default tip
     assert to_tool0.name.endswith("#base_link:tool0")
     np.testing.assert_allclose(to_tool0.mdh, to_flange.mdh)
     with pytest.raises(DescriptionError, match="no tip link 'nope'"):
-        get_model(f"{path}#base_link:nope")
+        robots.get(f"{path}#base_link:nope")
 
 
 def seven_axes(text):
@@ -82,20 +82,6 @@ def seven_axes(text):
     start = text.index('<joint name="flange-tool0"')
     end = text.index("</joint>", start) + len("</joint>")
     return (text[:start] + text[end:]).replace("</robot>", extra)
-
-
-def on_a_track(text):
-    track = """<link name="world"/>
-  <link name="carriage"/>
-  <joint name="track" type="prismatic">
-    <parent link="world"/><child link="carriage"/><axis xyz="1 0 0"/>
-    <limit lower="0" upper="3" effort="0" velocity="1"/>
-  </joint>
-  <joint name="carriage-base" type="fixed">
-    <parent link="carriage"/><child link="base_link"/>
-  </joint>
-</robot>"""
-    return text.replace("</robot>", track)
 
 
 @pytest.mark.parametrize(
@@ -114,7 +100,7 @@ def test_arms_that_are_not_serial_six_axis_chains_are_refused_in_one_line(
 ):
     (tmp_path / "arm.urdf").write_text(change(KUKA))
     with pytest.raises(DescriptionError, match=message) as info:
-        get_model(str(tmp_path / name))
+        robots.get(str(tmp_path / name))
     assert "\n" not in str(info.value)
 
 
@@ -175,7 +161,7 @@ configurations:
 def test_a_description_file_reads_degrees_and_the_controllers_angles(tmp_path):
     path = tmp_path / "arm.yaml"
     path.write_text(DESCRIPTION)
-    arm = get_model(str(path))
+    arm = robots.get(str(path))
     np.testing.assert_allclose(arm.mdh[1], [600, 0, -np.pi / 2, 0, 0])
     # Limits are the controller's: joint 1's sign and joint 2's offset move them.
     np.testing.assert_allclose(np.degrees(arm.joint_limits_rad[:2]), [[-170, 170], [0, 240]])
@@ -187,7 +173,7 @@ def test_a_description_file_reads_degrees_and_the_controllers_angles(tmp_path):
     cap = arm.body.capsules[0]
     frame = kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0, 2]
     np.testing.assert_allclose((frame @ np.append(cap.p_mm, 1))[:3], [150, 0, 450], atol=1e-9)
-    assert get_model(str(path)).digest == arm.digest
+    assert robots.get(str(path)).digest == arm.digest
 
 
 @pytest.mark.parametrize(
@@ -211,7 +197,7 @@ def test_a_bad_description_file_is_refused_naming_what_is_wrong(tmp_path, edit, 
     path = tmp_path / "arm.yaml"
     path.write_text(edit(DESCRIPTION))
     with pytest.raises(DescriptionError, match=message):
-        get_model(str(path))
+        robots.get(str(path))
 
 
 def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
@@ -220,13 +206,13 @@ def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
     (tmp_path / "c.yaml").write_text(
         DESCRIPTION.replace("[600, 0, -90, 0, 0]", "[600.001, 0, -90, 0, 0]")
     )
-    a, b, c = (get_model(str(tmp_path / f"{n}.yaml")) for n in "abc")
+    a, b, c = (robots.get(str(tmp_path / f"{n}.yaml")) for n in "abc")
     assert a.name != b.name and a.digest == b.digest
     assert c.digest != a.digest
 
 
 def test_a_description_files_masses_are_its_mass_model(tmp_path):
-    from calibrator import mass_models
+    from calibrator.model import mass_models
 
     path = tmp_path / "arm.yaml"
     masses = "masses:\n  mass_kg: [20, 15, 8, 3, 2, 0.5]\n  com_mm: " + str([[0, 0, 10]] * 6) + "\n"
@@ -249,7 +235,7 @@ def test_a_collision_mesh_of_the_package_is_enclosed(tmp_path):
   </link>"""
     path = tmp_path / "pkg" / "urdf" / "arm.urdf"
     path.write_text(KUKA.replace('<link name="link_4"/>', link_4))
-    arm = get_model(str(path))
+    arm = robots.get(str(path))
     cap = next(c for c in arm.body.capsules if c.name == "link_4")
     frame = arm.base_offset @ kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0, 4]
     p, q = ((frame @ np.append(v, 1.0))[:3] for v in (cap.p_mm, cap.q_mm))
@@ -266,11 +252,11 @@ def test_a_collision_mesh_of_the_package_is_enclosed(tmp_path):
 def test_a_changed_file_is_read_again(tmp_path):
     path = tmp_path / "arm.urdf"
     path.write_text(KUKA)
-    first = get_model(str(path))
-    assert get_model(str(path)).digest == first.digest
-    assert get_model(str(path)).mdh is not first.mdh  # each caller its own arrays
+    first = robots.get(str(path))
+    assert robots.get(str(path)).digest == first.digest
+    assert robots.get(str(path)).mdh is not first.mdh  # each caller its own arrays
     path.write_text(KUKA.replace('xyz="0.455 0 0"', 'xyz="0.5 0 0"'))
-    assert get_model(str(path)).mdh[1, 0] == pytest.approx(500.0)
+    assert robots.get(str(path)).mdh[1, 0] == pytest.approx(500.0)
 
 
 def test_no_command_writes_over_the_description_it_read(tmp_path):

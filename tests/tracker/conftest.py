@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 import pytest
-from tracker_testkit import REPO
+from tracker_kit import REPO
 
 from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from tracker_testkit import CONNECT_PAIRS, expected_exchange, host, trk
+from tracker_kit import CONNECT_PAIRS, expected_exchange, host, trk
 
 from drivers.tracker import BeamBroken, TargetUnstable, measure_average
 

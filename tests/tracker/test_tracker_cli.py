@@ -8,7 +8,7 @@ default); ``init`` asks first (or takes ``--yes``), and afterwards
 import subprocess
 
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 from drivers.tracker.line.simulator import SimulatorProcess

@@ -67,7 +67,7 @@ def harness(request, tmp_path) -> Iterator[Harness]:
         stops.append(server.stop)
         if kind == "rfc2217":
             pytest.importorskip("serial.rfc2217")
-            from tracker_testkit import Rfc2217Bridge
+            from tracker_kit import Rfc2217Bridge
 
             bridge = Rfc2217Bridge(url)
             stops.append(bridge.close)

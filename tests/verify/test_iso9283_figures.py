@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import frames, iso9283
-from calibrator.models import get_model
+from calibrator import iso9283, robots
+from calibrator.model import frames
 
 
 def test_position_figures_of_a_centred_cross_match_hand_values():
@@ -97,7 +97,7 @@ def test_cycle_plan_visits_p5_to_p1_each_cycle():
 
 
 def test_largest_cube_test_poses_are_reached_by_the_nominal_model():
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     tool = frames.transform(translation=[0, 0, 100.0])
     cube = iso9283.largest_cube(arm.mdh, arm.joint_limits_rad, tool)
     assert 300 < cube.side_mm < 1300  # a UR10e reaches 1300 mm
@@ -118,7 +118,7 @@ def test_largest_cube_test_poses_are_reached_by_the_nominal_model():
 
 
 def test_a_cube_out_of_reach_is_refused_naming_the_pose():
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     tool = frames.transform(translation=[0, 0, 100.0])
     with pytest.raises(iso9283.Iso9283Error, match="out of reach"):
         iso9283.check_cube(

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator.models import get_model
+from calibrator import robots
 from drivers.robot.sim.device import JointRepeatability, SimulatedRobot
 
 Q_A = np.array([0.1, -1.2, 1.0, -1.4, -1.5, 0.2])
@@ -11,7 +11,7 @@ Q_B = Q_A + 0.3
 
 
 def _robot(**kwargs):
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     robot = SimulatedRobot(arm.mdh, np.eye(4), np.eye(4), **kwargs)
     robot.connect()
     return robot

@@ -7,12 +7,12 @@ no journal, no session and no figures behind.
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, listing, one_line_error
+from cli_kit import cli, listing, one_line_error
 
-from calibrator import frames, kinematics
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 
-ARM = get_model("ur10e")
+ARM = robots.get("ur10e")
 
 
 def _cell(tmp_path, text):

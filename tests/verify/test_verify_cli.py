@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from cli_testkit import cli, one_line_error
-from verify_testkit import check_outputs
+from cli_kit import cli, one_line_error
+from verify_kit import check_outputs
 
 SEED = "3"
 
@@ -149,7 +149,7 @@ def test_ctrl_c_stops_after_the_current_pose_and_resume_finishes(tmp_path):
     import signal
     import time
 
-    from cli_process import run_cli, start_cli
+    from cli_process_kit import run_cli, start_cli
 
     args = ("verify", "--cycles", "4", "--settle", "0.1", "-o", "v.json")
     proc = start_cli(*args, cwd=tmp_path)
@@ -190,7 +190,7 @@ def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrate
 
 
 def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path):
-    from calibrator import frames
+    from calibrator.model import frames
     from calibrator.simulate import SimWorld
 
     done = cli("verify", "-q", "--cycles", "2", "--sim-probe-6dof", "-o", "v.json", cwd=tmp_path)

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from calibrator import frames
+from calibrator import robots
 from calibrator.acquire import verify as run
-from calibrator.models import get_model
+from calibrator.model import frames
 
 TOOL = frames.transform(translation=[0, 0, 100.0])
 
@@ -16,7 +16,7 @@ def plan():
 
     # Facing the simulated cell's tracker, as `calibrator verify` makes it.
     tracker = SimWorld.make("ur10e", 0).tracker_at_mm
-    return run.make_plan(get_model("ur10e"), TOOL, 3, tracker_at_mm=tracker)
+    return run.make_plan(robots.get("ur10e"), TOOL, 3, tracker_at_mm=tracker)
 
 
 def records(points, rotvecs=None):
@@ -87,7 +87,7 @@ def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tm
     from drivers.robot import RobotOptions, open_robot
     from drivers.tracker import OpenOptions, open_tracker
 
-    arm = get_model("ur10e")
+    arm = robots.get("ur10e")
     world = SimWorld.make("ur10e", 0)
 
     def session(resume, stop_after):
@@ -119,7 +119,7 @@ def test_the_default_verify_plan_passes_the_cell_check_of_each_named_ur(name):
     from calibrator import plan as plans
     from calibrator.simulate import SimWorld
 
-    arm = get_model(name)
+    arm = robots.get(name)
     tracker = SimWorld.make(arm.name, 0).tracker_at_mm
     vplan = run.make_plan(arm, TOOL, 30, tracker_at_mm=tracker)
     assert len(vplan.plan) == 150 and vplan.cube.side_mm >= 100.0

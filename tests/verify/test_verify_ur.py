@@ -8,8 +8,8 @@ import subprocess
 
 import numpy as np
 import pytest
-from cli_process import run_cli
-from verify_testkit import check_outputs
+from cli_process_kit import run_cli
+from verify_kit import check_outputs
 
 from drivers.robot.ur.simulator.launcher import FakeUrProcess
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames
+from calibrator.model import frames
 
 #: How far the reflector may be from the ``--tool`` guess, mm. A reflector on a
 #: flange adapter is placed by drawing to a few millimetres; 30 mm covers a

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
 from calibrator.acquire.ports import CHECKS_PLAN, WATCHES_TRACKER, ReadingLost
+from calibrator.model import kinematics
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.external.associate import Assigned, Associator, Rejected
 from drivers.robot.external.stops import REARM_FACTOR, Stop, StopDetector, StopOptions

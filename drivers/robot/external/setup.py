@@ -6,7 +6,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from calibrator import frames
+from calibrator.model import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
 from drivers.robot.external.robot import ExternalRobot
 from drivers.robot.external.stops import StopOptions

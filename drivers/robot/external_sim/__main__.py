@@ -29,14 +29,15 @@ def _poses(text: str) -> tuple[int, ...]:
 
 
 def _point(text: str) -> tuple[float, float, float]:
-    from calibrator import strict
+    from calibrator.inputs import grammar
+    from calibrator.inputs.errors import StrictError
 
     parts = text.split(",")
     try:
         if len(parts) != 3:
-            raise strict.StrictError("three numbers")
-        x, y, z = (strict.parse_number(p, "coordinate") for p in parts)
-    except strict.StrictError:
+            raise StrictError("three numbers")
+        x, y, z = (grammar.parse_number(p, "coordinate") for p in parts)
+    except StrictError:
         raise argparse.ArgumentTypeError(f"expected X,Y,Z in mm, got {text!r}") from None
     if max(abs(x), abs(y), abs(z)) > 2000.0:
         raise argparse.ArgumentTypeError(f"a reflector within 2000 mm of the flange, got {text!r}")

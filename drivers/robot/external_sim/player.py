@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import kinematics
+from calibrator.model import kinematics
 from drivers.robot.external_sim.motion import JointMove, ringing
 
 #: A step this close to its end (controller time, s) is at its end.
@@ -145,7 +145,7 @@ class Player:
         ``tool_mm`` (shape (3,), mm) puts the reflector there on the flange
         instead of where the hidden cell has it (near the default guess).
         """
-        from calibrator import frames
+        from calibrator.model import frames
         from calibrator.simulate import SimWorld
 
         cell = SimWorld.make(model, seed) if world is None else world.build(model, seed)

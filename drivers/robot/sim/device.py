@@ -18,7 +18,7 @@ above), so the errors reach the probe but not the joint read-back, as on a
 real arm. Approached always from the same side, the backlash is a constant
 offset (it shifts AP); the random error spreads the attained poses (RP).
 
-The dependency runs drivers -> calibrator (kinematics, models) only.
+The dependency runs drivers -> calibrator (model, robots) only.
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calibrator import robots
 from calibrator.acquire import ports
-from calibrator.kinematics import check_mdh, forward
-from calibrator.models import get_model
+from calibrator.model.kinematics import check_mdh, forward
 from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop
 from drivers.robot.interface import N_JOINTS, Robot, SafetyState, check_move_args
@@ -157,14 +157,14 @@ class SimulatedRobot(Robot):
         error_rad: float = 1e-3,
         **kwargs: Any,
     ) -> SimulatedRobot:
-        """A true arm: the named model (``calibrator.models``) with hidden errors from ``rng``.
+        """A true arm: the named model (``calibrator.robots``) with hidden errors from ``rng``.
 
         The errors are :func:`calibrator.simulate.random_errors` (uniform
         within +-``error_mm`` and +-``error_rad`` on Hayati's parameter set).
         ``base2tracker`` and ``flange2tool`` default to identity; other keyword
         arguments go to the constructor.
         """
-        nominal = get_model(name).mdh
+        nominal = robots.get(name).mdh
         true_mdh = nominal + random_errors(nominal, rng, mm=error_mm, rad=error_rad)
         eye = np.eye(4)
         return cls(

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from calibrator.kinematics import forward, parallel_axes
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model.kinematics import forward, parallel_axes
 from calibrator.simulate import random_errors
 from drivers.robot.sim.device import SimulatedRobot
 
@@ -23,7 +23,7 @@ FLANGE2TOOL = transform(0.0, [10.0, 0.0, 120.0])
 
 @pytest.mark.parametrize("name", ["ur5e", "ur10e", "er10l-c10"])
 def test_hidden_errors_respect_parallel_axes(name):
-    nominal = get_model(name).mdh
+    nominal = robots.get(name).mdh
     true = nominal + random_errors(nominal, np.random.default_rng(5))
     delta = true - nominal
     parallel = np.append(parallel_axes(nominal), False)
@@ -49,7 +49,7 @@ def test_same_seed_same_arm_other_seed_other_arm():
 
 
 def test_true_tool_pose_is_forward_kinematics_of_the_true_arm():
-    nominal = get_model("ur10e").mdh
+    nominal = robots.get("ur10e").mdh
     true = nominal + random_errors(nominal, np.random.default_rng(3))
     seen = []
     robot = SimulatedRobot(true, BASE2TRACKER, FLANGE2TOOL, listener=seen.append)
@@ -61,14 +61,14 @@ def test_true_tool_pose_is_forward_kinematics_of_the_true_arm():
     np.testing.assert_allclose(np.array(seen), expected, atol=1e-9)
     np.testing.assert_allclose(robot.true_tool_pose(), expected[-1], atol=1e-9)
     # the nominal model puts the probe elsewhere: that difference is what calibration finds
-    nominal = forward(get_model("ur10e").mdh, q, FLANGE2TOOL, BASE2TRACKER)
+    nominal = forward(robots.get("ur10e").mdh, q, FLANGE2TOOL, BASE2TRACKER)
     assert np.min(np.linalg.norm(nominal[:, :3, 3] - expected[:, :3, 3], axis=1)) > 0.01
 
 
 def test_encoder_noise_is_seeded_and_stable_per_pose():
     def run(seed):
         robot = SimulatedRobot(
-            get_model("ur5e").mdh,
+            robots.get("ur5e").mdh,
             np.eye(4),
             np.eye(4),
             joint_noise_rad=1e-4,
@@ -87,13 +87,13 @@ def test_encoder_noise_is_seeded_and_stable_per_pose():
     assert 0 < np.max(np.abs(error)) < 1e-3
     # the true pose follows the commanded joints, not the encoder readings
     np.testing.assert_array_equal(p1, p2)
-    expected = forward(get_model("ur5e").mdh, np.full((1, 6), 0.3))[0]
+    expected = forward(robots.get("ur5e").mdh, np.full((1, 6), 0.3))[0]
     np.testing.assert_allclose(p1, expected, atol=1e-9)
 
 
 def test_noise_needs_an_explicit_generator():
     with pytest.raises(ValueError, match="rng"):
-        SimulatedRobot(get_model("ur5e").mdh, np.eye(4), np.eye(4), joint_noise_rad=1e-4)
+        SimulatedRobot(robots.get("ur5e").mdh, np.eye(4), np.eye(4), joint_noise_rad=1e-4)
 
 
 @pytest.mark.parametrize(
@@ -106,7 +106,7 @@ def test_noise_needs_an_explicit_generator():
     ],
 )
 def test_constructor_checks_shapes(kwargs, word):
-    args = dict(true_mdh=get_model("ur5e").mdh, base2tracker=np.eye(4), flange2tool=np.eye(4))
+    args = dict(true_mdh=robots.get("ur5e").mdh, base2tracker=np.eye(4), flange2tool=np.eye(4))
     args.update(kwargs)
     true_mdh, base2tracker, flange2tool = (
         args.pop(k) for k in ("true_mdh", "base2tracker", "flange2tool")

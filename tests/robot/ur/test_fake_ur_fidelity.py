@@ -6,10 +6,10 @@ commands the fake does not emulate); the power and unlock rules in-process.
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
-from calibrator import frames, kinematics
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 from drivers.robot.ur.simulator.controller import (
     HOME_Q,
     MODE_IDLE,
@@ -28,7 +28,7 @@ from drivers.robot.ur.simulator.controller import (
 
 def test_tcp_pose_is_right_through_a_tool_down_sweep():
     # Tool straight down: rotation angle pi, where axis signs are easy to lose.
-    mdh = get_model("ur5e").mdh
+    mdh = robots.get("ur5e").mdh
     sweep = np.tile(HOME_Q, (73, 1))
     sweep[:, 5] = np.linspace(-np.pi, np.pi, 73)
     sweep[:, 0] = np.linspace(-1.0, 1.0, 73)
@@ -43,7 +43,7 @@ def test_tcp_pose_is_right_through_a_tool_down_sweep():
 def test_tcp_pose_over_rtde_with_set_tcp_and_a_tool_down_pose(ur_robot, fake_ur):
     import rtde_receive
 
-    mdh = get_model("ur5e").mdh
+    mdh = robots.get("ur5e").mdh
     receive = rtde_receive.RTDEReceiveInterface("127.0.0.1")
     try:
         q = HOME_Q + np.array([0.3, 0, 0, 0, 0, 2.0])  # tool still straight down
@@ -155,7 +155,7 @@ def test_model_comes_from_calibrator_models(name):
     c = FakeController(model=name)
     q = HOME_Q + 0.1
     c.q = q
-    expected = kinematics.forward(get_model(name).mdh, q[None])[0][:3, 3] / 1000
+    expected = kinematics.forward(robots.get(name).mdh, q[None])[0][:3, 3] / 1000
     np.testing.assert_allclose(c.snapshot()["actual_TCP_pose"][:3], expected, atol=1e-12)
 
 

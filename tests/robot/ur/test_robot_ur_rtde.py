@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 from calibrator.acquire.ports import RobotHalted
 from drivers.errors import ConnectionLost, DriverTimeout, NotReady

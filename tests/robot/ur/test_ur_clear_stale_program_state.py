@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 pytest.importorskip("rtde_control")
 

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from robot_testkit import wait_until
+from robot_kit import wait_until
 
 from drivers.errors import DriverTimeout, NotReady
 from drivers.robot.errors import EmergencyStop, ProtectiveStop

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from emscon_testkit import ENV, TARGET_MM
+from emscon_kit import ENV, TARGET_MM
 
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator

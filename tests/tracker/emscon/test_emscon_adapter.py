@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from emscon_testkit import ENV, TARGET_MM
+from emscon_kit import ENV, TARGET_MM
 
 from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, Tracker, TrackerUnavailable

@@ -13,7 +13,7 @@ import CESAPI.packet as cesapi_packet  # a test dependency (pyproject extra "tes
 import numpy as np
 from CESAPI.command import CommandSync
 from CESAPI.connection import Connection
-from emscon_testkit import TARGET_MM
+from emscon_kit import TARGET_MM
 
 from drivers.tracker.emscon import protocol as pk
 

@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 import pyarrow.parquet as pq
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
 

@@ -16,7 +16,7 @@ import threading
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-from cli_process import run_cli
+from cli_process_kit import run_cli
 
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess

@@ -12,7 +12,7 @@ from collections import deque
 
 import numpy as np
 import pytest
-from emscon_testkit import TARGET_MM
+from emscon_kit import TARGET_MM
 
 from drivers.tracker.averaging import measure_average
 from drivers.tracker.emscon import EmsconTracker

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 import pytest
-from tracker_testkit import LIVE_TIMEOUT_S, live_tracker
+from tracker_kit import LIVE_TIMEOUT_S, live_tracker
 
 from drivers.errors import ConnectionLost, ProtocolError
 from drivers.tracker import (

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tracker_testkit import ScriptedTransport, host
+from tracker_kit import ScriptedTransport, host
 
 from drivers.errors import DriverError
 from drivers.tracker import FrameError

@@ -14,7 +14,7 @@ import tty
 import numpy as np
 import pytest
 import serial
-from tracker_testkit import DevicePort, engine_responder
+from tracker_kit import DevicePort, engine_responder
 
 from drivers.tracker import ConnectionLost, FrameError, LaserTracker, TrackerTimeout
 from drivers.tracker.line.protocol import MAX_FRAME, SEQ_MAX

@@ -13,7 +13,7 @@ import socket
 
 import pytest
 import serial
-from tracker_testkit import ScriptedTransport, host, trk
+from tracker_kit import ScriptedTransport, host, trk
 
 from drivers.tracker.errors import TrackerTimeout
 from drivers.tracker.line.link import Link, LinkCounters, close_for_good

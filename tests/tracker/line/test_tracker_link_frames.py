@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import CONNECT_PAIRS, ScriptedTransport, expected_exchange, host, trk
+from tracker_kit import CONNECT_PAIRS, ScriptedTransport, expected_exchange, host, trk
 
 from drivers.tracker import LaserTracker
 from drivers.tracker.errors import FrameError, TrackerTimeout

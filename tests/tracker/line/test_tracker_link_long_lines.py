@@ -10,7 +10,7 @@ skipping such a line.
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import ScriptedTransport, host, trk
+from tracker_kit import ScriptedTransport, host, trk
 
 from drivers.tracker.errors import FrameError, TrackerTimeout
 from drivers.tracker.line.link import Link, LinkCounters

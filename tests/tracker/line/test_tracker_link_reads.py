@@ -11,7 +11,7 @@ reconfigures a tty).
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
+from tracker_kit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
 
 from drivers.tracker.errors import FrameError
 from drivers.tracker.line.link import Link

@@ -9,7 +9,7 @@ itself looks like the start of a frame is still found.
 from __future__ import annotations
 
 import pytest
-from tracker_testkit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
+from tracker_kit import TIMEOUT_BOUNDS, ScriptedTransport, host, stat_half_second_left, trk
 
 from drivers.tracker.errors import ConnectionLost
 from drivers.tracker.line.link import Link

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tracker_testkit import REPO, live_tracker
+from tracker_kit import REPO, live_tracker
 
 from drivers.errors import DriverError
 from drivers.tracker import Environment, measure_average, read_log

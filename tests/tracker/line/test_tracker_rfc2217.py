@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tracker_testkit import Rfc2217Bridge, live_tracker
+from tracker_kit import Rfc2217Bridge, live_tracker
 
 from drivers.tracker import measure_average
 

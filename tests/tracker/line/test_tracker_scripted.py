@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tracker_testkit import CONNECT_PAIRS, ScriptedTransport, expected_exchange, host, trk
+from tracker_kit import CONNECT_PAIRS, ScriptedTransport, expected_exchange, host, trk
 
 from drivers.errors import DriverError, NotReady, ProtocolError
 from drivers.tracker import (

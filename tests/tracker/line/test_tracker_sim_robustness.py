@@ -15,7 +15,7 @@ import time
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from tracker_testkit import REPO, host
+from tracker_kit import REPO, host
 
 from drivers.tracker.line.protocol import decode_frame, parse_reply
 from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator

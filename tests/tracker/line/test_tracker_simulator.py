@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from tracker_testkit import REPO, live_tracker
+from tracker_kit import REPO, live_tracker
 
 from drivers.tracker import (
     BeamBroken,
@@ -145,14 +145,19 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
     # from and the one simulated world (its noise model), nothing else of the
     # product's domain: no solver, session, plan or command line, and no scipy.
     # The arm descriptions the simulated world is built from (calibrator.robots: its
-    # description files are read through the strict reader and converted by chains).
+    # description files are read through the strict reader and converted by
+    # calibrator.model.conventions).
     allowed = {
         "calibrator", "calibrator.acquire", "calibrator.acquire.ports", "calibrator.simulate",
-        "calibrator.errors", "calibrator.frames", "calibrator.kinematics", "calibrator.models",
-        "calibrator.parameters", "calibrator.joint_terms", "calibrator.mass_models",
+        "calibrator.errors", "calibrator.model", "calibrator.model.frames",
+        "calibrator.model.kinematics", "calibrator.model.parameters",
+        "calibrator.model.joint_terms", "calibrator.model.mass_models",
         "calibrator.robots", "calibrator.robots.description", "calibrator.robots.files",
         "calibrator.robots.ipso_paper", "calibrator.robots.urdf", "calibrator.robots.ur",
-        "calibrator.robots.shipped", "calibrator.chains", "calibrator.strict",
+        "calibrator.robots.shipped", "calibrator.model.conventions", "calibrator.inputs",
+        "calibrator.inputs.errors", "calibrator.inputs.grammar", "calibrator.inputs.messages",
+        "calibrator.inputs.textfile", "calibrator.inputs.yamlfile", "calibrator.inputs.rules",
+        "calibrator.inputs.budgets",
     }  # fmt: skip
     code = (
         "import sys, drivers.tracker.line.simulator.__main__ as m; "

@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
         help="simulated seconds of motion per wall-clock second (default 1)",
     )
     parser.add_argument(
-        "--model", default="ur5e", help="named model of calibrator.models (default ur5e)"
+        "--model", default="ur5e", help="named model of calibrator.robots (default ur5e)"
     )
     parser.add_argument(
         "--unlock-delay",

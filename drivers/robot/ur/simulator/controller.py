@@ -7,9 +7,9 @@ the command register the client wrote, executes the command and answers on the
 output registers. Motion is simulated time; ``time_scale`` makes it run faster
 than the wall clock so tests stay short.
 
-The arm is a named model from :mod:`calibrator.models` (UR5e by default);
+The arm is a named model from :mod:`calibrator.robots` (UR5e by default);
 ``actual_TCP_pose`` is its nominal forward kinematics with the TCP set by
-``setTcp``, the rotation as :func:`calibrator.frames.matrix_to_rotvec` gives it
+``setTcp``, the rotation as :func:`calibrator.model.frames.matrix_to_rotvec` gives it
 (the one conversion of the project, exact near pi).
 
 Power and brakes follow a real controller: an e-stop powers the arm off;
@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator import frames, kinematics
-from calibrator.models import get_model
+from calibrator import robots
+from calibrator.model import frames, kinematics
 
 # runtime_state values (UR RTDE guide)
 RUNTIME_STOPPED = 1
@@ -105,7 +105,7 @@ def tcp_pose(
     flange2tcp : array_like, shape (4, 4), optional
         TCP in the flange frame (mm), as set by ``setTcp``; default the flange.
     """
-    mdh = get_model("ur5e").mdh if mdh is None else mdh
+    mdh = robots.get("ur5e").mdh if mdh is None else mdh
     pose = kinematics.forward(mdh, np.asarray(q, float)[None], flange2tcp)[0]
     return np.concatenate([pose[:3, 3] / 1000.0, frames.matrix_to_rotvec(pose[:3, :3])])
 
@@ -195,7 +195,7 @@ class FakeController:
     initial_q : array_like, shape (6,), optional
         Starting joint angles, rad. Default :data:`HOME_Q`.
     model : str
-        Named model of :mod:`calibrator.models` (``ur5e``, ``ur10e``).
+        Named model of :mod:`calibrator.robots` (``ur5e``, ``ur10e``).
     unlock_delay_s : float
         Refuse ``unlock protective stop`` this long after a stop, s (5 on a
         real controller; tests may shorten it).
@@ -239,7 +239,7 @@ class FakeController:
         self._t0 = time.monotonic()
         self.stalled = False  # test hook: stop streaming, keep sockets open
         self.unlock_delay_s = float(unlock_delay_s)
-        self.model = get_model(model)
+        self.model = robots.get(model)
         self.flange2tcp = np.eye(4)  # setTcp changes it (mm)
         self.robot_mode = MODE_RUNNING
         self._protective_since: float | None = None

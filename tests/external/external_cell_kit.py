@@ -1,0 +1,123 @@
+"""A cell without a robot link: a tracker simulator on TCP and the external-robot player."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+from cli_process_kit import child_env, start_cli
+
+from calibrator import plan as plans
+
+#: Where the shared plan's reflector is on the flange, mm (14 mm from the default guess
+#: 0,0,100, with which every run here measures).
+TOOL_MM = (11.3, -6.8, 96.2)
+
+
+def first_poses(plan_path: Path, n: int, out: Path) -> Path:
+    """The first ``n`` measured poses of a plan (with their vias), written to ``out``.
+
+    Written without the file's record of the arm, tracker and reflector it was
+    made for, as an older plan file is: ``measure`` then keeps the default
+    reflector guess (0,0,100), 14 mm from where the shared plan's reflector is.
+    """
+    plan = plans.read_plan(plan_path)
+    plans.write_plan(out, plans.Plan(plan.q_rad[:n], plan.via_rad[:n]))
+    return out
+
+
+@contextmanager
+def tracker_simulator(seed: int = 2):
+    """``python -m drivers.tracker.line.simulator --tcp 0 --initialised``; yields its socket URL."""
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "drivers.tracker.line.simulator",
+            "--tcp",
+            "0",
+            "--initialised",
+            "--seed",
+            str(seed),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=child_env(None),
+    )
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.isdigit(), port
+        yield f"socket://127.0.0.1:{port}"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+        proc.stdout.close()
+
+
+def start_player(plan: Path, url: str, *args, cwd: Path) -> subprocess.Popen:
+    """``python -m drivers.robot.external_sim`` playing ``plan`` on the simulator at ``url``."""
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "drivers.robot.external_sim",
+            "--plan",
+            str(plan),
+            "--control",
+            url,
+            *map(str, args),
+        ],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=child_env(None),
+    )
+
+
+class Watching:
+    """``calibrator measure --robot external ARGS`` (or ``command``) in ``cwd``, watching.
+
+    Made once the run says its cell-time estimate, the line it prints with
+    its journal open, just before it starts watching: the operator starts
+    the program then, so the run sees the program's first stop however long
+    its own start took on a loaded machine.
+    """
+
+    def __init__(self, *args, cwd: Path, ready_s: float = 120.0, command: str = "measure"):
+        self.proc = start_cli(command, "--robot", "external", *args, cwd=cwd)
+        self._stderr: list[str] = []
+        self._ready = threading.Event()
+        # stderr carries a line per stop decision: drained as it comes, never left to fill
+        self._drain = threading.Thread(target=self._read_stderr, daemon=True)
+        self._drain.start()
+        # With -q there is no estimate line: the journal it opens just before says the same.
+        args = [str(a) for a in args]
+        journal = Path(cwd) / (args[args.index("-o") + 1] + ".journal") if "-o" in args else None
+        quiet = "-q" in args or "--quiet" in args
+        deadline = time.monotonic() + ready_s
+        while not self._ready.wait(0.05):
+            if quiet and journal is not None and journal.exists():
+                break
+            assert time.monotonic() < deadline, f"measure not watching after {ready_s} s"
+        assert self.proc.poll() is None, self.result(0)
+
+    def _read_stderr(self) -> None:
+        for line in self.proc.stderr:
+            self._stderr.append(line)
+            if line.startswith("estimated cell time"):
+                self._ready.set()
+        self._ready.set()  # it ended before watching: the caller reports why
+
+    def result(self, timeout: float) -> subprocess.CompletedProcess:
+        """Wait for the run to end; its exit code and output, as :func:`cli_process_kit.run_cli`."""
+        # stdout holds one line per pose: far below a pipe's capacity, read once at the end.
+        code = self.proc.wait(timeout=timeout)
+        stdout = self.proc.stdout.read()
+        self.proc.stdout.close()
+        self._drain.join(timeout=10)
+        return subprocess.CompletedProcess(self.proc.args, code, stdout, "".join(self._stderr))

@@ -1,0 +1,169 @@
+"""identify's options: one table of rules for the command line, provenance and ``--like``."""
+
+import dataclasses
+import json
+
+import pytest
+import typer.main
+from cli_kit import cli, listing, one_line_error
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from calibrator import calibration
+from calibrator.cli import _app
+from calibrator.identify import option_rules
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    """A session and the calibration identify wrote from it (least squares: fast)."""
+    folder = tmp_path_factory.mktemp("like")
+    done = cli("simulate", "--model", "ur10e", "--poses", "30", "-o", "s.parquet", cwd=folder)
+    assert done.code == 0, done.stderr
+    done = cli("identify", "s.parquet", "--method", "lm", "-o", "cal.json", "-q", cwd=folder)
+    assert done.code == 0, done.stderr
+    return folder
+
+
+# Each hand edit the red team made, and what the refusal names.
+BAD_RECORDED = [
+    ({"generations": 1_000_000_000, "method": "hybrid"}, "generations: 1000000000 generations"),
+    ({"particles": -5, "method": "hybrid"}, "particles: must be a whole number >= 2, got -5"),
+    ({"particles": 1, "method": "hybrid"}, "particles: must be a whole number >= 2, got 1"),
+    ({"seed": -1}, "seed: must be a whole number >= 0, got -1"),
+    ({"swarm_poses": 1_000_000_000}, "swarm_poses: 1000000000 poses is more than the limit"),
+    ({"payload_kg": -5}, "payload_kg: must be a number >= 0, got -5"),
+    ({"payload_kg": 1e308}, "payload_kg: 1e+308 kg is more than the limit of 100 kg"),
+    ({"payload_com_mm": [1e308, 0, 0]}, "payload_com_mm: 1e+308 mm is beyond +-2000 mm"),
+    ({"mass_model": "/etc/passwd"}, "mass_model: '/etc/passwd' is neither a named arm"),
+    ({"noise_mm": 1e300}, "noise_mm: 1e+300 mm is more than the limit of 100 mm"),
+    ({"validation_fraction": 1.5}, "validation_fraction: must be in [0, 1), got 1.5"),
+    ({"k": -1.0}, "k: must be a number >= 0, got -1"),
+    ({"method": "newton"}, "method: 'newton' is not one of 'hybrid', 'pso', 'lm'"),
+    ({"joint_term_groups": "bogus"}, "joint_term_groups: unknown term bogus"),
+    ({"joint_term_groups": "x" * 5000}, "joint_term_groups: unknown term xxxxxxxxxxxx...x"),
+]
+
+
+@pytest.mark.parametrize(("edit", "says"), BAD_RECORDED)
+def test_a_bad_recorded_option_is_refused_as_the_typed_one_is(made, edit, says):
+    doc = json.loads((made / "cal.json").read_text())
+    doc.update(edit)
+    (made / "bad.json").write_text(json.dumps(doc))
+    before = listing(made)
+    line = one_line_error(
+        cli("identify", "s.parquet", "--like", "bad.json", "-o", "out.json", "-q", cwd=made)
+    )
+    assert line.startswith("calibrator: error: --like bad.json: ")
+    assert says in line and len(line) < 200
+    assert listing(made) == before  # nothing written
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--payload-kg", "1e308"], "--payload-kg: 1e+308 kg is more than the limit of 100 kg"),
+        (["--payload-kg", "1000000"], "--payload-kg: 1e+06 kg is more than the limit"),
+        (["--payload-com-mm", "0,0,1e7"], "--payload-com-mm: 1e+07 mm is beyond +-2000 mm"),
+        (["--mass-model", "/etc/passwd"], "--mass-model: '/etc/passwd' is neither"),
+        (["--noise-mm", "1e9"], "--noise-mm: 1e+09 mm is more than the limit of 100 mm"),
+    ],
+)
+def test_the_typed_option_meets_the_same_rule(made, args, says):
+    before = listing(made)
+    line = one_line_error(cli("identify", "s.parquet", "-o", "out.json", *args, cwd=made))
+    assert says in line
+    assert listing(made) == before
+
+
+def test_a_typed_option_overrides_a_bad_recorded_one(made):
+    doc = json.loads((made / "cal.json").read_text())
+    doc["seed"] = -1
+    (made / "bad.json").write_text(json.dumps(doc))
+    done = cli(
+        "identify", "s.parquet", "--like", "bad.json", "--seed", "4", "-o", "o.json", "-q",
+        cwd=made,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    assert json.loads((made / "o.json").read_text())["seed"] == 4
+    (made / "o.json").unlink()
+
+
+def test_every_rule_is_a_provenance_field_and_every_flag_an_identify_option():
+    names = {f.name for f in dataclasses.fields(calibration.Provenance)}
+    assert set(option_rules.RULES) <= names
+    assert calibration.Provenance.OPTION_KEYS + calibration.Provenance.JOINT_OPTION_KEYS == tuple(
+        option_rules.RULES
+    )
+    command = typer.main.get_command(_app.app).commands["identify"]  # type: ignore[attr-defined]
+    flags = {o for p in command.params for o in p.opts}
+    for rule in option_rules.RULES.values():
+        assert rule.flag is None or rule.flag in flags, rule.key
+        assert rule.meaning
+    helps = {o: p.help for p in command.params for o in p.opts}
+    for key in ("particles", "generations", "k", "validation_fraction", "noise_mm", "payload_kg"):
+        rule = option_rules.RULES[key]
+        assert rule.bounds in " ".join(helps[rule.flag].split()), (key, helps[rule.flag])
+
+
+def test_the_limits_themselves_pass():
+    for key, value in [
+        ("particles", 1000),
+        ("generations", 100_000),
+        ("swarm_poses", 50_000),
+        ("payload_kg", 100.0),
+        ("payload_com_mm", [2000, -2000, 0]),
+        ("mass_model", "UR10e"),
+        ("joint_term_groups", ""),
+    ]:
+        option_rules.RULES[key].check(value)
+
+
+# Fuzz: any recorded value is either taken (then its rule passes) or refused in one line.
+_VALUES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.sampled_from(["", "lm", "huber", "ur10e", "UR10E", "/etc/passwd", "scale", "x" * 3000]),
+    st.lists(st.floats(-1e308, 1e308), max_size=4),
+    st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
+)
+_KEYS = st.sampled_from([*option_rules.RULES, "model", "frame", "nominal_source", "created"])
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(edits=st.dictionaries(_KEYS, _VALUES, min_size=1, max_size=3))
+def test_fuzz_recorded_options(made, edits):
+    doc = json.loads((made / "cal.json").read_text())
+    doc.update(edits)
+    if "method" not in edits:
+        doc["method"] = "lm"  # keep the runs short; a recorded swarm is fuzzed through "method"
+    if doc.get("method") != "lm":
+        doc["generations"] = 3
+        edits.pop("generations", None)
+    (made / "fuzz.json").write_text(json.dumps(doc))
+    before = listing(made)
+    result = cli("identify", "s.parquet", "--like", "fuzz.json", "-o", "fz.json", "-q", cwd=made)
+    if result.code == 2:
+        line = one_line_error(result)
+        assert len(line) < 300, line
+        assert listing(made) == before
+        return
+    assert result.code == 0, result.stderr
+    for key, value in edits.items():
+        if key in option_rules.RULES:
+            option_rules.RULES[key].check(value)  # only what its rule allows was taken
+    (made / "fz.json").unlink()
+
+
+def test_a_recorded_nominal_source_is_one_of_three(made):
+    doc = json.loads((made / "cal.json").read_text())
+    doc["nominal_source"] = "elsewhere"
+    (made / "bad.json").write_text(json.dumps(doc))
+    line = one_line_error(
+        cli("identify", "s.parquet", "--like", "bad.json", "-o", "out.json", "-q", cwd=made)
+    )
+    assert "bad.json: 'nominal_source' must be one of session, model, file" in line

@@ -1,0 +1,51 @@
+"""URDF texts for the robot-description tests (not a test module)."""
+
+from pathlib import Path
+
+from calibrator import robots
+
+DATA = Path(robots.__file__).with_name("data")
+#: The shipped KUKA KR 6 R900 URDF: joints only.
+KUKA = (DATA / "kuka-kr6-r900.urdf").read_text()
+
+
+def with_geometry(text):
+    """The KUKA URDF with a box, a cylinder, a sphere and inertials on some links."""
+    link_2 = """<link name="link_2">
+    <inertial><origin xyz="0.2 0 0.01" rpy="0 0 0"/><mass value="8.0"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
+    <visual><geometry><mesh filename="package://kuka_kr6_support/meshes/link_2.stl"/></geometry>
+    </visual>
+    <collision><origin xyz="0.2275 0 0" rpy="0.3 0 0"/>
+      <geometry><box size="0.5 0.12 0.1"/></geometry></collision>
+  </link>"""
+    link_4 = """<link name="link_4">
+    <inertial><origin xyz="0.15 0 0" rpy="0 0 0"/><mass value="3.0"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
+    <collision><origin xyz="0.2 0 0" rpy="0 1.5707963267948966 0"/>
+      <geometry><cylinder radius="0.05" length="0.3"/></geometry></collision>
+  </link>"""
+    link_6 = """<link name="link_6">
+    <collision><origin xyz="-0.01 0 0" rpy="0 0 0"/>
+      <geometry><sphere radius="0.04"/></geometry></collision>
+  </link>"""
+    return (
+        text.replace('<link name="link_2"/>', link_2)
+        .replace('<link name="link_4"/>', link_4)
+        .replace('<link name="link_6"/>', link_6)
+    )
+
+
+def on_a_track(text):
+    """The URDF ``text`` mounted on a linear track: a prismatic joint below ``base_link``."""
+    track = """<link name="world"/>
+  <link name="carriage"/>
+  <joint name="track" type="prismatic">
+    <parent link="world"/><child link="carriage"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="3" effort="0" velocity="1"/>
+  </joint>
+  <joint name="carriage-base" type="fixed">
+    <parent link="carriage"/><child link="base_link"/>
+  </joint>
+</robot>"""
+    return text.replace("</robot>", track)

@@ -1,0 +1,345 @@
+"""Layer contracts: the CLI above the features, the features above the model, no cycles.
+
+The import graph is built from the source with :mod:`ast`: every ``import``
+and ``from ... import`` anywhere in a module counts (inside functions, under
+``if TYPE_CHECKING:``, in ``try:``), relative imports resolved, so a lazy
+import cannot hide a dependency. ``from pkg import name`` is an edge to the
+module ``pkg.name`` when there is one, else to ``pkg`` itself.
+
+A module belongs to the layer of its top-level name (``calibrator.cell.checks``
+to the layer of ``calibrator.cell``; ``drivers.robot.ur.simulator`` to that of
+``drivers``), so a module moved inside a package needs no edit here, and a
+new top-level name needs one line in :data:`LAYERS`. The contracts:
+
+- no cycle between modules, and none between top-level names (packages);
+- a module imports only modules of its own layer or of layers below it;
+- ``calibrator`` imports ``drivers`` only from the CLI (the hexagonal core:
+  :mod:`calibrator.acquire.ports` is what devices implement).
+
+Each failure prints what breaks the contract and, for a cycle, its edges.
+``python tests/static/test_layers.py`` prints the whole graph by layer.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("calibrator", "drivers")
+
+#: The layers, top to bottom, and the top-level names in each. A module may
+#: import its own layer and the layers below. Edit this table when a
+#: top-level name comes, goes or moves (``planning``, planned by the
+#: redesign, is listed ahead of time).
+LAYERS: dict[str, tuple[str, ...]] = {
+    # The command line: parses, wires drivers to the domain, prints.
+    "cli": ("calibrator.cli", "calibrator.__main__"),
+    # Hardware adapters and simulators behind the ports of calibrator.acquire.
+    "drivers": ("drivers",),
+    # What a user does: plan, measure, identify, export, compensate, check, ...
+    "features": (
+        "calibrator.acquire",
+        "calibrator.analysis",
+        "calibrator.cell",
+        "calibrator.check",
+        "calibrator.compensate",
+        "calibrator.export",
+        "calibrator.filtering",
+        "calibrator.history",
+        "calibrator.identify",
+        "calibrator.iso9283",
+        "calibrator.plan",
+        "calibrator.planning",
+        "calibrator.program",
+        "calibrator.report",
+        "calibrator.simulate",
+        "calibrator.world",
+    ),
+    # The arm and its documents: kinematics, parameters, descriptions,
+    # sessions, calibrations.
+    "model": (
+        "calibrator.calibration",
+        "calibrator.model",
+        "calibrator.robots",
+        "calibrator.session",
+    ),
+    # What every reader of user input uses: the strict grammar of numbers,
+    # JSON and YAML, budgets, and the checks of what documents hold.
+    "inputs": ("calibrator.inputs",),
+    # Plain building blocks with no knowledge of the arm's documents.
+    "base": ("calibrator", "calibrator.errors", "calibrator.outputs"),
+}
+
+#: Only these may import ``drivers``.
+DRIVER_USERS = ("calibrator.cli",)
+
+#: Imports that break a contract today, each with the change that removes it:
+#: ``(importer, imported)``, module names, ``pkg.*`` for every module under
+#: ``pkg``. The contracts are checked on the graph without these edges, and
+#: an entry that no longer matches an import fails the test (delete it).
+KNOWN: dict[tuple[str, str], str] = {
+    ("calibrator.cell", "calibrator.plan"): (
+        "cell/__init__ needs the Plan type that plan.py imports cell for; "
+        "issue #33 item 2 puts Plan in a leaf module of calibrator/planning/"
+    ),
+    ("calibrator.calibration", "calibrator.identify.option_rules"): (
+        "Provenance's keys and --like checks come from identify's option rules, "
+        "which check joint-term groups and mass models (model knowledge, so they "
+        "cannot sit in calibrator.inputs below it); issue #33 items 3 and 7 derive "
+        "provenance from the options' own fields"
+    ),
+    ("calibrator.inputs.consistency", "calibrator.model.kinematics"): (
+        "the MDH table's columns and names, which live with the kinematics in "
+        "calibrator/model/, a package that reads its files through calibrator.inputs"
+    ),
+    ("calibrator.inputs.plausibility", "calibrator.model.kinematics"): (
+        "the scale check compares measured distances with the nominal forward "
+        "kinematics (in calibrator/model/, which reads its files through calibrator.inputs); "
+        "to go, the model-aware checks need a home above the model or the model "
+        "one below the readers"
+    ),
+    ("calibrator.model.mass_models", "calibrator.robots"): (
+        "masses looked up by arm name in the descriptions; issue #33 item 1 puts "
+        "the masses in RobotDescription"
+    ),
+    ("drivers.robot.external.setup", "drivers.robot"): (
+        "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
+    ),
+}
+
+
+def _matches(name: str, pattern: str) -> bool:
+    return name.startswith(pattern[:-1]) if pattern.endswith(".*") else name == pattern
+
+
+def _known(importer: str, imported: str) -> bool:
+    return any(_matches(importer, a) and _matches(imported, b) for a, b in KNOWN)
+
+
+def modules(root: Path = ROOT) -> dict[str, Path]:
+    """Every module of :data:`PACKAGES` by dotted name (a package by its ``__init__.py``)."""
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            parts = list(path.relative_to(root).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts.pop()
+            found[".".join(parts)] = path
+    return found
+
+
+def imports(name: str, path: Path, known: Iterable[str]) -> set[str]:
+    """The modules of ``known`` that module ``name`` (file ``path``) imports, anywhere in it."""
+    known = set(known)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        targets: list[str] = []
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                source = ".".join(base + ([node.module] if node.module else []))
+            else:
+                source = node.module or ""
+            for alias in node.names:
+                sub = f"{source}.{alias.name}"
+                targets.append(sub if sub in known else source)
+        for target in targets:
+            while target and target not in known:  # "a.b.C" (a class) -> "a.b"
+                target = target.rpartition(".")[0]
+            # Every module "imports" the root package; that is not a dependency.
+            if target and target != name and target not in PACKAGES:
+                out.add(target)
+    return out
+
+
+def graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """Module -> the modules it imports, over :data:`PACKAGES`."""
+    return {name: set(targets) for name, targets in _parsed(root).items()}
+
+
+@functools.cache
+def _parsed(root: Path) -> dict[str, frozenset[str]]:
+    # Parsed once per run: every test reads the same tree.
+    found = modules(root)
+    return {name: frozenset(imports(name, path, found)) for name, path in found.items()}
+
+
+def checked_graph() -> dict[str, set[str]]:
+    """:func:`graph` without the imports :data:`KNOWN` lists."""
+    return {a: {b for b in targets if not _known(a, b)} for a, targets in graph().items()}
+
+
+def top(name: str) -> str:
+    """The top-level name of a module: ``calibrator.cell.checks`` -> ``calibrator.cell``."""
+    parts = name.split(".")
+    return ".".join(parts[:2]) if parts[0] == "calibrator" else parts[0]
+
+
+def package_graph(edges: dict[str, set[str]]) -> dict[str, set[str]]:
+    """Top-level name -> the other top-level names its modules import."""
+    out: dict[str, set[str]] = {}
+    for name, targets in edges.items():
+        out.setdefault(top(name), set()).update(top(t) for t in targets if top(t) != top(name))
+    return out
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one node (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found = []
+    for start in sorted(edges):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(edges[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(edges.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def layer_of(name: str) -> str | None:
+    """The layer of a module's top-level name, or None when :data:`LAYERS` does not list it."""
+    for layer, names in LAYERS.items():
+        if top(name) in names:
+            return layer
+    return None
+
+
+def _describe(component: list[str], edges: dict[str, set[str]]) -> str:
+    members = set(component)
+    lines = [f"  {a} -> {b}" for a in component for b in sorted(edges.get(a, set()) & members)]
+    return "cycle of " + ", ".join(component) + ":\n" + "\n".join(lines)
+
+
+def test_every_top_level_name_has_a_layer():
+    names = sorted({top(name) for name in modules()})
+    missing = [name for name in names if layer_of(name) is None]
+    assert not missing, "add these to LAYERS in tests/static/test_layers.py: " + ", ".join(missing)
+
+
+def test_no_cycle_between_modules():
+    edges = checked_graph()
+    found = [_describe(c, edges) for c in cycles(edges)]
+    assert not found, "import cycles between modules:\n" + "\n\n".join(found)
+
+
+def test_no_cycle_between_packages():
+    edges = package_graph(checked_graph())
+    found = [_describe(c, edges) for c in cycles(edges)]
+    assert not found, "import cycles between packages:\n" + "\n\n".join(found)
+
+
+def test_every_known_exception_is_still_needed():
+    # An entry for an import that is gone would let it come back unnoticed.
+    edges = graph()
+    stale = [
+        f"  {a} -> {b}"
+        for a, b in KNOWN
+        if not any(_matches(m, a) and any(_matches(t, b) for t in ts) for m, ts in edges.items())
+    ]
+    assert not stale, "remove from KNOWN in tests/static/test_layers.py:\n" + "\n".join(stale)
+
+
+def upward_imports(edges: dict[str, set[str]]) -> list[tuple[str, str, str]]:
+    """``(module, imported, why)`` for every import of a higher layer."""
+    rank = {layer: i for i, layer in enumerate(LAYERS)}
+    out = []
+    for name, targets in sorted(edges.items()):
+        mine = layer_of(name)
+        for target in sorted(targets):
+            theirs = layer_of(target)
+            if mine is None or theirs is None or rank[theirs] >= rank[mine]:
+                continue
+            out.append((name, target, f"{mine} imports {theirs}"))
+    return out
+
+
+def test_no_layer_imports_a_layer_above_it():
+    found = [
+        f"  {name} -> {target} ({why})" for name, target, why in upward_imports(checked_graph())
+    ]
+    order = " > ".join(LAYERS)
+    assert not found, f"imports against the layers ({order}):\n" + "\n".join(found)
+
+
+def test_only_the_cli_imports_drivers():
+    found = [
+        f"  {name} -> {target}"
+        for name, targets in sorted(graph().items())
+        if name.startswith("calibrator") and not name.startswith(DRIVER_USERS)
+        for target in sorted(targets)
+        if target.split(".")[0] == "drivers"
+    ]
+    assert not found, "calibrator imports drivers outside the CLI:\n" + "\n".join(found)
+
+
+def test_the_graph_sees_lazy_relative_and_type_only_imports(tmp_path):
+    # The contracts are only as good as the graph: a made-up package with
+    # each kind of import, and the edges they must give.
+    pkg = tmp_path / "calibrator"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "low.py").write_text("X = 1\n")
+    (pkg / "sub" / "__init__.py").write_text("from . import leaf\n")
+    (pkg / "sub" / "leaf.py").write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n    from calibrator.high import H\n"
+        "def f():\n    from ..low import X\n    import calibrator.high\n    return X\n"
+    )
+    (pkg / "high.py").write_text("from calibrator.sub.leaf import f\nfrom calibrator import low\n")
+    edges = {
+        name: imports(name, path, modules(tmp_path).keys())
+        for name, path in modules(tmp_path).items()
+        if name.startswith("calibrator")
+    }
+    assert edges["calibrator.sub"] == {"calibrator.sub.leaf"}
+    assert edges["calibrator.sub.leaf"] == {"calibrator.low", "calibrator.high"}
+    assert edges["calibrator.high"] == {"calibrator.sub.leaf", "calibrator.low"}
+    assert cycles(edges) == [["calibrator.high", "calibrator.sub.leaf"]]
+    assert package_graph(edges)["calibrator.high"] == {"calibrator.sub", "calibrator.low"}
+
+
+if __name__ == "__main__":
+    edges = graph()
+    for layer in LAYERS:
+        print(f"[{layer}]")
+        for name in sorted(n for n in edges if layer_of(n) == layer):
+            print(f"  {name} -> {', '.join(sorted(edges[name])) or '-'}")
+    for found in (edges, package_graph(edges)):
+        for component in cycles(found):
+            print(_describe(component, found), file=sys.stderr)
