@@ -22,8 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from calibrator import cell, robots
-from calibrator import plan as plans
+from calibrator import cell, planning, robots
 
 TRACKERS = ((2500.0, 400.0, 300.0), (0.0, 2500.0, 500.0), (-2000.0, -1500.0, 800.0))
 
@@ -57,8 +56,8 @@ def main() -> None:
             before, after, vias, walls, cpus = [], [], [], [], []
             for seed in range(args.repeats):
                 tracker = TRACKERS[seed % len(TRACKERS)]
-                made = plans.make_checked(model, n, cell.Cell(tracker_at_mm=tracker), (0, 0, 100),
-                                          seed=seed)  # fmt: skip
+                where = cell.Cell(tracker_at_mm=tracker)
+                made = planning.make_checked(model, n, where, (0, 0, 100), seed=seed)
                 before.append(made.selection_time.total_s)
                 after.append(made.ordered_time.total_s)
                 vias.append(made.plan.n_vias)

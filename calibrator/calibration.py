@@ -44,6 +44,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
+from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import option_rules
 from calibrator.inputs import consistency, jsonfile, messages, plausibility
 from calibrator.inputs.json_fields import Fields
@@ -125,8 +126,8 @@ class Provenance:
     joint_term_groups: str | None = None
     mass_model: str | None = None
     payload_kg: float | None = None
-    payload_com_mm: list | None = None
-    versions: dict = field(default_factory=dict)
+    payload_com_mm: list[float] | None = None
+    versions: dict[str, str] = field(default_factory=dict)
     created: str | None = None
 
     #: Keys of the options that decide the identified parameters.
@@ -229,7 +230,7 @@ class Provenance:
         return out
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
 
 
@@ -243,16 +244,16 @@ _JSON_TYPE = {
 }
 
 
-@dataclass
+@dataclass(frozen=True)
 class FitReport:
     """How the fit went: statistics, uncertainty, warnings, outliers, solver.
 
     Attributes
     ----------
-    stats : dict
+    stats : calibrator.fit_records.FitStats
         ``{"fit"|"validation": {"before"|"after": error statistics}}``, see
         :func:`calibrator.identify.accuracy.error_stats` (mm, deg).
-    uncertainty : dict
+    uncertainty : calibrator.fit_records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` (standard errors in
         the units of ``deltas``, residual sigma, predicted held-out error,
         correlations).
@@ -262,7 +263,7 @@ class FitReport:
         Pose numbers a robust loss set aside (with ``lsq``: flagged).
     validation_poses : list of int
         Row indices (0-based, session order) of the held-out poses.
-    solver : dict
+    solver : calibrator.fit_records.SolverDetails
         What each fitter reported (cost, evaluations, message), and the
         swarm's ``convergence`` as ``[[generation, best cost], ...]``.
     fitted_joint_ranges_rad : list
@@ -271,13 +272,13 @@ class FitReport:
         not recorded.
     """
 
-    stats: dict = field(default_factory=dict)
-    uncertainty: dict = field(default_factory=dict)
-    warnings: list = field(default_factory=list)
-    outliers: list = field(default_factory=list)
-    validation_poses: list = field(default_factory=list)
-    solver: dict = field(default_factory=dict)
-    fitted_joint_ranges_rad: list = field(default_factory=list)
+    stats: FitStats = field(default_factory=lambda: FitStats())
+    uncertainty: Uncertainty = field(default_factory=lambda: Uncertainty())
+    warnings: list[str] = field(default_factory=list)
+    outliers: list[int] = field(default_factory=list)
+    validation_poses: list[int] = field(default_factory=list)
+    solver: SolverDetails = field(default_factory=lambda: SolverDetails())
+    fitted_joint_ranges_rad: list[list[float]] = field(default_factory=list)
 
     #: Keys of calibration.json this part reads and writes.
     KEYS = (
@@ -389,7 +390,7 @@ TYPED_KEYS = (
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class Calibration:
     """A calibrated arm: nominal and identified model, frames and what was free.
 
@@ -434,9 +435,9 @@ class Calibration:
     mdh: np.ndarray
     base2tracker: np.ndarray = field(default_factory=lambda: np.eye(4))
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
-    free: tuple = ()
-    deltas: dict = field(default_factory=dict)
-    dropped: list = field(default_factory=list)
+    free: tuple[str, ...] = ()
+    deltas: dict[str, float] = field(default_factory=dict)
+    dropped: list[dict[str, str]] = field(default_factory=list)
     model: str | None = None
     frame: str = "base"
     base0: np.ndarray = field(default_factory=lambda: np.eye(4))
@@ -444,19 +445,27 @@ class Calibration:
     session: str | None = None
     provenance: Provenance = field(default_factory=Provenance)
     fit: FitReport = field(default_factory=FitReport)
-    diagnostics: dict = field(default_factory=dict)
+    diagnostics: dict[str, object] = field(default_factory=dict)
     joint_terms: JointTerms = field(default_factory=JointTerms.zero)
 
     def __post_init__(self) -> None:
-        self.nominal_mdh = kinematics.check_mdh(self.nominal_mdh).copy()
-        self.mdh = kinematics.check_mdh(self.mdh).copy()
+        # Frozen, arrays included: checked read-only copies go in once, here;
+        # derive a changed calibration with dataclasses.replace().
+        tables = {
+            name: kinematics.check_mdh(getattr(self, name)) for name in ("nominal_mdh", "mdh")
+        }
         for name in ("base2tracker", "flange2tool", "base0", "tool0"):
-            setattr(self, name, frames.check_transform(getattr(self, name), name).copy())
-        self.free = tuple(self.free)
+            tables[name] = frames.check_transform(getattr(self, name), name)
+        for name, table in tables.items():
+            table = table.copy()
+            table.setflags(write=False)
+            object.__setattr__(self, name, table)
+        object.__setattr__(self, "free", tuple(self.free))
 
     @classmethod
     def from_result(
         cls,
+        # calibrator.identify.pipeline.Result: identify sits above the documents it writes.
         result: Any,
         session_path: str | Path | None = None,
         model: str | None = None,
@@ -648,7 +657,7 @@ def mdh_from_records(records: Iterable[Mapping[str, Any]]) -> np.ndarray:
     return np.array([[float(r[f]) for f in _FIELDS] for r in records])
 
 
-def write(path: outputs.PathLike, document: Any, batch: outputs.Outputs | None = None) -> None:
+def write(path: outputs.PathLike, document: object, batch: outputs.Outputs | None = None) -> None:
     """Write a JSON document atomically (strict JSON: ValueError on NaN/inf).
 
     With ``batch`` (an :class:`calibrator.outputs.Outputs`), as part of it.
@@ -691,7 +700,7 @@ def load(path: outputs.PathLike) -> Calibration:
     return from_json(doc, path)
 
 
-def from_json(doc: Any, where: str | Path = "calibration") -> Calibration:
+def from_json(doc: object, where: str | Path = "calibration") -> Calibration:
     """A :class:`Calibration` from a parsed document, validated like :func:`load`."""
     check = Fields(where)
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -104,7 +104,7 @@ _SCHEMA = session_table.Schema(
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class SessionMeta:
     """What the footer says about a session.
 
@@ -129,9 +129,17 @@ class SessionMeta:
     model: str | None = None
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool_known: bool = False
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
-    def to_json(self) -> dict:
+    def __post_init__(self) -> None:
+        # Frozen, arrays included: derive a changed footer with dataclasses.replace().
+        for name in ("nominal_mdh", "flange2tool"):
+            table = np.array(getattr(self, name), dtype=float)
+            table.setflags(write=False)
+            object.__setattr__(self, name, table)
+
+    def to_json(self) -> dict[str, object]:
+        """The footer's JSON document (the ``calibrator`` metadata key)."""
         out = dict(self.extra)
         out.update(
             format=FORMAT,
@@ -146,7 +154,7 @@ class SessionMeta:
         return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class Session:
     """A loaded session.
 
@@ -161,7 +169,7 @@ class Session:
 
     table: pa.Table
     meta: SessionMeta
-    warnings: list = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def conditions(self) -> dict:
         """The session's measuring conditions (:func:`conditions_summary`); empty if none."""
@@ -211,7 +219,7 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
     loaded = Session(session_table.check_table(table, path, _SCHEMA), meta)
     limits = _model_limits(meta.model)
     try:
-        loaded.warnings = plausibility.check_observations(
+        doubts = plausibility.check_observations(
             loaded.array(JOINT_COLUMNS),
             loaded.array(POINT_COLUMNS),
             meta.nominal_mdh,
@@ -221,7 +229,7 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
         )
     except SessionError as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return loaded
+    return replace(loaded, warnings=doubts)
 
 
 def _model_limits(name):

@@ -166,7 +166,7 @@ def read_world(path: str | os.PathLike[str]) -> World:
         raise WorldError(f"{path}: {exc}") from None
 
 
-def parse_world(doc: Any) -> World:
+def parse_world(doc: object) -> World:
     """A :class:`World` from a parsed YAML document.
 
     Raises
@@ -232,7 +232,7 @@ def parse_world(doc: Any) -> World:
 AIR_LIMITS = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))
 
 
-def _tracker(doc: Any) -> tuple[tuple | None, float | None]:
+def _tracker(doc: object) -> tuple[tuple | None, float | None]:
     """``tracker: {air: [T, P, H], on_minutes: M}``: the air, and the time on in s."""
     if doc is None:
         return None, None
@@ -256,13 +256,13 @@ def _tracker(doc: Any) -> tuple[tuple | None, float | None]:
     return air, on_s
 
 
-def _plain(value: Any, what: str) -> float:
+def _plain(value: object, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise WorldError(f"{what}: expected a finite number, got {value!r}")
     return float(value)
 
 
-def _number(value: Any, what: str, unit: str) -> float:
+def _number(value: object, what: str, unit: str) -> float:
     if isinstance(value, str):
         # YAML 1.1 reads 1e-6 (no dot) as a string: take it as the number it spells.
         try:
@@ -276,7 +276,7 @@ def _number(value: Any, what: str, unit: str) -> float:
     return float(value)
 
 
-def _vector(value: Any, n: int, what: str, unit: str) -> np.ndarray:
+def _vector(value: object, n: int, what: str, unit: str) -> np.ndarray:
     if value is None:
         return np.zeros(n)
     if not isinstance(value, list) or len(value) != n:

@@ -12,10 +12,9 @@ def checked_plan():
     use the session fixture ``checked_plan`` (tests/conftest.py) to make it once.
     """
     from calibrator import cell as cells
-    from calibrator import plan as plans
-    from calibrator import robots
+    from calibrator import planning, robots
 
     cell = cells.Cell(tracker_at_mm=CHECKED_PLAN_TRACKER_MM)
-    made = plans.make_checked(robots.get("ur10e"), 10, cell, (0, 0, 100), seed=0).plan
+    made = planning.make_checked(robots.get("ur10e"), 10, cell, (0, 0, 100), seed=0).plan
     assert made.n_vias, "the shared plan is meant to have vias"
     return made

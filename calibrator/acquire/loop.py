@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire import rows
-from calibrator.acquire.averaging import measure_average
+from calibrator.acquire.averaging import AveragedReading, measure_average
 from calibrator.acquire.journal import Journal
 from calibrator.acquire.ports import (
     SEARCH,
@@ -128,6 +128,28 @@ class Outcome:
         return sorted(p for p, r in self.records.items() if r["status"] == "failed")
 
 
+@dataclass(frozen=True)
+class Hooks:
+    """What a run hands its acquisition besides the plan and options: resume state, callbacks.
+
+    Attributes
+    ----------
+    done : dict
+        ``{pose: record}`` already in the journal (resume).
+    via_rad : sequence of N arrays of shape (k_i, 6), optional
+        Via poses (rad) moved through before measured pose i.
+    after_move, should_stop, on_pose, on_beam_lost : callables
+        As for :func:`run`.
+    """
+
+    done: dict = field(default_factory=dict)
+    via_rad: Sequence[np.ndarray] | None = None
+    after_move: Callable[[np.ndarray], None] | None = None
+    should_stop: Callable[[], bool] = lambda: False
+    on_pose: Callable[[Progress], None] | None = None
+    on_beam_lost: Callable[[int, int], None] | None = None
+
+
 def run(
     plan_rad: ArrayLike,
     robot: Robot,
@@ -178,19 +200,62 @@ def run(
     Outcome
     """
     plan = np.asarray(plan_rad, dtype=float)
-    outcome = Outcome(records=dict(done or {}))
-    todo = [i for i in range(len(plan)) if _pending(outcome.records.get(i))]
     state = _State(on_beam_lost, sleep)
+
+    def one(pose: int) -> dict:
+        if via_rad is not None:
+            for via in np.asarray(via_rad[pose], dtype=float).reshape(-1, 6):
+                robot.move_joints(via, options.speed_rad_s, options.accel_rad_s2)
+        return _measure_pose(pose, plan[pose], robot, tracker, options, after_move, state)
+
+    return drive(
+        len(plan), one, journal, options, done=done, should_stop=should_stop, on_pose=on_pose
+    )
+
+
+def drive(
+    poses: int,
+    measure_pose: Callable[[int], dict],
+    journal: Journal,
+    options: LoopOptions = LoopOptions(),
+    *,
+    done: dict | None = None,
+    should_stop: Callable[[], bool] = lambda: False,
+    on_pose: Callable[[Progress], None] | None = None,
+) -> Outcome:
+    """Journal every pose not finished yet, however each is measured; end cleanly on failures.
+
+    What every acquisition shares (a commanded robot's :func:`run`, an arm
+    watched while it runs its own program): poses in plan order, measured
+    ones skipped on resume, each record journalled before the next pose, a
+    stop request honoured between poses, ``give_up_after`` failed poses in a
+    row, and a clean end on a halted robot, a gone tracker or a lost link.
+
+    Parameters
+    ----------
+    poses : int
+        Poses in the plan (N); pose numbers are its rows 0..N-1.
+    measure_pose : callable
+        ``measure_pose(pose) -> record`` (:mod:`calibrator.acquire.rows`), measured or
+        failed; raises :class:`~calibrator.acquire.ports.RobotHalted`,
+        :class:`~calibrator.acquire.ports.TrackerUnavailable` or another ``OSError``
+        to end the run.
+    journal, options, done, should_stop, on_pose
+        As for :func:`run`.
+
+    Returns
+    -------
+    Outcome
+    """
+    outcome = Outcome(records=dict(done or {}))
+    todo = [i for i in range(poses) if _pending(outcome.records.get(i))]
     in_row = 0
     for pose in todo:
         if should_stop():
             outcome.stopped = f"interrupted before pose {pose}"
             break
         try:
-            if via_rad is not None:
-                for via in np.asarray(via_rad[pose], dtype=float).reshape(-1, 6):
-                    robot.move_joints(via, options.speed_rad_s, options.accel_rad_s2)
-            record = _measure_pose(pose, plan[pose], robot, tracker, options, after_move, state)
+            record = measure_pose(pose)
         except RobotHalted as exc:
             outcome.stopped = f"robot halted at pose {pose}: {exc}"
             break
@@ -206,7 +271,7 @@ def run(
         outcome.records[pose] = record
         if on_pose is not None:
             finished = sum(not _pending(r) for r in outcome.records.values())
-            on_pose(Progress(pose, finished, len(plan), record))
+            on_pose(Progress(pose, finished, poses, record))
         in_row = in_row + 1 if record["status"] == "failed" else 0
         if options.give_up_after and in_row >= options.give_up_after and pose != todo[-1]:
             outcome.stopped = (
@@ -254,7 +319,7 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
         if last_lost is not None:
             _before_retry(pose, attempt, last_lost, tracker, options, state)
         try:
-            avg = _checked(measure_average(tracker, options.readings))
+            avg = checked(measure_average(tracker, options.readings))
         except ReadingLost as exc:
             last_lost = exc
             lost.append(f"{type(exc).__name__}: {exc}")
@@ -271,7 +336,7 @@ def _measure_pose(pose, target, robot, tracker, options, after_move, state: _Sta
 MAX_COORD_MM = 1e6
 
 
-def _checked(avg):
+def checked(avg: AveragedReading) -> AveragedReading:
     """The averaged reading, or :class:`BadReading` if a number in it cannot be true.
 
     Whatever a driver let through (NaN, inf, 1e300 from a well-formed packet)

@@ -182,23 +182,6 @@ class ReportsTruePose(Protocol):
 
 
 @runtime_checkable
-class WatchesTracker(Protocol):
-    """A robot that finds its poses by watching the tracker (an arm running its own
-    program, ``--robot external``).
-
-    ``readings_port()`` returns the tracker port the loop must read instead of the raw
-    tracker (the readings taken at the stop that is the pose), and ``summary()`` lines
-    for the end of the run (poses missing, stops rejected). Its ``check_plan`` gets the
-    measured poses only, and ``move_joints`` to a via returns at once (the controller
-    passes through vias without a stop).
-    """
-
-    def readings_port(self) -> Tracker: ...
-
-    def summary(self) -> list[str]: ...
-
-
-@runtime_checkable
 class ReportsTemperatures(Protocol):
     """A robot that reports its joints' temperatures, shape (6,), degC."""
 
@@ -219,8 +202,6 @@ REPORTS_CONDITIONS: Capability[ReportsConditions] = Capability(
 CHECKS_PLAN: Capability[ChecksPlan] = Capability("checks_plan", ChecksPlan)
 #: A simulated robot reports where its probe truly is after each move (``listener``).
 REPORTS_TRUE_POSE: Capability[ReportsTruePose] = Capability("reports_true_pose", ReportsTruePose)
-#: The robot finds its poses by watching the tracker (``readings_port()``, ``summary()``).
-WATCHES_TRACKER: Capability[WatchesTracker] = Capability("watches_tracker", WatchesTracker)
 #: The robot reports its joints' temperatures (``joint_temperatures()``).
 REPORTS_TEMPERATURES: Capability[ReportsTemperatures] = Capability(
     "reports_temperatures", ReportsTemperatures
@@ -291,7 +272,7 @@ class Robot(Protocol):
     ----------
     capabilities : frozenset of str
         Which of :data:`MOVES_HARDWARE`, :data:`CHECKS_PLAN`,
-        :data:`REPORTS_TRUE_POSE`, :data:`WATCHES_TRACKER` it offers.
+        :data:`REPORTS_TRUE_POSE`, :data:`REPORTS_TEMPERATURES` it offers.
     """
 
     capabilities: frozenset[str] = frozenset()

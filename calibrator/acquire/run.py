@@ -3,12 +3,15 @@
 ``calibrator measure`` parses options into :class:`RunOptions`, opens the
 two devices by URL (``drivers.tracker.open_tracker``,
 ``drivers.robot.open_robot``) and hands them here; other commands that
-drive a robot past a tracker (a verification run, an external robot) use
-the same object::
+drive a robot past a tracker (a verification run, a check) use the same
+object. How the poses are measured is the strategy the run picks for its
+robot (:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
+running the plan as its own program (``--robot external``) whose stops the
+tracker is watched for::
 
-    run = MeasureRun(robot, tracker, model, RunOptions(plan_rad=q), output)
+    run = MeasureRun(robot, tracker, model, RunOptions(plan=Plan(q)), output)
     run.connect()                      # tracker initialised? robot reachable?
-    plan = run.make_plan()             # validated whole, size budget, robot's own check
+    plan = run.make_plan()             # checked whole, size budget, robot's own check
     run.open_journal(confirm)          # new journal, or --resume (locked)
     outcome = run.measure()            # the loop (calibrator.acquire.loop)
     summary = run.finish()             # session written only when a pose was measured
@@ -22,18 +25,23 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from calibrator import outputs
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop, ports
+from calibrator.acquire.external.arm import ProgramArm
+from calibrator.acquire.strategy import Acquisition, acquisition_for
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
 from calibrator.simulate import DEFAULT_TOOL_POINT
+
+if TYPE_CHECKING:
+    from calibrator.planning import Plan
 
 #: Most poses a plan may hold: the most ``identify`` accepts
 #: (``calibrator.identify.pipeline.MAX_POSES``), so no run measures a session
@@ -51,10 +59,9 @@ class RunOptions(loop.LoopOptions):
 
     Attributes
     ----------
-    plan_rad : ndarray, shape (N, 6), optional
-        The poses to measure (rad); None makes a plan of ``poses`` poses.
-    via_rad : sequence of N arrays of shape (k_i, 6), optional
-        Via poses moved through before measured pose i (never measured).
+    plan : calibrator.planning.Plan, optional
+        The poses to measure (rad) and the vias moved through before each
+        (never measured); None makes a plan of ``poses`` poses.
     poses : int
         Poses of a made plan.
     seed : int
@@ -84,8 +91,7 @@ class RunOptions(loop.LoopOptions):
 
     retry_pause_s: float = 0.2
     give_up_after: int = 5
-    plan_rad: np.ndarray | None = None
-    via_rad: Sequence[np.ndarray] | None = None
+    plan: Plan | None = None
     poses: int = 30
     seed: int = 0
     tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
@@ -117,8 +123,8 @@ class Summary:
     complete : bool
         Every pose measured; the journal was removed.
     notes : list of str
-        The robot's own end-of-run lines (a robot that watches the tracker:
-        poses its program skipped, stops that matched no pose).
+        The acquisition's own end-of-run lines (an arm running its own
+        program: poses it skipped, stops that matched no pose).
     """
 
     written: Path | None
@@ -146,7 +152,9 @@ class MeasureRun:
 
     Parameters
     ----------
-    robot : calibrator.acquire.ports.Robot
+    robot : calibrator.acquire.ports.Robot or calibrator.acquire.external.arm.ProgramArm
+        A robot the run commands, or an arm running the plan as its own
+        program (the run then watches the tracker for its stops).
     tracker : calibrator.acquire.ports.Tracker
     model : calibrator.robots.RobotDescription
         The named arm (nominal MDH, joint limits).
@@ -164,7 +172,7 @@ class MeasureRun:
 
     def __init__(
         self,
-        robot: ports.Robot,
+        robot: ports.Robot | ProgramArm,
         tracker: ports.Tracker,
         model: Any,
         options: RunOptions,
@@ -182,6 +190,7 @@ class MeasureRun:
             steer = tracker.set_target
         self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
+        self.acquisition: Acquisition = acquisition_for(robot, tracker, model.mdh, options.tool_mm)
         # Where the tracker is: --tracker-at, else the cell file's, else the
         # simulated world's (which open_run places at either of the first two).
         given = tracker_position(options)
@@ -190,7 +199,7 @@ class MeasureRun:
             if given is not None
             else (world.tracker_at_mm.copy() if world is not None else None)
         )
-        self.plan: np.ndarray | None = None
+        self.plan: Plan | None = None
         self.journal: journals.Journal | None = None
         self.done: dict = {}
         self.outcome: loop.Outcome | None = None
@@ -257,7 +266,7 @@ class MeasureRun:
     def moves_hardware(self) -> bool:
         return ports.MOVES_HARDWARE in self.robot.capabilities
 
-    def make_plan(self, on_note: Callable[[str], None] = lambda text: None) -> np.ndarray:
+    def make_plan(self, on_note: Callable[[str], None] = lambda text: None) -> Plan:
         """The plan, checked whole before anything moves (limits, count, size, robot's caps).
 
         Raises
@@ -267,54 +276,39 @@ class MeasureRun:
             than :data:`MAX_POSES`, or refused by the robot's own check.
         """
         from calibrator import cell as cells
-        from calibrator import plan as plans
+        from calibrator import planning
 
         opts = self.options
         cell = (opts.cell if opts.cell is not None else cells.Cell()).with_tracker(
             self.tracker_at_mm
         )
-        if opts.plan_rad is not None:
-            q_plan = np.asarray(opts.plan_rad)
-        else:
+        plan = opts.plan
+        if plan is None:
             if self.tracker_at_mm is None:
                 on_note("no --tracker-at: the plan ignores the acceptance angle")
             # The one planner of `calibrator plan`: every pose and move clear
             # of the mounting plane, the arm itself and the cell, in time order.
-            made = plans.make_checked(
+            plan = planning.make_checked(
                 self.model, opts.poses, cell, opts.tool_mm, seed=opts.seed
             ).plan
-            q_plan = made.q_rad
-            self.options = opts = replace(opts, via_rad=made.via_rad)
-        if q_plan.ndim >= 1 and len(q_plan) > MAX_POSES:
+        if len(plan.q_rad) > MAX_POSES:
             raise CalibrationError(
-                f"plan has {len(q_plan)} poses; identify takes at most {MAX_POSES}: "
+                f"plan has {len(plan.q_rad)} poses; identify takes at most {MAX_POSES}: "
                 "thin the plan (a well-spread subset identifies as well)"
             )
         need = opts.need_poses
         if need is None:
-            need = plans.min_poses(self.model.mdh)
-        vias = self._check_vias(len(q_plan))
+            need = planning.min_poses(self.model.mdh)
         # Before anything moves, the one whole-plan check every runner uses
         # (``calibrator program`` too): limits, count, every pose, via and
         # joint-space move against the arm's capsules, the cell and the tracker.
-        via_rad = opts.via_rad if opts.via_rad is not None else [np.zeros((0, 6))] * len(q_plan)
-        q_plan = np.asarray(q_plan, dtype=float)
-        cells.check_whole_plan(
-            plans.Plan(q_plan, tuple(via_rad)), self.model, cell, opts.tool_mm, need=need
-        )
-        robot = self.robot
-        if ports.CHECKS_PLAN.offered_by(robot):
-            motion = np.concatenate([q_plan, *vias]) if vias else q_plan
-            if ports.WATCHES_TRACKER.offered_by(self.robot):
-                # It finds the measured poses among the stops: vias (passed
-                # through by its own program, checked above) are none of them.
-                motion = q_plan
-            try:
-                robot.check_plan(motion, opts.speed_rad_s, opts.accel_rad_s2)
-            except ValueError as exc:
-                raise CalibrationError(str(exc)) from None
-        self.plan = q_plan
-        return q_plan
+        planning.check_plan(plan, self.model, cell, opts.tool_mm, need=need)
+        try:
+            self.acquisition.check_plan(plan.q_rad, list(plan.via_rad), opts)
+        except ValueError as exc:
+            raise CalibrationError(str(exc)) from None
+        self.plan = plan
+        return plan
 
     def estimate(self) -> Any:
         """The cell time of the checked plan: moves at the run's speed, settle, readings.
@@ -323,15 +317,13 @@ class MeasureRun:
         -------
         calibrator.cell.CellTime
         """
-        from calibrator import cell as cells
-        from calibrator import plan as plans
+        from calibrator import planning
 
         if self.plan is None:
             raise CalibrationError("no plan yet: call make_plan first")
         o = self.options
-        vias = o.via_rad if o.via_rad is not None else [np.zeros((0, 6))] * len(self.plan)
-        return cells.estimate(
-            plans.Plan(self.plan, tuple(vias)),
+        return planning.estimate(
+            self.plan,
             self.model,
             o.speed_rad_s,
             o.accel_rad_s2,
@@ -339,33 +331,23 @@ class MeasureRun:
             readings=o.readings,
         )
 
-    def _check_vias(self, n: int) -> list[np.ndarray]:
-        """Via poses: N arrays of shape (k_i, 6); their limits are checked with the plan."""
-        if self.options.via_rad is None:
-            return []
-        vias = [np.asarray(v, dtype=float).reshape(-1, 6) for v in self.options.via_rad]
-        if len(vias) != n:
-            raise CalibrationError(f"via poses given for {len(vias)} poses; the plan has {n}")
-        return [v for v in vias if len(v)]
-
     def header(self, meta: Any) -> dict:
         """The journal header: what a resume must match."""
-        from calibrator import plan as plans
+        from calibrator import planning
 
         assert self.plan is not None, "make_plan() first"
         return {
-            "plan_sha256": plans.digest(self.plan),
+            "plan_sha256": planning.digest(self.plan.q_rad),
             "robot": self.robot_id,
             "tracker": self.tracker_id,
             "readings": self.options.readings,
-            "poses": len(self.plan),
+            "poses": len(self.plan.q_rad),
             "meta": meta.to_json(),
         }
 
     def session_meta(self) -> Any:
         """The session's metadata (nominal arm, tool guess, devices and the plan's digest)."""
-        from calibrator import plan as plans
-        from calibrator import session
+        from calibrator import planning, session
 
         assert self.plan is not None, "make_plan() first"
 
@@ -379,7 +361,7 @@ class MeasureRun:
                 "measured": {
                     "robot": self.robot_id,
                     "tracker": self.tracker_id,
-                    "plan_sha256": plans.digest(self.plan),
+                    "plan_sha256": planning.digest(self.plan.q_rad),
                     # Which description of the arm: the same name may be edited.
                     "description": {"name": self.model.name, "sha256": self.model.digest},
                 }
@@ -397,7 +379,7 @@ class MeasureRun:
         assert self.plan is not None
         if self.options.resume:
             self.journal, resumed = journals.Journal.resume(
-                self.journal_path, header, plan_rad=self.plan
+                self.journal_path, header, plan_rad=self.plan.q_rad
             )
             self.done = resumed.records
             try:
@@ -405,9 +387,9 @@ class MeasureRun:
             except CalibrationError:
                 self.journal.close()
                 raise
-            left = len(self.plan) - sum(r["status"] == "measured" for r in self.done.values())
+            left = len(self.plan.q_rad) - sum(r["status"] == "measured" for r in self.done.values())
         else:
-            left = len(self.plan)
+            left = len(self.plan.q_rad)
         if self.moves_hardware and confirm is not None:
             try:
                 confirm(self.robot_id, left)
@@ -446,55 +428,33 @@ class MeasureRun:
         on_pose: Callable[[loop.Progress], None] | None = None,
         on_beam_lost: Callable[[int, int], None] | None = None,
     ) -> loop.Outcome:
-        """The loop over every pose not finished yet (see :func:`calibrator.acquire.loop.run`).
+        """Every pose not finished yet, as the run's acquisition measures them.
 
-        A robot that declares :data:`~calibrator.acquire.ports.WATCHES_TRACKER`
-        finds each pose by watching the raw tracker; the loop then reads the
-        tracker port it hands out (``robot.readings_port()``).
+        See :func:`calibrator.acquire.loop.run` (a commanded robot) and
+        :class:`calibrator.acquire.external.watched.Watched` (an arm running its
+        own program).
         """
         assert self.plan is not None and self.journal is not None
         o = self.options
-        via_rad = self._with_lead_in(o.via_rad)
-        tracker, retry_pause_s = self.tracker, o.retry_pause_s
-        if ports.WATCHES_TRACKER.offered_by(self.robot):
-            tracker = self.robot.readings_port()
-            # The arm runs on without us: a pause before re-reading a pose's stop
-            # (nothing comes back) would leave the tracker unwatched through the
-            # next poses' dwells and lose them.
-            retry_pause_s = 0.0
-        self.outcome = loop.run(
-            self.plan,
-            self.robot,
-            tracker,
-            self.journal,
-            replace(o, retry_pause_s=retry_pause_s),
-            done=self.done,
-            after_move=self._after_move,
-            should_stop=should_stop,
-            on_pose=on_pose,
-            on_beam_lost=on_beam_lost,
-            via_rad=via_rad,
-        )
+        via_rad = self._with_lead_in(self.plan)
+        hooks = loop.Hooks(self.done, via_rad, self._after_move, should_stop, on_pose, on_beam_lost)
+        self.outcome = self.acquisition.measure(self.plan.q_rad, self.journal, o, hooks)
         # The journal stays open, and so locked, until finish() has removed it:
         # a --resume started in between must find it in use, not half gone.
         return self.outcome
 
-    def _with_lead_in(self, via_rad: Sequence[np.ndarray] | None) -> Sequence[np.ndarray] | None:
-        """The via poses, plus the lead-in before the first pose still to measure."""
-        assert self.plan is not None
+    def _with_lead_in(self, plan: Plan) -> Sequence[np.ndarray]:
+        """The plan's via poses, plus the lead-in before the first pose still to measure."""
         if not self.options.lead_in:
-            return via_rad
-        todo = [
-            i for i in range(len(self.plan)) if self.done.get(i, {}).get("status") != "measured"
-        ]
+            return plan.via_rad
+        q = plan.q_rad
+        todo = [i for i in range(len(q)) if self.done.get(i, {}).get("status") != "measured"]
         if not todo:
-            return via_rad
-        n, first = len(self.plan), todo[0]
-        vias = (
-            [np.empty((0, 6))] * n if via_rad is None else [np.reshape(v, (-1, 6)) for v in via_rad]
-        )
+            return plan.via_rad
+        first = todo[0]
+        vias = list(plan.via_rad)
         # A plan row, so already inside the limits and the robot's plan check.
-        vias[first] = np.concatenate([vias[first], self.plan[first - 1][None]])
+        vias[first] = np.concatenate([vias[first], q[first - 1][None]])
         return vias
 
     def finish(self, write: Callable[[loop.Outcome], Path | None] | None = None) -> Summary:
@@ -524,14 +484,12 @@ class MeasureRun:
             self.journal_path.unlink()
         if self.journal is not None:
             self.journal.close()  # releases the lock, after the unlink
-        notes: list[str] = []
-        if ports.WATCHES_TRACKER.offered_by(self.robot):
-            notes = list(self.robot.summary())
+        notes = self.acquisition.notes()
         return Summary(
             written,
             measured,
             failed,
-            len(self.plan),
+            len(self.plan.q_rad),
             outcome.stopped,
             causes,
             self.journal_path,

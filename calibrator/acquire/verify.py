@@ -37,6 +37,7 @@ from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
+from calibrator.planning import Plan
 
 #: Columns of verify.parquet, in order (base frame, mm).
 COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")
@@ -198,7 +199,7 @@ def run_options(plan: VerifyPlan, **options: Any) -> RunOptions:
     ``options`` are further :class:`~calibrator.acquire.run.RunOptions` fields
     (readings, speed, resume...).
     """
-    return RunOptions(plan_rad=plan.plan, lead_in=True, need_poses=len(plan.plan), **options)
+    return RunOptions(plan=Plan(plan.plan), lead_in=True, need_poses=len(plan.plan), **options)
 
 
 def data_path(output: str | Path) -> Path:

@@ -93,11 +93,8 @@ def warm_up_run(run: Any, minutes: float, should_stop: Callable[[], bool] = lamb
     Runs as many passes of its path as last about ``minutes`` at the run's
     speed (the cell-time estimate of its moves); returns the passes.
     """
-    from calibrator import plan as plans
-
     o = run.options
-    vias = o.via_rad if o.via_rad is not None else [np.zeros((0, 6))] * len(run.plan)
-    path = plans.Plan(run.plan, tuple(vias)).path_rad
+    path = run.plan.path_rad
     passes = passes_for(minutes, run.estimate().moves_s)
     warm_up(run.robot, path, passes, o.speed_rad_s, o.accel_rad_s2, should_stop)
     return passes

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -144,6 +144,95 @@ class Tolerances:
         return rng.standard_normal((m, len(NAMES))) * self.sigma
 
 
+class Nonlinear(TypedDict):
+    """The budget's check against the full kinematics (:func:`budget`'s ``nonlinear``).
+
+    Attributes
+    ----------
+    samples : int
+        Deviation sets drawn.
+    rms_mm, p95_mm, max_mm : float
+        RMS, 95th percentile and largest sampled position error |dP| (mm).
+    linearisation_error : float
+        RMS |dS_lin - dS| / RMS |dS| of the position (a ratio, 0 when nothing moved).
+    """
+
+    samples: int
+    rms_mm: float
+    p95_mm: float
+    max_mm: float
+    linearisation_error: float
+
+
+class Ranked(TypedDict):
+    """One toleranced quantity in the sensitivity ranking.
+
+    Attributes
+    ----------
+    name : str
+        A name of :data:`NAMES`.
+    tolerance : float
+        Its tolerance ``t`` (``unit``).
+    unit : {'mm', 'rad'}
+    share : float
+        Its share of the position variance (0..1).
+    worst_mm : float
+        Its worst-case contribution to |dP|, mean over poses (mm).
+    rms_mm : float
+        Its statistical contribution to RMS |dP| (mm).
+    """
+
+    name: str
+    tolerance: float
+    unit: str
+    share: float
+    worst_mm: float
+    rms_mm: float
+
+
+class NotToleranced(TypedDict):
+    """An entry with no physical meaning on this arm (:func:`without_meaning`) and why."""
+
+    name: str
+    reason: str
+
+
+class Budget(TypedDict):
+    """The tolerance budget at a set of poses (:func:`budget`; ``analyze tolerance --json``).
+
+    Attributes
+    ----------
+    poses : int
+    distribution : {'uniform', 'normal'}
+    worst_case_mm : float
+        Largest over poses of the linear bound on |dP| (mm).
+    worst_case_axis_mm : float
+        Largest per-axis worst case (mm).
+    rms_mm : float
+        Linear statistical RMS |dP| over the poses (mm).
+    link_only_rms_mm, joint_only_rms_mm : float
+        The same from the link parameters alone, from the joints alone (mm).
+    orientation_rms_deg : float
+        Linear statistical RMS orientation error (deg).
+    nonlinear : Nonlinear
+    ranking : list of Ranked
+        By decreasing share of the position variance.
+    not_toleranced : list of NotToleranced
+    """
+
+    poses: int
+    distribution: str
+    worst_case_mm: float
+    worst_case_axis_mm: float
+    rms_mm: float
+    link_only_rms_mm: float
+    joint_only_rms_mm: float
+    orientation_rms_deg: float
+    nonlinear: Nonlinear
+    ranking: list[Ranked]
+    not_toleranced: list[NotToleranced]
+
+
 def perturbed_hand(mdh: np.ndarray, q: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """Hand poses with deviations applied, by the full (nonlinear) kinematics.
 
@@ -190,7 +279,7 @@ def budget(
     samples: int = 2000,
     seed: int = 0,
     structure: np.ndarray | None = None,
-) -> dict:
+) -> Budget:
     """The tolerance budget at a set of poses.
 
     Parameters
@@ -211,7 +300,7 @@ def budget(
 
     Returns
     -------
-    dict
+    Budget
         ``worst_case_mm`` (max over poses of the bound on |dP|),
         ``worst_case_axis_mm`` (largest per-axis worst case), ``rms_mm``
         (linear statistical RMS |dP|, over poses), ``joint_only_rms_mm`` and
@@ -248,18 +337,18 @@ def budget(
     order = np.argsort(-contrib, kind="stable")
     total = contrib.sum()
     ranking = [
-        {
-            "name": NAMES[j],
-            "tolerance": float(tol.t[j]),
-            "unit": "mm" if is_length(NAMES[j]) else "rad",
-            "share": float(contrib[j] / total) if total > 0 else 0.0,
-            "worst_mm": float((col_norm[:, j] * tol.t[j]).mean()),
-            "rms_mm": float(np.sqrt(contrib[j])),
-        }
+        Ranked(
+            name=NAMES[j],
+            tolerance=float(tol.t[j]),
+            unit="mm" if is_length(NAMES[j]) else "rad",
+            share=float(contrib[j] / total) if total > 0 else 0.0,
+            worst_mm=float((col_norm[:, j] * tol.t[j]).mean()),
+            rms_mm=float(np.sqrt(contrib[j])),
+        )
         for j in order
         if NAMES[j] not in excluded
     ]
-    return {
+    return {  # the key order is the --json file's
         "poses": len(q),
         "distribution": tol.distribution,
         "worst_case_mm": float(worst.max()),
@@ -278,7 +367,7 @@ def budget(
             else 0.0,
         },
         "ranking": ranking,
-        "not_toleranced": [{"name": n, "reason": r} for n, r in excluded.items()],
+        "not_toleranced": [NotToleranced(name=n, reason=r) for n, r in excluded.items()],
     }
 
 

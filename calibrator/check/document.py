@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +20,11 @@ from calibrator.check import explain as explains
 from calibrator.check import verdict as verdicts
 from calibrator.check.model import Calibrated
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    import pyarrow as pa
+
+    from calibrator.session import SessionMeta
 
 FORMAT = "calibrator.check"
 VERSION = 1
@@ -131,7 +136,7 @@ def document(
     }
 
 
-def write(output: Path, doc: dict, table: Any, meta: Any, inputs: list[Path]) -> None:
+def write(output: Path, doc: dict, table: pa.Table, meta: SessionMeta, inputs: list[Path]) -> None:
     """Write check.json and the check's session (``table``, ``meta``) beside it, both or neither."""
     from calibrator import session
 

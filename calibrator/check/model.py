@@ -10,12 +10,15 @@ held-out pose shows: the tracker's noise and what the model does not hold.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.model import joint_terms, kinematics, measurement, parameters
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
 
 
 @dataclass(frozen=True)
@@ -41,15 +44,15 @@ class Calibrated:
     space: parameters.ParameterSpace
     cov: np.ndarray
     sigma_mm: float
-    terms: Any
+    terms: joint_terms.JointTerms
     noise_dof: int | None = None
 
     @classmethod
-    def of(cls, cal: Any) -> Calibrated:
+    def of(cls, cal: Calibration) -> Calibrated:
         """From a :class:`calibrator.calibration.Calibration`."""
         free = tuple(n for n in cal.free if n in parameters.ALL_NAMES)
         space = parameters.ParameterSpace(cal.mdh, cal.base2tracker, cal.flange2tool, free)
-        unc = cal.fit.uncertainty or {}
+        unc = cal.fit.uncertainty
         se = unc.get("standard_errors", {})
         corr = unc.get("correlation", {})
         cov = np.zeros((space.size, space.size))
@@ -61,8 +64,11 @@ class Calibrated:
                 for b, ib in enumerate(idx):
                     if ia is not None and ib is not None:
                         cov[a, b] = matrix[ia, ib] * se[space.free[a]] * se[space.free[b]]
-        sigma = float((unc.get("residual_sigma") or {}).get("position_mm") or 0.0)
-        fitted = ((cal.fit.stats or {}).get("fit") or {}).get("after", {}).get("n")
+        # An older or hand-written file may lack any of these: nothing recorded.
+        residual = unc.get("residual_sigma")
+        sigma = float(residual.get("position_mm") or 0.0) if residual else 0.0
+        fit = cal.fit.stats.get("fit")
+        fitted = fit.get("after", {}).get("n") if fit else None
         dof = 3 * int(fitted) - len(cal.free) if fitted else None
         return cls(space, cov, sigma, cal.joint_terms, dof if dof and dof > 0 else None)
 

@@ -1,6 +1,6 @@
 """Check poses: few, and chosen for what drifts.
 
-The planner of ``calibrator plan`` (:func:`calibrator.plan.make_checked`:
+The planner of ``calibrator plan`` (:func:`calibrator.planning.make_checked`:
 every pose and move clear of the arm, the mounting plane and the cell,
 facing the tracker, in time order) picks them D-optimally for the
 parameters that drift: the joint zeros, the base and the reflector on the
@@ -41,8 +41,8 @@ def choose(model: Any, n: int, cell: Any, tool_mm: ArrayLike, seed: int = 0) -> 
 
     Returns
     -------
-    calibrator.plan.PlanReport
+    calibrator.planning.PlanReport
     """
-    from calibrator import plan as plans
+    from calibrator import planning
 
-    return plans.make_checked(model, n, cell, tool_mm, seed=seed, names=DRIFT_NAMES)
+    return planning.make_checked(model, n, cell, tool_mm, seed=seed, names=DRIFT_NAMES)

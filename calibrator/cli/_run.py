@@ -355,7 +355,7 @@ def open_run(
         Log the tracker's raw exchange there (``--sim-record``; line-protocol kinds).
     sim_control : str, optional
         ``--sim-control URL``: the simulated robot steers a simulator started by hand.
-    external : drivers.robot.external.setup.ExternalOptions, optional
+    external : calibrator.acquire.external.arm.ExternalOptions, optional
         Stop detection and association of ``--robot external``.
     place_tracker : bool
         Move the simulated tracker to the run's tracker position (``--tracker-at``,
@@ -393,11 +393,7 @@ def open_run(
         )
     except ValueError as exc:
         raise CalibrationError(f"--tracker: {exc}") from None
-    # The tracker is handed to the robot too: an external robot finds its poses by
-    # watching it (the run connects and closes it, once).
-    robot_options = RobotOptions(
-        arm, world, max_speed_rad_s=max_speed, tracker=tracker, external=external
-    )
+    robot_options = RobotOptions(arm, world, max_speed_rad_s=max_speed, external=external)
     try:
         robot = open_robot(robot_url, robot_options)
     except ValueError as exc:

@@ -395,10 +395,10 @@ def tolerance(
     typer.echo("tighten first (share of position variance):")
     typer.echo(f"  {'param':8s} {'tolerance':>12s} {'share':>7s} {'RMS mm':>8s} {'worst mm':>9s}")
     for row in result["ranking"][:top]:
-        t = row["tolerance"] if row["unit"] == "mm" else np.degrees(row["tolerance"])
+        band = row["tolerance"] if row["unit"] == "mm" else np.degrees(row["tolerance"])
         unit = "mm" if row["unit"] == "mm" else "deg"
         typer.echo(
-            f"  {row['name']:8s} {t:8.4f} {unit:3s} {100 * row['share']:6.1f}% "
+            f"  {row['name']:8s} {band:8.4f} {unit:3s} {100 * row['share']:6.1f}% "
             f"{row['rms_mm']:8.4f} {row['worst_mm']:9.4f}"
         )
     if json_out is not None:

@@ -133,8 +133,7 @@ def check(
     cell = given_cell.with_tracker(tracker_at_mm)
     chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
     options = RunOptions(
-        plan_rad=chosen.q_rad,
-        via_rad=chosen.via_rad,
+        plan=chosen,
         cell=cell,
         seed=seed,
         readings=readings,
@@ -143,7 +142,7 @@ def check(
         need_poses=poses,
         **run_args.run_fields(),
     )
-    external = _external(robot, output, chosen, arm, readings, tool_mm, quiet)
+    external = _external(robot, output, chosen, arm, quiet)
     with contextlib.ExitStack() as stack:
         mrun = stack.enter_context(
             open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
@@ -218,12 +217,11 @@ def check(
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
-def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
+def _external(robot, output, plan, arm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
         return None
-    from calibrator import outputs
-    from calibrator import plan as plans
+    from calibrator import outputs, planning
     from calibrator import program as programs
     from calibrator.cli.measure import _external_options
 
@@ -245,14 +243,14 @@ def _external(robot, output, plan, arm, readings, tool_mm, quiet) -> Any:
         convention=arm.convention,
     )
     with outputs.Outputs() as batch:
-        batch.text(plan_file, plans.plan_text(plan))
+        batch.text(plan_file, planning.plan_text(plan))
         batch.text(program_file, programs.render(spec, "csv"))
     typer.echo(
         f"wrote {plan_file} and {program_file}: run them on the controller "
         f"(`calibrator program {plan_file} -o FILE` for its language) once the check waits",
         err=True,
     )
-    return _external_options(0.05, 0.5, 15.0, 30.0, readings, tool_mm, quiet)
+    return _external_options(0.05, 0.5, 15.0, 30.0, quiet)
 
 
 def _conditions(records: dict) -> dict:

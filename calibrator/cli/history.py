@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from datetime import date
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from typer.core import TyperGroup
@@ -20,6 +20,9 @@ from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
+
+if TYPE_CHECKING:
+    from calibrator.history.store import History
 
 HISTORY_HELP = (
     "History: an SQLite file or postgresql://USER@HOST/DB "
@@ -144,7 +147,7 @@ def show(
             typer.echo(f"wrote the {what} to {path}")
 
 
-def _print_robots(store: Any) -> None:
+def _print_robots(store: History) -> None:
     robots = store.robots()
     if not robots:
         typer.echo(f"no robots in the history {store.where} yet")

@@ -41,7 +41,7 @@ def measure(
     output: Path = opts.output(Path("session.parquet"), "Session file (Parquet) to write."),
     run_args: _run.RunArgs,
     tracker_at: str = opts.tracker_at(
-        "Tracker position in the robot base frame X,Y,Z (mm), for --poses plans."
+        "Tracker position in the robot base frame X,Y,Z (mm), for --poses planning."
     ),
     tool: str = opts.tool(
         "Reflector position on the flange X,Y,Z, mm (first guess; identified) [default: the "
@@ -107,8 +107,7 @@ def measure(
 
     marks = [("start", time.perf_counter())]
 
-    from calibrator import outputs
-    from calibrator import plan as plans
+    from calibrator import outputs, planning
     from calibrator.acquire.run import RunOptions
     from calibrator.cli import progress
 
@@ -124,7 +123,7 @@ def measure(
     world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
 
-    user_plan = plans.read_plan(plan_path) if plan_path is not None else None
+    user_plan = planning.read_plan(plan_path) if plan_path is not None else None
     cell = None if cell_file is None else cells.read_cell(cell_file)
     tracker_mm: tuple[float, float, float] | None = _triple(tracker_at, "--tracker-at")
     if tracker_mm is None and cell is not None:
@@ -133,22 +132,19 @@ def measure(
     if user_plan is not None:
         # A plan made for another arm, tracker or reflector is refused; what the
         # command line leaves out comes from the plan file.
-        tracker_mm, tool_mm = plans.made_for(user_plan, arm, tracker_mm, tool_mm, plan_path)
+        tracker_mm, tool_mm = planning.made_for(user_plan, arm, tracker_mm, tool_mm, plan_path)
     options = RunOptions(
-        plan_rad=None if user_plan is None else user_plan.q_rad,
-        via_rad=None if user_plan is None else user_plan.via_rad,
+        plan=user_plan,
         cell=cell,
         poses=poses,
         seed=seed,
         readings=readings,
         retry_pause_s=retry_pause,
-        tool_mm=tool_mm if tool_mm is not None else plans.DEFAULT_TOOL_MM,
+        tool_mm=tool_mm if tool_mm is not None else planning.DEFAULT_TOOL_MM,
         tracker_at_mm=tracker_mm,
         **run_args.run_fields(),
     )
-    external = _external_options(
-        stop_band, settle_window, match_tolerance, stop_timeout, readings, options.tool_mm, quiet
-    )
+    external = _external_options(stop_band, settle_window, match_tolerance, stop_timeout, quiet)
     with contextlib.ExitStack() as stack:
         run = stack.enter_context(
             _open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
@@ -183,7 +179,7 @@ def measure(
         relock = _ask_relock if ask_relock and sys.stdin.isatty() else None
         with (
             _StopOnSigint() as interrupt,
-            reporter.task("measure", len(run.plan), "poses") as task,
+            reporter.task("measure", len(run.plan.q_rad), "poses") as task,
         ):
             _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
             run.measure(
@@ -222,21 +218,13 @@ def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
 
 
 def _external_options(
-    band_mm: float,
-    window_s: float,
-    tolerance_mm: float,
-    timeout_s: float,
-    readings: int,
-    tool_mm: tuple[float, float, float],
-    quiet: bool,
+    band_mm: float, window_s: float, tolerance_mm: float, timeout_s: float, quiet: bool
 ):
     """``--robot external``: stop detection and association (used by that kind only)."""
-    from drivers.robot.external.setup import ExternalOptions
-    from drivers.robot.external.stops import StopOptions
+    from calibrator.acquire.external import ExternalOptions, StopOptions
 
-    stops = StopOptions(band_mm, window_s, tolerance_mm, timeout_s)
     log = None if quiet else (lambda line: typer.echo(line, err=True))
-    return ExternalOptions(stops, readings, tool_mm, log)
+    return ExternalOptions(StopOptions(band_mm, window_s, tolerance_mm, timeout_s), log)
 
 
 def _report(summary, options) -> None:

@@ -92,8 +92,7 @@ def plan(
     import numpy as np
 
     from calibrator import cell as cells
-    from calibrator import outputs
-    from calibrator import plan as plans
+    from calibrator import outputs, planning
     from calibrator.cli._run import triple as _triple
 
     if joints is None and candidates is not None:
@@ -117,8 +116,8 @@ def plan(
         cell = dataclasses.replace(cell, acceptance_deg=acceptance_deg)
     if floor_mm is not None:
         cell = dataclasses.replace(cell, mounting_plane_z_mm=floor_mm)
-    given = plans.read_csv(joints) if joints is not None else None
-    made = plans.make_checked(
+    given = planning.read_csv(joints) if joints is not None else None
+    made = planning.make_checked(
         robot,
         poses,
         cell,
@@ -135,7 +134,7 @@ def plan(
         speed_rad_s=speed,
         accel_rad_s2=accel,
     )
-    plans.write_plan(output, made.plan, inputs=inputs)
+    planning.write_plan(output, made.plan, inputs=inputs)
     lost = sum(made.dropped.values())
     counts = ", ".join(f"{reason} {k}" for reason, k in made.dropped.items() if k) or "none"
     typer.echo(f"candidates: {made.candidates}, dropped {lost} ({counts})")
@@ -150,12 +149,12 @@ def plan(
         f"wrote {output}: {len(made.plan.q_rad)} poses"
         + (f" and {made.plan.n_vias} via rows" if made.plan.n_vias else "")
         + f", {selection.value} selection, "
-        f"log det(J^T J) {plans.log_det(made.blocks):.2f}, "
-        f"smallest singular value {plans.min_singular(made.blocks):.4g}"
+        f"log det(J^T J) {planning.log_det(made.blocks):.2f}, "
+        f"smallest singular value {planning.min_singular(made.blocks):.4g}"
     )
     if assumed_tracker:
         typer.echo(
             "note: no --tracker-at and no tracker in the cell: the poses face the simulated "
-            f"cell's tracker at {plans.point_text(SIM_TRACKER_AT_MM)} mm",
+            f"cell's tracker at {planning.point_text(SIM_TRACKER_AT_MM)} mm",
             err=True,
         )

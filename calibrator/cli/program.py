@@ -70,8 +70,7 @@ def program(
     import numpy as np
 
     from calibrator import cell as cells
-    from calibrator import outputs, robots
-    from calibrator import plan as plans
+    from calibrator import outputs, planning, robots
     from calibrator import program as programs
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
@@ -80,7 +79,7 @@ def program(
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
     arm = robots.get(model)
-    given = plans.read_plan(plan_path)
+    given = planning.read_plan(plan_path)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
@@ -97,19 +96,19 @@ def program(
     cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
     # A plan made for another arm, tracker or reflector is refused; what the
     # command line leaves out comes from the plan file.
-    tracker_mm, tool_mm = plans.made_for(
+    tracker_mm, tool_mm = planning.made_for(
         given, arm, cell.tracker_at_mm, _run.triple(tool, "--tool"), plan_path
     )
     cell = cell.with_tracker(tracker_mm)
     # What measure --robot external would refuse is refused here, before a
     # program exists: the controller runs it without asking calibrator again.
-    cells.check_whole_plan(
+    planning.check_plan(
         given,
         arm,
         cell,
         tool_mm,
         home_rad=home_rad,
-        need=plans.min_poses(arm.mdh),
+        need=planning.min_poses(arm.mdh),
     )
     q = given.q_rad
     spec = programs.ProgramSpec(

@@ -95,7 +95,8 @@ def like(
     """The user's own URDF with only the chain's joint origins calibrated.
 
     Every moving joint's ``<origin>`` between ``base_link`` and ``tip_link``
-    and the first fixed joint after joint 6 (the flange) take the calibrated
+    and the first fixed joint after joint 6 (the flange; where the tip is
+    joint 6's own link, joint 6's origin holds it) take the calibrated
     kinematics (an origin the calibration leaves where it was keeps its
     text); every other byte of the file is kept. For URDF angles ``q``
     the written chain gives ``base_offset . A_1...A_6(to_model(q)) .
@@ -116,8 +117,7 @@ def like(
     Raises
     ------
     CalibrationError
-        The calibration was not made against this chain, or the chain has
-        no fixed joint after joint 6 to hold the flange.
+        The calibration was not made against this chain.
     """
     from calibrator.model import kinematics
     from calibrator.robots import urdf as robot_urdf
@@ -137,26 +137,27 @@ def like(
     moved = {chain.base_link: np.eye(4)}  # calibrated link frames at the zero pose
     changed: dict[str, np.ndarray] = {}
     fixed_after = [j for j in chain.joints[chain.joints.index(chain.moving[5]) + 1 :]]
-    if not fixed_after:
-        raise CalibrationError(
-            f"{path}: {chain.tip_link!r} is joint 6's own link: no fixed joint to hold the "
-            "calibrated flange (name a tip link below it with --tip-link)"
-        )
     rest = np.eye(4)
     for joint in fixed_after[1:]:
         rest = rest @ joint.origin
+    tip = kin.base_offset @ kinematics.chain(cal.mdh, np.zeros(6))[0] @ kin.flange_offset
     index = 0
     for joint in chain.joints:
         parent = moved[joint.parent]
-        if joint.kind in ("revolute", "continuous"):
+        if joint is chain.moving[5] and not fixed_after:
+            # The tip is joint 6's own link (a URDF ending at link_6 or link_t): its
+            # origin holds the flange too. Exact: the link's origin is on axis 6, so
+            # link 6's own offset and turn about the axis commute with the joint's turn.
+            changed[joint.name] = np.linalg.inv(parent) @ tip
+            moved[joint.child] = tip
+        elif joint.kind in ("revolute", "continuous"):
             # The link keeps its place relative to the axis it turns about.
             keep = np.linalg.inv(nominal[index]) @ frames[joint.child]
             target = fitted[index] @ keep
             changed[joint.name] = np.linalg.inv(parent) @ target
             moved[joint.child] = target
             index += 1
-        elif joint is fixed_after[0]:
-            tip = kin.base_offset @ kinematics.chain(cal.mdh, np.zeros(6))[0] @ kin.flange_offset
+        elif fixed_after and joint is fixed_after[0]:
             changed[joint.name] = np.linalg.inv(parent) @ tip @ np.linalg.inv(rest)
             moved[joint.child] = parent @ changed[joint.name]
         else:

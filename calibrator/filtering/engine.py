@@ -179,7 +179,8 @@ class Filter:
         if not items:
             return
         targets = [t for _, t in items]
-        conv = job.convention
+        # No convention given: the model's own angles (as for an arm without a name).
+        conv = job.convention or convention.IDENTITY
         n = len(targets)
         # Numbers decoded per layout (every target of a layout has the same numbers).
         by_layout: dict = defaultdict(list)

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -69,7 +68,7 @@ def _numbers(value, n, where):
     return out
 
 
-def frame_from(entry: Any, where: str) -> np.ndarray:
+def frame_from(entry: object, where: str) -> np.ndarray:
     """A (4, 4) transform from one ``{xyz_mm, abc_deg | quaternion}`` entry."""
     if not isinstance(entry, dict) or "xyz_mm" not in entry:
         raise CalibrationError(f"{where}: expected a mapping with xyz_mm and abc_deg or quaternion")

@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from calibrator.errors import CalibrationError
 from calibrator.history.records import HistoryError
+
+if TYPE_CHECKING:
+    from calibrator.history.store import History
 
 
 def kind_of(path: Path) -> str | None:
@@ -53,7 +56,7 @@ def _document(path: Path) -> dict:
 
 
 def import_folder(
-    store: Any,
+    store: History,
     folder: Path,
     robot: str | None = None,
     on_skip: Callable[[Path, str], None] = lambda path, why: None,

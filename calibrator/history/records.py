@@ -17,9 +17,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from calibrator.errors import CalibrationError
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 
 class HistoryError(CalibrationError):
@@ -31,9 +34,9 @@ VERDICTS = ("ok", "drifted", "recalibrate")
 _HEX64 = re.compile(r"^[0-9a-f]{64}$")
 
 
-@dataclass
+@dataclass(frozen=True)
 class Record:
-    """A row to write and who it belongs to.
+    """A row to write and who it belongs to (derive with ``dataclasses.replace()``).
 
     Attributes
     ----------
@@ -74,13 +77,13 @@ def sha256_bytes(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def document_sha256(doc: Any) -> str:
+def document_sha256(doc: object) -> str:
     """SHA-256 of a JSON document in canonical form (sorted keys, no spaces)."""
     text = json.dumps(doc, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return sha256_bytes(text.encode())
 
 
-def utc(text: Any, where: str) -> datetime:
+def utc(text: object, where: str) -> datetime:
     """An ISO 8601 time as a naive UTC datetime (a time without zone is taken as UTC)."""
     if not isinstance(text, str):
         raise HistoryError(f"{where}: time must be an ISO 8601 string, got {text!r:.40}")
@@ -105,7 +108,8 @@ def _number(doc: dict, key: str, where: str) -> float:
     return float(value)
 
 
-def _get(doc: Any, *keys: str) -> Any:
+def _get(doc: object, *keys: str) -> object:
+    """``doc[keys[0]][keys[1]]...``, None where a level is missing or not an object."""
     for key in keys:
         if not isinstance(doc, dict):
             return None
@@ -245,7 +249,7 @@ def session(path: Path) -> Record:
     )
 
 
-def _first_time(table: Any) -> datetime | None:
+def _first_time(table: pa.Table) -> datetime | None:
     """The earliest ``timestamp`` of a session's rows (naive UTC), if it records them."""
     if "timestamp" not in table.column_names:
         return None
@@ -275,7 +279,7 @@ CHECK_FIELDS = {
 }
 
 
-def check(doc: Any, where: str = "check") -> Record:
+def check(doc: object, where: str = "check") -> Record:
     """The record of a ``calibrator check`` document (fields: :data:`CHECK_FIELDS`).
 
     Extra keys (conditions, tracker, the poses, ...) are kept in the stored

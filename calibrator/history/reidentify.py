@@ -13,9 +13,12 @@ import shlex
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from calibrator.history.records import HistoryError
+
+if TYPE_CHECKING:
+    from calibrator.history.store import History
 
 #: identify options that reidentify sets itself.
 _OWN_OPTIONS = ("-o", "--output", "--history", "--report", "--like")
@@ -60,7 +63,7 @@ def parse_options(text: str) -> tuple[str, ...]:
 
 
 def plan(
-    store: Any, robot: str | None, folder: Path, on_skip: Callable[[str, str], None]
+    store: History, robot: str | None, folder: Path, on_skip: Callable[[str, str], None]
 ) -> list[Job]:
     """The sessions to identify again: every stored one of ``robot`` (or of every robot).
 

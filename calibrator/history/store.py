@@ -16,6 +16,7 @@ import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -225,7 +226,7 @@ class History:
         session file it names (recorded with it, in the same transaction).
         """
         record = records.calibration(Path(path))
-        record.row["file"] = str(Path(path).resolve())
+        record = replace(record, row={**record.row, "file": str(Path(path).resolve())})
         session_file = _session_file(record.session, Path(path))
         with self._begin() as conn:
             session_id, session_robot = self._session_of(conn, record.row["session_sha256"])
@@ -240,13 +241,13 @@ class History:
                     f"{path}: its session is not in the history and names no robot: "
                     "give the robot (--robot)"
                 )
-            record.row["session_id"] = session_id
+            record = replace(record, row={**record.row, "session_id": session_id})
             return self._insert(conn, schema.calibrations, record, name)
 
     def record_verification(self, path: str | os.PathLike, robot: str | None = None) -> int:
         """Record verify's JSON (ISO 9283 pose test); return its id."""
         record = records.verification(Path(path))
-        record.row["file"] = str(Path(path).resolve())
+        record = replace(record, row={**record.row, "file": str(Path(path).resolve())})
         with self._begin() as conn:
             return self._insert(conn, schema.verifications, record, robot or record.robot, path)
 

@@ -5,7 +5,11 @@ from __future__ import annotations
 import csv
 import io
 from dataclasses import dataclass, field
-from typing import Any
+from datetime import datetime
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from calibrator.history.store import History
 
 #: Columns of the table, in order.
 COLUMNS = (
@@ -33,7 +37,7 @@ class Timeline:
     trackers: list = field(default_factory=list)
 
 
-def load(store: Any, robot: str) -> Timeline:
+def load(store: History, robot: str) -> Timeline:
     """A robot's records from a :class:`calibrator.history.History`."""
     calibrations = store.calibrations(robot)  # refuses an unknown robot first
     about = next(r for r in store.robots() if r["name"] == robot)
@@ -87,13 +91,13 @@ def table(data: Timeline) -> list[dict]:
     return sorted(rows, key=lambda r: (r["time"], r["record"], r["id"]))
 
 
-def _row(time: Any, record: str, number: int, **values: Any) -> dict:
+def _row(time: datetime, record: str, number: int, **values: object) -> dict:
     row = dict.fromkeys(COLUMNS)
     row.update(time=time, record=record, id=number, **values)
     return row
 
 
-def _cell(value: Any, width: int = 0) -> str:
+def _cell(value: object, width: int = 0) -> str:
     if value is None:
         return ""
     if isinstance(value, float):

@@ -2,21 +2,22 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calibrator.fit_records import AxesSummary, BeforeAfter, ErrorStats, FitStats, Summary
 from calibrator.model import measurement
 
 if TYPE_CHECKING:
     from calibrator.model.measurement import Observations
     from calibrator.model.parameters import ParameterSpace
 
-_AXES = ("x", "y", "z")
+_AXES: tuple[Literal["x"], Literal["y"], Literal["z"]] = ("x", "y", "z")
 
 
-def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> dict:
+def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> ErrorStats:
     """Position and orientation error statistics of one parameter set.
 
     Parameters
@@ -27,7 +28,7 @@ def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> dict:
 
     Returns
     -------
-    dict
+    ErrorStats
         ``{"n": N, "position_mm": {"mean", "std", "max"}}`` of the distance
         between model and measured points, and with orientation data
         ``"orientation_deg": {"x"|"y"|"z": {"mean", "std", "max"}}`` of the
@@ -37,14 +38,15 @@ def error_stats(space: ParameterSpace, x: ArrayLike, obs: Observations) -> dict:
     if len(obs) == 0:
         return {"n": 0}
     position, orientation = measurement.errors(space, x, obs)
-    out = {"n": len(obs), "position_mm": _summary(np.linalg.norm(position, axis=1))}
+    out: ErrorStats = {"n": len(obs), "position_mm": _summary(np.linalg.norm(position, axis=1))}
     if orientation is not None:
         deg = np.degrees(np.abs(orientation))
-        out["orientation_deg"] = {a: _summary(deg[:, i]) for i, a in enumerate(_AXES)}
+        axes = AxesSummary(x=_summary(deg[:, 0]), y=_summary(deg[:, 1]), z=_summary(deg[:, 2]))
+        out["orientation_deg"] = axes
     return out
 
 
-def before_after(space: ParameterSpace, x: np.ndarray, obs: Observations) -> dict:
+def before_after(space: ParameterSpace, x: np.ndarray, obs: Observations) -> BeforeAfter:
     """``{"before": ..., "after": ...}``: :func:`error_stats` at the first guess and at ``x``."""
     return {
         "before": error_stats(space, np.zeros(space.size), obs),
@@ -52,18 +54,25 @@ def before_after(space: ParameterSpace, x: np.ndarray, obs: Observations) -> dic
     }
 
 
-def _summary(values):
+def fit_stats(
+    space: ParameterSpace, x: np.ndarray, fit: Observations, validation: Observations
+) -> FitStats:
+    """calibration.json's ``stats``: :func:`before_after` on the fitted and the held-out poses."""
+    return FitStats(fit=before_after(space, x, fit), validation=before_after(space, x, validation))
+
+
+def _summary(values: np.ndarray) -> Summary:
     # Sample standard deviation, as in the IPSO paper's tables.
     std = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
     return {"mean": float(np.mean(values)), "std": std, "max": float(np.max(values))}
 
 
-def format_table(stats: dict) -> str:
+def format_table(stats: FitStats) -> str:
     """Before/after table like the IPSO paper's Table 3.
 
     Parameters
     ----------
-    stats : dict
+    stats : FitStats
         ``{"fit": {"before": ..., "after": ...}, "validation": {...}}`` with
         entries from :func:`error_stats`.
 
@@ -72,8 +81,8 @@ def format_table(stats: dict) -> str:
     str
     """
     lines = [f"{'':28s}{'mean':>10s}{'std':>10s}{'max':>10s}"]
-    for part, title in (("fit", "fitted"), ("validation", "held-out")):
-        before, after = stats[part]["before"], stats[part]["after"]
+    for part, title in (stats["fit"], "fitted"), (stats["validation"], "held-out"):
+        before, after = part["before"], part["after"]
         if before["n"] == 0:
             lines.append(f"{title} poses: none")
             continue

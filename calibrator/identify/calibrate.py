@@ -25,13 +25,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibrator import calibration, session
 from calibrator.errors import CalibrationError, IdentifiabilityError
 from calibrator.identify import pipeline
+
+if TYPE_CHECKING:
+    from calibrator.identify.joint_fit import JointFit
 
 __all__ = ["Calibrated", "JointOptions", "calibrate", "created_now"]
 
@@ -72,7 +75,7 @@ class Calibrated:
         The identification (statistics, uncertainty, dropped parameters, warnings).
     session : calibrator.session.Session
         The session identified (several combined into one).
-    joint : object, optional
+    joint : calibrator.identify.joint_fit.JointFit, optional
         The joint-term fit (:func:`calibrator.identify.joint_fit.run`), when terms were asked.
     notes : list of str
         What the loading said: doubts about the session, the nominal file applied.
@@ -80,10 +83,10 @@ class Calibrated:
         Identification time, s.
     """
 
-    calibration: Any
-    result: Any
-    session: Any
-    joint: Any = None
+    calibration: calibration.Calibration
+    result: pipeline.Result
+    session: session.Session
+    joint: JointFit | None = None
     notes: list[str] = field(default_factory=list)
     took_s: float = 0.0
 
@@ -161,7 +164,9 @@ def calibrate(
     if nominal_file is not None:
         from calibrator.identify import factory_calibration
 
-        notes.append(factory_calibration.apply(loaded.meta, nominal_file))
+        meta, line = factory_calibration.apply(loaded.meta, nominal_file)
+        loaded = replace(loaded, meta=meta)
+        notes.append(line)
     started = time.perf_counter()
     shown = options if on_generation is None else replace(options, on_generation=on_generation)
     try:
@@ -197,21 +202,27 @@ def calibrate(
     cal = calibration.Calibration.from_result(
         result, first, loaded.meta.model, loaded.meta.frame, provenance
     )
+    terms = cal.joint_terms
     if found is not None and found.terms.needs_torque:
         assert payloads is not None  # loaded with the joint terms
-        cal.joint_terms = replace(
-            cal.joint_terms,
+        terms = replace(
+            terms,
             payload_kg=float(np.median(payloads)),
             payload_com_mm=payload_com,
             mass_model=str(joint.mass_model or loaded.meta.model),
         )
+    diagnostics = dict(cal.diagnostics)
     if len(paths) > 1:
-        cal.diagnostics["sessions"] = [str(p) for p in paths]
+        diagnostics["sessions"] = [str(p) for p in paths]
     # compensate warns about targets outside the joint ranges the fit saw.
     fitted_q = loaded.observations.q[result.fit_index]
-    cal.fit.fitted_joint_ranges_rad = np.column_stack(
-        [fitted_q.min(axis=0), fitted_q.max(axis=0)]
-    ).tolist()
+    ranges = np.column_stack([fitted_q.min(axis=0), fitted_q.max(axis=0)]).tolist()
+    cal = replace(
+        cal,
+        joint_terms=terms,
+        diagnostics=diagnostics,
+        fit=replace(cal.fit, fitted_joint_ranges_rad=ranges),
+    )
     return Calibrated(cal, result, loaded, found, notes, took)
 
 

@@ -10,7 +10,7 @@ identified.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -95,19 +95,22 @@ def load(path: str | Path, reference: ArrayLike | None = None, model: str | None
     return Nominal(mdh, base, offset, source, model)
 
 
-def apply(meta: SessionMeta, path: str | Path) -> str:
-    """Make an imported factory calibration the nominal model of a loaded session.
+def apply(meta: SessionMeta, path: str | Path) -> tuple[SessionMeta, str]:
+    """A session's footer with an imported factory calibration as its nominal model.
 
     Parameters
     ----------
     meta : calibrator.session.SessionMeta
-        Changed in place: ``nominal_mdh``, and ``flange2tool`` gains what the
-        MDH table cannot hold of the file's flange.
+        The session's footer (not changed).
     path : str or Path
 
     Returns
     -------
-    str
+    meta : calibrator.session.SessionMeta
+        ``meta`` with the imported ``nominal_mdh`` (mm, rad), and a
+        ``flange2tool`` that gains what the MDH table cannot hold of the
+        file's flange (mm).
+    line : str
         One line saying what was imported.
 
     Raises
@@ -123,7 +126,11 @@ def apply(meta: SessionMeta, path: str | Path) -> str:
             f"{path} moves joint 1's axis by {mm:.3g} mm, {rad:.3g} rad from its base frame; "
             "a session in the base frame cannot take it (measure in the tracker frame)"
         )
-    meta.nominal_mdh = imported.mdh
-    meta.flange2tool = imported.flange_offset @ meta.flange2tool
     against = f" against {imported.model}" if imported.model else ""
-    return f"nominal model from {path} ({imported.source}{against})"
+    line = f"nominal model from {path} ({imported.source}{against})"
+    applied = replace(
+        meta,
+        nominal_mdh=imported.mdh,
+        flange2tool=imported.flange_offset @ meta.flange2tool,
+    )
+    return applied, line

@@ -25,9 +25,11 @@ Every step returns a :class:`~calibrator.identify.problem.FitResult`.
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 
+from calibrator.fit_records import SolverDetails, StepInfo
 from calibrator.identify import minimax, pso, refine, robust
 from calibrator.identify.problem import FitResult, Problem
 
@@ -94,14 +96,19 @@ trimmed = _on_every_pose("trimmed least squares", robust.trimmed)
 minimax_refine = _on_every_pose("minimax refinement (SLSQP, epigraph form)", minimax.refine_minimax)
 
 
+#: A step's key in ``solver``.
+StepName = Literal["pso", "least_squares", "robust", "minimax"]
 #: (loss, method) -> the steps, in order; each step's name is its key in ``solver``.
-STEPS: dict[tuple[str, str], tuple[tuple[str, Callable], ...]] = {}
+STEPS: dict[tuple[str, str], tuple[tuple[StepName, Callable], ...]] = {}
 STEPS[("lsq", "hybrid")] = (("pso", swarm), ("least_squares", least_squares))
 STEPS[("lsq", "pso")] = (("pso", swarm),)
 STEPS[("lsq", "lm")] = (("least_squares", least_squares),)
 for _loss, _robust in (("huber", huber), ("trimmed", trimmed)):
     # A robust fit starts from least squares, whatever brought it near.
-    _local = (("least_squares", least_squares), ("robust", _robust))
+    _local: tuple[tuple[StepName, Callable], ...] = (
+        ("least_squares", least_squares),
+        ("robust", _robust),
+    )
     STEPS[(_loss, "hybrid")] = (("pso", swarm), *_local)
     STEPS[(_loss, "pso")] = (("pso", swarm), *_local)
     STEPS[(_loss, "lm")] = _local
@@ -114,7 +121,7 @@ STEPS[("minimax", "pso")] = (("pso", minimax_swarm),)
 STEPS[("minimax", "lm")] = (("least_squares", least_squares), ("minimax", minimax_refine))
 
 
-def fit(problem: Problem, loss: str, settings: Settings) -> tuple[FitResult, dict]:
+def fit(problem: Problem, loss: str, settings: Settings) -> tuple[FitResult, SolverDetails]:
     """Run the steps of ``(loss, settings.method)`` from the first guess.
 
     Returns
@@ -122,12 +129,12 @@ def fit(problem: Problem, loss: str, settings: Settings) -> tuple[FitResult, dic
     last : FitResult
         The last step's result (its ``x`` is the fit; its ``outliers``
         those of a robust loss).
-    solver : dict
+    solver : SolverDetails
         calibration.json's ``solver``: ``loss``, each step's record under
         its name, and the swarm's ``convergence`` (``[[generation, best
         cost], ...]``, at most :data:`CONVERGENCE_POINTS`).
     """
-    solver: dict = {"loss": loss}
+    solver = SolverDetails(loss=loss)
     x = problem.zero()
     last = FitResult(x, float("nan"), 0)
     for name, step in STEPS[(loss, settings.method)]:
@@ -155,11 +162,11 @@ def _ipso(sub: Problem, lower, upper, settings: Settings, loss: str) -> FitResul
         seed=settings.seed,
         on_generation=settings.on_generation,
     )
-    info = {
-        "particles": settings.particles,
-        "generations": settings.generations,
-        "poses": len(sub),
-        "loss": loss,
-    }
+    info = StepInfo(
+        particles=settings.particles,
+        generations=settings.generations,
+        poses=len(sub),
+        loss=loss,
+    )
     evaluations = settings.particles * (settings.generations + 1)
     return FitResult(found.x, found.f, evaluations, "", history=found.history, info=info)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from calibrator.fit_records import FitStats, Uncertainty
 from calibrator.identify import accuracy, freeset, refine, uncertainty
 from calibrator.identify.problem import Problem
 from calibrator.model import joint_terms, measurement, parameters
@@ -67,9 +68,9 @@ class JointFit:
         Terms the free-set decision left out, ``{"name", "reason"}``.
     cv_geometry, cv_final : dict
         Cross-validated errors of the geometry alone and of the final model.
-    uncertainty : dict
+    uncertainty : calibrator.fit_records.Uncertainty
         :func:`calibrator.identify.uncertainty.analyse` of the final model.
-    stats : dict
+    stats : calibrator.fit_records.FitStats
         Before/after statistics as in the pipeline's result.
     """
 
@@ -80,8 +81,8 @@ class JointFit:
     dropped: list[dict] = field(default_factory=list)
     cv_geometry: dict = field(default_factory=dict)
     cv_final: dict = field(default_factory=dict)
-    uncertainty: dict = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
+    uncertainty: Uncertainty = field(default_factory=lambda: Uncertainty())
+    stats: FitStats = field(default_factory=lambda: FitStats())
 
     @property
     def terms(self) -> joint_terms.JointTerms:
@@ -192,10 +193,7 @@ def fit(
             kept_groups.append(group)
     final_space, final_x = solve(current, fit_obs)
     unc = uncertainty.analyse(Problem(final_space, fit_obs, problem.k), final_x, validation)
-    stats = {
-        part: accuracy.before_after(final_space, final_x, o)
-        for part, o in (("fit", fit_obs), ("validation", validation))
-    }
+    stats = accuracy.fit_stats(final_space, final_x, fit_obs, validation)
     return JointFit(
         final_space,
         final_x,
@@ -398,7 +396,7 @@ def run(
     warnings = list(result.warnings)
     if found.kept:
         warnings = _rejudged_warnings(result, found, noise_mm) + implausible_terms(found)
-    details = dict(result.details)
+    details = result.details.copy()
     details["joint_terms"] = {
         "requested": list(groups),
         "kept": list(found.kept),

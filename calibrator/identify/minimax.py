@@ -11,6 +11,7 @@ judges all poses without a dense constraint Jacobian over thousands.
 
 import numpy as np
 
+from calibrator.fit_records import StepInfo
 from calibrator.identify.problem import FitResult, Problem
 from calibrator.model import parameters
 
@@ -85,5 +86,5 @@ def refine_minimax(
             break
         active = np.union1d(active, missing)
     worst = float(np.sqrt(e_best.max()))
-    info = {"worst_mm": worst, "iterations": iterations}
+    info = StepInfo(worst_mm=worst, iterations=iterations)
     return FitResult(best, float(e_best.max()), iterations, message, info=info)

@@ -26,8 +26,6 @@ Use::
 
 from __future__ import annotations
 
-from typing import Any
-
 from calibrator.errors import CalibrationError
 from calibrator.inputs.grammar import MAX_INT
 from calibrator.inputs.rules import Rule
@@ -104,7 +102,7 @@ PIPELINE = tuple(rule.key for rule in _TABLE if rule.group == "pipeline")
 JOINT = tuple(rule.key for rule in _TABLE if rule.group == "joint")
 
 
-def check_settings(settings: Any, keys: tuple[str, ...] = PIPELINE) -> None:
+def check_settings(settings: object, keys: tuple[str, ...] = PIPELINE) -> None:
     """Check the attributes ``keys`` of ``settings`` against their rules.
 
     Raises

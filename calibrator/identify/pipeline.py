@@ -10,11 +10,12 @@ steps over a :class:`~.problem.Problem`), then outliers, uncertainty
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calibrator.errors import IdentifiabilityError
+from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import (
     accuracy,
     fitters,
@@ -29,6 +30,9 @@ from calibrator.identify.problem import Problem
 from calibrator.inputs import plausibility
 from calibrator.inputs.errors import StrictError
 from calibrator.model import measurement, parameters
+
+if TYPE_CHECKING:
+    from calibrator.session import Session
 
 METHODS = option_rules.METHODS
 LOSSES = option_rules.LOSSES
@@ -74,28 +78,31 @@ class Options:
     progress: Callable | None = field(default=None, compare=False)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Result:
-    """Everything ``identify`` found, ready for calibration.json.
+    """Everything ``identify`` found, ready for calibration.json (derive with ``replace()``).
 
+    ``dropped`` the ``{"name", "reason"}`` of each candidate left out;
+    ``stats`` the before/after statistics (:class:`calibrator.fit_records.FitStats`);
+    ``details`` what the fitters reported (:class:`calibrator.fit_records.SolverDetails`);
     ``warnings`` are sentences about the session (redundancy, duplicates,
     conditioning, suspected outliers); ``outliers`` the pose numbers a
-    robust loss set aside (or, with ``lsq``, flagged); ``uncertainty`` the
-    dict of :func:`calibrator.identify.uncertainty.analyse`.
+    robust loss set aside (or, with ``lsq``, flagged); ``uncertainty``
+    :func:`calibrator.identify.uncertainty.analyse` (:class:`calibrator.fit_records.Uncertainty`).
     """
 
     space: parameters.ParameterSpace
     x: np.ndarray
-    dropped: list
-    stats: dict
+    dropped: list[dict[str, str]]
+    stats: FitStats
     options: Options
     k: float
     fit_index: np.ndarray
     validation_index: np.ndarray
-    details: dict = field(default_factory=dict)
-    warnings: list = field(default_factory=list)
-    outliers: list = field(default_factory=list)
-    uncertainty: dict = field(default_factory=dict)
+    details: SolverDetails = field(default_factory=lambda: SolverDetails())
+    warnings: list[str] = field(default_factory=list)
+    outliers: list[int] = field(default_factory=list)
+    uncertainty: Uncertainty = field(default_factory=lambda: Uncertainty())
     tool_known: bool = False
 
     @property
@@ -131,7 +138,7 @@ def split(n_poses: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndar
     return np.sort(order[n_val:]), np.sort(order[:n_val])
 
 
-def identify(session: Any, options: Options = Options()) -> Result:
+def identify(session: "Session", options: Options = Options()) -> Result:
     """Identify the free parameters of a session.
 
     Parameters
@@ -199,10 +206,7 @@ def identify(session: Any, options: Options = Options()) -> Result:
     # Held-out poses beyond the fitted joint ranges: the model is extrapolated there.
     warnings += uncertainty.range_warnings(fit.q, val.q)
     warnings += _noise_warning(unc, options.noise_mm)
-    stats = {
-        part: accuracy.before_after(problem.space, x, o)
-        for part, o in (("fit", fit), ("validation", val))
-    }
+    stats = accuracy.fit_stats(problem.space, x, fit, val)
     return Result(
         problem.space,
         x,

@@ -21,10 +21,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
+from calibrator.fit_records import StepInfo, StepRecord
 from calibrator.identify import objective
 from calibrator.model import measurement, parameters
 
@@ -121,7 +121,7 @@ class FitResult:
         Indices into the fitting poses that a robust fit set aside.
     history : ndarray or None
         Swarm only: best cost after the initial swarm and each generation.
-    info : dict
+    info : StepInfo
         Fitter-specific numbers for calibration.json's ``solver`` entry.
     """
 
@@ -131,11 +131,11 @@ class FitResult:
     message: str = ""
     outliers: np.ndarray = field(default_factory=lambda: np.array([], dtype=int))
     history: np.ndarray | None = None
-    info: dict = field(default_factory=dict)
+    info: StepInfo = field(default_factory=lambda: StepInfo())
 
-    def record(self) -> dict:
+    def record(self) -> StepRecord:
         """This step's JSON record: ``objective``, ``evaluations``, ``message``, ``info``."""
-        out: dict[str, Any] = {"objective": float(self.cost), "evaluations": int(self.evaluations)}
+        out = StepRecord(objective=float(self.cost), evaluations=int(self.evaluations))
         if self.message:
             out["message"] = self.message
         out.update(self.info)

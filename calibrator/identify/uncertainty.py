@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from calibrator.fit_records import CorrelatedPair, Prediction, Uncertainty
 from calibrator.model import measurement, parameters
 
 if TYPE_CHECKING:
@@ -110,7 +111,7 @@ def _block_sigmas_exact(res, n_poses, jac):
     return float(np.sqrt(var[0])), float(np.sqrt(max(var[1], 0.0)))
 
 
-def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = None) -> dict:
+def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = None) -> Uncertainty:
     """Uncertainty of the deltas ``x`` fitted on ``problem``'s poses.
 
     Parameters
@@ -123,7 +124,7 @@ def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = N
 
     Returns
     -------
-    dict
+    Uncertainty
         ``standard_errors`` {name: value (mm or rad)}, ``correlation``
         {"names", "matrix"} (with the standard errors, the covariance), ``strong_correlations``
         [{"a", "b", "r"}], ``residual_sigma`` {"position_mm",
@@ -151,14 +152,14 @@ def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = N
     safe = np.where(se > 0, se, 1.0)
     corr = cov / np.outer(safe, safe)
     strong = [
-        {"a": names[i], "b": names[j], "r": float(corr[i, j])}
+        CorrelatedPair(a=names[i], b=names[j], r=float(corr[i, j]))
         for i in range(len(names))
         for j in range(i + 1, len(names))
         if abs(corr[i, j]) > STRONG_CORRELATION
     ]
     strong.sort(key=lambda p: -abs(p["r"]))
     dof = position_dof(js, n)
-    out = {
+    out: Uncertainty = {
         "standard_errors": dict(zip(names, map(float, se), strict=True)),
         "correlation": {"names": names, "matrix": np.round(corr, 6).tolist()},
         "strong_correlations": strong,
@@ -221,7 +222,7 @@ def predict_error(
     cov: np.ndarray,
     sigma_p: float,
     dof: float | None = None,
-) -> dict:
+) -> Prediction:
     """Predicted position error at poses not used in the fit.
 
     ``dof``, the position rows' residual degrees of freedom
@@ -231,7 +232,7 @@ def predict_error(
 
     Returns
     -------
-    dict
+    Prediction
         ``model_rms_mean``, ``model_rms_max``: RMS position error (mm) that
         the parameters' uncertainty alone causes, mean and worst over the
         poses; ``error_mean``: expected mean distance between model and
@@ -251,7 +252,7 @@ def predict_error(
     }
 
 
-def noise_floor_line(unc: dict) -> str:
+def noise_floor_line(unc: Uncertainty) -> str:
     """``noise floor: ...`` for ``identify``'s output."""
     floor = noise_floor(unc["residual_sigma"]["position_mm"])
     return (
@@ -327,7 +328,7 @@ def range_warnings(fit_q: np.ndarray, others: np.ndarray, what: str = "held-out"
     ]
 
 
-def summary_lines(unc: dict, limit: int = 6) -> list[str]:
+def summary_lines(unc: Uncertainty, limit: int = 6) -> list[str]:
     """A short text summary: worst standard errors and correlated pairs."""
     se = unc["standard_errors"]
     lines = []

@@ -48,7 +48,7 @@ class ProgramSpec:
     model : str
         The arm model, written in the header.
     via_rad : tuple of N ndarrays, shape (k_i, 6)
-        Joint vectors moved through before pose i, rad (:attr:`calibrator.plan.Plan.via_rad`):
+        Joint vectors moved through before pose i, rad (:attr:`calibrator.planning.Plan.via_rad`):
         joint moves without dwell or pulse, so the controller follows the path the plan
         checked in the cell. Default: none.
     joint_limits_rad : numpy.ndarray, shape (6, 2), optional

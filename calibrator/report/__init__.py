@@ -43,10 +43,12 @@ matplotlib is imported only here, with its non-interactive Agg backend.
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
+    from calibrator.outputs import Outputs
+    from calibrator.session import Session
 
 __all__ = ["FILES", "check_page_free", "write"]
 
@@ -65,8 +67,8 @@ FILES = (
 def write(
     folder: str | Path,
     cal: "Calibration",
-    session: Any = None,
-    batch: Any = None,
+    session: "Session | None" = None,
+    batch: "Outputs | None" = None,
     calibration_path: str | Path | None = None,
     session_path: str | Path | None = None,
     verify: Sequence = (),
@@ -104,7 +106,8 @@ def write(
     from calibrator.report import data, page, plots
 
     own = batch is None
-    batch = outputs.Outputs(inputs=[calibration_path, session_path]) if own else batch
+    if batch is None:
+        batch = outputs.Outputs(inputs=[calibration_path, session_path])
     # Refuse a file of the report that is an input, or exists, before drawing anything.
     outputs.check_folder(folder, batch.inputs, files=FILES, force=force, option=option)
     content = data.collect(cal, session, calibration_path, session_path)

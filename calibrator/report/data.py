@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -12,8 +12,12 @@ from calibrator import calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import kinematics, parameters
 
+if TYPE_CHECKING:
+    from calibrator.fit_records import FitStats
+    from calibrator.session import Session
 
-@dataclass
+
+@dataclass(frozen=True)
 class PoseErrors:
     """Per-pose position errors of the nominal and the identified model.
 
@@ -41,13 +45,13 @@ class PoseErrors:
     origin: str
 
 
-@dataclass
+@dataclass(frozen=True)
 class Content:
     """Everything on the page; ``None`` where the inputs do not hold it."""
 
     title: str
     facts: list  # (label, value) pairs
-    stats: dict
+    stats: FitStats
     deltas: dict  # name -> value (mm or rad)
     standard_errors: dict | None
     dropped: list
@@ -72,7 +76,7 @@ def unit_of(name: str) -> str:
 
 def collect(
     cal: calibration.Calibration,
-    session: Any = None,
+    session: Session | None = None,
     calibration_path: str | Path | None = None,
     session_path: str | Path | None = None,
 ) -> Content:
@@ -126,7 +130,17 @@ def _collect(cal, session, calibration_path, session_path):
         facts.append(("identified (UTC)", origin.created))
     if session is not None:
         facts += _session_facts(session)
-    content = Content(
+    notes = {}
+    if curve is None:
+        notes["convergence"] = "not recorded (no swarm, or an older calibration file)"
+    poses = None
+    if session is None:
+        why = "give the session file to draw per-pose errors"
+        for plot in ("pose_errors", "error_cdf", "error_vs_distance"):
+            notes[plot] = why
+    else:
+        poses = pose_errors(cal, session, session_path)
+    return Content(
         title=f"Calibration of {cal.model or 'a robot arm'}",
         facts=facts,
         stats=fit.stats,
@@ -134,19 +148,11 @@ def _collect(cal, session, calibration_path, session_path):
         standard_errors={str(k): float(v) for k, v in errors.items()} if errors else None,
         dropped=list(cal.dropped),
         convergence=curve,
-        poses=None,
+        poses=poses,
         warnings=[str(w) for w in fit.warnings],
+        notes=notes,
         parameters=[r for r in cal.parameter_records() if r["free"]],
     )
-    if content.convergence is None:
-        content.notes["convergence"] = "not recorded (no swarm, or an older calibration file)"
-    if session is None:
-        why = "give the session file to draw per-pose errors"
-        for plot in ("pose_errors", "error_cdf", "error_vs_distance"):
-            content.notes[plot] = why
-    else:
-        content.poses = pose_errors(cal, session, session_path)
-    return content
 
 
 def _recorded(value):
@@ -248,7 +254,7 @@ def _curve(curve):
 
 
 def pose_errors(
-    cal: calibration.Calibration, session: Any, session_path: str | Path | None = None
+    cal: calibration.Calibration, session: Session, session_path: str | Path | None = None
 ) -> PoseErrors:
     """Per-pose errors of the nominal and identified models on ``session``.
 
@@ -265,7 +271,9 @@ def pose_errors(
     obs = session.observations
     n = len(obs)
     stats = cal.fit.stats
-    expected = sum(stats.get(p, {}).get("before", {}).get("n", 0) for p in ("fit", "validation"))
+    # A hand-written or older file may lack any level: count what it records.
+    parts = [part for part in (stats.get("fit"), stats.get("validation")) if part]
+    expected = sum(part.get("before", {}).get("n", 0) for part in parts)
     held = np.asarray(cal.fit.validation_poses, dtype=int)
     name = session_path or "the session"
     if (expected and n != expected) or (held.size and held.max() >= n):

@@ -55,6 +55,10 @@ BASE_LINKS = ("base_link",)
 TIP_LINKS = ("tool0", "flange")
 #: Margin added to every fitted capsule radius, mm.
 FIT_MARGIN_MM = 10.0
+#: Neighbouring axes closer than this (rad) get Hayati's ``beta``, as the ROS
+#: kinematics import does: a slightly tilted axis (a measured or perturbed
+#: URDF) would otherwise put the common normal metres away (a huge ``d``).
+NEAR_PARALLEL_RAD = 0.1
 #: Radius of a capsule along a link that has no collision geometry, mm.
 BARE_LINK_RADIUS_MM = 60.0
 _MOVING = ("revolute", "continuous")
@@ -298,11 +302,34 @@ def kinematics_of(chain: Chain) -> Kinematics:
     """The chain's MDH table, exactly (see the module docstring)."""
     joints, tip, sign = joint_axes(chain)
     z = joints[:, :3, 2]
-    parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < 1e-9
-    mdh, base2frame0, residual = conventions.fit_links(joints, tip, np.zeros((6, 5)), parallel)
+    parallel = np.linalg.norm(np.cross(z[:-1], z[1:]), axis=1) < np.sin(NEAR_PARALLEL_RAD)
+    flange = _flange_on_axis(tip, z[5])
+    mdh, base2frame0, residual = conventions.fit_links(joints, flange, np.zeros((6, 5)), parallel)
     if not (np.all(np.isfinite(mdh)) and np.all(np.isfinite(residual))):
         raise _fail(chain.path, "the joint axes do not describe a 6R arm")
-    return Kinematics(mdh, base2frame0, residual, sign)
+    return Kinematics(mdh, base2frame0, residual @ np.linalg.inv(flange) @ tip, sign)
+
+
+def _flange_on_axis(tip: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The tip frame turned so its z is axis 6 (``z``), x as near the tip's as it goes.
+
+    ``theta_6`` is read off the flange frame's x axis about z: from a tip
+    frame whose z is not axis 6 (a ``tool0`` with x out of the flange, a
+    ``link_6`` frame) it would depend on how a hair's tilt resolves, and a
+    slightly perturbed copy of the arm would get a flange frame turned by 90
+    or 180 degrees. The tip's x, or its y where x lies within 30 degrees of
+    the axis, projected across the axis, is stable. A tip already on the axis
+    is returned as it is.
+    """
+    z = z / np.linalg.norm(z)
+    if np.linalg.norm(np.cross(tip[:3, 2], z)) < 1e-9:
+        return tip
+    x = tip[:3, 0] if abs(tip[:3, 0] @ z) < np.cos(np.radians(30.0)) else tip[:3, 1]
+    x = x - z * (x @ z)
+    x /= np.linalg.norm(x)
+    out = tip.copy()
+    out[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return out
 
 
 def _limits(chain: Chain, sign: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -470,6 +497,7 @@ def fit_body(
     base_ends: list[np.ndarray] = []  # end points of the base link's capsules, base link, mm
     base_radii: list[float] = []
     bare: list[int] = []  # links drawn along their joints, without geometry
+    missing: list[str] = []  # collision meshes named but not found
     groups = _groups(chain)
     anchors = [frames[j.child][:, 3] for j in chain.moving] + [frames[chain.tip_link][:, 3]]
     flange = anchors[6][:3]
@@ -480,7 +508,11 @@ def fit_body(
         found = False
         for name in names:
             for k, collision in enumerate(chain.root.findall(f"link[@name='{name}']/collision")):
-                fitted = _fit(chain, name, collision)
+                try:
+                    fitted = _fit(chain, name, collision)
+                except _MeshMissing as exc:
+                    missing.append(str(exc))
+                    continue
                 if fitted is None:
                     continue
                 p, q, r = fitted
@@ -507,6 +539,12 @@ def fit_body(
             bare.append(i)
             r = BARE_LINK_RADIUS_MM if link_radius_mm is None else float(link_radius_mm[i - 1])
             start, end = anchors[i - 1][:3], anchors[i][:3]
+            if i == 1 and not base_ends:
+                # Link 1 only turns about the base's vertical axis and sits on the base:
+                # from a joint origin on the mounting plane (ABB's, Yaskawa's) its capsule
+                # would lie in the plane at every pose, and no pose would pass.
+                start = start.copy()
+                start[2] = max(start[2], _bare_base_top(model_frames))
             # A housing ends at the flange face: a cap reaching past it would swallow
             # the tool, so ends at the flange are drawn back by the radius.
             start, end = (_short_of(p, flange, back, r + margin_mm) for p in (start, end))
@@ -529,7 +567,7 @@ def fit_body(
     else:
         # No geometry: a base under the shoulder, half its height.
         radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
-        top = float(joint1[2, 3] + model_frames[1][2, 3]) / 2
+        top = _bare_base_top(model_frames)
     # The cell works in MDH frame 0: base cylinder heights and the shoulder in it.
     shift = float(joint1[2, 3]) if np.allclose(joint1[:3, :3], np.eye(3)) else 0.0
     d1_point = model_frames[1][:3, 3] if len(model_frames) > 1 else joint1[:3, 3]
@@ -540,18 +578,34 @@ def fit_body(
         mount_z_mm=bottom - shift,
         shoulder_mm=(0.0, 0.0, float(d1_point[2] - shift)),
         margin_mm=margin_mm,
-        source=_body_source(chain, bare, margin_mm),
+        source=_body_source(chain, bare, margin_mm, missing),
     )
 
 
-def _body_source(chain: Chain, bare: list[int], margin_mm: float) -> str:
+def _bare_base_top(model_frames: np.ndarray) -> float:
+    """Top of the base cylinder drawn without geometry: half the shoulder height, mm."""
+    return float(model_frames[0][2, 3] + model_frames[1][2, 3]) / 2
+
+
+def _body_source(chain: Chain, bare: list[int], margin_mm: float, missing: list[str]) -> str:
     fitted = f"fitted to the collision geometry of {chain.path.name}"
     along = "capsules along the links between the joint origins"
+    # Named but absent meshes are said, with where they were looked for: the
+    # capsules drawn instead are an approximation, not the arm's housings.
+    lost = (
+        f" (collision meshes not found: {missing[0]}"
+        + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
+        + "; looked beside the URDF's package folder, in the folders above it and in "
+        "ROS_PACKAGE_PATH)"
+        if missing
+        else " (no collision geometry found)"
+    )
     if not bare:
         return f"{fitted}, +{margin_mm:g} mm"
     if len(bare) == 6:
-        return f"{along} (no collision geometry found), +{margin_mm:g} mm"
-    return f"{fitted}; links {', '.join(map(str, bare))}: {along}; +{margin_mm:g} mm"
+        return f"{along}{lost}, +{margin_mm:g} mm"
+    note = lost if missing else ""
+    return f"{fitted}; links {', '.join(map(str, bare))}: {along}{note}; +{margin_mm:g} mm"
 
 
 def _fit(
@@ -583,19 +637,36 @@ def _fit(
     return None
 
 
+class _MeshMissing(Exception):
+    """A collision mesh the URDF names and that cannot be found (its file name)."""
+
+
+def mesh_file(urdf: Path, filename: str) -> Path | None:
+    """The file a URDF's ``<mesh filename>`` names, where it can be found.
+
+    ``package://pkg/rest`` is looked for as ROS finds it: in ``pkg`` beside
+    the URDF's folder (the URDF in ``pkg/urdf/``), in a folder ``pkg`` in
+    any folder above the URDF (a workspace), and in each folder of
+    ``ROS_PACKAGE_PATH``. Other names are relative to the URDF's folder.
+    """
+    if not filename.startswith("package://"):
+        found = urdf.parent / filename.removeprefix("file://")
+        return found if found.is_file() else None
+    package, _, rest = filename[len("package://") :].partition("/")
+    roots = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    candidates = [urdf.parent.parent / rest]
+    candidates += [up / package / rest for up in urdf.resolve().parents]
+    candidates += [Path(root) / package / rest for root in roots]
+    return next((c for c in candidates if c.is_file()), None)
+
+
 def _fit_mesh(
     chain: Chain, shape: ET.Element, at: np.ndarray, where: str
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     filename = str(shape.get("filename") or "")
-    if filename.startswith("package://"):
-        # package://pkg/rest: found when the URDF sits in the package (pkg/urdf/x.urdf).
-        rest = filename[len("package://") :].split("/", 1)
-        candidates = [chain.path.parent.parent / rest[1]] if len(rest) == 2 else []
-    else:
-        candidates = [chain.path.parent / filename.removeprefix("file://")]
-    found = next((c for c in candidates if c.is_file()), None)
+    found = mesh_file(chain.path, filename)
     if found is None:
-        return None
+        raise _MeshMissing(filename)
     import trimesh
 
     try:

@@ -18,10 +18,7 @@ class RobotOptions:
         The simulated world (the ``sim`` kind needs it).
     max_speed_rad_s, max_accel_rad_s2 : float, optional
         Lower the model's fixed motion caps (never raise them).
-    tracker : calibrator.acquire.ports.Tracker, optional
-        The raw tracker, for a robot that finds its poses by watching it
-        (the ``external`` kind needs it; the caller connects it).
-    external : drivers.robot.external.setup.ExternalOptions, optional
+    external : calibrator.acquire.external.arm.ExternalOptions, optional
         Stop detection and association of the ``external`` kind.
     """
 
@@ -29,5 +26,4 @@ class RobotOptions:
     world: Any = None
     max_speed_rad_s: float | None = None
     max_accel_rad_s2: float | None = None
-    tracker: Any = None
     external: Any = None

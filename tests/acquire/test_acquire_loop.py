@@ -10,12 +10,11 @@ import contextlib
 import numpy as np
 import pytest
 
-from calibrator import plan as plans
 from calibrator.acquire import journal as journals
 from calibrator.acquire import loop
 from calibrator.acquire.averaging import AveragedReading, average, measure_average
 from calibrator.acquire.ports import ReadingLost
-from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
+from calibrator.simulate import SimWorld
 from drivers.robot.errors import EmergencyStop
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import LaserTracker
@@ -31,9 +30,10 @@ def cell():
 
 
 @pytest.fixture(scope="module")
-def plan(cell):
-    constraints = plans.CellConstraints(tracker_at_mm=SIM_TRACKER_AT_MM)
-    return plans.make(cell.model.mdh, cell.model.joint_limits_rad, N_POSES, constraints)
+def plan(checked_plan):
+    # The shared plan's poses: a UR10e facing the simulated cell's tracker.
+    assert len(checked_plan.q_rad) == N_POSES
+    return checked_plan.q_rad
 
 
 @contextlib.contextmanager

@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 from cli_kit import cli, listing, one_line_error
 
-from calibrator import cell, robots
-from calibrator import plan as plans
+from calibrator import cell, planning, robots
 
 UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
@@ -23,7 +22,7 @@ D = np.radians
 def good_plan():
     # The cases below splice into a plan without vias: the first seed that gives one.
     for seed in range(1, 20):
-        made = plans.make_checked(
+        made = planning.make_checked(
             UR10E, 12, cell.Cell(tracker_at_mm=TRACKER_AT), TOOL_MM, seed=seed
         )
         if made.plan.n_vias == 0:
@@ -32,7 +31,7 @@ def good_plan():
 
 
 def _measure(folder, q):
-    plans.write_csv(folder / "plan.csv", q)
+    planning.write_plan(folder / "plan.csv", planning.Plan(q))
     before = listing(folder)
     done = cli(
         "measure", "--plan", "plan.csv", "--tracker-at", ",".join(map(str, TRACKER_AT)),
@@ -60,7 +59,7 @@ def test_a_user_plan_whose_move_sweeps_under_the_mounting_plane_is_refused(tmp_p
 
 
 def test_a_checked_plan_is_measured_and_its_time_estimated(tmp_path, good_plan):
-    plans.write_csv(tmp_path / "plan.csv", good_plan)
+    planning.write_plan(tmp_path / "plan.csv", planning.Plan(good_plan))
     done = cli(
         "measure", "--plan", "plan.csv", "--tracker-at", ",".join(map(str, TRACKER_AT)),
         "--readings", "2", "-o", "s.parquet", cwd=tmp_path,

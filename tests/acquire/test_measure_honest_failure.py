@@ -114,8 +114,10 @@ def test_resume_never_replaces_a_session_file_its_run_did_not_write(tmp_path, po
 
 
 def test_a_second_resume_of_a_running_job_is_refused(tmp_path):
+    # 1 s of settling a pose: the first run lasts about 12 s, long enough for a
+    # second process to start on a loaded machine (with 0.3 s it sometimes ended first).
     proc = subprocess.Popen(
-        [sys.executable, "-m", "calibrator", *BASE, "-q", "--settle", "0.3"],
+        [sys.executable, "-m", "calibrator", *BASE, "-q", "--settle", "1.0"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:

@@ -23,8 +23,7 @@ from cli_kit import cli, one_line_error
 from measure_kit import session_rows
 
 from calibrator import cell as cells
-from calibrator import plan as plans
-from calibrator import robots, session
+from calibrator import planning, robots, session
 from calibrator.cli import measure as measure_cli
 from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
@@ -43,7 +42,7 @@ def measure(*args, cwd):
 def expected_plan(seed=0, tool=(0.0, 0.0, 100.0), tracker_at=SIM_TRACKER_AT_MM, n=10):
     """The plan ``measure --poses n`` makes: the checked planner of ``calibrator plan``."""
     cell = cells.Cell(tracker_at_mm=tuple(float(v) for v in tracker_at))
-    return plans.make_checked(UR10E, n, cell, tool, seed=seed).plan.q_rad
+    return planning.make_checked(UR10E, n, cell, tool, seed=seed).plan.q_rad
 
 
 def table(path):
@@ -92,7 +91,7 @@ def test_session_holds_the_simulated_arm_pose_for_pose(tmp_path):
     assert meta.extra["measured"] == {
         "robot": "sim:ur10e:seed=2",
         "tracker": SIM_IDENTITY,
-        "plan_sha256": plans.digest(q_plan),  # what a resume checks an existing file against
+        "plan_sha256": planning.digest(q_plan),  # what a resume checks an existing file against
         "description": {"name": "ur10e", "sha256": UR10E.digest},  # which arm, exactly
     }
 
@@ -131,7 +130,7 @@ def test_tracker_at_places_the_plan_and_a_plan_file_is_measured_as_written(tmp_p
         np.array([rows[i][0] for i in range(10)]), expected_plan(tracker_at=at), atol=1e-12
     )
     own = expected_plan(seed=5)[::-1]
-    plans.write_csv(tmp_path / "plan.csv", own)
+    planning.write_plan(tmp_path / "plan.csv", planning.Plan(own))
     done = measure(*FAST[2:-2], "--plan", "plan.csv", "-o", "p.parquet", cwd=tmp_path)
     assert done.code == 0, done.stderr
     rows = session_rows(tmp_path / "p.parquet")
@@ -155,7 +154,7 @@ def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
     assert sorted(session_rows(tmp_path / "s.parquet")) == [0, 1, 2, 4, 5, 6, 7, 8, 9]
     header, *records = journal_lines(tmp_path / "s.parquet.journal")
     q_plan = expected_plan()
-    assert header["plan_sha256"] == plans.digest(q_plan)
+    assert header["plan_sha256"] == planning.digest(q_plan)
     assert (header["robot"], header["tracker"]) == ("sim:ur10e:seed=0", SIM_IDENTITY)
     assert (header["readings"], header["poses"]) == (3, 10)
     assert header["meta"] == session.load(tmp_path / "s.parquet").meta.to_json()
@@ -190,14 +189,38 @@ def test_progress_marks_a_failed_pose(tmp_path):
     assert "failed: beam broken x1 (after 0 retries: poses [3])" in done.stdout
 
 
-def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
+def measured_poses_moved_to(plan):
+    """Which moves of the simulated robot go to a pose of ``plan`` (N, 6) (not a via)."""
+    return lambda q: bool(np.all(plan == np.asarray(q), axis=1).any())
+
+
+def test_a_made_plan_is_moved_along_whole_vias_included(tmp_path, monkeypatch):
     move = SimulatedRobot.move_joints
     moves = []
 
+    def recorded(self, q, speed, accel):
+        moves.append(np.array(q, dtype=float))
+        return move(self, q, speed, accel)
+
+    monkeypatch.setattr(SimulatedRobot, "move_joints", recorded)
+    done = measure(*FAST, cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    cell = cells.Cell(tracker_at_mm=tuple(float(v) for v in SIM_TRACKER_AT_MM))
+    made = planning.make_checked(UR10E, 10, cell, (0.0, 0.0, 100.0), seed=0).plan
+    assert made.n_vias  # the moves the cell check passed only through vias
+    np.testing.assert_array_equal(np.array(moves), made.path_rad)
+
+
+def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monkeypatch):
+    move = SimulatedRobot.move_joints
+    is_pose = measured_poses_moved_to(expected_plan())
+    moves = []  # moves to measured poses (vias are moved through on the way)
+
     def ctrl_c_during_pose_3(self, q, speed, accel):
-        if len(moves) == 3:
-            os.kill(os.getpid(), signal.SIGINT)
-        moves.append(q)
+        if is_pose(q):
+            if len(moves) == 3:
+                os.kill(os.getpid(), signal.SIGINT)
+            moves.append(q)
         return move(self, q, speed, accel)
 
     monkeypatch.setattr(SimulatedRobot, "move_joints", ctrl_c_during_pose_3)
@@ -218,12 +241,14 @@ def test_ctrl_c_stops_after_the_current_pose_then_resume_finishes(tmp_path, monk
 
 def test_a_halted_robot_stops_the_run_with_the_operators_next_steps(tmp_path, monkeypatch):
     move = SimulatedRobot.move_joints
-    moves = []
+    is_pose = measured_poses_moved_to(expected_plan())
+    moves = []  # moves to measured poses
 
     def trips_at_pose_4(self, q, speed, accel):  # the arm's safety system trips at pose 4
-        if len(moves) == 4:
-            self.inject_protective_stop()
-        moves.append(q)
+        if is_pose(q):
+            if len(moves) == 4:
+                self.inject_protective_stop()
+            moves.append(q)
         return move(self, q, speed, accel)
 
     monkeypatch.setattr(SimulatedRobot, "move_joints", trips_at_pose_4)
@@ -242,8 +267,8 @@ def write_plans(folder):
     q = expected_plan()[:10].copy()  # distinct poses: a repeated pose is refused first
     bad = q.copy()
     bad[6, 2] = 4.0  # the elbow beyond its limit, in the 7th row
-    plans.write_csv(folder / "bad.csv", bad)
-    plans.write_csv(folder / "short.csv", q[:3])
+    planning.write_plan(folder / "bad.csv", planning.Plan(bad))
+    planning.write_plan(folder / "short.csv", planning.Plan(q[:3]))
     (folder / "s.parquet.old").write_text("")
 
 
@@ -304,7 +329,7 @@ def test_bad_input_is_one_line_exit_2_and_leaves_nothing(tmp_path, args, message
 def test_the_shortfall_names_the_models_own_minimum(tmp_path):
     write_plans(tmp_path)
     done = measure(*FAST, "--plan", "short.csv", cwd=tmp_path)
-    need = plans.min_poses(UR10E.mdh)
+    need = planning.min_poses(UR10E.mdh)
     assert one_line_error(done).endswith(
         f"plan has 3 poses; the free parameters need at least {need}"
     )

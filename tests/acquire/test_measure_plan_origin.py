@@ -7,8 +7,7 @@ import numpy as np
 import pandas as pd
 from cli_kit import cli, listing, one_line_error
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import frames, kinematics
 
 
@@ -16,9 +15,11 @@ def test_plan_files_record_what_they_were_made_for(tmp_path):
     done = cli("plan", "-o", "p.csv", "--poses", "10", "--tracker-at", "-400,2600,500",
                "--tool", "10,0,90", cwd=tmp_path)  # fmt: skip
     assert done.code == 0, done.stderr
-    origin = plans.read_plan(tmp_path / "p.csv").origin
+    origin = planning.read_plan(tmp_path / "p.csv").origin
     digest = robots.get("ur10e").digest
-    assert origin == plans.PlanOrigin("ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0), digest)
+    assert origin == planning.PlanOrigin(
+        "ur10e", (10.0, 0.0, 90.0), (-400.0, 2600.0, 500.0), digest
+    )
 
 
 def test_a_plan_for_another_description_of_the_same_name_is_refused(tmp_path):
@@ -29,7 +30,7 @@ def test_a_plan_for_another_description_of_the_same_name_is_refused(tmp_path):
     arm = tmp_path / "kuka-kr6-r900.yaml"
     done = cli("plan", "--model", arm.name, "-o", "p.csv", "--poses", "10", cwd=tmp_path)
     assert done.code == 0, done.stderr
-    assert plans.read_plan(tmp_path / "p.csv").origin.model_sha256 == robots.get(str(arm)).digest
+    assert planning.read_plan(tmp_path / "p.csv").origin.model_sha256 == robots.get(str(arm)).digest
     arm.write_text(arm.read_text().replace("margin_mm: 10", "margin_mm: 12"))
     before = listing(tmp_path)
     line = one_line_error(
@@ -40,7 +41,7 @@ def test_a_plan_for_another_description_of_the_same_name_is_refused(tmp_path):
 
 
 def test_measure_refuses_a_plan_made_for_another_arm_or_tracker(tmp_path, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     before = listing(tmp_path)
     line = one_line_error(
         cli("measure", "--plan", "plan.csv", "--model", "ur5e", "-o", "s.parquet", cwd=tmp_path)

@@ -21,10 +21,12 @@ def fixture_plan(folder):
     exactly those poses, whatever the planner would choose today."""
     import numpy as np
 
-    from calibrator import plan as plans
+    from calibrator import planning
 
     table = pq.read_table(FIXTURES / "session.parquet").to_pydict()
-    plans.write_csv(folder / "plan.csv", np.array([table[f"q{i}_rad"] for i in range(1, 7)]).T)
+    planning.write_plan(
+        folder / "plan.csv", planning.Plan(np.array([table[f"q{i}_rad"] for i in range(1, 7)]).T)
+    )
     return folder / "plan.csv"
 
 

@@ -13,6 +13,8 @@ import pytest
 from cli_process_kit import run_cli
 from measure_kit import session_rows
 
+from calibrator import cell, planning, robots
+from calibrator.simulate import SIM_TRACKER_AT_MM
 from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
 UR = ("measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--no-sim-noise")
@@ -23,6 +25,12 @@ UR += ("--speed", "1.0", "--accel", "2.0", "-o", "s.parquet")
 def fake():
     with FakeUrProcess(time_scale=50.0, model="ur10e", unlock_delay_s=0.5) as process:
         yield process
+
+
+def made_plan(n):
+    """The plan ``measure --poses n`` makes on the simulated cell (vias included)."""
+    where = cell.Cell(tracker_at_mm=tuple(float(v) for v in SIM_TRACKER_AT_MM))
+    return planning.make_checked(robots.get("ur10e"), n, where, (0.0, 0.0, 100.0), seed=0).plan
 
 
 def assert_matches_reference(path, reference):
@@ -45,9 +53,11 @@ def test_measure_through_ur_rtde_completes_a_plan(fake, tmp_path, reference_sess
 
 
 def test_e_stop_then_power_on_brake_release_and_resume(fake, tmp_path, reference_session):
-    # Pressed as the 4th move arrives, and shown late on the RTDE stream: the move is
-    # refused before the stream has the stop, which must still read as the e-stop.
-    assert fake.command("fake estop at movej 4") == "fake: estop at movej 4"
+    # Pressed as the move to pose 3 arrives (after the vias before it), and shown late
+    # on the RTDE stream: the move is refused before the stream has the stop, which
+    # must still read as the e-stop.
+    move = 4 + sum(len(v) for v in made_plan(12).via_rad[:4])
+    assert fake.command(f"fake estop at movej {move}") == f"fake: estop at movej {move}"
     assert fake.command("fake safety lag 0.3") == "fake: safety lag 0.3"
     try:
         stopped = run_cli(*UR, "--settle", "0.05", "--yes", cwd=tmp_path)

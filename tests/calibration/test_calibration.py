@@ -1,6 +1,7 @@
 """calibration.json: strict JSON out, validated in, extra keys kept."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -54,6 +55,8 @@ def test_from_result_writes_its_parts_and_round_trips(tmp_path):
     assert record["a2"]["nominal"] == -425.0 and record["a2"]["unit"] == "mm"
     back = calibration.load(tmp_path / "c.json")
     np.testing.assert_array_equal(back.mdh, cal.mdh)
+    with pytest.raises(ValueError, match="read-only"):
+        back.mdh[0, 0] = 1.0  # frozen, arrays included: derive with replace()
     assert back.free == cal.free and back.fit == cal.fit and back.provenance == cal.provenance
     assert back.diagnostics == {}
 
@@ -63,7 +66,9 @@ def test_save_refuses_non_finite(tmp_path, where):
     res = result({"standard_errors": [float("nan")]} if where == "uncertainty" else None)
     cal = Calibration.from_result(res)
     if where == "mdh":
-        cal.mdh[1, 1] = np.inf
+        mdh = cal.mdh.copy()
+        mdh[1, 1] = np.inf
+        cal = replace(cal, mdh=mdh)
     with pytest.raises(CalibrationError, match="not a finite number"):
         cal.save(tmp_path / "c.json")
     assert list(tmp_path.iterdir()) == []

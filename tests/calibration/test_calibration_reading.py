@@ -5,6 +5,7 @@ keeps, and the exact JSON a calibration becomes."""
 import json
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -102,8 +103,7 @@ def test_the_json_document_holds_each_typed_key():
 
 
 def test_typed_keys_win_over_diagnostics_of_the_same_name():
-    cal = good_cal()
-    cal.diagnostics = {"model": "other", "version": 9, "note": "kept"}
+    cal = replace(good_cal(), diagnostics={"model": "other", "version": 9, "note": "kept"})
     d = cal.to_json()
     assert d["model"] == "ur5e" and d["version"] == 1 and d["note"] == "kept"
 
@@ -309,20 +309,19 @@ def test_free_parameters_stay_within_a_plausible_distance(
 
 
 def test_save_names_the_first_non_finite_value(tmp_path):
-    cal = good_cal()
-    cal.fit = FitReport(stats={"fit": [1.0, {"max": math.nan}]})
+    cal = replace(good_cal(), fit=FitReport(stats={"fit": [1.0, {"max": math.nan}]}))
     with pytest.raises(CalibrationError) as info:
         cal.save(tmp_path / "c.json")
     assert str(info.value) == (
         f"refusing to write {tmp_path / 'c.json'}: stats.fit[1].max is not a finite number "
         "(calibration files are strict JSON)"
     )
-    cal.fit = FitReport()
-    cal.provenance = Provenance(k=math.inf)
+    cal = replace(cal, fit=FitReport(), provenance=Provenance(k=math.inf))
     with pytest.raises(CalibrationError, match=r": k is not a finite number"):
         cal.save(tmp_path / "c.json")
-    cal.provenance = Provenance()
-    cal.mdh[2, 1] = -math.inf
+    mdh = cal.mdh.copy()
+    mdh[2, 1] = -math.inf
+    cal = replace(cal, provenance=Provenance(), mdh=mdh)
     with pytest.raises(CalibrationError, match=r": mdh\[2\]\.alpha_rad is not a finite number"):
         cal.save(tmp_path / "c.json")
     assert list(tmp_path.iterdir()) == []

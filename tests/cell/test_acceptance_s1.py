@@ -13,8 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import cell, robots
-from calibrator import plan as plans
+from calibrator import cell, planning, robots
 
 # UR10e, UR's published DH table (standard DH): d, a, alpha.
 _D = (180.7, 0.0, 0.0, 174.15, 119.85, 116.55)
@@ -78,22 +77,21 @@ def test_the_judge_sees_the_issues_plans_fail():
     assert _bad(np.radians([[-61, 79, -159, -34, 159, -73]])).all()
     qa, qb = np.radians([0.0, 0.0, 0.0, -170.0, 90.0, 0.0]), np.radians([0, 0, 0, 170.0, 90, 0])
     assert not _bad(np.array([qa, qb])).any() and _bad_moves(np.array([qa, qb])) == [0]
-    # And a plan the old planner makes from the issue's tracker position fails it.
+    # And a plan made as the old planner did (poses inside the joint margin that
+    # face the issue's tracker position, nothing more) fails it.
     model = robots.get("ur10e")
-    old = plans.make(
-        model.mdh,
-        model.joint_limits_rad,
-        60,
-        plans.CellConstraints(tracker_at_mm=np.array([2500.0, 400.0, 300.0])),
-        seed=0,
-    )
+    where = cell.Cell(tracker_at_mm=(2500.0, 400.0, 300.0))
+    chk = cell.checker(cell.arm_geometry(model.name, model.mdh, TOOL), where)
+    pool = planning.sample(planning.joint_box(model.joint_limits_rad, np.radians(5)), 4000)
+    old = pool[~cell.checks.aim_faults(chk, pool)[:, 1]][:60]
+    assert len(old) == 60
     assert _bad(old).sum() > 5 and len(_bad_moves(old)) > 10
 
 
 @pytest.mark.parametrize("tracker_at", [(2500, 400, 300), (0, 2500, 500), (-2000, -1500, 800)])
 def test_s1_60_pose_plans_have_no_bad_pose_and_no_bad_move(tracker_at):
     model = robots.get("ur10e")
-    made = plans.make_checked(model, 60, cell.Cell(tracker_at_mm=tracker_at), TOOL)
+    made = planning.make_checked(model, 60, cell.Cell(tracker_at_mm=tracker_at), TOOL)
     path = made.plan.path_rad
     assert len(made.plan.q_rad) == 60
     assert not _bad(path).any()

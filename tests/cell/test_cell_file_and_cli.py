@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 from cli_process_kit import run_cli
 
-from calibrator import cell
-from calibrator import plan as plans
+from calibrator import cell, planning
 
 CELL_YAML = """\
 mounting_plane_z_mm: 0
@@ -67,11 +66,13 @@ def test_plan_command_prints_counts_estimate_and_saving(tmp_path):
     assert "acceptance angle" in first and "obstacle" in first
     assert estimate.startswith("estimated cell time ") and "saving " in estimate
     assert wrote.startswith("wrote p.csv: 20 poses")
-    plan = plans.read_plan(tmp_path / "p.csv")
+    plan = planning.read_plan(tmp_path / "p.csv")
     # The plan passes the very check measure makes, in the same cell.
     from calibrator import robots
 
-    cell.check_plan(plan, robots.get("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100))
+    planning.check_plan(
+        plan, robots.get("ur10e"), cell.read_cell(tmp_path / "cell.yaml"), (0, 0, 100)
+    )
 
 
 @pytest.mark.parametrize(
@@ -84,9 +85,8 @@ def test_plan_command_prints_counts_estimate_and_saving(tmp_path):
     ],
 )
 def test_plan_command_refusals_are_one_line_exit_2(tmp_path, args, message):
-    plans.write_csv(
-        tmp_path / "same.csv", np.tile(np.radians([0, -90, 60, -150, -90, 0.0]), (30, 1))
-    )
+    same = np.tile(np.radians([0, -90, 60, -150, -90, 0.0]), (30, 1))
+    planning.write_plan(tmp_path / "same.csv", planning.Plan(same))
     done = run_cli("plan", "-o", "p.csv", *args, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and done.stderr.count("\n") == 1, done.stderr

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from calibrator import cell, robots
-from calibrator import plan as plans
+from calibrator import cell, planning, robots
 from calibrator.model import kinematics
 
 UR10E = robots.get("ur10e")
@@ -49,14 +48,14 @@ def test_motion_samples_are_at_most_the_step_apart_and_keep_both_ends():
 
 def test_plan_check_names_the_bad_motion_and_passes_once_a_via_avoids_it():
     cell_ = cell.Cell()
-    bad = plans.Plan(np.array([QA, QB]))
+    bad = planning.Plan(np.array([QA, QB]))
     with pytest.raises(cell.CellError, match="motion from pose 0 to pose 1: below mounting plane"):
-        cell.check_plan(bad, UR10E, cell_, TOOL_MM)
+        planning.check_plan(bad, UR10E, cell_, TOOL_MM)
     # Lift the arm upright, turn the wrist up there, come down.
     vias = np.array([QA, QB])
     vias[:, 1] = -np.pi / 2
-    good = plans.Plan(np.array([QA, QB]), (np.zeros((0, 6)), vias))
-    cell.check_plan(good, UR10E, cell_, TOOL_MM)
+    good = planning.Plan(np.array([QA, QB]), (np.zeros((0, 6)), vias))
+    planning.check_plan(good, UR10E, cell_, TOOL_MM)
     assert good.path_rad.shape == (4, 6) and good.n_vias == 2
 
 
@@ -64,7 +63,9 @@ def test_plan_check_names_the_bad_pose():
     elbow_down = D(np.array([-61, 79, -159, -34, 159, -73.0]))
     safe = D(np.array([0.0, -90.0, 60.0, -150.0, -90.0, 0.0]))
     with pytest.raises(cell.CellError, match="^plan pose 1: below mounting plane: elbow"):
-        cell.check_plan(plans.Plan(np.array([safe, elbow_down])), UR10E, cell.Cell(), TOOL_MM)
+        planning.check_plan(
+            planning.Plan(np.array([safe, elbow_down])), UR10E, cell.Cell(), TOOL_MM
+        )
 
 
 def test_trapezoid_times():
@@ -104,7 +105,9 @@ def test_cell_time_adds_moves_settle_and_readings():
     t = cell.cell_time(path, 2, 1.0, 2.0, settle_s=0.5, readings=20, rate_hz=10.0)
     assert (t.moves_s, t.settle_s, t.readings_s, t.total_s) == (2.5, 1.0, 4.0, 7.5)
     assert str(t) == "8 s (moves 2 s, settle 1 s, readings 4 s)"
-    est = cell.estimate(plans.Plan(path), UR10E, 5.0, 9.0, settle_s=0.5, readings=20, rate_hz=10)
+    est = planning.estimate(
+        planning.Plan(path), UR10E, 5.0, 9.0, settle_s=0.5, readings=20, rate_hz=10
+    )
     assert est == t  # speed and acceleration lowered to the model's caps
 
 

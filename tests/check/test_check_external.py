@@ -7,12 +7,13 @@ player (its hidden arm crashed by a world file) steering the target, and
 
 import json
 import sys
+import time
 from pathlib import Path
 
 from cli_process_kit import run_cli
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "external"))
-from external_cell_kit import Watching, start_player, tracker_simulator  # noqa: E402
+from external_cell_kit import Watching, press_start, start_player, tracker_simulator  # noqa: E402
 
 CRASH = "world: 1\nmodel: ur10e\njoint_zero_shifts_rad: [0, 0, 4.0e-4, 0, 0, 0]\n"
 
@@ -30,14 +31,22 @@ def test_an_external_robots_crash_is_found_from_the_checks_own_program(tmp_path)
     with tracker_simulator(seed=2) as url:
         check = Watching(
             "--model", "ur10e", "--calibration", "cal.json", "--tracker", url, "-o", "check.json",
-            cwd=tmp_path, command="check",
+            cwd=tmp_path, command="check", wait=False,
         )  # fmt: skip
+        # The check writes its plan and program first, then opens the devices: the
+        # controller loads the program meanwhile, and starts it once the check watches.
         plan = tmp_path / "check.plan.csv"
-        assert plan.exists() and (tmp_path / "check.program.csv").exists()
+        deadline = time.monotonic() + 120
+        while not plan.exists():
+            assert check.proc.poll() is None and time.monotonic() < deadline, check.result(0)
+            time.sleep(0.02)
         player = start_player(
             plan, url, "--seed", 3, "--world", "crash.yaml", "--speed", "3", "--accel", "6",
-            "--time-scale", 5, "--dwell", 5, cwd=tmp_path,
+            "--dwell", 3, cwd=tmp_path,
         )  # fmt: skip
+        check.wait_ready()
+        assert (tmp_path / "check.program.csv").exists()
+        press_start(player)
         result = check.result(timeout=300)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert result.returncode == 4, result.stderr

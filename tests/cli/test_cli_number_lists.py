@@ -12,11 +12,11 @@ from cli_kit import cli, one_line_error
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory, checked_plan):
     """A plan and a session for the commands that need one before they read the option."""
-    from calibrator import plan as plans
+    from calibrator import planning
 
     folder = tmp_path_factory.mktemp("inputs")
     # The commands only need a valid plan: the session's shared one.
-    plans.write_plan(folder / "plan.csv", checked_plan)
+    planning.write_plan(folder / "plan.csv", checked_plan)
     assert cli("simulate", "-o", "s.parquet", "--poses", "12", cwd=folder).code == 0
     return folder
 
@@ -29,9 +29,9 @@ def _value(template, inputs):
     """
     import numpy as np
 
-    from calibrator import plan as plans
+    from calibrator import planning
 
-    last = np.degrees(plans.read_plan(inputs / "plan.csv").q_rad[-1])
+    last = np.degrees(planning.read_plan(inputs / "plan.csv").q_rad[-1])
     return template.replace("{last_pose}", ",".join(repr(float(v)) for v in last[:5]))
 
 

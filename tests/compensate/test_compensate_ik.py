@@ -3,6 +3,8 @@ identified model, targets are independent of each other, iterations and
 remaining errors are what they say, and the targets CSV and the command refuse
 bad input in one line."""
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -40,8 +42,9 @@ def calibrated(seed=5, model="ur10e", tool_xy=(0.0, 0.0)):
 def tool_on_axis_6(cal):
     """The same arm with the flange on axis 6 (a6 = alpha6 = 0): the tool point
     (on the flange's z axis) then stays put when joint 6 turns."""
-    cal.mdh[5, [kinematics.A, kinematics.ALPHA]] = 0.0
-    return cal
+    mdh = cal.mdh.copy()
+    mdh[5, [kinematics.A, kinematics.ALPHA]] = 0.0
+    return replace(cal, mdh=mdh)
 
 
 def work_cell(n, seed=2):

@@ -1,6 +1,7 @@
 """Every export format, read back by an independent reader, gives the calibrated arm."""
 
 import json
+from dataclasses import replace
 
 import export_kit as kit
 import numpy as np
@@ -118,8 +119,7 @@ def test_ur_calibration_converts_back(tmp_path):
 
 
 def test_ur_calibration_needs_a_ur_model():
-    cal = calibrated()
-    cal.model = None
+    cal = replace(calibrated(), model=None)
     with pytest.raises(CalibrationError, match="needs a UR model"):
         export.export(cal, "ur-calibration")
 

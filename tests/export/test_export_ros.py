@@ -2,6 +2,7 @@
 by the exporter, the notes on what the file cannot hold, and one-line refusals."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -154,16 +155,19 @@ def test_notes_name_what_the_file_cannot_hold():
     # Only a6: the flange is a6 mm along x from the wrist_3 frame.
     cal = calibrated("ur10e", trailing=False)
     assert export.export(cal, "ros-kinematics").notes == []
-    cal.mdh[5, kinematics.A] = 0.5
-    cal.nominal_mdh[5, kinematics.A] = 0.5
+    mdh, nominal_mdh = cal.mdh.copy(), cal.nominal_mdh.copy()
+    mdh[5, kinematics.A] = 0.5
+    nominal_mdh[5, kinematics.A] = 0.5
+    cal = replace(cal, mdh=mdh, nominal_mdh=nominal_mdh)
     (note,) = export.export(cal, "ros-kinematics").notes
     assert note == (
         "ros-kinematics cannot hold a6, alpha6, beta6: the flange is 0.5 mm and 0 rad "
         "from the wrist_3 frame (add it to the tool)"
     )
     # Only a turn (alpha6): no offset, 1 mrad.
-    cal.mdh[5, kinematics.A] = cal.nominal_mdh[5, kinematics.A] = 0.0
-    cal.mdh[5, kinematics.ALPHA] = 1e-3
+    mdh[5, kinematics.A] = nominal_mdh[5, kinematics.A] = 0.0
+    mdh[5, kinematics.ALPHA] = 1e-3
+    cal = replace(cal, mdh=mdh, nominal_mdh=nominal_mdh)
     (note,) = export.export(cal, "ros-kinematics").notes
     assert "the flange is 0 mm and 0.001 rad from the wrist_3 frame" in note
 

@@ -3,6 +3,7 @@ with the model from the file or the caller, and refused in one line when broken.
 
 import configparser
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -111,7 +112,9 @@ def test_deltas_keep_the_reference_tables_hayati_lengths(tmp_path):
 def test_export_notes_what_the_form_cannot_hold():
     cal = calibrated("ur10e", seed=32, trailing=False)
     assert export.export(cal, "ur-calibration").notes == []
-    cal.mdh[5, kinematics.BETA] = 2e-3  # standard DH has no beta6
+    mdh = cal.mdh.copy()
+    mdh[5, kinematics.BETA] = 2e-3  # standard DH has no beta6
+    cal = replace(cal, mdh=mdh)
     (note,) = export.export(cal, "ur-calibration").notes
     assert note.startswith("ur-calibration cannot hold beta6: the flange is ")
     assert note.endswith(" mm and 0.002 rad")

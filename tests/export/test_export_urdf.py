@@ -8,6 +8,7 @@ model is unknown or unnamed); an XML-safe robot name.
 """
 
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -126,8 +127,7 @@ def test_urdf_limits_are_the_named_models():
 
 @pytest.mark.parametrize("model", [None, "my-own-arm"])
 def test_urdf_of_an_unnamed_or_unknown_model_has_full_turn_limits(model):
-    cal = calibrated("ur10e")
-    cal.model = model
+    cal = replace(calibrated("ur10e"), model=model)
     root = parsed(cal)
     lower, upper, speed, _ = limits_of(root)
     np.testing.assert_array_equal(lower, np.full(6, -2 * np.pi))
@@ -137,8 +137,7 @@ def test_urdf_of_an_unnamed_or_unknown_model_has_full_turn_limits(model):
 
 
 def test_urdf_robot_name_is_escaped():
-    cal = calibrated("ur10e")
-    cal.model = 'cell "A" & <B>'
+    cal = replace(calibrated("ur10e"), model='cell "A" & <B>')
     root = parsed(cal)
     assert root.get("name") == 'cell "A" & <B>_calibrated'
     assert root.get("name") and parsed(calibrated("ur10e")).get("name") == "ur10e_calibrated"

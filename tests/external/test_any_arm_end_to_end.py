@@ -15,21 +15,19 @@ import json
 import numpy as np
 import pyarrow.parquet as pq
 from cli_process_kit import run_cli
-from external_cell_kit import Watching, start_player, tracker_simulator
+from external_cell_kit import Watching, press_start, start_player, tracker_simulator
 from grammar_kit import PARSERS
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import kinematics
 
 ARM = "kuka-kr6-r900"
 SKIPPED = 5
-SCALE = 5  # controller seconds per wall-clock second
-DWELL = 3.5
+DWELL = 3.0  # controller seconds (both simulators at external_cell_kit.TIME_SCALE)
 
 
-def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
+def _read_back(program_text: str, fmt: str, plan: planning.Plan) -> planning.Plan:
     """The program's targets in the description's angles, as a plan (home moves dropped)."""
     ctrl = np.array(PARSERS[fmt](program_text).targets())[1:-1]
     path = robots.get(ARM).convention.to_model(ctrl)
@@ -39,7 +37,7 @@ def _read_back(program_text: str, fmt: str, plan: plans.Plan) -> plans.Plan:
         rows.append(path[i + len(via)])
         i += len(via) + 1
     assert i == len(path)
-    return plans.Plan(np.array(rows), tuple(vias))
+    return planning.Plan(np.array(rows), tuple(vias))
 
 
 def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(tmp_path):
@@ -48,7 +46,7 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
         "-o", "plan.csv", "--seed", "2", cwd=tmp_path,
     )  # fmt: skip
     assert made.returncode == 0, made.stderr
-    plan = plans.read_plan(tmp_path / "plan.csv")
+    plan = planning.read_plan(tmp_path / "plan.csv")
     for name, fmt in (("cal.src", "krl"), ("cal.mod", "rapid")):
         done = run_cli("program", "plan.csv", "--model", ARM, "-o", name, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
@@ -57,18 +55,19 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
         np.testing.assert_allclose(back.path_rad, plan.path_rad, rtol=0, atol=2e-8)
     # What the controller runs: the KRL program's joints, back in the description's angles.
     played = _read_back((tmp_path / "cal.src").read_text(), "krl", plan)
-    plans.write_plan(tmp_path / "played.csv", played)
+    planning.write_plan(tmp_path / "played.csv", played)
 
     with tracker_simulator(seed=2) as url:
-        run = Watching(
-            "--model", ARM, "--plan", "plan.csv", "--tracker", url, "-o", "s.parquet",
-            "--settle-window", "0.3", "--stop-timeout", "15", cwd=tmp_path,
-        )  # fmt: skip
         player = start_player(
             tmp_path / "played.csv", url, "--model", ARM, "--seed", 3, "--speed", "3",
-            "--accel", "6", "--time-scale", SCALE, "--dwell", DWELL, "--skip", SKIPPED,
+            "--accel", "6", "--dwell", DWELL, "--skip", SKIPPED,
             "--truth", "truth.json", cwd=tmp_path,
         )  # fmt: skip
+        run = Watching(
+            "--model", ARM, "--plan", "plan.csv", "--tracker", url, "-o", "s.parquet",
+            "--stop-timeout", "15", cwd=tmp_path,
+        )  # fmt: skip
+        press_start(player)
         done = run.result(timeout=600)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert done.returncode == 0, done.stderr

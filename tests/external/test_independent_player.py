@@ -4,16 +4,18 @@ The player is not the project's external-robot simulator: a thread of this
 test moves a hidden true arm (its own errors, tool and tracker placement)
 through the plan in joint space and sends the reflector's true position to
 the line-protocol tracker simulator as raw ``SIM,TARGET`` frames over its
-TCP control link every 20 ms, dwelling 1 s at each pose and skipping one.
+TCP control link every 20 ms of the wall clock, dwelling 3 s at each pose
+and skipping one.
 The plan is the first 24 poses of the session's shared plan, made for a
 reflector at 11.3,-6.8,96.2 (conftest.py); the hidden reflector is there,
 14 mm from the default guess (0,0,100) that ``calibrator measure --robot
 external`` keeps, with all its other options at their defaults too (a 0.5 s
-settle window: a 1 s dwell leaves it the time for its readings).
+settle window: a 3 s dwell leaves it the time for its readings).
 
-The player runs on its own clock twice as fast as the wall clock: its moves
-take half the time, its dwells are written 2 s long so that the tracker sees
-them 1 s long, as a real controller's would be.
+The player runs on its own clock ten times faster than the wall clock, as
+does the tracker simulator that stamps the readings (external_cell_kit.py): to
+the run its moves and dwells last as a real controller's would; only the
+wall clock is shorter.
 
 Then ``identify`` on the session must come within 1.5x of least squares
 started from the truth on the same fitting poses: in residual RMS and in the
@@ -30,17 +32,16 @@ import time
 import numpy as np
 import pyarrow.parquet as pq
 from cli_process_kit import run_cli
-from external_cell_kit import TOOL_MM, Watching, first_poses, tracker_simulator
+from external_cell_kit import TIME_SCALE, TOOL_MM, Watching, first_poses, tracker_simulator
 from truth_kit import against_least_squares_from_truth
 
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import frames, kinematics
 
 SKIPPED = 9
 PERIOD_S = 0.02  # one SIM,TARGET every 20 ms (wall clock), as a controller's position stream
-SCALE = 2.0  # the player's seconds per wall-clock second
-DWELL_S = 2.0  # player's seconds: 1 s on the wall clock, what the default settle window needs
+SCALE = TIME_SCALE  # the player's seconds per wall-clock second: the tracker simulator's
+DWELL_S = 3.0  # player's seconds: the default settle window, the readings and a late host
 SPEED_RAD_S = 3.0  # leading joint, mean of a smooth (smoothstep) profile: a brisk controller
 MIN_MOVE_S = 0.1
 
@@ -125,7 +126,7 @@ def test_an_unseen_controller_is_measured_pose_by_pose_and_identifies_as_from_th
     tmp_path, plan40
 ):
     first_poses(plan40, 24, tmp_path / "plan.csv")
-    plan = plans.read_plan(tmp_path / "plan.csv").q_rad
+    plan = planning.read_plan(tmp_path / "plan.csv").q_rad
     truth = _hidden_arm()
     with tracker_simulator(seed=6) as url:
         # the operator starts the program once the run is watching

@@ -4,10 +4,10 @@ Real processes throughout: the tracker simulator on loopback TCP, the
 external-robot player steering its target with ``SIM,TARGET`` every 20 ms,
 and ``calibrator measure`` reading the tracker over its own connection.
 
-The controller runs its program five times faster than real time
-(``--time-scale``): moves, dwells, pauses and ringing alike. The run watches
-with a settle window to match (``--settle-window``, as an operator sets it for
-a program with short dwells); everything else is as in a cell. The plan is
+Both simulators run ten times faster than real time (external_cell_kit.py): the
+controller's moves, dwells, pauses and ringing, and the tracker's clock. The
+run's options are a cell's (a settle window of 0.5 s of the tracker's clock);
+only the wall clock is shorter. The plan is
 the session's shared one (conftest.py), made for a reflector 14 mm from the
 default guess the runs measure with; the controller's reflector is there.
 """
@@ -18,16 +18,22 @@ import re
 import numpy as np
 import pyarrow.parquet as pq
 from cli_process_kit import run_cli
-from external_cell_kit import TOOL_MM, Watching, first_poses, start_player, tracker_simulator
+from external_cell_kit import (
+    TOOL_MM,
+    Watching,
+    first_poses,
+    press_start,
+    start_player,
+    tracker_simulator,
+)
 
-from calibrator import plan as plans
+from calibrator import planning
 
-SCALE = 5  # controller seconds per wall-clock second
-FAST = ("--speed", "3", "--accel", "6", "--time-scale", SCALE)  # quicker than the cap, too
-# A dwell (and a pause) of 3.5 s of controller time is 0.7 s of the run's: a settle
-# window of 0.3 s leaves time for the ringing to die and the readings to be taken.
-DWELL = 3.5
-WINDOW = ("--settle-window", "0.3")
+FAST = ("--speed", "3", "--accel", "6")  # quicker than the cap, too
+# A dwell (and a pause) of 3 s leaves the ringing time to die, the 0.5 s settle window
+# and the readings time to be taken, and a loaded host (0.3 s on the wall clock) time
+# to be late.
+DWELL = 3.0
 
 
 def _play(plan, url, cwd, *args):
@@ -48,17 +54,18 @@ def test_a_40_pose_program_with_a_skip_a_pause_and_wrong_stops_reaches_the_noise
     plan40 = first_poses(plan40, 40, tmp_path / "plan.csv")  # measured with the default guess
     wrong = _moved(plan40, tmp_path / "played.csv", {1: 9.8, 25: 9.8})
     with tracker_simulator(seed=2) as url:
+        player = _play(
+            wrong, url, tmp_path, "--skip", "7", "--pause", f"20:0.5:{DWELL}",
+            "--vibration", "0.3", "--start-delay", "1",
+        )  # fmt: skip
         measure = Watching(
-            "--plan", plan40, "--tracker", url, "-o", "s.parquet", *WINDOW,
+            "--plan", plan40, "--tracker", url, "-o", "s.parquet",
             # Longer than the longest move: a move to a pose may pass through
             # the plan's vias (the arm upright) without stopping.
             "--stop-timeout", "15", "-q",
             cwd=tmp_path,
         )  # fmt: skip
-        player = _play(
-            wrong, url, tmp_path, "--skip", "7", "--pause", f"20:0.5:{DWELL}",
-            "--vibration", "0.3", "--start-delay", "1",
-        )  # fmt: skip
+        press_start(player)  # the operator starts the loaded program once the run watches
         done = measure.result(timeout=600)
         assert player.wait(timeout=60) == 0, player.stderr.read()
     assert done.returncode == 0, done.stderr
@@ -82,7 +89,7 @@ def test_a_40_pose_program_with_a_skip_a_pause_and_wrong_stops_reaches_the_noise
     kept = [p for p in range(40) if p not in missed]
     assert table["pose"] == kept  # no pose number shifted
     q = np.column_stack([table[f"q{i}_rad"] for i in range(1, 7)])
-    np.testing.assert_array_equal(q, plans.read_plan(plan40).q_rad[kept])
+    np.testing.assert_array_equal(q, planning.read_plan(plan40).q_rad[kept])
     # each recorded point is where the true arm put the reflector at that pose
     truth_done = run_truth(plan40, tmp_path)
     points = np.column_stack([table[c] for c in ("x_mm", "y_mm", "z_mm")])
@@ -101,26 +108,30 @@ def run_truth(plan_path, cwd):
     """True reflector points (tracker frame, mm) of the player's hidden arm for the plan."""
     from drivers.robot.external_sim.player import Player, PlayerOptions
 
-    q = plans.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
+    q = planning.read_plan(plan_path).q_rad  # the measured poses (vias are only moved through)
     player = Player.for_model(q, "ur10e", 3, PlayerOptions(), tool_mm=TOOL_MM)
     return player.tool_points(q)
 
 
 def test_a_program_that_ends_early_resumes_with_the_rest(tmp_path, plan40):
     plan = first_poses(plan40, 14, tmp_path / "plan.csv")
-    common = ("--plan", plan, "-o", "s.parquet", *WINDOW, "--stop-timeout", "4")
+    # The stop timeout above the longest move plus a dwell, as in a cell; once the
+    # program has ended, the poses it did not reach are missing after that long.
+    common = ("--plan", plan, "-o", "s.parquet", "--stop-timeout", "15")
     with tracker_simulator(seed=4) as url:
         # the operator stops the program after pose 8
-        run = Watching(*common, "--tracker", url, cwd=tmp_path)
         first = _play(plan, url, tmp_path, "--skip", "9,10,11,12,13", "--start-delay", "1")
+        run = Watching(*common, "--tracker", url, cwd=tmp_path)
+        press_start(first)
         part = run.result(timeout=300)
         assert first.wait(timeout=60) == 0
         assert part.returncode == 0, part.stderr
         assert "missing: 5 pose(s)" in part.stdout and "[9, 10, 11, 12, 13]" in part.stdout
         assert (tmp_path / "s.parquet.journal").exists()  # kept for --resume
         # restarted from pose 9: resume records the rest under their own numbers
-        run = Watching(*common, "--tracker", url, "--resume", cwd=tmp_path)
         second = _play(plan, url, tmp_path, "--skip", "0,1,2,3,4,5,6,7,8", "--start-delay", "1")
+        run = Watching(*common, "--tracker", url, "--resume", cwd=tmp_path)
+        press_start(second)
         rest = run.result(timeout=300)
         assert second.wait(timeout=60) == 0
     assert rest.returncode == 0, rest.stderr
@@ -137,12 +148,12 @@ def _moved(plan_path, out_path, shifts_mm):
     from calibrator import robots
     from calibrator.model import frames, kinematics
 
-    plan = plans.read_plan(plan_path)
+    plan = planning.read_plan(plan_path)
     q = plan.q_rad.copy()
     tool = frames.transform(translation=[0.0, 0.0, 100.0])
     points = kinematics.forward(robots.get("ur10e").mdh, q, tool)[:, :3, 3]
     for pose, mm in shifts_mm.items():
         radius = float(np.hypot(*points[pose, :2]))  # the reflector's distance from joint 1's axis
         q[pose, 0] += 2.0 * np.arcsin(mm / (2.0 * radius))
-    plans.write_plan(out_path, plans.Plan(q, plan.via_rad))
+    planning.write_plan(out_path, planning.Plan(q, plan.via_rad))
     return out_path

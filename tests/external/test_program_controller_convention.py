@@ -12,8 +12,7 @@ from cli_kit import cli
 from grammar_kit import PARSERS
 
 from calibrator import cell as cells
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 
 ARMS = [
     ("kuka-kr6-r900", "cal.src", "krl"),
@@ -28,9 +27,9 @@ def made(request, tmp_path_factory):
     arm = robots.get(name)
     reach = float(np.abs(arm.mdh[:, [0, 3]]).sum())
     at = (2.2 * reach, 0.3 * reach, 300.0)
-    plan = plans.make_checked(arm, 10, cells.Cell(tracker_at_mm=at), (0, 0, 100), seed=0).plan
+    plan = planning.make_checked(arm, 10, cells.Cell(tracker_at_mm=at), (0, 0, 100), seed=0).plan
     folder = tmp_path_factory.mktemp(name)
-    plans.write_plan(folder / "plan.csv", plan)
+    planning.write_plan(folder / "plan.csv", plan)
     done = cli("program", "plan.csv", "--model", name, "-o", output, cwd=folder)
     assert done.code == 0, done.stderr
     return arm, plan, PARSERS[fmt]((folder / output).read_text())

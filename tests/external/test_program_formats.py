@@ -9,9 +9,8 @@ import pytest
 from cli_kit import cli, one_line_error
 from grammar_kit import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
 
-from calibrator import plan as plans
+from calibrator import planning, robots
 from calibrator import program as programs
-from calibrator import robots
 from calibrator.program.spec import move_duration_s
 
 ARM = robots.get("ur10e")
@@ -123,7 +122,7 @@ def test_csv_rows_round_trip(tmp_path):
 def plan_csv(tmp_path, checked_plan):
     """A plan the whole-plan check passes (program refuses any other)."""
     path = tmp_path / "plan.csv"
-    plans.write_plan(path, checked_plan)
+    planning.write_plan(path, checked_plan)
     return path
 
 
@@ -136,7 +135,7 @@ def test_cli_picks_the_format_from_the_extension(tmp_path, plan_csv, name, fmt):
     assert done.code == 0, done.stderr
     assert f"({fmt})" in done.stdout
     parsed = PARSERS[fmt]((tmp_path / name).read_text())
-    path = plans.read_plan(plan_csv).path_rad
+    path = planning.read_plan(plan_csv).path_rad
     np.testing.assert_allclose(parsed.targets()[1:-1], path, atol=1e-6)
 
 
@@ -197,7 +196,7 @@ def test_vias_are_moves_without_dwell_or_pulse_on_the_checked_path(fmt):
     via = _vias(q)
     spec = _spec(q, via_rad=via)
     parsed = PARSERS[fmt](programs.render(spec, fmt))
-    path = plans.Plan(q, via).path_rad
+    path = planning.Plan(q, via).path_rad
     targets = np.array(parsed.targets())
     # home, every via and pose in path order, home; joints within 1e-6 rad
     assert len(targets) == len(path) + 2
@@ -234,7 +233,7 @@ def test_csv_table_names_the_vias(tmp_path):
 
 @pytest.mark.parametrize("fmt", ["urscript", "fanuc-ls"])
 def test_cli_writes_a_plan_with_vias(tmp_path, fmt, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     name = {"urscript": "cal.script", "fanuc-ls": "cal.ls"}[fmt]
     done = cli("program", "plan.csv", "-o", name, cwd=tmp_path)
     assert done.code == 0, done.stderr

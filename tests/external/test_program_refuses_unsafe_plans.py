@@ -12,8 +12,7 @@ from cli_kit import cli, listing, one_line_error
 from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell as cells
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.model import frames, kinematics
 
 ARM = robots.get("ur10e")
@@ -25,7 +24,7 @@ TRACKER = ",".join(f"{v:g}" for v in CHECKED_PLAN_TRACKER_MM)
 
 def _refused(tmp_path, plan, *args):
     """Run ``program`` on ``plan`` (a Plan) and return its one error line; nothing is written."""
-    plans.write_plan(tmp_path / "plan.csv", plan)
+    planning.write_plan(tmp_path / "plan.csv", plan)
     before = listing(tmp_path)
     line = one_line_error(cli("program", "plan.csv", *args, cwd=tmp_path))
     assert listing(tmp_path) == before
@@ -35,11 +34,11 @@ def _refused(tmp_path, plan, *args):
 def _with_pose(plan, i, q):
     rows = plan.q_rad.copy()
     rows[i] = q
-    return plans.Plan(rows, plan.via_rad, plan.origin)
+    return planning.Plan(rows, plan.via_rad, plan.origin)
 
 
 def test_the_shared_plan_is_written_with_its_tracker(tmp_path, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     done = cli("program", "plan.csv", "-o", "cal.script", "--tracker-at", TRACKER, cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert "not checked" not in done.stderr
@@ -55,7 +54,7 @@ def test_a_pose_below_the_mounting_plane_is_refused_in_every_language(tmp_path, 
 def test_a_via_below_the_mounting_plane_is_refused_in_every_language(tmp_path, checked_plan, name):
     vias = list(checked_plan.via_rad)
     vias[3] = BELOW_FLOOR[None]
-    plan = plans.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
+    plan = planning.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
     line = _refused(tmp_path, plan, "-o", name)
     assert "via 0 before pose 3: below mounting plane" in line
 
@@ -66,7 +65,7 @@ def test_a_colliding_move_is_refused_in_every_language(tmp_path, checked_plan, n
     assert len(checked_plan.via_rad[1])
     vias = list(checked_plan.via_rad)
     vias[1] = np.zeros((0, 6))
-    plan = plans.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
+    plan = planning.Plan(checked_plan.q_rad, tuple(vias), checked_plan.origin)
     line = _refused(tmp_path, plan, "-o", name)
     assert "plan motion from pose 0 to pose 1" in line and "along the way" in line
 
@@ -82,8 +81,8 @@ def test_the_move_back_home_is_checked(tmp_path, checked_plan):
     chk = cells.checker(cells.arm_geometry(ARM.name, ARM.mdh, (0, 0, 100)), cells.Cell())
     last = checked_plan.q_rad[-1]
     rng = np.random.default_rng(3)
-    box = plans.joint_box(ARM.joint_limits_rad, np.radians(5))
-    for home in plans.sample(box, 4000, "random", 3)[rng.permutation(4000)]:
+    box = planning.joint_box(ARM.joint_limits_rad, np.radians(5))
+    for home in planning.sample(box, 4000, "random", 3)[rng.permutation(4000)]:
         ok_home = not cells.pose_faults(chk, home[None])[0, :4].any()
         if ok_home and cells.motion_faults(chk, last[None], home[None]).any():
             break
@@ -97,7 +96,7 @@ def test_the_move_back_home_is_checked(tmp_path, checked_plan):
 def test_poses_that_do_not_face_the_tracker_are_refused(tmp_path, checked_plan):
     x, y, z = CHECKED_PLAN_TRACKER_MM
     # A plan file that does not say where its tracker was (an older or hand-made one).
-    plan = plans.Plan(checked_plan.q_rad, checked_plan.via_rad)
+    plan = planning.Plan(checked_plan.q_rad, checked_plan.via_rad)
     line = _refused(tmp_path, plan, "-o", "cal.ls", "--tracker-at", f"{-x},{-y},{z}")
     assert "acceptance angle" in line or "line of sight" in line
 
@@ -114,7 +113,7 @@ def test_a_plan_made_for_another_arm_is_refused_naming_both(tmp_path, checked_pl
 
 
 def test_the_plan_files_tracker_is_checked_without_tracker_at(tmp_path, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     done = cli("program", "plan.csv", "-o", "cal.script", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert "not checked" not in done.stderr
@@ -122,7 +121,7 @@ def test_the_plan_files_tracker_is_checked_without_tracker_at(tmp_path, checked_
 
 def test_a_cell_file_tracker_inside_the_reach_is_refused(tmp_path, checked_plan):
     (tmp_path / "cell.yaml").write_text("tracker:\n  at_mm: [400, 0, 300]\n")
-    plan = plans.Plan(checked_plan.q_rad, checked_plan.via_rad)  # no tracker recorded
+    plan = planning.Plan(checked_plan.q_rad, checked_plan.via_rad)  # no tracker recorded
     line = _refused(tmp_path, plan, "-o", "cal.script", "--cell", "cell.yaml")
     assert "inside the ur10e's reach" in line
 
@@ -141,5 +140,5 @@ def test_a_cell_file_obstacle_refuses_the_pose_it_holds(tmp_path, checked_plan):
 
 
 def test_too_few_poses_are_refused_as_measure_refuses_them(tmp_path):
-    line = _refused(tmp_path, plans.Plan(BELOW_FLOOR[None]), "-o", "d.script")
+    line = _refused(tmp_path, planning.Plan(BELOW_FLOOR[None]), "-o", "d.script")
     assert "need at least" in line

@@ -13,9 +13,8 @@ import pytest
 from cli_kit import cli, listing, one_line_error
 from grammar_kit import PARSERS
 
-from calibrator import plan as plans
+from calibrator import planning, robots
 from calibrator import program as programs
-from calibrator import robots
 
 ARM = robots.get("ur10e")
 
@@ -37,7 +36,7 @@ def _spec(q, **kw):
 
 @pytest.fixture
 def folder(tmp_path, checked_plan):
-    plans.write_plan(tmp_path / "plan.csv", checked_plan)
+    planning.write_plan(tmp_path / "plan.csv", checked_plan)
     return tmp_path
 
 

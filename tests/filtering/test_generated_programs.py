@@ -9,13 +9,13 @@ tool, and the filter says so.
 import pytest
 from cli_kit import cli, listing
 
-from calibrator import plan as plans
+from calibrator import planning
 
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory, checked_plan):
     folder = tmp_path_factory.mktemp("generated")
-    plans.write_plan(folder / "plan.csv", checked_plan)
+    planning.write_plan(folder / "plan.csv", checked_plan)
     for args in (
         ("simulate", "--poses", "30", "-o", "s.parquet"),
         ("identify", "s.parquet", "--method", "lm", "-q", "-o", "cal.json"),

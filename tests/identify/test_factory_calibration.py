@@ -1,6 +1,8 @@
 """A factory calibration as the nominal model: which reader a file goes to, what
 the imported table keeps, and what :func:`factory_calibration.apply` does to a session."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import yaml
@@ -74,8 +76,7 @@ def test_a_calibrated_reference_keeps_its_hayati_structure(tmp_path):
     nearly parallel axes hundreds of metres away."""
     reference = calibrated("ur10e", seed=43, trailing=False).mdh
     arm = calibrated("ur10e", seed=44, trailing=False).mdh
-    cal = calibrated("ur10e")
-    cal.mdh = arm
+    cal = replace(calibrated("ur10e"), mdh=arm)
     imported = factory_calibration.load(ros_file(tmp_path, cal), reference=reference, model="ur10e")
     np.testing.assert_allclose(
         imported.mdh[1:3, kinematics.D], reference[1:3, kinematics.D], atol=1e-9
@@ -102,14 +103,16 @@ def meta(frame="base", model="ur10e"):
 def test_apply_makes_the_file_the_sessions_nominal(tmp_path):
     cal = calibrated("ur10e", seed=46, trailing=False)
     path = ros_file(tmp_path, cal)
-    m = meta()
-    tool = m.flange2tool.copy()
-    line = factory_calibration.apply(m, path)
+    given = meta()
+    m, line = factory_calibration.apply(given, path)
     assert line == f"nominal model from {path} (ros-kinematics against ur10e)"
     np.testing.assert_allclose(m.nominal_mdh, cal.mdh, atol=1e-9)
-    np.testing.assert_allclose(m.flange2tool, tool, atol=1e-9)
-    unnamed = meta(model=None)
-    assert factory_calibration.apply(unnamed, path) == f"nominal model from {path} (ros-kinematics)"
+    np.testing.assert_allclose(m.flange2tool, given.flange2tool, atol=1e-9)
+    # The footer given is not changed: the imported table is in the one returned.
+    np.testing.assert_array_equal(given.nominal_mdh, robots.get("ur10e").mdh)
+    assert (m.frame, m.model, m.tool_known) == (given.frame, given.model, given.tool_known)
+    unnamed, line = factory_calibration.apply(meta(model=None), path)
+    assert line == f"nominal model from {path} (ros-kinematics)"
     np.testing.assert_allclose(unnamed.nominal_mdh, cal.mdh, atol=1e-9)
 
 
@@ -129,11 +132,10 @@ def test_apply_refuses_a_moved_joint_1_axis_for_a_base_frame_session(tmp_path, s
         )
         np.testing.assert_array_equal(m.nominal_mdh, before)
     else:
-        factory_calibration.apply(m, path)
-        np.testing.assert_allclose(m.nominal_mdh, cal.mdh, atol=1e-6)
+        applied, _ = factory_calibration.apply(m, path)
+        np.testing.assert_allclose(applied.nominal_mdh, cal.mdh, atol=1e-6)
     # In the tracker frame, base2tracker absorbs where joint 1 is.
-    t = meta("tracker")
-    factory_calibration.apply(t, path)
+    t, _ = factory_calibration.apply(meta("tracker"), path)
     np.testing.assert_allclose(t.nominal_mdh, cal.mdh, atol=1e-6)
 
 

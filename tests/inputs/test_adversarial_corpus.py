@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 import pytest
 from cli_kit import cli, listing, one_line_error
 
-from calibrator import plan as plans
+from calibrator import planning
 
 HUGE_INT = "9" * 400  # above 1e308: math.isfinite raised OverflowError on it
 
@@ -38,7 +38,7 @@ def base(tmp_path_factory):
     run("plan", "--model", "ur10e", "--poses", "12", "-o", "plan.csv")
     run("export-params", "cal.json", "--format", "ur-calibration", "-o", "cal.urcal")
     run("export-params", "cal.json", "--format", "ros-kinematics", "-o", "kin.yaml")
-    q = plans.read_plan(folder / "plan.csv").q_rad
+    q = planning.read_plan(folder / "plan.csv").q_rad
     rows = ["q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad"] + [
         ",".join(repr(float(v)) for v in r) for r in q
     ]

@@ -24,7 +24,7 @@ def link_by_hand(row):
 
 
 def test_link_and_joint_frames_are_the_products_of_the_rows():
-    mdh = calibrated("ur10e", seed=51).mdh
+    mdh = calibrated("ur10e", seed=51).mdh.copy()  # read-only: a frozen calibration
     mdh[5, BETA] = 0.003
     for row in mdh:
         np.testing.assert_allclose(conventions.link(row), link_by_hand(row), atol=1e-12)

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from calibrator import cell as cells
-from calibrator import plan as plans
-from calibrator import robots
+from calibrator import planning, robots
 from calibrator.cell import checks
 from calibrator.model import singularities
 
@@ -61,7 +60,7 @@ def test_the_shoulder_bound_is_the_wrist_centres_distance_from_the_shoulder_plan
 
 @pytest.mark.parametrize("n", [30])
 def test_planned_poses_keep_clear_of_every_singularity(n):
-    made = plans.make_checked(UR10E, n, TRACKER, (0.0, 0.0, 100.0))
+    made = planning.make_checked(UR10E, n, TRACKER, (0.0, 0.0, 100.0))
     q = made.plan.q_rad
     assert not checks.singularity_faults(checker(UR10E), q).any()
     assert np.abs(np.sin(q[:, 4])).min() >= np.sin(np.radians(checks.WRIST_MIN_DEG))

@@ -1,6 +1,7 @@
 """The report's plots show the numbers they claim: read back from matplotlib's Figure objects."""
 
 import struct
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -158,15 +159,15 @@ def test_a_set_without_poses_is_left_out(figures):
 
 
 def test_error_scale_turns_logarithmic_past_a_factor_of_100(figures):
-    wide = poses()
-    wide.after_mm = wide.after_mm / 100  # 0.001 .. 5 mm
-    exactly = poses()
-    exactly.before_mm = np.array([10.0, 1.0, 1.0, 1.0, 1.0])
-    exactly.after_mm = np.array([0.1, 0.2, 0.3, 0.4, 0.5])  # max / min == 100
-    zero = poses()
-    zero.after_mm = np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3])
-    negative = poses()
-    negative.after_mm = -negative.after_mm
+    base = poses()
+    wide = replace(base, after_mm=base.after_mm / 100)  # 0.001 .. 5 mm
+    exactly = replace(
+        base,
+        before_mm=np.array([10.0, 1.0, 1.0, 1.0, 1.0]),
+        after_mm=np.array([0.1, 0.2, 0.3, 0.4, 0.5]),  # max / min == 100
+    )
+    zero = replace(base, after_mm=np.array([0.0, 1e-3, 1e-3, 1e-3, 1e-3]))
+    negative = replace(base, after_mm=-base.after_mm)
     for p, scale in ((wide, "log"), (exactly, "linear"), (zero, "linear"), (negative, "linear")):
         figures.clear()
         plots.draw(content(poses=p))

@@ -49,3 +49,15 @@ def on_a_track(text):
   </joint>
 </robot>"""
     return text.replace("</robot>", track)
+
+
+def joint_1_on_the_plane(text):
+    """The shipped ABB IRB 4600 URDF with joint 1's origin on the mounting plane.
+
+    The same arm: the shoulder height moves to joint 2's origin, as ABB's
+    IRB 2400 and Yaskawa's URDFs in ROS-Industrial write it.
+    """
+    return text.replace(
+        '<origin xyz="0 0 0.495" rpy="0 0 0"/>\n    <parent link="base_link"/>',
+        '<origin xyz="0 0 0" rpy="0 0 0"/>\n    <parent link="base_link"/>',
+    ).replace('<origin xyz="0.175 0 0" rpy="0 0 0"/>', '<origin xyz="0.175 0 0.495" rpy="0 0 0"/>')

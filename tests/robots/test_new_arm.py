@@ -7,8 +7,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from calibrator import cell, export, robots, session
-from calibrator import plan as plans
+from calibrator import cell, export, planning, robots, session
 from calibrator.calibration import Calibration
 from calibrator.identify.pipeline import Options, identify
 from calibrator.model import mass_models
@@ -76,8 +75,8 @@ def test_a_new_module_is_a_new_named_arm_with_its_data(made_up_arm):
 
 def test_a_new_arm_is_planned_identified_and_exported(made_up_arm, tmp_path):
     where = cell.Cell(tracker_at_mm=(2500.0, 400.0, 300.0))
-    made = plans.make_checked(made_up_arm, 30, where, TOOL_MM, seed=2)
-    cell.check_plan(made.plan, made_up_arm, where, TOOL_MM)
+    made = planning.make_checked(made_up_arm, 30, where, TOOL_MM, seed=2)
+    planning.check_plan(made.plan, made_up_arm, where, TOOL_MM)
     geometry = cell.arm_geometry("madeup-6", made_up_arm.mdh, TOOL_MM)
     assert geometry.upright_rad == (0.0, -np.pi / 2)
     assert geometry.base_radius_mm == 120.0

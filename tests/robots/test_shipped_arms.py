@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from calibrator import cell, robots
-from calibrator import plan as plans
+from calibrator import cell, planning, robots
 from calibrator.model import kinematics
 
 DATA = Path(robots.__file__).with_name("data")
@@ -97,8 +96,8 @@ def test_a_plan_for_the_arm_passes_its_own_capsule_checks(name):
     tool = (0.0, 0.0, 80.0)
     reach = cell.arm_geometry(arm, arm.mdh, tool).reach_mm
     where = cell.Cell(tracker_at_mm=(reach + 1500.0, 300.0, 300.0))
-    made = plans.make_checked(arm, 24, where, tool, seed=3)
-    cell.check_plan(made.plan, arm, where, tool)
+    made = planning.make_checked(arm, 24, where, tool, seed=3)
+    planning.check_plan(made.plan, arm, where, tool)
     assert made.plan.q_rad.shape == (24, 6)
     inside = (made.plan.q_rad >= arm.joint_limits_rad[:, 0]) & (
         made.plan.q_rad <= arm.joint_limits_rad[:, 1]

@@ -116,7 +116,7 @@ def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tm
 @pytest.mark.parametrize("name", ["ur5e", "ur10", "ur10e"])
 def test_the_default_verify_plan_passes_the_cell_check_of_each_named_ur(name):
     from calibrator import cell as cells
-    from calibrator import plan as plans
+    from calibrator import planning
     from calibrator.simulate import SimWorld
 
     arm = robots.get(name)
@@ -126,6 +126,6 @@ def test_the_default_verify_plan_passes_the_cell_check_of_each_named_ur(name):
     # Every pose (acceptance, sight, plane...) and every move, the cycle's
     # P1 -> P5 (also the lead-in) included; the lead-in is a plan row already.
     vias = tuple([np.zeros((0, 6))] * len(vplan.plan))
-    cells.check_plan(
-        plans.Plan(vplan.plan, vias), arm, cells.Cell().with_tracker(tracker), TOOL[:3, 3]
+    planning.check_plan(
+        planning.Plan(vplan.plan, vias), arm, cells.Cell().with_tracker(tracker), TOOL[:3, 3]
     )

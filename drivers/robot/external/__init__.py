@@ -1,21 +1,12 @@
-"""A robot that runs the plan as its own program while the tracker watches for its stops.
+"""The ``external`` robot kind: an arm that runs the plan as its own program.
 
 For any brand: load the program from ``calibrator program`` on the
 controller, start it, and measure with ``--robot external``. See
-``docs/external-robots.md``.
+``docs/external-robots.md``. There is no driver: the kind opens a
+:class:`calibrator.acquire.external.arm.ProgramArm`, and stop detection and
+association are acquisition logic in :mod:`calibrator.acquire.external`.
 """
 
-from drivers.robot.external.associate import Assigned, Associator, Rejected
-from drivers.robot.external.robot import ExternalRobot, PoseMissing
-from drivers.robot.external.stops import Stop, StopDetector, StopOptions
+from drivers.robot.external.setup import open_external
 
-__all__ = [
-    "Assigned",
-    "Associator",
-    "ExternalRobot",
-    "PoseMissing",
-    "Rejected",
-    "Stop",
-    "StopDetector",
-    "StopOptions",
-]
+__all__ = ["open_external"]

@@ -5,8 +5,13 @@ Example (with a tracker simulator listening on TCP port 5001)::
     python -m drivers.robot.external_sim --plan plan.csv \\
         --control socket://127.0.0.1:5001 --model ur10e --seed 3 --skip 7
 
-``--time-scale 4`` plays the program four times faster than real time (moves,
-dwells, pauses and ringing alike), as the fake UR controller's option does.
+``--wait-start`` loads the program and waits for a line on stdin before
+it starts it, as an operator presses start (a test starts it the moment the
+run watches). ``--time-scale 4`` plays the program four times faster than real time (moves,
+dwells, pauses and ringing alike), as the fake UR controller's option does;
+start the tracker simulator with the same ``--time-scale`` so that its
+readings' stamps, by which ``measure --robot external`` times the stops, run
+as fast.
 
 Exit codes: 0 when the program ran to its end, 2 on bad input (one line),
 1 when the tracker simulator's control link failed.
@@ -99,9 +104,15 @@ def main(argv: list[str] | None = None) -> int:
         help="true reflector X,Y,Z on the flange, mm [default: the hidden cell's, near 0,0,100]",
     )
     parser.add_argument("--truth", help="write the hidden truth (JSON) here, for tests")
+    parser.add_argument(
+        "--wait-start",
+        action="store_true",
+        help="load everything, print 'ready', then start at a line on stdin (as an operator "
+        "presses start on a loaded program)",
+    )
     args = parser.parse_args(argv)
     from calibrator.errors import CalibrationError
-    from calibrator.plan import read_plan
+    from calibrator.planning import read_plan
 
     try:
         plan = read_plan(args.plan)
@@ -127,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"external_sim: error: --control {args.control}: {exc}", file=sys.stderr)
         return 2
     try:
+        if args.wait_start:
+            print("ready", flush=True)
+            sys.stdin.readline()
         player.play(control.set_target)
     except OSError as exc:
         print(f"external_sim: control link failed: {exc}", file=sys.stderr)

@@ -62,8 +62,10 @@ class PlayerOptions:
     time_scale : float
         Controller seconds per wall-clock second: 4 plays the whole program
         (moves, dwells, pauses, ringing) four times faster than real time, as
-        the fake UR controller's ``--time-scale`` does. A watcher then sees
-        dwells ``time_scale`` times shorter (see docs/external-robots.md).
+        the fake UR controller's ``--time-scale`` does. A tracker simulator at
+        the same scale stamps its readings as fast, so the watching run sees
+        the program as at real time; one at real time sees dwells
+        ``time_scale`` times shorter (see docs/external-robots.md).
     """
 
     speed_rad_s: float = 1.0

@@ -115,6 +115,42 @@ def test_init_required_then_initialise(sim_process):
         assert np.linalg.norm(tracker.measure().point_mm - [2000, 0, 0]) < 0.1
 
 
+def test_a_time_scaled_simulator_stamps_its_readings_that_much_faster(sim_process):
+    """``--time-scale 10``: 0.2 s of the wall clock between two readings is 2 s of its clock."""
+    import time
+
+    _, (path,) = sim_process("--pty", "--initialised", "--target", "2000,0,0", "--time-scale", "10")
+    with live_tracker(path) as tracker:
+        tracker.connect()
+        first = tracker.measure().device_time_us
+        start = time.monotonic()
+        time.sleep(0.2)
+        second = tracker.measure().device_time_us
+        wall_us = (time.monotonic() - start) * 1e6
+    assert 9.0 * 0.2e6 <= second - first <= 10.0 * wall_us + 1e5
+
+
+@pytest.mark.parametrize("scale", ["0", "1e9", "fast"])
+def test_a_time_scale_out_of_its_range_is_one_line_exit_2(scale):
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "drivers.tracker.line.simulator",
+            "--tcp",
+            "0",
+            "--time-scale",
+            scale,
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert out.returncode == 2 and out.stdout == ""
+    assert out.stderr.strip().endswith(f"expected a time scale in 0.01..100, got {scale!r}")
+
+
 def test_target_set_over_the_wire_from_a_second_connection(sim_process):
     """A simulated robot moves the target over TCP; the driver sees it on the pty."""
     _, (path, port) = sim_process("--pty", "--tcp", "0", "--initialised", "--no-noise")

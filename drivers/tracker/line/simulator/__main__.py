@@ -53,14 +53,19 @@ def _port(text: str) -> int:
     return int(text)
 
 
-def _seconds(text: str) -> float:
+def _number_within(text: str, low: float, high: float, expected: str) -> float:
+    """``text`` as a finite number in ``[low, high]``, else a usage error naming ``expected``."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and 0.0 <= value <= 3600.0):
-        raise argparse.ArgumentTypeError(f"expected seconds in 0..3600, got {text!r}")
+    if not (math.isfinite(value) and low <= value <= high):
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
     return value
+
+
+def _seconds(text: str) -> float:
+    return _number_within(text, 0.0, 3600.0, "seconds in 0..3600")
 
 
 def _air(text: str) -> tuple[float, float, float]:
@@ -78,13 +83,11 @@ def _air(text: str) -> tuple[float, float, float]:
 
 
 def _on_time(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.0 <= value <= 1e8):
-        raise argparse.ArgumentTypeError(f"expected seconds >= 0, got {text!r}")
-    return value
+    return _number_within(text, 0.0, 1e8, "seconds >= 0")
+
+
+def _time_scale(text: str) -> float:
+    return _number_within(text, 0.01, 100.0, "a time scale in 0.01..100")
 
 
 def _seed(text: str) -> int:
@@ -135,6 +138,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
     p.add_argument(
+        "--time-scale",
+        type=_time_scale,
+        default=1.0,
+        metavar="X",
+        help="its clock runs X times faster than the wall clock (reading stamps, INIT, time "
+        "on); with the external-robot simulator at the same scale, a watched run is X times "
+        "faster (default 1: real time)",
+    )
+    p.add_argument(
         "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
     )
     p.add_argument(
@@ -184,6 +196,13 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _scaled_clock(scale: float):
+    """The wall clock (monotonic, s) run ``scale`` times faster; itself at scale 1."""
+    if scale == 1.0:
+        return time.monotonic
+    return lambda: scale * time.monotonic()
+
+
 def _build_server(args) -> SimulatorServer:
     """Engine and endpoints from the options; endpoints printed only once all opened."""
     if args.replay:
@@ -211,6 +230,7 @@ def _build_server(args) -> SimulatorServer:
             serial=args.serial,
             air=args.air,
             on_s=args.on_time,
+            clock=_scaled_clock(args.time_scale),
         )
         if args.target:
             simulator.set_target(args.target[:3], args.target[3:] or None)

@@ -17,16 +17,16 @@ most the bound ``tolerance_mm`` (``--match-tolerance``: the most the nominal
 arm may be off). See :mod:`.registration` for the fit.
 
 1. **Bootstrap.** No registration exists yet. The first
-   :data:`BOOTSTRAP_STOPS` stops that fit as many poses of the plan, in plan
-   order (at most :data:`BOOTSTRAP_SKIPS` poses skipped and
-   :data:`BOOTSTRAP_REJECTS` stops rejected among them), are found by a
-   search: pairs of stops must be as far apart as their poses (within the
-   bound plus what a tool anywhere within its bound changes that distance),
-   every candidate set is registered (base and tool fitted) and every one of
-   its stops must pass the rule against the registration of the others.
-   Of the sets that pass, the one rejecting and skipping fewest wins (then
-   the smallest misfit). Stops before or among them that are not in it are
-   rejected.
+   :data:`BOOTSTRAP_STOPS` stops (or as many as the plan has poses left,
+   when fewer) that fit as many poses of the plan, in plan order (at most
+   :data:`BOOTSTRAP_SKIPS` poses skipped and :data:`BOOTSTRAP_REJECTS` stops
+   rejected among them), are found by a search: pairs of stops must be as
+   far apart as their poses (within the bound plus what a tool anywhere
+   within its bound changes that distance), every candidate set is
+   registered (base and tool fitted) and every one of its stops must pass
+   the rule against the registration of the others. Of the sets that pass,
+   the one rejecting and skipping fewest wins (then the smallest misfit).
+   Stops before or among them that are not in it are rejected.
 2. **Registration.** From then on each stop is compared with where the
    registration of the stops recorded so far puts every later pose: it is
    the nearest later pose within the tolerance, or rejected. Base, tool and
@@ -52,8 +52,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivers.robot.external.registration import TOOL_BOUND_MM, Registration, register
-from drivers.robot.external.stops import Stop
+from calibrator.acquire.external.registration import TOOL_BOUND_MM, Registration, register
+from calibrator.acquire.external.stops import Stop
 
 #: Fewest stops a registration is fitted to before its leave-one-out misfits set the
 #: tolerance (below, the bound does: a handful of nearby stops underestimates the spread).
@@ -187,7 +187,7 @@ class Associator:
         """Take one stop; return the decisions now final (about this or earlier stops)."""
         if self.registration is None:
             self._unplaced.append(stop)
-            return self._bootstrap(BOOTSTRAP_STOPS)
+            return self._bootstrap(self.bootstrap_size())
         floor = self.next_pose if self._pending is None else self._pending.pose
         if floor >= len(self.flange):
             return [Rejected(stop, "after the last plan pose")]
@@ -204,6 +204,16 @@ class Associator:
         self._pending = match
         return out
 
+    def bootstrap_size(self) -> int:
+        """Stops the bootstrap places together: :data:`BOOTSTRAP_STOPS`, or the poses left.
+
+        A plan with fewer poses left than :data:`BOOTSTRAP_STOPS` (an 8-pose
+        check, a resumed run near its end) is placed as soon as a stop per pose
+        has come, not when the program is taken as ended (at least three: the
+        fewest a registration is fitted to).
+        """
+        return max(3, min(BOOTSTRAP_STOPS, len(self.flange) - self.next_pose))
+
     def finish(self) -> list[Assigned | Rejected]:
         """No more stops are coming (for now): make the last match final.
 
@@ -213,8 +223,8 @@ class Associator:
         """
         if self.registration is None:
             out: list[Assigned | Rejected] = []
-            # BOOTSTRAP_STOPS itself was tried as each stop came
-            for size in range(min(BOOTSTRAP_STOPS - 1, len(self._unplaced)), 2, -1):
+            # bootstrap_size() itself was tried as each stop came
+            for size in range(min(self.bootstrap_size() - 1, len(self._unplaced)), 2, -1):
                 out += self._bootstrap(size)
                 if self.registration is not None:
                     return out + self._settle()

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from drivers.robot.external import StopDetector
+from calibrator.acquire.external import StopDetector
 
 RATE_HZ = 50.0
 SIGMA_MM = 0.016  # per axis: the simulator's transverse noise at 3 m

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
+from calibrator.acquire.external import Assigned, Associator, Rejected, Stop
+from calibrator.acquire.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
+from calibrator.acquire.external.registration import register
 from calibrator.model import frames, kinematics
 from calibrator.simulate import SimWorld, sample_joints
-from drivers.robot.external import Assigned, Associator, Rejected, Stop
-from drivers.robot.external.associate import RULE_STOPS, TOLERANCE_FACTOR, TOLERANCE_FLOOR_MM
-from drivers.robot.external.registration import register
 
 CELL = SimWorld.make("ur10e", 5)
 NOISE_MM = 0.005  # a mean of 10 readings
@@ -89,6 +89,23 @@ def test_stops_before_the_plan_starts_are_rejected_in_the_bootstrap():
     assigned, rejected = _run(plan, [home, plan[0], early, *plan[1:]])
     assert rejected == [0, 2]
     assert assigned[1] == 0 and assigned[3] == 1 and assigned[len(plan) + 1] == len(plan) - 1
+
+
+@pytest.mark.parametrize(("poses", "first"), [(8, 0), (5, 0), (14, 7)])
+def test_a_plan_shorter_than_the_bootstrap_is_placed_as_its_stops_come(poses, first):
+    """An 8-pose check (or a resumed run's last poses) is placed before any timeout:
+    each pose as soon as the next stop (the move home) comes, none left for ``finish``."""
+    plan = _plan(poses, seed=2)
+    home = plan.mean(axis=0)
+    points = _true_points(np.vstack([plan[first:], home[None]]))
+    assoc = Associator(kinematics.forward(CELL.model.mdh, plan), (0.0, 0.0, 100.0), 15.0, first)
+    decisions = []
+    for k, p in enumerate(points):
+        decisions += assoc.add(Stop(k, float(k), p))
+    assigned = {d.stop.number: d.pose for d in decisions if isinstance(d, Assigned)}
+    assert assigned == {k: first + k for k in range(poses - first)}
+    assert [d.stop.number for d in decisions if isinstance(d, Rejected)] == [poses - first]
+    assert assoc.finish() == []
 
 
 def _short_of(plan, pose, mm):

@@ -1,0 +1,167 @@
+"""The order a plan visits its poses: short in time, every move safe, vias where needed.
+
+Moves are joint-space lines at the model's speed and acceleration ceilings;
+a move the cell's collision checks refuse is avoided by another order, else
+by vias through the arm held upright, else refused.
+
+Joint angles rad; everything in the robot base frame.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from calibrator import cell as cells
+from calibrator.planning.plan import Plan, PlanError
+
+if TYPE_CHECKING:
+    from calibrator import robots
+
+
+def order_safely(
+    chk: cells.Checker, q: np.ndarray, box: np.ndarray, speed: float, accel: float
+) -> Plan:
+    """The poses in a short-time order whose every move is safe, with vias where needed."""
+    times = cells.time_matrix(q, speed, accel)
+    verdict: dict[tuple[int, int], np.ndarray] = {}
+    order = cells.order_poses(times)
+    for attempt in range(8):
+        edges = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
+        new = [e for e in edges if e not in verdict]
+        if new:
+            a, b = np.array(new).T
+            faults = cells.motion_faults(chk, q[a], q[b])
+            for e, f in zip(new, faults, strict=True):
+                verdict[e] = verdict[e[::-1]] = f
+        bad = [e for e in edges if verdict[e].any()]
+        if not bad or attempt == 7:
+            break  # every edge of this order has a verdict: vias below for the bad ones
+        for a, b in bad:
+            times[a, b] = times[b, a] = np.inf
+        order = cells.order_poses(times)
+    order = _close_safely(chk, q, order, times, verdict)
+    vias = []
+    for k, i in enumerate(order):
+        if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
+            vias.append(np.zeros((0, 6)))
+            continue
+        a, b = int(order[k - 1]), int(i)
+        via = _upright_vias(chk, q[a], q[b], box)
+        if via is None:
+            reason = cells.MOTION_REASONS[int(np.argmax(verdict[(a, b)]))]
+            raise PlanError(
+                f"no safe move between poses {k - 1} and {k} ({reason} along the joint-space line) "
+                "in any order tried, nor through the arm held upright; change the cell or the poses"
+            )
+        vias.append(via)
+    return Plan(q[order], tuple(vias))
+
+
+def _close_safely(
+    chk, q: np.ndarray, order: np.ndarray, times: np.ndarray, verdict: dict
+) -> np.ndarray:
+    """``order`` turned so that the move from its last pose back to its first is safe.
+
+    A program returns from the last pose to its home, by default the first
+    pose, along the joint-space line: that closing move must pass the same
+    checks as every other. If it does not, the cycle starts after its longest
+    safe direct move instead (the old closing move becomes an inner one, given
+    vias like any other). ``verdict`` maps ``(a, b)`` to the move's faults and
+    gains the closing move's.
+    """
+    if len(order) < 2:
+        return order
+    first, last = int(order[0]), int(order[-1])
+    if (last, first) not in verdict:
+        faults = cells.motion_faults(chk, q[last][None], q[first][None])[0]
+        verdict[(last, first)] = verdict[(first, last)] = faults
+    if not verdict[(last, first)].any():
+        return order
+    pairs = list(zip(order[:-1].tolist(), order[1:].tolist(), strict=True))
+    safe = [k for k, e in enumerate(pairs) if not verdict[e].any()]
+    if not safe:
+        return order  # every move needs vias: the closing one is refused where it is used
+    k = max(safe, key=lambda j: times[pairs[j]] if np.isfinite(times[pairs[j]]) else 0.0)
+    return np.roll(order, -(k + 1))
+
+
+def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
+    """Ways up from each pose of ``q`` (N, 6): via lists (N, k, 6).
+
+    Each ends with the arm upright and the wrist neutral (joints 1 and 6 as
+    in ``q``), where turning joints 1 and 6 to another pose's is safe: shoulder
+    and elbow together, elbow first, or shoulder first, then the wrist.
+    """
+    up2, up3 = chk.geometry.upright_rad
+    upright = q.copy()
+    upright[:, 1:3] = (up2, up3)
+    neutral = upright.copy()
+    neutral[:, 3:5] = chk.geometry.neutral_wrist_rad
+    elbow, shoulder = q.copy(), q.copy()
+    elbow[:, 2] = up3
+    shoulder[:, 1] = up2
+    return [
+        np.stack([upright, neutral], 1),
+        np.stack([elbow, upright, neutral], 1),
+        np.stack([shoulder, upright, neutral], 1),
+    ]
+
+
+def can_rise(chk: cells.Checker, q: np.ndarray) -> np.ndarray:
+    """Which poses of ``q`` (N, 6) have a safe way up (:func:`_rise_paths`), shape (N,) bool."""
+    ok = np.zeros(len(q), dtype=bool)
+    for vias in _rise_paths(chk, q):
+        todo = np.flatnonzero(~ok)
+        if not todo.size:
+            break
+        path = np.concatenate([q[todo, None], vias[todo]], axis=1)  # (M, k + 1, 6)
+        k = path.shape[1] - 1
+        safe = ~cells.checks.collision_faults(chk, vias[todo].reshape(-1, 6)).any(axis=1)
+        moves = cells.motion_faults(chk, path[:, :-1].reshape(-1, 6), path[:, 1:].reshape(-1, 6))
+        safe &= ~moves.any(axis=1)
+        ok[todo] = safe.reshape(-1, k).all(axis=1)
+    return ok
+
+
+def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.ndarray | None:
+    """Vias from ``qa`` to ``qb`` through the arm held upright, or None if none is safe.
+
+    Each way up of :func:`_rise_paths` from ``qa``, then across with the arm
+    upright, then down to ``qb`` by one of its ways up reversed. Each via pose
+    and each move between them must pass the collision checks.
+    """
+    # Up from qa, across upright, down to qb (the way up reversed): each way up
+    # of qa with each of qb, shortest first.
+    ups_a = [v[0] for v in _rise_paths(chk, qa[None])]
+    ups_b = [v[0][::-1] for v in _rise_paths(chk, qb[None])]
+    tries = sorted(([*a, *b] for a in ups_a for b in ups_b), key=len)
+    for vias in tries:
+        via = np.array(vias)
+        if np.any((via < box[:, 0]) | (via > box[:, 1])):
+            continue
+        if cells.checks.collision_faults(chk, via).any():
+            continue
+        path = np.vstack([qa, via, qb])
+        if not cells.motion_faults(chk, path[:-1], path[1:]).any():
+            return via
+    return None
+
+
+def estimate(
+    plan: Plan,
+    model: robots.RobotDescription,
+    speed_rad_s: float,
+    accel_rad_s2: float,
+    **kwargs: Any,
+) -> cells.CellTime:
+    """:func:`calibrator.cell.cell_time` of a :class:`Plan` (all its rows, vias included).
+
+    ``speed_rad_s`` (rad/s) and ``accel_rad_s2`` (rad/s^2) are lowered to the
+    model's caps; ``kwargs`` go to :func:`calibrator.cell.cell_time`
+    (``settle_s``, ``readings``, ``rate_hz``).
+    """
+    speed = min(speed_rad_s, model.move_speed_cap_rad_s)
+    accel = min(accel_rad_s2, model.move_accel_cap_rad_s2)
+    return cells.cell_time(plan.path_rad, len(plan.q_rad), speed, accel, **kwargs)
