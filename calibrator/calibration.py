@@ -46,11 +46,11 @@ from calibrator import outputs
 from calibrator.errors import CalibrationError
 from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.identify import option_rules
-from calibrator.inputs import consistency, jsonfile, messages, plausibility
+from calibrator.inputs import jsonfile, messages
 from calibrator.inputs.json_fields import Fields
-from calibrator.inputs.plausibility import PLAUSIBLE_DELTA
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import consistency, frames, kinematics, parameters, plausibility
 from calibrator.model.joint_terms import JointTerms
+from calibrator.model.plausibility import PLAUSIBLE_DELTA
 
 FORMAT = "calibrator.calibration"
 VERSION = 1

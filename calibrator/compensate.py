@@ -262,7 +262,11 @@ def compensate(
     # command the read-back angles whose effective angles those are.
     terms = calibration.joint_terms
     if terms.used:
-        torque = joint_terms.torque_function(terms, calibration.nominal_mdh, payload_kg)
+        from calibrator.robots import masses
+
+        torque = joint_terms.torque_function(
+            terms, calibration.nominal_mdh, masses.for_terms(terms), payload_kg
+        )
         q_cmd = joint_terms.invert(sol.q, terms, torque)
         inside = np.ones(len(q_cmd), dtype=bool)
         if limits is not None:

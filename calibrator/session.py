@@ -41,7 +41,7 @@ both are present. Other keys are kept and ignored. Every known key must have
 its JSON type (``"false"`` is not ``false``).
 
 Loading also checks the data against the model
-(:func:`calibrator.inputs.plausibility.check_observations`): joints against the
+(:func:`calibrator.model.plausibility.check_observations`): joints against the
 joint limits, the point cloud against the arm's reach. A likely unit mistake
 is refused naming the unit; doubtful cases land in :attr:`Session.warnings`.
 """
@@ -61,9 +61,9 @@ from numpy.typing import ArrayLike
 
 from calibrator import outputs, robots
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.inputs import consistency, jsonfile, plausibility, session_table
+from calibrator.inputs import jsonfile, session_table
 from calibrator.inputs.errors import StrictError
-from calibrator.model import frames, kinematics
+from calibrator.model import consistency, frames, kinematics, plausibility
 from calibrator.model.measurement import Observations
 
 if TYPE_CHECKING:

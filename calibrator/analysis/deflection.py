@@ -505,10 +505,10 @@ def named_arm(model: str, sections: dict[int, Section], masses: object = None) -
         Defaults to the model's published mass model.
     """
     from calibrator import robots
-    from calibrator.model import mass_models
+    from calibrator.robots import masses as arm_masses
 
     m = robots.get(model)
-    mm = mass_models.get(m.name) if masses is None else masses
+    mm = arm_masses.get(m.name) if masses is None else masses
     mdh = np.array(m.mdh)
 
     def frames(q: np.ndarray) -> np.ndarray:

@@ -77,7 +77,11 @@ class Calibrated:
         q = kinematics.check_joints(q)
         if not self.terms.used:
             return q
-        torque = joint_terms.torque_function(self.terms, self.space.nominal_mdh)
+        from calibrator.robots import masses
+
+        torque = joint_terms.torque_function(
+            self.terms, self.space.nominal_mdh, masses.for_terms(self.terms)
+        )
         return joint_terms.effective(q, self.terms.vector(), None if torque is None else torque(q))
 
     def points(self, q: ArrayLike) -> np.ndarray:

@@ -25,7 +25,7 @@ class Distribution(StrEnum):
 #: (low, high, unit); a bearing's radial clearance is microns to a millimetre,
 #: the distance between its end faces millimetres to a metre.
 RANGES = {
-    "length": (-1e5, 1e5, "mm"),  # as any MDH length (calibrator.inputs.consistency.MAX_MDH)
+    "length": (-1e5, 1e5, "mm"),  # as any MDH length (calibrator.model.consistency.MAX_MDH)
     "r0": (0.0, 10.0, "mm"),
     "h": (1.0, 10_000.0, "mm"),
     "pose": (-360.0, 360.0, "deg"),

@@ -104,7 +104,7 @@ def deflection(
 
     from calibrator import outputs, robots
     from calibrator.analysis import deflection as dfl
-    from calibrator.model import mass_models
+    from calibrator.robots import masses as arm_masses
 
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
@@ -133,7 +133,7 @@ def deflection(
             raise CalibrationError(f"--model {model}: give --sections (a link-section YAML)")
         table, from_file = dfl.load_sections(sections)
         source = masses or from_file or model
-        arm = dfl.named_arm(model, table, mass_models.resolve(source))
+        arm = dfl.named_arm(model, table, arm_masses.resolve(source))
         prismatic = [False] * 6
         limits = robots.get(model).joint_limits_rad
         q0 = (

@@ -26,7 +26,7 @@ def report(
 ) -> None:
     """Write the calibration report: PNG plots and one self-contained HTML page."""
     from calibrator import calibration, outputs, session
-    from calibrator.inputs import consistency
+    from calibrator.model import consistency
     from calibrator.report import FILES, verify_section, write
 
     verify_paths = list(verify_paths or [])

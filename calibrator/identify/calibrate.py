@@ -176,12 +176,12 @@ def calibrate(
     found = None
     if groups:
         from calibrator.identify import joint_fit
-        from calibrator.model import mass_models
+        from calibrator.robots import masses as arm_masses
 
         source = joint.mass_model or loaded.meta.model
         masses = None
         if "compliance" in groups and source:
-            masses = mass_models.resolve(source)
+            masses = arm_masses.resolve(source)
         assert payloads is not None  # loaded with the joint terms above
         result, found = joint_fit.run(
             result, loaded, payloads, groups, masses, payload_com, options.noise_mm

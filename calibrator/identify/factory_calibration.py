@@ -19,8 +19,7 @@ from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
 from calibrator.export import ros, ur
-from calibrator.inputs import consistency
-from calibrator.model import conventions, kinematics
+from calibrator.model import consistency, conventions, kinematics
 
 if TYPE_CHECKING:
     from calibrator.session import SessionMeta

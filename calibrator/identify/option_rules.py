@@ -51,14 +51,15 @@ def _groups(text: str) -> str:
 def _mass_model(text: str) -> str:
     """A named arm with a published mass model, or a mass-model YAML that reads."""
     from calibrator.model import mass_models
+    from calibrator.robots import masses
 
-    if text.strip().lower() in mass_models.NAMES:
+    if text.strip().lower() in masses.names():
         return text
     if text.lower().endswith((".yaml", ".yml")):
         mass_models.load(text)
         return text
     raise CalibrationError(
-        f"{text!r:.60} is neither a named arm ({', '.join(mass_models.NAMES)}) "
+        f"{text!r:.60} is neither a named arm ({', '.join(masses.names())}) "
         "nor a mass-model YAML file (.yaml)"
     )
 

@@ -27,9 +27,8 @@ from calibrator.identify import (
     uncertainty,
 )
 from calibrator.identify.problem import Problem
-from calibrator.inputs import plausibility
 from calibrator.inputs.errors import StrictError
-from calibrator.model import measurement, parameters
+from calibrator.model import measurement, parameters, plausibility
 
 if TYPE_CHECKING:
     from calibrator.session import Session

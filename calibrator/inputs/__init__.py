@@ -13,14 +13,11 @@ line (exit code 2 at the CLI):
 - :mod:`~calibrator.inputs.messages`: values cut short for one-line messages;
 - :mod:`~calibrator.inputs.json_fields`: numbers and tables of a parsed document;
 - :mod:`~calibrator.inputs.session_table`: the columns and rows of a session file;
-- :mod:`~calibrator.inputs.consistency`: parts of documents that must agree;
-- :mod:`~calibrator.inputs.plausibility`: data and results plausible for the arm;
 - :mod:`~calibrator.inputs.errors`: :class:`StrictError` and :class:`ConsistencyError`.
 
 The package sits below the arm's model and documents, which read their files
-through it: a document reader hands these checks what they compare with (a
-catalogue table, a session's column names). Its one import from above is
-:mod:`calibrator.model.kinematics` (the MDH table's columns, and the forward
-kinematics the scale check of :mod:`~calibrator.inputs.plausibility` needs),
-listed in ``tests/static/test_layers.py`` until it has a home.
+through it, and imports nothing above it. The checks that need the arm's
+model (parts of documents that must agree, data and results plausible for
+the arm) are :mod:`calibrator.model.consistency` and
+:mod:`calibrator.model.plausibility`.
 """

@@ -2,11 +2,10 @@
 
 A session's Parquet table is refused in one line when a column is missing,
 repeated, not numeric or float16 (three significant digits), when the
-orientation is partial, when values are NaN, infinite or absurd (beyond
-:data:`calibrator.inputs.plausibility.MAX_ABS_RAD`, a spread beyond its
-limit), or when pose numbers are not unique whole 64-bit numbers. The
+orientation is partial, when values are NaN, infinite or absurd (a
+rotation beyond :data:`MAX_ABS_RAD`), or when pose numbers are not unique whole 64-bit numbers. The
 session module hands in its column names (:class:`Schema`); the data's
-plausibility for the arm is :func:`calibrator.inputs.plausibility.check_observations`.
+plausibility for the arm is :func:`calibrator.model.plausibility.check_observations`.
 """
 
 from __future__ import annotations
@@ -20,9 +19,10 @@ import pyarrow as pa
 
 from calibrator.errors import SessionError
 from calibrator.inputs.grammar import MAX_INT
-from calibrator.inputs.plausibility import MAX_ABS_RAD
 
 __all__ = ["Schema", "check_table", "floats"]
+
+MAX_ABS_RAD = 100.0  # 16 turns: an absurd angle (rotation vectors; joints meet their limits)
 
 
 @dataclass(frozen=True)

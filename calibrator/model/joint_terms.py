@@ -297,19 +297,20 @@ def gravity_torques(
 
 
 def torque_function(
-    terms: JointTerms, nominal_mdh: np.ndarray, payload_kg: float | None = None
+    terms: JointTerms,
+    nominal_mdh: np.ndarray,
+    masses: MassModel | None,
+    payload_kg: float | None = None,
 ) -> Callable[[np.ndarray], np.ndarray] | None:
     """``tau(q)`` for the compliance terms at a payload (default: the calibration's).
 
+    ``masses`` are the arm's (:func:`calibrator.robots.masses.for_terms`).
     Returns None when the terms have no compliance.
     """
     if not terms.needs_torque:
         return None
-    from calibrator.model import mass_models
-
-    if not terms.mass_model:
-        raise CalibrationError("the compliance terms name no mass model")
-    masses = mass_models.resolve(terms.mass_model)
+    if masses is None:
+        raise CalibrationError("the compliance terms need the arm's masses")
     kg = terms.payload_kg if payload_kg is None else float(payload_kg)
 
     def tau(q: np.ndarray) -> np.ndarray:

@@ -8,8 +8,9 @@ whose tables are standard DH, this is exactly the manufacturer's DH frame).
 Sources
 -------
 Named arms
-    The masses of the arm's description (:mod:`calibrator.robots`, each
-    module names its source). No inertia tensors: only gravity uses them.
+    The masses of the arm's description, looked up by
+    :mod:`calibrator.robots.masses` (each robot module names its source). No
+    inertia tensors: only gravity uses them.
 Other arms (those whose description has no masses)
     A YAML file read by :func:`load`::
 
@@ -68,42 +69,6 @@ class MassModel:
             object.__setattr__(self, field, value)
 
 
-def names() -> tuple[str, ...]:
-    """Named arms whose description carries masses."""
-    from calibrator import robots
-
-    return tuple(n for n in robots.names() if robots.get(n).has_masses)
-
-
-def __getattr__(name: str) -> tuple[str, ...]:
-    # NAMES is computed when read: the arms are the modules of calibrator.robots.
-    if name == "NAMES":
-        return names()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def get(name: str) -> MassModel:
-    """The published mass model of a named arm (from its robot description).
-
-    Raises
-    ------
-    CalibrationError
-        If the arm has no published mass model (give a YAML file instead).
-    """
-    from calibrator import robots
-
-    try:
-        description = robots.get(name)
-    except robots.DescriptionError:
-        description = None
-    if description is None or description.mass_kg is None or description.com_mm is None:
-        raise CalibrationError(
-            f"no published mass model for {name!r} (known: {', '.join(names())}); "
-            "give a mass-model YAML file"
-        )
-    return MassModel(description.name, description.mass_kg, description.com_mm)
-
-
 def load(path: Path | str) -> MassModel:
     """Read a mass-model YAML file (see the module docstring).
 
@@ -131,13 +96,3 @@ def load(path: Path | str) -> MassModel:
         return MassModel(path.name, np.array(mass), np.array(com))
     except CalibrationError as exc:
         raise CalibrationError(f"{path}: {exc}") from None
-
-
-def resolve(source: str | Path) -> MassModel:
-    """A named arm's masses, a robot description's, or the mass-model YAML at ``source``."""
-    from calibrator import robots
-
-    text = str(source)
-    if text.lower().endswith((".yaml", ".yml")) and not robots.files.is_description(text):
-        return load(text)
-    return get(text)

@@ -9,6 +9,7 @@ from cli_kit import cli, listing, one_line_error
 from calibrator.analysis import deflection as dfl
 from calibrator.errors import CalibrationError
 from calibrator.model import mass_models
+from calibrator.robots import masses as robot_masses
 
 G = 9.81  # N/kg, as mass_models.GRAVITY_MM_S2 / 1000
 ROD = dfl.PAPER_ROD
@@ -106,7 +107,7 @@ def test_named_arm_links_match_cantilever_formulas_when_stretched_out():
     """UR10e at zero: upper arm and forearm horizontal; each link's tip by hand."""
     sec = dfl.Section(outer_mm=100.0, inner_mm=80.0, e_mpa=7.0e4)
     arm = dfl.named_arm("ur10e", {2: sec, 3: sec})
-    masses = mass_models.get("ur10e")
+    masses = robot_masses.get("ur10e")
     q = np.zeros((1, 6))
     frames = arm.frames(q)[0]
     result = dfl.deflect(arm, q)

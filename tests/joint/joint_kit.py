@@ -4,7 +4,8 @@ import numpy as np
 
 from calibrator import robots, session, simulate
 from calibrator.identify import pipeline
-from calibrator.model import frames, joint_terms, kinematics, mass_models
+from calibrator.model import frames, joint_terms, kinematics
+from calibrator.robots import masses as robot_masses
 
 
 def sessions(
@@ -34,7 +35,7 @@ def sessions(
     """
     rng = np.random.default_rng(seed)
     robot = robots.get(model)
-    masses = mass_models.get(model)
+    masses = robot_masses.get(model)
     delta = simulate.random_errors(robot.mdh, rng, mm=0.3, rad=0.003)
     delta[:, kinematics.BETA] = 0.0
     true_mdh = robot.mdh + (delta if geometry_errors else 0.0)

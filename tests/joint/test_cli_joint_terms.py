@@ -9,7 +9,8 @@ from cli_kit import cli, listing, one_line_error
 from joint_kit import sessions
 
 from calibrator import session
-from calibrator.model import frames, joint_terms, kinematics, mass_models
+from calibrator.model import frames, joint_terms, kinematics
+from calibrator.robots import masses as robot_masses
 
 WRIST = joint_terms.JointTerms(
     np.array([0, 0, 0, 1e-3, 2e-3, -1.5e-3]), np.zeros(6), np.zeros(6), np.zeros(6)
@@ -49,7 +50,7 @@ def _reached(folder, truth, terms, payload_kg=0.0):
     assert (out["status"] == "ok").all()
     q_cmd = out[[f"q{j}_rad" for j in range(1, 7)]].to_numpy()
     tau = joint_terms.gravity_torques(
-        truth["mdh"] * 0 + _nominal(), q_cmd, mass_models.get("ur10e"), payload_kg, [0, 0, 100]
+        truth["mdh"] * 0 + _nominal(), q_cmd, robot_masses.get("ur10e"), payload_kg, [0, 0, 100]
     )
     q_true = joint_terms.effective(q_cmd, terms.vector(), tau)
     return kinematics.forward(truth["mdh"], q_true, truth["tool"])

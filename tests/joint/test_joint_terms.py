@@ -8,8 +8,9 @@ from calibrator import robots
 from calibrator.errors import CalibrationError
 from calibrator.identify import joint_fit
 from calibrator.identify.problem import Problem
-from calibrator.model import joint_terms, kinematics, mass_models, measurement
+from calibrator.model import joint_terms, kinematics, measurement
 from calibrator.model.parameters import ParameterSpace
+from calibrator.robots import masses as robot_masses
 
 
 def _terms(scale=None, cos=None, sin=None, comp=None):
@@ -21,7 +22,7 @@ def _terms(scale=None, cos=None, sin=None, comp=None):
 
 def test_gravity_torque_is_minus_the_gradient_of_potential_energy():
     """tau_j = -dU/dq_j, U = sum m g z_com (+ payload): an independent check by differences."""
-    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), robot_masses.get("ur10e")
     q = np.random.default_rng(0).uniform(-np.pi, np.pi, (5, 6))
     com_payload = np.array([10.0, -5.0, 100.0])
 
@@ -60,7 +61,7 @@ def test_effective_angles_and_their_derivatives():
 
 
 def test_measurement_jacobian_of_joint_terms_matches_differences():
-    robot, masses = robots.get("ur10e"), mass_models.get("ur10e")
+    robot, masses = robots.get("ur10e"), robot_masses.get("ur10e")
     rng = np.random.default_rng(2)
     q = rng.uniform(-np.pi, np.pi, (12, 6))
     tau = joint_terms.gravity_torques(robot.mdh, q, masses, 3.0)

@@ -10,7 +10,7 @@ import pytest
 from calibrator import cell, export, planning, robots, session
 from calibrator.calibration import Calibration
 from calibrator.identify.pipeline import Options, identify
-from calibrator.model import mass_models
+from calibrator.robots import masses as robot_masses
 from calibrator.simulate import simulate
 
 TOOL_MM = (0.0, 0.0, 100.0)
@@ -69,7 +69,7 @@ def test_a_new_module_is_a_new_named_arm_with_its_data(made_up_arm):
     assert "madeup-6" in robots.names()
     assert made_up_arm.move_accel_cap_rad_s2 == 1.5  # its own, lower than the fixed 2.0
     assert made_up_arm.move_speed_cap_rad_s == 1.0
-    assert mass_models.get("madeup-6").mass_kg[0] == 20.0
+    assert robot_masses.get("madeup-6").mass_kg[0] == 20.0
     assert made_up_arm.digest.startswith("sha256:") and len(made_up_arm.digest) == 71
 
 

@@ -212,12 +212,12 @@ def test_the_digest_follows_the_content_not_the_files_name(tmp_path):
 
 
 def test_a_description_files_masses_are_its_mass_model(tmp_path):
-    from calibrator.model import mass_models
+    from calibrator.robots import masses as robot_masses
 
     path = tmp_path / "arm.yaml"
     masses = "masses:\n  mass_kg: [20, 15, 8, 3, 2, 0.5]\n  com_mm: " + str([[0, 0, 10]] * 6) + "\n"
     path.write_text(DESCRIPTION + masses)
-    model = mass_models.resolve(str(path))
+    model = robot_masses.resolve(str(path))
     np.testing.assert_array_equal(model.mass_kg, [20, 15, 8, 3, 2, 0.5])
     np.testing.assert_array_equal(model.com_mm[:, 2], 10.0)
 

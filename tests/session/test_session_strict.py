@@ -16,7 +16,7 @@ from cli_process_kit import run_cli
 
 from calibrator import session
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.inputs import plausibility
+from calibrator.model import plausibility
 from calibrator.simulate import simulate
 
 RAD2DEG = 180.0 / np.pi

@@ -87,20 +87,6 @@ KNOWN: dict[tuple[str, str], str] = {
         "cannot sit in calibrator.inputs below it); issue #33 items 3 and 7 derive "
         "provenance from the options' own fields"
     ),
-    ("calibrator.inputs.consistency", "calibrator.model.kinematics"): (
-        "the MDH table's columns and names, which live with the kinematics in "
-        "calibrator/model/, a package that reads its files through calibrator.inputs"
-    ),
-    ("calibrator.inputs.plausibility", "calibrator.model.kinematics"): (
-        "the scale check compares measured distances with the nominal forward "
-        "kinematics (in calibrator/model/, which reads its files through calibrator.inputs); "
-        "to go, the model-aware checks need a home above the model or the model "
-        "one below the readers"
-    ),
-    ("calibrator.model.mass_models", "calibrator.robots"): (
-        "masses looked up by arm name in the descriptions; issue #33 item 1 puts "
-        "the masses in RobotDescription"
-    ),
     ("drivers.robot.external.setup", "drivers.robot"): (
         "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
     ),

@@ -6,9 +6,8 @@ import pytest
 from calibrator import robots
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
-from calibrator.inputs import consistency
 from calibrator.inputs.errors import ConsistencyError
-from calibrator.model import parameters
+from calibrator.model import consistency, parameters
 from calibrator.session import SessionMeta
 
 UR10E = robots.get("ur10e").mdh

@@ -22,7 +22,7 @@ Derived values must match to rounding (:data:`DERIVED_TOL`).
 
 Use::
 
-    from calibrator.inputs import consistency
+    from calibrator.model import consistency
 
     consistency.check_calibration(cal, "cal.json", ur10e.mdh)  # the catalogue's table of cal.model
     consistency.check_session_matches(cal, session.meta)       # before drawing one over the other

@@ -36,11 +36,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.inputs.consistency import MAX_MDH
 from calibrator.model import kinematics
+from calibrator.model.consistency import MAX_MDH
 
 MAX_ABS_MM = 1.0e9  # 1000 km: no unit mistake explains it (um are named by the scale check)
-MAX_ABS_RAD = 100.0  # 16 turns: an absurd angle (rotation vectors; joints meet their limits)
 GENERIC_JOINT_LIMIT_RAD = 2.0 * np.pi  # when the session names no model: any revolute joint
 LIMIT_TOL_RAD = 1e-6  # a joint read back exactly on its limit is inside
 SCALE_WARN = 1.5  # measured/nominal distance ratio beyond 1.5x either way: warn
@@ -339,7 +338,7 @@ def check_frames(frames: dict[str, np.ndarray], where: str = "calibration") -> N
     """Refuse frames no cell has, with the bounds the session loader applies.
 
     A tool frame (``flange2tool``, ``tool0``) further than
-    :data:`calibrator.inputs.consistency.MAX_MDH` mm from the flange is refused, as
+    :data:`calibrator.model.consistency.MAX_MDH` mm from the flange is refused, as
     :func:`calibrator.session.load` refuses it in a session; a base frame
     (``base2tracker``, ``base0``) beyond :data:`MAX_ABS_MM`, as a measured
     point is. Everything derived from the frames (exports, compensation)

@@ -5,8 +5,7 @@ import pytest
 
 from calibrator import robots
 from calibrator.errors import CalibrationError, SessionError
-from calibrator.inputs import plausibility
-from calibrator.model import kinematics
+from calibrator.model import kinematics, plausibility
 
 ROBOT = robots.get("er10l-c10")
 REACH = 170 + 780 + 140 + 1060 + 125  # sum |a| + sum |d| of the ER10L-C10, mm
