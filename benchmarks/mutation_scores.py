@@ -32,7 +32,7 @@ that exercise it: ``--prepare MODULE FOLDER`` copies the repository's tracked
 files to ``FOLDER`` (outside the work tree) with ``[tool.mutmut]`` narrowed
 to that module and its tests (``DRIVER_RUNS``); then, in ``FOLDER``::
 
-    nice -n 15 ../path/.venv/bin/mutmut run --max-children 1 "drivers.robot.ur_rtde_adapter*"
+    nice -n 15 ../path/.venv/bin/mutmut run --max-children 1 "drivers.robot.ur.device*"
 """
 
 import argparse
@@ -62,37 +62,37 @@ DRIVER_RUNS = {
             "tests/robot/test_safety_boundaries.py",
             "tests/robot/test_model_motion_ceiling.py",
             "tests/robot/test_robot_inputs.py",
-            "tests/robot/test_robot_simulated.py",
+            "tests/robot/sim/test_robot_simulated.py",
         ],
         1,
     ),
-    "drivers.tracker.link": (
+    "drivers.tracker.line.link": (
         [
-            "tests/tracker/test_tracker_link_frames.py",
-            "tests/tracker/test_tracker_faults.py",
-            "tests/tracker/test_tracker_grammar.py",
-            "tests/tracker/test_tracker_integrity.py",
-            "tests/tracker/test_tracker_scripted.py",
-            "tests/tracker/test_tracker_link_errors_and_close.py",
-            "tests/tracker/test_tracker_link_write_bound.py",
-            "tests/tracker/test_tracker_link_long_lines.py",
-            "tests/tracker/test_tracker_link_reads.py",
-            "tests/tracker/test_tracker_rfc2217.py",
+            "tests/tracker/line/test_tracker_link_frames.py",
+            "tests/tracker/line/test_tracker_faults.py",
+            "tests/tracker/line/test_tracker_grammar.py",
+            "tests/tracker/line/test_tracker_integrity.py",
+            "tests/tracker/line/test_tracker_scripted.py",
+            "tests/tracker/line/test_tracker_link_errors_and_close.py",
+            "tests/tracker/line/test_tracker_link_write_bound.py",
+            "tests/tracker/line/test_tracker_link_long_lines.py",
+            "tests/tracker/line/test_tracker_link_reads.py",
+            "tests/tracker/line/test_tracker_rfc2217.py",
         ],
         1,
     ),
-    "drivers.robot.ur_rtde_adapter": (
+    "drivers.robot.ur.device": (
         [
-            "tests/robot/test_robot_ur_rtde.py",
-            "tests/robot/test_robot_timestamp_stall.py",
-            "tests/robot/test_robot_fake_ur.py",
+            "tests/robot/ur/test_robot_ur_rtde.py",
+            "tests/robot/ur/test_robot_timestamp_stall.py",
+            "tests/robot/ur/test_robot_fake_ur.py",
             "tests/robot/test_robot_interface.py",
-            "tests/robot/test_ur_stop_latch.py",
-            "tests/robot/test_ur_stop_seen_at_connect.py",
-            "tests/robot/test_ur_move_ended_short.py",
-            "tests/robot/test_ur_close_stops_script.py",
-            "tests/robot/test_ur_command_deadline.py",
-            "tests/robot/test_ur_clear_stale_program_state.py",
+            "tests/robot/ur/test_ur_stop_latch.py",
+            "tests/robot/ur/test_ur_stop_seen_at_connect.py",
+            "tests/robot/ur/test_ur_move_ended_short.py",
+            "tests/robot/ur/test_ur_close_stops_script.py",
+            "tests/robot/ur/test_ur_command_deadline.py",
+            "tests/robot/ur/test_ur_clear_stale_program_state.py",
         ],
         1,
     ),

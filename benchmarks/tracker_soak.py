@@ -33,7 +33,7 @@ import numpy as np
 import serial
 
 from drivers.tracker import ConnectionLost, LaserTracker, TrackerTimeout
-from drivers.tracker.simulator import SimulatorProcess
+from drivers.tracker.line.simulator import SimulatorProcess
 
 LATE_S = 0.3  # how late the injected reply comes
 TOLERANCE_MM = 1.0  # a reading of another pose is >= 100 mm off; noise is ~0.01 mm

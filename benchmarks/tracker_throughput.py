@@ -1,6 +1,6 @@
 """Single readings per second through the full tracker protocol over a pty.
 
-The simulator runs as its own process (``python -m drivers.tracker.simulator
+The simulator runs as its own process (``python -m drivers.tracker.line.simulator
 --pty``) and the driver takes one ``MEAS`` at a time: frame, CRC, write,
 read, check, parse, exactly as in a measurement. Run::
 
@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     endpoint = ["--tcp", "0"] if args.tcp else ["--pty"]
     sim = subprocess.Popen(
-        [sys.executable, "-m", "drivers.tracker.simulator", *endpoint, "--initialised",
+        [sys.executable, "-m", "drivers.tracker.line.simulator", *endpoint, "--initialised",
          "--target", "2500,300,-200", "--seed", "1"],
         cwd=REPO, stdout=subprocess.PIPE, text=True,
     )  # fmt: skip

@@ -192,7 +192,7 @@ class SimWorld:
         The true tool: :data:`DEFAULT_TOOL_POINT` plus an unknown 1.5 mm error.
     tracker_at_mm : ndarray, shape (3,)
         The tracker's position in the robot base frame (plans use it).
-    repeatability : drivers.robot.simulated.JointRepeatability, optional
+    repeatability : drivers.robot.sim.device.JointRepeatability, optional
         The true arm's load-side joint errors (positioning spread, backlash);
         None: it lands exactly where commanded. Drawn from
         :meth:`repeatability_rng`.

@@ -89,7 +89,7 @@ class World:
         The trackers add their noise.
     repeatability : bool
         The arm has a typical arm's joint positioning error and backlash
-        (``drivers.robot.simulated.JointRepeatability.typical``).
+        (``drivers.robot.sim.device.JointRepeatability.typical``).
     air : tuple of 3 float, optional
         The air the tracker's station measures: degC, hPa, %RH.
     tracker_on_s : float, optional
@@ -118,7 +118,7 @@ class World:
             The run's ``--model``.
         seed : int
             The run's ``--seed``: the arm's seed when the file gives none.
-        repeatability : drivers.robot.simulated.JointRepeatability, optional
+        repeatability : drivers.robot.sim.device.JointRepeatability, optional
 
         Raises
         ------

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 from urllib.parse import parse_qsl, urlsplit
 
-__all__ = ["LOGGING", "Address", "parse"]
+__all__ = ["LOGGING", "Address", "parse", "settings"]
 
 #: A DNS name or an IPv4 address (IPv6 literals come out of urlsplit without brackets).
 _HOST = re.compile(r"[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252})|[0-9A-Fa-f:.]*:[0-9A-Fa-f:.]*")
@@ -134,6 +134,36 @@ def parse(
         raise ValueError(f"{_shown(text)}: unexpected path {parts.path or parts.fragment!r}")
     query = _params(text, parts.query, scheme, params)
     return Address(scheme, name, number if number is not None else default_port, query)
+
+
+def settings(
+    url: str,
+    scheme: str,
+    params: Mapping[str, tuple[str, ...] | Callable[[str], object] | None],
+) -> dict[str, str]:
+    """The query of a kind with no host, named bare (``sim``) or configured (``sim://?noise=off``).
+
+    Parameters
+    ----------
+    url : str
+    scheme : str
+        The kind: the bare word, and the URL's scheme.
+    params : mapping
+        Allowed query parameters, as :func:`parse` takes them.
+
+    Returns
+    -------
+    dict of str to str
+        Empty for the bare word.
+
+    Raises
+    ------
+    ValueError
+        As :func:`parse`: another scheme, a host, an unknown parameter or value.
+    """
+    if str(url).lower() == scheme:
+        return {}
+    return parse(url, scheme, host=False, params=params).params
 
 
 def _port(text: str, netloc: str) -> int | None:

@@ -358,7 +358,7 @@ def _before_retry(pose, attempt, exc, tracker, options, state: _State) -> None:
         state.sleep(options.retry_pause_s * min(2 ** (attempt - 2), 8))
     if not isinstance(exc, BeamLost):
         return
-    if SEARCH in tracker.capabilities and state.last_point_mm is not None:
+    if SEARCH.offered_by(tracker) and state.last_point_mm is not None:
         try:
             tracker.find_reflector(state.last_point_mm)
         except (ReadingLost, OSError):

@@ -14,7 +14,8 @@ angles in rad.
 from __future__ import annotations
 
 from abc import abstractmethod
-from typing import Protocol, runtime_checkable
+from collections.abc import Callable
+from typing import Generic, Protocol, TypeGuard, TypeVar, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -85,31 +86,129 @@ class TrackerReading(Protocol):
 
 # ---------------------------------------------------------------- capabilities
 #
-# What a device can do beyond the contract, declared by the driver in its
-# ``capabilities`` (a frozenset of these names) rather than probed with hasattr.
+# What a device can do beyond the contract. The driver declares each one in
+# its ``capabilities`` (a frozenset of the names below) rather than leaving the
+# loop to probe with hasattr: a wrapper has every method of what it wraps but
+# not always the ability (a guarded robot forwards ``joint_temperatures``
+# only to arms that report them; a replaying simulator asks no conditions).
+# Each name is also a small runtime-checkable protocol of the methods it
+# promises, so ``CAPABILITY.offered_by(device)`` checks both the declaration
+# and the methods, and the type checker then knows the methods exist.
 
-#: ``initialise(timeout_s=None)``: the tracker can be initialised (moves the head).
-INITIALISE = "initialise"
-#: ``find_reflector(near_mm)``: the tracker can search for its reflector near a
-#: predicted position (``near_mm``, shape (3,), tracker frame, mm) after a lost
-#: beam; the loop predicts it as the last point measured.
-SEARCH = "search"
-#: ``set_target(point_mm)``: a simulated tracker told where its reflector really is.
-STEER = "steer"
-#: The robot moves real hardware: the user must confirm before it moves.
+C = TypeVar("C")
+
+
+class Capability(str, Generic[C]):
+    """A capability's name (a ``str``, as drivers declare it) tied to its protocol.
+
+    Parameters
+    ----------
+    name : str
+        What drivers put in ``capabilities``.
+    protocol : type
+        The ``@runtime_checkable`` protocol of the methods it promises.
+    """
+
+    protocol: type
+
+    def __new__(cls, name: str, protocol: type) -> Capability[C]:
+        self = super().__new__(cls, name)
+        self.protocol = protocol
+        return self
+
+    def offered_by(self, device: object) -> TypeGuard[C]:
+        """``device`` declares this capability and has the protocol's methods."""
+        return self in getattr(device, "capabilities", ()) and isinstance(device, self.protocol)
+
+
+@runtime_checkable
+class Initialisable(Protocol):
+    """A tracker that can be initialised (it moves the head)."""
+
+    def initialise(self, timeout_s: float | None = None) -> None: ...
+
+
+@runtime_checkable
+class FindsReflector(Protocol):
+    """A tracker that can search for its reflector near a predicted position after a lost beam.
+
+    ``predicted_point_mm``: shape (3,), tracker frame, mm; the loop predicts it as the
+    last point measured.
+    """
+
+    def find_reflector(self, predicted_point_mm: ArrayLike) -> None: ...
+
+
+@runtime_checkable
+class Steerable(Protocol):
+    """A simulated tracker told where its reflector really is.
+
+    ``point_mm``: shape (3,), mm, tracker frame; ``rotvec_rad``: the probe's orientation
+    (probe to tracker frame), rotation vector, shape (3,), rad, or None.
+    """
+
+    def set_target(self, point_mm: np.ndarray, rotvec_rad: np.ndarray | None = None) -> None: ...
+
+
+@runtime_checkable
+class ReportsConditions(Protocol):
+    """A tracker that reports what it measures of its surroundings.
+
+    ``conditions()`` returns a dict (``air_temperature_c``, ``air_pressure_hpa``,
+    ``air_humidity_pct``, ``on_s``: time since power-on, ``warmed_up``; any may be
+    None when it does not say), or None.
+    """
+
+    def conditions(self) -> dict | None: ...
+
+
+@runtime_checkable
+class ChecksPlan(Protocol):
+    """A robot that checks a whole plan against its motion limits before the first move.
+
+    ``plan_rad``: shape (N, 6), rad; speed in rad/s, acceleration in rad/s^2.
+    Raises ``ValueError`` naming the first violation.
+    """
+
+    def check_plan(self, plan_rad: np.ndarray, speed_rad_s: float, accel_rad_s2: float) -> None: ...
+
+
+@runtime_checkable
+class ReportsTruePose(Protocol):
+    """A simulated robot that calls ``listener(tool2tracker)`` (4x4, mm) after each move,
+    so a simulated tracker can follow the true probe."""
+
+    listener: Callable[[np.ndarray], object] | None
+
+
+@runtime_checkable
+class ReportsTemperatures(Protocol):
+    """A robot that reports its joints' temperatures, shape (6,), degC."""
+
+    def joint_temperatures(self) -> np.ndarray: ...
+
+
+#: The tracker can be initialised (``initialise(timeout_s=None)``; moves the head).
+INITIALISE: Capability[Initialisable] = Capability("initialise", Initialisable)
+#: The tracker searches for its reflector near a predicted position after a lost beam.
+SEARCH: Capability[FindsReflector] = Capability("search", FindsReflector)
+#: A simulated tracker told where its reflector really is (``set_target``).
+STEER: Capability[Steerable] = Capability("steer", Steerable)
+#: The tracker reports its surroundings (``conditions()``).
+REPORTS_CONDITIONS: Capability[ReportsConditions] = Capability(
+    "reports_conditions", ReportsConditions
+)
+#: The robot checks a whole plan against its motion limits (``check_plan``).
+CHECKS_PLAN: Capability[ChecksPlan] = Capability("checks_plan", ChecksPlan)
+#: A simulated robot reports where its probe truly is after each move (``listener``).
+REPORTS_TRUE_POSE: Capability[ReportsTruePose] = Capability("reports_true_pose", ReportsTruePose)
+#: The robot reports its joints' temperatures (``joint_temperatures()``).
+REPORTS_TEMPERATURES: Capability[ReportsTemperatures] = Capability(
+    "reports_temperatures", ReportsTemperatures
+)
+#: The robot moves real hardware: the user must confirm before it moves (a
+#: declaration only: no methods come with it).
 MOVES_HARDWARE = "moves_hardware"
-#: ``check_plan(plan_rad, speed_rad_s, accel_rad_s2)``: the robot checks a whole plan
-#: against its motion limits before the first move (raises ``ValueError``).
-CHECKS_PLAN = "checks_plan"
-#: ``listener``: a simulated robot calls ``listener(tool2tracker)`` (4x4, mm) after
-#: each move, so a simulated tracker can follow the true probe.
-REPORTS_TRUE_POSE = "reports_true_pose"
-#: ``conditions()``: the tracker reports what it measures of its surroundings, a dict
-#: (``air_temperature_c``, ``air_pressure_hpa``, ``air_humidity_pct``, ``on_s``: time since
-#: power-on, ``warmed_up``; any may be None when it does not say), or None.
-REPORTS_CONDITIONS = "reports_conditions"
-#: ``joint_temperatures()``: the robot reports its joints' temperatures, shape (6,), degC.
-REPORTS_TEMPERATURES = "reports_temperatures"
 
 
 class TrackerState(Protocol):

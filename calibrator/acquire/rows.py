@@ -71,7 +71,7 @@ def conditions_of(robot: Any, tracker: Any) -> dict:
     all the same.
     """
     out: dict = {}
-    if ports.REPORTS_CONDITIONS in getattr(tracker, "capabilities", ()):
+    if ports.REPORTS_CONDITIONS.offered_by(tracker):
         try:
             reported = tracker.conditions()
         except (ports.PortError, OSError):
@@ -79,7 +79,7 @@ def conditions_of(robot: Any, tracker: Any) -> dict:
         for key, value in (reported or {}).items():
             if key in CONDITION_KEYS and value is not None:
                 out[key] = bool(value) if key == "warmed_up" else float(value)
-    if ports.REPORTS_TEMPERATURES in getattr(robot, "capabilities", ()):
+    if ports.REPORTS_TEMPERATURES.offered_by(robot):
         try:
             temps = np.asarray(robot.joint_temperatures(), dtype=float).reshape(-1)
         except (ports.PortError, OSError, ValueError, RuntimeError):  # ur_rtde: RuntimeError

@@ -186,8 +186,8 @@ class MeasureRun:
         self.output = Path(output)
         self.journal_path = journals.journal_path(self.output)
         self.world = world
-        if steer is None and world is not None and ports.STEER in tracker.capabilities:
-            steer = tracker.set_target  # type: ignore[attr-defined]
+        if steer is None and world is not None and ports.STEER.offered_by(tracker):
+            steer = tracker.set_target
         self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
         self.acquisition: Acquisition = acquisition_for(robot, tracker, model.mdh, options.tool_mm)
@@ -248,8 +248,8 @@ class MeasureRun:
         if self._steer is not None:
             steer = self._steer
             # The orientation too: a 6-DoF probe reports it (others ignore it).
-            if ports.REPORTS_TRUE_POSE in self.robot.capabilities:
-                self.robot.listener = lambda pose: _steer_to(steer, pose)  # type: ignore[union-attr]
+            if ports.REPORTS_TRUE_POSE.offered_by(self.robot):
+                self.robot.listener = lambda pose: _steer_to(steer, pose)
             elif self.world is not None:
                 world = self.world
                 self._after_move = lambda q: _steer_to(steer, world.tool_pose(q))

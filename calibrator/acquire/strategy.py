@@ -66,10 +66,10 @@ class Commanded:
         self, plan_rad: np.ndarray, vias: Sequence[np.ndarray], options: loop.LoopOptions
     ) -> None:
         """The robot's own check of every pose and via it will move to, when it has one."""
-        if ports.CHECKS_PLAN in self.robot.capabilities:
+        robot = self.robot
+        if ports.CHECKS_PLAN.offered_by(robot):
             motion = np.concatenate([plan_rad, *vias]) if vias else plan_rad
-            speed, accel = options.speed_rad_s, options.accel_rad_s2
-            self.robot.check_plan(motion, speed, accel)  # type: ignore[attr-defined]
+            robot.check_plan(motion, options.speed_rad_s, options.accel_rad_s2)
 
     def measure(
         self, plan_rad: np.ndarray, journal: Journal, options: loop.LoopOptions, hooks: loop.Hooks

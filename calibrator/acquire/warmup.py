@@ -70,7 +70,7 @@ def warm_up(
 
 def tracker_warning(tracker: Any) -> str | None:
     """A line when the tracker says it has not warmed up; None otherwise (or when it cannot say)."""
-    if ports.REPORTS_CONDITIONS not in getattr(tracker, "capabilities", ()):
+    if not ports.REPORTS_CONDITIONS.offered_by(tracker):
         return None
     try:
         said = tracker.conditions()

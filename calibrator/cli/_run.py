@@ -262,6 +262,72 @@ def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: fl
     return arm
 
 
+def is_sim(url: str) -> bool:
+    """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
+    from drivers.registry import scheme
+
+    return scheme(url) == "sim"
+
+
+def device_urls(
+    robot_url: str,
+    tracker_url: str,
+    *,
+    world_file: Any = None,
+    noise: bool = True,
+    faults: Path | None = None,
+    replay: Path | None = None,
+    probe_6dof: bool = False,
+    repeatability: bool = False,
+) -> tuple[str, str]:
+    """``--robot`` and ``--tracker`` with the hidden ``--sim-*`` options written into them.
+
+    The simulators are configured by their URLs (``sim://?noise=off&probe=6dof``,
+    ``sim://?repeatability=typical``); the options users type stay, and a world
+    file's ``noise: false`` and ``repeatability: true`` arrive the same way.
+
+    Returns
+    -------
+    (str, str)
+        The robot's and the tracker's URL; unchanged when nothing is to be said.
+
+    Raises
+    ------
+    typer.Exit
+        ``--sim-faults`` or ``--sim-replay`` with a tracker that is no simulator (exit 2).
+    """
+    if world_file is not None:
+        noise = noise and world_file.noise
+        repeatability = repeatability or world_file.repeatability
+    tracker_says: dict[str, str] = {}
+    if not noise:
+        tracker_says["noise"] = "off"
+    if probe_6dof:
+        tracker_says["probe"] = "6dof"
+    if faults is not None:
+        tracker_says["faults"] = str(faults)
+    if replay is not None:
+        tracker_says["replay"] = str(replay)
+    if is_sim(tracker_url):
+        tracker_url = _with_settings(tracker_url, tracker_says)
+    elif faults is not None or replay is not None:
+        fail(f"--tracker: {tracker_url}: simulator options need --tracker sim")
+    if is_sim(robot_url) and repeatability:
+        robot_url = _with_settings(robot_url, {"repeatability": "typical"})
+    return robot_url, tracker_url
+
+
+def _with_settings(url: str, settings: dict[str, str]) -> str:
+    """``sim`` or ``sim://?a=1`` with ``settings`` added to its query."""
+    from urllib.parse import urlencode
+
+    if not settings:
+        return url
+    if "://" not in url:
+        url += "://"
+    return url + ("&" if "?" in url else "?") + urlencode(settings)
+
+
 def open_run(
     robot_url: str,
     tracker_url: str,
@@ -270,14 +336,9 @@ def open_run(
     output: Path,
     stack: ExitStack,
     *,
-    sim_noise: bool = True,
-    sim_faults: Path | None = None,
-    sim_replay: Path | None = None,
-    sim_record: Path | None = None,
+    record: Path | None = None,
     sim_control: str | None = None,
     max_speed: float | None = None,
-    sim_repeatability: bool = False,
-    sim_probe_6dof: bool = False,
     external: Any = None,
     world_file: Any = None,
     place_tracker: bool = True,
@@ -286,13 +347,14 @@ def open_run(
 
     Parameters
     ----------
+    robot_url, tracker_url : str
+        Simulators carry their settings in their URLs (:func:`device_urls`).
     arm : calibrator.robots.RobotDescription
     options : calibrator.acquire.run.RunOptions
-    sim_repeatability : bool
-        The simulated arm has a typical arm's joint positioning error and
-        backlash (seeded from ``options.seed``); off, it lands exactly.
-    sim_probe_6dof : bool
-        The simulated tracker's probe reports its orientation too.
+    record : Path, optional
+        Log the tracker's raw exchange there (``--sim-record``; line-protocol kinds).
+    sim_control : str, optional
+        ``--sim-control URL``: the simulated robot steers a simulator started by hand.
     external : calibrator.acquire.external.arm.ExternalOptions, optional
         Stop detection and association of ``--robot external``.
     place_tracker : bool
@@ -314,17 +376,12 @@ def open_run(
     from drivers.tracker import OpenOptions, open_tracker
 
     world = None
-    if "sim" in (robot_url, tracker_url):
-        repeatability = None
-        if sim_repeatability or (world_file is not None and world_file.repeatability):
-            from drivers.robot.simulated import JointRepeatability
-
-            repeatability = JointRepeatability.typical()
+    if is_sim(robot_url) or is_sim(tracker_url):
+        # The arm's repeatability is the simulated robot's setting (its URL).
         if world_file is not None:
-            world = world_file.build(arm.name, options.seed, repeatability)
-            sim_noise = sim_noise and world_file.noise
+            world = world_file.build(arm.name, options.seed)
         else:
-            world = SimWorld.make(arm.name, options.seed, repeatability=repeatability)
+            world = SimWorld.make(arm.name, options.seed)
         at = tracker_position(options)
         if at is not None and place_tracker:
             # The simulated tracker stands where the user (or the cell file) says.
@@ -332,12 +389,8 @@ def open_run(
     try:
         tracker = open_tracker(
             tracker_url,
-            OpenOptions(
-                record=sim_record, world=world if tracker_url == "sim" else None,
-                sim_noise=sim_noise, sim_faults=sim_faults, sim_replay=sim_replay,
-                sim_probe_6dof=sim_probe_6dof,
-            ),
-        )  # fmt: skip
+            OpenOptions(record=record, world=world if is_sim(tracker_url) else None),
+        )
     except ValueError as exc:
         raise CalibrationError(f"--tracker: {exc}") from None
     robot_options = RobotOptions(arm, world, max_speed_rad_s=max_speed, external=external)
@@ -354,7 +407,7 @@ def open_run(
 def _sim_control(url: str, robot: Any, stack: ExitStack) -> Any:
     """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
     from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.simulator.launch import SimulatorControl
+    from drivers.tracker.line.simulator.launch import SimulatorControl
 
     if REPORTS_TRUE_POSE not in robot.capabilities:
         fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")
@@ -377,7 +430,7 @@ def read_world(path: Path | None, robot_url: str, tracker_url: str) -> Any:
     """``--world FILE`` parsed (exit 2 on a bad file), or None; only for a simulated cell."""
     if path is None:
         return None
-    if "sim" not in (robot_url, tracker_url):
+    if not (is_sim(robot_url) or is_sim(tracker_url)):
         fail("--world is for the simulated cell (--robot sim or --tracker sim)")
     from calibrator.world import WorldError, read_world
 

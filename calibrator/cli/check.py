@@ -145,9 +145,10 @@ def check(
     external = _external(robot, output, chosen, arm, quiet)
     with contextlib.ExitStack() as stack:
         mrun = stack.enter_context(
-            open_run(robot, tracker, arm, options, data_path, stack, sim_noise=sim_noise,
-                     sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     external=external, world_file=world_file,
+            open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
+                                       faults=sim_faults),
+                     arm, options, data_path, stack, sim_control=sim_control,
+                     max_speed=run_args.max_speed, external=external, world_file=world_file,
                      place_tracker=at is not None or cell_given)
         )  # fmt: skip
         mrun.check_files()

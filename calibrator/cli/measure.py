@@ -147,10 +147,10 @@ def measure(
     external = _external_options(stop_band, settle_window, match_tolerance, stop_timeout, quiet)
     with contextlib.ExitStack() as stack:
         run = stack.enter_context(
-            _open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
-                      sim_faults=sim_faults, sim_replay=sim_replay, sim_record=sim_record,
-                      sim_control=sim_control, max_speed=run_args.max_speed, external=external,
-                      world_file=world_file)
+            _open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
+                                        faults=sim_faults, replay=sim_replay),
+                      arm, options, output, stack, record=sim_record, sim_control=sim_control,
+                      max_speed=run_args.max_speed, external=external, world_file=world_file)
         )  # fmt: skip
         run.check_files()
         run.connect(tracker)

@@ -25,9 +25,10 @@ URL_HELP = (
 def _connected(url: str):
     """The tracker at ``url``, connected (never initialised), and its state."""
     from calibrator.acquire.ports import PortError
+    from calibrator.cli._run import is_sim
     from drivers.tracker import open_tracker
 
-    if url == "sim":
+    if is_sim(url):
         _fail("--tracker sim is started by measure itself, initialised; give a tracker's URL")
     try:
         tracker = open_tracker(url)
@@ -73,7 +74,8 @@ def init(
         if state.initialised:
             typer.echo(f"{device.device_id}: already initialised")
             return
-        if INITIALISE not in device.capabilities:
+        head = device
+        if not INITIALISE.offered_by(head):
             _fail(f"the tracker at {tracker} cannot be initialised from here")
         if not yes:
             if not sys.stdin.isatty():
@@ -83,7 +85,7 @@ def init(
             ):
                 _fail("not confirmed; nothing moved")
         try:
-            device.initialise()  # type: ignore[attr-defined]
+            head.initialise()
             state = device.status()
         except (PortError, OSError) as exc:
             _fail(f"initialising the tracker at {tracker} failed: {exc}")

@@ -150,7 +150,7 @@ def verify(
     outputs.check(data_path, inputs=inputs, force=True)
     if not replace_ok and data_path.exists():
         raise outputs.existing(data_path, resumable=True)
-    if sim_probe_6dof and tracker != "sim":
+    if sim_probe_6dof and not _run.is_sim(tracker):
         fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
@@ -170,7 +170,7 @@ def verify(
     tracker_at_mm = triple(tracker_at, "--tracker-at")
     if tracker_at_mm is None and cell is not None:
         tracker_at_mm = cell.tracker_at_mm
-    if tracker_at_mm is None and (robot == "sim" or tracker == "sim"):
+    if tracker_at_mm is None and (_run.is_sim(robot) or _run.is_sim(tracker)):
         from calibrator.simulate import SimWorld
 
         tracker_at_mm = tuple(SimWorld.make(arm.name, seed).tracker_at_mm)
@@ -190,10 +190,11 @@ def verify(
     )
     with contextlib.ExitStack() as stack:
         mrun = stack.enter_context(
-            open_run(robot, tracker, arm, options, output, stack, sim_noise=sim_noise,
-                     sim_faults=sim_faults, sim_control=sim_control, max_speed=run_args.max_speed,
-                     sim_repeatability=sim_repeatability, sim_probe_6dof=sim_probe_6dof,
-                     world_file=world_file)
+            open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
+                                       faults=sim_faults, probe_6dof=sim_probe_6dof,
+                                       repeatability=sim_repeatability),
+                     arm, options, output, stack, sim_control=sim_control,
+                     max_speed=run_args.max_speed, world_file=world_file)
         )  # fmt: skip
         mrun.check_files()
         # Every option is turned into what the run uses before the first motion:

@@ -1,8 +1,8 @@
 """The robot interface the measure loop uses, whatever drives the arm.
 
-Two implementations: :class:`~drivers.robot.ur_rtde_adapter.UrRtdeRobot` (a
+Two implementations: :class:`~drivers.robot.ur.device.UrRtdeRobot` (a
 Universal Robots controller through ``ur-rtde``) and
-:class:`~drivers.robot.simulated.SimulatedRobot` (a "true" arm, no network).
+:class:`~drivers.robot.sim.device.SimulatedRobot` (a "true" arm, no network).
 Both pass the same behavioural tests (``tests/robot/test_robot_interface.py``).
 
 Units: joint angles in rad, speeds in rad/s, accelerations in rad/s^2.

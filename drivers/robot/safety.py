@@ -227,8 +227,16 @@ class GuardedRobot(Robot):
         return self.robot.safety_state()
 
     def joint_temperatures(self) -> np.ndarray:
-        """The inner robot's joint temperatures, degC (with ``REPORTS_TEMPERATURES``)."""
-        return self.robot.joint_temperatures()  # type: ignore[attr-defined]
+        """The inner robot's joint temperatures, degC (with ``REPORTS_TEMPERATURES``).
+
+        Raises
+        ------
+        NotImplementedError
+            The inner robot does not report them (it does not declare the capability).
+        """
+        if not ports.REPORTS_TEMPERATURES.offered_by(self.robot):
+            raise NotImplementedError(f"{type(self.robot).__name__} reports no joint temperatures")
+        return self.robot.joint_temperatures()
 
     def stop(self) -> None:
         self.robot.stop()

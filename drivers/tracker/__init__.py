@@ -13,19 +13,18 @@ Any tracker kind is opened by URL (:func:`open_tracker`, registry in
     avg = measure_average(tracker, n=10)   # avg.mean_mm, avg.std_mm, avg.count
     tracker.close()
 
-The simulator lives in :mod:`drivers.tracker.simulator` (imported on demand).
+The simulator lives in :mod:`drivers.tracker.line.simulator` (imported on demand).
 """
 
+from drivers.registry import UnknownKind
 from drivers.tracker.averaging import measure_average
 from drivers.tracker.base import (
-    TRACKER_KINDS,
+    TRACKERS,
     Environment,
     OpenOptions,
-    UnknownKind,
     open_tracker,
     register_tracker,
 )
-from drivers.tracker.driver import Identity, LaserTracker, Status
 from drivers.tracker.errors import (
     BeamBroken,
     ChecksumError,
@@ -41,11 +40,12 @@ from drivers.tracker.errors import (
     TrackerGone,
     TrackerTimeout,
 )
-from drivers.tracker.protocol import Reading, ReadingStatus
+from drivers.tracker.line.device import Identity, LaserTracker, Status
+from drivers.tracker.line.protocol import Reading, ReadingStatus
 from drivers.tracker.recording import Recorder, read_log
 
 __all__ = [
-    "TRACKER_KINDS",
+    "TRACKERS",
     "AveragedReading",
     "BeamBroken",
     "ChecksumError",

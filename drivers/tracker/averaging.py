@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from drivers.tracker.errors import TargetUnstable
-from drivers.tracker.protocol import ErrorCode
+from drivers.tracker.line.protocol import ErrorCode
 
 __all__ = ["measure_average"]  # and AveragedReading, on demand (see __getattr__)
 

@@ -1,4 +1,9 @@
-"""Tracker-specific errors, derived from the one tree in :mod:`drivers.errors`.
+"""The failures every tracker kind raises, derived from the one tree in :mod:`drivers.errors`.
+
+Each brand (the line protocol, emScon) raises these same classes for the same
+failure, so the measure loop, the journal's failure causes and the user read
+one name whatever tracker answered; a brand adds a class of its own only for
+what no other brand has (emScon's ``UnknownStatus``), derived from one of these.
 
 Which error means what (those the measure loop retries also derive from
 :class:`calibrator.acquire.ports.ReadingLost`):
@@ -6,10 +11,14 @@ Which error means what (those the measure loop retries also derive from
 - :class:`TrackerTimeout` -- no complete reply line by the command's deadline.
 - :class:`FrameError` / :class:`ChecksumError` -- a reply line that is not a
   valid frame, or whose CRC does not match (both :class:`ProtocolError`).
+- :class:`BadReading` -- a well-framed reading whose numbers cannot be true
+  (NaN, inf, beyond any tracker's range): the port's
+  :class:`calibrator.acquire.ports.BadReading`; the link stays up.
 - :class:`TrackerError` -- the tracker answered ``ER``; subclasses name the
   codes the caller acts on (:class:`BeamBroken`, :class:`NotInitialised`,
   :class:`TargetUnstable`, :class:`TrackerBusy`, :class:`FrameRejected`).
-- :class:`IdentityChanged` -- after a reconnect a different tracker answered.
+- :class:`IdentityChanged` -- after a reconnect a different tracker answered
+  (another serial number): the run stops, never mixing two trackers' readings.
 - :class:`LinkDropped` -- the port went away during a command and came back:
   the reply is lost (the loop measures again).
 - :class:`TrackerGone` -- the port went away and the bounded reconnect did
@@ -17,10 +26,12 @@ Which error means what (those the measure loop retries also derive from
   from :mod:`drivers.errors`.
 """
 
+from calibrator.acquire import ports
 from calibrator.acquire.ports import BeamLost, ReadingLost, TrackerUnavailable
 from drivers.errors import ConnectionLost, DriverError, DriverTimeout, NotReady, ProtocolError
 
 __all__ = [
+    "BadReading",
     "BeamBroken",
     "ChecksumError",
     "ConnectionLost",
@@ -49,6 +60,10 @@ class ChecksumError(FrameError):
     """A received frame's CRC-16 does not match its body."""
 
 
+class BadReading(FrameError, ports.BadReading):
+    """A reading, well framed, whose values cannot be true (non-finite, absurd); re-measure."""
+
+
 class LinkDropped(ConnectionLost, ReadingLost):
     """The link failed during a command and a reconnect brought it back; that reply is lost."""
 
@@ -67,7 +82,7 @@ class TrackerError(DriverError):
     Attributes
     ----------
     code : int
-        Numeric error code (see :class:`drivers.tracker.protocol.ErrorCode`).
+        Numeric error code (see :class:`drivers.tracker.line.protocol.ErrorCode`).
     text : str
         The code's name as sent by the tracker.
     detail : str

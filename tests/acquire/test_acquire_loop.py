@@ -16,9 +16,9 @@ from calibrator.acquire.averaging import AveragedReading, average, measure_avera
 from calibrator.acquire.ports import ReadingLost
 from calibrator.simulate import SimWorld
 from drivers.robot.errors import EmergencyStop
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import LaserTracker
-from drivers.tracker.simulator import SimulatorControl, SimulatorProcess
+from drivers.tracker.line.simulator import SimulatorControl, SimulatorProcess
 
 N_POSES = 10
 HEADER = {"plan_sha256": "x", "robot": "sim", "tracker": "sim", "readings": 10}

@@ -30,15 +30,15 @@ from calibrator.simulate import (
     SIM_TRACKER_ROTVEC,
     SimWorld,
 )
+from drivers.registry import Registry, UnknownKind
 from drivers.robot import RobotOptions, open_robot
 from drivers.robot.safety import GuardedRobot
-from drivers.robot.simulated import SimulatedRobot
-from drivers.tracker import LaserTracker, OpenOptions, open_tracker
-from drivers.tracker.base import scheme
+from drivers.robot.sim.device import SimulatedRobot
+from drivers.tracker import TRACKERS, LaserTracker, OpenOptions, open_tracker
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
-from drivers.tracker.simulator import SimulatorProcess
-from drivers.tracker.simulator.world import SimulatedTracker
+from drivers.tracker.line.simulator import SimulatorProcess
+from drivers.tracker.line.simulator.world import SimulatedTracker
 
 UR10E = robots.get("ur10e")
 Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
@@ -59,7 +59,10 @@ Q = np.array([0.3, -1.2, 1.1, -0.4, 1.3, 0.2])
     ],
 )
 def test_scheme_is_the_lowercase_part_before_the_separator(url, kind):
-    assert scheme(url) == kind
+    from drivers.robot import ROBOTS
+
+    registry = ROBOTS if kind == "ur" else TRACKERS
+    assert registry.kind_of(url) == kind
 
 
 def test_the_simulated_world_is_seeded_and_its_errors_are_small_but_real():
@@ -90,9 +93,10 @@ def test_the_worlds_tool_pose_is_the_true_arm_seen_from_the_tracker():
 def sim_run(tmp_path, tracker_url="sim", seed=3, noise=False, **options):
     world = SimWorld.make("ur10e", seed)
     robot = open_robot("sim", RobotOptions(UR10E, world))
+    if tracker_url == "sim" and not noise:
+        tracker_url = "sim://?noise=off"  # the simulator's settings are in its URL
     tracker = open_tracker(
-        tracker_url,
-        OpenOptions(world=world if tracker_url == "sim" else None, sim_noise=noise),
+        tracker_url, OpenOptions(world=world if tracker_url.startswith("sim") else None)
     )
     run = MeasureRun(
         robot, tracker, UR10E, RunOptions(seed=seed, **options), tmp_path / "s.parquet", world=world
@@ -152,7 +156,7 @@ class PlainRobot(SimulatedRobot):
 def test_a_robot_without_true_poses_places_the_simulated_target_after_each_move(tmp_path):
     world = SimWorld.make("ur10e", 2)
     robot = PlainRobot(world.true_mdh, world.base2tracker, world.flange2tool)
-    tracker = open_tracker("sim", OpenOptions(world=world, sim_noise=False))
+    tracker = open_tracker("sim://?noise=off", OpenOptions(world=world))
     run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet", world=world)
     with run:
         run.connect()
@@ -247,13 +251,32 @@ def test_unknown_schemes_are_refused_naming_the_known_ones():
     known = "use sim or ur://HOST or external"
     with pytest.raises(ValueError, match=f"^unknown robot 'kuka://x'; {known}$"):
         open_robot("kuka://x", RobotOptions(UR10E))
-    with pytest.raises(ValueError, match="^unknown tracker 'ftp://x'; use sim, a device path"):
+    with pytest.raises(UnknownKind, match="^unknown tracker 'ftp://x'; use sim or a device path"):
         open_tracker("ftp://x")
+    with pytest.raises(UnknownKind, match="^unknown robot 'kuka'; use sim or ur://HOST or"):
+        open_robot("kuka", RobotOptions(UR10E))
+
+
+def test_a_registry_opens_a_module_handler_a_named_function_or_a_callable():
+    registry: Registry = Registry("gadget", bare=("sim",), bare_default="serial")
+    registry.register("sim", "drivers.tracker.line.simulator.world")
+    registry.register("emscon", "drivers.tracker.emscon.device:open_url")
+    registry.register("echo", lambda url, options: (url, options), usage="echo://ANY")
+    assert registry.kinds() == ["sim", "emscon", "echo"]
+    assert registry.open("ECHO://x", 7) == ("ECHO://x", 7)
+    assert isinstance(registry.open("emscon://h", OpenOptions()), EmsconTracker)
+    with pytest.raises(ValueError, match="needs the simulated world"):
+        registry.open("sim", OpenOptions())  # the module's open_url refused it
+    with pytest.raises(UnknownKind) as err:
+        registry.open("/dev/ttyUSB0", None)  # a bare path is serial: not registered here
+    assert str(err.value) == ("unknown gadget '/dev/ttyUSB0'; use sim or emscon:// or echo://ANY")
+    # What the CLI already maps to one line: a ValueError, and a driver error.
+    assert isinstance(err.value, ValueError) and isinstance(err.value, OSError)
 
 
 def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steers(tmp_path):
     with EmsconSimulatorProcess(noise=False, initialised=True) as sim:
-        from drivers.tracker.simulator.launch import SimulatorControl
+        from drivers.tracker.line.simulator.launch import SimulatorControl
 
         control = SimulatorControl(sim.control_url)
         url = sim.url + "?meteo=21.5,1000,40"
@@ -362,7 +385,7 @@ def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_c
 def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     from calibrator import simulate
     from drivers.tracker.emscon.simulator import engine as emscon_engine
-    from drivers.tracker.simulator import NoiseModel, engine
+    from drivers.tracker.line.simulator import NoiseModel, engine
 
     assert NoiseModel is simulate.NoiseModel is engine.NoiseModel is emscon_engine.NoiseModel
     # A synthetic session's transverse noise grows with range as the model's does.
@@ -372,3 +395,49 @@ def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     growth = s_trans - simulate.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
     np.testing.assert_allclose(readings[:, 1:].std(axis=0), growth, rtol=0.03)
     assert readings[:, 0].std() < 1e-8  # along the beam: the session's own sigma
+
+
+# ------------------------------------------------- simulators configured by their URL
+
+
+def test_the_simulators_take_their_settings_from_their_urls():
+    world = SimWorld.make("ur10e", 1)
+    exact = open_tracker("sim://?noise=off&probe=6dof", OpenOptions(world=world))
+    assert isinstance(exact, SimulatedTracker)
+    assert (exact._noise, exact._probe_6dof) == (False, True)
+    bare = open_tracker("sim", OpenOptions(world=world))
+    assert (bare._noise, bare._probe_6dof, bare._faults) == (True, False, None)
+    with pytest.raises(ValueError, match="noise='maybe' is not one of on, off"):
+        open_tracker("sim://?noise=maybe", OpenOptions(world=world))
+    with pytest.raises(ValueError, match="unknown parameter 'colour'"):
+        open_robot("sim://?colour=red", RobotOptions(UR10E, world))
+
+    def landing_error_mm(url):
+        robot = open_robot(url, RobotOptions(UR10E, world))
+        robot.connect()
+        robot.move_joints(Q, 0.5, 1.0)
+        return np.linalg.norm(robot.true_tool_pose()[:3, 3] - world.tool_pose(Q)[:3, 3])
+
+    assert world.repeatability is None
+    assert 0.0 < landing_error_mm("sim://?repeatability=typical") < 0.2
+    assert landing_error_mm("sim") < 1e-9
+
+
+def test_the_cli_writes_its_hidden_simulator_options_into_the_urls(tmp_path):
+    from calibrator.cli import _run
+
+    faults = tmp_path / "faults file.txt"
+    robot, tracker = _run.device_urls(
+        "sim", "sim", noise=False, faults=faults, probe_6dof=True, repeatability=True
+    )
+    assert robot == "sim://?repeatability=typical"
+    assert tracker.startswith("sim://?noise=off&probe=6dof&faults=")
+    world = SimWorld.make("ur10e", 1)
+    opened = open_tracker(tracker, OpenOptions(world=world))
+    assert opened._faults == str(faults) and not opened._noise
+    # A typed URL keeps its own settings; nothing said leaves the URLs alone.
+    assert _run.device_urls("sim://?repeatability=none", "sim://?probe=6dof", noise=False) == (
+        "sim://?repeatability=none",
+        "sim://?probe=6dof&noise=off",
+    )
+    assert _run.device_urls("ur://h", "socket://h:1", noise=False) == ("ur://h", "socket://h:1")

@@ -18,7 +18,7 @@ import pytest
 from calibrator.acquire import journal as journals
 from calibrator.acquire import rows
 from calibrator.acquire.averaging import average
-from drivers.tracker import protocol
+from drivers.tracker.line import protocol
 
 HEADER = {"plan_sha256": "abc", "robot": "sim:r", "tracker": "t-1", "readings": 3, "poses": 4}
 PLAN = np.array([np.full(6, pose / 10) for pose in range(4)])

@@ -26,7 +26,7 @@ WRITER = textwrap.dedent(
     import numpy as np
     from calibrator.acquire import journal as journals, rows
     from calibrator.acquire.averaging import average
-    from drivers.tracker.protocol import Reading as TrackerReading, ReadingStatus
+    from drivers.tracker.line.protocol import Reading as TrackerReading, ReadingStatus
 
     def Reading(point):
         return TrackerReading(np.asarray(point, float), None, ReadingStatus.ACCURATE, 0)

@@ -18,7 +18,7 @@ from cli_process_kit import run_cli
 from calibrator import robots
 from calibrator.acquire.run import MAX_POSES
 from calibrator.identify.pipeline import MAX_POSES as IDENTIFY_MAX_POSES
-from drivers.tracker.simulator import SimulatorProcess
+from drivers.tracker.line.simulator import SimulatorProcess
 
 BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
 # The beam broken for every reading (the simulator re-locks when the target moves,

@@ -27,7 +27,7 @@ from calibrator import planning, robots, session
 from calibrator.cli import measure as measure_cli
 from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import read_log
 
 UR10E = robots.get("ur10e")
@@ -306,8 +306,8 @@ def write_plans(folder):
         (("--robot", "ftp://x"), "--robot: unknown robot 'ftp://x'; use sim or ur://HOST"),
         (
             ("--tracker", "gopher://x"),
-            "--tracker: unknown tracker 'gopher://x'; use sim, a device path or one of "
-            "socket://, rfc2217://, loop://, emscon://",
+            "--tracker: unknown tracker 'gopher://x'; use sim or a device path or "
+            "socket://HOST:PORT or rfc2217://HOST:PORT or loop:// or emscon://HOST[:PORT]",
         ),
         (("--robot", "ur://"), "--robot: 'ur://': missing host (use ur://HOST)"),
         (("--plan", "bad.csv"), "plan row 6 joint 3: 4 rad outside"),

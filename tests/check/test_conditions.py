@@ -12,10 +12,10 @@ from calibrator import robots, session
 from calibrator.acquire import warmup
 from calibrator.errors import SessionError
 from calibrator.model import kinematics
-from drivers.robot.fake_ur.controller import JOINT_RISE_C, ROOM_C, WARM_TAU_S, FakeController
-from drivers.robot.simulated import SimulatedRobot
-from drivers.tracker.driver import LaserTracker
-from drivers.tracker.simulator.launch import SimulatorProcess
+from drivers.robot.sim.device import SimulatedRobot
+from drivers.robot.ur.simulator.controller import JOINT_RISE_C, ROOM_C, WARM_TAU_S, FakeController
+from drivers.tracker.line.device import LaserTracker
+from drivers.tracker.line.simulator.launch import SimulatorProcess
 
 FIXTURE = Path(__file__).parents[2] / "fixtures" / "measure" / "session.parquet"
 COLD = "world: 1\nseed: 3\ntracker: {air: [23.5, 990, 35], on_minutes: 20}\n"

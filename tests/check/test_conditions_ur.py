@@ -9,8 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 from cli_process_kit import run_cli
 
-from drivers.robot.fake_ur.controller import JOINT_RISE_C, ROOM_C
-from drivers.robot.fake_ur.launcher import FakeUrProcess
+from drivers.robot.ur.simulator.controller import JOINT_RISE_C, ROOM_C
+from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
 pytest.importorskip("rtde_receive")
 

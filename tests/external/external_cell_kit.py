@@ -40,12 +40,12 @@ def first_poses(plan_path: Path, n: int, out: Path) -> Path:
 
 @contextmanager
 def tracker_simulator(seed: int = 2, time_scale: float = TIME_SCALE):
-    """``python -m drivers.tracker.simulator --tcp 0 --initialised``; yields its socket URL."""
+    """``python -m drivers.tracker.line.simulator --tcp 0 --initialised``; yields its socket URL."""
     proc = subprocess.Popen(
         [
             sys.executable,
             "-m",
-            "drivers.tracker.simulator",
+            "drivers.tracker.line.simulator",
             "--tcp",
             "0",
             "--initialised",

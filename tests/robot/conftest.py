@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from robot_kit import wait_until
 
-from drivers.robot.fake_ur.launcher import FakeUrProcess, acquire_ports, release_ports
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
+from drivers.robot.ur.simulator.launcher import FakeUrProcess, acquire_ports, release_ports
 
 FAST = 10.0  # time scale of the fake: moves run ten times faster than on a robot
 
@@ -70,7 +70,7 @@ def fake_ur(fake_manager):
 @pytest.fixture
 def ur_robot(fake_ur):
     """The ur-rtde adapter connected to the fake controller."""
-    from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+    from drivers.robot.ur.device import UrRtdeRobot
 
     robot = UrRtdeRobot("127.0.0.1")
     robot.connect()
@@ -114,7 +114,7 @@ class FakeControllerHarness:
     name = "ur_rtde_fake"
 
     def __init__(self, fake):
-        from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+        from drivers.robot.ur.device import UrRtdeRobot
 
         self.fake = fake
         self.robot = UrRtdeRobot("127.0.0.1")

@@ -14,7 +14,7 @@ from calibrator import robots
 from calibrator.acquire import ports
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 
 def test_a_cap_equal_to_the_ceiling_is_allowed():

@@ -13,7 +13,7 @@ import pytest
 
 from calibrator import robots
 from drivers.robot.safety import GuardedRobot, MotionLimits
-from drivers.robot.ur_rtde_adapter import UrRtdeRobot
+from drivers.robot.ur.device import UrRtdeRobot
 
 STEP_RAD = 0.01  # wrist 3 only: the joint that sweeps the least space
 SPEED, ACCEL = 0.05, 0.3

@@ -13,7 +13,7 @@ from calibrator import robots
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.interface import check_move_args
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_motion, check_plan
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 UR10E = robots.get("ur10e")
 LIMITS = MotionLimits.from_model(UR10E, max_speed_rad_s=1.0, max_accel_rad_s2=2.0)

@@ -6,7 +6,7 @@ import pytest
 from calibrator import robots
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 EPS = 1e-6
 # Asymmetric and different per joint, so a limit read from the wrong joint or end shows.

@@ -6,7 +6,7 @@ import pytest
 from calibrator import robots
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_plan
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 LIMITS = MotionLimits(np.tile([-np.pi, np.pi], (6, 1)), max_speed_rad_s=1.0, max_accel_rad_s2=2.0)
 

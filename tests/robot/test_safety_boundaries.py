@@ -11,7 +11,7 @@ import pytest
 
 from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot, MotionLimits, check_motion, check_plan
-from drivers.robot.simulated import SimulatedRobot
+from drivers.robot.sim.device import SimulatedRobot
 
 JOINTS = np.tile([-np.pi, np.pi], (6, 1))
 SLOW = np.array([2.0, 2.0, 3.0, 3.0, 0.6, 3.0])  # rad/s; joint 5 is the slowest

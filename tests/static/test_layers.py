@@ -7,7 +7,7 @@ import cannot hide a dependency. ``from pkg import name`` is an edge to the
 module ``pkg.name`` when there is one, else to ``pkg`` itself.
 
 A module belongs to the layer of its top-level name (``calibrator.cell.checks``
-to the layer of ``calibrator.cell``; ``drivers.robot.fake_ur`` to that of
+to the layer of ``calibrator.cell``; ``drivers.robot.ur.simulator`` to that of
 ``drivers``), so a module moved inside a package needs no edit here, and a
 new top-level name needs one line in :data:`LAYERS`. The contracts:
 

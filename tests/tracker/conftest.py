@@ -8,7 +8,7 @@ import sys
 import pytest
 from tracker_kit import REPO
 
-from drivers.tracker.simulator import SimulatorServer, TrackerSimulator
+from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
 
 
 @pytest.fixture
@@ -31,9 +31,9 @@ def served(sim):
 
 
 def start_simulator_process(*args: str) -> tuple[subprocess.Popen, list[str]]:
-    """Run ``python -m drivers.tracker.simulator *args``; return it and its endpoint lines."""
+    """Run ``python -m drivers.tracker.line.simulator *args``; return it and its endpoint lines."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "drivers.tracker.simulator", *args],
+        [sys.executable, "-m", "drivers.tracker.line.simulator", *args],
         cwd=REPO,
         stdout=subprocess.PIPE,
         text=True,

@@ -11,7 +11,7 @@ import pytest
 from cli_process_kit import run_cli
 
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
-from drivers.tracker.simulator import SimulatorProcess
+from drivers.tracker.line.simulator import SimulatorProcess
 
 KINDS = [SimulatorProcess, EmsconSimulatorProcess]
 

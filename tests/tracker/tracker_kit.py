@@ -9,14 +9,17 @@ unused pairs or on reply bytes the driver never read.
 from __future__ import annotations
 
 import contextlib
+import socket
+import threading
 import time
 from pathlib import Path
 
 import serial
+from serial import rfc2217
 
 from drivers.tracker import LaserTracker
-from drivers.tracker.protocol import encode_frame
-from drivers.tracker.simulator.engine import Send
+from drivers.tracker.line.protocol import encode_frame
+from drivers.tracker.line.simulator.engine import Send
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -239,10 +242,10 @@ def engine_responder(engine, meas_delay_s: float = 0.0):
 
 
 def stat_half_second_left(port) -> None:
-    """One ``STAT?`` through a :class:`~drivers.tracker.link.Link` on ``port``, 0.5 s left
+    """One ``STAT?`` through a :class:`~drivers.tracker.line.link.Link` on ``port``, 0.5 s left
     at every read and write (a stopped clock); the reply must be read and the script used up.
     """
-    from drivers.tracker.link import Link
+    from drivers.tracker.line.link import Link
 
     link = Link(port, clock=lambda: 1000.0)
     assert link.transact("STAT?", timeout_s=0.5).seq == 1
@@ -260,3 +263,81 @@ TIMEOUT_BOUNDS = [
     (0.25, []),  # exactly half the time left
     (0.24, [0.5]),  # far too short for the time left
 ]
+
+
+# ------------------------------------------------- an RFC 2217 server in front of a pty
+
+MODEM_LINES = ("dtr", "rts", "break_condition")
+
+
+class _PtyWithoutModemLines:
+    """A pty has no modem lines; report them idle and ignore settings, pass everything else."""
+
+    cts = dsr = ri = cd = False
+
+    def __init__(self, port: serial.Serial):
+        object.__setattr__(self, "_port", port)
+
+    def __getattr__(self, name):
+        return getattr(self._port, name)
+
+    def __setattr__(self, name, value):
+        if name not in MODEM_LINES:
+            setattr(self._port, name, value)
+
+
+class _SocketWriter:
+    """PortManager writes its Telnet replies through ``write``."""
+
+    def __init__(self, sock: socket.socket):
+        self._sock = sock
+
+    def write(self, data: bytes) -> None:
+        self._sock.sendall(data)
+
+
+class Rfc2217Bridge:
+    """Serve one pty over RFC 2217 on 127.0.0.1, one client, two pump threads."""
+
+    def __init__(self, pty_path: str):
+        self._serial = serial.Serial(pty_path, timeout=0.05)
+        self._listener = socket.create_server(("127.0.0.1", 0))
+        self.port = self._listener.getsockname()[1]
+        self._stop = threading.Event()
+        self._threads = [threading.Thread(target=self._serve, daemon=True)]
+        self._threads[0].start()
+
+    def _serve(self) -> None:
+        conn, _ = self._listener.accept()
+        self._conn = conn
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        manager = rfc2217.PortManager(_PtyWithoutModemLines(self._serial), _SocketWriter(conn))
+        pump = threading.Thread(target=self._device_to_net, args=(manager, conn), daemon=True)
+        pump.start()
+        self._threads.append(pump)
+        try:
+            while not self._stop.is_set():
+                data = conn.recv(4096)
+                if not data:
+                    break
+                self._serial.write(b"".join(manager.filter(data)))
+        except OSError:
+            pass  # closed during teardown
+
+    def _device_to_net(self, manager, conn) -> None:
+        try:
+            while not self._stop.is_set():
+                data = self._serial.read(self._serial.in_waiting or 1)
+                if data:
+                    conn.sendall(b"".join(manager.escape(data)))
+        except (OSError, serial.SerialException):
+            pass  # closed during teardown
+
+    def close(self) -> None:
+        self._stop.set()
+        self._listener.close()
+        if hasattr(self, "_conn"):
+            self._conn.close()
+        for thread in self._threads:
+            thread.join(timeout=2)
+        self._serial.close()

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from drivers.robot.simulated import JointRepeatability, SimulatedRobot
+from drivers.robot.sim.device import JointRepeatability, SimulatedRobot
 
 Q_A = np.array([0.1, -1.2, 1.0, -1.4, -1.5, 0.2])
 Q_B = Q_A + 0.3

@@ -93,7 +93,7 @@ def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tm
     def session(resume, stop_after):
         moves = []
         robot = open_robot("sim", RobotOptions(arm, world))
-        tracker = open_tracker("sim", OpenOptions(world=world, sim_noise=False))
+        tracker = open_tracker("sim://?noise=off", OpenOptions(world=world))
         options = run.run_options(plan, readings=1, resume=resume)
         with MeasureRun(robot, tracker, arm, options, tmp_path / "v.json", world=world) as mrun:
             mrun.connect()

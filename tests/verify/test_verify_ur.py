@@ -11,7 +11,7 @@ import pytest
 from cli_process_kit import run_cli
 from verify_kit import check_outputs
 
-from drivers.robot.fake_ur.launcher import FakeUrProcess
+from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
 UR = ("verify", "--robot", "ur://127.0.0.1", "--cycles", "2", "-q")
 UR += ("--speed", "1.0", "--accel", "2.0", "--settle", "0", "-o", "v.json")

@@ -9,7 +9,7 @@ pause between polls lasts that many tracker seconds. A tracker whose stamps
 stand still or run back is timed by the host.
 
 So the watching runs at the tracker's pace. A simulated tracker run faster
-than real time (``python -m drivers.tracker.simulator --time-scale X``, the
+than real time (``python -m drivers.tracker.line.simulator --time-scale X``, the
 external-robot simulator at the same scale) makes the settle window, the
 stop timeout and the polling X times shorter on the wall clock, every
 decision taken as in real time.

@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.truth:
         player.write_truth(args.truth)
-    from drivers.tracker.simulator.launch import SimulatorControl
+    from drivers.tracker.line.simulator.launch import SimulatorControl
 
     try:
         control = SimulatorControl(args.control)

@@ -3,7 +3,7 @@
 See ``docs/leica-emscon.md``. ``open_tracker("emscon://HOST[:PORT]")`` builds the adapter.
 """
 
-from drivers.tracker.emscon.adapter import (
+from drivers.tracker.emscon.device import (
     DEFAULT_PORT,
     EmsconReading,
     EmsconStatus,

@@ -22,26 +22,29 @@ beyond 1 km or a negative or non-finite standard deviation) is a
 :class:`BadReading` (a :class:`FrameError`, so a :class:`ReadingLost`: the pose
 is measured again; the link stays up, since the framing held).
 
-Transport failures use :class:`ReadingInterrupted` (a reconnect worked, the
-reading in flight is lost: retried) and :class:`LinkDown` (the reconnects
-failed: :class:`calibrator.acquire.ports.TrackerUnavailable`), and
-:class:`TrackerReplaced` (another serial number answered after a reconnect).
+Transport failures are those of every tracker kind: :class:`LinkDropped` (a
+reconnect worked, the reading in flight is lost: retried), :class:`TrackerGone`
+(the reconnects failed: :class:`calibrator.acquire.ports.TrackerUnavailable`)
+and :class:`IdentityChanged` (another serial number answered after a reconnect).
+Only :class:`EmsconRefused` and :class:`UnknownStatus` are emScon's own.
 """
 
 from __future__ import annotations
 
-from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
-from drivers.tracker.emscon.packets import KNOWN_STATUS, ResultStatus
+from drivers.tracker.emscon.protocol import KNOWN_STATUS, ResultStatus
 from drivers.tracker.errors import (
+    BadReading,
     BeamBroken,
     ConnectionLost,
     FrameError,
     FrameRejected,
     IdentityChanged,
+    LinkDropped,
     NotInitialised,
     TargetUnstable,
     TrackerBusy,
     TrackerError,
+    TrackerGone,
     TrackerTimeout,
 )
 
@@ -53,13 +56,12 @@ __all__ = [
     "FrameError",
     "FrameRejected",
     "IdentityChanged",
-    "LinkDown",
+    "LinkDropped",
     "NotInitialised",
-    "ReadingInterrupted",
     "TargetUnstable",
     "TrackerBusy",
     "TrackerError",
-    "TrackerReplaced",
+    "TrackerGone",
     "TrackerTimeout",
     "UnknownStatus",
     "error_for_status",
@@ -72,22 +74,6 @@ class EmsconRefused(TrackerError):
 
 class UnknownStatus(TrackerError):
     """The server answered with a status code that Leica's V3.6 header does not define."""
-
-
-class BadReading(FrameError):
-    """A result packet, well framed, whose values cannot be a reading (non-finite, absurd)."""
-
-
-class ReadingInterrupted(ConnectionLost, ReadingLost):
-    """The connection dropped during a command; a reconnect worked but the command is lost."""
-
-
-class LinkDown(ConnectionLost, TrackerUnavailable):
-    """The connection dropped and the bounded reconnects did not bring it back."""
-
-
-class TrackerReplaced(IdentityChanged, TrackerUnavailable):
-    """After a reconnect a tracker with another serial number answered: stop, never mix."""
 
 
 _BY_STATUS: dict[int, type[TrackerError]] = {

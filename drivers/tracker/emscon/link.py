@@ -28,7 +28,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Literal, overload
 
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import (
     ConnectionLost,
     FrameError,

@@ -16,9 +16,9 @@ from pathlib import Path
 
 from drivers.tracker.emscon.simulator.engine import EmsconSimulator
 from drivers.tracker.emscon.simulator.server import EmsconServer
-from drivers.tracker.simulator.__main__ import _exit_with_parent, _triple
-from drivers.tracker.simulator.faults import parse_script
-from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.__main__ import _exit_with_parent, _triple
+from drivers.tracker.line.simulator.faults import parse_script
+from drivers.tracker.line.simulator.noise import NoiseModel
 
 
 def build_parser() -> argparse.ArgumentParser:

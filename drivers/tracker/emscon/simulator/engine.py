@@ -2,8 +2,8 @@
 
 No I/O here (the servers in :mod:`drivers.tracker.emscon.simulator.server`
 feed it). The physics is today's simulator's: the same
-:class:`~drivers.tracker.simulator.noise.NoiseModel` and the same fault
-scripts (:mod:`drivers.tracker.simulator.faults`), with emScon commands
+:class:`~drivers.tracker.line.simulator.noise.NoiseModel` and the same fault
+scripts (:mod:`drivers.tracker.line.simulator.faults`), with emScon commands
 counted under the line protocol's names (``ES_C_StartMeasurement`` is
 ``MEAS``, ``ES_C_GetTrackerStatus`` is ``STAT?``, see :data:`FAULT_NAMES`),
 so ``MEAS@5 beam_break`` means the same on both simulators. How each fault
@@ -33,7 +33,7 @@ target is within :data:`SEARCH_RADIUS_MM` of where the beam points.
 
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
-/ ``SIM,FAULT`` (so ``drivers.tracker.simulator.launch.SimulatorControl``
+/ ``SIM,FAULT`` (so ``drivers.tracker.line.simulator.launch.SimulatorControl``
 drives it), plus ``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
 an arbitrary result status (e.g. one Leica never defined).
 """
@@ -47,10 +47,10 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivers.tracker.emscon import packets as pk
-from drivers.tracker.emscon.packets import Command, ResultStatus, StatusChange
+from drivers.tracker.emscon import protocol as pk
+from drivers.tracker.emscon.protocol import Command, ResultStatus, StatusChange
 from drivers.tracker.errors import FrameError
-from drivers.tracker.protocol import (
+from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
     encode_frame,
@@ -58,9 +58,9 @@ from drivers.tracker.protocol import (
     ok_body,
     parse_command,
 )
-from drivers.tracker.simulator.engine import HangUp, Output, Send
-from drivers.tracker.simulator.faults import Fault, FaultSchedule, parse_fault
-from drivers.tracker.simulator.noise import NoiseModel
+from drivers.tracker.line.simulator.engine import HangUp, Output, Send
+from drivers.tracker.line.simulator.faults import Fault, FaultSchedule, parse_fault
+from drivers.tracker.line.simulator.noise import NoiseModel
 
 MIN_RANGE_MM = 500.0
 MAX_RANGE_MM = 80_000.0

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drivers.tracker.simulator.launch import SimulatorProcess, spawn
+from drivers.tracker.line.simulator.launch import SimulatorProcess, spawn
 
 
 class EmsconSimulatorProcess(SimulatorProcess):

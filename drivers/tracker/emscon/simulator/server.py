@@ -4,7 +4,7 @@ The emScon port frames packets by their ``lPacketSize`` and answers each
 connection in command order (a connection's thread sleeps through a delayed
 answer, as a real server works through its command queue). The control port
 speaks the line protocol's ``SIM,...`` commands through today's
-:class:`~drivers.tracker.simulator.server.SimulatorServer`, so the same
+:class:`~drivers.tracker.line.simulator.server.SimulatorServer`, so the same
 ``SimulatorControl`` client steers both simulators.
 """
 
@@ -14,10 +14,10 @@ import contextlib
 import socket
 import threading
 
-from drivers.tracker.emscon import packets as pk
+from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.simulator.engine import EmsconSimulator
-from drivers.tracker.simulator.engine import HangUp
-from drivers.tracker.simulator.server import SimulatorServer
+from drivers.tracker.line.simulator.engine import HangUp
+from drivers.tracker.line.simulator.server import SimulatorServer
 
 
 class EmsconServer:
