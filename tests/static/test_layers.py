@@ -81,11 +81,7 @@ DRIVER_USERS = ("calibrator.cli",)
 #: ``(importer, imported)``, module names, ``pkg.*`` for every module under
 #: ``pkg``. The contracts are checked on the graph without these edges, and
 #: an entry that no longer matches an import fails the test (delete it).
-KNOWN: dict[tuple[str, str], str] = {
-    ("drivers.robot.external.setup", "drivers.robot"): (
-        "the external mode's options in drivers/; issue #33 item 6 moves it to calibrator/acquire/"
-    ),
-}
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _matches(name: str, pattern: str) -> bool:
