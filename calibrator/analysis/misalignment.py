@@ -40,6 +40,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+# Loaded now, with this module, not lazily at the first block: a Ctrl-C that lands
+# while numpy.random's compiled modules load is swallowed inside their set-up, and
+# the run went on for minutes (1 run in 6-12 interrupted right after its first line).
+import numpy.random  # noqa: F401,I001
+
 from calibrator.analysis import _malloc
 from calibrator.analysis.arm import PosedArm, compose
 from calibrator.errors import CalibrationError

@@ -2,6 +2,8 @@
 
 import json
 import signal
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -160,3 +162,15 @@ def test_ctrl_c_ends_a_long_run_in_one_line_leaving_no_file(tmp_path, workers):
     assert err == "calibrator: error: interrupted\n"
     assert "done in" not in out
     assert list(tmp_path.iterdir()) == []  # no JSON, no temporary file
+
+
+def test_numpy_random_is_loaded_with_the_analysis_not_at_the_first_block():
+    # A Ctrl-C that lands while numpy.random's compiled modules load is swallowed in
+    # their set-up, and the run goes on: they load with the analysis module, which
+    # the command imports before its first line (1 Ctrl-C in 6-12 was lost).
+    code = (
+        "import sys; import calibrator.analysis.misalignment;"
+        " print('numpy.random._generator' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"
