@@ -18,11 +18,15 @@ Run::
 With ``--cli``, part 3 times the whole command as a user runs it instead
 (``calibrator analyze misalignment --trials BIG -q --json F [--workers N]``,
 a new process each, the three settings alternating), with CPU time, and
-compares the JSON statistics the three wrote.
+compares the JSON statistics the three wrote. ``--against DIR`` (with
+``--cli``) runs the same commands on another copy of the code too (DIR
+first on ``PYTHONPATH``, e.g. ``git archive COMMIT | tar -x -C DIR``),
+alternating with this one, and prints both sets of figures and their ratio.
 """
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import subprocess
@@ -72,7 +76,12 @@ def main():
     ap.add_argument("--rounds", type=int, default=1, help="Alternate 1 and 2 workers this often.")
     ap.add_argument("--workers-only", action="store_true", help="Only the 1-vs-2 worker part.")
     ap.add_argument("--cli", action="store_true", help="Time whole CLI processes in part 3.")
+    ap.add_argument(
+        "--against", metavar="DIR", help="With --cli: also time the code in DIR, alternating."
+    )
     args = ap.parse_args()
+    if args.against and not args.cli:
+        ap.error("--against needs --cli")
     if not args.workers_only:
         in_process(args)
     (workers_cli if args.cli else workers)(args)
@@ -96,58 +105,87 @@ def in_process(args):
 def workers(args):
     """Part 3 through ``engine.run`` in this process (imports paid once, before)."""
 
-    def run(n):
+    def run(n, _variant):
         wall, stats = timed(args.big, workers=n or None)
         return wall, None, stats
 
-    alternate(args, run, "LocalCluster {n} worker(s)")
+    alternate(args, run, ["engine.run"])
 
 
 def workers_cli(args):
-    """Part 3 as whole ``calibrator analyze misalignment`` processes."""
+    """Part 3 as whole ``calibrator analyze misalignment`` processes (this code, and DIR's)."""
+    paths = {"this code": None}
+    if args.against:
+        paths["DIR's code"] = str(Path(args.against).resolve())
     with tempfile.TemporaryDirectory() as tmp:
 
-        def run(n):
+        def run(n, variant):
             out = Path(tmp) / f"w{n}.json"
+            out.unlink(missing_ok=True)  # the command never overwrites without --force
             command = [sys.executable, "-m", "calibrator", "analyze", "misalignment"]
             command += ["--trials", str(args.big), "-q", "--json", str(out)]
             command += ["--workers", str(n)] if n else []
+            env = dict(os.environ)
+            if paths[variant]:
+                env["PYTHONPATH"] = paths[variant]
             before = resource.getrusage(resource.RUSAGE_CHILDREN)
             t = time.perf_counter()
-            subprocess.run(command, check=True, capture_output=True)
+            subprocess.run(command, check=True, capture_output=True, env=env)
             wall = time.perf_counter() - t
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
             # Workers included: the command reaps them, so their time is its children's.
             cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
             return wall, cpu, json.loads(out.read_text())
 
-        alternate(args, run, "CLI --workers {n}")
-
-
-def alternate(args, run, where):
-    """Run in-process, 1 and 2 workers in turn ``--rounds`` times; print medians and ratios."""
-    # Alternating the three settings spreads drifts in the machine's load over all.
-    times, cpus, results = {0: [], 1: [], 2: []}, {0: [], 1: [], 2: []}, []
-    for _ in range(args.rounds):
-        for n in (0, 1, 2):
-            wall, cpu, stats = run(n)
-            times[n].append(wall)
-            cpus[n].append(cpu)
-            results.append(stats)
-            label = where.format(n=n) if n else "in-process"
-            print(f"{args.big:,} trials, {label}: {wall:.2f} s wall", flush=True)
-    here, one, two = (statistics.median(times[n]) for n in (0, 1, 2))
-    same = all(r == results[0] for r in results)
-    line = (
-        f"medians over {args.rounds} round(s): in-process {here:.2f} s, 1 worker {one:.2f} s, "
-        f"2 workers {two:.2f} s; 1 worker / in-process: {one / here:.2f}x; "
-        f"2 workers faster than 1: {one / two:.2f}x; statistics identical: {same}"
-    )
-    if cpus[0][0] is not None:
-        line += "; CPU medians " + ", ".join(
-            f"{statistics.median(cpus[n]):.2f} s" for n in (0, 1, 2)
+        medians = alternate(args, run, list(paths))
+    if args.against:
+        this, theirs = medians["this code"], medians["DIR's code"]
+        print(
+            "this code / DIR's, medians: "
+            + ", ".join(f"{label} {this[n] / theirs[n]:.3f}" for n, label in SETTINGS)
         )
-    print(line)
+
+
+#: In-process, one worker, two workers.
+SETTINGS = ((0, "in-process"), (1, "1 worker"), (2, "2 workers"))
+
+
+def alternate(args, run, variants):
+    """Every setting of every variant in turn, ``--rounds`` times; print medians and ratios.
+
+    ``run(n, variant)`` -> ``(wall s, CPU s or None, statistics)``. Returns
+    ``{variant: {n: median wall}}``.
+    """
+    # Alternating spreads drifts in the machine's load over all settings and variants.
+    times = {(v, n): [] for v in variants for n, _ in SETTINGS}
+    cpus = {(v, n): [] for v in variants for n, _ in SETTINGS}
+    results = []
+    for _ in range(args.rounds):
+        for n, label in SETTINGS:
+            for v in variants:
+                wall, cpu, stats = run(n, v)
+                times[v, n].append(wall)
+                cpus[v, n].append(cpu)
+                results.append(stats)
+                print(f"{args.big:,} trials, {v}, {label}: {wall:.2f} s wall", flush=True)
+    medians = {}
+    for v in variants:
+        here, one, two = (statistics.median(times[v, n]) for n, _ in SETTINGS)
+        medians[v] = {0: here, 1: one, 2: two}
+        line = (
+            f"{v}: medians over {args.rounds} round(s): in-process {here:.2f} s, "
+            f"1 worker {one:.2f} s, 2 workers {two:.2f} s; 1 worker / in-process: "
+            f"{one / here:.2f}x; 2 workers faster than 1: {one / two:.2f}x"
+        )
+        if cpus[v, 0][0] is not None:
+            line += "; CPU medians " + ", ".join(
+                f"{statistics.median(cpus[v, n]):.2f} s" for n, _ in SETTINGS
+            )
+        print(line)
+    print(
+        f"statistics identical in all {len(results)} runs: {all(r == results[0] for r in results)}"
+    )
+    return medians
 
 
 if __name__ == "__main__":
