@@ -119,24 +119,33 @@ def workers_cli(args):
         paths["DIR's code"] = str(Path(args.against).resolve())
     with tempfile.TemporaryDirectory() as tmp:
 
+        def env_of(variant):
+            path = paths[variant]
+            return dict(os.environ, **({"PYTHONPATH": path} if path else {}))
+
         def run(n, variant):
             out = Path(tmp) / f"w{n}.json"
             out.unlink(missing_ok=True)  # the command never overwrites without --force
             command = [sys.executable, "-m", "calibrator", "analyze", "misalignment"]
             command += ["--trials", str(args.big), "-q", "--json", str(out)]
             command += ["--workers", str(n)] if n else []
-            env = dict(os.environ)
-            if paths[variant]:
-                env["PYTHONPATH"] = paths[variant]
             before = resource.getrusage(resource.RUSAGE_CHILDREN)
             t = time.perf_counter()
-            subprocess.run(command, check=True, capture_output=True, env=env)
+            # From the temporary folder: ``-m`` puts the working folder first on the path,
+            # where this project's copy would shadow DIR's.
+            subprocess.run(command, check=True, capture_output=True, env=env_of(variant), cwd=tmp)
             wall = time.perf_counter() - t
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
             # Workers included: the command reaps them, so their time is its children's.
             cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
             return wall, cpu, json.loads(out.read_text())
 
+        for variant in paths:
+            where = subprocess.run(
+                [sys.executable, "-c", "import calibrator; print(calibrator.__file__)"],
+                check=True, capture_output=True, text=True, env=env_of(variant), cwd=tmp,
+            )  # fmt: skip
+            print(f"{variant}: {where.stdout.strip()}")
         medians = alternate(args, run, list(paths))
     if args.against:
         this, theirs = medians["this code"], medians["DIR's code"]
