@@ -196,6 +196,30 @@ def test_async_movej_stopj_and_progress_register():
     assert start[0] < c.q[0] < target[0]
 
 
+def test_a_command_written_again_after_a_restart_runs():
+    # The client writes moveJ while the program is stopped (its view of the
+    # stream is late), clears it, restarts the program and sends moveJ again.
+    # The clear may reach the controller only after the restart and the new
+    # moveJ before the next cycle: the new package is still a new command.
+    def move_package(target):
+        values = {"input_int_register_0": CMD_MOVEJ, "input_int_register_1": 0}
+        values.update({f"input_double_register_{i}": v for i, v in enumerate([*target, 1.0, 2.0])})
+        return values
+
+    c = FakeController(time_scale=10.0)
+    c.start_program()
+    c.stop_program()
+    target = c.q + 0.2
+    c.write_inputs(move_package(target))  # refused: no program runs
+    c.start_program()
+    c.tick(0.002)
+    assert not c.moving  # what was left in the register is not run by the new program
+    c.write_inputs({"input_int_register_0": 0})
+    c.write_inputs(move_package(target))  # no cycle saw the clear
+    c.tick(0.002)
+    assert c.moving
+
+
 def test_stop_script_and_upper_range_registers():
     c = FakeController()
     c.start_program(reg_offset=24)

@@ -345,8 +345,17 @@ class FakeController:
         return self._move is not None
 
     def write_inputs(self, values: Mapping[str, float]) -> None:
-        """Store input registers the client sent (``{"input_int_register_3": 7, ...}``)."""
+        """Store input registers the client sent (``{"input_int_register_3": 7, ...}``).
+
+        A package that writes the command register is a new command, even when
+        the register already holds the same value: a command the client wrote
+        while no program ran (then cleared too late for the new program to see)
+        would otherwise be taken for the one it sends next, and that one would
+        never be answered.
+        """
         with self.lock:
+            if f"input_int_register_{self.reg_offset}" in values:
+                self._executing_cmd = False
             for name, value in values.items():
                 kind, _, index = name.rpartition("_")
                 if not index.isdigit() or int(index) >= 48:
