@@ -237,7 +237,21 @@ class InterruptedStart:
         self.finished = True
 
 
-def test_ctrl_c_during_the_fork_is_held_until_the_fork_is_done():
+@pytest.fixture
+def sigint_disposition():
+    """Set SIGINT's handler for one test: a run started in the background by a
+    non-interactive shell inherits it ignored, and Python then leaves it so."""
+    previous = signal.getsignal(signal.SIGINT)
+
+    def set_to(handler):
+        signal.signal(signal.SIGINT, handler)
+
+    yield set_to
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_during_the_fork_is_held_until_the_fork_is_done(sigint_disposition):
+    sigint_disposition(signal.default_int_handler)
     process = InterruptedStart()
     with pytest.raises(KeyboardInterrupt):
         _spare._start_deferring_ctrl_c(process)
@@ -245,12 +259,17 @@ def test_ctrl_c_during_the_fork_is_held_until_the_fork_is_done():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_a_callers_own_ctrl_c_handler_gets_the_held_ctrl_c():
+def test_with_ctrl_c_ignored_the_fork_just_runs(sigint_disposition):
+    sigint_disposition(signal.SIG_IGN)
+    process = InterruptedStart()
+    _spare._start_deferring_ctrl_c(process)
+    assert process.finished
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+
+
+def test_a_callers_own_ctrl_c_handler_gets_the_held_ctrl_c(sigint_disposition):
     seen = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
-    try:
-        process = InterruptedStart()
-        _spare._start_deferring_ctrl_c(process)
-        assert process.finished and seen == [signal.SIGINT]
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    sigint_disposition(lambda signum, frame: seen.append(signum))
+    process = InterruptedStart()
+    _spare._start_deferring_ctrl_c(process)
+    assert process.finished and seen == [signal.SIGINT]
