@@ -159,3 +159,30 @@ def test_a_plan_for_a_urdf_arm_with_meshes_passes_its_checks_and_the_meshes(tmp_
                 closest = min(closest, cKDTree(world[order[i]]).query(world[order[j]])[0].min())
     assert lowest > 0.0
     assert closest > 0.0
+
+
+def test_a_turret_whose_capsule_dips_below_the_plane_does_not_refuse_every_pose(tmp_path):
+    # A flat turret 800 mm square on link 1: its capsule (403 mm round) reaches
+    # below the plane the base stands on, at every pose alike (link 1 turns
+    # about the plane's normal); an IRB 6640's does by 123 mm, and no pose passed.
+    meshes = _housings()
+    meshes["link_1"] = _box((-0.4, -0.4, -0.1), (0.4, 0.4, 0.0))
+    path = _arm(tmp_path, meshes)
+    arm = robots.get(str(path))
+    (turret,) = (c for c in arm.body.capsules if c.link == 1)
+    frame_1 = kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0][1]
+    lowest = min((frame_1 @ np.append(p, 1.0))[2] for p in (turret.p_mm, turret.q_mm))
+    assert lowest - turret.radius_mm < arm.body.mount_z_mm
+    done = run_cli(
+        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
+        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    # Links 2 on are still kept off the plane: the stretched-out arm laid down is refused.
+    geo = cell.arm_geometry(arm, arm.mdh, (0, 0, 100))
+    chk = cell.checker(geo, cell.Cell())
+    tilted = np.zeros((2, 6))
+    tilted[:, 1] = (np.pi / 2, -np.pi / 2)
+    flange_z = kinematics.chain(arm.mdh, tilted)[:, 2, 3]
+    down = tilted[np.argsort(flange_z)]  # pointing down, then up
+    assert cell.checks.collision_faults(chk, down)[:, 0].tolist() == [True, False]
