@@ -636,9 +636,11 @@ def _fit(chain: Chain, link: str, collision: ET.Element) -> _Fitted | None:
     if shape.tag == "cylinder":
         r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} cylinder")[0] * _M
         half = _numbers(shape.get("length"), 1, (0.0,), f"{where} cylinder")[0] * _M / 2
-        # Its rims, for the lowest point (the capsule's round ends reach lower).
+        # Its rims, for the lowest point (the capsule's round ends reach lower):
+        # 72-gons around the circles, so no point of a rim is lower than theirs.
         angle = np.linspace(0.0, 2 * np.pi, 73)[:-1]
-        rim = np.column_stack([r * np.cos(angle), r * np.sin(angle), np.zeros_like(angle)])
+        out = r / np.cos(np.pi / 72)
+        rim = np.column_stack([out * np.cos(angle), out * np.sin(angle), np.zeros_like(angle)])
         rims = np.concatenate([rim + [0.0, 0.0, -half], rim + [0.0, 0.0, half]])
         axis = at[:3, 2] * half
         return at[:3, 3] - axis, at[:3, 3] + axis, float(r), rims @ at[:3, :3].T + at[:3, 3]

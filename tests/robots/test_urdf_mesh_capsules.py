@@ -186,3 +186,15 @@ def test_a_turret_whose_capsule_dips_below_the_plane_does_not_refuse_every_pose(
     flange_z = kinematics.chain(arm.mdh, tilted)[:, 2, 3]
     down = tilted[np.argsort(flange_z)]  # pointing down, then up
     assert cell.checks.collision_faults(chk, down)[:, 0].tolist() == [True, False]
+
+
+def test_a_base_cylinder_standing_on_z_0_puts_the_mounting_plane_there(tmp_path):
+    base = (
+        '<link name="base_link"><collision><origin xyz="0 0 0.15" rpy="0 0 0"/>'
+        '<geometry><cylinder radius="0.15" length="0.3"/></geometry></collision></link>'
+    )
+    path = tmp_path / "arm.urdf"
+    path.write_text(KUKA.replace('<link name="base_link"/>', base))
+    arm = urdf.describe(path)
+    # Its rims are on z = 0; the capsule's round end 150 mm lower is not the floor.
+    assert abs(arm.body.mount_z_mm + arm.base_offset[2, 3]) < 1e-9
