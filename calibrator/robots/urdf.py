@@ -486,12 +486,15 @@ def fit_body(
 ) -> Body:
     """Capsules enclosing the chain's collision geometry, ``margin_mm`` larger.
 
-    Boxes, cylinders and spheres are enclosed exactly; meshes through trimesh
-    (their vertices' principal axis) when the file can be found beside the
-    URDF. A moving link with no collision geometry gets a capsule from its
-    joint to the next one of :data:`BARE_LINK_RADIUS_MM` (or ``link_radius_mm``),
-    drawn back from the flange by its radius. The base link's geometry
-    becomes the base cylinder.
+    Cylinders and spheres are enclosed exactly; boxes (their corners) and
+    meshes (their vertices, read with trimesh where the file is found, see
+    :func:`mesh_file`) by the tightest capsule of
+    :func:`calibrator.robots.enclosing.enclose`. A moving link with no
+    collision geometry gets a capsule from its joint to the next one of
+    :data:`BARE_LINK_RADIUS_MM` (or ``link_radius_mm``), drawn back from the
+    flange by its radius. The base link's geometry
+    becomes the base cylinder, standing on the mounting plane: the base
+    geometry's lowest point (its vertices', corners', rims'), z = 0 at most.
     """
     frames = chain.link_frames()
     capsules: list[Capsule] = []
