@@ -4,8 +4,8 @@ A capsule (segment ``p``-``q``, radius ``r``) is convex, so it encloses a
 triangle mesh when it encloses the mesh's vertices (every face lies in the
 convex hull of its corners), and a box when it encloses its corners. The
 capsule is fitted along each candidate axis (the principal axes of the
-points' convex hull and the axes of the frame they are given in; links'
-housings are usually drawn along their frame): its radius is that of the
+points and of their convex hull, and the axes of the frame they are given
+in: links' housings are usually drawn along their frame): its radius is that of the
 smallest circle enclosing the points projected across the axis, its segment
 the shortest that still holds every point within the radius. The candidate
 of least volume is kept.
@@ -21,8 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-#: Radius added to cover rounding, relative and absolute (mm).
-_ROUND_REL, _ROUND_ABS = 1e-12, 1e-9
+#: Radius added to cover rounding, relative to the points' largest coordinate
+#: (1e-6 mm at a metre).
+_ROUNDING = 1e-9
 
 
 @dataclass(frozen=True)
@@ -38,12 +39,6 @@ class Enclosing:
         length = float(np.linalg.norm(self.q - self.p))
         return float(np.pi * self.radius**2 * (length + 4.0 / 3.0 * self.radius))
 
-    def distance(self, points: np.ndarray) -> np.ndarray:
-        """Distance of ``points`` (N, 3) from the segment, shape (N,)."""
-        d = self.q - self.p
-        t = np.clip((points - self.p) @ d / max(float(d @ d), 1e-300), 0.0, 1.0)
-        return np.linalg.norm(points - (self.p + t[:, None] * d), axis=1)
-
 
 def enclose(points: np.ndarray) -> Enclosing:
     """The capsule of least volume along the candidate axes that encloses ``points`` (N, 3).
@@ -56,12 +51,12 @@ def enclose(points: np.ndarray) -> Enclosing:
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     if not len(points) or not np.all(np.isfinite(points)):
         raise ValueError("no finite points to enclose")
-    points = _hull(points)
-    axes = np.eye(3)
-    if len(points) > 1:
-        principal = np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2]
-        axes = np.concatenate([principal, axes])
-    return min((_along(points, a) for a in axes), key=lambda c: c.volume)
+    hull = _hull(points)
+    axes = [np.eye(3)]
+    for cloud in (points, hull):  # every vertex's principal axes, and the hull's
+        if len(cloud) > 1:
+            axes.append(np.linalg.svd(cloud - cloud.mean(axis=0), full_matrices=False)[2])
+    return min((_along(hull, a) for a in np.concatenate(axes)), key=lambda c: c.volume)
 
 
 def _hull(points: np.ndarray) -> np.ndarray:
@@ -84,7 +79,7 @@ def _along(points: np.ndarray, axis: np.ndarray) -> Enclosing:
     across = np.column_stack([points @ u, points @ v])
     centre, r = _circle(across)
     rho = np.linalg.norm(across - centre, axis=1)
-    r = max(r, float(rho.max())) * (1.0 + _ROUND_REL) + _ROUND_ABS
+    r = max(r, float(rho.max()))
     # A point (t, rho) is within r of the segment [lo, hi] of the axis when
     # lo <= t + s and hi >= t - s, s = sqrt(r^2 - rho^2): the shortest segment.
     s = np.sqrt(np.maximum(r**2 - rho**2, 0.0))
@@ -92,7 +87,9 @@ def _along(points: np.ndarray, axis: np.ndarray) -> Enclosing:
     if lo > hi:  # one point of the axis is within r of all: a sphere
         lo = hi = (lo + hi) / 2
     foot = centre[0] * u + centre[1] * v
-    return Enclosing(foot + lo * axis, foot + hi * axis, r)
+    # Points on the surface stay inside whatever the rounding.
+    pad = _ROUNDING * (1.0 + float(np.abs(points).max()))
+    return Enclosing(foot + lo * axis, foot + hi * axis, r + pad)
 
 
 def _circle(points: np.ndarray) -> tuple[np.ndarray, float]:

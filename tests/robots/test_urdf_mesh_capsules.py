@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from calibrator import cell, planning, robots
 from calibrator.model import kinematics
-from calibrator.robots import urdf
+from calibrator.robots import enclosing, urdf
 
 PACKAGE = "my_arm_support"
 #: Each link's next joint (the KUKA KR 6 URDF's joint origins, m): its housing runs there.
@@ -198,3 +198,20 @@ def test_a_base_cylinder_standing_on_z_0_puts_the_mounting_plane_there(tmp_path)
     arm = urdf.describe(path)
     # Its rims are on z = 0; the capsule's round end 150 mm lower is not the floor.
     assert abs(arm.body.mount_z_mm + arm.base_offset[2, 3]) < 1e-9
+
+
+def test_the_capsule_holds_any_cloud_and_is_no_larger_than_along_its_principal_axis():
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 3, 7, 50, 400):
+        points = rng.normal(size=(n, 3)) * rng.uniform(1.0, 300.0, 3) + rng.uniform(-500, 500, 3)
+        capsule = enclosing.enclose(points)
+        d = capsule.q - capsule.p
+        t = np.clip((points - capsule.p) @ d / max(d @ d, 1e-300), 0.0, 1.0)
+        assert np.linalg.norm(points - capsule.p - t[:, None] * d, axis=1).max() <= capsule.radius
+        # The capsule from the mean along the principal axis (the fit before): never smaller.
+        centre = points.mean(axis=0)
+        axis = np.linalg.svd(points - centre)[2][0]
+        along = (points - centre) @ axis
+        radius = np.linalg.norm(points - centre - np.outer(along, axis), axis=1).max()
+        before = np.pi * radius**2 * (np.ptp(along) + 4 / 3 * radius)
+        assert capsule.volume <= before * (1 + 1e-9) + 1e-9
