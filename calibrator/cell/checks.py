@@ -106,6 +106,17 @@ def _ends(chk: Checker, q: np.ndarray) -> np.ndarray:
     return place(chk.geometry, q)
 
 
+def _reaching_plane(geometry: ArmGeometry) -> np.ndarray:
+    """Capsules a joint can move towards the mounting plane: links 2 on.
+
+    Link 1 only turns about axis 1, the base frame's z, the plane's normal:
+    its height is the arm's build, the same at every pose. Its capsule, rounder
+    than the turret it encloses (an IRB 6640's reaches 123 mm below the
+    plane its base stands on), would refuse every pose, not a motion.
+    """
+    return np.flatnonzero(geometry.links >= 2)
+
+
 def collision_faults(chk: Checker, q: ArrayLike, step_rad: ArrayLike | None = None) -> np.ndarray:
     """Collision reasons (:data:`MOTION_REASONS`) per pose, shape (N, 4) bool.
 
@@ -126,7 +137,9 @@ def collision_faults(chk: Checker, q: ArrayLike, step_rad: ArrayLike | None = No
     step = np.zeros((len(q), 6)) if step_rad is None else np.abs(np.asarray(step_rad, dtype=float))
     need = radii[None, :] + cell.margin_mm + 0.5 * step @ chk.levers_mm  # (N, K)
     out = np.zeros((len(q), 4), dtype=bool)
-    out[:, 0] = np.any(ends[..., 2].min(axis=-1) - chk.plane_z_mm < need, axis=1)
+    reaching = _reaching_plane(geo)
+    low = ends[..., 2][:, reaching].min(axis=-1) - chk.plane_z_mm  # (N, K')
+    out[:, 0] = np.any(low < need[:, reaching], axis=1)
     # The base: links 3 on (the first two turn about it and cannot reach it).
     # Its cylinder is bounded by the capsule on its axis (exact on the sides,
     # a rounded top a radius high that the shoulder's capsule covers anyway).
@@ -256,6 +269,7 @@ def describe(chk: Checker, q: ArrayLike, reason: str) -> str:
     margin = chk.cell.margin_mm
     if reason == REASONS[0]:
         low = ends[..., 2].min(axis=-1) - radii - chk.plane_z_mm
+        low[chk.geometry.links < 2] = np.inf  # see _reaching_plane
         k = int(np.argmin(low))
         return (
             f"{names[k]} {-low[k]:.0f} mm below the mounting plane"

@@ -38,6 +38,7 @@ from calibrator.inputs import grammar, textfile
 from calibrator.inputs.errors import StrictError
 from calibrator.model import conventions, kinematics
 from calibrator.model.frames import from_xyz_rpy
+from calibrator.robots import enclosing
 from calibrator.robots.description import (
     Body,
     Capsule,
@@ -485,17 +486,21 @@ def fit_body(
 ) -> Body:
     """Capsules enclosing the chain's collision geometry, ``margin_mm`` larger.
 
-    Boxes, cylinders and spheres are enclosed exactly; meshes through trimesh
-    (their vertices' principal axis) when the file can be found beside the
-    URDF. A moving link with no collision geometry gets a capsule from its
-    joint to the next one of :data:`BARE_LINK_RADIUS_MM` (or ``link_radius_mm``),
-    drawn back from the flange by its radius. The base link's geometry
-    becomes the base cylinder.
+    Cylinders and spheres are enclosed exactly; boxes (their corners) and
+    meshes (their vertices, read with trimesh where the file is found, see
+    :func:`mesh_file`) by the tightest capsule of
+    :func:`calibrator.robots.enclosing.enclose`. A moving link with no
+    collision geometry gets a capsule from its joint to the next one of
+    :data:`BARE_LINK_RADIUS_MM` (or ``link_radius_mm``), drawn back from the
+    flange by its radius. The base link's geometry
+    becomes the base cylinder, standing on the mounting plane: the base
+    geometry's lowest point (its vertices', corners', rims'), z = 0 at most.
     """
     frames = chain.link_frames()
     capsules: list[Capsule] = []
     base_ends: list[np.ndarray] = []  # end points of the base link's capsules, base link, mm
     base_radii: list[float] = []
+    base_low: list[float] = []  # lowest point of each of the base link's collisions, base link z
     bare: list[int] = []  # links drawn along their joints, without geometry
     missing: list[str] = []  # collision meshes named but not found
     groups = _groups(chain)
@@ -515,12 +520,18 @@ def fit_body(
                     continue
                 if fitted is None:
                     continue
-                p, q, r = fitted
+                p, q, r, points = fitted
                 at = frames[name]
                 p_base, q_base = at @ np.append(p, 1.0), at @ np.append(q, 1.0)
                 if i == 0:
                     base_ends += [p_base[:3], q_base[:3]]
                     base_radii.append(r)
+                    # The mounting plane is where the base's own geometry ends, not
+                    # where its capsule's round end does (up to a radius lower).
+                    low = min(p_base[2], q_base[2]) - r
+                    if points is not None:
+                        low = float((points @ at[2, :3] + at[2, 3]).min())
+                    base_low.append(float(low))
                     found = True
                     continue
                 pm, qm = to_model @ p_base, to_model @ q_base
@@ -563,7 +574,7 @@ def fit_body(
         pts, r_max = np.array(base_ends), max(base_radii)
         radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + r_max + margin_mm)
         top = float(pts[:, 2].max() + r_max)
-        bottom = float(min(0.0, pts[:, 2].min() - r_max))
+        bottom = float(min(0.0, min(base_low)))
     else:
         # No geometry: a base under the shoulder, half its height.
         radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
@@ -608,9 +619,13 @@ def _body_source(chain: Chain, bare: list[int], margin_mm: float, missing: list[
     return f"{fitted}; links {', '.join(map(str, bare))}: {along}{note}; +{margin_mm:g} mm"
 
 
-def _fit(
-    chain: Chain, link: str, collision: ET.Element
-) -> tuple[np.ndarray, np.ndarray, float] | None:
+#: A capsule fitted to one collision element: end points and radius in the link
+#: frame (mm), and points of the element whose lowest is the element's lowest
+#: (its vertices or corners; None where the capsule's lowest point is the element's).
+_Fitted = tuple[np.ndarray, np.ndarray, float, np.ndarray | None]
+
+
+def _fit(chain: Chain, link: str, collision: ET.Element) -> _Fitted | None:
     """A capsule (end points in the link frame, mm, and radius) enclosing one collision."""
     where = f"{chain.path}: link {link!r} collision"
     at = origin_of(collision.find("origin"), where)
@@ -620,18 +635,24 @@ def _fit(
     shape = geometry[0]
     if shape.tag == "sphere":
         r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} sphere")[0] * _M
-        return at[:3, 3], at[:3, 3], float(r)
+        return at[:3, 3], at[:3, 3], float(r), None
     if shape.tag == "cylinder":
         r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} cylinder")[0] * _M
         half = _numbers(shape.get("length"), 1, (0.0,), f"{where} cylinder")[0] * _M / 2
+        # Its rims, for the lowest point (the capsule's round ends reach lower):
+        # 72-gons around the circles, so no point of a rim is lower than theirs.
+        angle = np.linspace(0.0, 2 * np.pi, 73)[:-1]
+        out = r / np.cos(np.pi / 72)
+        rim = np.column_stack([out * np.cos(angle), out * np.sin(angle), np.zeros_like(angle)])
+        rims = np.concatenate([rim + [0.0, 0.0, -half], rim + [0.0, 0.0, half]])
         axis = at[:3, 2] * half
-        return at[:3, 3] - axis, at[:3, 3] + axis, float(r)
+        return at[:3, 3] - axis, at[:3, 3] + axis, float(r), rims @ at[:3, :3].T + at[:3, 3]
     if shape.tag == "box":
         size = _numbers(shape.get("size"), 3, (0.0, 0.0, 0.0), f"{where} box") * _M
-        k = int(np.argmax(size))
-        others = np.delete(size, k)
-        axis = at[:3, k] * size[k] / 2
-        return at[:3, 3] - axis, at[:3, 3] + axis, float(np.hypot(*others) / 2)
+        corners = np.array(np.meshgrid(*[[-s / 2, s / 2] for s in size])).reshape(3, -1).T
+        corners = corners @ at[:3, :3].T + at[:3, 3]
+        capsule = enclosing.enclose(corners)
+        return capsule.p, capsule.q, capsule.radius, corners
     if shape.tag == "mesh":
         return _fit_mesh(chain, shape, at, where)
     return None
@@ -660,9 +681,7 @@ def mesh_file(urdf: Path, filename: str) -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
-def _fit_mesh(
-    chain: Chain, shape: ET.Element, at: np.ndarray, where: str
-) -> tuple[np.ndarray, np.ndarray, float] | None:
+def _fit_mesh(chain: Chain, shape: ET.Element, at: np.ndarray, where: str) -> _Fitted | None:
     filename = str(shape.get("filename") or "")
     found = mesh_file(chain.path, filename)
     if found is None:
@@ -678,12 +697,7 @@ def _fit_mesh(
     if points.ndim != 2 or len(points) < 2:
         return None
     points = points @ at[:3, :3].T + at[:3, 3]
-    centre = points.mean(axis=0)
-    _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
-    axis = vt[0]
-    t = (points - centre) @ axis
-    radial = np.linalg.norm((points - centre) - np.outer(t, axis), axis=1)
-    r = float(radial.max())
-    # The segment is shortened by the radius at each end only where that still encloses.
-    lo, hi = float(t.min()), float(t.max())
-    return centre + axis * lo, centre + axis * hi, r
+    if not np.all(np.isfinite(points)):
+        raise DescriptionError(f"{where}: mesh {found.name} has vertices that are not numbers")
+    capsule = enclosing.enclose(points)
+    return capsule.p, capsule.q, capsule.radius, points

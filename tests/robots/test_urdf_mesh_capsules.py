@@ -1,0 +1,217 @@
+"""Capsules fitted to a URDF's collision meshes: every vertex inside, and no fatter than needed.
+
+ROS-Industrial's IRB 2400 got a 506 mm capsule for a turret 833 mm across at
+most, and a mounting plane 263 mm below the one its base stands on: the
+capsule axis came from the mean of the vertices (pulled towards wherever a
+mesh is finely drawn) and the plane from the base capsule's round end. A plan
+for it was then refused (2 of 9000 candidates passed) or let the arm reach
+below its plane.
+"""
+
+import numpy as np
+import trimesh
+import yourdfpy
+from cli_process_kit import run_cli
+from robot_files_kit import KUKA
+from scipy.spatial import cKDTree
+
+from calibrator import cell, planning, robots
+from calibrator.model import kinematics
+from calibrator.robots import enclosing, urdf
+
+PACKAGE = "my_arm_support"
+#: Each link's next joint (the KUKA KR 6 URDF's joint origins, m): its housing runs there.
+NEXT = {2: (0.455, 0, 0), 3: (0, 0, 0.035), 4: (0.42, 0, 0)}
+
+
+def _box(lo, hi):
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    return trimesh.creation.box(hi - lo, trimesh.transformations.translation_matrix((lo + hi) / 2))
+
+
+def _housings():
+    """A mesh per link of the KUKA URDF, in its link frame (m), and the base's."""
+    meshes = {"base_link": _box((-0.15, -0.15, 0.0), (0.15, 0.15, 0.3))}
+    meshes["link_1"] = _box((-0.1, -0.1, -0.05), (0.1, 0.1, 0.05))
+    for i in (2, 3, 4):
+        end = np.asarray(NEXT[i], float)
+        meshes[f"link_{i}"] = _box(np.minimum(end, 0) - 0.05, np.maximum(end, 0) + 0.05)
+    # The wrist ends short of the flange (joint 6's origin): the tool is beyond it.
+    meshes["link_5"] = _box((-0.05, -0.05, -0.05), (0.06, 0.05, 0.05))
+    meshes["link_6"] = _box((-0.01, -0.04, -0.04), (0.0, 0.04, 0.04))
+    return meshes
+
+
+def _arm(tmp_path, meshes, origin=""):
+    """The KUKA URDF with ``meshes`` as STL collision meshes, in a ROS package layout."""
+    folder = tmp_path / PACKAGE / "meshes" / "collision"
+    folder.mkdir(parents=True, exist_ok=True)
+    text = KUKA
+    for name, mesh in meshes.items():
+        mesh.export(folder / f"{name}.stl")
+        body = (
+            f'<link name="{name}"><collision>{origin}<geometry><mesh filename='
+            f'"package://{PACKAGE}/meshes/collision/{name}.stl"/></geometry></collision></link>'
+        )
+        assert f'<link name="{name}"/>' in text
+        text = text.replace(f'<link name="{name}"/>', body)
+    path = tmp_path / PACKAGE / "urdf" / "arm.urdf"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+def _in_model_frames(arm, chain, name, link, points_m):
+    """Points of link ``name`` (its URDF frame, m) in the MDH frame of ``link`` (mm)."""
+    frames = arm.base_offset @ kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0]
+    to_model = np.linalg.inv(frames[link]) @ chain.link_frames()[name]
+    return points_m * 1000 @ to_model[:3, :3].T + to_model[:3, 3]
+
+
+def _distance(capsule, points):
+    p, q = np.asarray(capsule.p_mm), np.asarray(capsule.q_mm)
+    t = np.clip((points - p) @ (q - p) / max((q - p) @ (q - p), 1e-300), 0, 1)
+    return np.linalg.norm(points - (p + t[:, None] * (q - p)), axis=1)
+
+
+def test_a_mesh_link_gets_a_capsule_holding_every_vertex_and_no_fatter(tmp_path):
+    # A housing 200 mm across and 600 mm long, finely drawn on one side inside
+    # (a motor's detail): the mean of its vertices lies 62 mm off its axis.
+    housing = trimesh.creation.cylinder(radius=0.1, height=0.6, sections=64)
+    detail = trimesh.creation.icosphere(subdivisions=4, radius=0.02)
+    detail.apply_translation((0.07, 0.0, 0.25))
+    mesh = trimesh.util.concatenate([housing, detail])
+    assert np.linalg.norm(mesh.vertices.mean(axis=0)[:2]) > 0.06
+    # Put on link 3 turned and moved, as a URDF's <collision><origin> may.
+    origin = '<origin xyz="0.2 0.01 0.03" rpy="0.1 1.4 -0.2"/>'
+    path = _arm(tmp_path, {"link_3": mesh}, origin)
+    arm = urdf.describe(path, margin_mm=0.0)
+    chain = urdf.read_chain(path)
+    (capsule,) = (c for c in arm.body.capsules if c.link == 3)
+    placed = trimesh.transformations.compose_matrix(
+        angles=(0.1, 1.4, -0.2), translate=(0.2, 0.01, 0.03)
+    )
+    vertices = trimesh.transform_points(mesh.vertices, placed)
+    inside = _in_model_frames(arm, chain, "link_3", 3, vertices)
+    assert _distance(capsule, inside).max() <= capsule.radius_mm + 1e-6
+    # The cylinder's own capsule: 100 mm (its 64-gon's corners) around its 600 mm axis.
+    assert 99.99 < capsule.radius_mm < 100.001  # STL stores single precision
+    assert np.linalg.norm(np.subtract(capsule.q_mm, capsule.p_mm)) < 600.001
+
+
+def test_every_link_with_a_mesh_gets_its_own_capsule_and_the_base_stands_on_its_plane(tmp_path):
+    meshes = _housings()
+    arm = urdf.describe(_arm(tmp_path, meshes), margin_mm=5.0)
+    chain = urdf.read_chain(tmp_path / PACKAGE / "urdf" / "arm.urdf")
+    assert "fitted to the collision geometry" in arm.body.source
+    assert "along the links" not in arm.body.source
+    for link in range(1, 7):
+        (capsule,) = (c for c in arm.body.capsules if c.link == link)
+        name = f"link_{link}"
+        inside = _in_model_frames(arm, chain, name, link, meshes[name].vertices)
+        gap = capsule.radius_mm - _distance(capsule, inside)
+        # Every vertex inside, some on the surface: the margin is the only slack.
+        assert 5.0 - 1e-3 <= gap.min() < 5.0 + 1e-3, name  # STL: single precision
+    # The base box stands on the base link's z = 0: the mounting plane is there
+    # (in MDH frame 0, which sits base_offset above the base link), not a radius lower.
+    assert abs(arm.body.mount_z_mm + arm.base_offset[2, 3]) < 1e-9
+
+
+def test_a_plan_for_a_urdf_arm_with_meshes_passes_its_checks_and_the_meshes(tmp_path):
+    meshes = _housings()
+    path = _arm(tmp_path, meshes)
+    done = run_cli(
+        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
+        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    plan = planning.read_plan(tmp_path / "plan.csv")
+    arm = robots.get(str(path))
+    checked = planning.check_plan(
+        plan, arm, cell.Cell(tracker_at_mm=(2000.0, -800.0, 600.0)), (0, 0, 100)
+    )
+    assert len(checked.q_rad) == 12
+    # Independently: the meshes posed by another URDF reader along every move.
+    model = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
+    chain = urdf.read_chain(path)
+    names, links = [j.name for j in chain.moving], [j.child for j in chain.moving]
+    surface = {
+        k: trimesh.sample.sample_surface(m, 400, seed=0)[0] * 1000 for k, m in meshes.items()
+    }
+    path_rad = plan.path_rad
+    steps = np.linspace(0.0, 1.0, 9)[1:]
+    samples = [path_rad[0]] + [
+        a + (b - a) * t for a, b in zip(path_rad[:-1], path_rad[1:], strict=True) for t in steps
+    ]
+    sign = np.array(arm.convention.sign)
+    lowest, closest = np.inf, np.inf
+    order = ["base_link", *links]
+    for q in samples:
+        model.update_cfg(dict(zip(names, q * sign, strict=True)))
+        world = {}
+        for name in order:
+            placed = np.array(model.get_transform(name, "base_link"))
+            placed[:3, 3] *= 1000
+            world[name] = surface[name] @ placed[:3, :3].T + placed[:3, 3]
+        lowest = min(lowest, min(world[n][:, 2].min() for n in links[1:]))
+        for i in range(len(order)):
+            for j in range(i + 2, len(order)):
+                closest = min(closest, cKDTree(world[order[i]]).query(world[order[j]])[0].min())
+    assert lowest > 0.0
+    assert closest > 0.0
+
+
+def test_a_turret_whose_capsule_dips_below_the_plane_does_not_refuse_every_pose(tmp_path):
+    # A flat turret 800 mm square on link 1: its capsule (403 mm round) reaches
+    # below the plane the base stands on, at every pose alike (link 1 turns
+    # about the plane's normal); an IRB 6640's does by 123 mm, and no pose passed.
+    meshes = _housings()
+    meshes["link_1"] = _box((-0.4, -0.4, -0.1), (0.4, 0.4, 0.0))
+    path = _arm(tmp_path, meshes)
+    arm = robots.get(str(path))
+    (turret,) = (c for c in arm.body.capsules if c.link == 1)
+    frame_1 = kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0][1]
+    lowest = min((frame_1 @ np.append(p, 1.0))[2] for p in (turret.p_mm, turret.q_mm))
+    assert lowest - turret.radius_mm < arm.body.mount_z_mm
+    done = run_cli(
+        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
+        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    # Links 2 on are still kept off the plane: the stretched-out arm laid down is refused.
+    geo = cell.arm_geometry(arm, arm.mdh, (0, 0, 100))
+    chk = cell.checker(geo, cell.Cell())
+    tilted = np.zeros((2, 6))
+    tilted[:, 1] = (np.pi / 2, -np.pi / 2)
+    flange_z = kinematics.chain(arm.mdh, tilted)[:, 2, 3]
+    down = tilted[np.argsort(flange_z)]  # pointing down, then up
+    assert cell.checks.collision_faults(chk, down)[:, 0].tolist() == [True, False]
+
+
+def test_a_base_cylinder_standing_on_z_0_puts_the_mounting_plane_there(tmp_path):
+    base = (
+        '<link name="base_link"><collision><origin xyz="0 0 0.15" rpy="0 0 0"/>'
+        '<geometry><cylinder radius="0.15" length="0.3"/></geometry></collision></link>'
+    )
+    path = tmp_path / "arm.urdf"
+    path.write_text(KUKA.replace('<link name="base_link"/>', base))
+    arm = urdf.describe(path)
+    # Its rims are on z = 0; the capsule's round end 150 mm lower is not the floor.
+    assert abs(arm.body.mount_z_mm + arm.base_offset[2, 3]) < 1e-9
+
+
+def test_the_capsule_holds_any_cloud_and_is_no_larger_than_along_its_principal_axis():
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 3, 7, 50, 400):
+        points = rng.normal(size=(n, 3)) * rng.uniform(1.0, 300.0, 3) + rng.uniform(-500, 500, 3)
+        capsule = enclosing.enclose(points)
+        d = capsule.q - capsule.p
+        t = np.clip((points - capsule.p) @ d / max(d @ d, 1e-300), 0.0, 1.0)
+        assert np.linalg.norm(points - capsule.p - t[:, None] * d, axis=1).max() <= capsule.radius
+        # The capsule from the mean along the principal axis (the fit before): never smaller.
+        centre = points.mean(axis=0)
+        axis = np.linalg.svd(points - centre)[2][0]
+        along = (points - centre) @ axis
+        radius = np.linalg.norm(points - centre - np.outer(along, axis), axis=1).max()
+        before = np.pi * radius**2 * (np.ptp(along) + 4 / 3 * radius)
+        assert capsule.volume <= before * (1 + 1e-9) + 1e-9
