@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 #: Radius added to cover rounding, relative to the points' largest coordinate
 #: (1e-6 mm at a metre).
@@ -63,9 +62,18 @@ def _hull(points: np.ndarray) -> np.ndarray:
     """The convex hull's vertices: what any convex body enclosing ``points`` must enclose."""
     if len(points) < 5:
         return points
+    return _hull_vertices(points)
+
+
+def _hull_vertices(points: np.ndarray) -> np.ndarray:
+    """``points`` on their convex hull (2-D or 3-D); all of them when flat or on a line."""
+    # Imported here: every module of calibrator.robots is imported to find the
+    # arms, and scipy would add its import to every command's start.
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         return points[ConvexHull(points).vertices]
-    except QhullError:  # flat or on a line: every point
+    except QhullError:
         return points
 
 
@@ -95,10 +103,7 @@ def _along(points: np.ndarray, axis: np.ndarray) -> Enclosing:
 def _circle(points: np.ndarray) -> tuple[np.ndarray, float]:
     """The smallest circle enclosing 2-D points (N, 2): centre and radius (Welzl's, iterative)."""
     if len(points) > 3:
-        try:
-            points = points[ConvexHull(points).vertices]
-        except QhullError:  # on a line: every point
-            pass
+        points = _hull_vertices(points)
     # A fixed shuffle: the expected linear time, and the same circle every run.
     pts = points[np.random.default_rng(0).permutation(len(points))]
     tol = 1e-9 * (1.0 + float(np.abs(pts).max()))
