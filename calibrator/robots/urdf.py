@@ -66,6 +66,8 @@ SURFACE_SPACING_MM = 10.0
 #: joined for the cell's self-collision check (its default margin), mm: their
 #: meshes are swept instead (:func:`narrow_limits`).
 JOINED_MM = 20.0
+#: A sweep leaving a joint less than this share of its range is not applied (said instead).
+MIN_SHARE = 0.5
 #: Radius of a capsule along a link that has no collision geometry, mm.
 BARE_LINK_RADIUS_MM = 60.0
 _MOVING = ("revolute", "continuous")
@@ -529,6 +531,17 @@ def narrow_limits(
         if new[0] <= out[j, 0] and new[1] >= out[j, 1]:
             continue
         other = b if found.joint == 1 else a + 1
+        if new[1] - new[0] < MIN_SHARE * (out[j, 1] - out[j, 0]):
+            # The other joint taken at every angle is what closes the gap (the MH5's
+            # forearm turned about axis 4 sweeps past its lower arm): not the pair's own
+            # reach, and narrowing to it would leave the arm nothing to plan with.
+            notes.append(
+                f"{pair}: with joint {other} at any angle their meshes keep {margin_mm:g} mm "
+                f"only for joint {j + 1} in [{np.degrees(new[0]):.1f}, "
+                f"{np.degrees(new[1]):.1f}] deg, under {MIN_SHARE:.0%} of its range: not "
+                "narrowed, their clearance is not checked"
+            )
+            continue
         notes.append(
             f"joint {j + 1} limited to [{np.degrees(new[0]):.1f}, {np.degrees(new[1]):.1f}] deg "
             f"from [{np.degrees(out[j, 0]):.1f}, {np.degrees(out[j, 1]):.1f}]: beyond it the "
