@@ -486,7 +486,8 @@ def narrow_limits(
     -------
     limits : ndarray, shape (6, 2)
     notes : tuple of str
-        One line per narrowed joint, and per joined pair not swept (why).
+        One line per narrowed joint, and per joined pair of links with meshes
+        that is not swept or not narrowed (why).
     """
     joined = _joined(body, model_frames)
     if not joined:
@@ -503,11 +504,13 @@ def narrow_limits(
     notes: list[str] = []
     for a, b in joined:
         pair = f"links {names[a]} and {names[b]}"
-        if b - a != 2:
-            notes.append(f"{pair}: capsules overlap at zero, {b - a} joints apart: not swept")
+        if surfaces[a] is None or surfaces[b] is None:
+            # Capsules drawn along the links, not fitted to housings: the body's
+            # source says so, and there is nothing to sweep.
             continue
-        if surfaces[a] is None or surfaces[b] is None or surfaces[a + 1] is None:
-            notes.append(f"{pair}: capsules overlap at zero, no meshes of every link: not swept")
+        if b - a != 2 or surfaces[a + 1] is None:
+            why = f"{b - a} joints apart" if b - a != 2 else f"no meshes of {names[a + 1]}"
+            notes.append(f"{pair}: capsules overlap at zero, {why}: not swept")
             continue
 
         def link(k: int) -> clearance.Link:
