@@ -26,6 +26,7 @@ child link, fixed children folded in), mm; angles rad, the URDF's.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,7 +99,11 @@ def _moved(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
 
 
 def _interval(
-    distance, limits: tuple[float, float], margin: float, lever: float, step: float
+    distance: Callable[[float], float],
+    limits: tuple[float, float],
+    margin: float,
+    lever: float,
+    step: float,
 ) -> tuple[float, float] | None:
     """The angles around zero (within ``limits``) where ``distance`` keeps ``margin`` or more.
 
@@ -127,8 +132,10 @@ def _interval(
     return ends[0], ends[1]
 
 
-def sweep(near: Link, middle: Link, far: Link, margin_mm: float, step_rad: float = STEP_RAD):
-    """The narrowing that keeps ``near`` and ``far`` ``margin_mm`` apart, or why there is none.
+def sweep(
+    near: Link, middle: Link, far: Link, margin_mm: float, step_rad: float = STEP_RAD
+) -> Narrowing | None:
+    """The narrowing that keeps ``near`` and ``far`` ``margin_mm`` apart, if there is one.
 
     Parameters
     ----------
@@ -206,7 +213,7 @@ class _Distance:
         self.coarse = moving[np.unique(cell, axis=0, return_index=True)[1]]
         self.cover = float(cKDTree(self.coarse).query(moving)[0].max()) if len(moving) > 1 else 0.0
 
-    def __call__(self, place) -> float:
+    def __call__(self, place: Callable[[np.ndarray], np.ndarray]) -> float:
         if not len(self.moving):
             return self.bound
         near = self.bound + self.cover
