@@ -30,7 +30,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 #: Sweep step, rad (0.5 deg): the walk stops where it would gain less than half of it.
 STEP_RAD = np.radians(0.5)
@@ -204,6 +203,10 @@ class _Distance:
     """
 
     def __init__(self, fixed: np.ndarray, moving: np.ndarray, bound: float) -> None:
+        # Imported here: every module of calibrator.robots is imported to find the
+        # arms, and a command's start should not load scipy.
+        from scipy.spatial import cKDTree
+
         self.bound = bound
         self.tree = cKDTree(fixed)
         self.moving = moving
