@@ -152,6 +152,9 @@ def plan(
         f"log det(J^T J) {planning.log_det(made.blocks):.2f}, "
         f"smallest singular value {planning.min_singular(made.blocks):.4g}"
     )
+    for line in robot.limit_notes:
+        # Limits narrowed from the description's source: the plan keeps within these.
+        typer.echo(f"note: {line}", err=True)
     if assumed_tracker:
         typer.echo(
             "note: no --tracker-at and no tracker in the cell: the poses face the simulated "

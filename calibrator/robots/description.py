@@ -220,6 +220,9 @@ class RobotDescription:
         Published true errors of this arm (a paper's simulation table), if any.
     source : str
         Where the numbers come from.
+    limit_notes : tuple of str
+        Joint limits narrowed from the source's, and why (a URDF's meshes
+        coming closer than the margin beyond them: :mod:`calibrator.robots.clearance`).
     """
 
     name: str
@@ -239,6 +242,7 @@ class RobotDescription:
     flange_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
     reference_errors: np.ndarray | None = None
     source: str = ""
+    limit_notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.name
@@ -324,7 +328,7 @@ class RobotDescription:
             return None if a is None else np.asarray(a).tolist()
 
         body = self.body
-        return {
+        out = {
             "format": FORMAT,
             "name": self.name,
             "family": self.family,
@@ -366,6 +370,10 @@ class RobotDescription:
                 ],
             },
         }
+        if self.limit_notes:
+            # Only where there are some: every other description's digest stays as it was.
+            out["limit_notes"] = list(self.limit_notes)
+        return out
 
     @property
     def digest(self) -> str:

@@ -36,6 +36,9 @@ def _housings():
     for i in (2, 3, 4):
         end = np.asarray(NEXT[i], float)
         meshes[f"link_{i}"] = _box(np.minimum(end, 0) - 0.05, np.maximum(end, 0) + 0.05)
+    # The forearm ends at axis 5: reaching 50 mm past it, the flange (70 mm out)
+    # ran into it at 12 degrees of joint 5, and reading the URDF narrows joint 5 there.
+    meshes["link_4"] = _box((-0.05, -0.05, -0.05), (NEXT[4][0], 0.05, 0.05))
     # The wrist ends short of the flange (joint 6's origin): the tool is beyond it.
     meshes["link_5"] = _box((-0.05, -0.05, -0.05), (0.06, 0.05, 0.05))
     meshes["link_6"] = _box((-0.01, -0.04, -0.04), (0.0, 0.04, 0.04))

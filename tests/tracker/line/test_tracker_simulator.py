@@ -191,7 +191,7 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
         "calibrator.robots", "calibrator.robots.description", "calibrator.robots.files",
         "calibrator.robots.ipso_paper", "calibrator.robots.urdf", "calibrator.robots.ur",
         "calibrator.robots.enclosing", "calibrator.robots.shipped", "calibrator.model.conventions",
-        "calibrator.inputs",
+        "calibrator.robots.clearance", "calibrator.inputs",
         "calibrator.inputs.errors", "calibrator.inputs.grammar", "calibrator.inputs.messages",
         "calibrator.inputs.textfile", "calibrator.inputs.yamlfile", "calibrator.inputs.rules",
         "calibrator.inputs.budgets",
