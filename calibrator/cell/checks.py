@@ -16,10 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.cell import distance
 from calibrator.cell.cellfile import Cell, CellError, obstacle_arrays
 from calibrator.cell.geometry import ArmGeometry, place
-from calibrator.model import kinematics, singularities
+from calibrator.model import distance, kinematics, singularities
 
 #: Reasons a pose is refused, in the order checks report them.
 REASONS = (

@@ -36,7 +36,7 @@ import numpy as np
 
 from calibrator.inputs import grammar, textfile
 from calibrator.inputs.errors import StrictError
-from calibrator.model import conventions, kinematics
+from calibrator.model import conventions, distance, kinematics
 from calibrator.model.frames import from_xyz_rpy
 from calibrator.robots import clearance, enclosing
 from calibrator.robots.description import (
@@ -557,7 +557,6 @@ def narrow_limits(
 
 def _joined(body: Body, model_frames: np.ndarray) -> list[tuple[int, int]]:
     """Moving links (1..6) two or more apart whose capsules overlap at the zero pose."""
-    from calibrator.cell import distance  # the cell reads descriptions: imported when used
 
     caps = body.capsules
     ends = np.array(
