@@ -13,7 +13,7 @@ import trimesh
 import yourdfpy
 from cli_process_kit import run_cli
 from scipy.spatial import cKDTree
-from test_urdf_mesh_capsules import _arm, _box, _housings
+from urdf_mesh_kit import along_moves, arm_with_meshes, box, housings, posed_mm
 
 from calibrator import planning
 from calibrator.robots import clearance, urdf
@@ -27,13 +27,13 @@ END = 0.07
 
 def _forked():
     """The KUKA housings with link_4 a forearm ending in a fork whose cheeks clear the flange."""
-    meshes = _housings()
+    meshes = housings()
     end = AXIS_5_X - END
     meshes["link_4"] = trimesh.util.concatenate(
         [
-            _box((-0.05, -0.05, -0.05), (end, 0.05, 0.05)),
-            _box((end, 0.07, -0.05), (AXIS_5_X + 0.05, 0.09, 0.05)),
-            _box((end, -0.09, -0.05), (AXIS_5_X + 0.05, -0.07, 0.05)),
+            box((-0.05, -0.05, -0.05), (end, 0.05, 0.05)),
+            box((end, 0.07, -0.05), (AXIS_5_X + 0.05, 0.09, 0.05)),
+            box((end, -0.09, -0.05), (AXIS_5_X + 0.05, -0.07, 0.05)),
         ]
     )
     return meshes
@@ -46,17 +46,14 @@ def _gap(path, meshes, q5_deg):
     least = np.inf
     for q6 in np.radians(np.arange(0.0, 360.0, 5.0)):
         model.update_cfg({"joint_a5": np.radians(q5_deg), "joint_a6": q6})
-        placed = {}
-        for name in ("link_4", "link_6"):
-            at = np.array(model.get_transform(name, "base_link"))
-            placed[name] = (points[name] @ at[:3, :3].T + at[:3, 3]) * 1000
+        placed = posed_mm(model, {name: points[name] for name in ("link_4", "link_6")})
         least = min(least, cKDTree(placed["link_4"]).query(placed["link_6"])[0].min())
     return least
 
 
 def test_a_flange_folding_into_the_forearm_narrows_joint_5_to_where_it_keeps_the_margin(tmp_path):
     meshes = _forked()
-    path = _arm(tmp_path, meshes)
+    path = arm_with_meshes(tmp_path, meshes)
     arm = urdf.describe(path)
     lo, hi = np.degrees(arm.joint_limits_rad[4])
     # The URDF's joint 5 limits are +-120 deg; folded that far the flange is in the forearm.
@@ -77,7 +74,7 @@ def test_a_flange_folding_into_the_forearm_narrows_joint_5_to_where_it_keeps_the
 
 def test_a_plan_for_the_forked_arm_keeps_the_flange_out_of_the_forearm(tmp_path):
     meshes = _forked()
-    path = _arm(tmp_path, meshes)
+    path = arm_with_meshes(tmp_path, meshes)
     done = run_cli(
         "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
         "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
@@ -91,18 +88,10 @@ def test_a_plan_for_the_forked_arm_keeps_the_flange_out_of_the_forearm(tmp_path)
     points = {k: trimesh.sample.sample_surface(meshes[k], 3000, seed=0)[0] for k in meshes}
     names = [f"joint_a{i}" for i in range(1, 7)]
     sign = np.array(urdf.describe(path).convention.sign)
-    path_rad = plan.path_rad
-    steps = np.linspace(0.0, 1.0, 9)[1:]
-    samples = [path_rad[0]] + [
-        a + (b - a) * t for a, b in zip(path_rad[:-1], path_rad[1:], strict=True) for t in steps
-    ]
     closest = np.inf
-    for q in samples:
+    for q in along_moves(plan.path_rad):
         model.update_cfg(dict(zip(names, q * sign, strict=True)))
-        placed = {}
-        for name in ("link_4", "link_6"):
-            at = np.array(model.get_transform(name, "base_link"))
-            placed[name] = (points[name] @ at[:3, :3].T + at[:3, 3]) * 1000
+        placed = posed_mm(model, {name: points[name] for name in ("link_4", "link_6")})
         closest = min(closest, cKDTree(placed["link_4"]).query(placed["link_6"])[0].min())
     assert closest > 0.0
 
@@ -122,7 +111,7 @@ def test_the_sweep_keeps_the_margin_between_its_samples_and_is_the_same_every_ru
 
 @pytest.mark.parametrize("spacing", [5.0, 20.0])
 def test_surface_points_cover_a_face_at_the_spacing_asked_and_repeat(spacing):
-    mesh = _box((0, 0, 0), (100, 100, 1))
+    mesh = box((0, 0, 0), (100, 100, 1))
     first = clearance.surface_points(mesh.vertices, mesh.faces, spacing)
     assert np.array_equal(first, clearance.surface_points(mesh.vertices, mesh.faces, spacing))
     assert len(first) >= 8 + 2 * 100 * 100 / spacing**2

@@ -14,54 +14,11 @@ import yourdfpy
 from cli_process_kit import run_cli
 from robot_files_kit import KUKA
 from scipy.spatial import cKDTree
+from urdf_mesh_kit import PACKAGE, along_moves, arm_with_meshes, box, housings, posed_mm
 
 from calibrator import cell, planning, robots
 from calibrator.model import kinematics
 from calibrator.robots import enclosing, urdf
-
-PACKAGE = "my_arm_support"
-#: Each link's next joint (the KUKA KR 6 URDF's joint origins, m): its housing runs there.
-NEXT = {2: (0.455, 0, 0), 3: (0, 0, 0.035), 4: (0.42, 0, 0)}
-
-
-def _box(lo, hi):
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    return trimesh.creation.box(hi - lo, trimesh.transformations.translation_matrix((lo + hi) / 2))
-
-
-def _housings():
-    """A mesh per link of the KUKA URDF, in its link frame (m), and the base's."""
-    meshes = {"base_link": _box((-0.15, -0.15, 0.0), (0.15, 0.15, 0.3))}
-    meshes["link_1"] = _box((-0.1, -0.1, -0.05), (0.1, 0.1, 0.05))
-    for i in (2, 3, 4):
-        end = np.asarray(NEXT[i], float)
-        meshes[f"link_{i}"] = _box(np.minimum(end, 0) - 0.05, np.maximum(end, 0) + 0.05)
-    # The forearm ends at axis 5: reaching 50 mm past it, the flange (70 mm out)
-    # ran into it at 12 degrees of joint 5, and reading the URDF narrows joint 5 there.
-    meshes["link_4"] = _box((-0.05, -0.05, -0.05), (NEXT[4][0], 0.05, 0.05))
-    # The wrist ends short of the flange (joint 6's origin): the tool is beyond it.
-    meshes["link_5"] = _box((-0.05, -0.05, -0.05), (0.06, 0.05, 0.05))
-    meshes["link_6"] = _box((-0.01, -0.04, -0.04), (0.0, 0.04, 0.04))
-    return meshes
-
-
-def _arm(tmp_path, meshes, origin=""):
-    """The KUKA URDF with ``meshes`` as STL collision meshes, in a ROS package layout."""
-    folder = tmp_path / PACKAGE / "meshes" / "collision"
-    folder.mkdir(parents=True, exist_ok=True)
-    text = KUKA
-    for name, mesh in meshes.items():
-        mesh.export(folder / f"{name}.stl")
-        body = (
-            f'<link name="{name}"><collision>{origin}<geometry><mesh filename='
-            f'"package://{PACKAGE}/meshes/collision/{name}.stl"/></geometry></collision></link>'
-        )
-        assert f'<link name="{name}"/>' in text
-        text = text.replace(f'<link name="{name}"/>', body)
-    path = tmp_path / PACKAGE / "urdf" / "arm.urdf"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
-    return path
 
 
 def _in_model_frames(arm, chain, name, link, points_m):
@@ -87,7 +44,7 @@ def test_a_mesh_link_gets_a_capsule_holding_every_vertex_and_no_fatter(tmp_path)
     assert np.linalg.norm(mesh.vertices.mean(axis=0)[:2]) > 0.06
     # Put on link 3 turned and moved, as a URDF's <collision><origin> may.
     origin = '<origin xyz="0.2 0.01 0.03" rpy="0.1 1.4 -0.2"/>'
-    path = _arm(tmp_path, {"link_3": mesh}, origin)
+    path = arm_with_meshes(tmp_path, {"link_3": mesh}, origin)
     arm = urdf.describe(path, margin_mm=0.0)
     chain = urdf.read_chain(path)
     (capsule,) = (c for c in arm.body.capsules if c.link == 3)
@@ -103,8 +60,8 @@ def test_a_mesh_link_gets_a_capsule_holding_every_vertex_and_no_fatter(tmp_path)
 
 
 def test_every_link_with_a_mesh_gets_its_own_capsule_and_the_base_stands_on_its_plane(tmp_path):
-    meshes = _housings()
-    arm = urdf.describe(_arm(tmp_path, meshes), margin_mm=5.0)
+    meshes = housings()
+    arm = urdf.describe(arm_with_meshes(tmp_path, meshes), margin_mm=5.0)
     chain = urdf.read_chain(tmp_path / PACKAGE / "urdf" / "arm.urdf")
     assert "fitted to the collision geometry" in arm.body.source
     assert "along the links" not in arm.body.source
@@ -121,8 +78,8 @@ def test_every_link_with_a_mesh_gets_its_own_capsule_and_the_base_stands_on_its_
 
 
 def test_a_plan_for_a_urdf_arm_with_meshes_passes_its_checks_and_the_meshes(tmp_path):
-    meshes = _housings()
-    path = _arm(tmp_path, meshes)
+    meshes = housings()
+    path = arm_with_meshes(tmp_path, meshes)
     done = run_cli(
         "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
         "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
@@ -138,24 +95,13 @@ def test_a_plan_for_a_urdf_arm_with_meshes_passes_its_checks_and_the_meshes(tmp_
     model = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
     chain = urdf.read_chain(path)
     names, links = [j.name for j in chain.moving], [j.child for j in chain.moving]
-    surface = {
-        k: trimesh.sample.sample_surface(m, 400, seed=0)[0] * 1000 for k, m in meshes.items()
-    }
-    path_rad = plan.path_rad
-    steps = np.linspace(0.0, 1.0, 9)[1:]
-    samples = [path_rad[0]] + [
-        a + (b - a) * t for a, b in zip(path_rad[:-1], path_rad[1:], strict=True) for t in steps
-    ]
+    surface = {k: trimesh.sample.sample_surface(m, 400, seed=0)[0] for k, m in meshes.items()}
     sign = np.array(arm.convention.sign)
     lowest, closest = np.inf, np.inf
     order = ["base_link", *links]
-    for q in samples:
+    for q in along_moves(plan.path_rad):
         model.update_cfg(dict(zip(names, q * sign, strict=True)))
-        world = {}
-        for name in order:
-            placed = np.array(model.get_transform(name, "base_link"))
-            placed[:3, 3] *= 1000
-            world[name] = surface[name] @ placed[:3, :3].T + placed[:3, 3]
+        world = posed_mm(model, {name: surface[name] for name in order})
         lowest = min(lowest, min(world[n][:, 2].min() for n in links[1:]))
         for i in range(len(order)):
             for j in range(i + 2, len(order)):
@@ -168,9 +114,9 @@ def test_a_turret_whose_capsule_dips_below_the_plane_does_not_refuse_every_pose(
     # A flat turret 800 mm square on link 1: its capsule (403 mm round) reaches
     # below the plane the base stands on, at every pose alike (link 1 turns
     # about the plane's normal); an IRB 6640's does by 123 mm, and no pose passed.
-    meshes = _housings()
-    meshes["link_1"] = _box((-0.4, -0.4, -0.1), (0.4, 0.4, 0.0))
-    path = _arm(tmp_path, meshes)
+    meshes = housings()
+    meshes["link_1"] = box((-0.4, -0.4, -0.1), (0.4, 0.4, 0.0))
+    path = arm_with_meshes(tmp_path, meshes)
     arm = robots.get(str(path))
     (turret,) = (c for c in arm.body.capsules if c.link == 1)
     frame_1 = kinematics.chain(arm.mdh, np.zeros(6), all_frames=True)[1][0][1]
