@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 from filter_kit import BASE, TOOL, job
-from test_rapid import _pose, _robtarget
+from program_kit import rapid_pose, robtarget
 
 from calibrator import compensate, session, simulate
 from calibrator.calibration import Calibration
@@ -32,11 +32,11 @@ def _module(path, cal, q):
     pose = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q, TOOL)
     lines = [
         "MODULE Cell",
-        f"  PERS tooldata tSpindle:=[TRUE,{_pose(TOOL)},[4,[0,0,80],[1,0,0,0],0,0,0]];",
-        f'  PERS wobjdata wPart:=[FALSE,TRUE,"",{_pose(BASE)},[[0,0,0],[1,0,0,0]]];',
+        f"  PERS tooldata tSpindle:=[TRUE,{rapid_pose(TOOL)},[4,[0,0,80],[1,0,0,0],0,0,0]];",
+        f'  PERS wobjdata wPart:=[FALSE,TRUE,"",{rapid_pose(BASE)},[[0,0,0],[1,0,0,0]]];',
     ]
     lines += [
-        f"  CONST robtarget t{i}:={_robtarget(cal, p, qi)};"
+        f"  CONST robtarget t{i}:={robtarget(cal, p, qi)};"
         for i, (p, qi) in enumerate(zip(pose, q, strict=True))
     ]
     lines += ["  PROC main()"] + [

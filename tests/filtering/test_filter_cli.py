@@ -5,13 +5,13 @@ import json
 import numpy as np
 from cli_process_kit import run_cli
 from filter_kit import calibration, work_joints
-from test_krl import write_program
+from program_kit import write_krl_program
 
 
 def test_krl_program_through_the_command_line(tmp_path):
     cal = calibration()
     cal.save(tmp_path / "cal.json")
-    src, config = write_program(tmp_path, cal, work_joints(8))
+    src, config = write_krl_program(tmp_path, cal, work_joints(8))
     (tmp_path / "out").mkdir()
     done = run_cli(
         "compensate", "cal.json", "weld.src", "-o", "out/weld.src", "--config-dat", config.name,
@@ -29,7 +29,7 @@ def test_a_failed_target_writes_nothing_and_exits_1(tmp_path):
     cal.save(tmp_path / "cal.json")
     q = work_joints(8)
     q[1, 1], q[1, 2] = 0.3, np.radians(-82.5) + 0.005  # out of the calibrated arm's reach
-    src, config = write_program(tmp_path, cal, q)
+    src, config = write_krl_program(tmp_path, cal, q)
     done = run_cli(
         "compensate", "cal.json", "weld.src", "-o", "f.src", "--config-dat", config.name,
         "--summary", "s.json", cwd=tmp_path,
@@ -50,7 +50,7 @@ def test_a_failed_target_writes_nothing_and_exits_1(tmp_path):
 def test_bad_options_and_files_are_refused_in_one_line(tmp_path):
     cal = calibration()
     cal.save(tmp_path / "cal.json")
-    write_program(tmp_path, cal, work_joints(2))
+    write_krl_program(tmp_path, cal, work_joints(2))
     (tmp_path / "f.yaml").write_text(
         "tools:\n"
         "  '1': {xyz_mm: [0, 0, 1], abc_deg: [0, 0, 0]}\n"

@@ -4,78 +4,16 @@ import re
 
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
+from program_kit import krl_frame, krl_status_turn, write_krl_program
 
 from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
-from calibrator.filtering.krl import KRL
 from calibrator.model import frames, kinematics
-
-CRLF = "\r\n"
-
-
-def _agg(pose):
-    abc = rotations.matrix_to_zyx(pose[None, :3, :3], np.zeros((1, 3)))[0]
-    x, y, z = pose[:3, 3]
-    return f"X {x:.3f},Y {y:.3f},Z {z:.3f},A {abc[0]:.4f},B {abc[1]:.4f},C {abc[2]:.4f}"
-
-
-def _st(q):
-    from calibrator.filtering.solve import Solver
-
-    lang = KRL.__new__(KRL)
-    cal = calibration(mm=0, rad=0)
-    s, t = Solver(lang, job(cal)).code_of(q[None])[0]
-    return f"S {s},T {t}"
-
-
-def write_program(tmp_path, cal, q, name="weld"):
-    """A .src/.dat pair: declared points in base 2 with tool 1, inline points with tool 2."""
-    n = len(q)
-    half = n // 2
-    p1 = poses(cal, q[:half], TOOL, BASE)
-    p2 = poses(cal, q[half:], TOOL2, np.eye(4))
-    dat = [
-        f"&ACCESS RVP{CRLF}",
-        f"DEFDAT {name.upper()}{CRLF}",
-        f";FOLD EXTERNAL DECLARATIONS; Schweißnaht äöü{CRLF}",
-    ]
-    src = [
-        f"&ACCESS RVP{CRLF}",
-        f"DEF {name.upper()}(){CRLF}",
-        f"; Naht 1 — Grundplatte{CRLF}",
-        f"DECL E6AXIS HOMEPOS{CRLF}",
-        f"HOMEPOS = {{A1 0.0,A2 -10.0,A3 10.0,A4 0.0,A5 45.0,A6 0.0}}{CRLF}",
-        f"$TOOL = TOOL_DATA[1]{CRLF}",
-        f"BAS(#BASE, 2){CRLF}",
-        f"PTP {{A1 0.0,A2 0.0,A3 0.0,A4 0.0,A5 45.0,A6 0.0}}{CRLF}",
-    ]
-    dat.append(f'DECL FDAT FP1={{TOOL_NO 1,BASE_NO 2,IPO_FRAME #BASE,POINT2[] " "}}{CRLF}')
-    for i in range(half):
-        dat.append(
-            f"DECL E6POS XP{i + 1}={{{_agg(p1[i])},{_st(q[i])},"
-            f"E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}{CRLF}"
-        )
-        src.append(f"{'PTP' if i % 2 else 'LIN'} XP{i + 1} C_DIS ; point {i + 1}{CRLF}")
-    src.append(f"$TOOL = TOOL_DATA[2]{CRLF}")
-    src.append(f"$BASE = BASE_DATA[0]{CRLF}")
-    for j in range(n - half):
-        src.append(f"  LIN {{{_agg(p2[j])},{_st(q[half + j])}}} C_VEL  ; inline{CRLF}")
-    src += [f"PTP HOMEPOS{CRLF}", f"END{CRLF}"]
-    dat.append(f"ENDDAT{CRLF}")
-    (tmp_path / f"{name}.src").write_bytes("".join(src).encode("cp1252"))
-    (tmp_path / f"{name}.dat").write_bytes("".join(dat).encode("cp1252"))
-    config = tmp_path / "config.dat"
-    lines = []
-    for n_, t in ((1, TOOL), (2, TOOL2)):
-        lines.append(f"TOOL_DATA[{n_}]={{{_agg(t)}}}\n")
-    lines.append(f"BASE_DATA[2]={{{_agg(BASE)}}}\n")
-    config.write_text("DEFDAT $CONFIG\n" + "".join(lines) + "ENDDAT\n")
-    return tmp_path / f"{name}.src", config
 
 
 def test_identity_calibration_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
-    src, config = write_program(tmp_path, cal, work_joints(12))
+    src, config = write_krl_program(tmp_path, cal, work_joints(12))
     out = tmp_path / "out" / "weld.src"
     out.parent.mkdir()
     summary = engine.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
@@ -95,7 +33,7 @@ def _read_poses(text):
 def test_corrected_targets_land_on_the_intended_pose(tmp_path):
     cal = calibration()
     q = work_joints(12)
-    src, config = write_program(tmp_path, cal, q)
+    src, config = write_krl_program(tmp_path, cal, q)
     out = tmp_path / "o.src"
     summary = engine.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -127,7 +65,7 @@ def _one_target(tmp_path, cal, q, st=None):
     src = tmp_path / "one.src"
     src.write_text(
         "DEF ONE()\n$TOOL = TOOL_DATA[1]\n$BASE = BASE_DATA[0]\n; the target\n"
-        f"LIN {{{_agg(pose)},{st or _st(q)}}}\nEND\n"
+        f"LIN {{{krl_frame(pose)},{st or krl_status_turn(q)}}}\nEND\n"
     )
     frames_yaml = tmp_path / "frames.yaml"
     frames_yaml.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\n")
@@ -195,7 +133,7 @@ def test_max_correction_refuses_a_large_one(tmp_path):
 
 def test_joint_targets_are_kept_or_corrected(tmp_path):
     cal = calibration()
-    src, config = write_program(tmp_path, cal, work_joints(4))
+    src, config = write_krl_program(tmp_path, cal, work_joints(4))
     kept = engine.Filter("krl", job(cal, config_dat=config), src).run(tmp_path / "k.src", [src])
     assert kept.kept["joints"] == 2 and kept.corrected["joints"] == 0  # HOMEPOS and the inline PTP
     out = tmp_path / "c.src"

@@ -4,33 +4,11 @@ import re
 
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
+from program_kit import rapid_pose, robtarget
 
 from calibrator import compensate
 from calibrator.filtering import engine, rotations
-from calibrator.filtering.rapid import RAPID
-from calibrator.filtering.solve import Solver
 from calibrator.model import kinematics
-
-
-def _q(rot):
-    return rotations.matrix_to_quaternion(rot[None], [[1, 0, 0, 0]])[0]
-
-
-def _pose(t):
-    q = _q(t[:3, :3])
-    return (
-        f"[[{t[0, 3]:.2f},{t[1, 3]:.2f},{t[2, 3]:.2f}],"
-        f"[{q[0]:.6f},{q[1]:.6f},{q[2]:.6f},{q[3]:.6f}]]"
-    )
-
-
-def _robtarget(cal, pose, q):
-    lang = RAPID.__new__(RAPID)
-    cf = Solver(lang, job(cal)).code_of(q[None])[0]
-    return (
-        _pose(pose)[:-1]
-        + f",[{cf[0]},{cf[1]},{cf[2]},{cf[3]}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
-    )
 
 
 def write_module(path, cal, q):
@@ -39,22 +17,22 @@ def write_module(path, cal, q):
     lines = [
         "MODULE Zelle3",
         "  ! Schweißzelle 3 — Werkstück auf dem Tisch",
-        f"  PERS tooldata tWeld:=[TRUE,{_pose(TOOL)},[2.5,[0,0,100],[1,0,0,0],0,0,0]];",
-        f"  PERS tooldata tGrip:=[TRUE,{_pose(TOOL2)},[1,[0,0,50],[1,0,0,0],0,0,0]];",
-        f'  TASK PERS wobjdata wTable:=[FALSE,TRUE,"",{_pose(BASE)},[[0,0,0],[1,0,0,0]]];',
+        f"  PERS tooldata tWeld:=[TRUE,{rapid_pose(TOOL)},[2.5,[0,0,100],[1,0,0,0],0,0,0]];",
+        f"  PERS tooldata tGrip:=[TRUE,{rapid_pose(TOOL2)},[1,[0,0,50],[1,0,0,0],0,0,0]];",
+        f'  TASK PERS wobjdata wTable:=[FALSE,TRUE,"",{rapid_pose(BASE)},[[0,0,0],[1,0,0,0]]];',
         "  CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",
     ]
     for i in range(3):
-        lines.append(f"  CONST robtarget p{i + 1}0:={_robtarget(cal, p1[i], q[i])};")
+        lines.append(f"  CONST robtarget p{i + 1}0:={robtarget(cal, p1[i], q[i])};")
     # A declaration over two lines.
-    text = _robtarget(cal, p1[3], q[3])
+    text = robtarget(cal, p1[3], q[3])
     cut = text.index("],[") + 2
     lines += [f"  CONST robtarget p40:={text[:cut]}", f"      {text[cut:]};"]
     lines += ["  PROC main()", "    MoveAbsJ jHome\\NoEOffs, v1000, z50, tool0;"]
     for i in range(4):
         lines.append(f"    MoveL p{i + 1}0, v200, z10, tWeld\\WObj:=wTable; ! Naht")
     for j in range(len(q) - 4):
-        lines.append(f"    MoveJ {_robtarget(cal, p2[j], q[4 + j])}, v500, fine, tGrip;")
+        lines.append(f"    MoveJ {robtarget(cal, p2[j], q[4 + j])}, v500, fine, tGrip;")
     lines += ["  ENDPROC", "ENDMODULE", ""]
     path.write_bytes("\r\n".join(lines).encode("utf-8"))
     return path
