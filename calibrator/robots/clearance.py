@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from calibrator.model import frames
+
 #: Sweep step, rad (0.5 deg): the walk stops where it would gain less than half of it.
 STEP_RAD = np.radians(0.5)
 #: Distances beyond the margin plus this are not looked for (the walk jumps by
@@ -76,15 +78,6 @@ class Narrowing:
     joint: int
     interval: tuple[float, float]
     zero_mm: float
-
-
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    out = np.eye(4)
-    out[:3, :3] = np.eye(3) + s * k + (1.0 - c) * (k @ k)
-    return out
 
 
 def _profile(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -170,7 +163,7 @@ def sweep(
     lever_1 = min(float(np.max(near_profile[kept, 1], initial=0.0)), float(origin[1]) + reach)
 
     def distance_1(angle: float) -> float:
-        to_far = middle_in_far @ _rotation(middle.axis, -angle)
+        to_far = middle_in_far @ frames.transform(frames.rotvec_to_matrix(-angle * middle.axis))
         return joint_1(lambda points: _profile(_moved(points, to_far), far.axis))
 
     # Joint 2 swept, joint 1 free: far's points in middle's frame against near's revolution.
@@ -178,7 +171,7 @@ def sweep(
     lever_2 = float(np.max(_profile(far.points, far.axis)[:, 1]))
 
     def distance_2(angle: float) -> float:
-        to_middle = far.to_parent @ _rotation(far.axis, angle)
+        to_middle = far.to_parent @ frames.transform(frames.rotvec_to_matrix(angle * far.axis))
         return joint_2(lambda points: _profile(_moved(points, to_middle), middle.axis))
 
     for joint, distance, lever, limits in (
