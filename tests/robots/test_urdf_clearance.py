@@ -11,11 +11,9 @@ import numpy as np
 import pytest
 import trimesh
 import yourdfpy
-from cli_process_kit import run_cli
 from scipy.spatial import cKDTree
-from urdf_mesh_kit import along_moves, arm_with_meshes, box, housings, posed_mm
+from urdf_mesh_kit import along_moves, arm_with_meshes, box, housings, planned, posed_mm
 
-from calibrator import planning
 from calibrator.robots import clearance, urdf
 
 #: Axis 5 of the KUKA URDF in link_4's frame (m): joint a5's origin.
@@ -74,14 +72,8 @@ def test_a_flange_folding_into_the_forearm_narrows_joint_5_to_where_it_keeps_the
 
 def test_a_plan_for_the_forked_arm_keeps_the_flange_out_of_the_forearm(tmp_path):
     meshes = _forked()
-    path = arm_with_meshes(tmp_path, meshes)
-    done = run_cli(
-        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
-        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr
-    assert "note: joint 5 limited to [" in done.stderr
-    plan = planning.read_plan(tmp_path / "plan.csv")
+    path, stderr, plan = planned(tmp_path, meshes)
+    assert "note: joint 5 limited to [" in stderr
     # Independently, along every move: the real surfaces of link_4 and link_6 posed
     # by another URDF reader stay apart.
     model = yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)

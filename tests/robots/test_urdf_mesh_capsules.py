@@ -14,7 +14,7 @@ import yourdfpy
 from cli_process_kit import run_cli
 from robot_files_kit import KUKA
 from scipy.spatial import cKDTree
-from urdf_mesh_kit import PACKAGE, along_moves, arm_with_meshes, box, housings, posed_mm
+from urdf_mesh_kit import PACKAGE, along_moves, arm_with_meshes, box, housings, planned, posed_mm
 
 from calibrator import cell, planning, robots
 from calibrator.model import kinematics
@@ -79,13 +79,7 @@ def test_every_link_with_a_mesh_gets_its_own_capsule_and_the_base_stands_on_its_
 
 def test_a_plan_for_a_urdf_arm_with_meshes_passes_its_checks_and_the_meshes(tmp_path):
     meshes = housings()
-    path = arm_with_meshes(tmp_path, meshes)
-    done = run_cli(
-        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
-        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr
-    plan = planning.read_plan(tmp_path / "plan.csv")
+    path, _, plan = planned(tmp_path, meshes)
     arm = robots.get(str(path))
     checked = planning.check_plan(
         plan, arm, cell.Cell(tracker_at_mm=(2000.0, -800.0, 600.0)), (0, 0, 100)

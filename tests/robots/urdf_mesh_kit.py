@@ -7,7 +7,10 @@ meshes are posed along a plan by yourdfpy, another URDF reader than ours.
 
 import numpy as np
 import trimesh
+from cli_process_kit import run_cli
 from robot_files_kit import KUKA
+
+from calibrator import planning
 
 PACKAGE = "my_arm_support"
 #: Each link's next joint (the KUKA KR 6 URDF's joint origins, m): its housing runs there.
@@ -53,6 +56,17 @@ def arm_with_meshes(tmp_path, meshes, origin=""):
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
     return path
+
+
+def planned(tmp_path, meshes):
+    """``calibrator plan`` of 12 poses for the arm with ``meshes``: its URDF, stderr and plan."""
+    path = arm_with_meshes(tmp_path, meshes)
+    done = run_cli(
+        "plan", "--model", path, "--tracker-at", "2000,-800,600", "--poses", "12",
+        "--seed", "2", "-o", "plan.csv", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return path, done.stderr, planning.read_plan(tmp_path / "plan.csv")
 
 
 def along_moves(path_rad, per_move=8):
