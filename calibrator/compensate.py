@@ -485,8 +485,12 @@ def run(
     from calibrator import outputs, robots
 
     limits = None
+    # The CSV's joints are the controller's angles, the solver's the model's.
+    convention = robots.JointConvention()
     try:
-        limits = robots.get(calibration.model).joint_limits_rad if calibration.model else None
+        if calibration.model:
+            arm = robots.get(calibration.model)
+            limits, convention = arm.joint_limits_rad, arm.convention
     except CalibrationError:
         limits = None
     tally = _Tally()
@@ -495,8 +499,11 @@ def run(
         import pyarrow.csv as pa_csv
 
         with open(tmp, "wb") as fh:
-            for first, q_nom, desired in iter_targets(targets_path):
-                block = _solve_block(calibration, q_nom, desired, limits, payload_kg, first)
+            for first, q_stated, desired in iter_targets(targets_path):
+                q_nom = convention.to_model(q_stated)
+                block = _solve_block(
+                    calibration, q_nom, desired, limits, payload_kg, first, convention
+                )
                 # pyarrow's writer: numbers in C, shortest text that reads back exactly.
                 options = pa_csv.WriteOptions(
                     include_header=first == 0, quoting_style="none", quoting_header="none"
@@ -518,7 +525,7 @@ class _Block:
     jump: np.ndarray
 
 
-def _solve_block(calibration, q_nom, desired, limits, payload_kg, first):
+def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, convention):
     import pyarrow as pa
 
     result = compensate(calibration, desired, q_nom, limits, payload_kg)
@@ -540,8 +547,9 @@ def _solve_block(calibration, q_nom, desired, limits, payload_kg, first):
     )
     size = correction_sizes(result, q_nom if desired is None else None)
     data = {"target": pa.array(first + np.arange(len(status))), "status": pa.array(status)}
+    q_controller = convention.to_controller(sol.q)
     for k, col in enumerate(JOINT_COLUMNS):
-        data[col] = pa.array(sol.q[:, k], mask=~ok)  # empty when not ok
+        data[col] = pa.array(q_controller[:, k], mask=~ok)  # empty when not ok
     for k, col in enumerate(POSE_COLUMNS):
         data[col] = pa.array(corrected[:, k], mask=~ok)
     for col, values in size.items():
@@ -623,9 +631,11 @@ class _Tally:
         # Targets outside the joint ranges the calibration was fitted on: extrapolated.
         ranges = calibration.fit.fitted_joint_ranges_rad
         if np.shape(ranges) == (6, 2) and self.ok_q:
+            from calibrator import robots
             from calibrator.identify.uncertainty import range_warnings
 
             fitted = np.asarray(ranges, dtype=float).T
-            q_ok = np.concatenate(self.ok_q)
+            # Both in the controller's angles (the calibration's ranges are).
+            q_ok = robots.convention_of(calibration.model).to_controller(np.concatenate(self.ok_q))
             lines += [f"warning: {w}" for w in range_warnings(fitted, q_ok, "target")]
         return Report(self.failed == 0, lines)

@@ -34,11 +34,24 @@ The file metadata key ``calibrator`` holds JSON::
      "model": NAME,                        # and/or
      "nominal_mdh": [[a_mm, alpha_rad, theta_rad, d_mm, beta_rad] x 6],
      "flange2tool": 4x4 row-major,         # optional first guess (identity if absent)
-     "tool_known": false, ...}             # optional: true fixes the tool frame
+     "tool_known": false,                  # optional: true fixes the tool frame
+     "joints": "controller", ...}          # optional: the convention of q1..q6
 
 One of ``model`` and ``nominal_mdh`` is required; ``nominal_mdh`` wins when
 both are present. Other keys are kept and ignored. Every known key must have
 its JSON type (``"false"`` is not ``false``).
+
+Joint angles at the boundary
+----------------------------
+``q1_rad..q6_rad`` are the angles the robot's controller shows (KUKA's
+A1..A6, FANUC's J1..J6 with J3 from the horizon): the named arm's
+controller convention (:class:`calibrator.robots.JointConvention`) turns
+them into the model's angles in :attr:`Session.observations`, the only way
+the kinematics reads them. ``"joints": "model"`` says a file holds the
+model's own angles. A file without ``joints`` holds the controller's, as this
+page always said, except one written by an earlier ``calibrator`` (its
+``measured`` or ``simulated`` key): those wrote the model's angles, and are
+read as such. With only ``nominal_mdh`` (no arm named) the two are the same.
 
 Loading also checks the data against the model
 (:func:`calibrator.model.plausibility.check_observations`): joints against the
@@ -78,6 +91,12 @@ POINT_COLUMNS = ("x_mm", "y_mm", "z_mm")
 ROTVEC_COLUMNS = ("rx_rad", "ry_rad", "rz_rad")
 SPREAD_COLUMNS = ("sx_mm", "sy_mm", "sz_mm")
 FRAMES = ("base", "tracker")
+#: What ``q1_rad..q6_rad`` hold: the controller's angles (what the robot
+#: reports and a pendant shows), or the kinematic model's own.
+JOINTS = ("controller", "model")
+#: Metadata keys only sessions written by ``calibrator`` carry: such a file
+#: without ``joints`` was written before the key existed, in the model's angles.
+_WRITTEN_BY_CALIBRATOR = ("measured", "simulated")
 #: Largest standard deviation of a pose's readings (mm): a spread of a metre
 #: is not a measurement of one point.
 MAX_SPREAD_MM = 1000.0
@@ -122,6 +141,12 @@ class SessionMeta:
         orientation data, its rotation are then fixed (not identified).
     extra : dict
         Other keys, kept as they were.
+    joints : {'controller', 'model'}
+        What the joint columns hold: the controller's angles (what every
+        session this program writes holds) or the model's.
+    joint_convention : calibrator.robots.JointConvention or None
+        The controller convention the file states (``convention``); None:
+        the named arm's (:func:`calibrator.robots.convention_of`).
     """
 
     frame: str
@@ -130,6 +155,8 @@ class SessionMeta:
     flange2tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool_known: bool = False
     extra: dict[str, object] = field(default_factory=dict)
+    joints: str = "controller"
+    joint_convention: robots.JointConvention | None = None
 
     def __post_init__(self) -> None:
         # Frozen, arrays included: derive a changed footer with dataclasses.replace().
@@ -137,6 +164,17 @@ class SessionMeta:
             table = np.array(getattr(self, name), dtype=float)
             table.setflags(write=False)
             object.__setattr__(self, name, table)
+        if self.joints not in JOINTS:
+            raise ValueError(f"joints must be one of {JOINTS}, got {self.joints!r}")
+
+    @property
+    def convention(self) -> robots.JointConvention:
+        """Controller -> model angles of the joint columns (identity for model angles)."""
+        if self.joints == "model":
+            return robots.JointConvention()
+        if self.joint_convention is not None:
+            return self.joint_convention
+        return robots.convention_of(self.model)
 
     def to_json(self) -> dict[str, object]:
         """The footer's JSON document (the ``calibrator`` metadata key)."""
@@ -148,7 +186,16 @@ class SessionMeta:
             nominal_mdh=np.asarray(self.nominal_mdh).tolist(),
             flange2tool=np.asarray(self.flange2tool).tolist(),
             tool_known=bool(self.tool_known),
+            joints=self.joints,
         )
+        convention = self.convention
+        if not convention.is_identity:
+            # Stated, so the file reads right where its arm's description cannot be found.
+            out["convention"] = {
+                "sign": list(convention.sign),
+                "offset_rad": list(convention.offset_rad),
+                "couplings": [list(c) for c in convention.couplings],
+            }
         if self.model:
             out["model"] = self.model
         return out
@@ -183,11 +230,16 @@ class Session:
 
     @property
     def observations(self) -> Observations:
-        """The rows as :class:`calibrator.model.measurement.Observations`."""
+        """The rows as :class:`calibrator.model.measurement.Observations`, in the model's angles.
+
+        The one place a session's joint columns (the controller's angles)
+        become the kinematics' (:attr:`SessionMeta.convention`).
+        """
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
             rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
-        return Observations(self.array(JOINT_COLUMNS), self.array(POINT_COLUMNS), rot)
+        q = self.meta.convention.to_model(self.array(JOINT_COLUMNS))
+        return Observations(q, self.array(POINT_COLUMNS), rot)
 
 
 def load(path: outputs.PathLike, model: str | None = None) -> Session:
@@ -218,18 +270,40 @@ def load(path: outputs.PathLike, model: str | None = None) -> Session:
     meta = _parse_meta(meta_raw, path, model)
     loaded = Session(session_table.check_table(table, path, _SCHEMA), meta)
     limits = _model_limits(meta.model)
+    stated = loaded.array(JOINT_COLUMNS)
     try:
         doubts = plausibility.check_observations(
-            loaded.array(JOINT_COLUMNS),
+            meta.convention.to_model(stated),
             loaded.array(POINT_COLUMNS),
             meta.nominal_mdh,
             limits,
             meta.flange2tool,
             JOINT_COLUMNS,
+            stated_q=stated if meta.joints == "controller" else None,
         )
     except SessionError as exc:
         raise SessionError(f"{path}: {exc}") from None
+    breach = _controller_limit_breach(meta, stated)
+    if breach:
+        raise SessionError(f"{path}: {breach}")
     return replace(loaded, warnings=doubts)
+
+
+def _controller_limit_breach(meta: SessionMeta, stated: np.ndarray) -> str:
+    """A pose outside the controller's stated limits (a coupled joint's), or ""."""
+    if not meta.model or meta.joints != "controller":
+        return ""
+    try:
+        arm = robots.get(meta.model)
+    except CalibrationError:
+        return ""
+    if arm.controller_limits_rad is None:
+        return ""  # the model's limits are the whole rule: checked above
+    breach = arm.limit_breach(arm.convention.to_model(stated))
+    if breach is None:
+        return ""
+    row, what = breach
+    return f"pose {row} (row) {what} (the controller's limits of the {arm.name})"
 
 
 def _model_limits(name):
@@ -274,6 +348,15 @@ def _parse_meta(raw, path, model):
             f"got {tool_known!r}"
         )
     extra = {k: v for k, v in meta.items() if k not in _KNOWN_KEYS}
+    joints = meta.get("joints")
+    if joints is None:
+        # Earlier calibrator versions wrote the model's angles; everyone else was told
+        # (this format's page) to write what the robot reports.
+        joints = "model" if any(k in extra for k in _WRITTEN_BY_CALIBRATOR) else "controller"
+    elif not isinstance(joints, str) or joints not in JOINTS:
+        raise SessionError(
+            f"{path}: metadata 'joints' must be 'controller' or 'model', got {joints!r}"
+        )
     name = model or meta.get("model")
     try:
         if model is not None or "nominal_mdh" not in meta:
@@ -298,10 +381,50 @@ def _parse_meta(raw, path, model):
         raise
     except (CalibrationError, ValueError) as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return SessionMeta(meta["frame"], nominal, name, tool, tool_known, extra)
+    stated = _stated_convention(meta.get("convention"), path)
+    return SessionMeta(meta["frame"], nominal, name, tool, tool_known, extra, joints, stated)
 
 
-_KNOWN_KEYS = {"format", "version", "frame", "model", "nominal_mdh", "flange2tool", "tool_known"}
+def _stated_convention(value: Any, path: Path) -> robots.JointConvention | None:
+    """The ``convention`` key as a :class:`~calibrator.robots.JointConvention` (None if absent)."""
+    if value is None:
+        return None
+    keys = {"sign", "offset_rad", "couplings"}
+    if not isinstance(value, dict) or set(value) - keys or not {"sign", "offset_rad"} <= set(value):
+        raise SessionError(
+            f"{path}: metadata 'convention' must hold 'sign', 'offset_rad' and 'couplings'"
+        )
+    couplings = value.get("couplings", [])
+    if not _is_number_table([value["sign"], value["offset_rad"]]) or not (
+        _is_number_table(couplings)
+        and all(len(c) == 3 and c[0] == int(c[0]) and c[1] == int(c[1]) for c in couplings)
+    ):
+        raise SessionError(
+            f"{path}: metadata 'convention' must be lists of JSON numbers "
+            "(couplings: [joint, earlier joint, factor], 0-based)"
+        )
+    try:
+        return robots.JointConvention(
+            sign=tuple(float(v) for v in value["sign"]),
+            offset_rad=tuple(float(v) for v in value["offset_rad"]),
+            couplings=tuple((int(j), int(k), float(f)) for j, k, f in couplings),
+            source="the session file",
+        )
+    except (CalibrationError, ValueError, OverflowError) as exc:
+        raise SessionError(f"{path}: metadata 'convention': {exc}") from None
+
+
+_KNOWN_KEYS = {
+    "format",
+    "version",
+    "frame",
+    "model",
+    "nominal_mdh",
+    "flange2tool",
+    "tool_known",
+    "joints",
+    "convention",
+}
 
 
 def _matrix(value, shape, what, path):
@@ -353,7 +476,8 @@ def to_table(
     Parameters
     ----------
     q : array_like, shape (N, 6)
-        Joint angles (rad).
+        Joint angles as the controller states them (rad): convert the
+        model's with ``arm.convention.to_controller`` first.
     points : array_like, shape (N, 3)
         Tool points, tracker frame (mm).
     rotvecs : array_like, shape (N, 3), optional

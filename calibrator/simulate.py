@@ -435,7 +435,7 @@ def simulate(
         raise ValueError(f"frame must be 'base' or 'tracker', got {frame!r}")
 
     table = session.to_table(
-        q_read,
+        robot.convention.to_controller(q_read),  # as the robot reports them
         points,
         rotvecs=frames.matrix_to_rotvec(rotations) if orientation else None,
         spread=spread if noise_mm else None,

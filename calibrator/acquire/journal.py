@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 from calibrator.errors import CalibrationError
 from calibrator.inputs import jsonfile, messages
 from calibrator.inputs.errors import StrictError
+from calibrator.robots import JointConvention
 
 FORMAT = "calibrator.journal"
 #: 2 adds a CRC-32 to every line; version 1 journals (no CRC) are still read.
@@ -50,6 +51,10 @@ MAX_COORD_MM = 1e6
 CRC_KEY = "crc32"
 #: Header keys that must match for a resume: the run's identity.
 IDENTITY_KEYS = ("plan_sha256", "robot", "tracker", "readings")
+#: The header key saying the records' joints are the controller's angles (journals
+#: written before it held the model's).
+JOINTS_KEY = "joints"
+_IDENTITY = JointConvention()
 
 
 class JournalError(CalibrationError):
@@ -81,15 +86,26 @@ class Journal:
     """An open journal, appending one fsynced line per finished pose.
 
     Use :meth:`create` for a new run and :meth:`resume` to continue one.
+    Records hold the model's joint angles; their lines hold the controller's
+    (``convention``, the arm's), as the session does.
     """
 
-    def __init__(self, path: Path, fh: IO[str], version: int = VERSION) -> None:
+    def __init__(
+        self,
+        path: Path,
+        fh: IO[str],
+        version: int = VERSION,
+        convention: JointConvention = _IDENTITY,
+    ) -> None:
         self.path = path
         self._fh = fh
         self.version = version
+        self.convention = convention
 
     @classmethod
-    def create(cls, path: str | os.PathLike[str], header: dict) -> Journal:
+    def create(
+        cls, path: str | os.PathLike[str], header: dict, convention: JointConvention = _IDENTITY
+    ) -> Journal:
         """Start a journal, locked; never replaces an existing one (it may hold a run's poses)."""
         path = Path(path)
         try:
@@ -100,14 +116,18 @@ class Journal:
                 "or remove it to start over"
             ) from None
         _lock(fh, path)
-        journal = cls(path, fh)
-        journal._write({"format": FORMAT, "version": VERSION, **header})
+        journal = cls(path, fh, VERSION, convention)
+        journal._write({"format": FORMAT, "version": VERSION, JOINTS_KEY: "controller", **header})
         _fsync_dir(path)
         return journal
 
     @classmethod
     def resume(
-        cls, path: str | os.PathLike[str], header: dict, plan_rad: ArrayLike | None = None
+        cls,
+        path: str | os.PathLike[str],
+        header: dict,
+        plan_rad: ArrayLike | None = None,
+        convention: JointConvention = _IDENTITY,
     ) -> tuple[Journal, Resumed]:
         """Lock a journal, check every line and that it belongs to this run, reopen it to append.
 
@@ -119,6 +139,8 @@ class Journal:
         plan_rad : array_like, shape (N, 6), optional
             This run's plan: every record's pose must be a row of it and its
             joints that row's (see :func:`read`).
+        convention : calibrator.robots.JointConvention
+            The arm's (see :func:`read`).
 
         Raises
         ------
@@ -133,12 +155,12 @@ class Journal:
         fh = open(path, "a", encoding="utf-8")  # noqa: SIM115  closed by close()
         try:
             _lock(fh, path)
-            done = read(path, plan_rad=plan_rad, expect=header)
+            done = read(path, plan_rad=plan_rad, expect=header, convention=convention)
             _truncate_partial_line(path)
         except BaseException:
             fh.close()
             raise
-        return cls(path, fh, done.header["version"]), done
+        return cls(path, fh, done.header["version"], convention), done
 
     def append(self, record: dict) -> None:
         """Write one finished pose durably (flush and fsync) before returning.
@@ -148,6 +170,9 @@ class Journal:
         ValueError
             A non-finite number in the record (refused, never written).
         """
+        if "q_rad" in record:
+            q = self.convention.to_controller(np.asarray(record["q_rad"], dtype=float))
+            record = {**record, "q_rad": q.tolist()}
         self._write(record)
 
     def _write(self, obj: dict) -> None:
@@ -181,7 +206,10 @@ def encode_line(obj: dict, *, crc: bool = True) -> str:
 
 
 def read(
-    path: str | os.PathLike[str], plan_rad: ArrayLike | None = None, expect: dict | None = None
+    path: str | os.PathLike[str],
+    plan_rad: ArrayLike | None = None,
+    expect: dict | None = None,
+    convention: JointConvention = _IDENTITY,
 ) -> Resumed:
     """Read and validate a journal: its header and the last record of each pose.
 
@@ -194,6 +222,10 @@ def read(
     expect : dict, optional
         This run's header: its :data:`IDENTITY_KEYS` must match the journal's
         (checked before any record).
+    convention : calibrator.robots.JointConvention
+        The arm's: a journal whose header says ``"joints": "controller"``
+        holds the controller's angles, returned as the model's; one written
+        before that key held the model's.
 
     Raises
     ------
@@ -228,7 +260,11 @@ def read(
                 f"{path} belongs to another run: its {key} is {theirs!r}, this run's is {ours!r}"
             )
     plan = None if plan_rad is None else np.asarray(plan_rad, dtype=float)
-    check = _RecordCheck(header, plan)
+    stated = header.get(JOINTS_KEY, "model")
+    if stated not in ("controller", "model"):
+        raise JournalError(f"{path}: {JOINTS_KEY} must be 'controller' or 'model', got {stated!r}")
+    to_model = convention if stated == "controller" else _IDENTITY
+    check = _RecordCheck(header, plan, to_model)
     records = {}
     # The last element is "" after a complete file, or a line a crash cut short.
     for number, line in enumerate(lines[1:-1], start=2):
@@ -268,7 +304,10 @@ def _parse(raw: bytes, *, crc: bool | None) -> Any:
 class _RecordCheck:
     """Checks one record against the header (and the plan): returns what is wrong, or ""."""
 
-    def __init__(self, header: dict, plan: np.ndarray | None) -> None:
+    def __init__(
+        self, header: dict, plan: np.ndarray | None, convention: JointConvention = _IDENTITY
+    ) -> None:
+        self.convention = convention
         poses = header.get("poses")
         self.poses = poses if type(poses) is int and poses > 0 else None
         if plan is not None:
@@ -307,6 +346,9 @@ class _RecordCheck:
         q = _vector(record, "q_rad", 6, math.tau * 2)
         if isinstance(q, str):
             return q
+        # The line holds the controller's angles; the record, from here on, the model's.
+        q = self.convention.to_model(np.asarray(q, dtype=float)).tolist()
+        record["q_rad"] = q
         for key, size, bound in (("point_mm", 3, MAX_COORD_MM), ("std_mm", 3, MAX_COORD_MM)):
             value = _vector(record, key, size, bound)
             if isinstance(value, str):

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 from calibrator import session
 from calibrator.acquire import ports
 from calibrator.acquire.averaging import AveragedReading
+from calibrator.robots import JointConvention
 
 
 def measured_record(
@@ -116,13 +117,16 @@ def failed_record(pose: int, reason: str, attempts: int, causes: dict | None = N
     return record
 
 
-def to_table(records: Iterable[dict]) -> pa.Table:
+def to_table(records: Iterable[dict], convention: JointConvention) -> pa.Table:
     """Session rows (v1) from measured records, sorted by pose.
 
     Parameters
     ----------
     records : iterable of dict
-        Records from :func:`measured_record` (failed ones are skipped).
+        Records from :func:`measured_record` (failed ones are skipped); their
+        joints are the model's angles.
+    convention : calibrator.robots.JointConvention
+        The arm's: the session's joint columns are the controller's angles.
 
     Returns
     -------
@@ -135,7 +139,7 @@ def to_table(records: Iterable[dict]) -> pa.Table:
         raise ValueError("no measured poses")
     rot = [r.get("rotvec_rad") for r in rows]
     table = session.to_table(
-        np.array([r["q_rad"] for r in rows]),
+        convention.to_controller(np.array([r["q_rad"] for r in rows])),
         np.array([r["point_mm"] for r in rows]),
         rotvecs=np.array(rot) if all(v is not None for v in rot) else None,
         spread=np.array([r["std_mm"] for r in rows]),

@@ -379,7 +379,10 @@ class MeasureRun:
         assert self.plan is not None
         if self.options.resume:
             self.journal, resumed = journals.Journal.resume(
-                self.journal_path, header, plan_rad=self.plan.q_rad
+                self.journal_path,
+                header,
+                plan_rad=self.plan.q_rad,
+                convention=self.model.convention,
             )
             self.done = resumed.records
             try:
@@ -397,7 +400,7 @@ class MeasureRun:
                 self.close()
                 raise
         if not self.options.resume:
-            self.journal = journals.Journal.create(self.journal_path, header)
+            self.journal = journals.Journal.create(self.journal_path, header, self.model.convention)
 
     def _check_own_session(self, header: dict) -> None:
         """On resume, an existing session file must be one this run wrote (else it is not ours)."""
@@ -477,7 +480,11 @@ class MeasureRun:
         if measured and write is not None:
             written = write(outcome)
         elif measured:
-            session.write(self.output, rows.to_table(outcome.records.values()), self.meta)
+            session.write(
+                self.output,
+                rows.to_table(outcome.records.values(), self.model.convention),
+                self.meta,
+            )
             written = self.output
         complete = written is not None and not failed and outcome.stopped is None
         if complete:

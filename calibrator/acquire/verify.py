@@ -24,7 +24,7 @@ frame, through one of three registrations of the tracker frame
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,7 @@ from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
 from calibrator.planning import Plan
+from calibrator.robots import JointConvention
 
 #: Columns of verify.parquet, in order (base frame, mm).
 COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")
@@ -61,6 +62,8 @@ class VerifyPlan:
     compensated : bool
     plan : ndarray, shape (5 * cycles, 6)
     test_pose, cycle : ndarray of int, shape (5 * cycles,)
+    convention : calibrator.robots.JointConvention
+        The arm's: the document states joint commands as its controller does.
     """
 
     cube: iso9283.Cube
@@ -71,6 +74,7 @@ class VerifyPlan:
     plan: np.ndarray
     test_pose: np.ndarray
     cycle: np.ndarray
+    convention: JointConvention = field(default_factory=JointConvention)
 
     @property
     def cycles(self) -> int:
@@ -138,7 +142,9 @@ def make_plan(
             )
         q = result.q
     plan, test_pose, cycle = iso9283.cycle_plan(q, cycles)
-    return VerifyPlan(cube, given, desired, q, calibration is not None, plan, test_pose, cycle)
+    return VerifyPlan(
+        cube, given, desired, q, calibration is not None, plan, test_pose, cycle, model.convention
+    )
 
 
 def admissible(
@@ -394,7 +400,7 @@ def document(
                 "test_pose": k + 1,
                 "commanded_mm": plan.desired[k, :3, 3].tolist(),
                 "rotation": plan.desired[k, :3, :3].tolist(),
-                "q_rad": plan.q_test[k].tolist(),
+                "q_rad": plan.convention.to_controller(plan.q_test[k]).tolist(),
             }
             for k in range(5)
         ],

@@ -193,8 +193,10 @@ def check(
                 "data": data_path.name,
                 "conditions": _conditions(outcome.records),
             }
-            doc = documents.document(result, numbers, q, points, info=info)
-            table = rows.to_table(outcome.records.values())
+            doc = documents.document(
+                result, numbers, arm.convention.to_controller(q), points, info=info
+            )
+            table = rows.to_table(outcome.records.values(), arm.convention)
             documents.write(output, doc, table, mrun.meta, inputs)
             written["doc"] = doc
             return output
@@ -243,7 +245,7 @@ def _external(robot, output, plan, arm, quiet) -> Any:
         convention=arm.convention,
     )
     with outputs.Outputs() as batch:
-        batch.text(plan_file, planning.plan_text(plan))
+        batch.text(plan_file, planning.plan_text(plan, arm))
         batch.text(program_file, programs.render(spec, "csv"))
     typer.echo(
         f"wrote {plan_file} and {program_file}: run them on the controller "

@@ -123,7 +123,7 @@ def measure(
     world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
 
-    user_plan = planning.read_plan(plan_path) if plan_path is not None else None
+    user_plan = planning.read_plan(plan_path, arm) if plan_path is not None else None
     cell = None if cell_file is None else cells.read_cell(cell_file)
     tracker_mm: tuple[float, float, float] | None = _triple(tracker_at, "--tracker-at")
     if tracker_mm is None and cell is not None:

@@ -116,7 +116,7 @@ def plan(
         cell = dataclasses.replace(cell, acceptance_deg=acceptance_deg)
     if floor_mm is not None:
         cell = dataclasses.replace(cell, mounting_plane_z_mm=floor_mm)
-    given = planning.read_csv(joints) if joints is not None else None
+    given = planning.read_csv(joints, robot) if joints is not None else None
     made = planning.make_checked(
         robot,
         poses,

@@ -79,7 +79,7 @@ def program(
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
     arm = robots.get(model)
-    given = planning.read_plan(plan_path)
+    given = planning.read_plan(plan_path, arm)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
@@ -91,7 +91,10 @@ def program(
         fail(f"--speed {speed:g} rad/s below {MIN_SPEED_RAD_S:g} rad/s (a 1 rad move: 17 min)")
     if accel < MIN_ACCEL_RAD_S2:
         fail(f"--accel {accel:g} rad/s^2 below {MIN_ACCEL_RAD_S2:g} rad/s^2")
-    home_rad = given.q_rad[0] if home is None else np.radians(_degrees(home))
+    # --home is J1..J6 as the pendant shows them: the controller's angles.
+    home_rad = (
+        given.q_rad[0] if home is None else arm.convention.to_model(np.radians(_degrees(home)))
+    )
     cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
     cell = cell.with_tracker(_run.triple(tracker_at, "--tracker-at"))
     # A plan made for another arm, tracker or reflector is refused; what the

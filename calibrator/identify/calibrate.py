@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator import calibration, session
+from calibrator import calibration, robots, session
 from calibrator.errors import CalibrationError, IdentifiabilityError
 from calibrator.identify import pipeline
 
@@ -214,8 +214,10 @@ def calibrate(
     diagnostics = dict(cal.diagnostics)
     if len(paths) > 1:
         diagnostics["sessions"] = [str(p) for p in paths]
-    # compensate warns about targets outside the joint ranges the fit saw.
-    fitted_q = loaded.observations.q[result.fit_index]
+    # compensate warns about targets outside the joint ranges the fit saw: the
+    # controller's angles, as every joint value a user reads.
+    convention = robots.convention_of(loaded.meta.model)
+    fitted_q = convention.to_controller(loaded.observations.q[result.fit_index])
     ranges = np.column_stack([fitted_q.min(axis=0), fitted_q.max(axis=0)]).tolist()
     cal = replace(
         cal,

@@ -76,6 +76,7 @@ def check_observations(
     joint_limits_rad: np.ndarray | None = None,
     flange2tool: np.ndarray | None = None,
     joint_names: Sequence[str] | None = None,
+    stated_q: np.ndarray | None = None,
 ) -> list[str]:
     """Refuse data that cannot belong to this model; return warnings for doubtful data.
 
@@ -93,6 +94,9 @@ def check_observations(
         First guess of the tool frame (mm); the flange when absent.
     joint_names : sequence of str, optional
         Names of the joint columns, for messages (``q1_rad`` ...).
+    stated_q : ndarray, shape (N, 6), optional
+        The joint values as the file states them (the controller's angles),
+        where ``q`` is their conversion to the model's: messages name both.
 
     Returns
     -------
@@ -108,7 +112,8 @@ def check_observations(
     points = np.asarray(points, dtype=float)
     names = list(joint_names or (f"q{i + 1}_rad" for i in range(6)))
     _check_magnitudes(points)
-    _check_joint_limits(q, joint_limits_rad, names)  # absurd joints fail here, degrees named
+    # Absurd joints fail here, degrees named.
+    _check_joint_limits(q, joint_limits_rad, names, stated_q)
     _check_degenerate(q, points)
     ratio, scatter, reach = scale_ratio(q, points, nominal_mdh, flange2tool)
     # The scale first: when every point is off by a unit factor, that is the message.
@@ -137,7 +142,7 @@ def _check_magnitudes(points):
         )
 
 
-def _check_joint_limits(q, limits, names):
+def _check_joint_limits(q, limits, names, stated=None):
     named = limits is not None
     if limits is None:
         limits = np.tile([-GENERIC_JOINT_LIMIT_RAD, GENERIC_JOINT_LIMIT_RAD], (6, 1))
@@ -147,14 +152,18 @@ def _check_joint_limits(q, limits, names):
         return
     row, col = np.argwhere(outside)[0]
     whose = "the model's" if named else "any revolute joint's"
+    shown = q if stated is None else np.asarray(stated, dtype=float)
     as_rad = np.deg2rad(q)
-    if np.abs(q).max() > GENERIC_JOINT_LIMIT_RAD and np.all((as_rad >= low) & (as_rad <= high)):
+    if np.abs(shown).max() > GENERIC_JOINT_LIMIT_RAD and np.all((as_rad >= low) & (as_rad <= high)):
         raise SessionError(
             f"joint values up to {np.abs(q).max():.4g} are outside {whose} limits in rad but "
             "inside them in degrees: the joints look like degrees; convert them to radians"
         )
+    value = f"{shown[row, col]:.6g} rad"
+    if stated is not None and shown[row, col] != q[row, col]:
+        value += f" (the model's joint {col + 1}: {q[row, col]:.6g} rad)"
     raise SessionError(
-        f"pose {row} (row) column {names[col]}: {q[row, col]:.6g} rad is outside {whose} "
+        f"pose {row} (row) column {names[col]}: {value} is outside {whose} "
         f"limits [{limits[col, 0]:.4g}, {limits[col, 1]:.4g}] rad "
         f"({int(outside.any(axis=1).sum())} poses out of limits)"
     )

@@ -20,7 +20,7 @@ Modules, each with one job:
 Joint angles rad, lengths mm, positions in the robot base frame.
 """
 
-from calibrator.planning.checks import check_limits, check_plan
+from calibrator.planning.checks import check_arm_limits, check_limits, check_plan
 from calibrator.planning.design import (
     ANGLE_SCALE_MM,
     Observability,
@@ -62,6 +62,7 @@ __all__ = [
     "PlanError",
     "PlanOrigin",
     "PlanReport",
+    "check_arm_limits",
     "check_limits",
     "check_plan",
     "digest",

@@ -65,6 +65,27 @@ def check_limits(q: ArrayLike, joint_limits_rad: ArrayLike, *, need: int = 0) ->
     return q
 
 
+def check_arm_limits(q: ArrayLike, model: robots.RobotDescription, *, need: int = 0) -> np.ndarray:
+    """:func:`check_limits` against an arm's limits, said in its controller's angles.
+
+    Parameters
+    ----------
+    q : array_like, shape (N, 6)
+        The model's joint angles, rad.
+    model : calibrator.robots.RobotDescription
+        Its :meth:`~calibrator.robots.RobotDescription.outside_limits` is the rule
+        (a coupled joint's stated controller limits included).
+    need : int
+        Fewest rows.
+    """
+    q = check_limits(q, np.tile([-np.inf, np.inf], (6, 1)), need=need)  # shape, NaN, count
+    breach = model.limit_breach(q)
+    if breach is not None:
+        row, what = breach
+        raise PlanError(f"plan row {row} {what}; nothing moved")
+    return q
+
+
 def check_plan(
     plan: Plan,
     model: robots.RobotDescription,
@@ -109,16 +130,16 @@ def check_plan(
         Naming the first bad pose (by its number), via or motion (by its
         ends) and why; also a tracker placed where the arm could reach it.
     """
-    check_limits(plan.q_rad, model.joint_limits_rad, need=need)
+    check_arm_limits(plan.q_rad, model, need=need)
     for pose, via in enumerate(plan.via_rad):
         if len(via):
             try:
-                check_limits(via, model.joint_limits_rad)
+                check_arm_limits(via, model)
             except PlanError as exc:
                 raise PlanError(f"via poses before pose {pose}: {exc}") from None
     if home_rad is not None:
         try:
-            check_limits(np.reshape(home_rad, (1, 6)), model.joint_limits_rad)
+            check_arm_limits(np.reshape(home_rad, (1, 6)), model)
         except PlanError as exc:
             raise PlanError(f"home pose: {exc}") from None
     _check_in_cell(plan, model, cell, tool_mm, home_rad)

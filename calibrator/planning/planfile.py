@@ -8,6 +8,14 @@ strict grammar of :mod:`calibrator.inputs.grammar`.
 
 Joint angles rad, positions mm in the robot base frame (tracker) or on the
 flange (tool).
+
+Joint angles at the boundary: a plan file holds the angles the arm's
+controller shows (KUKA's A1..A6, FANUC's J1..J6 with J3 from the horizon),
+as its program and pendant do; a :class:`Plan` in memory holds the model's,
+the kinematics' own. The ``joints`` column says which a file holds
+(``controller``; ``model`` only in files written by earlier versions, which
+had no such column but a ``model`` one, and are read as such). The arm's
+convention is the file's ``model`` column's, else the arm the caller names.
 """
 
 from __future__ import annotations
@@ -16,7 +24,7 @@ import csv
 import io
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -43,13 +51,23 @@ ORIGIN_COLUMNS = (
     "tool_y_mm",
     "tool_z_mm",
 )
+#: The column saying which joint angles a plan file holds (:data:`JOINTS`).
+JOINTS_COLUMN = "joints"
+#: The values of :data:`JOINTS_COLUMN`: the controller's angles, or the model's.
+JOINTS = ("controller", "model")
 #: A run's tracker farther than this from the plan's is another cell, mm (the
 #: whole-plan check then re-checks every aim with the run's position anyway).
 ORIGIN_TOLERANCE_MM = 50.0
 
 
-def read_csv(path: str | os.PathLike[str], *, _allow_via: bool = False) -> np.ndarray:
-    """Joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
+def read_csv(
+    path: str | os.PathLike[str], arm: Any = None, *, _allow_via: bool = False
+) -> np.ndarray:
+    """The model's joint angles from a CSV with columns ``q1_rad..q6_rad`` (or ``q1_deg..q6_deg``).
+
+    The file's angles are the controller's (:func:`joints_convention`): ``arm``
+    (a :class:`calibrator.robots.RobotDescription`) is the arm they are for
+    when the file does not name it.
 
     Numbers follow the strict grammar of :func:`calibrator.inputs.grammar.parse_number`
     (``0_5``, ``0x1``, ``nan`` are refused, not read). Other columns (``pose``,
@@ -113,7 +131,45 @@ def read_csv(path: str | os.PathLike[str], *, _allow_via: bool = False) -> np.nd
     q = q * factor
     if not _allow_via:
         _refuse_repeats(q, path)
-    return q
+    return joints_convention(fields, rows, path, arm).to_model(q)
+
+
+def joints_convention(fields: Sequence[str], rows: list[dict], path: Any, arm: Any) -> Any:
+    """The convention turning a plan file's angles into the model's.
+
+    Parameters
+    ----------
+    fields, rows : the file's header and rows (:class:`csv.DictReader`)
+    path : the file, for messages
+    arm : calibrator.robots.RobotDescription or None
+        The arm the caller runs (used when the file names none).
+
+    Returns
+    -------
+    calibrator.robots.JointConvention
+        Identity for model angles, or an arm whose controller shows its model's.
+    """
+    from calibrator import robots
+
+    stated = (
+        {str(r.get(JOINTS_COLUMN, "")).strip() for r in rows} if JOINTS_COLUMN in fields else set()
+    )
+    if len(stated) > 1 or (stated and not stated <= set(JOINTS)):
+        raise PlanError(
+            f"{path}: column {JOINTS_COLUMN} must be one of {', '.join(JOINTS)} on every row, "
+            f"got {', '.join(sorted(stated))}"
+        )
+    joints = stated.pop() if stated else ("model" if "model" in fields else "controller")
+    if joints == "model":
+        return robots.JointConvention()
+    names = {str(r.get("model", "")).strip() for r in rows} if "model" in fields else set()
+    name = next(iter(names)) if len(names) == 1 else ""
+    if name:
+        try:
+            return robots.get(name).convention
+        except robots.DescriptionError:
+            pass  # made_for() names the mismatch with the run's arm
+    return arm.convention if arm is not None else robots.JointConvention()
 
 
 #: A joint column of any index and unit (``q7_rad``, ``Q1_DEG``).
@@ -144,8 +200,12 @@ def _refuse_repeats(
 _VIA_VALUES = {"0": False, "1": True}
 
 
-def read_plan(path: str | os.PathLike[str]) -> Plan:
+def read_plan(path: str | os.PathLike[str], arm: Any = None) -> Plan:
     """A :class:`Plan` from a CSV: ``q1_rad..q6_rad`` (or degrees) and an optional ``via`` column.
+
+    The file's angles are the controller's; the plan's, the model's
+    (:func:`joints_convention`; ``arm`` is the caller's arm, for files that
+    name none).
 
     Rows with ``via`` 1 are moved through, not measured, before the next
     measured row; ``via`` 0 (or no column) rows are measured, numbered in order.
@@ -156,7 +216,7 @@ def read_plan(path: str | os.PathLike[str]) -> Plan:
         Everything :func:`read_csv` refuses; a ``via`` value other than 0 or 1;
         via rows after the last measured pose.
     """
-    q, via = _read_rows(path)
+    q, via = _read_rows(path, arm)
     origin = _read_origin(path)
     if via[-1]:
         raise PlanError(f"{path}: via rows after the last measured pose (they lead nowhere)")
@@ -280,9 +340,9 @@ def _apart(a: ArrayLike, b: ArrayLike) -> bool:
     return bool(np.linalg.norm(np.subtract(a, b)) > ORIGIN_TOLERANCE_MM)
 
 
-def _read_rows(path) -> tuple[np.ndarray, np.ndarray]:
-    """All rows' joint angles (M, 6) rad and the via mask (M,) of a plan CSV."""
-    q = read_csv(path, _allow_via=True)
+def _read_rows(path, arm) -> tuple[np.ndarray, np.ndarray]:
+    """All rows' model joint angles (M, 6) rad and the via mask (M,) of a plan CSV."""
+    q = read_csv(path, arm, _allow_via=True)
     with open(path, newline="", encoding="utf-8") as fh:
         reader = csv.DictReader(fh)
         if "via" not in (reader.fieldnames or []):
@@ -295,9 +355,12 @@ def _read_rows(path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_plan(
-    path: str | os.PathLike[str], plan: Plan, inputs: Iterable[str | os.PathLike[str]] = ()
+    path: str | os.PathLike[str],
+    plan: Plan,
+    inputs: Iterable[str | os.PathLike[str]] = (),
+    arm: Any = None,
 ) -> None:
-    """Write a :class:`Plan` (``pose,via,q1_rad..q6_rad``) atomically.
+    """Write a :class:`Plan` (``pose,via,q1_rad..q6_rad``) atomically, in the controller's angles.
 
     A via row has an empty ``pose`` and ``via`` 1. A plan with an origin gets
     the :data:`ORIGIN_COLUMNS` too, the same on every row (the tracker's empty
@@ -306,11 +369,20 @@ def write_plan(
     """
     from calibrator import outputs
 
-    outputs.write_text(path, plan_text(plan), inputs=inputs)
+    outputs.write_text(path, plan_text(plan, arm), inputs=inputs)
 
 
-def plan_text(plan: Plan) -> str:
-    """A :class:`Plan` as the CSV text :func:`write_plan` writes."""
+def plan_text(plan: Plan, arm: Any = None) -> str:
+    """A :class:`Plan` as the CSV text :func:`write_plan` writes.
+
+    Joint columns are the controller's angles: the convention of the arm the
+    plan's origin names, else of ``arm`` (identity when neither is given).
+    """
+    from calibrator import robots
+
+    convention = arm.convention if arm is not None else robots.JointConvention()
+    if plan.origin is not None:
+        convention = robots.get(plan.origin.model).convention
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     origin: tuple = ()
@@ -324,9 +396,14 @@ def plan_text(plan: Plan) -> str:
         )
         origin += tuple(repr(float(v)) for v in o.tool_mm)
     # Before the joints: a reader taking the last six columns still finds them there.
-    writer.writerow(("pose", "via", *(ORIGIN_COLUMNS if origin else ()), *JOINT_COLUMNS))
+    if origin:
+        # Beside the model column, which alone marked earlier versions' model angles.
+        origin += ("controller",)
+    header = ("pose", "via", *((*ORIGIN_COLUMNS, JOINTS_COLUMN) if origin else ()))
+    writer.writerow((*header, *JOINT_COLUMNS))
     for i, (q, vias) in enumerate(zip(plan.q_rad, plan.via_rad, strict=True)):
-        for v in vias:
+        for v in convention.to_controller(vias):
             writer.writerow(("", 1, *origin, *(repr(float(x)) for x in v)))
-        writer.writerow((i, 0, *origin, *(repr(float(x)) for x in q)))
+        q_ctrl = convention.to_controller(q)
+        writer.writerow((i, 0, *origin, *(repr(float(x)) for x in q_ctrl)))
     return buf.getvalue()

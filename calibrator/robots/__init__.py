@@ -38,6 +38,7 @@ __all__ = [
     "DescriptionError",
     "JointConvention",
     "RobotDescription",
+    "convention_of",
     "files",
     "get",
     "names",
@@ -64,6 +65,20 @@ def _scan(path: tuple[str, ...]) -> dict[str, Builder]:
                 raise DescriptionError(f"robot {key!r} is described twice ({info.name})")
             found[key] = build
     return found
+
+
+def convention_of(name: str | None) -> JointConvention:
+    """The controller convention of the arm ``name``; identity for None or an arm not found.
+
+    An arm only a table describes (a session's ``nominal_mdh``) has no
+    controller of its own to speak of: its angles are the table's.
+    """
+    if not name:
+        return JointConvention()
+    try:
+        return get(name).convention
+    except DescriptionError:
+        return JointConvention()
 
 
 def names() -> tuple[str, ...]:

@@ -166,6 +166,28 @@ class JointConvention:
                 out[..., j] = rest * self.sign[j]
         return out
 
+    def model_box(self, controller_limits_rad: ArrayLike) -> np.ndarray:
+        """The smallest box of model angles holding a box of controller angles, rad.
+
+        Parameters
+        ----------
+        controller_limits_rad : array_like, shape (6, 2)
+            ``[min, max]`` per joint as the controller states them.
+
+        Returns
+        -------
+        ndarray, shape (6, 2)
+            ``[min, max]`` of each model angle over that box (exact for signs and
+            offsets; through a coupling, every model angle some controller box
+            point gives, and more).
+        """
+        box = np.asarray(controller_limits_rad, dtype=float)
+        ends = np.sort(box * np.asarray(self.sign)[:, None], axis=1)
+        ends += np.asarray(self.offset_rad)[:, None]
+        for j, k, f in self.couplings:
+            ends[j] += np.sort(f * box[k])
+        return ends
+
     @property
     def is_identity(self) -> bool:
         """Whether controller and model angles are the same."""
@@ -223,6 +245,12 @@ class RobotDescription:
     limit_notes : tuple of str
         Joint limits narrowed from the source's, and why (a URDF's meshes
         coming closer than the margin beyond them: :mod:`calibrator.robots.clearance`).
+    controller_limits_rad : ndarray, shape (6, 2) or None
+        ``[min, max]`` per joint as the controller states them, where the
+        description gives them so and a coupling makes them another rule than
+        :attr:`joint_limits_rad` (FANUC's J3, limited from the horizon); a joint
+        vector is inside the limits when it is inside both
+        (:meth:`outside_limits`). None: :attr:`joint_limits_rad` is the rule.
     """
 
     name: str
@@ -243,6 +271,7 @@ class RobotDescription:
     reference_errors: np.ndarray | None = None
     source: str = ""
     limit_notes: tuple[str, ...] = ()
+    controller_limits_rad: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.name
@@ -251,6 +280,11 @@ class RobotDescription:
         put(self, "joint_limits_rad", _frozen(self.joint_limits_rad, (6, 2), "joint limits", n))
         if np.any(self.joint_limits_rad[:, 0] >= self.joint_limits_rad[:, 1]):
             raise DescriptionError(f"robot {n}: every joint needs min < max")
+        if self.controller_limits_rad is not None:
+            ctrl = _frozen(self.controller_limits_rad, (6, 2), "controller joint limits", n)
+            if np.any(ctrl[:, 0] >= ctrl[:, 1]):
+                raise DescriptionError(f"robot {n}: every controller joint limit needs min < max")
+            put(self, "controller_limits_rad", ctrl)
         speeds = _frozen(self.max_joint_speed_rad_s, (6,), "joint speeds", n)
         if np.any(speeds <= 0):
             raise DescriptionError(f"robot {n}: joint speeds must be > 0")
@@ -297,6 +331,85 @@ class RobotDescription:
         return float(min(MOVE_ACCEL_CAP_RAD_S2, self.max_joint_accel_rad_s2.min()))
 
     # -- derived views -----------------------------------------------------------------
+
+    def outside_limits(self, q_model: ArrayLike, tolerance_rad: float = 0.0) -> np.ndarray:
+        """Which joints of model joint vectors break a limit, shape (..., 6) of bool.
+
+        A joint breaks its limit when its model angle leaves
+        :attr:`joint_limits_rad`, or, where the description states them, its
+        controller angle leaves :attr:`controller_limits_rad` (NaN breaks both).
+
+        Parameters
+        ----------
+        q_model : array_like, shape (..., 6)
+            The model's joint angles, rad.
+        tolerance_rad : float
+            Allowed beyond each end, rad.
+        """
+        q = np.asarray(q_model, dtype=float)
+        lo, hi = self.joint_limits_rad[:, 0], self.joint_limits_rad[:, 1]
+        inside = (q >= lo - tolerance_rad) & (q <= hi + tolerance_rad)
+        if self.controller_limits_rad is not None:
+            c = self.convention.to_controller(q)
+            lo, hi = self.controller_limits_rad[:, 0], self.controller_limits_rad[:, 1]
+            inside &= (c >= lo - tolerance_rad) & (c <= hi + tolerance_rad)
+        return ~inside
+
+    def controller_box(self) -> np.ndarray:
+        """The joint limits in the controller's angles, shape (6, 2), rad.
+
+        The stated :attr:`controller_limits_rad`; else, joint by joint, the
+        model's limits through the convention's sign and offset (exact for an
+        uncoupled joint; a coupled joint's range then depends on the others,
+        and its row is the model's limits, NaN-free but not a controller box).
+        """
+        if self.controller_limits_rad is not None:
+            return np.array(self.controller_limits_rad)
+        c = self.convention
+        box = (self.joint_limits_rad - np.asarray(c.offset_rad)[:, None]) * np.asarray(c.sign)[
+            :, None
+        ]
+        box = np.sort(box, axis=1)
+        for j, _, _ in c.couplings:
+            box[j] = self.joint_limits_rad[j]
+        return box
+
+    def limit_breach(self, q_model: ArrayLike) -> tuple[int, str] | None:
+        """The first joint vector and joint outside the limits, said in the controller's angles.
+
+        Parameters
+        ----------
+        q_model : array_like, shape (N, 6)
+            The model's joint angles, rad.
+
+        Returns
+        -------
+        (int, str) or None
+            The row, and ``"joint 3: -4.13 rad outside [-3.2, 4.8]"`` as the
+            controller shows it (a coupled joint without stated controller
+            limits is named by its model angle, said so); None when all are inside.
+        """
+        q = np.atleast_2d(np.asarray(q_model, dtype=float))
+        outside = self.outside_limits(q)
+        if not outside.any():
+            return None
+        row, joint = (int(v) for v in np.argwhere(outside)[0])
+        coupled = any(j == joint for j, _, _ in self.convention.couplings)
+        if coupled and self.controller_limits_rad is None:
+            lo, hi = self.joint_limits_rad[joint]
+            return row, (
+                f"joint {joint + 1}: the model's angle {q[row, joint]:.6g} rad (coupled to an "
+                f"earlier joint) outside [{lo:.6g}, {hi:.6g}]"
+            )
+        value = self.convention.to_controller(q[row])[joint]
+        lo, hi = self.controller_box()[joint]
+        if lo <= value <= hi:  # inside the controller's box: the model's box breaks
+            m_lo, m_hi = self.joint_limits_rad[joint]
+            return row, (
+                f"joint {joint + 1}: the model's angle {q[row, joint]:.6g} rad outside "
+                f"[{m_lo:.6g}, {m_hi:.6g}]"
+            )
+        return row, f"joint {joint + 1}: {value:.6g} rad outside [{lo:.6g}, {hi:.6g}]"
 
     def configuration(self, name: str) -> tuple[float, ...]:
         """A named configuration (6 model angles, rad), or one line saying it is missing."""
@@ -373,6 +486,8 @@ class RobotDescription:
         if self.limit_notes:
             # Only where there are some: every other description's digest stays as it was.
             out["limit_notes"] = list(self.limit_notes)
+        if self.controller_limits_rad is not None:
+            out["controller_limits_rad"] = arr(self.controller_limits_rad)
         return out
 
     @property

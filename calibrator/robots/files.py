@@ -233,10 +233,20 @@ def _overlay(doc: _Doc, base: RobotDescription, name: str) -> RobotDescription:
             if limits.get(key) is not None:
                 lim[:, col] = limits.numbers(key, (6,)) * _DEG
         if limits.get("lower_deg") is not None or limits.get("upper_deg") is not None:
+            if np.any(lim[:, 0] >= lim[:, 1]):
+                raise limits.fail("lower_deg", "every joint needs lower_deg < upper_deg")
             if convention.couplings:
-                raise limits.fail("lower_deg", "limits of coupled joints: give them in the URDF")
-            ends = convention.to_model(lim.T).T
-            lim = np.sort(ends, axis=1)
+                if limits.get("lower_deg") is None or limits.get("upper_deg") is None:
+                    raise limits.fail(
+                        "lower_deg", "give lower_deg and upper_deg together for coupled joints"
+                    )
+                # A coupled joint's limit is the controller's (FANUC's J3 from the
+                # horizon): kept as stated and checked as such; the model's box
+                # around it is where poses are drawn from.
+                changes["controller_limits_rad"] = lim
+                lim = convention.model_box(lim)
+            else:
+                lim = np.sort(convention.to_model(lim.T).T, axis=1)
         changes["joint_limits_rad"] = lim
         if limits.get("speed_deg_s") is not None:
             changes["max_joint_speed_rad_s"] = limits.numbers("speed_deg_s", (6,)) * _DEG

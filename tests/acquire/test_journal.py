@@ -57,10 +57,16 @@ def test_a_journal_reads_back_bit_for_bit_with_the_last_record_of_each_pose(tmp_
     assert head.pop("crc32") > 0 and head == {
         "format": "calibrator.journal",
         "version": 2,
+        "joints": "controller",
         **HEADER,
     }
     done = journals.read(path, plan_rad=PLAN)
-    assert done.header == {"format": "calibrator.journal", "version": 2, **HEADER}
+    assert done.header == {
+        "format": "calibrator.journal",
+        "version": 2,
+        "joints": "controller",
+        **HEADER,
+    }
     assert sorted(done.records) == [0, 2] and done.records[2] == measured(2, 0.1) | {
         "timestamp": done.records[2]["timestamp"]
     }
@@ -293,3 +299,37 @@ def test_an_integer_beyond_64_bits_is_not_read(tmp_path):
     path = journal_with(tmp_path, line(measured(1)), line(edited(attempts=10**400)))
     with pytest.raises(journals.JournalError, match=f"^{path}: line 3 is damaged \\(not JSON"):
         journals.read(path, plan_rad=PLAN)
+
+
+def test_a_journal_holds_the_controllers_angles_and_gives_back_the_models(tmp_path):
+    from calibrator import robots
+
+    kuka = robots.get("kuka-kr6-r900").convention
+    path = tmp_path / "j"
+    with journals.Journal.create(path, HEADER, kuka) as journal:
+        journal.append(measured(2))
+    lines = path.read_text().splitlines()
+    assert json.loads(lines[0])["joints"] == "controller"
+    written = np.array(json.loads(lines[1])["q_rad"])
+    # The record's model angles are 0.2 on every joint: the line says A1 and A6 mirrored.
+    np.testing.assert_allclose(written, kuka.to_controller(PLAN[2]))
+    assert written[0] == -0.2 and written[5] == -0.2
+    done = journals.read(path, plan_rad=PLAN, convention=kuka)
+    np.testing.assert_allclose(done.records[2]["q_rad"], PLAN[2], atol=1e-15)
+    # Read without the arm's convention, the controller's angles are not the plan's joints.
+    with pytest.raises(journals.JournalError, match="joints differ from the plan's row 2"):
+        journals.read(path, plan_rad=PLAN)
+
+
+def test_a_journal_from_before_the_joints_key_is_read_in_the_models_angles(tmp_path):
+    from calibrator import robots
+
+    kuka = robots.get("kuka-kr6-r900").convention
+    path = tmp_path / "j"
+    lines = [
+        json.dumps({"format": journals.FORMAT, "version": 1, **HEADER}),
+        json.dumps(measured(1)),
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    done = journals.read(path, plan_rad=PLAN, convention=kuka)
+    np.testing.assert_array_equal(done.records[1]["q_rad"], PLAN[1])

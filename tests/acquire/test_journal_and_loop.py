@@ -14,6 +14,7 @@ from datetime import UTC, datetime, timedelta
 import numpy as np
 import pytest
 
+from calibrator import robots
 from calibrator.acquire import loop, rows
 from calibrator.acquire.averaging import TooFewReadings, average, measure_average
 from calibrator.acquire.ports import (
@@ -93,9 +94,22 @@ def record(pose, x, rotvec=None):
     return rows.measured_record(pose, np.full(6, pose / 10), avg, 1)
 
 
+IDENTITY = robots.JointConvention()
+
+
+def test_session_rows_hold_the_controllers_angles_of_the_records_model_angles():
+    kuka = robots.get("kuka-kr6-r900").convention
+    table = rows.to_table([record(3, 10.0), record(4, 20.0)], kuka).to_pydict()
+    written = np.array([[table[f"q{i}_rad"][k] for i in range(1, 7)] for k in range(2)])
+    # The records hold the model's angles (3/10, 4/10 on every joint): A1 and A6 are mirrored.
+    np.testing.assert_allclose(written[:, 0], [-0.3, -0.4])
+    np.testing.assert_allclose(written[:, 5], [-0.3, -0.4])
+    np.testing.assert_allclose(kuka.to_model(written), [[0.3] * 6, [0.4] * 6])
+
+
 def test_session_rows_are_sorted_by_pose_with_gaps_where_poses_failed():
     records = [record(5, 50.0), rows.failed_record(1, "x", 2), record(0, 10.0), record(2, 20.0)]
-    table = rows.to_table(records).to_pydict()
+    table = rows.to_table(records, IDENTITY).to_pydict()
     assert table["pose"] == [0, 2, 5]
     assert table["q1_rad"] == [0.0, 0.2, 0.5] and table["q6_rad"] == [0.0, 0.2, 0.5]
     assert table["x_mm"] == [10.5, 20.5, 50.5] and table["z_mm"] == [30.0, 60.0, 150.0]
@@ -108,15 +122,15 @@ def test_session_rows_are_sorted_by_pose_with_gaps_where_poses_failed():
 
 def test_orientation_columns_only_when_every_pose_has_one():
     with_rot = [record(0, 1.0, [0, 0, 0.2]), record(1, 2.0, [0, 0.3, 0])]
-    table = rows.to_table(with_rot).to_pydict()
+    table = rows.to_table(with_rot, IDENTITY).to_pydict()
     np.testing.assert_allclose(table["rz_rad"], [0.2, 0.0], atol=1e-15)
     np.testing.assert_allclose(table["ry_rad"], [0.0, 0.3], atol=1e-15)
-    assert "rx_rad" not in rows.to_table([*with_rot, record(2, 3.0)]).column_names
+    assert "rx_rad" not in rows.to_table([*with_rot, record(2, 3.0)], IDENTITY).column_names
 
 
 def test_no_measured_pose_makes_no_table():
     with pytest.raises(ValueError, match="^no measured poses$"):
-        rows.to_table([rows.failed_record(0, "x", 1)])
+        rows.to_table([rows.failed_record(0, "x", 1)], IDENTITY)
 
 
 # ---------------------------------------------------------------- averaging

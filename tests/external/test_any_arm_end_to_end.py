@@ -55,7 +55,8 @@ def test_a_kuka_is_planned_programmed_measured_and_identified_as_from_the_truth(
         np.testing.assert_allclose(back.path_rad, plan.path_rad, rtol=0, atol=2e-8)
     # What the controller runs: the KRL program's joints, back in the description's angles.
     played = _read_back((tmp_path / "cal.src").read_text(), "krl", plan)
-    planning.write_plan(tmp_path / "played.csv", played)
+    # The played plan holds what the controller runs: its own angles.
+    planning.write_plan(tmp_path / "played.csv", played, arm=robots.get(ARM))
 
     with tracker_simulator(seed=2) as url:
         player = start_player(

@@ -115,7 +115,9 @@ def main(argv: list[str] | None = None) -> int:
     from calibrator.planning import read_plan
 
     try:
-        plan = read_plan(args.plan)
+        from calibrator import robots
+
+        plan = read_plan(args.plan, robots.get(args.model))
         options = _options(args)
         world = None
         if args.world:
