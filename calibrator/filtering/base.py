@@ -65,8 +65,9 @@ class Target:
     spans : list of (int, int, int)
         ``(line index in its unit, start, end)`` of each token.
     tool, base : ndarray, shape (4, 4), or None
-        ``flange2tool`` and ``base2frame`` (robot base to the frame the pose is
-        written in), mm; None is the identity.
+        ``flange2tool`` (on the controller's flange, tool 0) and ``base2frame``
+        (the controller's base frame, base 0, to the frame the pose is written
+        in), mm; None is the identity (tool 0, base 0).
     code : tuple of int or None
         The configuration the program states (language-specific), None for
         "the solution nearest the previous target".
