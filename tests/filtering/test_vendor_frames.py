@@ -25,9 +25,11 @@ from filter_kit import calibration, frame_yaml, job
 from program_kit import krl_frame, rapid_pose
 from vendor_kit import OBJECT, TOOL, USER, joints, landed, model_frames, pendant_poses
 
-from calibrator import robots
+from calibrator import robots, session, simulate
+from calibrator.calibration import Calibration
 from calibrator.filtering import REGISTRY, engine, frames_file, rotations
 from calibrator.filtering.solve import Solver
+from calibrator.identify import pipeline
 from calibrator.model import frames
 
 #: Largest distance of a filtered target from its taught pose on the true arm, mm.
@@ -190,3 +192,36 @@ def test_a_program_in_the_vendors_frames_lands_on_the_taught_pose(tmp_path, name
     assert np.linalg.norm(raw[:, :3, 3] - intended[:, :3, 3], axis=1).min() > 10 * LANDS_MM
     # The flipped wrist and the two turns of joint 6 each state a configuration of their own.
     assert tuple(codes[-5]) != tuple(codes[0]) and tuple(codes[-2]) != tuple(codes[-1])
+
+
+def test_an_identified_fanuc_corrects_a_world_program_where_the_arm_works(tmp_path):
+    """The FANUC case end to end: a simulated M-20iA with hidden errors is identified
+    from its session, and an LS program taught in UF 0 (World, 525 mm up at J2) and
+    UT 0 is filtered with that calibration; the true arm, driven by the nominal
+    controller, lands on the taught positions. The old filter read UF 0 as the model's
+    base, 525 mm below World: it wrote every target (exit 0) and the arm landed 5.6 to
+    6.2 mm off, the corrections computed 525 mm from where the arm works."""
+    table, meta, truth = simulate.simulate(
+        model="fanuc-m20ia", poses=60, seed=11, frame="base", errors="random",
+        noise_mm=0.001, orientation_noise_rad=1e-6,
+    )  # fmt: skip
+    path = tmp_path / "s.parquet"
+    session.write(path, table, meta)
+    result = pipeline.identify(session.load(path), pipeline.Options(method="lm"))
+    cal = Calibration.from_result(result, path, "fanuc-m20ia", "base")
+    base2frame0, flange2tool0 = model_frames("fanuc-m20ia")
+    q = joints("fanuc-m20ia", 6, seed=2)[:6]
+    eye = np.array([np.eye(4)] * len(q))
+    src, _ = _fanuc(tmp_path, cal, pendant_poses("fanuc-m20ia", q), _codes(cal, "fanuc", q), 99)
+    out = tmp_path / "out.ls"
+    # The simulated arm's errors are several times a real arm's: corrections of tens of mm.
+    filtered = engine.Filter("fanuc", job(cal, max_mm=80.0, max_deg=5.0), src).run(out, [src])
+    assert filtered.n_failed == 0, filtered.failures
+    intended = _read_xyzwpr(src.read_text())
+    truth_cal = Calibration(nominal_mdh=cal.nominal_mdh, mdh=truth.mdh, model="fanuc-m20ia")
+    reached = landed(truth_cal, base2frame0, flange2tool0, _read_xyzwpr(out.read_text()),
+                     eye, eye, q)  # fmt: skip
+    raw = landed(truth_cal, base2frame0, flange2tool0, intended, eye, eye, q)
+    miss = np.linalg.norm(reached[:, :3, 3] - intended[:, :3, 3], axis=1)
+    assert miss.max() < LANDS_MM, miss
+    assert np.linalg.norm(raw[:, :3, 3] - intended[:, :3, 3], axis=1).min() > 1.0
