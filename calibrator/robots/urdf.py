@@ -23,6 +23,13 @@ Also read: position and velocity limits (``<limit>``; continuous joints get
 the links fixed to it), the collision geometry (boxes, cylinders, spheres;
 meshes through trimesh when the file can be found) fitted with capsules at a
 stated margin. Arms that are not serial 6R chains are refused in one line.
+
+The controller's frames are ROS-Industrial's (the REP-199 draft): a link
+``base`` fixed to the chain's base link is the controller's base (world)
+frame, a link ``tool0`` fixed to the tip its flange with an all-zero tool
+(:func:`controller_frame`). A base link named that is not above the tip but
+fixed beside the chain (FANUC's ``base`` hangs off ``base_link``) is taken as
+the controller's base frame, the chain starting at the link it is fixed to.
 """
 
 from __future__ import annotations
