@@ -65,8 +65,9 @@ class Target:
     spans : list of (int, int, int)
         ``(line index in its unit, start, end)`` of each token.
     tool, base : ndarray, shape (4, 4), or None
-        ``flange2tool`` and ``base2frame`` (robot base to the frame the pose is
-        written in), mm; None is the identity.
+        ``flange2tool`` (on the controller's flange, tool 0) and ``base2frame``
+        (the controller's base frame, base 0, to the frame the pose is written
+        in), mm; None is the identity (tool 0, base 0).
     code : tuple of int or None
         The configuration the program states (language-specific), None for
         "the solution nearest the previous target".
@@ -117,6 +118,13 @@ class Job:
     config_dat : Path or None
         KUKA ``$config.dat`` holding ``TOOL_DATA`` / ``BASE_DATA``.
     convention : calibrator.robots.JointConvention
+    controller_base, controller_flange : ndarray, shape (4, 4), or None
+        The controller's base (world) frame in the model's base frame (MDH
+        frame 0) and its flange (tool 0) on the model's flange, mm
+        (:attr:`calibrator.robots.RobotDescription.model_base2controller_base`,
+        ``model_flange2controller_flange``): every frame a program names
+        (base 0, tool 0, user frames, work objects, tools) is the
+        controller's, relative to these. None: the calibration's arm's.
     """
 
     calibration: Any
@@ -129,6 +137,8 @@ class Job:
     payload_kg: float | None = None
     config_dat: Path | None = None
     convention: Any = None
+    controller_base: Any = None
+    controller_flange: Any = None
 
 
 class Language:
@@ -200,8 +210,10 @@ def choose(fmt: str | None, program: str | os.PathLike) -> str:
 def numbered_frame(job: Job, kind: str, number: int) -> Any:
     """Frame ``number`` (4, 4) of ``kind`` (``"tool"`` or ``"base"``) from ``--frames``, or None.
 
-    Number 0 is the flange (tool) or the robot base (base) itself, as on
-    KUKA, Fanuc and Yaskawa controllers.
+    Number 0 is the controller's flange (tool) or its base or world frame
+    (base) itself, as on KUKA, Fanuc and Yaskawa controllers; every frame is
+    given relative to those (the engine places them on the model,
+    :attr:`Job.controller_base`).
     """
     if number == 0:
         return np.eye(4)

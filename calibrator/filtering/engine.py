@@ -5,11 +5,12 @@ solved with one vectorised call per step (:mod:`calibrator.filtering.solve`,
 :func:`calibrator.compensate.compensate`), its lines written out and
 dropped. Memory is bounded by the block, whatever the program's length.
 
-Per target: Cartesian targets are corrected (desired pose = its base frame @
-its pose; the calibrated arm's joints in the stated configuration; the
-nominal pose of those joints, written back in the same frame); joint targets
-are kept, or with ``--joint-targets correct`` replaced by the joints that make
-the calibrated arm reach the nominal pose of the original joints. A target
+Per target: Cartesian targets are corrected (desired pose = the controller's
+base frame @ its base frame @ its pose, its tool on the controller's flange;
+the calibrated arm's joints in the stated configuration; the nominal pose
+of those joints, written back in the same frame); joint targets are kept,
+or with ``--joint-targets correct`` replaced by the joints that make the
+calibrated arm reach the nominal pose of the original joints. A target
 fails, named with its file and line, when no solution keeps its
 configuration, the calibrated arm cannot reach it, its joints leave the
 limits, a joint would turn more than
@@ -116,6 +117,12 @@ class Filter:
 
     def __init__(self, fmt: str, job: Job, program: Path) -> None:
         job.convention = job.convention or convention.for_model(job.calibration.model)
+        if job.controller_base is None or job.controller_flange is None:
+            base, flange = convention.controller_frames(job.calibration.model)
+            job.controller_base = base if job.controller_base is None else job.controller_base
+            job.controller_flange = (
+                flange if job.controller_flange is None else job.controller_flange
+            )
         self.job = job
         self.lang = REGISTRY[fmt](job, program)
         self.solver = Solver(self.lang, job)
@@ -199,8 +206,10 @@ class Filter:
                 joints[rows] = layout.decode(vals)
             groups.append((layout, rows, vals))
             self.summary.found[layout.kind] += len(rows)
-        tool = _stack([t.tool for t in targets])
-        base = _stack([t.base for t in targets])
+        # The program's frames are the controller's: tool 0 is its flange and base 0 its
+        # base (world) frame, placed on the model's flange and MDH frame 0.
+        tool = np.asarray(job.controller_flange) @ _stack([t.tool for t in targets])
+        base = np.asarray(job.controller_base) @ _stack([t.base for t in targets])
         is_pose = np.zeros(n, dtype=bool)
         for layout, rows, _ in groups:
             is_pose[rows] = layout.kind == "pose"

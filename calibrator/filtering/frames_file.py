@@ -10,6 +10,9 @@ A YAML mapping (every length in mm, every angle in deg)::
     pulses_per_degree: [1304.6, 1304.6, 1304.6, 975.6, 975.6, 614.8]   # Yaskawa
     zero_pulses: [0, 0, 0, 0, 0, 0]                                     # optional
 
+Tools are given on the controller's flange (tool 0) and bases in its base
+or world frame (base 0), as the pendant shows them; the engine places both
+on the model (:attr:`calibrator.filtering.base.Job.controller_base`).
 ``abc_deg`` is ``Rz(a) Ry(b) Rx(c)`` (KUKA's A, B, C; Fanuc's W, P, R and
 Yaskawa's Rx, Ry, Rz are written there as ``[r, p, w]``), ``quaternion`` is
 ``[w, x, y, z]`` (ABB's order). Names match without regard to case (KRL and
@@ -42,7 +45,8 @@ class FrameTable:
     Attributes
     ----------
     tools, bases : dict of str to ndarray, shape (4, 4)
-        ``flange2tool`` and ``base2frame`` (the frame's pose in the robot base).
+        ``flange2tool`` and ``base2frame``: a tool on the controller's flange,
+        a frame's pose in the controller's base frame.
     pulses_per_degree, zero_pulses : ndarray, shape (6,) or None
     source : dict of str to str
         Where each frame came from (for messages).

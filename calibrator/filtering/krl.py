@@ -11,9 +11,12 @@ Read from KUKA's KSS expert programming manual:
 - The tool and base a target is meant in are those active where it is moved
   to: ``$TOOL = TOOL_DATA[n]``, ``$BASE = BASE_DATA[n]``, ``BAS(#TOOL, n)``,
   ``BAS(#BASE, n)`` or ``FDAT_ACT = FPx`` (the ``FDAT``'s ``TOOL_NO``,
-  ``BASE_NO``), read in a first pass over the ``.src``. ``TOOL_DATA[n]`` and
+  ``BASE_NO``), read in a first pass over the ``.src``; ``$TOOL = $NULLFRAME``
+  and ``$BASE = $NULLFRAME`` are number 0. ``TOOL_DATA[n]`` and
   ``BASE_DATA[n]`` come from the controller's ``$config.dat`` (``--config-dat``)
-  or ``--frames``; number 0 is the flange / the robot base.
+  or ``--frames``; number 0 is the flange (KUKA's ``$FLANGE``, the
+  description's controller flange) / the robot base (``$ROBROOT``, its
+  controller base; ``$WORLD`` is taken to be ``$ROBROOT``).
 - Status ``S`` (bit 0: wrist centre behind axis 1, "overhead area"; bit 1:
   elbow up; bit 2: ``A5`` negative) and turn ``T`` (bit i: axis i+1 negative),
   as :mod:`calibrator.filtering.configuration` reads them. Only those bits are
@@ -60,6 +63,8 @@ _ASSIGN = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*\{")
 _MOTION = re.compile(r"^\s*(S?PTP|S?LIN|S?CIRC)\b\s*(.*)$", re.IGNORECASE)
 _TOOL_SET = re.compile(r"\$TOOL\s*=\s*TOOL_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
 _BASE_SET = re.compile(r"\$BASE\s*=\s*BASE_DATA\s*\[\s*(\d+)\s*\]", re.IGNORECASE)
+#: ``$TOOL = $NULLFRAME`` (the flange) and ``$BASE = $NULLFRAME`` ($ROBROOT): number 0.
+_NULL_SET = re.compile(r"\$(TOOL|BASE)\s*=\s*\$NULLFRAME\b", re.IGNORECASE)
 _BAS = re.compile(r"\bBAS\s*\(\s*#(TOOL|BASE)\s*,\s*(\d+)\s*\)", re.IGNORECASE)
 _FDAT_ACT = re.compile(r"\bFDAT_ACT\s*=\s*([A-Za-z_]\w*)", re.IGNORECASE)
 _FDAT = re.compile(r"^\s*DECL\s+(?:GLOBAL\s+)?FDAT\s+([A-Za-z_]\w*)\s*=\s*\{(.*)\}", re.IGNORECASE)
@@ -210,6 +215,8 @@ class KRL(Language):
             state[0] = int(m.group(1))
         for m in _BASE_SET.finditer(code):
             state[1] = int(m.group(1))
+        for m in _NULL_SET.finditer(code):
+            state[0 if m.group(1).upper() == "TOOL" else 1] = 0
         for m in _BAS.finditer(code):
             state[0 if m.group(1).upper() == "TOOL" else 1] = int(m.group(2))
         for m in _FDAT_ACT.finditer(code):

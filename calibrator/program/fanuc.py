@@ -6,6 +6,9 @@ is numbered. ``J P[i] n% FINE`` moves at a percentage of each axis's top
 speed (the smallest over the axes, so no joint exceeds the cap), ``WAIT
 t(sec)`` dwells and ``DO[n]=PULSE,t sec`` pulses an output. A via (moved through, not measured) is a
 ``J P[i:VIA]`` with no wait; its position is commented ``via before pose i`` in ``/POS``.
+The program selects user frame 0 (World) and tool frame 0 (the faceplate),
+``UFRAME_NUM=0`` and ``UTOOL_NUM=0``, and its positions record ``UF : 0, UT :
+0``: the frames ``calibrator compensate --joint-targets correct`` corrects in.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ def _position(spec: ProgramSpec, index: int, q_rad, comment: str) -> list[str]:
     return [
         f'P[{index}:"{comment}"]{{',
         "   GP1:",
-        "\tUF : 0, UT : 1,",
+        "\tUF : 0, UT : 0,",
         "\t" + ",\t".join(axes[:3]) + ",",
         "\t" + ",\t".join(axes[3:]),
         "};",
@@ -57,7 +60,8 @@ def write(spec: ProgramSpec) -> str:
             return f"J P[{vias[-1][0]}:VIA] {pct}% FINE"
         return f"J P[{pose + 1}] {pct}% FINE"
 
-    body = [f"J P[{home}:HOME] {pct}% FINE"]
+    # The frames the positions are recorded in: World and the faceplate (UF 0, UT 0).
+    body = ["UFRAME_NUM=0", "UTOOL_NUM=0", f"J P[{home}:HOME] {pct}% FINE"]
     body += between_homes(
         spec,
         move,

@@ -6,7 +6,9 @@ top speed (computed from the model's rated joint speeds so the leading joint
 never exceeds the cap), acceleration ``$ACC_AXIS[i]`` in percent. Motions are
 exact stops (no ``C_PTP``); ``WAIT SEC`` dwells and ``PULSE($OUT[n], TRUE, t)``
 pulses an output. A via (moved through, not measured) is a ``PTP`` after a
-``; via before pose i`` comment, with no wait.
+``; via before pose i`` comment, with no wait. The program sets ``$TOOL =
+$NULLFRAME`` and ``$BASE = $NULLFRAME`` (the flange and the robot base): the
+frames ``calibrator compensate --joint-targets correct`` then corrects in.
 """
 
 from __future__ import annotations
@@ -64,6 +66,9 @@ def write(spec: ProgramSpec) -> str:
         lines.append(f"$VEL_AXIS[{axis}] = {pct:.1f}")
     for axis in range(1, 7):
         lines.append(f"$ACC_AXIS[{axis}] = {ACC_PERCENT}")
+    # The frames the program assumes: the flange and $ROBROOT. Joint moves do not
+    # depend on them, but `compensate --joint-targets correct` corrects in them.
+    lines += ["$TOOL = $NULLFRAME", "$BASE = $NULLFRAME"]
     lines.append("PTP HOME_POS")
     lines += between_homes(
         spec,

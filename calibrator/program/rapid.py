@@ -8,7 +8,9 @@ joint never exceeds the cap; ``fine`` makes each an exact stop, ``WaitTime
 \\InPos`` dwells once the arm is in position, and ``PulseDO`` pulses a signal
 (``do_calibrator`` by default: create it in the I/O configuration, or edit
 the name). A via (moved through, not measured) is a ``MoveAbsJ`` after a
-``! via before pose i`` comment, with no wait.
+``! via before pose i`` comment, with no wait. Every move names ``tool0`` (the
+flange with an all-zero tool): the tool ``calibrator compensate
+--joint-targets correct`` corrects with.
 """
 
 from __future__ import annotations

@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 
 #: Fixed ceiling on the leading-joint speed of any move a calibration run
 #: commands (rad/s).
@@ -202,6 +203,18 @@ def _frozen(value: ArrayLike, shape: tuple[int, ...], what: str, name: str) -> n
     return array
 
 
+def _rigid(value: ArrayLike, what: str, name: str) -> np.ndarray:
+    """A frozen (4, 4) rigid transform, or one line naming what is wrong."""
+    array = _frozen(value, (4, 4), what, name)
+    try:
+        frames.check_transform(array, what)
+    except ValueError as exc:
+        raise DescriptionError(f"robot {name}: {exc}") from None
+    if not np.allclose(array[:3, :3] @ array[:3, :3].T, np.eye(3), atol=1e-9):
+        raise DescriptionError(f"robot {name}: {what} rotation is not orthonormal to 1e-9")
+    return array
+
+
 @dataclass(frozen=True)
 class RobotDescription:
     """One arm, as data.
@@ -251,6 +264,21 @@ class RobotDescription:
         :attr:`joint_limits_rad` (FANUC's J3, limited from the horizon); a joint
         vector is inside the limits when it is inside both
         (:meth:`outside_limits`). None: :attr:`joint_limits_rad` is the rule.
+    base2controller_base : ndarray, shape (4, 4)
+        The frame the controller calls the robot's base or world (KUKA
+        ``$ROBROOT``, ABB's base frame, FANUC's World, Yaskawa's ROBOT,
+        Staubli's world, UR's Base), as its pose in the description's base
+        frame (the frame ``base_offset`` is given in: a URDF's base link, MDH
+        frame 0 for a table), mm. Identity: the description's base frame is
+        the controller's.
+    flange2controller_flange : ndarray, shape (4, 4)
+        The controller's flange, its tool 0 (KUKA ``$NULLFRAME`` tool, ABB
+        ``tool0``, FANUC's faceplate UT 0, Yaskawa's flange, UR's tool
+        flange), as its pose in the description's flange frame (a URDF's tip
+        link, the MDH flange frame for a table), mm.
+    controller_base_source, controller_flange_source : str
+        Where each controller frame comes from ("" where it is the
+        description's own frame and nobody declared it).
     """
 
     name: str
@@ -272,6 +300,10 @@ class RobotDescription:
     source: str = ""
     limit_notes: tuple[str, ...] = ()
     controller_limits_rad: np.ndarray | None = None
+    base2controller_base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    flange2controller_flange: np.ndarray = field(default_factory=lambda: np.eye(4))
+    controller_base_source: str = ""
+    controller_flange_source: str = ""
 
     def __post_init__(self) -> None:
         n = self.name
@@ -303,6 +335,8 @@ class RobotDescription:
                 raise DescriptionError(f"robot {n}: masses must be >= 0")
         for key in ("base_offset", "flange_offset"):
             put(self, key, _frozen(getattr(self, key), (4, 4), key, n))
+        for key in ("base2controller_base", "flange2controller_flange"):
+            put(self, key, _rigid(getattr(self, key), key, n))
         if self.reference_errors is not None:
             put(self, "reference_errors", _frozen(self.reference_errors, (6, 5), "errors", n))
         configs = {}
@@ -434,6 +468,37 @@ class RobotDescription:
     def has_masses(self) -> bool:
         return self.mass_kg is not None
 
+    # -- the controller's frames in the model's -----------------------------------------
+
+    @property
+    def model_base2controller_base(self) -> np.ndarray:
+        """The controller's base/world frame in MDH frame 0 (4, 4), mm.
+
+        ``inv(base_offset) @ base2controller_base``: a pose ``T`` the pendant
+        shows in the controller's base frame is ``model_base2controller_base @
+        T`` in the model's base frame (the frame of :func:`kinematics.chain`).
+        """
+        return frames.invert(self.base_offset) @ self.base2controller_base
+
+    @property
+    def model_flange2controller_flange(self) -> np.ndarray:
+        """The controller's flange (tool 0) in the MDH flange frame (4, 4), mm.
+
+        ``flange_offset @ flange2controller_flange``: a controller tool ``X``
+        (given on its flange) is ``model_flange2controller_flange @ X`` on the
+        model's flange, so the model's ``chain(q) @ model_flange2controller_flange``
+        is the pose of tool 0 (the pendant's all-zero tool).
+        """
+        return self.flange_offset @ self.flange2controller_flange
+
+    @property
+    def has_controller_frames(self) -> bool:
+        """Whether either controller frame differs from the description's own."""
+        return not (
+            np.array_equal(self.base2controller_base, np.eye(4))
+            and np.array_equal(self.flange2controller_flange, np.eye(4))
+        )
+
     def as_dict(self) -> dict[str, Any]:
         """The canonical content: plain lists and numbers (the YAML format's body)."""
 
@@ -488,6 +553,15 @@ class RobotDescription:
             out["limit_notes"] = list(self.limit_notes)
         if self.controller_limits_rad is not None:
             out["controller_limits_rad"] = arr(self.controller_limits_rad)
+        if self.has_controller_frames:
+            # Likewise: a description whose frames are the controller's (UR's DH
+            # frames, an MDH table's) keeps its old digest, whatever sources it states.
+            out["controller_frames"] = {
+                "base2controller_base": arr(self.base2controller_base),
+                "base_source": self.controller_base_source,
+                "flange2controller_flange": arr(self.flange2controller_flange),
+                "flange_source": self.controller_flange_source,
+            }
         return out
 
     @property

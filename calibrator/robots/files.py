@@ -37,6 +37,9 @@ Angles in the file are degrees (as on a pendant), lengths millimetres::
     masses:
       mass_kg: [6 numbers]
       com_mm: [[x, y, z], ...]   # in link frame i of the MDH model
+    frames:                      # the controller's base (world) frame and flange (tool 0)
+      base: {link: base, source: ...}          # a URDF link fixed to the chain's base, or
+      flange: {xyz_mm: [0, 0, 0], rpy_deg: [0, 90, 0], source: ...}   # or matrix_mm: 4x4
 
 Read with the strict YAML reader (duplicate keys, ``.nan`` and the like are
 refused) behind :func:`_parse`, the one place that parses YAML here.
@@ -53,6 +56,7 @@ import numpy as np
 
 from calibrator.inputs import textfile, yamlfile
 from calibrator.inputs.errors import StrictError
+from calibrator.model import frames as transforms
 from calibrator.model import kinematics
 from calibrator.robots import urdf
 from calibrator.robots.description import (
@@ -79,7 +83,10 @@ _KEYS = {
     "body",
     "configurations",
     "masses",
+    "frames",
 }
+#: Keys of one entry of ``frames:``.
+_FRAME_KEYS = {"link", "xyz_mm", "rpy_deg", "matrix_mm", "source"}
 
 
 def _parse(text: str, where: str) -> Any:
@@ -190,7 +197,69 @@ def load(path: str | Path, name: str | None = None) -> RobotDescription:
         )
     else:
         base = _from_mdh(doc, kin)
+    base = _controller_frames(doc, kin, path, base)
     return _overlay(doc, base, name or doc.text("name").lower())
+
+
+def _controller_frames(doc: _Doc, kin: _Doc, path: Path, base: RobotDescription):
+    """The ``frames:`` section over what the kinematics gave (REP-199's links of a URDF).
+
+    ``base`` is the controller's base (world) frame in the description's base
+    frame (the URDF's base link, or MDH frame 0), ``flange`` its tool 0 in the
+    description's flange frame (the URDF's tip link, or the MDH flange): a
+    link of the URDF fixed to that end, or ``xyz_mm`` with ``rpy_deg`` (the
+    URDF's fixed-axis roll, pitch, yaw), or ``matrix_mm`` (4x4); each with its
+    ``source``.
+    """
+    section = doc.section("frames")
+    if section is None:
+        return base
+    unknown = sorted(set(map(str, section.doc)) - {"base", "flange"})
+    if unknown:
+        raise section.fail(unknown[0], "unknown key (known: base, flange)")
+    changes: dict[str, Any] = {}
+    for end, field in (("base", "base2controller_base"), ("flange", "flange2controller_flange")):
+        entry = section.section(end)
+        if entry is None:
+            continue
+        extra = sorted(set(map(str, entry.doc)) - _FRAME_KEYS)
+        if extra:
+            raise entry.fail(extra[0], f"unknown key (known: {', '.join(sorted(_FRAME_KEYS))})")
+        given = [k for k in ("link", "xyz_mm", "matrix_mm") if entry.get(k) is not None]
+        if len(given) != 1:
+            raise entry.fail(end, "give exactly one of link, xyz_mm (with rpy_deg), matrix_mm")
+        if given[0] == "link":
+            if kin.get("urdf") is None:
+                raise entry.fail("link", "names a URDF link: needs kinematics from a URDF")
+            chain = urdf.read_chain(
+                path.parent / kin.text("urdf"), kin.get("base_link"), kin.get("tip_link")
+            )
+            link = entry.text("link")
+            pose = urdf.controller_frame(chain, link, end)
+            if pose is None:
+                anchor = chain.base_link if end == "base" else chain.tip_link
+                raise entry.fail(
+                    "link", f"{link!r} is not a link fixed to the chain's {end} ({anchor!r})"
+                )
+        elif given[0] == "xyz_mm":
+            rpy = entry.numbers("rpy_deg", (3,)) if entry.get("rpy_deg") is not None else None
+            if rpy is None:
+                raise entry.fail("rpy_deg", "missing: give it with xyz_mm")
+            pose = transforms.from_xyz_rpy(
+                np.concatenate([entry.numbers("xyz_mm", (3,)), rpy * _DEG])
+            )
+        else:
+            pose = entry.numbers("matrix_mm", (4, 4))
+            try:
+                transforms.check_transform(pose, "matrix_mm")
+            except ValueError as exc:
+                raise entry.fail("matrix_mm", str(exc)) from None
+        changes[field] = pose
+        changes[f"controller_{end}_source"] = entry.text("source")
+    try:
+        return replace(base, **changes)
+    except DescriptionError as exc:
+        raise DescriptionError(f"{section.where}: {exc}") from None
 
 
 def _from_mdh(doc: _Doc, kin: _Doc) -> RobotDescription:

@@ -22,6 +22,14 @@ Body
     rounded *up* to the next 5 mm so the capsules enclose the real links.
 Joint convention
     The controller shows the DH angles themselves (PolyScope and URScript).
+Controller frames
+    UR's DH frame 0 is the controller's Base frame and the DH flange frame its
+    tool flange: ur_description (ros-industrial/universal_robot,
+    ``ur_description/urdf/inc/ur_macro.xacro``, commit 0290bd26) names them
+    ``base`` (``base_link`` turned 180 deg about z, "to correctly align 'base'
+    with the 'Base' coordinate system of the UR controller") and ``tool0``,
+    "coincident with an all-zeros toolframe". Both are the description's own
+    frames here (identity).
 """
 
 from __future__ import annotations
@@ -52,6 +60,12 @@ _UR5E_COM_M = [
     [0.0, 0.0, -0.001159],
 ]
 _UR10_SPEEDS_DEG = (120, 120, 180, 180, 180, 180)
+_UR_DESCRIPTION = "ros-industrial/universal_robot ur_description/urdf/inc/ur_macro.xacro (0290bd26)"
+_UR_BASE = (
+    f"UR's Base frame is DH frame 0: link 'base' of {_UR_DESCRIPTION} "
+    "(base_link turned 180 deg about z)"
+)
+_UR_FLANGE = f"UR's tool flange is the DH flange frame: link 'tool0' of {_UR_DESCRIPTION}"
 
 
 def _capsules(mdh: np.ndarray, body: tuple[float, ...]) -> tuple[Capsule, ...]:
@@ -117,6 +131,8 @@ def _ur(
         mass_kg=np.array(mass_kg),
         com_mm=np.array(com_m) * 1000.0,
         convention=JointConvention(source="PolyScope/URScript show the DH angles"),
+        controller_base_source=_UR_BASE,
+        controller_flange_source=_UR_FLANGE,
         source="Universal Robots' published DH and mass tables; UR ROS 2 description 2.4.5",
     )
 

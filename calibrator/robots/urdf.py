@@ -23,6 +23,13 @@ Also read: position and velocity limits (``<limit>``; continuous joints get
 the links fixed to it), the collision geometry (boxes, cylinders, spheres;
 meshes through trimesh when the file can be found) fitted with capsules at a
 stated margin. Arms that are not serial 6R chains are refused in one line.
+
+The controller's frames are ROS-Industrial's (the REP-199 draft): a link
+``base`` fixed to the chain's base link is the controller's base (world)
+frame, a link ``tool0`` fixed to the tip its flange with an all-zero tool
+(:func:`controller_frame`). A base link named that is not above the tip but
+fixed beside the chain (FANUC's ``base`` hangs off ``base_link``) is taken as
+the controller's base frame, the chain starting at the link it is fixed to.
 """
 
 from __future__ import annotations
@@ -98,6 +105,9 @@ class Chain:
     tip_link: str
     joints: tuple[Joint, ...]
     root: ET.Element
+    #: A base link named that is not above the tip but fixed to the chain's base
+    #: (FANUC's ``base``, a sibling of ``base_link``): the controller's base frame.
+    world_link: str | None = None
 
     @property
     def moving(self) -> tuple[Joint, ...]:
@@ -185,20 +195,90 @@ def read_chain(
 
     base = pick(base_link, BASE_LINKS, "base")
     tip = pick(tip_link, TIP_LINKS, "tip")
+    # Every joint from the tip up to the root of the tree.
     elements: list[ET.Element] = []
-    link = tip
-    while link != base:
-        found = by_child.get(link)
-        if found is None:
-            raise _fail(path, f"link {tip!r} is not below {base!r} on one chain")
-        element = found
+    above = [tip]
+    while above[-1] != base and above[-1] in by_child:
+        element = by_child[above[-1]]
         elements.append(element)
         parent = element.find("parent")
-        link = str(parent.get("link")) if parent is not None else ""
+        above.append(str(parent.get("link")) if parent is not None else "")
         if len(elements) > len(by_child):
             raise _fail(path, "the joints form a loop")
+    world = None
+    if above[-1] != base:
+        # Not above the tip: a frame fixed to the chain's base (FANUC's ``base``
+        # hangs off base_link) is the controller's base frame, the chain starts
+        # at the link it is fixed to.
+        moving = [i for i, e in enumerate(elements) if e.get("type") in _MOVING]
+        below_first = above[moving[-1] + 1 :] if moving else []
+        attached = _fixed_to(root, base, set(below_first))
+        if attached is None:
+            raise _fail(path, f"link {tip!r} is not below {base!r} on one chain")
+        world, base = base, attached[0]
+        elements = elements[: above.index(base)]
     joints = tuple(_joint(path, e) for e in reversed(elements))
-    return Chain(path, str(root.get("name") or path.stem), base, tip, joints, root)
+    return Chain(path, str(root.get("name") or path.stem), base, tip, joints, root, world)
+
+
+def _fixed_to(root: ET.Element, link: str, targets: set[str]) -> tuple[str, np.ndarray] | None:
+    """The first of ``targets`` that ``link`` is fixed to, and ``link``'s pose in it (mm).
+
+    Walks the URDF's fixed joints both ways (parent to child and back) from
+    ``link``; None when no target is reached through fixed joints alone.
+    """
+    edges: dict[str, list[tuple[str, np.ndarray]]] = {}
+    for element in root.findall("joint"):
+        if element.get("type") != "fixed":
+            continue
+        parent, child = element.find("parent"), element.find("child")
+        if parent is None or child is None:
+            continue
+        a, b = str(parent.get("link")), str(child.get("link"))
+        origin = origin_of(element.find("origin"), f"joint {element.get('name')!r}")
+        edges.setdefault(a, []).append((b, origin))
+        edges.setdefault(b, []).append((a, np.linalg.inv(origin)))
+    # Breadth first: pose[x] is x's frame in ``link``'s.
+    pose = {link: np.eye(4)}
+    queue = [link]
+    while queue:
+        here = queue.pop(0)
+        if here in targets:
+            return here, np.linalg.inv(pose[here])
+        for there, step in edges.get(here, []):
+            if there not in pose:
+                pose[there] = pose[here] @ step
+                queue.append(there)
+    return None
+
+
+#: Links ROS-Industrial's support packages name after the controller's frames
+#: (the REP-199 draft, "Coordinate Frames for Serial Industrial Manipulators"):
+#: ``base`` is the controller's base (world) frame, ``tool0`` its flange with an
+#: all-zero tool, so that tool0 looked up in base is the pose the pendant shows.
+REP199_BASE = "base"
+REP199_FLANGE = "tool0"
+
+
+def controller_frame(chain: Chain, link: str, end: str) -> np.ndarray | None:
+    """A link fixed to the chain's base (``end="base"``) or flange (``"flange"``), or None.
+
+    Returns its pose (4, 4, mm) in the chain's base link, or in its tip link,
+    found through fixed joints only; None when ``link`` is not in the file or
+    not fixed to that end.
+    """
+    groups = _groups(chain)
+    group = groups[0] if end == "base" else groups[-1]
+    if link not in {e.get("name") for e in chain.root.findall("link")}:
+        return None
+    found = _fixed_to(chain.root, link, set(group))
+    if found is None:
+        return None
+    anchor = chain.base_link if end == "base" else chain.tip_link
+    if link == anchor:
+        return np.eye(4)  # exactly: the chain's own end
+    frames = chain.link_frames()
+    return np.linalg.inv(frames[anchor]) @ frames[found[0]] @ found[1]
 
 
 def _joint(path: Path, element: ET.Element) -> Joint:
@@ -427,6 +507,7 @@ def describe(
     masses = _masses(chain, model_frames)
     body = fit_body(chain, model_frames, margin_mm, link_radius_mm)
     limits, notes = narrow_limits(chain, body, model_frames, limits, kin.sign, margin_mm)
+    base2world, flange2tool0, sources = _controller_frames(chain)
     return RobotDescription(
         name=name or str(path),
         mdh=kin.mdh,
@@ -447,6 +528,34 @@ def describe(
         flange_offset=kin.flange_offset,
         source=f"URDF {Path(path).name} ({chain.robot}), {chain.base_link} to {chain.tip_link}",
         limit_notes=notes,
+        base2controller_base=base2world,
+        flange2controller_flange=flange2tool0,
+        controller_base_source=sources[0],
+        controller_flange_source=sources[1],
+    )
+
+
+def _controller_frames(chain: Chain) -> tuple[np.ndarray, np.ndarray, tuple[str, str]]:
+    """The controller's base and flange frames of a chain, by REP-199's link names.
+
+    A base link named with ``--base-link`` that is fixed beside the chain
+    (:attr:`Chain.world_link`) is the base frame; else a link ``base`` fixed
+    to the chain's base, else the chain's base link itself. The flange is a
+    link ``tool0`` fixed to the tip, else the tip. A description file may
+    name others (:mod:`calibrator.robots.files`).
+    """
+    name = chain.path.name
+    world = chain.world_link or REP199_BASE
+    base = controller_frame(chain, world, "base")
+    flange = controller_frame(chain, REP199_FLANGE, "flange")
+    why = "named as the base link" if chain.world_link else "REP-199's controller base frame"
+    return (
+        np.eye(4) if base is None else base,
+        np.eye(4) if flange is None else flange,
+        (
+            "" if base is None else f"{name}: link {world!r} ({why})",
+            "" if flange is None else f"{name}: link {REP199_FLANGE!r} (REP-199's all-zero tool)",
+        ),
     )
 
 

@@ -162,6 +162,8 @@ def parse_krl(text: str) -> Parsed:
         elif m := re.fullmatch(rf"\$ACC_AXIS\[([1-6])\] = ({NUM})", line):
             if not 0 < float(m.group(2)) <= 100:
                 raise GrammarError(f"KRL line {n}: percent out of range")
+        elif re.fullmatch(r"\$(TOOL|BASE) = \$NULLFRAME", line):
+            continue  # the frames the program assumes (flange, robot base)
         elif m := re.fullmatch(rf"PTP {KRL_AXIS}", line):
             out.move([float(v) * deg for v in m.groups()], f"KRL line {n}")
         elif m := re.fullmatch(rf"PTP ({IDENT})", line):
@@ -255,6 +257,8 @@ def parse_fanuc(text: str) -> Parsed:
                 raise GrammarError(f"Fanuc LS: P[{index}] not in /POS")
             out.move(points[index], f"Fanuc LS /MN line {expect}")
             out.speeds.setdefault("percent", set()).add(int(mm.group(2)))
+        elif re.fullmatch(r"(UFRAME_NUM|UTOOL_NUM)=0", stmt):
+            continue  # World and the faceplate, the frames the positions are in
         elif not _wait_or_pulse(out, stmt, rf"WAIT ({NUM})\(sec\)", rf"DO\[\d+\]=PULSE,{NUM}sec"):
             raise GrammarError(f"Fanuc LS /MN line {expect}: not a statement: {stmt!r}")
     return out
