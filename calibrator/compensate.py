@@ -25,7 +25,7 @@ import os
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -485,14 +485,17 @@ def run(
     from calibrator import outputs, robots
 
     limits = None
-    # The CSV's joints are the controller's angles, the solver's the model's.
-    convention = robots.JointConvention()
+    # The CSV's joints are the controller's angles and its poses in the controller's
+    # base frame; the solver's, the model's.
+    convention, base = robots.JointConvention(), np.eye(4)
     try:
         if calibration.model:
             arm = robots.get(calibration.model)
             limits, convention = arm.joint_limits_rad, arm.convention
+            base = arm.model_base2controller_base
     except CalibrationError:
         limits = None
+    frame = _Frame(convention, base)
     tally = _Tally()
 
     def write(tmp):
@@ -501,9 +504,9 @@ def run(
         with open(tmp, "wb") as fh:
             for first, q_stated, desired in iter_targets(targets_path):
                 q_nom = convention.to_model(q_stated)
-                block = _solve_block(
-                    calibration, q_nom, desired, limits, payload_kg, first, convention
-                )
+                if desired is not None:
+                    desired = base @ desired
+                block = _solve_block(calibration, q_nom, desired, limits, payload_kg, first, frame)
                 # pyarrow's writer: numbers in C, shortest text that reads back exactly.
                 options = pa_csv.WriteOptions(
                     include_header=first == 0, quoting_style="none", quoting_header="none"
@@ -525,7 +528,15 @@ class _Block:
     jump: np.ndarray
 
 
-def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, convention):
+@dataclass(frozen=True)
+class _Frame:
+    """How the CSV states joints and poses: the controller's angles, in its base frame."""
+
+    convention: Any
+    model_base2controller_base: np.ndarray
+
+
+def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, frame):
     import pyarrow as pa
 
     result = compensate(calibration, desired, q_nom, limits, payload_kg)
@@ -542,12 +553,11 @@ def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, convent
             np.where(sol.within_limits, "large joint change", "outside joint limits"),
         ),
     )
-    corrected = np.concatenate(
-        [result.corrected[:, :3, 3], frames.matrix_to_rotvec(result.corrected[:, :3, :3])], axis=1
-    )
+    shown = frames.invert(frame.model_base2controller_base) @ result.corrected
+    corrected = np.concatenate([shown[:, :3, 3], frames.matrix_to_rotvec(shown[:, :3, :3])], axis=1)
     size = correction_sizes(result, q_nom if desired is None else None)
     data = {"target": pa.array(first + np.arange(len(status))), "status": pa.array(status)}
-    q_controller = convention.to_controller(sol.q)
+    q_controller = frame.convention.to_controller(sol.q)
     for k, col in enumerate(JOINT_COLUMNS):
         data[col] = pa.array(q_controller[:, k], mask=~ok)  # empty when not ok
     for k, col in enumerate(POSE_COLUMNS):

@@ -64,6 +64,9 @@ class VerifyPlan:
     test_pose, cycle : ndarray of int, shape (5 * cycles,)
     convention : calibrator.robots.JointConvention
         The arm's: the document states joint commands as its controller does.
+    model_base2controller_base : ndarray, shape (4, 4)
+        The controller's base frame in the model's: the document states the
+        cube and the commanded poses in the controller's.
     """
 
     cube: iso9283.Cube
@@ -75,6 +78,11 @@ class VerifyPlan:
     test_pose: np.ndarray
     cycle: np.ndarray
     convention: JointConvention = field(default_factory=JointConvention)
+    model_base2controller_base: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def shown(self, pose: np.ndarray) -> np.ndarray:
+        """A model base frame pose (..., 4, 4) in the controller's base frame, mm."""
+        return frames.invert(self.model_base2controller_base) @ pose
 
     @property
     def cycles(self) -> int:
@@ -102,7 +110,9 @@ def make_plan(
     cycles : int
         At least 2 (a repeatability needs a spread).
     cube : calibrator.iso9283.Cube, optional
-        Given cube; default the largest cube of the working space.
+        Given cube, its centre in the controller's base frame (KUKA
+        ``$ROBROOT``, FANUC's World: what the pendant shows; its edges along
+        the model's base axes); default the largest cube of the working space.
     calibration : calibrator.calibration.Calibration, optional
         With it the commands are compensated (:func:`calibrator.compensate.compensate`:
         the calibrated arm's joints reaching the desired poses); without it
@@ -117,6 +127,9 @@ def make_plan(
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
     limits = model.joint_limits_rad
     given = cube is not None
+    base = model.model_base2controller_base
+    if cube is not None:
+        cube = iso9283.Cube(base[:3, :3] @ cube.centre_mm + base[:3, 3], cube.side_mm)
     rotation = iso9283.TOOL_DOWN
     if tracker_at_mm is not None:
         # The reflector faces the tracker from where the cube will be.
@@ -143,7 +156,16 @@ def make_plan(
         q = result.q
     plan, test_pose, cycle = iso9283.cycle_plan(q, cycles)
     return VerifyPlan(
-        cube, given, desired, q, calibration is not None, plan, test_pose, cycle, model.convention
+        cube,
+        given,
+        desired,
+        q,
+        calibration is not None,
+        plan,
+        test_pose,
+        cycle,
+        model.convention,
+        base,
     )
 
 
@@ -394,12 +416,18 @@ def document(
         "compensated": plan.compensated,
         "frame": "robot base",
         "registration": registration.to_json(),
-        "cube": {**plan.cube.to_json(), "given": plan.cube_given},
+        "cube": {
+            "centre_mm": plan.shown(frames.transform(translation=plan.cube.centre_mm))[
+                :3, 3
+            ].tolist(),
+            "side_mm": float(plan.cube.side_mm),
+            "given": plan.cube_given,
+        },
         "test_poses": [
             {
                 "test_pose": k + 1,
-                "commanded_mm": plan.desired[k, :3, 3].tolist(),
-                "rotation": plan.desired[k, :3, :3].tolist(),
+                "commanded_mm": plan.shown(plan.desired[k])[:3, 3].tolist(),
+                "rotation": plan.shown(plan.desired[k])[:3, :3].tolist(),
                 "q_rad": plan.convention.to_controller(plan.q_test[k]).tolist(),
             }
             for k in range(5)

@@ -85,7 +85,9 @@ def verify(
         30, callback=checks.count("cycles", 2), help="Cycles P5..P1 (2..1000)."
     ),
     cube: str = typer.Option(
-        None, help="Test cube X,Y,Z,SIDE, mm, base frame [default: the largest that fits]."
+        None,
+        help="Test cube X,Y,Z,SIDE, mm, in the controller's base frame "
+        "[default: the largest that fits].",
     ),
     readings: int = _run.readings_option("attained pose"),
     output: Path = opts.output(
