@@ -8,8 +8,8 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _model, _run
 from calibrator.cli import _options as opts
-from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 from calibrator.program import REGISTRY
@@ -30,7 +30,11 @@ def program(
     output: Path = opts.output(..., "Program file to write."),
     force: bool = opts.force(),
     fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
-    model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
+    model: str = opts.model(
+        None,
+        "Named model (joint limits, speed ceiling) [default: the plan's, else ur10e]; "
+        "a plan's arm cannot be changed.",
+    ),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
     accel: float = _run.accel_option(None, "[default: the model's ceiling; only lower]"),
     dwell: float = typer.Option(
@@ -78,8 +82,12 @@ def program(
     name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
-    arm = robots.get(model)
     given = planning.read_plan(plan_path)
+    # The plan's arm; --model only for a plan that names none.
+    origin = given.origin
+    arm = robots.get(
+        _model.resolve(model, _model.From(None if origin is None else origin.model, plan_path))
+    )
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
