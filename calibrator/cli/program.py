@@ -23,6 +23,17 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 )
 
 
+class Targets(StrEnum):
+    """``--targets``: what a move states (docs/external-robots.md)."""
+
+    joints = "joints"
+    cartesian = "cartesian"
+
+
+#: The languages that write Cartesian targets.
+CARTESIAN = ("urscript",)
+
+
 @app.command()
 @opts.urdf_links
 def program(
@@ -64,6 +75,13 @@ def program(
         "Reflector position on the flange X,Y,Z, mm [default: the plan file's, else 0,0,100].",
         default=None,
     ),
+    targets: Targets = typer.Option(
+        "joints",
+        "--targets",
+        help="joints: every move to joint angles; cartesian: each pose's move to the flange "
+        "pose the nominal model gives there (URScript p[...]; home and vias stay joints), "
+        "targets `calibrator compensate` corrects.",
+    ),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
@@ -78,6 +96,8 @@ def program(
     from calibrator import program as programs
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
+    if targets == Targets.cartesian and chosen not in CARTESIAN:
+        fail(f"--targets cartesian is written in {', '.join(CARTESIAN)} only, not {chosen}")
     # KRL and Fanuc want the program named as its file; no language takes a keyword.
     name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
@@ -132,6 +152,8 @@ def program(
         via_rad=given.via_rad,
         joint_limits_rad=arm.joint_limits_rad,
         convention=arm.convention,
+        targets=targets.value,
+        mdh=arm.mdh,
     )
     outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
     if cell.tracker_at_mm is None:

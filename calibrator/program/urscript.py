@@ -6,11 +6,15 @@ spaces, ``movej(q, a, v)`` with joint vectors in radians and the leading-joint
 speed and acceleration in rad/s and rad/s^2, ``sleep(t)`` for the dwell and
 ``set_standard_digital_out(n, b)`` for the pulse. A via (moved through, not
 measured) is a ``movej`` after a ``# via before pose i`` comment, with no sleep.
+With Cartesian targets a pose's ``movej`` goes to ``p[x, y, z, rx, ry, rz]``
+(m, rotation vector in rad): the nominal flange pose, which the controller
+solves nearest the joints it comes from (the via before it).
 """
 
 from __future__ import annotations
 
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 from calibrator.program.names import program_name, words
 from calibrator.program.registry import writer
 from calibrator.program.spec import PULSE_S, ProgramSpec, number
@@ -40,6 +44,19 @@ def _joints(spec: ProgramSpec, q) -> str:
     return "[" + ", ".join(spec.angles(q, "rad")) + "]"
 
 
+def _target(spec: ProgramSpec, kind: str, q) -> str:
+    """A move's target: joints, or (``cartesian`` poses) ``p[x, y, z, rx, ry, rz]`` in m, rad.
+
+    The flange pose needs no ``set_tcp``: a program without one moves the flange.
+    """
+    if spec.targets != "cartesian" or kind != "pose":
+        return _joints(spec, q)
+    pose = spec.flange_pose(q)
+    values = [*(pose[:3, 3] / 1000.0), *frames.matrix_to_rotvec(pose[:3, :3])]
+    # 1e-9 m and rad: far below any controller's resolution; + 0.0 turns -0.0 into 0.0.
+    return "p[" + ", ".join(f"{round(float(v), 9) + 0.0:.9f}" for v in values) + "]"
+
+
 @writer(
     "urscript",
     (".script", ".urscript"),
@@ -55,13 +72,18 @@ def write(spec: ProgramSpec) -> str:
     lines = [
         f"# {spec.name}: {title(spec)}",
         "# joints in rad; speed and acceleration of the leading joint in rad/s and rad/s^2",
+        *(
+            ["# pose targets: the nominal flange pose p[x, y, z, rx, ry, rz] in m and rad"]
+            if spec.targets == "cartesian"
+            else []
+        ),
         f"def {spec.name}():",
         f"  home = {_joints(spec, spec.home_rad)}",
         f"  movej(home, {move})",
     ]
     lines += between_homes(
         spec,
-        move=lambda kind, pose, start, q: f"  movej({_joints(spec, q)}, {move})",
+        move=lambda kind, pose, start, q: f"  movej({_target(spec, kind, q)}, {move})",
         pulse=lambda output: [
             f"  set_standard_digital_out({output}, True)",
             f"  sleep({PULSE_S:.3f})",
