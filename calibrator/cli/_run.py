@@ -126,8 +126,9 @@ class RunArgs:
     resume, yes, force : bool
         ``--resume``, ``--yes`` and ``--force`` (replace an existing output;
         an unfinished run's journal is still only resumed or removed).
-    model : str
-        ``--model``, a named arm.
+    model : str or None
+        ``--model``, a named arm; None when not given (the input files' arm,
+        else :data:`calibrator.cli._model.DEFAULT`).
     settle : float or None
         ``--settle``, s; None: the default of the robot kind.
     retries : int
@@ -140,16 +141,26 @@ class RunArgs:
     resume: bool
     yes: bool
     force: bool
-    model: str
+    model: str | None
     settle: float | None
     retries: int
     speed: float
     accel: float
     max_speed: float | None
 
-    def arm(self) -> Any:
-        """The named model, the motion options checked against its ceilings (exit 2 above)."""
-        return check_motion_caps(self.model, self.speed, self.accel, self.max_speed)
+    def arm(self, *recorded: Any) -> Any:
+        """The arm, the motion options checked against its ceilings (exit 2 above).
+
+        Parameters
+        ----------
+        *recorded : calibrator.cli._model.From
+            The arm each input file records: it is the arm, and a ``--model``
+            naming another is refused (:func:`calibrator.cli._model.resolve`).
+        """
+        from calibrator.cli import _model
+
+        name = _model.resolve(self.model, *recorded)
+        return check_motion_caps(name, self.speed, self.accel, self.max_speed)
 
     def run_fields(self) -> dict[str, Any]:
         """The :class:`~calibrator.acquire.run.RunOptions` fields these options set."""
@@ -174,7 +185,11 @@ def _run_args_options() -> list[inspect.Parameter]:
         "resume": resume_option(),
         "yes": yes_option(),
         "force": opts.force(),
-        "model": opts.model(),
+        "model": opts.model(
+            None,
+            "Named model of the arm [default: the input file's (plan, calibration), else "
+            "ur10e]; an input file's arm cannot be changed.",
+        ),
         "settle": settle_option(),
         "retries": retries_option(),
         "speed": speed_option(),

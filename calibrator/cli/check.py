@@ -85,7 +85,7 @@ def check(
     from calibrator.check import document as documents
     from calibrator.check import poses as check_poses
     from calibrator.check.model import Calibrated
-    from calibrator.cli import progress
+    from calibrator.cli import _model, progress
     from calibrator.model import frames
 
     output = Path(output)
@@ -102,13 +102,12 @@ def check(
         fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:
         fail("--resume is not for --robot external: run the check again")
-    arm = run_args.arm()
+    cal = calibrations.load(calibration_path)
+    # The calibration's arm; --model only for one that names none.
+    arm = run_args.arm(_model.From(cal.model, calibration_path))
     world_file = _run.read_world(world, robot, tracker)
     if history is not None:
         _open_history(history).close()  # one it cannot open is refused before anything moves
-    cal = calibrations.load(calibration_path)
-    if cal.model and cal.model != arm.name:
-        fail(f"{calibration_path} calibrates a {cal.model}, not --model {run_args.model}")
     if cal.frame != "tracker":
         fail(
             f"{calibration_path} was identified in the robot base frame: a check compares "

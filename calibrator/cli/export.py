@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _model
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.export import REGISTRY
@@ -32,8 +33,17 @@ def export_params(
         help="With --format urdf: write this URDF back with only its chain's joint origins "
         "calibrated (the URDF identify's --model named).",
     ),
-    base_link: str = typer.Option(None, "--base-link", help="With --like: the chain's base link."),
-    tip_link: str = typer.Option(None, "--tip-link", help="With --like: the chain's tip link."),
+    base_link: str = typer.Option(
+        None, "--base-link", help="With --like: the chain's base link [default: the arm's]."
+    ),
+    tip_link: str = typer.Option(
+        None, "--tip-link", help="With --like: the chain's tip link [default: the arm's]."
+    ),
+    model: str = opts.model(
+        None,
+        "Named model of a calibration that names none (joint names and limits, UR's table) "
+        "[default: the calibration's]; a calibration's arm cannot be changed.",
+    ),
 ) -> None:
     """Write the calibrated model in a format robot users load."""
     from calibrator import calibration, export, outputs
@@ -47,7 +57,7 @@ def export_params(
         raise CalibrationError(f"--like writes a URDF, not {name}")
     if output is not None:
         outputs.check(output, inputs=inputs, force=force)
-    cal = calibration.load(calibration_path)
+    cal = _model.calibration(calibration.load(calibration_path), calibration_path, model)
     if like is not None:
         result = export.export_like(cal, like, base_link, tip_link)
     else:

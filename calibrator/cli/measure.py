@@ -119,11 +119,17 @@ def measure(
     for given in (sim_faults, sim_replay):
         if given is not None and not Path(given).is_file():
             _fail(f"file not found: {given}")
-    arm = run_args.arm()
-    world_file = _run.read_world(world, robot, tracker)
     from calibrator import cell as cells
+    from calibrator.cli import _model
 
-    user_plan = planning.read_plan(plan_path, arm) if plan_path is not None else None
+    user_plan = planning.read_plan(plan_path) if plan_path is not None else None
+    # The plan's arm; --model only for a plan that names none (or none given).
+    origin = None if user_plan is None else user_plan.origin
+    arm = run_args.arm(_model.From(None if origin is None else origin.model, str(plan_path)))
+    world_file = _run.read_world(world, robot, tracker)
+    if user_plan is not None and origin is None:
+        # A plan naming no arm holds the controller's angles of the arm just resolved.
+        user_plan = planning.read_plan(plan_path, arm)
     cell = None if cell_file is None else cells.read_cell(cell_file)
     tracker_mm: tuple[float, float, float] | None = _triple(tracker_at, "--tracker-at")
     if tracker_mm is None and cell is not None:

@@ -8,8 +8,8 @@ from pathlib import Path
 import typer
 
 from calibrator.cli import _checks as checks
+from calibrator.cli import _model, _run
 from calibrator.cli import _options as opts
-from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 from calibrator.program import REGISTRY
@@ -23,6 +23,17 @@ _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; 
 )
 
 
+class Targets(StrEnum):
+    """``--targets``: what a move states (docs/external-robots.md)."""
+
+    joints = "joints"
+    cartesian = "cartesian"
+
+
+#: The languages that write Cartesian targets.
+CARTESIAN = ("urscript",)
+
+
 @app.command()
 @opts.urdf_links
 def program(
@@ -30,7 +41,11 @@ def program(
     output: Path = opts.output(..., "Program file to write."),
     force: bool = opts.force(),
     fmt: ProgramFormat = typer.Option(None, "--format", help=_FORMAT_HELP),
-    model: str = opts.model(help="Named model (joint limits, speed ceiling)."),
+    model: str = opts.model(
+        None,
+        "Named model (joint limits, speed ceiling) [default: the plan's, else ur10e]; "
+        "a plan's arm cannot be changed.",
+    ),
     speed: float = _run.speed_option(None, "[default: the model's fixed ceiling; only lower]"),
     accel: float = _run.accel_option(None, "[default: the model's ceiling; only lower]"),
     dwell: float = typer.Option(
@@ -60,6 +75,13 @@ def program(
         "Reflector position on the flange X,Y,Z, mm [default: the plan file's, else 0,0,100].",
         default=None,
     ),
+    targets: Targets = typer.Option(
+        "joints",
+        "--targets",
+        help="joints: every move to joint angles; cartesian: each pose's move to the flange "
+        "pose the nominal model gives there (URScript p[...]; home and vias stay joints), "
+        "targets `calibrator compensate` corrects.",
+    ),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
@@ -74,12 +96,21 @@ def program(
     from calibrator import program as programs
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
+    if targets == Targets.cartesian and chosen not in CARTESIAN:
+        fail(f"--targets cartesian is written in {', '.join(CARTESIAN)} only, not {chosen}")
     # KRL and Fanuc want the program named as its file; no language takes a keyword.
     name = programs.name_for(chosen, output)
     inputs = [p for p in (plan_path, cell_file) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
-    arm = robots.get(model)
-    given = planning.read_plan(plan_path, arm)
+    given = planning.read_plan(plan_path)
+    # The plan's arm; --model only for a plan that names none.
+    origin = given.origin
+    arm = robots.get(
+        _model.resolve(model, _model.From(None if origin is None else origin.model, plan_path))
+    )
+    if origin is None:
+        # A plan naming no arm holds the controller's angles of the arm just resolved.
+        given = planning.read_plan(plan_path, arm)
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
@@ -127,6 +158,8 @@ def program(
         via_rad=given.via_rad,
         joint_limits_rad=arm.joint_limits_rad,
         convention=arm.convention,
+        targets=targets.value,
+        mdh=arm.mdh,
     )
     outputs.write_text(output, programs.render(spec, chosen), inputs=inputs)
     if cell.tracker_at_mm is None:

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from calibrator.cli import _model
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 
@@ -23,6 +24,11 @@ def report(
     verify_paths: list[Path] = typer.Option(
         None, "--verify", help="ISO 9283 result (calibrator verify), repeatable: before, after."
     ),
+    model: str = opts.model(
+        None,
+        "Named model of a calibration that names none [default: the calibration's, else "
+        "the session's]; a calibration's arm cannot be changed.",
+    ),
 ) -> None:
     """Write the calibration report: PNG plots and one self-contained HTML page."""
     from calibrator import calibration, outputs, session
@@ -36,6 +42,12 @@ def report(
     )
     cal = calibration.load(calibration_path)
     loaded = None if session_path is None else session.load(session_path)
+    # The arm the files name (the session's where the calibration names none).
+    recorded = [_model.From(cal.model, calibration_path)]
+    if loaded is not None:
+        recorded.append(_model.From(loaded.meta.model, session_path))
+    name = _model.resolve(model, *recorded, default=None)
+    cal = _model.calibration(cal, calibration_path, name)
     if loaded is not None:
         consistency.check_session_matches(cal, loaded.meta, str(session_path))
     runs = verify_section.load(verify_paths)

@@ -132,7 +132,7 @@ def verify(
     from calibrator import calibration as calibrations
     from calibrator import outputs
     from calibrator.acquire import verify as run
-    from calibrator.cli import progress
+    from calibrator.cli import _model, progress
     from calibrator.model import frames
 
     output = Path(output)
@@ -156,15 +156,14 @@ def verify(
         fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
-    arm = run_args.arm()
+    cal = calibrations.load(calibration_path) if calibration_path is not None else None
+    reg_cal = calibrations.load(register_path) if register_path is not None else None
+    # The calibration's arm; --model only for one that names none, or without one.
+    given = [(cal, calibration_path), (reg_cal, register_path)]
+    arm = run_args.arm(*(_model.From(doc.model, path) for doc, path in given if doc is not None))
     world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
-    cal = calibrations.load(calibration_path) if calibration_path is not None else None
-    reg_cal = calibrations.load(register_path) if register_path is not None else None
-    for doc, path in ((cal, calibration_path), (reg_cal, register_path)):
-        if doc is not None and doc.model and doc.model != run_args.model.strip().lower():
-            fail(f"{path} calibrates a {doc.model}, not --model {run_args.model}")
     from calibrator import cell as cells
 
     cell = cells.read_cell(cell_file) if cell_file is not None else None

@@ -1,6 +1,7 @@
 """``ros-kinematics``: the kinematics parameters YAML that UR's ROS description reads.
 
-Per joint (``shoulder, upper_arm, forearm, wrist_1, wrist_2, wrist_3``) the
+Per joint (``shoulder, upper_arm, forearm, wrist_1, wrist_2, wrist_3``;
+another arm's: its URDF's joint names, :mod:`calibrator.export.joints`) the
 joint origin relative to the previous joint's frame, ``x y z`` (metres) and
 ``roll pitch yaw`` (radians, the URDF convention ``Rz(yaw) Ry(pitch)
 Rx(roll)``), after which the joint turns about its new z axis; ``hash``
@@ -26,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.export import joints as arm_joints
 from calibrator.export.registry import Exported, exporter
 from calibrator.inputs import textfile, yamlfile
 from calibrator.model import conventions, kinematics
@@ -35,37 +37,85 @@ if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 
-JOINTS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
+#: The keys of UR's file (the ones :func:`read` reads).
+JOINTS = arm_joints.UR_KEYS
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 _M = 1000.0
 #: Refuse kinematics YAML files larger than this: one is about a kilobyte.
 MAX_BYTES = 2**20
 
 
-def trailing_notes(trailing: np.ndarray, fmt: str) -> list[str]:
+def trailing_notes(trailing: np.ndarray, fmt: str, last: str = "wrist_3") -> list[str]:
     """The residual line of a format that cannot hold ``a6, alpha6, beta6``."""
     mm, rad = conventions.residual_size(trailing)
     if mm < 1e-9 and rad < 1e-12:
         return []
     return [
         f"{fmt} cannot hold a6, alpha6, beta6: the flange is {mm:.6g} mm and {rad:.6g} rad "
-        "from the wrist_3 frame (add it to the tool)"
+        f"from the {last} frame (add it to the tool)"
     ]
+
+
+def controller_origins(
+    origins: np.ndarray, trailing: np.ndarray, arm: arm_joints.Joints
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint origins after which each joint turns about its z by the controller's angle.
+
+    With ``q_model = sign q + offset``, ``Rz(q_model) = Rz(offset) F Rz(q) F^-1``
+    where ``F`` is ``Rx(pi)`` for a joint whose angle is the model's negative
+    (else the identity): origin ``i`` becomes ``F_{i-1}^-1 origin_i Rz(offset_i) F_i``
+    and the trailing transform ``F_6^-1 trailing``. Unchanged (the same
+    numbers) for a joint the controller turns as the model does.
+
+    Parameters
+    ----------
+    origins : ndarray, shape (6, 4, 4)
+        :func:`calibrator.model.kinematics.joint_origins` (mm).
+    trailing : ndarray, shape (4, 4)
+    arm : calibrator.export.joints.Joints
+
+    Returns
+    -------
+    origins : ndarray, shape (6, 4, 4)
+    trailing : ndarray, shape (4, 4)
+    """
+    flip = np.diag([1.0, -1.0, -1.0, 1.0])  # Rx(pi), its own inverse
+    out = np.array(origins, dtype=float)
+    before = False  # the previous joint's frame was flipped
+    for i in range(6):
+        if before:
+            out[i] = flip @ out[i]
+        if arm.offset_rad[i]:
+            c, s = np.cos(arm.offset_rad[i]), np.sin(arm.offset_rad[i])
+            spin = np.eye(4)
+            spin[:2, :2] = [[c, -s], [s, c]]
+            out[i] = out[i] @ spin
+        before = bool(arm.sign[i] < 0)
+        if before:
+            out[i] = out[i] @ flip
+    return out, (flip @ trailing if before else trailing)
 
 
 @exporter("ros-kinematics", (".yaml", ".yml"), "ur_description kinematics parameters (m, rad)")
 def to_ros(cal: Calibration) -> Exported:
-    """The calibrated arm as a ``kinematics:`` YAML with its ``hash``."""
-    frames, trailing = kinematics.joint_origins(cal.mdh)
+    """The calibrated arm as a ``kinematics:`` YAML with its ``hash``.
+
+    A UR's keys are ``ur_description``'s; another arm's are its URDF's joint
+    names, each joint turning by its controller's angle
+    (:func:`controller_origins`; :mod:`calibrator.export.joints`).
+    """
+    arm = arm_joints.of(cal.model)
+    frames, trailing = controller_origins(*kinematics.joint_origins(cal.mdh), arm)
     lines = ["kinematics:"]
-    for name, origin in zip(JOINTS, frames, strict=True):
+    for name, origin in zip(arm.keys, frames, strict=True):
         values = xyz_rpy(origin)
         values[:3] /= _M
         lines.append(f"  {name}:")
         lines += [f"    {k}: {float(v)!r}" for k, v in zip(KEYS, values, strict=True)]
     digest = hashlib.sha256("\n".join(lines).encode()).digest()
     lines.append(f"  hash: calib_{int.from_bytes(digest[:8], 'big') >> 1}")
-    return Exported("\n".join(lines) + "\n", trailing_notes(trailing, "ros-kinematics"))
+    notes = trailing_notes(trailing, "ros-kinematics", arm.keys[5])
+    return Exported("\n".join(lines) + "\n", notes + arm.coupling_notes("ros-kinematics"))
 
 
 def read(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

@@ -1,26 +1,29 @@
 """``urdf``: a URDF of the calibrated arm (metres, radians).
 
 Links ``base_link``, ``shoulder_link`` ... ``wrist_3_link`` as in UR's
-description, then fixed joints to ``flange`` (the MDH flange frame, holding
-``a6, alpha6, beta6`` that the kinematics YAML cannot) and ``tool`` (the
-identified ``flange2tool``). The joint origins are those of
-:func:`calibrator.model.kinematics.joint_origins`. Nothing is lost: the chain
-``base_link -> flange`` is the calibrated ``A_1 ... A_6``.
+description (another arm's: its own URDF's names, :mod:`calibrator.export.joints`),
+then fixed joints to ``flange`` (the MDH flange frame, holding ``a6, alpha6,
+beta6`` that the kinematics YAML cannot) and ``tool`` (the identified
+``flange2tool``). The joint origins are those of
+:func:`calibrator.model.kinematics.joint_origins`, each joint turning by the
+angle its controller states: about ``-z`` where that angle is the model's
+negative (a KUKA's A1 and A6), from an origin turned by the convention's
+zero offset. Nothing is lost: the chain ``base_link -> flange`` is the
+calibrated ``A_1 ... A_6``.
 """
 
 from __future__ import annotations
 
 import os
 import re
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from calibrator import robots
 from calibrator.errors import CalibrationError
+from calibrator.export import joints as arm_joints
 from calibrator.export.registry import Exported, exporter
-from calibrator.export.ros import JOINTS
 from calibrator.model import kinematics
 from calibrator.model.frames import xyz_rpy
 
@@ -29,8 +32,9 @@ if TYPE_CHECKING:
 
 
 _M = 1000.0
-JOINT_NAMES = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
-LINKS = ("base_link",) + tuple(f"{j}_link" for j in JOINTS)
+#: UR's names, as every UR export writes them.
+JOINT_NAMES = arm_joints.UR_JOINTS
+LINKS = arm_joints.UR_LINKS
 
 
 def _origin(transform):
@@ -41,38 +45,41 @@ def _origin(transform):
     return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
 
 
-def _limits(model):
-    if model is None:
-        return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
-    try:
-        robot = robots.get(model)
-    except CalibrationError:
-        return np.tile([-2 * np.pi, 2 * np.pi], (6, 1)), np.full(6, np.pi)
-    return robot.joint_limits_rad, robot.max_joint_speed_rad_s
+def _spin(angle: float) -> np.ndarray:
+    """``Rz(angle)`` as a (4, 4) transform."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.eye(4)
+    out[:2, :2] = [[c, -s], [s, c]]
+    return out
 
 
 @exporter("urdf", (".urdf",), "URDF of the calibrated arm with flange and tool frames (m, rad)")
 def to_urdf(cal: Calibration) -> Exported:
-    """The calibrated arm as URDF text."""
+    """The calibrated arm as URDF text, its joints named and turning as its controller's."""
     frames, trailing = kinematics.joint_origins(cal.mdh)
-    limits, speeds = _limits(cal.model)
+    arm = arm_joints.of(cal.model)
+    links = arm.links
     name = quoteattr(f"{cal.model or 'arm'}_calibrated")
     out = ['<?xml version="1.0"?>', f"<robot name={name}>"]
-    out += [f'  <link name="{link}"/>' for link in LINKS + ("flange", "tool")]
+    out += [f'  <link name="{link}"/>' for link in links + ("flange", "tool")]
     for i, origin in enumerate(frames):
-        lo, hi = limits[i]
+        lo, hi = arm.limits_rad[i]
+        # q_model = sign q + offset: Rz(q_model) = Rz(offset) . (a turn by q about sign z).
+        if arm.offset_rad[i]:
+            origin = origin @ _spin(float(arm.offset_rad[i]))
+        axis = "0 0 1" if arm.sign[i] > 0 else "0 0 -1"
         out += [
-            f'  <joint name="{JOINT_NAMES[i]}_joint" type="revolute">',
-            f'    <parent link="{LINKS[i]}"/>',
-            f'    <child link="{LINKS[i + 1]}"/>',
+            f'  <joint name="{arm.names[i]}{arm.suffix}" type="revolute">',
+            f'    <parent link="{links[i]}"/>',
+            f'    <child link="{links[i + 1]}"/>',
             f"    {_origin(origin)}",
-            '    <axis xyz="0 0 1"/>',
+            f'    <axis xyz="{axis}"/>',
             f'    <limit lower="{float(lo)!r}" upper="{float(hi)!r}" '
-            f'effort="150.0" velocity="{float(speeds[i])!r}"/>',
+            f'effort="150.0" velocity="{float(arm.speeds_rad_s[i])!r}"/>',
             "  </joint>",
         ]
     for parent, child, transform in (
-        ("wrist_3_link", "flange", trailing),
+        (links[6], "flange", trailing),
         ("flange", "tool", cal.flange2tool),
     ):
         out += [
@@ -83,7 +90,7 @@ def to_urdf(cal: Calibration) -> Exported:
             "  </joint>",
         ]
     out.append("</robot>")
-    return Exported("\n".join(out) + "\n")
+    return Exported("\n".join(out) + "\n", arm.coupling_notes("urdf"))
 
 
 def like(
@@ -112,7 +119,10 @@ def like(
     path : str or path-like
         The URDF the calibration's nominal model came from.
     base_link, tip_link : str, optional
-        As for :func:`calibrator.robots.urdf.read_chain`.
+        As for :func:`calibrator.robots.urdf.read_chain`; a link not given is
+        the one the calibration's arm names (a shipped arm's description
+        file's ``tip_link: flange``, ``arm.urdf#base:tip``) where ``path``
+        has it, else the reader's default.
 
     Raises
     ------
@@ -120,17 +130,8 @@ def like(
         The calibration was not made against this chain.
     """
     from calibrator.model import kinematics
-    from calibrator.robots import urdf as robot_urdf
 
-    chain = robot_urdf.read_chain(path, base_link, tip_link)
-    kin = robot_urdf.kinematics_of(chain)
-    gap = float(np.abs(np.asarray(cal.nominal_mdh) - kin.mdh).max())
-    if gap > 1e-6:
-        raise CalibrationError(
-            f"{path}: the calibration's nominal model is not this URDF's chain "
-            f"({chain.base_link} to {chain.tip_link}; tables differ by {gap:.3g}); "
-            f"it was made for {cal.model!r}"
-        )
+    chain, kin = _chain_like(cal, path, base_link, tip_link)
     nominal = kin.base_offset @ kinematics.chain(kin.mdh, np.zeros(6), all_frames=True)[1][0]
     fitted = kin.base_offset @ kinematics.chain(cal.mdh, np.zeros(6), all_frames=True)[1][0]
     frames = chain.link_frames()
@@ -169,6 +170,48 @@ def like(
         if np.abs(transform - given[name]).max() > 1e-12:
             text = _set_origin(text, name, transform, path)
     return Exported(text)
+
+
+def _chain_like(
+    cal: Calibration,
+    path: str | os.PathLike[str],
+    base_link: str | None,
+    tip_link: str | None,
+) -> tuple[Any, Any]:
+    """The chain of ``path`` the calibration was made against, and its kinematics.
+
+    The links given win; the others are first the ones the calibration's arm
+    records (its URDF's chain), then the reader's defaults: the first
+    whose table is the calibration's nominal one is taken.
+    """
+    from calibrator.robots import urdf as robot_urdf
+
+    tried: list[tuple[str | None, str | None]] = []
+    recorded = arm_joints.chain_of(cal.model)
+    if recorded is not None:
+        tried.append((base_link or recorded.base_link, tip_link or recorded.tip_link))
+    tried.append((base_link, tip_link))
+    first: tuple[Any, float] | None = None
+    for base, tip in dict.fromkeys(tried):
+        try:
+            chain = robot_urdf.read_chain(path, base, tip)
+        except CalibrationError:
+            if (base, tip) == (base_link, tip_link) and first is None:
+                raise  # the links as given (or the defaults) are not in the file
+            continue  # the arm's links are not this file's: try the given ones
+        kin = robot_urdf.kinematics_of(chain)
+        gap = float(np.abs(np.asarray(cal.nominal_mdh) - kin.mdh).max())
+        if gap <= 1e-6:
+            return chain, kin
+        if first is None:
+            first = (chain, gap)
+    assert first is not None
+    chain, gap = first
+    raise CalibrationError(
+        f"{path}: the calibration's nominal model is not this URDF's chain "
+        f"({chain.base_link} to {chain.tip_link}; tables differ by {gap:.3g}); "
+        f"it was made for {cal.model!r}"
+    )
 
 
 def _origin_attributes(transform: np.ndarray) -> dict[str, str]:

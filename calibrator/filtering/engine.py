@@ -231,7 +231,14 @@ class Filter:
             if stated.any():
                 codes[stated] = np.array([c for c in stated_codes if c is not None])
             start = self._start(known_q, pose_rows[0])
-            q, found = self.solver.solve(desired[pose_rows], tool[pose_rows], codes, stated, start)
+            # A pose right after a joint target comes from those joints: the controller
+            # solves it nearest them (a via, or a generated program's approach move).
+            after_joints = pose_rows[1:][~is_pose[pose_rows[1:] - 1]]
+            comes_from = np.full((len(pose_rows), 6), np.nan)
+            comes_from[np.searchsorted(pose_rows, after_joints)] = known_q[after_joints - 1]
+            q, found = self.solver.solve(
+                desired[pose_rows], tool[pose_rows], codes, stated, start, comes_from
+            )
             q_nom[pose_rows] = q
             for j in np.flatnonzero(~found).tolist():
                 want = lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"

@@ -179,6 +179,7 @@ class Solver:
         code: np.ndarray,
         stated: np.ndarray,
         start_q: np.ndarray | None,
+        comes_from: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Nominal joints of a block of targets.
 
@@ -192,6 +193,11 @@ class Solver:
         stated : ndarray of bool, shape (N,)
         start_q : ndarray, shape (6,), or None
             Model joints the arm comes from (the previous target), rad.
+        comes_from : ndarray, shape (N, 6), optional
+            Per target, the model joints of the joint target right before it
+            (rad; NaN rows: a Cartesian target is before it). A target that
+            states no configuration takes that joint target's and is solved
+            from there first (the controller solves it nearest those joints).
 
         Returns
         -------
@@ -209,9 +215,22 @@ class Solver:
         a_st = anchors[stated[anchors]]
         if len(a_st):
             self._from_library(a_st, desired, tool, code, stated, nan_bits, lib_points, q, found)
+        if comes_from is not None:
+            # Targets right after joint targets: from those joints, in their configuration.
+            seeded = np.flatnonzero(~np.isnan(comes_from[:, 0]) & ~stated)
+            if len(seeded):
+                seeds = comes_from[seeded]
+                ref = configuration.arm_bits(self.mdh, seeds).astype(float)
+                qa, ok = self._try(
+                    desired[seeded], tool[seeded], seeds, code[seeded], stated[seeded], ref
+                )
+                q[seeded[ok]], found[seeded[ok]] = qa[ok], True
         # Anchors that state none: each from the one before (the arm comes from there).
         prev = None if start_q is None else np.asarray(start_q, float)
         for a in anchors[~stated[anchors]]:
+            if found[a]:
+                prev = q[a]
+                continue
             sl = slice(a, a + 1)
             if prev is not None:
                 qa, ok = self._try(

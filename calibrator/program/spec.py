@@ -59,6 +59,13 @@ class ProgramSpec:
         How the controller's angles relate to the model's (sign, zero offset,
         coupled axes): programs are written in the controller's angles. None:
         the same angles.
+    targets : {'joints', 'cartesian'}
+        ``cartesian``: each measured pose's move goes to the flange pose the
+        nominal model ``mdh`` gives at its joints (:meth:`flange_pose`), a
+        target ``calibrator compensate`` corrects; home and vias stay joint
+        targets. Default ``joints``.
+    mdh : numpy.ndarray, shape (6, 5), optional
+        The nominal MDH table (mm, rad) of ``cartesian`` targets.
     """
 
     plan_rad: np.ndarray
@@ -73,8 +80,14 @@ class ProgramSpec:
     via_rad: tuple = ()
     joint_limits_rad: np.ndarray | None = None
     convention: JointConvention | None = None
+    targets: str = "joints"
+    mdh: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        if self.targets not in ("joints", "cartesian"):
+            raise CalibrationError(f"targets {self.targets!r}: joints or cartesian")
+        if self.targets == "cartesian" and (self.mdh is None or np.shape(self.mdh) != (6, 5)):
+            raise CalibrationError("cartesian targets need the nominal MDH table, shape (6, 5)")
         plan = np.asarray(self.plan_rad, dtype=float)
         if plan.ndim != 2 or plan.shape[1] != 6 or not len(plan):
             raise CalibrationError(f"a program needs a plan of shape (N, 6), got {plan.shape}")
@@ -118,6 +131,16 @@ class ProgramSpec:
             here = q
         out.append(("home", None, here, np.asarray(self.home_rad, dtype=float)))
         return out
+
+    def flange_pose(self, q_rad: ArrayLike) -> np.ndarray:
+        """The nominal flange pose at the model's joint angles ``q_rad`` (6,), shape (4, 4).
+
+        In the model's base frame, mm: the pose a ``cartesian`` target states.
+        """
+        from calibrator.model import kinematics
+
+        assert self.mdh is not None, "flange poses need the spec's mdh"
+        return kinematics.chain(self.mdh, np.asarray(q_rad, dtype=float).reshape(1, 6))[0]
 
     def speed_percent(self, step: float = 0.1, language: str = "KRL") -> np.ndarray:
         """Per-axis speed as a percentage of each axis's top speed, shape (6,), rounded down.

@@ -6,11 +6,18 @@ spaces, ``movej(q, a, v)`` with joint vectors in radians and the leading-joint
 speed and acceleration in rad/s and rad/s^2, ``sleep(t)`` for the dwell and
 ``set_standard_digital_out(n, b)`` for the pulse. A via (moved through, not
 measured) is a ``movej`` after a ``# via before pose i`` comment, with no sleep.
+With Cartesian targets a pose's ``movej`` goes to ``p[x, y, z, rx, ry, rz]``
+(m, rotation vector in rad): the nominal flange pose, which the controller
+solves nearest the joints it comes from; where that may not be the plan's
+solution, a joint move to the pose's joints comes first.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from calibrator.errors import CalibrationError
+from calibrator.model import frames
 from calibrator.program.names import program_name, words
 from calibrator.program.registry import writer
 from calibrator.program.spec import PULSE_S, ProgramSpec, number
@@ -40,6 +47,38 @@ def _joints(spec: ProgramSpec, q) -> str:
     return "[" + ", ".join(spec.angles(q, "rad")) + "]"
 
 
+def _target(spec: ProgramSpec, kind: str, start, q, move: str) -> str:
+    """A move's statement: to joints, or (``cartesian`` poses) to ``p[x, y, z, rx, ry, rz]``.
+
+    The pose is the nominal flange pose at the plan's joints, in m and rad (no
+    ``set_tcp``: the program moves the flange). The controller solves it
+    nearest the joints it comes from: where those are in another
+    configuration, or a joint a half turn or more away (:func:`_needs_approach`),
+    a joint move to the pose's own joints comes first, so the arm takes the
+    path and configuration the plan checked.
+    """
+    if spec.targets != "cartesian" or kind != "pose":
+        return f"  movej({_joints(spec, q)}, {move})"
+    pose = spec.flange_pose(q)
+    values = [*(pose[:3, 3] / 1000.0), *frames.matrix_to_rotvec(pose[:3, :3])]
+    # 1e-9 m and rad: far below any controller's resolution; + 0.0 turns -0.0 into 0.0.
+    text = "p[" + ", ".join(f"{round(float(v), 9) + 0.0:.9f}" for v in values) + "]"
+    approach = ""
+    if _needs_approach(spec, start, q):
+        approach = f"  movej({_joints(spec, q)}, {move})\n"
+    return f"{approach}  movej({text}, {move})"
+
+
+def _needs_approach(spec: ProgramSpec, start, q) -> bool:
+    """Whether the solution nearest ``start`` (rad) may not be ``q``: another configuration,
+    or a joint turned a half turn or more (the nearest solution is a whole turn off)."""
+    from calibrator.filtering import configuration
+
+    assert spec.mdh is not None
+    bits = configuration.arm_bits(spec.mdh, np.array([start, q], dtype=float))
+    return bool(np.any(bits[0] != bits[1]) or np.any(np.abs(q - start) >= np.pi))
+
+
 @writer(
     "urscript",
     (".script", ".urscript"),
@@ -55,13 +94,18 @@ def write(spec: ProgramSpec) -> str:
     lines = [
         f"# {spec.name}: {title(spec)}",
         "# joints in rad; speed and acceleration of the leading joint in rad/s and rad/s^2",
+        *(
+            ["# pose targets: the nominal flange pose p[x, y, z, rx, ry, rz] in m and rad"]
+            if spec.targets == "cartesian"
+            else []
+        ),
         f"def {spec.name}():",
         f"  home = {_joints(spec, spec.home_rad)}",
         f"  movej(home, {move})",
     ]
     lines += between_homes(
         spec,
-        move=lambda kind, pose, start, q: f"  movej({_joints(spec, q)}, {move})",
+        move=lambda kind, pose, start, q: _target(spec, kind, start, q, move),
         pulse=lambda output: [
             f"  set_standard_digital_out({output}, True)",
             f"  sleep({PULSE_S:.3f})",

@@ -46,7 +46,7 @@ def test_measure_refuses_a_plan_made_for_another_arm_or_tracker(tmp_path, checke
     line = one_line_error(
         cli("measure", "--plan", "plan.csv", "--model", "ur5e", "-o", "s.parquet", cwd=tmp_path)
     )
-    assert "plan.csv was made for a ur10e, not a ur5e (--model)" in line
+    assert "--model ur5e but plan.csv is of a ur10e" in line
     line = one_line_error(
         cli("measure", "--plan", "plan.csv", "--tracker-at", "2500,-400,300", cwd=tmp_path)
     )

@@ -44,7 +44,7 @@ def test_a_check_writes_its_verdict_and_poses_and_says_the_cell_time_first(calib
     [
         (("--calibration", "missing.json"), "missing.json"),
         (("--calibration", "base.json"), "identified in the robot base frame"),
-        (("--calibration", "cal.json", "--model", "ur5e"), "calibrates a ur10e, not --model ur5e"),
+        (("--calibration", "cal.json", "--model", "ur5e"), "--model ur5e but cal.json is of"),
         (("--calibration", "cal.json", "--poses", "4"), "--poses"),
         (("--calibration", "cal.json", "-o", "x.parquet"), "give the JSON file"),
         (("--calibration", "cal.json", "--world", "nope.yaml"), "nope.yaml"),

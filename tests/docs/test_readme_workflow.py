@@ -44,6 +44,22 @@ def test_the_workflow_runs_as_written_and_a_second_run_refuses_to_replace(tmp_pa
     for name in ("plan.csv", "session.parquet", "calibration.json", "params.csv"):
         assert (tmp_path / name).stat().st_size > 0, name
     assert (tmp_path / "corrected.csv").read_text().count("\n") == 2  # header and one target
+    # The program's pose targets are corrected: the filtered program differs from it.
+    program = (tmp_path / "cell.script").read_text()
+    filtered = (tmp_path / "cell_calibrated.script").read_text()
+    poses = program.count("movej(p[")
+    assert poses == 60 and filtered != program
+    found = re.search(r"^60 pose target\(s\): (\d+) corrected, 0 kept, (\d+) failed$",
+                      first.stdout + first.stderr, re.M)  # fmt: skip
+    assert found, first.stderr[-2000:]
+    corrected, failed = int(found.group(1)), int(found.group(2))
+    assert corrected + failed == 60 and corrected >= 55
+    # Each corrected target's line differs; a failed one is kept, marked.
+    changed = [
+        (a, b) for a, b in zip(program.splitlines(), filtered.splitlines(), strict=True) if a != b
+    ]
+    assert sum("not corrected" not in b for _, b in changed) == corrected
+    assert sum("not corrected" in b for _, b in changed) == failed
     assert (tmp_path / "report" / "index.html").is_file()
     before = {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
 

@@ -17,6 +17,7 @@ from export_kit import calibrated, poses, rot, urdf_origin
 
 from calibrator import export, robots
 from calibrator.model import kinematics
+from calibrator.robots import shipped
 
 REVOLUTE = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
 
@@ -33,22 +34,28 @@ def joint_map(root):
     return {j.get("name"): j for j in root.findall("joint")}
 
 
-def chain_from_xml(root, q):
-    """base_link -> flange and -> tool at each row of q (mm), joint by joint."""
+def chain_from_xml(root, q, last="wrist_3_link"):
+    """base_link -> flange and -> tool at each row of q (mm), joint by joint.
+
+    ``q`` are the joint values the file's joints take (the controller's):
+    each revolute joint, in file order, turns about its axis, +z or -z.
+    """
     joints = joint_map(root)
+    revolute = [j for j in root.findall("joint") if j.get("type") == "revolute"]
+    assert len(revolute) == 6
     out_flange, out_tool = [], []
     for row in q:
         t = np.eye(4)
-        for i, name in enumerate(REVOLUTE):
-            j = joints[f"{name}_joint"]
+        for i, j in enumerate(revolute):
             o = j.find("origin")
             xyz, rpy = numbers(o.get("xyz")), numbers(o.get("rpy"))
             assert len(xyz) == 3 and len(rpy) == 3, (xyz, rpy)
-            assert numbers(j.find("axis").get("xyz")) == [0.0, 0.0, 1.0]
+            axis = numbers(j.find("axis").get("xyz"))
+            assert axis in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0]), axis
             spin = np.eye(4)
-            spin[:3, :3] = rot("z", row[i])
+            spin[:3, :3] = rot("z", axis[2] * row[i])
             t = t @ urdf_origin(np.array(xyz) * 1000.0, rpy) @ spin
-        for fixed in ("wrist_3_link-flange", "flange-tool"):
+        for fixed in (f"{last}-flange", "flange-tool"):
             o = joints[fixed].find("origin")
             xyz, rpy = numbers(o.get("xyz")), numbers(o.get("rpy"))
             assert len(xyz) == 3 and len(rpy) == 3, (xyz, rpy)
@@ -57,12 +64,15 @@ def chain_from_xml(root, q):
     return np.array(out_flange), np.array(out_tool)
 
 
-@pytest.mark.parametrize("model", ["ur10e", "er10l-c10"])
-def test_urdf_chain_written_out_is_the_calibrated_flange_and_tool(model):
+@pytest.mark.parametrize(
+    "model, last", [("ur10e", "wrist_3_link"), ("er10l-c10", "link_6"), ("kuka-kr6-r900", "link_6")]
+)
+def test_urdf_chain_written_out_is_the_calibrated_flange_and_tool(model, last):
     cal = calibrated(model, seed=11)
     root = parsed(cal)
     q = poses(60, seed=3)
-    flange, tool = chain_from_xml(root, q)
+    # The file's joints take the controller's angles (a KUKA's A1 and A6: the model's negative).
+    flange, tool = chain_from_xml(root, robots.get(model).convention.to_controller(q), last)
     want = kinematics.chain(cal.mdh, q)
     np.testing.assert_allclose(flange[:, :3, 3], want[:, :3, 3], rtol=0, atol=1e-6)
     np.testing.assert_allclose(flange[:, :3, :3], want[:, :3, :3], rtol=0, atol=1e-9)
@@ -102,8 +112,7 @@ def test_yourdfpy_flange_link_is_the_mdh_flange(tmp_path):
 
 
 def limits_of(root):
-    joints = joint_map(root)
-    lim = [joints[f"{n}_joint"].find("limit") for n in REVOLUTE]
+    lim = [j.find("limit") for j in root.findall("joint") if j.get("type") == "revolute"]
     lower = np.array([float(x.get("lower")) for x in lim])
     upper = np.array([float(x.get("upper")) for x in lim])
     speed = np.array([float(x.get("velocity")) for x in lim])
@@ -123,6 +132,29 @@ def test_urdf_limits_are_the_named_models():
     np.testing.assert_allclose(upper, np.full(6, np.pi), rtol=1e-15)
     np.testing.assert_allclose(lower, -upper, rtol=0)
     np.testing.assert_allclose(speed, robots.get("er10l-c10").max_joint_speed_rad_s)
+
+
+def shipped_urdf_joints(name):
+    """The revolute joints of a shipped arm's own URDF, read with ElementTree."""
+    root = ET.parse(shipped.DATA / f"{name}.urdf").getroot()
+    return [j for j in root.findall("joint") if j.get("type") == "revolute"]
+
+
+def test_a_kuka_urdf_names_its_joints_and_limits_as_kukas_own_urdf():
+    root = parsed(calibrated("kuka-kr6-r900", seed=2))
+    own = shipped_urdf_joints("kuka-kr6-r900")
+    written = [j for j in root.findall("joint") if j.get("type") == "revolute"]
+    assert [j.get("name") for j in written] == [j.get("name") for j in own]
+    assert [j.get("name") for j in own] == [f"joint_a{i}" for i in range(1, 7)]
+    # A1 and A6 turn about -z: the controller's angles are the model's negative there.
+    assert [numbers(j.find("axis").get("xyz"))[2] for j in written] == [-1, 1, 1, 1, 1, -1]
+    # Limits in A1..A6 as KUKA's own URDF gives them (A2: -190..45 deg), not in model signs.
+    lower, upper, _, _ = limits_of(root)
+    own_lower = [float(j.find("limit").get("lower")) for j in own]
+    own_upper = [float(j.find("limit").get("upper")) for j in own]
+    np.testing.assert_allclose(lower, own_lower, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(upper, own_upper, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.degrees([lower[1], upper[1]]), [-190, 45], atol=1e-9)
 
 
 @pytest.mark.parametrize("model", [None, "my-own-arm"])

@@ -180,7 +180,7 @@ def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrate
     other = cli(
         "verify", "--model", "ur5e", "--calibration", "cal.json", "-o", "x.json", cwd=folder
     )
-    assert "calibrates a ur10e" in one_line_error(other)
+    assert "--model ur5e but cal.json is of a ur10e" in one_line_error(other)
     both = cli(
         "verify", "--calibration", "cal.json", "--register", "cal.json", "-o", "x.json",
         cwd=folder,
