@@ -14,7 +14,6 @@ the truth; the plan a user reads must hold the angles its program commands.
 """
 
 import json
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ import pytest
 import yourdfpy
 from cli_process_kit import run_cli
 from grammar_kit import PARSERS
+from urdf_truth_kit import perturbed
 
 from calibrator import calibration, planning, robots, session
 from calibrator.identify import pipeline
@@ -57,23 +57,6 @@ def controller_of_urdf(arm: str, q: np.ndarray) -> np.ndarray:
     return q
 
 
-def perturbed(text: str, rng: np.random.Generator) -> str:
-    """The URDF with every joint origin moved 0.1-1 mm and turned 0.02-0.2 deg per axis."""
-    root = ET.fromstring(text)
-    for joint in root.findall("joint"):
-        origin = joint.find("origin")
-        if origin is None:
-            origin = ET.SubElement(joint, "origin")
-        signs = rng.choice([-1.0, 1.0], (2, 3))
-        xyz = np.array((origin.get("xyz") or "0 0 0").split(), float)
-        rpy = np.array((origin.get("rpy") or "0 0 0").split(), float)
-        xyz += signs[0] * rng.uniform(0.1e-3, 1e-3, 3)
-        rpy += signs[1] * np.radians(rng.uniform(0.02, 0.2, 3))
-        origin.set("xyz", " ".join(repr(float(v)) for v in xyz))
-        origin.set("rpy", " ".join(repr(float(v)) for v in rpy))
-    return ET.tostring(root, encoding="unicode")
-
-
 class TrueArm:
     """A perturbed copy of a shipped URDF, moved by yourdfpy (base_link -> tip, mm)."""
 
@@ -83,7 +66,7 @@ class TrueArm:
         # The description's tip: its file's tip_link, else tool0 (robots.urdf's default).
         self.tip = "flange" if '<link name="flange"' in text else "tool0"
         self.path = tmp_path / "true.urdf"
-        self.path.write_text(perturbed(text, np.random.default_rng(seed)))
+        self.path.write_text(perturbed(text, np.random.default_rng(seed), (0.02, 0.2)))
         self.urdf = yourdfpy.URDF.load(
             str(self.path), load_meshes=False, build_collision_scene_graph=False
         )

@@ -20,6 +20,7 @@ import pytest
 import yourdfpy
 from cli_process_kit import run_cli
 from robot_files_kit import KUKA, with_geometry
+from urdf_truth_kit import perturbed
 
 from calibrator import calibration, robots, session
 from calibrator.identify import pipeline
@@ -27,23 +28,6 @@ from calibrator.identify.problem import Problem
 from calibrator.identify.refine import refine
 from calibrator.model import kinematics, parameters
 from calibrator.robots.urdf import read_chain
-
-
-def perturbed(text, rng):
-    """``text`` with every joint origin moved 0.1-1 mm and turned 0.01-0.1 deg per axis."""
-    root = ET.fromstring(text)
-    for joint in root.findall("joint"):
-        origin = joint.find("origin")
-        if origin is None:
-            origin = ET.SubElement(joint, "origin")
-        signs = rng.choice([-1.0, 1.0], (2, 3))
-        xyz = np.array((origin.get("xyz") or "0 0 0").split(), float)
-        rpy = np.array((origin.get("rpy") or "0 0 0").split(), float)
-        xyz += signs[0] * rng.uniform(0.1e-3, 1e-3, 3)
-        rpy += signs[1] * np.radians(rng.uniform(0.01, 0.1, 3))
-        origin.set("xyz", " ".join(repr(float(v)) for v in xyz))
-        origin.set("rpy", " ".join(repr(float(v)) for v in rpy))
-    return ET.tostring(root, encoding="unicode")
 
 
 def tip_poses(path, tip, q):
