@@ -25,6 +25,7 @@ from calibrator import robots
 from calibrator.errors import CalibrationError
 from calibrator.inputs import textfile, yamlfile
 from calibrator.inputs.errors import StrictError
+from calibrator.robots import ur as ur_family
 
 #: UR's joint and link names (``ur_description``), the names of an unnamed arm's exports.
 UR_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
@@ -124,7 +125,7 @@ def of(model: str | None) -> Joints:
     limits = np.sort((arm.joint_limits_rad - offset[:, None]) * sign[:, None], axis=1)
     speeds = np.asarray(arm.max_joint_speed_rad_s)
     common = (sign, offset, tuple(convention.couplings), limits, speeds)
-    if arm.family == "ur":
+    if arm.family == ur_family.FAMILY:
         return Joints(UR_JOINTS, UR_KEYS, UR_LINKS, "_joint", *common)
     named = _urdf_names(model)
     if named is None:
