@@ -31,9 +31,13 @@ from __future__ import annotations
 import itertools
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
+
+if TYPE_CHECKING:
+    from calibrator.calibration import Calibration
 
 #: Chance that two calibrations of an unchanged arm raise an alarm.
 ALARM_P = 1e-3
@@ -279,7 +283,7 @@ def _explain(names: tuple[str, ...], d: np.ndarray, cov: np.ndarray, dof: int) -
 _MDH = re.compile(r"(a|alpha|theta|d|beta)([1-6])")
 
 
-def arm_block(cal: object) -> dict:
+def arm_block(cal: Calibration) -> dict:
     """What the history keeps of a calibration to compare it (``statistics["arm"]``).
 
     Parameters
@@ -296,12 +300,12 @@ def arm_block(cal: object) -> dict:
     """
     from calibrator.model import frames, kinematics
 
-    unc = cal.fit.uncertainty  # type: ignore[attr-defined]
+    unc = cal.fit.uncertainty
     se = unc.get("standard_errors") or {}
-    names = tuple(n for n in cal.free if n in se)  # type: ignore[attr-defined]
+    names = tuple(n for n in cal.free if n in se)
     if not names:
         return {}
-    corr = unc.get("correlation") or {}
+    corr: dict = dict(unc.get("correlation") or {})
     where = {n: i for i, n in enumerate(corr.get("names") or [])}
     matrix = np.asarray(corr.get("matrix") or np.eye(len(where)), float)
     cov = np.diag([float(se[n]) ** 2 for n in names])
@@ -309,9 +313,9 @@ def arm_block(cal: object) -> dict:
         for b, nb in enumerate(names):
             if a != b and na in where and nb in where:
                 cov[a, b] = matrix[where[na], where[nb]] * se[na] * se[nb]
-    tool = np.asarray(cal.flange2tool, float)  # type: ignore[attr-defined]
+    tool = np.asarray(cal.flange2tool, float)
     tool_angles = frames.angles_xyz(tool[:3, :3])
-    mdh = np.asarray(cal.mdh, float)  # type: ignore[attr-defined]
+    mdh = np.asarray(cal.mdh, float)
     values = []
     for n in names:
         match = _MDH.fullmatch(n)
@@ -322,10 +326,10 @@ def arm_block(cal: object) -> dict:
         elif n in ("tool_rx", "tool_ry", "tool_rz"):
             values.append(tool_angles["xyz".index(n[-1])])
         else:  # base entries and joint terms: their deltas
-            values.append(float(cal.deltas[n]))  # type: ignore[attr-defined]
+            values.append(float(cal.deltas[n]))
     return {
         "names": list(names),
         "values": [float(v) for v in values],
         "covariance": cov.tolist(),
-        "base2tracker": np.asarray(cal.base2tracker, float).tolist(),  # type: ignore[attr-defined]
+        "base2tracker": np.asarray(cal.base2tracker, float).tolist(),
     }
