@@ -93,13 +93,13 @@ def describe(name: str) -> str:
     return f"joint {match[2]} {what} ({name})"
 
 
-def _scaled(name: str, value: float) -> str:
-    """A parameter value in display units: angles in mrad, lengths in mm."""
+def _scaled(name: str, value: float, sign: str = "") -> str:
+    """A parameter value in display units: angles in mrad, lengths in mm (``sign='+'``: signed)."""
     from calibrator.report.data import unit_of
 
     if unit_of(name) == "rad":
-        return f"{value * 1e3:.3g} mrad"
-    return f"{value:.3g} mm"
+        return f"{value * 1e3:{sign}.3g} mrad"
+    return f"{value:{sign}.3g} mm"
 
 
 def _time(record: dict) -> datetime:
@@ -140,7 +140,7 @@ def moved(calibrations: Sequence[dict]) -> list[Alarm]:
                     _time(after),
                     "moved",
                     change.name,
-                    f"{describe(change.name)} moved {_scaled(change.name, change.change)} "
+                    f"{describe(change.name)} moved {_scaled(change.name, change.change, '+')} "
                     f"± {_scaled(change.name, change.standard_error)} since "
                     f"{_time(before):%Y-%m-%d %H:%M:%S} ({z:.1f} standard errors; the two "
                     f"calibrations differ by chi2 {result.statistic:.1f} on {result.dof}, "

@@ -42,7 +42,7 @@ def _monthly_with_crash():
 def test_crash_in_month_8_is_the_only_alarm_and_names_the_joint():
     found = alarms.alarms(_monthly_with_crash())
     assert [(a.time, a.kind, a.subject) for a in found] == [(_month(8), "moved", "theta2")]
-    assert found[0].message.startswith("joint 2 zero (theta2) moved 0.41 mrad ± 0.0424 mrad")
+    assert found[0].message.startswith("joint 2 zero (theta2) moved +0.41 mrad ± 0.0424 mrad")
     assert "(9.7 standard errors; the two calibrations differ by chi2 95.4 on 3" in found[0].message
     assert (found[0].figure, found[0].unit) == (pytest.approx(95.4, abs=0.05), "chi2")
     assert found[0].threshold == pytest.approx(stats.chi2.isf(1e-3, 3))
