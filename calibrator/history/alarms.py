@@ -162,12 +162,17 @@ def not_compared(calibrations: Sequence[dict]) -> list[str]:
     from calibrator.history import compare
 
     said: dict[str, list[str]] = {}
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
+    pairs = list(zip(calibrations, calibrations[1:], strict=False))
+    for before, after in pairs:
         result = compare.compare(compare.state_of(before), compare.state_of(after))
         pair = f"{_name(before, 'calibration')} and {_name(after, 'calibration')}"
         for why in result.not_compared:
             said.setdefault(why, []).append(pair)
-    return [f"{why} ({', '.join(pairs)})" for why, pairs in said.items()]
+    every = "every two consecutive calibrations"
+    return [
+        f"{why} ({every if len(where) == len(pairs) > 1 else ', '.join(where)})"
+        for why, where in said.items()
+    ]
 
 
 def crossing(
