@@ -117,3 +117,25 @@ def test_the_table_and_csv_say_what_each_column_holds(measured, tmp_path):
     shown = cli("history", ROBOT, "--history", history, cwd=tmp_path)
     head = shown.stdout.splitlines()[0].split()
     assert head[head.index("held-out") + 1] == "measured"
+
+
+def test_a_footer_that_declares_its_set_up_wrongly_is_refused_in_one_line():
+    from calibrator.history import HistoryError, records
+
+    assert records.setup({}, "s.parquet") == {}
+    pose = {"world": "cell-A", "tracker2world": np.eye(4).tolist()}
+    assert records.setup({"tool_id": " smr-1 ", "tracker_pose": pose}, "s.parquet") == {
+        "tool_id": "smr-1",
+        "tracker_pose": pose,
+    }
+    skewed = np.eye(4)
+    skewed[0, 1] = 0.5
+    for extra, said in (
+        ({"tool_id": 3}, "footer 'tool_id' must be the tool's name"),
+        ({"tracker_pose": {"tracker2world": np.eye(4).tolist()}}, "footer 'tracker_pose' must be"),
+        ({"tracker_pose": {"world": "w", "tracker2world": [[1, 0]]}}, "rigid 4x4 transform"),
+        ({"tracker_pose": {"world": "w", "tracker2world": skewed.tolist()}}, "rigid 4x4"),
+    ):
+        with pytest.raises(HistoryError, match=said) as caught:
+            records.setup(extra, "s.parquet")
+        assert "\n" not in str(caught.value) and str(caught.value).startswith("s.parquet: ")
