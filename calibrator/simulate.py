@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from datetime import UTC, datetime, timedelta
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -327,6 +328,19 @@ def tracker_readings(
     return points[:, None] + along * sigma_mm + across * transverse[:, None]
 
 
+#: Seconds between the timestamps of a dated simulated session's poses.
+POSE_SECONDS = 10.0
+
+
+def _timestamps(start: datetime, poses: int) -> list[str]:
+    """ISO 8601 UTC times of ``poses`` poses from ``start``, :data:`POSE_SECONDS` apart."""
+    first = start.astimezone(UTC) if start.tzinfo is not None else start.replace(tzinfo=UTC)
+    return [
+        (first + timedelta(seconds=POSE_SECONDS * i)).isoformat(timespec="milliseconds")
+        for i in range(poses)
+    ]
+
+
 def simulate(
     model: str = ipso_paper.NAME,
     poses: int = 32,
@@ -339,6 +353,7 @@ def simulate(
     errors: str = "ref003",
     tool_offset_mm: float = 0.0,
     n_readings: int = 10,
+    measured_at: datetime | None = None,
 ) -> tuple[pa.Table, SessionMeta, Truth]:
     """Simulate a measured session.
 
@@ -370,6 +385,11 @@ def simulate(
         otherwise the tool is known exactly.
     n_readings : int
         Readings averaged per pose.
+    measured_at : datetime, optional
+        When the session was measured (aware, or naive UTC): the poses get a
+        ``timestamp`` column from this time on, :data:`POSE_SECONDS` apart,
+        so a history of dated sessions can be built at once. None: no
+        timestamps (the history then takes the file's time).
 
     Returns
     -------
@@ -440,6 +460,7 @@ def simulate(
         rotvecs=frames.matrix_to_rotvec(rotations) if orientation else None,
         spread=spread if noise_mm else None,
         n_readings=np.full(poses, n_readings),
+        timestamps=None if measured_at is None else _timestamps(measured_at, poses),
     )
     meta = session.SessionMeta(
         frame=frame,

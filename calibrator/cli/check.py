@@ -60,6 +60,13 @@ def check(
         "calibration was measured with, unless a --world file gives one).",
     ),
     world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
+    session_file: Path = typer.Option(
+        None,
+        "--session",
+        metavar="FILE",
+        help="Judge this recorded session (.parquet, tracker frame) instead of measuring: "
+        "a re-check measured earlier or by another tool.",
+    ),
     history: str = typer.Option(
         None, "--history", help="Record the check in this history (a file or a database URL)."
     ),
@@ -89,6 +96,9 @@ def check(
     from calibrator.model import frames
 
     output = Path(output)
+    if session_file is not None:
+        _check_recorded(session_file, calibration_path, output, tolerance, history, run_args, world)
+        return
     data_path = documents.data_path(output)
     if output.suffix.lower() == ".parquet":
         fail(f"-o {output}: give the JSON file; the check's poses go beside it as .parquet")
@@ -181,8 +191,11 @@ def check(
 
             numbers, q, points, stderr = documents.measured(outcome.records)
             result = documents.evaluate(model, q, points, stderr, tolerance)
+            conditions = _conditions(outcome.records)
             info = {
                 "model": arm.name,
+                # When the poses were measured (the history files the check under it).
+                "measured_at": conditions["started"],
                 "robot": mrun.robot_id,
                 "tracker": mrun.tracker_id,
                 "calibration": str(calibration_path),
@@ -190,7 +203,7 @@ def check(
                 "readings": readings,
                 "poses_planned": len(chosen.q_rad),
                 "data": data_path.name,
-                "conditions": _conditions(outcome.records),
+                "conditions": conditions,
             }
             doc = documents.document(
                 result, numbers, arm.convention.to_controller(q), points, info=info
@@ -215,6 +228,68 @@ def check(
     if history is not None:
         _record(history, doc)
     _print(doc, output, data_path, np)
+    raise typer.Exit(EXIT_CODES[doc["verdict"]])
+
+
+def _check_recorded(
+    session_file: Path,
+    calibration_path: Path,
+    output: Path,
+    tolerance: float | None,
+    history: str | None,
+    run_args: _run.RunArgs,
+    world: Path | None,
+) -> None:
+    """``check --session FILE``: the verdict on a recorded session, written and recorded
+    as a measured check's is (the session is the check's data; nothing is measured)."""
+    from calibrator import calibration as calibrations
+    from calibrator import outputs
+    from calibrator.check import recorded as recordings
+    from calibrator.check.model import Calibrated
+
+    if world is not None:
+        fail("--world is for a measured check: a recorded session was measured already")
+    if output.suffix.lower() == ".parquet":
+        fail(f"-o {output}: give the JSON file; the session is the check's data")
+    inputs = [session_file, calibration_path]
+    outputs.check(output, inputs=inputs, force=run_args.force)
+    if history is not None:
+        _open_history(history).close()  # refused before anything is written
+    cal = calibrations.load(calibration_path)
+    if cal.frame != "tracker":
+        fail(
+            f"{calibration_path} was identified in the robot base frame: a check compares "
+            "tracker readings with a calibration that registered the tracker (measure's sessions)"
+        )
+    model = Calibrated.of(cal)
+    if not model.sigma_mm > 0:
+        fail(
+            f"{calibration_path} records no residual noise (its uncertainty): the check cannot "
+            "predict its error; identify the session again with this version"
+        )
+    session = recordings.read(session_file)
+    if session.model and cal.model and session.model != cal.model:
+        fail(f"{session_file} measured a {session.model}; {calibration_path} calibrates a "
+             f"{cal.model}")  # fmt: skip
+    if history is not None and session.robot is None:
+        fail(f"{session_file} names no robot (its footer's measured.robot): it cannot be recorded")
+    info = {
+        "model": cal.model or session.model,
+        "calibration": str(calibration_path),
+        "calibration_sha256": calibrations.digest(calibration_path),
+        "data": str(session_file),
+        "session_sha256": calibrations.digest(session_file),
+        "conditions": {"started": session.measured_at},
+    }
+    doc = recordings.check(model, session, tolerance, info)
+    import json
+
+    with outputs.Outputs(inputs=inputs) as batch:
+        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    if history is not None:
+        _record(history, doc)
+    _print_verdict(doc)
+    typer.echo(f"wrote {output}")
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
@@ -288,6 +363,11 @@ def _record(url: str, doc: dict) -> None:
 
 
 def _print(doc: dict, output: Path, data_path: Path, np: Any) -> None:
+    _print_verdict(doc)
+    typer.echo(f"wrote {output} and {data_path}")
+
+
+def _print_verdict(doc: dict) -> None:
     typer.echo("pose   distance mm   predicted RMS mm")
     for p in doc["poses"]:
         typer.echo(f"{p['pose']:4d}   {p['distance_mm']:11.4f}   {p['predicted_rms_mm']:16.4f}")
@@ -298,4 +378,3 @@ def _print(doc: dict, output: Path, data_path: Path, np: Any) -> None:
     typer.echo(f"verdict: {doc['verdict']}")
     for line in doc["explanation_text"]:
         typer.echo(f"  {line}")
-    typer.echo(f"wrote {output} and {data_path}")

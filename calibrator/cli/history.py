@@ -129,22 +129,101 @@ def show(
         data = timeline.load(store, robot)
     limits = alarms.Limits(held_out_mm=held_out_limit, ap_mm=ap_limit, rp_mm=rp_limit)
     found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+    notes = alarms.not_compared(data.calibrations)
     rows = timeline.table(data)
     typer.echo(timeline.format_table(rows))
     for alarm in found:
-        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M} {alarm.kind}: {alarm.message}")
+        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M:%S} {alarm.kind}: {alarm.message}")
     if not found:
         typer.echo("no alarms")
+    for note in notes:
+        typer.echo(f"note: {note}")
     with outputs.Outputs(inputs=inputs) as batch:
         if csv_path is not None:
             batch.text(csv_path, timeline.csv_text(rows))
         if html_dir is not None:
             from calibrator.history import page
 
-            batch.text(batch.folder(html_dir) / "index.html", page.html(data, found, limits))
+            batch.text(batch.folder(html_dir) / "index.html", page.html(data, found, limits, notes))
     for what, path in (("table", csv_path), ("page", html_dir)):
         if path is not None:
             typer.echo(f"wrote the {what} to {path}")
+
+
+@history_app.command("alarms")
+def alarms_(
+    robot: str = typer.Argument(None, help="The robot [default: every robot]."),
+    history: str = _history_option(),
+    csv_path: Path = typer.Option(
+        None, "--csv", metavar="FILE", help="Write the alarms as CSV ('-': to stdout)."
+    ),
+    json_path: Path = typer.Option(
+        None, "--json", metavar="FILE", help="Write the alarms as JSON ('-': to stdout)."
+    ),
+    force: bool = opts.force(),
+    held_out_limit: float = typer.Option(
+        None,
+        "--held-out-limit-mm",
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Alarm above this held-out error (mm) [default: twice the first].",
+    ),
+    ap_limit: float = typer.Option(
+        None,
+        "--ap-limit-mm",
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Alarm above this ISO 9283 AP (mm) [default: twice the first].",
+    ),
+    rp_limit: float = typer.Option(
+        None,
+        "--rp-limit-mm",
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help="Alarm above this ISO 9283 RP (mm) [default: twice the first].",
+    ),
+) -> None:
+    """The alarms of one robot (or every robot) as data: exact times, records compared,
+    figure and threshold (docs/history.md)."""
+    import json
+
+    from calibrator import outputs
+    from calibrator.history import alarms, open_history, timeline
+
+    inputs = [Path(history)] if history and "://" not in history else []
+    for path, option in ((csv_path, "--csv"), (json_path, "--json")):
+        if path is not None and str(path) != "-":
+            outputs.check(path, inputs=inputs, force=force, option=option)
+    limits = alarms.Limits(held_out_mm=held_out_limit, ap_mm=ap_limit, rp_mm=rp_limit)
+    rows: list[dict] = []
+    notes: list[str] = []
+    with open_history(history, create=False) as store:
+        names = [robot] if robot is not None else [r["name"] for r in store.robots()]
+        for name in names:
+            data = timeline.load(store, name)
+            found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+            rows += alarms.as_rows(found, name)
+            notes += [f"{name}: {n}" for n in alarms.not_compared(data.calibrations)]
+    texts = {
+        csv_path: alarms.csv_text(rows),
+        json_path: json.dumps({"alarms": rows, "not_compared": notes}, indent=2) + "\n",
+    }
+    to_stdout = [t for p, t in texts.items() if p is not None and str(p) == "-"]
+    if len(to_stdout) > 1:
+        fail("--csv - and --json -: only one of them can go to stdout")
+    with outputs.Outputs(inputs=inputs) as batch:
+        for path, text in texts.items():
+            if path is not None and str(path) != "-":
+                batch.text(path, text)
+    if to_stdout:
+        typer.echo(to_stdout[0], nl=False)
+        return
+    for r in rows:
+        typer.echo(f"ALARM {r['robot']} {r['time']} {r['kind']} [{r['records']}]: {r['message']}")
+    if not rows:
+        typer.echo("no alarms")
+    for note in notes:
+        typer.echo(f"note: {note}")
+    for path in (csv_path, json_path):
+        if path is not None:
+            typer.echo(f"wrote the alarms to {path}")
 
 
 def _print_robots(store: History) -> None:

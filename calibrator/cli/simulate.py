@@ -9,6 +9,7 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
+from calibrator.cli._options import fail
 from calibrator.errors import CalibrationError
 from calibrator.robots import ipso_paper
 
@@ -82,6 +83,13 @@ def simulate(
         callback=checks.finite(0.0, checks.BUDGETS["tool"][0]),
         help="Unknown tool offset (mm); 0 = tool known.",
     ),
+    measured_at: str = typer.Option(
+        None,
+        "--measured-at",
+        metavar="ISO8601",
+        help="Date the session as measured then (its poses' timestamps, 10 s apart; a time "
+        "without zone is UTC) [default: no timestamps].",
+    ),
 ) -> None:
     """Write a session measured on a simulated arm, and its truth beside it."""
     import numpy as np
@@ -89,6 +97,14 @@ def simulate(
     from calibrator import outputs, session
     from calibrator import simulate as sim
 
+    when = None
+    if measured_at is not None:
+        from datetime import datetime
+
+        try:
+            when = datetime.fromisoformat(measured_at)
+        except ValueError:
+            fail(f"--measured-at {measured_at!r}: give an ISO 8601 time, e.g. 2026-03-01T08:00:00Z")
     outputs.check(output, force=force)
     truth_path = outputs.check(output.with_suffix(".truth.json"), force=force)
     errors_value = errors or ("ref003" if _has_reference_errors(model) else "random")
@@ -104,6 +120,7 @@ def simulate(
             joint_noise_rad=joint_noise_rad,
             errors=errors_value,
             tool_offset_mm=tool_offset_mm,
+            measured_at=when,
         )
     except ValueError as exc:
         raise CalibrationError(str(exc)) from None

@@ -2,9 +2,10 @@
 
 Three kinds (docs/history.md says what each means and what to do):
 
-- ``moved``: a parameter moved beyond ``k`` (3) combined standard errors
-  between two consecutive calibrations — more than their noise explains
-  (a crash, a re-mastered joint, a changed tool);
+- ``moved``: two consecutive calibrations differ in what belongs to the arm
+  by more than their uncertainties (with their correlations) explain, and
+  these parameters explain the difference (a crash, a re-mastered joint; the
+  tool and the base only where they may be compared: :mod:`.compare`);
 - ``limit`` / ``trend``: a series (held-out error, ISO 9283 AP or RP) is
   above its limit, or its straight-line trend
   over the last points reaches the limit within the horizon;
@@ -13,14 +14,11 @@ Three kinds (docs/history.md says what each means and what to do):
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 
-#: Standard errors a parameter must move by between calibrations to raise an alarm.
-K_SIGMA = 3.0
 #: Limits are this times a series' first value, unless given.
 LIMIT_FACTOR = 2.0
 #: A trend alarm looks this far ahead.
@@ -36,19 +34,38 @@ class Alarm:
     Attributes
     ----------
     time : datetime
-        When the record that raised it was made (naive UTC).
+        When the record that raised it was measured (naive UTC).
     kind : {'moved', 'limit', 'trend', 'check'}
     subject : str
-        A parameter name, or a series (``held-out error``, ``AP``, ``RP``,
-        ``check error``).
+        A parameter name, or a series (``held-out error``, ``AP``, ``RP``),
+        or a check's verdict.
     message : str
         One sentence with the figures and their units.
+    records : tuple of str
+        The records it compares or judges (``calibration 3``, ``check 7``).
+    figure, threshold : float or None
+        The figure judged and the threshold it crossed, in ``unit``:
+        ``moved``: the pair's chi-square and its quantile at the alarm
+        probability; ``limit``: the value and the limit (mm); ``trend``: the
+        value the trend line reaches at the horizon and the limit (mm);
+        ``check``: the check's p-value and the alarm probability (below).
+    unit : str
+    change, standard_error : float or None
+        ``moved``: the parameter's change and its standard error (``change_unit``).
+    change_unit : str
     """
 
     time: datetime
     kind: str
     subject: str
     message: str
+    records: tuple[str, ...] = ()
+    figure: float | None = None
+    threshold: float | None = None
+    unit: str = ""
+    change: float | None = None
+    standard_error: float | None = None
+    change_unit: str = ""
 
 
 @dataclass
@@ -59,7 +76,6 @@ class Limits:
     ap_mm: float | None = None
     rp_mm: float | None = None
     horizon: timedelta = HORIZON
-    k_sigma: float = K_SIGMA
 
 
 def describe(name: str) -> str:
@@ -77,60 +93,91 @@ def describe(name: str) -> str:
     return f"joint {match[2]} {what} ({name})"
 
 
-def _scaled(name: str, value: float) -> str:
-    """A parameter value in display units: angles in mrad, lengths in mm."""
+def _scaled(name: str, value: float, sign: str = "") -> str:
+    """A parameter value in display units: angles in mrad, lengths in mm (``sign='+'``: signed)."""
     from calibrator.report.data import unit_of
 
     if unit_of(name) == "rad":
-        return f"{value * 1e3:.3g} mrad"
-    return f"{value:.3g} mm"
+        return f"{value * 1e3:{sign}.3g} mrad"
+    return f"{value:{sign}.3g} mm"
 
 
-def moved(calibrations: Sequence[dict], k_sigma: float = K_SIGMA) -> list[Alarm]:
-    """Parameters that moved beyond ``k_sigma`` standard errors between consecutive calibrations.
+def _time(record: dict) -> datetime:
+    """When a record was measured: ``time`` (as the history reads it), else ``created``."""
+    return record.get("time") or record["created"]
+
+
+def _name(record: dict, kind: str) -> str:
+    return f"{kind} {record['id']}" if "id" in record else kind
+
+
+def moved(calibrations: Sequence[dict]) -> list[Alarm]:
+    """What moved between consecutive calibrations beyond their uncertainties.
 
     Parameters
     ----------
     calibrations : sequence of dict
-        Oldest first, each with ``created`` (datetime), ``parameters``
-        (``{name: delta}``, mm or rad) and ``uncertainties`` (``{name:
-        standard error}``, same units).
-    k_sigma : float
+        Rows of the history (:meth:`History.calibrations`), in measured order:
+        ``time`` (or ``created``), ``statistics`` (its ``arm`` and ``setup``)
+        or, for rows recorded before them, ``parameters`` and ``uncertainties``.
 
     Returns
     -------
     list of Alarm
-        One per parameter and pair; a parameter without a standard error in
-        either calibration is not judged.
+        One per parameter named by :func:`calibrator.history.compare.compare`.
     """
-    alarms = []
+    from calibrator.history import compare
+    from calibrator.report.data import unit_of
+
+    found = []
     for before, after in zip(calibrations, calibrations[1:], strict=False):
-        for name, value in after["parameters"].items():
-            if name not in before["parameters"]:
-                continue
-            se_a = before["uncertainties"].get(name)
-            se_b = after["uncertainties"].get(name)
-            if se_a is None or se_b is None:
-                continue
-            sigma = math.hypot(se_a, se_b)
-            change = value - before["parameters"][name]
-            if sigma > 0 and abs(change) > k_sigma * sigma:
-                alarms.append(
-                    Alarm(
-                        after["created"],
-                        "moved",
-                        name,
-                        f"{describe(name)} moved {_scaled(name, change)} "
-                        f"± {_scaled(name, sigma)} since {before['created']:%Y-%m-%d} "
-                        f"({abs(change) / sigma:.1f} standard errors)",
-                    )
+        result = compare.compare(compare.state_of(before), compare.state_of(after))
+        for change in result.changes:
+            unit = unit_of(change.name)
+            z = abs(change.change) / change.standard_error if change.standard_error > 0 else 0.0
+            found.append(
+                Alarm(
+                    _time(after),
+                    "moved",
+                    change.name,
+                    f"{describe(change.name)} moved {_scaled(change.name, change.change, '+')} "
+                    f"± {_scaled(change.name, change.standard_error)} since "
+                    f"{_time(before):%Y-%m-%d %H:%M:%S} ({z:.1f} standard errors; the two "
+                    f"calibrations differ by chi2 {result.statistic:.1f} on {result.dof}, "
+                    f"alarm above {result.threshold:.1f})",
+                    records=(_name(before, "calibration"), _name(after, "calibration")),
+                    figure=result.statistic,
+                    threshold=result.threshold,
+                    unit="chi2",
+                    change=change.change,
+                    standard_error=change.standard_error,
+                    change_unit=unit,
                 )
-    return alarms
+            )
+    return found
+
+
+def not_compared(calibrations: Sequence[dict]) -> list[str]:
+    """What the consecutive calibrations could not be compared on, and why (one line each)."""
+    from calibrator.history import compare
+
+    said: dict[str, list[str]] = {}
+    pairs = list(zip(calibrations, calibrations[1:], strict=False))
+    for before, after in pairs:
+        result = compare.compare(compare.state_of(before), compare.state_of(after))
+        pair = f"{_name(before, 'calibration')} and {_name(after, 'calibration')}"
+        for why in result.not_compared:
+            said.setdefault(why, []).append(pair)
+    every = "every two consecutive calibrations"
+    return [
+        f"{why} ({every if len(where) == len(pairs) > 1 else ', '.join(where)})"
+        for why, where in said.items()
+    ]
 
 
 def crossing(
-    subject: str, times: Sequence[datetime], values: Sequence[float], limit: float | None,
-    horizon: timedelta = HORIZON,
+    subject: str, times: Sequence[datetime], values: Sequence[float | None], limit: float | None,
+    horizon: timedelta = HORIZON, records: Sequence[str] | None = None,
 ) -> list[Alarm]:  # fmt: skip
     """A series above its limit, or whose trend reaches it within ``horizon``.
 
@@ -144,51 +191,77 @@ def crossing(
         mm; ``None`` values are skipped.
     limit : float or None
         mm; ``None``: :data:`LIMIT_FACTOR` times the first value.
+    records : sequence of str, optional
+        The record of each point (``calibration 3``).
 
     Returns
     -------
     list of Alarm
-        ``limit`` for each point above the limit; else at most one ``trend``
-        for the newest point, when the least-squares line through the last
-        :data:`TREND_POINTS` points rises and reaches the limit within
-        ``horizon`` of it.
+        ``limit`` for each point above the limit; ``trend`` for each point
+        below it where the least-squares line through it and the
+        :data:`TREND_POINTS` - 1 points below the limit before it rises and
+        reaches the limit within ``horizon`` of it (as the history looked on
+        that day).
     """
-    points = [(t, float(v)) for t, v in zip(times, values, strict=True) if v is not None]
+    names = list(records) if records is not None else [subject] * len(times)
+    points = [
+        (t, float(v), n) for t, v, n in zip(times, values, names, strict=True) if v is not None
+    ]
     if not points:
         return []
     if limit is None:
         limit = LIMIT_FACTOR * points[0][1]
-    alarms = [
-        Alarm(t, "limit", subject, f"{subject} {v:.3f} mm is above its limit {limit:.3f} mm")
-        for t, v in points
-        if v > limit
-    ]
-    recent = points[-TREND_POINTS:]
-    if alarms and alarms[-1].time == points[-1][0] or len(recent) < TREND_POINTS:
-        return alarms
+    alarms = []
+    below: list[tuple] = []  # the points under the limit so far: a point above has its alarm
+    for t, v, name in points:
+        if v > limit:
+            said = f"{subject} {v:.3f} mm is above its limit {limit:.3f} mm"
+            alarms.append(
+                Alarm(t, "limit", subject, said, records=(name,), figure=v, threshold=limit,
+                      unit="mm")
+            )  # fmt: skip
+            continue
+        below.append((t, v, name))
+        if len(below) < TREND_POINTS:
+            continue
+        recent = below[-TREND_POINTS:]
+        trend = _trend(recent, limit, horizon)
+        if trend is not None:
+            slope, reach, at_horizon = trend
+            alarms.append(
+                Alarm(
+                    t, "trend", subject,
+                    f"{subject} rises {slope * 30:.3f} mm a month over the last {TREND_POINTS} "
+                    f"points and reaches its limit {limit:.3f} mm in about {max(reach, 0):.0f} "
+                    f"days",
+                    records=tuple(p[2] for p in recent),
+                    figure=at_horizon, threshold=limit, unit="mm",
+                )
+            )  # fmt: skip
+    return alarms
+
+
+def _trend(
+    recent: Sequence[tuple], limit: float, horizon: timedelta
+) -> tuple[float, float, float] | None:
+    """The line through ``recent`` points: (slope mm/day, days to the limit, value at the
+    horizon mm) when it rises and reaches ``limit`` within ``horizon`` of the newest; else None."""
     t0 = recent[0][0]
-    days = [(t - t0).total_seconds() / 86400 for t, _ in recent]
-    ys = [v for _, v in recent]
+    days = [(p[0] - t0).total_seconds() / 86400 for p in recent]
+    ys = [p[1] for p in recent]
     mean_d, mean_y = sum(days) / len(days), sum(ys) / len(ys)
     spread = sum((d - mean_d) ** 2 for d in days)
     if spread == 0:
-        return alarms
+        return None
     slope = sum((d - mean_d) * (y - mean_y) for d, y in zip(days, ys, strict=True)) / spread
     if slope <= 0:
-        return alarms
+        return None
     now_fit = mean_y + slope * (days[-1] - mean_d)
     reach = (limit - now_fit) / slope  # days from the newest point
-    if reach <= horizon.total_seconds() / 86400:
-        alarms.append(
-            Alarm(
-                recent[-1][0],
-                "trend",
-                subject,
-                f"{subject} rises {slope * 30:.3f} mm a month over the last {len(recent)} "
-                f"points and reaches its limit {limit:.3f} mm in about {max(reach, 0):.0f} days",
-            )
-        )
-    return alarms
+    ahead = horizon.total_seconds() / 86400
+    if reach > ahead:
+        return None
+    return slope, reach, now_fit + slope * ahead
 
 
 def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
@@ -198,6 +271,8 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
         if c["verdict"] == "ok":
             continue
         why = "; ".join(explanations(c)) or "no explanation recorded"
+        doc = c.get("document") or {}
+        p = doc.get("p_value")
         alarms.append(
             Alarm(
                 c["time"],
@@ -205,6 +280,10 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
                 c["verdict"],
                 f"{c['verdict']}: measured {c['measured_mm']:.3f} mm against "
                 f"{c['predicted_mm']:.3f} mm predicted; {why}",
+                records=(_name(c, "check"),),
+                figure=float(p) if isinstance(p, int | float) else None,
+                threshold=float(doc.get("alarm_p", 1e-3)),
+                unit="p (below)",
             )
         )
     return alarms
@@ -245,13 +324,14 @@ def alarms(
     limits : Limits, optional
     """
     limits = limits or Limits()
-    found = moved(calibrations, limits.k_sigma)
+    found = moved(calibrations)
     found += crossing(
         "held-out error",
-        [c["created"] for c in calibrations],
+        [_time(c) for c in calibrations],
         [c["held_out_rms_mm"] for c in calibrations],
         limits.held_out_mm,
         limits.horizon,
+        [_name(c, "calibration") for c in calibrations],
     )
     # Compensated and nominal tests are different series: only the compensated
     # ones say how the calibration holds.
@@ -259,8 +339,64 @@ def alarms(
     for subject, key, limit in (("AP", "ap_mm", limits.ap_mm), ("RP", "rp_mm", limits.rp_mm)):
         found += crossing(
             subject, [v["measured_at"] for v in tests], [v[key] for v in tests], limit,
-            limits.horizon,
+            limits.horizon, [_name(v, "iso9283") for v in tests],
         )  # fmt: skip
     # A check judges its own error (its verdict): its figures raise no second alarm.
     found += check_verdicts(checks)
     return sorted(found, key=lambda a: (a.time, a.kind, a.subject))
+
+
+#: Columns of ``history alarms --csv`` (and keys of ``--json``), in order.
+ALARM_COLUMNS = (
+    "time",
+    "kind",
+    "subject",
+    "records",
+    "figure",
+    "threshold",
+    "unit",
+    "change",
+    "standard_error",
+    "change_unit",
+    "message",
+)
+
+
+def as_rows(found: Sequence[Alarm], robot: str | None = None) -> list[dict]:
+    """Alarms as plain rows (:data:`ALARM_COLUMNS`, and ``robot`` first when given).
+
+    ``time`` is ISO 8601 UTC to the second (or finer, as recorded);
+    ``records`` the records compared, space-separated pairs joined by ``;``.
+    """
+    rows = []
+    for a in found:
+        row: dict = {"robot": robot} if robot is not None else {}
+        row.update(
+            time=a.time.isoformat() + "Z",
+            kind=a.kind,
+            subject=a.subject,
+            records="; ".join(a.records),
+            figure=a.figure,
+            threshold=a.threshold,
+            unit=a.unit,
+            change=a.change,
+            standard_error=a.standard_error,
+            change_unit=a.change_unit,
+            message=a.message,
+        )
+        rows.append(row)
+    return rows
+
+
+def csv_text(rows: Sequence[dict]) -> str:
+    """Rows of :func:`as_rows` as CSV (empty cells for absent figures)."""
+    import csv
+    import io
+
+    out = io.StringIO()
+    columns = list(rows[0]) if rows else ["robot", *ALARM_COLUMNS]
+    writer = csv.DictWriter(out, columns, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: "" if v is None else v for k, v in row.items()})
+    return out.getvalue()

@@ -42,8 +42,13 @@ def images(data: Timeline, limits: Limits) -> dict[str, bytes]:
     return out
 
 
-def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits) -> str:
-    """The page as text."""
+def _when(calibration: dict) -> Any:
+    """When a calibration's session was measured (else when it was made)."""
+    return calibration.get("time") or calibration["created"]
+
+
+def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits, notes: Sequence[str] = ()) -> str:
+    """The page as text; ``notes``: what the calibrations were not compared on."""
     pictures = images(data, limits)
     name = data.robot.get("name", "")
     title = f"Calibration history of {name}"
@@ -73,15 +78,19 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits) -> str:
         '<section id="alarms"><h2>Alarms</h2>',
     ]
     if alarms:
-        parts.append("<table><tr><th>time (UTC)</th><th>kind</th><th>what</th></tr>")
+        parts.append(
+            "<table><tr><th>time (UTC)</th><th>kind</th><th>records</th><th>what</th></tr>"
+        )
         parts += [
-            f'<tr class="alarm"><td>{a.time:%Y-%m-%d %H:%M}</td><td>{_ESC(a.kind)}</td>'
+            f'<tr class="alarm"><td>{a.time:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(a.kind)}</td>'
+            f"<td>{_ESC(', '.join(a.records))}</td>"
             f'<td class="text">{_ESC(a.message)}</td></tr>'
             for a in alarms
         ]
         parts.append("</table>")
     else:
         parts.append('<p class="note">none</p>')
+    parts += [f'<p class="note">{_ESC(n)}</p>' for n in notes]
     parts.append("</section>")
     for key, heading, png, note in (
         ("held_out", "Held-out error over time", "held_out.png", "no calibrations"),
@@ -120,7 +129,7 @@ def _checks_table(checks: list) -> str:
     for c in checks:
         why = "; ".join(explanations(c))
         rows.append(
-            f"<tr><td>{c['time']:%Y-%m-%d %H:%M}</td><td>{_ESC(c['verdict'])}</td>"
+            f"<tr><td>{c['time']:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(c['verdict'])}</td>"
             f"<td>{c['measured_mm']:.4f}</td><td>{c['predicted_mm']:.4f}</td>"
             f'<td class="text">{_ESC(why)}</td></tr>'
         )
@@ -139,7 +148,7 @@ def _records_table(data: Timeline) -> str:
             for k in ("held_out_mm", "predicted_mm", "ap_mm", "rp_mm")
         ]
         rows.append(
-            f"<tr><td>{r['time']:%Y-%m-%d %H:%M}</td><td>{_ESC(r['record'])}</td>"
+            f"<tr><td>{r['time']:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(r['record'])}</td>"
             + "".join(f"<td>{c}</td>" for c in cells)
             + f"<td>{_ESC(r['verdict'] or '')}</td></tr>"
         )
@@ -158,11 +167,9 @@ def _held_out(fig: Any, data: Timeline, limits: Limits) -> None:
     ax = fig.add_subplot()
     cals = [c for c in data.calibrations if c["held_out_rms_mm"] is not None]
     if cals:
-        times = [c["created"] for c in cals]
+        times = [_when(c) for c in cals]
         ax.plot(times, [c["held_out_rms_mm"] for c in cals], "o-", label="held-out (calibration)")
-        predicted = [
-            (c["created"], c["predicted_mm"]) for c in cals if c["predicted_mm"] is not None
-        ]
+        predicted = [(_when(c), c["predicted_mm"]) for c in cals if c["predicted_mm"] is not None]
         if predicted:
             ax.plot(*zip(*predicted, strict=True), "x--", label="predicted (calibration)")
     if data.checks:
@@ -218,7 +225,7 @@ def _parameters(fig: Any, calibrations: list, names: list) -> None:
         ax = fig.add_subplot(rows, cols, i + 1)
         scale, unit = (1e3, "mrad") if unit_of(name) == "rad" else (1.0, "mm")
         pts = [
-            (c["created"], c["parameters"][name] * scale, c["uncertainties"].get(name, 0.0) * scale)
+            (_when(c), c["parameters"][name] * scale, c["uncertainties"].get(name, 0.0) * scale)
             for c in calibrations
             if name in c["parameters"]
         ]

@@ -19,7 +19,10 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from calibrator.errors import CalibrationError
+from calibrator.history import compare
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -151,6 +154,8 @@ def calibration(path: Path) -> Record:
             "residual_sigma": unc.get("residual_sigma"),
             "predicted_validation_mm": unc.get("predicted_validation_mm"),
             "warnings": cal.fit.warnings,
+            # What the alarms compare: identified values and their covariance.
+            "arm": compare.arm_block(cal),
         },
         "provenance": {
             **cal.provenance.to_json(),
@@ -227,7 +232,9 @@ def session(path: Path) -> Record:
     simulated = extra.get("simulated")
     if not robot and isinstance(simulated, dict) and loaded.meta.model:
         robot = f"sim:{loaded.meta.model}:seed={simulated.get('seed')}"
-    measured_at = _first_time(loaded.table) or file_time(path).replace(microsecond=0)
+    measured_at = measured_time(loaded.table, extra, str(path)) or file_time(path).replace(
+        microsecond=0
+    )
     # The per-pose condition columns summed up (Session.conditions, where this
     # calibrator has it), else a ``conditions`` object in the footer.
     summed = getattr(loaded, "conditions", None)
@@ -239,6 +246,7 @@ def session(path: Path) -> Record:
         "model": loaded.meta.model,
         "poses": pq.ParquetFile(path).metadata.num_rows,
         "conditions": conditions if isinstance(conditions, dict) else {},
+        "setup": setup(extra, str(path)),
     }
     tracker = measured.get("tracker")
     return Record(
@@ -247,6 +255,60 @@ def session(path: Path) -> Record:
         tracker=str(tracker) if tracker else None,
         model=loaded.meta.model,
     )
+
+
+def measured_time(table: pa.Table, extra: dict, where: str) -> datetime | None:
+    """When a session was measured (naive UTC): its first pose's ``timestamp``.
+
+    A session without timestamps (an imported or simulated file) may give
+    its time in the footer's ``measured_at`` (ISO 8601); ``None`` when it
+    gives neither.
+    """
+    first = _first_time(table)
+    if first is not None:
+        return first
+    given = extra.get("measured_at")
+    return None if given is None else utc(given, f"{where}: footer 'measured_at'")
+
+
+def setup(extra: dict, where: str) -> dict:
+    """What a session's footer declares of its set-up: ``tool_id``, ``tracker_pose``.
+
+    ``tool_id`` (text) names the tool on the flange (the reflector and its
+    nest): two calibrations compare their tool only when both name the same.
+    ``tracker_pose`` (``{"world": NAME, "tracker2world": 4x4, mm}``) is where
+    the tracker stood in a fixed world frame (e.g. measured on reference
+    nests): two calibrations compare their base only when both give one in
+    the same world. Either may be absent.
+    """
+    from calibrator.model import frames
+
+    out: dict = {}
+    tool = extra.get("tool_id")
+    if tool is not None:
+        if not isinstance(tool, str) or not tool.strip():
+            raise HistoryError(f"{where}: footer 'tool_id' must be the tool's name (text)")
+        out["tool_id"] = tool.strip()
+    pose = extra.get("tracker_pose")
+    if pose is not None:
+        world = pose.get("world") if isinstance(pose, dict) else None
+        if not isinstance(world, str) or not world.strip():
+            raise HistoryError(
+                f"{where}: footer 'tracker_pose' must be {{\"world\": NAME, "
+                '"tracker2world": 4x4 matrix (mm)}'
+            )
+        try:
+            matrix = np.asarray(pose.get("tracker2world"), dtype=float)
+            if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)):
+                raise ValueError("a 4x4 matrix of finite numbers")
+            frames.check_transform(matrix, "tracker2world")
+        except (TypeError, ValueError, CalibrationError) as exc:
+            raise HistoryError(
+                f"{where}: footer 'tracker_pose.tracker2world' must be a rigid 4x4 transform "
+                f"(mm): {exc}"
+            ) from None
+        out["tracker_pose"] = {"world": world.strip(), "tracker2world": matrix.tolist()}
+    return out
 
 
 def _first_time(table: pa.Table) -> datetime | None:
@@ -322,7 +384,9 @@ def check(doc: object, where: str = "check") -> Record:
         raise HistoryError(f"{where}: not plain JSON ({exc})") from None
     row = {
         "sha256": sha,
-        "time": utc(doc["time"], f"{where}: 'time'"),
+        # When the poses were measured, if the document says (a check of a
+        # recorded session); else when it was made.
+        "time": utc(doc.get("measured_at") or doc["time"], f"{where}: 'time'"),
         "calibration_sha256": digest,
         "verdict": doc["verdict"],
         "measured_mm": measured,

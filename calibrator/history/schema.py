@@ -64,6 +64,9 @@ sessions = Table(
     Column("model", String(100)),
     Column("poses", Integer, nullable=False),
     Column("conditions", JSON, nullable=False),
+    # Added by migration 0003: the tool and tracker pose the footer declares
+    # (``{"tool_id": ..., "tracker_pose": {"world", "tracker2world"}}``).
+    Column("setup", JSON),
 )
 
 #: An identification (a calibration.json).
@@ -85,6 +88,8 @@ calibrations = Table(
     Column("uncertainties", JSON, nullable=False),
     Column("statistics", JSON, nullable=False),
     Column("provenance", JSON, nullable=False),
+    # Added by migration 0003: when its session was measured (NULL: not known).
+    Column("measured_at", DateTime),
     Index("ix_calibrations_robot_created", "robot_id", "created"),
 )
 

@@ -241,8 +241,15 @@ class History:
                     f"{path}: its session is not in the history and names no robot: "
                     "give the robot (--robot)"
                 )
-            record = replace(record, row={**record.row, "session_id": session_id})
-            return self._insert(conn, schema.calibrations, record, name)
+            measured_at, setup = self._session_facts(conn, session_id)
+            row = {
+                **record.row,
+                "session_id": session_id,
+                "measured_at": measured_at,
+                # The set-up decides what the alarms may compare (history.compare).
+                "statistics": {**record.row["statistics"], "setup": setup},
+            }
+            return self._insert(conn, schema.calibrations, replace(record, row=row), name)
 
     def record_verification(self, path: str | os.PathLike, robot: str | None = None) -> int:
         """Record verify's JSON (ISO 9283 pose test); return its id."""
@@ -335,6 +342,17 @@ class History:
         return (None, None) if found is None else (int(found[0]), str(found[1]))
 
     @staticmethod
+    def _session_facts(conn: Any, session_id: int | None) -> tuple[Any, dict]:
+        """When a calibration's session was measured and its set-up (None, {}: unknown)."""
+        from sqlalchemy import select
+
+        if session_id is None:
+            return None, {}
+        s = schema.sessions
+        found = conn.execute(select(s.c.measured_at, s.c.setup).where(s.c.id == session_id)).one()
+        return found[0], found[1] or {}
+
+    @staticmethod
     def _robot_name(conn: Any, session_id: int) -> str:
         from sqlalchemy import select
 
@@ -369,9 +387,16 @@ class History:
             return [dict(row._mapping) for row in conn.execute(query)]
 
     def calibrations(self, robot: str) -> list[dict]:
-        """A robot's calibrations, oldest first: every column and ``session_file``."""
-        s = schema.sessions
-        return self._rows(schema.calibrations, robot, "created", [s.c.file.label("session_file")])
+        """A robot's calibrations in the order measured: every column, ``session_file``, ``time``.
+
+        ``time`` is when the calibration's session was measured, else (its
+        session unknown) when the calibration was made.
+        """
+        from sqlalchemy import func
+
+        s, c = schema.sessions, schema.calibrations
+        when = func.coalesce(c.c.measured_at, c.c.created)
+        return self._rows(c, robot, when, [s.c.file.label("session_file"), when.label("time")])
 
     def sessions(self, robot: str) -> list[dict]:
         """A robot's sessions, oldest first (every column and ``tracker``)."""
@@ -385,7 +410,7 @@ class History:
         """A robot's checks, oldest first (every column)."""
         return self._rows(schema.checks, robot, "time")
 
-    def _rows(self, table: Any, robot: str, order: str, more: list | None = None) -> list[dict]:
+    def _rows(self, table: Any, robot: str, order: Any, more: list | None = None) -> list[dict]:
         from sqlalchemy import select
 
         r, s, t = schema.robots, schema.sessions, schema.trackers
@@ -399,7 +424,7 @@ class History:
         query = (
             query.join(r, r.c.id == table.c.robot_id)
             .where(r.c.name == robot)
-            .order_by(table.c[order], table.c.id)
+            .order_by(table.c[order] if isinstance(order, str) else order, table.c.id)
         )
         with self._begin() as conn:
             if conn.execute(select(r.c.id).where(r.c.name == robot)).first() is None:

@@ -17,6 +17,7 @@ COLUMNS = (
     "record",
     "id",
     "held_out_mm",
+    "measured_mm",
     "predicted_mm",
     "ap_mm",
     "rp_mm",
@@ -62,7 +63,7 @@ def table(data: Timeline) -> list[dict]:
     for c in data.calibrations:
         rows.append(
             _row(
-                c["created"],
+                c.get("time") or c["created"],
                 "calibration",
                 c["id"],
                 held_out_mm=c["held_out_rms_mm"],
@@ -83,12 +84,14 @@ def table(data: Timeline) -> list[dict]:
                 c["time"],
                 "check",
                 c["id"],
-                held_out_mm=c["measured_mm"],
+                measured_mm=c["measured_mm"],
                 predicted_mm=c["predicted_mm"],
                 verdict=c["verdict"],
             )
         )
-    return sorted(rows, key=lambda r: (r["time"], r["record"], r["id"]))
+    # At one time a session comes before what was made of it.
+    rank = {"session": 0, "calibration": 1}
+    return sorted(rows, key=lambda r: (r["time"], rank.get(r["record"], 2), r["record"], r["id"]))
 
 
 def _row(time: datetime, record: str, number: int, **values: object) -> dict:
@@ -108,15 +111,15 @@ def _cell(value: object, width: int = 0) -> str:
 
 
 def format_table(rows: list[dict]) -> str:
-    """The table as text (mm, UTC times); a check's measured error in the held-out column."""
-    head = f"{'time (UTC)':19s}  {'record':20s} {'id':>5s} {'held-out':>9s} {'predicted':>9s} "
-    head += f"{'AP':>8s} {'RP':>8s}  verdict"
+    """The table as text (mm, UTC times): a calibration's held-out error, a check's measured."""
+    head = f"{'time (UTC)':19s}  {'record':20s} {'id':>5s} {'held-out':>9s} {'measured':>9s} "
+    head += f"{'predicted':>9s} {'AP':>8s} {'RP':>8s}  verdict"
     lines = [head + "   (mm)"]
     for r in rows:
         lines.append(
             f"{_cell(r['time']):19s}  {r['record']:20s} {r['id']:5d} {_cell(r['held_out_mm']):>9s} "
-            f"{_cell(r['predicted_mm']):>9s} {_cell(r['ap_mm']):>8s} {_cell(r['rp_mm']):>8s}  "
-            f"{r['verdict'] or ''}"
+            f"{_cell(r['measured_mm']):>9s} {_cell(r['predicted_mm']):>9s} "
+            f"{_cell(r['ap_mm']):>8s} {_cell(r['rp_mm']):>8s}  {r['verdict'] or ''}"
         )
     return "\n".join(lines)
 

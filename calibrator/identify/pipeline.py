@@ -201,7 +201,9 @@ def identify(session: "Session", options: Options = Options()) -> Result:
         )
 
     say("uncertainty")
-    unc = uncertainty.analyse(inliers, x, val)
+    # Joint parameters these poses left out: their prior enters the prediction.
+    unidentified = [d["name"] for d in free.dropped if "with these poses" in d["reason"]]
+    unc = uncertainty.analyse(inliers, x, val, unidentified)
     # Held-out poses beyond the fitted joint ranges: the model is extrapolated there.
     warnings += uncertainty.range_warnings(fit.q, val.q)
     warnings += _noise_warning(unc, options.noise_mm)

@@ -20,6 +20,7 @@ of few poses has few (10 poses, 25 parameters: 5), so its prediction divides
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -111,7 +112,12 @@ def _block_sigmas_exact(res, n_poses, jac):
     return float(np.sqrt(var[0])), float(np.sqrt(max(var[1], 0.0)))
 
 
-def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = None) -> Uncertainty:
+def analyse(
+    problem: Problem,
+    x: np.ndarray,
+    validation: Observations | None = None,
+    unidentified: Sequence[str] = (),
+) -> Uncertainty:
     """Uncertainty of the deltas ``x`` fitted on ``problem``'s poses.
 
     Parameters
@@ -121,6 +127,10 @@ def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = N
     x : ndarray, shape (space.size,)
     validation : calibrator.model.measurement.Observations, optional
         Held-out poses to predict the error at.
+    unidentified : sequence of str
+        Joint parameters these poses could not identify (left at nominal);
+        their prior uncertainty enters the prediction
+        (:func:`unidentified_variance`).
 
     Returns
     -------
@@ -170,8 +180,89 @@ def analyse(problem: Problem, x: np.ndarray, validation: Observations | None = N
         "position_dof": dof,
     }
     if validation is not None and len(validation):
-        out["predicted_validation_mm"] = predict_error(space, x, validation, cov, sigma_p, dof)
+        extra = unidentified_variance(problem, x, out["standard_errors"], validation, unidentified)
+        out["predicted_validation_mm"] = predict_error(
+            space, x, validation, cov, sigma_p, dof, extra
+        )
     return out
+
+
+def unidentified_variance(
+    problem: Problem,
+    x: np.ndarray,
+    standard_errors: dict,
+    obs: Observations,
+    names: Sequence[str],
+) -> np.ndarray:
+    """Position error variance at ``obs`` from the joint parameters the fit left out (mm^2).
+
+    A joint parameter the poses could not identify (its standard error too
+    large with them, or redundant with others at these poses only: e.g.
+    ``a5`` with few poses; identify names them ``... with these poses``) is
+    fixed at its nominal
+    value, yet the arm's true one differs by about as much as the identified
+    ones do. At the fitted poses the fit absorbs most of that into the free
+    parameters; away from them (other joint ranges) it does not. With a prior
+    on each left-out parameter (zero mean, the variance of the identified
+    joint deltas of its unit less their own estimation variance: empirical
+    Bayes), the part of its effect the fit cannot absorb (its Jacobian column
+    at ``obs`` less its least-squares projection through the fitted poses'
+    free columns) is propagated. A parameter that is redundant with the
+    free ones (``d6`` with the tool, ``theta1`` with the base) projects out
+    exactly and adds nothing.
+
+    Parameters
+    ----------
+    problem : calibrator.identify.problem.Problem
+        The fit: its free set, poses and orientation weight.
+    x : ndarray, shape (space.size,)
+    standard_errors : dict
+        ``{name: standard error}`` of the free parameters.
+    obs : calibrator.model.measurement.Observations
+        The poses to predict at.
+    names : sequence of str
+        The joint parameters left out for these poses (others are ignored).
+
+    Returns
+    -------
+    ndarray, shape (len(obs),)
+        Added variance of the 3-D position error at each pose (mm^2); zeros
+        when every joint parameter is identified or none is.
+    """
+    from calibrator.identify.problem import Problem
+
+    space = problem.space
+    free = list(space.free)
+    left = [n for n in names if n in parameters.MDH_NAMES and n not in free]
+    joint = [n for n in free if n in parameters.MDH_NAMES]
+    out = np.zeros(len(obs))
+    if not left or not joint:
+        return out
+    prior = {}
+    for unit in ("mm", "rad"):
+        same = [n for n in joint if parameters.unit(n) == unit]
+        if same:
+            spread = [float(x[free.index(n)]) ** 2 - standard_errors[n] ** 2 for n in same]
+            prior[unit] = max(float(np.mean(spread)), 0.0)
+    left = [n for n in left if prior.get(parameters.unit(n), 0.0) > 0]
+    if not left:
+        return out
+    full = space.with_free(free + left)
+    order = list(full.free)
+    x_all = np.zeros(full.size)
+    x_all[[order.index(n) for n in free]] = x
+    fi = [order.index(n) for n in free]
+    li = [order.index(n) for n in left]
+    at_fit = Problem(full, problem.obs, problem.k).jacobian(x_all)
+    at_new = measurement.jacobian(full, x_all, obs, 0.0)[: 3 * len(obs)]
+    # Columns scaled to unit length: mm and rad columns differ by 1e3.
+    scale = np.linalg.norm(at_fit, axis=0)
+    scale[scale == 0] = 1.0
+    absorbed = np.linalg.lstsq(at_fit[:, fi] / scale[fi], at_fit[:, li], rcond=1e-12)[0]
+    left_over = at_new[:, li] - (at_new[:, fi] / scale[fi]) @ absorbed
+    var = np.array([prior[parameters.unit(n)] for n in left])
+    blocks = left_over.reshape(len(obs), 3, len(left))
+    return np.einsum("nid,d,nid->n", blocks, var, blocks)
 
 
 def position_dof(jac: np.ndarray, n_poses: int) -> float:
@@ -222,26 +313,32 @@ def predict_error(
     cov: np.ndarray,
     sigma_p: float,
     dof: float | None = None,
+    unidentified_var: np.ndarray | None = None,
 ) -> Prediction:
     """Predicted position error at poses not used in the fit.
 
     ``dof``, the position rows' residual degrees of freedom
     (:func:`position_dof`), removes the low bias of a sigma estimated from
     few of them (:func:`sigma_bias`) from every figure; ``cov`` and
-    ``sigma_p`` are the fit's estimates.
+    ``sigma_p`` are the fit's estimates. ``unidentified_var`` (N,) mm^2 is
+    what the joint parameters left out add at each pose
+    (:func:`unidentified_variance`).
 
     Returns
     -------
     Prediction
         ``model_rms_mean``, ``model_rms_max``: RMS position error (mm) that
-        the parameters' uncertainty alone causes, mean and worst over the
-        poses; ``error_mean``: expected mean distance between model and
-        measured point there, noise included.
+        the parameters' uncertainty alone causes (the identified ones' and
+        the left-out ones'), mean and worst over the poses; ``error_mean``:
+        expected mean distance between model and measured point there, noise
+        included.
     """
     unbias = 1.0 / sigma_bias(dof)
     sigma_p, cov = sigma_p * unbias, cov * unbias**2
     jac = measurement.jacobian(space, x, obs, 0.0).reshape(len(obs), 3, -1)
     model_var = np.einsum("nid,de,nie->n", jac, cov, jac)
+    if unidentified_var is not None:
+        model_var = model_var + unidentified_var
     model_rms = np.sqrt(np.maximum(model_var, 0.0))
     total = np.sqrt(model_var + 3 * sigma_p**2)
     return {

@@ -1,7 +1,7 @@
 """The shipped migrations: they build the schema the code uses, and upgrade an older history."""
 
 import sqlite3
-from datetime import date
+from datetime import date, datetime
 
 import pytest
 from history_kit import check_doc
@@ -66,3 +66,28 @@ def test_a_newer_history_is_refused(tmp_path):
         conn.execute("UPDATE alembic_version SET version_num = '0099'")
     with pytest.raises(HistoryError, match="revision 0099, newer than this calibrator reads"):
         open_history(path)
+
+
+def test_an_upgrade_to_revision_3_files_old_calibrations_under_their_session_time(history_url):
+    """Revision 0003 fills ``calibrations.measured_at`` from the sessions already recorded."""
+    engine = store._engine(store.resolve(history_url), create=True)
+    with engine.begin() as conn:
+        migrations.upgrade(conn, "0002")
+        conn.exec_driver_sql("INSERT INTO robots (id, name) VALUES (1, 'arm-1')")
+        conn.exec_driver_sql(
+            "INSERT INTO sessions (id, robot_id, sha256, file, measured_at, poses, conditions) "
+            f"VALUES (1, 1, '{'a' * 64}', 's.parquet', '2026-03-01 08:00:00', 30, '{{}}')"
+        )
+        for number, session_id in ((1, "1"), (2, "NULL")):
+            conn.exec_driver_sql(
+                "INSERT INTO calibrations (id, robot_id, session_id, sha256, created, parameters, "
+                f"uncertainties, statistics, provenance) VALUES ({number}, 1, {session_id}, "
+                f"'{str(number) * 64}', '2026-06-0{number} 12:00:00', '{{}}', '{{}}', '{{}}', "
+                "'{}')"
+            )
+    engine.dispose()
+    with open_history(history_url) as h:
+        first, second = h.calibrations("arm-1")
+    assert first["measured_at"] == first["time"] == datetime(2026, 3, 1, 8)
+    # No session known: filed under when it was made.
+    assert second["measured_at"] is None and second["time"] == datetime(2026, 6, 2, 12)
