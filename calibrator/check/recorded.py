@@ -130,4 +130,8 @@ def check(model: Calibrated, recorded: Recorded, tolerance_mm: float | None, inf
         "measured_at": recorded.measured_at,
         **info,
     }
-    return documents.document(result, recorded.poses, recorded.q, recorded.points, info=full)
+    from calibrator import robots
+
+    # The document states joints as the controller does (recorded.q are the model's).
+    shown = robots.convention_of(recorded.model).to_controller(recorded.q)
+    return documents.document(result, recorded.poses, shown, recorded.points, info=full)
