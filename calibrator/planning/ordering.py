@@ -67,6 +67,26 @@ class MoveVerdicts:
                 self._direct[keys[i]] = self._direct[keys[i][::-1]] = f
         return np.array([self._direct[k] for k in keys]).reshape(len(keys), 4)
 
+    def joinable(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+        """Whether a safe move joins ``qa`` (6,) to each of ``qb`` (M, 6), shape (M,) bool.
+
+        Directly, or through the arm held upright: every way up of
+        :func:`_rise_paths` ends with the arm upright and the wrist neutral,
+        so for poses that can rise (:func:`can_rise`) the vias are safe
+        exactly when the turn between their two neutral poses is.
+        """
+        qb = np.atleast_2d(qb)
+        ok = ~self.direct(np.tile(qa, (len(qb), 1)), qb).any(axis=1)
+        todo = np.flatnonzero(~ok)
+        if todo.size:
+            ends = np.vstack([qa, qb[todo]])
+            neutral = _rise_paths(self.chk, ends, self.box)[0][:, -1]
+            inside = np.all((neutral >= self.box[:, 0]) & (neutral <= self.box[:, 1]), axis=1)
+            inside &= ~cells.checks.collision_faults(self.chk, neutral).any(axis=1)
+            turn = self.direct(np.tile(neutral[0], (todo.size, 1)), neutral[1:])
+            ok[todo] = ~turn.any(axis=1) & inside[1:] & inside[0]
+        return ok
+
     def vias(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
         """Vias (k, 6) from ``qa`` to ``qb`` through the arm held upright, or None."""
         key = (qa.tobytes(), qb.tobytes())

@@ -314,7 +314,7 @@ def _choose_joined(
             dropped["no safe way up"] = no_way_up
             dropped["no safe move"] = unjoined
             return picks, ordered.plan, unjoined
-        out = _to_replace(obs.blocks[picks], ordered.unjoined)
+        out = _to_replace(pool[picks], obs.blocks[picks], ordered.unjoined, verdicts)
         for _a, _b, reason in ordered.unjoined:
             reasons[reason] = reasons.get(reason, 0) + 1
         usable[picks[out]] = False
@@ -335,23 +335,30 @@ def _unjoined_text(unjoined: int, reasons: dict) -> str:
     return f", no safe move joined {unjoined} to the other poses ({why})"
 
 
-def _to_replace(blocks: np.ndarray, unjoined: tuple) -> np.ndarray:
-    """Which chosen poses to give up: one of each unjoined move, shape (k,), sorted.
+def _to_replace(
+    q: np.ndarray, blocks: np.ndarray, unjoined: tuple, verdicts: MoveVerdicts
+) -> np.ndarray:
+    """Which chosen poses to give up for the unjoined moves, shape (k,), sorted rows of ``q``.
 
-    ``blocks`` (n, 3, P) of the chosen poses; ``unjoined`` moves ``(a, b,
-    reason)`` between rows of them. Of each move not already given up by
-    another: the pose in more unjoined moves, else the one whose loss costs
-    ``log det(J^T J)`` least.
+    ``q`` (n, 6) and ``blocks`` (n, 3, P) of the chosen poses; ``unjoined``
+    moves ``(a, b, reason)`` between rows of them. Of each move whose poses
+    are both still kept, the pose a safe move joins to more of the others is
+    kept (on a tie, the one whose loss costs ``log det(J^T J)`` more); the
+    other is given up, and so is every pose no safe move joins to the kept
+    one: an obstacle that blocks the turn of the arm held upright splits the
+    poses in two, and the smaller side goes at once, not a pose a round.
     """
-    count = np.zeros(len(blocks), dtype=int)
-    for a, b, _reason in unjoined:
-        count[[a, b]] += 1
+    n = len(q)
     loss = leave_one_out(blocks)
     out: set[int] = set()
     for a, b, _reason in unjoined:
         if a in out or b in out:
             continue
-        out.add(min((a, b), key=lambda i: (-count[i], loss[i])))
+        kept = [i for i in range(n) if i not in out]
+        joins = {i: verdicts.joinable(q[i], q[kept]) for i in (a, b)}
+        keep = max((a, b), key=lambda i: (int(joins[i].sum()), loss[i]))
+        out.add(b if keep == a else a)
+        out.update(i for i, ok in zip(kept, joins[keep], strict=True) if not ok and i != keep)
     return np.array(sorted(out), dtype=int)
 
 
