@@ -76,7 +76,7 @@ class MoveVerdicts:
         exactly when the turn between their two neutral poses is.
         """
         qb = np.atleast_2d(qb)
-        ok: np.ndarray = ~self.direct(np.tile(qa, (len(qb), 1)), qb).any(axis=1)
+        ok = np.logical_not(self.direct(np.tile(qa, (len(qb), 1)), qb).any(axis=1))
         todo = np.flatnonzero(~ok)
         if todo.size:
             ends = np.vstack([qa, qb[todo]])
