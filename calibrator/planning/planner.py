@@ -215,9 +215,9 @@ def make_checked(
 
 #: Most candidates :func:`make_checked` samples on its own.
 MAX_SAMPLED = 400_000
-#: Most rounds of choosing and ordering :func:`make_checked` makes: each drops at
-#: least one candidate (no way up, or no safe move to the others), so the choice
-#: ends; this bounds the time spent on a cell that leaves too few joinable poses.
+#: Most orderings of a choice :func:`make_checked` makes: each that leaves a move
+#: unsafe drops at least one candidate, so the choice ends anyway; this bounds the
+#: time spent on a cell that leaves few joinable poses (an ordering takes about a second).
 MAX_ROUNDS = 40
 
 
@@ -240,12 +240,13 @@ def _choose_joined(
     A chosen pose the arm cannot leave upwards safely (the shoulder past
     horizontal on the far side, where the way up turns through the floor) is
     dropped and the choice made again; so is one pose of each move the order
-    leaves unsafe (directly, in any order tried, and through the arm upright):
-    the one in more such moves, else the one whose loss costs the D-optimality
-    criterion least (:func:`~calibrator.planning.design.leave_one_out`). The
-    choice among the candidates left is then made again, so the plan stays
-    the selection's best of what can be joined. Checked on the chosen poses
-    only (a motion check per candidate is slow).
+    leaves unsafe (directly, in any order tried, and through the arm upright),
+    with the poses no safe move joins to the other one (:func:`_to_replace`).
+    The choice among the candidates left is then made again, so the plan
+    stays the selection's best of what can be joined. Checked on the chosen
+    poses only (a motion check per candidate is slow). Each round drops at
+    least one candidate, so the choice ends; at most :data:`MAX_ROUNDS`
+    orderings are made.
 
     Parameters
     ----------
@@ -278,15 +279,16 @@ def _choose_joined(
     ------
     PlanError
         Fewer than ``n`` candidates left that can be joined ("found k of n"),
-        or no joined choice within :data:`MAX_ROUNDS`.
+        or no joined choice within :data:`MAX_ROUNDS` orderings ("found k of
+        n", k joined in the last).
     """
     usable = np.ones(len(pool), dtype=bool)
     risen = np.zeros(len(pool), dtype=bool)  # a safe way up found
     shuffled = np.random.default_rng(seed).permutation(len(pool))
     verdicts = MoveVerdicts(chk, box)
-    no_way_up = unjoined = joined = 0
+    no_way_up = unjoined = joined = rounds = 0
     reasons: dict[str, int] = {}
-    for _ in range(MAX_ROUNDS):
+    while rounds < MAX_ROUNDS:
         left = np.flatnonzero(usable)
         if len(left) < n:
             raise PlanError(
@@ -309,6 +311,8 @@ def _choose_joined(
                 usable[todo[~up]] = False
                 no_way_up += int((~up).sum())
                 continue
+        # Poses without a way up go a round each too, but cost no ordering: not counted.
+        rounds += 1
         ordered = order_joined(chk, pool[picks], box, speed, accel, verdicts)
         if not ordered.unjoined:
             dropped["no safe way up"] = no_way_up

@@ -14,6 +14,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from cli_kit import cli, one_line_error
 
 from calibrator import cell as cells
 from calibrator import planning, robots
@@ -84,3 +85,19 @@ def test_vias_keep_within_the_joint_margin_when_upright_is_outside_it():
     assert np.all(vias[:, 2] >= np.radians(4.0) - 1e-12)
     planning.check_plan(made.plan, arm, cell, TOOL_MM, home_rad=made.plan.q_rad[0])
     _clear_all_along(cells.checker(cells.arm_geometry(arm, arm.mdh, TOOL_MM), cell), made.plan)
+
+
+def test_plan_says_how_many_poses_it_replaced_and_how_many_it_found(tmp_path):
+    (tmp_path / "cell.yaml").write_text(
+        "tracker: {at_mm: [2500, 400, 300]}\n"
+        "obstacles:\n"
+        "  - box: {name: wall, min_mm: [-3000, -10, -100], max_mm: [-300, 10, 3000]}\n"
+    )
+    args = ("plan", "--cell", "cell.yaml", "--candidates", "3000", "--seed", "1", "-o", "p.csv")
+    done = cli(*args, "--poses", "12", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert "no safe way up 10, no safe move 1)" in done.stdout
+    assert "note: replaced 1 chosen pose(s) that no safe move joined to the others" in done.stderr
+    assert len(planning.read_plan(tmp_path / "p.csv").q_rad) == 12
+    line = one_line_error(cli(*args, "--poses", "21", "--force", cwd=tmp_path))
+    assert line.startswith("calibrator: error: found 20 of 21 poses: of 3000 candidates 33 pass")
