@@ -72,8 +72,9 @@ class MoveVerdicts:
 
         Directly, or through the arm held upright: every way up of
         :func:`_rise_paths` ends with the arm upright and the wrist neutral,
-        so for poses that can rise (:func:`can_rise`) the vias are safe
-        exactly when the turn between their two neutral poses is.
+        so for poses that can rise (:func:`can_rise`) the vias are safe when
+        the turn between their two neutral poses is (the ordering checks
+        the vias it makes in full).
         """
         qb = np.atleast_2d(qb)
         ok = np.logical_not(self.direct(np.tile(qa, (len(qb), 1)), qb).any(axis=1))
