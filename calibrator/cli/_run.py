@@ -465,11 +465,16 @@ def pose_fields(progress: Any) -> dict:
     return {"pose": progress.pose, "spread_um": float(np.linalg.norm(record["std_mm"]) * 1e3)}
 
 
-def confirm(robot_id: str, n: int) -> None:
-    """Ask the operator before a real robot moves through ``n`` poses (exit 2 unless yes)."""
+def confirm(robot_id: str, n: int, guessed: str | None = None) -> None:
+    """Ask the operator before a real robot moves through ``n`` poses (exit 2 unless yes).
+
+    ``guessed``: what of the arm's collision body is guessed
+    (:func:`calibrator.planning.guessed_geometry`), said in the question.
+    """
+    poses = f"{n} poses" + (f" checked against guessed geometry ({guessed})" if guessed else "")
     if not sys.stdin.isatty():
-        fail(f"the robot {robot_id} would move through {n} poses: pass --yes to confirm")
-    if not typer.confirm(f"Move the robot {robot_id} through {n} poses?", default=False):
+        fail(f"the robot {robot_id} would move through {poses}: pass --yes to confirm")
+    if not typer.confirm(f"Move the robot {robot_id} through {poses}?", default=False):
         fail("not confirmed; nothing moved")
 
 

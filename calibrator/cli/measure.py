@@ -170,15 +170,24 @@ def measure(
         # (a refused resume stays one line).
         estimate = f"estimated cell time: {run.estimate()}"
         shown = []
+        # Collisions checked against capsules guessed along the links (a URDF's meshes
+        # missing): the arm's body says so, or the plan file made with it.
+        origin = run.plan.origin
+        guessed = planning.guessed_geometry(arm) or (origin.guessed_geometry if origin else None)
 
         def confirm(robot_id: str, n: int) -> None:
             typer.echo(estimate, err=True)
             shown.append(True)
-            _confirm(robot_id, n)
+            _confirm(robot_id, n, guessed)
 
         run.open_journal(confirm=None if run_args.yes else confirm)
         if not shown and not quiet:
             typer.echo(estimate, err=True)
+        if not shown and guessed:
+            typer.echo(
+                f"warning: every pose and move checked against guessed geometry: {guessed}",
+                err=True,
+            )
         # A line per pose when piped: a measure run is slow enough to log each one.
         reporter = progress.Reporter.for_cli(quiet)
         reporter.interval_s = 0.0

@@ -152,6 +152,23 @@ def plan(
         f"log det(J^T J) {planning.log_det(made.blocks):.2f}, "
         f"smallest singular value {planning.min_singular(made.blocks):.4g}"
     )
+    if made.unjoined:
+        typer.echo(
+            f"note: replaced {made.unjoined} chosen pose(s) that no safe move joined to the "
+            "others (directly, in any order tried, or through the arm held upright) by the "
+            f"next best candidates of the {selection.value} selection",
+            err=True,
+        )
+    guessed = made.plan.origin.guessed_geometry if made.plan.origin is not None else None
+    if guessed:
+        # Collisions were checked against capsules guessed from the joints, not the arm's shape.
+        typer.echo(
+            f"warning: guessed geometry: {guessed}; every pose and move was checked against "
+            "these guessed capsules, not the arm's housings (the plan file says so too): give "
+            "the meshes (ROS_PACKAGE_PATH, or beside the URDF's package) for a plan checked "
+            "against its shape",
+            err=True,
+        )
     for line in robot.limit_notes:
         # Limits narrowed from the description's source: the plan keeps within these.
         typer.echo(f"note: {line}", err=True)

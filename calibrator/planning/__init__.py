@@ -44,7 +44,13 @@ from calibrator.planning.planfile import (
     read_plan,
     write_plan,
 )
-from calibrator.planning.planner import MAX_SAMPLED, SELECTIONS, PlanReport, make_checked
+from calibrator.planning.planner import (
+    MAX_SAMPLED,
+    SELECTIONS,
+    PlanReport,
+    guessed_geometry,
+    make_checked,
+)
 from calibrator.planning.sampling import DUPLICATE_RAD, distinct, joint_box, sample
 
 __all__ = [
@@ -71,6 +77,7 @@ __all__ = [
     "joint_box",
     "log_det",
     "made_for",
+    "guessed_geometry",
     "make_checked",
     "min_poses",
     "min_singular",

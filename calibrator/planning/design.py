@@ -118,6 +118,21 @@ def select_d_optimal(blocks: np.ndarray, n: int) -> np.ndarray:
     return np.array(picks)
 
 
+def leave_one_out(blocks: np.ndarray) -> np.ndarray:
+    """What leaving each pose out costs the D-optimality criterion, shape (N,).
+
+    ``log det M - log det(M - J_i^T J_i)`` for blocks (N, 3, P) with
+    ``M = J^T J`` (by the matrix determinant lemma: ``-log det(I - J_i M^-1
+    J_i^T)``); ``inf`` where leaving pose i out makes ``M`` singular.
+    """
+    blocks = np.asarray(blocks, dtype=float)
+    n, _, p = blocks.shape
+    info = np.einsum("nkp,nkq->pq", blocks, blocks)
+    solved = np.linalg.lstsq(info, blocks.reshape(-1, p).T, rcond=None)[0].T.reshape(n, 3, p)
+    sign, value = np.linalg.slogdet(np.eye(3) - np.einsum("nkp,njp->nkj", blocks, solved))
+    return np.where(sign > 0, -value, np.inf)
+
+
 def min_poses(mdh: np.ndarray, frame: str = "tracker", tool_known: bool = False) -> int:
     """Fewest poses whose position rows can determine the identifiable parameters."""
     from calibrator.identify import freeset

@@ -2,28 +2,130 @@
 
 Moves are joint-space lines at the model's speed and acceleration ceilings;
 a move the cell's collision checks refuse is avoided by another order, else
-by vias through the arm held upright, else refused.
+by vias through the arm held upright; a move neither makes safe is returned
+as unjoined, and the planner replaces one of its poses.
 
 Joint angles rad; everything in the robot base frame.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from calibrator import cell as cells
-from calibrator.planning.plan import Plan, PlanError
+from calibrator.planning.plan import Plan
 
 if TYPE_CHECKING:
     from calibrator import robots
 
 
-def order_safely(
-    chk: cells.Checker, q: np.ndarray, box: np.ndarray, speed: float, accel: float
-) -> Plan:
-    """The poses in a short-time order whose every move is safe, with vias where needed."""
+@dataclass(frozen=True)
+class Ordered:
+    """The poses in a short-time order, and the moves of it no safe way joins.
+
+    Attributes
+    ----------
+    plan : Plan
+        The poses in visiting order, with vias where a direct move is unsafe
+        (none before a pose no safe way reaches).
+    order : ndarray, shape (N,)
+        Row of the given poses at each place of ``plan``.
+    unjoined : tuple of (int, int, str)
+        Moves between rows of the given poses (from, to, the first reason)
+        that are unsafe directly and through the arm held upright; the move
+        from the last pose back to the first (a program's way home) among them.
+    """
+
+    plan: Plan
+    order: np.ndarray
+    unjoined: tuple[tuple[int, int, str], ...]
+
+
+class MoveVerdicts:
+    """Motion checks already made, by the two poses' joint values (kept between orderings).
+
+    The planner orders the poses again after replacing one that no safe
+    move joins; the moves between the poses it keeps are not checked twice.
+    """
+
+    def __init__(self, chk: cells.Checker, box: np.ndarray) -> None:
+        self.chk, self.box = chk, box
+        self._direct: dict[tuple[bytes, bytes], np.ndarray] = {}
+        self._vias: dict[tuple[bytes, bytes], np.ndarray | None] = {}
+
+    def direct(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+        """Faults (M, 4) of the moves ``qa[i] -> qb[i]`` (M, 6), checking only new ones."""
+        keys = [(a.tobytes(), b.tobytes()) for a, b in zip(qa, qb, strict=True)]
+        new = [i for i, k in enumerate(keys) if k not in self._direct]
+        if new:
+            faults = cells.motion_faults(self.chk, qa[new], qb[new])
+            for i, f in zip(new, faults, strict=True):
+                # The joint-space line is the same both ways.
+                self._direct[keys[i]] = self._direct[keys[i][::-1]] = f
+        return np.array([self._direct[k] for k in keys]).reshape(len(keys), 4)
+
+    def joinable(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+        """Whether a safe move joins ``qa`` (6,) to each of ``qb`` (M, 6), shape (M,) bool.
+
+        Directly, or through the arm held upright: every way up of
+        :func:`_rise_paths` ends with the arm upright and the wrist neutral,
+        so for poses that can rise (:func:`can_rise`) the vias are safe when
+        the turn between their two neutral poses is (the ordering checks
+        the vias it makes in full).
+        """
+        qb = np.atleast_2d(qb)
+        ok = np.logical_not(self.direct(np.tile(qa, (len(qb), 1)), qb).any(axis=1))
+        todo = np.flatnonzero(~ok)
+        if todo.size:
+            ends = np.vstack([qa, qb[todo]])
+            neutral = _rise_paths(self.chk, ends, self.box)[0][:, -1]
+            inside = np.all((neutral >= self.box[:, 0]) & (neutral <= self.box[:, 1]), axis=1)
+            inside &= ~cells.checks.collision_faults(self.chk, neutral).any(axis=1)
+            turn = self.direct(np.tile(neutral[0], (todo.size, 1)), neutral[1:])
+            ok[todo] = ~turn.any(axis=1) & inside[1:] & inside[0]
+        return ok
+
+    def vias(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
+        """Vias (k, 6) from ``qa`` to ``qb`` through the arm held upright, or None."""
+        key = (qa.tobytes(), qb.tobytes())
+        if key not in self._vias:
+            self._vias[key] = _upright_vias(self.chk, qa, qb, self.box)
+        return self._vias[key]
+
+
+def order_joined(
+    chk: cells.Checker,
+    q: np.ndarray,
+    box: np.ndarray,
+    speed: float,
+    accel: float,
+    verdicts: MoveVerdicts | None = None,
+) -> Ordered:
+    """The poses in a short-time order, vias where a direct move is unsafe, and what stays unjoined.
+
+    The order is made at the given speed (rad/s) and acceleration (rad/s^2);
+    an unsafe move is forbidden and the order made again (up to 8 times),
+    then turned so that the way back from the last pose to the first is
+    safe; a move still unsafe gets vias through the arm held upright
+    (:func:`_upright_vias`, every via within ``box`` (6, 2), rad). The moves
+    neither makes safe are returned, not raised: the planner replaces one of
+    their poses.
+
+    Parameters
+    ----------
+    chk : calibrator.cell.Checker
+    q : ndarray, shape (N, 6)
+        The poses, rad.
+    box : ndarray, shape (6, 2)
+        Joint ranges the vias keep within, rad.
+    speed, accel : float
+    verdicts : MoveVerdicts, optional
+        Checks made before (by joint values), reused and added to.
+    """
+    verdicts = MoveVerdicts(chk, box) if verdicts is None else verdicts
     times = cells.time_matrix(q, speed, accel)
     verdict: dict[tuple[int, int], np.ndarray] = {}
     order = cells.order_poses(times)
@@ -32,8 +134,7 @@ def order_safely(
         new = [e for e in edges if e not in verdict]
         if new:
             a, b = np.array(new).T
-            faults = cells.motion_faults(chk, q[a], q[b])
-            for e, f in zip(new, faults, strict=True):
+            for e, f in zip(new, verdicts.direct(q[a], q[b]), strict=True):
                 verdict[e] = verdict[e[::-1]] = f
         bad = [e for e in edges if verdict[e].any()]
         if not bad or attempt == 7:
@@ -41,26 +142,29 @@ def order_safely(
         for a, b in bad:
             times[a, b] = times[b, a] = np.inf
         order = cells.order_poses(times)
-    order = _close_safely(chk, q, order, times, verdict)
-    vias = []
+    order = _close_safely(verdicts, q, order, times, verdict)
+    vias, unjoined = [], []
     for k, i in enumerate(order):
         if k == 0 or not verdict[(int(order[k - 1]), int(i))].any():
             vias.append(np.zeros((0, 6)))
             continue
         a, b = int(order[k - 1]), int(i)
-        via = _upright_vias(chk, q[a], q[b], box)
+        via = verdicts.vias(q[a], q[b])
         if via is None:
-            reason = cells.MOTION_REASONS[int(np.argmax(verdict[(a, b)]))]
-            raise PlanError(
-                f"no safe move between poses {k - 1} and {k} ({reason} along the joint-space line) "
-                "in any order tried, nor through the arm held upright; change the cell or the poses"
-            )
+            unjoined.append((a, b, cells.MOTION_REASONS[int(np.argmax(verdict[(a, b)]))]))
+            via = np.zeros((0, 6))
         vias.append(via)
-    return Plan(q[order], tuple(vias))
+    if len(order) > 1:
+        # A program returns home (the first pose) from the last along the line, without vias.
+        last, first = int(order[-1]), int(order[0])
+        if verdict[(last, first)].any():
+            reason = cells.MOTION_REASONS[int(np.argmax(verdict[(last, first)]))]
+            unjoined.append((last, first, reason))
+    return Ordered(Plan(q[order], tuple(vias)), np.asarray(order), tuple(unjoined))
 
 
 def _close_safely(
-    chk, q: np.ndarray, order: np.ndarray, times: np.ndarray, verdict: dict
+    verdicts: MoveVerdicts, q: np.ndarray, order: np.ndarray, times: np.ndarray, verdict: dict
 ) -> np.ndarray:
     """``order`` turned so that the move from its last pose back to its first is safe.
 
@@ -75,7 +179,7 @@ def _close_safely(
         return order
     first, last = int(order[0]), int(order[-1])
     if (last, first) not in verdict:
-        faults = cells.motion_faults(chk, q[last][None], q[first][None])[0]
+        faults = verdicts.direct(q[last][None], q[first][None])[0]
         verdict[(last, first)] = verdict[(first, last)] = faults
     if not verdict[(last, first)].any():
         return order
@@ -87,18 +191,26 @@ def _close_safely(
     return np.roll(order, -(k + 1))
 
 
-def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
+def _rise_paths(chk, q: np.ndarray, box: np.ndarray | None = None) -> list[np.ndarray]:
     """Ways up from each pose of ``q`` (N, 6): via lists (N, k, 6).
 
     Each ends with the arm upright and the wrist neutral (joints 1 and 6 as
     in ``q``), where turning joints 1 and 6 to another pose's is safe: shoulder
     and elbow together, elbow first, or shoulder first, then the wrist.
+    Upright and neutral are taken within ``box`` (6, 2), rad, when given: an
+    arm whose elbow cannot stand straight up holds it at its limit (the IRB
+    2400's joint 3 at -60 deg), outside the margin the vias keep, and
+    without this no via of it was ever used.
     """
     up2, up3 = chk.geometry.upright_rad
+    wrist4, wrist5 = chk.geometry.neutral_wrist_rad
+    if box is not None:
+        up2, up3 = np.clip((up2, up3), box[1:3, 0], box[1:3, 1])
+        wrist4, wrist5 = np.clip((wrist4, wrist5), box[3:5, 0], box[3:5, 1])
     upright = q.copy()
     upright[:, 1:3] = (up2, up3)
     neutral = upright.copy()
-    neutral[:, 3:5] = chk.geometry.neutral_wrist_rad
+    neutral[:, 3:5] = (wrist4, wrist5)
     elbow, shoulder = q.copy(), q.copy()
     elbow[:, 2] = up3
     shoulder[:, 1] = up2
@@ -109,10 +221,10 @@ def _rise_paths(chk, q: np.ndarray) -> list[np.ndarray]:
     ]
 
 
-def can_rise(chk: cells.Checker, q: np.ndarray) -> np.ndarray:
+def can_rise(chk: cells.Checker, q: np.ndarray, box: np.ndarray | None = None) -> np.ndarray:
     """Which poses of ``q`` (N, 6) have a safe way up (:func:`_rise_paths`), shape (N,) bool."""
     ok = np.zeros(len(q), dtype=bool)
-    for vias in _rise_paths(chk, q):
+    for vias in _rise_paths(chk, q, box):
         todo = np.flatnonzero(~ok)
         if not todo.size:
             break
@@ -134,8 +246,8 @@ def _upright_vias(chk, qa: np.ndarray, qb: np.ndarray, box: np.ndarray) -> np.nd
     """
     # Up from qa, across upright, down to qb (the way up reversed): each way up
     # of qa with each of qb, shortest first.
-    ups_a = [v[0] for v in _rise_paths(chk, qa[None])]
-    ups_b = [v[0][::-1] for v in _rise_paths(chk, qb[None])]
+    ups_a = [v[0] for v in _rise_paths(chk, qa[None], box)]
+    ups_b = [v[0][::-1] for v in _rise_paths(chk, qb[None], box)]
     tries = sorted(([*a, *b] for a in ups_a for b in ups_b), key=len)
     for vias in tries:
         via = np.array(vias)

@@ -37,12 +37,17 @@ class PlanOrigin:
     model_sha256 : str, optional
         The description's digest (:attr:`calibrator.robots.RobotDescription.digest`):
         the same name with other kinematics, limits or body is another arm.
+    guessed_geometry : str, optional
+        What of the arm's collision body was guessed when the plan was checked
+        (:attr:`calibrator.robots.Body.guessed`: a URDF's meshes missing);
+        None: fitted to the arm's geometry. Its file's ``geometry`` column.
     """
 
     model: str
     tool_mm: tuple[float, float, float]
     tracker_at_mm: tuple[float, float, float] | None = None
     model_sha256: str | None = None
+    guessed_geometry: str | None = None
 
 
 @dataclass(frozen=True)

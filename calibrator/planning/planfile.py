@@ -55,6 +55,9 @@ ORIGIN_COLUMNS = (
 JOINTS_COLUMN = "joints"
 #: The values of :data:`JOINTS_COLUMN`: the controller's angles, or the model's.
 JOINTS = ("controller", "model")
+#: Column of a plan file made with guessed collision geometry (a URDF's meshes
+#: missing), after the :data:`ORIGIN_COLUMNS`: ``guessed: <what>`` on every row.
+GEOMETRY_COLUMN = "geometry"
 #: A run's tracker farther than this from the plan's is another cell, mm (the
 #: whole-plan check then re-checks every aim with the run's position anyway).
 ORIGIN_TOLERANCE_MM = 50.0
@@ -241,7 +244,9 @@ def _read_origin(path) -> PlanOrigin | None:
         missing = [c for c in ORIGIN_COLUMNS if c not in fields]
         if missing:
             raise PlanError(f"{path}: has a model column but not {', '.join(missing)}")
-        rows = {tuple(str(r[c]).strip() for c in ORIGIN_COLUMNS) for r in reader}
+        records = list(reader)
+        rows = {tuple(str(r[c]).strip() for c in ORIGIN_COLUMNS) for r in records}
+        guessed = str(records[0].get(GEOMETRY_COLUMN) or "").strip() if records else ""
     if len(rows) != 1:
         raise PlanError(f"{path}: the model, tracker and tool columns differ between rows")
     model, digest, *numbers = rows.pop()
@@ -268,6 +273,7 @@ def _read_origin(path) -> PlanOrigin | None:
         (float(tool[0]), float(tool[1]), float(tool[2])),
         None if tracker is None else (float(tracker[0]), float(tracker[1]), float(tracker[2])),
         digest or None,
+        guessed.removeprefix("guessed:").strip()[:500] or None,
     )
 
 
@@ -395,12 +401,16 @@ def plan_text(plan: Plan, arm: Any = None) -> str:
             *(repr(float(v)) if v != "" else "" for v in tracker),
         )
         origin += tuple(repr(float(v)) for v in o.tool_mm)
+    if plan.origin is not None and plan.origin.guessed_geometry:
+        # Checked against a guess of the arm's shape: said on every row, as the origin is.
+        origin += (f"guessed: {plan.origin.guessed_geometry}",)
     # Before the joints: a reader taking the last six columns still finds them there.
+    columns = (*ORIGIN_COLUMNS, GEOMETRY_COLUMN)[: len(origin)]
     if origin:
         # Beside the model column, which alone marked earlier versions' model angles.
         origin += ("controller",)
-    header = ("pose", "via", *((*ORIGIN_COLUMNS, JOINTS_COLUMN) if origin else ()))
-    writer.writerow((*header, *JOINT_COLUMNS))
+        columns += (JOINTS_COLUMN,)
+    writer.writerow(("pose", "via", *columns, *JOINT_COLUMNS))
     for i, (q, vias) in enumerate(zip(plan.q_rad, plan.via_rad, strict=True)):
         for v in convention.to_controller(vias):
             writer.writerow(("", 1, *origin, *(repr(float(x)) for x in v)))

@@ -18,8 +18,13 @@ from numpy.typing import ArrayLike
 
 from calibrator import cell as cells
 from calibrator.cell.timing import CellTime
-from calibrator.planning.design import Observability, observability, select_d_optimal
-from calibrator.planning.ordering import can_rise, order_safely
+from calibrator.planning.design import (
+    Observability,
+    leave_one_out,
+    observability,
+    select_d_optimal,
+)
+from calibrator.planning.ordering import MoveVerdicts, can_rise, order_joined
 from calibrator.planning.plan import Plan, PlanError, PlanOrigin, point
 from calibrator.planning.sampling import distinct, joint_box, sample
 
@@ -48,6 +53,10 @@ class PlanReport:
         Scaled identification Jacobian of the plan's poses on ``names``.
     selection_time, ordered_time : calibrator.cell.CellTime
         Estimated run time in the selection order and in the plan's order.
+    unjoined : int
+        Chosen poses replaced because no safe move joined them to the others
+        (directly, in any order tried, or through the arm held upright); also
+        counted in ``dropped`` as ``no safe move``.
     """
 
     plan: Plan
@@ -57,6 +66,7 @@ class PlanReport:
     blocks: np.ndarray
     selection_time: CellTime
     ordered_time: CellTime
+    unjoined: int = 0
 
 
 def make_checked(
@@ -87,7 +97,8 @@ def make_checked(
     parameters; they are then ordered to minimise the move time at the
     model's speed and acceleration caps, and every move between consecutive
     poses is checked along its joint-space line: an unsafe move is avoided by
-    another order, else by two vias with the arm upright, else refused.
+    another order, else by vias with the arm upright, else one of its poses is
+    replaced by the next best candidate (:func:`_choose_joined`).
 
     Parameters
     ----------
@@ -123,8 +134,9 @@ def make_checked(
     Raises
     ------
     PlanError
-        Too few candidates pass (with the counts per reason), the chosen
-        poses cannot determine the parameters, or a move cannot be made safe.
+        Too few candidates pass (with the counts per reason), fewer than
+        ``n`` can be joined by safe moves ("found k of n poses", with the
+        counts), or the chosen poses cannot determine the parameters.
     calibrator.cell.CellError
         The tracker is placed where the arm could reach it.
     """
@@ -149,6 +161,13 @@ def make_checked(
             if len(pool) >= 4 * n or count >= MAX_SAMPLED:
                 break
             count = min(4 * count, MAX_SAMPLED)
+    if model.controller_limits_rad is not None:
+        # A coupled joint's limits are the controller's (FANUC's J3): the model's box
+        # the candidates come from holds more than they allow.
+        inside = ~model.outside_limits(pool, -margin_rad).any(axis=1)
+        reason = "outside joint limits less margin"
+        dropped[reason] = dropped.get(reason, 0) + int((~inside).sum())
+        pool = pool[inside]
     total = len(pool) + sum(dropped.values())
     if len(pool) < n:
         counts = ", ".join(f"{reason} {k}" for reason, k in dropped.items() if k)
@@ -161,41 +180,25 @@ def make_checked(
     reference = np.random.default_rng(0).uniform(box[:, 0], box[:, 1], (64, 6))
     full = observability(model.mdh, np.vstack([reference, pool]), _tool(tool_mm), names=names)
     obs = Observability(full.names, full.blocks[len(reference) :])
-    # Any two poses must be joinable: through the arm upright if not directly. A pose
-    # the arm cannot leave upwards safely (the shoulder past horizontal on the far
-    # side, where the way up turns through the floor) is dropped and the choice made
-    # again; checked on the chosen poses only (a motion check per candidate is slow).
-    usable = np.ones(len(pool), dtype=bool)
-    rng = np.random.default_rng(seed)
-    while True:
-        left = np.flatnonzero(usable)
-        if len(left) < n:
-            raise PlanError(
-                f"only {len(left)} of {total} candidates pass the cell's checks and have a safe "
-                f"way up; {n} asked (more candidates or another tracker position?)"
-            )
-        if selection == "first":
-            picks = left[:n]
-        elif selection == "random":
-            picks = left[rng.permutation(len(left))[:n]]
-        else:
-            picks = left[select_d_optimal(obs.blocks[left], n)]
-        stuck = picks[~can_rise(chk, pool[picks])]
-        if not stuck.size:
-            break
-        usable[stuck] = False
-    dropped["no safe way up"] = int((~usable).sum())
-    blocks = obs.blocks[picks]
-    _check_rank(blocks, obs.names, n, len(pool))
-    chosen = pool[picks]
     speed, accel = model.move_speed_cap_rad_s, model.move_accel_cap_rad_s2
-    plan = order_safely(chk, chosen, box, speed, accel)
+    chosen_at, plan, unjoined = _choose_joined(
+        chk, pool, obs, n, box, selection, seed, speed, accel, total, dropped
+    )
+    blocks = obs.blocks[chosen_at]
+    _check_rank(blocks, obs.names, n, len(pool))
+    chosen = pool[chosen_at]
     # What the plan's checks held for, recorded in its file (read_plan, made_for).
     at = cell.tracker_at_mm
     plan = Plan(
         plan.q_rad,
         plan.via_rad,
-        PlanOrigin(model.name, point(tool_mm), None if at is None else point(at), model.digest),
+        PlanOrigin(
+            model.name,
+            point(tool_mm),
+            None if at is None else point(at),
+            model.digest,
+            guessed_geometry(model),
+        ),
     )
     # The estimate at the speeds the run will move at (the order is made at the ceilings).
     speed = speed if speed_rad_s is None else speed_rad_s
@@ -213,11 +216,173 @@ def make_checked(
         ordered_time=cells.cell_time(
             plan.path_rad, n, speed, accel, settle_s=settle_s, readings=readings, rate_hz=rate_hz
         ),
+        unjoined=unjoined,
     )
 
 
 #: Most candidates :func:`make_checked` samples on its own.
 MAX_SAMPLED = 400_000
+#: Most orderings of a choice :func:`make_checked` makes: each that leaves a move
+#: unsafe drops at least one candidate, so the choice ends anyway; this bounds the
+#: time spent on a cell that leaves few joinable poses (an ordering takes about a second).
+MAX_ROUNDS = 40
+
+
+def _choose_joined(
+    chk: cells.Checker,
+    pool: np.ndarray,
+    obs: Observability,
+    n: int,
+    box: np.ndarray,
+    selection: str,
+    seed: int,
+    speed: float,
+    accel: float,
+    total: int,
+    dropped: dict,
+) -> tuple[np.ndarray, Plan, int]:
+    """``n`` candidates any two of which a safe move joins, chosen and ordered.
+
+    Any two poses must be joinable: directly, or through the arm held upright.
+    A chosen pose the arm cannot leave upwards safely (the shoulder past
+    horizontal on the far side, where the way up turns through the floor) is
+    dropped and the choice made again; so is one pose of each move the order
+    leaves unsafe (directly, in any order tried, and through the arm upright),
+    with the poses no safe move joins to the other one (:func:`_to_replace`).
+    The choice among the candidates left is then made again, so the plan
+    stays the selection's best of what can be joined. Checked on the chosen
+    poses only (a motion check per candidate is slow). Each round drops at
+    least one candidate, so the choice ends; at most :data:`MAX_ROUNDS`
+    orderings are made.
+
+    Parameters
+    ----------
+    chk : calibrator.cell.Checker
+    pool : ndarray, shape (C, 6)
+        Candidates that pass every pose check, rad.
+    obs : Observability
+        Their Jacobian blocks.
+    n : int
+    box : ndarray, shape (6, 2)
+        Joint ranges (limits less the margin), rad.
+    selection, seed
+        As :func:`make_checked`'s.
+    speed, accel : float
+        Of the ordering, rad/s and rad/s^2.
+    total : int
+        Candidates considered (for the message).
+    dropped : dict
+        Counts per reason; gains ``no safe way up`` and ``no safe move``.
+
+    Returns
+    -------
+    chosen : ndarray, shape (n,)
+        Rows of ``pool``, in the selection's order.
+    plan : Plan
+    unjoined : int
+        Chosen poses replaced because no safe move joined them to the others.
+
+    Raises
+    ------
+    PlanError
+        Fewer than ``n`` candidates left that can be joined ("found k of n"),
+        or no joined choice within :data:`MAX_ROUNDS` orderings ("found k of
+        n", k joined in the last).
+    """
+    usable = np.ones(len(pool), dtype=bool)
+    risen = np.zeros(len(pool), dtype=bool)  # a safe way up found
+    shuffled = np.random.default_rng(seed).permutation(len(pool))
+    verdicts = MoveVerdicts(chk, box)
+    no_way_up = unjoined = joined = rounds = 0
+    reasons: dict[str, int] = {}
+    while rounds < MAX_ROUNDS:
+        left = np.flatnonzero(usable)
+        if len(left) < n:
+            raise PlanError(
+                f"found {len(left)} of {n} poses: of {total} candidates {len(pool)} pass the "
+                f"cell's checks, {no_way_up} of them have no safe way up"
+                + _unjoined_text(unjoined, reasons)
+                + "; more candidates, another tracker position or fewer poses?"
+            )
+        if selection == "first":
+            picks = left[:n]
+        elif selection == "random":
+            picks = shuffled[usable[shuffled]][:n]
+        else:
+            picks = left[select_d_optimal(obs.blocks[left], n)]
+        todo = picks[~risen[picks]]
+        if todo.size:
+            up = can_rise(chk, pool[todo], box)
+            risen[todo[up]] = True
+            if not up.all():
+                usable[todo[~up]] = False
+                no_way_up += int((~up).sum())
+                continue
+        # Poses without a way up go a round each too, but cost no ordering: not counted.
+        rounds += 1
+        ordered = order_joined(chk, pool[picks], box, speed, accel, verdicts)
+        if not ordered.unjoined:
+            dropped["no safe way up"] = no_way_up
+            dropped["no safe move"] = unjoined
+            return picks, ordered.plan, unjoined
+        out = _to_replace(pool[picks], obs.blocks[picks], ordered.unjoined, verdicts)
+        for _a, _b, reason in ordered.unjoined:
+            reasons[reason] = reasons.get(reason, 0) + 1
+        usable[picks[out]] = False
+        unjoined += len(out)
+        joined = n - len(out)
+    raise PlanError(
+        f"found {joined} of {n} poses joined by safe moves after {MAX_ROUNDS} choices"
+        + _unjoined_text(unjoined, reasons)
+        + "; more candidates, another tracker position or fewer poses?"
+    )
+
+
+def _unjoined_text(unjoined: int, reasons: dict) -> str:
+    """``, no safe move joined k to the others (reason count, ...)`` or nothing."""
+    if not unjoined:
+        return ""
+    why = ", ".join(f"{reason} {k}" for reason, k in reasons.items())
+    return f", no safe move joined {unjoined} to the other poses ({why})"
+
+
+def _to_replace(
+    q: np.ndarray, blocks: np.ndarray, unjoined: tuple, verdicts: MoveVerdicts
+) -> np.ndarray:
+    """Which chosen poses to give up for the unjoined moves, shape (k,), sorted rows of ``q``.
+
+    ``q`` (n, 6) and ``blocks`` (n, 3, P) of the chosen poses; ``unjoined``
+    moves ``(a, b, reason)`` between rows of them. Of each move whose poses
+    are both still kept, the pose a safe move joins to more of the others is
+    kept (on a tie, the one whose loss costs ``log det(J^T J)`` more); the
+    other is given up, and so is every pose no safe move joins to the kept
+    one: an obstacle that blocks the turn of the arm held upright splits the
+    poses in two, and the smaller side goes at once, not a pose a round.
+    """
+    n = len(q)
+    loss = leave_one_out(blocks)
+    out: set[int] = set()
+    for a, b, _reason in unjoined:
+        if a in out or b in out:
+            continue
+        kept = [i for i in range(n) if i not in out]
+        joins = {i: verdicts.joinable(q[i], q[kept]) for i in (a, b)}
+        keep = max((a, b), key=lambda i: (int(joins[i].sum()), loss[i]))
+        out.add(b if keep == a else a)
+        out.update(i for i, ok in zip(kept, joins[keep], strict=True) if not ok and i != keep)
+    return np.array(sorted(out), dtype=int)
+
+
+def guessed_geometry(model: robots.RobotDescription) -> str | None:
+    """What of the arm's collision body is guessed, not fitted to its geometry; None: nothing.
+
+    A URDF whose collision meshes are missing (or that has no collision
+    geometry) gets capsules drawn along its links between the joints
+    (:func:`calibrator.robots.urdf.fit_body`): every pose and move is then
+    checked against that guess, which ``plan`` and ``measure`` say.
+    """
+    body = model.body
+    return body.guessed or None if body is not None else None
 
 
 def _passing(chk, pool: np.ndarray, box: np.ndarray) -> tuple[np.ndarray, dict]:

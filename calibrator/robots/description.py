@@ -96,6 +96,11 @@ class Body:
         Margin already added to every radius (stated, for fitted bodies).
     source : str
         Where the radii come from.
+    guessed : str
+        What of the body is guessed rather than fitted to the arm's geometry
+        (a URDF's links drawn as capsules along the joints: its collision
+        meshes not found, or none given), said by ``plan`` and ``measure``;
+        empty when nothing is. Not part of the digest: ``source`` says it too.
     """
 
     capsules: tuple[Capsule, ...]
@@ -105,6 +110,7 @@ class Body:
     shoulder_mm: tuple[float, float, float]
     margin_mm: float = 0.0
     source: str = ""
+    guessed: str = ""
 
 
 @dataclass(frozen=True)

@@ -868,7 +868,21 @@ def fit_body(
         shoulder_mm=(0.0, 0.0, float(d1_point[2] - shift)),
         margin_mm=margin_mm,
         source=_body_source(chain, bare, margin_mm, missing),
+        guessed=_guessed(bare, missing),
     )
+
+
+def _guessed(bare: list[int], missing: list[str]) -> str:
+    """What :attr:`Body.guessed` says: links drawn along the joints, meshes not found; or empty."""
+    if not bare and not missing:
+        return ""
+    why = "no collision geometry"
+    if missing:
+        more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
+        why = f"collision meshes not found ({missing[0]}{more})"
+    if not bare:
+        return why
+    return f"links {', '.join(map(str, bare))} are capsules drawn along the joints: {why}"
 
 
 def _bare_base_top(model_frames: np.ndarray) -> float:

@@ -105,3 +105,15 @@ def test_an_uncoupled_arm_names_a_breach_in_its_controllers_angles():
     q_ctrl[0, 0] = hi + 0.1  # A1 beyond its upper limit: the model's joint 1 beyond its lower
     row, what = kuka.limit_breach(kuka.convention.to_model(q_ctrl))
     assert what == f"joint 1: {hi + 0.1:.6g} rad outside [{lo:.6g}, {hi:.6g}]"
+
+
+def test_a_plan_for_the_coupled_arm_keeps_the_controllers_j3_limits(arm):
+    from calibrator import cell as cells
+
+    made = planning.make_checked(
+        arm, 12, cells.Cell(tracker_at_mm=(4500.0, 0.0, 500.0)), (0.0, 0.0, 100.0), seed=2
+    )
+    q_ctrl = arm.convention.to_controller(made.plan.path_rad)
+    lo, hi = arm.controller_limits_rad.T
+    assert np.all((q_ctrl >= lo) & (q_ctrl <= hi))
+    assert not arm.outside_limits(made.plan.path_rad).any()
