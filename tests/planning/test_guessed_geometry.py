@@ -45,7 +45,7 @@ def test_a_urdf_with_a_missing_mesh_plans_with_its_guess_said_and_recorded(tmp_p
     # In the file, on every row (the joints stay the last six columns), and read back.
     rows = _rows(tmp_path / "p.csv")
     assert {r["geometry"] for r in rows} == {f"guessed: {guess}"}
-    assert list(rows[0])[-7:] == ["geometry", *planning.JOINT_COLUMNS]
+    assert list(rows[0])[-8:] == ["geometry", "joints", *planning.JOINT_COLUMNS]
     assert planning.read_plan(tmp_path / "p.csv").origin.guessed_geometry == guess
 
 
