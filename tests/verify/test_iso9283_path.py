@@ -184,3 +184,13 @@ def test_a_tracker_only_stream_is_aligned_to_the_commanded_path_timing():
     p = ip.commanded_reference(LINE, 120.0, t0_s=start)(t)
     tau = ip.estimate_latency(t, p, ip.commanded_reference(LINE, 120.0), max_latency_s=0.5)
     assert tau == pytest.approx(start, abs=1e-5)
+
+
+def test_a_longer_speed_chord_averages_the_noise_out_of_the_fluctuation():
+    rng = np.random.default_rng(9)
+    clean = _rippled_line(LINE.length_mm / 5.0, 0.0, 1.0)
+    noisy = ip.Stream(clean.t_s, clean.p_mm + rng.normal(0.0, 0.005, clean.p_mm.shape))
+    single = ip.velocity_figures(LINE, [noisy], v_c_mm_s=100.0)["FV_mm_s"]
+    chord = ip.velocity_figures(LINE, [noisy], v_c_mm_s=100.0, step=20)["FV_mm_s"]
+    assert single > 20.0  # 5 um over 1 ms: noise alone
+    assert chord < single / 10.0
