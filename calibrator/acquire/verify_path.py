@@ -33,6 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
+import pandas as pd
 
 from calibrator import compensate, iso9283
 from calibrator import iso9283_path as ip
@@ -50,12 +51,18 @@ CIRCLE_RADIUS_FRACTION = 0.3
 HOLD_S = 0.3
 #: Calculated points per path (clause 7.2's m).
 POINTS = 100
-#: Part of the path on which the speed is taken as constant (7.6), as fractions of its length.
+#: Part of the path (of a rectangle's first side) on which the speed is taken as constant
+#: (7.6), as fractions of its length.
 SPEED_STRETCH = (0.1, 0.9)
 #: Speed chord, samples of the stream (20 ms at 500 Hz): the tracker's noise over a
 #: 2 ms chord alone would swing the speed by several mm/s.
 SPEED_STEP = 10
-SHAPES = ("line", "circle")
+SHAPES = ("line", "circle", "rectangle")
+#: Columns of the recorded streams (verify.parquet beside a path test's verify.json).
+STREAM_COLUMNS = ("cycle", "n", "t_s", "x_mm", "y_mm", "z_mm")
+#: Keep the calculated points this far from a rectangle's corners, mm (7.2 at the corners
+#: is 7.5's business).
+CORNER_MARGIN_MM = 5.0
 
 
 class PathTracker(Protocol):
@@ -99,7 +106,8 @@ class PathTest:
 
 
 def test_path(shape: str, cube: iso9283.Cube, rotation: npt.ArrayLike) -> ip.CommandedPath:
-    """The commanded ``line`` (P2 to P4) or ``circle`` (about P1) in the cube's test plane, mm."""
+    """The commanded ``line`` (P2 to P4), ``circle`` (about P1) or ``rectangle``
+    (P2, P3, P4, P5 and back) in the cube's test plane, base frame, mm."""
     p = iso9283.test_positions(cube.centre_mm, cube.side_mm)
     if shape == "line":
         return ip.line(p[1], p[3])
@@ -107,6 +115,9 @@ def test_path(shape: str, cube: iso9283.Cube, rotation: npt.ArrayLike) -> ip.Com
         # The plane holds P2..P5: its normal is across the two diagonals.
         normal = np.cross(p[1] - p[3], p[2] - p[4])
         return ip.circle(p[0], normal, CIRCLE_RADIUS_FRACTION * cube.side_mm, p[1] - p[0])
+    if shape == "rectangle":
+        # P2..P5 are the corners of a rectangle in the plane (10 % in from its corners).
+        return ip.rectangle(p[1:5])
     raise CalibrationError(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
 
 
@@ -153,7 +164,7 @@ def run(
     test: PathTest,
     cycles: int,
     tracker2base: npt.ArrayLike,
-) -> dict:
+) -> tuple[dict, pd.DataFrame]:
     """Run ``cycles`` cycles of the path on the simulated cell and compute the figures.
 
     Parameters
@@ -170,8 +181,11 @@ def run(
 
     Returns
     -------
-    dict
+    section : dict
         The ``path`` section of verify.json (see :func:`figures`).
+    streams : pandas.DataFrame
+        The aligned streams, :data:`STREAM_COLUMNS`: cycle (from 1), tick
+        number, time from the aligned start (s), position (base frame, mm).
     """
     if cycles < 2:
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
@@ -180,7 +194,7 @@ def run(
     duration = float(test.t_s[-1])
     count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
     t2b = np.asarray(tracker2base, dtype=float)
-    streams, starts = [], []
+    streams, starts, ticks = [], [], []
     reference = ip.commanded_reference(test.path, test.speed_mm_s)
     for _ in range(cycles):
         told_us = tracker.run_path(test.t_s, points_tracker, delay_s=HOLD_S)
@@ -199,13 +213,31 @@ def run(
         starts.append(start)
         inside = (t >= start) & (t <= start + duration)
         streams.append(ip.Stream(t[inside] - start, p[inside]))
-    return figures(test, streams, starts, cycles)
+        ticks.append(rec.n[ok][inside])
+    table = pd.DataFrame(
+        {
+            "cycle": np.repeat(np.arange(1, cycles + 1), [len(st.t_s) for st in streams]),
+            "n": np.concatenate(ticks),
+            "t_s": np.concatenate([st.t_s for st in streams]),
+            **{
+                f"{axis}_mm": np.concatenate([st.p_mm[:, k] for st in streams])
+                for k, axis in enumerate("xyz")
+            },
+        },
+        columns=list(STREAM_COLUMNS),
+    )
+    return figures(test, streams, starts, cycles), table
 
 
 def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
     """The ``path`` section: commanded path, the clause 7 figures, per-point accuracy."""
-    pf = ip.path_figures(test.path, streams, m=POINTS)
-    lo, hi = (f * test.path.length_mm for f in SPEED_STRETCH)
+    corners = isinstance(test.path, ip.Polyline) and len(test.path.corner_s_mm) > 0
+    margin = CORNER_MARGIN_MM if corners else 0.0
+    pf = ip.path_figures(test.path, streams, m=POINTS, margin_mm=margin)
+    # The speed on a straight stretch away from the start, the stop and any corner:
+    # the first segment of a rectangle (a chord across a corner is shorter than the path).
+    first = test.path.corner_s_mm[0] if corners else test.path.length_mm
+    lo, hi = (f * first for f in SPEED_STRETCH)
     vf = ip.velocity_figures(
         test.path, streams, test.speed_mm_s, stretch_mm=(lo, hi), step=SPEED_STEP
     )
@@ -217,6 +249,15 @@ def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
         }
     else:
         commanded = {"vertices_mm": test.path.vertices_mm.tolist()}
+    extra: dict = {}
+    if corners:
+        assert isinstance(test.path, ip.Polyline)
+        cf = ip.corner_figures(test.path, streams)
+        extra = {
+            "CR_mm": cf["CR_max_mm"].tolist(),
+            "CO_mm": cf["CO_max_mm"].tolist(),
+            "corners_mm": test.path.vertices_mm[1:-1].tolist(),
+        }
     return {
         "shape": test.shape,
         "frame": "robot base (the model's)",
@@ -237,4 +278,5 @@ def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
             "RT_mm": pf["RT_i_mm"].tolist(),
         },
         "start_s": [float(s) for s in starts],  # found start less the one requested
+        **extra,
     }

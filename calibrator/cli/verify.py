@@ -123,10 +123,10 @@ def verify(
     path_shape: str = typer.Option(
         None,
         "--path",
-        metavar="line|circle",
-        help="Run the ISO 9283 path test instead of the pose test: a line from P2 to P4 "
-        "or a circle about P1 in the cube's test plane, streamed by the tracker "
-        "(simulated cell only; docs/verify.md).",
+        metavar="line|circle|rectangle",
+        help="Run the ISO 9283 path test instead of the pose test: a line from P2 to P4, "
+        "a circle about P1 or the rectangle P2..P5 in the cube's test plane, streamed by "
+        "the tracker (simulated cell only; docs/verify.md).",
     ),
     path_speed: float = typer.Option(
         100.0,

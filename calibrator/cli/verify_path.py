@@ -80,7 +80,7 @@ def run(
         raise CalibrationError(f"--path needs the simulated tracker, not {tracker_url}")
     try:
         tracker.connect()
-        section = verify_path.run(tracker, world, test, cycles, registration.tracker2base)
+        section, table = verify_path.run(tracker, world, test, cycles, registration.tracker2base)
     finally:
         tracker.close()
     doc = {
@@ -95,7 +95,11 @@ def run(
     figures = [section[k] for k in ("AT_P_mm", "RT_P_mm", "AV_pct", "RV_pct", "FV_mm_s")]
     if not np.all(np.isfinite(figures)):
         raise CalibrationError("the path test gave a non-finite figure: no document from it")
-    outputs.write_text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n", inputs)
+    data = pose_run.data_path(output)
+    doc["data"] = data.name
+    with outputs.Outputs(inputs=inputs) as batch:  # both files or neither
+        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        batch.file(data, lambda tmp: table.to_parquet(tmp, index=False))
     state = "compensated" if test.compensated else "nominal"
     typer.echo(
         f"ISO 9283 path ({shape}, {section['commanded']['length_mm']:.1f} mm at "
@@ -107,4 +111,10 @@ def run(
         f"AV {section['AV_pct']:+.3f} %   RV {section['RV_pct']:.3f} %   "
         f"FV {section['FV_mm_s']:.3f} mm/s"
     )
-    typer.echo(f"wrote {output}")
+    if "CR_mm" in section:
+        corners = "  ".join(
+            f"C{k + 1} CR {cr:.4f} CO {co:.4f}"
+            for k, (cr, co) in enumerate(zip(section["CR_mm"], section["CO_mm"], strict=True))
+        )
+        typer.echo(f"corners, mm (worst cycle): {corners}")
+    typer.echo(f"wrote {output} and {data}")

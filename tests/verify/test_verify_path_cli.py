@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+import pandas as pd
 import pytest
 from cli_kit import cli, one_line_error
 
@@ -65,7 +67,7 @@ def test_the_circle_test_runs_in_the_same_plane(tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (("--path", "square"), "--path must be one of line, circle"),
+        (("--path", "square"), "--path must be one of line, circle, rectangle"),
         (("--path", "line", "--path-speed", "0"), "--path-speed must be in"),
         (("--path", "line", "--tracker", "socket://127.0.0.1:9"), "simulated cell only"),
         (("--path", "line", "--history", "h.db"), "not recorded in a history"),
@@ -76,3 +78,55 @@ def test_path_options_it_cannot_run_are_refused_in_one_line(tmp_path, args, mess
     assert done.code == 2
     assert message in one_line_error(done)
     assert not (tmp_path / "v.json").exists()
+
+
+def _crossing(p: np.ndarray, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Where the sampled path p (K, 3) crosses the plane through c normal to t, nearest c."""
+    best, where = np.inf, None
+    d = (p - c) @ t
+    for k in np.flatnonzero(np.sign(d[:-1]) != np.sign(d[1:])):
+        x = p[k] + d[k] / (d[k] - d[k + 1]) * (p[k + 1] - p[k])
+        if np.linalg.norm(x - c) < best:
+            best, where = np.linalg.norm(x - c), x
+    return where
+
+
+def test_the_recorded_rectangle_streams_give_the_same_figures_computed_independently(tmp_path):
+    done = cli("verify", "--seed", SEED, "--path", "rectangle", *FAST, "-o", "r.json", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert "corners, mm" in done.stdout
+    doc = json.loads((tmp_path / "r.json").read_text())
+    path = doc["path"]
+    table = pd.read_parquet(tmp_path / doc["data"])
+    assert list(table.columns) == ["cycle", "n", "t_s", "x_mm", "y_mm", "z_mm"]
+    cycles = [g[["x_mm", "y_mm", "z_mm"]].to_numpy() for _, g in table.groupby("cycle")]
+    v = np.array(path["commanded"]["vertices_mm"])
+    seg_len = np.linalg.norm(np.diff(v, axis=0), axis=1)
+    starts = np.concatenate([[0.0], np.cumsum(seg_len)])
+    at, rt = [], []
+    for s in path["points"]["s_mm"]:
+        k = min(np.searchsorted(starts, s, side="right") - 1, len(seg_len) - 1)
+        t = (v[k + 1] - v[k]) / seg_len[k]
+        c = v[k] + (s - starts[k]) * t
+        x = np.array([_crossing(p, c, t) for p in cycles])
+        bar = x.mean(axis=0)
+        at.append(np.linalg.norm(bar - c))
+        dist = np.linalg.norm(x - bar, axis=1)
+        rt.append(dist.mean() + 3 * dist.std(ddof=1))
+    assert path["AT_P_mm"] == pytest.approx(max(at), abs=1e-6)
+    assert path["RT_P_mm"] == pytest.approx(max(rt), abs=1e-6)
+    for j, corner in enumerate(v[1:-1]):
+        u1 = (corner - v[j]) / seg_len[j]
+        u2 = (v[j + 2] - corner) / seg_len[j + 1]
+        out = u1 - (u1 @ u2) * u2
+        out /= np.linalg.norm(out)
+        cr, co = [], []
+        for p in cycles:
+            a, b = p[:-1] - corner, p[1:] - corner
+            w = np.clip(-np.sum(a * (b - a), axis=1) / np.sum((b - a) ** 2, axis=1), 0, 1)
+            cr.append(np.linalg.norm(a + w[:, None] * (b - a), axis=1).min())
+            along = (p - corner) @ u2
+            turned = (along >= 0) & (along <= seg_len[j + 1])
+            co.append(max(0.0, ((p - corner) @ out)[turned].max()))
+        assert path["CR_mm"][j] == pytest.approx(max(cr), abs=1e-6)
+        assert path["CO_mm"][j] == pytest.approx(max(co), abs=1e-6)
