@@ -9,7 +9,7 @@ runs a path through the same cube and measures it continuously:
    :data:`CIRCLE_RADIUS_FRACTION` of the edge, tool orientation constant as
    in the pose test;
 2. the controller's joint commands are those of the path's points at
-   :data:`CONTROL_HZ` at the commanded speed (nominal inverse kinematics,
+   :data:`CONTROL_HZ` at the commanded speed, and at every corner (nominal inverse kinematics,
    or compensated with a calibration: what the controller would
    interpolate);
 3. the true arm of the simulated world turns them into the probe's true path
@@ -143,6 +143,8 @@ def plan_path(
     path = test_path(shape, cube, rotation)
     duration = path.length_mm / speed_mm_s
     t = np.linspace(0.0, duration, max(int(np.ceil(duration * CONTROL_HZ)), 1) + 1)
+    # A command at every corner: between two samples either side the arm would cut it.
+    t = np.union1d(t, path.corner_s_mm / speed_mm_s)
     rot = np.asarray(rotation, dtype=float)
     desired = frames.transform(rot, path.point(speed_mm_s * t))
     limits = model.joint_limits_rad
