@@ -120,6 +120,19 @@ def verify(
         metavar="FILE|URL",
         help="Also record it in this history (docs/history.md).",
     ),
+    path_shape: str = typer.Option(
+        None,
+        "--path",
+        metavar="line|circle|rectangle",
+        help="Run the ISO 9283 path test instead of the pose test: a line from P2 to P4, "
+        "a circle about P1 or the rectangle P2..P5 in the cube's test plane, streamed by "
+        "the tracker (simulated cell only; docs/verify.md).",
+    ),
+    path_speed: float = typer.Option(
+        100.0,
+        "--path-speed",
+        help="Tool speed along --path, mm/s (the standard's 100/50/10 % of the rated speed).",
+    ),
 ) -> None:
     """ISO 9283 pose test: P5..P1 for --cycles cycles; AP and RP per test pose.
 
@@ -144,6 +157,10 @@ def verify(
     if register_path is not None and base_frame is not None:
         fail("give one registration: --register or --base-frame")
     surveyed_base = _base_frame(base_frame)
+    if path_shape is not None:
+        from calibrator.cli import verify_path
+
+        verify_path.check_options(path_shape, path_speed, robot, tracker, world, history)
     inputs = [
         p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
     ]
@@ -179,6 +196,32 @@ def verify(
     vplan = run.make_plan(
         arm, frames.transform(translation=tool_mm), cycles, given_cube, cal, tracker_at_mm, cell
     )
+    if path_shape is not None:
+        from calibrator.cli import verify_path
+
+        path_registration = None  # the simulated cell's survey
+        if cal is not None:
+            path_registration = run.from_calibration(cal, calibration_path)
+        elif reg_cal is not None:
+            path_registration = run.from_calibration(reg_cal, register_path)
+        elif surveyed_base is not None:
+            path_registration = run.surveyed(surveyed_base, f"--base-frame {base_frame}")
+        verify_path.run(
+            shape=path_shape,
+            speed_mm_s=path_speed,
+            arm=arm,
+            vplan=vplan,
+            flange2tool=frames.transform(translation=tool_mm),
+            cycles=cycles,
+            seed=seed,
+            tracker_url=tracker,
+            tracker_at_mm=tracker_at_mm,
+            calibration=cal,
+            registration=path_registration,
+            output=output,
+            inputs=inputs,
+        )
+        return
     options = run.run_options(
         vplan,
         cell=cell,

@@ -51,6 +51,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "calibrator.history",
         "calibrator.identify",
         "calibrator.iso9283",
+        "calibrator.iso9283_path",
         "calibrator.planning",
         "calibrator.program",
         "calibrator.report",

@@ -1,4 +1,4 @@
-"""Laser-tracker driver on pyserial: connect, initialise, single readings, stop.
+"""Laser-tracker driver on pyserial: connect, initialise, single readings, streams, stop.
 
 The same code runs on ``/dev/ttyUSB0``, ``socket://host:port`` and
 ``rfc2217://host:port`` because the transport comes from
@@ -37,6 +37,7 @@ from drivers.tracker.line.protocol import (
     parse_number,
     parse_reading,
 )
+from drivers.tracker.line.stream import STALL_TICKS, ReadingStream
 from drivers.tracker.recording import Recorder
 from drivers.urls import LOGGING
 from drivers.urls import parse as parse_url
@@ -306,6 +307,46 @@ class LaserTracker:
     def stop(self) -> None:
         """``STOP``: abort any measurement in progress."""
         self._query("STOP", idempotent=True)
+
+    def stream(
+        self, rate_hz: int, count: int | None = None, *, stall_timeout_s: float | None = None
+    ) -> ReadingStream:
+        """``STREAM``: continuous time-stamped readings at ``rate_hz`` until stopped.
+
+        Parameters
+        ----------
+        rate_hz : int
+            Ticks per second, 1..1000.
+        count : int, optional
+            Ticks to send before the tracker ends the stream by itself.
+        stall_timeout_s : float, optional
+            Longest silence of a running stream before it counts as stalled, s
+            (default ``STALL_TICKS`` ticks, at least 0.5 s).
+
+        Returns
+        -------
+        ReadingStream
+            Iterate it for :class:`~drivers.tracker.line.stream.StreamSample`;
+            use it in a ``with`` block so that it is stopped.
+
+        Raises
+        ------
+        TrackerError, NotInitialised, TrackerTimeout, LinkDropped, TrackerGone
+            As :meth:`measure`; after a lost or unreadable reply ``STOP`` is
+            sent, in case the tracker started.
+        """
+        args = [str(int(rate_hz))] + ([str(int(count))] if count is not None else [])
+        try:
+            self._query("STREAM", *args, idempotent=False)
+        except (TrackerTimeout, FrameError, LinkDropped):
+            try:
+                self.stop()
+            except (ConnectionLost, TrackerTimeout, FrameError, TrackerError):
+                pass  # the failure to start is what the caller hears about
+            raise
+        if stall_timeout_s is None:
+            stall_timeout_s = max(0.5, STALL_TICKS / rate_hz)
+        return ReadingStream(self, self.link.last_seq, int(rate_hz), stall_timeout_s)
 
     def send(self, command: str, *args: str, timeout_s: float | None = None) -> Reply:
         """Send any command (e.g. simulator-only ``SIM,...``) and return the ``OK`` reply.

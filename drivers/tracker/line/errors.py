@@ -24,10 +24,15 @@ from drivers.tracker.errors import (
     TargetUnstable,
     TrackerBusy,
     TrackerError,
+    TrackerTimeout,
 )
 from drivers.tracker.line.protocol import ErrorCode, Reply
 
-__all__ = ["error_from_reply"]
+__all__ = ["StreamStalled", "error_from_reply"]
+
+
+class StreamStalled(TrackerTimeout):
+    """A running stream sent no frame within its stall timeout (the driver then stops it)."""
 
 
 _ERROR_CLASSES: dict[int, type[TrackerError]] = {

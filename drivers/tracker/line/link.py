@@ -39,12 +39,15 @@ from drivers.tracker.line.protocol import (
     TERMINATOR,
     Reply,
     ReplyKind,
+    StreamFrame,
     command_body,
     decode_frame,
     encode_frame,
+    is_stream_body,
     next_seq,
     parse_command,
     parse_reply,
+    parse_stream_frame,
 )
 from drivers.tracker.recording import Recorder
 
@@ -106,11 +109,20 @@ class LinkCounters:
     discarded_bytes : int
         Received bytes thrown away: junk before a frame, over-long lines,
         input flushed at a reconnect.
+    stream_frames_dropped : int
+        Valid stream frames not handed over: of another (earlier) stream, a
+        tick number that does not move forward, or arriving while a command
+        waits for its reply (after ``STOP``).
+    bad_stream_lines : int
+        Lines read while streaming that were not valid frames (bad CRC,
+        garbled, over-long): each a lost tick, never a reading.
     """
 
     seq: int = 0
     stale_replies: int = 0
     discarded_bytes: int = 0
+    stream_frames_dropped: int = 0
+    bad_stream_lines: int = 0
 
 
 class Link:
@@ -198,6 +210,9 @@ class Link:
             body = self._decode(self._read_line(deadline, command))
             if body is None:
                 continue
+            if is_stream_body(body):
+                counters.stream_frames_dropped += 1  # a stream's tick, not this reply
+                continue
             try:
                 reply = parse_reply(body)
             except FrameError:
@@ -216,6 +231,44 @@ class Link:
             if reply.kind is ReplyKind.ER:
                 raise error_from_reply(reply, command)
             return reply
+
+    def read_stream_frame(self, stream_id: int, deadline: float) -> StreamFrame:
+        """The next frame of stream ``stream_id``, read by ``deadline`` (no command sent).
+
+        Events are kept as in :meth:`transact`; replies (no command waits) and
+        frames of other streams are dropped and counted; a line that is not a
+        valid frame is counted in ``bad_stream_lines`` and skipped, so a
+        corrupted tick is lost, never passed on.
+
+        Raises
+        ------
+        TrackerTimeout
+            No frame of this stream by the deadline.
+        ConnectionLost
+            The transport failed.
+        """
+        counters = self.counters
+        while True:
+            try:
+                body = self._decode(self._read_line(deadline, "STREAM"))
+                if body is None:
+                    continue
+                if is_stream_body(body):
+                    frame = parse_stream_frame(body)
+                    if frame.stream_id == stream_id:
+                        return frame
+                    counters.stream_frames_dropped += 1
+                    continue
+                reply = parse_reply(body)
+            except FrameError:
+                counters.bad_stream_lines += 1
+                continue
+            if reply.kind is ReplyKind.EV:
+                self.events.append(reply)
+                if self.on_event is not None:
+                    self.on_event(reply)
+            else:
+                counters.stale_replies += 1  # no command is waiting for it
 
     def discard_input(self) -> None:
         """Forget buffered bytes and anything waiting in the transport (after a reconnect)."""

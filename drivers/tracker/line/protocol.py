@@ -369,3 +369,115 @@ _STATUS_BY_TEXT = {s.value: s for s in ReadingStatus}
 
 LENGTH_UNITS = {"MM": 1.0, "M": 1000.0}  # wire unit -> mm
 ANGLE_UNITS = {"RAD": 1.0, "DEG": math.pi / 180.0}  # wire unit -> rad
+
+
+# ---------------------------------------------------------------- streams
+#
+# ``STREAM,<rate_hz>[,<count>]`` starts continuous measurement; the tracker then
+# sends one stream frame per tick until ``STOP`` (or until ``count`` samples):
+#
+#     SR,<id>,<n>,P3,<x>,<y>,<z>,<status>,<t_us>           a reading
+#     SR,<id>,<n>,P6,<x>,<y>,<z>,<rx>,<ry>,<rz>,<status>,<t_us>
+#     SR,<id>,<n>,NONE,<code>,<t_us>                       no reading at this tick
+#     SR,<id>,<n>,END,<t_us>                               the last of ``count`` was n
+#
+# ``id`` is the sequence number of the STREAM command (a frame of an earlier
+# stream is recognised and dropped), ``n`` counts the stream's ticks from 1 (a
+# gap is a lost sample, a repeat or step back a stale one).
+
+STREAM_TAG = "SR"
+MAX_STREAM_RATE_HZ = 1000  # LMF's continuous mode tops out near 1 kHz
+MAX_SAMPLE = 999_999_999
+_SAMPLE = re.compile(r"[1-9][0-9]{0,8}", re.ASCII)
+_RATE = re.compile(r"[1-9][0-9]{0,3}", re.ASCII)
+
+
+@dataclass(frozen=True)
+class StreamFrame:
+    """One parsed stream frame.
+
+    Attributes
+    ----------
+    stream_id : int
+        Sequence number of the ``STREAM`` command that started the stream.
+    n : int
+        Tick number within the stream, from 1; for an end frame, the last tick sent.
+    reading : Reading or None
+        The reading (mm, rad, tracker frame), or None at a tick without one.
+    code : int
+        0 with a reading; otherwise why there is none (:class:`ErrorCode`:
+        ``BEAM_BROKEN``, ``NO_TARGET``, ``OUT_OF_RANGE``, ...).
+    end : bool
+        The stream ended here (its requested count was sent).
+    device_time_us : int
+        Tracker clock at the tick, microseconds.
+    """
+
+    stream_id: int
+    n: int
+    reading: Reading | None
+    code: int
+    end: bool
+    device_time_us: int
+
+
+def parse_stream_rate(args: tuple[str, ...]) -> tuple[int, int | None]:
+    """``(rate_hz, count)`` from the arguments of ``STREAM`` (count None: until ``STOP``).
+
+    Raises
+    ------
+    ValueError
+        Rate not a whole number in 1..:data:`MAX_STREAM_RATE_HZ`, count not in
+        1..:data:`MAX_SAMPLE`, or another number of arguments.
+    """
+    if len(args) not in (1, 2) or not _RATE.fullmatch(args[0]):
+        raise ValueError(f"STREAM takes <rate_hz>[,<count>]: {args!r}")
+    rate = int(args[0])
+    if rate > MAX_STREAM_RATE_HZ:
+        raise ValueError(f"rate {rate} Hz above {MAX_STREAM_RATE_HZ}")
+    if len(args) == 1:
+        return rate, None
+    if not _SAMPLE.fullmatch(args[1]):
+        raise ValueError(f"count must be 1..{MAX_SAMPLE}: {args[1]!r}")
+    return rate, int(args[1])
+
+
+def stream_body(stream_id: int, n: int, *fields: str) -> str:
+    """Body ``SR,<id>,<n>,<fields...>`` of a stream frame (fields already formatted)."""
+    if not (1 <= stream_id <= SEQ_MAX and 1 <= n <= MAX_SAMPLE):
+        raise ValueError(f"stream id {stream_id} or tick {n} out of range")
+    return ",".join([STREAM_TAG, str(stream_id), str(n), *fields])
+
+
+def is_stream_body(body: str) -> bool:
+    """Whether a valid frame's body is a stream frame (``SR,...``)."""
+    return body.startswith(STREAM_TAG + ",")
+
+
+def parse_stream_frame(
+    body: str, length_scale: float = 1.0, angle_scale: float = 1.0
+) -> StreamFrame:
+    """Parse a stream frame body (its CRC already checked by :func:`decode_frame`).
+
+    Raises
+    ------
+    FrameError
+        Not ``SR``, a bad id or tick number, or bad reading fields.
+    """
+    fields = body.split(",")
+    if (
+        len(fields) < 5
+        or fields[0] != STREAM_TAG
+        or not _SEQ.fullmatch(fields[1])
+        or not _SAMPLE.fullmatch(fields[2])
+    ):
+        raise FrameError(f"bad stream frame {body[:60]!r}")
+    stream_id, n, rest = int(fields[1]), int(fields[2]), tuple(fields[3:])
+    if rest[0] == "END" and len(rest) == 2 and _TIME_US.fullmatch(rest[1]):
+        return StreamFrame(stream_id, n, None, 0, True, int(rest[1]))
+    if rest[0] == "NONE" and len(rest) == 3 and _CODE.fullmatch(rest[1]):
+        if _TIME_US.fullmatch(rest[2]) and rest[1] != "0":
+            return StreamFrame(stream_id, n, None, int(rest[1]), False, int(rest[2]))
+        raise FrameError(f"bad stream frame {body[:60]!r}")
+    reading = parse_reading(rest, length_scale, angle_scale)
+    return StreamFrame(stream_id, n, reading, 0, False, reading.device_time_us)

@@ -90,6 +90,10 @@ def _time_scale(text: str) -> float:
     return _number_within(text, 0.01, 100.0, "a time scale in 0.01..100")
 
 
+def _latency(text: str) -> float:
+    return _number_within(text, 0.0, 1.0, "a latency in 0..1 s")
+
+
 def _seed(text: str) -> int:
     if not text.isascii() or not text.isdigit():
         raise argparse.ArgumentTypeError(f"seed must be a whole number >= 0, got {text!r}")
@@ -145,6 +149,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="its clock runs X times faster than the wall clock (reading stamps, INIT, time "
         "on); with the external-robot simulator at the same scale, a watched run is X times "
         "faster (default 1: real time)",
+    )
+    p.add_argument(
+        "--latency",
+        type=_latency,
+        default=0.0,
+        metavar="S",
+        help="how late its stamps are: a moving target is read where it was S seconds "
+        "before the stamp (0..1, default 0)",
     )
     p.add_argument(
         "--serial", type=_serial, default="SIM-0001", help="serial number reported by ID?"
@@ -231,6 +243,8 @@ def _build_server(args) -> SimulatorServer:
             air=args.air,
             on_s=args.on_time,
             clock=_scaled_clock(args.time_scale),
+            latency_s=args.latency,
+            time_scale=args.time_scale,
         )
         if args.target:
             simulator.set_target(args.target[:3], args.target[3:] or None)

@@ -31,7 +31,9 @@ from drivers.tracker.line.protocol import (
     ok_body,
     parse_command,
     parse_number,
+    parse_stream_rate,
     reading_fields,
+    stream_body,
 )
 from drivers.tracker.line.simulator.faults import Fault, FaultSchedule, parse_fault
 from drivers.tracker.line.simulator.noise import NoiseModel
@@ -62,7 +64,32 @@ class HangUp:
     """Close the connection without a reply."""
 
 
+@dataclass(frozen=True)
+class StreamStart:
+    """Start ticking a stream on this connection (after the ``OK`` sent before it)."""
+
+    stream_id: int
+    rate_hz: int
+    count: int | None = None
+
+
+@dataclass(frozen=True)
+class StreamStop:
+    """End this connection's stream: no tick after the outputs before it."""
+
+
+@dataclass(frozen=True)
+class StreamStall:
+    """The stream falls silent for ``delay_s``; the ticks due meanwhile are lost."""
+
+    delay_s: float
+
+
 Output = Send | HangUp
+#: What the line simulator's engine hands its server: outputs and stream control.
+LineOutput = Send | HangUp | StreamStart | StreamStop | StreamStall
+#: Most waypoints a ``SIM,PATH`` may hold (bounds the memory a client can take).
+MAX_WAYPOINTS = 200_000
 
 
 class TrackerSimulator:
@@ -91,6 +118,12 @@ class TrackerSimulator:
     on_s : float
         Time since power-on at start, s (``COND?``; warmed up after
         :data:`WARM_UP_S`).
+    latency_s : float
+        How late the tracker's stamps are: a reading stamped ``t`` shows a
+        moving target where it was at ``t - latency_s`` (device clock, s).
+    time_scale : float
+        How many times faster than the wall clock ``clock`` runs (stream
+        ticks are stamped at their due times on it).
     """
 
     def __init__(
@@ -106,6 +139,8 @@ class TrackerSimulator:
         clock: Callable[[], float] = time.monotonic,
         air: tuple[float, float, float] = (20.0, 1013.25, 50.0),
         on_s: float = 3 * 3600.0,
+        latency_s: float = 0.0,
+        time_scale: float = 1.0,
     ):
         self._rng = np.random.default_rng(seed)
         self.noise = noise if noise is not None else NoiseModel()
@@ -128,6 +163,11 @@ class TrackerSimulator:
         self._mode = "STANDARD"
         self.air = tuple(float(v) for v in air)
         self._on_s0 = float(on_s)
+        self.latency_s = float(latency_s)
+        self.time_scale = float(time_scale)
+        # A moving target: device time (s) -> 3 or 6 values (mm, rad); None: static.
+        self._motion: Callable[[float], ArrayLike] | None = None
+        self._waypoints: list[list[float]] = []
 
     # ------------------------------------------------------------ in-process control
 
@@ -160,6 +200,41 @@ class TrackerSimulator:
         """Remove the target (the beam has nothing to lock on)."""
         with self._lock:
             self._target = None
+            self._motion = None
+
+    def set_motion(self, motion: Callable[[float], ArrayLike] | None) -> None:
+        """Move the target along ``motion`` (None: hold it where it is now).
+
+        Parameters
+        ----------
+        motion : callable or None
+            ``motion(t_s)`` with ``t_s`` the device time in seconds
+            (:meth:`device_time_s`) gives the true target: shape (3,), mm,
+            tracker frame, or (6,) with the probe's rotation vector, rad.
+            Readings (``MEAS`` and stream ticks) show it at their stamp less
+            :attr:`latency_s`. Re-acquires a broken beam, as :meth:`set_target`.
+        """
+        with self._lock:
+            if motion is None:
+                self._motion = None
+                return
+            self._set_target(*_split_pose(motion(self._device_s(self._clock()))))
+            self._motion = motion
+
+    def device_time_s(self) -> float:
+        """The tracker's clock now, s (its readings carry it in microseconds)."""
+        return self._device_s(self._clock())
+
+    def _device_s(self, now: float) -> float:
+        return now - self._t0
+
+    def _pose_at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """True point, rotation vector and noise scale for a reading stamped ``t_s`` (device s)."""
+        if self._motion is None:
+            return self._target, self._target_rotvec, self._noise_scale  # type: ignore[return-value]
+        point, rot = _split_pose(self._motion(t_s - self.latency_s))
+        scale = self.noise.scale_matrix(point) if np.linalg.norm(point) > 0 else None
+        return point, (self._target_rotvec if rot is None else rot), scale
 
     def arm_fault(self, fault: Fault | str) -> None:
         """Arm one fault (a :class:`Fault` or a fault-script line)."""
@@ -168,7 +243,7 @@ class TrackerSimulator:
 
     # ------------------------------------------------------------ wire
 
-    def handle_line(self, line: bytes) -> list[Output]:
+    def handle_line(self, line: bytes) -> list[LineOutput]:
         """Process one received line (with its ``\\r\\n``) and return what to send."""
         with self._lock:
             try:
@@ -192,10 +267,11 @@ class TrackerSimulator:
                     self._inaccurate_left = fault.count
                 elif fault.kind == "error":
                     body = error_body(cmd.seq, fault.code, "injected")
-            post: list[Output] = []
+            post: list[LineOutput] = []
             if body is None:
                 body = self._dispatch(cmd, post)
-            return pre + self._deliver(encode_frame(body), faults, cmd) + post
+            out: list[LineOutput] = [*pre, *self._deliver(encode_frame(body), faults, cmd), *post]
+            return out
 
     def _deliver(self, frame: bytes, faults: list[Fault], cmd: Command) -> list[Output]:
         """Apply the reply-mangling faults to a finished frame."""
@@ -221,7 +297,7 @@ class TrackerSimulator:
                 return [Send(frame[:cut], delay), Send(frame[cut:], fault.delay_s)]
         return [Send(frame, delay)]
 
-    def _dispatch(self, cmd: Command, post: list[Output]) -> str:
+    def _dispatch(self, cmd: Command, post: list[LineOutput]) -> str:
         now = self._clock()
         handler = _HANDLERS.get(cmd.name)
         if handler is None:
@@ -289,6 +365,7 @@ class TrackerSimulator:
         return ok_body(cmd.seq, mode)
 
     def _stop(self, cmd, now, post):
+        post.append(StreamStop())
         return ok_body(cmd.seq)
 
     def _meas(self, cmd, now, post):
@@ -303,6 +380,9 @@ class TrackerSimulator:
             if not self._beam_broken_left:  # the tracker re-locks on its own afterwards
                 post.append(Send(encode_frame(error_body(EVENT_SEQ, ErrorCode.BEAM_RESTORED))))
             return error_body(cmd.seq, ErrorCode.BEAM_BROKEN)
+        t_us = int((now - self._t0) * 1e6)
+        if self._motion is not None:  # a moving target: where it was at the stamp
+            return self._moving_reading(cmd.seq, t_us)
         if not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
             return error_body(cmd.seq, ErrorCode.OUT_OF_RANGE, f"{self._range_mm:.1f} mm")
         point = self.noise.sample_point(self._target, self._rng, self._noise_scale)
@@ -319,8 +399,90 @@ class TrackerSimulator:
             rotvec = self.noise.sample_rotvec(self._target_rotvec, self._rng)
             rotvec = rotvec / ANGLE_UNITS[self._units[1]]
         point = point / LENGTH_UNITS[self._units[0]]
-        t_us = int((now - self._t0) * 1e6)
         return ok_body(cmd.seq, *reading_fields(point, rotvec, status, t_us))
+
+    def _moving_reading(self, seq: int, t_us: int) -> str:
+        """``MEAS`` of a moving target: its reply body (a reading or an ``ER``)."""
+        fields = self._tick_fields(t_us)
+        if fields[0] == "NONE":
+            return error_body(seq, ErrorCode(int(fields[1])))
+        return ok_body(seq, *fields, str(t_us))
+
+    def _tick_fields(self, t_us: int) -> tuple[str, ...]:
+        """Reading fields for stamp ``t_us``, or ``NONE,<code>``; consumes flag faults."""
+        if self._target is None:
+            return ("NONE", str(int(ErrorCode.NO_TARGET)))
+        if self._beam_broken_left:
+            self._beam_broken_left -= 1
+            return ("NONE", str(int(ErrorCode.BEAM_BROKEN)))
+        point, rot, scale = self._pose_at(t_us / 1e6)
+        if not MIN_RANGE_MM <= float(np.linalg.norm(point)) <= MAX_RANGE_MM:
+            return ("NONE", str(int(ErrorCode.OUT_OF_RANGE)))
+        point = self.noise.sample_point(point, self._rng, scale)
+        status = ReadingStatus.ACCURATE
+        if self._unstable_left:
+            self._unstable_left -= 1
+            point = point + self._rng.normal(0.0, UNSTABLE_SIGMA_MM, 3)
+            status = ReadingStatus.UNSTABLE
+        elif self._inaccurate_left:
+            self._inaccurate_left -= 1
+            status = ReadingStatus.INACCURATE
+        rotvec = None
+        if self.probe_6dof:
+            rotvec = self.noise.sample_rotvec(rot, self._rng) / ANGLE_UNITS[self._units[1]]
+        point = point / LENGTH_UNITS[self._units[0]]
+        return reading_fields(point, rotvec, status, t_us)[:-1]
+
+    # ------------------------------------------------------------ streams
+
+    def _stream(self, cmd, now, post):
+        rate, count = parse_stream_rate(cmd.args)  # ValueError: BAD_PARAMETER
+        if not self.initialised:
+            return error_body(cmd.seq, ErrorCode.NOT_INITIALISED)
+        post.append(StreamStart(cmd.seq, rate, count))
+        return ok_body(cmd.seq, rate)
+
+    def stream_tick(self, stream_id: int, n: int, stamp_s: float) -> list[LineOutput]:
+        """Outputs of tick ``n`` of stream ``stream_id``, due at ``stamp_s`` (device time, s).
+
+        The tick is stamped and measured at its due time on the tracker's
+        clock (a server running late sends ticks late, never with a later
+        position), and the fault script's ``SAMPLE`` triggers count ticks.
+        """
+        with self._lock:
+            t_us = max(int(round(stamp_s * 1e6)), 0)
+            faults = self._faults.next_command("SAMPLE", count_any=False)
+            pre: list[Output] = []
+            error = None
+            for fault in faults:
+                if fault.kind == "stall":
+                    return [StreamStall(fault.delay_s)]
+                if fault.kind == "beam_break":
+                    self._beam_broken_left = fault.count
+                    pre.append(Send(encode_frame(error_body(EVENT_SEQ, ErrorCode.BEAM_BROKEN))))
+                elif fault.kind == "unstable":
+                    self._unstable_left = fault.count
+                elif fault.kind == "inaccurate":
+                    self._inaccurate_left = fault.count
+                elif fault.kind == "error":
+                    error = fault.code
+            was_broken = self._beam_broken_left > 0
+            if error is not None:
+                fields: tuple[str, ...] = ("NONE", str(int(error)))
+            else:
+                fields = self._tick_fields(t_us)
+            body = stream_body(stream_id, n, *fields, str(t_us))
+            post: list[LineOutput] = []
+            if was_broken and not self._beam_broken_left:  # re-locked after this tick
+                post.append(Send(encode_frame(error_body(EVENT_SEQ, ErrorCode.BEAM_RESTORED))))
+            tick = Command(0, "SAMPLE", ())
+            return [*pre, *self._deliver(encode_frame(body), faults, tick), *post]
+
+    def stream_end(self, stream_id: int, n: int) -> bytes:
+        """The end frame of a stream whose last tick was ``n``."""
+        with self._lock:
+            t_us = int((self._clock() - self._t0) * 1e6)
+            return encode_frame(stream_body(stream_id, max(n, 1), "END", str(t_us)))
 
     def _sim(self, cmd: Command) -> str:
         """Simulator-only commands: SIM,TARGET / SIM,NOTARGET / SIM,FAULT."""
@@ -329,8 +491,12 @@ class TrackerSimulator:
             if what == "TARGET" and len(args) in (3, 6):
                 values = [parse_number(a) for a in args]
                 self._set_target(values[:3], values[3:] or None)
+                self._motion = None  # a fixed target from now on
             elif what == "NOTARGET" and not args:
                 self._target = None
+                self._motion = None
+            elif what == "PATH" and args:
+                return self._sim_path(cmd.seq, args)
             elif what == "FAULT" and len(args) == 1:
                 self._faults.arm(parse_fault(args[0]))
             else:
@@ -338,6 +504,53 @@ class TrackerSimulator:
         except ValueError as exc:
             return error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))
         return ok_body(cmd.seq)
+
+    def _sim_path(self, seq: int, args: list[str]) -> str:
+        """``SIM,PATH,CLEAR`` / ``SIM,PATH,POINT,t,x,y,z[,rx,ry,rz]`` / ``SIM,PATH,GO[,delay]``.
+
+        Waypoints (time from the path's start, s; mm and rad) are collected,
+        then ``GO`` moves the target through them, linear in between, from
+        ``delay`` seconds after now on the device clock; the ``OK`` carries that
+        start in microseconds. Before the start and after the end it holds.
+        """
+        what, rest = args[0], args[1:]
+        if what == "CLEAR" and not rest:
+            self._waypoints = []
+            return ok_body(seq)
+        if what == "POINT" and len(rest) in (4, 7):
+            values = [parse_number(a) for a in rest]
+            if self._waypoints and values[0] <= self._waypoints[-1][0]:
+                raise ValueError(f"waypoint time {values[0]} s does not increase")
+            if len(self._waypoints) >= MAX_WAYPOINTS:
+                raise ValueError(f"more than {MAX_WAYPOINTS} waypoints")
+            if self._waypoints and len(values) != len(self._waypoints[-1]):
+                raise ValueError("waypoints mix positions with and without orientation")
+            self._waypoints.append(values)
+            return ok_body(seq)
+        if what == "GO" and len(rest) <= 1 and self._waypoints:
+            delay = parse_number(rest[0]) if rest else 0.0
+            if not 0.0 <= delay <= 3600.0:
+                raise ValueError(f"start delay {delay} s outside 0..3600")
+            table = np.array(self._waypoints)
+            start = self._device_s(self._clock()) + delay
+
+            def motion(t_s: float) -> np.ndarray:
+                return np.array(
+                    [np.interp(t_s - start, table[:, 0], col) for col in table[:, 1:].T]
+                )
+
+            self._set_target(*_split_pose(motion(self._device_s(self._clock()))))
+            self._motion = motion
+            return ok_body(seq, int(start * 1e6))
+        return error_body(seq, ErrorCode.UNKNOWN_COMMAND, "SIM,PATH," + what)
+
+
+def _split_pose(values: ArrayLike) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(point (3,), rotvec (3,) or None)`` from 3 or 6 values; finite, else ValueError."""
+    v = np.asarray(values, dtype=float).ravel()
+    if v.shape not in ((3,), (6,)) or not np.all(np.isfinite(v)):
+        raise ValueError(f"a target is 3 or 6 finite values, got {v.shape}")
+    return v[:3], (v[3:] if len(v) == 6 else None)
 
 
 _HANDLERS = {
@@ -351,6 +564,7 @@ _HANDLERS = {
     "MODE": TrackerSimulator._mode_cmd,
     "MEAS": TrackerSimulator._meas,
     "STOP": TrackerSimulator._stop,
+    "STREAM": TrackerSimulator._stream,
 }
 
 

@@ -13,6 +13,8 @@ A script is text, one fault per line, ``#`` starts a comment::
     MEAS@10  unstable count=4
     MEAS@11  inaccurate
     MEAS@12  error code=10        # any ErrorCode, by number or name
+    SAMPLE+50 beam_break count=20 # stream ticks count as SAMPLE
+    SAMPLE+80 stall delay=1.0     # the stream falls silent for 1 s
 
 The same line can be armed over the wire with ``SIM,FAULT,<line>``.
 Every value is checked here (a bad one is a ``ValueError`` naming it), so a
@@ -41,6 +43,7 @@ KINDS = frozenset(
         "unstable",
         "inaccurate",
         "error",
+        "stall",  # stream ticks only: silent for `delay` seconds, those ticks lost
     }
 )
 
@@ -166,13 +169,19 @@ class FaultSchedule:
         base = self._counts.get(fault.command, 0) if fault.relative else 0
         self._pending.append((fault, base + fault.nth))
 
-    def next_command(self, name: str) -> list[Fault]:
-        """Count one received command and return the faults it triggers, in script order."""
+    def next_command(self, name: str, count_any: bool = True) -> list[Fault]:
+        """Count one received command and return the faults it triggers, in script order.
+
+        ``count_any=False`` (stream ticks, ``SAMPLE``) leaves the ``*`` count
+        alone: a ``*@n`` trigger counts commands only.
+        """
         hits = []
-        for key in (name, "*"):
+        for key in (name, "*") if count_any else (name,):
             self._counts[key] = self._counts.get(key, 0) + 1
         for fault, at in list(self._pending):
             key = "*" if fault.command == "*" else name
+            if fault.command == "*" and not count_any:
+                continue
             if fault.command in (name, "*") and self._counts[key] == at:
                 hits.append(fault)
                 self._pending.remove((fault, at))

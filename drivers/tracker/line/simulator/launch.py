@@ -72,6 +72,45 @@ class SimulatorControl:
         """``SIM,NOTARGET``: nothing for the beam to lock on."""
         self._link.transact("SIM", "NOTARGET", timeout_s=CONTROL_TIMEOUT_S)
 
+    def run_path(
+        self,
+        t_s: ArrayLike,
+        point_mm: ArrayLike,
+        rotvec_rad: ArrayLike | None = None,
+        delay_s: float = 0.0,
+    ) -> int:
+        """``SIM,PATH``: move the target through waypoints, starting ``delay_s`` from now.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (W,)
+            Waypoint times from the path's start, s, increasing.
+        point_mm : array_like, shape (W, 3)
+            Waypoints, tracker frame, mm (linear in between).
+        rotvec_rad : array_like, shape (W, 3), optional
+            Probe orientations (probe to tracker frame), rad.
+        delay_s : float
+            Start this long after the simulator receives ``GO``, s.
+
+        Returns
+        -------
+        int
+            The path's start on the tracker's clock, microseconds (the stamps
+            of its readings run on the same clock).
+        """
+        t = np.asarray(t_s, dtype=float).reshape(-1)
+        values = np.asarray(point_mm, dtype=float).reshape(len(t), 3)
+        if rotvec_rad is not None:
+            values = np.hstack([values, np.asarray(rotvec_rad, dtype=float).reshape(len(t), 3)])
+        self._link.transact("SIM", "PATH", "CLEAR", timeout_s=CONTROL_TIMEOUT_S)
+        for ti, row in zip(t, values, strict=True):
+            args = [format_number(ti, 6), *(format_number(v, 6) for v in row)]
+            self._link.transact("SIM", "PATH", "POINT", *args, timeout_s=CONTROL_TIMEOUT_S)
+        reply = self._link.transact(
+            "SIM", "PATH", "GO", format_number(delay_s, 6), timeout_s=CONTROL_TIMEOUT_S
+        )
+        return int(reply.fields[0])
+
     def arm_fault(self, line: str) -> None:
         """``SIM,FAULT``: arm one fault-script line, e.g. ``"MEAS+1 beam_break"``."""
         self._link.transact("SIM", "FAULT", line, timeout_s=CONTROL_TIMEOUT_S)
@@ -104,6 +143,8 @@ class SimulatorProcess:
         Air the station's sensors measure (``COND?``): degC, hPa, %RH.
     on_s : float, optional
         Time since power-on at start, s (``COND?``).
+    latency_s : float
+        How late its stamps are for a moving target, s (``--latency``).
     """
 
     def __init__(
@@ -118,8 +159,10 @@ class SimulatorProcess:
         replay: str | Path | None = None,
         air: tuple[float, float, float] | None = None,
         on_s: float | None = None,
+        latency_s: float = 0.0,
     ):
         args = ["--pty", "--tcp", "0", "--seed", str(seed), "--init-time", str(init_time_s)]
+        args += ["--latency", repr(float(latency_s))] if latency_s else []
         args += ["--air", ",".join(format_number(v, 4) for v in air)] if air else []
         args += ["--on-time", repr(float(on_s))] if on_s is not None else []
         args += [] if noise else ["--no-noise"]
@@ -152,6 +195,16 @@ class SimulatorProcess:
 
     def clear_target(self) -> None:
         self.control.clear_target()
+
+    def run_path(
+        self,
+        t_s: ArrayLike,
+        point_mm: ArrayLike,
+        rotvec_rad: ArrayLike | None = None,
+        delay_s: float = 0.0,
+    ) -> int:
+        """Move the target through waypoints; see :meth:`SimulatorControl.run_path`."""
+        return self.control.run_path(t_s, point_mm, rotvec_rad, delay_s)
 
     def arm_fault(self, line: str) -> None:
         self.control.arm_fault(line)

@@ -16,16 +16,46 @@ import threading
 import time
 import tty
 from collections import deque
+from collections.abc import Sequence
 from typing import Protocol
 
 from drivers.tracker.line.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.line.simulator.engine import HangUp, Output, Send, internal_error_reply
+from drivers.tracker.line.simulator.engine import (
+    HangUp,
+    LineOutput,
+    Send,
+    StreamStall,
+    StreamStart,
+    StreamStop,
+    internal_error_reply,
+)
+
+#: Ticks a late server catches up at once; beyond, the ticks due are lost (a gap).
+MAX_CATCH_UP_TICKS = 1000
 
 
 class LineEngine(Protocol):
     """What the server drives: one complete command line in, the outputs to send back."""
 
-    def handle_line(self, line: bytes) -> list[Output]: ...
+    def handle_line(self, line: bytes) -> Sequence[LineOutput]: ...
+
+
+class _Stream:
+    """A stream ticking on one connection (``STREAM`` ... ``STOP``)."""
+
+    def __init__(self, start: StreamStart, now: float, device_s: float, scale: float) -> None:
+        self.id = start.stream_id
+        # Ticks are regular on the tracker's clock (which may run `scale` times faster).
+        self.device_period_s = 1.0 / start.rate_hz
+        self.period_s = self.device_period_s / scale  # on the wall clock
+        self.device_start_s = device_s
+        self.count = start.count
+        self.n = 0  # last tick sent
+        self.next_due = now + self.period_s
+
+    def stamp_s(self, n: int) -> float:
+        """Tracker time of tick ``n``, s."""
+        return self.device_start_s + n * self.device_period_s
 
 
 class _Conn:
@@ -39,6 +69,7 @@ class _Conn:
         self.out: deque[list] = deque()  # [due_time, bytes]; FIFO keeps the line order
         self.last_due = 0.0
         self.is_pty = sock is None
+        self.stream: _Stream | None = None
 
     def read(self) -> bytes:
         return self.sock.recv(65536) if self.sock else os.read(self.fd, 65536)
@@ -135,6 +166,7 @@ class SimulatorServer:
         """Run until :meth:`stop`, or until the last endpoint is gone (pty hang-up)."""
         try:
             while not self._stop and (self._conns or self._listeners):
+                self._tick(time.monotonic())
                 self._flush(time.monotonic())
                 rlist: list[int | socket.socket] = [
                     self._wake_r,
@@ -157,7 +189,31 @@ class SimulatorServer:
 
     def _timeout(self) -> float | None:
         dues = [c.out[0][0] for c in self._conns if c.out]
+        dues += [c.stream.next_due for c in self._conns if c.stream is not None]
         return max(0.0, min(dues) - time.monotonic()) if dues else None
+
+    def _tick(self, now: float) -> None:
+        """Queue the stream ticks that are due, each measured at its own due time."""
+        for conn in list(self._conns):
+            stream = conn.stream
+            if stream is None or stream.next_due > now:
+                continue
+            due_ticks = int((now - stream.next_due) / stream.period_s) + 1
+            if due_ticks > MAX_CATCH_UP_TICKS:  # a long hiccup: those ticks are lost
+                skipped = due_ticks - MAX_CATCH_UP_TICKS
+                stream.n += skipped
+                stream.next_due += skipped * stream.period_s
+            while conn.stream is stream and stream.next_due <= now:
+                stream.n += 1
+                stream.next_due += stream.period_s
+                engine = self.engine
+                outputs = engine.stream_tick(stream.id, stream.n, stream.stamp_s(stream.n))  # type: ignore[attr-defined]
+                if not self._queue(conn, outputs):
+                    break
+                if stream.count is not None and stream.n >= stream.count and conn.stream is stream:
+                    end = self.engine.stream_end(stream.id, stream.n)  # type: ignore[attr-defined]
+                    self._queue(conn, [Send(end)])
+                    conn.stream = None
 
     def _accept(self, lsock: socket.socket) -> None:
         try:
@@ -199,15 +255,37 @@ class SimulatorServer:
             # The engine validates what it parses; this is the last line of defence,
             # so a bug shows as an ER reply to that client, not a dead simulator.
             outputs = [internal_error_reply(line, exc)]
+        if not self._queue(conn, outputs):
+            return False
+        self._flush(time.monotonic())
+        return True
+
+    def _queue(self, conn: _Conn, outputs: Sequence[LineOutput]) -> bool:
+        """Queue outputs on ``conn`` in order; False if it was hung up."""
         for out in outputs:
             if isinstance(out, HangUp):
                 self._drop(conn)
                 return False
+            if isinstance(out, StreamStart):
+                engine = self.engine
+                device_s = engine.device_time_s()  # type: ignore[attr-defined]
+                scale = getattr(engine, "time_scale", 1.0)
+                conn.stream = _Stream(out, time.monotonic(), device_s, scale)
+                continue
+            if isinstance(out, StreamStop):
+                conn.stream = None
+                continue
+            if isinstance(out, StreamStall):
+                stream = conn.stream
+                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
+                    lost = int(out.delay_s / stream.period_s)
+                    stream.n += lost
+                    stream.next_due += lost * stream.period_s
+                continue
             assert isinstance(out, Send)
             due = max(time.monotonic(), conn.last_due) + out.delay_s
             conn.last_due = due
             conn.out.append([due, out.data])
-        self._flush(time.monotonic())
         return True
 
     def _flush(self, now: float) -> None:

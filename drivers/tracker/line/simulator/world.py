@@ -101,6 +101,27 @@ class SimulatedTracker(LaserTracker):
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"tracker simulator: {exc}") from exc
 
+    def run_path(self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0) -> int:
+        """Move the reflector along the arm's true path: waypoints at ``t_s`` (s from the
+        start), shape (N, 3), mm, tracker frame, starting ``delay_s`` from now.
+
+        Returns
+        -------
+        int
+            The start on the tracker's clock, microseconds (the clock of the stream's stamps).
+
+        Raises
+        ------
+        TrackerGone
+            The simulator process is gone.
+        """
+        if self._process is None:
+            raise TrackerGone("tracker simulator not started: call connect() first")
+        try:
+            return self._process.run_path(t_s, point_mm, delay_s=delay_s)
+        except (DriverError, OSError) as exc:
+            raise TrackerGone(f"tracker simulator: {exc}") from exc
+
     def close(self) -> None:
         """Close the link, then stop the simulator process."""
         super().close()

@@ -1,0 +1,284 @@
+"""The ISO 9283 path test on the simulated cell: a line or a circle in the test cube, streamed.
+
+The pose test (:mod:`calibrator.acquire.verify`) stops at five poses; this
+runs a path through the same cube and measures it continuously:
+
+1. the commanded path (:func:`test_path`) lies in the cube's test plane:
+   the ``line`` from P2 to P4 (along the cube's space diagonal, through P1)
+   or the ``circle`` about P1 in that plane, of radius
+   :data:`CIRCLE_RADIUS_FRACTION` of the edge, tool orientation constant as
+   in the pose test;
+2. the controller's joint commands are those of the path's points at
+   :data:`CONTROL_HZ` at the commanded speed, and at every corner (nominal inverse kinematics,
+   or compensated with a calibration: what the controller would
+   interpolate);
+3. the true arm of the simulated world turns them into the probe's true path
+   in the tracker frame, which the tracker simulator follows (``SIM,PATH``)
+   while the driver streams it (``STREAM``);
+4. each cycle's stream goes into the robot base frame through the
+   registration, is aligned in time with the commanded path
+   (:func:`calibrator.iso9283_path.estimate_latency` against the path run at
+   constant speed: no robot stream is needed), and the clause 7 figures are
+   computed from the ``cycles`` streams.
+
+The simulated arm is kinematic (it follows its commands exactly, no
+servo lag), so corners show no overshoot; its path error is the geometric
+error a calibration removes. Units: mm, s, rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from calibrator import compensate, iso9283
+from calibrator import iso9283_path as ip
+from calibrator.errors import CalibrationError
+from calibrator.model import frames, kinematics
+
+#: Rate at which the controller's interpolated joint commands are taken, Hz.
+CONTROL_HZ = 250.0
+#: Tracker stream rate, Hz.
+STREAM_HZ = 500
+#: Radius of the test circle as a fraction of the cube's edge (it stays in the plane).
+CIRCLE_RADIUS_FRACTION = 0.3
+#: The target holds this long at the path's ends, s: the stream starts before the
+#: motion and ends after it, so the alignment sees both ends.
+HOLD_S = 0.3
+#: Calculated points per path (clause 7.2's m).
+POINTS = 100
+#: Part of the path (of a rectangle's first side) on which the speed is taken as constant
+#: (7.6), as fractions of its length.
+SPEED_STRETCH = (0.1, 0.9)
+#: Speed chord, samples of the stream (20 ms at 500 Hz): the tracker's noise over a
+#: 2 ms chord alone would swing the speed by several mm/s.
+SPEED_STEP = 10
+SHAPES = ("line", "circle", "rectangle")
+#: Columns of the recorded streams (verify.parquet beside a path test's verify.json).
+STREAM_COLUMNS = ("cycle", "n", "t_s", "x_mm", "y_mm", "z_mm")
+#: Keep the calculated points this far from a rectangle's corners, mm (7.2 at the corners
+#: is 7.5's business).
+CORNER_MARGIN_MM = 5.0
+
+
+class PathTracker(Protocol):
+    """What the path test needs of its tracker: a path to follow and a stream to read."""
+
+    def run_path(
+        self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0
+    ) -> int: ...  # the start on the tracker's clock, us
+
+    def stream(self, rate_hz: int, count: int | None = None) -> Any: ...
+
+
+@dataclass(frozen=True)
+class PathTest:
+    """A commanded path test.
+
+    Attributes
+    ----------
+    shape : str
+        ``line`` or ``circle``.
+    path : Polyline or Circle
+        Commanded path, robot base frame (the model's), mm.
+    rotation : ndarray, shape (3, 3)
+        Constant tool orientation, base frame.
+    speed_mm_s : float
+        Commanded path speed.
+    t_s : ndarray, shape (N,)
+        Command times from the start of the motion, s.
+    q : ndarray, shape (N, 6)
+        Joint commands at ``t_s``, rad (the model's).
+    compensated : bool
+    """
+
+    shape: str
+    path: ip.CommandedPath
+    rotation: np.ndarray
+    speed_mm_s: float
+    t_s: np.ndarray
+    q: np.ndarray
+    compensated: bool
+
+
+def test_path(shape: str, cube: iso9283.Cube, rotation: npt.ArrayLike) -> ip.CommandedPath:
+    """The commanded ``line`` (P2 to P4), ``circle`` (about P1) or ``rectangle``
+    (P2, P3, P4, P5 and back) in the cube's test plane, base frame, mm."""
+    p = iso9283.test_positions(cube.centre_mm, cube.side_mm)
+    if shape == "line":
+        return ip.line(p[1], p[3])
+    if shape == "circle":
+        # The plane holds P2..P5: its normal is across the two diagonals.
+        normal = np.cross(p[1] - p[3], p[2] - p[4])
+        return ip.circle(p[0], normal, CIRCLE_RADIUS_FRACTION * cube.side_mm, p[1] - p[0])
+    if shape == "rectangle":
+        # P2..P5 are the corners of a rectangle in the plane (10 % in from its corners).
+        return ip.rectangle(p[1:5])
+    raise CalibrationError(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
+
+
+def plan_path(
+    model: Any,
+    flange2tool: npt.ArrayLike,
+    shape: str,
+    cube: iso9283.Cube,
+    rotation: npt.ArrayLike,
+    q_start: npt.ArrayLike,
+    speed_mm_s: float,
+    calibration: Any = None,
+) -> PathTest:
+    """Joint commands along the test path at ``speed_mm_s`` (nominal IK, or compensated).
+
+    Raises
+    ------
+    CalibrationError
+        A point of the path out of reach.
+    """
+    if not speed_mm_s > 0:
+        raise CalibrationError(f"--path-speed must be > 0 mm/s, got {speed_mm_s}")
+    path = test_path(shape, cube, rotation)
+    duration = path.length_mm / speed_mm_s
+    t = np.linspace(0.0, duration, max(int(np.ceil(duration * CONTROL_HZ)), 1) + 1)
+    # A command at every corner: between two samples either side the arm would cut it.
+    t = np.union1d(t, path.corner_s_mm / speed_mm_s)
+    rot = np.asarray(rotation, dtype=float)
+    desired = frames.transform(rot, path.point(speed_mm_s * t))
+    limits = model.joint_limits_rad
+    solution = iso9283.solve_poses(model.mdh, desired, flange2tool, limits, q_start)
+    if not np.all(solution.ok):
+        raise CalibrationError(f"the {shape} leaves the arm's reach: choose a smaller --cube")
+    q = solution.q
+    if calibration is not None:
+        result = compensate.compensate(calibration, desired=desired, q_nominal=q, limits=limits)
+        if not np.all(result.solution.ok):
+            raise CalibrationError(f"the calibrated arm cannot follow the {shape}")
+        q = result.q
+    return PathTest(shape, path, rot, float(speed_mm_s), t, q, calibration is not None)
+
+
+def run(
+    tracker: PathTracker,
+    world: Any,
+    test: PathTest,
+    cycles: int,
+    tracker2base: npt.ArrayLike,
+) -> tuple[dict, pd.DataFrame]:
+    """Run ``cycles`` cycles of the path on the simulated cell and compute the figures.
+
+    Parameters
+    ----------
+    tracker : PathTracker
+        The connected simulated tracker.
+    world : calibrator.simulate.SimWorld
+        Its true arm follows the commands; ``base2tracker`` places it.
+    test : PathTest
+    cycles : int
+        At least 2 (RT and RV need a spread).
+    tracker2base : array_like, shape (4, 4)
+        Registration of the tracker frame in the robot base frame, mm.
+
+    Returns
+    -------
+    section : dict
+        The ``path`` section of verify.json (see :func:`figures`).
+    streams : pandas.DataFrame
+        The aligned streams, :data:`STREAM_COLUMNS`: cycle (from 1), tick
+        number, time from the aligned start (s), position (base frame, mm).
+    """
+    if cycles < 2:
+        raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
+    true = kinematics.forward(world.true_mdh, test.q, world.flange2tool, world.base2tracker)
+    points_tracker = true[:, :3, 3]
+    duration = float(test.t_s[-1])
+    count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
+    t2b = np.asarray(tracker2base, dtype=float)
+    streams, starts, ticks = [], [], []
+    reference = ip.commanded_reference(test.path, test.speed_mm_s)
+    for _ in range(cycles):
+        told_us = tracker.run_path(test.t_s, points_tracker, delay_s=HOLD_S)
+        with tracker.stream(STREAM_HZ, count=count) as stream:
+            rec = stream.collect(count)
+        ok = rec.code == 0
+        if ok.sum() < 0.9 * count:
+            raise CalibrationError(
+                f"the tracker streamed {int(ok.sum())} of {count} readings of the path"
+            )
+        # Times from where the simulator was told to start; the alignment finds the
+        # true start on the tracker's clock (its latency included) from the data alone.
+        t = (rec.t_us[ok] - told_us) / 1e6
+        p = rec.point_mm[ok] @ t2b[:3, :3].T + t2b[:3, 3]
+        start = ip.estimate_latency(t, p, reference, max_latency_s=HOLD_S)
+        starts.append(start)
+        inside = (t >= start) & (t <= start + duration)
+        streams.append(ip.Stream(t[inside] - start, p[inside]))
+        ticks.append(rec.n[ok][inside])
+    table = pd.DataFrame(
+        {
+            "cycle": np.repeat(np.arange(1, cycles + 1), [len(st.t_s) for st in streams]),
+            "n": np.concatenate(ticks),
+            "t_s": np.concatenate([st.t_s for st in streams]),
+            **{
+                f"{axis}_mm": np.concatenate([st.p_mm[:, k] for st in streams])
+                for k, axis in enumerate("xyz")
+            },
+        },
+        columns=list(STREAM_COLUMNS),
+    )
+    return figures(test, streams, starts, cycles), table
+
+
+def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
+    """The ``path`` section: commanded path, the clause 7 figures, per-point accuracy."""
+    corners = isinstance(test.path, ip.Polyline) and len(test.path.corner_s_mm) > 0
+    margin = CORNER_MARGIN_MM if corners else 0.0
+    pf = ip.path_figures(test.path, streams, m=POINTS, margin_mm=margin)
+    # The speed on a straight stretch away from the start, the stop and any corner:
+    # the first segment of a rectangle (a chord across a corner is shorter than the path).
+    first = test.path.corner_s_mm[0] if corners else test.path.length_mm
+    lo, hi = (f * first for f in SPEED_STRETCH)
+    vf = ip.velocity_figures(
+        test.path, streams, test.speed_mm_s, stretch_mm=(lo, hi), step=SPEED_STEP
+    )
+    if isinstance(test.path, ip.Circle):
+        commanded = {
+            "centre_mm": test.path.centre_mm.tolist(),
+            "normal": test.path.normal.tolist(),
+            "radius_mm": test.path.radius_mm,
+        }
+    else:
+        commanded = {"vertices_mm": test.path.vertices_mm.tolist()}
+    extra: dict = {}
+    if corners:
+        assert isinstance(test.path, ip.Polyline)
+        cf = ip.corner_figures(test.path, streams)
+        extra = {
+            "CR_mm": cf["CR_max_mm"].tolist(),
+            "CO_mm": cf["CO_max_mm"].tolist(),
+            "corners_mm": test.path.vertices_mm[1:-1].tolist(),
+        }
+    return {
+        "shape": test.shape,
+        "frame": "robot base (the model's)",
+        "commanded": {**commanded, "length_mm": test.path.length_mm},
+        "speed_mm_s": test.speed_mm_s,
+        "cycles": cycles,
+        "compensated": test.compensated,
+        "stream_hz": STREAM_HZ,
+        "speed_chord_s": SPEED_STEP / STREAM_HZ,
+        "AT_P_mm": pf["AT_P_mm"],
+        "RT_P_mm": pf["RT_P_mm"],
+        "AV_pct": vf["AV_pct"],
+        "RV_pct": vf["RV_pct"],
+        "FV_mm_s": vf["FV_mm_s"],
+        "points": {
+            "s_mm": pf["s_mm"].tolist(),
+            "AT_mm": pf["AT_i_mm"].tolist(),
+            "RT_mm": pf["RT_i_mm"].tolist(),
+        },
+        "start_s": [float(s) for s in starts],  # found start less the one requested
+        **extra,
+    }

@@ -1,0 +1,120 @@
+"""``calibrator verify --path line|circle``: the ISO 9283 path test on the simulated cell.
+
+Parses nothing of its own (``verify`` does); runs
+:mod:`calibrator.acquire.verify_path` with the simulated tracker streaming
+the simulated arm's true path, writes the document with its ``path``
+section and prints the figures.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from calibrator.cli._options import fail
+
+#: Default path speed, mm/s (a tenth of a small arm's rated tool speed: ISO's 10 % case).
+DEFAULT_SPEED_MM_S = 100.0
+
+
+def check_options(
+    shape: str, speed_mm_s: float, robot: str, tracker: str, world: Path | None, history: Any
+) -> None:
+    """Refuse, in one line each, what the path test cannot do (before anything opens)."""
+    from calibrator.acquire.verify_path import SHAPES
+    from calibrator.cli import _run
+
+    if shape not in SHAPES:
+        fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
+    if not (0.0 < speed_mm_s <= 5000.0):
+        fail(f"--path-speed must be in (0, 5000] mm/s, got {speed_mm_s:g}")
+    if not (_run.is_sim(robot) and _run.is_sim(tracker)):
+        fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
+    if world is not None:
+        fail("--path takes the simulated cell of --seed, not --world, for now")
+    if history is not None:
+        fail("--path results are not recorded in a history yet: leave out --history")
+
+
+def run(
+    *,
+    shape: str,
+    speed_mm_s: float,
+    arm: Any,
+    vplan: Any,
+    flange2tool: Any,
+    cycles: int,
+    seed: int,
+    tracker_url: str,
+    tracker_at_mm: Any,
+    calibration: Any,
+    registration: Any,
+    output: Path,
+    inputs: list[Path],
+) -> None:
+    """Plan, run and write the path test; print its figures."""
+    import numpy as np
+
+    from calibrator import outputs
+    from calibrator.acquire import verify as pose_run
+    from calibrator.acquire import verify_path
+    from calibrator.errors import CalibrationError
+    from calibrator.simulate import SimWorld
+    from drivers.tracker.base import OpenOptions, open_tracker
+    from drivers.tracker.line.simulator.world import SimulatedTracker
+
+    world = SimWorld.make(arm.name, seed)
+    if tracker_at_mm is not None:
+        world = world.with_tracker_at(tracker_at_mm)
+    rotation = vplan.desired[0][:3, :3]
+    test = verify_path.plan_path(
+        arm, flange2tool, shape, vplan.cube, rotation, vplan.q_test[0], speed_mm_s, calibration
+    )
+    if registration is None:
+        registration = pose_run.sim_survey(world)
+    tracker = open_tracker(tracker_url, OpenOptions(world=world))
+    if not isinstance(tracker, SimulatedTracker):  # check_options let only `sim` through
+        raise CalibrationError(f"--path needs the simulated tracker, not {tracker_url}")
+    try:
+        tracker.connect()
+        section, table = verify_path.run(tracker, world, test, cycles, registration.tracker2base)
+    finally:
+        tracker.close()
+    doc = {
+        "format": pose_run.FORMAT,
+        "version": pose_run.VERSION,
+        "test": "path",
+        "model": arm.name,
+        "cube": vplan.cube.to_json(),
+        "registration": registration.to_json(),
+        "path": section,
+    }
+    figures = [section[k] for k in ("AT_P_mm", "RT_P_mm", "AV_pct", "RV_pct", "FV_mm_s")]
+    if not np.all(np.isfinite(figures)):
+        raise CalibrationError("the path test gave a non-finite figure: no document from it")
+    data = pose_run.data_path(output)
+    doc["data"] = data.name
+    with outputs.Outputs(inputs=inputs) as batch:  # both files or neither
+        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        batch.file(data, lambda tmp: table.to_parquet(tmp, index=False))
+    state = "compensated" if test.compensated else "nominal"
+    typer.echo(
+        f"ISO 9283 path ({shape}, {section['commanded']['length_mm']:.1f} mm at "
+        f"{speed_mm_s:g} mm/s), {cycles} cycles, {state} commands, robot base frame "
+        f"(registration: {registration.method})"
+    )
+    typer.echo(
+        f"AT_P {section['AT_P_mm']:.4f} mm   RT_P {section['RT_P_mm']:.4f} mm   "
+        f"AV {section['AV_pct']:+.3f} %   RV {section['RV_pct']:.3f} %   "
+        f"FV {section['FV_mm_s']:.3f} mm/s"
+    )
+    if "CR_mm" in section:
+        corners = "  ".join(
+            f"C{k + 1} CR {cr:.4f} CO {co:.4f}"
+            for k, (cr, co) in enumerate(zip(section["CR_mm"], section["CO_mm"], strict=True))
+        )
+        typer.echo(f"corners, mm (worst cycle): {corners}")
+    typer.echo(f"wrote {output} and {data}")
