@@ -17,76 +17,26 @@ controller onto the true arm.
 
 from __future__ import annotations
 
-import re
-
+import config_kit as kit
 import numpy as np
 import pytest
-from filter_kit import calibration, frame_yaml, job
+from filter_kit import calibration, job
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from program_kit import krl_frame, rapid_pose
 
 from calibrator import compensate, robots
-from calibrator.filtering import configuration, engine, frames_file, rotations
+from calibrator.filtering import configuration, engine
 from calibrator.filtering.fanuc import FanucLS
 from calibrator.filtering.jbi import JBI
 from calibrator.filtering.krl import KRL
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.urscript import URScript
-from calibrator.model import frames, kinematics, singularities
+from calibrator.model import frames, kinematics
 
 #: Hypothesis runs: few examples, no deadline, the same examples every run.
 SETTINGS = settings(max_examples=80, deadline=None, derandomize=True)
 #: Largest distance of a filtered target from its intended pose on the true arm, mm.
 LANDS_MM = 0.02
-TOOL = frames.transform(rotations.zyx_to_matrix([[10.0, 25.0, -5.0]])[0], [12.5, -4.0, 180.0])
-USER = frames.transform(rotations.zyx_to_matrix([[30.0, 5.0, -3.0]])[0], [300.0, -200.0, 150.0])
-#: RAPID's object frame in the user frame: both move, so uframe @ oframe != oframe @ uframe.
-OBJECT = frames.transform(rotations.zyx_to_matrix([[-15.0, 0.0, 12.0]])[0], [50.0, 100.0, 20.0])
-
-
-# -- the vendors' definitions, written out here ---------------------------------------------
-
-
-def krl_code(q_deg, bits):
-    """KUKA: S bit 0 overhead (back), bit 1 elbow up, bit 2 A5 negative; T bit i: A(i+1) < 0."""
-    back, down, flip = bits.T
-    s = back * 1 + (1 - down) * 2 + flip * 4
-    t = sum((q_deg[:, i] < 0).astype(int) * 2**i for i in range(6))
-    return np.column_stack([s, t])
-
-
-def rapid_code(q_deg, bits):
-    """ABB: cf1, cf4, cf6 the quadrants; cfx 4 back + 2 down + flip."""
-    quad = np.floor_divide(q_deg[:, [0, 3, 5]], 90.0).astype(int)
-    back, down, flip = bits.T
-    return np.column_stack([quad, 4 * back + 2 * down + flip])
-
-
-def fanuc_turn(q_deg):
-    """Fanuc's turn number: ``t`` with ``q - 360 t`` in (-180, 180]."""
-    return -np.floor_divide(180.0 - np.asarray(q_deg, float), 360.0).astype(int)
-
-
-def fanuc_code(q_deg, bits):
-    back, down, flip = bits.T
-    return np.column_stack([flip, down, back, fanuc_turn(q_deg[:, [0, 3, 5]])])
-
-
-def jbi_code(q_deg, bits):
-    """Yaskawa: flip, lower arm, back; R (axis 4), T (axis 6), S (axis 1) beyond a half turn."""
-    back, down, flip = bits.T
-    q = q_deg[:, [3, 5, 0]]
-    beyond = ~((q >= -180.0) & (q < 180.0))
-    return np.column_stack([flip, down, back, beyond.astype(int)])
-
-
-CODES = {KRL: krl_code, RAPID: rapid_code, FanucLS: fanuc_code, JBI: jbi_code}
-
-
-def _bare(cls):
-    return cls.__new__(cls)  # the encoders need no program
-
 
 # -- 1. the encoders against the definitions -------------------------------------------------
 
@@ -102,23 +52,23 @@ _edges = st.lists(
 )
 
 
-@pytest.mark.parametrize("cls", list(CODES), ids=lambda c: c.name)
+@pytest.mark.parametrize("cls", list(kit.CODES), ids=lambda c: c.name)
 @SETTINGS
 @given(q=st.one_of(_angles, _edges), bits=_bits)
 def test_each_languages_code_is_its_vendors_definition_and_reads_back(cls, q, bits):
-    lang = _bare(cls)
+    lang = kit.bare(cls)
     q_deg, b = np.array([q]), np.array([bits])
     code = lang.code(q_deg, b)
-    np.testing.assert_array_equal(code, CODES[cls](q_deg, b))
+    np.testing.assert_array_equal(code, kit.CODES[cls](q_deg, b))
     # Reading a stated code gives the geometric bits the program meant.
-    np.testing.assert_array_equal(lang.code_bits(CODES[cls](q_deg, b)), b)
+    np.testing.assert_array_equal(lang.code_bits(kit.CODES[cls](q_deg, b)), b)
 
 
 @SETTINGS
 @given(bits=_bits)
 def test_urscript_states_the_bits_themselves(bits):
     b = np.array([bits])
-    lang = _bare(URScript)
+    lang = kit.bare(URScript)
     np.testing.assert_array_equal(lang.code_bits(lang.code(np.zeros((1, 6)), b)), b)
     words = configuration.describe_bits(b[0]).split(", ")
     assert words == [
@@ -243,139 +193,16 @@ def test_the_eight_solutions_of_a_pose_carry_the_eight_bit_combinations(model):
 # -- 3. programs with one target for every code ----------------------------------------------
 
 
-def _space(model, code_of, seed=1, n=20000):
-    """Model joints (rad), one row per code ``code_of`` gives, clear of singularities; the codes.
-
-    Codes are of the controller's angles (the arm's convention: KUKA's
-    reversed A1 and A6, FANUC's J2/J3 coupling). Also clear of every code's
-    boundaries (joints 1 deg from a multiple of 90) and of the limits, so a
-    calibration's small correction keeps the code.
-    """
-    arm = robots.get(model)
-    lim = arm.joint_limits_rad
-    q = np.random.default_rng(seed).uniform(lim[:, 0] * 0.97, lim[:, 1] * 0.97, (n, 6))
-    q = q[~arm.outside_limits(q).any(axis=1)]
-    m = singularities.margins(arm.mdh, q)
-    deg = np.degrees(arm.convention.to_controller(q))
-    off = np.abs((deg + 45.0) % 90.0 - 45.0)
-    keep = (m[:, 0] > 25) & (m[:, 1] > 25) & (m[:, 2] > 250) & (off > 1.0).all(axis=1)
-    q, deg = q[keep], deg[keep]
-    codes = code_of(deg, configuration.arm_bits(arm.mdh, q))
-    if codes.shape[1] == 4:  # RAPID's thousands: every cfx with every quadrant of each joint
-        keys = [codes[:, [0, 3]], codes[:, [1, 3]], codes[:, [2, 3]]]
-    else:
-        keys = [codes]
-    first = np.unique(np.concatenate([np.unique(k, axis=0, return_index=True)[1] for k in keys]))
-    return q[first], codes[first]
-
-
-def _zyx(pose):
-    return rotations.matrix_to_zyx(pose[None, :3, :3], np.zeros((1, 3)))[0]
-
-
-def _read_zyx(text, pat, order):
-    v = np.array(re.findall(pat, text), dtype=float)
-    return frames.transform(rotations.zyx_to_matrix(v[:, order]), v[:, :3])
-
-
-def _frames_table(tmp):
-    path = tmp / "frames.yaml"
-    path.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '1': {frame_yaml(USER)}\n")
-    return frames_file.read(path)
-
-
-def _krl(tmp, poses, codes):
-    src = ["DEF SPACE()", "$TOOL = TOOL_DATA[1]", "BAS(#BASE, 2)"]
-    src += [
-        f"LIN {{{krl_frame(p)},S {c[0]},T {c[1]}}} C_DIS" for p, c in zip(poses, codes, strict=True)
-    ]
-    (tmp / "SPACE.src").write_bytes(("\r\n".join([*src, "END", ""])).encode())
-    config = tmp / "config.dat"
-    config.write_text(
-        f"DEFDAT $CONFIG\nTOOL_DATA[1]={{{krl_frame(TOOL)}}}\nBASE_DATA[2]={{{krl_frame(USER)}}}\n"
-        "ENDDAT\n"
-    )
-    return tmp / "SPACE.src", {"config_dat": config}
-
-
-def _read_krl(text):
-    n = r"([-\d.]+)"
-    return _read_zyx(text, rf"X {n},Y {n},Z {n},A {n},B {n},C {n}", [3, 4, 5])
-
-
-def _rapid(tmp, poses, codes):
-    lines = [
-        "MODULE Space",
-        f"  PERS tooldata tSpindle:=[TRUE,{rapid_pose(TOOL)},[4,[0,0,80],[1,0,0,0],0,0,0]];",
-        f'  PERS wobjdata wPart:=[FALSE,TRUE,"",{rapid_pose(USER)},{rapid_pose(OBJECT)}];',
-        "  PROC main()",
-    ]
-    for p, c in zip(poses, codes, strict=True):
-        conf = f"[{c[0]},{c[1]},{c[2]},{c[3]}]"
-        lines.append(
-            f"    MoveL {rapid_pose(p)[:-1]},{conf},[9E9,9E9,9E9,9E9,9E9,9E9]], v100, fine, "
-            "tSpindle\\WObj:=wPart;"
-        )
-    (tmp / "space.mod").write_text("\n".join([*lines, "  ENDPROC", "ENDMODULE", ""]))
-    return tmp / "space.mod", {}
-
-
-def _read_rapid(text):
-    n = r"([-\d.]+)"
-    v = np.array(re.findall(rf"MoveL \[\[{n},{n},{n}\],\[{n},{n},{n},{n}\]", text), dtype=float)
-    return frames.transform(rotations.quaternion_to_matrix(v[:, 3:]), v[:, :3])
-
-
-def _fanuc(tmp, poses, codes):
-    out = ["/PROG  SPACE", "/MN", "/POS"]
-    for i, (p, c) in enumerate(zip(poses, codes, strict=True)):
-        a, b, w = _zyx(p)
-        conf = f"'{'NF'[c[0]]} {'UD'[c[1]]} {'TB'[c[2]]}, {c[3]}, {c[4]}, {c[5]}'"
-        out += [
-            f"P[{i + 1}]{{", "   GP1:", f"\tUF : 1, UT : 1,\t\tCONFIG : {conf},",
-            f"\tX = {p[0, 3]:.3f}  mm,\tY = {p[1, 3]:.3f}  mm,\tZ = {p[2, 3]:.3f}  mm,",
-            f"\tW = {w:.4f} deg,\tP = {b:.4f} deg,\tR = {a:.4f} deg", "};",
-        ]  # fmt: skip
-    (tmp / "space.ls").write_text("\n".join([*out, "/END", ""]))
-    return tmp / "space.ls", {"frames": _frames_table(tmp)}
-
-
-def _read_fanuc(text):
-    n = r"\s*([-\d.]+)"
-    pat = rf"X ={n}\s+mm,\tY ={n}\s+mm,\tZ ={n}\s+mm,\n\tW ={n} deg,\tP ={n} deg,\tR ={n} deg"
-    return _read_zyx(text, pat, [5, 4, 3])
-
-
-def _jbi(tmp, poses, codes):
-    out = ["/JOB", "//NAME SPACE", "//POS", f"///NPOS {len(poses)},0,0,0,0,0"]
-    out += ["///USER 1", "///TOOL 1", "///POSTYPE USER", "///RECTAN"]
-    for i, (p, c) in enumerate(zip(poses, codes, strict=True)):
-        a, b, w = _zyx(p)
-        out.append("///RCONF " + ",".join(map(str, c)) + ",0,0")
-        out.append(f"C{i:05d}={p[0, 3]:.3f},{p[1, 3]:.3f},{p[2, 3]:.3f},{w:.4f},{b:.4f},{a:.4f}")
-    out += ["//INST", "///GROUP1 RB1", "NOP"]
-    out += [f"MOVL C{i:05d} V=100.0" for i in range(len(poses))] + ["END", ""]
-    (tmp / "SPACE.JBI").write_text("\n".join(out))
-    return tmp / "SPACE.JBI", {"frames": _frames_table(tmp)}
-
-
-def _read_jbi(text):
-    rows = re.findall(r"^C\d{5}=(.*)$", text, re.M)
-    v = np.array([r.split(",") for r in rows], dtype=float)
-    return frames.transform(rotations.zyx_to_matrix(v[:, [5, 4, 3]]), v[:, :3])
-
-
-#: Language, its vendor's arm, the frame its targets are written in, the program's writer
 #: and reader, and the values each column of its code takes on that arm (every one the
 #: arm's limits allow: KUKA's 8 S and 64 T; ABB's quadrants of joints 1, 4, 6 with every
 #: cfx; FANUC's turn numbers -1, 0, 1 of J4 and J6; Yaskawa's R and T flags both ways).
 SPACES = {
-    "krl": (KRL, "kuka-kr6-r900", USER, _krl, _read_krl, [range(8), range(64)]),
-    "rapid": (RAPID, "abb-irb4600-60-205", USER @ OBJECT, _rapid, _read_rapid,
+    "krl": (KRL, "kuka-kr6-r900", kit.USER, kit.krl, kit.read_krl, [range(8), range(64)]),
+    "rapid": (RAPID, "abb-irb4600-60-205", kit.USER @ kit.OBJECT, kit.rapid, kit.read_rapid,
               [range(-2, 2), range(-5, 5), range(-5, 5), range(8)]),
-    "fanuc": (FanucLS, "fanuc-m20ia", USER, _fanuc, _read_fanuc,
+    "fanuc": (FanucLS, "fanuc-m20ia", kit.USER, kit.fanuc, kit.read_fanuc,
               [(0, 1), (0, 1), (0, 1), (0,), (-1, 0, 1), (-1, 0, 1)]),
-    "jbi": (JBI, "yaskawa-gp8", USER, _jbi, _read_jbi, [(0, 1)] * 5 + [(0,)]),
+    "jbi": (JBI, "yaskawa-gp8", kit.USER, kit.jbi, kit.read_jbi, [(0, 1)] * 5 + [(0,)]),
 }  # fmt: skip
 
 
@@ -390,12 +217,12 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     to those joints.
     """
     cls, model, user, write, read, values = SPACES[name]
-    q, codes = _space(model, CODES[cls])
+    q, codes = kit.space(model, kit.CODES[cls])
     for col, want in enumerate(values):
         assert set(codes[:, col].tolist()) == set(want), col
     arm = robots.get(model)
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
-    tool = cf @ TOOL  # on the model's flange
+    tool = cf @ kit.TOOL  # on the model's flange
     cal = calibration(model=model, seed=5, mm=0.3, rad=0.0005)
     taught = frames.invert(cb @ user) @ compensate.tool_poses(cal.nominal_mdh, q, tool)
     src, extra = write(tmp_path, taught, codes)
@@ -411,7 +238,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     assert np.degrees(np.abs(nominal.q - q)).max() < 2.0
     ctrl = np.degrees(arm.convention.to_controller(nominal.q))
     bits = configuration.arm_bits(cal.nominal_mdh, nominal.q)
-    np.testing.assert_array_equal(CODES[cls](ctrl, bits), codes)
+    np.testing.assert_array_equal(kit.CODES[cls](ctrl, bits), codes)
     reached = kinematics.chain(cal.mdh, nominal.q) @ tool
     miss = np.linalg.norm(reached[:, :3, 3] - intended[:, :3, 3], axis=1)
     turn = np.linalg.norm(frames.rotation_error(reached[:, :3, :3], intended[:, :3, :3]), axis=1)
