@@ -107,7 +107,8 @@ def read_zyx(text, pat, order):
 
 def frames_table(tmp):
     path = tmp / "frames.yaml"
-    path.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '1': {frame_yaml(USER)}\n")
+    # Different numbers for the tool and the user frame: a reader that swaps them fails.
+    path.write_text(f"tools:\n  '3': {frame_yaml(TOOL)}\nbases:\n  '2': {frame_yaml(USER)}\n")
     return frames_file.read(path)
 
 
@@ -159,7 +160,7 @@ def fanuc(tmp, poses, codes):
         a, b, w = zyx(p)
         conf = f"'{'NF'[c[0]]} {'UD'[c[1]]} {'TB'[c[2]]}, {c[3]}, {c[4]}, {c[5]}'"
         out += [
-            f"P[{i + 1}]{{", "   GP1:", f"\tUF : 1, UT : 1,\t\tCONFIG : {conf},",
+            f"P[{i + 1}]{{", "   GP1:", f"\tUF : 2, UT : 3,\t\tCONFIG : {conf},",
             f"\tX = {p[0, 3]:.3f}  mm,\tY = {p[1, 3]:.3f}  mm,\tZ = {p[2, 3]:.3f}  mm,",
             f"\tW = {w:.4f} deg,\tP = {b:.4f} deg,\tR = {a:.4f} deg", "};",
         ]  # fmt: skip
@@ -175,7 +176,7 @@ def read_fanuc(text):
 
 def jbi(tmp, poses, codes):
     out = ["/JOB", "//NAME SPACE", "//POS", f"///NPOS {len(poses)},0,0,0,0,0"]
-    out += ["///USER 1", "///TOOL 1", "///POSTYPE USER", "///RECTAN"]
+    out += ["///USER 2", "///TOOL 3", "///POSTYPE USER", "///RECTAN"]
     for i, (p, c) in enumerate(zip(poses, codes, strict=True)):
         a, b, w = zyx(p)
         out.append("///RCONF " + ",".join(map(str, c)) + ",0,0")
