@@ -31,7 +31,7 @@ def test_ctrl_c_to_the_process_group_stops_after_the_pose_in_hand(tmp_path, args
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+            proc.wait(10)
     last = err.strip().splitlines()[-1]
     assert proc.returncode == 1, err[-2000:]
     assert last.startswith("stopped: interrupted before pose"), last

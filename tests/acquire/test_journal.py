@@ -14,6 +14,7 @@ import textwrap
 
 import numpy as np
 import pytest
+from timeout_kit import readline
 
 from calibrator.acquire import journal as journals
 from calibrator.acquire import rows
@@ -278,7 +279,7 @@ def test_a_journal_in_use_by_another_run_cannot_be_resumed(tmp_path):
             journals.Journal.resume(path, HEADER)  # while its creator still writes it
     holder = subprocess.Popen([sys.executable, "-c", HOLD, str(path)], stdout=subprocess.PIPE)
     try:
-        assert holder.stdout.readline() == b"locked\n"
+        assert readline(holder.stdout, what="'locked'") == b"locked\n"
         before = path.read_bytes()
         with pytest.raises(journals.JournalError) as exc:
             journals.Journal.resume(path, HEADER)
@@ -288,7 +289,7 @@ def test_a_journal_in_use_by_another_run_cannot_be_resumed(tmp_path):
         assert path.read_bytes() == before
     finally:
         holder.kill()
-        holder.wait()
+        holder.wait(10)
     journal, done = journals.Journal.resume(path, HEADER)  # the lock went with the process
     journal.close()
     assert sorted(done.records) == [0]

@@ -113,7 +113,7 @@ def _wait_for_poses(tmp_path, n, proc, timeout=30.0):
     while time.monotonic() < deadline:
         if path.exists() and path.read_text().count("\n") >= n + 1:
             return
-        assert proc.poll() is None, proc.communicate()
+        assert proc.poll() is None, proc.communicate(timeout=30)
         time.sleep(0.02)
     raise AssertionError(f"fewer than {n} poses journalled in {timeout} s")
 
@@ -131,7 +131,7 @@ def test_sigkill_loses_at_most_the_pose_in_progress_and_resume_completes(
     finally:
         if proc.poll() is None:
             proc.kill()
-        proc.communicate()
+        proc.communicate(timeout=30)
     # The simulator notices its parent is gone and exits on its own.
     deadline = time.monotonic() + 5
     while any(_alive(c) for c in children) and time.monotonic() < deadline:

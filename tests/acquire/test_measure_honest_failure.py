@@ -124,7 +124,7 @@ def test_a_second_resume_of_a_running_job_is_refused(tmp_path):
         path = tmp_path / "s.parquet.journal"
         deadline = time.monotonic() + 30
         while not (path.exists() and path.read_text().count("\n") >= 2):
-            assert time.monotonic() < deadline and proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline and proc.poll() is None, proc.communicate(timeout=30)
             time.sleep(0.02)
         second = run_cli(*BASE, "--resume", cwd=tmp_path)
         assert second.returncode == 2

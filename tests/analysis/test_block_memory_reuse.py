@@ -32,7 +32,11 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 
 def faults_of_two_later_blocks(mode):
     out = subprocess.run(
-        [sys.executable, "-c", _CHILD, mode], check=True, capture_output=True, text=True
+        [sys.executable, "-c", _CHILD, mode],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     return int(out.stdout)
 

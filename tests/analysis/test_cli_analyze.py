@@ -172,5 +172,7 @@ def test_numpy_random_is_loaded_with_the_analysis_not_at_the_first_block():
         "import sys; import calibrator.analysis.misalignment;"
         " print('numpy.random._generator' in sys.modules)"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
     assert out.stdout.strip() == "True"

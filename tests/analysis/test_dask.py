@@ -55,8 +55,8 @@ def test_local_workers_keep_glibcs_dynamic_malloc_thresholds(monkeypatch):
     # os.environ (Dask sets it in the nanny's process), and workers inherit it.
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with engine.local_cluster(1) as cluster, Client(cluster) as client:
-        seen = client.submit(os.environ.get, "MALLOC_TRIM_THRESHOLD_", pure=False).result()
-        blas = client.submit(os.environ.get, "OPENBLAS_NUM_THREADS", pure=False).result()
+        seen = client.submit(os.environ.get, "MALLOC_TRIM_THRESHOLD_", pure=False).result(60)
+        blas = client.submit(os.environ.get, "OPENBLAS_NUM_THREADS", pure=False).result(60)
     assert seen is None
     assert blas == "1"  # the rest of Dask's worker settings stay
     assert multiprocessing.active_children() == []
@@ -187,7 +187,8 @@ def test_a_cluster_restarted_under_the_run_fails_it_in_one_line():
         cancelled = r"^the Dask cluster cancelled blocks? \d+(-\d+)? before it finished \(scheduler"
         with pytest.raises(CalibrationError, match=cancelled):
             engine.run(study, scheduler=cluster.scheduler_address, chunk_trials=mc.BLOCK)
-        restarter.join()
+        restarter.join(120)
+        assert not restarter.is_alive(), "the restart did not end within 120 s"
 
 
 def spy(monkeypatch, owner, name, log):

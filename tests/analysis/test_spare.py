@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from timeout_kit import within
 
 from calibrator.analysis import _spare, arm
 from calibrator.analysis import misalignment as mc
@@ -53,7 +54,8 @@ def started(n_blocks, low=1, claimed_to=None):
 def stopped(spare):
     """``(end, grid, summary)``: where it stopped, and what it sent."""
     end = spare.stop()
-    return end, spare.grid(), spare.result()
+    grid = within(spare.grid, what="the helper's grid")
+    return end, grid, within(spare.result, what="the helper's summary")
 
 
 def same_grid(a, b):
@@ -170,10 +172,11 @@ def test_a_lock_never_released_is_taken_as_a_hung_helper(monkeypatch):
     finally:
         lock.release()
     assert 1 <= end <= s.n_blocks
-    sent = spare.grid()  # a grid it sent is still a grid (or it had not sent it)
+    sent = within(spare.grid, what="the helper's grid")  # still a grid, or none sent
     if sent is not None:
         same_grid(sent, grid)
-    assert spare.result() is None  # nothing else it sent counts: the caller reruns them
+    # Nothing else it sent counts: the caller reruns them.
+    assert within(spare.result, what="the helper's summary") is None
     assert multiprocessing.active_children() == []
 
 
@@ -220,7 +223,9 @@ def test_a_helper_never_outlives_its_caller(tmp_path):
     script, out = tmp_path / "caller.py", tmp_path / "out.txt"
     script.write_text(_ORPHANING_CALLER)
     with out.open("w") as sink:  # files, not pipes: a helper left behind must not hold us up
-        code = subprocess.call([sys.executable, str(script), "3"], stdout=sink, stderr=sink)
+        code = subprocess.call(
+            [sys.executable, str(script), "3"], stdout=sink, stderr=sink, timeout=120
+        )
     assert code == 3, out.read_text()
     assert gone(int(out.read_text()), within_s=2.0)
 

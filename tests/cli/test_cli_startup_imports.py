@@ -31,6 +31,7 @@ def probe(*argv, env=None):
         text=True,
         check=True,
         env=env,
+        timeout=120,
     )
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report["code"] == 0, out.stderr
@@ -48,6 +49,7 @@ def session(tmp_path_factory):
         [sys.executable, "-m", "calibrator", "simulate", "-o", path, "--poses", "12"],
         check=True,
         capture_output=True,
+        timeout=120,
     )
     return path
 
@@ -84,7 +86,11 @@ def test_a_command_registers_only_itself(session, tmp_path):
 
 def test_help_still_lists_every_command_in_workflow_order():
     out = subprocess.run(
-        [sys.executable, "-m", "calibrator", "--help"], capture_output=True, text=True, check=True
+        [sys.executable, "-m", "calibrator", "--help"],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=120,
     ).stdout
     listed = [line.split()[0] for line in out.split("Commands:")[1].splitlines() if line.strip()]
     assert listed == [

@@ -23,7 +23,12 @@ def test_the_python_example_and_the_command_write_the_same_file(tmp_path, monkey
     (tmp_path / "example.py").write_text(block.group(1))
     env = {**os.environ, "SOURCE_DATE_EPOCH": "1700000000"}
     done = subprocess.run(
-        [sys.executable, "example.py"], cwd=tmp_path, env=env, capture_output=True, text=True
+        [sys.executable, "example.py"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert done.returncode == 0, done.stderr
     assert "held-out position error: 0.0" in done.stdout

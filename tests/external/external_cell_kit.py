@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from cli_process_kit import child_env, start_cli
+from timeout_kit import readline
 
 from calibrator import planning
 
@@ -59,7 +60,7 @@ def tracker_simulator(seed: int = 2, time_scale: float = TIME_SCALE):
         env=child_env(None),
     )
     try:
-        port = proc.stdout.readline().strip()
+        port = readline(proc.stdout, what="the simulator's port").strip()
         assert port.isdigit(), port
         yield f"socket://127.0.0.1:{port}"
     finally:
@@ -102,7 +103,7 @@ def start_player(plan: Path, url: str, *args, cwd: Path) -> subprocess.Popen:
 
 def press_start(player: subprocess.Popen) -> None:
     """Start the loaded program (once the run watches); fails if the player did not load."""
-    ready = player.stdout.readline().strip()
+    ready = readline(player.stdout, what="'ready'").strip()
     assert ready == "ready", (ready, player.stderr.read() if player.poll() is not None else "")
     player.stdin.write("\n")
     player.stdin.close()

@@ -87,6 +87,7 @@ def test_connections_creating_one_new_sqlite_history_all_open_it(tmp_path):
         t.start()
     for t in threads:
         t.join(timeout=120)
+    assert not any(t.is_alive() for t in threads), "an opener still runs after 120 s"
     assert failures == []
     for k in range(30):
         with open_history(str(tmp_path / f"history-{k}.sqlite"), create=False) as h:

@@ -108,6 +108,7 @@ def test_the_command_writes_the_users_urdf_and_refuses_overwriting_it(user_urdf,
         capture_output=True,
         text=True,
         check=False,
+        timeout=120,
     )
     assert done.returncode == 0, done.stderr
     assert out.read_text() == export_like(cal, user_urdf).text
@@ -117,6 +118,7 @@ def test_the_command_writes_the_users_urdf_and_refuses_overwriting_it(user_urdf,
         capture_output=True,
         text=True,
         check=False,
+        timeout=120,
     )
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert user_urdf.read_text() == original

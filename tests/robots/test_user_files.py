@@ -120,6 +120,7 @@ def test_the_command_line_refuses_a_seven_axis_urdf_with_one_line(tmp_path):
         capture_output=True,
         text=True,
         check=False,
+        timeout=120,
     )
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1
@@ -271,6 +272,7 @@ def test_no_command_writes_over_the_description_it_read(tmp_path):
         capture_output=True,
         text=True,
         check=False,
+        timeout=120,
     )
     assert done.returncode == 2
     assert "refusing to overwrite" in done.stderr and len(done.stderr.strip().splitlines()) == 1

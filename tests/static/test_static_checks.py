@@ -57,6 +57,10 @@ def test_mypy_is_clean():
 def test_ruff_is_clean():
     for args in (["check", "."], ["format", "--check", "."]):
         done = subprocess.run(
-            [sys.executable, "-m", "ruff", *args], cwd=ROOT, capture_output=True, text=True
+            [sys.executable, "-m", "ruff", *args],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=300,
         )
         assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-2000:]

@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import pytest
+from timeout_kit import readline
 from tracker_kit import REPO
 
 from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
@@ -39,7 +40,11 @@ def start_simulator_process(*args: str) -> tuple[subprocess.Popen, list[str]]:
         text=True,
     )
     n_lines = ("--pty" in args) + ("--tcp" in args)
-    lines = [proc.stdout.readline().strip() for _ in range(n_lines)]
+    try:
+        lines = [readline(proc.stdout, what="endpoint").strip() for _ in range(n_lines)]
+    except AssertionError:
+        proc.kill()
+        raise
     if not all(lines):
         proc.kill()
         raise RuntimeError(f"simulator did not start: {lines}")

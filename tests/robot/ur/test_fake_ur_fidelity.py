@@ -7,6 +7,7 @@ commands the fake does not emulate); the power and unlock rules in-process.
 import numpy as np
 import pytest
 from robot_kit import wait_until
+from timeout_kit import readline
 
 from calibrator import robots
 from calibrator.model import frames, kinematics
@@ -176,11 +177,11 @@ def test_fake_exits_on_its_own_when_its_parent_is_killed(fake_manager):
         [sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True
     )
     try:
-        fake_pid = int(parent.stdout.readline())
-        assert "ready" in parent.stdout.readline()
+        fake_pid = int(readline(parent.stdout, what="fake's pid"))
+        assert "ready" in readline(parent.stdout, what="'ready'")
     finally:
         parent.kill()  # SIGKILL: the parent gets no chance to stop its child
-        parent.wait()
+        parent.wait(10)
         parent.stdout.close()
 
     def gone():

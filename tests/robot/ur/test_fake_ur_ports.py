@@ -10,6 +10,7 @@ import sys
 import time
 
 import pytest
+from timeout_kit import readline
 
 from drivers.robot.ur.device import UrRtdeRobot
 from drivers.robot.ur.simulator.launcher import (
@@ -35,7 +36,11 @@ def fixed_ports():
 def start_by_hand(*args):
     """A fake as a user starts it (no --parent-pid): its process, once it is ready."""
     proc = subprocess.Popen([*FAKE, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    line = proc.stdout.readline()
+    try:
+        line = readline(proc.stdout, what="'ready'")
+    except AssertionError:
+        proc.kill()
+        raise
     assert b"ready" in line, proc.stderr.read()
     return proc
 
@@ -95,6 +100,6 @@ def test_a_fake_started_by_hand_on_the_fixed_ports_is_reported_never_stopped():
 
 
 def test_a_bad_host_is_refused_in_one_line():
-    done = subprocess.run([*FAKE, "--host", "10.0.0.1"], capture_output=True, text=True)
+    done = subprocess.run([*FAKE, "--host", "10.0.0.1"], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2 and "loopback addresses only" in done.stderr
     assert "Traceback" not in done.stderr

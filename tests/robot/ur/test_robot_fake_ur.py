@@ -250,9 +250,12 @@ def test_joint_move_profile(travel, speed, accel):
     move = _JointMove(q0, q1, speed, accel)
     assert move.duration == pytest.approx(expected_move_time(q0, q1, speed, accel))
     peak = 0.0
+    steps = 0
     while not move.finished:
         _, qd = move.advance(0.001)
         peak = max(peak, abs(qd[0]))
+        steps += 1  # a move that never finishes fails here, not hangs the run
+        assert steps <= 1000 * move.duration + 10, "the move did not finish in its duration"
     assert peak <= speed + 1e-9
     q_end, _ = move.advance(0.0)
     np.testing.assert_allclose(q_end, q1, atol=1e-12)

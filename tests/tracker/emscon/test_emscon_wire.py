@@ -461,6 +461,7 @@ def test_a_reset_or_closed_connection_while_reading_breaks_the_link_and_says_whi
     link = EmsconLink(ours, events=deque(), packet_gap_s=1.0)
 
     def reset_after_the_command():
+        theirs.settimeout(10)  # a link that sends nothing fails the test, not hangs it
         theirs.recv(12)
         theirs.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
         theirs.close()  # a reset, not an orderly close
@@ -469,7 +470,8 @@ def test_a_reset_or_closed_connection_while_reading_breaks_the_link_and_says_whi
     server.start()
     with pytest.raises(ConnectionLost, match="^emScon connection failed while reading: "):
         link.transact(pk.Command.GET_UNITS, timeout_s=2.0)
-    server.join()
+    server.join(15)
+    assert not server.is_alive()
     assert link.broken is True
     ours.close()
 

@@ -94,7 +94,9 @@ def _exchange(sock, seq, *fields, timeout=2.0):
     sock.sendall(host(seq, *fields))
     sock.settimeout(timeout)
     buf = b""
+    deadline = time.monotonic() + 5 * timeout  # a reply that never ends fails, not hangs
     while not buf.endswith(b"\r\n"):
+        assert time.monotonic() < deadline, f"no whole reply in {5 * timeout:g} s: {buf[-99:]!r}"
         buf += sock.recv(4096)
     return parse_reply(decode_frame(buf))
 
