@@ -18,8 +18,11 @@ import pytest
 from calibrator import cell as cells
 from calibrator import planning, robots
 from calibrator.planning import ordering
+from calibrator.planning.sampling import joint_box
 
 UR10E = robots.get("ur10e")
+#: The joint box the planner's vias keep within (its default 5-degree margin).
+BOX = joint_box(UR10E.joint_limits_rad, np.radians(5.0))
 TOOL_MM = (0.0, 0.0, 100.0)
 LOW = [-0.7, 1.0, -1.87, -1.5708, 0.0]
 HIGH = [-1.5708, 0.2, -0.2, -1.5708, 0.0]
@@ -49,7 +52,9 @@ def test_the_cell_makes_only_the_low_to_low_moves_unsafe(chk):
 
 
 def test_the_cycle_starts_after_its_longest_safe_move_and_goes_home_safely(chk):
-    plan = ordering.order_safely(chk, POSES, UR10E.joint_limits_rad, 1.0, 2.0)
+    ordered = ordering.order_joined(chk, POSES, BOX, 1.0, 2.0)
+    assert ordered.unjoined == ()
+    plan = ordered.plan
     rows = [int(np.flatnonzero(np.all(np.isclose(POSES, q), axis=1))[0]) for q in plan.q_rad]
     assert sorted(rows) == [0, 1, 2, 3]
     # The closing move is high to high (the longest safe move: joint 1 turns 120 deg).
@@ -73,7 +78,7 @@ def test_a_safe_closing_move_leaves_the_order_alone(chk):
         strict=True,
     ):
         verdict[e] = verdict[e[::-1]] = f
-    out = ordering._close_safely(chk, POSES, order, times, verdict)
+    out = ordering._close_safely(ordering.MoveVerdicts(chk, BOX), POSES, order, times, verdict)
     np.testing.assert_array_equal(out, order)
     assert not verdict[(2, 1)].any()  # the closing move's verdict was recorded
 
@@ -86,7 +91,7 @@ def test_an_unsafe_closing_move_is_rotated_to_the_longest_safe_one(chk):
     for e, f in zip(edges, cells.motion_faults(chk, POSES[[0, 1, 2]], POSES[[1, 2, 3]]),
                     strict=True):  # fmt: skip
         verdict[e] = verdict[e[::-1]] = f
-    out = ordering._close_safely(chk, POSES, order, times, verdict)
+    out = ordering._close_safely(ordering.MoveVerdicts(chk, BOX), POSES, order, times, verdict)
     np.testing.assert_array_equal(out, [2, 3, 0, 1])
     assert verdict[(3, 0)].any() and verdict[(0, 3)].any()
 
@@ -102,7 +107,7 @@ def test_in_a_five_pose_cycle_the_way_home_is_the_longest_safe_move(chk):
     for e, f in zip(edges, faults, strict=True):
         verdict[e] = verdict[e[::-1]] = f
     assert not faults.any()  # every inner move is safe, the closing 3 -> 0 is not
-    out = ordering._close_safely(chk, poses, order, times, verdict)
+    out = ordering._close_safely(ordering.MoveVerdicts(chk, BOX), poses, order, times, verdict)
     longest = max(range(len(edges)), key=lambda k: times[edges[k]])
     a, b = edges[longest]
     assert (int(out[-1]), int(out[0])) == (a, b)

@@ -3,7 +3,7 @@
 A UR10e between a crate (in front, at joint 1 = 0) and a shelf above its
 left low pose: from there the arm cannot rise (every way up passes through
 the shelf), so the move from the left low pose to the right one has no
-order and no vias that make it safe, and ``order_safely`` refuses it naming
+order and no vias that make it safe, and ``order_joined`` returns it naming
 the poses and the fault.
 """
 
@@ -16,6 +16,7 @@ from calibrator import cell as cells
 from calibrator import planning, robots
 from calibrator.cell import timing
 from calibrator.planning import ordering
+from calibrator.planning.sampling import joint_box
 
 UR10E = robots.get("ur10e")
 TOOL_MM = (0.0, 0.0, 100.0)
@@ -39,13 +40,12 @@ def test_a_pose_under_a_shelf_cannot_rise_and_one_beside_it_can(chk):
     np.testing.assert_array_equal(ordering.can_rise(chk, POSES[::-1]), [True, False])
 
 
-def test_a_move_no_order_and_no_way_over_makes_safe_is_refused_naming_it(chk):
-    with pytest.raises(planning.PlanError) as err:
-        ordering.order_safely(chk, POSES, UR10E.joint_limits_rad, 1.0, 2.0)
-    assert str(err.value) == (
-        "no safe move between poses 0 and 1 (obstacle along the joint-space line) in any "
-        "order tried, nor through the arm held upright; change the cell or the poses"
-    )
+def test_a_move_no_order_and_no_way_over_makes_safe_is_returned_naming_it(chk):
+    box = joint_box(UR10E.joint_limits_rad, np.radians(5.0))
+    ordered = ordering.order_joined(chk, POSES, box, 1.0, 2.0)
+    # Both ways (the way home too); the planner then replaces one of the two poses.
+    assert {(a, b) for a, b, _ in ordered.unjoined} == {(0, 1), (1, 0)}
+    assert {why for _, _, why in ordered.unjoined} == {"obstacle"}
 
 
 def test_the_ways_up_raise_shoulder_and_elbow_together_or_one_first_then_the_wrist(chk):
