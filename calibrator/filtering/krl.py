@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, rotations
+from calibrator.filtering import configuration, numbers, rotations
 from calibrator.filtering.base import (
     FilterError,
     Job,
@@ -48,10 +48,11 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
+from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
-_FIELD = re.compile(r"([A-Za-z]\w*)\s+(" + _NUM + r"|'[Bb][01]+'|'[Hh][0-9A-Fa-f]+')")
+_COMPONENT = re.compile(r"([A-Za-z$]\w*)\s*(.*)$", re.DOTALL)
 _DECL = re.compile(
     r"^\s*(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Za-z_$]\w*)\s*=\s*\{",
     re.IGNORECASE,
@@ -86,18 +87,16 @@ POSE = Layout("pose", ("mm",) * 3 + ("deg",) * 3, _decode_pose, _encode_pose)
 JOINTS = Layout("joints", ("deg",) * 6, lambda v: np.radians(v), lambda q, old: np.degrees(q))
 
 
+#: KRL's strings ("...") and ``;`` comments; ``'B010'`` literals are numbers, not strings.
+_LEXER = Lexer(quotes='"', comment=";")
+
+
 def _code(text: str) -> str:
-    """A KRL line without its comment (``;`` outside a string)."""
-    if '"' not in text:
-        cut = text.find(";")
-        return text if cut < 0 else text[:cut]
-    quote = False
-    for i, ch in enumerate(text):
-        if ch == '"':
-            quote = not quote
-        elif ch == ";" and not quote:
-            return text[:i]
-    return text
+    """A KRL line's code: strings and the comment blanked, every position kept."""
+    return _LEXER.code(text)
+
+
+_WHOLE = re.compile(r"[+-]?\d{1,18}|'[Bb][01]{1,64}'|'[Hh][0-9A-Fa-f]{1,16}'")
 
 
 def _int(text: str) -> int:
@@ -107,6 +106,13 @@ def _int(text: str) -> int:
     if t[:1] in "Hh":
         return int(t[1:], 16)
     return int(float(t))
+
+
+def _whole(value: str, where: str, what: str) -> int:
+    """A whole-number field (``TOOL_NO 3``, ``S 'B010'``) or one line naming it."""
+    if not _WHOLE.fullmatch(value.strip()):
+        raise FilterError(f"{where}: {what} {value.strip()[:40]!r} is not a whole number")
+    return _int(value.strip())
 
 
 #: The usual full E6POS/POS aggregate, in the order KUKA's editors write it.
@@ -127,9 +133,13 @@ def _fields(body: str, start: int) -> dict:
     end = body.find("}", start)
     if end < 0:
         return {}
-    out = {}
-    for m in _FIELD.finditer(body, start, end):
-        out[m.group(1).upper()] = (m.group(2), m.start(2), m.end(2))
+    # Each component is ``NAME value``; the value is everything up to the next
+    # comma, so a malformed number is seen whole (``X 1.2.3``, ``X nan``, ``X ,``).
+    out: dict[str, tuple[str, int, int]] = {}
+    for item, at, _ in numbers.fields(body[start + 1 : end], start + 1):
+        m = _COMPONENT.match(item)
+        if m:
+            out.setdefault(m.group(1).upper(), (m.group(2), at + m.start(2), at + m.end(2)))
     return out
 
 
@@ -147,6 +157,9 @@ def read_config_dat(path: Path | None) -> dict:
             raise FilterError(
                 f"{path}:{number}: {m.group(1)}[{m.group(2)}] lacks one of X Y Z A B C"
             )
+        bad = numbers.first_problem([f[k][0] for k in POSE_FIELDS])
+        if bad is not None:
+            raise FilterError(f"{path}:{number}: {m.group(1)}[{m.group(2)}]: {bad}")
         v = np.array([[float(f[k][0]) for k in POSE_FIELDS]])
         kind = "tool" if m.group(1).upper() == "TOOL_DATA" else "base"
         out[(kind, int(m.group(2)))] = _decode_pose(v)[0]
@@ -168,15 +181,40 @@ class KRL(Language):
         super().__init__(job, program)
         self.dat = _sibling_dat(self.program)
         self.config = read_config_dat(job.config_dat)
+        self._config_decl: dict[str, str] = {}
+        if job.config_dat is not None:
+            for _, line in read_lines(job.config_dat):
+                d = _DECL.match(_code(line))
+                if d:
+                    self._config_decl[d.group(2).upper()] = d.group(1).upper()
         fdat: dict = {}
-        if self.dat is not None:
-            for _, line in read_lines(self.dat):
-                m = _FDAT.match(_code(line))
+        # Every position declared (or assigned) in the .dat and the .src: KRL
+        # ignores case, so ``XP1`` and ``xp1`` are one name, declared twice.
+        declared: dict[str, str] = {}
+        for path in [self.dat, self.program]:
+            if path is None:
+                continue
+            for number, line in read_lines(path):
+                code = _code(line)
+                where = f"{path}:{number}"
+                m = _FDAT.match(code)
                 if m:
                     f = _fields("{" + m.group(2) + "}", 0)
-                    tool = _int(f["TOOL_NO"][0]) if "TOOL_NO" in f else None
-                    base = _int(f["BASE_NO"][0]) if "BASE_NO" in f else None
+                    tool = _whole(f["TOOL_NO"][0], where, "TOOL_NO") if "TOOL_NO" in f else None
+                    base = _whole(f["BASE_NO"][0], where, "BASE_NO") if "BASE_NO" in f else None
                     fdat[m.group(1).upper()] = (tool, base)
+                    continue
+                decl = _DECL.match(code)
+                if decl:
+                    key = decl.group(2).upper()
+                    if key in declared:
+                        raise FilterError(
+                            f"{where}: {decl.group(2)} is declared again (KRL ignores case; "
+                            f"first at {declared[key]}); which one is moved to is unclear"
+                        )
+                    declared[key] = where
+                elif (assign := _ASSIGN.match(code)) and path == self.program:
+                    declared.setdefault(assign.group(1).upper(), where)
         # First pass over the .src: the tool and base of each named target's uses.
         self.uses: dict = {}
         state: list = [None, None]
@@ -186,9 +224,19 @@ class KRL(Language):
             m = _MOTION.match(code)
             if not m:
                 continue
-            for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(m.group(2))):
+            # The targets of a move come before its options (``WITH $VEL = ...``).
+            moved = re.split(r"\bWITH\b", m.group(2), maxsplit=1, flags=re.IGNORECASE)[0]
+            for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(moved)):
                 if name.upper() in {"C_PTP", "C_DIS", "C_VEL", "C_ORI", "C_SPL", "CA"}:
                     continue
+                if name.upper() not in declared and not self._declared_elsewhere(name):
+                    where = "neither in the .src nor in its .dat"
+                    if self.dat is None:
+                        where = f"in no .dat (there is no {self.program.stem}.dat beside it)"
+                    raise FilterError(
+                        f"{self.program}:{number}: {name} is moved to but declared {where}; "
+                        "its target cannot be corrected"
+                    )
                 key = name.upper()
                 seen = self.uses.get(key)
                 now = (state[0], state[1], number)
@@ -200,7 +248,20 @@ class KRL(Language):
                     )
                 self.uses[key] = now
         self.fdat = fdat
+
         self._frames: dict = {}  # (kind, number) -> (transform, problem), looked up once
+
+    def _declared_elsewhere(self, name: str) -> bool:
+        """``name`` is a joint position of the controller's ``$config.dat`` (kept as taught).
+
+        Such a target (``XHOME``) is not in the files the filter rewrites: a
+        joint position there stays as taught, which is what ``--joint-targets
+        keep`` does anyway; a Cartesian one would go uncorrected, so it is not
+        accepted.
+        """
+        if self.job.correct_joints:
+            return False
+        return self._config_decl.get(name.upper()) in ("E6AXIS", "AXIS")
 
     @staticmethod
     def _update(code: str, state: list, fdat: dict) -> None:
@@ -309,6 +370,13 @@ class KRL(Language):
         )
         if not all(k in f for k in names):
             target.tokens, target.problem = ["0"] * 6, "a partial aggregate cannot be corrected"
+            return target
+        bad = numbers.first_problem([f[k][0] for k in names])
+        status = [f[k][0] for k in ("S", "T") if k in f and not joints]
+        if bad is None and any(not _WHOLE.fullmatch(v) for v in status):
+            bad = "S or T is not a whole number"
+        if bad is not None:
+            target.tokens, target.problem = ["0"] * 6, bad
             return target
         target.tokens = [f[k][0] for k in names]
         target.spans = [(0, f[k][1], f[k][2]) for k in names]
