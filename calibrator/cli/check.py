@@ -98,6 +98,9 @@ def check(
     outputs.check(data_path, inputs=inputs, force=True)
     if not replace_ok and data_path.exists():
         raise outputs.existing(data_path, resumable=True)
+    if robot == "external":  # the plan and program written beside OUTPUT: -o's policy
+        for companion in _external_files(output):
+            outputs.check(companion, inputs=inputs, force=replace_ok)
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:
@@ -217,6 +220,11 @@ def check(
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
+def _external_files(output: Path) -> tuple[Path, Path]:
+    """The plan and program ``--robot external`` writes beside OUTPUT."""
+    return output.with_suffix(".plan.csv"), output.with_suffix(".program.csv")
+
+
 def _external(robot, output, plan, arm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
@@ -225,8 +233,7 @@ def _external(robot, output, plan, arm, quiet) -> Any:
     from calibrator import program as programs
     from calibrator.cli.measure import _external_options
 
-    plan_file = output.with_suffix(".plan.csv")
-    program_file = output.with_suffix(".program.csv")
+    plan_file, program_file = _external_files(output)
     spec = programs.ProgramSpec(
         plan_rad=plan.q_rad,
         home_rad=plan.q_rad[0],

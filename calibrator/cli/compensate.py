@@ -102,13 +102,13 @@ def compensate(
         return
     _filter(
         cal, targets_path, output, fmt, frames_path, config_dat, joint_targets == "correct",
-        max_mm, max_deg, keep_failed, summary_path, payload_kg,
+        max_mm, max_deg, keep_failed, summary_path, payload_kg, force,
     )  # fmt: skip
 
 
 def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm, max_deg,
-            keep_failed, summary_path, payload_kg):  # fmt: skip
-    from calibrator import filtering, robots
+            keep_failed, summary_path, payload_kg, force):  # fmt: skip
+    from calibrator import filtering, outputs, robots
     from calibrator.filtering import engine, frames_file
 
     language = filtering.choose(fmt, program)
@@ -131,6 +131,9 @@ def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm,
     )
     inputs = [program, frames_path, config_dat]
     run = engine.Filter(language, job, program)
+    # Every file the filter writes (KRL: OUT.dat beside -o OUT.src) under -o's policy.
+    for _, written in run.lang.files(output):
+        outputs.check(written, inputs + [summary_path], force=force)
     summary = run.run(output, inputs + [summary_path])
     if summary_path is not None:
         engine.write_summary(summary_path, summary, inputs + [output])

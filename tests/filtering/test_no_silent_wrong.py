@@ -245,3 +245,18 @@ def test_a_krl_src_whose_points_are_in_no_dat_is_refused(tmp_path):
     line = one_line_error(done)
     assert "weld.src:9: XP1 is moved to but declared in no .dat" in line, line
     assert not (tmp_path / "o.src").exists()
+
+
+def test_krl_dat_beside_the_output_is_protected_like_the_output(tmp_path):
+    src, extra = _cli_case(tmp_path, "krl")
+    (tmp_path / "out").mkdir()
+    mine = tmp_path / "out" / "weld.dat"
+    mine.write_bytes(b"DEFDAT WELD\r\n; my own points\r\nENDDAT\r\n")
+    args = ("compensate", "cal.json", src.name, "-o", "out/weld.src", *extra)
+    line = one_line_error(cli(*args, cwd=tmp_path))
+    assert "out/weld.dat exists: remove it" in line and "--force" in line, line
+    assert mine.read_bytes() == b"DEFDAT WELD\r\n; my own points\r\nENDDAT\r\n"
+    assert not (tmp_path / "out" / "weld.src").exists()
+    done = cli(*args, "--force", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    assert mine.read_bytes() != b"DEFDAT WELD\r\n; my own points\r\nENDDAT\r\n"
