@@ -52,6 +52,18 @@ def _history_option() -> Any:
     return typer.Option(None, "--history", metavar="FILE|URL", help=HISTORY_HELP)
 
 
+def refuse_unusable(target: str) -> None:
+    """Open and close ``--history`` before a command's work: one it cannot use is refused now.
+
+    ``identify`` and ``verify`` record what they wrote at the end; a history
+    that is no history, a server that does not answer or a bad URL is told
+    in one line before anything is computed or written.
+    """
+    from calibrator.history import open_history
+
+    open_history(target).close()
+
+
 def record(target: str, kind: str, path: Path) -> int:
     """Record a file a command just wrote (``identify``/``verify`` ``--history``); print it.
 

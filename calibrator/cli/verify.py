@@ -155,6 +155,10 @@ def verify(
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     arm = run_args.arm()
+    if history is not None:  # a history it could not record into is refused before moving
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")
