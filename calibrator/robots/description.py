@@ -74,6 +74,18 @@ class Capsule:
     q_mm: tuple[float, float, float]
     radius_mm: float
 
+    def __post_init__(self) -> None:
+        # A capsule of no or negative radius encloses nothing: every clearance
+        # check against it would pass.
+        if not (np.isfinite(self.radius_mm) and self.radius_mm > 0):
+            raise DescriptionError(
+                f"capsule {self.name!r}: radius {self.radius_mm:g} mm must be > 0"
+            )
+        if not np.all(np.isfinite([*self.p_mm, *self.q_mm])):
+            raise DescriptionError(f"capsule {self.name!r}: its end points must be finite")
+        if self.link not in range(0, 8):
+            raise DescriptionError(f"capsule {self.name!r}: link {self.link} is not 0 to 7")
+
 
 @dataclass(frozen=True)
 class Body:
@@ -104,6 +116,14 @@ class Body:
     shoulder_mm: tuple[float, float, float]
     margin_mm: float = 0.0
     source: str = ""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.base_radius_mm) and self.base_radius_mm > 0):
+            raise DescriptionError(f"body: base radius {self.base_radius_mm:g} mm must be > 0")
+        if not (np.isfinite(self.margin_mm) and self.margin_mm >= 0):
+            raise DescriptionError(f"body: margin {self.margin_mm:g} mm must be >= 0")
+        if not np.all(np.isfinite([self.base_top_mm, self.mount_z_mm, *self.shoulder_mm])):
+            raise DescriptionError("body: base top, mounting plane and shoulder must be finite")
 
 
 @dataclass(frozen=True)
@@ -170,6 +190,24 @@ class JointConvention:
     def is_identity(self) -> bool:
         """Whether controller and model angles are the same."""
         return all(s == 1.0 for s in self.sign) and not any(self.offset_rad) and not self.couplings
+
+
+def rigid(t: np.ndarray, what: str) -> None:
+    """Refuse a (4, 4) that is not a rigid transform (rotation and translation only).
+
+    A scaled or sheared offset would make every pose computed through it
+    wrong while each check of the arm still passed.
+    """
+    r = t[:3, :3]
+    if not (
+        np.allclose(t[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9)
+        and np.allclose(r.T @ r, np.eye(3), atol=1e-6)
+        and np.linalg.det(r) > 0
+    ):
+        raise DescriptionError(
+            f"{what} must be a rigid transform (an orthonormal rotation with det +1, "
+            "last row 0 0 0 1)"
+        )
 
 
 def _frozen(value: ArrayLike, shape: tuple[int, ...], what: str, name: str) -> np.ndarray:
@@ -269,6 +307,7 @@ class RobotDescription:
                 raise DescriptionError(f"robot {n}: masses must be >= 0")
         for key in ("base_offset", "flange_offset"):
             put(self, key, _frozen(getattr(self, key), (4, 4), key, n))
+            rigid(getattr(self, key), f"robot {n}: {key}")
         if self.reference_errors is not None:
             put(self, "reference_errors", _frozen(self.reference_errors, (6, 5), "errors", n))
         configs = {}
@@ -276,6 +315,17 @@ class RobotDescription:
             configs[str(key)] = tuple(_frozen(q, (6,), f"configuration {key!r}", n).tolist())
         if "home" not in configs:
             raise DescriptionError(f"robot {n}: needs a 'home' configuration")
+        lim = self.joint_limits_rad
+        for key, q in configs.items():
+            # A named configuration outside the limits is one no check would let the arm reach.
+            out = [j for j in range(6) if not lim[j, 0] - 1e-9 <= q[j] <= lim[j, 1] + 1e-9]
+            if out:
+                j = out[0]
+                raise DescriptionError(
+                    f"robot {n}: configuration {key!r} has joint {j + 1} at "
+                    f"{np.degrees(q[j]):.4g} deg, outside its limits "
+                    f"[{np.degrees(lim[j, 0]):.4g}, {np.degrees(lim[j, 1]):.4g}] deg (model angles)"
+                )
         put(self, "configurations", MappingProxyType(configs))
 
     # -- the ceilings every move obeys -------------------------------------------------
