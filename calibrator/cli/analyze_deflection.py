@@ -106,6 +106,11 @@ def deflection(
     from calibrator.analysis import deflection as dfl
     from calibrator.robots import masses as arm_masses
 
+    if plot is not None and plot.suffix.lower() != ".png":
+        # The map is a PNG: a file named .txt (or .json) holding one would deceive.
+        raise CalibrationError(
+            f"--plot {outputs.show(plot)}: the map is a PNG; end the name in .png"
+        )
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
             outputs.check(path, inputs=[sections], force=force, option=option)

@@ -9,6 +9,11 @@ from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.recorded_options import RULES
 
+#: ``--format``'s choices as its help shows them: the languages of
+#: :data:`calibrator.filtering.FORMATS` (a test keeps the two equal; the
+#: filtering package is not imported to draw the help).
+FORMAT_CHOICES = "urscript|krl|rapid|fanuc|jbi"
+
 
 @app.command()
 def compensate(
@@ -29,7 +34,10 @@ def compensate(
         "[default: the calibration's].",
     ),
     fmt: str = typer.Option(
-        None, "--format", help="Program language [default: from the extension]."
+        None,
+        "--format",
+        metavar=FORMAT_CHOICES,
+        help="Program language [default: from the extension].",
     ),
     frames_path: Path = typer.Option(
         None, "--frames", help="YAML of tools, bases and pulse scales the program does not define."
@@ -40,6 +48,7 @@ def compensate(
     joint_targets: str = typer.Option(
         "keep",
         "--joint-targets",
+        metavar="keep|correct",
         help="keep (taught) or correct (offline-programmed) joint targets.",
     ),
     max_correction: str = typer.Option(

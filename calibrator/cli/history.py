@@ -43,7 +43,8 @@ class _ShowByDefault(TyperGroup):
 history_app = typer.Typer(
     cls=_ShowByDefault,
     help="A per-robot history of calibrations, ISO 9283 tests and checks (docs/history.md). "
-    "'calibrator history [ROBOT] [OPTIONS]' is 'history show'.",
+    "'calibrator history [ROBOT] [OPTIONS]' is 'history show': its options (--history, "
+    "--csv FILE, --html DIR, the alarm limits) are listed by 'calibrator history show -h'.",
 )
 app.add_typer(history_app, name="history")
 
@@ -144,7 +145,7 @@ def show(
     rows = timeline.table(data)
     typer.echo(timeline.format_table(rows))
     for alarm in found:
-        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M} {alarm.kind}: {alarm.message}")
+        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M} {alarm.kind}: {safe(alarm.message)}")
     if not found:
         typer.echo("no alarms")
     with outputs.Outputs(inputs=inputs) as batch:
@@ -159,6 +160,21 @@ def show(
             typer.echo(f"wrote the {what} to {path}")
 
 
+def safe(text: object) -> str:
+    """``text`` for one line of a terminal: control characters (escapes, newlines) spelled out.
+
+    Names come from files and other people's commands: a robot named with a
+    newline or a terminal escape must not forge a line of a table or recolour
+    the terminal. ``\n`` is shown as the two characters ``\n``, an escape as ``\x1b``.
+    """
+    value = "" if text is None else str(text)
+    if value.isprintable():
+        return value
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in value
+    )
+
+
 def _print_robots(store: History) -> None:
     robots = store.robots()
     if not robots:
@@ -167,7 +183,8 @@ def _print_robots(store: History) -> None:
     typer.echo(f"{'robot':40s} {'model':12s} {'serial':12s} calibrations")
     for r in robots:
         typer.echo(
-            f"{r['name']:40s} {r['model'] or '':12s} {r['serial'] or '':12s} {r['calibrations']}"
+            f"{safe(r['name']):40s} {safe(r['model']):12s} {safe(r['serial']):12s} "
+            f"{r['calibrations']}"
         )
 
 
@@ -196,7 +213,7 @@ def import_(
 
 
 def _skipped(path: Path, why: str) -> None:
-    typer.echo(f"skipped {path}: {why}", err=True)
+    typer.echo(f"skipped {safe(path)}: {safe(why)}", err=True)
 
 
 @history_app.command("robot")
@@ -212,7 +229,7 @@ def robot_(
 
     with open_history(history) as store:
         store.describe_robot(name, model, serial, description)
-        typer.echo(f"robot {name} described in the history {store.where}")
+        typer.echo(f"robot {safe(name)} described in the history {store.where}")
 
 
 @history_app.command("tracker")
@@ -238,7 +255,7 @@ def tracker_(
             fail(f"--certificate {certificate!r}: give a date YYYY-MM-DD")
     with open_history(history) as store:
         store.describe_tracker(name, model, serial, when)
-        typer.echo(f"tracker {name} described in the history {store.where}")
+        typer.echo(f"tracker {safe(name)} described in the history {store.where}")
 
 
 @history_app.command("reidentify")
