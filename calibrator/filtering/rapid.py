@@ -95,7 +95,10 @@ def _statements(path: Path):
         lines.append(line)
         # An aggregate may go on over lines; a statement ends where its brackets close.
         depth += part.count("[") + part.count("(") - part.count("]") - part.count(")")
-        if depth <= 0:
+        # A statement ends at its ``;`` (outside strings: they are blanked) even
+        # where its brackets do not close: a line cut short spoils one statement,
+        # never the rest of the module.
+        if depth <= 0 or ";" in part:
             yield first, lines, code, offsets
             lines, offsets, code, depth = [], [], "", 0
     if lines:

@@ -260,3 +260,14 @@ def test_krl_dat_beside_the_output_is_protected_like_the_output(tmp_path):
     done = cli(*args, "--force", cwd=tmp_path)
     assert done.code == 0, done.stderr
     assert mine.read_bytes() != b"DEFDAT WELD\r\n; my own points\r\nENDDAT\r\n"
+
+
+def test_a_cut_off_rapid_target_fails_alone_and_the_next_statement_is_read(tmp_path):
+    src, cal, _ = _program(tmp_path, "rapid")
+    raw = src.read_bytes().decode("latin-1")
+    m = re.search(r"(p10:=\[\[[^,]*,[^,]*),.*", raw)
+    src.write_bytes((raw[: m.end(1)] + raw[m.end() :]).encode("latin-1"))
+    summary, out = _filter("rapid", cal, src, tmp_path)
+    assert [f["target"] for f in summary.failures] == ["p10"], summary.failures
+    assert summary.corrected["pose"] == 4, dict(summary.corrected)  # p20.. and the inline one
+    assert not out.exists()
