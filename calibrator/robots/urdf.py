@@ -145,6 +145,17 @@ def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
         return np.eye(4)
     xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
     rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
+    if np.any(np.abs(xyz) > MAX_JOINT_OFFSET_MM / _M):  # before scaling: 1e308 m overflows
+        raise DescriptionError(
+            f"{where}: origin xyz {element.get('xyz')!r:.60} is beyond "
+            f"{MAX_JOINT_OFFSET_MM / _M:g} m, no arm's: written in millimetres? "
+            "URDF lengths are metres"
+        )
+    if np.any(np.abs(rpy) > MAX_LIMIT_RAD):
+        raise DescriptionError(
+            f"{where}: origin rpy {element.get('rpy')!r:.60} is more than two turns: "
+            "written in degrees? URDF angles are radians"
+        )
     return from_xyz_rpy(np.concatenate([xyz * _M, rpy]))
 
 
@@ -928,7 +939,7 @@ def _mesh(
         mesh = trimesh.load(found, force="mesh")
     except Exception as exc:  # trimesh raises many kinds for bad files
         raise DescriptionError(f"{where}: cannot read mesh {found.name} ({exc})") from None
-    points = np.asarray(getattr(mesh, "vertices", []), dtype=float) * scale * _M
+    points = np.asarray(getattr(mesh, "vertices", []), dtype=float)
     faces = np.asarray(getattr(mesh, "faces", np.empty((0, 3))), dtype=int).reshape(-1, 3)
     if points.ndim != 2 or len(points) < 3 or not len(faces):
         # A file trimesh opens but finds nothing in (not a mesh, a format it does not
@@ -936,11 +947,15 @@ def _mesh(
         raise DescriptionError(f"{where}: mesh {found.name} holds no triangles that could be read")
     if not np.all(np.isfinite(points)):
         raise DescriptionError(f"{where}: mesh {found.name} has vertices that are not numbers")
-    extent = float(np.max(np.ptp(points, axis=0)))
-    if extent > MAX_MESH_EXTENT_MM:
+    # The extent from the file's numbers and the scale, compared before anything
+    # is scaled (a scale of 1e308 would overflow into infinities).
+    ratio = float(np.max(np.ptp(points, axis=0) * (np.abs(scale) * (_M / MAX_MESH_EXTENT_MM))))
+    if not ratio <= 1.0:
+        spans = f"{ratio * (MAX_MESH_EXTENT_MM / _M):.4g}" if np.isfinite(ratio) else "beyond 1e300"
         raise DescriptionError(
-            f"{where}: mesh {found.name} spans {extent / _M:.4g} m once scaled: no arm link's "
+            f"{where}: mesh {found.name} spans {spans} m once scaled: no arm link's "
             '(URDF meshes are metres; a mesh in millimetres needs scale="0.001 0.001 0.001")'
         )
+    points = points * scale * _M
     points = points @ at[:3, :3].T + at[:3, 3]
     return points, faces

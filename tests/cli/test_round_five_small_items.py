@@ -1,5 +1,7 @@
 """Issue 41's smaller items: names printed safely, empty items, a PNG named .txt, choices."""
 
+from pathlib import Path
+
 from cli_kit import cli, one_line_error
 
 
@@ -43,3 +45,25 @@ def test_options_with_fixed_choices_show_them_in_their_help(tmp_path):
     assert "--joint-targets keep|correct" in shown
     group = " ".join(cli("history", "-h", cwd=tmp_path).stdout.split())
     assert "--csv FILE, --html DIR" in group and "calibrator history show -h" in group
+
+
+def test_library_warnings_on_the_way_to_a_refusal_are_not_printed_around_its_line(tmp_path):
+    from cli_process_kit import run_cli
+
+    from calibrator import robots
+
+    # Masses of 1e308 kg: numpy warns while the centres of mass are computed
+    # (inf * 0), then the description is refused in one line.
+    heavy = (
+        '<link name="{0}"><inertial><origin xyz="0.2 0 0"/><mass value="1e308"/>'
+        '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>'
+    )
+    text = (Path(robots.__file__).with_name("data") / "kuka-kr6-r900.urdf").read_text()
+    for link in ("link_2", "link_3"):
+        text = text.replace(f'<link name="{link}"/>', heavy.format(link))
+    (tmp_path / "heavy.urdf").write_text(text)
+    done = run_cli("plan", "--model", "heavy.urdf", "-o", "p.csv", cwd=tmp_path, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines() == [done.stderr.strip()], done.stderr
+    assert "Warning" not in done.stderr and done.stderr.startswith("calibrator: error: ")
+    assert not (tmp_path / "p.csv").exists()

@@ -182,7 +182,7 @@ def test_an_unreadable_mesh_is_named_not_dropped(tmp_path):
         robots.get(str(path))
 
 
-@pytest.mark.parametrize("scale", ["300 300 300", "1e6 1e6 1e6"])
+@pytest.mark.parametrize("scale", ["300 300 300", "1e6 1e6 1e6", "1e308 1e308 1e308"])
 def test_a_huge_mesh_scale_is_refused_at_once_without_allocating(tmp_path, scale):
     import resource
 
@@ -207,3 +207,15 @@ def test_a_mesh_scaled_from_millimetres_is_read(tmp_path):
     cap = next(c for c in arm.body.capsules if c.name == "link_4")
     assert 50 < cap.radius_mm - 10.0 < 70.0
     assert np.isfinite(cap.radius_mm)
+
+
+def test_an_origin_beyond_any_arm_is_refused_before_it_overflows(tmp_path):
+    import warnings
+
+    text = KUKA.replace('origin xyz="0 0 0.4"', 'origin xyz="1e308 0 0.4"')
+    assert text != KUKA
+    (tmp_path / "arm.urdf").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow on the way to the refusal
+        with pytest.raises(DescriptionError, match=r"origin xyz '1e308 0 0.4' is beyond 10 m"):
+            robots.get(str(tmp_path / "arm.urdf"))
