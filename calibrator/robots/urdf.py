@@ -61,6 +61,12 @@ MAX_SPEED_RAD_S = 60.0
 #: millimetres without its scale, or a scale that would make the clearance
 #: sweep sample its surface by the billion (``scale="300"``: gigabytes).
 MAX_MESH_EXTENT_MM = 10_000.0
+#: The largest collision mesh surface (m^2) the clearance sweep samples, every
+#: :data:`SURFACE_SPACING_MM` (50 m^2: half a million points; a 2 x 2 x 3 m link has 32).
+#: Faces folded on one another within the extent could otherwise ask for billions.
+MAX_MESH_AREA_M2 = 50.0
+#: The largest collision mesh file read (bytes).
+MAX_MESH_BYTES = 64 * 2**20
 #: Base links tried when none is given, in order.
 BASE_LINKS = ("base_link",)
 #: Tip links tried when none is given, in order.
@@ -935,6 +941,12 @@ def _mesh(
     scale = _numbers(shape.get("scale"), 3, (1.0, 1.0, 1.0), f"{where} mesh scale")
     if not np.all(np.abs(scale) > 0):
         raise DescriptionError(f"{where}: mesh scale {shape.get('scale')!r} has a zero factor")
+    size = found.stat().st_size
+    if size > MAX_MESH_BYTES:
+        raise DescriptionError(
+            f"{where}: mesh {found.name} is {size / 2**20:.0f} MiB, more than the "
+            f"{MAX_MESH_BYTES // 2**20} MiB a collision mesh is read up to"
+        )
     try:
         mesh = trimesh.load(found, force="mesh")
     except Exception as exc:  # trimesh raises many kinds for bad files
@@ -956,6 +968,19 @@ def _mesh(
             f"{where}: mesh {found.name} spans {spans} m once scaled: no arm link's "
             '(URDF meshes are metres; a mesh in millimetres needs scale="0.001 0.001 0.001")'
         )
+    if faces.min() < 0 or faces.max() >= len(points):
+        raise DescriptionError(f"{where}: mesh {found.name} has faces of vertices it does not hold")
     points = points * scale * _M
+    corners = points[faces]
+    area_m2 = 0.5e-6 * float(
+        np.linalg.norm(
+            np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+        ).sum()
+    )
+    if area_m2 > MAX_MESH_AREA_M2:
+        raise DescriptionError(
+            f"{where}: mesh {found.name} has {area_m2:.4g} m^2 of surface once scaled, more "
+            f"than any arm link's ({MAX_MESH_AREA_M2:g} m^2)"
+        )
     points = points @ at[:3, :3].T + at[:3, 3]
     return points, faces

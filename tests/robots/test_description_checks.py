@@ -219,3 +219,23 @@ def test_an_origin_beyond_any_arm_is_refused_before_it_overflows(tmp_path):
         warnings.simplefilter("error")  # no overflow on the way to the refusal
         with pytest.raises(DescriptionError, match=r"origin xyz '1e308 0 0.4' is beyond 10 m"):
             robots.get(str(tmp_path / "arm.urdf"))
+
+
+def test_a_mesh_of_folded_faces_asking_for_billions_of_points_is_refused(tmp_path):
+    import trimesh
+
+    # 20,000 copies of one 1 m x 1 m square, all within a 1 m extent: 20,000 m^2
+    # of surface the clearance sweep would sample every 10 mm (2e8 points).
+    square = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    folded = trimesh.Trimesh(
+        np.tile(square.vertices, (20_000, 1))
+        + np.repeat(np.arange(20_000), 4)[:, None] * [0, 0, 1e-5],
+        np.concatenate([square.faces + 4 * k for k in range(20_000)]),
+        process=False,
+    )
+    path = _with_mesh(tmp_path)
+    folded.export(path.parent.parent / "meshes" / "link_4.stl")
+    start = time.monotonic()
+    with pytest.raises(DescriptionError, match=r"link_4\.stl has .* m\^2 of surface once scaled"):
+        robots.get(str(path))
+    assert time.monotonic() - start < 20
