@@ -67,6 +67,9 @@ from calibrator.robots.description import (
 
 #: Refuse description files larger than this.
 MAX_BYTES = 2**20
+#: Most capsules, named configurations and couplings a file may list: each
+#: costs every clearance check or plan (a 1 MiB file could list 20,000).
+MAX_ITEMS = {"capsules": 64, "configurations": 64, "couplings": 15}
 _DEG = np.pi / 180.0
 _KEYS = {
     "format",
@@ -131,6 +134,15 @@ class _Doc:
     def section(self, key: str) -> _Doc | None:
         value = self.doc.get(key)
         return None if value is None else _Doc(value, f"{self.where}: {key}")
+
+
+def _count(section: _Doc, key: str) -> None:
+    """Refuse a list ``key`` that is no list or longer than :data:`MAX_ITEMS` allows."""
+    items = section.get(key)
+    if not isinstance(items, list):
+        raise section.fail(key, "must be a list")
+    if len(items) > MAX_ITEMS[key]:
+        raise section.fail(key, f"{len(items)} listed, at most {MAX_ITEMS[key]}")
 
 
 def _has_bool(value: Any) -> bool:
@@ -272,6 +284,8 @@ def _overlay(doc: _Doc, base: RobotDescription, name: str) -> RobotDescription:
             changes["max_joint_accel_rad_s2"] = limits.numbers("accel_deg_s2", (6,)) * _DEG
     configs = doc.section("configurations")
     if configs is not None:
+        if len(configs.doc) > MAX_ITEMS["configurations"]:
+            raise doc.fail("configurations", f"more than {MAX_ITEMS['configurations']} named")
         named = dict(base.configurations)
         for key in configs.doc:
             q = configs.numbers(str(key), (6,)) * _DEG
@@ -302,6 +316,8 @@ def _convention(doc: _Doc, kinematics_convention: JointConvention) -> JointConve
         else np.zeros(6)
     )
     couplings = []
+    if section.get("couplings") is not None:
+        _count(section, "couplings")
     for k, item in enumerate(section.get("couplings") or []):
         c = _Doc(item, f"{section.where}: couplings[{k}]")
         j, src, f = (c.numbers(key, ()) for key in ("joint", "from", "factor"))
@@ -331,6 +347,7 @@ def _body(section: _Doc, base: RobotDescription) -> Body:
     )
     capsules: list[Capsule] = []
     if section.get("capsules") is not None:
+        _count(section, "capsules")
         for k, item in enumerate(section.get("capsules")):
             c = _Doc(item, f"{section.where}: capsules[{k}]")
             link = c.numbers("link", ())

@@ -239,3 +239,20 @@ def test_a_mesh_of_folded_faces_asking_for_billions_of_points_is_refused(tmp_pat
     with pytest.raises(DescriptionError, match=r"link_4\.stl has .* m\^2 of surface once scaled"):
         robots.get(str(path))
     assert time.monotonic() - start < 20
+
+
+def test_counts_a_description_file_can_ask_for_are_bounded(tmp_path):
+    capsule = "    - {name: c, link: 2, p_mm: [150, 0, 450], q_mm: [750, 0, 450], radius_mm: 90}\n"
+    text = DESCRIPTION.replace(capsule.replace("name: c", "name: upper arm"), capsule * 65)
+    assert text != DESCRIPTION
+    (tmp_path / "arm.yaml").write_text(text)
+    with pytest.raises(DescriptionError, match="capsules: 65 listed, at most 64"):
+        robots.get(str(tmp_path / "arm.yaml"))
+    many = "".join(f"  c{k}: [0, 0, 0, 0, 0, 0]\n" for k in range(65))
+    (tmp_path / "arm.yaml").write_text(
+        DESCRIPTION.replace(
+            "  upright: [0, -90, 0, 0, 0, 0]\n", "  upright: [0, -90, 0, 0, 0, 0]\n" + many
+        )
+    )
+    with pytest.raises(DescriptionError, match="configurations: more than 64 named"):
+        robots.get(str(tmp_path / "arm.yaml"))
