@@ -67,3 +67,21 @@ def test_library_warnings_on_the_way_to_a_refusal_are_not_printed_around_its_lin
     assert done.stderr.strip().splitlines() == [done.stderr.strip()], done.stderr
     assert "Warning" not in done.stderr and done.stderr.startswith("calibrator: error: ")
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_a_sections_file_for_another_arms_mass_model_is_refused_unless_asked_for(tmp_path):
+    (tmp_path / "s.yaml").write_text(
+        "mass_model: ur5e\n"
+        "links:\n  2: {outer_mm: 100, inner_mm: 80, e_mpa: 70000}\n"
+        "  3: {outer_mm: 90, inner_mm: 74, e_mpa: 70000}\n"
+    )
+    args = ("analyze", "deflection", "--model", "ur10e", "--sections", "s.yaml", "--json", "d.json")
+    line = one_line_error(cli(*args, cwd=tmp_path))
+    assert "its mass_model is the ur5e's, not --model ur10e's; give --masses ur5e" in line
+    assert not (tmp_path / "d.json").exists()
+    done = cli(*args, "--masses", "ur5e", cwd=tmp_path)
+    assert done.code == 0, done.stderr
+    (tmp_path / "s.yaml").write_text(
+        (tmp_path / "s.yaml").read_text().replace("mass_model: ur5e", "mass_model: ur10e")
+    )
+    assert cli(*args, "--force", cwd=tmp_path).code == 0
