@@ -11,6 +11,7 @@ back where they were.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 
@@ -36,23 +37,40 @@ class Lexer:
         as a call with one (blank) string argument. An unterminated string
         runs to the end of the line.
         """
-        if not any(q in line for q in self.quotes) and (
-            self.comment is None or self.comment not in line
-        ):
+        special = self._special()
+        at = special.search(line)
+        if at is None:
             return line  # the usual line: nothing to blank
-        out = list(line)
-        quote = None
-        for i, ch in enumerate(line):
-            if quote is not None:
-                if ch == quote:
-                    quote = None
-                elif ch not in "\r\n":
-                    out[i] = " "
-            elif ch in self.quotes:
-                quote = ch
-            elif self.comment is not None and line.startswith(self.comment, i):
-                for j in range(i, len(line)):
-                    if line[j] not in "\r\n":
-                        out[j] = " "
-                break
-        return "".join(out)
+        parts, i = [], 0
+        while at is not None:
+            j = at.start()
+            if self.comment is not None and line.startswith(self.comment, j):
+                parts += [line[i:j], _blank(line[j:])]
+                return "".join(parts)
+            quote = line[j]
+            end = line.find(quote, j + 1)
+            if end < 0:  # unterminated: a string to the end of the line
+                parts += [line[i : j + 1], _blank(line[j + 1 :])]
+                return "".join(parts)
+            parts += [line[i : j + 1], " " * (end - j - 1), quote]
+            i = end + 1
+            at = special.search(line, i)
+        parts.append(line[i:])
+        return "".join(parts)
+
+    def _special(self) -> re.Pattern[str]:
+        """The characters that open a string or a comment (compiled once per lexer)."""
+        found = _PATTERNS.get(self)
+        if found is None:
+            opener = self.comment[0] if self.comment else ""
+            found = _PATTERNS[self] = re.compile("[" + re.escape(self.quotes + opener) + "]")
+        return found
+
+
+_PATTERNS: dict[Lexer, re.Pattern[str]] = {}
+
+
+def _blank(text: str) -> str:
+    """``text`` as spaces, its line ending kept."""
+    body = text.rstrip("\r\n")
+    return " " * len(body) + text[len(body) :]
