@@ -190,36 +190,18 @@ class KRL(Language):
         fdat: dict = {}
         # Every position declared (or assigned) in the .dat and the .src: KRL
         # ignores case, so ``XP1`` and ``xp1`` are one name, declared twice.
-        declared: dict[str, str] = {}
-        for path in [self.dat, self.program]:
-            if path is None:
-                continue
-            for number, line in read_lines(path):
-                code = _code(line)
-                where = f"{path}:{number}"
-                m = _FDAT.match(code)
-                if m:
-                    f = _fields("{" + m.group(2) + "}", 0)
-                    tool = _whole(f["TOOL_NO"][0], where, "TOOL_NO") if "TOOL_NO" in f else None
-                    base = _whole(f["BASE_NO"][0], where, "BASE_NO") if "BASE_NO" in f else None
-                    fdat[m.group(1).upper()] = (tool, base)
-                    continue
-                decl = _DECL.match(code)
-                if decl:
-                    key = decl.group(2).upper()
-                    if key in declared:
-                        raise FilterError(
-                            f"{where}: {decl.group(2)} is declared again (KRL ignores case; "
-                            f"first at {declared[key]}); which one is moved to is unclear"
-                        )
-                    declared[key] = where
-                elif (assign := _ASSIGN.match(code)) and path == self.program:
-                    declared.setdefault(assign.group(1).upper(), where)
-        # First pass over the .src: the tool and base of each named target's uses.
+        declared: dict[str, tuple] = {}
+        if self.dat is not None:
+            for number, line in read_lines(self.dat):
+                _declare(_code(line), self.dat, number, fdat, declared, in_src=False)
+        # One pass over the .src: its declarations, and the tool and base of
+        # each named target's uses.
         self.uses: dict = {}
+        first_use: dict[str, tuple] = {}
         state: list = [None, None]
         for number, line in read_lines(self.program):
             code = _code(line)
+            _declare(code, self.program, number, fdat, declared, in_src=True)
             self._update(code, state, fdat)
             m = _MOTION.match(code)
             if not m:
@@ -229,15 +211,8 @@ class KRL(Language):
             for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(moved)):
                 if name.upper() in {"C_PTP", "C_DIS", "C_VEL", "C_ORI", "C_SPL", "CA"}:
                     continue
-                if name.upper() not in declared and not self._declared_elsewhere(name):
-                    where = "neither in the .src nor in its .dat"
-                    if self.dat is None:
-                        where = f"in no .dat (there is no {self.program.stem}.dat beside it)"
-                    raise FilterError(
-                        f"{self.program}:{number}: {name} is moved to but declared {where}; "
-                        "its target cannot be corrected"
-                    )
                 key = name.upper()
+                first_use.setdefault(key, (name, number))
                 seen = self.uses.get(key)
                 now = (state[0], state[1], number)
                 if seen is not None and seen[:2] != now[:2]:
@@ -247,6 +222,17 @@ class KRL(Language):
                         f"one target cannot be corrected for two frames"
                     )
                 self.uses[key] = now
+        # A target moved to but declared nowhere the filter reads would be left
+        # uncorrected while the rest says "corrected": refused, first use first.
+        for key, (name, number) in first_use.items():
+            if key not in declared and not self._declared_elsewhere(name):
+                where = "neither in the .src nor in its .dat"
+                if self.dat is None:
+                    where = f"in no .dat (there is no {self.program.stem}.dat beside it)"
+                raise FilterError(
+                    f"{self.program}:{number}: {name} is moved to but declared {where}; "
+                    "its target cannot be corrected"
+                )
         self.fdat = fdat
 
         self._frames: dict = {}  # (kind, number) -> (transform, problem), looked up once
@@ -400,6 +386,35 @@ class KRL(Language):
 
     def describe(self, code: tuple) -> str:
         return f"S {code[0]} T {code[1]}"
+
+
+def _declare(code: str, path: Path, number: int, fdat: dict, declared: dict, in_src: bool) -> None:
+    """Note an ``FDAT`` (its tool and base numbers) or a position declared on this line.
+
+    Refuses a position declared twice (KRL ignores case: ``XP1`` and ``xp1``
+    are one name). In the ``.src``, ``NAME = {...}`` also gives a value to a
+    position declared without one.
+    """
+    m = _FDAT.match(code)
+    if m:
+        where = f"{path}:{number}"
+        f = _fields("{" + m.group(2) + "}", 0)
+        tool = _whole(f["TOOL_NO"][0], where, "TOOL_NO") if "TOOL_NO" in f else None
+        base = _whole(f["BASE_NO"][0], where, "BASE_NO") if "BASE_NO" in f else None
+        fdat[m.group(1).upper()] = (tool, base)
+        return
+    decl = _DECL.match(code)
+    if decl:
+        key = decl.group(2).upper()
+        if key in declared:
+            first = declared[key]
+            raise FilterError(
+                f"{path}:{number}: {decl.group(2)} is declared again (KRL ignores case; "
+                f"first at {first[0]}:{first[1]}); which one is moved to is unclear"
+            )
+        declared[key] = (path, number)
+    elif in_src and (assign := _ASSIGN.match(code)):
+        declared.setdefault(assign.group(1).upper(), (path, number))
 
 
 def _strip_aggregates(text: str) -> str:

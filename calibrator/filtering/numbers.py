@@ -73,10 +73,16 @@ def fields(text: str, offset: int = 0, separators: str = ",") -> list[tuple[str,
 def first_problem(tokens: list) -> str | None:
     """The :func:`problem` of the first token of ``tokens`` (str or ``(str, ...)``) that has one."""
     for token in tokens:
-        why = problem(token if isinstance(token, str) else token[0])
-        if why is not None:
-            return why
+        text = token if isinstance(token, str) else token[0]
+        if _PLAIN.fullmatch(text) is None:  # the usual token needs no further look
+            why = problem(text)
+            if why is not None:
+                return why
     return None
+
+
+#: A number no float() can make infinite: no exponent, at most 40 digits.
+_PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
 
 
 def _shown(token: str) -> str:
