@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from calibrator.history.store import History
 
 HISTORY_HELP = (
-    "History: an SQLite file or postgresql://USER@HOST/DB "
+    "History: an SQLite file or postgresql://USER@HOST/DB; ?timeout=SECONDS bounds every "
+    "exchange with it (default 30) and sqlite:///FILE?mode=ro opens a file read-only "
     "[default: $CALIBRATOR_HISTORY, else ~/.local/share/calibrator/history.sqlite]."
 )
 
