@@ -212,6 +212,11 @@ def _probe_sqlite(path: Path, timeout: float) -> str | None:
             row = conn.execute("SELECT version_num FROM alembic_version").fetchone()
             revision = None if row is None else str(row[0])
     except sqlite3.DatabaseError as exc:
+        if "locked" in str(exc) or "busy" in str(exc):
+            raise HistoryError(
+                f"history {path}: no answer within {timeout:g} s (another program holds its "
+                f"lock; a history URL's ?timeout=SECONDS or ${TIMEOUT_ENV} sets the limit)"
+            ) from None
         raise HistoryError(f"--history {path}: not an SQLite database ({exc})") from None
     finally:
         conn.close()

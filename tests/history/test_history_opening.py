@@ -249,3 +249,19 @@ def test_an_open_history_refuses_a_bad_timeout_from_the_environment(tmp_path, mo
     with pytest.raises(HistoryError, match="CALIBRATOR_HISTORY_TIMEOUT: 'forever'"):
         open_history(tmp_path / "h.sqlite")
     assert not (tmp_path / "h.sqlite").exists()
+
+
+def test_a_history_another_program_holds_locked_is_said_so_within_the_timeout(tmp_path):
+    assert cli("history", "robot", "r1", "--history", "h.sqlite", cwd=tmp_path).code == 0
+    holder = sqlite3.connect(tmp_path / "h.sqlite", isolation_level=None)
+    holder.execute("PRAGMA locking_mode = EXCLUSIVE")
+    holder.execute("BEGIN EXCLUSIVE")
+    try:
+        url = f"sqlite:///{tmp_path / 'h.sqlite'}?timeout=1"
+        start = time.monotonic()
+        line = one_line_error(cli("history", "--history", url, cwd=tmp_path))
+        assert time.monotonic() - start < 1 + 10
+    finally:
+        holder.rollback()
+        holder.close()
+    assert "no answer within 1 s" in line, line
