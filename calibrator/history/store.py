@@ -201,6 +201,10 @@ def _probe_sqlite(path: Path, timeout: float) -> str | None:
     if path.stat().st_size == 0:
         return None
     uri = f"file:{quote(str(path.resolve()))}?mode=ro"
+    if not Path(f"{path}-wal").exists():
+        # Nothing beside it: the file holds everything, and opening it immutable
+        # takes no lock and leaves no -wal or -shm beside someone else's database.
+        uri += "&immutable=1"
     try:
         conn = sqlite3.connect(uri, uri=True, timeout=timeout)
     except sqlite3.Error as exc:

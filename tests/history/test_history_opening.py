@@ -22,9 +22,10 @@ from calibrator.history import HistoryError, open_history
 # -- SQLite: read-only probing ----------------------------------------------------------
 
 
-def _foreign_database(path):
-    """An SQLite database of someone else's (rollback journal, one table)."""
+def _foreign_database(path, journal="delete"):
+    """An SQLite database of someone else's (one table), in its own journal mode."""
     conn = sqlite3.connect(path)
+    conn.execute(f"PRAGMA journal_mode = {journal}")
     conn.execute("CREATE TABLE parts (id INTEGER PRIMARY KEY, name TEXT)")
     conn.execute("INSERT INTO parts (name) VALUES ('flange')")
     conn.commit()
@@ -35,13 +36,16 @@ def _foreign_database(path):
 @pytest.mark.parametrize(
     "command", [["history"], ["history", "robot", "r1"], ["history", "tracker", "t:m:s"]]
 )
-def test_a_database_that_is_no_history_stays_byte_identical(tmp_path, command):
-    before = _foreign_database(tmp_path / "other.sqlite")
-    assert before[18:20] == b"\x01\x01"  # rollback journal: legacy read/write versions
+@pytest.mark.parametrize("journal", ["delete", "wal"])
+def test_a_database_that_is_no_history_stays_byte_identical(tmp_path, command, journal):
+    before = _foreign_database(tmp_path / "other.sqlite", journal)
+    # Bytes 18-19: 1 1 for a rollback journal, 2 2 for a write-ahead log.
+    assert before[18:20] == (b"\x01\x01" if journal == "delete" else b"\x02\x02")
     line = one_line_error(cli(*command, "--history", "other.sqlite", cwd=tmp_path))
     assert "other.sqlite is a database, but not a calibrator history" in line
     assert (tmp_path / "other.sqlite").read_bytes() == before  # no switch to WAL (bytes 18-19)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.sqlite"]  # no -wal, no -shm
+    # Nothing beside it either: no -wal, no -shm.
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.sqlite"]
 
 
 def test_a_file_that_is_no_database_is_refused_untouched(tmp_path):
