@@ -391,8 +391,12 @@ class History:
 
     # -- opening ---------------------------------------------------------------
 
-    def upgrade(self) -> str | None:
-        """Bring the schema to :data:`migrations.HEAD`; return the revision it was at."""
+    def upgrade(self, create: bool = True) -> str | None:
+        """Bring the schema to :data:`migrations.HEAD`; return the revision it was at.
+
+        With ``create`` False an empty database is refused, not given the
+        schema: a look at a history writes nothing into what holds none.
+        """
         from sqlalchemy import inspect
 
         with self._begin() as conn:
@@ -401,6 +405,10 @@ class History:
             was = migrations.current(conn)
             if was is None and inspect(conn).get_table_names():
                 raise HistoryError(f"{self.where} is a database, but not a calibrator history")
+            if was is None and not create:
+                raise HistoryError(
+                    f"no history in {self.where} (an empty database: nothing recorded yet)"
+                )
             if was is not None and was not in migrations.REVISIONS:
                 raise HistoryError(
                     f"{self.where} is at schema revision {was}, newer than this calibrator "
@@ -693,7 +701,7 @@ def open_history(target: str | os.PathLike | None = None, create: bool = True) -
     )
     history = History(engine, where)
     try:
-        history.upgrade()
+        history.upgrade(create)
     except BaseException:
         history.close()
         raise

@@ -269,3 +269,16 @@ def test_a_history_another_program_holds_locked_is_said_so_within_the_timeout(tm
         holder.rollback()
         holder.close()
     assert "no answer within 1 s" in line, line
+
+
+def test_listing_an_empty_postgresql_database_writes_no_schema_into_it(new_pg, tmp_path):
+    import psycopg
+
+    url = new_pg()
+    line = one_line_error(cli("history", "--history", url, cwd=tmp_path))
+    assert "no history in" in line and "an empty database" in line
+    with psycopg.connect(url) as conn:
+        tables = conn.execute(
+            "SELECT count(*) FROM information_schema.tables WHERE table_schema = 'public'"
+        ).fetchone()[0]
+    assert tables == 0
