@@ -107,8 +107,10 @@ def check(
         fail("--resume is not for --robot external: run the check again")
     arm = run_args.arm()
     world_file = _run.read_world(world, robot, tracker)
-    if history is not None:
-        _open_history(history).close()  # one it cannot open is refused before anything moves
+    if history is not None:  # one it cannot record into is refused before anything moves
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     cal = calibrations.load(calibration_path)
     if cal.model and cal.model != arm.name:
         fail(f"{calibration_path} calibrates a {cal.model}, not --model {run_args.model}")

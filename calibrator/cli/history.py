@@ -61,9 +61,11 @@ def refuse_unusable(target: str) -> None:
     that is no history, a server that does not answer or a bad URL is told
     in one line before anything is computed or written.
     """
-    from calibrator.history import open_history
-
-    open_history(target).close()
+    try:
+        from calibrator.history.store import check_usable
+    except ImportError:  # an installation without the history's database libraries
+        fail("--history: this installation has no history support (calibrator.history)")
+    check_usable(target)
 
 
 def record(target: str, kind: str, path: Path) -> int:

@@ -391,11 +391,12 @@ class History:
 
     # -- opening ---------------------------------------------------------------
 
-    def upgrade(self, create: bool = True) -> str | None:
+    def upgrade(self, create: bool = True, change: bool = True) -> str | None:
         """Bring the schema to :data:`migrations.HEAD`; return the revision it was at.
 
         With ``create`` False an empty database is refused, not given the
         schema: a look at a history writes nothing into what holds none.
+        With ``change`` False nothing is migrated: only what would be refused is.
         """
         from sqlalchemy import inspect
 
@@ -414,7 +415,7 @@ class History:
                     f"{self.where} is at schema revision {was}, newer than this calibrator "
                     f"reads ({migrations.HEAD}): upgrade calibrator"
                 )
-            if was != migrations.HEAD:
+            if was != migrations.HEAD and change:
                 migrations.upgrade(conn)
         return was
 
@@ -669,6 +670,27 @@ def _tracker_parts(name: str | None) -> dict:
     """Model and serial of a ``vendor:model:serial`` tracker id (``{}`` otherwise)."""
     parts = (name or "").split(":")
     return {"model": parts[1], "serial": parts[2]} if len(parts) == 3 else {}
+
+
+def check_usable(target: str | os.PathLike | None = None) -> None:
+    """Refuse now a history a command could not record into at its end; create nothing.
+
+    For ``identify``/``verify``/``check --history``: a bad URL, a file that is
+    no history, a server that does not answer are refused before the
+    command's work, and a history that is not there yet is not made by a
+    command that may still fail (it is made when something is recorded).
+    """
+    url = resolve(target, create=False)
+    engine = _engine(url, create=True)
+    if engine.url.get_backend_name() == "sqlite":
+        # Nothing connected: an existing file was probed read-only, a new one's folder checked.
+        engine.dispose()
+        return
+    history = History(engine, engine.url.render_as_string(hide_password=True))
+    try:
+        history.upgrade(create=True, change=False)
+    finally:
+        history.close()
 
 
 def open_history(target: str | os.PathLike | None = None, create: bool = True) -> History:

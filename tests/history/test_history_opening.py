@@ -282,3 +282,18 @@ def test_listing_an_empty_postgresql_database_writes_no_schema_into_it(new_pg, t
             "SELECT count(*) FROM information_schema.tables WHERE table_schema = 'public'"
         ).fetchone()[0]
     assert tables == 0
+
+
+def test_a_command_that_fails_after_the_history_check_leaves_no_new_history(measured, tmp_path):
+    (tmp_path / "bad.parquet").write_bytes(b"not a session")
+    done = cli(
+        "identify", "bad.parquet", "-o", "c.json", "--history", "new.sqlite", cwd=tmp_path
+    )  # fmt: skip
+    assert done.code == 2, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.parquet"]
+    done = cli(
+        "identify", measured / "s0.parquet", "-o", "c.json", "--method", "lm",
+        "--history", "new.sqlite", cwd=tmp_path,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    assert "recorded calibration" in done.stdout and (tmp_path / "new.sqlite").is_file()
