@@ -8,7 +8,10 @@ Every file a command writes goes through here, so that
 - an existing output is refused unless the user passed ``--force`` (one
   policy for every command; the message names the option that gave the
   path: ``-o``, ``--report``...). Commands apply it in their first check,
-  before any work; the writers below then replace what the command cleared;
+  before any work; the writers below then replace only what a check cleared
+  (or what this process wrote itself): a companion file a command writes
+  beside its output (KRL's ``OUT.dat`` beside ``-o OUT.src``) that no check
+  cleared is refused like ``-o`` when it exists, never silently replaced;
 - a file appears whole or not at all: it is written to a hidden temporary
   file beside the target, flushed to disk, then renamed over it;
 - nothing is left behind after a failure, not even when the second of
@@ -78,6 +81,18 @@ def note_input(path: PathLike) -> None:
     _NOTED.add(Path(path))
 
 
+#: Output paths (resolved) this process may replace: cleared by :func:`check`
+#: under the user's ``--force`` policy, or written by this process itself.
+_CLEARED: set[Path] = set()
+
+
+def _clear(path: Path) -> None:
+    try:
+        _CLEARED.add(path.resolve())
+    except (OSError, RuntimeError):  # a loop of links: never cleared, so refused if it exists
+        pass
+
+
 def check(
     path: PathLike,
     inputs: Iterable[PathLike | None] = (),
@@ -124,6 +139,7 @@ def check(
     if kind == "file" and not force:
         raise existing(path, option)
     _check_parent(path)
+    _clear(Path(path))
     return Path(path)
 
 
@@ -287,14 +303,25 @@ class Outputs:
     def file(self, path: PathLike, writer: Callable[[Path], object]) -> Path:
         """Add a file written by ``writer(tmp_path)`` (it must write the whole file there).
 
-        An existing file is replaced: the command applied the ``--force``
-        policy (:func:`check`) before its work.
+        An existing file is replaced only if :func:`check` cleared it (the
+        command applied the ``--force`` policy before its work) or this
+        process wrote it; any other existing file is refused like ``-o``
+        without ``--force``.
 
         Returns
         -------
         Path
             The user's path.
         """
+        path = Path(path)
+        try:
+            cleared = path.resolve() in _CLEARED
+        except (OSError, RuntimeError):
+            cleared = False
+        if not cleared and _kind(_no_nul(path)) == "file":
+            # No check cleared this existing file (a companion the command
+            # writes beside its output): refused as -o would be without --force.
+            raise existing(path)
         path = check(path, self.inputs, force=True)
         target = path.resolve()  # through a symlink, never over it
         if any(target == t for _, t, _ in self._pending):
@@ -352,6 +379,8 @@ class Outputs:
             raise OutputError(f"cannot write {show(failed)}: {_reason(exc)}") from None
         for old in kept.values():
             _unlink(old)
+        for _, target, _ in self._pending:
+            _CLEARED.add(target)  # this process wrote it: it may replace it again
         self._pending = []
         self._done = True
 

@@ -160,6 +160,10 @@ def read_world(path: str | os.PathLike[str]) -> World:
         doc = yamlfile.read(path, "a world file")
     except StrictError as exc:
         raise WorldError(str(exc)) from None
+    if isinstance(doc, dict) and "world" not in doc:
+        # The format line says what the file is: a YAML mapping without it (a
+        # cell file, a robot description) given as --world is not taken as one.
+        raise WorldError(f"{path}: no 'world: {FORMAT_VERSION}' line: not a world file")
     try:
         return parse_world(doc)
     except WorldError as exc:
@@ -263,12 +267,8 @@ def _plain(value: object, what: str) -> float:
 
 
 def _number(value: object, what: str, unit: str) -> float:
-    if isinstance(value, str):
-        # YAML 1.1 reads 1e-6 (no dot) as a string: take it as the number it spells.
-        try:
-            value = float(value)
-        except ValueError:
-            pass
+    # A quoted '4e-4' is text, refused as every non-number is (the strict
+    # YAML reader already reads an unquoted 4e-4 as the number).
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise WorldError(f"{what}: expected a finite number ({unit}), got {value!r}")
     if abs(value) > MAX_CHANGE[unit]:

@@ -12,6 +12,8 @@ import gc
 import importlib
 import os
 import sys
+import warnings
+from typing import Any
 
 import typer
 from typer._click import exceptions as _click_errors
@@ -99,6 +101,28 @@ def _fail(message, code=2):
     sys.exit(code)
 
 
+def _dispatch(app: typer.Typer, args: list[str], argv: list[str] | None) -> Any:
+    """The command's exit code; a known error printed as one line (``SystemExit``)."""
+    from calibrator.cli import _checks
+
+    try:
+        _checks.strict_numbers(app, args)
+        return app(args=argv, prog_name="calibrator", standalone_mode=False)
+    except _click_errors.NoArgsIsHelpError as exc:
+        typer.echo(exc.format_message())
+        return 0
+    except _click_errors.UsageError as exc:
+        _fail(_checks.one_line(exc))
+    except _click_errors.ClickException as exc:
+        _fail(exc.format_message(), exc.exit_code)
+    except typer.Abort:  # EOF at a prompt
+        _fail("interrupted", EXIT_INTERRUPTED)
+    except CalibrationError as exc:
+        _fail(exc)
+    except OSError as exc:
+        _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the app, turning known errors into one line.
 
@@ -120,25 +144,22 @@ def main(argv: list[str] | None = None) -> None:
         # threads only spin: identify on 30 poses spent 0.15 s more CPU and
         # 0.2 s more wall with them (measured). A user's own setting wins.
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from calibrator.cli import _checks
-
     app = register(_commands_for(args))
-    try:
-        _checks.strict_numbers(app, args)
-        code = app(args=argv, prog_name="calibrator", standalone_mode=False)
-    except _click_errors.NoArgsIsHelpError as exc:
-        typer.echo(exc.format_message())
-        code = 0
-    except _click_errors.UsageError as exc:
-        _fail(_checks.one_line(exc))
-    except _click_errors.ClickException as exc:
-        _fail(exc.format_message(), exc.exit_code)
-    except typer.Abort:  # EOF at a prompt
-        _fail("interrupted", EXIT_INTERRUPTED)
-    except CalibrationError as exc:
-        _fail(exc)
-    except OSError as exc:
-        _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+    # Warnings a library gives on the way to a refusal (numpy's overflow while
+    # reading a number the command then refuses) would bury its one line: they
+    # are held while the command runs, dropped when it ends refused (exit 2),
+    # shown after it otherwise.
+    ended: SystemExit | None = None
+    with warnings.catch_warnings(record=True) as held:
+        try:
+            code = _dispatch(app, args, argv)
+        except SystemExit as exc:  # a known error, already said in one line
+            ended, code = exc, exc.code
+    if code != 2:
+        for w in held:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno, w.file, w.line)
+    if ended is not None:
+        raise ended
     # Without standalone mode typer returns the exit code of ``typer.Exit``, and
     # 130 for Ctrl-C inside a command (it catches the KeyboardInterrupt itself).
     if code == EXIT_INTERRUPTED:

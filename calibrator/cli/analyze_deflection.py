@@ -106,6 +106,11 @@ def deflection(
     from calibrator.analysis import deflection as dfl
     from calibrator.robots import masses as arm_masses
 
+    if plot is not None and plot.suffix.lower() != ".png":
+        # The map is a PNG: a file named .txt (or .json) holding one would deceive.
+        raise CalibrationError(
+            f"--plot {outputs.show(plot)}: the map is a PNG; end the name in .png"
+        )
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
             outputs.check(path, inputs=[sections], force=force, option=option)
@@ -132,6 +137,15 @@ def deflection(
         if sections is None:
             raise CalibrationError(f"--model {model}: give --sections (a link-section YAML)")
         table, from_file = dfl.load_sections(sections)
+        if masses is None and from_file is not None and not _is_path(from_file):
+            # The sections' mass model names another arm: its masses would load
+            # this arm's links without a word. Taking them is the user's choice.
+            theirs, ours = robots.get(from_file).name, robots.get(model).name
+            if theirs != ours:
+                raise CalibrationError(
+                    f"--sections {outputs.show(sections)}: its mass_model is the {theirs}'s, "
+                    f"not --model {model}'s; give --masses {from_file} to use it anyway"
+                )
         source = masses or from_file or model
         arm = dfl.named_arm(model, table, arm_masses.resolve(source))
         prismatic = [False] * 6
@@ -218,3 +232,8 @@ def deflection(
     for path in (plot, json_out):
         if path is not None:
             typer.echo(f"wrote {path}")
+
+
+def _is_path(name: str) -> bool:
+    """A mass model named by its file (YAML), not by a named arm."""
+    return name.lower().endswith((".yaml", ".yml")) or "/" in name or "\\" in name

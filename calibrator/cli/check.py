@@ -108,6 +108,9 @@ def check(
     outputs.check(data_path, inputs=inputs, force=True)
     if not replace_ok and data_path.exists():
         raise outputs.existing(data_path, resumable=True)
+    if robot == "external":  # the plan and program written beside OUTPUT: -o's policy
+        for companion in _external_files(output):
+            outputs.check(companion, inputs=inputs, force=replace_ok)
     if sim_faults is not None and not Path(sim_faults).is_file():
         fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:
@@ -116,8 +119,10 @@ def check(
     # The calibration's arm; --model only for one that names none.
     arm = run_args.arm(_model.From(cal.model, calibration_path))
     world_file = _run.read_world(world, robot, tracker)
-    if history is not None:
-        _open_history(history).close()  # one it cannot open is refused before anything moves
+    if history is not None:  # one it cannot record into is refused before anything moves
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     if cal.frame != "tracker":
         fail(
             f"{calibration_path} was identified in the robot base frame: a check compares "
@@ -253,8 +258,10 @@ def _check_recorded(
         fail(f"-o {output}: give the JSON file; the session is the check's data")
     inputs = [session_file, calibration_path]
     outputs.check(output, inputs=inputs, force=run_args.force)
-    if history is not None:
-        _open_history(history).close()  # refused before anything is written
+    if history is not None:  # refused before anything is written
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     cal = calibrations.load(calibration_path)
     if cal.frame != "tracker":
         fail(
@@ -293,6 +300,11 @@ def _check_recorded(
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
+def _external_files(output: Path) -> tuple[Path, Path]:
+    """The plan and program ``--robot external`` writes beside OUTPUT."""
+    return output.with_suffix(".plan.csv"), output.with_suffix(".program.csv")
+
+
 def _external(robot, output, plan, arm, quiet) -> Any:
     """``--robot external``: write the check's plan and program beside OUTPUT; its options."""
     if robot != "external":
@@ -301,8 +313,7 @@ def _external(robot, output, plan, arm, quiet) -> Any:
     from calibrator import program as programs
     from calibrator.cli.measure import _external_options
 
-    plan_file = output.with_suffix(".plan.csv")
-    program_file = output.with_suffix(".program.csv")
+    plan_file, program_file = _external_files(output)
     spec = programs.ProgramSpec(
         plan_rad=plan.q_rad,
         home_rad=plan.q_rad[0],

@@ -9,6 +9,11 @@ from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.recorded_options import RULES
 
+#: ``--format``'s choices as its help shows them: the languages of
+#: :data:`calibrator.filtering.FORMATS` (a test keeps the two equal; the
+#: filtering package is not imported to draw the help).
+FORMAT_CHOICES = "urscript|krl|rapid|fanuc|jbi"
+
 
 @app.command()
 def compensate(
@@ -29,7 +34,10 @@ def compensate(
         "[default: the calibration's].",
     ),
     fmt: str = typer.Option(
-        None, "--format", help="Program language [default: from the extension]."
+        None,
+        "--format",
+        metavar=FORMAT_CHOICES,
+        help="Program language [default: from the extension].",
     ),
     frames_path: Path = typer.Option(
         None, "--frames", help="YAML of tools, bases and pulse scales the program does not define."
@@ -40,6 +48,7 @@ def compensate(
     joint_targets: str = typer.Option(
         "keep",
         "--joint-targets",
+        metavar="keep|correct",
         help="keep (taught) or correct (offline-programmed) joint targets.",
     ),
     max_correction: str = typer.Option(
@@ -102,13 +111,13 @@ def compensate(
         return
     _filter(
         cal, targets_path, output, fmt, frames_path, config_dat, joint_targets == "correct",
-        max_mm, max_deg, keep_failed, summary_path, payload_kg,
+        max_mm, max_deg, keep_failed, summary_path, payload_kg, force,
     )  # fmt: skip
 
 
 def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm, max_deg,
-            keep_failed, summary_path, payload_kg):  # fmt: skip
-    from calibrator import filtering, robots
+            keep_failed, summary_path, payload_kg, force):  # fmt: skip
+    from calibrator import filtering, outputs, robots
     from calibrator.filtering import engine, frames_file
 
     language = filtering.choose(fmt, program)
@@ -131,6 +140,9 @@ def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm,
     )
     inputs = [program, frames_path, config_dat]
     run = engine.Filter(language, job, program)
+    # Every file the filter writes (KRL: OUT.dat beside -o OUT.src) under -o's policy.
+    for _, written in run.lang.files(output):
+        outputs.check(written, inputs + [summary_path], force=force)
     summary = run.run(output, inputs + [summary_path])
     if summary_path is not None:
         engine.write_summary(summary_path, summary, inputs + [output])

@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from calibrator.history.store import History
 
 HISTORY_HELP = (
-    "History: an SQLite file or postgresql://USER@HOST/DB "
+    "History: an SQLite file or postgresql://USER@HOST/DB; ?timeout=SECONDS bounds every "
+    "exchange with it (default 30) and sqlite:///FILE?mode=ro opens a file read-only "
     "[default: $CALIBRATOR_HISTORY, else ~/.local/share/calibrator/history.sqlite]."
 )
 
@@ -43,13 +44,28 @@ class _ShowByDefault(TyperGroup):
 history_app = typer.Typer(
     cls=_ShowByDefault,
     help="A per-robot history of calibrations, ISO 9283 tests and checks (docs/history.md). "
-    "'calibrator history [ROBOT] [OPTIONS]' is 'history show'.",
+    "'calibrator history [ROBOT] [OPTIONS]' is 'history show': its options (--history, "
+    "--csv FILE, --html DIR, the alarm limits) are listed by 'calibrator history show -h'.",
 )
 app.add_typer(history_app, name="history")
 
 
 def _history_option() -> Any:
     return typer.Option(None, "--history", metavar="FILE|URL", help=HISTORY_HELP)
+
+
+def refuse_unusable(target: str) -> None:
+    """Open and close ``--history`` before a command's work: one it cannot use is refused now.
+
+    ``identify`` and ``verify`` record what they wrote at the end; a history
+    that is no history, a server that does not answer or a bad URL is told
+    in one line before anything is computed or written.
+    """
+    try:
+        from calibrator.history.store import check_usable
+    except ImportError:  # an installation without the history's database libraries
+        fail("--history: this installation has no history support (calibrator.history)")
+    check_usable(target)
 
 
 def record(target: str, kind: str, path: Path) -> int:
@@ -133,11 +149,11 @@ def show(
     rows = timeline.table(data)
     typer.echo(timeline.format_table(rows))
     for alarm in found:
-        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M:%S} {alarm.kind}: {alarm.message}")
+        typer.echo(f"ALARM {alarm.time:%Y-%m-%d %H:%M:%S} {alarm.kind}: {safe(alarm.message)}")
     if not found:
         typer.echo("no alarms")
     for note in notes:
-        typer.echo(f"note: {note}")
+        typer.echo(f"note: {safe(note)}")
     with outputs.Outputs(inputs=inputs) as batch:
         if csv_path is not None:
             batch.text(csv_path, timeline.csv_text(rows))
@@ -216,14 +232,32 @@ def alarms_(
         typer.echo(to_stdout[0], nl=False)
         return
     for r in rows:
-        typer.echo(f"ALARM {r['robot']} {r['time']} {r['kind']} [{r['records']}]: {r['message']}")
+        typer.echo(
+            f"ALARM {safe(r['robot'])} {r['time']} {r['kind']} [{r['records']}]: "
+            f"{safe(r['message'])}"
+        )
     if not rows:
         typer.echo("no alarms")
     for note in notes:
-        typer.echo(f"note: {note}")
+        typer.echo(f"note: {safe(note)}")
     for path in (csv_path, json_path):
         if path is not None:
             typer.echo(f"wrote the alarms to {path}")
+
+
+def safe(text: object) -> str:
+    """``text`` for one line of a terminal: control characters (escapes, newlines) spelled out.
+
+    Names come from files and other people's commands: a robot named with a
+    newline or a terminal escape must not forge a line of a table or recolour
+    the terminal. ``\n`` is shown as the two characters ``\n``, an escape as ``\x1b``.
+    """
+    value = "" if text is None else str(text)
+    if value.isprintable():
+        return value
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in value
+    )
 
 
 def _print_robots(store: History) -> None:
@@ -234,7 +268,8 @@ def _print_robots(store: History) -> None:
     typer.echo(f"{'robot':40s} {'model':12s} {'serial':12s} calibrations")
     for r in robots:
         typer.echo(
-            f"{r['name']:40s} {r['model'] or '':12s} {r['serial'] or '':12s} {r['calibrations']}"
+            f"{safe(r['name']):40s} {safe(r['model']):12s} {safe(r['serial']):12s} "
+            f"{r['calibrations']}"
         )
 
 
@@ -263,7 +298,7 @@ def import_(
 
 
 def _skipped(path: Path, why: str) -> None:
-    typer.echo(f"skipped {path}: {why}", err=True)
+    typer.echo(f"skipped {safe(path)}: {safe(why)}", err=True)
 
 
 @history_app.command("robot")
@@ -279,7 +314,7 @@ def robot_(
 
     with open_history(history) as store:
         store.describe_robot(name, model, serial, description)
-        typer.echo(f"robot {name} described in the history {store.where}")
+        typer.echo(f"robot {safe(name)} described in the history {store.where}")
 
 
 @history_app.command("tracker")
@@ -305,7 +340,7 @@ def tracker_(
             fail(f"--certificate {certificate!r}: give a date YYYY-MM-DD")
     with open_history(history) as store:
         store.describe_tracker(name, model, serial, when)
-        typer.echo(f"tracker {name} described in the history {store.where}")
+        typer.echo(f"tracker {safe(name)} described in the history {store.where}")
 
 
 @history_app.command("reidentify")

@@ -182,6 +182,10 @@ def identify(
         )
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
+    if history is not None:  # a history it could not record into is refused before the work
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     reporter = progress.Reporter.for_cli(quiet)
     if options.method == Method.lm.value:
         done = calibrate(

@@ -178,6 +178,10 @@ def verify(
     # The calibration's arm; --model only for one that names none, or without one.
     given = [(cal, calibration_path), (reg_cal, register_path)]
     arm = run_args.arm(*(_model.From(doc.model, path) for doc, path in given if doc is not None))
+    if history is not None:  # a history it could not record into is refused before moving
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     world_file = _run.read_world(world, robot, tracker)
     given_cube = _cube(cube)
     tool_mm = triple(tool, "--tool")

@@ -9,6 +9,7 @@ full once the package is imported.
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -243,9 +244,21 @@ def read_lines(path: Path) -> Iterator[tuple[int, str]]:
     """
     try:
         with open(path, encoding="latin-1", newline="") as fh:
-            yield from enumerate(fh, start=1)
+            for number, line in enumerate(fh, start=1):
+                bad = _BINARY.search(line)
+                if bad is not None:
+                    raise FilterError(
+                        f"{path}:{number}: binary bytes (control character {bad.group()!r}): "
+                        "not a program text"
+                    )
+                yield number, line
     except OSError as exc:
         raise FilterError(f"{path}: cannot read ({exc.strerror})") from None
+
+
+#: Control characters no program text holds (tab, line and page breaks and DOS's
+#: end-of-file mark Ctrl-Z excepted): a file with them is binary, not a program.
+_BINARY = re.compile("[\x00-\x08\x0e-\x19\x1b-\x1f\x7f]")
 
 
 def split_ending(line: str) -> tuple[str, str]:

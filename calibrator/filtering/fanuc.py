@@ -28,8 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, rotations
+from calibrator.filtering import configuration, numbers, rotations
 from calibrator.filtering.base import (
+    FilterError,
     Language,
     Layout,
     Target,
@@ -39,15 +40,21 @@ from calibrator.filtering.base import (
     read_lines,
     target_tool,
 )
+from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
-_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")
-_VALUE = re.compile(r"\b(X|Y|Z|W|P|R|J[1-6])\s*=\s*(" + _NUM + ")")
+# A value is the whole field after ``=`` (up to blanks or a comma): checked by
+# the number grammar, never read as the number at its start (``1.2.3``).
+_VALUE = re.compile(r"\b(X|Y|Z|W|P|R|J[1-6])\s*=[ \t]*([^\s,;]*)")
+_UNIT = re.compile(r"[ \t]*(mm|deg)\b")
 _FRAMES = re.compile(r"\bUF\s*:\s*(\d+)\s*,\s*UT\s*:\s*(\d+)")
 _CONFIG = re.compile(
     r"CONFIG\s*:\s*'([NF])\s*([UD])\s*([TB])\s*,\s*([+-]?\d+)\s*,\s*([+-]?\d+)\s*,\s*([+-]?\d+)\s*'"
 )
+
+#: Strings are comments (``P[3:"X = 5"]``); the /POS section has no other comments.
+_LEXER = Lexer(quotes='"')
 
 POSE_KEYS = ("X", "Y", "Z", "W", "P", "R")
 JOINT_KEYS = tuple(f"J{i}" for i in range(1, 7))
@@ -74,12 +81,21 @@ class FanucLS(Language):
         in_pos = False
         block: list = []
         first = 0
+        seen: dict[int, int] = {}  # position number -> its line
         for number, line in read_lines(path):
             stripped = line.strip()
             if not block:
                 if stripped.startswith("/"):
                     in_pos = stripped.startswith("/POS")
-                if in_pos and _START.match(line):
+                start = _START.match(line) if in_pos else None
+                if start:
+                    n = int(start.group(1))
+                    if n in seen:
+                        raise FilterError(
+                            f"{path}:{number}: P[{n}] is defined again (first on line "
+                            f"{seen[n]}); which one the program moves to is unclear"
+                        )
+                    seen[n] = number
                     block, first = [line], number
                     if stripped.endswith("};"):
                         yield self._unit(path, first, block)
@@ -92,21 +108,25 @@ class FanucLS(Language):
                 yield self._unit(path, first, block)
                 block = []
         if block:
-            yield self._unit(path, first, block)
+            yield self._unit(path, first, block, closed=False)
 
-    def _unit(self, path, first, lines):
+    def _unit(self, path, first, lines, closed=True):
         unit = Unit(lines)
         label = "P[" + _START.match(lines[0]).group(1) + "]"
         in_gp1 = False
         found: dict = {}
+        twice: list = []
+        saw_gp1 = False
         uf = ut = None
         config = None
-        for li, line in enumerate(lines):
+        for li, raw in enumerate(lines):
+            line = _LEXER.code(raw)  # a comment P[1:"X = 5"] holds no value
             group = re.search(r"\bGP(\d+)\s*:", line)
             if group:
                 in_gp1 = group.group(1) == "1"
             if not in_gp1:
                 continue
+            saw_gp1 = True
             f = _FRAMES.search(line)
             if f:
                 uf, ut = int(f.group(1)), int(f.group(2))
@@ -117,23 +137,48 @@ class FanucLS(Language):
                     int(c.group(4)), int(c.group(5)), int(c.group(6)),
                 )  # fmt: skip
             for m in _VALUE.finditer(line):
-                found.setdefault(m.group(1), (m.group(2), li, m.start(2), m.end(2)))
-        joints = all(k in found for k in JOINT_KEYS)
+                if m.group(1) in found:
+                    twice.append(m.group(1))
+                    continue
+                token = m.group(2)
+                if _UNIT.fullmatch(" " + token):
+                    token = ""  # ``X = mm``: the number itself is missing
+                    found[m.group(1)] = (token, li, m.start(2), m.start(2))
+                else:
+                    found[m.group(1)] = (token, li, m.start(2), m.end(2))
+        if not saw_gp1:
+            return unit  # positions of other groups only: nothing of the arm's
+        joints = any(k in found for k in JOINT_KEYS)
         keys = JOINT_KEYS if joints else POSE_KEYS
-        if not joints and not all(k in found for k in POSE_KEYS):
-            return unit  # no group-1 position to correct
+        missing = [k for k in keys if k not in found]
+        li0 = found[keys[0]][1] if keys[0] in found else 0
         target = Target(
-            file=str(path), line=first + found[keys[0]][1], label=label,
+            file=str(path), line=first + li0, label=label,
             layout=JOINTS if joints else POSE,
-            tokens=[found[k][0] for k in keys],
-            spans=[found[k][1:] for k in keys], code=None if joints else config,
+            tokens=[found[k][0] for k in keys] if not missing else ["0"] * 6,
+            spans=[found[k][1:] for k in keys] if not missing else [],
+            code=None if joints else config,
         )  # fmt: skip
+        unit.targets.append(target)
+        # A group-1 position the reader cannot read whole fails (never skipped).
+        bad = numbers.first_problem(target.tokens) if not missing else None
+        mixed = joints and any(k in found for k in POSE_KEYS)
+        if missing or bad or twice or mixed or not closed:
+            target.tokens = ["0"] * 6
+            target.spans = []
+            target.problem = (
+                (f"{label} is not closed by '}};'" if not closed else None)
+                or (f"no {', '.join(missing)} in group 1" if missing else None)
+                or bad
+                or (f"{twice[0]} is given twice" if twice else None)
+                or "both joint and Cartesian values in group 1"
+            )
+            return unit
         target.tool, p1 = target_tool(self.job, joints, self._frame("tool", ut))
         target.base, p2 = (None, None) if joints else self._frame("base", uf)
         target.problem = p1 or p2
         if not joints and config is None:
             target.problem = target.problem or "a Cartesian position without CONFIG"
-        unit.targets.append(target)
         return unit
 
     def _frame(self, kind, number):

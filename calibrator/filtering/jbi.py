@@ -34,6 +34,7 @@ import numpy as np
 
 from calibrator.filtering import configuration, numbers, rotations
 from calibrator.filtering.base import (
+    FilterError,
     Job,
     Language,
     Layout,
@@ -86,6 +87,7 @@ class JBI(Language):
         in_pos = False
         tool = user = 0
         postype, rectan, rconf = "PULSE", False, None
+        seen: dict[str, int] = {}
         for number, line in read_lines(path):
             body, _ = split_ending(line)
             unit = Unit([line])
@@ -95,9 +97,9 @@ class JBI(Language):
             elif in_pos and head.startswith("///"):
                 word, _, rest = head[3:].partition(" ")
                 if word == "TOOL":
-                    tool = int(rest)
+                    tool = _header_int(rest, path, number, "TOOL")
                 elif word == "USER":
-                    user = int(rest)
+                    user = _header_int(rest, path, number, "USER")
                 elif word == "POSTYPE":
                     postype = rest.strip()
                 elif word == "PULSE":
@@ -105,27 +107,35 @@ class JBI(Language):
                 elif word == "RECTAN":
                     rectan = True
                 elif word == "RCONF":
-                    rconf = tuple(int(v) for v in rest.split(","))
+                    rconf = tuple(_header_int(v, path, number, "RCONF") for v in rest.split(","))
             elif in_pos:
                 m = _POSITION.match(body)
                 if m:
+                    label = m.group(1).upper()
+                    if label in seen:
+                        raise FilterError(
+                            f"{path}:{number}: position {m.group(1)} is defined again "
+                            f"(first on line {seen[label]}); which one is meant is unclear"
+                        )
+                    seen[label] = number
                     unit.targets.append(
                         self._target(path, number, m, tool, user, postype, rectan, rconf)
                     )
             yield unit
 
     def _target(self, path, number, m, tool_no, user_no, postype, rectan, rconf):
-        nums = [
-            (t.group(), m.start(2) + t.start(), m.start(2) + t.end())
-            for t in numbers.NUMBER.finditer(m.group(2))
-        ]
+        # Every comma-separated field is a number (a malformed one fails the
+        # position: read as two numbers it would shift the columns after it).
+        nums = numbers.fields(m.group(2), m.start(2))
         layout = POSE if rectan else (self.pulses or self.unscaled)
         target = Target(
             file=str(path), line=number, label=m.group(1), layout=layout,
             tokens=[t for t, _, _ in nums[:6]], spans=[(0, s, e) for _, s, e in nums[:6]],
         )  # fmt: skip
-        if len(nums) < 6:
-            target.tokens, target.problem = ["0"] * 6, "fewer than 6 values"
+        bad = numbers.first_problem(nums)
+        if len(nums) < 6 or bad is not None:
+            target.tokens = ["0"] * 6
+            target.problem = bad or f"{len(nums)} values, a position has 6"
             return target
         target.tool, problem = target_tool(self.job, not rectan, self._frame("tool", tool_no))
         if rectan:
@@ -163,3 +173,11 @@ class JBI(Language):
 
     def describe(self, code: tuple) -> str:
         return "RCONF " + ",".join(str(c) for c in code)
+
+
+def _header_int(text: str, path: Path, number: int, word: str) -> int:
+    """A whole number of a ``///`` header (``TOOL 1``, ``RCONF 0,0,...``), or one line naming it."""
+    token = text.strip()
+    if not re.fullmatch(r"[+-]?\d{1,9}", token):
+        raise FilterError(f"{path}:{number}: ///{word}: {token[:40]!r} is not a whole number")
+    return int(token)

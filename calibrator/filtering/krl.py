@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, rotations
+from calibrator.filtering import configuration, numbers, rotations
 from calibrator.filtering.base import (
     FilterError,
     Job,
@@ -51,10 +51,11 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
+from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
-_FIELD = re.compile(r"([A-Za-z]\w*)\s+(" + _NUM + r"|'[Bb][01]+'|'[Hh][0-9A-Fa-f]+')")
+_COMPONENT = re.compile(r"([A-Za-z$]\w*)\s*(.*)$", re.DOTALL)
 _DECL = re.compile(
     r"^\s*(?:DECL\s+)?(?:GLOBAL\s+)?(E6POS|POS|FRAME|E6AXIS|AXIS)\s+([A-Za-z_$]\w*)\s*=\s*\{",
     re.IGNORECASE,
@@ -91,18 +92,16 @@ POSE = Layout("pose", ("mm",) * 3 + ("deg",) * 3, _decode_pose, _encode_pose)
 JOINTS = Layout("joints", ("deg",) * 6, lambda v: np.radians(v), lambda q, old: np.degrees(q))
 
 
+#: KRL's strings ("...") and ``;`` comments; ``'B010'`` literals are numbers, not strings.
+_LEXER = Lexer(quotes='"', comment=";")
+
+
 def _code(text: str) -> str:
-    """A KRL line without its comment (``;`` outside a string)."""
-    if '"' not in text:
-        cut = text.find(";")
-        return text if cut < 0 else text[:cut]
-    quote = False
-    for i, ch in enumerate(text):
-        if ch == '"':
-            quote = not quote
-        elif ch == ";" and not quote:
-            return text[:i]
-    return text
+    """A KRL line's code: strings and the comment blanked, every position kept."""
+    return _LEXER.code(text)
+
+
+_WHOLE = re.compile(r"[+-]?\d{1,18}|'[Bb][01]{1,64}'|'[Hh][0-9A-Fa-f]{1,16}'")
 
 
 def _int(text: str) -> int:
@@ -112,6 +111,13 @@ def _int(text: str) -> int:
     if t[:1] in "Hh":
         return int(t[1:], 16)
     return int(float(t))
+
+
+def _whole(value: str, where: str, what: str) -> int:
+    """A whole-number field (``TOOL_NO 3``, ``S 'B010'``) or one line naming it."""
+    if not _WHOLE.fullmatch(value.strip()):
+        raise FilterError(f"{where}: {what} {value.strip()[:40]!r} is not a whole number")
+    return _int(value.strip())
 
 
 #: The usual full E6POS/POS aggregate, in the order KUKA's editors write it.
@@ -132,9 +138,13 @@ def _fields(body: str, start: int) -> dict:
     end = body.find("}", start)
     if end < 0:
         return {}
-    out = {}
-    for m in _FIELD.finditer(body, start, end):
-        out[m.group(1).upper()] = (m.group(2), m.start(2), m.end(2))
+    # Each component is ``NAME value``; the value is everything up to the next
+    # comma, so a malformed number is seen whole (``X 1.2.3``, ``X nan``, ``X ,``).
+    out: dict[str, tuple[str, int, int]] = {}
+    for item, at, _ in numbers.fields(body[start + 1 : end], start + 1):
+        m = _COMPONENT.match(item)
+        if m:
+            out.setdefault(m.group(1).upper(), (m.group(2), at + m.start(2), at + m.end(2)))
     return out
 
 
@@ -152,6 +162,9 @@ def read_config_dat(path: Path | None) -> dict:
             raise FilterError(
                 f"{path}:{number}: {m.group(1)}[{m.group(2)}] lacks one of X Y Z A B C"
             )
+        bad = numbers.first_problem([f[k][0] for k in POSE_FIELDS])
+        if bad is not None:
+            raise FilterError(f"{path}:{number}: {m.group(1)}[{m.group(2)}]: {bad}")
         v = np.array([[float(f[k][0]) for k in POSE_FIELDS]])
         kind = "tool" if m.group(1).upper() == "TOOL_DATA" else "base"
         out[(kind, int(m.group(2)))] = _decode_pose(v)[0]
@@ -173,28 +186,38 @@ class KRL(Language):
         super().__init__(job, program)
         self.dat = _sibling_dat(self.program)
         self.config = read_config_dat(job.config_dat)
+        self._config_decl: dict[str, str] = {}
+        if job.config_dat is not None:
+            for _, line in read_lines(job.config_dat):
+                d = _DECL.match(_code(line))
+                if d:
+                    self._config_decl[d.group(2).upper()] = d.group(1).upper()
         fdat: dict = {}
+        # Every position declared (or assigned) in the .dat and the .src: KRL
+        # ignores case, so ``XP1`` and ``xp1`` are one name, declared twice.
+        declared: dict[str, tuple] = {}
         if self.dat is not None:
-            for _, line in read_lines(self.dat):
-                m = _FDAT.match(_code(line))
-                if m:
-                    f = _fields("{" + m.group(2) + "}", 0)
-                    tool = _int(f["TOOL_NO"][0]) if "TOOL_NO" in f else None
-                    base = _int(f["BASE_NO"][0]) if "BASE_NO" in f else None
-                    fdat[m.group(1).upper()] = (tool, base)
-        # First pass over the .src: the tool and base of each named target's uses.
+            for number, line in read_lines(self.dat):
+                _declare(_code(line), self.dat, number, fdat, declared, in_src=False)
+        # One pass over the .src: its declarations, and the tool and base of
+        # each named target's uses.
         self.uses: dict = {}
+        first_use: dict[str, tuple] = {}
         state: list = [None, None]
         for number, line in read_lines(self.program):
             code = _code(line)
+            _declare(code, self.program, number, fdat, declared, in_src=True)
             self._update(code, state, fdat)
             m = _MOTION.match(code)
             if not m:
                 continue
-            for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(m.group(2))):
+            # The targets of a move come before its options (``WITH $VEL = ...``).
+            moved = re.split(r"\bWITH\b", m.group(2), maxsplit=1, flags=re.IGNORECASE)[0]
+            for name in re.findall(r"(?<![\w${])([A-Za-z_]\w*)", _strip_aggregates(moved)):
                 if name.upper() in {"C_PTP", "C_DIS", "C_VEL", "C_ORI", "C_SPL", "CA"}:
                     continue
                 key = name.upper()
+                first_use.setdefault(key, (name, number))
                 seen = self.uses.get(key)
                 now = (state[0], state[1], number)
                 if seen is not None and seen[:2] != now[:2]:
@@ -204,8 +227,32 @@ class KRL(Language):
                         f"one target cannot be corrected for two frames"
                     )
                 self.uses[key] = now
+        # A target moved to but declared nowhere the filter reads would be left
+        # uncorrected while the rest says "corrected": refused, first use first.
+        for key, (name, number) in first_use.items():
+            if key not in declared and not self._declared_elsewhere(name):
+                where = "neither in the .src nor in its .dat"
+                if self.dat is None:
+                    where = f"in no .dat (there is no {self.program.stem}.dat beside it)"
+                raise FilterError(
+                    f"{self.program}:{number}: {name} is moved to but declared {where}; "
+                    "its target cannot be corrected"
+                )
         self.fdat = fdat
+
         self._frames: dict = {}  # (kind, number) -> (transform, problem), looked up once
+
+    def _declared_elsewhere(self, name: str) -> bool:
+        """``name`` is a joint position of the controller's ``$config.dat`` (kept as taught).
+
+        Such a target (``XHOME``) is not in the files the filter rewrites: a
+        joint position there stays as taught, which is what ``--joint-targets
+        keep`` does anyway; a Cartesian one would go uncorrected, so it is not
+        accepted.
+        """
+        if self.job.correct_joints:
+            return False
+        return self._config_decl.get(name.upper()) in ("E6AXIS", "AXIS")
 
     @staticmethod
     def _update(code: str, state: list, fdat: dict) -> None:
@@ -317,6 +364,13 @@ class KRL(Language):
         if not all(k in f for k in names):
             target.tokens, target.problem = ["0"] * 6, "a partial aggregate cannot be corrected"
             return target
+        bad = numbers.first_problem([f[k][0] for k in names])
+        status = [f[k][0] for k in ("S", "T") if k in f and not joints]
+        if bad is None and any(not _WHOLE.fullmatch(v) for v in status):
+            bad = "S or T is not a whole number"
+        if bad is not None:
+            target.tokens, target.problem = ["0"] * 6, bad
+            return target
         target.tokens = [f[k][0] for k in names]
         target.spans = [(0, f[k][1], f[k][2]) for k in names]
         where = f"{path}:{number}"
@@ -339,6 +393,35 @@ class KRL(Language):
 
     def describe(self, code: tuple) -> str:
         return f"S {code[0]} T {code[1]}"
+
+
+def _declare(code: str, path: Path, number: int, fdat: dict, declared: dict, in_src: bool) -> None:
+    """Note an ``FDAT`` (its tool and base numbers) or a position declared on this line.
+
+    Refuses a position declared twice (KRL ignores case: ``XP1`` and ``xp1``
+    are one name). In the ``.src``, ``NAME = {...}`` also gives a value to a
+    position declared without one.
+    """
+    m = _FDAT.match(code)
+    if m:
+        where = f"{path}:{number}"
+        f = _fields("{" + m.group(2) + "}", 0)
+        tool = _whole(f["TOOL_NO"][0], where, "TOOL_NO") if "TOOL_NO" in f else None
+        base = _whole(f["BASE_NO"][0], where, "BASE_NO") if "BASE_NO" in f else None
+        fdat[m.group(1).upper()] = (tool, base)
+        return
+    decl = _DECL.match(code)
+    if decl:
+        key = decl.group(2).upper()
+        if key in declared:
+            first = declared[key]
+            raise FilterError(
+                f"{path}:{number}: {decl.group(2)} is declared again (KRL ignores case; "
+                f"first at {first[0]}:{first[1]}); which one is moved to is unclear"
+            )
+        declared[key] = (path, number)
+    elif in_src and (assign := _ASSIGN.match(code)):
+        declared.setdefault(assign.group(1).upper(), (path, number))
 
 
 def _strip_aggregates(text: str) -> str:

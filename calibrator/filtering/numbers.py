@@ -11,6 +11,7 @@ the same as the original keeps the original token byte for byte (so ``1E3``,
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -31,6 +32,63 @@ MAX_EXTRA = 4
 
 #: A decimal number as programs write them (no thousands separators).
 NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def problem(token: str) -> str | None:
+    """Why ``token`` (one field of a target, stripped) is not a number; None if it is one.
+
+    The one grammar every language reader applies to the fields it reads: a
+    field is a whole :data:`NUMBER` with a finite value, or its target fails.
+    Finding numbers *inside* a field instead (``1.2.3`` read as ``1.2`` and
+    ``.3``) shifts every later column: the Z becomes a rotation.
+    """
+    if token == "":
+        return "an empty number"
+    if NUMBER.fullmatch(token) is None:
+        return f"{_shown(token)} is not a number"
+    if not math.isfinite(float(token)):
+        return f"{_shown(token)} is not a finite number"
+    return None
+
+
+def fields(text: str, offset: int = 0, separators: str = ",") -> list[tuple[str, int, int]]:
+    """The fields of ``text`` between ``separators``, stripped, as ``(token, start, end)``.
+
+    ``start`` and ``end`` index the line ``text`` was cut from (``offset`` is
+    where ``text`` starts in it). An empty field (``1,,3``) is kept as an
+    empty token, so that :func:`problem` names it.
+    """
+    out, begin = [], 0
+    for i, ch in enumerate(text + separators[0]):
+        if ch in separators:
+            part = text[begin:i]
+            lead = len(part) - len(part.lstrip())
+            token = part.strip()
+            start = offset + begin + lead
+            out.append((token, start, start + len(token)))
+            begin = i + 1
+    return out
+
+
+def first_problem(tokens: list) -> str | None:
+    """The :func:`problem` of the first token of ``tokens`` (str or ``(str, ...)``) that has one."""
+    for token in tokens:
+        text = token if isinstance(token, str) else token[0]
+        if _PLAIN.fullmatch(text) is None:  # the usual token needs no further look
+            why = problem(text)
+            if why is not None:
+                return why
+    return None
+
+
+#: A number no float() can make infinite: no exponent, at most 40 digits.
+_PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
+
+
+def _shown(token: str) -> str:
+    """A token for a one-line message: quoted, control characters escaped, at most 40 long."""
+    text = token if len(token) <= 40 else token[:37] + "..."
+    return repr(text)
 
 
 def decimals(token: str) -> int:

@@ -45,6 +45,7 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
+from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _DECL = re.compile(
@@ -70,15 +71,13 @@ POSE = Layout("pose", ("mm",) * 3 + ("quat",) * 4, _decode_pose, _encode_pose)
 JOINTS = Layout("joints", ("deg",) * 6, np.radians, lambda q, old: np.degrees(q))
 
 
+#: RAPID's strings ("...") and ``!`` comments: neither holds a target nor a bracket.
+_LEXER = Lexer(quotes='"', comment="!")
+
+
 def _code(text: str) -> str:
-    """A RAPID line without its comment (``!`` outside a string)."""
-    quote = False
-    for i, ch in enumerate(text):
-        if ch == '"':
-            quote = not quote
-        elif ch == "!" and not quote:
-            return text[:i]
-    return text
+    """A RAPID line's code: strings and the comment blanked, every position kept."""
+    return _LEXER.code(text)
 
 
 def _statements(path: Path):
@@ -96,7 +95,10 @@ def _statements(path: Path):
         lines.append(line)
         # An aggregate may go on over lines; a statement ends where its brackets close.
         depth += part.count("[") + part.count("(") - part.count("]") - part.count(")")
-        if depth <= 0:
+        # A statement ends at its ``;`` (outside strings: they are blanked) even
+        # where its brackets do not close: a line cut short spoils one statement,
+        # never the rest of the module.
+        if depth <= 0 or ";" in part:
             yield first, lines, code, offsets
             lines, offsets, code, depth = [], [], "", 0
     if lines:
@@ -132,8 +134,23 @@ def _split_args(code: str, start: int) -> list[tuple[int, int]]:
     return out
 
 
+#: One field of an aggregate: what stands between ``[`` or ``,`` and ``,`` or ``]``.
+_ITEM = re.compile(r"(?<=[\[,])([^\[\],]*)(?=[\],])")
+
+
 def _numbers(code: str, start: int, end: int):
-    return [(m.group(), m.start(), m.end()) for m in numbers.NUMBER.finditer(code, start, end)]
+    """Every field of the aggregate in ``code[start:end]``: ``(token, start, end)``, stripped.
+
+    Fields are taken whole, so that the number grammar judges each one
+    (``1.2.3`` is one bad field, never two numbers shifting the rest).
+    """
+    out = []
+    for m in _ITEM.finditer(code, start, end):
+        text = m.group(1)
+        lead = len(text) - len(text.lstrip())
+        token = text.strip()
+        out.append((token, m.start(1) + lead, m.start(1) + lead + len(token)))
+    return out
 
 
 def _locate(pos: int, offsets: list) -> tuple[int, int]:
@@ -165,8 +182,18 @@ class RAPID(Language):
         self.wobjs: dict = {"wobj0": np.eye(4)}
         self.problems: dict = {}
         self.uses: dict = {}
+        declared: dict[str, int] = {}
         for number, _, code, _ in _statements(self.program):
             decl = _DECL.match(code)
+            if decl:
+                # RAPID ignores case: p10 and P10 are one name, declared twice.
+                key = decl.group(2).lower()
+                if key in declared:
+                    raise FilterError(
+                        f"{program}:{number}: {decl.group(2)} is declared again (first on line "
+                        f"{declared[key]}); which one is moved to is unclear"
+                    )
+                declared[key] = number
             if decl and decl.group(1).lower() in ("tooldata", "wobjdata"):
                 self._frame_decl(decl, code, f"{program}:{number}")
             for m in _MOVE.finditer(code):
@@ -188,8 +215,13 @@ class RAPID(Language):
     def _frame_decl(self, decl, code, where):
         kind, name = decl.group(1).lower(), decl.group(2).lower()
         body = code[decl.end() - 1 : _bracket_end(code, decl.end() - 1)]
-        flags = re.findall(r"\b(TRUE|FALSE)\b", body, re.IGNORECASE)
-        nums = [float(t) for t, _, _ in _numbers(body, 0, len(body))]
+        fields = _numbers(body, 0, len(body))
+        flags = [t for t, _, _ in fields if t.upper() in ("TRUE", "FALSE")]
+        values = [f for f in fields if f[0].upper() not in ("TRUE", "FALSE") and f[0][:1] != '"']
+        bad = numbers.first_problem(values)
+        if bad is not None:
+            raise FilterError(f"{where}: {kind} {name}: {bad}")
+        nums = [float(t) for t, _, _ in values]
         if kind == "tooldata":
             if flags and flags[0].upper() == "FALSE":
                 self.problems[("tool", name)] = f"tool {name} is stationary (robhold FALSE)"
@@ -255,8 +287,10 @@ class RAPID(Language):
             file=str(path), line=number, label=label, layout=JOINTS if joints else POSE,
             tokens=[], spans=[],
         )  # fmt: skip
-        if len(nums) < need:
-            target.tokens, target.problem = ["0"] * need, "an incomplete target"
+        bad = numbers.first_problem(nums)
+        if len(nums) < need or bad is not None:
+            target.tokens = ["0"] * (6 if joints else 7)
+            target.problem = bad or "an incomplete target"
             return target
         used = nums[:6] if joints else nums[:7]
         target.tokens = [t for t, _, _ in used]
@@ -270,7 +304,10 @@ class RAPID(Language):
         base, p2 = (None, None) if joints else self._frame("wobj", wobj_name)
         target.tool, target.base, target.problem = tool, base, p1 or p2
         if not joints:
-            target.code = tuple(int(float(t)) for t, _, _ in nums[7:11])
+            if not all(re.fullmatch(r"[+-]?\d{1,9}", t) for t, _, _ in nums[7:11]):
+                target.problem = target.problem or "a confdata value is not a whole number"
+            else:
+                target.code = tuple(int(t) for t, _, _ in nums[7:11])
         return target
 
     def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:

@@ -33,10 +33,14 @@ from calibrator.filtering.base import (
     read_lines,
     split_ending,
 )
+from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
 _TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")
+_ASSIGN_START = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[")
+_UNCLOSED = "its list is not closed on its line"
+_OPENED = re.compile(r"\s*(p?)\s*\[")
 _ASSIGN = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[([^\]]*)\]\s*$")
 
 
@@ -58,23 +62,18 @@ POSE = Layout("pose", ("m",) * 3 + ("rad",) * 3, _decode_pose, _encode_pose)
 JOINTS = Layout("joints", ("rad",) * 6, lambda v: v, lambda q, old: q)
 
 
+#: URScript's strings ("..." and '...') and its ``#`` comments: neither holds a target.
+_LEXER = Lexer(quotes="\"'", comment="#")
+
+
 def _code_part(body: str) -> str:
-    """The line without its comment (a ``#`` outside a string)."""
-    quote = None
-    for i, ch in enumerate(body):
-        if quote:
-            quote = None if ch == quote else quote
-        elif ch in "\"'":
-            quote = ch
-        elif ch == "#":
-            return body[:i]
-    return body
+    """The line's code: strings and the comment blanked, every position kept."""
+    return _LEXER.code(body)
 
 
 def _numbers_in(text: str, offset: int) -> list[tuple[str, int, int]]:
-    return [
-        (m.group(), offset + m.start(), offset + m.end()) for m in numbers.NUMBER.finditer(text)
-    ]
+    """The comma-separated fields of a list literal's inside (each checked by the grammar)."""
+    return numbers.fields(text, offset)
 
 
 def _arguments(code: str, start: int) -> list[tuple[int, int]]:
@@ -92,13 +91,18 @@ def _arguments(code: str, start: int) -> list[tuple[int, int]]:
         elif ch == "," and depth == 0:
             out.append((begin, i))
             begin = i + 1
+    out.append((begin, len(code)))  # a call cut off by the line's end: its last argument
     return out
 
 
 def _tcp(text: str, where: str) -> np.ndarray:
-    values = [float(t) for t, _, _ in _numbers_in(text, 0)]
-    if len(values) != 6:
-        raise FilterError(f"{where}: set_tcp needs a pose of 6 numbers")
+    fields = _numbers_in(text, 0)
+    bad = numbers.first_problem(fields)
+    if len(fields) != 6 or bad is not None:
+        raise FilterError(
+            f"{where}: set_tcp needs a pose of 6 numbers" + (f" ({bad})" if bad else "")
+        )
+    values = [float(t) for t, _, _ in fields]
     return _decode_pose(np.array([values]))[0]
 
 
@@ -140,32 +144,48 @@ class URScript(Language):
             if m:
                 tool = _tcp(m.group(1), f"{path}:{number}")
             assign = _ASSIGN.match(code)
+            cut = None if assign else _ASSIGN_START.match(code)
+            if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
+                unit.targets.append(
+                    self._target(
+                        path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED
+                    )
+                )
             if assign and assign.group(1) in self.var_tool:
                 name, is_pose = assign.group(1), assign.group(2) == "p"
                 nums = _numbers_in(assign.group(3), assign.start(3))
-                target = self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
-                if target is not None:
-                    unit.targets.append(target)
+                unit.targets.append(
+                    self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
+                )
             for call in _MOVE.finditer(code):
                 args = _arguments(code, call.end())
                 for a, b in args[: 2 if call.group(1) == "movec" else 1]:
                     arg = code[a:b]
                     lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
                     if not lit:
+                        opened = _OPENED.match(arg)
+                        if opened:  # ``movel(p[0.1, 0.2`` cut off: a target that cannot be read
+                            unit.targets.append(
+                                self._target(
+                                    path,
+                                    number,
+                                    call.group(1),
+                                    [],
+                                    opened.group(1) == "p",
+                                    tool,
+                                    _UNCLOSED,
+                                )  # fmt: skip
+                            )
                         continue
                     nums = _numbers_in(lit.group(2), a + lit.start(2))
-                    target = self._target(
-                        path, number, call.group(1), nums, lit.group(1) == "p", tool
+                    unit.targets.append(
+                        self._target(path, number, call.group(1), nums, lit.group(1) == "p", tool)
                     )
-                    if target is not None:
-                        unit.targets.append(target)
             yield unit
 
-    def _target(self, path, number, label, nums, is_pose, tool):
-        if len(nums) != 6:
-            return None  # not a 6-number literal: not a target we can read
+    def _target(self, path, number, label, nums, is_pose, tool, problem=None):
         layout = POSE if is_pose else JOINTS
-        return Target(
+        target = Target(
             file=str(path),
             line=number,
             label=label,
@@ -174,6 +194,16 @@ class URScript(Language):
             spans=[(0, s, e) for _, s, e in nums],
             tool=tool,
         )
+        # A move's literal is its target: one that is not 6 numbers fails, never skipped.
+        bad = numbers.first_problem(nums)
+        if len(nums) != 6 or bad is not None:
+            target.tokens, target.spans = ["0"] * 6, []
+            target.problem = (
+                problem
+                or bad
+                or f"{len(nums)} values, a {'pose' if is_pose else 'joint list'} has 6"
+            )
+        return target
 
     def code(self, q_deg: np.ndarray, bits: np.ndarray) -> np.ndarray:
         return np.asarray(bits)

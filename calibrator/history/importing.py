@@ -41,6 +41,8 @@ def _format(path: Path) -> str | None:
         doc = json.loads(path.read_bytes())
     except (OSError, ValueError):
         return None
+    except RecursionError:  # a file an import names and skips, not one that ends the import
+        raise HistoryError(f"{path}: JSON nested too deeply to read") from None
     return doc.get("format") if isinstance(doc, dict) else None
 
 
@@ -80,7 +82,11 @@ def import_folder(
         "check": [],
     }
     for path in sorted(p for p in folder.rglob("*") if p.is_file()):
-        kind = kind_of(path)
+        try:
+            kind = kind_of(path)
+        except HistoryError as exc:
+            on_skip(path, str(exc))
+            continue
         if kind is not None:
             found[kind].append(path)
     record = {

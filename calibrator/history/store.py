@@ -26,8 +26,18 @@ from calibrator.history.records import HistoryError, Record
 
 #: Environment variable naming the history when ``--history`` is not given.
 ENV_VAR = "CALIBRATOR_HISTORY"
-#: How long a writer waits for another's lock on an SQLite file (s).
-SQLITE_WAIT_S = 60.0
+#: The longest any exchange with a history may take, s: connecting, one
+#: transaction (its statements), a wait for another writer's lock. A server
+#: that accepts a connection and never answers, or stops answering in the
+#: middle of a statement, ends the command with one line after it.
+DEFAULT_TIMEOUT_S = 30.0
+#: Environment variable overriding :data:`DEFAULT_TIMEOUT_S`; a history URL's
+#: ``?timeout=S`` wins over both (docs/history.md).
+TIMEOUT_ENV = "CALIBRATOR_HISTORY_TIMEOUT"
+#: How long a writer waits for another's lock on an SQLite file (s), by default.
+SQLITE_WAIT_S = DEFAULT_TIMEOUT_S
+#: Query options of an SQLite history URL this module reads (any other is refused).
+_SQLITE_OPTIONS = ("mode", "timeout")
 #: Key of the PostgreSQL advisory lock that serialises schema upgrades.
 _UPGRADE_LOCK = 0x63616C69
 
@@ -62,8 +72,24 @@ def resolve(target: str | os.PathLike | None, create: bool = True) -> str:
     return f"sqlite:///{Path(text).expanduser()}"
 
 
+def _timeout(parsed: Any) -> float:
+    """The timeout, s: the URL's ``timeout``, else :data:`TIMEOUT_ENV`, else the default."""
+    given = parsed.query.get("timeout")
+    source = "timeout in the history URL"
+    if given is None:
+        given, source = os.environ.get(TIMEOUT_ENV), TIMEOUT_ENV
+    if given is None:
+        return DEFAULT_TIMEOUT_S
+    try:
+        value = float(given if isinstance(given, str) else given[-1])
+    except ValueError:
+        value = float("nan")
+    if not 0.5 <= value <= 3600.0:  # also refuses nan
+        raise HistoryError(f"{source}: {given!r} is not a number of seconds in [0.5, 3600]")
+    return value
+
+
 def _engine(url: str, create: bool) -> Any:
-    from sqlalchemy import create_engine, event
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
@@ -74,47 +100,235 @@ def _engine(url: str, create: bool) -> Any:
             f"--history {url}: not a file or a database URL "
             "(give an SQLite file or postgresql://USER@HOST/DB)"
         ) from None
+    timeout = _timeout(parsed)
+    parsed = parsed.difference_update_query(["timeout"])
     if parsed.get_backend_name() == "sqlite":
-        path = Path(parsed.database or "")
-        if not parsed.database or parsed.database == ":memory:":
-            raise HistoryError("--history: give a file for SQLite (a history in memory is lost)")
-        if not path.exists():
-            if not create:
-                raise HistoryError(f"no history at {path}")
-            if not path.parent.is_dir():
-                raise HistoryError(f"--history {path}: folder {path.parent} does not exist")
-        elif not path.is_file():
-            raise HistoryError(f"--history {path}: not a file")
-        engine = create_engine(parsed, connect_args={"timeout": SQLITE_WAIT_S})
+        return _sqlite_engine(parsed, create, timeout)
+    return _server_engine(parsed, timeout)
 
-        @event.listens_for(engine, "connect")
-        def _connect(dbapi_connection: Any, _record: Any) -> None:
-            # pysqlite's own BEGIN comes late and deferred; ours comes first and
-            # takes the write lock, so two writers queue instead of deadlocking.
-            dbapi_connection.isolation_level = None
-            dbapi_connection.execute("PRAGMA foreign_keys = ON")
+
+def _sqlite_engine(parsed: Any, create: bool, timeout: float) -> Any:
+    """An SQLite history, probed read-only first: nothing is written to a file it does not know.
+
+    A file that holds tables but no calibrator history, or that is no SQLite
+    database at all, is refused before any connection that could write (the
+    switch to the write-ahead log changes a file's header). An existing empty
+    file is a history only for a command that records (``create``): a look at
+    it writes nothing. ``?mode=ro`` opens the file read-only.
+    """
+    from sqlalchemy import create_engine, event
+
+    unknown = sorted(set(parsed.query) - set(_SQLITE_OPTIONS))
+    if unknown:
+        raise HistoryError(
+            f"--history: unknown option {unknown[0]!r} for an SQLite history "
+            "(known: mode=ro, timeout=SECONDS)"
+        )
+    mode = parsed.query.get("mode")
+    if mode not in (None, "ro", "rw", "rwc"):
+        raise HistoryError(f"--history: mode={mode} (an SQLite history takes mode=ro, rw or rwc)")
+    read_only = mode == "ro"
+    path = Path(parsed.database or "")
+    if not parsed.database or parsed.database == ":memory:":
+        raise HistoryError("--history: give a file for SQLite (a history in memory is lost)")
+    if not path.exists():
+        if not create or read_only or mode == "rw":
+            raise HistoryError(f"no history at {path}")
+        if not path.parent.is_dir():
+            raise HistoryError(f"--history {path}: folder {path.parent} does not exist")
+    elif not path.is_file():
+        raise HistoryError(f"--history {path}: not a file")
+    else:
+        revision = _probe_sqlite(path, timeout)
+        if revision is None and not (create and not read_only):
+            raise HistoryError(f"no history in {path} (an empty database: nothing recorded yet)")
+        if read_only and revision != migrations.HEAD:
+            raise HistoryError(
+                f"{path} is at schema revision {revision}, older than this calibrator's "
+                f"({migrations.HEAD}): open it once without mode=ro to upgrade it"
+            )
+    if read_only:
+        import sqlite3
+        from urllib.parse import quote
+
+        uri = f"file:{quote(str(path.resolve()))}?mode=ro"
+        engine = create_engine(
+            "sqlite://", creator=lambda: sqlite3.connect(uri, uri=True, timeout=timeout)
+        )
+    else:
+        engine = create_engine(parsed.set(query={}), connect_args={"timeout": timeout})
+
+    @event.listens_for(engine, "connect")
+    def _connect(dbapi_connection: Any, _record: Any) -> None:
+        # pysqlite's own BEGIN comes late and deferred; ours comes first and
+        # takes the write lock, so two writers queue instead of deadlocking.
+        dbapi_connection.isolation_level = None
+        dbapi_connection.execute("PRAGMA foreign_keys = ON")
+        if not read_only:
             # A commit appends to the write-ahead log and syncs it once, where the
             # rollback journal syncs the journal and the file: a record took 29 ms
             # with the journal and 10 ms with the log (300 records,
             # benchmarks/history_records.py). Readers no longer wait for a writer.
-            _write_ahead_log(dbapi_connection)
+            # Only here, after the probe: the mode is written into the file.
+            _write_ahead_log(dbapi_connection, timeout)
 
-        @event.listens_for(engine, "begin")
-        def _begin(connection: Any) -> None:
-            connection.exec_driver_sql("BEGIN IMMEDIATE")
+    @event.listens_for(engine, "begin")
+    def _begin(connection: Any) -> None:
+        # A read-only file takes no write lock: a deferred transaction only reads.
+        connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
 
-        return engine
+    engine.history_timeout_s = timeout  # type: ignore[attr-defined]
+    return engine
+
+
+def _probe_sqlite(path: Path, timeout: float) -> str | None:
+    """The revision of the history in ``path``, read without writing a byte.
+
+    Returns
+    -------
+    str or None
+        The revision; None for an empty database (a new, empty file).
+
+    Raises
+    ------
+    HistoryError
+        Not an SQLite database, a database that is not a calibrator history,
+        or one at a revision newer than this calibrator reads.
+    """
+    import sqlite3
+    from urllib.parse import quote
+
+    if path.stat().st_size == 0:
+        return None
+    uri = f"file:{quote(str(path.resolve()))}?mode=ro"
+    if not Path(f"{path}-wal").exists():
+        # Nothing beside it: the file holds everything, and opening it immutable
+        # takes no lock and leaves no -wal or -shm beside someone else's database.
+        uri += "&immutable=1"
     try:
-        return create_engine(parsed, pool_pre_ping=True)
+        conn = sqlite3.connect(uri, uri=True, timeout=timeout)
+    except sqlite3.Error as exc:
+        raise HistoryError(f"--history {path}: cannot open it ({exc})") from None
+    try:
+        tables = {n for (n,) in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        revision = None
+        if "alembic_version" in tables:
+            row = conn.execute("SELECT version_num FROM alembic_version").fetchone()
+            revision = None if row is None else str(row[0])
+    except sqlite3.DatabaseError as exc:
+        if "locked" in str(exc) or "busy" in str(exc):
+            raise HistoryError(
+                f"history {path}: no answer within {timeout:g} s (another program holds its "
+                f"lock; a history URL's ?timeout=SECONDS or ${TIMEOUT_ENV} sets the limit)"
+            ) from None
+        raise HistoryError(f"--history {path}: not an SQLite database ({exc})") from None
+    finally:
+        conn.close()
+    if revision is None and tables:
+        raise HistoryError(f"{path} is a database, but not a calibrator history")
+    if revision is not None and revision not in migrations.REVISIONS:
+        raise HistoryError(
+            f"{path} is at schema revision {revision}, newer than this calibrator "
+            f"reads ({migrations.HEAD}): upgrade calibrator"
+        )
+    return revision
+
+
+def _server_engine(parsed: Any, timeout: float) -> Any:
+    """A PostgreSQL history whose every exchange ends within ``timeout`` seconds.
+
+    Three bounds, for three ways a server can fail to answer: ``connect_timeout``
+    (a server that accepts the connection and never answers), the server's
+    own ``statement_timeout`` and ``lock_timeout`` (a statement waiting on
+    another connection's lock), and :class:`_Watchdog` on the client (a
+    server that stops answering in the middle of a statement, where no
+    timer of its own runs).
+    """
+    from sqlalchemy import create_engine, event
+
+    ms = int(timeout * 1000)
+    try:
+        engine = create_engine(
+            parsed,
+            pool_pre_ping=True,
+            connect_args={
+                "connect_timeout": max(2, int(timeout + 0.5)),  # libpq's least is 2 s
+                "options": f"-c statement_timeout={ms} -c lock_timeout={ms}",
+            },
+        )
     except Exception as exc:  # a driver missing or an option it refuses
         raise HistoryError(
             f"--history {parsed.render_as_string()}: {_one_line(exc)} "
             "(give an SQLite file or postgresql://USER@HOST/DB)"
         ) from None
+    watchdog = _Watchdog(timeout)
+
+    @event.listens_for(engine, "connect")
+    def _connect(dbapi_connection: Any, _record: Any) -> None:
+        watchdog.watch(dbapi_connection)
+
+    engine.history_timeout_s = timeout  # type: ignore[attr-defined]
+    engine.history_watchdog = watchdog  # type: ignore[attr-defined]
+    return engine
 
 
-def _write_ahead_log(dbapi_connection: Any) -> None:
-    """Put an SQLite file in write-ahead-log mode, waiting up to :data:`SQLITE_WAIT_S` for it.
+class _Watchdog:
+    """Ends an exchange with a server that stopped answering: shuts its sockets at a deadline.
+
+    A statement the server never finishes (its process stopped, the network
+    gone quiet while the kernel still acknowledges) blocks the client in a
+    read no timer of the server's can end. :meth:`running` arms a timer for
+    one transaction; when it fires, the sockets of the connections opened
+    through this engine are shut, the blocked read returns, and the driver
+    raises an error the caller reports in one line. The transaction was
+    never committed, so the server rolls it back: nothing is half-written.
+    """
+
+    def __init__(self, seconds: float) -> None:
+        import weakref
+
+        self.seconds = seconds
+        self.fired = False
+        self._live: Any = weakref.WeakSet()
+
+    def watch(self, dbapi_connection: Any) -> None:
+        """Shut this connection too when the deadline passes."""
+        self._live.add(dbapi_connection)
+
+    @contextmanager
+    def running(self) -> Iterator[None]:
+        """The deadline armed for the block (one transaction)."""
+        import threading
+
+        self.fired = False
+        timer = threading.Timer(self.seconds, self._fire)
+        timer.daemon = True
+        timer.start()
+        try:
+            yield
+        finally:
+            timer.cancel()
+
+    def _fire(self) -> None:
+        import socket
+
+        self.fired = True
+        for conn in list(self._live):
+            try:
+                fd = conn.pgconn.socket
+                sock = socket.socket(fileno=os.dup(fd))
+            except Exception:  # already closed: nothing to end
+                continue
+            try:
+                sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+            finally:
+                sock.close()
+
+
+def _write_ahead_log(dbapi_connection: Any, wait_s: float = SQLITE_WAIT_S) -> None:
+    """Put an SQLite file in write-ahead-log mode, waiting up to ``wait_s`` for it.
 
     The mode is kept in the file, so only its first connections change it.
     SQLite answers a change of journal mode that meets another connection's
@@ -124,7 +338,7 @@ def _write_ahead_log(dbapi_connection: Any) -> None:
     """
     import sqlite3
 
-    deadline = time.monotonic() + SQLITE_WAIT_S
+    deadline = time.monotonic() + wait_s
     pause = 0.001
     while True:
         try:
@@ -140,6 +354,20 @@ def _write_ahead_log(dbapi_connection: Any) -> None:
                 raise
         time.sleep(pause)
         pause = min(2 * pause, 0.05)
+
+
+def _timed_out(exc: BaseException) -> bool:
+    """The driver's error says a timeout ended the exchange (connecting, a statement, a lock)."""
+    text = str(getattr(exc, "orig", None) or exc).lower()
+    return any(
+        words in text
+        for words in (
+            "timeout expired",  # connecting (psycopg)
+            "statement timeout",  # the server's statement_timeout
+            "lock timeout",  # the server's lock_timeout
+            "database is locked",  # SQLite's busy timeout: another writer held the lock
+        )
+    )
 
 
 def _one_line(exc: BaseException) -> str:
@@ -163,8 +391,13 @@ class History:
 
     # -- opening ---------------------------------------------------------------
 
-    def upgrade(self) -> str | None:
-        """Bring the schema to :data:`migrations.HEAD`; return the revision it was at."""
+    def upgrade(self, create: bool = True, change: bool = True) -> str | None:
+        """Bring the schema to :data:`migrations.HEAD`; return the revision it was at.
+
+        With ``create`` False an empty database is refused, not given the
+        schema: a look at a history writes nothing into what holds none.
+        With ``change`` False nothing is migrated: only what would be refused is.
+        """
         from sqlalchemy import inspect
 
         with self._begin() as conn:
@@ -173,12 +406,16 @@ class History:
             was = migrations.current(conn)
             if was is None and inspect(conn).get_table_names():
                 raise HistoryError(f"{self.where} is a database, but not a calibrator history")
+            if was is None and not create:
+                raise HistoryError(
+                    f"no history in {self.where} (an empty database: nothing recorded yet)"
+                )
             if was is not None and was not in migrations.REVISIONS:
                 raise HistoryError(
                     f"{self.where} is at schema revision {was}, newer than this calibrator "
                     f"reads ({migrations.HEAD}): upgrade calibrator"
                 )
-            if was != migrations.HEAD:
+            if was != migrations.HEAD and change:
                 migrations.upgrade(conn)
         return was
 
@@ -194,14 +431,23 @@ class History:
 
     @contextmanager
     def _begin(self) -> Iterator[Any]:
+        from contextlib import nullcontext
+
         from sqlalchemy.exc import DBAPIError, StatementError
 
+        watchdog = getattr(self.engine, "history_watchdog", None)
         try:
-            with self.engine.begin() as conn:
+            with watchdog.running() if watchdog else nullcontext(), self.engine.begin() as conn:
                 yield conn
         except HistoryError:
             raise
         except (DBAPIError, StatementError) as exc:
+            timeout = getattr(self.engine, "history_timeout_s", DEFAULT_TIMEOUT_S)
+            if (watchdog is not None and watchdog.fired) or _timed_out(exc):
+                raise HistoryError(
+                    f"history {self.where}: no answer within {timeout:g} s; nothing was "
+                    f"written (a history URL's ?timeout=SECONDS or ${TIMEOUT_ENV} sets the limit)"
+                ) from None
             raise HistoryError(f"history {self.where}: {_one_line(exc)}") from None
 
     # -- recording -------------------------------------------------------------
@@ -451,6 +697,27 @@ def _tracker_parts(name: str | None) -> dict:
     return {"model": parts[1], "serial": parts[2]} if len(parts) == 3 else {}
 
 
+def check_usable(target: str | os.PathLike | None = None) -> None:
+    """Refuse now a history a command could not record into at its end; create nothing.
+
+    For ``identify``/``verify``/``check --history``: a bad URL, a file that is
+    no history, a server that does not answer are refused before the
+    command's work, and a history that is not there yet is not made by a
+    command that may still fail (it is made when something is recorded).
+    """
+    url = resolve(target, create=False)
+    engine = _engine(url, create=True)
+    if engine.url.get_backend_name() == "sqlite":
+        # Nothing connected: an existing file was probed read-only, a new one's folder checked.
+        engine.dispose()
+        return
+    history = History(engine, engine.url.render_as_string(hide_password=True))
+    try:
+        history.upgrade(create=True, change=False)
+    finally:
+        history.close()
+
+
 def open_history(target: str | os.PathLike | None = None, create: bool = True) -> History:
     """Open a history, creating or upgrading its schema (a context manager).
 
@@ -481,7 +748,7 @@ def open_history(target: str | os.PathLike | None = None, create: bool = True) -
     )
     history = History(engine, where)
     try:
-        history.upgrade()
+        history.upgrade(create)
     except BaseException:
         history.close()
         raise

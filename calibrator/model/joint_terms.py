@@ -72,6 +72,10 @@ PAYLOAD_COM_MM = Rule(
 
 def parse_groups(text: str) -> tuple[str, ...]:
     """``'scale,harmonic'`` -> ``('scale', 'harmonic')``; one line naming a bad one."""
+    items = str(text).split(",")
+    if len(items) > 1 and any(not g.strip() for g in items):
+        # ``scale,,harmonic`` or ``scale,``: a term left out by a typo, never skipped.
+        raise CalibrationError(f"--joint-terms: {text!r:.60} has an empty item")
     groups = tuple(dict.fromkeys(g.strip().lower() for g in str(text).split(",") if g.strip()))
     bad = [g for g in groups if g not in GROUPS]
     if bad or not groups:

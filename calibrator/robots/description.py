@@ -75,6 +75,18 @@ class Capsule:
     q_mm: tuple[float, float, float]
     radius_mm: float
 
+    def __post_init__(self) -> None:
+        # A capsule of no or negative radius encloses nothing: every clearance
+        # check against it would pass.
+        if not (np.isfinite(self.radius_mm) and self.radius_mm > 0):
+            raise DescriptionError(
+                f"capsule {self.name!r}: radius {self.radius_mm:g} mm must be > 0"
+            )
+        if not np.all(np.isfinite([*self.p_mm, *self.q_mm])):
+            raise DescriptionError(f"capsule {self.name!r}: its end points must be finite")
+        if self.link not in range(0, 8):
+            raise DescriptionError(f"capsule {self.name!r}: link {self.link} is not 0 to 7")
+
 
 @dataclass(frozen=True)
 class Body:
@@ -111,6 +123,14 @@ class Body:
     margin_mm: float = 0.0
     source: str = ""
     guessed: str = ""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.base_radius_mm) and self.base_radius_mm > 0):
+            raise DescriptionError(f"body: base radius {self.base_radius_mm:g} mm must be > 0")
+        if not (np.isfinite(self.margin_mm) and self.margin_mm >= 0):
+            raise DescriptionError(f"body: margin {self.margin_mm:g} mm must be >= 0")
+        if not np.all(np.isfinite([self.base_top_mm, self.mount_z_mm, *self.shoulder_mm])):
+            raise DescriptionError("body: base top, mounting plane and shoulder must be finite")
 
 
 @dataclass(frozen=True)
@@ -201,6 +221,24 @@ class JointConvention:
         return all(s == 1.0 for s in self.sign) and not any(self.offset_rad) and not self.couplings
 
 
+def rigid(t: np.ndarray, what: str) -> None:
+    """Refuse a (4, 4) that is not a rigid transform (rotation and translation only).
+
+    A scaled or sheared offset would make every pose computed through it
+    wrong while each check of the arm still passed.
+    """
+    r = t[:3, :3]
+    if not (
+        np.allclose(t[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9)
+        and np.allclose(r.T @ r, np.eye(3), atol=1e-6)
+        and np.linalg.det(r) > 0
+    ):
+        raise DescriptionError(
+            f"{what} must be a rigid transform (an orthonormal rotation with det +1, "
+            "last row 0 0 0 1)"
+        )
+
+
 def _frozen(value: ArrayLike, shape: tuple[int, ...], what: str, name: str) -> np.ndarray:
     array = np.array(value, dtype=float)
     if array.shape != shape or not np.all(np.isfinite(array)):
@@ -210,14 +248,9 @@ def _frozen(value: ArrayLike, shape: tuple[int, ...], what: str, name: str) -> n
 
 
 def _rigid(value: ArrayLike, what: str, name: str) -> np.ndarray:
-    """A frozen (4, 4) rigid transform, or one line naming what is wrong."""
+    """A frozen (4, 4) rigid transform (:func:`rigid`), or one line naming what is wrong."""
     array = _frozen(value, (4, 4), what, name)
-    try:
-        frames.check_transform(array, what)
-    except ValueError as exc:
-        raise DescriptionError(f"robot {name}: {exc}") from None
-    if not np.allclose(array[:3, :3] @ array[:3, :3].T, np.eye(3), atol=1e-9):
-        raise DescriptionError(f"robot {name}: {what} rotation is not orthonormal to 1e-9")
+    rigid(array, f"robot {name}: {what}")
     return array
 
 
@@ -339,9 +372,12 @@ class RobotDescription:
             put(self, "com_mm", _frozen(self.com_mm, (6, 3), "centres of mass", n))
             if np.any(self.mass_kg < 0):
                 raise DescriptionError(f"robot {n}: masses must be >= 0")
-        for key in ("base_offset", "flange_offset"):
-            put(self, key, _frozen(getattr(self, key), (4, 4), key, n))
-        for key in ("base2controller_base", "flange2controller_flange"):
+        for key in (
+            "base_offset",
+            "flange_offset",
+            "base2controller_base",
+            "flange2controller_flange",
+        ):
             put(self, key, _rigid(getattr(self, key), key, n))
         if self.reference_errors is not None:
             put(self, "reference_errors", _frozen(self.reference_errors, (6, 5), "errors", n))
@@ -350,6 +386,17 @@ class RobotDescription:
             configs[str(key)] = tuple(_frozen(q, (6,), f"configuration {key!r}", n).tolist())
         if "home" not in configs:
             raise DescriptionError(f"robot {n}: needs a 'home' configuration")
+        lim = self.joint_limits_rad
+        for key, q in configs.items():
+            # A named configuration outside the limits is one no check would let the arm reach.
+            out = [j for j in range(6) if not lim[j, 0] - 1e-9 <= q[j] <= lim[j, 1] + 1e-9]
+            if out:
+                j = out[0]
+                raise DescriptionError(
+                    f"robot {n}: configuration {key!r} has joint {j + 1} at "
+                    f"{np.degrees(q[j]):.4g} deg, outside its limits "
+                    f"[{np.degrees(lim[j, 0]):.4g}, {np.degrees(lim[j, 1]):.4g}] deg (model angles)"
+                )
         put(self, "configurations", MappingProxyType(configs))
 
     # -- the ceilings every move obeys -------------------------------------------------

@@ -66,10 +66,14 @@ from calibrator.robots.description import (
     DescriptionError,
     JointConvention,
     RobotDescription,
+    rigid,
 )
 
 #: Refuse description files larger than this.
 MAX_BYTES = 2**20
+#: Most capsules, named configurations and couplings a file may list: each
+#: costs every clearance check or plan (a 1 MiB file could list 20,000).
+MAX_ITEMS = {"capsules": 64, "configurations": 64, "couplings": 15}
 _DEG = np.pi / 180.0
 _KEYS = {
     "format",
@@ -127,9 +131,25 @@ class _Doc:
             raise self.fail(key, f"must be finite numbers, shape {shape}")
         return array
 
+    def positive(self, key: str, shape: tuple[int, ...], zero_ok: bool = False) -> np.ndarray:
+        """:meth:`numbers` that are lengths: > 0 (>= 0 with ``zero_ok``)."""
+        array = self.numbers(key, shape)
+        if not np.all(array >= 0 if zero_ok else array > 0):
+            raise self.fail(key, "must be >= 0" if zero_ok else "must be > 0 (a length, mm)")
+        return array
+
     def section(self, key: str) -> _Doc | None:
         value = self.doc.get(key)
         return None if value is None else _Doc(value, f"{self.where}: {key}")
+
+
+def _count(section: _Doc, key: str) -> None:
+    """Refuse a list ``key`` that is no list or longer than :data:`MAX_ITEMS` allows."""
+    items = section.get(key)
+    if not isinstance(items, list):
+        raise section.fail(key, "must be a list")
+    if len(items) > MAX_ITEMS[key]:
+        raise section.fail(key, f"{len(items)} listed, at most {MAX_ITEMS[key]}")
 
 
 def _has_bool(value: Any) -> bool:
@@ -166,6 +186,17 @@ def load(path: str | Path, name: str | None = None) -> RobotDescription:
     """
     path = Path(path)
     try:
+        return _load(path, name)
+    except DescriptionError as exc:
+        # What the description's own checks refuse (a capsule, an offset, a
+        # configuration outside the limits) is said with the file it came from.
+        if str(exc).startswith(str(path)):
+            raise
+        raise DescriptionError(f"{path}: {exc}") from None
+
+
+def _load(path: Path, name: str | None) -> RobotDescription:
+    try:
         text = textfile.read_text(path, MAX_BYTES, "a robot description")
     except StrictError as exc:
         raise DescriptionError(str(exc)) from None
@@ -184,13 +215,17 @@ def load(path: str | Path, name: str | None = None) -> RobotDescription:
         body = doc.section("body")
         radii = margin = None
         if body is not None and body.get("link_radius_mm") is not None:
-            radii = body.numbers("link_radius_mm", (6,))
+            radii = body.positive("link_radius_mm", (6,))
         if body is not None and body.get("margin_mm") is not None:
-            margin = float(body.numbers("margin_mm", ()))
+            margin = float(body.positive("margin_mm", (), zero_ok=True))
+        links = {}
+        for key in ("base_link", "tip_link"):
+            if kin.get(key) is not None:
+                links[key] = kin.text(key)  # one link's name, never a list or a number
         base = urdf.describe(
             path.parent / kin.text("urdf"),
-            base_link=kin.get("base_link"),
-            tip_link=kin.get("tip_link"),
+            base_link=links.get("base_link"),
+            tip_link=links.get("tip_link"),
             name="file",
             margin_mm=urdf.FIT_MARGIN_MM if margin is None else margin,
             link_radius_mm=radii,
@@ -274,6 +309,11 @@ def _from_mdh(doc: _Doc, kin: _Doc) -> RobotDescription:
         kin.numbers(key, (4, 4)) if kin.get(key) is not None else np.eye(4)
         for key in ("base_offset", "flange_offset")
     )
+    for key, offset in (("base_offset", base_offset), ("flange_offset", flange_offset)):
+        try:
+            rigid(offset, key)
+        except DescriptionError as exc:
+            raise kin.fail(key, str(exc).removeprefix(f"{key} ")) from None
     return RobotDescription(
         name="file",
         mdh=mdh,
@@ -323,6 +363,8 @@ def _overlay(doc: _Doc, base: RobotDescription, name: str) -> RobotDescription:
             changes["max_joint_accel_rad_s2"] = limits.numbers("accel_deg_s2", (6,)) * _DEG
     configs = doc.section("configurations")
     if configs is not None:
+        if len(configs.doc) > MAX_ITEMS["configurations"]:
+            raise doc.fail("configurations", f"more than {MAX_ITEMS['configurations']} named")
         named = dict(base.configurations)
         for key in configs.doc:
             q = configs.numbers(str(key), (6,)) * _DEG
@@ -353,11 +395,16 @@ def _convention(doc: _Doc, kinematics_convention: JointConvention) -> JointConve
         else np.zeros(6)
     )
     couplings = []
+    if section.get("couplings") is not None:
+        _count(section, "couplings")
     for k, item in enumerate(section.get("couplings") or []):
         c = _Doc(item, f"{section.where}: couplings[{k}]")
         j, src, f = (c.numbers(key, ()) for key in ("joint", "from", "factor"))
-        if j != int(j) or src != int(src):
-            raise c.fail("joint", "joints are numbered 1 to 6")
+        for key, value in (("joint", j), ("from", src)):
+            if value != int(value) or not 1 <= value <= 6:
+                raise c.fail(key, f"{value:g}: joints are numbered 1 to 6")
+        if not src < j:
+            raise c.fail("from", "a joint is coupled to an earlier joint (from < joint)")
         couplings.append((int(j) - 1, int(src) - 1, float(u[int(j) - 1] * f)))
     try:
         return JointConvention(
@@ -373,10 +420,13 @@ def _convention(doc: _Doc, kinematics_convention: JointConvention) -> JointConve
 def _body(section: _Doc, base: RobotDescription) -> Body:
     frames = base.base_offset @ kinematics.chain(base.mdh, np.zeros(6), all_frames=True)[1][0]
     margin = (
-        float(section.numbers("margin_mm", ())) if section.get("margin_mm") is not None else 0.0
+        float(section.positive("margin_mm", (), zero_ok=True))
+        if section.get("margin_mm") is not None
+        else 0.0
     )
     capsules: list[Capsule] = []
     if section.get("capsules") is not None:
+        _count(section, "capsules")
         for k, item in enumerate(section.get("capsules")):
             c = _Doc(item, f"{section.where}: capsules[{k}]")
             link = c.numbers("link", ())
@@ -391,7 +441,7 @@ def _body(section: _Doc, base: RobotDescription) -> Body:
                     int(link),
                     (float(p[0]), float(p[1]), float(p[2])),
                     (float(q[0]), float(q[1]), float(q[2])),
-                    float(c.numbers("radius_mm", ())) + margin,
+                    float(c.positive("radius_mm", ())) + margin,
                 )
             )
     elif section.get("link_radius_mm") is not None:
@@ -409,9 +459,14 @@ def _body(section: _Doc, base: RobotDescription) -> Body:
     def number(key: str, default: float) -> float:
         return float(section.numbers(key, ())) if section.get(key) is not None else default
 
+    base_radius = (
+        float(section.positive("base_radius_mm", ()))
+        if section.get("base_radius_mm") is not None
+        else (old.base_radius_mm if old else 150.0)
+    )
     return Body(
         capsules=tuple(capsules),
-        base_radius_mm=number("base_radius_mm", old.base_radius_mm if old else 150.0),
+        base_radius_mm=base_radius,
         base_top_mm=number("base_top_mm", old.base_top_mm if old else 0.0),
         mount_z_mm=number("mount_z_mm", old.mount_z_mm if old else -shift),
         shoulder_mm=(0.0, 0.0, float(frames[1][2, 3] - shift)),

@@ -57,6 +57,23 @@ from calibrator.robots.description import (
 #: Refuse URDF files larger than this (a 6-axis arm's is tens of kilobytes).
 MAX_BYTES = 16 * 2**20
 _M = 1000.0
+#: A joint origin farther than this from its parent (mm) is no arm's: lengths written in
+#: millimetres where URDF wants metres (a 400 mm link read as 400 m).
+MAX_JOINT_OFFSET_MM = 10_000.0
+#: A joint limit beyond this (rad, two turns) was written in degrees, where URDF wants radians.
+MAX_LIMIT_RAD = 4 * np.pi
+#: A joint speed above this (rad/s) was written in deg/s (the fastest shipped wrist: 25 rad/s).
+MAX_SPEED_RAD_S = 60.0
+#: A collision mesh wider than this once scaled (mm) is no arm link's: a mesh in
+#: millimetres without its scale, or a scale that would make the clearance
+#: sweep sample its surface by the billion (``scale="300"``: gigabytes).
+MAX_MESH_EXTENT_MM = 10_000.0
+#: The largest collision mesh surface (m^2) the clearance sweep samples, every
+#: :data:`SURFACE_SPACING_MM` (50 m^2: half a million points; a 2 x 2 x 3 m link has 32).
+#: Faces folded on one another within the extent could otherwise ask for billions.
+MAX_MESH_AREA_M2 = 50.0
+#: The largest collision mesh file read (bytes).
+MAX_MESH_BYTES = 64 * 2**20
 #: Base links tried when none is given, in order.
 BASE_LINKS = ("base_link",)
 #: Tip links tried when none is given, in order.
@@ -144,6 +161,17 @@ def origin_of(element: ET.Element | None, where: str) -> np.ndarray:
         return np.eye(4)
     xyz = _numbers(element.get("xyz"), 3, (0.0, 0.0, 0.0), f"{where} origin xyz")
     rpy = _numbers(element.get("rpy"), 3, (0.0, 0.0, 0.0), f"{where} origin rpy")
+    if np.any(np.abs(xyz) > MAX_JOINT_OFFSET_MM / _M):  # before scaling: 1e308 m overflows
+        raise DescriptionError(
+            f"{where}: origin xyz {element.get('xyz')!r:.60} is beyond "
+            f"{MAX_JOINT_OFFSET_MM / _M:g} m, no arm's: written in millimetres? "
+            "URDF lengths are metres"
+        )
+    if np.any(np.abs(rpy) > MAX_LIMIT_RAD):
+        raise DescriptionError(
+            f"{where}: origin rpy {element.get('rpy')!r:.60} is more than two turns: "
+            "written in degrees? URDF angles are radians"
+        )
     return from_xyz_rpy(np.concatenate([xyz * _M, rpy]))
 
 
@@ -183,6 +211,8 @@ def read_chain(
 
     def pick(given: str | None, defaults: tuple[str, ...], what: str) -> str:
         if given is not None:
+            if not isinstance(given, str):  # a description file's tip_link: [a, b]
+                raise _fail(path, f"the {what} link must be one link's name, got {given!r:.60}")
             if given not in links:
                 raise _fail(
                     path, f"no {what} link {given!r} (links: {', '.join(sorted(map(str, links)))})"
@@ -315,12 +345,18 @@ def _joint(path: Path, element: ET.Element) -> Joint:
                     upper = value
                 else:
                     velocity = value
+    origin = origin_of(element.find("origin"), where)
+    if np.linalg.norm(origin[:3, 3]) > MAX_JOINT_OFFSET_MM:
+        raise DescriptionError(
+            f"{where}: its origin is {np.linalg.norm(origin[:3, 3]) / _M:.4g} m from its parent, "
+            "no arm's: written in millimetres? URDF lengths are metres"
+        )
     return Joint(
         name=name,
         kind=kind,
         parent=str(parent.get("link")) if parent is not None else "",
         child=str(child.get("link")) if child is not None else "",
-        origin=origin_of(element.find("origin"), where),
+        origin=origin,
         axis=axis / max(float(np.linalg.norm(axis)), 1e-300),
         lower=lower,
         upper=upper,
@@ -433,9 +469,21 @@ def _limits(chain: Chain, sign: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             lo, hi = joint.lower, joint.upper
         if not lo < hi:
             raise _fail(chain.path, f"joint {joint.name!r}: lower limit {lo} is not below {hi}")
+        if max(abs(lo), abs(hi)) > MAX_LIMIT_RAD:
+            raise _fail(
+                chain.path,
+                f"joint {joint.name!r}: limits [{lo:g}, {hi:g}] are more than two turns: "
+                "written in degrees? URDF limits are radians",
+            )
         limits[i] = (lo, hi) if sign[i] > 0 else (-hi, -lo)
         if joint.velocity is None or not joint.velocity > 0:
             raise _fail(chain.path, f"joint {joint.name!r} has no velocity limit > 0")
+        if joint.velocity > MAX_SPEED_RAD_S:
+            raise _fail(
+                chain.path,
+                f"joint {joint.name!r}: velocity {joint.velocity:g} rad/s is no arm's: "
+                "written in deg/s? URDF velocities are rad/s",
+            )
         speeds[i] = joint.velocity
     return limits, speeds
 
@@ -926,11 +974,11 @@ def _fit(chain: Chain, link: str, collision: ET.Element) -> _Fitted | None:
         return None
     shape = geometry[0]
     if shape.tag == "sphere":
-        r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} sphere")[0] * _M
+        r = _size(shape, "radius", 1, f"{where} sphere")[0]
         return at[:3, 3], at[:3, 3], float(r), None
     if shape.tag == "cylinder":
-        r = _numbers(shape.get("radius"), 1, (0.0,), f"{where} cylinder")[0] * _M
-        half = _numbers(shape.get("length"), 1, (0.0,), f"{where} cylinder")[0] * _M / 2
+        r = _size(shape, "radius", 1, f"{where} cylinder")[0]
+        half = _size(shape, "length", 1, f"{where} cylinder")[0] / 2
         # Its rims, for the lowest point (the capsule's round ends reach lower):
         # 72-gons around the circles, so no point of a rim is lower than theirs.
         angle = np.linspace(0.0, 2 * np.pi, 73)[:-1]
@@ -940,7 +988,7 @@ def _fit(chain: Chain, link: str, collision: ET.Element) -> _Fitted | None:
         axis = at[:3, 2] * half
         return at[:3, 3] - axis, at[:3, 3] + axis, float(r), rims @ at[:3, :3].T + at[:3, 3]
     if shape.tag == "box":
-        size = _numbers(shape.get("size"), 3, (0.0, 0.0, 0.0), f"{where} box") * _M
+        size = _size(shape, "size", 3, f"{where} box")
         corners = np.array(np.meshgrid(*[[-s / 2, s / 2] for s in size])).reshape(3, -1).T
         corners = corners @ at[:3, :3].T + at[:3, 3]
         capsule = enclosing.enclose(corners)
@@ -948,6 +996,26 @@ def _fit(chain: Chain, link: str, collision: ET.Element) -> _Fitted | None:
     if shape.tag == "mesh":
         return _fit_mesh(chain, shape, at, where)
     return None
+
+
+def _size(shape: ET.Element, key: str, count: int, where: str) -> np.ndarray:
+    """A shape's size attribute (m in the file), mm: given, positive, at most an arm's size.
+
+    A negative or zero radius would make a capsule that encloses nothing (a
+    sphere of radius -0.5 m became a -490 mm capsule every clearance check
+    passed): refused, as is a size in millimetres where URDF wants metres.
+    """
+    if shape.get(key) is None:
+        raise DescriptionError(f"{where}: no {key}")
+    values = _numbers(shape.get(key), count, (0.0,) * count, f"{where} {key}") * _M
+    if not np.all(values > 0):
+        raise DescriptionError(f"{where}: {key} {shape.get(key)!r} must be > 0 (metres)")
+    if np.any(values > MAX_MESH_EXTENT_MM):
+        raise DescriptionError(
+            f"{where}: {key} {shape.get(key)!r} m is no arm link's: written in millimetres? "
+            "URDF lengths are metres"
+        )
+    return values
 
 
 class _MeshMissing(Exception):
@@ -992,16 +1060,50 @@ def _mesh(
         raise _MeshMissing(filename)
     import trimesh
 
+    # The scale first: a bad one is refused before the mesh file is even read.
+    scale = _numbers(shape.get("scale"), 3, (1.0, 1.0, 1.0), f"{where} mesh scale")
+    if not np.all(np.abs(scale) > 0):
+        raise DescriptionError(f"{where}: mesh scale {shape.get('scale')!r} has a zero factor")
+    size = found.stat().st_size
+    if size > MAX_MESH_BYTES:
+        raise DescriptionError(
+            f"{where}: mesh {found.name} is {size / 2**20:.0f} MiB, more than the "
+            f"{MAX_MESH_BYTES // 2**20} MiB a collision mesh is read up to"
+        )
     try:
         mesh = trimesh.load(found, force="mesh")
     except Exception as exc:  # trimesh raises many kinds for bad files
         raise DescriptionError(f"{where}: cannot read mesh {found.name} ({exc})") from None
-    scale = _numbers(shape.get("scale"), 3, (1.0, 1.0, 1.0), f"{where} mesh scale")
-    points = np.asarray(getattr(mesh, "vertices", []), dtype=float) * scale * _M
-    if points.ndim != 2 or len(points) < 2:
-        return None
-    points = points @ at[:3, :3].T + at[:3, 3]
+    points = np.asarray(getattr(mesh, "vertices", []), dtype=float)
+    faces = np.asarray(getattr(mesh, "faces", np.empty((0, 3))), dtype=int).reshape(-1, 3)
+    if points.ndim != 2 or len(points) < 3 or not len(faces):
+        # A file trimesh opens but finds nothing in (not a mesh, a format it does not
+        # know): named, never dropped as if the link had no collision geometry.
+        raise DescriptionError(f"{where}: mesh {found.name} holds no triangles that could be read")
     if not np.all(np.isfinite(points)):
         raise DescriptionError(f"{where}: mesh {found.name} has vertices that are not numbers")
-    faces = np.asarray(getattr(mesh, "faces", np.empty((0, 3))), dtype=int).reshape(-1, 3)
+    # The extent from the file's numbers and the scale, compared before anything
+    # is scaled (a scale of 1e308 would overflow into infinities).
+    ratio = float(np.max(np.ptp(points, axis=0) * (np.abs(scale) * (_M / MAX_MESH_EXTENT_MM))))
+    if not ratio <= 1.0:
+        spans = f"{ratio * (MAX_MESH_EXTENT_MM / _M):.4g}" if np.isfinite(ratio) else "beyond 1e300"
+        raise DescriptionError(
+            f"{where}: mesh {found.name} spans {spans} m once scaled: no arm link's "
+            '(URDF meshes are metres; a mesh in millimetres needs scale="0.001 0.001 0.001")'
+        )
+    if faces.min() < 0 or faces.max() >= len(points):
+        raise DescriptionError(f"{where}: mesh {found.name} has faces of vertices it does not hold")
+    points = points * scale * _M
+    corners = points[faces]
+    area_m2 = 0.5e-6 * float(
+        np.linalg.norm(
+            np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+        ).sum()
+    )
+    if area_m2 > MAX_MESH_AREA_M2:
+        raise DescriptionError(
+            f"{where}: mesh {found.name} has {area_m2:.4g} m^2 of surface once scaled, more "
+            f"than any arm link's ({MAX_MESH_AREA_M2:g} m^2)"
+        )
+    points = points @ at[:3, :3].T + at[:3, 3]
     return points, faces

@@ -88,10 +88,25 @@ def test_another_models_world_is_refused():
 
 
 def test_measure_refuses_a_bad_world_file_in_one_line_and_writes_nothing(tmp_path):
-    (tmp_path / "w.yaml").write_text("arm: {deltas: {a2: oops}}\n")
+    (tmp_path / "w.yaml").write_text("world: 1\narm: {deltas: {a2: oops}}\n")
     line = one_line_error(cli("measure", "--world", "w.yaml", "-o", "s.parquet", cwd=tmp_path))
     assert "w.yaml: arm.deltas.a2: expected a finite number (mm), got 'oops'" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["w.yaml"]
+
+
+def test_a_file_without_its_world_line_is_no_world_file(tmp_path):
+    # docs/check.md: every key but `world` is optional.
+    (tmp_path / "w.yaml").write_text("arm: {deltas: {a2: 0.05}}\n")
+    with pytest.raises(WorldError, match=r"w\.yaml: no 'world: 1' line: not a world file"):
+        read_world(tmp_path / "w.yaml")
+
+
+def test_a_quoted_number_is_text_and_refused(tmp_path):
+    (tmp_path / "w.yaml").write_text("world: 1\narm: {deltas: {alpha3: '4e-4'}}\n")
+    with pytest.raises(WorldError, match=r"arm\.deltas\.alpha3: expected a finite number"):
+        read_world(tmp_path / "w.yaml")
+    (tmp_path / "w.yaml").write_text("world: 1\narm: {deltas: {alpha3: 4e-4}}\n")
+    assert read_world(tmp_path / "w.yaml").deltas == {"alpha3": 4e-4}
 
 
 def test_a_world_file_is_for_the_simulated_cell_only(tmp_path):

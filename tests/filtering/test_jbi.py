@@ -4,14 +4,11 @@ import re
 
 import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
+from program_kit import PPD, write_jbi_job
 
 from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
-from calibrator.filtering.jbi import JBI
-from calibrator.filtering.solve import Solver
 from calibrator.model import frames, kinematics
-
-PPD = [1341.4, 1341.4, 1145.8, 850.2, 850.2, 544.1]
 
 
 def _frames(tmp_path):
@@ -23,33 +20,6 @@ def _frames(tmp_path):
     return frames_file.read(path)
 
 
-def write_job(path, cal, q):
-    lang = JBI.__new__(JBI)
-    codes = Solver(lang, job(cal)).code_of(q)
-    poses = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q, TOOL)
-    home = np.round(np.array([0, 10, -10, 0, 45, 0]) * PPD).astype(int)
-    out = ["/JOB", "//NAME NAHT1", "//POS", f"///NPOS {len(q) + 1},0,0,0,0,0", "///TOOL 1",
-           "///POSTYPE PULSE", "///PULSE", "C00000=" + ",".join(map(str, home)),
-           "///USER 2", "///TOOL 1", "///POSTYPE USER", "///RECTAN"]  # fmt: skip
-    last = None
-    for i, (p, c) in enumerate(zip(poses, codes, strict=True)):
-        rconf = ",".join(map(str, c)) + ",0,0"
-        if rconf != last:
-            out.append(f"///RCONF {rconf}")
-            last = rconf
-        rpw = rotations.matrix_to_zyx(p[None, :3, :3], np.zeros((1, 3)))[0]
-        vals = [*p[:3, 3], rpw[2], rpw[1], rpw[0]]
-        out.append(
-            f"C{i + 1:05d}="
-            + ",".join(f"{v:.3f}" if k < 3 else f"{v:.4f}" for k, v in enumerate(vals))
-        )
-    out += ["//INST", "///DATE 2026/11/27 12:00", "///ATTR SC,RW", "///GROUP1 RB1", "NOP",
-            "MOVJ C00000 VJ=25.00"]  # fmt: skip
-    out += [f"MOVL C{i + 1:05d} V=100.0" for i in range(len(q))] + ["END", ""]
-    path.write_bytes("\r\n".join(out).encode("ascii"))
-    return path
-
-
 def _read(text):
     rows = re.findall(r"^C000(?:0[1-9]|[1-9]\d)=(.*)$", text, re.M)
     v = np.array([[float(x) for x in r.split(",")] for r in rows])
@@ -58,7 +28,7 @@ def _read(text):
 
 def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
-    src = write_job(tmp_path / "NAHT1.JBI", cal, work_joints(6))
+    src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, work_joints(6))
     out = tmp_path / "OUT.JBI"
     summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -69,7 +39,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
 def test_rectan_positions_land_in_the_user_frame(tmp_path):
     cal = calibration()
     q = work_joints(6)
-    src = write_job(tmp_path / "NAHT1.JBI", cal, q)
+    src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
     out = tmp_path / "OUT.JBI"
     summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -84,7 +54,7 @@ def test_rectan_positions_land_in_the_user_frame(tmp_path):
 
 def test_pulse_positions_are_corrected_when_asked(tmp_path):
     cal = calibration()
-    src = write_job(tmp_path / "NAHT1.JBI", cal, work_joints(2))
+    src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, work_joints(2))
     out = tmp_path / "OUT.JBI"
     summary = engine.Filter("jbi", job(cal, _frames(tmp_path), correct_joints=True), src).run(
         out, [src]
@@ -107,7 +77,7 @@ def test_configuration_change_is_named_with_its_line(tmp_path):
     cal = calibration("ur10e", mm=0.3, rad=0.002)
     q = work_joints(6, model="ur10e")
     q[1, 5] = np.radians(-179.95)  # joint 6 at its half-turn flag: the calibrated arm crosses it
-    src = write_job(tmp_path / "NAHT1.JBI", cal, q)
+    src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
     summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
     (fail,) = summary.failures
     assert fail["target"] == "C00002"
@@ -120,7 +90,7 @@ def test_unreachable_position_is_named_with_its_line(tmp_path):
     cal = calibration()
     q = work_joints(6)
     q[3, 1], q[3, 2] = 0.3, np.radians(-82.5) + 0.005  # the arm stretched out
-    src = write_job(tmp_path / "NAHT1.JBI", cal, q)
+    src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
     summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
     (fail,) = summary.failures
     assert fail["target"] == "C00004" and "cannot reach" in fail["reason"]

@@ -4,38 +4,11 @@ import re
 
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
-from program_kit import rapid_pose, robtarget
+from program_kit import write_rapid_module
 
 from calibrator import compensate
 from calibrator.filtering import engine, rotations
 from calibrator.model import kinematics
-
-
-def write_module(path, cal, q):
-    p1 = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q[:4], TOOL)
-    p2 = compensate.tool_poses(cal.nominal_mdh, q[4:], TOOL2)
-    lines = [
-        "MODULE Zelle3",
-        "  ! Schweißzelle 3 — Werkstück auf dem Tisch",
-        f"  PERS tooldata tWeld:=[TRUE,{rapid_pose(TOOL)},[2.5,[0,0,100],[1,0,0,0],0,0,0]];",
-        f"  PERS tooldata tGrip:=[TRUE,{rapid_pose(TOOL2)},[1,[0,0,50],[1,0,0,0],0,0,0]];",
-        f'  TASK PERS wobjdata wTable:=[FALSE,TRUE,"",{rapid_pose(BASE)},[[0,0,0],[1,0,0,0]]];',
-        "  CONST jointtarget jHome:=[[0,0,0,0,30,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];",
-    ]
-    for i in range(3):
-        lines.append(f"  CONST robtarget p{i + 1}0:={robtarget(cal, p1[i], q[i])};")
-    # A declaration over two lines.
-    text = robtarget(cal, p1[3], q[3])
-    cut = text.index("],[") + 2
-    lines += [f"  CONST robtarget p40:={text[:cut]}", f"      {text[cut:]};"]
-    lines += ["  PROC main()", "    MoveAbsJ jHome\\NoEOffs, v1000, z50, tool0;"]
-    for i in range(4):
-        lines.append(f"    MoveL p{i + 1}0, v200, z10, tWeld\\WObj:=wTable; ! Naht")
-    for j in range(len(q) - 4):
-        lines.append(f"    MoveJ {robtarget(cal, p2[j], q[4 + j])}, v500, fine, tGrip;")
-    lines += ["  ENDPROC", "ENDMODULE", ""]
-    path.write_bytes("\r\n".join(lines).encode("utf-8"))
-    return path
 
 
 def _read(text):
@@ -49,7 +22,7 @@ def _read(text):
 
 def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
-    src = write_module(tmp_path / "Zelle3.mod", cal, work_joints(8))
+    src = write_rapid_module(tmp_path / "Zelle3.mod", cal, work_joints(8))
     out = tmp_path / "out.mod"
     summary = engine.Filter("rapid", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -60,7 +33,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
 def test_filtered_targets_land_in_their_work_object(tmp_path):
     cal = calibration()
     q = work_joints(8)
-    src = write_module(tmp_path / "Zelle3.mod", cal, q)
+    src = write_rapid_module(tmp_path / "Zelle3.mod", cal, q)
     out = tmp_path / "out.mod"
     summary = engine.Filter("rapid", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -93,7 +66,7 @@ def test_configuration_change_and_unreachable_are_named(tmp_path):
     q[1, 0] = np.radians(0.01)  # axis 1 at the edge of quadrant 0: calibrated needs -1
     q[2, 2] = np.radians(-82.5) + 0.005  # stretched out: out of the calibrated arm's reach
     q[2, 1] = 0.3
-    src = write_module(tmp_path / "Zelle3.mod", cal, q)
+    src = write_rapid_module(tmp_path / "Zelle3.mod", cal, q)
     out = tmp_path / "out.mod"
     summary = engine.Filter("rapid", job(cal), src).run(out, [src])
     reasons = {f["line"]: f["reason"] for f in summary.failures}

@@ -6,40 +6,16 @@ import re
 import numpy as np
 from cli_process_kit import run_cli
 from filter_kit import calibration, job, path_joints
+from program_kit import TCP, write_urscript
 
 from calibrator import compensate
 from calibrator.filtering import engine
 from calibrator.model import frames, kinematics
 
-TCP = frames.transform(frames.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
-
-
-def _p(pose):
-    rv = frames.matrix_to_rotvec(pose[:3, :3])
-    x, y, z = pose[:3, 3] / 1000.0
-    return f"p[{x:.6f}, {y:.6f}, {z:.6f}, {rv[0]:.5f}, {rv[1]:.5f}, {rv[2]:.5f}]"
-
-
-def write_program(path, cal, q):
-    pose = compensate.tool_poses(cal.nominal_mdh, q, TCP)
-    lines = [
-        "def prog():",
-        "  # Prüfprogramm — comments stay",
-        "  set_tcp(" + _p(TCP) + ")",
-        "  movej([" + ", ".join(f"{v:.5f}" for v in q[0]) + "], a=1.2, v=0.25)",
-        "  approach = " + _p(pose[1]),
-        "  movel(approach, a=1.2, v=0.25)  # to the part",
-    ]
-    for i in range(2, len(q)):
-        lines.append(f"  movel({_p(pose[i])}, a=1.2, v=0.25, r=0.001)")
-    lines += ["  movej(approach, a=1.2, v=0.25)", "end", ""]
-    path.write_bytes("\r\n".join(lines).encode("utf-8"))
-    return path
-
 
 def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration("ur10e", mm=0, rad=0)
-    src = write_program(tmp_path / "prog.script", cal, path_joints(10, model="ur10e"))
+    src = write_urscript(tmp_path / "prog.script", cal, path_joints(10, model="ur10e"))
     out = tmp_path / "out.script"
     summary = engine.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -50,7 +26,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
 def test_filtered_poses_land_and_nothing_else_changes(tmp_path):
     cal = calibration("ur10e")
     q = path_joints(10, model="ur10e")
-    src = write_program(tmp_path / "prog.script", cal, q)
+    src = write_urscript(tmp_path / "prog.script", cal, q)
     out = tmp_path / "out.script"
     summary = engine.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
@@ -71,7 +47,7 @@ def test_filtered_poses_land_and_nothing_else_changes(tmp_path):
 def test_cli_writes_summary_and_refuses_a_variable_under_two_tcps(tmp_path):
     cal = calibration("ur10e")
     cal.save(tmp_path / "cal.json")
-    src = write_program(tmp_path / "prog.script", cal, path_joints(6, model="ur10e"))
+    src = write_urscript(tmp_path / "prog.script", cal, path_joints(6, model="ur10e"))
     ok = run_cli(
         "compensate", "cal.json", "prog.script", "-o", "out.script", "--summary", "s.json",
         cwd=tmp_path,

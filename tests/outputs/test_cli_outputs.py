@@ -108,6 +108,7 @@ def test_output_through_a_symlink_writes_its_target(folder):
 
 def test_a_failing_second_file_leaves_nothing(tmp_path):
     (tmp_path / "a.txt").write_text("A-old")
+    outputs.check(tmp_path / "a.txt", force=True)  # the command's --force clears it
     before = listing(tmp_path)
 
     def broken(tmp):
@@ -123,6 +124,7 @@ def test_a_failing_second_file_leaves_nothing(tmp_path):
 
 def test_a_failing_rename_puts_back_what_was_replaced(tmp_path):
     (tmp_path / "a.txt").write_text("A-old")
+    outputs.check(tmp_path / "a.txt", force=True)  # the command's --force clears it
     batch = outputs.Outputs()
     batch.text(tmp_path / "a.txt", "A-new")
     batch.text(tmp_path / "b.txt", "B")

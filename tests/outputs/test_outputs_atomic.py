@@ -168,6 +168,7 @@ def test_a_name_as_long_as_the_file_system_allows_can_be_written(tmp_path):
 
 def test_nothing_is_renamed_before_the_batch_ends(tmp_path):
     (tmp_path / "a.txt").write_text("A-old")
+    outputs.check(tmp_path / "a.txt", force=True)  # the command's --force clears it
     with outputs.Outputs() as out:
         assert out.text(str(tmp_path / "a.txt"), "A-new") == tmp_path / "a.txt"
         assert out.bytes(tmp_path / "b.bin", b"B") == tmp_path / "b.bin"
@@ -228,6 +229,7 @@ def test_any_other_writer_error_passes_through_and_leaves_nothing(tmp_path):
 
 def _rename_fails_on_second(tmp_path, monkeypatch, link_works=True):
     (tmp_path / "a.txt").write_text("A-old")
+    outputs.check(tmp_path / "a.txt", force=True)  # the command's --force clears it
     batch = outputs.Outputs()
     batch.text(tmp_path / "a.txt", "A-new")
     batch.text(tmp_path / "new.txt", "N")
@@ -368,7 +370,9 @@ def test_a_batch_refuses_a_folder_that_is_one_of_its_inputs(tmp_path):
 
 def test_a_temporary_file_gone_before_the_rename_puts_everything_back(tmp_path):
     (tmp_path / "a.txt").write_text("A-old")
+    outputs.check(tmp_path / "a.txt", force=True)  # the command's --force clears it
     (tmp_path / "b.txt").write_text("B-old")
+    outputs.check(tmp_path / "b.txt", force=True)
     before = listing(tmp_path)
     batch = outputs.Outputs()
     batch.text(tmp_path / "a.txt", "A-new")
@@ -389,3 +393,20 @@ def test_written_files_get_the_permissions_of_any_new_file(tmp_path, umask):
     finally:
         os.umask(old)
     assert (tmp_path / "x.txt").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_an_existing_file_no_check_cleared_is_refused_like_o_without_force(tmp_path):
+    # A companion a command writes beside its output (KRL's OUT.dat beside
+    # -o OUT.src) is protected like -o: without a check under --force, an
+    # existing one is refused and stays as it was.
+    (tmp_path / "OUT.dat").write_text("the user's")
+    outputs.check(tmp_path / "OUT.src", force=False)  # -o checked; the .dat was not
+    with pytest.raises(outputs.OutputError, match=r"OUT\.dat exists: remove it.*--force"):
+        with outputs.Outputs() as out:
+            out.text(tmp_path / "OUT.src", "src")
+            out.text(tmp_path / "OUT.dat", "dat")
+    assert listing(tmp_path) == {"OUT.dat": b"the user's"}
+    # What this process wrote itself it may replace again (a file rewritten as a run goes).
+    outputs.write_text(tmp_path / "run.txt", "1")
+    outputs.write_text(tmp_path / "run.txt", "2")
+    assert (tmp_path / "run.txt").read_text() == "2"

@@ -61,3 +61,35 @@ def joint_1_on_the_plane(text):
         '<origin xyz="0 0 0.495" rpy="0 0 0"/>\n    <parent link="base_link"/>',
         '<origin xyz="0 0 0" rpy="0 0 0"/>\n    <parent link="base_link"/>',
     ).replace('<origin xyz="0.175 0 0" rpy="0 0 0"/>', '<origin xyz="0.175 0 0.495" rpy="0 0 0"/>')
+
+
+#: A description file with an MDH table, limits, a convention, a body and configurations.
+DESCRIPTION = """format: calibrator-robot/1
+name: test-arm
+source: typed for a test
+kinematics:
+  mdh:
+    - [150, -90, 0, 450, 0]
+    - [600, 0, -90, 0, 0]
+    - [120, -90, 0, 0, 0]
+    - [0, 90, 0, 640, 0]
+    - [0, -90, 0, 0, 0]
+    - [0, 0, 0, 100, 0]
+limits:
+  lower_deg: [-170, -90, -170, -180, -120, -360]
+  upper_deg: [170, 150, 80, 180, 120, 360]
+  speed_deg_s: [150, 150, 150, 300, 300, 400]
+  accel_deg_s2: [100, 100, 100, 200, 200, 200]
+convention:
+  sign: [-1, 1, 1, 1, 1, 1]
+  offset_deg: [0, 90, 0, 0, 0, 0]
+  source: typed for a test
+body:
+  base_radius_mm: 120
+  base_top_mm: 320
+  capsules:
+    - {name: upper arm, link: 2, p_mm: [150, 0, 450], q_mm: [750, 0, 450], radius_mm: 90}
+configurations:
+  home: [0, 0, 0, 0, 0, 0]
+  upright: [0, -90, 0, 0, 0, 0]
+"""

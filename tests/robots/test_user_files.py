@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 import yourdfpy
-from robot_files_kit import KUKA, on_a_track, with_geometry
+from robot_files_kit import DESCRIPTION, KUKA, on_a_track, with_geometry
 
 from calibrator import robots
 from calibrator.model import kinematics
@@ -126,37 +126,6 @@ def test_the_command_line_refuses_a_seven_axis_urdf_with_one_line(tmp_path):
     assert len(done.stderr.strip().splitlines()) == 1
     assert "only serial 6-axis arms are supported" in done.stderr
     assert not (tmp_path / "plan.csv").exists()
-
-
-DESCRIPTION = """format: calibrator-robot/1
-name: test-arm
-source: typed for a test
-kinematics:
-  mdh:
-    - [150, -90, 0, 450, 0]
-    - [600, 0, -90, 0, 0]
-    - [120, -90, 0, 0, 0]
-    - [0, 90, 0, 640, 0]
-    - [0, -90, 0, 0, 0]
-    - [0, 0, 0, 100, 0]
-limits:
-  lower_deg: [-170, -90, -170, -180, -120, -360]
-  upper_deg: [170, 150, 80, 180, 120, 360]
-  speed_deg_s: [150, 150, 150, 300, 300, 400]
-  accel_deg_s2: [100, 100, 100, 200, 200, 200]
-convention:
-  sign: [-1, 1, 1, 1, 1, 1]
-  offset_deg: [0, 90, 0, 0, 0, 0]
-  source: typed for a test
-body:
-  base_radius_mm: 120
-  base_top_mm: 320
-  capsules:
-    - {name: upper arm, link: 2, p_mm: [150, 0, 450], q_mm: [750, 0, 450], radius_mm: 90}
-configurations:
-  home: [0, 0, 0, 0, 0, 0]
-  upright: [0, -90, 0, 0, 0, 0]
-"""
 
 
 def test_a_description_file_reads_degrees_and_the_controllers_angles(tmp_path):
