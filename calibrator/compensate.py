@@ -309,6 +309,8 @@ def correction_sizes(result: Compensation, q_nominal: np.ndarray | None = None) 
 
 
 JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
+#: The same joints in degrees, as a plan file may give them (``plan --from`` reads both).
+DEG_COLUMNS = tuple(f"q{i}_deg" for i in range(1, 7))
 POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad")
 
 
@@ -389,7 +391,8 @@ def iter_targets(
     first : int
         Row number (from 0) of the block's first target.
     q : ndarray, shape (n, 6)
-        Nominal joints (rad).
+        Nominal joints (rad), from ``q1_rad..q6_rad`` or, as a plan file may
+        give them, ``q1_deg..q6_deg`` (one set, not both).
     desired : ndarray, shape (n, 4, 4) or None
         Desired poses, when the file has pose columns.
 
@@ -401,9 +404,15 @@ def iter_targets(
     """
     first = 0
     present: list = []
+    joints, factor = JOINT_COLUMNS, 1.0
     for table in _read_table(path):
         if first == 0:
-            missing = [c for c in JOINT_COLUMNS if c not in table.columns]
+            has_deg = all(c in table.columns for c in DEG_COLUMNS)
+            if has_deg and any(c in table.columns for c in JOINT_COLUMNS):
+                raise CalibrationError(f"{path}: both q1_rad..q6_rad and q1_deg..q6_deg; keep one")
+            if has_deg:
+                joints, factor = DEG_COLUMNS, np.pi / 180.0
+            missing = [c for c in joints if c not in table.columns]
             if missing:
                 raise CalibrationError(f"{path}: missing column(s) {', '.join(missing)}")
             present = [c for c in POSE_COLUMNS if c in table.columns]
@@ -428,7 +437,7 @@ def iter_targets(
                 raise CalibrationError(f"{path}: NaN or infinite value in row {row}")
             return values
 
-        q = numbers(JOINT_COLUMNS)
+        q = numbers(joints) * factor
         desired = None
         if present:
             pose = numbers(POSE_COLUMNS)

@@ -92,7 +92,7 @@ class RunOptions(loop.LoopOptions):
     retry_pause_s: float = 0.2
     give_up_after: int = 5
     plan: Plan | None = None
-    poses: int = 30
+    poses: int = 40
     seed: int = 0
     tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
     tracker_at_mm: tuple[float, float, float] | None = None

@@ -19,6 +19,7 @@ from os import PathLike
 from typing import Any
 
 from calibrator.cli._options import fail
+from calibrator.inputs.messages import a_or_an
 
 #: The arm of a command whose inputs name none and that is given no ``--model``.
 DEFAULT = "ur10e"
@@ -75,14 +76,15 @@ def resolve(given: str | None, *recorded: From, default: str | None = DEFAULT) -
         assert first is not None and first.model is not None and other.model is not None
         if not same(first.model, other.model):
             fail(
-                f"{first.source} is of a {first.model} but {other.source} of a {other.model}: "
+                f"{first.source} is of {a_or_an(first.model)} but {other.source} of "
+                f"{a_or_an(other.model)}: "
                 "give files of one arm"
             )
     if first is None or first.model is None:
         return given if given is not None else default
     if given is not None and not same(given, first.model):
         fail(
-            f"--model {given} but {first.source} is of a {first.model}: leave --model out "
+            f"--model {given} but {first.source} is of {a_or_an(first.model)}: leave --model out "
             "(the file names its arm) or give files of that arm"
         )
     return first.model

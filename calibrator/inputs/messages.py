@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["amount", "short", "shown"]
+__all__ = ["a_or_an", "amount", "short", "shown"]
 
 
 def short(text: Any) -> str:
@@ -42,3 +42,13 @@ def amount(value: float) -> str:
     text = f"{value:g}"
     # %g keeps 6 digits: 1000000000001 would read as its own limit 1e+12.
     return text if float(text) == value else repr(float(value))
+
+
+def a_or_an(name: str) -> str:
+    """``name`` with its article, as spoken: ``an abb-irb4600-60-205``, ``a ur10e``, ``a kuka-...``.
+
+    Arm names are read letter by letter or as words; those starting with
+    a, e, i or o take "an" (ABB, ER10L, IRB), the rest "a" (UR is "you-are").
+    """
+    text = str(name)
+    return f"{'an' if text[:1].lower() in 'aeio' and text[:1] else 'a'} {text}"

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from calibrator.inputs import messages
 from calibrator.inputs.errors import ConsistencyError
 from calibrator.model import kinematics
 
@@ -156,7 +157,10 @@ def check_session_matches(cal: Any, meta: Any, where: str = "session") -> None:
         another frame.
     """
     if cal.model and meta.model and cal.model.lower() != meta.model.lower():
-        raise ConsistencyError(f"{where} is of a {meta.model}, the calibration of a {cal.model}")
+        raise ConsistencyError(
+            f"{where} is of {messages.a_or_an(meta.model)}, the calibration of "
+            f"{messages.a_or_an(cal.model)}"
+        )
     gap = _table_gap(cal.nominal_mdh, meta.nominal_mdh)
     if gap is not None:
         raise ConsistencyError(

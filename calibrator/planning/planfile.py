@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.inputs import grammar
+from calibrator.inputs import grammar, messages
 from calibrator.inputs.errors import StrictError
 from calibrator.planning.plan import Plan, PlanError, PlanOrigin, point, point_text
 
@@ -322,7 +322,8 @@ def made_for(
         return tracker, tool if tool is not None else DEFAULT_TOOL_MM
     if origin.model.strip().lower() != model.name.strip().lower():
         raise PlanError(
-            f"{source} was made for a {origin.model}, not a {model.name} (--model): make a plan "
+            f"{source} was made for {messages.a_or_an(origin.model)}, not "
+            f"{messages.a_or_an(model.name)} (--model): make a plan "
             "for this arm"
         )
     if origin.model_sha256 is not None and origin.model_sha256 != model.digest:

@@ -6,6 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from calibrator.inputs import messages
 from calibrator.program.spec import PULSE_S, ProgramSpec
 
 __all__ = ["between_homes", "title"]
@@ -13,7 +14,7 @@ __all__ = ["between_homes", "title"]
 
 def title(spec: ProgramSpec) -> str:
     """The header line every program opens with: its poses, and the model when known."""
-    model = f" of a {spec.model}" if spec.model else ""
+    model = f" of {messages.a_or_an(spec.model)}" if spec.model else ""
     return f"{len(spec.plan_rad)} poses for a laser-tracker calibration{model}"
 
 

@@ -28,3 +28,23 @@ def test_measure_then_identify_recovers_hidden_errors_to_noise_floor(tmp_path):
     after = held_out["after"]["position_mm"]["mean"]
     assert before > 0.3  # the hidden errors are visible with the nominal model
     assert after < 2.5 * floor, (after, floor)  # and gone down to the noise
+
+
+def test_the_default_run_gives_identify_enough_values_per_parameter(tmp_path):
+    """measure's default plan size does not make identify warn of too few values."""
+    done = run_cli("measure", "-o", "s.parquet", "--yes", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    ident = run_cli("identify", "s.parquet", "-o", "c.json", cwd=tmp_path)
+    assert ident.returncode == 0, ident.stderr
+    assert "per parameter" not in ident.stderr, ident.stderr
+
+
+def test_plan_and_measure_state_one_cell_time_for_one_plan(tmp_path):
+    """The simulated cell does not settle; the real arm plan estimates does: both said."""
+    made = run_cli("plan", "--poses", "12", "-o", "p.csv", cwd=tmp_path)
+    assert made.returncode == 0, made.stderr
+    planned = made.stdout.split("estimated cell time ", 1)[1].split(" at ", 1)[0]
+    done = run_cli("measure", "--plan", "p.csv", "-o", "s.parquet", "--yes", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    said = (done.stdout + done.stderr).split("(as plan estimates): ", 1)[1].splitlines()[0]
+    assert said == planned

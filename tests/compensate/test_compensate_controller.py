@@ -80,3 +80,23 @@ def test_taught_joints_and_world_poses_land_where_taught(cell):
         @ cal.flange2tool
     )
     np.testing.assert_allclose(shown, nominal[:, :3, 3], atol=1e-4)
+
+
+def test_targets_in_degrees_are_read_as_plan_files_give_them(cell):
+    tmp = cell
+    q = np.radians([[10.0, 20.0, -10.0, 30.0, -60.0, 45.0], [-20.0, 10.0, 5.0, -30.0, -70.0, 0.0]])
+    pd.DataFrame({f"q{i + 1}_rad": q[:, i] for i in range(6)}).to_csv(tmp / "rad.csv", index=False)
+    pd.DataFrame({f"q{i + 1}_deg": np.degrees(q[:, i]) for i in range(6)}).to_csv(
+        tmp / "deg.csv", index=False
+    )
+    for name in ("rad", "deg"):
+        done = run_cli("compensate", "cal.json", f"{name}.csv", "-o", f"{name}.out.csv", cwd=tmp)
+        assert done.returncode == 0, done.stderr
+    rad, deg = pd.read_csv(tmp / "rad.out.csv"), pd.read_csv(tmp / "deg.out.csv")
+    np.testing.assert_allclose(
+        deg.filter(like="_rad").to_numpy(), rad.filter(like="_rad").to_numpy(), atol=1e-9
+    )
+    both = pd.read_csv(tmp / "deg.csv").assign(q1_rad=0.0)
+    both.to_csv(tmp / "both.csv", index=False)
+    done = run_cli("compensate", "cal.json", "both.csv", "-o", "both.out.csv", cwd=tmp)
+    assert done.returncode == 2 and "keep one" in done.stderr
