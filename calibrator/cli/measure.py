@@ -114,6 +114,12 @@ def measure(
     from calibrator.cli import progress
 
     output = Path(output)
+    if robot == "external" and plan_path is None:
+        # A plan made here is one no controller runs: the program comes from a plan file.
+        _fail(
+            "--robot external needs --plan PLAN: the plan whose program the controller runs "
+            "(calibrator program PLAN -o FILE)"
+        )
     inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
     outputs.check(output, inputs=inputs, force=True)
     if not (run_args.force or run_args.resume) and output.exists():

@@ -40,3 +40,10 @@ def test_the_limits_themselves_are_accepted(tmp_path, option, value):
     )  # fmt: skip
     # past the option checks: the missing plan is what is refused
     assert "plan.csv" in one_line_error(done)
+
+
+def test_the_external_robot_without_a_plan_is_refused_before_anything(tmp_path):
+    """No controller runs a plan measure would make itself: the plan file is required."""
+    done = cli("measure", "--robot", "external", "--tracker", "socket://127.0.0.1:1", cwd=tmp_path)
+    assert one_line_error(done).startswith("calibrator: error: --robot external needs --plan")
+    assert list(tmp_path.iterdir()) == []
