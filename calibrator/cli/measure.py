@@ -232,7 +232,7 @@ def measure(
             typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
     for line in summary.notes:
         typer.echo(line)
-    _report(summary, options)
+    _report(summary, options, retried=robot != "external")
 
 
 def _warmup_warnings(run, minutes: float, robot: str) -> list[str]:
@@ -263,8 +263,12 @@ def _external_options(
     return ExternalOptions(StopOptions(band_mm, window_s, tolerance_mm, timeout_s), log)
 
 
-def _report(summary, options) -> None:
-    """The run's last lines: what was written, what failed and why, what to do next."""
+def _report(summary, options, retried: bool = True) -> None:
+    """The run's last lines: what was written, what failed and why, what to do next.
+
+    ``retried``: whether a failed pose was retried (a commanded robot's are; an
+    external robot's program passes each pose once, and a pose without a stop failed).
+    """
     resume_hint = f"rerun the same command with --resume to continue ({summary.journal})"
     causes = f": {summary.causes_text()}" if summary.causes else ""
     failed = f"{len(summary.failed)} pose(s) failed{causes}"
@@ -294,7 +298,9 @@ def _report(summary, options) -> None:
         raise typer.Exit(1)
     if summary.failed:
         typer.echo(
-            f"{failed} (after {options.retries} retries: poses {summary.failed[:10]}); "
+            f"{failed} ("
+            + (f"after {options.retries} retries: " if retried else "")
+            + f"poses {summary.failed[:10]}); "
             f"wrote {summary.written} with {len(summary.measured)} poses; "
             + resume_hint
             + " to retry them"
