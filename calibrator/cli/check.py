@@ -91,7 +91,6 @@ def check(
     from calibrator.acquire.run import RunOptions
     from calibrator.check import document as documents
     from calibrator.check import poses as check_poses
-    from calibrator.check.model import Calibrated
     from calibrator.cli import _model, progress
     from calibrator.model import frames
 
@@ -123,17 +122,7 @@ def check(
         from calibrator.cli.history import refuse_unusable
 
         refuse_unusable(history)
-    if cal.frame != "tracker":
-        fail(
-            f"{calibration_path} was identified in the robot base frame: a check compares "
-            "tracker readings with a calibration that registered the tracker (measure's sessions)"
-        )
-    model = Calibrated.of(cal)
-    if not model.sigma_mm > 0:
-        fail(
-            f"{calibration_path} records no residual noise (its uncertainty): the check cannot "
-            "predict its error; identify the session again with this version"
-        )
+    model = _checkable(cal, calibration_path)
     tool_mm = tuple(float(v) for v in cal.flange2tool[:3, 3])
     # Where the calibration found the tracker, unless told otherwise.
     at = triple(tracker_at, "--tracker-at")
@@ -250,7 +239,6 @@ def _check_recorded(
     from calibrator import calibration as calibrations
     from calibrator import outputs
     from calibrator.check import recorded as recordings
-    from calibrator.check.model import Calibrated
 
     if world is not None:
         fail("--world is for a measured check: a recorded session was measured already")
@@ -258,22 +246,12 @@ def _check_recorded(
         fail(f"-o {output}: give the JSON file; the session is the check's data")
     inputs = [session_file, calibration_path]
     outputs.check(output, inputs=inputs, force=run_args.force)
-    if history is not None:  # refused before anything is written
+    if history is not None:  # one it cannot record into is refused before any work
         from calibrator.cli.history import refuse_unusable
 
         refuse_unusable(history)
     cal = calibrations.load(calibration_path)
-    if cal.frame != "tracker":
-        fail(
-            f"{calibration_path} was identified in the robot base frame: a check compares "
-            "tracker readings with a calibration that registered the tracker (measure's sessions)"
-        )
-    model = Calibrated.of(cal)
-    if not model.sigma_mm > 0:
-        fail(
-            f"{calibration_path} records no residual noise (its uncertainty): the check cannot "
-            "predict its error; identify the session again with this version"
-        )
+    model = _checkable(cal, calibration_path)
     session = recordings.read(session_file)
     if session.model and cal.model and session.model != cal.model:
         fail(f"{session_file} measured a {session.model}; {calibration_path} calibrates a "
@@ -298,6 +276,29 @@ def _check_recorded(
     _print_verdict(doc)
     typer.echo(f"wrote {output}")
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
+
+
+def _checkable(cal: Any, path: Path) -> Any:
+    """The calibration as a check's model (:class:`calibrator.check.model.Calibrated`).
+
+    One line (exit 2) for a calibration a check cannot use: identified in the
+    robot base frame (no tracker registration to compare readings with), or
+    without the residual noise its predictions need.
+    """
+    from calibrator.check.model import Calibrated
+
+    if cal.frame != "tracker":
+        fail(
+            f"{path} was identified in the robot base frame: a check compares "
+            "tracker readings with a calibration that registered the tracker (measure's sessions)"
+        )
+    model = Calibrated.of(cal)
+    if not model.sigma_mm > 0:
+        fail(
+            f"{path} records no residual noise (its uncertainty): the check cannot "
+            "predict its error; identify the session again with this version"
+        )
+    return model
 
 
 def _external_files(output: Path) -> tuple[Path, Path]:

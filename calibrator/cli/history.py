@@ -95,6 +95,16 @@ def record(target: str, kind: str, path: Path) -> int:
     return number
 
 
+def _limit_option(flag: str, what: str) -> Any:
+    """An alarm threshold option of ``show`` and ``alarms`` (mm, > 0)."""
+    return typer.Option(
+        None,
+        flag,
+        callback=checks.finite(minimum=0.0, inclusive=False),
+        help=f"Alarm above this {what} (mm) [default: twice the first].",
+    )
+
+
 @history_app.command("show")
 def show(
     robot: str = typer.Argument(None, help="The robot [default: list the robots]."),
@@ -104,24 +114,9 @@ def show(
         None, "--html", metavar="DIR", help="Write the history page (index.html) into DIR."
     ),
     force: bool = opts.force(),
-    held_out_limit: float = typer.Option(
-        None,
-        "--held-out-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this held-out error (mm) [default: twice the first].",
-    ),
-    ap_limit: float = typer.Option(
-        None,
-        "--ap-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this ISO 9283 AP (mm) [default: twice the first].",
-    ),
-    rp_limit: float = typer.Option(
-        None,
-        "--rp-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this ISO 9283 RP (mm) [default: twice the first].",
-    ),
+    held_out_limit: float = _limit_option("--held-out-limit-mm", "held-out error"),
+    ap_limit: float = _limit_option("--ap-limit-mm", "ISO 9283 AP"),
+    rp_limit: float = _limit_option("--rp-limit-mm", "ISO 9283 RP"),
 ) -> None:
     """The robots, or one robot's records over time and its alarms."""
     from calibrator import outputs
@@ -177,24 +172,9 @@ def alarms_(
         None, "--json", metavar="FILE", help="Write the alarms as JSON ('-': to stdout)."
     ),
     force: bool = opts.force(),
-    held_out_limit: float = typer.Option(
-        None,
-        "--held-out-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this held-out error (mm) [default: twice the first].",
-    ),
-    ap_limit: float = typer.Option(
-        None,
-        "--ap-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this ISO 9283 AP (mm) [default: twice the first].",
-    ),
-    rp_limit: float = typer.Option(
-        None,
-        "--rp-limit-mm",
-        callback=checks.finite(minimum=0.0, inclusive=False),
-        help="Alarm above this ISO 9283 RP (mm) [default: twice the first].",
-    ),
+    held_out_limit: float = _limit_option("--held-out-limit-mm", "held-out error"),
+    ap_limit: float = _limit_option("--ap-limit-mm", "ISO 9283 AP"),
+    rp_limit: float = _limit_option("--rp-limit-mm", "ISO 9283 RP"),
 ) -> None:
     """The alarms of one robot (or every robot) as data: exact times, records compared,
     figure and threshold (docs/history.md)."""
