@@ -107,6 +107,8 @@ STATUS_FOR_CODE = {
     ErrorCode.BAD_FRAME: ResultStatus.INVALID_INPUT_DATA,
 }
 
+#: Most waypoints a ``SIM,PATH`` may hold (bounds the memory a client can take).
+MAX_WAYPOINTS = 200_000
 #: Longest ``lTimeSeparation`` the simulator takes, ms (a minute between points).
 MAX_SEPARATION_MS = 60_000
 
@@ -204,6 +206,7 @@ class EmsconSimulator:
         self._motion: Callable[[float], ArrayLike] | None = None
         self.continuous_time = (100, 0)  # lTimeSeparation (ms), lNumberOfPoints (0: until stopped)
         self.stream_records = 0  # continuous points sent (diagnostics)
+        self._waypoints: list[list[float]] = []  # SIM,PATH,POINT rows: t (s), x, y, z (mm)
 
     # ------------------------------------------------------------ in-process control
 
@@ -287,12 +290,51 @@ class EmsconSimulator:
                 self.arm_fault(args[0])
             elif what == "STATUS" and len(args) == 2:
                 self.force_status(args[0], int(args[1]))
+            elif what == "PATH" and args:
+                start_us = self._path(args)
+                if start_us is not None:
+                    return [Send(encode_frame(ok_body(cmd.seq, start_us)))]
             else:
                 body = error_body(cmd.seq, ErrorCode.UNKNOWN_COMMAND, ",".join([cmd.name, what]))
                 return [Send(encode_frame(body))]
         except ValueError as exc:
             return [Send(encode_frame(error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))))]
         return [Send(encode_frame(ok_body(cmd.seq)))]
+
+    def _path(self, args: list[str]) -> int | None:
+        """``SIM,PATH,CLEAR`` / ``SIM,PATH,POINT,t,x,y,z`` / ``SIM,PATH,GO[,delay]``.
+
+        Waypoints (s from the path's start; mm) are collected, then ``GO`` moves
+        the target through them, linear in between and held before and after,
+        from ``delay`` s after now on the tracker's clock; returns that start, us
+        (None for CLEAR and POINT). Raises ValueError on a bad waypoint.
+        """
+        what, rest = args[0], args[1:]
+        with self._lock:
+            if what == "CLEAR" and not rest:
+                self._waypoints = []
+                return None
+            if what == "POINT" and len(rest) == 4:
+                values = [float(a) for a in rest]
+                if not all(np.isfinite(values)):
+                    raise ValueError("a waypoint is 4 finite numbers")
+                if self._waypoints and values[0] <= self._waypoints[-1][0]:
+                    raise ValueError(f"waypoint time {values[0]} s does not increase")
+                if len(self._waypoints) >= MAX_WAYPOINTS:
+                    raise ValueError(f"more than {MAX_WAYPOINTS} waypoints")
+                self._waypoints.append(values)
+                return None
+            if what != "GO" or len(rest) > 1 or not self._waypoints:
+                raise ValueError(f"SIM,PATH,{what}: expected CLEAR, POINT,t,x,y,z or GO[,delay]")
+            delay = float(rest[0]) if rest else 0.0
+            if not 0.0 <= delay <= 3600.0:
+                raise ValueError(f"start delay {delay} s outside 0..3600")
+            table = np.array(self._waypoints)
+            start = self.device_time_s() + delay
+        self.set_motion(
+            lambda t_s: np.array([np.interp(t_s - start, table[:, 0], c) for c in table[:, 1:].T])
+        )
+        return int(start * 1e6)
 
     # ------------------------------------------------------------ emScon port
 
