@@ -16,8 +16,10 @@ the link stays unsettled. A packet that breaks the framing (size disagreeing
 with its type), or one that starts and then stops arriving for longer than
 ``packet_gap_s``, makes the stream untrustworthy: the link is then marked
 broken and the caller reconnects. Packets of the types Leica's header defines
-but this adapter does not use (continuous, multi-measurement and probe
-position results) are skipped by their validated size.
+but this adapter does not use (6-DoF and extended continuous results, probe
+position results) are skipped by their validated size, as are continuous
+results that arrive while a command waits for its reply;
+:meth:`EmsconLink.read_stream_packet` reads a running continuous measurement.
 """
 
 from __future__ import annotations

@@ -31,10 +31,18 @@ are ``ProbeStationaryResult`` packets whose orientation is the target's.
 ``GoPosition`` aims the beam; ``FindReflector`` then re-locks only if the
 target is within :data:`SEARCH_RADIUS_MM` of where the beam points.
 
+Continuous time mode (``ES_MM_ContinuousTime``): ``StartMeasurement`` is
+acknowledged, then the server (:mod:`~drivers.tracker.emscon.simulator.server`)
+asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
+``lTimeSeparation`` until ``StopMeasurement``; points show a moving target
+(:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
+stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
+
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
 / ``SIM,FAULT`` (so ``drivers.tracker.line.simulator.launch.SimulatorControl``
-drives it), plus ``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
+drives it), ``SIM,PATH`` (waypoints, as on the line simulator), plus
+``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
 an arbitrary result status (e.g. one Leica never defined).
 """
 
