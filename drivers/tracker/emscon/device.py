@@ -51,6 +51,7 @@ from drivers.tracker.emscon.errors import (
     TrackerTimeout,
 )
 from drivers.tracker.emscon.link import EmsconLink
+from drivers.tracker.emscon.reading import EmsconReading
 from drivers.tracker.emscon.stream import STALL_TICKS, EmsconReadingStream
 
 DEFAULT_PORT = 700  # emScon's default TCP port
@@ -60,37 +61,6 @@ MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the s
 #: tracker (on request only), search for a lost reflector (FindReflector) and
 #: report its environment parameters (GetEnvironmentParams).
 CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH, ports.REPORTS_CONDITIONS})
-
-
-@dataclass(frozen=True)
-class EmsconReading:
-    """One stationary reading (the ``TrackerReading`` port shape).
-
-    Attributes
-    ----------
-    point_mm : numpy.ndarray, shape (3,)
-        Target position (a probe's tip), mm, in the server's frame (normally the
-        tracker frame).
-    rotvec_rad : numpy.ndarray, shape (3,), or None
-        A 6-DoF probe's orientation (probe to server frame) as a rotation vector,
-        rad; None for a reflector.
-    accurate : bool
-        False in emScon's try mode, when ``dStdTotal`` exceeds the adapter's limit,
-        or when a probe's rotation status says its 6-DoF values are not valid.
-    device_time_us : int
-        Host monotonic clock at arrival, us (emScon results carry no time stamp).
-    std_mm : numpy.ndarray, shape (4,)
-        ``dStd1..3, dStdTotal`` as reported, mm.
-    meteo : tuple of float
-        Temperature (degC), pressure (hPa), humidity (%) the reading was corrected with.
-    """
-
-    point_mm: np.ndarray
-    rotvec_rad: np.ndarray | None
-    accurate: bool
-    device_time_us: int
-    std_mm: np.ndarray
-    meteo: tuple[float, float, float]
 
 
 @dataclass(frozen=True)

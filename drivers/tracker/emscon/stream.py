@@ -37,18 +37,30 @@ import time
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from drivers.errors import DriverError
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import ConnectionLost, FrameError, TrackerTimeout
+from drivers.tracker.emscon.link import EmsconLink
+from drivers.tracker.emscon.reading import EmsconReading
 from drivers.tracker.line.errors import StreamStalled
 from drivers.tracker.line.stream import StreamRecord
 
-if TYPE_CHECKING:
-    from drivers.tracker.emscon.device import EmsconReading, EmsconTracker
+
+class StreamOwner(Protocol):
+    """What a stream needs of its driver (:class:`~drivers.tracker.emscon.device.EmsconTracker`)."""
+
+    def stream_link(self) -> EmsconLink: ...
+
+    def stream_reading(
+        self, packet: pk.MultiMeasResult, record: pk.MeasValue, t_us: int
+    ) -> EmsconReading | None: ...
+
+    def stop_stream(self) -> None: ...
+
 
 #: Ticks a stream may miss in a row before it counts as stalled (at least 0.5 s).
 STALL_TICKS = 20
@@ -107,7 +119,7 @@ class EmsconReadingStream:
 
     def __init__(
         self,
-        tracker: EmsconTracker,
+        tracker: StreamOwner,
         stream_id: int,
         separation_ms: int,
         count: int | None,
