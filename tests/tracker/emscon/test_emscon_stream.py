@@ -21,7 +21,7 @@ from emscon_kit import ENV
 
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon import protocol as pk
-from drivers.tracker.emscon.errors import NotInitialised
+from drivers.tracker.emscon.errors import ConnectionLost, NotInitialised
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
 from drivers.tracker.line.errors import StreamStalled
 from drivers.tracker.line.simulator.engine import Send
@@ -186,6 +186,18 @@ def test_stop_then_a_single_measurement_works_again(moving):
     assert trk._link is not None and not trk._link.broken
     with trk.stream(50, count=5, stall_timeout_s=2.0) as again:
         assert len(again.collect(10).n) == 5
+
+
+def test_a_connection_lost_mid_stream_ends_it_and_the_next_command_reconnects(moving):
+    sim, trk = moving
+    sim.arm_fault("SAMPLE+6 hangup")
+    seen = []
+    with pytest.raises(ConnectionLost), trk.stream(100, stall_timeout_s=2.0) as stream:
+        for sample in stream:
+            seen.append(sample.n)
+    assert stream.ended and seen == [1, 2, 3, 4, 5]
+    sim.set_target(START)  # the reconnect sets stationary mode: a fixed target measures
+    np.testing.assert_array_equal(trk.measure().point_mm, START)
 
 
 class _Repeating(EmsconSimulator):

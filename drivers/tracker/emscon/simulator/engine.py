@@ -592,7 +592,8 @@ class EmsconSimulator:
         (``ES_RS_MeasurementStatusNotReady``) once, then nothing for ``k``
         ticks, then ``ES_SSC_MeasStatus_Ready``; ``stall delay=s`` silences
         the stream for ``s`` (the ticks due meanwhile are lost); ``drop``
-        loses this tick; ``inaccurate`` flags points ``ES_MS_SpeedWarning``.
+        loses this tick; ``hangup`` closes the connection; ``inaccurate``
+        flags points ``ES_MS_SpeedWarning``.
         """
         with self._lock:
             t_us = max(int(round(stamp_s * 1e6)), 0)
@@ -603,6 +604,8 @@ class EmsconSimulator:
                     return [StreamStall(fault.delay_s)]
                 if fault.kind == "drop":
                     return []
+                if fault.kind == "hangup":
+                    return [HangUp()]
                 if fault.kind == "beam_break":
                     self._beam_broken_left = fault.count
                     out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_NOT_READY)))
