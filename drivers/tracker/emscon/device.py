@@ -51,6 +51,8 @@ from drivers.tracker.emscon.errors import (
     TrackerTimeout,
 )
 from drivers.tracker.emscon.link import EmsconLink
+from drivers.tracker.emscon.reading import EmsconReading
+from drivers.tracker.emscon.stream import STALL_TICKS, EmsconReadingStream
 
 DEFAULT_PORT = 700  # emScon's default TCP port
 MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
@@ -59,37 +61,6 @@ MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the s
 #: tracker (on request only), search for a lost reflector (FindReflector) and
 #: report its environment parameters (GetEnvironmentParams).
 CAPABILITIES = frozenset({ports.INITIALISE, ports.SEARCH, ports.REPORTS_CONDITIONS})
-
-
-@dataclass(frozen=True)
-class EmsconReading:
-    """One stationary reading (the ``TrackerReading`` port shape).
-
-    Attributes
-    ----------
-    point_mm : numpy.ndarray, shape (3,)
-        Target position (a probe's tip), mm, in the server's frame (normally the
-        tracker frame).
-    rotvec_rad : numpy.ndarray, shape (3,), or None
-        A 6-DoF probe's orientation (probe to server frame) as a rotation vector,
-        rad; None for a reflector.
-    accurate : bool
-        False in emScon's try mode, when ``dStdTotal`` exceeds the adapter's limit,
-        or when a probe's rotation status says its 6-DoF values are not valid.
-    device_time_us : int
-        Host monotonic clock at arrival, us (emScon results carry no time stamp).
-    std_mm : numpy.ndarray, shape (4,)
-        ``dStd1..3, dStdTotal`` as reported, mm.
-    meteo : tuple of float
-        Temperature (degC), pressure (hPa), humidity (%) the reading was corrected with.
-    """
-
-    point_mm: np.ndarray
-    rotvec_rad: np.ndarray | None
-    accurate: bool
-    device_time_us: int
-    std_mm: np.ndarray
-    meteo: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -166,6 +137,7 @@ class EmsconTracker:
         self._link: EmsconLink | None = None
         self._closed = False
         self._stalls = 0  # packets cut short in a row, without a good reading since
+        self._streams = 0  # continuous measurements started (stream ids)
 
     # ------------------------------------------------------------ lifecycle
 
@@ -331,6 +303,91 @@ class EmsconTracker:
         self._stalls = 0
         accurate = not result.try_mode and std[3] <= self.max_std_mm and six_dof_ok
         return EmsconReading(point, rotvec, bool(accurate), t_us, std, tuple(meteo.tolist()))
+
+    # ------------------------------------------------------------ continuous measurement
+
+    def stream(
+        self, rate_hz: float, count: int | None = None, stall_timeout_s: float | None = None
+    ) -> EmsconReadingStream:
+        """Start continuous time mode: one time-stamped point every ``1 / rate_hz`` s.
+
+        Sends ``SetMeasurementMode(ES_MM_ContinuousTime)``,
+        ``SetContinuousTimeModeParams(lTimeSeparation, lNumberOfPoints)`` and
+        ``StartMeasurement`` (acknowledged, then results follow). Use the
+        returned stream as a context manager: leaving it sends
+        ``StopMeasurement`` and sets stationary mode again, so :meth:`measure`
+        works as before.
+
+        Parameters
+        ----------
+        rate_hz : float
+            Requested rate, 1..1000 Hz; the separation sent is the nearest whole ms.
+        count : int, optional
+            Number of points (``lNumberOfPoints``); None streams until stopped.
+        stall_timeout_s : float, optional
+            Silence after which the stream is stalled, s (default 20 ticks, at least 0.5 s).
+
+        Raises
+        ------
+        ValueError
+            Rate or count out of range.
+        NotInitialised, BeamBroken, EmsconRefused, TrackerTimeout, ...
+            The server refused or did not answer a command (stationary mode is
+            set back first when it can be).
+        """
+        if not 1.0 <= float(rate_hz) <= 1000.0:
+            raise ValueError(f"stream rate {rate_hz} Hz outside 1..1000")
+        if count is not None and not 1 <= int(count) <= 2**31 - 1:
+            raise ValueError(f"stream count {count} must be a positive 32-bit integer")
+        separation_ms = max(1, round(1000.0 / float(rate_hz)))
+        if stall_timeout_s is None:
+            stall_timeout_s = max(STALL_TICKS * separation_ms / 1000.0, 0.5)
+        t = self.timeout_s
+        continuous = pk.uint_param(pk.MM_CONTINUOUS_TIME)
+        self._once(pk.Command.SET_MEASUREMENT_MODE, continuous, timeout_s=t)
+        try:
+            params = pk.continuous_time_params(separation_ms, 0 if count is None else int(count))
+            self._once(pk.Command.SET_CONTINUOUS_TIME_MODE_PARAMS, params, timeout_s=t)
+            self._once(pk.Command.START_MEASUREMENT, timeout_s=t)
+        except DriverError:
+            self._stationary_again()
+            raise
+        self._streams += 1
+        return EmsconReadingStream(self, self._streams, separation_ms, count, stall_timeout_s)
+
+    def stop_stream(self) -> None:
+        """``StopMeasurement`` and stationary mode again (what a stream's ``stop`` sends)."""
+        try:
+            self._once(pk.Command.STOP_MEASUREMENT, timeout_s=self.timeout_s)
+        finally:
+            self._stationary_again()
+
+    def _stationary_again(self) -> None:
+        mode = pk.uint_param(pk.MM_STATIONARY)
+        self._once(pk.Command.SET_MEASUREMENT_MODE, mode, timeout_s=self.timeout_s)
+
+    def stream_link(self) -> EmsconLink:
+        """The link a running stream reads (never reconnects: a stream ends with its link)."""
+        if self._link is None or self._link.broken:
+            raise ConnectionLost("emScon connection lost during continuous measurement")
+        return self._link
+
+    def stream_reading(
+        self, packet: pk.MultiMeasResult, record: pk.MeasValue, t_us: int
+    ) -> EmsconReading | None:
+        """A continuous record as a reading, or None when its values are impossible.
+
+        ``MeasValueT`` carries no standard deviation: ``std_mm`` is NaN. The
+        reading is flagged not accurate in try mode or when the record's
+        ``ES_MeasurementStatus`` is not ``ES_MS_AllOK`` (speed warning, prism
+        error, ...): the header says such points "should be treated with care".
+        """
+        point, meteo = np.array(record.values), np.array(packet.meteo)
+        if not (np.all(np.abs(point) <= MAX_COORDINATE_MM) and np.all(np.isfinite(meteo))):
+            return None
+        accurate = not packet.try_mode and record.status == pk.MeasurementStatus.ALL_OK
+        std = np.full(4, np.nan)
+        return EmsconReading(point, None, bool(accurate), t_us, std, tuple(meteo.tolist()))
 
     # ------------------------------------------------------------ machinery
 

@@ -16,8 +16,10 @@ the link stays unsettled. A packet that breaks the framing (size disagreeing
 with its type), or one that starts and then stops arriving for longer than
 ``packet_gap_s``, makes the stream untrustworthy: the link is then marked
 broken and the caller reconnects. Packets of the types Leica's header defines
-but this adapter does not use (continuous, multi-measurement and probe
-position results) are skipped by their validated size.
+but this adapter does not use (6-DoF and extended continuous results, probe
+position results) are skipped by their validated size, as are continuous
+results that arrive while a command waits for its reply;
+:meth:`EmsconLink.read_stream_packet` reads a running continuous measurement.
 """
 
 from __future__ import annotations
@@ -73,6 +75,9 @@ class EmsconLink:
         self.packet_gap_s = packet_gap_s
         self.busy_poll_s = busy_poll_s
         self.fence_busy = 0  # fences answered ES_RS_ServerBusy (diagnostics)
+        # Continuous results that arrived while a command waited for its reply (e.g.
+        # between StopMeasurement and its answer): never taken for a reading.
+        self.stream_packets_dropped = 0
         self._clock = clock
         self._buf = bytearray()
         self._last_byte = 0.0  # when the last bytes arrived (silence inside a packet)
@@ -188,6 +193,42 @@ class EmsconLink:
             self.events.append(packet)
         else:
             self.stale += 1
+            if isinstance(packet, pk.MultiMeasResult):
+                self.stream_packets_dropped += 1
+
+    def read_stream_packet(
+        self, deadline: float
+    ) -> pk.MultiMeasResult | pk.ErrorResponse | pk.StatusChangeEvent:
+        """The next packet a running continuous measurement sends, by ``deadline``.
+
+        Continuous results, ``ES_DT_Error`` packets (how the server reports a
+        measurement that cannot go on) and status changes (also kept in
+        :attr:`events`) are returned; stray command replies are counted stale.
+
+        Raises
+        ------
+        TrackerTimeout
+            Nothing by the deadline (the link fences before its next command; a
+            packet cut short breaks it).
+        FrameError, ConnectionLost
+            As for :meth:`transact` (link now broken).
+        """
+        name = "continuous results"
+        try:
+            while True:
+                packet = self._next_packet(deadline, name)
+                if isinstance(packet, pk.StatusChangeEvent):
+                    self.events.append(packet)
+                    return packet
+                if isinstance(packet, pk.MultiMeasResult | pk.ErrorResponse):
+                    return packet
+                self.stale += 1
+        except TrackerTimeout:
+            if self._buf or self.broken:
+                self._lose_framing()
+            else:
+                self._unsettled = True
+            raise
 
     # ------------------------------------------------------------ bytes
 

@@ -62,6 +62,10 @@ class Command(enum.IntEnum):
     SET_COORDINATE_SYSTEM_TYPE = 26
     GET_COORDINATE_SYSTEM_TYPE = 27
     SET_STATIONARY_MODE_PARAMS = 28
+    SET_CONTINUOUS_TIME_MODE_PARAMS = 30
+    GET_CONTINUOUS_TIME_MODE_PARAMS = 31
+    SET_CONTINUOUS_DISTANCE_MODE_PARAMS = 32
+    GET_CONTINUOUS_DISTANCE_MODE_PARAMS = 33
     START_MEASUREMENT = 49
     STOP_MEASUREMENT = 52
     GO_POSITION = 55
@@ -137,6 +141,9 @@ PU_HPASCAL = 1
 HU_RH = 0
 CS_RHR = 0  # ES_CoordinateSystemType: right-handed Cartesian
 MM_STATIONARY = 0  # ES_MeasMode
+MM_CONTINUOUS_TIME = 1  # ES_MM_ContinuousTime: one point every lTimeSeparation ms
+MM_CONTINUOUS_DISTANCE = 2  # ES_MM_ContinuousDistance: one point every dSpatialDistance
+RT_SPHERE = 0  # ES_RegionType (only sent with bUseRegion false: no region)
 LENGTH_UNIT_MM = {0: 1000.0, 1: 1.0, 2: 0.001, 3: 304.8, 4: 914.4, 5: 25.4}  # mm per unit
 
 # Body formats after the header (and after ``command`` for commands).
@@ -153,6 +160,16 @@ _RESULT2 = struct.Struct("<Ii23d")  # the same with covariances (statistic mode 
 _PROBE = struct.Struct("<IiIiiiIii41d")
 _SYSTEM_STATUS = struct.Struct("<4I3iIii")
 _CMD = struct.Struct("<I")
+# ContinuousTimeModeDataT: lTimeSeparation (ms), lNumberOfPoints (0: until stopped),
+# bUseRegion, regionType. ContinuousDistanceModeDataT: dSpatialDistance (length unit),
+# lNumberOfPoints, bUseRegion, regionType.
+_CONT_TIME = struct.Struct("<iiiI")
+_CONT_DIST = struct.Struct("<diiI")
+# MultiMeasResultT after ReturnDataT: lNumberOfResults, measMode, bIsTryMode,
+# dTemperature, dPressure, dHumidity; then MeasValueT records: status
+# (ES_MeasurementStatus), lTime1, lTime2, dVal1..3.
+_MULTI_HEAD = struct.Struct("<iIi3d")
+_MEAS_VALUE = struct.Struct("<Iii3d")
 _CMD_REPLY = struct.Struct("<II")
 
 # Full sizes in bytes, from the layouts (header included).
@@ -198,6 +215,8 @@ COMMAND_SIZES: dict[int, int] = {
     Command.SET_STATIONARY_MODE_PARAMS: SIZE_COMMAND + 8,
     Command.FIND_REFLECTOR: SIZE_COMMAND + 8,
     Command.GO_POSITION: SIZE_COMMAND + 28,
+    Command.SET_CONTINUOUS_TIME_MODE_PARAMS: SIZE_COMMAND + _CONT_TIME.size,
+    Command.SET_CONTINUOUS_DISTANCE_MODE_PARAMS: SIZE_COMMAND + _CONT_DIST.size,
 }
 
 # Size of each command reply (server to client) by command; others are 16.
@@ -209,6 +228,8 @@ REPLY_SIZES: dict[int, int] = {
     Command.GET_MEASUREMENT_MODE: SIZE_COMMAND_REPLY + 4,
     Command.GET_COORDINATE_SYSTEM_TYPE: SIZE_COMMAND_REPLY + 4,
     Command.GET_MEASUREMENT_STATUS_INFO: SIZE_COMMAND_REPLY + 8,
+    Command.GET_CONTINUOUS_TIME_MODE_PARAMS: SIZE_COMMAND_REPLY + _CONT_TIME.size,
+    Command.GET_CONTINUOUS_DISTANCE_MODE_PARAMS: SIZE_COMMAND_REPLY + _CONT_DIST.size,
 }
 
 
@@ -308,6 +329,68 @@ class ProbeStationaryResult:
     rotation_status: int
 
 
+class MeasurementStatus(enum.IntEnum):
+    """``ES_MeasurementStatus``: the status of one record of a continuous stream."""
+
+    ALL_OK = 0
+    SPEED_WARNING = 1
+    SPEED_EXCEEDED = 2
+    PRISM_ERROR = 3
+    TRIGGER_TIME_VIOLATION = 4
+
+
+@dataclass(frozen=True)
+class MeasValue:
+    """``MeasValueT``: one point of a continuous stream.
+
+    Attributes
+    ----------
+    status : int
+        ``ES_MeasurementStatus`` (0 all OK; others "should be treated with care").
+    time1, time2 : int
+        ``lTime1``, ``lTime2``: the record's time stamp. The header does not
+        define their meaning; this package reads them as seconds and
+        microseconds of the server's clock (see docs/leica-emscon.md).
+    values : tuple of float
+        ``dVal1..3``: X, Y, Z in the length unit set.
+    """
+
+    status: int
+    time1: int
+    time2: int
+    values: tuple[float, float, float]
+
+    @property
+    def time_us(self) -> int:
+        """The stamp as one count of microseconds (``lTime1 * 10**6 + lTime2``)."""
+        return self.time1 * 1_000_000 + self.time2
+
+
+@dataclass(frozen=True)
+class MultiMeasResult:
+    """``ES_DT_MultiMeasResult``: a packet of continuous-mode points.
+
+    Attributes
+    ----------
+    status : int
+        ``ES_ResultStatus`` of the packet.
+    meas_mode : int
+        ``ES_MeasMode`` the points were taken in.
+    try_mode : bool
+        ``bIsTryMode``.
+    meteo : tuple of float
+        ``dTemperature, dPressure, dHumidity``.
+    records : tuple of MeasValue
+        The ``lNumberOfResults`` points, in the server's order.
+    """
+
+    status: int
+    meas_mode: int
+    try_mode: bool
+    meteo: tuple[float, float, float]
+    records: tuple[MeasValue, ...]
+
+
 @dataclass(frozen=True)
 class StatusChangeEvent:
     """``ES_DT_SystemStatusChange``: an unsolicited event."""
@@ -318,7 +401,7 @@ class StatusChangeEvent:
 @dataclass(frozen=True)
 class OtherPacket:
     """A well-sized packet of a type the adapter does not use (nivel, reflector position,
-    continuous and multi-measurement results): skipped by its size."""
+    6-DoF and extended continuous results): skipped by its size."""
 
     type: int
 
@@ -329,6 +412,7 @@ Packet = (
     | SingleMeasResult
     | ProbeStationaryResult
     | StatusChangeEvent
+    | MultiMeasResult
     | OtherPacket
 )
 MeasResult = SingleMeasResult | ProbeStationaryResult
@@ -394,6 +478,47 @@ def encode_probe_stationary_result(
     )  # fmt: skip
     body = _CMD.pack(status) + _PROBE.pack(*ints, *doubles)
     return _with_header(DataType.STATIONARY_PROBE_MEAS_RESULT, body)
+
+
+def encode_multi_meas_result(
+    records: Sequence[tuple[int, int, Sequence[float]]],
+    meteo: Sequence[float],
+    *,
+    meas_mode: int = MM_CONTINUOUS_TIME,
+    status: int = 0,
+    try_mode: bool = False,
+) -> bytes:
+    """A ``MultiMeasResult``: ``records`` are ``(ES_MeasurementStatus, time_us, (x, y, z))``.
+
+    The stamp is written as ``lTime1`` seconds and ``lTime2`` microseconds.
+    """
+    head = _CMD.pack(status) + _MULTI_HEAD.pack(len(records), meas_mode, int(try_mode), *meteo)
+    body = b"".join(
+        _MEAS_VALUE.pack(st, t_us // 1_000_000, t_us % 1_000_000, *xyz) for st, t_us, xyz in records
+    )
+    return _with_header(DataType.MULTI_MEAS_RESULT, head + body)
+
+
+def continuous_time_params(time_separation_ms: int, number_of_points: int = 0) -> bytes:
+    """``ContinuousTimeModeDataT`` without a region (``bUseRegion`` false)."""
+    return _CONT_TIME.pack(time_separation_ms, number_of_points, 0, RT_SPHERE)
+
+
+def parse_continuous_time(body: bytes) -> tuple[int, int]:
+    """``(lTimeSeparation, lNumberOfPoints)`` of ``ContinuousTimeModeDataT``."""
+    separation, points, _, _ = _CONT_TIME.unpack_from(body)
+    return separation, points
+
+
+def continuous_distance_params(spatial_distance: float, number_of_points: int = 0) -> bytes:
+    """``ContinuousDistanceModeDataT`` without a region (length unit set)."""
+    return _CONT_DIST.pack(spatial_distance, number_of_points, 0, RT_SPHERE)
+
+
+def parse_continuous_distance(body: bytes) -> tuple[float, int]:
+    """``(dSpatialDistance, lNumberOfPoints)`` of ``ContinuousDistanceModeDataT``."""
+    distance, points, _, _ = _CONT_DIST.unpack_from(body)
+    return distance, points
 
 
 def units_params(
@@ -546,7 +671,9 @@ def decode_server_packet(data: bytes) -> Packet:
         if claimed != count:
             msg = f"{dtype.name} claims {claimed} results but carries {count}"
             raise PacketSizeError(msg)
-        return OtherPacket(type_)  # continuous mode: never requested by this adapter
+        if dtype is DataType.MULTI_MEAS_RESULT:
+            return _decode_multi(data, count)
+        return OtherPacket(type_)  # 6-DoF and extended continuous results: not requested
     if size != FIXED_SIZES[dtype]:
         raise PacketSizeError(
             f"{dtype.name} packet has lPacketSize {size}, expected {FIXED_SIZES[dtype]}"
@@ -571,6 +698,19 @@ def decode_server_packet(data: bytes) -> Packet:
             status, f[0], bool(f[1]), d[0:3], d[3:7], d[17:21], d[24:28], d[38:41], f[3]
         )
     return OtherPacket(type_)
+
+
+def _decode_multi(data: bytes, count: int) -> MultiMeasResult:
+    (status,) = _CMD.unpack_from(data, HEADER.size)
+    _, mode, try_mode, *meteo = _MULTI_HEAD.unpack_from(data, SIZE_COMMAND)
+    offset = SIZE_COMMAND + _MULTI_HEAD.size
+    records = []
+    for i in range(count):
+        st, t1, t2, *xyz = _MEAS_VALUE.unpack_from(data, offset + i * _MEAS_VALUE.size)
+        records.append(MeasValue(st, t1, t2, (xyz[0], xyz[1], xyz[2])))
+    return MultiMeasResult(
+        status, mode, bool(try_mode), (meteo[0], meteo[1], meteo[2]), tuple(records)
+    )
 
 
 def decode_client_packet(data: bytes) -> tuple[int, bytes]:

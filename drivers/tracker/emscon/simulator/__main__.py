@@ -16,7 +16,7 @@ from pathlib import Path
 
 from drivers.tracker.emscon.simulator.engine import EmsconSimulator
 from drivers.tracker.emscon.simulator.server import EmsconServer
-from drivers.tracker.line.simulator.__main__ import _exit_with_parent, _triple
+from drivers.tracker.line.simulator.__main__ import _exit_with_parent, _latency, _triple
 from drivers.tracker.line.simulator.faults import parse_script
 from drivers.tracker.line.simulator.noise import NoiseModel
 
@@ -41,6 +41,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="acknowledge StartMeasurement before its result (default: result only)",
     )
     p.add_argument("--probe", action="store_true", help="a 6-DoF probe (ProbeStationaryResult)")
+    p.add_argument(
+        "--latency",
+        type=_latency,
+        default=0.0,
+        metavar="S",
+        help="how late continuous results' stamps are for a moving target, s (0..1)",
+    )
     p.add_argument("--outlive-parent", action="store_true", help="keep serving after parent exits")
     return p
 
@@ -65,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         serial=args.serial,
         ack_start=args.ack_start,
         probe=args.probe,
+        latency_s=args.latency,
     )
     if args.target:
         engine.set_target(args.target[:3])

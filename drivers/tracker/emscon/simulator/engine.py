@@ -31,10 +31,18 @@ are ``ProbeStationaryResult`` packets whose orientation is the target's.
 ``GoPosition`` aims the beam; ``FindReflector`` then re-locks only if the
 target is within :data:`SEARCH_RADIUS_MM` of where the beam points.
 
+Continuous time mode (``ES_MM_ContinuousTime``): ``StartMeasurement`` is
+acknowledged, then the server (:mod:`~drivers.tracker.emscon.simulator.server`)
+asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
+``lTimeSeparation`` until ``StopMeasurement``; points show a moving target
+(:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
+stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
+
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
 / ``SIM,FAULT`` (so ``drivers.tracker.line.simulator.launch.SimulatorControl``
-drives it), plus ``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
+drives it), ``SIM,PATH`` (waypoints, as on the line simulator), plus
+``SIM,STATUS,<CMD>,<code>``: answer the next ``<CMD>`` with
 an arbitrary result status (e.g. one Leica never defined).
 """
 
@@ -43,6 +51,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -58,7 +67,7 @@ from drivers.tracker.line.protocol import (
     ok_body,
     parse_command,
 )
-from drivers.tracker.line.simulator.engine import HangUp, Output, Send
+from drivers.tracker.line.simulator.engine import HangUp, Output, Send, StreamStall
 from drivers.tracker.line.simulator.faults import Fault, FaultSchedule, parse_fault
 from drivers.tracker.line.simulator.noise import NoiseModel
 
@@ -87,6 +96,8 @@ FAULT_NAMES: dict[int, str] = {
     Command.GET_MEASUREMENT_MODE: "MODE?",
     Command.GET_COORDINATE_SYSTEM_TYPE: "CSYS?",
     Command.GET_MEASUREMENT_STATUS_INFO: "MSI?",
+    Command.SET_CONTINUOUS_TIME_MODE_PARAMS: "CONTTIME",
+    Command.GET_CONTINUOUS_TIME_MODE_PARAMS: "CONTTIME?",
 }
 
 # Line-protocol error codes (fault scripts) as emScon result statuses.
@@ -103,6 +114,28 @@ STATUS_FOR_CODE = {
     ErrorCode.NOT_WARMED_UP: ResultStatus.ADM_STARTUP_BUSY,
     ErrorCode.BAD_FRAME: ResultStatus.INVALID_INPUT_DATA,
 }
+
+#: Most waypoints a ``SIM,PATH`` may hold (bounds the memory a client can take).
+MAX_WAYPOINTS = 200_000
+#: Longest ``lTimeSeparation`` the simulator takes, ms (a minute between points).
+MAX_SEPARATION_MS = 60_000
+
+
+@dataclass(frozen=True)
+class StreamStart:
+    """Start sending continuous results on this connection (after the OK reply)."""
+
+    separation_s: float
+    count: int | None
+
+
+@dataclass(frozen=True)
+class StreamStop:
+    """Stop this connection's continuous results (before the OK reply to StopMeasurement)."""
+
+
+#: What the engine hands its server: packets, hang-ups and stream control.
+EmsconOutput = Send | HangUp | StreamStart | StreamStop | StreamStall
 
 # ES_MeasurementStatusInfo bits: tracker, compensation, ADM, ADM compensation found.
 _MSI_BASE = 1 | 2 | 4 | 8
@@ -133,6 +166,9 @@ class EmsconSimulator:
         (default False: stationary mode as Leica documents it, result only).
     probe : bool
         Simulate a 6-DoF probe (``ProbeStationaryResult``) instead of a reflector.
+    latency_s : float
+        How late the tracker's stamps are: a continuous result stamped ``t``
+        shows a moving target where it was at ``t - latency_s`` (s).
     """
 
     def __init__(
@@ -147,6 +183,7 @@ class EmsconSimulator:
         clock: Callable[[], float] = time.monotonic,
         ack_start: bool = False,
         probe: bool = False,
+        latency_s: float = 0.0,
     ):
         self._rng = np.random.default_rng(seed)
         self.noise = noise if noise is not None else NoiseModel()
@@ -171,6 +208,13 @@ class EmsconSimulator:
         self.aim_mm: np.ndarray | None = None  # where GoPosition pointed the beam
         self._rotvec = np.zeros(3)
         self.measurements = 0  # results sent (diagnostics)
+        self.latency_s = float(latency_s)
+        self._t0 = clock()
+        # A moving target: device time (s) -> (3,) mm; None: the fixed target.
+        self._motion: Callable[[float], ArrayLike] | None = None
+        self.continuous_time = (100, 0)  # lTimeSeparation (ms), lNumberOfPoints (0: until stopped)
+        self.stream_records = 0  # continuous points sent (diagnostics)
+        self._waypoints: list[list[float]] = []  # SIM,PATH,POINT rows: t (s), x, y, z (mm)
 
     # ------------------------------------------------------------ in-process control
 
@@ -182,6 +226,7 @@ class EmsconSimulator:
         """
         with self._lock:
             self._set_target(point_mm)
+            self._motion = None  # a fixed target from now on
             rotvec = np.zeros(3) if rotvec_rad is None else np.asarray(rotvec_rad, float)
             if rotvec.shape != (3,) or not np.all(np.isfinite(rotvec)):
                 raise ValueError("target orientation must be 3 finite values")
@@ -199,6 +244,30 @@ class EmsconSimulator:
     def clear_target(self) -> None:
         with self._lock:
             self._target = None
+            self._motion = None
+
+    def set_motion(self, motion: Callable[[float], ArrayLike] | None) -> None:
+        """Move the target along ``motion`` (None: hold it where it is now).
+
+        Parameters
+        ----------
+        motion : callable or None
+            ``motion(t_s)`` with ``t_s`` the device time in seconds
+            (:meth:`device_time_s`) gives the true target, shape (3,), mm,
+            tracker frame. Continuous results show it at their stamp less
+            :attr:`latency_s`; a stationary measurement where it is now.
+            Re-locks a broken beam, as :meth:`set_target`.
+        """
+        with self._lock:
+            if motion is None:
+                self._motion = None
+                return
+            self._set_target(np.asarray(motion(self.device_time_s()), float)[:3])
+            self._motion = motion
+
+    def device_time_s(self) -> float:
+        """The tracker's clock now, s (continuous results carry it as lTime1 s, lTime2 us)."""
+        return self._clock() - self._t0
 
     def arm_fault(self, fault: Fault | str) -> None:
         """Arm one fault (a :class:`Fault` or a fault-script line)."""
@@ -229,6 +298,10 @@ class EmsconSimulator:
                 self.arm_fault(args[0])
             elif what == "STATUS" and len(args) == 2:
                 self.force_status(args[0], int(args[1]))
+            elif what == "PATH" and args:
+                start_us = self._path(args)
+                if start_us is not None:
+                    return [Send(encode_frame(ok_body(cmd.seq, start_us)))]
             else:
                 body = error_body(cmd.seq, ErrorCode.UNKNOWN_COMMAND, ",".join([cmd.name, what]))
                 return [Send(encode_frame(body))]
@@ -236,9 +309,44 @@ class EmsconSimulator:
             return [Send(encode_frame(error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))))]
         return [Send(encode_frame(ok_body(cmd.seq)))]
 
+    def _path(self, args: list[str]) -> int | None:
+        """``SIM,PATH,CLEAR`` / ``SIM,PATH,POINT,t,x,y,z`` / ``SIM,PATH,GO[,delay]``.
+
+        Waypoints (s from the path's start; mm) are collected, then ``GO`` moves
+        the target through them, linear in between and held before and after,
+        from ``delay`` s after now on the tracker's clock; returns that start, us
+        (None for CLEAR and POINT). Raises ValueError on a bad waypoint.
+        """
+        what, rest = args[0], args[1:]
+        with self._lock:
+            if what == "CLEAR" and not rest:
+                self._waypoints = []
+                return None
+            if what == "POINT" and len(rest) == 4:
+                values = [float(a) for a in rest]
+                if not all(np.isfinite(values)):
+                    raise ValueError("a waypoint is 4 finite numbers")
+                if self._waypoints and values[0] <= self._waypoints[-1][0]:
+                    raise ValueError(f"waypoint time {values[0]} s does not increase")
+                if len(self._waypoints) >= MAX_WAYPOINTS:
+                    raise ValueError(f"more than {MAX_WAYPOINTS} waypoints")
+                self._waypoints.append(values)
+                return None
+            if what != "GO" or len(rest) > 1 or not self._waypoints:
+                raise ValueError(f"SIM,PATH,{what}: expected CLEAR, POINT,t,x,y,z or GO[,delay]")
+            delay = float(rest[0]) if rest else 0.0
+            if not 0.0 <= delay <= 3600.0:
+                raise ValueError(f"start delay {delay} s outside 0..3600")
+            table = np.array(self._waypoints)
+            start = self.device_time_s() + delay
+        self.set_motion(
+            lambda t_s: np.array([np.interp(t_s - start, table[:, 0], c) for c in table[:, 1:].T])
+        )
+        return int(start * 1e6)
+
     # ------------------------------------------------------------ emScon port
 
-    def handle_packet(self, data: bytes) -> list[Output]:
+    def handle_packet(self, data: bytes) -> list[EmsconOutput]:
         """One complete client packet (``len(data) == lPacketSize``); what to send back."""
         with self._lock:
             try:
@@ -266,7 +374,17 @@ class EmsconSimulator:
                 answer = [pk.encode_reply(command, forced)]
             else:
                 answer = self._dispatch(command, params)
-            return self._deliver(pre, answer, faults, command)
+            outputs: list[EmsconOutput] = list(self._deliver(pre, answer, faults, command))
+            if command == Command.STOP_MEASUREMENT:
+                outputs.insert(0, StreamStop())  # no result after the OK reply
+            elif command == Command.START_MEASUREMENT and self._starts_stream(answer, forced):
+                separation_ms, points = self.continuous_time
+                outputs.append(StreamStart(separation_ms / 1000.0, points or None))
+            return outputs
+
+    def _starts_stream(self, answer: list[bytes], forced: int | None) -> bool:
+        continuous = self.meas_mode == pk.MM_CONTINUOUS_TIME
+        return continuous and forced is None and len(answer) == 1 and _ok(answer[0])
 
     def _deliver(self, pre, answer, faults, command) -> list[Output]:
         """Apply the reply-mangling faults to the last packet of the answer."""
@@ -351,10 +469,22 @@ class EmsconSimulator:
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
     def _set_mode(self, command, params):
-        if pk.parse_uint(params) != pk.MM_STATIONARY:  # only stationary is simulated
+        mode = pk.parse_uint(params)
+        if mode not in (pk.MM_STATIONARY, pk.MM_CONTINUOUS_TIME):  # the modes simulated
             return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
-        self.meas_mode = pk.MM_STATIONARY
+        self.meas_mode = mode
         return self._ok(command, params)
+
+    def _set_continuous_time(self, command, params):
+        separation_ms, points = pk.parse_continuous_time(params)
+        if not 1 <= separation_ms <= MAX_SEPARATION_MS or points < 0:
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        self.continuous_time = (separation_ms, points)
+        return self._ok(command, params)
+
+    def _get_continuous_time(self, command, params):
+        body = pk.continuous_time_params(*self.continuous_time)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
     def _set_stationary(self, command, params):
         meas_time_ms, use_adm = pk.parse_stationary(params)
@@ -413,6 +543,9 @@ class EmsconSimulator:
             if not self._beam_broken_left:  # the tracker re-locks on its own afterwards
                 ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
                 return [pk.encode_reply(command, refuse), ready]
+        elif self.meas_mode == pk.MM_CONTINUOUS_TIME:
+            # Continuous mode is acknowledged, then results follow (StreamStart, above).
+            return [pk.encode_reply(command, ResultStatus.ALL_OK)]
         elif not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
             refuse = ResultStatus.NO_STATIONARY_RESULT
         elif self._unstable_left:
@@ -420,9 +553,13 @@ class EmsconSimulator:
             refuse = ResultStatus.NO_STATIONARY_RESULT
         if refuse is not None:
             return [pk.encode_reply(command, refuse)]
-        point = self.noise.sample_point(self._target, self._rng, self._scale)
+        target, scale = self._target, self._scale
+        if self._motion is not None:  # a moving target: where it is now, less the latency
+            target = np.asarray(self._motion(self.device_time_s() - self.latency_s), float)[:3]
+            scale = self.noise.scale_matrix(target)
+        point = self.noise.sample_point(target, self._rng, scale)
         if self.noise.enabled:
-            std_xyz = np.sqrt(np.sum(self._scale**2, axis=0))
+            std_xyz = np.sqrt(np.sum(scale**2, axis=0))
         else:
             std_xyz = np.zeros(3)
         total = float(np.linalg.norm(std_xyz))
@@ -441,6 +578,64 @@ class EmsconSimulator:
         if self.ack_start:
             return [pk.encode_reply(command, ResultStatus.ALL_OK), result]
         return [result]
+
+    # ------------------------------------------------------------ continuous results
+
+    def stream_tick(self, n: int, stamp_s: float) -> list[EmsconOutput]:
+        """Outputs of tick ``n`` of a continuous measurement, due at ``stamp_s`` (device s).
+
+        The point is taken and stamped at its due time on the tracker's clock
+        (a server running late sends it late, never with a later position), at
+        the target's position ``latency_s`` before the stamp. The fault
+        script's ``SAMPLE`` triggers count ticks: ``beam_break count=k`` sends
+        ``ES_SSC_MeasStatus_NotReady`` and ``ES_DT_Error``
+        (``ES_RS_MeasurementStatusNotReady``) once, then nothing for ``k``
+        ticks, then ``ES_SSC_MeasStatus_Ready``; ``stall delay=s`` silences
+        the stream for ``s`` (the ticks due meanwhile are lost); ``drop``
+        loses this tick; ``hangup`` closes the connection; ``inaccurate``
+        flags points ``ES_MS_SpeedWarning``.
+        """
+        with self._lock:
+            t_us = max(int(round(stamp_s * 1e6)), 0)
+            faults = self._faults.next_command("SAMPLE", count_any=False)
+            out: list[EmsconOutput] = []
+            for fault in faults:
+                if fault.kind == "stall":
+                    return [StreamStall(fault.delay_s)]
+                if fault.kind == "drop":
+                    return []
+                if fault.kind == "hangup":
+                    return [HangUp()]
+                if fault.kind == "beam_break":
+                    self._beam_broken_left = fault.count
+                    out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_NOT_READY)))
+                    not_ready = ResultStatus.MEASUREMENT_STATUS_NOT_READY
+                    out.append(Send(pk.encode_error(Command.START_MEASUREMENT, not_ready)))
+                elif fault.kind == "inaccurate":
+                    self._inaccurate_left = fault.count
+            if self._target is None:
+                return out  # nothing to follow: no points (the client's stall timer runs)
+            if self._beam_broken_left:
+                self._beam_broken_left -= 1
+                if not self._beam_broken_left:  # re-locked after this tick
+                    out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_READY)))
+                return out
+            point = self._target
+            if self._motion is not None:
+                point = np.asarray(self._motion(t_us / 1e6 - self.latency_s), float)[:3]
+            if not MIN_RANGE_MM <= float(np.linalg.norm(point)) <= MAX_RANGE_MM:
+                return out  # out of range: no point at this tick
+            scale = self.noise.scale_matrix(point) if self._motion is not None else self._scale
+            point = self.noise.sample_point(point, self._rng, scale)
+            status = pk.MeasurementStatus.ALL_OK
+            if self._inaccurate_left:
+                self._inaccurate_left -= 1
+                status = pk.MeasurementStatus.SPEED_WARNING
+            per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
+            record = (int(status), t_us, tuple(point / per_unit))
+            out.append(Send(pk.encode_multi_meas_result([record], self.env)))
+            self.stream_records += 1
+            return out
 
 
 def _rotvec_to_quaternion(rotvec: np.ndarray) -> tuple[float, float, float, float]:
@@ -468,6 +663,8 @@ _HANDLERS = {
     Command.SET_COORDINATE_SYSTEM_TYPE: EmsconSimulator._set_coordinates,
     Command.SET_STATIONARY_MODE_PARAMS: EmsconSimulator._set_stationary,
     Command.START_MEASUREMENT: EmsconSimulator._start_measurement,
+    Command.SET_CONTINUOUS_TIME_MODE_PARAMS: EmsconSimulator._set_continuous_time,
+    Command.GET_CONTINUOUS_TIME_MODE_PARAMS: EmsconSimulator._get_continuous_time,
     Command.STOP_MEASUREMENT: EmsconSimulator._ok,
     Command.FIND_REFLECTOR: EmsconSimulator._find_reflector,
     Command.GO_POSITION: EmsconSimulator._go_position,

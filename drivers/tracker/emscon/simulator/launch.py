@@ -34,10 +34,12 @@ class EmsconSimulatorProcess(SimulatorProcess):
         faults: str | Path | None = None,
         ack_start: bool = False,
         probe: bool = False,
+        latency_s: float = 0.0,
     ):  # replaces SimulatorProcess.__init__: another program, two endpoint lines
         args = ["--seed", str(seed), "--init-time", str(init_time_s)]
         args += ["--ack-start"] if ack_start else []
         args += ["--probe"] if probe else []
+        args += ["--latency", repr(float(latency_s))] if latency_s else []
         args += [] if noise else ["--no-noise"]
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []

@@ -13,11 +13,40 @@ from __future__ import annotations
 import contextlib
 import socket
 import threading
+import time
+from dataclasses import dataclass
 
 from drivers.tracker.emscon import protocol as pk
-from drivers.tracker.emscon.simulator.engine import EmsconSimulator
-from drivers.tracker.line.simulator.engine import HangUp
+from drivers.tracker.emscon.simulator.engine import (
+    EmsconOutput,
+    EmsconSimulator,
+    StreamStart,
+    StreamStop,
+)
+from drivers.tracker.line.simulator.engine import HangUp, StreamStall
 from drivers.tracker.line.simulator.server import SimulatorServer
+
+#: Ticks a late server catches up at once; beyond, the ticks due are lost (a gap).
+MAX_CATCH_UP_TICKS = 1000
+
+
+@dataclass
+class _Stream:
+    """A continuous measurement running on one connection."""
+
+    separation_s: float
+    count: int | None
+    device_start_s: float  # tracker time of tick 0
+    next_due: float  # wall-clock (monotonic) time of the next tick
+    n: int = 0  # last tick sent (or skipped)
+
+
+class _Conn:
+    """One client connection and its stream (None when not streaming)."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock = sock
+        self.stream: _Stream | None = None
 
 
 class EmsconServer:
@@ -104,40 +133,95 @@ class EmsconServer:
                 self._conns.add(conn)
             self._spawn(self._serve, conn)
 
-    def _serve(self, conn: socket.socket) -> None:
+    def _serve(self, sock: socket.socket) -> None:
         buf = bytearray()
+        conn = _Conn(sock)
         try:
             while not self._stop.is_set():
-                chunk = conn.recv(65536)
-                if not chunk:
-                    return
-                buf += chunk
-                while len(buf) >= pk.HEADER.size:
+                # While streaming, wake for the next tick; otherwise wait for a command
+                # (bounded, so stop() is seen even on an idle connection).
+                wait = 0.5 if conn.stream is None else conn.stream.next_due - time.monotonic()
+                chunk: bytes | None = None
+                if wait > 0:
+                    sock.settimeout(wait)
                     try:
-                        size, _ = pk.split_header(buf)
-                    except pk.PacketSizeError:
-                        return  # no way to find the next packet: drop the client
-                    if len(buf) < size:
-                        break
-                    packet = bytes(buf[:size])
-                    del buf[:size]
-                    if not self._answer(conn, packet):
+                        chunk = sock.recv(65536)
+                    except TimeoutError:
+                        chunk = None
+                    if chunk == b"":
                         return
+                if chunk:
+                    buf += chunk
+                    if not self._commands(conn, buf):
+                        return
+                if conn.stream is not None and not self._ticks(conn):
+                    return
         except OSError:
             return  # client vanished or stop() closed the socket
         finally:
             with self._lock:
-                self._conns.discard(conn)
-            _close(conn)
+                self._conns.discard(sock)
+            _close(sock)
 
-    def _answer(self, conn: socket.socket, packet: bytes) -> bool:
-        for out in self.engine.handle_packet(packet):
+    def _commands(self, conn: _Conn, buf: bytearray) -> bool:
+        """Answer every complete packet in ``buf``; False to drop the client."""
+        while len(buf) >= pk.HEADER.size:
+            try:
+                size, _ = pk.split_header(buf)
+            except pk.PacketSizeError:
+                return False  # no way to find the next packet: drop the client
+            if len(buf) < size:
+                break
+            packet = bytes(buf[:size])
+            del buf[:size]
+            if not self._send(conn, self.engine.handle_packet(packet)):
+                return False
+        return True
+
+    def _ticks(self, conn: _Conn) -> bool:
+        """Send the ticks due now; False to drop the client."""
+        stream = conn.stream
+        assert stream is not None
+        now = time.monotonic()
+        due = int((now - stream.next_due) / stream.separation_s) + 1
+        if due > MAX_CATCH_UP_TICKS:  # a long hiccup: those ticks are lost
+            skipped = due - MAX_CATCH_UP_TICKS
+            stream.n += skipped
+            stream.next_due += skipped * stream.separation_s
+        while conn.stream is stream and stream.next_due <= now:
+            stream.n += 1
+            stream.next_due += stream.separation_s
+            stamp = stream.device_start_s + stream.n * stream.separation_s
+            if not self._send(conn, self.engine.stream_tick(stream.n, stamp)):
+                return False
+            if stream.count is not None and stream.n >= stream.count:
+                conn.stream = None  # lNumberOfPoints sent: the measurement is over
+        return True
+
+    def _send(self, conn: _Conn, outputs: list[EmsconOutput]) -> bool:
+        """Send (or act on) the engine's outputs in order; False to drop the client."""
+        for out in outputs:
             if isinstance(out, HangUp):
                 return False
+            if isinstance(out, StreamStart):
+                now = time.monotonic()
+                device_s = self.engine.device_time_s()
+                conn.stream = _Stream(out.separation_s, out.count, device_s, now + out.separation_s)
+                continue
+            if isinstance(out, StreamStop):
+                conn.stream = None
+                continue
+            if isinstance(out, StreamStall):
+                stream = conn.stream
+                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
+                    lost = int(out.delay_s / stream.separation_s)
+                    stream.n += lost
+                    stream.next_due += lost * stream.separation_s
+                continue
             if out.delay_s > 0:
                 if self._stop.wait(out.delay_s):
                     return False
-            conn.sendall(out.data)
+            conn.sock.sendall(out.data)
         return True
 
 

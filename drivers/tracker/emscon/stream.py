@@ -1,0 +1,292 @@
+"""Continuous measurement on emScon: ``ES_MM_ContinuousTime`` results as time-stamped ticks.
+
+:meth:`drivers.tracker.emscon.device.EmsconTracker.stream` sets continuous
+time mode, starts it and returns an :class:`EmsconReadingStream`, which has
+the surface of the line protocol's
+:class:`~drivers.tracker.line.stream.ReadingStream` (``next``, iteration,
+``collect``, ``stop``, ``lost``, ``stale``, ``ended``, a context manager), so
+a caller can use either. The integrity rules are the same, adapted to what
+emScon carries:
+
+- emScon has no sequence number and no checksum (TCP's own is all there
+  is): a record's tick number comes from its time stamp, ``n = 1 +
+  round((t - t_first) / separation)``. A gap in ``n`` is counted in
+  :attr:`EmsconReadingStream.lost`, never filled; a record whose stamp does
+  not move forward (a repeat, a packet of an earlier stream) is dropped and
+  counted in :attr:`EmsconReadingStream.stale`, so a stale point never
+  passes;
+- a record with impossible values (NaN, beyond 1 km) is dropped and counted
+  in ``bad`` (its tick is then lost), as a corrupted line is on the line
+  protocol;
+- a beam break (``ES_DT_Error`` with ``ES_RS_MeasurementStatusNotReady`` or
+  the ``ES_SSC_MeasStatus_NotReady`` event) is handed over as a sample with
+  ``reading`` None and that status as its ``code``, at the tick after the
+  last one; the ticks the beam stays broken are counted in ``broken``, not
+  in ``lost``, and readings resume when results do;
+- a stream that sends nothing for ``stall_timeout_s`` raises
+  :class:`~drivers.tracker.line.errors.StreamStalled` (after
+  ``StopMeasurement``).
+
+Positions are mm in the server's frame; stamps the server's clock in
+microseconds (``lTime1`` s and ``lTime2`` us, see docs/leica-emscon.md).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from drivers.errors import DriverError
+from drivers.tracker.emscon import protocol as pk
+from drivers.tracker.emscon.errors import ConnectionLost, FrameError, TrackerTimeout
+from drivers.tracker.emscon.link import EmsconLink
+from drivers.tracker.emscon.reading import EmsconReading
+from drivers.tracker.line.errors import StreamStalled
+from drivers.tracker.line.stream import StreamRecord
+
+
+class StreamOwner(Protocol):
+    """What a stream needs of its driver (:class:`~drivers.tracker.emscon.device.EmsconTracker`)."""
+
+    def stream_link(self) -> EmsconLink: ...
+
+    def stream_reading(
+        self, packet: pk.MultiMeasResult, record: pk.MeasValue, t_us: int
+    ) -> EmsconReading | None: ...
+
+    def stop_stream(self) -> None: ...
+
+
+#: Ticks a stream may miss in a row before it counts as stalled (at least 0.5 s).
+STALL_TICKS = 20
+#: Statuses that mean the beam is not on the reflector.
+BEAM_BROKEN_STATUS = frozenset(
+    {pk.ResultStatus.MEASUREMENT_STATUS_NOT_READY, pk.ResultStatus.SYSTEM_NOT_READY_FOR_MEASUREMENT}
+)
+
+
+@dataclass(frozen=True)
+class EmsconStreamSample:
+    """One tick of a continuous stream (the line stream's ``StreamSample`` surface).
+
+    Attributes
+    ----------
+    n : int
+        Tick number from 1, from the record's stamp.
+    device_time_us : int
+        Server clock at the tick, us (for a beam-break mark: the tick's due time).
+    reading : EmsconReading or None
+        The point, or None when the beam was broken at this tick.
+    code : int
+        0 with a reading, else the ``ES_ResultStatus`` why there is none.
+    """
+
+    n: int
+    device_time_us: int
+    reading: EmsconReading | None
+    code: int
+
+    @property
+    def beam_broken(self) -> bool:
+        return self.code in BEAM_BROKEN_STATUS
+
+
+class EmsconReadingStream:
+    """A running continuous-time measurement; iterate it for its ticks.
+
+    Attributes
+    ----------
+    stream_id : int
+        Count of streams started by this driver (emScon packets carry no id).
+    rate_hz : float
+        Rate actually requested: ``1000 / separation_ms``.
+    separation_ms : int
+        ``lTimeSeparation`` sent to the server, ms.
+    count : int or None
+        ``lNumberOfPoints`` (None: until stopped).
+    lost, stale, bad, broken : int
+        Ticks missing from the stamps; records dropped because their stamp did
+        not move forward; records dropped for impossible values; ticks without
+        a reading while the beam was broken.
+    ended : bool
+        The stream is over (its count reached, stopped, or failed).
+    """
+
+    def __init__(
+        self,
+        tracker: StreamOwner,
+        stream_id: int,
+        separation_ms: int,
+        count: int | None,
+        stall_timeout_s: float,
+    ) -> None:
+        self._tracker = tracker
+        self.stream_id = stream_id
+        self.separation_ms = separation_ms
+        self.rate_hz = 1000.0 / separation_ms
+        self.count = count
+        self.stall_timeout_s = stall_timeout_s
+        self.lost = self.stale = self.bad = self.broken = 0
+        self.ended = False
+        self._last_n = 0
+        self._last_t: int | None = None
+        self._base: tuple[int, int] | None = None  # (n before the first record, its stamp)
+        self._beam_off = False  # from a break's mark until ES_SSC_MeasStatus_Ready
+        self._gap_is_break = False  # from a break's mark until the next point
+        self._pending: deque[EmsconStreamSample] = deque()
+
+    # ------------------------------------------------------------ reading
+
+    def next(self) -> EmsconStreamSample | None:
+        """The next tick, or None once the stream has ended.
+
+        Raises
+        ------
+        StreamStalled
+            No packet within ``stall_timeout_s`` (``StopMeasurement`` is sent).
+        ConnectionLost, FrameError
+            The transport or the framing failed; the stream is over (the
+            driver reconnects at its next command).
+        """
+        while not self._pending:
+            if self.ended:
+                return None
+            deadline = time.monotonic() + self.stall_timeout_s
+            try:
+                packet = self._tracker.stream_link().read_stream_packet(deadline)
+            except TrackerTimeout as exc:
+                self._stop_quietly()
+                raise StreamStalled(
+                    f"emScon stream {self.stream_id}: no result within "
+                    f"{self.stall_timeout_s:g} s after tick {self._last_n}; stopped"
+                ) from exc
+            except (ConnectionLost, FrameError):
+                self.ended = True
+                raise
+            self._take(packet)
+        sample = self._pending.popleft()
+        if self.count is not None and sample.n >= self.count:
+            self.ended = True  # the server stops by itself after lNumberOfPoints
+            self._pending.clear()
+        return sample
+
+    def _take(self, packet: pk.MultiMeasResult | pk.ErrorResponse | pk.StatusChangeEvent) -> None:
+        if isinstance(packet, pk.StatusChangeEvent):
+            if packet.change == pk.StatusChange.MEAS_STATUS_NOT_READY:
+                self._mark_break(pk.ResultStatus.MEASUREMENT_STATUS_NOT_READY)
+            elif packet.change == pk.StatusChange.MEAS_STATUS_READY:
+                self._beam_off = False
+            return
+        if isinstance(packet, pk.ErrorResponse):
+            if packet.status in BEAM_BROKEN_STATUS:
+                self._mark_break(packet.status)
+            else:  # any other refusal ends the measurement: a mark with its code
+                self._mark(packet.status)
+                self.ended = True
+            return
+        if packet.status != pk.ResultStatus.ALL_OK:  # a failed packet: a mark, never points
+            if packet.status in BEAM_BROKEN_STATUS:
+                self._mark_break(packet.status)
+            else:
+                self._mark(packet.status)
+            return
+        for record in packet.records:
+            self._record(packet, record)
+
+    def _record(self, packet: pk.MultiMeasResult, record: pk.MeasValue) -> None:
+        t_us = record.time_us
+        if self._last_t is not None and t_us <= self._last_t:
+            self.stale += 1  # a repeat or an older stream's record: never a point
+            return
+        if self._base is None:
+            self._base = (self._last_n, t_us)
+        n = self._base[0] + 1 + round((t_us - self._base[1]) / (self.separation_ms * 1000))
+        if n <= self._last_n:  # moved forward by less than half a tick: not a new tick
+            self.stale += 1
+            return
+        reading = self._tracker.stream_reading(packet, record, t_us)
+        if reading is None:
+            self.bad += 1  # its tick stays missing and is counted lost below
+            return
+        gap = n - self._last_n - 1
+        if self._gap_is_break:
+            self.broken += gap
+            self._gap_is_break = False
+        else:
+            self.lost += gap
+        self._last_n, self._last_t = n, t_us
+        self._pending.append(EmsconStreamSample(n, t_us, reading, 0))
+
+    def _mark_break(self, status: int) -> None:
+        if not self._beam_off:  # the event and the error of one break make one mark
+            self._mark(status)
+            self._beam_off = self._gap_is_break = True
+
+    def _mark(self, status: int) -> None:
+        n = self._last_n + 1
+        t_us = -1 if self._last_t is None else self._last_t + self.separation_ms * 1000
+        self._last_n = n
+        if self._last_t is not None:
+            self._last_t = t_us
+        self._pending.append(EmsconStreamSample(n, t_us, None, int(status)))
+
+    def __iter__(self) -> Iterator[EmsconStreamSample]:
+        while (sample := self.next()) is not None:
+            yield sample
+
+    def collect(self, count: int) -> StreamRecord:
+        """Read up to ``count`` ticks (fewer if the stream ends) into arrays."""
+        samples = []
+        for sample in self:
+            samples.append(sample)
+            if len(samples) >= count:
+                break
+        return as_record(samples)
+
+    # ------------------------------------------------------------ stopping
+
+    def stop(self) -> None:
+        """``StopMeasurement``, then stationary mode again (results still on their way are
+        dropped and counted in ``link.stream_packets_dropped``)."""
+        if not self.ended:
+            self.ended = True
+        self._tracker.stop_stream()
+
+    def _stop_quietly(self) -> None:
+        try:
+            self.stop()
+        except DriverError:
+            pass  # the failure is reported; a server that cannot stop shows at the next command
+
+    def __enter__(self) -> EmsconReadingStream:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if exc[0] is None:
+            self.stop()
+        else:
+            self._stop_quietly()
+
+
+def as_record(samples: list[EmsconStreamSample]) -> StreamRecord:
+    """Arrays of a list of ticks (the line stream's :class:`StreamRecord`)."""
+    k = len(samples)
+    point = np.full((k, 3), np.nan)
+    accurate = np.zeros(k, dtype=bool)
+    for i, s in enumerate(samples):
+        if s.reading is not None:
+            point[i] = s.reading.point_mm
+            accurate[i] = s.reading.accurate
+    return StreamRecord(
+        n=np.array([s.n for s in samples], dtype=np.int64),
+        t_us=np.array([s.device_time_us for s in samples], dtype=np.int64),
+        point_mm=point,
+        rotvec_rad=None,
+        code=np.array([s.code for s in samples], dtype=np.int64),
+        accurate=accurate,
+    )
