@@ -167,7 +167,12 @@ def plan_along(
     duration = path.length_mm / speed_mm_s
     t = np.linspace(0.0, duration, max(int(np.ceil(duration * CONTROL_HZ)), 1) + 1)
     # A command at every corner: between two samples either side the arm would cut it.
-    t = np.union1d(t, path.corner_s_mm / speed_mm_s)
+    # A tick within a microsecond of a corner is dropped: the simulator (as a controller)
+    # refuses waypoints whose times do not increase on its microsecond clock.
+    corners_s = path.corner_s_mm / speed_mm_s
+    if len(corners_s):
+        t = t[np.abs(t[:, None] - corners_s[None, :]).min(axis=1) > 1e-6]
+    t = np.union1d(t, corners_s)
     rot = np.asarray(rotation, dtype=float)
     desired = frames.transform(rot, path.point(speed_mm_s * t))
     limits = model.joint_limits_rad
