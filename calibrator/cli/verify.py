@@ -228,6 +228,10 @@ def verify(
             output=output,
             inputs=inputs,
         )
+        if history is not None:
+            from calibrator.cli.history import record
+
+            record(history, "verification", output)
         return
     options = run.run_options(
         vplan,

@@ -63,8 +63,6 @@ def check_options(
         fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
-    if history is not None:
-        fail("--path results are not recorded in a history yet: leave out --history")
 
 
 def run(
@@ -115,11 +113,17 @@ def run(
         tracker.close()
     section["rated_speed_mm_s"] = rated
     section["speed_pct"] = 100.0 * speed_mm_s / rated
+    from datetime import UTC, datetime
+
     doc = {
         "format": pose_run.FORMAT,
         "version": pose_run.VERSION,
         "test": "path",
         "model": arm.name,
+        # Who and when, as a pose test records them (the history files the test under them).
+        "robot": f"sim:{world.model.name}:seed={world.seed}",
+        "tracker": str(tracker.device_id or type(tracker).__name__),
+        "time": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "cube": vplan.cube.to_json(),
         "registration": registration.to_json(),
         "path": section,
