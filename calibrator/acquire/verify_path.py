@@ -28,6 +28,7 @@ error a calibration removes. Units: mm, s, rad.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -138,13 +139,40 @@ def plan_path(
     CalibrationError
         A point of the path out of reach.
     """
+    path = test_path(shape, cube, rotation)
+    return plan_along(model, flange2tool, shape, path, rotation, q_start, speed_mm_s, calibration)
+
+
+def plan_along(
+    model: Any,
+    flange2tool: npt.ArrayLike,
+    shape: str,
+    path: ip.CommandedPath,
+    rotation: npt.ArrayLike,
+    q_start: npt.ArrayLike,
+    speed_mm_s: float,
+    calibration: Any = None,
+) -> PathTest:
+    """Joint commands along a given commanded ``path`` (base frame, mm) at ``speed_mm_s``.
+
+    As :func:`plan_path`, for a path of the caller's (the circle test's two directions).
+
+    Raises
+    ------
+    CalibrationError
+        A point of the path out of reach.
+    """
     if not speed_mm_s > 0:
         raise CalibrationError(f"--path-speed must be > 0 mm/s, got {speed_mm_s}")
-    path = test_path(shape, cube, rotation)
     duration = path.length_mm / speed_mm_s
     t = np.linspace(0.0, duration, max(int(np.ceil(duration * CONTROL_HZ)), 1) + 1)
     # A command at every corner: between two samples either side the arm would cut it.
-    t = np.union1d(t, path.corner_s_mm / speed_mm_s)
+    # A tick within a microsecond of a corner is dropped: the simulator (as a controller)
+    # refuses waypoints whose times do not increase on its microsecond clock.
+    corners_s = path.corner_s_mm / speed_mm_s
+    if len(corners_s):
+        t = t[np.abs(t[:, None] - corners_s[None, :]).min(axis=1) > 1e-6]
+    t = np.union1d(t, corners_s)
     rot = np.asarray(rotation, dtype=float)
     desired = frames.transform(rot, path.point(speed_mm_s * t))
     limits = model.joint_limits_rad
@@ -191,31 +219,14 @@ def run(
     """
     if cycles < 2:
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
-    true = kinematics.forward(world.true_mdh, test.q, world.flange2tool, world.base2tracker)
-    points_tracker = true[:, :3, 3]
-    duration = float(test.t_s[-1])
-    count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
     t2b = np.asarray(tracker2base, dtype=float)
     streams, starts, ticks = [], [], []
     reference = ip.commanded_reference(test.path, test.speed_mm_s)
     for _ in range(cycles):
-        told_us = tracker.run_path(test.t_s, points_tracker, delay_s=HOLD_S)
-        with tracker.stream(STREAM_HZ, count=count) as stream:
-            rec = stream.collect(count)
-        ok = rec.code == 0
-        if ok.sum() < 0.9 * count:
-            raise CalibrationError(
-                f"the tracker streamed {int(ok.sum())} of {count} readings of the path"
-            )
-        # Times from where the simulator was told to start; the alignment finds the
-        # true start on the tracker's clock (its latency included) from the data alone.
-        t = (rec.t_us[ok] - told_us) / 1e6
-        p = rec.point_mm[ok] @ t2b[:3, :3].T + t2b[:3, 3]
-        start = ip.estimate_latency(t, p, reference, max_latency_s=HOLD_S)
+        one, start, tick = stream_cycle(tracker, world, test, t2b, reference)
+        streams.append(one)
         starts.append(start)
-        inside = (t >= start) & (t <= start + duration)
-        streams.append(ip.Stream(t[inside] - start, p[inside]))
-        ticks.append(rec.n[ok][inside])
+        ticks.append(tick)
     table = pd.DataFrame(
         {
             "cycle": np.repeat(np.arange(1, cycles + 1), [len(st.t_s) for st in streams]),
@@ -229,6 +240,91 @@ def run(
         columns=list(STREAM_COLUMNS),
     )
     return figures(test, streams, starts, cycles), table
+
+
+def stream_cycle(
+    tracker: PathTracker,
+    world: Any,
+    test: PathTest,
+    tracker2base: npt.ArrayLike,
+    reference: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> tuple[ip.Stream, float, np.ndarray]:
+    """One run of the path on the simulated cell, streamed and aligned to the command.
+
+    Parameters
+    ----------
+    tracker : PathTracker
+    world : calibrator.simulate.SimWorld
+        Its true arm follows ``test.q``.
+    test : PathTest
+    tracker2base : array_like, shape (4, 4)
+        Registration, mm.
+    reference : callable, optional
+        The alignment's reference (default the commanded path's timing,
+        :func:`calibrator.iso9283_path.commanded_reference`).
+
+    Returns
+    -------
+    stream : calibrator.iso9283_path.Stream
+        The attained path from the aligned start of the motion to its end, base frame, mm.
+    start : float
+        Found start less the one requested, s.
+    ticks : ndarray, shape (K,)
+        The tracker's reading numbers of the stream's samples.
+    """
+    t2b = np.asarray(tracker2base, dtype=float)
+    if reference is None:
+        reference = ip.commanded_reference(test.path, test.speed_mm_s)
+    true = kinematics.forward(world.true_mdh, test.q, world.flange2tool, world.base2tracker)
+    points_tracker = true[:, :3, 3]
+    duration = float(test.t_s[-1])
+    count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
+    told_us = tracker.run_path(test.t_s, points_tracker, delay_s=HOLD_S)
+    with tracker.stream(STREAM_HZ, count=count) as stream:
+        rec = stream.collect(count)
+    ok = rec.code == 0
+    if ok.sum() < 0.9 * count:
+        raise CalibrationError(
+            f"the tracker streamed {int(ok.sum())} of {count} readings of the path"
+        )
+    # Times from where the simulator was told to start; the alignment finds the
+    # true start on the tracker's clock (its latency included) from the data alone.
+    t = (rec.t_us[ok] - told_us) / 1e6
+    p = rec.point_mm[ok] @ t2b[:3, :3].T + t2b[:3, 3]
+    start = ip.estimate_latency(t, p, reference, max_latency_s=HOLD_S)
+    inside = (t >= start) & (t <= start + duration)
+    return ip.Stream(t[inside] - start, p[inside]), float(start), rec.n[ok][inside]
+
+
+def rated_speed_mm_s(model: Any, test: PathTest) -> float:
+    """The path's rated speed: the fastest constant tool speed within the motion ceilings.
+
+    ISO 9283 states its speeds as 100, 50 and 10 % of the rated speed, which a
+    manufacturer's sheet gives; here it comes from the description's motion
+    ceilings: every joint ``j`` may turn at most
+    ``min(model.move_speed_cap_rad_s, model.max_joint_speed_rad_s[j])``. Joint
+    speeds scale with the tool speed along a fixed path, so the rated speed is
+    ``test.speed_mm_s`` times the smallest ratio of a joint's ceiling to its
+    peak speed along ``test`` (finite differences of the commands).
+
+    Parameters
+    ----------
+    model : calibrator.robots.RobotDescription
+    test : PathTest
+        The path planned at any speed.
+
+    Returns
+    -------
+    float
+        Rated tool speed along this path, mm/s.
+    """
+    ceiling = np.minimum(model.move_speed_cap_rad_s, np.asarray(model.max_joint_speed_rad_s))
+    dt = np.diff(test.t_s)
+    keep = dt > 1e-9  # a corner's command can fall within a nanosecond of a tick
+    speeds = np.abs(np.diff(test.q, axis=0)[keep] / dt[keep, None])
+    peak = speeds.max(axis=0)
+    ratio = np.where(peak > 0, ceiling / np.where(peak > 0, peak, 1.0), np.inf)
+    return float(test.speed_mm_s * ratio.min())
 
 
 def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:

@@ -70,6 +70,16 @@ def check(
     history: str = typer.Option(
         None, "--history", help="Record the check in this history (a file or a database URL)."
     ),
+    circle: bool = typer.Option(
+        False,
+        "--circle",
+        help="Run the quick circle test instead of the pose check: one circle clockwise then "
+        "counter-clockwise, its radius error, out-of-roundness and reversal marks, verdict ok "
+        "or flagged (simulated cell only; docs/check.md).",
+    ),
+    circle_speed: float = typer.Option(
+        100.0, "--circle-speed", help="Tool speed along the --circle test, mm/s."
+    ),
     quiet: bool = opts.quiet(),
     sim_noise: bool = typer.Option(True, hidden=True),
     sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
@@ -95,6 +105,14 @@ def check(
     from calibrator.model import frames
 
     output = Path(output)
+    if circle:
+        if session_file is not None:
+            fail("--circle measures a circle: leave out --session")
+        _check_circle(
+            calibration_path, output, run_args, world, seed, robot, tracker, tracker_at,
+            history, circle_speed,
+        )  # fmt: skip
+        return
     if session_file is not None:
         _check_recorded(session_file, calibration_path, output, tolerance, history, run_args, world)
         return
@@ -299,6 +317,103 @@ def _checkable(cal: Any, path: Path) -> Any:
             "predict its error; identify the session again with this version"
         )
     return model
+
+
+#: Exit code of a finished circle test per verdict.
+CIRCLE_EXIT_CODES = {"ok": 0, "flagged": 3}
+
+
+def _check_circle(
+    calibration_path: Path,
+    output: Path,
+    run_args: _run.RunArgs,
+    world: Path | None,
+    seed: int,
+    robot: str,
+    tracker: str,
+    tracker_at: str | None,
+    history: str | None,
+    speed_mm_s: float,
+) -> None:
+    """``check --circle``: the circle both ways with compensated commands, its verdict."""
+    import json
+
+    from calibrator import calibration as calibrations
+    from calibrator import outputs
+    from calibrator.acquire import verify as pose_run
+    from calibrator.check import circle as circles
+    from calibrator.cli import _model
+    from calibrator.errors import CalibrationError
+    from calibrator.model import frames
+    from calibrator.simulate import SimWorld
+    from drivers.tracker.base import OpenOptions, open_tracker
+    from drivers.tracker.line.simulator.world import SimulatedTracker
+
+    if not (_run.is_sim(robot) and _run.is_sim(tracker)):
+        fail("--circle runs on the simulated cell only (--robot sim --tracker sim) for now")
+    if history is not None:
+        fail("--circle results are not recorded in a history yet: leave out --history")
+    if not (0.0 < speed_mm_s <= 5000.0):
+        fail(f"--circle-speed must be in (0, 5000] mm/s, got {speed_mm_s:g}")
+    if output.suffix.lower() == ".parquet":
+        fail(f"-o {output}: give the JSON file of the circle test")
+    inputs = [p for p in (calibration_path, world) if p is not None]
+    outputs.check(output, inputs=inputs, force=run_args.force)
+    cal = calibrations.load(calibration_path)
+    arm = run_args.arm(_model.From(cal.model, calibration_path))
+    world_file = _run.read_world(world, robot, tracker)
+    try:
+        sim = world_file.build(arm.name, seed) if world_file else SimWorld.make(arm.name, seed)
+    except CalibrationError as exc:
+        fail(str(exc))
+    at = triple(tracker_at, "--tracker-at")
+    if at is not None:
+        sim = sim.with_tracker_at(at)
+    # The circle's plane and orientation are verify's (its cube, facing the tracker), the
+    # tool the calibration's: the same circle every day.
+    flange2tool = frames.transform(translation=cal.flange2tool[:3, 3])
+    vplan = pose_run.make_plan(arm, flange2tool, 2, None, cal, tuple(sim.tracker_at_mm), None)
+    registration = pose_run.from_calibration(cal, calibration_path)
+    device = open_tracker(tracker, OpenOptions(world=sim))
+    if not isinstance(device, SimulatedTracker):
+        raise CalibrationError(f"--circle needs the simulated tracker, not {tracker}")
+    try:
+        device.connect()
+        section = circles.run(
+            device, sim, arm, flange2tool, vplan, speed_mm_s, cal, registration.tracker2base
+        )
+    finally:
+        device.close()
+    doc = {
+        "format": "calibrator-check-circle",
+        "version": 1,
+        "test": "circle",
+        "model": arm.name,
+        "calibration": str(calibration_path),
+        "calibration_sha256": calibrations.digest(calibration_path),
+        "circle": section,
+        "verdict": section["verdict"],
+    }
+    with outputs.Outputs(inputs=inputs) as batch:
+        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    lim = section["limits_mm"]
+    typer.echo(
+        f"circle r = {section['commanded']['radius_mm']:.1f} mm at {speed_mm_s:g} mm/s, "
+        "clockwise then counter-clockwise, compensated commands, robot base frame"
+    )
+    typer.echo(
+        f"radius error {section['radius_error_mm']:+.4f} mm (limit {lim['radius_error_mm']:g})   "
+        f"out-of-roundness {section['out_of_roundness_mm']:.4f} mm "
+        f"(limit {lim['out_of_roundness_mm']:g})   reversal marks "
+        f"{section['reversal_mm']:.4f} mm (limit {lim['reversal_mm']:g})"
+    )
+    typer.echo(
+        f"centre offset {section['centre_offset_norm_mm']:.4f} mm   direction gap "
+        f"{section['direction_gap_mm']:.4f} mm"
+    )
+    typer.echo(f"verdict: {section['verdict']}")
+    typer.echo(f"wrote {output}")
+    raise typer.Exit(CIRCLE_EXIT_CODES[section["verdict"]])
 
 
 def _external_files(output: Path) -> tuple[Path, Path]:

@@ -128,10 +128,12 @@ def verify(
         "a circle about P1 or the rectangle P2..P5 in the cube's test plane, streamed by "
         "the tracker (simulated cell only; docs/verify.md).",
     ),
-    path_speed: float = typer.Option(
-        100.0,
+    path_speed: str = typer.Option(
+        "100",
         "--path-speed",
-        help="Tool speed along --path, mm/s (the standard's 100/50/10 % of the rated speed).",
+        metavar="MM_S|PCT%",
+        help="Tool speed along --path: mm/s, or a percentage of the path's rated speed "
+        "(ISO 9283's 100%, 50%, 10%; the fastest within the arm's motion ceilings).",
     ),
 ) -> None:
     """ISO 9283 pose test: P5..P1 for --cycles cycles; AP and RP per test pose.
@@ -160,7 +162,8 @@ def verify(
     if path_shape is not None:
         from calibrator.cli import verify_path
 
-        verify_path.check_options(path_shape, path_speed, robot, tracker, world, history)
+        speed = verify_path.parse_speed(path_speed)
+        verify_path.check_options(path_shape, speed, robot, tracker, world, history)
     inputs = [
         p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
     ]
@@ -212,7 +215,7 @@ def verify(
             path_registration = run.surveyed(surveyed_base, f"--base-frame {base_frame}")
         verify_path.run(
             shape=path_shape,
-            speed_mm_s=path_speed,
+            speed=verify_path.parse_speed(path_speed),
             arm=arm,
             vplan=vplan,
             flange2tool=frames.transform(translation=tool_mm),
@@ -225,6 +228,10 @@ def verify(
             output=output,
             inputs=inputs,
         )
+        if history is not None:
+            from calibrator.cli.history import record
+
+            record(history, "verification", output)
         return
     options = run.run_options(
         vplan,

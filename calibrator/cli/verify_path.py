@@ -9,6 +9,7 @@ section and prints the figures.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,8 +21,35 @@ from calibrator.cli._options import fail
 DEFAULT_SPEED_MM_S = 100.0
 
 
+@dataclass(frozen=True)
+class Speed:
+    """``--path-speed``: mm/s, or a percentage of the path's rated speed."""
+
+    value: float
+    percent: bool
+
+    def __str__(self) -> str:
+        return f"{self.value:g} %" if self.percent else f"{self.value:g} mm/s"
+
+
+def parse_speed(text: str) -> Speed:
+    """``--path-speed`` read: ``400`` (mm/s) or ``50%`` (of the rated speed); exit 2 otherwise."""
+    from calibrator.inputs.grammar import StrictError, parse_number
+
+    raw = str(text).strip()
+    percent = raw.endswith("%")
+    body = raw[:-1].strip() if percent else raw
+    try:
+        value = parse_number(body, "--path-speed")
+    except StrictError:
+        fail(f"--path-speed must be mm/s or a percentage such as 50%, got {text!r}")
+    if percent and not (0.0 < value <= 100.0):
+        fail(f"--path-speed must be in (0, 100] % of the rated speed, got {value:g} %")
+    return Speed(value, percent)
+
+
 def check_options(
-    shape: str, speed_mm_s: float, robot: str, tracker: str, world: Path | None, history: Any
+    shape: str, speed: Speed, robot: str, tracker: str, world: Path | None, history: Any
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
     from calibrator.acquire.verify_path import SHAPES
@@ -29,20 +57,18 @@ def check_options(
 
     if shape not in SHAPES:
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
-    if not (0.0 < speed_mm_s <= 5000.0):
-        fail(f"--path-speed must be in (0, 5000] mm/s, got {speed_mm_s:g}")
+    if not speed.percent and not (0.0 < speed.value <= 5000.0):
+        fail(f"--path-speed must be in (0, 5000] mm/s, got {speed.value:g}")
     if not (_run.is_sim(robot) and _run.is_sim(tracker)):
         fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
-    if history is not None:
-        fail("--path results are not recorded in a history yet: leave out --history")
 
 
 def run(
     *,
     shape: str,
-    speed_mm_s: float,
+    speed: Speed,
     arm: Any,
     vplan: Any,
     flange2tool: Any,
@@ -70,9 +96,11 @@ def run(
     if tracker_at_mm is not None:
         world = world.with_tracker_at(tracker_at_mm)
     rotation = vplan.desired[0][:3, :3]
-    test = verify_path.plan_path(
-        arm, flange2tool, shape, vplan.cube, rotation, vplan.q_test[0], speed_mm_s, calibration
-    )
+    plan_args = (arm, flange2tool, shape, vplan.cube, rotation, vplan.q_test[0])
+    # The rated speed from the nominal plan: the compensated one differs by microradians.
+    rated = verify_path.rated_speed_mm_s(arm, verify_path.plan_path(*plan_args, DEFAULT_SPEED_MM_S))
+    speed_mm_s = speed.value / 100.0 * rated if speed.percent else speed.value
+    test = verify_path.plan_path(*plan_args, speed_mm_s, calibration)
     if registration is None:
         registration = pose_run.sim_survey(world)
     tracker = open_tracker(tracker_url, OpenOptions(world=world))
@@ -83,11 +111,19 @@ def run(
         section, table = verify_path.run(tracker, world, test, cycles, registration.tracker2base)
     finally:
         tracker.close()
+    section["rated_speed_mm_s"] = rated
+    section["speed_pct"] = 100.0 * speed_mm_s / rated
+    from datetime import UTC, datetime
+
     doc = {
         "format": pose_run.FORMAT,
         "version": pose_run.VERSION,
         "test": "path",
         "model": arm.name,
+        # Who and when, as a pose test records them (the history files the test under them).
+        "robot": f"sim:{world.model.name}:seed={world.seed}",
+        "tracker": str(tracker.device_id or type(tracker).__name__),
+        "time": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "cube": vplan.cube.to_json(),
         "registration": registration.to_json(),
         "path": section,
@@ -103,7 +139,8 @@ def run(
     state = "compensated" if test.compensated else "nominal"
     typer.echo(
         f"ISO 9283 path ({shape}, {section['commanded']['length_mm']:.1f} mm at "
-        f"{speed_mm_s:g} mm/s), {cycles} cycles, {state} commands, robot base frame "
+        f"{speed_mm_s:.1f} mm/s, {section['speed_pct']:.0f} % of its rated {rated:.0f} mm/s), "
+        f"{cycles} cycles, {state} commands, robot base frame "
         f"(registration: {registration.method})"
     )
     typer.echo(

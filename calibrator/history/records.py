@@ -183,6 +183,8 @@ def verification(path: Path) -> Record:
         doc = jsonfile.load_json(data, where)
     if not isinstance(doc, dict) or doc.get("format") != "calibrator.verify":
         raise HistoryError(f"{where} is not a calibrator verify file")
+    if doc.get("test") == "path":
+        return path_verification(path, data, doc)
     poses = doc.get("poses")
     if not isinstance(poses, list) or not poses or not all(isinstance(p, dict) for p in poses):
         raise HistoryError(f"{where}: 'poses' must be a list of test poses")
@@ -198,6 +200,49 @@ def verification(path: Path) -> Record:
         "compensated": bool(doc.get("compensated")),
         "ap_mm": ap,
         "rp_mm": rp,
+        "document": doc,
+    }
+    return Record(
+        row,
+        robot=robot if isinstance(robot, str) and robot else None,
+        tracker=tracker if isinstance(tracker, str) and tracker else None,
+        model=doc.get("model") if isinstance(doc.get("model"), str) else None,
+    )
+
+
+#: A path test's figures: the document's key under ``path`` -> the row's column.
+PATH_FIGURES = {
+    "speed_mm_s": "speed_mm_s",
+    "AT_P_mm": "at_p_mm",
+    "RT_P_mm": "rt_p_mm",
+    "AV_pct": "av_pct",
+    "RV_pct": "rv_pct",
+    "FV_mm_s": "fv_mm_s",
+}
+
+
+def is_path_record(record: Record) -> bool:
+    """Whether a :func:`verification` record is a path test's (table ``path_verifications``)."""
+    return "at_p_mm" in record.row
+
+
+def path_verification(path: Path, data: bytes, doc: dict) -> Record:
+    """The record of ``verify --path``'s JSON: its shape, speed and clause 7 figures."""
+    where = str(path)
+    section = doc.get("path")
+    if not isinstance(section, dict):
+        raise HistoryError(f"{where}: a path test needs its 'path' section")
+    shape = section.get("shape")
+    if not isinstance(shape, str) or not shape:
+        raise HistoryError(f"{where}: path.shape must name the path")
+    robot, tracker = doc.get("robot"), doc.get("tracker")
+    row = {
+        "sha256": sha256_bytes(data),
+        "file": str(path),
+        "measured_at": utc(doc["time"], where) if "time" in doc else file_time(path),
+        "compensated": bool(section.get("compensated")),
+        "shape": shape,
+        **{col: _number(section, key, f"{where}: path") for key, col in PATH_FIGURES.items()},
         "document": doc,
     }
     return Record(

@@ -109,6 +109,27 @@ verifications = Table(
     Column("document", JSON, nullable=False),
 )
 
+#: An ISO 9283 path test (``verify --path``'s JSON; added by migration 0004).
+path_verifications = Table(
+    "path_verifications",
+    metadata,
+    Column("id", Integer, primary_key=True),
+    Column("robot_id", ForeignKey("robots.id"), nullable=False),
+    Column("tracker_id", ForeignKey("trackers.id")),
+    Column("sha256", String(64), nullable=False, unique=True),
+    Column("file", Text),
+    Column("measured_at", DateTime, nullable=False),
+    Column("compensated", Boolean, nullable=False),
+    Column("shape", String(20), nullable=False),
+    Column("speed_mm_s", Float, nullable=False),
+    Column("at_p_mm", Float, nullable=False),
+    Column("rt_p_mm", Float, nullable=False),
+    Column("av_pct", Float, nullable=False),
+    Column("rv_pct", Float, nullable=False),
+    Column("fv_mm_s", Float, nullable=False),
+    Column("document", JSON, nullable=False),
+)
+
 #: A quick re-check (``calibrator check``'s JSON).
 checks = Table(
     "checks",

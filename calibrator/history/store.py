@@ -498,11 +498,14 @@ class History:
             return self._insert(conn, schema.calibrations, replace(record, row=row), name)
 
     def record_verification(self, path: str | os.PathLike, robot: str | None = None) -> int:
-        """Record verify's JSON (ISO 9283 pose test); return its id."""
+        """Record verify's JSON (ISO 9283 pose test, or path test: its own table); its id."""
         record = records.verification(Path(path))
         record = replace(record, row={**record.row, "file": str(Path(path).resolve())})
+        table = (
+            schema.path_verifications if records.is_path_record(record) else schema.verifications
+        )
         with self._begin() as conn:
-            return self._insert(conn, schema.verifications, record, robot or record.robot, path)
+            return self._insert(conn, table, record, robot or record.robot, path)
 
     def record_check(self, doc: dict) -> int:
         """Record a ``calibrator check`` document (:data:`records.CHECK_FIELDS`); return its id."""
@@ -651,6 +654,10 @@ class History:
     def verifications(self, robot: str) -> list[dict]:
         """A robot's ISO 9283 tests, oldest first (every column and ``tracker``)."""
         return self._rows(schema.verifications, robot, "measured_at")
+
+    def path_verifications(self, robot: str) -> list[dict]:
+        """A robot's ISO 9283 path tests (``verify --path``), oldest first."""
+        return self._rows(schema.path_verifications, robot, "measured_at")
 
     def checks(self, robot: str) -> list[dict]:
         """A robot's checks, oldest first (every column)."""

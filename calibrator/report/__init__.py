@@ -60,6 +60,7 @@ FILES = (
     "convergence.png",
     "deltas.png",
     "verify_clouds.png",
+    "verify_path.png",
     "index.html",
 )
 

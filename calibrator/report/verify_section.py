@@ -7,6 +7,8 @@ figures when measured), the runs side by side in the order given, and
 commanded position and its attained positions about the barycentre (x-y
 deviations, mm, one scale per row), read from the ``verify.parquet`` beside
 each JSON. A run without its parquet is tabled and the plot says so.
+Path tests (``verify --path``) among the files go to their own section
+(:mod:`calibrator.report.path_section`).
 """
 
 from __future__ import annotations
@@ -81,6 +83,17 @@ def load(paths: Iterable[str | os.PathLike[str]] | None) -> list[VerifyRun]:
             raise CalibrationError(f"--verify {path}: file not found") from None
         except (OSError, ValueError, UnicodeDecodeError) as exc:
             raise CalibrationError(f"--verify {path}: not a readable JSON file ({exc})") from None
+        from calibrator.report import path_section
+
+        if (
+            isinstance(doc, dict)
+            and doc.get("format") == "calibrator.verify"
+            and path_section.is_path(doc)
+        ):
+            # A path test (verify --path): its own section, its stream not read.
+            path_section.validate(doc, str(path))
+            runs.append(VerifyRun(path, doc, None))
+            continue
         poses = doc.get("poses") if isinstance(doc, dict) else None
         if (
             not isinstance(doc, dict)
@@ -225,9 +238,18 @@ def add(html: str, runs: list[VerifyRun]) -> tuple[str, dict]:
     images : dict
         ``{CLOUDS_PNG: bytes}`` when every run has its parquet, else empty.
     """
-    images = {}
-    if all(run.table is not None for run in runs):
-        images[CLOUDS_PNG] = clouds_png(runs)
-    section = section_html(runs, images)
-    end = html.rfind("</body>")
-    return html[:end] + section + "\n" + html[end:], images
+    from calibrator.report import path_section
+
+    paths = [run for run in runs if path_section.is_path(run.doc)]
+    runs = [run for run in runs if not path_section.is_path(run.doc)]
+    images: dict = {}
+    if runs:
+        if all(run.table is not None for run in runs):
+            images[CLOUDS_PNG] = clouds_png(runs)
+        section = section_html(runs, images)
+        end = html.rfind("</body>")
+        html = html[:end] + section + "\n" + html[end:]
+    if paths:  # verify --path results: the path section after the pose test's
+        html, more = path_section.add(html, paths)
+        images.update(more)
+    return html, images

@@ -70,7 +70,7 @@ def test_the_circle_test_runs_in_the_same_plane(tmp_path):
         (("--path", "square"), "--path must be one of line, circle, rectangle"),
         (("--path", "line", "--path-speed", "0"), "--path-speed must be in"),
         (("--path", "line", "--tracker", "socket://127.0.0.1:9"), "simulated cell only"),
-        (("--path", "line", "--history", "h.db"), "not recorded in a history"),
+        (("--path", "line", "--path-speed", "fast"), "--path-speed must be mm/s or a percentage"),
     ],
 )
 def test_path_options_it_cannot_run_are_refused_in_one_line(tmp_path, args, message):
