@@ -190,16 +190,23 @@ def verification(path: Path) -> Record:
         raise HistoryError(f"{where}: 'poses' must be a list of test poses")
     ap = max(_number(p, "AP_mm", where) for p in poses)
     rp = max(_number(p, "RP_mm", where) for p in poses)
-    robot = doc.get("robot")
-    tracker = doc.get("tracker")
+    return _verify_record(
+        path, data, doc, {"compensated": bool(doc.get("compensated")), "ap_mm": ap, "rp_mm": rp}
+    )
+
+
+def _verify_record(path: Path, data: bytes, doc: dict, figures: dict) -> Record:
+    """A verify document's record: digest, file, time, ``figures`` and the document itself.
+
+    The robot, tracker and model are the ones the document names.
+    """
+    robot, tracker = doc.get("robot"), doc.get("tracker")
     row = {
         "sha256": sha256_bytes(data),
         "file": str(path),
         # verify.json records no time: the file's is when it was written.
-        "measured_at": utc(doc["time"], where) if "time" in doc else file_time(path),
-        "compensated": bool(doc.get("compensated")),
-        "ap_mm": ap,
-        "rp_mm": rp,
+        "measured_at": utc(doc["time"], str(path)) if "time" in doc else file_time(path),
+        **figures,
         "document": doc,
     }
     return Record(
@@ -235,21 +242,12 @@ def path_verification(path: Path, data: bytes, doc: dict) -> Record:
     shape = section.get("shape")
     if not isinstance(shape, str) or not shape:
         raise HistoryError(f"{where}: path.shape must name the path")
-    robot, tracker = doc.get("robot"), doc.get("tracker")
-    row = {
-        "sha256": sha256_bytes(data),
-        "file": str(path),
-        "measured_at": utc(doc["time"], where) if "time" in doc else file_time(path),
-        "compensated": bool(section.get("compensated")),
-        "shape": shape,
-        **{col: _number(section, key, f"{where}: path") for key, col in PATH_FIGURES.items()},
-        "document": doc,
-    }
-    return Record(
-        row,
-        robot=robot if isinstance(robot, str) and robot else None,
-        tracker=tracker if isinstance(tracker, str) and tracker else None,
-        model=doc.get("model") if isinstance(doc.get("model"), str) else None,
+    figures = {col: _number(section, key, f"{where}: path") for key, col in PATH_FIGURES.items()}
+    return _verify_record(
+        path,
+        data,
+        doc,
+        {"compensated": bool(section.get("compensated")), "shape": shape, **figures},
     )
 
 

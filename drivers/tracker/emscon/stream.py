@@ -35,19 +35,15 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
-import numpy as np
-
-from drivers.errors import DriverError
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import ConnectionLost, FrameError, TrackerTimeout
 from drivers.tracker.emscon.link import EmsconLink
 from drivers.tracker.emscon.reading import EmsconReading
 from drivers.tracker.line.errors import StreamStalled
-from drivers.tracker.line.stream import StreamRecord
+from drivers.tracker.streaming import SampleStream
 
 
 class StreamOwner(Protocol):
@@ -96,7 +92,7 @@ class EmsconStreamSample:
         return self.code in BEAM_BROKEN_STATUS
 
 
-class EmsconReadingStream:
+class EmsconReadingStream(SampleStream):
     """A running continuous-time measurement; iterate it for its ticks.
 
     Attributes
@@ -235,19 +231,6 @@ class EmsconReadingStream:
             self._last_t = t_us
         self._pending.append(EmsconStreamSample(n, t_us, None, int(status)))
 
-    def __iter__(self) -> Iterator[EmsconStreamSample]:
-        while (sample := self.next()) is not None:
-            yield sample
-
-    def collect(self, count: int) -> StreamRecord:
-        """Read up to ``count`` ticks (fewer if the stream ends) into arrays."""
-        samples = []
-        for sample in self:
-            samples.append(sample)
-            if len(samples) >= count:
-                break
-        return as_record(samples)
-
     # ------------------------------------------------------------ stopping
 
     def stop(self) -> None:
@@ -256,37 +239,3 @@ class EmsconReadingStream:
         if not self.ended:
             self.ended = True
         self._tracker.stop_stream()
-
-    def _stop_quietly(self) -> None:
-        try:
-            self.stop()
-        except DriverError:
-            pass  # the failure is reported; a server that cannot stop shows at the next command
-
-    def __enter__(self) -> EmsconReadingStream:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if exc[0] is None:
-            self.stop()
-        else:
-            self._stop_quietly()
-
-
-def as_record(samples: list[EmsconStreamSample]) -> StreamRecord:
-    """Arrays of a list of ticks (the line stream's :class:`StreamRecord`)."""
-    k = len(samples)
-    point = np.full((k, 3), np.nan)
-    accurate = np.zeros(k, dtype=bool)
-    for i, s in enumerate(samples):
-        if s.reading is not None:
-            point[i] = s.reading.point_mm
-            accurate[i] = s.reading.accurate
-    return StreamRecord(
-        n=np.array([s.n for s in samples], dtype=np.int64),
-        t_us=np.array([s.device_time_us for s in samples], dtype=np.int64),
-        point_mm=point,
-        rotvec_rad=None,
-        code=np.array([s.code for s in samples], dtype=np.int64),
-        accurate=accurate,
-    )

@@ -22,16 +22,14 @@ clock in microseconds.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
-import numpy as np
-
-from drivers.tracker.errors import ConnectionLost, DriverError, TrackerTimeout
+from drivers.tracker.errors import ConnectionLost, TrackerTimeout
 from drivers.tracker.line.errors import StreamStalled
 from drivers.tracker.line.link import Link
 from drivers.tracker.line.protocol import ErrorCode, Reading
+from drivers.tracker.streaming import SampleStream
 
 
 class StreamOwner(Protocol):
@@ -73,36 +71,7 @@ class StreamSample:
         return self.code in (ErrorCode.BEAM_BROKEN, ErrorCode.NO_TARGET)
 
 
-@dataclass(frozen=True)
-class StreamRecord:
-    """A stream's ticks as arrays (what :meth:`ReadingStream.collect` returns).
-
-    Attributes
-    ----------
-    n : ndarray of int, shape (K,)
-        Tick numbers, strictly increasing (gaps are lost ticks).
-    t_us : ndarray of int, shape (K,)
-        Tracker clock at each tick, microseconds.
-    point_mm : ndarray, shape (K, 3)
-        Positions, tracker frame, mm; NaN at ticks without a reading.
-    rotvec_rad : ndarray, shape (K, 3), or None
-        Probe orientations (probe to tracker frame), rad, NaN where none;
-        None from a reflector.
-    code : ndarray of int, shape (K,)
-        0 with a reading, else why there is none.
-    accurate : ndarray of bool, shape (K,)
-        The reading is flagged ``ACC``.
-    """
-
-    n: np.ndarray
-    t_us: np.ndarray
-    point_mm: np.ndarray
-    rotvec_rad: np.ndarray | None
-    code: np.ndarray
-    accurate: np.ndarray
-
-
-class ReadingStream:
+class ReadingStream(SampleStream):
     """A running stream (made by :meth:`LaserTracker.stream`); iterate it for its ticks.
 
     Use it as a context manager, so the stream is stopped however the block ends.
@@ -171,60 +140,8 @@ class ReadingStream:
             return StreamSample(frame.n, frame.device_time_us, frame.reading, frame.code)
         return None
 
-    def __iter__(self) -> Iterator[StreamSample]:
-        while (sample := self.next()) is not None:
-            yield sample
-
-    def collect(self, count: int) -> StreamRecord:
-        """Read up to ``count`` ticks (fewer if the stream ends) into arrays."""
-        samples = []
-        for sample in self:
-            samples.append(sample)
-            if len(samples) >= count:
-                break
-        return record(samples)
-
     def stop(self) -> None:
         """``STOP``: end the stream; ticks still on their way are dropped and counted."""
         if not self.ended:
             self.ended = True
             self._tracker.stop()
-
-    def _stop_quietly(self) -> None:
-        """Stop after a failure: the failure is what the caller hears about."""
-        try:
-            self.stop()
-        except DriverError:
-            pass  # the stall is reported; a tracker that cannot stop will show at its next command
-
-    def __enter__(self) -> ReadingStream:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if exc[0] is None:
-            self.stop()
-        else:
-            self._stop_quietly()
-
-
-def record(samples: list[StreamSample]) -> StreamRecord:
-    """Arrays of a list of ticks (see :class:`StreamRecord`)."""
-    k = len(samples)
-    point = np.full((k, 3), np.nan)
-    six_dof = any(s.reading is not None and s.reading.rotvec_rad is not None for s in samples)
-    rot = np.full((k, 3), np.nan) if six_dof else None
-    accurate = np.zeros(k, dtype=bool)
-    for i, s in enumerate(samples):
-        if s.reading is not None:
-            point[i] = s.reading.point_mm
-            accurate[i] = s.reading.accurate
-            if rot is not None and s.reading.rotvec_rad is not None:
-                rot[i] = s.reading.rotvec_rad
-    return StreamRecord(
-        n=np.array([s.n for s in samples], dtype=np.int64),
-        t_us=np.array([s.device_time_us for s in samples], dtype=np.int64),
-        point_mm=point,
-        rotvec_rad=rot,
-        code=np.array([s.code for s in samples], dtype=np.int64),
-        accurate=accurate,
-    )

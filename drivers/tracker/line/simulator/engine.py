@@ -386,20 +386,23 @@ class TrackerSimulator:
         if not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
             return error_body(cmd.seq, ErrorCode.OUT_OF_RANGE, f"{self._range_mm:.1f} mm")
         point = self.noise.sample_point(self._target, self._rng, self._noise_scale)
-        status = ReadingStatus.ACCURATE
-        if self._unstable_left:
-            self._unstable_left -= 1
-            point = point + self._rng.normal(0.0, UNSTABLE_SIGMA_MM, 3)
-            status = ReadingStatus.UNSTABLE
-        elif self._inaccurate_left:
-            self._inaccurate_left -= 1
-            status = ReadingStatus.INACCURATE
+        point, status = self._flagged(point)
         rotvec = None
         if self.probe_6dof:
             rotvec = self.noise.sample_rotvec(self._target_rotvec, self._rng)
             rotvec = rotvec / ANGLE_UNITS[self._units[1]]
         point = point / LENGTH_UNITS[self._units[0]]
         return ok_body(cmd.seq, *reading_fields(point, rotvec, status, t_us))
+
+    def _flagged(self, point: np.ndarray) -> tuple[np.ndarray, ReadingStatus]:
+        """A reading's point and status under the scripted flag faults (consumes one)."""
+        if self._unstable_left:
+            self._unstable_left -= 1
+            return point + self._rng.normal(0.0, UNSTABLE_SIGMA_MM, 3), ReadingStatus.UNSTABLE
+        if self._inaccurate_left:
+            self._inaccurate_left -= 1
+            return point, ReadingStatus.INACCURATE
+        return point, ReadingStatus.ACCURATE
 
     def _moving_reading(self, seq: int, t_us: int) -> str:
         """``MEAS`` of a moving target: its reply body (a reading or an ``ER``)."""
@@ -419,14 +422,7 @@ class TrackerSimulator:
         if not MIN_RANGE_MM <= float(np.linalg.norm(point)) <= MAX_RANGE_MM:
             return ("NONE", str(int(ErrorCode.OUT_OF_RANGE)))
         point = self.noise.sample_point(point, self._rng, scale)
-        status = ReadingStatus.ACCURATE
-        if self._unstable_left:
-            self._unstable_left -= 1
-            point = point + self._rng.normal(0.0, UNSTABLE_SIGMA_MM, 3)
-            status = ReadingStatus.UNSTABLE
-        elif self._inaccurate_left:
-            self._inaccurate_left -= 1
-            status = ReadingStatus.INACCURATE
+        point, status = self._flagged(point)
         rotvec = None
         if self.probe_6dof:
             rotvec = self.noise.sample_rotvec(rot, self._rng) / ANGLE_UNITS[self._units[1]]
