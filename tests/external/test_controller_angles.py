@@ -153,8 +153,8 @@ def test_a_session_in_controller_angles_identifies_as_least_squares_from_the_tru
     assert ours <= 1.5 * baseline
 
 
-def test_the_same_session_read_as_model_angles_does_not_fit(tmp_path):
-    """The map matters: a KUKA session marked as model angles is another arm's data."""
+def test_a_session_is_read_through_its_arms_convention(tmp_path):
+    """A KUKA session in A1..A6 reaches the kinematics mirrored in joints 1 and 6."""
     rng = np.random.default_rng(3)
     true = TrueArm("kuka-kr6-r900", tmp_path, seed=4)
     q = true.sample(40, rng)
