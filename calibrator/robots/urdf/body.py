@@ -90,13 +90,12 @@ def fit_body(
                     base_low.append(float(low))
                     found = True
                     continue
-                pm, qm = to_model @ p_base, to_model @ q_base
                 capsules.append(
                     Capsule(
                         f"{name}" + (f" {k + 1}" if k else ""),
                         i,
-                        tuple(float(v) for v in pm[:3]),  # type: ignore[arg-type]
-                        tuple(float(v) for v in qm[:3]),  # type: ignore[arg-type]
+                        _point(to_model @ p_base),
+                        _point(to_model @ q_base),
                         float(r + margin_mm),
                     )
                 )
@@ -119,23 +118,14 @@ def fit_body(
                 Capsule(
                     f"link {i}",
                     i,
-                    tuple(float(v) for v in (to_model @ np.append(start, 1.0))[:3]),  # type: ignore[arg-type]
-                    tuple(float(v) for v in (to_model @ np.append(end, 1.0))[:3]),  # type: ignore[arg-type]
+                    _point(to_model @ np.append(start, 1.0)),
+                    _point(to_model @ np.append(end, 1.0)),
                     r + margin_mm,
                 )
             )
-    joint1 = model_frames[0]
-    if base_ends:
-        # A vertical cylinder about the base z axis around every base capsule.
-        pts, r_max = np.array(base_ends), max(base_radii)
-        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + r_max + margin_mm)
-        top = float(pts[:, 2].max() + r_max)
-        bottom = float(min(0.0, min(base_low)))
-    else:
-        # No geometry: a base under the shoulder, half its height.
-        radius, bottom = BARE_LINK_RADIUS_MM * 1.5, 0.0
-        top = _bare_base_top(model_frames)
+    radius, top, bottom = _base_cylinder(base_ends, base_radii, base_low, model_frames, margin_mm)
     # The cell works in MDH frame 0: base cylinder heights and the shoulder in it.
+    joint1 = model_frames[0]
     shift = float(joint1[2, 3]) if np.allclose(joint1[:3, :3], np.eye(3)) else 0.0
     d1_point = model_frames[1][:3, 3] if len(model_frames) > 1 else joint1[:3, 3]
     return Body(
@@ -148,6 +138,32 @@ def fit_body(
         source=_body_source(chain, bare, margin_mm, missing),
         guessed=_guessed(bare, missing),
     )
+
+
+def _point(homogeneous: np.ndarray) -> tuple[float, float, float]:
+    """A point (4,) in homogeneous coordinates as a capsule end (mm)."""
+    return float(homogeneous[0]), float(homogeneous[1]), float(homogeneous[2])
+
+
+def _base_cylinder(
+    ends: list[np.ndarray],
+    radii: list[float],
+    lows: list[float],
+    model_frames: np.ndarray,
+    margin_mm: float,
+) -> tuple[float, float, float]:
+    """The base cylinder's radius, top and bottom (base link, mm).
+
+    A vertical cylinder about the base z axis around every base capsule
+    (``ends``, ``radii``), standing on the base geometry's lowest point
+    (``lows``, z = 0 at most); without base geometry, one under the
+    shoulder, half its height.
+    """
+    if not ends:
+        return BARE_LINK_RADIUS_MM * 1.5, _bare_base_top(model_frames), 0.0
+    pts, r_max = np.array(ends), max(radii)
+    radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1])) + r_max + margin_mm)
+    return radius, float(pts[:, 2].max() + r_max), float(min(0.0, min(lows)))
 
 
 def _guessed(bare: list[int], missing: list[str]) -> str:
