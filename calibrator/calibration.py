@@ -86,9 +86,10 @@ class Provenance:
         The joint-term options (``identify --joint-terms`` and its
         companions); ``None``: the file records none.
     unrecorded : frozenset of str
-        Option keys of :data:`calibrator.recorded_options.RULES` the file
-        does not record (written before they were): their fields in
-        ``options`` and ``joint`` hold the defaults, and are not written back.
+        Option keys of :data:`calibrator.recorded_options.RULES` a file that
+        records some options lacks (written before those were recorded):
+        their fields in ``options`` and ``joint`` hold the defaults, and are
+        not written back.
     versions : dict
         ``{"calibrator", "numpy", "scipy", "python"}`` version strings.
     created : str or None
@@ -186,14 +187,15 @@ class Provenance:
                 )
             values["payload_com_mm"] = [float(v) for v in com]
         records: dict[str, Any] = {}
+        unrecorded: set[str] = set()
         for name, kind in (("options", Options), ("joint", JointTermOptions)):
             given = {k: values.pop(k) for k in kind.rules() if k in values}
             records[name] = kind.from_record(given) if given else None
-        return cls(
-            **values,
-            **records,
-            unrecorded=frozenset(k for k in recorded_options.RULES if doc.get(k) is None),
-        )
+            if given:
+                # A default of None is never written: only the others can be missing.
+                unset = kind.from_record({}).recorded()
+                unrecorded.update(k for k in unset if k not in given)
+        return cls(**values, **records, unrecorded=frozenset(unrecorded))
 
 
 def _is_number(value: object) -> bool:

@@ -19,11 +19,16 @@ from typer.core import TyperGroup
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
+from calibrator.cli._history_record import record, refuse_unusable
 from calibrator.cli._options import fail
 from calibrator.errors import CalibrationError
 
 if TYPE_CHECKING:
     from calibrator.history.store import History
+
+# check and verify import these from here; identify from their own module
+# (this one imports identify's option reading for reidentify).
+__all__ = ["record", "refuse_unusable"]
 
 HISTORY_HELP = (
     "History: an SQLite file or postgresql://USER@HOST/DB; ?timeout=SECONDS bounds every "
@@ -53,47 +58,6 @@ app.add_typer(history_app, name="history")
 
 def _history_option() -> Any:
     return typer.Option(None, "--history", metavar="FILE|URL", help=HISTORY_HELP)
-
-
-def refuse_unusable(target: str) -> None:
-    """Open and close ``--history`` before a command's work: one it cannot use is refused now.
-
-    ``identify`` and ``verify`` record what they wrote at the end; a history
-    that is no history, a server that does not answer or a bad URL is told
-    in one line before anything is computed or written.
-    """
-    try:
-        from calibrator.history.store import check_usable
-    except ImportError:  # an installation without the history's database libraries
-        fail("--history: this installation has no history support (calibrator.history)")
-    check_usable(target)
-
-
-def record(target: str, kind: str, path: Path) -> int:
-    """Record a file a command just wrote (``identify``/``verify`` ``--history``); print it.
-
-    Parameters
-    ----------
-    target : str
-        ``--history`` as given.
-    kind : {'calibration', 'verification'}
-    path : Path
-    """
-    from calibrator.history import HistoryError, open_history
-
-    try:
-        with open_history(target) as history:
-            method = {
-                "calibration": history.record_calibration,
-                "verification": history.record_verification,
-            }[kind]
-            number = method(path)
-            typer.echo(f"recorded {kind} {number} in the history {history.where}")
-    except HistoryError as exc:
-        fail(
-            f"wrote {path} but did not record it ({exc}); record it with: calibrator history import"
-        )
-    return number
 
 
 def _limit_option(flag: str, what: str) -> Any:

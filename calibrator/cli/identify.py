@@ -182,7 +182,7 @@ def identify(
         if report_dir.resolve() == output.resolve():
             raise CalibrationError(f"--report {report_dir} is the output file itself")
     if history is not None:  # a history it could not record into is refused before the work
-        from calibrator.cli.history import refuse_unusable
+        from calibrator.cli._history_record import refuse_unusable
 
         refuse_unusable(history)
     reporter = progress.Reporter.for_cli(quiet)
@@ -213,7 +213,7 @@ def identify(
     also = f" and the report in {report_dir}" if report_dir is not None else ""
     typer.echo(f"identified in {done.took_s:.2f} s; wrote {output}{also}")
     if history is not None:
-        from calibrator.cli.history import record
+        from calibrator.cli._history_record import record
 
         record(history, "calibration", output)
 

@@ -88,12 +88,15 @@ def test_a_typed_option_overrides_a_bad_recorded_one(made):
     (made / "o.json").unlink()
 
 
-def test_every_rule_is_a_provenance_field_and_every_flag_an_identify_option():
-    names = {f.name for f in dataclasses.fields(calibration.Provenance)}
-    assert set(recorded_options.RULES) <= names
-    assert calibration.Provenance.OPTION_KEYS + calibration.Provenance.JOINT_OPTION_KEYS == tuple(
-        recorded_options.RULES
-    )
+def test_every_rule_is_a_field_of_the_options_provenance_nests_and_every_flag_an_option():
+    options, joint = recorded_options.Options, recorded_options.JointTermOptions
+    names = [f.name for f in dataclasses.fields(options) + dataclasses.fields(joint)]
+    assert names == list(recorded_options.RULES)  # one rule per field, in file order
+    assert all(f.metadata["rule"].key == f.name for f in dataclasses.fields(options))
+    nested = {f.name: f.type for f in dataclasses.fields(calibration.Provenance)}
+    assert "Options" in str(nested["options"]) and "JointTermOptions" in str(nested["joint"])
+    assert recorded_options.PIPELINE + recorded_options.JOINT == tuple(recorded_options.RULES)
+    assert set(recorded_options.RULES) <= set(calibration.Provenance.KEYS)
     command = typer.main.get_command(_app.app).commands["identify"]  # type: ignore[attr-defined]
     flags = {o for p in command.params for o in p.opts}
     for rule in recorded_options.RULES.values():
