@@ -139,10 +139,8 @@ def test_reidentify_refuses_identify_options_identify_refuses_before_any_work(tm
         ("--method newton", "'newton' is not one of"),
         ("--k 1 --orientation-weight 2", "give --orientation-weight only"),
     ):
-        line = one_line_error(
-            cli("history", "reidentify", "--history", history, "-o", "out",
-                "--identify-options", options, cwd=tmp_path)  # fmt: skip
-        )
+        asked = ("history", "reidentify", "--history", history, "-o", "out", "--identify-options")
+        line = one_line_error(cli(*asked, options, cwd=tmp_path))
         assert line.startswith(f"calibrator: error: --identify-options {options!r}: "), line
         assert says in line
         assert not (tmp_path / "out").exists()
