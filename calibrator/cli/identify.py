@@ -7,7 +7,9 @@ its defaults from them, hands what was typed to
 :func:`calibrator.identify.calibrate.recall` for ``--like``, and prints.
 """
 
-from collections.abc import Sequence
+import functools
+import inspect
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -36,22 +38,12 @@ _TARGET = Rule("target_mm", float, 1e-4, 1e4, unit="mm", meaning="held-out error
 _DEFAULT, _JOINT = Options(), JointTermOptions()
 #: The orientation weight taken when none is given, as help shows it ("1e4").
 _DEFAULT_K = f"{DEFAULT_K:.0e}".replace("e+0", "e")
-#: Option key of each parameter of the command that sets one (``--k``: the old name).
+#: Option key of each parameter of the command that sets one: its own name, but
+#: for these (``--k`` is the old name of ``--orientation-weight``).
 _KEYS = {
-    "method": "method",
-    "loss": "loss",
-    "particles": "particles",
-    "generations": "generations",
+    **{key: key for key in RULES},
     "orientation_weight": "k",
-    "k": "k",
-    "validation_fraction": "validation_fraction",
-    "seed": "seed",
-    "noise_mm": "noise_mm",
-    "tool_known": "tool_known",
     "joint_terms_text": "joint_term_groups",
-    "mass_model": "mass_model",
-    "payload_kg": "payload_kg",
-    "payload_com_mm": "payload_com_mm",
 }
 
 
@@ -67,8 +59,106 @@ def _option(key: str, help: str, *flags: str, **kw: Any) -> Any:
     return typer.Option(default, *flags, callback=checks.rule(RULES[key]), help=help, **kw)
 
 
+#: The parameters of the options :class:`Options` and :class:`JointTermOptions`
+#: declare, with their typer options (the field's default, the rule's check),
+#: each group after the parameter it is keyed by, in the order help lists them.
+#: The command reads them through :func:`_given`, not as arguments.
+_RECORDED_PARAMS: dict[str, dict[str, Any]] = {
+    "model": {
+        "method": typer.Option(
+            _METHOD,
+            help="hybrid: swarm, then least squares; pso: swarm only; lm: least squares only.",
+        ),
+        "loss": typer.Option(
+            _LOSS,
+            help="lsq: least squares; huber/trimmed: robust to outlier poses; "
+            "minimax: smallest worst-pose error.",
+        ),
+        "particles": _option("particles", f"Swarm size ({RULES['particles'].bounds})."),
+        "generations": _option(
+            "generations", f"Swarm generations ({RULES['generations'].bounds})."
+        ),
+        "orientation_weight": _option(
+            "k",
+            f"Weight k of orientation errors ({RULES['k'].bounds}) [default: {_DEFAULT_K}].",
+            "--orientation-weight",
+        ),
+        "k": _option("k", "Old name.", "--k", hidden=True),
+        "validation_fraction": _option(
+            "validation_fraction",
+            f"Share of poses held out for checking, in {RULES['validation_fraction'].bounds} "
+            "(0 = fit all).",
+        ),
+        "seed": _option("seed", "Random seed of the hold-out split and the swarm."),
+        "noise_mm": _option(
+            "noise_mm",
+            "Measurement noise (mm per axis) assumed when deciding what the poses identify "
+            f"({RULES['noise_mm'].bounds}).",
+        ),
+        "tool_known": typer.Option(
+            _DEFAULT.tool_known,
+            "--tool-known/--tool-free",
+            help="Fix or identify the tool frame (point; rotation with 6-DoF data) "
+            "[default: session].",
+        ),
+    },
+    "like": {
+        "joint_terms_text": typer.Option(
+            None,  # not given: the default, no joint terms
+            "--joint-terms",
+            callback=checks.rule(RULES["joint_term_groups"]),
+            help="Also fit joint terms: any of scale,harmonic,compliance; each kept only if "
+            "it lowers the cross-validated error.",
+        ),
+        "mass_model": _option(
+            "mass_model", "Mass model for compliance: a named arm or a YAML [default: the model's]."
+        ),
+        "payload_kg": _option(
+            "payload_kg",
+            f"Payload ({RULES['payload_kg'].bounds}) of sessions that do not record one "
+            "[default: 0].",
+        ),
+        "payload_com_mm": typer.Option(
+            ",".join(f"{v:g}" for v in _JOINT.payload_com_mm),
+            callback=checks.rule(RULES["payload_com_mm"]),
+            help="Payload centre of mass in the flange frame, x,y,z "
+            f"({RULES['payload_com_mm'].bounds}).",
+        ),
+    },
+}
+
+
+def _kind(name: str) -> Any:
+    """The type typer converts parameter ``name`` to: its rule's (``X,Y,Z`` as text)."""
+    kind = {"method": Method, "loss": Loss}.get(name) or RULES[_KEYS[name]].kind
+    return str if kind is tuple else kind
+
+
+def _with_recorded_options(command: Callable[..., None]) -> Callable[..., None]:
+    """Give ``command`` the parameters of :data:`_RECORDED_PARAMS`; it receives the others.
+
+    Use it below :func:`calibrator.cli._options.urdf_links`.
+    """
+    signature = inspect.signature(command)
+    params: list[inspect.Parameter] = []
+    for p in signature.parameters.values():
+        params.append(p)
+        for name, option in _RECORDED_PARAMS.get(p.name, {}).items():
+            params.append(inspect.Parameter(name, p.kind, default=option, annotation=_kind(name)))
+    added = {name for group in _RECORDED_PARAMS.values() for name in group}
+
+    @functools.wraps(command)
+    def declared(*args: Any, **given: Any) -> None:
+        command(*args, **{k: v for k, v in given.items() if k not in added})
+
+    declared.__signature__ = inspect.Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    declared.__annotations__ = {p.name: p.annotation for p in params}
+    return declared
+
+
 @app.command()
 @opts.urdf_links
+@_with_recorded_options
 def identify(
     ctx: typer.Context,
     session_paths: list[Path] = typer.Argument(
@@ -79,41 +169,6 @@ def identify(
     output: Path = opts.output(Path("calibration.json"), "Calibration file to write (JSON)."),
     force: bool = opts.force(),
     model: str = opts.model(None, "Named model instead of the session's."),
-    method: Method = typer.Option(
-        _METHOD,
-        help="hybrid: swarm, then least squares; pso: swarm only; lm: least squares only.",
-    ),
-    loss: Loss = typer.Option(
-        _LOSS,
-        help="lsq: least squares; huber/trimmed: robust to outlier poses; "
-        "minimax: smallest worst-pose error.",
-    ),
-    particles: int = _option("particles", f"Swarm size ({RULES['particles'].bounds})."),
-    generations: int = _option(
-        "generations", f"Swarm generations ({RULES['generations'].bounds})."
-    ),
-    orientation_weight: float = _option(
-        "k",
-        f"Weight k of orientation errors ({RULES['k'].bounds}) [default: {_DEFAULT_K}].",
-        "--orientation-weight",
-    ),
-    k: float = _option("k", "Old name.", "--k", hidden=True),
-    validation_fraction: float = _option(
-        "validation_fraction",
-        f"Share of poses held out for checking, in {RULES['validation_fraction'].bounds} "
-        "(0 = fit all).",
-    ),
-    seed: int = _option("seed", "Random seed of the hold-out split and the swarm."),
-    noise_mm: float = _option(
-        "noise_mm",
-        "Measurement noise (mm per axis) assumed when deciding what the poses identify "
-        f"({RULES['noise_mm'].bounds}).",
-    ),
-    tool_known: bool = typer.Option(
-        _DEFAULT.tool_known,
-        "--tool-known/--tool-free",
-        help="Fix or identify the tool frame (point; rotation with 6-DoF data) [default: session].",
-    ),
     nominal_file: Path = typer.Option(
         None,
         "--nominal",
@@ -128,26 +183,6 @@ def identify(
         metavar="CALIBRATION",
         help="Re-run with the options recorded in this calibration file "
         "(options given here override them).",
-    ),
-    joint_terms_text: str = typer.Option(
-        None,  # not given: the default, no joint terms
-        "--joint-terms",
-        callback=checks.rule(RULES["joint_term_groups"]),
-        help="Also fit joint terms: any of scale,harmonic,compliance; each kept only if "
-        "it lowers the cross-validated error.",
-    ),
-    mass_model: str = _option(
-        "mass_model", "Mass model for compliance: a named arm or a YAML [default: the model's]."
-    ),
-    payload_kg: float = _option(
-        "payload_kg",
-        f"Payload ({RULES['payload_kg'].bounds}) of sessions that do not record one [default: 0].",
-    ),
-    payload_com_mm: str = typer.Option(
-        ",".join(f"{v:g}" for v in _JOINT.payload_com_mm),
-        callback=checks.rule(RULES["payload_com_mm"]),
-        help="Payload centre of mass in the flange frame, x,y,z "
-        f"({RULES['payload_com_mm'].bounds}).",
     ),
     target_mm: float = typer.Option(
         None,
@@ -271,7 +306,9 @@ def _given(ctx: typer.Context) -> dict[str, Any]:
 
     given: dict[str, Any] = {}
     for name, key in _KEYS.items():
-        value = ctx.params.get(name)
+        if name not in ctx.params:
+            continue
+        value = ctx.params[name]
         # By name: typer may carry its own copy of click's ParameterSource.
         source = ctx.get_parameter_source(name)
         if value is None or source is None or source.name in ("DEFAULT", "DEFAULT_MAP"):

@@ -133,22 +133,7 @@ def calibrate(
 
         groups = joint_terms.parse_groups(",".join(joint.joint_term_groups))
     payload_com = np.array(joint.payload_com_mm, dtype=float)
-    parts = [session.load(p, model=model) for p in paths]
-    loaded = parts[0]
-    payloads = None
-    if len(parts) > 1 or groups:
-        # Joint terms and several sessions only: a plain identify does not load them.
-        from calibrator.identify import joint_fit
-
-        loaded = joint_fit.combine(parts, [str(p) for p in paths])
-        payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
-    notes = [f"warning: {doubt}" for doubt in loaded.warnings]
-    if nominal_file is not None:
-        from calibrator.identify import factory_calibration
-
-        meta, line = factory_calibration.apply(loaded.meta, nominal_file)
-        loaded = replace(loaded, meta=meta)
-        notes.append(line)
+    loaded, payloads, notes = _loaded(paths, model, nominal_file, joint.payload_kg, groups)
     started = time.perf_counter()
     try:
         result = pipeline.identify(loaded, options, on_generation=on_generation)
@@ -177,16 +162,48 @@ def calibrate(
         versions=calibration.versions(),
         created=created_now(),
     )
+    cal = _document(result, found, loaded, paths, provenance, payloads)
+    return Calibrated(cal, result, loaded, found, notes, took)
+
+
+def _loaded(paths, model, nominal_file, payload_kg, groups):
+    """The session(s) to identify, the payload of each pose (or None), and notes.
+
+    Several sessions, or joint terms, combine the sessions and read each
+    pose's payload (``payload_kg``: of sessions that record none); a
+    nominal file replaces the nominal table.
+    """
+    parts = [session.load(p, model=model) for p in paths]
+    loaded, payloads = parts[0], None
+    if len(parts) > 1 or groups:
+        # Joint terms and several sessions only: a plain identify does not load them.
+        from calibrator.identify import joint_fit
+
+        loaded = joint_fit.combine(parts, [str(p) for p in paths])
+        payloads = np.concatenate([joint_fit.session_payload(s, payload_kg) for s in parts])
+    notes = [f"warning: {doubt}" for doubt in loaded.warnings]
+    if nominal_file is not None:
+        from calibrator.identify import factory_calibration
+
+        meta, line = factory_calibration.apply(loaded.meta, nominal_file)
+        loaded = replace(loaded, meta=meta)
+        notes.append(line)
+    return loaded, payloads, notes
+
+
+def _document(result, found, loaded, paths, provenance, payloads):
+    """The calibration document of an identification (and of its joint-term fit)."""
     cal = calibration.Calibration.from_result(
-        result, first, loaded.meta.model, loaded.meta.frame, provenance
+        result, paths[0], loaded.meta.model, loaded.meta.frame, provenance
     )
     terms = cal.joint_terms
     if found is not None and found.terms.needs_torque:
         assert payloads is not None  # loaded with the joint terms
+        joint = provenance.joint
         terms = replace(
             terms,
             payload_kg=float(np.median(payloads)),
-            payload_com_mm=payload_com,
+            payload_com_mm=np.array(joint.payload_com_mm, dtype=float),
             mass_model=str(joint.mass_model or loaded.meta.model),
         )
     diagnostics = dict(cal.diagnostics)
@@ -197,13 +214,12 @@ def calibrate(
     convention = robots.convention_of(loaded.meta.model)
     fitted_q = convention.to_controller(loaded.observations.q[result.fit_index])
     ranges = np.column_stack([fitted_q.min(axis=0), fitted_q.max(axis=0)]).tolist()
-    cal = replace(
+    return replace(
         cal,
         joint_terms=terms,
         diagnostics=diagnostics,
         fit=replace(cal.fit, fitted_joint_ranges_rad=ranges),
     )
-    return Calibrated(cal, result, loaded, found, notes, took)
 
 
 def _xyz(values: np.ndarray) -> tuple[float, float, float]:
