@@ -35,7 +35,7 @@ import json
 import math
 import platform
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +50,7 @@ from calibrator.inputs.json_fields import Fields
 from calibrator.model import consistency, frames, kinematics, parameters, plausibility
 from calibrator.model.joint_terms import JointTerms
 from calibrator.model.plausibility import PLAUSIBLE_DELTA
+from calibrator.recorded_options import JointTermOptions, Options
 
 FORMAT = "calibrator.calibration"
 VERSION = 1
@@ -77,63 +78,39 @@ class Provenance:
     nominal_file, nominal_sha256 : str or None
         The factory calibration given with ``--nominal`` and its digest;
         ``None`` when the nominal table came from the session or the model.
-    method, loss : str or None
-        Fitter and loss (``calibrator.identify.pipeline.METHODS``, ``LOSSES``).
-    seed : int or None
-        Seed of the hold-out split and of the swarm.
-    validation_fraction : float or None
-        Share of the poses held out.
-    k : float or None
-        Orientation weight used (mm^2/rad^2; 0 without orientation data).
-    noise_mm : float or None
-        Measurement noise assumed when choosing the free parameters (mm per axis).
-    tool_known : bool or None
-        Whether the tool frame was fixed (the resolved value, not the option).
-    particles, generations, swarm_poses : int or None
-        Swarm settings.
-    joint_term_groups : str or None
-        ``identify --joint-terms``: the requested groups, comma-separated
-        (``""`` when none were requested).
-    mass_model : str or None
-        ``--mass-model`` when given (a named arm or a YAML path).
-    payload_kg : float or None
-        ``--payload-kg`` when given (kg; sessions that record none).
-    payload_com_mm : list of float or None
-        ``--payload-com-mm``: payload centre of mass, flange frame (mm).
+    options : calibrator.recorded_options.Options or None
+        The pipeline options identify ran with, ``k`` and ``tool_known``
+        resolved (the weight used, 0 without orientation data; whether the
+        tool frame was fixed). ``None``: the file records none.
+    joint : calibrator.recorded_options.JointTermOptions or None
+        The joint-term options (``identify --joint-terms`` and its
+        companions); ``None``: the file records none.
+    unrecorded : frozenset of str
+        Option keys of :data:`calibrator.recorded_options.RULES` a file that
+        records some options lacks (written before those were recorded):
+        their fields in ``options`` and ``joint`` hold the defaults, and are
+        not written back.
     versions : dict
         ``{"calibrator", "numpy", "scipy", "python"}`` version strings.
     created : str or None
         UTC time the calibration was made (ISO 8601).
 
     ``None`` means "not recorded" (a file written before this was recorded).
+    In calibration.json every option is a key of the top level, named as
+    its field (the layout of version 1).
     """
 
     session_sha256: str | None = None
     nominal_source: str | None = None
     nominal_file: str | None = None
     nominal_sha256: str | None = None
-    method: str | None = None
-    loss: str | None = None
-    seed: int | None = None
-    validation_fraction: float | None = None
-    k: float | None = None
-    noise_mm: float | None = None
-    tool_known: bool | None = None
-    particles: int | None = None
-    generations: int | None = None
-    swarm_poses: int | None = None
-    joint_term_groups: str | None = None
-    mass_model: str | None = None
-    payload_kg: float | None = None
-    payload_com_mm: list[float] | None = None
+    options: Options | None = None
+    joint: JointTermOptions | None = None
+    unrecorded: frozenset[str] = frozenset()
     versions: dict[str, str] = field(default_factory=dict)
     created: str | None = None
 
-    #: Keys of the options that decide the identified parameters.
-    OPTION_KEYS = recorded_options.PIPELINE
-    #: Keys of the joint-term options (``identify --joint-terms`` and its companions).
-    JOINT_OPTION_KEYS = recorded_options.JOINT
-    #: JSON type of each key; the options' come from their rules.
+    #: JSON type of each key, in file order; the options' come from their rules.
     _TYPES = {
         "session_sha256": str,
         "nominal_source": str,
@@ -146,19 +123,36 @@ class Provenance:
         "versions": dict,
         "created": str,
     }
+    #: Keys of calibration.json this part reads and writes.
+    KEYS = tuple(_TYPES)
+
+    def recorded(self) -> dict[str, Any]:
+        """The recorded options, pipeline and joint terms: ``{key: value}`` as in the file.
+
+        ``None`` and what the file does not record are left out.
+        """
+        out: dict[str, Any] = {}
+        for record in (self.options, self.joint):
+            if record is not None:
+                out.update(record.recorded())
+        return {k: v for k, v in out.items() if k not in self.unrecorded}
 
     def to_json(self) -> dict[str, Any]:
         """The provenance keys of calibration.json; ``None`` values are left out."""
-        doc: dict[str, Any] = {}
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if value is not None and value != {}:
-                doc[f.name] = dict(value) if isinstance(value, dict) else value
-        return doc
+        values = {
+            "session_sha256": self.session_sha256,
+            "nominal_source": self.nominal_source,
+            "nominal_file": self.nominal_file,
+            "nominal_sha256": self.nominal_sha256,
+            **self.recorded(),
+            "versions": dict(self.versions) or None,
+            "created": self.created,
+        }
+        return {k: v for k, v in values.items() if v is not None}
 
     @classmethod
     def from_json(cls, doc: dict[str, Any], where: str | Path = "calibration") -> Provenance:
-        """The provenance keys of a parsed document; missing keys read as ``None``.
+        """The provenance keys of a parsed document; missing keys read as not recorded.
 
         Raises
         ------
@@ -192,41 +186,16 @@ class Provenance:
                     f"{where}: 'payload_com_mm' must be three numbers x, y, z (mm)"
                 )
             values["payload_com_mm"] = [float(v) for v in com]
-        return cls(**values)
-
-    def options(self) -> dict[str, Any]:
-        """The recorded pipeline options (``{key: value}``, ``None`` left out).
-
-        The joint-term options are the attributes named in :attr:`JOINT_OPTION_KEYS`.
-        """
-        return {k: getattr(self, k) for k in self.OPTION_KEYS if getattr(self, k) is not None}
-
-    def checked_options(
-        self, where: str | Path = "calibration", keys: Iterable[str] | None = None
-    ) -> dict[str, Any]:
-        """The recorded options ``keys`` (default: all, pipeline and joint terms), checked.
-
-        The rules are those the command line applies
-        (:data:`calibrator.recorded_options.RULES`), so a recorded value
-        is taken only if it could have been typed.
-
-        Returns
-        -------
-        dict
-            ``{key: value}`` for the recorded options (``None`` left out);
-            ``payload_com_mm`` as a tuple of 3 floats (mm).
-
-        Raises
-        ------
-        CalibrationError
-            ``cal.json: particles: must be a whole number >= 2, got -5``.
-        """
-        out = {}
-        for key in recorded_options.RULES if keys is None else keys:
-            value = getattr(self, key)
-            if value is not None:
-                out[key] = recorded_options.RULES[key].check(value, f"{where}: {key}")
-        return out
+        records: dict[str, Any] = {}
+        unrecorded: set[str] = set()
+        for name, kind in (("options", Options), ("joint", JointTermOptions)):
+            given = {k: values.pop(k) for k in kind.rules() if k in values}
+            records[name] = kind.from_record(given) if given else None
+            if given:
+                # A default of None is never written: only the others can be missing.
+                unset = kind.from_record({}).recorded()
+                unrecorded.update(k for k in unset if k not in given)
+        return cls(**values, **records, unrecorded=frozenset(unrecorded))
 
 
 def _is_number(value: object) -> bool:
@@ -384,7 +353,7 @@ TYPED_KEYS = (
     "parameters",
     "outlier_poses",
     *FitReport.KEYS,
-    *Provenance._TYPES,
+    *Provenance.KEYS,
     "joint_terms",
 )
 
@@ -489,30 +458,10 @@ class Calibration:
         # Joint terms go under "joint_terms"; free/deltas stay geometric.
         terms = JointTerms.from_vector(space.joint_terms(x))
         geometric = [i for i, n in enumerate(space.free) if n in parameters.ALL_NAMES]
-        opts = result.options
         recorded = provenance or Provenance()
-        provenance = Provenance(
-            session_sha256=recorded.session_sha256,
-            nominal_source=recorded.nominal_source,
-            nominal_file=recorded.nominal_file,
-            nominal_sha256=recorded.nominal_sha256,
-            method=opts.method,
-            loss=opts.loss,
-            seed=int(opts.seed),
-            validation_fraction=float(opts.validation_fraction),
-            k=float(result.k),
-            noise_mm=float(opts.noise_mm),
-            tool_known=bool(result.tool_known),
-            particles=int(opts.particles),
-            generations=int(opts.generations),
-            swarm_poses=int(opts.swarm_poses),
-            joint_term_groups=recorded.joint_term_groups,
-            mass_model=recorded.mass_model,
-            payload_kg=recorded.payload_kg,
-            payload_com_mm=recorded.payload_com_mm,
-            versions=dict(recorded.versions),
-            created=recorded.created,
-        )
+        # The options as run, with the weight used and whether the tool was fixed.
+        options = replace(result.options, k=result.k, tool_known=result.tool_known)
+        provenance = replace(recorded, options=options.normalised(), unrecorded=frozenset())
         fit = FitReport(
             stats=_jsonable(result.stats),
             uncertainty=_jsonable(result.uncertainty),

@@ -19,10 +19,16 @@ from typer.core import TyperGroup
 from calibrator.cli import _checks as checks
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
+from calibrator.cli._history_record import record, refuse_unusable
 from calibrator.cli._options import fail
+from calibrator.errors import CalibrationError
 
 if TYPE_CHECKING:
     from calibrator.history.store import History
+
+# check and verify import these from here; identify from their own module
+# (this one imports identify's option reading for reidentify).
+__all__ = ["record", "refuse_unusable"]
 
 HISTORY_HELP = (
     "History: an SQLite file or postgresql://USER@HOST/DB; ?timeout=SECONDS bounds every "
@@ -52,47 +58,6 @@ app.add_typer(history_app, name="history")
 
 def _history_option() -> Any:
     return typer.Option(None, "--history", metavar="FILE|URL", help=HISTORY_HELP)
-
-
-def refuse_unusable(target: str) -> None:
-    """Open and close ``--history`` before a command's work: one it cannot use is refused now.
-
-    ``identify`` and ``verify`` record what they wrote at the end; a history
-    that is no history, a server that does not answer or a bad URL is told
-    in one line before anything is computed or written.
-    """
-    try:
-        from calibrator.history.store import check_usable
-    except ImportError:  # an installation without the history's database libraries
-        fail("--history: this installation has no history support (calibrator.history)")
-    check_usable(target)
-
-
-def record(target: str, kind: str, path: Path) -> int:
-    """Record a file a command just wrote (``identify``/``verify`` ``--history``); print it.
-
-    Parameters
-    ----------
-    target : str
-        ``--history`` as given.
-    kind : {'calibration', 'verification'}
-    path : Path
-    """
-    from calibrator.history import HistoryError, open_history
-
-    try:
-        with open_history(target) as history:
-            method = {
-                "calibration": history.record_calibration,
-                "verification": history.record_verification,
-            }[kind]
-            number = method(path)
-            typer.echo(f"recorded {kind} {number} in the history {history.where}")
-    except HistoryError as exc:
-        fail(
-            f"wrote {path} but did not record it ({exc}); record it with: calibrator history import"
-        )
-    return number
 
 
 def _limit_option(flag: str, what: str) -> Any:
@@ -363,7 +328,7 @@ def reidentify(
 
     if workers is not None and scheduler is not None:
         fail("give --workers or --scheduler, not both")
-    options = redo.parse_options(identify_options)
+    options = _identify_request(identify_options)
     with open_history(history, create=False) as store:
         jobs = redo.plan(store, robot, folder, on_skip=_skipped)
         if not jobs:
@@ -394,30 +359,49 @@ def reidentify(
         raise typer.Exit(1)
 
 
-def identify_one(session: str, output: str, options: tuple[str, ...]) -> tuple[int, str]:
-    """Run ``calibrator identify SESSION -o OUTPUT OPTIONS`` in this process.
+def _identify_request(text: str) -> Any:
+    """``--identify-options`` read as identify reads its options (one line if refused)."""
+    from calibrator.cli.identify import asked_by
+    from calibrator.history import reidentify as redo
+    from calibrator.history.records import HistoryError
+
+    args = redo.parse_options(text)
+    try:
+        return asked_by(args)
+    except CalibrationError as exc:
+        raise HistoryError(f"--identify-options {text!r}: {exc}") from None
+
+
+def identify_one(session: str, output: str, asked: Any) -> tuple[int, str]:
+    """Identify ``session`` into ``output`` as ``calibrator identify`` does, in this process.
 
     What ``history reidentify`` runs on each session (in a Dask worker, which
-    finds this function by its name): the command's own code, so a result is
-    what ``identify`` writes.
+    finds this function by its name): identify's own function
+    (:func:`calibrator.identify.calibrate.run`), so a result is what
+    ``identify`` writes.
+
+    Parameters
+    ----------
+    session, output : str
+    asked : calibrator.cli.identify.Asked
+        The options, model, nominal file and joint terms (:func:`_identify_request`).
 
     Returns
     -------
     code : int
-        identify's exit code (0: written).
+        0: written; 2: refused, as identify would exit.
     error : str
-        What it printed on stderr.
+        The refusal, as identify prints it (``calibrator: error: ...``).
     """
-    from contextlib import redirect_stderr, redirect_stdout
-    from io import StringIO
+    from calibrator.identify.calibrate import run
 
-    from calibrator.cli import main
-
-    out, err = StringIO(), StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            main(["identify", session, "-o", output, "--quiet", *options])
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    return code, err.getvalue()
+    try:
+        run(
+            [session], output, asked.options, model=asked.model,
+            nominal_file=asked.nominal_file, joint=asked.joint,
+        )  # fmt: skip
+    except CalibrationError as exc:
+        return 2, f"calibrator: error: {' '.join(str(exc).splitlines())}\n"
+    except OSError as exc:
+        return 2, f"calibrator: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
+    return 0, ""

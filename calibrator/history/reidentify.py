@@ -1,9 +1,11 @@
 """``history reidentify``: identify every stored session again, on Dask, and record the results.
 
 Each session is identified by the function the caller hands to :func:`run`:
-the command line hands it ``calibrator identify`` itself (its own code, run
-in a worker), so a result is bit for bit what running ``identify`` on that
-session gives; only its ``created`` time differs. The calibrations are
+the command line hands it one that calls identify's own function
+(:func:`calibrator.identify.calibrate.run`, in a worker) with the options
+``--identify-options`` reads as ``identify`` would, so a result is bit for
+bit what running ``identify`` on that session gives; only its ``created``
+time differs. The calibrations are
 recorded in the history in the order of the sessions.
 """
 
@@ -13,7 +15,7 @@ import shlex
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from calibrator.history.records import HistoryError
 
@@ -96,15 +98,16 @@ def plan(
     return jobs
 
 
-#: ``identify(session, output, options) -> (exit code, stderr)``: identifies one
-#: session file into ``output`` with identify's command-line ``options``.
-Identify = Callable[[str, str, tuple[str, ...]], tuple[int, str]]
+#: ``identify(session, output, options) -> (exit code, error)``: identifies one
+#: session file into ``output`` with ``options`` (what the caller made of
+#: identify's options; handed through as they are).
+Identify = Callable[[str, str, Any], tuple[int, str]]
 
 
 def run(
     jobs: Sequence[Job],
     identify: Identify,
-    options: Sequence[str] = (),
+    options: Any = None,
     workers: int | None = None,
     scheduler: str | None = None,
 ) -> Iterator[tuple[Job, int, str]]:
@@ -116,8 +119,8 @@ def run(
     identify : Identify
         Identifies one session; a module-level function, so that Dask can
         send it to its workers by name.
-    options : sequence of str
-        identify's options.
+    options : object
+        identify's options, as ``identify`` takes them (picklable for Dask).
     workers : int, optional
         A Dask ``LocalCluster`` of this many single-threaded worker processes
         (:func:`calibrator.analysis.engine.local_cluster`).
@@ -131,7 +134,7 @@ def run(
     code : int
         identify's exit code (0: the calibration is written).
     error : str
-        What identify printed on stderr.
+        identify's refusal (one line), when ``code`` is not 0.
 
     In job order, each as soon as it and every job before it are done, so
     the caller records while the workers compute.
@@ -140,15 +143,14 @@ def run(
 
     if workers is None and scheduler is None:
         for job in jobs:
-            yield (job, *identify(job.session, job.output, tuple(options)))
+            yield (job, *identify(job.session, job.output, options))
         return
     client, cluster = engine._connect(workers, scheduler)
     try:
         from dask.distributed import as_completed
 
         futures = [
-            client.submit(identify, job.session, job.output, tuple(options), pure=False)
-            for job in jobs
+            client.submit(identify, job.session, job.output, options, pure=False) for job in jobs
         ]
         index = {f.key: i for i, f in enumerate(futures)}
         done: dict[int, tuple[int, str]] = {}

@@ -29,52 +29,24 @@ from calibrator.identify import (
 from calibrator.identify.problem import Problem
 from calibrator.inputs.errors import StrictError
 from calibrator.model import measurement, parameters, plausibility
+from calibrator.recorded_options import Options
 
 if TYPE_CHECKING:
     from calibrator.session import Session
 
 METHODS = recorded_options.METHODS
 LOSSES = recorded_options.LOSSES
-#: Default orientation weight (mm^2/rad^2): 1 mrad weighs as 0.1 mm, about
-#: the ratio of a 6-DoF probe's angular noise to a tracker's point noise.
-DEFAULT_K = 1.0e4
+#: Default orientation weight (mm^2/rad^2), :data:`calibrator.recorded_options.DEFAULT_K`.
+DEFAULT_K = recorded_options.DEFAULT_K
 #: Largest session ``identify`` takes. Memory and time grow linearly with
 #: the poses (about 10 kB and 0.1 ms of CPU per pose, least squares and uncertainty);
 #: beyond this, thin the session (more poses than this add nothing a
 #: well-spread subset does not give).
 MAX_POSES = recorded_options.MAX_POSES
-#: Most fitting poses the swarm sees (see the module docstring).
-SWARM_POSES = 32
 #: A residual noise above this multiple of ``Options.noise_mm`` gives a warning.
 NOISE_WARNING = 2.0
 #: Most points of the swarm's convergence curve kept in ``details``.
 CONVERGENCE_POINTS = fitters.CONVERGENCE_POINTS
-
-
-@dataclass(frozen=True)
-class Options:
-    """Settings of one identification (CLI flags of ``calibrator identify``).
-
-    ``noise_mm`` is the measurement noise assumed when deciding what these
-    poses can identify (one residual row, mm; orientation rows count in
-    their ``sqrt(k)`` weighted units). ``on_generation(generation,
-    best_cost)`` is called after each swarm generation and ``progress(text)``
-    at each stage, for progress displays. What each setting may be is
-    :data:`calibrator.recorded_options.RULES` (checked by :func:`identify`).
-    """
-
-    method: str = "hybrid"
-    particles: int = 20
-    generations: int = 2000
-    k: float | None = None
-    validation_fraction: float = 0.2
-    seed: int = 0
-    tool_known: bool | None = None
-    loss: str = "lsq"
-    noise_mm: float = 0.05
-    swarm_poses: int = SWARM_POSES
-    on_generation: Callable | None = field(default=None, compare=False)
-    progress: Callable | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -137,13 +109,25 @@ def split(n_poses: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndar
     return np.sort(order[n_val:]), np.sort(order[:n_val])
 
 
-def identify(session: "Session", options: Options = Options()) -> Result:
+def identify(
+    session: "Session",
+    options: Options | None = None,
+    *,
+    on_generation: Callable[[int, float], None] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Result:
     """Identify the free parameters of a session.
 
     Parameters
     ----------
     session : calibrator.session.Session
-    options : Options
+    options : calibrator.recorded_options.Options, optional
+        Default: the command's defaults. What each may be: its rule (checked here).
+    on_generation : callable, optional
+        ``on_generation(generation, best_cost)`` after each swarm generation
+        (progress displays).
+    progress : callable, optional
+        ``progress(text)`` at each stage.
 
     Returns
     -------
@@ -154,8 +138,9 @@ def identify(session: "Session", options: Options = Options()) -> Result:
     IdentifiabilityError
         Too many or too few poses, nothing identifiable, or a bad option.
     """
+    options = Options() if options is None else options
     _check_options(options)
-    say = options.progress or (lambda text: None)
+    say = progress or (lambda text: None)
     meta, obs = session.meta, session.observations
     _check_size(len(obs))
     pose_numbers = _pose_numbers(session, len(obs))
@@ -187,7 +172,7 @@ def identify(session: "Session", options: Options = Options()) -> Result:
     cond = identifiability.condition_number(free.information)
     warnings = identifiability.session_warnings(problem.rows, len(free.names), cond, duplicates)
 
-    found, solver = fitters.fit(problem, options.loss, _settings(options, say))
+    found, solver = fitters.fit(problem, options.loss, _settings(options, say, on_generation))
     x = found.x
     # A fit can absorb a unit or model mistake into huge deltas: refuse or warn.
     warnings += plausibility.check_deltas(meta.nominal_mdh, problem.space.unpack(x)[0])
@@ -248,14 +233,14 @@ def _check_fitting_poses(fit):
     return duplicates
 
 
-def _settings(options, say):
+def _settings(options, say, on_generation):
     return fitters.Settings(
         options.method,
         options.particles,
         options.generations,
         options.swarm_poses,
         options.seed,
-        options.on_generation,
+        on_generation,
         say,
     )
 
@@ -295,7 +280,7 @@ def _noise_warning(unc, noise_mm):
 
 def _check_options(options):
     try:
-        recorded_options.check_settings(options)
+        options.check()
     except StrictError as exc:
         raise IdentifiabilityError(str(exc)) from None
 

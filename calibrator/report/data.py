@@ -108,6 +108,7 @@ def collect(
 
 def _collect(cal, session, calibration_path, session_path):
     fit, origin = cal.fit, cal.provenance
+    options = origin.recorded()
     solver = fit.solver
     unc = fit.uncertainty
     errors = unc.get("standard_errors") or cal.diagnostics.get("standard_errors")
@@ -117,11 +118,11 @@ def _collect(cal, session, calibration_path, session_path):
         ("calibration", calibration_path or "(in memory)"),
         ("session", session_path or cal.session or "not recorded"),
         ("model", cal.model or "nominal table in the session"),
-        ("method", _recorded(origin.method)),
-        ("loss", _recorded(origin.loss)),
-        ("orientation weight k (mm^2/rad^2)", _recorded(origin.k)),
-        ("validation fraction", _recorded(origin.validation_fraction)),
-        ("seed", _recorded(origin.seed)),
+        ("method", _recorded(options.get("method"))),
+        ("loss", _recorded(options.get("loss"))),
+        ("orientation weight k (mm^2/rad^2)", _recorded(options.get("k"))),
+        ("validation fraction", _recorded(options.get("validation_fraction"))),
+        ("seed", _recorded(options.get("seed"))),
     ]
     facts += _fit_facts(unc)
     if fit.outliers:
@@ -283,8 +284,9 @@ def pose_errors(
         )
     held_out = np.zeros(n, dtype=bool)
     held_out[held] = True
-    if cal.provenance.tool_known is not None:
-        tool_known = cal.provenance.tool_known
+    recorded = cal.provenance.recorded()
+    if "tool_known" in recorded:
+        tool_known = recorded["tool_known"]
     else:
         names = set(cal.free) | {d["name"] for d in cal.dropped}
         tool_known = not names.intersection(parameters.TOOL_NAMES)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from calibrator import calibration, robots
+from calibrator.recorded_options import JointTermOptions, Options
 
 GOLDEN = Path(__file__).parent / "golden"
 NOMINAL = robots.get("ur10e").mdh
@@ -69,18 +70,19 @@ def golden_calibration():
     mdh[2, 1] -= 0.001
     provenance = calibration.Provenance(
         session_sha256="0" * 64,
-        method="hybrid",
-        loss="lsq",
-        seed=1,
-        validation_fraction=0.2,
-        k=0.0,
-        noise_mm=0.05,
-        tool_known=True,
-        particles=20,
-        generations=20,
-        swarm_poses=32,
-        joint_term_groups="",
-        payload_com_mm=[0.0, 0.0, 0.0],
+        options=Options(
+            method="hybrid",
+            loss="lsq",
+            seed=1,
+            validation_fraction=0.2,
+            k=0.0,
+            noise_mm=0.05,
+            tool_known=True,
+            particles=20,
+            generations=20,
+            swarm_poses=32,
+        ),
+        joint=JointTermOptions(joint_term_groups=(), payload_com_mm=(0.0, 0.0, 0.0)),
         versions={"calibrator": "x"},
         created="2023-11-14T22:13:20+00:00",
     )

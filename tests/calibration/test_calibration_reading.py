@@ -16,6 +16,7 @@ from calibrator.calibration import Calibration, FitReport, Provenance
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
 from calibrator.model import frames, parameters
+from calibrator.recorded_options import Options
 
 NOMINAL = robots.get("ur5e").mdh
 KEYS = ("a_mm", "alpha_rad", "theta_rad", "d_mm", "beta_rad")
@@ -44,7 +45,7 @@ def good_cal():
         base0=base0,
         tool0=tool0,
         session="s.parquet",
-        provenance=Provenance(method="lm"),
+        provenance=Provenance.from_json({"method": "lm"}),  # records the method only
         fit=FitReport(stats={"fit": [1.5, 2]}),
         diagnostics={"note": "kept"},
     )
@@ -316,7 +317,7 @@ def test_save_names_the_first_non_finite_value(tmp_path):
         f"refusing to write {tmp_path / 'c.json'}: stats.fit[1].max is not a finite number "
         "(calibration files are strict JSON)"
     )
-    cal = replace(cal, fit=FitReport(), provenance=Provenance(k=math.inf))
+    cal = replace(cal, fit=FitReport(), provenance=Provenance(options=Options(k=math.inf)))
     with pytest.raises(CalibrationError, match=r": k is not a finite number"):
         cal.save(tmp_path / "c.json")
     mdh = cal.mdh.copy()
@@ -386,7 +387,9 @@ def test_from_result_keeps_the_solution_provenance_and_fit_report():
     assert (cal.model, cal.frame, cal.session) == ("ur5e", "tracker", "s.parquet")
     np.testing.assert_array_equal(cal.base0, space.base0)
     np.testing.assert_array_equal(cal.tool0, space.tool0)
-    g = cal.provenance
+    origin = cal.provenance
+    g = origin.options
+    assert g is not None and origin.unrecorded == frozenset()
     assert (g.method, g.seed, g.validation_fraction, g.loss, g.noise_mm, g.k) == (
         "pso",
         7,
@@ -395,8 +398,8 @@ def test_from_result_keeps_the_solution_provenance_and_fit_report():
         0.03,
         250.0,
     )
-    assert g.tool_known is True and g.session_sha256 == "ab" * 32
-    assert (g.versions, g.created, g.generations, g.swarm_poses) == (
+    assert g.tool_known is True and origin.session_sha256 == "ab" * 32
+    assert (origin.versions, origin.created, g.generations, g.swarm_poses) == (
         {"numpy": "1"},
         "now",
         2000,
@@ -417,8 +420,8 @@ def test_a_file_without_provenance_reads_as_not_recorded():
     for key in ("method", "seed", "loss", "noise_mm", "tool_known", "k", "outliers", "stats"):
         doc.pop(key, None)
     back = calibration.from_json(doc)
-    assert back.provenance.options() == {} and back.fit.outliers == []
-    assert back.provenance.noise_mm is None and back.fit.stats == {}
+    assert back.provenance.recorded() == {} and back.fit.outliers == []
+    assert back.provenance.options is None and back.fit.stats == {}
 
 
 def test_outlier_poses_is_read_as_outliers():

@@ -88,12 +88,15 @@ def test_a_typed_option_overrides_a_bad_recorded_one(made):
     (made / "o.json").unlink()
 
 
-def test_every_rule_is_a_provenance_field_and_every_flag_an_identify_option():
-    names = {f.name for f in dataclasses.fields(calibration.Provenance)}
-    assert set(recorded_options.RULES) <= names
-    assert calibration.Provenance.OPTION_KEYS + calibration.Provenance.JOINT_OPTION_KEYS == tuple(
-        recorded_options.RULES
-    )
+def test_every_rule_is_a_field_of_the_options_provenance_nests_and_every_flag_an_option():
+    options, joint = recorded_options.Options, recorded_options.JointTermOptions
+    names = [f.name for f in dataclasses.fields(options) + dataclasses.fields(joint)]
+    assert names == list(recorded_options.RULES)  # one rule per field, in file order
+    assert all(f.metadata["rule"].key == f.name for f in dataclasses.fields(options))
+    nested = {f.name: f.type for f in dataclasses.fields(calibration.Provenance)}
+    assert "Options" in str(nested["options"]) and "JointTermOptions" in str(nested["joint"])
+    assert recorded_options.PIPELINE + recorded_options.JOINT == tuple(recorded_options.RULES)
+    assert set(recorded_options.RULES) <= set(calibration.Provenance.KEYS)
     command = typer.main.get_command(_app.app).commands["identify"]  # type: ignore[attr-defined]
     flags = {o for p in command.params for o in p.opts}
     for rule in recorded_options.RULES.values():
@@ -166,3 +169,63 @@ def test_a_recorded_nominal_source_is_one_of_three(made):
         cli("identify", "s.parquet", "--like", "bad.json", "-o", "out.json", "-q", cwd=made)
     )
     assert "bad.json: 'nominal_source' must be one of session, model, file" in line
+
+
+# --- the options as a Python API: declared once, --like without the command line ---------
+
+
+def test_options_like_takes_a_recorded_value_unless_it_is_given():
+    recorded = {"seed": 3, "loss": "huber", "particles": -5, "payload_kg": 2.0}
+    got = recorded_options.Options.like(recorded, {"particles": 10})
+    # The bad recorded particles is not used (given wins); the rest is the file's or the default.
+    assert got == recorded_options.Options(seed=3, loss="huber", particles=10)
+    with pytest.raises(calibration.CalibrationError, match=r"^cal.json: particles: must be"):
+        recorded_options.Options.like(recorded, {}, "cal.json")
+    joint = recorded_options.JointTermOptions.like(
+        {**recorded, "joint_term_groups": "scale", "payload_com_mm": [1, 2, 3]}, {}
+    )
+    assert joint == recorded_options.JointTermOptions(
+        joint_term_groups=("scale",), payload_kg=2.0, payload_com_mm=(1.0, 2.0, 3.0)
+    )
+
+
+def test_a_script_does_what_like_does_to_the_byte(made, monkeypatch):
+    from calibrator.identify.calibrate import recall, run
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")  # the one field that differs by nature
+    done = cli(
+        "identify", "s.parquet", "--like", "cal.json", "--seed", "4", "-o", "by_cli.json", "-q",
+        cwd=made,
+    )  # fmt: skip
+    assert done.code == 0, done.stderr
+    monkeypatch.chdir(made)  # the file records the session's path as given
+    again = recall("cal.json", "s.parquet", {"seed": 4})
+    assert again.options.method == "lm" and again.options.seed == 4 and again.notes == []
+    run(
+        ["s.parquet"], "by_script.json", again.options, joint=again.joint, model=again.model,
+        nominal_file=again.nominal_file,
+    )  # fmt: skip
+    assert (made / "by_script.json").read_bytes() == (made / "by_cli.json").read_bytes()
+    for name in ("by_cli.json", "by_script.json"):
+        (made / name).unlink()
+
+
+def test_the_command_reads_its_defaults_from_the_options():
+    command = typer.main.get_command(_app.app).commands["identify"]  # type: ignore[attr-defined]
+    defaults = {p.name: p.default for p in command.params}
+    ran, joint = recorded_options.Options(), recorded_options.JointTermOptions()
+    for name in ("particles", "generations", "validation_fraction", "seed", "noise_mm"):
+        assert defaults[name] == getattr(ran, name), name
+    assert defaults["method"] == ran.method and defaults["loss"] == ran.loss
+    assert defaults["tool_known"] is ran.tool_known is None
+    assert defaults["orientation_weight"] is ran.k is None
+    assert (defaults["mass_model"], defaults["payload_kg"]) == (joint.mass_model, joint.payload_kg)
+    assert tuple(map(float, defaults["payload_com_mm"].split(","))) == joint.payload_com_mm
+
+
+def test_an_older_file_writes_back_only_what_it_records():
+    doc = {"method": "lm", "seed": 2, "loss": "lsq", "validation_fraction": 0.2, "k": 0.0}
+    origin = calibration.Provenance.from_json(doc)
+    assert origin.options is not None and origin.options.particles == 20  # the default
+    assert "particles" in origin.unrecorded and origin.joint is None
+    assert origin.to_json() == doc and origin.recorded() == doc

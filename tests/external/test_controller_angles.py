@@ -134,7 +134,9 @@ def test_a_session_in_controller_angles_identifies_as_least_squares_from_the_tru
     )
     obs = session.load(tmp_path / "s.parquet").observations
     space = parameters.ParameterSpace(cal.nominal_mdh, cal.base0, cal.tool0, cal.free)
-    fit, _ = pipeline.split(len(obs), cal.provenance.validation_fraction, cal.provenance.seed)
+    ran = cal.provenance.options  # the split the fit made
+    assert ran is not None
+    fit, _ = pipeline.split(len(obs), ran.validation_fraction, ran.seed)
     best = refine(Problem.of(space, obs.subset(fit), 0.0), space.pack(*truth))
     mdh, b2t, f2t = space.unpack(best.x)
 

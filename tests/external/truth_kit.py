@@ -40,7 +40,9 @@ def against_least_squares_from_truth(
     cal = calibration.load(cwd / "cal.json")
     obs = session.load(cwd / "s.parquet").observations
     space = parameters.ParameterSpace(cal.nominal_mdh, cal.base0, cal.tool0, cal.free)
-    fit_idx, _ = pipeline.split(len(obs), cal.provenance.validation_fraction, cal.provenance.seed)
+    ran = cal.provenance.options  # the split the fit made
+    assert ran is not None
+    fit_idx, _ = pipeline.split(len(obs), ran.validation_fraction, ran.seed)
     problem = Problem.of(space, obs.subset(fit_idx), 0.0)
     found = space.pack(cal.mdh, cal.base2tracker, cal.flange2tool)
     mdh, tool, base2tracker = truth

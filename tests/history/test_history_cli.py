@@ -129,6 +129,23 @@ def test_reidentify_gives_what_identify_gives(tmp_path, measured):
     assert "exists: choose another -o folder" in one_line_error(again)
 
 
+def test_reidentify_refuses_identify_options_identify_refuses_before_any_work(tmp_path, measured):
+    history = tmp_path / "h.sqlite"
+    shutil.copy(measured / "s0.parquet", tmp_path / "s0.parquet")
+    with open_history(history) as h:
+        h.record_session(tmp_path / "s0.parquet")
+    for options, says in (
+        ("--particles 1", "--particles: must be a whole number >= 2, got 1"),
+        ("--method newton", "'newton' is not one of"),
+        ("--k 1 --orientation-weight 2", "give --orientation-weight only"),
+    ):
+        asked = ("history", "reidentify", "--history", history, "-o", "out", "--identify-options")
+        line = one_line_error(cli(*asked, options, cwd=tmp_path))
+        assert line.startswith(f"calibrator: error: --identify-options {options!r}: "), line
+        assert says in line
+        assert not (tmp_path / "out").exists()
+
+
 def test_reidentify_on_a_running_scheduler(tmp_path, measured):
     """--scheduler: a cluster someone else started (here a local one, by its address)."""
     from calibrator.analysis import engine

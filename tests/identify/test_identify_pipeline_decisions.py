@@ -125,7 +125,7 @@ def test_defaults():
     o = pipeline.Options()
     assert (o.method, o.loss, o.k, o.validation_fraction, o.seed) == ("hybrid", "lsq", None, 0.2, 0)
     assert (o.particles, o.generations, o.noise_mm, o.swarm_poses) == (20, 2000, 0.05, 32)
-    assert o.tool_known is None and o.on_generation is None and o.progress is None
+    assert o.tool_known is None
 
 
 # ------------------------------------------------------------------ helpers

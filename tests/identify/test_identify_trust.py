@@ -252,11 +252,12 @@ def test_swarm_reports_each_generation_and_sees_a_bounded_subset():
     seen = []
     result = pipeline.identify(
         session.Session(table, meta),
-        pipeline.Options(generations=50, on_generation=lambda g, f: seen.append((g, f))),
+        pipeline.Options(generations=50),
+        on_generation=lambda g, f: seen.append((g, f)),
     )
     assert [g for g, _ in seen] == list(range(1, 51))
     assert all(b <= a for (_, a), (_, b) in zip(seen, seen[1:], strict=False))
-    assert result.details["pso"]["poses"] == pipeline.SWARM_POSES < len(result.fit_index)
+    assert result.details["pso"]["poses"] == pipeline.Options().swarm_poses < len(result.fit_index)
     curve = result.details["convergence"]
     assert curve[0][0] == 0 and curve[-1] == [50, seen[-1][1]]
 

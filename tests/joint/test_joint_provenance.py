@@ -54,7 +54,8 @@ def test_a_default_identify_records_no_joint_terms_requested(tmp_path):
     doc = json.loads((tmp_path / "a.json").read_text())
     assert doc["joint_term_groups"] == "" and "joint_terms" not in doc
     back = calibration.load(tmp_path / "a.json")
-    assert back.provenance.joint_term_groups == ""
+    assert back.provenance.joint is not None and back.provenance.joint.joint_term_groups == ()
+    assert back.provenance.recorded()["joint_term_groups"] == ""
     assert np.shape(back.fit.fitted_joint_ranges_rad) == (6, 2)
 
 

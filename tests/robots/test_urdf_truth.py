@@ -91,7 +91,9 @@ def test_the_written_urdf_predicts_the_true_arm_as_well_as_least_squares_from_th
     # Least squares started from the truth, on the same fitting poses.
     obs = session.load(tmp_path / "s.parquet").observations
     space = parameters.ParameterSpace(cal.nominal_mdh, cal.base0, cal.tool0, cal.free)
-    fit, _ = pipeline.split(len(obs), cal.provenance.validation_fraction, cal.provenance.seed)
+    ran = cal.provenance.options  # the split the fit made
+    assert ran is not None
+    fit, _ = pipeline.split(len(obs), ran.validation_fraction, ran.seed)
     best = refine(Problem.of(space, obs.subset(fit), 0.0), space.pack(true.mdh, base2tracker, tool))
     mdh, b2t, f2t = space.unpack(best.x)
     baseline = (b2t @ kinematics.chain(mdh, model_q) @ f2t)[:, :3, 3]
