@@ -22,10 +22,9 @@ import threading
 import time
 from pathlib import Path
 
+from drivers.tracker.instrument import NoiseModel, parse_script
 from drivers.tracker.line.protocol import parse_number
 from drivers.tracker.line.simulator.engine import TrackerSimulator
-from drivers.tracker.line.simulator.faults import parse_script
-from drivers.tracker.line.simulator.noise import NoiseModel
 from drivers.tracker.line.simulator.replay import ReplaySimulator
 from drivers.tracker.line.simulator.server import SimulatorServer
 

@@ -22,7 +22,8 @@ from drivers.tracker.line.protocol import (
     parse_command,
     parse_reply,
 )
-from drivers.tracker.line.simulator.engine import Output, Send, bad_frame_reply
+from drivers.tracker.instrument import Output, Send
+from drivers.tracker.line.simulator.engine import bad_frame_reply
 from drivers.tracker.recording import group_exchanges, read_log
 
 
