@@ -9,7 +9,6 @@ See docs/tracker-protocol.md, "Simulator-only commands".
 
 from __future__ import annotations
 
-from drivers.tracker.instrument.faults import parse_fault
 from drivers.tracker.instrument.instrument import Instrument
 from drivers.tracker.line.protocol import (
     Command,

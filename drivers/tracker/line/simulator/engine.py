@@ -22,7 +22,6 @@ from drivers.tracker.instrument import (
     MAX_RANGE_MM,
     MIN_RANGE_MM,
     STANDARD_AIR,
-    WARM_UP_S,
     Fault,
     HangUp,
     Instrument,
@@ -419,6 +418,7 @@ class TrackerSimulator:
         with self._lock:
             t_us = int(self.instrument.device_time_s() * 1e6)
             return encode_frame(stream_body(stream_id, max(n, 1), "END", str(t_us)))
+
 
 _HANDLERS = {
     "ID?": TrackerSimulator._id,
