@@ -1,9 +1,10 @@
-"""The simulated emScon server: turns one received packet into the packets to send back.
+"""Leica emScon's front-end of the simulated tracker: one received packet in, packets out.
 
 No I/O here (the servers in :mod:`drivers.tracker.emscon.simulator.server`
-feed it). The physics is today's simulator's: the same
-:class:`~drivers.tracker.line.simulator.noise.NoiseModel` and the same fault
-scripts (:mod:`drivers.tracker.line.simulator.faults`), with emScon commands
+feed it). The tracker is the line simulator's own
+:class:`~drivers.tracker.instrument.Instrument` (target, noise, faults, air,
+warm-up, latency); this module decodes emScon commands and encodes its
+answers. The fault scripts (:mod:`drivers.tracker.instrument.faults`) count emScon commands
 counted under the line protocol's names (``ES_C_StartMeasurement`` is
 ``MEAS``, ``ES_C_GetTrackerStatus`` is ``STAT?``, see :data:`FAULT_NAMES`),
 so ``MEAS@5 beam_break`` means the same on both simulators. How each fault
@@ -37,6 +38,12 @@ asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
 ``lTimeSeparation`` until ``StopMeasurement``; points show a moving target
 (:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
 stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
+
+Warm-up and air: until the instrument is warmed up, ``GetSystemStatus``
+reports its laser heating up (``ES_LPS_LaserHeatingUp``), then ready. Given
+``air``, a weather station on the tracker reads it: ``GetSystemStatus``
+reports the weather monitor reading and calculating refractions, and
+``GetEnvironmentParams`` and every result carry the station's air.
 
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
