@@ -55,12 +55,10 @@ an arbitrary result status (e.g. one Leica never defined).
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.protocol import Command, ResultStatus, StatusChange
@@ -69,15 +67,14 @@ from drivers.tracker.instrument import (
     MAX_RANGE_MM,
     MIN_RANGE_MM,
     STANDARD_AIR,
-    Fault,
     HangUp,
     Instrument,
-    NoiseModel,
     Output,
     Send,
     StreamStall,
 )
 from drivers.tracker.instrument.control import sim_command
+from drivers.tracker.instrument.front_end import FrontEnd
 from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
@@ -154,16 +151,11 @@ _MSI_BASE = 1 | 2 | 4 | 8
 _MSI_REFLECTOR, _MSI_INITIALISED = 2048, 65536
 
 
-class EmsconSimulator:
+class EmsconSimulator(FrontEnd):
     """Leica emScon spoken by a simulated laser tracker (:class:`Instrument`).
 
     Parameters
     ----------
-    seed, noise, faults, init_time_s, initialised, clock, on_s, latency_s, time_scale
-        Of the tracker it builds (see :class:`~drivers.tracker.instrument.Instrument`):
-        ``on_s`` is its time since power-on at start; until it is warmed up
-        (:data:`~drivers.tracker.instrument.WARM_UP_S`) ``GetSystemStatus``
-        reports its laser heating up.
     air : tuple of 3 float, optional
         The air a weather station on the tracker measures (degC, hPa, %RH):
         the server then corrects with it (``GetSystemStatus`` reports the
@@ -179,44 +171,26 @@ class EmsconSimulator:
     probe : bool
         Simulate a 6-DoF probe (``ProbeStationaryResult``) instead of a reflector.
     instrument : Instrument, optional
-        Speak for this tracker instead of building one (the tracker's
-        parameters above are then ignored; ``air`` still says whether its
-        station is connected).
+        Speak for this tracker; None builds one from ``tracker`` (and ``air``).
+    **tracker
+        The tracker's parameters (:class:`~drivers.tracker.instrument.Instrument`:
+        ``seed``, ``noise``, ``faults``, ``init_time_s``, ``initialised``,
+        ``clock``, ``on_s``, ``latency_s``, ``time_scale``). Until it is warmed up
+        (``on_s`` past :data:`~drivers.tracker.instrument.WARM_UP_S`)
+        ``GetSystemStatus`` reports its laser heating up.
     """
 
     def __init__(
         self,
         *,
-        seed: int = 0,
-        noise: NoiseModel | None = None,
-        faults: list[Fault] | None = None,
-        init_time_s: float = 0.2,
-        initialised: bool = False,
+        air: tuple[float, float, float] | None = None,
         serial: int = 390001,
-        clock: Callable[[], float] = time.monotonic,
         ack_start: bool = False,
         probe: bool = False,
-        latency_s: float = 0.0,
-        air: tuple[float, float, float] | None = None,
-        on_s: float = 3 * 3600.0,
-        time_scale: float = 1.0,
         instrument: Instrument | None = None,
+        **tracker: Any,
     ):
-        if instrument is None:
-            instrument = Instrument(
-                seed=seed,
-                noise=noise,
-                faults=faults,
-                init_time_s=init_time_s,
-                initialised=initialised,
-                clock=clock,
-                air=STANDARD_AIR if air is None else air,
-                on_s=on_s,
-                latency_s=latency_s,
-                time_scale=time_scale,
-            )
-        self.instrument = instrument
-        self._lock = instrument.lock
+        super().__init__(instrument, air=STANDARD_AIR if air is None else air, **tracker)
         self.weather_station = air is not None
         self.serial = serial
         self._forced: dict[str, int] = {}
@@ -232,63 +206,11 @@ class EmsconSimulator:
         self.continuous_time = (100, 0)  # lTimeSeparation (ms), lNumberOfPoints (0: until stopped)
         self.stream_records = 0  # continuous points sent (diagnostics)
 
-    # ------------------------------------------------------------ the tracker's state
-
-    @property
-    def noise(self) -> NoiseModel:
-        return self.instrument.noise
-
-    @property
-    def initialised(self) -> bool:
-        return self.instrument.initialised
-
-    @initialised.setter
-    def initialised(self, value: bool) -> None:
-        self.instrument.initialised = value
-
-    @property
-    def latency_s(self) -> float:
-        return self.instrument.latency_s
-
-    @property
-    def time_scale(self) -> float:
-        return self.instrument.time_scale
-
     @property
     def env(self) -> tuple[float, ...]:
         """The air the server corrects with: its weather station's, else the client's (degC,
         hPa, %RH)."""
         return self.instrument.air if self.weather_station else self._env
-
-    # ------------------------------------------------------------ in-process control
-
-    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
-        """True target position (shape (3,), mm, tracker frame); re-locks a broken beam.
-
-        ``rotvec_rad`` (shape (3,), rad): the probe's orientation, used when the
-        simulator has ``probe=True`` (identity when None).
-        """
-        self.instrument.set_target(point_mm, rotvec_rad)
-
-    def clear_target(self) -> None:
-        """Remove the target (the beam has nothing to lock on)."""
-        self.instrument.clear_target()
-
-    def set_motion(self, motion: Callable[[float], ArrayLike] | None) -> None:
-        """Move the target along ``motion(t_s)`` (:meth:`Instrument.set_motion`).
-
-        Continuous results show it at their stamp less :attr:`latency_s`; a
-        stationary measurement where it is now, less the latency.
-        """
-        self.instrument.set_motion(motion)
-
-    def device_time_s(self) -> float:
-        """The tracker's clock now, s (continuous results carry it as lTime1 s, lTime2 us)."""
-        return self.instrument.device_time_s()
-
-    def arm_fault(self, fault: Fault | str) -> None:
-        """Arm one fault (a :class:`Fault` or a fault-script line)."""
-        self.instrument.arm_fault(fault)
 
     def force_status(self, name: str, status: int) -> None:
         """Answer the next command counted as ``name`` (e.g. ``"MEAS"``) with ``status``."""

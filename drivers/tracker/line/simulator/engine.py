@@ -10,27 +10,24 @@ with ``SIM,TARGET,x,y,z[,rx,ry,rz]`` (mm and rad whatever ``UNITS`` says).
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from drivers.tracker.errors import FrameError
 from drivers.tracker.instrument import (
     MAX_RANGE_MM,
     MIN_RANGE_MM,
-    STANDARD_AIR,
     Fault,
     HangUp,
     Instrument,
-    NoiseModel,
     Output,
     Send,
     StreamStall,
 )
 from drivers.tracker.instrument.control import sim_command
+from drivers.tracker.instrument.front_end import FrontEnd
 from drivers.tracker.line.protocol import (
     ANGLE_UNITS,
     EVENT_SEQ,
@@ -75,118 +72,39 @@ class StreamStop:
 LineOutput = Send | HangUp | StreamStart | StreamStop | StreamStall
 
 
-class TrackerSimulator:
+class TrackerSimulator(FrontEnd):
     """The line protocol spoken by a simulated laser tracker (:class:`Instrument`).
 
     Parameters
     ----------
-    seed, noise, faults, init_time_s, initialised, clock, air, on_s, latency_s, time_scale
-        Of the tracker it builds (see :class:`~drivers.tracker.instrument.Instrument`):
-        ``air`` is what ``COND?`` reports, ``on_s`` its time since power-on at
-        start (warmed up after :data:`WARM_UP_S`).
     probe_6dof : bool
         True: readings carry the probe orientation (``P6`` replies).
     serial : str
         Serial number reported by ``ID?``.
     instrument : Instrument, optional
-        Speak for this tracker instead of building one (the parameters
-        above it are then ignored).
+        Speak for this tracker; None builds one from ``tracker``.
+    **tracker
+        The tracker's parameters (:class:`~drivers.tracker.instrument.Instrument`:
+        ``seed``, ``noise``, ``faults``, ``init_time_s``, ``initialised``,
+        ``clock``, ``air``, ``on_s``, ``latency_s``, ``time_scale``): ``air`` is
+        what ``COND?`` reports, ``on_s`` its time since power-on at start.
     """
 
     def __init__(
         self,
         *,
-        seed: int = 0,
-        noise: NoiseModel | None = None,
         probe_6dof: bool = False,
-        faults: list[Fault] | None = None,
-        init_time_s: float = 0.2,
-        initialised: bool = False,
         serial: str = "SIM-0001",
-        clock: Callable[[], float] = time.monotonic,
-        air: tuple[float, float, float] = STANDARD_AIR,
-        on_s: float = 3 * 3600.0,
-        latency_s: float = 0.0,
-        time_scale: float = 1.0,
         instrument: Instrument | None = None,
+        **tracker: Any,
     ):
-        if instrument is None:
-            instrument = Instrument(
-                seed=seed,
-                noise=noise,
-                faults=faults,
-                init_time_s=init_time_s,
-                initialised=initialised,
-                clock=clock,
-                air=air,
-                on_s=on_s,
-                latency_s=latency_s,
-                time_scale=time_scale,
-            )
-        self.instrument = instrument
-        self._lock = instrument.lock
+        super().__init__(instrument, **tracker)
         self.probe_6dof = probe_6dof
         self.serial = serial
         self._busy_until = 0.0
         self._units = ("MM", "RAD")
         self._env = (20.0, 1013.25, 50.0)
         self._mode = "STANDARD"
-
-    # ------------------------------------------------------------ the tracker's state
-
-    @property
-    def noise(self) -> NoiseModel:
-        return self.instrument.noise
-
-    @property
-    def initialised(self) -> bool:
-        return self.instrument.initialised
-
-    @initialised.setter
-    def initialised(self, value: bool) -> None:
-        self.instrument.initialised = value
-
-    @property
-    def latency_s(self) -> float:
-        return self.instrument.latency_s
-
-    @latency_s.setter
-    def latency_s(self, value: float) -> None:
-        self.instrument.latency_s = float(value)
-
-    @property
-    def time_scale(self) -> float:
-        return self.instrument.time_scale
-
-    @property
-    def air(self) -> tuple[float, ...]:
-        return self.instrument.air
-
-    @property
-    def _target(self) -> np.ndarray | None:
-        return self.instrument.target
-
-    # ------------------------------------------------------------ in-process control
-
-    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
-        """Where the target truly is (:meth:`Instrument.set_target`)."""
-        self.instrument.set_target(point_mm, rotvec_rad)
-
-    def clear_target(self) -> None:
-        """Remove the target (the beam has nothing to lock on)."""
-        self.instrument.clear_target()
-
-    def set_motion(self, motion: Callable[[float], ArrayLike] | None) -> None:
-        """Move the target along ``motion(t_s)`` (:meth:`Instrument.set_motion`)."""
-        self.instrument.set_motion(motion)
-
-    def device_time_s(self) -> float:
-        """The tracker's clock now, s (its readings carry it in microseconds)."""
-        return self.instrument.device_time_s()
-
-    def arm_fault(self, fault: Fault | str) -> None:
-        """Arm one fault (a :class:`Fault` or a fault-script line)."""
-        self.instrument.arm_fault(fault)
 
     # ------------------------------------------------------------ wire
 
