@@ -6,6 +6,11 @@ connection and ask their front-end for tick ``n`` at its stamp.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Protocol
+
+from drivers.tracker.instrument.outputs import StreamStall
+
 #: Ticks a late server catches up at once; beyond, the ticks due are lost (a gap).
 MAX_CATCH_UP_TICKS = 1000
 
@@ -78,3 +83,58 @@ class TickSchedule:
     def finished(self) -> bool:
         """Whether the stream's ``count`` ticks have been sent."""
         return self.count is not None and self.n >= self.count
+
+
+@dataclass(frozen=True)
+class StreamStart:
+    """Start ticking a stream on this connection (after the reply sent before it).
+
+    Attributes
+    ----------
+    period_s : float
+        Time between ticks on the tracker's clock, s.
+    count : int or None
+        Ticks in all (None: until stopped).
+    stream_id : int
+        The wire's name for the stream (the line protocol's ``STREAM`` sequence number).
+    """
+
+    period_s: float
+    count: int | None = None
+    stream_id: int = 0
+
+
+@dataclass(frozen=True)
+class StreamStop:
+    """End this connection's stream: no tick after the outputs before it."""
+
+
+class Clocked(Protocol):
+    """A front-end as a server sees it when a stream starts."""
+
+    def device_time_s(self) -> float: ...
+
+    @property
+    def time_scale(self) -> float: ...
+
+
+def stream_control(
+    out: object, stream: TickSchedule | None, engine: Clocked, now: float
+) -> tuple[bool, TickSchedule | None]:
+    """Act on one output if it controls a stream: ``(was it, the connection's schedule now)``.
+
+    ``StreamStart`` starts a schedule at wall-clock ``now`` and the engine's
+    clock; ``StreamStop`` ends it; ``StreamStall`` silences it for a while
+    (the ticks due meanwhile are lost). Anything else is left to the server.
+    """
+    if isinstance(out, StreamStart):
+        device_s = engine.device_time_s()
+        scale = engine.time_scale
+        return True, TickSchedule(out.period_s, device_s, now, scale, out.count, out.stream_id)
+    if isinstance(out, StreamStop):
+        return True, None
+    if isinstance(out, StreamStall):
+        if stream is not None:
+            stream.stall(out.delay_s)
+        return True, stream
+    return False, stream

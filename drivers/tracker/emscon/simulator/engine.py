@@ -55,7 +55,6 @@ an arbitrary result status (e.g. one Leica never defined).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -75,6 +74,7 @@ from drivers.tracker.instrument import (
 )
 from drivers.tracker.instrument.control import sim_command
 from drivers.tracker.instrument.front_end import FrontEnd
+from drivers.tracker.instrument.ticks import StreamStart, StreamStop
 from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
@@ -128,19 +128,6 @@ STATUS_FOR_CODE = {
 
 #: Longest ``lTimeSeparation`` the simulator takes, ms (a minute between points).
 MAX_SEPARATION_MS = 60_000
-
-
-@dataclass(frozen=True)
-class StreamStart:
-    """Start sending continuous results on this connection (after the OK reply)."""
-
-    separation_s: float
-    count: int | None
-
-
-@dataclass(frozen=True)
-class StreamStop:
-    """Stop this connection's continuous results (before the OK reply to StopMeasurement)."""
 
 
 #: What the engine hands its server: packets, hang-ups and stream control.

@@ -16,14 +16,9 @@ import threading
 import time
 
 from drivers.tracker.emscon import protocol as pk
-from drivers.tracker.emscon.simulator.engine import (
-    EmsconOutput,
-    EmsconSimulator,
-    StreamStart,
-    StreamStop,
-)
-from drivers.tracker.instrument import HangUp, StreamStall
-from drivers.tracker.instrument.ticks import TickSchedule
+from drivers.tracker.emscon.simulator.engine import EmsconOutput, EmsconSimulator
+from drivers.tracker.instrument import HangUp, Send
+from drivers.tracker.instrument.ticks import TickSchedule, stream_control
 from drivers.tracker.line.simulator.server import SimulatorServer
 
 
@@ -183,20 +178,10 @@ class EmsconServer:
         for out in outputs:
             if isinstance(out, HangUp):
                 return False
-            if isinstance(out, StreamStart):
-                now = time.monotonic()
-                device_s = self.engine.device_time_s()
-                scale = self.engine.time_scale
-                conn.stream = TickSchedule(out.separation_s, device_s, now, scale, out.count)
+            control, conn.stream = stream_control(out, conn.stream, self.engine, time.monotonic())
+            if control:
                 continue
-            if isinstance(out, StreamStop):
-                conn.stream = None
-                continue
-            if isinstance(out, StreamStall):
-                stream = conn.stream
-                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
-                    stream.stall(out.delay_s)
-                continue
+            assert isinstance(out, Send)
             if out.delay_s > 0:
                 if self._stop.wait(out.delay_s):
                     return False

@@ -10,7 +10,6 @@ with ``SIM,TARGET,x,y,z[,rx,ry,rz]`` (mm and rad whatever ``UNITS`` says).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,6 +27,7 @@ from drivers.tracker.instrument import (
 )
 from drivers.tracker.instrument.control import sim_command
 from drivers.tracker.instrument.front_end import FrontEnd
+from drivers.tracker.instrument.ticks import StreamStart, StreamStop
 from drivers.tracker.line.protocol import (
     ANGLE_UNITS,
     EVENT_SEQ,
@@ -52,20 +52,6 @@ MODEL = "TRACKER-SIM"
 FIRMWARE = "1.0"
 MODES = ("FAST", "STANDARD", "PRECISE")
 METEO_LIMITS = {"T": (-10.0, 50.0), "P": (500.0, 1200.0), "H": (0.0, 100.0)}
-
-
-@dataclass(frozen=True)
-class StreamStart:
-    """Start ticking a stream on this connection (after the ``OK`` sent before it)."""
-
-    stream_id: int
-    rate_hz: int
-    count: int | None = None
-
-
-@dataclass(frozen=True)
-class StreamStop:
-    """End this connection's stream: no tick after the outputs before it."""
 
 
 #: What the line simulator's engine hands its server: outputs and stream control.
@@ -295,7 +281,7 @@ class TrackerSimulator(FrontEnd):
         rate, count = parse_stream_rate(cmd.args)  # ValueError: BAD_PARAMETER
         if not self.initialised:
             return error_body(cmd.seq, ErrorCode.NOT_INITIALISED)
-        post.append(StreamStart(cmd.seq, rate, count))
+        post.append(StreamStart(1.0 / rate, count, cmd.seq))
         return ok_body(cmd.seq, rate)
 
     def stream_tick(self, stream_id: int, n: int, stamp_s: float) -> list[LineOutput]:

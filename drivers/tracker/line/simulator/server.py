@@ -19,15 +19,10 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Protocol
 
-from drivers.tracker.instrument import HangUp, Send, StreamStall
-from drivers.tracker.instrument.ticks import TickSchedule
+from drivers.tracker.instrument import HangUp, Send
+from drivers.tracker.instrument.ticks import TickSchedule, stream_control
 from drivers.tracker.line.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.line.simulator.engine import (
-    LineOutput,
-    StreamStart,
-    StreamStop,
-    internal_error_reply,
-)
+from drivers.tracker.line.simulator.engine import LineOutput, internal_error_reply
 
 
 class LineEngine(Protocol):
@@ -239,21 +234,10 @@ class SimulatorServer:
             if isinstance(out, HangUp):
                 self._drop(conn)
                 return False
-            if isinstance(out, StreamStart):
-                engine = self.engine
-                device_s = engine.device_time_s()  # type: ignore[attr-defined]
-                scale = getattr(engine, "time_scale", 1.0)
-                period_s = 1.0 / out.rate_hz
-                now = time.monotonic()
-                conn.stream = TickSchedule(period_s, device_s, now, scale, out.count, out.stream_id)
-                continue
-            if isinstance(out, StreamStop):
-                conn.stream = None
-                continue
-            if isinstance(out, StreamStall):
-                stream = conn.stream
-                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
-                    stream.stall(out.delay_s)
+            engine = self.engine  # a live simulator (a replay starts no streams)
+            now = time.monotonic()
+            control, conn.stream = stream_control(out, conn.stream, engine, now)  # type: ignore[arg-type]
+            if control:
                 continue
             assert isinstance(out, Send)
             due = max(time.monotonic(), conn.last_due) + out.delay_s
