@@ -7,10 +7,13 @@ bounded by the drivers' deadlines (``timeout_s``) and the servers' joins.
 from __future__ import annotations
 
 import socket
+import subprocess
+import sys
 from collections import deque
 
 import numpy as np
 import pytest
+from tracker_kit import REPO
 
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon import protocol as pk
@@ -138,3 +141,18 @@ def test_without_a_weather_station_emscon_corrects_with_the_client_air_as_before
     finally:
         server.stop()
     assert (status.laser, status.weather_monitor) == (pk.LaserStatus.READY, 0)
+
+
+@pytest.mark.parametrize(
+    "option", [["--air", "20,1013"], ["--on-time", "-3"], ["--time-scale", "0"]]
+)
+def test_a_bad_emscon_simulator_option_is_one_line_and_exit_2(option):
+    done = subprocess.run(
+        [sys.executable, "-m", "drivers.tracker.emscon.simulator", *option],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr.count("\n") == 1 and f"argument {option[0]}:" in done.stderr

@@ -32,6 +32,8 @@ UNSTABLE_SIGMA_MM = 0.05  # extra scatter of a moving target ("outliers of tens 
 #: Time a tracker needs after power-on before it measures to its specification, s
 #: (a Leica AT960: about two hours; its warm-up errors reach tenths of a millimetre).
 WARM_UP_S = 2 * 3600.0
+#: Time since power-on a simulated tracker starts with unless told, s: warmed up.
+ON_S = 3 * 3600.0
 #: Most waypoints a path may hold (bounds the memory a client can take).
 MAX_WAYPOINTS = 200_000
 #: Air a tracker's station reads at a standard laboratory: degC, hPa, %RH.
@@ -91,7 +93,7 @@ class Instrument:
         initialised: bool = False,
         clock: Callable[[], float] = time.monotonic,
         air: tuple[float, float, float] = STANDARD_AIR,
-        on_s: float = 3 * 3600.0,
+        on_s: float = ON_S,
         latency_s: float = 0.0,
         time_scale: float = 1.0,
     ):

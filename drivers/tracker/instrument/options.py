@@ -13,7 +13,25 @@ import signal
 import time
 from collections.abc import Callable
 
+from drivers.tracker.instrument.instrument import ON_S
 from drivers.tracker.line.protocol import parse_number
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with its usage errors as one line (no usage block) and exit 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def add_on_time(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--on-time S``: the tracker's time since power-on at start (default: warmed up)."""
+    parser.add_argument("--on-time", type=on_time, default=ON_S, metavar="S", help=help_text)
+
+
+def add_time_scale(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--time-scale X``: the tracker's clock runs X times faster than the wall clock."""
+    parser.add_argument("--time-scale", type=time_scale, default=1.0, metavar="X", help=help_text)
 
 
 def triple(text: str) -> list[float]:

@@ -20,7 +20,7 @@ from drivers.tracker.instrument import NoiseModel, options, parse_script
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = options.OneLineParser(
         prog="python -m drivers.tracker.emscon.simulator",
         description="Simulated Leica emScon server on 127.0.0.1 (emScon port + control port).",
     )
@@ -53,20 +53,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="a weather station on the tracker measures this air (degC, hPa, %%RH) and the "
         "server corrects with it (default: no station; the client's parameters)",
     )
-    p.add_argument(
-        "--on-time",
-        type=options.on_time,
-        default=3 * 3600.0,
-        metavar="S",
-        help="time since power-on at start, s (its laser reports heating up until 2 h; "
-        "default 3 h)",
+    options.add_on_time(
+        p, "time since power-on at start, s (its laser reports heating up until 2 h; default 3 h)"
     )
-    p.add_argument(
-        "--time-scale",
-        type=options.time_scale,
-        default=1.0,
-        metavar="X",
-        help="its clock runs X times faster than the wall clock (default 1: real time)",
+    options.add_time_scale(
+        p, "its clock runs X times faster than the wall clock (default 1: real time)"
     )
     p.add_argument("--outlive-parent", action="store_true", help="keep serving after parent exits")
     return p

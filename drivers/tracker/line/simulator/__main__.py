@@ -26,13 +26,6 @@ from drivers.tracker.line.simulator.replay import ReplaySimulator
 from drivers.tracker.line.simulator.server import SimulatorServer
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with its usage errors as one line (no usage block) and exit 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def _serial(text: str) -> str:
     # It goes into every ID? reply: one field of printable ASCII.
     if not (0 < len(text) <= 40 and text.isascii() and text.isprintable()) or set(text) & set(",*"):
@@ -43,7 +36,7 @@ def _serial(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = options.OneLineParser(
         prog="python -m drivers.tracker.line.simulator",
         description="Simulated laser tracker over a pty and/or 127.0.0.1 TCP.",
     )
@@ -68,22 +61,15 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="T,P,H",
         help="air the station's sensors measure (COND?): degC, hPa, %%RH",
     )
-    p.add_argument(
-        "--on-time",
-        type=options.on_time,
-        default=3 * 3600.0,
-        metavar="S",
-        help="time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)",
+    options.add_on_time(
+        p, "time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)"
     )
     p.add_argument(
         "--init-time", type=options.seconds, default=0.2, metavar="S", help="INIT duration, s"
     )
-    p.add_argument(
-        "--time-scale",
-        type=options.time_scale,
-        default=1.0,
-        metavar="X",
-        help="its clock runs X times faster than the wall clock (reading stamps, INIT, time "
+    options.add_time_scale(
+        p,
+        "its clock runs X times faster than the wall clock (reading stamps, INIT, time "
         "on); with the external-robot simulator at the same scale, a watched run is X times "
         "faster (default 1: real time)",
     )
