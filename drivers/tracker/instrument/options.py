@@ -12,6 +12,7 @@ import os
 import signal
 import time
 from collections.abc import Callable
+from typing import NoReturn
 
 from drivers.tracker.instrument.instrument import ON_S
 from drivers.tracker.line.protocol import parse_number
@@ -20,7 +21,7 @@ from drivers.tracker.line.protocol import parse_number
 class OneLineParser(argparse.ArgumentParser):
     """argparse with its usage errors as one line (no usage block) and exit 2."""
 
-    def error(self, message: str):  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
