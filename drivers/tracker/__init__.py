@@ -13,7 +13,9 @@ Any tracker kind is opened by URL (:func:`open_tracker`, registry in
     avg = measure_average(tracker, n=10)   # avg.mean_mm, avg.std_mm, avg.count
     tracker.close()
 
-The simulator lives in :mod:`drivers.tracker.line.simulator` (imported on demand).
+The simulated tracker is :mod:`drivers.tracker.instrument`, served in the line protocol by
+:mod:`drivers.tracker.line.simulator` and behind emScon by
+:mod:`drivers.tracker.emscon.simulator` (imported on demand).
 """
 
 from drivers.registry import UnknownKind

@@ -384,10 +384,13 @@ def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_c
 
 def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     from calibrator import simulate
-    from drivers.tracker.emscon.simulator import engine as emscon_engine
-    from drivers.tracker.line.simulator import NoiseModel, engine
+    from drivers.tracker.emscon.simulator import EmsconSimulator
+    from drivers.tracker.instrument import NoiseModel
+    from drivers.tracker.line.simulator import TrackerSimulator
 
-    assert NoiseModel is simulate.NoiseModel is engine.NoiseModel is emscon_engine.NoiseModel
+    # Both simulators are front-ends of one instrument, whose noise is the world's model.
+    assert NoiseModel is simulate.NoiseModel
+    assert type(TrackerSimulator().noise) is type(EmsconSimulator().noise) is simulate.NoiseModel
     # A synthetic session's transverse noise grows with range as the model's does.
     point = np.array([[5000.0, 0.0, 0.0]])  # 5 m along x: y and z are transverse
     readings = simulate.tracker_readings(point, 20000, 1e-9, np.random.default_rng(1))[0]

@@ -21,8 +21,8 @@ from calibrator.acquire import ports
 from calibrator.simulate import SimWorld
 from drivers.tracker import OpenOptions, open_tracker
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
+from drivers.tracker.instrument import NoiseModel
 from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
-from drivers.tracker.line.simulator.noise import NoiseModel
 
 # pyserial's own rfc2217 client still calls Thread.setDaemon/setName.
 pytestmark = pytest.mark.filterwarnings(r"ignore:set(Daemon|Name)\(\) is deprecated")

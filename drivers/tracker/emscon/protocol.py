@@ -122,6 +122,21 @@ class ProcessorStatus(enum.IntEnum):
     INITIALIZED = 5
 
 
+class LaserStatus(enum.IntEnum):
+    """``ES_LaserProcessorStatus`` (``GetSystemStatus``), the values the simulator sends."""
+
+    HEATING_UP = 2
+    READY = 3
+
+
+class WeatherMonitor(enum.IntEnum):
+    """``ES_WeatherMonitorStatus`` (``GetSystemStatus``)."""
+
+    NOT_CONNECTED = 0
+    READ_ONLY = 1
+    READ_AND_CALCULATE = 2  # reads the air and corrects distances with it
+
+
 class StatusChange(enum.IntEnum):
     """``ES_SystemStatusChange`` events the adapter acts on."""
 
@@ -582,9 +597,12 @@ def system_status_body(
     serial: int,
     version: tuple[int, int, int] = (3, 6, 0),
     last_status: int = 0,
+    laser: int = 3,
+    weather: int = 0,
 ) -> bytes:
-    """Data of the ``GetSystemStatus`` reply (laser ready, ADM ready, no weather monitor)."""
-    return _SYSTEM_STATUS.pack(last_status, processor, 3, 2, *version, 0, 0, serial)
+    """Data of the ``GetSystemStatus`` reply (ADM ready; by default the laser ready and no
+    weather monitor, see :class:`LaserStatus` and :class:`WeatherMonitor`)."""
+    return _SYSTEM_STATUS.pack(last_status, processor, laser, 2, *version, weather, 0, serial)
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ from emscon_kit import ENV, TARGET_MM
 
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
-from drivers.tracker.line.simulator.noise import NoiseModel
+from drivers.tracker.instrument import NoiseModel
 
 
 @pytest.fixture

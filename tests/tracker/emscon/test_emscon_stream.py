@@ -23,9 +23,9 @@ from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.errors import ConnectionLost, NotInitialised
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
+from drivers.tracker.instrument import NoiseModel
 from drivers.tracker.line.errors import StreamStalled
 from drivers.tracker.line.simulator.engine import Send
-from drivers.tracker.line.simulator.noise import NoiseModel
 
 START = np.array([2000.0, 300.0, -200.0])
 VELOCITY = np.array([100.0, -50.0, 20.0])  # mm/s

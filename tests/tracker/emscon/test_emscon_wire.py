@@ -27,8 +27,8 @@ from drivers.tracker.emscon.errors import (
 )
 from drivers.tracker.emscon.simulator import EmsconServer, EmsconSimulator
 from drivers.tracker.emscon.simulator.engine import FAULT_NAMES
+from drivers.tracker.instrument import NoiseModel
 from drivers.tracker.line.simulator.engine import Send
-from drivers.tracker.line.simulator.noise import NoiseModel
 
 
 class ScriptedSimulator(EmsconSimulator):

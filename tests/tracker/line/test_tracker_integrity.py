@@ -17,9 +17,9 @@ import serial
 from tracker_kit import DevicePort, engine_responder
 
 from drivers.tracker import ConnectionLost, FrameError, LaserTracker, TrackerTimeout
+from drivers.tracker.instrument import NoiseModel
 from drivers.tracker.line.protocol import MAX_FRAME, SEQ_MAX
 from drivers.tracker.line.simulator import TrackerSimulator
-from drivers.tracker.line.simulator.noise import NoiseModel
 
 
 def _exact_sim():

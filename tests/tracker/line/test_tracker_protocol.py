@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from drivers.tracker.errors import ChecksumError, FrameError
+from drivers.tracker.instrument import NoiseModel, beam_frame
+from drivers.tracker.instrument.faults import FaultSchedule, parse_fault, parse_script
 from drivers.tracker.line.protocol import (
     MAX_FRAME,
     ErrorCode,
@@ -25,8 +27,6 @@ from drivers.tracker.line.protocol import (
     parse_reply,
     reading_fields,
 )
-from drivers.tracker.line.simulator.faults import FaultSchedule, parse_fault, parse_script
-from drivers.tracker.line.simulator.noise import NoiseModel, beam_frame
 
 
 def test_crc16_is_ccitt_false_check_value():

@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from tracker_kit import REPO, host
 
+from drivers.tracker.instrument.faults import parse_fault, parse_script
 from drivers.tracker.line.protocol import decode_frame, parse_reply
 from drivers.tracker.line.simulator import SimulatorServer, TrackerSimulator
-from drivers.tracker.line.simulator.faults import parse_fault, parse_script
 
 BAD_FAULTS = [
     "MEAS+1 error code=FOO",

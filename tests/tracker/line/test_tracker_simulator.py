@@ -20,13 +20,13 @@ from drivers.tracker import (
     TrackerTimeout,
     measure_average,
 )
+from drivers.tracker.instrument import beam_frame
 from drivers.tracker.line.simulator import (
     NoiseModel,
     SimulatorProcess,
     SimulatorServer,
     TrackerSimulator,
 )
-from drivers.tracker.line.simulator.noise import beam_frame
 
 TARGET = np.array([3000.0, 1000.0, 500.0])  # ~3.2 m from the tracker
 N_READINGS = 600

@@ -16,13 +16,11 @@ from pathlib import Path
 
 from drivers.tracker.emscon.simulator.engine import EmsconSimulator
 from drivers.tracker.emscon.simulator.server import EmsconServer
-from drivers.tracker.line.simulator.__main__ import _exit_with_parent, _latency, _triple
-from drivers.tracker.line.simulator.faults import parse_script
-from drivers.tracker.line.simulator.noise import NoiseModel
+from drivers.tracker.instrument import NoiseModel, options, parse_script
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = options.OneLineParser(
         prog="python -m drivers.tracker.emscon.simulator",
         description="Simulated Leica emScon server on 127.0.0.1 (emScon port + control port).",
     )
@@ -30,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--control-port", type=int, default=0, help="SIM,... control port (0 = free)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact readings")
-    p.add_argument("--target", type=_triple, metavar="X,Y,Z", help="initial true target, mm")
+    p.add_argument("--target", type=options.triple, metavar="X,Y,Z", help="initial true target, mm")
     p.add_argument("--initialised", action="store_true", help="start already initialised")
     p.add_argument("--init-time", type=float, default=0.2, metavar="S", help="Initialize, s")
     p.add_argument("--serial", type=int, default=390001, help="tracker serial number")
@@ -43,10 +41,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--probe", action="store_true", help="a 6-DoF probe (ProbeStationaryResult)")
     p.add_argument(
         "--latency",
-        type=_latency,
+        type=options.latency,
         default=0.0,
         metavar="S",
         help="how late continuous results' stamps are for a moving target, s (0..1)",
+    )
+    p.add_argument(
+        "--air",
+        type=options.air,
+        metavar="T,P,H",
+        help="a weather station on the tracker measures this air (degC, hPa, %%RH) and the "
+        "server corrects with it (default: no station; the client's parameters)",
+    )
+    options.add_on_time(
+        p, "time since power-on at start, s (its laser reports heating up until 2 h; default 3 h)"
+    )
+    options.add_time_scale(
+        p, "its clock runs X times faster than the wall clock (default 1: real time)"
     )
     p.add_argument("--outlive-parent", action="store_true", help="keep serving after parent exits")
     return p
@@ -73,6 +84,10 @@ def main(argv: list[str] | None = None) -> int:
         ack_start=args.ack_start,
         probe=args.probe,
         latency_s=args.latency,
+        air=args.air,
+        on_s=args.on_time,
+        clock=options.scaled_clock(args.time_scale),
+        time_scale=args.time_scale,
     )
     if args.target:
         engine.set_target(args.target[:3])
@@ -86,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     print(control, flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
     if not args.outlive_parent:
-        threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+        threading.Thread(target=options.exit_with_parent, args=(os.getppid(),), daemon=True).start()
     server.start()
     try:
         server.wait()

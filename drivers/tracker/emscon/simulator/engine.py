@@ -1,9 +1,10 @@
-"""The simulated emScon server: turns one received packet into the packets to send back.
+"""Leica emScon's front-end of the simulated tracker: one received packet in, packets out.
 
 No I/O here (the servers in :mod:`drivers.tracker.emscon.simulator.server`
-feed it). The physics is today's simulator's: the same
-:class:`~drivers.tracker.line.simulator.noise.NoiseModel` and the same fault
-scripts (:mod:`drivers.tracker.line.simulator.faults`), with emScon commands
+feed it). The tracker is the line simulator's own
+:class:`~drivers.tracker.instrument.Instrument` (target, noise, faults, air,
+warm-up, latency); this module decodes emScon commands and encodes its
+answers. The fault scripts (:mod:`drivers.tracker.instrument.faults`) count emScon commands
 counted under the line protocol's names (``ES_C_StartMeasurement`` is
 ``MEAS``, ``ES_C_GetTrackerStatus`` is ``STAT?``, see :data:`FAULT_NAMES`),
 so ``MEAS@5 beam_break`` means the same on both simulators. How each fault
@@ -38,6 +39,12 @@ asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
 (:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
 stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
 
+Warm-up and air: until the instrument is warmed up, ``GetSystemStatus``
+reports its laser heating up (``ES_LPS_LaserHeatingUp``), then ready. Given
+``air``, a weather station on the tracker reads it: ``GetSystemStatus``
+reports the weather monitor reading and calculating refractions, and
+``GetEnvironmentParams`` and every result carry the station's air.
+
 The true target is set in-process (:meth:`EmsconSimulator.set_target`) or
 over the control port with the line protocol's ``SIM,TARGET`` / ``SIM,NOTARGET``
 / ``SIM,FAULT`` (so ``drivers.tracker.line.simulator.launch.SimulatorControl``
@@ -48,17 +55,26 @@ an arbitrary result status (e.g. one Leica never defined).
 
 from __future__ import annotations
 
-import threading
-import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.protocol import Command, ResultStatus, StatusChange
 from drivers.tracker.errors import FrameError
+from drivers.tracker.instrument import (
+    MAX_RANGE_MM,
+    MIN_RANGE_MM,
+    STANDARD_AIR,
+    HangUp,
+    Instrument,
+    Output,
+    Send,
+    StreamStall,
+)
+from drivers.tracker.instrument.control import sim_command
+from drivers.tracker.instrument.front_end import FrontEnd
+from drivers.tracker.instrument.ticks import StreamStart, StreamStop
 from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
@@ -67,12 +83,7 @@ from drivers.tracker.line.protocol import (
     ok_body,
     parse_command,
 )
-from drivers.tracker.line.simulator.engine import HangUp, Output, Send, StreamStall
-from drivers.tracker.line.simulator.faults import Fault, FaultSchedule, parse_fault
-from drivers.tracker.line.simulator.noise import NoiseModel
 
-MIN_RANGE_MM = 500.0
-MAX_RANGE_MM = 80_000.0
 METEO_LIMITS = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))  # degC, hPa, %RH
 INACCURATE_STD_MM = 1.0
 SEARCH_RADIUS_MM = 100.0  # FindReflector's reach around the aimed point
@@ -115,23 +126,8 @@ STATUS_FOR_CODE = {
     ErrorCode.BAD_FRAME: ResultStatus.INVALID_INPUT_DATA,
 }
 
-#: Most waypoints a ``SIM,PATH`` may hold (bounds the memory a client can take).
-MAX_WAYPOINTS = 200_000
 #: Longest ``lTimeSeparation`` the simulator takes, ms (a minute between points).
 MAX_SEPARATION_MS = 60_000
-
-
-@dataclass(frozen=True)
-class StreamStart:
-    """Start sending continuous results on this connection (after the OK reply)."""
-
-    separation_s: float
-    count: int | None
-
-
-@dataclass(frozen=True)
-class StreamStop:
-    """Stop this connection's continuous results (before the OK reply to StopMeasurement)."""
 
 
 #: What the engine hands its server: packets, hang-ups and stream control.
@@ -142,137 +138,66 @@ _MSI_BASE = 1 | 2 | 4 | 8
 _MSI_REFLECTOR, _MSI_INITIALISED = 2048, 65536
 
 
-class EmsconSimulator:
-    """A Leica tracker at the origin of the tracker frame, behind an emScon server.
+class EmsconSimulator(FrontEnd):
+    """Leica emScon spoken by a simulated laser tracker (:class:`Instrument`).
 
     Parameters
     ----------
-    seed : int
-        Seed of the noise generator.
-    noise : NoiseModel
-        Shared noise model; ``NoiseModel(enabled=False)`` for exact readings.
-    faults : list of Fault, optional
-        Faults armed from the start.
-    init_time_s : float
-        Duration of ``Initialize``.
-    initialised : bool
-        Start already initialised.
+    air : tuple of 3 float, optional
+        The air a weather station on the tracker measures (degC, hPa, %RH):
+        the server then corrects with it (``GetSystemStatus`` reports the
+        weather monitor reading and calculating refractions;
+        ``GetEnvironmentParams`` and every result carry that air, whatever
+        ``SetEnvironmentParams`` sent). None (default): no weather station,
+        the server corrects with the parameters the client sets.
     serial : int
         ``lTrackerSerialNumber`` of ``GetSystemStatus``.
-    clock : callable
-        Monotonic clock, s.
     ack_start : bool
         Acknowledge ``StartMeasurement`` with an OK reply before the result
         (default False: stationary mode as Leica documents it, result only).
     probe : bool
         Simulate a 6-DoF probe (``ProbeStationaryResult``) instead of a reflector.
-    latency_s : float
-        How late the tracker's stamps are: a continuous result stamped ``t``
-        shows a moving target where it was at ``t - latency_s`` (s).
+    instrument : Instrument, optional
+        Speak for this tracker; None builds one from ``tracker`` (and ``air``).
+    **tracker
+        The tracker's parameters (:class:`~drivers.tracker.instrument.Instrument`:
+        ``seed``, ``noise``, ``faults``, ``init_time_s``, ``initialised``,
+        ``clock``, ``on_s``, ``latency_s``, ``time_scale``). Until it is warmed up
+        (``on_s`` past :data:`~drivers.tracker.instrument.WARM_UP_S`)
+        ``GetSystemStatus`` reports its laser heating up.
     """
 
     def __init__(
         self,
         *,
-        seed: int = 0,
-        noise: NoiseModel | None = None,
-        faults: list[Fault] | None = None,
-        init_time_s: float = 0.2,
-        initialised: bool = False,
+        air: tuple[float, float, float] | None = None,
         serial: int = 390001,
-        clock: Callable[[], float] = time.monotonic,
         ack_start: bool = False,
         probe: bool = False,
-        latency_s: float = 0.0,
+        instrument: Instrument | None = None,
+        **tracker: Any,
     ):
-        self._rng = np.random.default_rng(seed)
-        self.noise = noise if noise is not None else NoiseModel()
-        self.init_time_s = init_time_s
-        self.initialised = initialised
+        super().__init__(instrument, air=STANDARD_AIR if air is None else air, **tracker)
+        self.weather_station = air is not None
         self.serial = serial
-        self._clock = clock
-        self._lock = threading.Lock()
-        self._faults = FaultSchedule(faults)
         self._forced: dict[str, int] = {}
-        self._target: np.ndarray | None = None
-        self._beam_broken_left = 0
-        self._unstable_left = 0
-        self._inaccurate_left = 0
         self.units = pk.parse_units(pk.units_params(length=0, angle=0))  # emScon starts in m
-        self.env = (20.0, 1013.25, 50.0)
+        self._env = (20.0, 1013.25, 50.0)
         self.coordinate_system = pk.CS_RHR
         self.meas_mode = pk.MM_STATIONARY
         self.stationary = (1000, True)  # lMeasTime (ms), bUseADM
         self.ack_start = ack_start
         self.probe = probe
         self.aim_mm: np.ndarray | None = None  # where GoPosition pointed the beam
-        self._rotvec = np.zeros(3)
         self.measurements = 0  # results sent (diagnostics)
-        self.latency_s = float(latency_s)
-        self._t0 = clock()
-        # A moving target: device time (s) -> (3,) mm; None: the fixed target.
-        self._motion: Callable[[float], ArrayLike] | None = None
         self.continuous_time = (100, 0)  # lTimeSeparation (ms), lNumberOfPoints (0: until stopped)
         self.stream_records = 0  # continuous points sent (diagnostics)
-        self._waypoints: list[list[float]] = []  # SIM,PATH,POINT rows: t (s), x, y, z (mm)
 
-    # ------------------------------------------------------------ in-process control
-
-    def set_target(self, point_mm: ArrayLike, rotvec_rad: ArrayLike | None = None) -> None:
-        """True target position (shape (3,), mm, tracker frame); re-locks a broken beam.
-
-        ``rotvec_rad`` (shape (3,), rad): the probe's orientation, used when the
-        simulator has ``probe=True`` (identity when None).
-        """
-        with self._lock:
-            self._set_target(point_mm)
-            self._motion = None  # a fixed target from now on
-            rotvec = np.zeros(3) if rotvec_rad is None else np.asarray(rotvec_rad, float)
-            if rotvec.shape != (3,) or not np.all(np.isfinite(rotvec)):
-                raise ValueError("target orientation must be 3 finite values")
-            self._rotvec = rotvec
-
-    def _set_target(self, point_mm) -> None:
-        point = np.asarray(point_mm, dtype=float).reshape(3)
-        if not np.all(np.isfinite(point)):
-            raise ValueError("target position must be finite")
-        self._target = point
-        self._beam_broken_left = 0
-        self._range_mm = float(np.linalg.norm(point))
-        self._scale = self.noise.scale_matrix(point) if self._range_mm > 0 else None
-
-    def clear_target(self) -> None:
-        with self._lock:
-            self._target = None
-            self._motion = None
-
-    def set_motion(self, motion: Callable[[float], ArrayLike] | None) -> None:
-        """Move the target along ``motion`` (None: hold it where it is now).
-
-        Parameters
-        ----------
-        motion : callable or None
-            ``motion(t_s)`` with ``t_s`` the device time in seconds
-            (:meth:`device_time_s`) gives the true target, shape (3,), mm,
-            tracker frame. Continuous results show it at their stamp less
-            :attr:`latency_s`; a stationary measurement where it is now.
-            Re-locks a broken beam, as :meth:`set_target`.
-        """
-        with self._lock:
-            if motion is None:
-                self._motion = None
-                return
-            self._set_target(np.asarray(motion(self.device_time_s()), float)[:3])
-            self._motion = motion
-
-    def device_time_s(self) -> float:
-        """The tracker's clock now, s (continuous results carry it as lTime1 s, lTime2 us)."""
-        return self._clock() - self._t0
-
-    def arm_fault(self, fault: Fault | str) -> None:
-        """Arm one fault (a :class:`Fault` or a fault-script line)."""
-        with self._lock:
-            self._faults.arm(parse_fault(fault) if isinstance(fault, str) else fault)
+    @property
+    def env(self) -> tuple[float, ...]:
+        """The air the server corrects with: its weather station's, else the client's (degC,
+        hPa, %RH)."""
+        return self.instrument.air if self.weather_station else self._env
 
     def force_status(self, name: str, status: int) -> None:
         """Answer the next command counted as ``name`` (e.g. ``"MEAS"``) with ``status``."""
@@ -282,67 +207,23 @@ class EmsconSimulator:
     # ------------------------------------------------------------ control port (line protocol)
 
     def handle_line(self, line: bytes) -> list[Output]:
-        """A control-port line: ``SIM,TARGET|NOTARGET|FAULT|STATUS`` in the line protocol."""
+        """A control-port line: the shared ``SIM,...`` commands
+        (:func:`~drivers.tracker.instrument.control.sim_command`) and ``SIM,STATUS``."""
         try:
             cmd = parse_command(decode_frame(line))
         except FrameError as exc:
             return [Send(encode_frame(error_body(0, ErrorCode.BAD_FRAME, str(exc))))]
-        try:
-            what, *args = cmd.args if cmd.name == "SIM" else ("",)
-            if what == "TARGET" and len(args) in (3, 6):
-                values = [float(a) for a in args]
-                self.set_target(values[:3], values[3:] or None)
-            elif what == "NOTARGET" and not args:
-                self.clear_target()
-            elif what == "FAULT" and len(args) == 1:
-                self.arm_fault(args[0])
-            elif what == "STATUS" and len(args) == 2:
-                self.force_status(args[0], int(args[1]))
-            elif what == "PATH" and args:
-                start_us = self._path(args)
-                if start_us is not None:
-                    return [Send(encode_frame(ok_body(cmd.seq, start_us)))]
-            else:
-                body = error_body(cmd.seq, ErrorCode.UNKNOWN_COMMAND, ",".join([cmd.name, what]))
-                return [Send(encode_frame(body))]
-        except ValueError as exc:
-            return [Send(encode_frame(error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))))]
-        return [Send(encode_frame(ok_body(cmd.seq)))]
-
-    def _path(self, args: list[str]) -> int | None:
-        """``SIM,PATH,CLEAR`` / ``SIM,PATH,POINT,t,x,y,z`` / ``SIM,PATH,GO[,delay]``.
-
-        Waypoints (s from the path's start; mm) are collected, then ``GO`` moves
-        the target through them, linear in between and held before and after,
-        from ``delay`` s after now on the tracker's clock; returns that start, us
-        (None for CLEAR and POINT). Raises ValueError on a bad waypoint.
-        """
-        what, rest = args[0], args[1:]
-        with self._lock:
-            if what == "CLEAR" and not rest:
-                self._waypoints = []
-                return None
-            if what == "POINT" and len(rest) == 4:
-                values = [float(a) for a in rest]
-                if not all(np.isfinite(values)):
-                    raise ValueError("a waypoint is 4 finite numbers")
-                if self._waypoints and values[0] <= self._waypoints[-1][0]:
-                    raise ValueError(f"waypoint time {values[0]} s does not increase")
-                if len(self._waypoints) >= MAX_WAYPOINTS:
-                    raise ValueError(f"more than {MAX_WAYPOINTS} waypoints")
-                self._waypoints.append(values)
-                return None
-            if what != "GO" or len(rest) > 1 or not self._waypoints:
-                raise ValueError(f"SIM,PATH,{what}: expected CLEAR, POINT,t,x,y,z or GO[,delay]")
-            delay = float(rest[0]) if rest else 0.0
-            if not 0.0 <= delay <= 3600.0:
-                raise ValueError(f"start delay {delay} s outside 0..3600")
-            table = np.array(self._waypoints)
-            start = self.device_time_s() + delay
-        self.set_motion(
-            lambda t_s: np.array([np.interp(t_s - start, table[:, 0], c) for c in table[:, 1:].T])
-        )
-        return int(start * 1e6)
+        if cmd.name != "SIM":
+            body = error_body(cmd.seq, ErrorCode.UNKNOWN_COMMAND, cmd.name + ",")
+        elif cmd.args[:1] == ("STATUS",) and len(cmd.args) == 3:
+            try:
+                self.force_status(cmd.args[1], int(cmd.args[2]))
+                body = ok_body(cmd.seq)
+            except ValueError as exc:
+                body = error_body(cmd.seq, ErrorCode.BAD_PARAMETER, str(exc))
+        else:
+            body = sim_command(self.instrument, cmd)
+        return [Send(encode_frame(body))]
 
     # ------------------------------------------------------------ emScon port
 
@@ -355,19 +236,13 @@ class EmsconSimulator:
                 command = pk.parse_uint(data[pk.HEADER.size :]) if len(data) >= 12 else 0
                 return [Send(pk.encode_error(command, ResultStatus.INVALID_INPUT_DATA))]
             name = FAULT_NAMES.get(command, "UNKNOWN")
-            faults = self._faults.next_command(name)
+            faults = self.instrument.faults.next_command(name)
             pre: list[bytes] = []
             forced = self._forced.pop(name, None)
             for fault in faults:
-                if fault.kind == "not_initialised":
-                    self.initialised = False
-                elif fault.kind == "beam_break":
-                    self._beam_broken_left = fault.count
+                self.instrument.fire(fault)
+                if fault.kind == "beam_break":
                     pre.append(pk.encode_status_change(StatusChange.MEAS_STATUS_NOT_READY))
-                elif fault.kind == "unstable":
-                    self._unstable_left = fault.count
-                elif fault.kind == "inaccurate":
-                    self._inaccurate_left = fault.count
                 elif fault.kind == "error":
                     forced = STATUS_FOR_CODE.get(fault.code, ResultStatus.UNKNOWN)
             if forced is not None:
@@ -390,14 +265,16 @@ class EmsconSimulator:
         """Apply the reply-mangling faults to the last packet of the answer."""
         head = [Send(p) for p in pre + answer[:-1]]
         last = answer[-1]
-        delay = self.init_time_s if command == Command.INITIALIZE and _ok(last) else 0.0
+        init_s = self.instrument.init_time_s
+        delay = init_s if command == Command.INITIALIZE and _ok(last) else 0.0
         for fault in faults:
             if fault.kind == "drop":
                 return [Send(p) for p in pre]
             if fault.kind == "hangup":
                 return [HangUp()]
             if fault.kind == "garble":
-                junk = self._rng.integers(0, 256, size=len(last), dtype=np.uint8).tobytes()
+                rng = self.instrument.rng
+                junk = rng.integers(0, 256, size=len(last), dtype=np.uint8).tobytes()
                 last = pk.HEADER.pack(-1, 0xDEAD) + junk[pk.HEADER.size :]
             elif fault.kind == "bad_crc":
                 last = pk.HEADER.pack(16, pk.HEADER.unpack_from(last)[1]) + last[8:16]
@@ -426,19 +303,21 @@ class EmsconSimulator:
 
     def _system_status(self, command, params):
         processor = pk.ProcessorStatus.INITIALIZED if self.initialised else 4
-        body = pk.system_status_body(processor, self.serial)
+        # The instrument's warm-up shows as its laser heating up; a weather station as a
+        # weather monitor reading the air and calculating the refraction from it.
+        warm = self.instrument.warmed_up(self.instrument.clock())
+        laser = pk.LaserStatus.READY if warm else pk.LaserStatus.HEATING_UP
+        weather = pk.WeatherMonitor.READ_AND_CALCULATE if self.weather_station else 0
+        body = pk.system_status_body(processor, self.serial, laser=laser, weather=weather)
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
-    def _locked(self) -> bool:
-        return self._target is not None and not self._beam_broken_left
-
     def _tracker_status(self, command, params):
-        ready = self.initialised and self._locked()
+        ready = self.initialised and self.instrument.locked_on
         state = pk.TrackerState.READY if ready else pk.TrackerState.NOT_READY
         return [pk.encode_reply(command, ResultStatus.ALL_OK, pk.uint_param(state))]
 
     def _measurement_status_info(self, command, params):
-        flags = _MSI_BASE | (_MSI_REFLECTOR if self._locked() else 0)
+        flags = _MSI_BASE | (_MSI_REFLECTOR if self.instrument.locked_on else 0)
         flags |= _MSI_INITIALISED if self.initialised else 0
         body = pk.uint_param(0) + pk.uint_param(flags)
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
@@ -461,7 +340,7 @@ class EmsconSimulator:
         for value, (lo, hi) in zip(env, METEO_LIMITS, strict=True):
             if not lo <= value <= hi:
                 return [pk.encode_reply(command, ResultStatus.METEO_DATA_OUT_OF_RANGE)]
-        self.env = env
+        self._env = env  # a weather station's air replaces it (see env)
         return self._ok(command, params)
 
     def _get_env(self, command, params):
@@ -522,55 +401,53 @@ class EmsconSimulator:
     def _find_reflector(self, command, params):
         if not self.initialised:
             return [pk.encode_reply(command, ResultStatus.TRACKER_NOT_INITIALIZED)]
-        if self._target is None:
+        target = self.instrument.target
+        if target is None:
             return [pk.encode_reply(command, ResultStatus.MEASUREMENT_STATUS_NOT_READY)]
         aim, self.aim_mm = self.aim_mm, None
-        if aim is not None and np.linalg.norm(self._target - aim) > SEARCH_RADIUS_MM:
+        if aim is not None and np.linalg.norm(target - aim) > SEARCH_RADIUS_MM:
             return [pk.encode_reply(command, ResultStatus.MEASUREMENT_STATUS_NOT_READY)]
-        self._beam_broken_left = 0
+        self.instrument.beam_broken_left = 0
         ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
         return [ready, *self._ok(command, params)]
 
     def _start_measurement(self, command, params):
+        inst = self.instrument
         refuse = None
-        if not self.initialised:
+        if not inst.initialised:
             refuse = ResultStatus.TRACKER_NOT_INITIALIZED
-        elif self._target is None:
+        elif inst.target is None:
             refuse = ResultStatus.MEASUREMENT_STATUS_NOT_READY
-        elif self._beam_broken_left:
-            self._beam_broken_left -= 1
+        elif inst.beam_broken_left:
             refuse = ResultStatus.MEASUREMENT_STATUS_NOT_READY
-            if not self._beam_broken_left:  # the tracker re-locks on its own afterwards
+            if inst.take_broken_reading()[1]:  # the tracker re-locks on its own afterwards
                 ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
                 return [pk.encode_reply(command, refuse), ready]
         elif self.meas_mode == pk.MM_CONTINUOUS_TIME:
             # Continuous mode is acknowledged, then results follow (StreamStart, above).
             return [pk.encode_reply(command, ResultStatus.ALL_OK)]
-        elif not MIN_RANGE_MM <= self._range_mm <= MAX_RANGE_MM:
+        elif not MIN_RANGE_MM <= inst.range_mm <= MAX_RANGE_MM:
             refuse = ResultStatus.NO_STATIONARY_RESULT
-        elif self._unstable_left:
-            self._unstable_left -= 1
+        elif inst.take_unstable():
             refuse = ResultStatus.NO_STATIONARY_RESULT
         if refuse is not None:
             return [pk.encode_reply(command, refuse)]
-        target, scale = self._target, self._scale
-        if self._motion is not None:  # a moving target: where it is now, less the latency
-            target = np.asarray(self._motion(self.device_time_s() - self.latency_s), float)[:3]
-            scale = self.noise.scale_matrix(target)
-        point = self.noise.sample_point(target, self._rng, scale)
-        if self.noise.enabled:
+        # A moving target: where it is now, less the latency.
+        target, rotvec, scale = inst.pose_at(inst.device_time_s())
+        if scale is None:
+            scale = inst.noise.scale_matrix(target)
+        point = inst.sample_point(target, scale)
+        if inst.noise.enabled:
             std_xyz = np.sqrt(np.sum(scale**2, axis=0))
         else:
             std_xyz = np.zeros(3)
         total = float(np.linalg.norm(std_xyz))
-        if self._inaccurate_left:
-            self._inaccurate_left -= 1
+        if inst.take_inaccurate():
             total = INACCURATE_STD_MM
         per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
         std = (*(std_xyz / per_unit), total / per_unit)
         if self.probe:
-            rotvec = self.noise.sample_rotvec(self._rotvec, self._rng)
-            quaternion = _rotvec_to_quaternion(rotvec)
+            quaternion = _rotvec_to_quaternion(inst.sample_rotvec(rotvec))
             result = pk.encode_probe_stationary_result(point / per_unit, std, quaternion, self.env)
         else:
             result = pk.encode_single_meas_result(point / per_unit, std, self.env)
@@ -597,7 +474,8 @@ class EmsconSimulator:
         """
         with self._lock:
             t_us = max(int(round(stamp_s * 1e6)), 0)
-            faults = self._faults.next_command("SAMPLE", count_any=False)
+            inst = self.instrument
+            faults = inst.faults.next_command("SAMPLE", count_any=False)
             out: list[EmsconOutput] = []
             for fault in faults:
                 if fault.kind == "stall":
@@ -606,30 +484,25 @@ class EmsconSimulator:
                     return []
                 if fault.kind == "hangup":
                     return [HangUp()]
+                if fault.kind in ("beam_break", "inaccurate"):
+                    inst.fire(fault)
                 if fault.kind == "beam_break":
-                    self._beam_broken_left = fault.count
                     out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_NOT_READY)))
                     not_ready = ResultStatus.MEASUREMENT_STATUS_NOT_READY
                     out.append(Send(pk.encode_error(Command.START_MEASUREMENT, not_ready)))
-                elif fault.kind == "inaccurate":
-                    self._inaccurate_left = fault.count
-            if self._target is None:
+            if inst.target is None:
                 return out  # nothing to follow: no points (the client's stall timer runs)
-            if self._beam_broken_left:
-                self._beam_broken_left -= 1
-                if not self._beam_broken_left:  # re-locked after this tick
+            refused, restored = inst.take_broken_reading()
+            if refused:
+                if restored:  # re-locked after this tick
                     out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_READY)))
                 return out
-            point = self._target
-            if self._motion is not None:
-                point = np.asarray(self._motion(t_us / 1e6 - self.latency_s), float)[:3]
-            if not MIN_RANGE_MM <= float(np.linalg.norm(point)) <= MAX_RANGE_MM:
+            point, _, scale = inst.pose_at(t_us / 1e6)
+            if not inst.in_range(point):
                 return out  # out of range: no point at this tick
-            scale = self.noise.scale_matrix(point) if self._motion is not None else self._scale
-            point = self.noise.sample_point(point, self._rng, scale)
+            point = inst.sample_point(point, scale)
             status = pk.MeasurementStatus.ALL_OK
-            if self._inaccurate_left:
-                self._inaccurate_left -= 1
+            if inst.take_inaccurate():
                 status = pk.MeasurementStatus.SPEED_WARNING
             per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
             record = (int(status), t_us, tuple(point / per_unit))

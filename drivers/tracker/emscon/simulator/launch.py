@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from drivers.tracker.line.protocol import format_number
 from drivers.tracker.line.simulator.launch import SimulatorProcess, spawn
 
 
@@ -18,7 +19,8 @@ class EmsconSimulatorProcess(SimulatorProcess):
     """``python -m drivers.tracker.emscon.simulator`` as a child process.
 
     Parameters are those of :class:`~drivers.tracker.emscon.simulator.EmsconSimulator`;
-    ``faults`` is a fault-script file. Steering (``set_target``, ``clear_target``,
+    ``faults`` is a fault-script file; ``air`` a weather station's air (degC, hPa,
+    %RH), ``on_s`` the time since power-on at start, s. Steering (``set_target``, ``clear_target``,
     ``arm_fault``, ``control``) and ``stop`` are :class:`SimulatorProcess`'s: the
     control port speaks the same ``SIM,...`` commands. ``set_target``'s orientation
     is ignored (reflectors only).
@@ -35,6 +37,9 @@ class EmsconSimulatorProcess(SimulatorProcess):
         ack_start: bool = False,
         probe: bool = False,
         latency_s: float = 0.0,
+        air: tuple[float, float, float] | None = None,
+        on_s: float | None = None,
+        time_scale: float = 1.0,
     ):  # replaces SimulatorProcess.__init__: another program, two endpoint lines
         args = ["--seed", str(seed), "--init-time", str(init_time_s)]
         args += ["--ack-start"] if ack_start else []
@@ -43,6 +48,9 @@ class EmsconSimulatorProcess(SimulatorProcess):
         args += [] if noise else ["--no-noise"]
         args += ["--initialised"] if initialised else []
         args += ["--faults", str(faults)] if faults else []
+        args += ["--air", ",".join(format_number(v, 4) for v in air)] if air is not None else []
+        args += ["--on-time", repr(float(on_s))] if on_s is not None else []
+        args += ["--time-scale", repr(float(time_scale))] if time_scale != 1.0 else []
         self._proc = spawn("drivers.tracker.emscon.simulator", args)
         stdout = self._proc.stdout
         assert stdout is not None  # stdout=PIPE above

@@ -14,31 +14,12 @@ import contextlib
 import socket
 import threading
 import time
-from dataclasses import dataclass
 
 from drivers.tracker.emscon import protocol as pk
-from drivers.tracker.emscon.simulator.engine import (
-    EmsconOutput,
-    EmsconSimulator,
-    StreamStart,
-    StreamStop,
-)
-from drivers.tracker.line.simulator.engine import HangUp, StreamStall
+from drivers.tracker.emscon.simulator.engine import EmsconOutput, EmsconSimulator
+from drivers.tracker.instrument import HangUp, Send
+from drivers.tracker.instrument.ticks import TickSchedule, stream_control
 from drivers.tracker.line.simulator.server import SimulatorServer
-
-#: Ticks a late server catches up at once; beyond, the ticks due are lost (a gap).
-MAX_CATCH_UP_TICKS = 1000
-
-
-@dataclass
-class _Stream:
-    """A continuous measurement running on one connection."""
-
-    separation_s: float
-    count: int | None
-    device_start_s: float  # tracker time of tick 0
-    next_due: float  # wall-clock (monotonic) time of the next tick
-    n: int = 0  # last tick sent (or skipped)
 
 
 class _Conn:
@@ -46,7 +27,7 @@ class _Conn:
 
     def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
-        self.stream: _Stream | None = None
+        self.stream: TickSchedule | None = None
 
 
 class EmsconServer:
@@ -183,18 +164,12 @@ class EmsconServer:
         stream = conn.stream
         assert stream is not None
         now = time.monotonic()
-        due = int((now - stream.next_due) / stream.separation_s) + 1
-        if due > MAX_CATCH_UP_TICKS:  # a long hiccup: those ticks are lost
-            skipped = due - MAX_CATCH_UP_TICKS
-            stream.n += skipped
-            stream.next_due += skipped * stream.separation_s
-        while conn.stream is stream and stream.next_due <= now:
-            stream.n += 1
-            stream.next_due += stream.separation_s
-            stamp = stream.device_start_s + stream.n * stream.separation_s
-            if not self._send(conn, self.engine.stream_tick(stream.n, stamp)):
+        stream.catch_up(now)
+        while conn.stream is stream and stream.due(now):
+            n = stream.advance()
+            if not self._send(conn, self.engine.stream_tick(n, stream.stamp_s(n))):
                 return False
-            if stream.count is not None and stream.n >= stream.count:
+            if stream.finished:
                 conn.stream = None  # lNumberOfPoints sent: the measurement is over
         return True
 
@@ -203,21 +178,10 @@ class EmsconServer:
         for out in outputs:
             if isinstance(out, HangUp):
                 return False
-            if isinstance(out, StreamStart):
-                now = time.monotonic()
-                device_s = self.engine.device_time_s()
-                conn.stream = _Stream(out.separation_s, out.count, device_s, now + out.separation_s)
+            control, conn.stream = stream_control(out, conn.stream, self.engine, time.monotonic())
+            if control:
                 continue
-            if isinstance(out, StreamStop):
-                conn.stream = None
-                continue
-            if isinstance(out, StreamStall):
-                stream = conn.stream
-                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
-                    lost = int(out.delay_s / stream.separation_s)
-                    stream.n += lost
-                    stream.next_due += lost * stream.separation_s
-                continue
+            assert isinstance(out, Send)
             if out.delay_s > 0:
                 if self._stop.wait(out.delay_s):
                     return False

@@ -1,9 +1,9 @@
 """Simulated laser tracker speaking the product's tracker protocol.
 
-Of the ``calibrator`` package it imports only the port contract and the one
-simulated world's noise model (:class:`calibrator.simulate.NoiseModel`);
-otherwise numpy (scipy for 6-DoF orientation noise) and
-:mod:`drivers.tracker.line.protocol`.
+The tracker itself is :class:`drivers.tracker.instrument.Instrument` (target,
+noise, faults, air, warm-up, latency), the same one the emScon simulator
+serves; this package is its line-protocol front-end (:mod:`.engine`), its
+servers (pty and loopback TCP), its launcher and a replay of recorded logs.
 
 In-process::
 
@@ -22,16 +22,24 @@ As a child process, target steered over a loopback control link::
 From a shell: ``python -m drivers.tracker.line.simulator --pty`` (see ``--help``).
 """
 
-from drivers.tracker.line.simulator.engine import HangUp, Send, TrackerSimulator
-from drivers.tracker.line.simulator.faults import Fault, parse_fault, parse_script
+from drivers.tracker.instrument import (
+    Fault,
+    HangUp,
+    Instrument,
+    NoiseModel,
+    Send,
+    parse_fault,
+    parse_script,
+)
+from drivers.tracker.line.simulator.engine import TrackerSimulator
 from drivers.tracker.line.simulator.launch import SimulatorControl, SimulatorProcess
-from drivers.tracker.line.simulator.noise import NoiseModel
 from drivers.tracker.line.simulator.replay import ReplaySimulator
 from drivers.tracker.line.simulator.server import SimulatorServer
 
 __all__ = [
     "Fault",
     "HangUp",
+    "Instrument",
     "NoiseModel",
     "ReplaySimulator",
     "Send",

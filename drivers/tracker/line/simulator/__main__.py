@@ -14,90 +14,16 @@ exit status 2, and nothing on stdout.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import signal
 import sys
 import threading
-import time
 from pathlib import Path
 
-from drivers.tracker.line.protocol import parse_number
+from drivers.tracker.instrument import NoiseModel, options, parse_script
 from drivers.tracker.line.simulator.engine import TrackerSimulator
-from drivers.tracker.line.simulator.faults import parse_script
-from drivers.tracker.line.simulator.noise import NoiseModel
 from drivers.tracker.line.simulator.replay import ReplaySimulator
 from drivers.tracker.line.simulator.server import SimulatorServer
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with its usage errors as one line (no usage block) and exit 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-def _triple(text: str) -> list[float]:
-    try:
-        values = [parse_number(v.strip()) for v in text.split(",")]
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    if len(values) not in (3, 6):
-        raise argparse.ArgumentTypeError("expected x,y,z or x,y,z,rx,ry,rz")
-    return values
-
-
-def _port(text: str) -> int:
-    if not text.isascii() or not text.isdigit() or int(text) > 65535:
-        raise argparse.ArgumentTypeError(f"port must be 0..65535, got {text!r}")
-    return int(text)
-
-
-def _number_within(text: str, low: float, high: float, expected: str) -> float:
-    """``text`` as a finite number in ``[low, high]``, else a usage error naming ``expected``."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and low <= value <= high):
-        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
-    return value
-
-
-def _seconds(text: str) -> float:
-    return _number_within(text, 0.0, 3600.0, "seconds in 0..3600")
-
-
-def _air(text: str) -> tuple[float, float, float]:
-    try:
-        values = [parse_number(v.strip()) for v in text.split(",")]
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    limits = ((-10.0, 50.0), (500.0, 1200.0), (0.0, 100.0))
-    inside = len(values) == 3 and all(
-        lo <= v <= hi for v, (lo, hi) in zip(values, limits, strict=True)
-    )
-    if not inside:
-        raise argparse.ArgumentTypeError("expected T,P,H in -10..50 degC, 500..1200 hPa, 0..100 %")
-    return values[0], values[1], values[2]
-
-
-def _on_time(text: str) -> float:
-    return _number_within(text, 0.0, 1e8, "seconds >= 0")
-
-
-def _time_scale(text: str) -> float:
-    return _number_within(text, 0.01, 100.0, "a time scale in 0.01..100")
-
-
-def _latency(text: str) -> float:
-    return _number_within(text, 0.0, 1.0, "a latency in 0..1 s")
-
-
-def _seed(text: str) -> int:
-    if not text.isascii() or not text.isdigit():
-        raise argparse.ArgumentTypeError(f"seed must be a whole number >= 0, got {text!r}")
-    return int(text)
 
 
 def _serial(text: str) -> str:
@@ -110,49 +36,46 @@ def _serial(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = options.OneLineParser(
         prog="python -m drivers.tracker.line.simulator",
         description="Simulated laser tracker over a pty and/or 127.0.0.1 TCP.",
     )
     p.add_argument("--pty", action="store_true", help="serve on a new pty; print its slave path")
-    p.add_argument("--tcp", type=_port, metavar="PORT", help="serve on 127.0.0.1:PORT (0 = free)")
-    p.add_argument("--seed", type=_seed, default=0, help="noise seed (default 0)")
+    p.add_argument(
+        "--tcp", type=options.port, metavar="PORT", help="serve on 127.0.0.1:PORT (0 = free)"
+    )
+    p.add_argument("--seed", type=options.seed, default=0, help="noise seed (default 0)")
     p.add_argument("--no-noise", action="store_true", help="exact readings")
     p.add_argument("--probe-6dof", action="store_true", help="readings carry orientation (P6)")
     p.add_argument(
         "--target",
-        type=_triple,
+        type=options.triple,
         metavar="X,Y,Z[,RX,RY,RZ]",
         help="initial true target, mm (and rad); default none",
     )
     p.add_argument("--initialised", action="store_true", help="start already initialised")
     p.add_argument(
         "--air",
-        type=_air,
+        type=options.air,
         default=(20.0, 1013.25, 50.0),
         metavar="T,P,H",
         help="air the station's sensors measure (COND?): degC, hPa, %%RH",
     )
-    p.add_argument(
-        "--on-time",
-        type=_on_time,
-        default=3 * 3600.0,
-        metavar="S",
-        help="time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)",
+    options.add_on_time(
+        p, "time since power-on at start, s (COND?; warmed up after 2 h; default 3 h)"
     )
-    p.add_argument("--init-time", type=_seconds, default=0.2, metavar="S", help="INIT duration, s")
     p.add_argument(
-        "--time-scale",
-        type=_time_scale,
-        default=1.0,
-        metavar="X",
-        help="its clock runs X times faster than the wall clock (reading stamps, INIT, time "
+        "--init-time", type=options.seconds, default=0.2, metavar="S", help="INIT duration, s"
+    )
+    options.add_time_scale(
+        p,
+        "its clock runs X times faster than the wall clock (reading stamps, INIT, time "
         "on); with the external-robot simulator at the same scale, a watched run is X times "
         "faster (default 1: real time)",
     )
     p.add_argument(
         "--latency",
-        type=_latency,
+        type=options.latency,
         default=0.0,
         metavar="S",
         help="how late its stamps are: a moving target is read where it was S seconds "
@@ -180,13 +103,6 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
-def _exit_with_parent(parent: int) -> None:
-    """SIGTERM ourselves once the parent is gone, so crashed test runs leave no simulators."""
-    while os.getppid() == parent:
-        time.sleep(0.5)
-    os.kill(os.getpid(), signal.SIGTERM)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -200,19 +116,12 @@ def main(argv: list[str] | None = None) -> int:
     # SIGTERM ends the loop like Ctrl-C so the endpoints are closed cleanly.
     signal.signal(signal.SIGTERM, _interrupt)
     if not args.outlive_parent:
-        threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+        threading.Thread(target=options.exit_with_parent, args=(os.getppid(),), daemon=True).start()
     try:
         server.serve_forever()
     except KeyboardInterrupt:
         pass
     return 0
-
-
-def _scaled_clock(scale: float):
-    """The wall clock (monotonic, s) run ``scale`` times faster; itself at scale 1."""
-    if scale == 1.0:
-        return time.monotonic
-    return lambda: scale * time.monotonic()
 
 
 def _build_server(args) -> SimulatorServer:
@@ -242,7 +151,7 @@ def _build_server(args) -> SimulatorServer:
             serial=args.serial,
             air=args.air,
             on_s=args.on_time,
-            clock=_scaled_clock(args.time_scale),
+            clock=options.scaled_clock(args.time_scale),
             latency_s=args.latency,
             time_scale=args.time_scale,
         )

@@ -14,6 +14,7 @@ import threading
 from pathlib import Path
 
 from drivers.tracker.errors import FrameError
+from drivers.tracker.instrument import Output, Send
 from drivers.tracker.line.protocol import (
     ErrorCode,
     decode_frame,
@@ -22,7 +23,7 @@ from drivers.tracker.line.protocol import (
     parse_command,
     parse_reply,
 )
-from drivers.tracker.line.simulator.engine import Output, Send, bad_frame_reply
+from drivers.tracker.line.simulator.engine import bad_frame_reply
 from drivers.tracker.recording import group_exchanges, read_log
 
 

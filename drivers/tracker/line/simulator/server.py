@@ -19,43 +19,16 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Protocol
 
+from drivers.tracker.instrument import HangUp, Send
+from drivers.tracker.instrument.ticks import TickSchedule, stream_control
 from drivers.tracker.line.protocol import MAX_FRAME, TERMINATOR
-from drivers.tracker.line.simulator.engine import (
-    HangUp,
-    LineOutput,
-    Send,
-    StreamStall,
-    StreamStart,
-    StreamStop,
-    internal_error_reply,
-)
-
-#: Ticks a late server catches up at once; beyond, the ticks due are lost (a gap).
-MAX_CATCH_UP_TICKS = 1000
+from drivers.tracker.line.simulator.engine import LineOutput, internal_error_reply
 
 
 class LineEngine(Protocol):
     """What the server drives: one complete command line in, the outputs to send back."""
 
     def handle_line(self, line: bytes) -> Sequence[LineOutput]: ...
-
-
-class _Stream:
-    """A stream ticking on one connection (``STREAM`` ... ``STOP``)."""
-
-    def __init__(self, start: StreamStart, now: float, device_s: float, scale: float) -> None:
-        self.id = start.stream_id
-        # Ticks are regular on the tracker's clock (which may run `scale` times faster).
-        self.device_period_s = 1.0 / start.rate_hz
-        self.period_s = self.device_period_s / scale  # on the wall clock
-        self.device_start_s = device_s
-        self.count = start.count
-        self.n = 0  # last tick sent
-        self.next_due = now + self.period_s
-
-    def stamp_s(self, n: int) -> float:
-        """Tracker time of tick ``n``, s."""
-        return self.device_start_s + n * self.device_period_s
 
 
 class _Conn:
@@ -69,7 +42,7 @@ class _Conn:
         self.out: deque[list] = deque()  # [due_time, bytes]; FIFO keeps the line order
         self.last_due = 0.0
         self.is_pty = sock is None
-        self.stream: _Stream | None = None
+        self.stream: TickSchedule | None = None
 
     def read(self) -> bytes:
         return self.sock.recv(65536) if self.sock else os.read(self.fd, 65536)
@@ -198,19 +171,14 @@ class SimulatorServer:
             stream = conn.stream
             if stream is None or stream.next_due > now:
                 continue
-            due_ticks = int((now - stream.next_due) / stream.period_s) + 1
-            if due_ticks > MAX_CATCH_UP_TICKS:  # a long hiccup: those ticks are lost
-                skipped = due_ticks - MAX_CATCH_UP_TICKS
-                stream.n += skipped
-                stream.next_due += skipped * stream.period_s
-            while conn.stream is stream and stream.next_due <= now:
-                stream.n += 1
-                stream.next_due += stream.period_s
+            stream.catch_up(now)
+            while conn.stream is stream and stream.due(now):
+                n = stream.advance()
                 engine = self.engine
-                outputs = engine.stream_tick(stream.id, stream.n, stream.stamp_s(stream.n))  # type: ignore[attr-defined]
+                outputs = engine.stream_tick(stream.id, n, stream.stamp_s(n))  # type: ignore[attr-defined]
                 if not self._queue(conn, outputs):
                     break
-                if stream.count is not None and stream.n >= stream.count and conn.stream is stream:
+                if stream.finished and conn.stream is stream:
                     end = self.engine.stream_end(stream.id, stream.n)  # type: ignore[attr-defined]
                     self._queue(conn, [Send(end)])
                     conn.stream = None
@@ -266,21 +234,10 @@ class SimulatorServer:
             if isinstance(out, HangUp):
                 self._drop(conn)
                 return False
-            if isinstance(out, StreamStart):
-                engine = self.engine
-                device_s = engine.device_time_s()  # type: ignore[attr-defined]
-                scale = getattr(engine, "time_scale", 1.0)
-                conn.stream = _Stream(out, time.monotonic(), device_s, scale)
-                continue
-            if isinstance(out, StreamStop):
-                conn.stream = None
-                continue
-            if isinstance(out, StreamStall):
-                stream = conn.stream
-                if stream is not None:  # silent for a while: the ticks due meanwhile are lost
-                    lost = int(out.delay_s / stream.period_s)
-                    stream.n += lost
-                    stream.next_due += lost * stream.period_s
+            engine = self.engine  # a live simulator (a replay starts no streams)
+            now = time.monotonic()
+            control, conn.stream = stream_control(out, conn.stream, engine, now)  # type: ignore[arg-type]
+            if control:
                 continue
             assert isinstance(out, Send)
             due = max(time.monotonic(), conn.last_due) + out.delay_s

@@ -135,7 +135,7 @@ class SimulatedTracker(LaserTracker):
 URL_PARAMS: dict = {
     "noise": ("on", "off"),  # off: exact readings
     "probe": ("3dof", "6dof"),  # 6dof: the probe reports its orientation too
-    "faults": None,  # a fault script (drivers.tracker.line.simulator.faults)
+    "faults": None,  # a fault script (drivers.tracker.instrument.faults)
     "replay": None,  # a recorded exchange to answer from
 }
 
