@@ -11,12 +11,9 @@ reach a desired tool pose ``T`` (robot base frame):
 Both models carry the calibration's ``flange2tool``: the controller's TCP is
 assumed to be the identified tool. Everything is vectorised over targets.
 
-IK: Levenberg-Marquardt steps on the geometric Jacobian, per target (a step
-is kept only if it lowers the error, else the damping grows), error = position
-(mm) and rotation vector (rad, weighted :data:`ROT_WEIGHT_MM`) in the base
-frame; converged when the position error is below :data:`TOL_MM` and the
-rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
-A result outside the joint limits is reported, never clipped.
+The inverse kinematics is :func:`calibrator.model.inverse.solve` (damped
+Newton on the geometric Jacobian); a result outside the joint limits is
+reported, never clipped.
 """
 
 from __future__ import annotations
@@ -33,156 +30,19 @@ from numpy.typing import ArrayLike
 from calibrator.errors import CalibrationError
 from calibrator.inputs import grammar
 from calibrator.inputs.errors import StrictError
-from calibrator.model import frames, joint_terms, kinematics, singularities
+from calibrator.model import frames, inverse, joint_terms, kinematics, singularities
+from calibrator.model.inverse import Solution
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 
-#: Position tolerance of the IK (mm).
-TOL_MM = 1e-6
-#: Orientation tolerance of the IK (rad).
-TOL_RAD = 1e-9
-#: Iteration cap of the IK.
-MAX_ITER = 50
-#: Weight of a rotation error against a position error (mm/rad).
-ROT_WEIGHT_MM = 1000.0
 #: Largest turn of a joint between a target's nominal and calibrated solution
 #: (deg). A calibration moves joints by tenths of a degree (about 1 deg for
 #: the large errors of the simulated arms); much more means the
 #: target sits near a singularity, where a tiny pose change swings the wrist
 #: or the arm, and the corrected target would not move the arm as planned.
 MAX_JOINT_CHANGE_DEG = 5.0
-
-
-@dataclass(frozen=True)
-class Solution:
-    """IK results for N targets.
-
-    Attributes
-    ----------
-    q : ndarray, shape (N, 6)
-        Joint angles (rad); for failed targets, the last iterate (not clipped).
-    converged : ndarray of bool, shape (N,)
-    within_limits : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    error_mm, error_rad : ndarray, shape (N,)
-        Remaining position and rotation error.
-    """
-
-    q: np.ndarray
-    converged: np.ndarray
-    within_limits: np.ndarray
-    iterations: np.ndarray
-    error_mm: np.ndarray
-    error_rad: np.ndarray
-
-    @property
-    def ok(self) -> np.ndarray:
-        """Targets reached within the joint limits, shape (N,)."""
-        return self.converged & self.within_limits
-
-
-def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: np.ndarray) -> np.ndarray:
-    """Tool poses in the base frame, shape (N, 4, 4)."""
-    return kinematics.chain(mdh, q) @ flange2tool
-
-
-def _tool_rows(tool, idx):
-    """The tool of the targets ``idx``: one (4, 4) for all, or the rows of an (N, 4, 4)."""
-    return tool if tool.ndim == 2 else tool[idx]
-
-
-def _jacobian_and_pose(mdh, q, flange2tool):
-    _, link_frames = kinematics.chain(mdh, q, all_frames=True)
-    pose = link_frames[:, 6] @ flange2tool
-    axes = link_frames[:, :6, :3, 2]  # joint i+1 turns about z of frame i
-    arms = pose[:, None, :3, 3] - link_frames[:, :6, :3, 3]
-    jac = np.empty((len(q), 6, 6))
-    jac[:, :3] = np.swapaxes(np.cross(axes, arms), 1, 2)
-    jac[:, 3:] = np.swapaxes(axes, 1, 2)
-    return jac, pose
-
-
-def _pose_error(target, pose):
-    dp = target[:, :3, 3] - pose[:, :3, 3]
-    dr = frames.rotation_error(target[:, :3, :3], pose[:, :3, :3])
-    return np.concatenate([dp, dr], axis=1)
-
-
-def inverse(
-    mdh: ArrayLike,
-    targets: ArrayLike,
-    q0: ArrayLike,
-    flange2tool: ArrayLike | None = None,
-    limits: ArrayLike | None = None,
-) -> Solution:
-    """Joint angles reaching tool poses, by damped Newton (Levenberg-Marquardt) from ``q0``.
-
-    Parameters
-    ----------
-    mdh : array_like, shape (6, 5)
-    targets : array_like, shape (N, 4, 4)
-        Desired tool poses, base frame (mm).
-    q0 : array_like, shape (N, 6)
-        Start (rad): the nominal solution.
-    flange2tool : array_like, shape (4, 4) or (N, 4, 4), optional
-        One tool for every target, or one per target (a program's targets
-        name their own tools).
-    limits : array_like, shape (6, 2), optional
-        Joint limits (rad); all within when omitted.
-
-    Returns
-    -------
-    Solution
-    """
-    targets = np.asarray(targets, dtype=float)
-    q = kinematics.check_joints(q0).copy()
-    tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
-    n = len(q)
-    weight = np.array([1.0, 1.0, 1.0, ROT_WEIGHT_MM, ROT_WEIGHT_MM, ROT_WEIGHT_MM])
-    iterations = np.zeros(n, dtype=int)
-    lam = np.full(n, 1e-3)
-    jac, pose = _jacobian_and_pose(mdh, q, tool)
-    err = _pose_error(targets, pose)
-    active = ~_done(err)
-    for _ in range(MAX_ITER):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        j = jac[idx] * weight[:, None]
-        e = err[idx] * weight
-        jt = np.swapaxes(j, 1, 2)
-        jtj = jt @ j
-        # Marquardt's scaling: damping proportional to the diagonal.
-        damp = lam[idx, None, None] * (np.eye(6) * np.diagonal(jtj, axis1=1, axis2=2)[:, None, :])
-        dq = np.linalg.solve(jtj + damp, jt @ e[..., None])[..., 0]
-        trial_q = q[idx] + dq
-        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, _tool_rows(tool, idx))
-        trial_err = _pose_error(targets[idx], trial_pose)
-        better = np.sum((trial_err * weight) ** 2, axis=1) < np.sum(e**2, axis=1)
-        take = idx[better]
-        q[take], jac[take], err[take] = trial_q[better], trial_jac[better], trial_err[better]
-        lam[take] = np.maximum(lam[take] / 10.0, 1e-9)
-        lam[idx[~better]] *= 10.0
-        iterations[idx] += 1
-        active[take[_done(err[take])]] = False
-        active[idx[lam[idx] > 1e8]] = False  # stuck: no step lowers the error
-    e_mm = np.linalg.norm(err[:, :3], axis=1)
-    e_rad = np.linalg.norm(err[:, 3:], axis=1)
-    converged = _done(err)
-    if limits is None:
-        within = np.ones(n, dtype=bool)
-    else:
-        lim = np.asarray(limits, dtype=float)
-        within = np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
-    return Solution(q, converged, within, iterations, e_mm, e_rad)
-
-
-def _done(err):
-    return (np.linalg.norm(err[:, :3], axis=1) < TOL_MM) & (
-        np.linalg.norm(err[:, 3:], axis=1) < TOL_RAD
-    )
 
 
 @dataclass(frozen=True)
@@ -252,12 +112,12 @@ def compensate(
     q_nominal = kinematics.check_joints(q_nominal)
 
     if desired is None:
-        desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
+        desired = kinematics.tool_poses(calibration.nominal_mdh, q_nominal, tool)
     else:
         desired = np.asarray(desired, dtype=float)
         if not nominal_solved:
-            q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
-    sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
+            q_nominal = inverse.solve(calibration.nominal_mdh, desired, q_nominal, tool).q
+    sol = inverse.solve(calibration.mdh, desired, q_nominal, tool, limits)
     # Joint terms: the IK gives the angles the joints must really turn to;
     # command the read-back angles whose effective angles those are.
     terms = calibration.joint_terms
@@ -273,7 +133,7 @@ def compensate(
             lim = np.asarray(limits, dtype=float)
             inside = np.all((q_cmd >= lim[:, 0]) & (q_cmd <= lim[:, 1]), axis=1)
         sol = replace(sol, q=q_cmd, within_limits=inside)
-    corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
+    corrected = kinematics.tool_poses(calibration.nominal_mdh, sol.q, tool)
     return Compensation(sol.q, corrected, desired, sol, q_nominal)
 
 
@@ -553,15 +413,7 @@ def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, frame):
     # A joint swinging far between the nominal and calibrated solution: near a singularity.
     jump = np.degrees(np.max(np.abs(result.q - result.q_nominal), axis=1))
     ok = sol.ok & (jump <= MAX_JOINT_CHANGE_DEG)
-    status = np.where(
-        ok,
-        "ok",
-        np.where(
-            ~sol.converged,
-            "not reached",
-            np.where(sol.within_limits, "large joint change", "outside joint limits"),
-        ),
-    )
+    status = np.where(ok, "ok", np.where(sol.ok, "large joint change", sol.reason))
     shown = frames.invert(frame.model_base2controller_base) @ result.corrected
     corrected = np.concatenate([shown[:, :3, 3], frames.matrix_to_rotvec(shown[:, :3, :3])], axis=1)
     size = correction_sizes(result, q_nom if desired is None else None)
