@@ -5,6 +5,6 @@ they always did; the model itself lives with the simulated world, so a
 synthetic session and a simulated tracker draw from the same constants.
 """
 
-from calibrator.simulate import NoiseModel, beam_frame
+from calibrator.model.noise import NoiseModel, beam_frame
 
 __all__ = ["NoiseModel", "beam_frame"]
