@@ -82,7 +82,7 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     return "\n".join(parts) + "\n"
 
 
-def image(images, name, alt, note):
+def image(images: Mapping[str, bytes], name: str, alt: str, note: str | None) -> str:
     """An ``<img>`` embedding ``images[name]`` (PNG bytes), or ``note`` when there is none."""
     if name not in images:
         return f'<p class="note">{_html.escape(note or "not available")}</p>'

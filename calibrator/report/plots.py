@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -37,7 +39,7 @@ def draw(content: Content) -> dict[str, bytes]:
     return out
 
 
-def png(draw_on, *args, size=(7, 4)):
+def png(draw_on: Callable[..., object], *args: Any, size: tuple[float, float] = (7, 4)) -> bytes:
     """PNG bytes of a figure ``size`` inches (at 100 dpi) drawn by ``draw_on(fig, *args)``.
 
     Fixed margins and no software tag, so the same drawing gives the same bytes.

@@ -4,7 +4,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.stats import qmc
 
-from calibrator.identify.halton import halton
+from calibrator.halton import halton
 from calibrator.model import frames
 
 
