@@ -162,7 +162,7 @@ def calibrate(
         payloads = np.concatenate([joint_fit.session_payload(s, joint.payload_kg) for s in parts])
     notes = [f"warning: {doubt}" for doubt in loaded.warnings]
     if nominal_file is not None:
-        from calibrator.identify import factory_calibration
+        from calibrator.export import factory_calibration
 
         meta, line = factory_calibration.apply(loaded.meta, nominal_file)
         loaded = replace(loaded, meta=meta)

@@ -178,7 +178,7 @@ def test_cli_export_formats(tmp_path):
 
 
 def test_ros_kinematics_imports_as_nominal(tmp_path):
-    from calibrator.identify import factory_calibration
+    from calibrator.export import factory_calibration
 
     cal = calibrated(a6_alpha6=False)
     path = tmp_path / "kin.yaml"
@@ -233,7 +233,7 @@ def test_ur_published_kinematics_yaml(model):
     """UR's own files: our catalogue table, our import and our export agree with them."""
     from pathlib import Path
 
-    from calibrator.identify import factory_calibration
+    from calibrator.export import factory_calibration
 
     path = Path(__file__).parents[2] / "fixtures" / "ur" / "description"
     path = path / f"{model}_default_kinematics.yaml"
