@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.model import frames, inverse, joint_terms, kinematics
+from calibrator.model import inverse, joint_terms, kinematics, rotations
 from calibrator.model.inverse import Solution
 
 if TYPE_CHECKING:
@@ -150,7 +150,7 @@ def correction_sizes(result: Compensation, q_nominal: np.ndarray | None = None) 
         over the joints (mrad).
     """
     move = result.corrected[:, :3, 3] - result.desired[:, :3, 3]
-    turn = frames.rotation_error(result.corrected[:, :3, :3], result.desired[:, :3, :3])
+    turn = rotations.rotation_error(result.corrected[:, :3, :3], result.desired[:, :3, :3])
     out = {
         "correction_mm": np.linalg.norm(move, axis=1),
         "correction_mrad": 1e3 * np.linalg.norm(turn, axis=1),

@@ -20,7 +20,7 @@ from calibrator.compensate.core import MAX_JOINT_CHANGE_DEG, compensate, correct
 from calibrator.errors import CalibrationError
 from calibrator.inputs import grammar
 from calibrator.inputs.errors import StrictError
-from calibrator.model import frames, singularities
+from calibrator.model import frames, rotations, singularities
 from calibrator.model.inverse import Solution
 
 if TYPE_CHECKING:
@@ -160,7 +160,7 @@ def iter_targets(
         desired = None
         if present:
             pose = numbers(POSE_COLUMNS)
-            desired = frames.transform(frames.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
+            desired = frames.transform(rotations.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
         yield first, q, desired
         first += len(q)
     if first == 0:
@@ -274,7 +274,9 @@ def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, frame):
     ok = sol.ok & (jump <= MAX_JOINT_CHANGE_DEG)
     status = np.where(ok, "ok", np.where(sol.ok, "large joint change", sol.reason))
     shown = frames.invert(frame.model_base2controller_base) @ result.corrected
-    corrected = np.concatenate([shown[:, :3, 3], frames.matrix_to_rotvec(shown[:, :3, :3])], axis=1)
+    corrected = np.concatenate(
+        [shown[:, :3, 3], rotations.matrix_to_rotvec(shown[:, :3, :3])], axis=1
+    )
     size = correction_sizes(result, q_nom if desired is None else None)
     data = {"target": pa.array(first + np.arange(len(status))), "status": pa.array(status)}
     q_controller = frame.convention.to_controller(sol.q)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.model import frames, kinematics
+from calibrator.model import kinematics, rotations
 
 #: Position tolerance of the IK (mm).
 TOL_MM = 1e-6
@@ -112,7 +112,7 @@ def jacobian(
 
 def _pose_error(target, pose):
     dp = target[:, :3, 3] - pose[:, :3, 3]
-    dr = frames.rotation_error(target[:, :3, :3], pose[:, :3, :3])
+    dr = rotations.rotation_error(target[:, :3, :3], pose[:, :3, :3])
     return np.concatenate([dp, dr], axis=1)
 
 

@@ -8,7 +8,7 @@ from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 from calibrator import compensate, robots, session, simulate
 from calibrator.calibration import Calibration
 from calibrator.identify import pipeline
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import inverse, kinematics, rotations
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +93,11 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
     data = {f"q{i + 1}_rad": q_nom[:, i] + 0.01 for i in range(6)}  # a rough start
     data.update(zip(("x_mm", "y_mm", "z_mm"), pose[:, :3, 3].T, strict=True))
     data.update(
-        zip(("rx_rad", "ry_rad", "rz_rad"), frames.matrix_to_rotvec(pose[:, :3, :3]).T, strict=True)
+        zip(
+            ("rx_rad", "ry_rad", "rz_rad"),
+            rotations.matrix_to_rotvec(pose[:, :3, :3]).T,
+            strict=True,
+        )
     )
     pd.DataFrame(data).to_csv(tmp_path / "t.csv", index=False)
     done = run_cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)

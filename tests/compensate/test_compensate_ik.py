@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
-from calibrator.model import frames, inverse, kinematics, parameters
+from calibrator.model import frames, inverse, kinematics, parameters, rotations
 
 UR10E = robots.get("ur10e")
 
@@ -237,7 +237,7 @@ def targets_csv(path, q, pose=None):
     data = {f"q{i + 1}_rad": q[:, i] for i in range(6)}
     if pose is not None:
         data.update(zip(("x_mm", "y_mm", "z_mm"), pose[:, :3, 3].T, strict=True))
-        rv = frames.matrix_to_rotvec(pose[:, :3, :3])
+        rv = rotations.matrix_to_rotvec(pose[:, :3, :3])
         data.update(zip(("rx_rad", "ry_rad", "rz_rad"), rv.T, strict=True))
     pd.DataFrame(data).to_csv(path, index=False)
     return path
@@ -321,7 +321,7 @@ def test_compensate_command_writes_every_target(tmp_path):
     sent = kinematics.chain(cal.nominal_mdh, joints) @ cal.flange2tool
     np.testing.assert_allclose(out[["x_mm", "y_mm", "z_mm"]].to_numpy(), sent[:, :3, 3], atol=1e-5)
     rv = out[["rx_rad", "ry_rad", "rz_rad"]].to_numpy()
-    assert angle_between(frames.rotvec_to_matrix(rv), sent[:, :3, :3]).max() < 1e-9
+    assert angle_between(rotations.rotvec_to_matrix(rv), sent[:, :3, :3]).max() < 1e-9
     assert (out["iterations"] >= 1).all() and (out["error_mm"] < inverse.TOL_MM).all()
     # Each correction's size: the sent target against the desired one, and the joints.
     moved = np.linalg.norm(sent[:, :3, 3] - desired[:, :3, 3], axis=1)

@@ -5,7 +5,7 @@ the tool pose."""
 import numpy as np
 
 from calibrator import robots
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 UR10E = robots.get("ur10e")
 TOOL = frames.transform(None, [0.0, 0.0, 100.0])
@@ -42,6 +42,6 @@ def test_the_jacobian_is_the_derivative_of_the_tool_point_and_turn():
         ahead = kinematics.tool_poses(UR10E.mdh, q + dq, TOOL)
         behind = kinematics.tool_poses(UR10E.mdh, q - dq, TOOL)
         move = (ahead[:, :3, 3] - behind[:, :3, 3]) / (2 * h)
-        turn = frames.rotation_error(ahead[:, :3, :3], behind[:, :3, :3]) / (2 * h)
+        turn = rotations.rotation_error(ahead[:, :3, :3], behind[:, :3, :3]) / (2 * h)
         np.testing.assert_allclose(jac[:, :3, k], move, atol=1e-4)
         np.testing.assert_allclose(jac[:, 3:, k], turn, atol=1e-6)
