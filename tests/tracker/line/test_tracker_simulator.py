@@ -187,6 +187,7 @@ def test_simulator_imports_only_the_port_contract_and_the_simulated_world():
         "calibrator", "calibrator.acquire", "calibrator.acquire.ports", "calibrator.simulate",
         "calibrator.errors", "calibrator.model", "calibrator.model.frames",
         "calibrator.model.kinematics", "calibrator.model.parameters", "calibrator.model.distance",
+        "calibrator.model.noise", "calibrator.model.rotations",
         "calibrator.model.joint_terms", "calibrator.model.mass_models",
         "calibrator.robots", "calibrator.robots.description", "calibrator.robots.files",
         "calibrator.robots.ipso_paper", "calibrator.robots.urdf", "calibrator.robots.ur",
