@@ -27,9 +27,11 @@ if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 
+#: Columns of the nominal joints (rad) in a targets CSV and of the calibrated ones in the result.
 JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
 #: The same joints in degrees, as a plan file may give them (``plan --from`` reads both).
 DEG_COLUMNS = tuple(f"q{i}_deg" for i in range(1, 7))
+#: Columns of a pose (base frame, mm; rotation vector, rad), desired or corrected.
 POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad")
 
 
