@@ -249,20 +249,30 @@ def quaternion_to_rotvec(wxyz: ArrayLike) -> np.ndarray:
     to refuse.
     """
     q = np.asarray(wxyz, dtype=float).reshape(-1, 4)
-    norm = np.linalg.norm(q, axis=1, keepdims=True)
+    norm = _row_norms(q)[:, None]
     good = np.isfinite(norm[:, 0]) & (norm[:, 0] > 0)
     q = np.where(good[:, None], q / np.where(good[:, None], norm, 1.0), np.nan)
     q = np.where(q[:, :1] < 0, -q, q)
     w, v = q[:, 0], q[:, 1:]
-    s = np.linalg.norm(v, axis=1)
+    s = _row_norms(v)[:, None]
+    small = s < 1e-12
     # 2 atan2(s, w) / s -> 2 as the angle vanishes (the small-angle limit).
-    scale = np.where(s < 1e-12, 2.0, 2.0 * np.arctan2(s, w) / np.where(s < 1e-12, 1.0, s))
-    return v * scale[:, None]
+    return np.where(small, 2.0 * v, 2.0 * np.arctan2(s, w[:, None]) * v / np.where(small, 1.0, s))
 
 
 def rotvec_to_quaternion(rotvec: ArrayLike) -> np.ndarray:
     """Scalar-first unit quaternions (N, 4) ``[w, x, y, z]`` of rotation vectors (N, 3) rad."""
     v = np.asarray(rotvec, dtype=float).reshape(-1, 3)
-    angle = np.linalg.norm(v, axis=1)
+    angle = _row_norms(v)
     axis = v / np.where(angle > 0, angle, 1.0)[:, None]
     return np.column_stack([np.cos(angle / 2), np.sin(angle / 2)[:, None] * axis])
+
+
+def _row_norms(x: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each row of ``x`` (N, k), as ``np.linalg.norm`` gives it for one row.
+
+    A batched dot product, not ``norm(axis=1)`` (whose sum rounds differently
+    in the last bit): a tracker reading converted alone or in a batch is the
+    same to the bit.
+    """
+    return np.sqrt((x[:, None, :] @ x[:, :, None])[:, 0, 0])

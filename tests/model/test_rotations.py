@@ -31,3 +31,15 @@ def test_rotation_vectors_become_scipys_quaternions_and_come_back():
     np.testing.assert_allclose(q, np.column_stack([xyzw[:, 3], xyzw[:, :3]]), atol=1e-15)
     np.testing.assert_allclose(rotations.quaternion_to_rotvec(q), v, rtol=1e-9, atol=1e-15)
     np.testing.assert_array_equal(rotations.rotvec_to_quaternion(np.zeros((1, 3))), [[1, 0, 0, 0]])
+
+
+def test_a_batch_converts_each_row_to_the_bit_as_that_row_alone():
+    # A tracker driver converts one reading at a time, a session a batch: same numbers.
+    rng = np.random.default_rng(9)
+    q = rng.normal(size=(200, 4))
+    v = rng.normal(size=(200, 3))
+    batch_v, batch_q = rotations.quaternion_to_rotvec(q), rotations.rotvec_to_quaternion(v)
+    for i in range(200):
+        np.testing.assert_array_equal(rotations.quaternion_to_rotvec(q[i]), batch_v[i : i + 1])
+        np.testing.assert_array_equal(rotations.rotvec_to_quaternion(v[i]), batch_q[i : i + 1])
+    assert rotations.quaternion_to_rotvec(q[0]).shape == (1, 3)
