@@ -43,3 +43,13 @@ def test_a_batch_converts_each_row_to_the_bit_as_that_row_alone():
         np.testing.assert_array_equal(rotations.quaternion_to_rotvec(q[i]), batch_v[i : i + 1])
         np.testing.assert_array_equal(rotations.rotvec_to_quaternion(v[i]), batch_q[i : i + 1])
     assert rotations.quaternion_to_rotvec(q[0]).shape == (1, 3)
+
+
+def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
+    # As the emScon tracker reports a 6-DoF probe: scalar first, not always unit.
+    half = np.array([np.cos(0.25), 0.0, 0.0, np.sin(0.25)])
+    np.testing.assert_allclose(rotations.quaternion_to_rotvec(3.0 * half), [[0.0, 0.0, 0.5]])
+    identity = rotations.quaternion_to_rotvec(np.array([1.0, 0, 0, 0]))
+    np.testing.assert_array_equal(identity, np.zeros((1, 3)))
+    tiny = rotations.quaternion_to_rotvec(np.array([1.0, 1e-13, 0.0, 0.0]))
+    np.testing.assert_allclose(tiny, [[2e-13, 0.0, 0.0]], rtol=1e-9)
