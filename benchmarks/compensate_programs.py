@@ -35,7 +35,7 @@ def _setup(folder: Path, n: int) -> None:
     from calibrator.filtering import Job, frames_file, rotations
     from calibrator.filtering.krl import KRL
     from calibrator.filtering.solve import Solver
-    from calibrator.model import frames, parameters
+    from calibrator.model import frames, kinematics, parameters
 
     model = robots.get("er10l-c10")
     errors = simulate.random_errors(model.mdh, np.random.default_rng(3), mm=0.3, rad=0.0005)
@@ -70,7 +70,7 @@ def _setup(folder: Path, n: int) -> None:
         csv.write(",".join(compensate.JOINT_COLUMNS + compensate.POSE_COLUMNS) + "\n")
         for s in range(0, n, 100_000):
             sl = slice(s, min(n, s + 100_000))
-            in_base = compensate.tool_poses(model.mdh, q[sl], tool)
+            in_base = kinematics.tool_poses(model.mdh, q[sl], tool)
             pose = frames.invert(base) @ in_base
             abc = rotations.matrix_to_zyx(pose[:, :3, :3], np.zeros((len(pose), 3)))
             rv = frames.matrix_to_rotvec(in_base[:, :3, :3])

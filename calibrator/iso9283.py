@@ -31,9 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from calibrator import compensate
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
+from calibrator.model import frames, inverse
 
 #: Visiting order of one cycle (test pose numbers), as the standard gives it.
 CYCLE_ORDER = (5, 4, 3, 2, 1)
@@ -253,7 +252,7 @@ def solve_poses(
     flange2tool: npt.ArrayLike,
     limits_rad: npt.ArrayLike,
     q_start: npt.ArrayLike,
-) -> compensate.Solution:
+) -> inverse.Solution:
     """Nominal inverse kinematics of tool poses from one start, with the cube's checks.
 
     Parameters
@@ -268,12 +267,12 @@ def solve_poses(
 
     Returns
     -------
-    compensate.Solution
+    inverse.Solution
         ``ok`` is True where the pose is reached within the joint limits.
     """
     targets = np.asarray(targets, dtype=float)
     start = np.broadcast_to(np.asarray(q_start, float), (len(targets), 6)).copy()
-    return compensate.inverse(mdh, targets, start, flange2tool, limits_rad)
+    return inverse.solve(mdh, targets, start, flange2tool, limits_rad)
 
 
 def _regular(mdh, flange2tool, q, q_centre, limits, cell: Admissible | None = None) -> np.ndarray:
@@ -284,7 +283,7 @@ def _regular(mdh, flange2tool, q, q_centre, limits, cell: Admissible | None = No
         (q >= lim[:, 0] + LIMIT_MARGIN_RAD) & (q <= lim[:, 1] - LIMIT_MARGIN_RAD), axis=-1
     )
     same = np.all(np.abs(q - q_centre) < MAX_JOINT_CHANGE_RAD, axis=-1)
-    jac, _ = compensate._jacobian_and_pose(mdh, q.reshape(-1, 6), flange2tool)
+    jac, _ = inverse.jacobian(mdh, q.reshape(-1, 6), flange2tool)
     smallest = np.linalg.svd(jac[:, :3, :3], compute_uv=False)[:, -1].reshape(q.shape[:-1])
     ok = inside & same & (smallest > MIN_SINGULAR_MM)
     if cell is not None:
@@ -313,7 +312,7 @@ def _centre_solutions(mdh, flange2tool, limits, centres, rotation, rng, cell=Non
     sol = solve_poses(mdh, targets, flange2tool, lim, np.tile(starts, (m, 1)))
     q = sol.q.reshape(m, s, 6)
     good = sol.ok.reshape(m, s) & _regular(mdh, flange2tool, q, q, lim, cell)
-    jac, _ = compensate._jacobian_and_pose(mdh, sol.q, flange2tool)
+    jac, _ = inverse.jacobian(mdh, sol.q, flange2tool)
     score = np.linalg.svd(jac[:, :3, :3], compute_uv=False)[:, -1].reshape(m, s)
     score = np.where(good, score, -np.inf)
     best = np.argmax(score, axis=1)

@@ -6,7 +6,7 @@ import numpy as np
 
 from calibrator import robots, simulate
 from calibrator.calibration import Calibration
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import frames, kinematics, parameters, rotations
 
 
 def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
@@ -19,8 +19,8 @@ def calibrated(model="ur10e", seed=4, trailing=True, mm=0.5, rad=0.002):
     mdh = nominal + simulate.random_errors(nominal, rng, mm=mm, rad=rad)
     if not trailing:
         mdh[5, [kinematics.A, kinematics.ALPHA]] = nominal[5, [kinematics.A, kinematics.ALPHA]]
-    tool = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 0.3]), [5.0, -3.0, 120.0])
-    base = frames.transform(frames.rotvec_to_matrix([0.0, 0.0, 1.0]), [2500.0, 100.0, -300.0])
+    tool = frames.transform(rotations.rotvec_to_matrix([0.1, -0.2, 0.3]), [5.0, -3.0, 120.0])
+    base = frames.transform(rotations.rotvec_to_matrix([0.0, 0.0, 1.0]), [2500.0, 100.0, -300.0])
     free = parameters.structural_candidates(nominal, "base", True)[0]
     return Calibration(
         nominal_mdh=nominal,

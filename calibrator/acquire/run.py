@@ -37,8 +37,7 @@ from calibrator.acquire import loop, ports
 from calibrator.acquire.external.arm import ProgramArm
 from calibrator.acquire.strategy import Acquisition, acquisition_for
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
-from calibrator.simulate import DEFAULT_TOOL_POINT
+from calibrator.model import DEFAULT_TOOL_MM, frames
 
 if TYPE_CHECKING:
     from calibrator.planning import Plan
@@ -94,7 +93,7 @@ class RunOptions(loop.LoopOptions):
     plan: Plan | None = None
     poses: int = 40
     seed: int = 0
-    tool_mm: tuple[float, float, float] = tuple(DEFAULT_TOOL_POINT)  # type: ignore[assignment]
+    tool_mm: tuple[float, float, float] = DEFAULT_TOOL_MM
     tracker_at_mm: tuple[float, float, float] | None = None
     cell: Any = None
     resume: bool = False

@@ -121,7 +121,7 @@ def run(
         _run_dask(client, fold, grid, _dask_plan(study, chunk_trials, workers or 1, first))
         return fold.total, grid
     finally:
-        _close(client, cluster)
+        close(client, cluster)
 
 
 def _run_with_spare(
@@ -173,7 +173,7 @@ def _run_with_spare(
         return fold.total, grid
     finally:
         spare.close()
-        _close(client, cluster)
+        close(client, cluster)
 
 
 def _first_block(study: mc.Study, progress: Callable | None) -> tuple[mc.Grid, _Fold]:
@@ -332,20 +332,35 @@ def _start_in_thread(
 def _start(
     workers: int | None, scheduler: str | None, imported: threading.Event
 ) -> tuple[Any, Any]:
-    """Import Dask, set ``imported``, then :func:`_connect` (run in a thread)."""
+    """Import Dask, set ``imported``, then :func:`connect` (run in a thread)."""
     try:
         _import_dask()
     finally:
         imported.set()
-    return _connect(workers, scheduler)
+    return connect(workers, scheduler)
 
 
 def _import_dask() -> None:
     import dask.distributed  # noqa: F401
 
 
-def _connect(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
-    """``(client, cluster)``: a client of ``scheduler`` (no cluster) or of a new local cluster."""
+def connect(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """``(client, cluster)``: a client of ``scheduler`` (no cluster) or of a new local cluster.
+
+    Parameters
+    ----------
+    workers : int or None
+        Processes of the local cluster (1 when None); ignored with ``scheduler``.
+    scheduler : str or None
+        Address of a running Dask scheduler.
+
+    Raises
+    ------
+    CalibrationError
+        The scheduler cannot be reached.
+
+    Close both with :func:`close`.
+    """
     from dask.distributed import Client
 
     if scheduler is not None:
@@ -357,7 +372,8 @@ def _connect(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
-def _close(client: Any, cluster: Any) -> None:
+def close(client: Any, cluster: Any) -> None:
+    """Close what :func:`connect` opened: the client, then the local cluster if any."""
     client.close()
     if cluster is not None:
         cluster.close()
@@ -389,7 +405,7 @@ def _abandon(connection: Future) -> None:
 def _close_connection(connection: Future) -> None:
     """Close a cluster that finished starting after the run had already failed."""
     if not connection.cancelled() and connection.exception() is None:
-        _close(*connection.result())
+        close(*connection.result())
 
 
 def _named(blocks: list[int]) -> str:

@@ -29,6 +29,7 @@ import typer
 from calibrator.cli import _checks as checks
 from calibrator.inputs import grammar
 from calibrator.inputs.errors import StrictError
+from calibrator.model import DEFAULT_TOOL_MM
 
 
 def fail(message: str) -> NoReturn:
@@ -142,7 +143,11 @@ def yes(help: str) -> Any:
     return typer.Option(False, "--yes", help=help)
 
 
-def tool(help: str, default: str | None = "0,0,100") -> Any:
+#: ``--tool``'s default as the command line writes it: ``0,0,100``.
+TOOL_DEFAULT = ",".join(f"{v:g}" for v in DEFAULT_TOOL_MM)
+
+
+def tool(help: str, default: str | None = TOOL_DEFAULT) -> Any:
     """``--tool X,Y,Z``: a point on the flange, mm, within the tool budget.
 
     ``default`` None: the command takes it from its plan file (else 0,0,100).

@@ -1,12 +1,18 @@
-"""Exporters of a :class:`~calibrator.calibration.Calibration`, one function per format.
+"""Vendor calibration files, written and read: one package for every format.
 
-A format is one function registered with :func:`exporter`: it takes a
+Writing: a format is one function registered with :func:`exporter`: it takes a
 Calibration and returns an :class:`Exported` (the file's text and notes on
 what the format could not hold). The CLI's ``--format`` choices and the
 file-extension lookup come from :data:`REGISTRY`. The table and the
 decorator live in :mod:`calibrator.export.registry` (the format modules
 import them from there); importing this package imports every format
 module, which registers its functions.
+
+Reading: each vendor format's module reads what it writes
+(:func:`calibrator.export.ur.read`, :func:`calibrator.export.ros.read`;
+:func:`calibrator.export.urdf.like` rewrites a given URDF), and
+:mod:`calibrator.export.factory_calibration` turns a UR calibration file or a
+ROS kinematics YAML into the nominal model an identification starts from.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibrator.export.registry import Exported, exporter
-from calibrator.model import frames, kinematics
+from calibrator.model import kinematics, rotations
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
@@ -62,7 +62,7 @@ def to_json(cal: Calibration) -> Exported:
 
 def frame_values(transform: np.ndarray) -> np.ndarray:
     """``x_mm, y_mm, z_mm, rx_rad, ry_rad, rz_rad`` of a transform, shape (6,)."""
-    return np.concatenate([transform[:3, 3], frames.angles_xyz(transform[:3, :3])])
+    return np.concatenate([transform[:3, 3], rotations.angles_xyz(transform[:3, :3])])
 
 
 @exporter("csv", (".csv",), "one row per parameter: nominal, identified, delta, free (mm, rad)")

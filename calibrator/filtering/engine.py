@@ -32,7 +32,7 @@ from calibrator import compensate, outputs
 from calibrator.filtering import configuration, convention, numbers
 from calibrator.filtering.base import REGISTRY, Job, Target, Unit
 from calibrator.filtering.solve import Solver
-from calibrator.model import frames, singularities
+from calibrator.model import frames, kinematics, singularities
 
 #: Targets solved together.
 BLOCK = 10_000
@@ -266,7 +266,7 @@ class Filter:
                 continue
             old = vals[keep]
             if layout.kind == "pose":
-                nominal = compensate.tool_poses(
+                nominal = kinematics.tool_poses(
                     job.calibration.nominal_mdh, result_q[good], tool[good]
                 )
                 enc = layout.encode(frames.invert(base[good]) @ nominal, old)
@@ -330,7 +330,7 @@ class Filter:
         d = desired[rows]
         q0 = q_nom[rows]
         # Joint rows: desired = the nominal pose of their joints (compensate computes it).
-        d = np.where(pose[:, None, None], d, compensate.tool_poses(cal.nominal_mdh, q0, tool[rows]))
+        d = np.where(pose[:, None, None], d, kinematics.tool_poses(cal.nominal_mdh, q0, tool[rows]))
         comp = compensate.compensate(
             cal, d, q0, job.limits, job.payload_kg, tool=tool[rows], nominal_solved=True
         )

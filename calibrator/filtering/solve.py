@@ -1,6 +1,6 @@
 """Joint solutions of a block of Cartesian targets, each in its stated configuration.
 
-The accurate inverse kinematics (:func:`calibrator.compensate.inverse`) is a
+The accurate inverse kinematics (:func:`calibrator.model.inverse.solve`) is a
 local solver: it needs a start in the right configuration. Starts come from,
 in order of preference,
 
@@ -26,10 +26,9 @@ import itertools
 
 import numpy as np
 
-from calibrator import compensate
 from calibrator.filtering import configuration, convention
 from calibrator.filtering.base import Job, Language
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 #: Every STRIDES[0]-th target of a block is solved first (from the library or
 #: the target before); each finer level starts from the nearest solved target
@@ -158,7 +157,7 @@ class Solver:
 
     def _try(self, desired, tool, seeds, code, stated, ref_bits):
         """Solve from ``seeds``; keep a row only in its configuration. Returns (q, ok)."""
-        sol = compensate.inverse(self.mdh, desired, seeds, tool)
+        sol = inverse.solve(self.mdh, desired, seeds, tool)
         # A joint the solver turned by whole turns reaches the same pose: take the
         # angle nearest the start (the arm comes from there, or the start is the library's).
         q = seeds + (sol.q - seeds + np.pi) % (2 * np.pi) - np.pi
@@ -283,7 +282,7 @@ class Solver:
         lib = self.library
         picks = lib.nearest(lib_points[rows], None, TRIES)
         r = np.repeat(rows, TRIES)
-        sol = compensate.inverse(self.mdh, desired[r], lib.q[picks.ravel()], tool[r])
+        sol = inverse.solve(self.mdh, desired[r], lib.q[picks.ravel()], tool[r])
         for j, row in enumerate(rows):
             cand = sol.q[j * TRIES : (j + 1) * TRIES][sol.converged[j * TRIES : (j + 1) * TRIES]]
             if not len(cand):

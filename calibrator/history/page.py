@@ -24,19 +24,19 @@ def images(data: Timeline, limits: Limits) -> dict[str, bytes]:
     """The page's plots (PNG bytes by name); a plot without data is left out."""
     out = {}
     if data.calibrations or data.checks:
-        out["held_out.png"] = report_plots._png(_held_out, data, limits)
+        out["held_out.png"] = report_plots.png(_held_out, data, limits)
     if data.verifications:
-        out["iso9283.png"] = report_plots._png(_iso, data.verifications)
+        out["iso9283.png"] = report_plots.png(_iso, data.verifications)
     names = sorted({n for c in data.calibrations for n in c["parameters"]}, key=_order)
     if names:
         rows = -(-len(names) // 4)
-        out["parameters.png"] = report_plots._png(
+        out["parameters.png"] = report_plots.png(
             _parameters, data.calibrations, names, size=(10, 0.3 + 2.0 * rows)
         )
     series = _conditions(data.sessions)
     if series:
         rows = -(-len(series) // 3)
-        out["conditions.png"] = report_plots._png(
+        out["conditions.png"] = report_plots.png(
             _plot_conditions, series, size=(10, 0.5 + 2.0 * rows)
         )
     return out
@@ -70,7 +70,7 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits, notes: Sequenc
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{_ESC(title)}</title><style>{report_page._STYLE}{_ALARM_STYLE}</style></head><body>",
+        f"<title>{_ESC(title)}</title><style>{report_page.STYLE}{_ALARM_STYLE}</style></head><body>",
         f"<h1>{_ESC(title)}</h1>",
         '<section id="summary"><h2>Summary</h2><table>',
         *(f"<tr><th>{_ESC(k)}</th><td>{_ESC(str(v))}</td></tr>" for k, v in facts),
@@ -99,7 +99,7 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits, notes: Sequenc
         ("conditions", "Measuring conditions", "conditions.png", "no conditions recorded"),
     ):
         parts.append(f'<section id="{key}"><h2>{heading}</h2>')
-        parts.append(report_page._image(pictures, png, heading, note))
+        parts.append(report_page.image(pictures, png, heading, note))
         if key == "parameters" and png in pictures:
             parts.append(
                 '<p class="note">Each identified delta with a band of three standard errors '

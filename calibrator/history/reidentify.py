@@ -145,7 +145,7 @@ def run(
         for job in jobs:
             yield (job, *identify(job.session, job.output, options))
         return
-    client, cluster = engine._connect(workers, scheduler)
+    client, cluster = engine.connect(workers, scheduler)
     try:
         from dask.distributed import as_completed
 
@@ -161,4 +161,4 @@ def run(
                 yield (jobs[following], *done.pop(following))
                 following += 1
     finally:
-        engine._close(client, cluster)
+        engine.close(client, cluster)

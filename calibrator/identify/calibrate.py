@@ -183,7 +183,7 @@ def _loaded(paths, model, nominal_file, payload_kg, groups):
         payloads = np.concatenate([joint_fit.session_payload(s, payload_kg) for s in parts])
     notes = [f"warning: {doubt}" for doubt in loaded.warnings]
     if nominal_file is not None:
-        from calibrator.identify import factory_calibration
+        from calibrator.export import factory_calibration
 
         meta, line = factory_calibration.apply(loaded.meta, nominal_file)
         loaded = replace(loaded, meta=meta)

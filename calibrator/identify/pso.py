@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.identify.halton import halton
+from calibrator.halton import halton
 
 #: Generations whose random numbers are drawn in one call.
 _CHUNK = 16

@@ -230,9 +230,9 @@ def _studentize(white: np.ndarray, jacobian: np.ndarray, lowers_of) -> np.ndarra
 def beam_axes(points_mm: np.ndarray) -> np.ndarray:
     """Each point's beam frame scaled by the tracker's noise there: (N, 3, 3).
 
-    Rows: along the beam and two axes across it (:func:`calibrator.simulate.beam_frame`),
+    Rows: along the beam and two axes across it (:func:`calibrator.model.noise.beam_frame`),
     each divided by the standard deviation the tracker noise model gives at
-    that range (:data:`calibrator.simulate.TRACKER_NOISE`: a laser tracker's
+    that range (:data:`calibrator.model.noise.TRACKER_NOISE`: a laser tracker's
     MPE, a constant plus a part growing with range, smaller along the beam
     than across it). Only the model's shape matters: the outlier test fits
     the covariance of the transformed residuals, so the overall scale and
@@ -243,7 +243,7 @@ def beam_axes(points_mm: np.ndarray) -> np.ndarray:
     points_mm : ndarray, shape (N, 3)
         Measured points in the tracker frame (the tracker at the origin), mm.
     """
-    from calibrator.simulate import TRACKER_NOISE, beam_frame  # the tracker model's own
+    from calibrator.model.noise import TRACKER_NOISE, beam_frame  # the tracker model's own
 
     out = []
     for p in np.asarray(points_mm, dtype=float):

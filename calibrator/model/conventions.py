@@ -39,7 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 from calibrator.model.kinematics import ALPHA, BETA, THETA
 
 #: Axes closer than this (rad) are treated as exactly parallel in standard DH:
@@ -191,7 +191,7 @@ def _last_link(frame, flange, ref, beta6):
     for alpha, beta, shift in ((alpha0, beta0, 0.0), (np.pi - alpha0, beta0 + np.pi, np.pi)):
         if not beta6 and shift:
             beta = 0.0
-        rest = rot @ frames.rotations_xyz([alpha, beta, 0.0]).T
+        rest = rot @ rotations.rotations_xyz([alpha, beta, 0.0]).T
         theta = _wrap_near(np.arctan2(rest[1, 0], rest[0, 0]), ref[THETA])
         alpha = _wrap_near(alpha, ref[ALPHA])
         beta = _wrap_near(beta, ref[BETA])
@@ -208,7 +208,7 @@ def residual_size(transform: ArrayLike) -> tuple[float, float]:
     """Translation (mm) and rotation angle (rad) of a residual transform."""
     t = np.asarray(transform, dtype=float)
     # through the rotation vector: arccos of the trace reads angles below ~2e-8 rad as 0
-    angle = np.linalg.norm(frames.matrix_to_rotvec(t[:3, :3]))
+    angle = np.linalg.norm(rotations.matrix_to_rotvec(t[:3, :3]))
     return float(np.linalg.norm(t[:3, 3])), float(angle)
 
 
@@ -285,7 +285,7 @@ def craig_to_mdh(table: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     mdh[:, kinematics.D] = table[:, 2]
     # Rx(alpha_0) leaves the x axis where it is: the offset is a_0 along x.
     base2frame0 = frames.transform(
-        frames.rotations_xyz([table[0, 0], 0.0, 0.0]), [table[0, 1], 0, 0]
+        rotations.rotations_xyz([table[0, 0], 0.0, 0.0]), [table[0, 1], 0, 0]
     )
     return base2frame0, mdh
 

@@ -245,6 +245,26 @@ def forward(
     return t
 
 
+def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: ArrayLike) -> np.ndarray:
+    """Tool poses in the base frame, one per joint vector.
+
+    Parameters
+    ----------
+    mdh : array_like, shape (6, 5)
+    q : array_like, shape (N, 6)
+        Joint angles (rad).
+    flange2tool : array_like, shape (4, 4) or (N, 4, 4)
+        One tool for every pose, or one per pose (unlike :func:`forward`,
+        which broadcasts a stack of tools against every pose).
+
+    Returns
+    -------
+    ndarray, shape (N, 4, 4)
+        Tool poses, base frame (mm).
+    """
+    return chain(mdh, q) @ flange2tool
+
+
 def joint_origins(mdh: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """The chain regrouped at the joints: each joint's frame before it turns.
 

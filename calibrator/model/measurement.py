@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.model import frames, joint_terms, kinematics
+from calibrator.model import joint_terms, kinematics, rotations
 from calibrator.model.parameters import (
     JOINT_TERM_START,
     N_MDH,
@@ -130,7 +130,7 @@ def residuals(space: ParameterSpace, x: ArrayLike, obs: Observations, k: float =
     if not uses_orientation(obs, k):
         return dp
     assert obs.rotations is not None  # uses_orientation: the data has them
-    rot = frames.rotation_error(pose[:, :3, :3], obs.rotations).ravel()
+    rot = rotations.rotation_error(pose[:, :3, :3], obs.rotations).ravel()
 
     return np.concatenate([dp, np.sqrt(k) * rot])
 
@@ -151,7 +151,7 @@ def errors(
     position = pose[:, :3, 3] - obs.points
     if obs.rotations is None:
         return position, None
-    return position, frames.rotation_error(pose[:, :3, :3], obs.rotations)
+    return position, rotations.rotation_error(pose[:, :3, :3], obs.rotations)
 
 
 def jacobian(
@@ -217,8 +217,8 @@ def jacobian(
     # Base frame: base2tracker = base0 Trans(t) Rx Ry Rz, turns about moving axes.
     b0_r = space.base0[:3, :3]
     angles = full[N_MDH + 3 : TOOL_START]
-    rx = frames.rotations_xyz([angles[0], 0.0, 0.0])
-    rxy = frames.rotations_xyz([angles[0], angles[1], 0.0])
+    rx = rotations.rotations_xyz([angles[0], 0.0, 0.0])
+    rxy = rotations.rotations_xyz([angles[0], angles[1], 0.0])
     turn_axes = np.column_stack([b0_r[:, 0], b0_r @ rx[:, 1], b0_r @ rxy[:, 2]])  # (3, 3)
     origin = space.base0[:3, :3] @ full[N_MDH : N_MDH + 3] + space.base0[:3, 3]
     p_tr = p @ b_r.T + base2tracker[:3, 3]
@@ -232,8 +232,8 @@ def jacobian(
     # Tool rotation R(tool0) Rx Ry Rz: turns about the tool frame's moving
     # axes, which leave the tool point where it is.
     t_angles = full[TOOL_ROTATION_START:JOINT_TERM_START]
-    t_rx = frames.rotations_xyz([t_angles[0], 0.0, 0.0])
-    t_rxy = frames.rotations_xyz([t_angles[0], t_angles[1], 0.0])
+    t_rx = rotations.rotations_xyz([t_angles[0], 0.0, 0.0])
+    t_rxy = rotations.rotations_xyz([t_angles[0], t_angles[1], 0.0])
     local = space.tool0[:3, :3] @ np.column_stack([[1.0, 0.0, 0.0], t_rx[:, 1], t_rxy[:, 2]])
     rot_tool_turn = b_r @ link[:, 6, :3, :3] @ local  # (N, 3, 3), tracker-frame axes
 

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.errors import IdentifiabilityError
-from calibrator.model import frames, joint_terms, kinematics
+from calibrator.model import frames, joint_terms, kinematics, rotations
 
 MDH_NAMES = kinematics.MDH_NAMES
 BASE_NAMES = ("base_tx", "base_ty", "base_tz", "base_rx", "base_ry", "base_rz")
@@ -173,13 +173,13 @@ class ParameterSpace:
         full = self.expand(x)
         mdh = self.nominal_mdh + full[..., :N_MDH].reshape(full.shape[:-1] + (6, 5))
         b = full[..., N_MDH:TOOL_START]
-        delta = frames.transform(frames.rotations_xyz(b[..., 3:]), b[..., :3])
+        delta = frames.transform(rotations.rotations_xyz(b[..., 3:]), b[..., :3])
         base2tracker = self.base0 @ delta
         flange2tool = np.broadcast_to(self.tool0, full.shape[:-1] + (4, 4)).copy()
         flange2tool[..., :3, 3] += full[..., TOOL_START:TOOL_ROTATION_START]
         turn = full[..., TOOL_ROTATION_START:JOINT_TERM_START]
         if np.any(turn):
-            flange2tool[..., :3, :3] = self.tool0[:3, :3] @ frames.rotations_xyz(turn)
+            flange2tool[..., :3, :3] = self.tool0[:3, :3] @ rotations.rotations_xyz(turn)
         return mdh, base2tracker, flange2tool
 
     def pack(
@@ -458,9 +458,9 @@ def all_deltas(
     full[:N_MDH] = (np.asarray(mdh, dtype=float) - np.asarray(nominal_mdh, dtype=float)).ravel()
     move = frames.invert(np.asarray(base0, dtype=float)) @ np.asarray(base2tracker, dtype=float)
     full[N_MDH : N_MDH + 3] = move[:3, 3]
-    full[N_MDH + 3 : TOOL_START] = frames.angles_xyz(move[:3, :3])
+    full[N_MDH + 3 : TOOL_START] = rotations.angles_xyz(move[:3, :3])
     tool0 = np.asarray(tool0, dtype=float)
     flange2tool = np.asarray(flange2tool, dtype=float)
     full[TOOL_START:TOOL_ROTATION_START] = flange2tool[:3, 3] - tool0[:3, 3]
-    full[TOOL_ROTATION_START:] = frames.angles_xyz(tool0[:3, :3].T @ flange2tool[:3, :3])
+    full[TOOL_ROTATION_START:] = rotations.angles_xyz(tool0[:3, :3].T @ flange2tool[:3, :3])
     return full

@@ -33,13 +33,12 @@ from numpy.typing import ArrayLike
 
 from calibrator.inputs import grammar, messages
 from calibrator.inputs.errors import StrictError
+from calibrator.model import DEFAULT_TOOL_MM
 from calibrator.planning.plan import Plan, PlanError, PlanOrigin, point, point_text
 
 JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
 DEG_COLUMNS = tuple(f"q{i}_deg" for i in range(1, 7))
 
-#: Reflector on the flange when neither the run nor the plan says, mm.
-DEFAULT_TOOL_MM = (0.0, 0.0, 100.0)
 #: Columns of a plan file that record what it was made for (the same on every row).
 ORIGIN_COLUMNS = (
     "model",

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.identify.halton import halton
+from calibrator.halton import halton
 from calibrator.planning.plan import PlanError
 
 #: Candidates closer than this on every joint are one pose (rad).

@@ -16,7 +16,8 @@ _SECTIONS = (
     ("convergence", "Swarm convergence", "convergence.png"),
 )
 
-_STYLE = """
+#: The report pages' style sheet (the history page adds to it).
+STYLE = """
 body { font-family: sans-serif; max-width: 60em; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; margin: 0.5em 0 1.5em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
@@ -41,7 +42,7 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{esc(content.title)}</title><style>{_STYLE}</style></head><body>",
+        f"<title>{esc(content.title)}</title><style>{STYLE}</style></head><body>",
         f"<h1>{esc(content.title)}</h1>",
         '<section id="summary"><h2>Summary</h2><table>',
         *(f"<tr><th>{esc(k)}</th><td>{esc(str(v))}</td></tr>" for k, v in content.facts),
@@ -54,7 +55,7 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     ]
     for key, title, name in _SECTIONS:
         parts.append(f'<section id="{key}"><h2>{title}</h2>')
-        parts.append(_image(images, name, title, content.notes.get(key)))
+        parts.append(image(images, name, title, content.notes.get(key)))
         if key == "error_vs_distance" and content.poses and content.poses.origin != "tracker":
             parts.append(
                 '<p class="note">The session is in the robot base frame, where the '
@@ -64,7 +65,7 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     parts.append('<section id="deltas"><h2>Identified parameters</h2>')
     if content.standard_errors is None:
         parts.append('<p class="note">standard errors: not recorded</p>')
-    parts.append(_image(images, "deltas.png", "Identified deltas", "no free parameters"))
+    parts.append(image(images, "deltas.png", "Identified deltas", "no free parameters"))
     parts.append(_parameters_table(content.parameters, content.deltas, content.standard_errors))
     parts.append("</section>")
     parts.append('<section id="dropped"><h2>Parameters not identified</h2>')
@@ -81,7 +82,8 @@ def html(content: Content, images: Mapping[str, bytes]) -> str:
     return "\n".join(parts) + "\n"
 
 
-def _image(images, name, alt, note):
+def image(images: Mapping[str, bytes], name: str, alt: str, note: str | None) -> str:
+    """An ``<img>`` embedding ``images[name]`` (PNG bytes), or ``note`` when there is none."""
     if name not in images:
         return f'<p class="note">{_html.escape(note or "not available")}</p>'
     data = base64.b64encode(images[name]).decode("ascii")

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -22,13 +24,13 @@ def draw(content: Content) -> dict[str, bytes]:
     """
     out = {}
     if content.poses is not None:
-        out["pose_errors.png"] = _png(_pose_errors, content.poses)
-        out["error_cdf.png"] = _png(_cdf, content.poses)
-        out["error_vs_distance.png"] = _png(_distance, content.poses)
+        out["pose_errors.png"] = png(_pose_errors, content.poses)
+        out["error_cdf.png"] = png(_cdf, content.poses)
+        out["error_vs_distance.png"] = png(_distance, content.poses)
     if content.convergence is not None:
-        out["convergence.png"] = _png(_convergence, content.convergence)
+        out["convergence.png"] = png(_convergence, content.convergence)
     if content.deltas:
-        out["deltas.png"] = _png(
+        out["deltas.png"] = png(
             _deltas,
             content.deltas,
             content.standard_errors,
@@ -37,7 +39,11 @@ def draw(content: Content) -> dict[str, bytes]:
     return out
 
 
-def _png(draw_on, *args, size=(7, 4)):
+def png(draw_on: Callable[..., object], *args: Any, size: tuple[float, float] = (7, 4)) -> bytes:
+    """PNG bytes of a figure ``size`` inches (at 100 dpi) drawn by ``draw_on(fig, *args)``.
+
+    Fixed margins and no software tag, so the same drawing gives the same bytes.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

@@ -23,9 +23,8 @@ from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
 from calibrator.acquire.run import MeasureRun, RunOptions
 from calibrator.errors import CalibrationError
-from calibrator.model import kinematics
+from calibrator.model import DEFAULT_TOOL_MM, kinematics
 from calibrator.simulate import (
-    DEFAULT_TOOL_POINT,
     SIM_TRACKER_AT_MM,
     SIM_TRACKER_ROTVEC,
     SimWorld,
@@ -73,7 +72,7 @@ def test_the_simulated_world_is_seeded_and_its_errors_are_small_but_real():
     delta = world.true_mdh - UR10E.mdh
     lengths, angles = delta[:, [0, 3]], delta[:, [1, 2, 4]]
     assert 0.05 < np.abs(lengths).max() <= 0.5 and 1e-4 < np.abs(angles).max() <= 1e-3
-    offset = world.flange2tool[:3, 3] - DEFAULT_TOOL_POINT
+    offset = world.flange2tool[:3, 3] - DEFAULT_TOOL_MM
     assert np.linalg.norm(offset) == pytest.approx(1.5, abs=1e-12)
     np.testing.assert_allclose(world.flange2tool[:3, :3], np.eye(3), atol=0)
     tracker2base = np.linalg.inv(world.base2tracker)
@@ -384,18 +383,19 @@ def test_a_tracker_kind_registered_from_outside_measures_through_the_unchanged_c
 
 def test_one_noise_model_for_synthetic_sessions_and_both_tracker_simulators():
     from calibrator import simulate
+    from calibrator.model import noise
     from drivers.tracker.emscon.simulator import EmsconSimulator
     from drivers.tracker.instrument import NoiseModel
     from drivers.tracker.line.simulator import TrackerSimulator
 
     # Both simulators are front-ends of one instrument, whose noise is the world's model.
-    assert NoiseModel is simulate.NoiseModel
-    assert type(TrackerSimulator().noise) is type(EmsconSimulator().noise) is simulate.NoiseModel
+    assert NoiseModel is noise.NoiseModel
+    assert type(TrackerSimulator().noise) is type(EmsconSimulator().noise) is noise.NoiseModel
     # A synthetic session's transverse noise grows with range as the model's does.
     point = np.array([[5000.0, 0.0, 0.0]])  # 5 m along x: y and z are transverse
     readings = simulate.tracker_readings(point, 20000, 1e-9, np.random.default_rng(1))[0]
-    _, s_trans = simulate.TRACKER_NOISE.sigmas_mm(point[0])
-    growth = s_trans - simulate.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
+    _, s_trans = noise.TRACKER_NOISE.sigmas_mm(point[0])
+    growth = s_trans - noise.TRACKER_NOISE.transverse_mpe_um[0] / 2000.0  # per-metre part
     np.testing.assert_allclose(readings[:, 1:].std(axis=0), growth, rtol=0.03)
     assert readings[:, 0].std() < 1e-8  # along the beam: the session's own sigma
 

@@ -196,7 +196,7 @@ def planned(monkeypatch):
         engine, "threading", types.SimpleNamespace(Event=engine_event, Thread=threading.Thread)
     )
     monkeypatch.setattr(engine, "_import_dask", lambda: wait_for("imported"))
-    monkeypatch.setattr(engine, "_connect", connect)
+    monkeypatch.setattr(engine, "connect", connect)
     monkeypatch.setattr(engine, "_run_dask", dask)
     return seen
 
@@ -293,7 +293,7 @@ def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypat
 
     monkeypatch.setattr(mc, "run_chunk", fail_second)
     started = threading.Event()
-    connect = engine._connect
+    connect = engine.connect
 
     def connect_later(workers, scheduler):
         started.wait(5)
@@ -302,7 +302,7 @@ def test_a_cluster_that_starts_after_the_run_failed_is_closed(planned, monkeypat
     # Still importing Dask (a local cluster) or connecting (a remote one) when the
     # second block fails here.
     monkeypatch.setattr(engine, "_import_dask", lambda: started.wait(5))
-    monkeypatch.setattr(engine, "_connect", connect_later)
+    monkeypatch.setattr(engine, "connect", connect_later)
     monkeypatch.setattr(engine, "ABANDON_WAIT_S", 0.05)  # a start that outlasts the wait
     with pytest.raises(KeyboardInterrupt):
         engine.run(s, **where)
@@ -338,7 +338,7 @@ def test_a_cluster_that_cannot_start_fails_the_run(planned, monkeypatch):
     def unreachable(workers, scheduler):
         raise CalibrationError("cannot reach Dask scheduler tcp://127.0.0.1:1: refused")
 
-    monkeypatch.setattr(engine, "_connect", unreachable)
+    monkeypatch.setattr(engine, "connect", unreachable)
     with pytest.raises(CalibrationError, match="cannot reach Dask scheduler"):
         engine.run(study(trials=8 * mc.BLOCK), scheduler="tcp://127.0.0.1:1")
 

@@ -8,7 +8,7 @@ from cli_process_kit import run_cli  # the CLI as a user runs it: a real process
 from calibrator import compensate, robots, session, simulate
 from calibrator.calibration import Calibration
 from calibrator.identify import pipeline
-from calibrator.model import frames, kinematics
+from calibrator.model import inverse, kinematics, rotations
 
 
 @pytest.fixture(scope="module")
@@ -54,12 +54,12 @@ def test_corrected_targets_land_within_held_out_error(identified):
     # The simulated errors are large (0.5 deg): a few poses near the edge of
     # the work space have no solution on the real arm; they are reported.
     assert ok.mean() > 0.9
-    assert np.all(out.solution.error_mm[~ok] > compensate.TOL_MM)
+    assert np.all(out.solution.error_mm[~ok] > inverse.TOL_MM)
     desired = out.desired[ok, :3, 3]
     true_tool = truth.flange2tool
     # The controller keeps its nominal model: sent the corrected target, its
     # nominal IK returns out.q, and the real arm moves there.
-    nominal_ik = compensate.inverse(cal.nominal_mdh, out.corrected[ok], q_nom[ok], cal.flange2tool)
+    nominal_ik = inverse.solve(cal.nominal_mdh, out.corrected[ok], q_nom[ok], cal.flange2tool)
     assert nominal_ik.converged.all()
     np.testing.assert_allclose(nominal_ik.q, out.q[ok], atol=1e-8)
     landed = (kinematics.chain(truth.mdh, nominal_ik.q) @ true_tool)[:, :3, 3]
@@ -88,12 +88,16 @@ def test_pose_targets_and_csv_cli(identified, tmp_path):
     cal, _, _ = identified
     cal.save(tmp_path / "cal.json")
     q_nom = targets(20, seed=3)
-    pose = compensate.tool_poses(cal.nominal_mdh, q_nom, cal.flange2tool)
+    pose = kinematics.tool_poses(cal.nominal_mdh, q_nom, cal.flange2tool)
     pose[0, 0, 3] += 5000.0  # out of reach
     data = {f"q{i + 1}_rad": q_nom[:, i] + 0.01 for i in range(6)}  # a rough start
     data.update(zip(("x_mm", "y_mm", "z_mm"), pose[:, :3, 3].T, strict=True))
     data.update(
-        zip(("rx_rad", "ry_rad", "rz_rad"), frames.matrix_to_rotvec(pose[:, :3, :3]).T, strict=True)
+        zip(
+            ("rx_rad", "ry_rad", "rz_rad"),
+            rotations.matrix_to_rotvec(pose[:, :3, :3]).T,
+            strict=True,
+        )
     )
     pd.DataFrame(data).to_csv(tmp_path / "t.csv", index=False)
     done = run_cli("compensate", "cal.json", "t.csv", "-o", "out.csv", cwd=tmp_path)

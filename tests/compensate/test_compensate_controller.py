@@ -13,7 +13,7 @@ import pytest
 from cli_process_kit import run_cli
 
 from calibrator import calibration, robots
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 ARM = "fanuc-m20ia"
 
@@ -54,7 +54,7 @@ def test_taught_joints_and_world_poses_land_where_taught(cell):
     taught = frames.invert(world) @ kinematics.chain(cal.nominal_mdh, q_model) @ cal.flange2tool
     columns = {f"q{i + 1}_rad": q_ctrl[:, i] for i in range(6)}
     columns.update({c: taught[:, k, 3] for k, c in enumerate(("x_mm", "y_mm", "z_mm"))})
-    rotvec = frames.matrix_to_rotvec(taught[:, :3, :3])
+    rotvec = rotations.matrix_to_rotvec(taught[:, :3, :3])
     columns.update({c: rotvec[:, k] for k, c in enumerate(("rx_rad", "ry_rad", "rz_rad"))})
     pd.DataFrame(columns).to_csv(tmp / "targets.csv", index=False)
 

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import frames, inverse, kinematics, parameters, rotations
 
 UR10E = robots.get("ur10e")
 
@@ -73,7 +73,7 @@ def test_joints_found_reach_the_targets_through_the_identified_model():
     np.testing.assert_allclose(out.desired, nominal_pose, atol=1e-9)
     # ... the real (identified) arm gets there at out.q ...
     reached = (kinematics.chain(cal.mdh, out.q) @ cal.flange2tool)[ok]
-    assert np.abs(reached[:, :3, 3] - nominal_pose[ok, :3, 3]).max() < compensate.TOL_MM
+    assert np.abs(reached[:, :3, 3] - nominal_pose[ok, :3, 3]).max() < inverse.TOL_MM
     assert angle_between(reached[:, :3, :3], nominal_pose[ok, :3, :3]).max() < 1e-9
     # ... and the corrected target is where the nominal model puts it at out.q.
     sent = kinematics.chain(cal.nominal_mdh, out.q) @ cal.flange2tool
@@ -100,7 +100,7 @@ def test_without_a_tool_the_flange_reaches_the_target():
     mdh = calibrated().mdh
     q_true = work_cell(8, seed=7)
     targets = kinematics.chain(mdh, q_true)
-    sol = compensate.inverse(mdh, targets, q_true + 0.05)
+    sol = inverse.solve(mdh, targets, q_true + 0.05)
     assert sol.converged.all() and sol.within_limits.all()
     np.testing.assert_allclose(kinematics.chain(mdh, sol.q)[:, :3, 3], targets[:, :3, 3], atol=1e-6)
 
@@ -112,12 +112,12 @@ def test_a_turn_about_the_tool_axis_alone_is_still_solved():
     targets = kinematics.chain(cal.mdh, q_true) @ cal.flange2tool
     start = q_true.copy()
     start[:, 5] += 0.3
-    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    sol = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert sol.converged.all() and (sol.iterations >= 1).all()
     reached = kinematics.chain(cal.mdh, sol.q) @ cal.flange2tool
     assert angle_between(reached[:, :3, :3], targets[:, :3, :3]).max() < 2e-8
     np.testing.assert_allclose(sol.q, q_true, atol=1e-8)
-    assert (sol.error_rad < compensate.TOL_RAD).all()
+    assert (sol.error_rad < inverse.TOL_RAD).all()
 
 
 def test_without_iterations_the_errors_are_those_of_the_start(monkeypatch):
@@ -127,8 +127,8 @@ def test_without_iterations_the_errors_are_those_of_the_start(monkeypatch):
     targets = kinematics.chain(cal.mdh, q_true) @ cal.flange2tool
     start = q_true.copy()
     start[:, 5] += [0.1, -0.2, 0.3]
-    monkeypatch.setattr(compensate, "MAX_ITER", 0)
-    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    monkeypatch.setattr(inverse, "MAX_ITER", 0)
+    sol = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert not sol.converged.any() and sol.iterations.tolist() == [0, 0, 0]
     np.testing.assert_array_equal(sol.q, start)
     assert sol.error_mm.max() < 1e-9
@@ -139,7 +139,7 @@ def test_newton_steps_converge_in_a_few_iterations():
     """From 0.1 rad off, damped Newton steps on the true Jacobian need a handful."""
     cal = calibrated(seed=13)
     targets, start = mixed_targets(cal)
-    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    sol = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert sol.converged.tolist() == [True, True, False, True, True]
     assert sol.iterations[sol.converged].max() <= 6
 
@@ -148,7 +148,7 @@ def test_a_target_already_reached_takes_no_iteration():
     cal = calibrated()
     q = work_cell(3)
     targets = kinematics.chain(cal.mdh, q) @ cal.flange2tool
-    sol = compensate.inverse(cal.mdh, targets, q, cal.flange2tool)
+    sol = inverse.solve(cal.mdh, targets, q, cal.flange2tool)
     assert sol.converged.all() and sol.iterations.tolist() == [0, 0, 0]
     assert sol.error_mm.max() < 1e-9 and sol.error_rad.max() < 1e-12
 
@@ -164,10 +164,10 @@ def mixed_targets(cal):
 def test_targets_are_solved_independently_of_each_other():
     cal = calibrated(seed=12)
     targets, start = mixed_targets(cal)
-    batch = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    batch = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert batch.converged.tolist() == [True, True, False, True, True]
     for i in range(len(targets)):
-        alone = compensate.inverse(cal.mdh, targets[i : i + 1], start[i : i + 1], cal.flange2tool)
+        alone = inverse.solve(cal.mdh, targets[i : i + 1], start[i : i + 1], cal.flange2tool)
         # Batched and single linear algebra differ in the last bit only.
         np.testing.assert_allclose(alone.q[0], batch.q[i], rtol=0, atol=1e-12)
         assert alone.iterations[0] == batch.iterations[i]
@@ -179,17 +179,17 @@ def test_iterations_are_the_steps_the_target_needed(monkeypatch):
     """A target reported after k iterations converges with a cap of k, not k - 1."""
     cal = calibrated(seed=13)
     targets, start = mixed_targets(cal)
-    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    sol = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert np.issubdtype(sol.iterations.dtype, np.integer)
     for i in (0, 1, 3):
         k = int(sol.iterations[i])
-        assert 1 <= k < compensate.MAX_ITER
-        monkeypatch.setattr(compensate, "MAX_ITER", k)
-        assert compensate.inverse(
+        assert 1 <= k < inverse.MAX_ITER
+        monkeypatch.setattr(inverse, "MAX_ITER", k)
+        assert inverse.solve(
             cal.mdh, targets[i : i + 1], start[i : i + 1], cal.flange2tool
         ).converged[0]
-        monkeypatch.setattr(compensate, "MAX_ITER", k - 1)
-        assert not compensate.inverse(
+        monkeypatch.setattr(inverse, "MAX_ITER", k - 1)
+        assert not inverse.solve(
             cal.mdh, targets[i : i + 1], start[i : i + 1], cal.flange2tool
         ).converged[0]
         monkeypatch.undo()
@@ -198,7 +198,7 @@ def test_iterations_are_the_steps_the_target_needed(monkeypatch):
 def test_an_unreachable_target_reports_what_is_left():
     cal = calibrated(seed=14)
     targets, start = mixed_targets(cal)
-    sol = compensate.inverse(cal.mdh, targets, start, cal.flange2tool)
+    sol = inverse.solve(cal.mdh, targets, start, cal.flange2tool)
     assert not sol.converged[2] and sol.converged.sum() == 4
     reached = kinematics.chain(cal.mdh, sol.q) @ cal.flange2tool
     left_mm = np.linalg.norm(reached[:, :3, 3] - targets[:, :3, 3], axis=1)
@@ -237,7 +237,7 @@ def targets_csv(path, q, pose=None):
     data = {f"q{i + 1}_rad": q[:, i] for i in range(6)}
     if pose is not None:
         data.update(zip(("x_mm", "y_mm", "z_mm"), pose[:, :3, 3].T, strict=True))
-        rv = frames.matrix_to_rotvec(pose[:, :3, :3])
+        rv = rotations.matrix_to_rotvec(pose[:, :3, :3])
         data.update(zip(("rx_rad", "ry_rad", "rz_rad"), rv.T, strict=True))
     pd.DataFrame(data).to_csv(path, index=False)
     return path
@@ -321,8 +321,8 @@ def test_compensate_command_writes_every_target(tmp_path):
     sent = kinematics.chain(cal.nominal_mdh, joints) @ cal.flange2tool
     np.testing.assert_allclose(out[["x_mm", "y_mm", "z_mm"]].to_numpy(), sent[:, :3, 3], atol=1e-5)
     rv = out[["rx_rad", "ry_rad", "rz_rad"]].to_numpy()
-    assert angle_between(frames.rotvec_to_matrix(rv), sent[:, :3, :3]).max() < 1e-9
-    assert (out["iterations"] >= 1).all() and (out["error_mm"] < compensate.TOL_MM).all()
+    assert angle_between(rotations.rotvec_to_matrix(rv), sent[:, :3, :3]).max() < 1e-9
+    assert (out["iterations"] >= 1).all() and (out["error_mm"] < inverse.TOL_MM).all()
     # Each correction's size: the sent target against the desired one, and the joints.
     moved = np.linalg.norm(sent[:, :3, 3] - desired[:, :3, 3], axis=1)
     np.testing.assert_allclose(out["correction_mm"], moved, rtol=1e-9, atol=1e-9)
@@ -358,7 +358,7 @@ def test_compensate_command_reports_failures_on_stderr_with_exit_1(tmp_path, n_o
         # Out of reach the solver stretches the arm out: the elbow singularity is named.
         assert line.endswith((" iterations)", " deg from stretched)")), line
         count = int(line.rsplit(" after ", 1)[1].split()[0])
-        assert 1 <= count <= compensate.MAX_ITER
+        assert 1 <= count <= inverse.MAX_ITER
     out = pd.read_csv(tmp_path / "out.csv")
     assert out["status"].tolist() == ["not reached"] * n_out + ["ok"] * 2
     failed = out.loc[: n_out - 1]

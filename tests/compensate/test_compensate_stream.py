@@ -7,6 +7,7 @@ from cli_process_kit import run_cli
 
 from calibrator import compensate, robots, simulate
 from calibrator.calibration import Calibration
+from calibrator.compensate import targets
 from calibrator.errors import CalibrationError
 from calibrator.model import parameters
 
@@ -32,7 +33,7 @@ def _csv(path, q):
 
 
 def test_blocks_give_the_same_answer_as_one_call(tmp_path, monkeypatch):
-    monkeypatch.setattr(compensate, "BLOCK", 7)  # 30 targets: five blocks, the last short
+    monkeypatch.setattr(targets, "BLOCK", 7)  # 30 targets: five blocks, the last short
     cal = _calibration()
     q = _joints(30)
     _csv(tmp_path / "t.csv", q)
@@ -46,7 +47,7 @@ def test_blocks_give_the_same_answer_as_one_call(tmp_path, monkeypatch):
 
 
 def test_a_bad_cell_in_a_later_block_names_its_line(tmp_path, monkeypatch):
-    monkeypatch.setattr(compensate, "BLOCK", 4)
+    monkeypatch.setattr(targets, "BLOCK", 4)
     _csv(tmp_path / "t.csv", _joints(10))
     text = (tmp_path / "t.csv").read_text().splitlines()
     text[9] = "0_5" + text[9][text[9].index(",") :]  # data row 9: file line 10

@@ -15,7 +15,7 @@ from calibrator import export, robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.export import ur
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 
 def calibrated(a6_alpha6=False, seed=4):
@@ -143,7 +143,7 @@ def test_json_and_csv_hold_the_whole_model():
         v = pivot.loc[element, ["x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad"]].to_numpy(
             float
         )
-        rebuilt = frames.transform(frames.rotations_xyz(v[3:]), v[:3])
+        rebuilt = frames.transform(rotations.rotations_xyz(v[3:]), v[:3])
         np.testing.assert_allclose(rebuilt, getattr(cal, element), atol=1e-12)
     free = table.set_index(["element", "parameter"])["free"]
     assert free[("joint2", "beta_rad")] == 1 and free[("joint2", "d_mm")] == 0
@@ -178,7 +178,7 @@ def test_cli_export_formats(tmp_path):
 
 
 def test_ros_kinematics_imports_as_nominal(tmp_path):
-    from calibrator.identify import factory_calibration
+    from calibrator.export import factory_calibration
 
     cal = calibrated(a6_alpha6=False)
     path = tmp_path / "kin.yaml"
@@ -207,7 +207,7 @@ def test_identify_with_factory_nominal(tmp_path):
     q = rng.uniform(-np.pi, np.pi, (40, 6))
     tool = frames.transform(None, [0.0, 0.0, 100.0])
     pose = kinematics.chain(factory, q) @ tool
-    table = session.to_table(q, pose[:, :3, 3], frames.matrix_to_rotvec(pose[:, :3, :3]))
+    table = session.to_table(q, pose[:, :3, 3], rotations.matrix_to_rotvec(pose[:, :3, :3]))
     meta = session.SessionMeta("base", nominal_mdh, "ur10e", tool, tool_known=True)
     session.write(tmp_path / "s.parquet", table, meta)
     out = run_cli(
@@ -233,7 +233,7 @@ def test_ur_published_kinematics_yaml(model):
     """UR's own files: our catalogue table, our import and our export agree with them."""
     from pathlib import Path
 
-    from calibrator.identify import factory_calibration
+    from calibrator.export import factory_calibration
 
     path = Path(__file__).parents[2] / "fixtures" / "ur" / "description"
     path = path / f"{model}_default_kinematics.yaml"

@@ -14,8 +14,7 @@ import pytest
 
 from calibrator import robots
 from calibrator.calibration import Calibration
-from calibrator.export import ur
-from calibrator.identify import factory_calibration
+from calibrator.export import factory_calibration, ur
 from calibrator.model import kinematics
 
 DATA = json.loads(

@@ -151,7 +151,7 @@ def test_exported_angle_deltas_lie_within_plus_minus_pi(tmp_path):
     angle delta is in (-pi, pi] and the chain is unchanged."""
     from test_export_ur import SETS, write_ur_file
 
-    from calibrator.identify import factory_calibration
+    from calibrator.export import factory_calibration
 
     for i, delta_set in enumerate(SETS):
         write_ur_file(tmp_path / "f.conf", delta_set)

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrator import compensate, robots, simulate
+from calibrator import robots, simulate
 from calibrator.calibration import Calibration
 from calibrator.filtering import Job, configuration, frames_file, rotations
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import frames, inverse, kinematics, parameters
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
 TOOL2 = frames.transform(rotations.zyx_to_matrix([[90.0, 0.0, 0.0]])[0], [0.0, 40.0, 120.0])
@@ -44,7 +44,7 @@ def work_joints(n, seed=0, model="er10l-c10"):
 
 def poses(cal, q, tool=TOOL, base=BASE):
     """Nominal tool poses (N, 4, 4) of joints ``q`` in frame ``base`` (mm)."""
-    return frames.invert(base) @ compensate.tool_poses(cal.nominal_mdh, q, tool)
+    return frames.invert(base) @ kinematics.tool_poses(cal.nominal_mdh, q, tool)
 
 
 def job(cal, frames_table=None, **kw):
@@ -63,7 +63,7 @@ def landed(truth_mdh, nominal_mdh, written_pose_base, tool, q_start, conf_check=
     configuration: started from the joints the target was made from), and the
     true arm turns to those joints.
     """
-    sol = compensate.inverse(nominal_mdh, written_pose_base, q_start, tool)
+    sol = inverse.solve(nominal_mdh, written_pose_base, q_start, tool)
     assert sol.converged.all()
     return kinematics.chain(truth_mdh, sol.q) @ tool, sol.q
 

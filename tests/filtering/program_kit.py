@@ -9,14 +9,13 @@ nominal arm, as a controller would have recorded them.
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, poses
 
-from calibrator import compensate
 from calibrator.filtering import rotations
 from calibrator.filtering.fanuc import FanucLS
 from calibrator.filtering.jbi import JBI
 from calibrator.filtering.krl import KRL
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.solve import Solver
-from calibrator.model import frames
+from calibrator.model import frames, kinematics
 
 CRLF = "\r\n"
 #: Yaskawa pulses per degree of the JBI test arm.
@@ -121,7 +120,7 @@ def robtarget(cal, pose, q):
 def write_jbi_job(path, cal, q):
     lang = JBI.__new__(JBI)
     codes = Solver(lang, job(cal)).code_of(q)
-    poses = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q, TOOL)
+    poses = np.linalg.inv(BASE) @ kinematics.tool_poses(cal.nominal_mdh, q, TOOL)
     home = np.round(np.array([0, 10, -10, 0, 45, 0]) * PPD).astype(int)
     out = ["/JOB", "//NAME NAHT1", "//POS", f"///NPOS {len(q) + 1},0,0,0,0,0", "///TOOL 1",
            "///POSTYPE PULSE", "///PULSE", "C00000=" + ",".join(map(str, home)),
@@ -148,7 +147,7 @@ def write_jbi_job(path, cal, q):
 def write_fanuc_ls(path, cal, q):
     lang = FanucLS.__new__(FanucLS)
     codes = Solver(lang, job(cal)).code_of(q)
-    poses = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q, TOOL)
+    poses = np.linalg.inv(BASE) @ kinematics.tool_poses(cal.nominal_mdh, q, TOOL)
     out = [
         "/PROG  SCHWEISS", "/ATTR", "OWNER\t\t= MNEDITOR;", 'COMMENT\t\t= "Naht äöü";',
         "/MN", "   1:  UFRAME_NUM=1 ;", "   2:  UTOOL_NUM=1 ;",
@@ -180,7 +179,7 @@ def write_fanuc_ls(path, cal, q):
 
 
 def write_urscript(path, cal, q):
-    pose = compensate.tool_poses(cal.nominal_mdh, q, TCP)
+    pose = kinematics.tool_poses(cal.nominal_mdh, q, TCP)
     lines = [
         "def prog():",
         "  # Prüfprogramm — comments stay",
@@ -197,8 +196,8 @@ def write_urscript(path, cal, q):
 
 
 def write_rapid_module(path, cal, q):
-    p1 = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q[:4], TOOL)
-    p2 = compensate.tool_poses(cal.nominal_mdh, q[4:], TOOL2)
+    p1 = np.linalg.inv(BASE) @ kinematics.tool_poses(cal.nominal_mdh, q[:4], TOOL)
+    p2 = kinematics.tool_poses(cal.nominal_mdh, q[4:], TOOL2)
     lines = [
         "MODULE Zelle3",
         "  ! Schweißzelle 3 — Werkstück auf dem Tisch",

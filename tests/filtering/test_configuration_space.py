@@ -24,14 +24,14 @@ from filter_kit import calibration, job
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from calibrator import compensate, robots
+from calibrator import robots
 from calibrator.filtering import configuration, engine
 from calibrator.filtering.fanuc import FanucLS
 from calibrator.filtering.jbi import JBI
 from calibrator.filtering.krl import KRL
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.urscript import URScript
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 #: Hypothesis runs: few examples, no deadline, the same examples every run.
 SETTINGS = settings(max_examples=80, deadline=None, derandomize=True)
@@ -176,7 +176,7 @@ def test_the_eight_solutions_of_a_pose_carry_the_eight_bit_combinations(model):
     pose = kinematics.chain(arm.mdh, q0)
     rng = np.random.default_rng(0)
     starts = rng.uniform(-np.pi, np.pi, (3000, 6))
-    sol = compensate.inverse(arm.mdh, np.repeat(pose, len(starts), 0), starts, np.eye(4))
+    sol = inverse.solve(arm.mdh, np.repeat(pose, len(starts), 0), starts, np.eye(4))
     q = sol.q[sol.converged]
     bits = configuration.arm_bits(arm.mdh, q)
     assert {tuple(b) for b in bits.tolist()} == {
@@ -224,7 +224,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
     tool = cf @ kit.TOOL  # on the model's flange
     cal = calibration(model=model, seed=5, mm=0.3, rad=0.0005)
-    taught = frames.invert(cb @ user) @ compensate.tool_poses(cal.nominal_mdh, q, tool)
+    taught = frames.invert(cb @ user) @ kinematics.tool_poses(cal.nominal_mdh, q, tool)
     src, extra = write(tmp_path, taught, codes)
     out = tmp_path / f"out{src.suffix}"
     options = {k: v for k, v in extra.items() if k != "frames"}
@@ -233,7 +233,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     assert summary.corrected["pose"] == len(q)
     intended = cb @ user @ read(src.read_text())
     sent = cb @ user @ read(out.read_text())
-    nominal = compensate.inverse(cal.nominal_mdh, sent, q, tool)
+    nominal = inverse.solve(cal.nominal_mdh, sent, q, tool)
     assert nominal.converged.all()
     assert np.degrees(np.abs(nominal.q - q)).max() < 2.0
     ctrl = np.degrees(arm.convention.to_controller(nominal.q))
@@ -245,5 +245,5 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     assert miss.max() < LANDS_MM, (miss.max(), int(miss.argmax()))
     assert turn.max() < 2e-5
     # Unfiltered, the same controller misses by the calibration's error.
-    raw = kinematics.chain(cal.mdh, compensate.inverse(cal.nominal_mdh, intended, q, tool).q)
+    raw = kinematics.chain(cal.mdh, inverse.solve(cal.nominal_mdh, intended, q, tool).q)
     assert np.median(np.linalg.norm((raw @ tool)[:, :3, 3] - intended[:, :3, 3], axis=1)) > 0.2

@@ -9,11 +9,11 @@ import pytest
 from filter_kit import BASE, TOOL, job
 from program_kit import rapid_pose, robtarget
 
-from calibrator import compensate, session, simulate
+from calibrator import session, simulate
 from calibrator.calibration import Calibration
 from calibrator.filtering import engine, rotations
 from calibrator.identify import pipeline
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +29,7 @@ def identified(tmp_path_factory):
 
 
 def _module(path, cal, q):
-    pose = np.linalg.inv(BASE) @ compensate.tool_poses(cal.nominal_mdh, q, TOOL)
+    pose = np.linalg.inv(BASE) @ kinematics.tool_poses(cal.nominal_mdh, q, TOOL)
     lines = [
         "MODULE Cell",
         f"  PERS tooldata tSpindle:=[TRUE,{rapid_pose(TOOL)},[4,[0,0,80],[1,0,0,0],0,0,0]];",
@@ -72,7 +72,7 @@ def test_filtered_program_lands_on_the_true_arm(identified, tmp_path):
     def drive(sent):
         # The controller: nominal inverse kinematics in the same configuration
         # (started from the joints the targets were made from), on the true arm.
-        sol = compensate.inverse(cal.nominal_mdh, sent, q, TOOL)
+        sol = inverse.solve(cal.nominal_mdh, sent, q, TOOL)
         assert sol.converged.all()
         return kinematics.chain(truth.mdh, sol.q) @ TOOL
 

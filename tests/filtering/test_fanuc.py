@@ -6,9 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import write_fanuc_ls
 
-from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 
 def _frames_yaml(tmp_path):
@@ -49,7 +48,7 @@ def test_positions_land_and_the_second_group_is_kept(tmp_path):
     changed = [a for a, b in zip(before.split("\r\n"), text.split("\r\n"), strict=True) if a != b]
     assert len(changed) == 12 and all(("X =" in c or "W =" in c) for c in changed)
     sent = BASE @ _read(text)
-    nominal = compensate.inverse(cal.nominal_mdh, sent, q, TOOL)
+    nominal = inverse.solve(cal.nominal_mdh, sent, q, TOOL)
     landed = kinematics.chain(cal.mdh, nominal.q) @ TOOL
     intended = BASE @ _read(before)
     assert np.linalg.norm(landed[:, :3, 3] - intended[:, :3, 3], axis=1).max() < 0.01

@@ -6,9 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import PPD, write_jbi_job
 
-from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 
 def _frames(tmp_path):
@@ -46,7 +45,7 @@ def test_rectan_positions_land_in_the_user_frame(tmp_path):
     text, before = out.read_bytes().decode(), src.read_bytes().decode()
     changed = [a for a, b in zip(before.split("\r\n"), text.split("\r\n"), strict=True) if a != b]
     assert len(changed) == 6 and all(c.startswith("C0000") for c in changed)
-    nominal = compensate.inverse(cal.nominal_mdh, BASE @ _read(text.replace("\r\n", "\n")), q, TOOL)
+    nominal = inverse.solve(cal.nominal_mdh, BASE @ _read(text.replace("\r\n", "\n")), q, TOOL)
     landed = kinematics.chain(cal.mdh, nominal.q) @ TOOL
     intended = BASE @ _read(before.replace("\r\n", "\n"))
     assert np.linalg.norm(landed[:, :3, 3] - intended[:, :3, 3], axis=1).max() < 0.01

@@ -6,9 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
 from program_kit import krl_frame, krl_status_turn, write_krl_program
 
-from calibrator import compensate
 from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 
 def test_identity_calibration_is_byte_for_byte(tmp_path):
@@ -48,10 +47,10 @@ def test_corrected_targets_land_on_the_intended_pose(tmp_path):
     written = np.concatenate([_read_poses(dat), _read_poses("".join(after[8:]))])
     tools = np.array([TOOL] * 6 + [TOOL2] * 6)
     bases = np.array([BASE] * 6 + [np.eye(4)] * 6)
-    intended = compensate.tool_poses(cal.nominal_mdh, q, tools)
+    intended = kinematics.tool_poses(cal.nominal_mdh, q, tools)
     # The nominal controller (its IK, same configuration) drives the true arm.
     sent = bases @ written
-    nominal = compensate.inverse(cal.nominal_mdh, sent, q, tools)
+    nominal = inverse.solve(cal.nominal_mdh, sent, q, tools)
     assert nominal.converged.all()
     true_pose = kinematics.chain(cal.mdh, nominal.q) @ tools
     err = np.linalg.norm(true_pose[:, :3, 3] - intended[:, :3, 3], axis=1)

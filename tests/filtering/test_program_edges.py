@@ -16,9 +16,9 @@ import pytest
 from filter_kit import calibration, job
 from vendor_kit import BOXES
 
-from calibrator import compensate, robots
+from calibrator import robots
 from calibrator.filtering import configuration, engine, frames_file
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 LANDS_MM = 0.02
 
@@ -49,7 +49,7 @@ def _edge_program(tmp_path, name, cal):
     codes = kit.CODES[lang](q_ctrl, configuration.arm_bits(arm.mdh, q))
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
     user = kit.USER @ kit.OBJECT if name == "rapid" else kit.USER
-    taught = frames.invert(cb @ user) @ compensate.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
+    taught = frames.invert(cb @ user) @ kinematics.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
     src, extra = write(tmp_path, taught, codes)
     options = {k: v for k, v in extra.items() if k != "frames"}
     return src, job(cal, extra.get("frames"), **options), q, codes, cb @ user, cf @ kit.TOOL, read
@@ -89,7 +89,7 @@ def test_a_calibrated_target_on_a_boundary_lands_or_names_the_code_it_would_leav
     sent = user @ read(out.read_text())
     moved = np.abs(sent - intended).max(axis=(1, 2)) > 0
     assert moved.sum() == summary.corrected["pose"]  # failed targets are left as they were
-    nominal = compensate.inverse(cal.nominal_mdh, sent[moved], q[moved], tool)
+    nominal = inverse.solve(cal.nominal_mdh, sent[moved], q[moved], tool)
     assert nominal.converged.all()
     reached = kinematics.chain(cal.mdh, nominal.q) @ tool
     miss = np.linalg.norm(reached[:, :3, 3] - intended[moved][:, :3, 3], axis=1)
@@ -169,7 +169,7 @@ def test_movec_corrects_its_via_point_and_its_end_point(tmp_path):
     cal = calibration("ur10e", seed=2, mm=0.3, rad=0.0005)
     ends = np.array([[0.2, -1.6, 1.5, -1.4, 1.3, 0.2], [0.9, -1.2, 1.1, -1.0, 1.7, 0.9]])
     q = ends[0] + np.linspace(0, 1, 7)[:, None] * (ends[1] - ends[0])
-    pose = compensate.tool_poses(cal.nominal_mdh, q, TCP)
+    pose = kinematics.tool_poses(cal.nominal_mdh, q, TCP)
     lines = [
         "def arc():",
         f"  set_tcp({_p(TCP)})",
@@ -194,7 +194,7 @@ def test_movec_corrects_its_via_point_and_its_end_point(tmp_path):
     sent, intended = _read_p(after)[1:], _read_p(before)[1:]  # without the TCP
     order = [1, 2, 3, 4, 5, 6]
     assert np.abs(sent - intended).max(axis=(1, 2)).min() > 1e-5  # every pose was corrected
-    nominal = compensate.inverse(cal.nominal_mdh, sent, q[order], TCP)
+    nominal = inverse.solve(cal.nominal_mdh, sent, q[order], TCP)
     reached = kinematics.chain(cal.mdh, nominal.q) @ TCP
     miss = np.linalg.norm(reached[:, :3, 3] - intended[:, :3, 3], axis=1)
     assert miss.max() < LANDS_MM, miss
@@ -209,7 +209,7 @@ def test_a_crlf_krl_program_with_keep_failed_marks_failures_before_the_line_endi
     q, codes = q[:6], codes[:6]
     arm = robots.get("kuka-kr6-r900")
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
-    taught = frames.invert(cb @ kit.USER) @ compensate.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
+    taught = frames.invert(cb @ kit.USER) @ kinematics.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
     src, extra = kit.krl(tmp_path, taught, codes)
     text = src.read_bytes().decode()
     # The fourth target under a tool nobody defines: it fails, the rest are corrected.
@@ -267,7 +267,7 @@ def test_a_correction_beyond_the_rotation_limit_alone_fails(tmp_path):
     q, codes = q[:8], codes[:8]
     arm = robots.get("kuka-kr6-r900")
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
-    taught = frames.invert(cb @ kit.USER) @ compensate.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
+    taught = frames.invert(cb @ kit.USER) @ kinematics.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
     src, extra = kit.krl(tmp_path, taught, codes)
     loose = engine.Filter(
         "krl", job(cal, config_dat=extra["config_dat"], max_mm=50.0, max_deg=5.0), src

@@ -6,9 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
 from program_kit import write_rapid_module
 
-from calibrator import compensate
 from calibrator.filtering import engine, rotations
-from calibrator.model import kinematics
+from calibrator.model import inverse, kinematics
 
 
 def _read(text):
@@ -46,7 +45,7 @@ def test_filtered_targets_land_in_their_work_object(tmp_path):
     written = frames.transform(rotations.quaternion_to_matrix(v[:, 3:]), v[:, :3])
     bases = np.array([BASE] * 4 + [np.eye(4)] * 4)
     tools = np.array([TOOL] * 4 + [TOOL2] * 4)
-    nominal = compensate.inverse(cal.nominal_mdh, bases @ written, q, tools)
+    nominal = inverse.solve(cal.nominal_mdh, bases @ written, q, tools)
     landed = kinematics.chain(cal.mdh, nominal.q) @ tools
     v0 = _read(src.read_bytes().decode("utf-8"))  # the poses as the program states them
     intended = bases @ frames.transform(rotations.quaternion_to_matrix(v0[:, 3:]), v0[:, :3])

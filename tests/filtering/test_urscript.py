@@ -8,9 +8,8 @@ from cli_process_kit import run_cli
 from filter_kit import calibration, job, path_joints
 from program_kit import TCP, write_urscript
 
-from calibrator import compensate
 from calibrator.filtering import engine
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 
 def test_identity_round_trip_is_byte_for_byte(tmp_path):
@@ -37,9 +36,9 @@ def test_filtered_poses_land_and_nothing_else_changes(tmp_path):
     found = [re.search(pat, after[i].decode()).group(1) for i in [4] + list(range(6, 14))]
     v = np.array([[float(x) for x in f.split(",")] for f in found])
     sent = frames.transform(frames.rotvec_to_matrix(v[:, 3:]), 1000 * v[:, :3])
-    nominal = compensate.inverse(cal.nominal_mdh, sent, q[1:], TCP)
+    nominal = inverse.solve(cal.nominal_mdh, sent, q[1:], TCP)
     true_pose = kinematics.chain(cal.mdh, nominal.q) @ TCP
-    intended = compensate.tool_poses(cal.nominal_mdh, q[1:], TCP)
+    intended = kinematics.tool_poses(cal.nominal_mdh, q[1:], TCP)
     err = np.linalg.norm(true_pose[:, :3, 3] - intended[:, :3, 3], axis=1)
     assert err.max() < 0.01
 

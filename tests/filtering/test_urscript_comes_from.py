@@ -12,9 +12,8 @@ import re
 import numpy as np
 from filter_kit import calibration, job, landed, work_joints
 
-from calibrator import compensate
 from calibrator.filtering import configuration, engine
-from calibrator.model import frames
+from calibrator.model import frames, kinematics
 
 FLANGE = np.eye(4)
 
@@ -40,7 +39,7 @@ def test_a_pose_after_a_joint_target_takes_that_targets_configuration(tmp_path):
     q_b[4] = -q_near[4]
     bits = configuration.arm_bits(cal.nominal_mdh, np.array([q_a, q_b]))
     assert bits[0, 2] != bits[1, 2]
-    intended = compensate.tool_poses(cal.nominal_mdh, np.array([q_a, q_b]), FLANGE)
+    intended = kinematics.tool_poses(cal.nominal_mdh, np.array([q_a, q_b]), FLANGE)
     src = tmp_path / "prog.script"
     src.write_text(
         "def prog():\n"

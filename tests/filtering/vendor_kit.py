@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import yourdfpy
 
-from calibrator import compensate, robots
+from calibrator import robots
 from calibrator.filtering import rotations
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, inverse, kinematics
 
 DATA = Path(robots.__file__).with_name("data")
 #: The chain's tip link of each shipped description (typed here, not read from it).
@@ -122,7 +122,7 @@ def landed(cal, base2frame0, flange2tool0, sent, user, tool, q_ctrl) -> np.ndarr
     arm = robots.get(cal.model)
     start = arm.convention.to_model(q_ctrl)
     to_model = frames.invert(base2frame0)
-    sol = compensate.inverse(cal.nominal_mdh, to_model @ user @ sent, start, flange2tool0 @ tool)
+    sol = inverse.solve(cal.nominal_mdh, to_model @ user @ sent, start, flange2tool0 @ tool)
     assert sol.converged.all()
     # In the stated configuration: the joints the target was taught at, give or take
     # the calibration's error (a whole turn or another solution would be far).

@@ -10,8 +10,7 @@ from export_kit import calibrated, poses, ur_file
 
 from calibrator import export, robots
 from calibrator.errors import CalibrationError
-from calibrator.export import ur
-from calibrator.identify import factory_calibration
+from calibrator.export import factory_calibration, ur
 from calibrator.model import kinematics
 from calibrator.session import SessionMeta
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from calibrator import robots
+from calibrator.halton import halton
 from calibrator.identify import pso
-from calibrator.identify.halton import halton
 from calibrator.identify.problem import Problem
 from calibrator.model import frames, kinematics, measurement, parameters
 

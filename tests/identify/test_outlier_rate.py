@@ -14,7 +14,8 @@ from calibrator.identify import refine, robust
 from calibrator.identify.pipeline import Options, identify
 from calibrator.identify.problem import Problem
 from calibrator.model import measurement, parameters
-from calibrator.simulate import NoiseModel, simulate
+from calibrator.model.noise import NoiseModel
+from calibrator.simulate import simulate
 
 NAMES = ("a2", "alpha2", "d3", "a3", "d4", "theta5", "base_tx", "base_ty", "base_rz")
 TRACKER_AT = np.array([2600.0, 900.0, 300.0])  # mm, base frame; axes aligned with the base

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 
 def test_a_transform_is_checked_for_shape_last_row_and_a_proper_rotation():
@@ -67,7 +67,7 @@ def test_rotvec_of_large_turns_about_each_axis_matches_scipy(axis, angle):
     rotvec = angle * np.asarray(axis, float) / np.linalg.norm(axis)
     signs = np.array([[1, 1, 1], [-1, 1, 1], [1, -1, 1], [1, 1, -1]], float)
     vecs = rotvec * signs
-    got = frames.matrix_to_rotvec(Rotation.from_rotvec(vecs).as_matrix())
+    got = rotations.matrix_to_rotvec(Rotation.from_rotvec(vecs).as_matrix())
     np.testing.assert_allclose(got, vecs, atol=1e-12)
 
 
@@ -76,19 +76,19 @@ def test_rotvec_of_half_turns_has_angle_pi_and_the_axis_up_to_sign():
         [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.6, 0.8, 0], [0, -0.6, 0.8], [0.48, 0.6, 0.64]]
     )
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    got = frames.matrix_to_rotvec(Rotation.from_rotvec(np.pi * axes).as_matrix())
+    got = rotations.matrix_to_rotvec(Rotation.from_rotvec(np.pi * axes).as_matrix())
     np.testing.assert_allclose(np.linalg.norm(got, axis=1), np.pi, atol=1e-12)
     np.testing.assert_allclose(np.abs(np.sum(got * axes, axis=1)), np.pi, atol=1e-12)
 
 
 def test_tiny_rotations_keep_their_relative_precision():
     rotvecs = np.array([[3e-7, -2e-7, 5e-7], [1e-13, 0, 0], [0, 0, -4e-9], [0.0, 0.0, 0.0]])
-    matrices = frames.rotvec_to_matrix(rotvecs)
+    matrices = rotations.rotvec_to_matrix(rotvecs)
     expected = Rotation.from_rotvec(rotvecs).as_matrix()
     # Off the diagonal the entries are of the size of the angle: compare them relatively.
     off = ~np.eye(3, dtype=bool)
     np.testing.assert_allclose(matrices[:, off], expected[:, off], rtol=1e-12, atol=1e-30)
-    back = frames.matrix_to_rotvec(matrices)
+    back = rotations.matrix_to_rotvec(matrices)
     np.testing.assert_allclose(back, rotvecs, rtol=1e-9, atol=1e-30)
     assert np.all(back[3] == 0)
 
@@ -98,7 +98,7 @@ def test_rotation_error_is_the_turn_from_measured_to_model():
     measured = Rotation.random(8, random_state=5)
     turn = rng.normal(0, 0.2, (8, 3))
     model = Rotation.from_rotvec(turn) * measured
-    got = frames.rotation_error(model.as_matrix(), measured.as_matrix())
+    got = rotations.rotation_error(model.as_matrix(), measured.as_matrix())
     np.testing.assert_allclose(got, turn, atol=1e-12)
 
 
@@ -118,8 +118,8 @@ def test_rigid_fit_of_noisy_points_is_scipys_least_squares_rotation():
 def test_xyz_angles_of_a_stack_and_of_a_gimbal_lock():
     angles = np.array([[0.3, -0.4, 0.5], [-2.0, 1.2, 3.0], [0.0, np.pi / 2 - 1e-3, 0.7]])
     r = Rotation.from_euler("XYZ", angles).as_matrix()
-    np.testing.assert_allclose(frames.angles_xyz(r), angles, atol=1e-9)
-    np.testing.assert_allclose(frames.rotations_xyz(angles), r, atol=1e-14)
+    np.testing.assert_allclose(rotations.angles_xyz(r), angles, atol=1e-9)
+    np.testing.assert_allclose(rotations.rotations_xyz(angles), r, atol=1e-14)
 
 
 def test_integer_transforms_are_returned_as_floats_and_the_tolerance_is_1e_6():
@@ -134,5 +134,5 @@ def test_integer_transforms_are_returned_as_floats_and_the_tolerance_is_1e_6():
 def test_rotvec_of_one_matrix_and_of_a_grid_of_matrices():
     vecs = np.random.default_rng(7).normal(0, 1, (2, 3, 3))
     matrices = Rotation.from_rotvec(vecs.reshape(-1, 3)).as_matrix().reshape(2, 3, 3, 3)
-    np.testing.assert_allclose(frames.matrix_to_rotvec(matrices), vecs, atol=1e-12)
-    np.testing.assert_allclose(frames.matrix_to_rotvec(matrices[1, 2]), vecs[1, 2], atol=1e-12)
+    np.testing.assert_allclose(rotations.matrix_to_rotvec(matrices), vecs, atol=1e-12)
+    np.testing.assert_allclose(rotations.matrix_to_rotvec(matrices[1, 2]), vecs[1, 2], atol=1e-12)

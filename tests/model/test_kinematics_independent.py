@@ -10,7 +10,7 @@ import numpy as np
 from reference_kit import homogeneous as _h
 from scipy.spatial.transform import Rotation
 
-from calibrator.identify.halton import halton
+from calibrator.halton import halton
 from calibrator.model import frames, kinematics
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from calibrator.model import frames, measurement, parameters
+from calibrator.model import frames, measurement, parameters, rotations
 from calibrator.model.parameters import ALL_NAMES, ParameterSpace
 
 IPSO_PAPER_24 = [
@@ -37,7 +37,7 @@ IPSO_PAPER_24 = [
 
 def random_frame(rng, distance_mm):
     return frames.transform(
-        frames.rotvec_to_matrix(rng.uniform(-2, 2, 3)), rng.normal(0, distance_mm, 3)
+        rotations.rotvec_to_matrix(rng.uniform(-2, 2, 3)), rng.normal(0, distance_mm, 3)
     )
 
 

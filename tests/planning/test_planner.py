@@ -9,14 +9,14 @@ from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import cell, planning, robots, session
 from calibrator.identify import pipeline
-from calibrator.model import frames, kinematics, measurement
-from calibrator.simulate import DEFAULT_TOOL_POINT, SIM_TRACKER_AT_MM, SimWorld
+from calibrator.model import DEFAULT_TOOL_MM, frames, kinematics, measurement
+from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 
 UR10E = robots.get("ur10e")
 TOOL = frames.transform(translation=[0.0, 0.0, 100.0])
 TOOL_MM = (0.0, 0.0, 100.0)
-SIM_TOOL_MM = tuple(float(v) for v in DEFAULT_TOOL_POINT)
-SIM_TOOL = frames.transform(translation=DEFAULT_TOOL_POINT)
+SIM_TOOL_MM = DEFAULT_TOOL_MM
+SIM_TOOL = frames.transform(translation=DEFAULT_TOOL_MM)
 
 
 def test_plan_from_all_identical_candidates_is_refused_not_reported_healthy():

@@ -72,7 +72,7 @@ LAYERS: dict[str, tuple[str, ...]] = {
     # JSON and YAML, budgets, and the checks of what documents hold.
     "inputs": ("calibrator.inputs",),
     # Plain building blocks with no knowledge of the arm's documents.
-    "base": ("calibrator", "calibrator.errors", "calibrator.outputs"),
+    "base": ("calibrator", "calibrator.errors", "calibrator.halton", "calibrator.outputs"),
 }
 
 #: Only these may import ``drivers``.

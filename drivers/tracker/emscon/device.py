@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
+from calibrator.model import rotations
 from drivers.errors import DriverError
 from drivers.tracker.base import Environment, OpenOptions
 from drivers.tracker.emscon import protocol as pk
@@ -284,7 +285,7 @@ class EmsconTracker:
         rotvec: np.ndarray | None = None
         six_dof_ok = True
         if isinstance(result, pk.ProbeStationaryResult):
-            rotvec = _quaternion_to_rotvec(np.array(result.quaternion))
+            rotvec = rotations.quaternion_to_rotvec(result.quaternion)[0]  # NaN: refused below
             # lRotationStatus bit 0: 6-DoF values valid; bit 1: 6-DoF error.
             six_dof_ok = (result.rotation_status & 0b11) == 0b01
         # NaN compares False, so these refuse it along with inf and absurd values.
@@ -508,23 +509,6 @@ class EmsconTracker:
         raise TrackerGone(
             f"emScon connection lost; {self.reconnect_attempts} reconnect attempts failed: {last}"
         ) from last
-
-
-def _quaternion_to_rotvec(q: np.ndarray) -> np.ndarray:
-    """Rotation vector (rad, shape (3,)) of a scalar-first quaternion (normalised here).
-
-    A zero or non-finite quaternion gives NaN, which the caller refuses.
-    """
-    norm = float(np.linalg.norm(q))
-    if not np.isfinite(norm) or norm == 0.0:
-        return np.full(3, np.nan)
-    w, v = q[0] / norm, q[1:] / norm
-    if w < 0:  # q and -q are one rotation: take the one with angle <= pi
-        w, v = -w, -v
-    s = float(np.linalg.norm(v))
-    if s < 1e-12:
-        return 2.0 * v  # small-angle limit
-    return 2.0 * np.arctan2(s, w) * v / s
 
 
 def open_tracker(url: str, **options: Any) -> EmsconTracker:

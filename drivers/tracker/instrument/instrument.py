@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 # The one import of the simulated world's noise model (anisotropic, range-dependent).
-from calibrator.simulate import NoiseModel, beam_frame  # noqa: F401 - beam_frame: re-exported
+from calibrator.model.noise import NoiseModel, beam_frame  # noqa: F401 - beam_frame: re-exported
 from drivers.tracker.instrument.faults import Fault, FaultSchedule, parse_fault
 
 MIN_RANGE_MM = 500.0  # closer than this a real tracker cannot lock on

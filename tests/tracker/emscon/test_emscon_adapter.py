@@ -361,19 +361,6 @@ def test_find_reflector_checks_its_prediction_and_never_uses_the_adm(tracker):
     assert seen == [(TARGET_MM, False)]
 
 
-def test_quaternions_scaled_identity_and_tiny_turn_convert_exactly():
-    from drivers.tracker.emscon.device import _quaternion_to_rotvec
-
-    half = np.array([np.cos(0.25), 0.0, 0.0, np.sin(0.25)])
-    np.testing.assert_allclose(_quaternion_to_rotvec(3.0 * half), [0.0, 0.0, 0.5])
-    np.testing.assert_array_equal(_quaternion_to_rotvec(np.array([1.0, 0, 0, 0])), np.zeros(3))
-    tiny = _quaternion_to_rotvec(np.array([1.0, 1e-13, 0.0, 0.0]))
-    np.testing.assert_allclose(tiny, [2e-13, 0.0, 0.0], rtol=1e-9)
-    for bad in ([0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 1.0], [np.inf, 0.0, 0.0, 0.0]):
-        got = _quaternion_to_rotvec(np.array(bad))
-        assert got.shape == (3,) and np.all(np.isnan(got))
-
-
 def test_open_tracker_names_what_is_wrong_with_a_url():
     assert open_tracker("emscon://h/").host == "h"
     cases = {

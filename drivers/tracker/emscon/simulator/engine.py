@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from calibrator.model import rotations
 from drivers.tracker.emscon import protocol as pk
 from drivers.tracker.emscon.protocol import Command, ResultStatus, StatusChange
 from drivers.tracker.errors import FrameError
@@ -447,7 +448,8 @@ class EmsconSimulator(FrontEnd):
         per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
         std = (*(std_xyz / per_unit), total / per_unit)
         if self.probe:
-            quaternion = _rotvec_to_quaternion(inst.sample_rotvec(rotvec))
+            w, x, y, z = rotations.rotvec_to_quaternion(inst.sample_rotvec(rotvec))[0]
+            quaternion = (float(w), float(x), float(y), float(z))
             result = pk.encode_probe_stationary_result(point / per_unit, std, quaternion, self.env)
         else:
             result = pk.encode_single_meas_result(point / per_unit, std, self.env)
@@ -509,14 +511,6 @@ class EmsconSimulator(FrontEnd):
             out.append(Send(pk.encode_multi_meas_result([record], self.env)))
             self.stream_records += 1
             return out
-
-
-def _rotvec_to_quaternion(rotvec: np.ndarray) -> tuple[float, float, float, float]:
-    """Scalar-first unit quaternion of a rotation vector (rad)."""
-    angle = float(np.linalg.norm(rotvec))
-    axis = rotvec / angle if angle > 0 else np.zeros(3)
-    w, v = np.cos(angle / 2), np.sin(angle / 2) * axis
-    return float(w), float(v[0]), float(v[1]), float(v[2])
 
 
 def _ok(packet: bytes) -> bool:

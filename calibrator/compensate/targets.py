@@ -1,22 +1,9 @@
-"""Target compensation: joint angles and corrected targets for a calibrated arm.
+"""Compensation of a targets CSV: read in blocks, solved, written as the result CSV.
 
-A controller keeps its nominal model. To make the real (calibrated) arm
-reach a desired tool pose ``T`` (robot base frame):
-
-1. solve the calibrated model's inverse kinematics, ``FK_cal(q) = T``, by
-   damped Newton steps started from the nominal solution ``q_nom``;
-2. the corrected target is ``FK_nom(q)``: sent to the controller, its
-   nominal inverse kinematics returns ``q`` and the real arm lands on ``T``.
-
-Both models carry the calibration's ``flange2tool``: the controller's TCP is
-assumed to be the identified tool. Everything is vectorised over targets.
-
-IK: Levenberg-Marquardt steps on the geometric Jacobian, per target (a step
-is kept only if it lowers the error, else the damping grows), error = position
-(mm) and rotation vector (rad, weighted :data:`ROT_WEIGHT_MM`) in the base
-frame; converged when the position error is below :data:`TOL_MM` and the
-rotation error below :data:`TOL_RAD`, at most :data:`MAX_ITER` iterations.
-A result outside the joint limits is reported, never clipped.
+:func:`iter_targets` reads a targets CSV (nominal joints, optional desired
+poses) block by block in the strict number grammar; :func:`run` compensates
+each block (:func:`calibrator.compensate.core.compensate`) and writes the
+result CSV atomically, so memory does not grow with the file.
 """
 
 from __future__ import annotations
@@ -24,293 +11,27 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+from calibrator.compensate.core import MAX_JOINT_CHANGE_DEG, compensate, correction_sizes
 from calibrator.errors import CalibrationError
 from calibrator.inputs import grammar
 from calibrator.inputs.errors import StrictError
-from calibrator.model import frames, joint_terms, kinematics, singularities
+from calibrator.model import frames, rotations, singularities
+from calibrator.model.inverse import Solution
 
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
 
-#: Position tolerance of the IK (mm).
-TOL_MM = 1e-6
-#: Orientation tolerance of the IK (rad).
-TOL_RAD = 1e-9
-#: Iteration cap of the IK.
-MAX_ITER = 50
-#: Weight of a rotation error against a position error (mm/rad).
-ROT_WEIGHT_MM = 1000.0
-#: Largest turn of a joint between a target's nominal and calibrated solution
-#: (deg). A calibration moves joints by tenths of a degree (about 1 deg for
-#: the large errors of the simulated arms); much more means the
-#: target sits near a singularity, where a tiny pose change swings the wrist
-#: or the arm, and the corrected target would not move the arm as planned.
-MAX_JOINT_CHANGE_DEG = 5.0
-
-
-@dataclass(frozen=True)
-class Solution:
-    """IK results for N targets.
-
-    Attributes
-    ----------
-    q : ndarray, shape (N, 6)
-        Joint angles (rad); for failed targets, the last iterate (not clipped).
-    converged : ndarray of bool, shape (N,)
-    within_limits : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    error_mm, error_rad : ndarray, shape (N,)
-        Remaining position and rotation error.
-    """
-
-    q: np.ndarray
-    converged: np.ndarray
-    within_limits: np.ndarray
-    iterations: np.ndarray
-    error_mm: np.ndarray
-    error_rad: np.ndarray
-
-    @property
-    def ok(self) -> np.ndarray:
-        """Targets reached within the joint limits, shape (N,)."""
-        return self.converged & self.within_limits
-
-
-def tool_poses(mdh: ArrayLike, q: ArrayLike, flange2tool: np.ndarray) -> np.ndarray:
-    """Tool poses in the base frame, shape (N, 4, 4)."""
-    return kinematics.chain(mdh, q) @ flange2tool
-
-
-def _tool_rows(tool, idx):
-    """The tool of the targets ``idx``: one (4, 4) for all, or the rows of an (N, 4, 4)."""
-    return tool if tool.ndim == 2 else tool[idx]
-
-
-def _jacobian_and_pose(mdh, q, flange2tool):
-    _, link_frames = kinematics.chain(mdh, q, all_frames=True)
-    pose = link_frames[:, 6] @ flange2tool
-    axes = link_frames[:, :6, :3, 2]  # joint i+1 turns about z of frame i
-    arms = pose[:, None, :3, 3] - link_frames[:, :6, :3, 3]
-    jac = np.empty((len(q), 6, 6))
-    jac[:, :3] = np.swapaxes(np.cross(axes, arms), 1, 2)
-    jac[:, 3:] = np.swapaxes(axes, 1, 2)
-    return jac, pose
-
-
-def _pose_error(target, pose):
-    dp = target[:, :3, 3] - pose[:, :3, 3]
-    dr = frames.rotation_error(target[:, :3, :3], pose[:, :3, :3])
-    return np.concatenate([dp, dr], axis=1)
-
-
-def inverse(
-    mdh: ArrayLike,
-    targets: ArrayLike,
-    q0: ArrayLike,
-    flange2tool: ArrayLike | None = None,
-    limits: ArrayLike | None = None,
-) -> Solution:
-    """Joint angles reaching tool poses, by damped Newton (Levenberg-Marquardt) from ``q0``.
-
-    Parameters
-    ----------
-    mdh : array_like, shape (6, 5)
-    targets : array_like, shape (N, 4, 4)
-        Desired tool poses, base frame (mm).
-    q0 : array_like, shape (N, 6)
-        Start (rad): the nominal solution.
-    flange2tool : array_like, shape (4, 4) or (N, 4, 4), optional
-        One tool for every target, or one per target (a program's targets
-        name their own tools).
-    limits : array_like, shape (6, 2), optional
-        Joint limits (rad); all within when omitted.
-
-    Returns
-    -------
-    Solution
-    """
-    targets = np.asarray(targets, dtype=float)
-    q = kinematics.check_joints(q0).copy()
-    tool = np.eye(4) if flange2tool is None else np.asarray(flange2tool, dtype=float)
-    n = len(q)
-    weight = np.array([1.0, 1.0, 1.0, ROT_WEIGHT_MM, ROT_WEIGHT_MM, ROT_WEIGHT_MM])
-    iterations = np.zeros(n, dtype=int)
-    lam = np.full(n, 1e-3)
-    jac, pose = _jacobian_and_pose(mdh, q, tool)
-    err = _pose_error(targets, pose)
-    active = ~_done(err)
-    for _ in range(MAX_ITER):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        j = jac[idx] * weight[:, None]
-        e = err[idx] * weight
-        jt = np.swapaxes(j, 1, 2)
-        jtj = jt @ j
-        # Marquardt's scaling: damping proportional to the diagonal.
-        damp = lam[idx, None, None] * (np.eye(6) * np.diagonal(jtj, axis1=1, axis2=2)[:, None, :])
-        dq = np.linalg.solve(jtj + damp, jt @ e[..., None])[..., 0]
-        trial_q = q[idx] + dq
-        trial_jac, trial_pose = _jacobian_and_pose(mdh, trial_q, _tool_rows(tool, idx))
-        trial_err = _pose_error(targets[idx], trial_pose)
-        better = np.sum((trial_err * weight) ** 2, axis=1) < np.sum(e**2, axis=1)
-        take = idx[better]
-        q[take], jac[take], err[take] = trial_q[better], trial_jac[better], trial_err[better]
-        lam[take] = np.maximum(lam[take] / 10.0, 1e-9)
-        lam[idx[~better]] *= 10.0
-        iterations[idx] += 1
-        active[take[_done(err[take])]] = False
-        active[idx[lam[idx] > 1e8]] = False  # stuck: no step lowers the error
-    e_mm = np.linalg.norm(err[:, :3], axis=1)
-    e_rad = np.linalg.norm(err[:, 3:], axis=1)
-    converged = _done(err)
-    if limits is None:
-        within = np.ones(n, dtype=bool)
-    else:
-        lim = np.asarray(limits, dtype=float)
-        within = np.all((q >= lim[:, 0]) & (q <= lim[:, 1]), axis=1)
-    return Solution(q, converged, within, iterations, e_mm, e_rad)
-
-
-def _done(err):
-    return (np.linalg.norm(err[:, :3], axis=1) < TOL_MM) & (
-        np.linalg.norm(err[:, 3:], axis=1) < TOL_RAD
-    )
-
-
-@dataclass(frozen=True)
-class Compensation:
-    """What :func:`compensate` found.
-
-    Attributes
-    ----------
-    q : ndarray, shape (N, 6)
-        Joint angles of the calibrated arm reaching the targets (rad).
-    corrected : ndarray, shape (N, 4, 4)
-        Targets to send to a controller keeping its nominal model (mm).
-    desired : ndarray, shape (N, 4, 4)
-    solution : Solution
-    q_nominal : ndarray, shape (N, 6)
-        Nominal model's joints for the desired poses (the IK's start).
-    """
-
-    q: np.ndarray
-    corrected: np.ndarray
-    desired: np.ndarray
-    solution: Solution
-    q_nominal: np.ndarray
-
-
-def compensate(
-    calibration: Calibration,
-    desired: ArrayLike | None = None,
-    q_nominal: ArrayLike | None = None,
-    limits: ArrayLike | None = None,
-    payload_kg: float | None = None,
-    tool: ArrayLike | None = None,
-    nominal_solved: bool = False,
-) -> Compensation:
-    """Compensate targets for a calibrated arm.
-
-    Parameters
-    ----------
-    calibration : calibrator.calibration.Calibration
-    desired : array_like, shape (N, 4, 4), optional
-        Desired tool poses (base frame, mm). Without them the desired poses are
-        the nominal model's poses at ``q_nominal`` (an existing program's
-        joint targets).
-    q_nominal : array_like, shape (N, 6)
-        Nominal joint solution of each target (rad): the IK's start. With
-        ``desired`` it is refined on the nominal model first.
-    limits : array_like, shape (6, 2), optional
-        Joint limits (rad).
-    payload_kg : float, optional
-        Working payload for the calibration's compliance terms (default: the
-        payload it was calibrated at).
-    tool : array_like, shape (4, 4) or (N, 4, 4), optional
-        The controller's TCP (flange to tool, mm), one or one per target
-        (default: the calibration's ``flange2tool``).
-    nominal_solved : bool
-        ``q_nominal`` already is the nominal solution of ``desired`` (a
-        program filter solved it in the target's configuration): not refined.
-
-    Returns
-    -------
-    Compensation
-    """
-    tool = calibration.flange2tool if tool is None else np.asarray(tool, dtype=float)
-    if q_nominal is None:
-        # A default only because ``desired`` before it has one: the solver must start somewhere.
-        raise ValueError("q_nominal is required: the nominal joints of each target")
-    q_nominal = kinematics.check_joints(q_nominal)
-
-    if desired is None:
-        desired = tool_poses(calibration.nominal_mdh, q_nominal, tool)
-    else:
-        desired = np.asarray(desired, dtype=float)
-        if not nominal_solved:
-            q_nominal = inverse(calibration.nominal_mdh, desired, q_nominal, tool).q
-    sol = inverse(calibration.mdh, desired, q_nominal, tool, limits)
-    # Joint terms: the IK gives the angles the joints must really turn to;
-    # command the read-back angles whose effective angles those are.
-    terms = calibration.joint_terms
-    if terms.used:
-        from calibrator.robots import masses
-
-        torque = joint_terms.torque_function(
-            terms, calibration.nominal_mdh, masses.for_terms(terms), payload_kg
-        )
-        q_cmd = joint_terms.invert(sol.q, terms, torque)
-        inside = np.ones(len(q_cmd), dtype=bool)
-        if limits is not None:
-            lim = np.asarray(limits, dtype=float)
-            inside = np.all((q_cmd >= lim[:, 0]) & (q_cmd <= lim[:, 1]), axis=1)
-        sol = replace(sol, q=q_cmd, within_limits=inside)
-    corrected = tool_poses(calibration.nominal_mdh, sol.q, tool)
-    return Compensation(sol.q, corrected, desired, sol, q_nominal)
-
-
-def correction_sizes(result: Compensation, q_nominal: np.ndarray | None = None) -> dict:
-    """How big each target's correction is.
-
-    Parameters
-    ----------
-    result : Compensation
-    q_nominal : ndarray, shape (N, 6), optional
-        The program's nominal joints; defaults to the nominal model's IK of
-        the desired poses (what the solver started from).
-
-    Returns
-    -------
-    dict of ndarray, shape (N,)
-        ``correction_mm``: distance from the desired to the corrected
-        target (mm); ``correction_mrad``: turn between them (mrad);
-        ``joint_correction_mrad``: largest ``|q_calibrated - q_nominal|``
-        over the joints (mrad).
-    """
-    move = result.corrected[:, :3, 3] - result.desired[:, :3, 3]
-    turn = frames.rotation_error(result.corrected[:, :3, :3], result.desired[:, :3, :3])
-    out = {
-        "correction_mm": np.linalg.norm(move, axis=1),
-        "correction_mrad": 1e3 * np.linalg.norm(turn, axis=1),
-    }
-    if q_nominal is not None:
-        out["joint_correction_mrad"] = 1e3 * np.max(np.abs(result.q - q_nominal), axis=1)
-    else:
-        out["joint_correction_mrad"] = 1e3 * np.max(np.abs(result.q - result.q_nominal), axis=1)
-    return out
-
-
+#: Columns of the nominal joints (rad) in a targets CSV and of the calibrated ones in the result.
 JOINT_COLUMNS = tuple(f"q{i}_rad" for i in range(1, 7))
 #: The same joints in degrees, as a plan file may give them (``plan --from`` reads both).
 DEG_COLUMNS = tuple(f"q{i}_deg" for i in range(1, 7))
+#: Columns of a pose (base frame, mm; rotation vector, rad), desired or corrected.
 POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "rx_rad", "ry_rad", "rz_rad")
 
 
@@ -441,7 +162,7 @@ def iter_targets(
         desired = None
         if present:
             pose = numbers(POSE_COLUMNS)
-            desired = frames.transform(frames.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
+            desired = frames.transform(rotations.rotvec_to_matrix(pose[:, 3:]), pose[:, :3])
         yield first, q, desired
         first += len(q)
     if first == 0:
@@ -553,17 +274,11 @@ def _solve_block(calibration, q_nom, desired, limits, payload_kg, first, frame):
     # A joint swinging far between the nominal and calibrated solution: near a singularity.
     jump = np.degrees(np.max(np.abs(result.q - result.q_nominal), axis=1))
     ok = sol.ok & (jump <= MAX_JOINT_CHANGE_DEG)
-    status = np.where(
-        ok,
-        "ok",
-        np.where(
-            ~sol.converged,
-            "not reached",
-            np.where(sol.within_limits, "large joint change", "outside joint limits"),
-        ),
-    )
+    status = np.where(ok, "ok", np.where(sol.ok, "large joint change", sol.reason))
     shown = frames.invert(frame.model_base2controller_base) @ result.corrected
-    corrected = np.concatenate([shown[:, :3, 3], frames.matrix_to_rotvec(shown[:, :3, :3])], axis=1)
+    corrected = np.concatenate(
+        [shown[:, :3, 3], rotations.matrix_to_rotvec(shown[:, :3, :3])], axis=1
+    )
     size = correction_sizes(result, q_nom if desired is None else None)
     data = {"target": pa.array(first + np.arange(len(status))), "status": pa.array(status)}
     q_controller = frame.convention.to_controller(sol.q)
