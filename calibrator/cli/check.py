@@ -340,12 +340,12 @@ def _check_circle(
 
     from calibrator import calibration as calibrations
     from calibrator import outputs
-    from calibrator.acquire import verify as pose_run
     from calibrator.check import circle as circles
     from calibrator.cli import _model
     from calibrator.errors import CalibrationError
     from calibrator.model import frames
     from calibrator.simulate import SimWorld
+    from calibrator.verify import pose as pose_run
     from drivers.tracker.base import OpenOptions, open_tracker
     from drivers.tracker.line.simulator.world import SimulatedTracker
 

@@ -1,7 +1,7 @@
 """``calibrator verify``: the ISO 9283 pose test (AP, RP), before or after calibration.
 
 Parses and prints only: the run is a :class:`calibrator.acquire.run.MeasureRun`
-over the plan of :mod:`calibrator.acquire.verify` (same checks, journal,
+over the plan of :mod:`calibrator.verify.pose` (same checks, journal,
 resume, confirmation and Ctrl-C as ``measure``).
 """
 
@@ -36,7 +36,7 @@ def _cube(text: str | None) -> Any:
         return None
     import numpy as np
 
-    from calibrator.iso9283 import Cube
+    from calibrator.verify.iso9283 import Cube
 
     needs = "X,Y,Z,SIDE in mm (centre and a positive edge)"
     values = opts.floats(text, 4, "--cube", needs)
@@ -146,9 +146,9 @@ def verify(
 
     from calibrator import calibration as calibrations
     from calibrator import outputs
-    from calibrator.acquire import verify as run
     from calibrator.cli import _model, progress
     from calibrator.model import frames
+    from calibrator.verify import pose as run
 
     output = Path(output)
     data_path = run.data_path(output)

@@ -1,7 +1,7 @@
 """``calibrator verify --path line|circle``: the ISO 9283 path test on the simulated cell.
 
 Parses nothing of its own (``verify`` does); runs
-:mod:`calibrator.acquire.verify_path` with the simulated tracker streaming
+:mod:`calibrator.verify.path` with the simulated tracker streaming
 the simulated arm's true path, writes the document with its ``path``
 section and prints the figures.
 """
@@ -52,8 +52,8 @@ def check_options(
     shape: str, speed: Speed, robot: str, tracker: str, world: Path | None, history: Any
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
-    from calibrator.acquire.verify_path import SHAPES
     from calibrator.cli import _run
+    from calibrator.verify.path import SHAPES
 
     if shape not in SHAPES:
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
@@ -85,10 +85,10 @@ def run(
     import numpy as np
 
     from calibrator import outputs
-    from calibrator.acquire import verify as pose_run
-    from calibrator.acquire import verify_path
     from calibrator.errors import CalibrationError
     from calibrator.simulate import SimWorld
+    from calibrator.verify import path as verify_path
+    from calibrator.verify import pose as pose_run
     from drivers.tracker.base import OpenOptions, open_tracker
     from drivers.tracker.line.simulator.world import SimulatedTracker
 
