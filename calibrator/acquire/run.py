@@ -467,9 +467,6 @@ class MeasureRun:
         when it wrote nothing); default: the session file. The journal stays
         (for ``--resume``) unless every pose was measured and the result written.
         """
-        from calibrator import session
-        from calibrator.acquire import rows
-
         assert self.outcome is not None and self.plan is not None
         outcome = self.outcome
         measured, failed = outcome.measured, outcome.failed
@@ -477,15 +474,8 @@ class MeasureRun:
         for pose in failed:
             causes.update(outcome.records[pose].get("causes", {}))
         written = None
-        if measured and write is not None:
-            written = write(outcome)
-        elif measured:
-            session.write(
-                self.output,
-                rows.to_table(outcome.records.values(), self.model.convention),
-                self.meta,
-            )
-            written = self.output
+        if measured:
+            written = (write or self.write_session)(outcome)
         complete = written is not None and not failed and outcome.stopped is None
         if complete:
             self.journal_path.unlink()
@@ -503,6 +493,15 @@ class MeasureRun:
             complete,
             notes,
         )
+
+    def write_session(self, outcome: loop.Outcome) -> Path:
+        """The session file of ``outcome``'s measured poses (``measure``'s document)."""
+        from calibrator import session
+        from calibrator.acquire import rows
+
+        table = rows.to_table(outcome.records.values(), self.model.convention)
+        session.write(self.output, table, self.meta)
+        return self.output
 
     def close(self) -> None:
         """Close the journal and every device connected (reverse order); safe to call twice."""

@@ -22,7 +22,6 @@ import functools
 import inspect
 import sys
 from collections.abc import Callable
-from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, get_type_hints, overload
@@ -279,9 +278,9 @@ def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: fl
 
 def is_sim(url: str) -> bool:
     """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
-    from drivers.registry import scheme
+    from drivers.devices import is_sim as sim
 
-    return scheme(url) == "sim"
+    return sim(url)
 
 
 def device_urls(
@@ -343,95 +342,28 @@ def _with_settings(url: str, settings: dict[str, str]) -> str:
     return url + ("&" if "?" in url else "?") + urlencode(settings)
 
 
-def open_run(
+def devices(
     robot_url: str,
     tracker_url: str,
-    arm: Any,
-    options: Any,
-    output: Path,
-    stack: ExitStack,
     *,
+    world_file: Any = None,
     record: Path | None = None,
     sim_control: str | None = None,
     max_speed: float | None = None,
     external: Any = None,
-    world_file: Any = None,
-    place_tracker: bool = True,
 ) -> Any:
-    """The devices named by URL (the drivers' registries) and the run over them.
+    """``--robot`` and ``--tracker`` (simulator settings in their URLs) as the devices to open."""
+    from drivers.devices import Devices
 
-    Parameters
-    ----------
-    robot_url, tracker_url : str
-        Simulators carry their settings in their URLs (:func:`device_urls`).
-    arm : calibrator.robots.RobotDescription
-    options : calibrator.acquire.run.RunOptions
-    record : Path, optional
-        Log the tracker's raw exchange there (``--sim-record``; line-protocol kinds).
-    sim_control : str, optional
-        ``--sim-control URL``: the simulated robot steers a simulator started by hand.
-    external : calibrator.acquire.external.arm.ExternalOptions, optional
-        Stop detection and association of ``--robot external``.
-    place_tracker : bool
-        Move the simulated tracker to the run's tracker position (``--tracker-at``,
-        the cell file's or the plan file's); False when that position is only an
-        estimate of where the simulated one stands (a calibration's registration).
-    world_file : calibrator.world.World, optional
-        ``--world``: the simulated cell's true arm changed as the file says.
-
-    Returns
-    -------
-    calibrator.acquire.run.MeasureRun
-        Not connected yet; enter it (``with``) so its devices are closed.
-    """
-    from calibrator.acquire.run import MeasureRun, tracker_position
-    from calibrator.errors import CalibrationError
-    from calibrator.simulate import SimWorld
-    from drivers.robot import RobotOptions, open_robot
-    from drivers.tracker import OpenOptions, open_tracker
-
-    world = None
-    if is_sim(robot_url) or is_sim(tracker_url):
-        # The arm's repeatability is the simulated robot's setting (its URL).
-        if world_file is not None:
-            world = world_file.build(arm.name, options.seed)
-        else:
-            world = SimWorld.make(arm.name, options.seed)
-        at = tracker_position(options)
-        if at is not None and place_tracker:
-            # The simulated tracker stands where the user (or the cell file) says.
-            world = world.with_tracker_at(at)
-    try:
-        tracker = open_tracker(
-            tracker_url,
-            OpenOptions(record=record, world=world if is_sim(tracker_url) else None),
-        )
-    except ValueError as exc:
-        raise CalibrationError(f"--tracker: {exc}") from None
-    robot_options = RobotOptions(arm, world, max_speed_rad_s=max_speed, external=external)
-    try:
-        robot = open_robot(robot_url, robot_options)
-    except ValueError as exc:
-        raise CalibrationError(f"--robot: {exc}") from None
-    steer = None
-    if sim_control is not None:
-        steer = _sim_control(sim_control, robot, stack)
-    return MeasureRun(robot, tracker, arm, options, output, world=world, steer=steer)
-
-
-def _sim_control(url: str, robot: Any, stack: ExitStack) -> Any:
-    """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
-    from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.line.simulator.launch import SimulatorControl
-
-    if REPORTS_TRUE_POSE not in robot.capabilities:
-        fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")
-    try:
-        control = SimulatorControl(url)
-    except (OSError, ValueError) as exc:
-        fail(f"--sim-control {url}: {exc}")
-    stack.callback(control.close)
-    return control.set_target
+    return Devices(
+        robot_url,
+        tracker_url,
+        world=world_file,
+        record=record,
+        sim_control=sim_control,
+        max_speed_rad_s=max_speed,
+        external=external,
+    )
 
 
 #: ``--world``: a world file for the simulated cell (docs/check.md).

@@ -71,30 +71,34 @@ def run(
     speed: Speed,
     arm: Any,
     vplan: Any,
-    flange2tool: Any,
     cycles: int,
     seed: int,
     tracker_url: str,
-    tracker_at_mm: Any,
-    calibration: Any,
+    test: Any,
     registration: Any,
     output: Path,
     inputs: list[Path],
 ) -> None:
-    """Plan, run and write the path test; print its figures."""
+    """Plan, run and write the path test; print its figures.
+
+    ``test``: the pose test's :class:`calibrator.verify.procedure.Options`
+    (tool, calibration, tracker position), whose cube the path is in.
+    """
     import numpy as np
 
     from calibrator import outputs
     from calibrator.errors import CalibrationError
+    from calibrator.model import frames
     from calibrator.simulate import SimWorld
     from calibrator.verify import path as verify_path
     from calibrator.verify import pose as pose_run
     from drivers.tracker.base import OpenOptions, open_tracker
     from drivers.tracker.line.simulator.world import SimulatedTracker
 
+    flange2tool, calibration = frames.transform(translation=test.tool_mm), test.calibration
     world = SimWorld.make(arm.name, seed)
-    if tracker_at_mm is not None:
-        world = world.with_tracker_at(tracker_at_mm)
+    if test.tracker_at_mm is not None:
+        world = world.with_tracker_at(test.tracker_at_mm)
     rotation = vplan.desired[0][:3, :3]
     plan_args = (arm, flange2tool, shape, vplan.cube, rotation, vplan.q_test[0])
     # The rated speed from the nominal plan: the compensated one differs by microradians.

@@ -24,7 +24,7 @@ from measure_kit import session_rows
 
 from calibrator import cell as cells
 from calibrator import planning, robots, session
-from calibrator.cli import measure as measure_cli
+from calibrator.cli import _run
 from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.sim.device import SimulatedRobot
@@ -364,7 +364,7 @@ def test_nothing_is_replaced(tmp_path, existing, args, message):
 def test_a_real_robot_needs_a_confirmation_from_a_terminal(monkeypatch, capsys):
     monkeypatch.setattr(sys, "stdin", open(os.devnull))  # not a terminal
     with pytest.raises(typer.Exit) as exc:
-        measure_cli._confirm("ur://10.0.0.5:ur10e", 12)
+        _run.confirm("ur://10.0.0.5:ur10e", 12)
     assert exc.value.exit_code == 2
     assert capsys.readouterr().err == (
         "calibrator: error: the robot ur://10.0.0.5:ur10e would move through 12 poses: "
@@ -387,10 +387,10 @@ def test_the_confirmation_question_defaults_to_no(monkeypatch, capsys, answer, m
 
     monkeypatch.setattr(typer, "confirm", confirm)
     if moves:
-        measure_cli._confirm("ur://h:ur10e", 3)
+        _run.confirm("ur://h:ur10e", 3)
     else:
         with pytest.raises(typer.Exit) as exc:
-            measure_cli._confirm("ur://h:ur10e", 3)
+            _run.confirm("ur://h:ur10e", 3)
         assert exc.value.exit_code == 2
         assert capsys.readouterr().err == "calibrator: error: not confirmed; nothing moved\n"
     assert asked == [("Move the robot ur://h:ur10e through 3 poses?", False)]
@@ -398,7 +398,7 @@ def test_the_confirmation_question_defaults_to_no(monkeypatch, capsys, answer, m
 
 def test_first_ctrl_c_asks_for_a_stop_the_second_interrupts(capsys):
     previous = signal.getsignal(signal.SIGINT)
-    with measure_cli._StopOnSigint() as stop:
+    with _run.StopOnSigint() as stop:
         assert stop.requested is False
         os.kill(os.getpid(), signal.SIGINT)
         assert stop.requested is True
