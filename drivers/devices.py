@@ -1,7 +1,7 @@
 """The robot and tracker of one cell procedure, opened by URL.
 
 :class:`Devices` is the drivers' side of the port
-:class:`calibrator.acquire.procedure.Devices`: it opens ``--robot`` and
+:class:`calibrator.acquire.ports.Devices`: it opens ``--robot`` and
 ``--tracker`` through the registries (:func:`drivers.robot.open_robot`,
 :func:`drivers.tracker.open_tracker`), the simulated cell like any other
 devices, its settings in its URLs (``sim://?noise=off``) and its true arm in
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from calibrator.acquire.procedure import Opened
+from calibrator.acquire.ports import Opened
 from calibrator.errors import CalibrationError
 from drivers.registry import scheme
 
@@ -91,7 +91,7 @@ class Devices:
         return x, y, z
 
     def open(self, arm: Any, seed: int, place_tracker_at: Any, stack: ExitStack) -> Opened:
-        """Both devices, unconnected (see :meth:`calibrator.acquire.procedure.Devices.open`).
+        """Both devices, unconnected (see :meth:`calibrator.acquire.ports.Devices.open`).
 
         Raises
         ------

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from calibrator.acquire import procedure
+from calibrator.acquire import ports, procedure
 from calibrator.acquire.run import MeasureRun, RunOptions, Summary
 
 
@@ -73,7 +73,7 @@ def run(
     arm: Any,
     options: RunOptions,
     output: str | Path,
-    devices: procedure.Devices,
+    devices: ports.Devices,
     operator: procedure.Operator | None = None,
     *,
     settle_s: float | None = None,
@@ -88,7 +88,7 @@ def run(
         The plan (or how many poses to plan), readings, speeds, resume...
     output : str or Path
         The session file; its journal goes beside it.
-    devices : calibrator.acquire.procedure.Devices
+    devices : calibrator.acquire.ports.Devices
         ``drivers.devices.Devices(robot_url, tracker_url)``.
     operator : calibrator.acquire.procedure.Operator, optional
         Default: silent, no confirmation before a real arm moves.

@@ -35,59 +35,11 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
-import numpy as np
-
-from calibrator.acquire import loop, ports
-from calibrator.acquire.external.arm import ProgramArm
+from calibrator.acquire import loop
+from calibrator.acquire.ports import Devices
 from calibrator.acquire.run import MeasureRun, RunOptions, Summary, tracker_position
-
-
-@dataclass(frozen=True)
-class Opened:
-    """The devices a :class:`Devices` opened for one run (not connected yet).
-
-    Attributes
-    ----------
-    robot : calibrator.acquire.ports.Robot or calibrator.acquire.external.arm.ProgramArm
-    tracker : calibrator.acquire.ports.Tracker
-    world : calibrator.simulate.SimWorld, optional
-        The simulated cell's truth when either device is simulated (where its
-        tracker stands, its surveyed base); None for real hardware.
-    steer : callable, optional
-        ``steer(point_mm, rotvec_rad)``: tells a simulated tracker where the
-        probe is (tracker frame, mm and rad), when not the tracker itself.
-    """
-
-    robot: ports.Robot | ProgramArm
-    tracker: ports.Tracker
-    world: Any = None
-    steer: Callable[[np.ndarray, np.ndarray], None] | None = None
-
-
-class Devices(Protocol):
-    """The port through which a procedure opens its robot and tracker.
-
-    ``drivers.devices.Devices`` implements it over the drivers' URL registries.
-    """
-
-    #: The tracker's URL, as messages name it.
-    tracker_url: str
-
-    def open(
-        self, arm: Any, seed: int, place_tracker_at: Any, stack: ExitStack
-    ) -> Opened:  # pragma: no cover - a protocol
-        """Open both devices for ``arm`` (unconnected); register their clean-up on ``stack``.
-
-        ``seed`` seeds a simulated cell; ``place_tracker_at`` (robot base frame,
-        mm, or None) is where a simulated tracker is put.
-        """
-        ...
-
-    def tracker_at_mm(self, arm: Any, seed: int) -> tuple[float, float, float] | None:
-        """Where the tracker stands before anything opens (a simulated cell's), else None."""
-        ...  # pragma: no cover - a protocol
 
 
 @dataclass(frozen=True)

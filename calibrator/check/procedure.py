@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from calibrator import calibration as calibrations
-from calibrator.acquire import procedure, rows
+from calibrator.acquire import ports, procedure, rows
 from calibrator.acquire.run import MeasureRun, RunOptions, Summary
 from calibrator.check import document as documents
 from calibrator.check import poses as check_poses
@@ -226,7 +226,7 @@ def run(
     arm: Any,
     options: Options,
     output: str | Path,
-    devices: procedure.Devices,
+    devices: ports.Devices,
     operator: procedure.Operator | None = None,
     *,
     settle_s: float | None = None,

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from calibrator.acquire import procedure
+from calibrator.acquire import ports, procedure
 from calibrator.acquire.run import MeasureRun, RunOptions, Summary
 from calibrator.model import frames
 from calibrator.verify import pose
@@ -162,7 +162,7 @@ def prepare(
     arm: Any,
     options: Options,
     output: str | Path,
-    devices: procedure.Devices,
+    devices: ports.Devices,
     *,
     settle_s: float | None = None,
     inputs: list[Path] | None = None,
@@ -193,7 +193,7 @@ def run(
     arm: Any,
     options: Options,
     output: str | Path,
-    devices: procedure.Devices,
+    devices: ports.Devices,
     operator: procedure.Operator | None = None,
     *,
     settle_s: float | None = None,
