@@ -10,18 +10,23 @@ a world file::
     from drivers.devices import Devices
 
     Devices()                                      # the simulated cell, seeded by the run
+    Devices("sim://?repeatability=typical", "sim://?noise=off&probe=6dof")
+    Devices("sim://?control=socket://127.0.0.1:PORT", "/dev/pts/4")  # a simulator by hand
     Devices("ur://10.0.0.5", "emscon://10.0.0.7")  # a real cell
+
+The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
+``faults=PATH``, ``replay=PATH`` and ``record=PATH``; the simulated robot
+``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
+simulator started by hand); the world file (:mod:`calibrator.world`) the true
+arm both move.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from calibrator.acquire.ports import Opened
 from calibrator.errors import CalibrationError
@@ -46,10 +51,8 @@ class Devices:
         A world file's true arm for the simulated cell (default: the arm
         drawn from the run's seed).
     record : Path, optional
-        Log the tracker's raw exchange there (line-protocol kinds).
-    sim_control : str, optional
-        Control URL of a tracker simulator started by hand, which the simulated
-        robot steers.
+        Log the tracker's raw exchange there (line-protocol kinds); for the
+        simulated tracker also ``sim://?record=PATH``.
     max_speed_rad_s : float, optional
         Lower the arm's speed cap (never raise it).
     external : calibrator.acquire.external.arm.ExternalOptions, optional
@@ -60,7 +63,6 @@ class Devices:
     tracker: str = "sim"
     world: Any = None
     record: Path | None = None
-    sim_control: str | None = None
     max_speed_rad_s: float | None = None
     external: Any = None
 
@@ -96,7 +98,7 @@ class Devices:
         Raises
         ------
         CalibrationError
-            A URL no kind opens, or ``sim_control`` without a simulated robot.
+            A URL no kind opens.
         """
         from drivers.robot import RobotOptions, open_robot
         from drivers.tracker import OpenOptions, open_tracker
@@ -108,10 +110,14 @@ class Devices:
             if place_tracker_at is not None:
                 # The simulated tracker stands where the user (or the cell file) says.
                 world = world.with_tracker_at(place_tracker_at)
+        tracker_url, record = recorded(self.tracker)
         try:
             tracker = open_tracker(
-                self.tracker,
-                OpenOptions(record=self.record, world=world if is_sim(self.tracker) else None),
+                tracker_url,
+                OpenOptions(
+                    record=record if record is not None else self.record,
+                    world=world if is_sim(self.tracker) else None,
+                ),
             )
         except ValueError as exc:
             raise CalibrationError(f"--tracker: {exc}") from None
@@ -122,26 +128,26 @@ class Devices:
             robot = open_robot(self.robot, robot_options)
         except ValueError as exc:
             raise CalibrationError(f"--robot: {exc}") from None
-        steer = None
-        if self.sim_control is not None:
-            steer = _sim_control(self.sim_control, robot, stack)
-        return Opened(robot, tracker, world, steer)
+        return Opened(robot, tracker, world)
 
 
-def _sim_control(
-    url: str, robot: Any, stack: ExitStack
-) -> Callable[[np.ndarray, np.ndarray], None]:
-    """The simulated robot steers a tracker simulator started by hand (its control URL)."""
-    from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.line.simulator.launch import SimulatorControl
+def sim_settings(url: str) -> dict[str, str]:
+    """The settings of a simulated device's URL (``sim://?noise=off`` -> ``{"noise": "off"}``)."""
+    from urllib.parse import parse_qsl, urlsplit
 
-    if REPORTS_TRUE_POSE not in robot.capabilities:
-        raise CalibrationError(
-            "--sim-control needs --robot sim (the simulated arm says where its probe is)"
-        )
-    try:
-        control = SimulatorControl(url)
-    except (OSError, ValueError) as exc:
-        raise CalibrationError(f"--sim-control {url}: {exc}") from None
-    stack.callback(control.close)
-    return control.set_target
+    if not is_sim(url) or "://" not in url:
+        return {}
+    return dict(parse_qsl(urlsplit(url).query, keep_blank_values=True))
+
+
+def recorded(url: str) -> tuple[str, Path | None]:
+    """A simulated tracker's URL without its ``record=PATH``, and that path (else None).
+
+    The rest of the URL is kept as written (the simulator reads its own settings).
+    """
+    path = sim_settings(url).get("record")
+    if path is None:
+        return url, None
+    head, _, query = url.partition("?")
+    kept = [part for part in query.split("&") if part.partition("=")[0] != "record"]
+    return head + ("?" + "&".join(kept) if kept else ""), Path(path)

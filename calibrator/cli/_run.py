@@ -284,51 +284,50 @@ def is_sim(url: str) -> bool:
 
 
 def device_urls(
-    robot_url: str,
-    tracker_url: str,
-    *,
-    world_file: Any = None,
-    noise: bool = True,
-    faults: Path | None = None,
-    replay: Path | None = None,
-    probe_6dof: bool = False,
-    repeatability: bool = False,
+    robot_url: str, tracker_url: str, *, world_file: Any = None, repeatability: bool = False
 ) -> tuple[str, str]:
-    """``--robot`` and ``--tracker`` with the hidden ``--sim-*`` options written into them.
+    """``--robot`` and ``--tracker`` with what the command and the world file say of the cell.
 
     The simulators are configured by their URLs (``sim://?noise=off&probe=6dof``,
-    ``sim://?repeatability=typical``); the options users type stay, and a world
-    file's ``noise: false`` and ``repeatability: true`` arrive the same way.
+    ``sim://?repeatability=typical``): a world file's ``noise: false`` and
+    ``repeatability: true``, and ``repeatability`` (``verify``'s default), are
+    written into them unless the URL says otherwise.
 
     Returns
     -------
     (str, str)
         The robot's and the tracker's URL; unchanged when nothing is to be said.
+    """
+    from drivers.devices import sim_settings
+
+    noise = True
+    if world_file is not None:
+        noise = world_file.noise
+        repeatability = repeatability or world_file.repeatability
+    if is_sim(tracker_url) and not noise and "noise" not in sim_settings(tracker_url):
+        tracker_url = _with_settings(tracker_url, {"noise": "off"})
+    if is_sim(robot_url) and repeatability and "repeatability" not in sim_settings(robot_url):
+        robot_url = _with_settings(robot_url, {"repeatability": "typical"})
+    return robot_url, tracker_url
+
+
+def sim_files(tracker_url: str) -> tuple[list[Path], Path | None]:
+    """The files a simulated tracker's URL names: inputs (faults, replay) and its record.
 
     Raises
     ------
     typer.Exit
-        ``--sim-faults`` or ``--sim-replay`` with a tracker that is no simulator (exit 2).
+        An input file that does not exist (exit 2, before anything opens).
     """
-    if world_file is not None:
-        noise = noise and world_file.noise
-        repeatability = repeatability or world_file.repeatability
-    tracker_says: dict[str, str] = {}
-    if not noise:
-        tracker_says["noise"] = "off"
-    if probe_6dof:
-        tracker_says["probe"] = "6dof"
-    if faults is not None:
-        tracker_says["faults"] = str(faults)
-    if replay is not None:
-        tracker_says["replay"] = str(replay)
-    if is_sim(tracker_url):
-        tracker_url = _with_settings(tracker_url, tracker_says)
-    elif faults is not None or replay is not None:
-        fail(f"--tracker: {tracker_url}: simulator options need --tracker sim")
-    if is_sim(robot_url) and repeatability:
-        robot_url = _with_settings(robot_url, {"repeatability": "typical"})
-    return robot_url, tracker_url
+    from drivers.devices import sim_settings
+
+    given = sim_settings(tracker_url)
+    inputs = [Path(given[name]) for name in ("faults", "replay") if given.get(name)]
+    for path in inputs:
+        if not path.is_file():
+            fail(f"file not found: {path}")
+    record = given.get("record")
+    return inputs, Path(record) if record else None
 
 
 def _with_settings(url: str, settings: dict[str, str]) -> str:
@@ -347,8 +346,6 @@ def devices(
     tracker_url: str,
     *,
     world_file: Any = None,
-    record: Path | None = None,
-    sim_control: str | None = None,
     max_speed: float | None = None,
     external: Any = None,
 ) -> Any:
@@ -356,13 +353,7 @@ def devices(
     from drivers.devices import Devices
 
     return Devices(
-        robot_url,
-        tracker_url,
-        world=world_file,
-        record=record,
-        sim_control=sim_control,
-        max_speed_rad_s=max_speed,
-        external=external,
+        robot_url, tracker_url, world=world_file, max_speed_rad_s=max_speed, external=external
     )
 
 

@@ -82,9 +82,6 @@ def check(
         100.0, "--circle-speed", help="Tool speed along the --circle test, mm/s."
     ),
     quiet: bool = opts.quiet(),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_control: str = typer.Option(None, hidden=True),
 ) -> None:
     """Measure a few poses and compare them with the calibration: ok, drifted or recalibrate.
 
@@ -116,7 +113,8 @@ def check(
     data_path = documents.data_path(output)
     if output.suffix.lower() == ".parquet":
         fail(f"-o {output}: give the JSON file; the check's poses go beside it as .parquet")
-    inputs = [p for p in (calibration_path, cell_file, sim_faults, world) if p is not None]
+    sim_inputs, _ = _run.sim_files(tracker)  # ``sim://?faults=F``
+    inputs = [p for p in (calibration_path, cell_file, world) if p is not None] + sim_inputs
     replace_ok = run_args.force or run_args.resume
     outputs.check(output, inputs=inputs, force=replace_ok)
     outputs.check(data_path, inputs=inputs, force=True)
@@ -125,8 +123,6 @@ def check(
     if robot == "external":  # the plan and program written beside OUTPUT: -o's policy
         for companion in _external_files(output):
             outputs.check(companion, inputs=inputs, force=replace_ok)
-    if sim_faults is not None and not Path(sim_faults).is_file():
-        fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:
         fail("--resume is not for --robot external: run the check again")
     cal = calibrations.load(calibration_path)
@@ -150,11 +146,8 @@ def check(
     check_run = checks_run.prepare(arm, options, output, settle_s=run_args.settle, inputs=inputs)
     external = _external(robot, output, check_run.plan, arm, quiet)
     devices = _run.devices(
-        *_run.device_urls(
-            robot, tracker, world_file=world_file, noise=sim_noise, faults=sim_faults
-        ),
+        *_run.device_urls(robot, tracker, world_file=world_file),
         world_file=world_file,
-        sim_control=sim_control,
         max_speed=run_args.max_speed,
         external=external,
     )

@@ -87,16 +87,7 @@ def measure(
         callback=checks.seconds("stop_timeout", positive=True),
         help="--robot external: no stop for this long ends the program's poses (missing), s.",
     ),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
-    sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
     timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
-    sim_control: str = typer.Option(
-        None,
-        hidden=True,
-        help="Control URL of a tracker simulator (either kind) the simulated robot steers.",
-    ),
 ) -> None:
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
     from calibrator.cli._console import Console
@@ -118,13 +109,12 @@ def measure(
             "--robot external needs --plan PLAN: the plan whose program the controller runs "
             "(calibrator program PLAN -o FILE)"
         )
-    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
+    # A simulated tracker's fault script and recording (``sim://?faults=F&replay=R``).
+    sim_inputs, _ = _run.sim_files(tracker)
+    inputs = [p for p in (plan_path, cell_file, world) if p is not None] + sim_inputs
     outputs.check(output, inputs=inputs, force=True)
     if not (run_args.force or run_args.resume) and output.exists():
         raise outputs.existing(output, resumable=True)  # before any device is opened
-    for given in (sim_faults, sim_replay):
-        if given is not None and not Path(given).is_file():
-            _fail(f"file not found: {given}")
     from calibrator import cell as cells
     from calibrator.cli import _model
 
@@ -161,14 +151,9 @@ def measure(
     console.estimate_of = lambda run: _estimate(run, arm, run_args)
     console.guessed_of = lambda run: _guessed(run, arm)
     external = _external_options(stop_band, settle_window, match_tolerance, stop_timeout, quiet)
-    urls = _run.device_urls(
-        robot, tracker, world_file=world_file, noise=sim_noise, faults=sim_faults, replay=sim_replay
-    )
     devices = _run.devices(
-        *urls,
+        *_run.device_urls(robot, tracker, world_file=world_file),
         world_file=world_file,
-        record=sim_record,
-        sim_control=sim_control,
         max_speed=run_args.max_speed,
         external=external,
     )

@@ -100,15 +100,6 @@ def verify(
     seed: int = opts.seed(0, "Seed of the simulated cell."),
     world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     quiet: bool = opts.quiet(),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_repeatability: bool = typer.Option(
-        True, hidden=True, help="Joint positioning error and backlash of the simulated arm."
-    ),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_probe_6dof: bool = typer.Option(
-        False, hidden=True, help="The simulated tracker's probe reports its orientation."
-    ),
-    sim_control: str = typer.Option(None, hidden=True),
     history: str = typer.Option(
         None,
         "--history",
@@ -159,18 +150,14 @@ def verify(
 
         speed = verify_path.parse_speed(path_speed)
         verify_path.check_options(path_shape, speed, robot, tracker, world, history)
-    inputs = [
-        p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
-    ]
+    sim_inputs, _ = _run.sim_files(tracker)  # ``sim://?faults=F``
+    inputs = [p for p in (calibration_path, register_path, cell_file, world) if p is not None]
+    inputs += sim_inputs
     replace_ok = run_args.force or run_args.resume
     outputs.check(output, inputs=inputs, force=replace_ok)
     outputs.check(data_path, inputs=inputs, force=True)
     if not replace_ok and data_path.exists():
         raise outputs.existing(data_path, resumable=True)
-    if sim_probe_6dof and not _run.is_sim(tracker):
-        fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
-    if sim_faults is not None and not Path(sim_faults).is_file():
-        fail(f"file not found: {sim_faults}")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
     reg_cal = calibrations.load(register_path) if register_path is not None else None
     # The calibration's arm; --model only for one that names none, or without one.
@@ -200,13 +187,10 @@ def verify(
         seed=seed,
         run=RunOptions(readings=readings, **run_args.run_fields()),
     )
-    urls = _run.device_urls(
-        robot, tracker, world_file=world_file, noise=sim_noise, faults=sim_faults,
-        probe_6dof=sim_probe_6dof, repeatability=sim_repeatability,
-    )  # fmt: skip
-    devices = _run.devices(
-        *urls, world_file=world_file, sim_control=sim_control, max_speed=run_args.max_speed
-    )
+    # The simulated arm lands off its targets as a typical arm does, unless its URL
+    # says otherwise (``--robot sim://?repeatability=none``).
+    urls = _run.device_urls(robot, tracker, world_file=world_file, repeatability=True)
+    devices = _run.devices(*urls, world_file=world_file, max_speed=run_args.max_speed)
     # The plan first: a cube out of reach is refused before any device is opened.
     test = tests.prepare(arm, options, output, devices, settle_s=run_args.settle, inputs=inputs)
     if path_shape is not None:

@@ -31,7 +31,19 @@ from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import read_log
 
 UR10E = robots.get("ur10e")
-FAST = ("--poses", "10", "--readings", "3", "--no-sim-noise", "-q", "-o", "s.parquet")
+#: The simulated tracker reading exactly (its settings in its URL).
+NO_NOISE = "sim://?noise=off"
+FAST = (
+    "--poses",
+    "10",
+    "--readings",
+    "3",
+    "--tracker",
+    "sim://?noise=off",
+    "-q",
+    "-o",
+    "s.parquet",
+)
 SIM_IDENTITY = "CALIBRATOR:TRACKER-SIM:SIM-0001"  # what the tracker simulator says it is
 
 
@@ -144,7 +156,9 @@ def journal_lines(path):
 def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
     # Readings 1-9 are poses 0-2; the beam breaks on both tries of pose 3 (retries 1).
     (tmp_path / "faults.txt").write_text("MEAS@10 beam_break count=2\n")
-    done = measure(*FAST, "--retries", "1", "--sim-faults", "faults.txt", cwd=tmp_path)
+    done = measure(
+        *FAST, "--retries", "1", "--tracker", NO_NOISE + "&faults=faults.txt", cwd=tmp_path
+    )
     assert done.code == 0, done.stderr
     assert done.stdout == (
         "1 pose(s) failed: beam broken x2 (after 1 retries: poses [3]); wrote s.parquet with "
@@ -180,7 +194,14 @@ def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
 def test_progress_marks_a_failed_pose(tmp_path):
     (tmp_path / "faults.txt").write_text("MEAS@10 beam_break count=1\n")
     done = measure(
-        *FAST[:-3], "-o", "s.parquet", "--retries", "0", "--sim-faults", "faults.txt", cwd=tmp_path
+        *FAST[:-3],
+        "-o",
+        "s.parquet",
+        "--retries",
+        "0",
+        "--tracker",
+        NO_NOISE + "&faults=faults.txt",
+        cwd=tmp_path,
     )
     assert done.code == 0, done.stderr
     spreads = [re.search(r"spread_um=(\S+)", x).group(1) for x in progress_lines(done.stderr)]
@@ -300,8 +321,8 @@ def write_plans(folder):
         (("--tool", "0,0,1e308"), "--tool: 1e+308 mm is beyond +-2000 mm"),
         (("--readings", "1000000000"), "--readings: 1000000000 readings is more than the limit"),
         (("--settle", "1e9"), "--settle: 1e+09 s is more than the limit of 60 s"),
-        (("--sim-faults", "none.txt"), "file not found: none.txt"),
-        (("--sim-replay", "none.jsonl"), "file not found: none.jsonl"),
+        (("--tracker", "sim://?faults=none.txt"), "file not found: none.txt"),
+        (("--tracker", "sim://?replay=none.jsonl"), "file not found: none.jsonl"),
         (("--resume",), "nothing to resume: s.parquet.journal not found"),
         (("--robot", "ftp://x"), "--robot: unknown robot 'ftp://x'; use sim or ur://HOST"),
         (
@@ -413,9 +434,8 @@ def test_a_replayed_exchange_gives_the_recorded_session_and_is_recorded_again(tm
     from test_measure_replay import fixture_plan
 
     done = measure(
-        "--plan", fixture_plan(tmp_path), "--readings", "5", "--no-sim-noise", "-q",
-        "-o", "s.parquet",
-        "--sim-replay", fixtures / "exchange.jsonl", "--sim-record", "again.jsonl",
+        "--plan", fixture_plan(tmp_path), "--readings", "5", "-q", "-o", "s.parquet",
+        "--tracker", f"{NO_NOISE}&replay={fixtures / 'exchange.jsonl'}&record=again.jsonl",
         cwd=tmp_path,
     )  # fmt: skip
     assert done.code == 0, done.stderr
