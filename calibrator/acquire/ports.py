@@ -360,7 +360,7 @@ class Opened:
 
     robot: Any
     tracker: Tracker
-    world: Any = None
+    world: Any = None  # calibrator.simulate.SimWorld: no import of the simulation here
     steer: Callable[[np.ndarray, np.ndarray], None] | None = None
 
 
