@@ -1,11 +1,10 @@
 """One measure run as an object: plan -> checks -> journal -> loop -> session file.
 
-``calibrator measure`` parses options into :class:`RunOptions`, opens the
-two devices by URL (``drivers.tracker.open_tracker``,
-``drivers.robot.open_robot``) and hands them here; other commands that
-drive a robot past a tracker (a verification run, a check) use the same
-object. How the poses are measured is the strategy the run picks for its
-robot (:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
+The cell sequence (:func:`calibrator.acquire.procedure.run`) opens the two
+devices through its port and runs them here, for every procedure that
+drives a robot past a tracker (``measure``, ``verify``, ``check``). How
+the poses are measured is the strategy the run picks for its robot
+(:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
 running the plan as its own program (``--robot external``) whose stops the
 tracker is watched for::
 

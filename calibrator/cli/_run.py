@@ -1,19 +1,20 @@
-"""What the commands that drive a robot past a tracker share (``measure``, ``verify``).
+"""What the commands that drive a robot past a tracker share (``measure``, ``verify``, ``check``).
 
-Their options (declared once here; the ones both take word for word arrive
-parsed as one :class:`RunArgs`), the devices opened by URL around a
-:class:`~calibrator.acquire.run.MeasureRun`, the operator's confirmation and
-the Ctrl-C handling::
+Their options (declared once here; the ones all take word for word arrive
+parsed as one :class:`RunArgs`), the devices named by ``--robot`` and
+``--tracker`` (:func:`devices`: the simulated cell's settings in its URLs),
+the operator's confirmation and the Ctrl-C handling. The run itself is a
+procedure (:mod:`calibrator.acquire.procedure`); the command parses, hands
+it a :class:`calibrator.cli._console.Console` and prints::
 
     @app.command()
     @run_command
     def measure(*, robot: str = robot_option(external=True), run_args: RunArgs, ...):
         arm = run_args.arm()                                    # exit 2 above the caps
         options = RunOptions(..., **run_args.run_fields())
-        run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
-        run.open_journal(confirm=None if run_args.yes else confirm)
-        with StopOnSigint() as interrupt:
-            run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
+        devices = _run.devices(*device_urls(robot, tracker, world_file=world_file))
+        console = Console(quiet=quiet, yes=run_args.yes)
+        summary = calibrator.acquire.measure.run(arm, options, output, devices, console)
 """
 
 from __future__ import annotations
