@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime, timedelta
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -93,13 +93,14 @@ class SimWorld:
         simulator's default, warmed up).
     """
 
-    model: object
+    model: robots.RobotDescription
     seed: int
     true_mdh: np.ndarray
     base2tracker: np.ndarray
     flange2tool: np.ndarray
     tracker_at_mm: np.ndarray
-    repeatability: object = None
+    # drivers.robot.sim.device.JointRepeatability (the drivers' type: not imported here).
+    repeatability: Any = None
     noise_seed: int | None = None
     air: tuple | None = None
     tracker_on_s: float | None = None

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 from abc import abstractmethod
 from collections.abc import Callable
-from typing import Generic, Protocol, TypeGuard, TypeVar, runtime_checkable
+from contextlib import ExitStack
+from dataclasses import dataclass
+from typing import Any, Generic, Protocol, TypeGuard, TypeVar, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -335,3 +337,52 @@ class Robot(Protocol):
         OSError
             The controller refused to release the stop (yet).
         """
+
+
+# ---------------------------------------------------------------- the devices of a run
+
+
+@dataclass(frozen=True)
+class Opened:
+    """The devices a :class:`Devices` opened for one run (not connected yet).
+
+    Attributes
+    ----------
+    robot : calibrator.acquire.ports.Robot or calibrator.acquire.external.arm.ProgramArm
+    tracker : calibrator.acquire.ports.Tracker
+    world : calibrator.simulate.SimWorld, optional
+        The simulated cell's truth when either device is simulated (where its
+        tracker stands, its surveyed base); None for real hardware.
+    steer : callable, optional
+        ``steer(point_mm, rotvec_rad)``: tells a simulated tracker where the
+        probe is (tracker frame, mm and rad), when not the tracker itself.
+    """
+
+    robot: Any
+    tracker: Tracker
+    world: Any = None  # calibrator.simulate.SimWorld: no import of the simulation here
+    steer: Callable[[np.ndarray, np.ndarray], None] | None = None
+
+
+class Devices(Protocol):
+    """The port through which a procedure opens its robot and tracker.
+
+    ``drivers.devices.Devices`` implements it over the drivers' URL registries.
+    """
+
+    #: The tracker's URL, as messages name it.
+    tracker_url: str
+
+    def open(
+        self, arm: Any, seed: int, place_tracker_at: Any, stack: ExitStack
+    ) -> Opened:  # pragma: no cover - a protocol
+        """Open both devices for ``arm`` (unconnected); register their clean-up on ``stack``.
+
+        ``seed`` seeds a simulated cell; ``place_tracker_at`` (robot base frame,
+        mm, or None) is where a simulated tracker is put.
+        """
+        ...
+
+    def tracker_at_mm(self, arm: Any, seed: int) -> tuple[float, float, float] | None:
+        """Where the tracker stands before anything opens (a simulated cell's), else None."""
+        ...  # pragma: no cover - a protocol

@@ -1,11 +1,10 @@
 """One measure run as an object: plan -> checks -> journal -> loop -> session file.
 
-``calibrator measure`` parses options into :class:`RunOptions`, opens the
-two devices by URL (``drivers.tracker.open_tracker``,
-``drivers.robot.open_robot``) and hands them here; other commands that
-drive a robot past a tracker (a verification run, a check) use the same
-object. How the poses are measured is the strategy the run picks for its
-robot (:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
+The cell sequence (:func:`calibrator.acquire.procedure.run`) opens the two
+devices through its port and runs them here, for every procedure that
+drives a robot past a tracker (``measure``, ``verify``, ``check``). How
+the poses are measured is the strategy the run picks for its robot
+(:mod:`calibrator.acquire.strategy`): a robot it commands, or an arm
 running the plan as its own program (``--robot external``) whose stops the
 tracker is watched for::
 
@@ -466,9 +465,6 @@ class MeasureRun:
         when it wrote nothing); default: the session file. The journal stays
         (for ``--resume``) unless every pose was measured and the result written.
         """
-        from calibrator import session
-        from calibrator.acquire import rows
-
         assert self.outcome is not None and self.plan is not None
         outcome = self.outcome
         measured, failed = outcome.measured, outcome.failed
@@ -476,15 +472,8 @@ class MeasureRun:
         for pose in failed:
             causes.update(outcome.records[pose].get("causes", {}))
         written = None
-        if measured and write is not None:
-            written = write(outcome)
-        elif measured:
-            session.write(
-                self.output,
-                rows.to_table(outcome.records.values(), self.model.convention),
-                self.meta,
-            )
-            written = self.output
+        if measured:
+            written = (write or self.write_session)(outcome)
         complete = written is not None and not failed and outcome.stopped is None
         if complete:
             self.journal_path.unlink()
@@ -502,6 +491,15 @@ class MeasureRun:
             complete,
             notes,
         )
+
+    def write_session(self, outcome: loop.Outcome) -> Path:
+        """The session file of ``outcome``'s measured poses (``measure``'s document)."""
+        from calibrator import session
+        from calibrator.acquire import rows
+
+        table = rows.to_table(outcome.records.values(), self.model.convention)
+        session.write(self.output, table, self.meta)
+        return self.output
 
     def close(self) -> None:
         """Close the journal and every device connected (reverse order); safe to call twice."""

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from calibrator import iso9283_path as ip
+from calibrator.verify import path_figures as ip
 
 #: Width of the angle bins the radial deviation is averaged over, degrees.
 BIN_DEG = 2.0
@@ -62,12 +62,12 @@ class Run:
     ----------
     direction : {'clockwise', 'counter-clockwise'}
         About the counter-clockwise circle's normal.
-    path : calibrator.iso9283_path.Circle
+    path : calibrator.verify.path_figures.Circle
     t_s : ndarray, shape (N,)
         Command times, s.
     q : ndarray, shape (N, 6)
         Joint commands, rad.
-    stream : calibrator.iso9283_path.Stream
+    stream : calibrator.verify.path_figures.Stream
         Attained path, base frame, mm, time from the aligned start of the motion.
     """
 
@@ -88,7 +88,7 @@ def radial(ccw: ip.Circle, p_mm: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]
 
     Parameters
     ----------
-    ccw : calibrator.iso9283_path.Circle
+    ccw : calibrator.verify.path_figures.Circle
         The counter-clockwise circle: its start direction and normal fix the angle.
     p_mm : array_like, shape (K, 3)
         Points, base frame, mm.
@@ -238,14 +238,14 @@ def run(
 
     Parameters
     ----------
-    tracker : calibrator.acquire.verify_path.PathTracker
+    tracker : calibrator.verify.path.PathTracker
         Connected simulated tracker.
     world : calibrator.simulate.SimWorld
         Its true arm follows the commands.
     model : calibrator.robots.RobotDescription
     flange2tool : array_like, shape (4, 4)
         Nominal TCP, mm.
-    vplan : calibrator.acquire.verify.VerifyPlan
+    vplan : calibrator.verify.pose.VerifyPlan
         Its cube places the circle; its first test pose gives the orientation and start.
     speed_mm_s : float
         Tool speed along the circle.
@@ -259,7 +259,7 @@ def run(
     dict
         :func:`figures` with the commanded circle, speed and directions.
     """
-    from calibrator.acquire import verify_path
+    from calibrator.verify import path as verify_path
 
     rotation = vplan.desired[0][:3, :3]
     ccw = verify_path.test_path("circle", vplan.cube, rotation)

@@ -1,19 +1,20 @@
-"""What the commands that drive a robot past a tracker share (``measure``, ``verify``).
+"""What the commands that drive a robot past a tracker share (``measure``, ``verify``, ``check``).
 
-Their options (declared once here; the ones both take word for word arrive
-parsed as one :class:`RunArgs`), the devices opened by URL around a
-:class:`~calibrator.acquire.run.MeasureRun`, the operator's confirmation and
-the Ctrl-C handling::
+Their options (declared once here; the ones all take word for word arrive
+parsed as one :class:`RunArgs`), the devices named by ``--robot`` and
+``--tracker`` (:func:`devices`: the simulated cell's settings in its URLs),
+the operator's confirmation and the Ctrl-C handling. The run itself is a
+procedure (:mod:`calibrator.acquire.procedure`); the command parses, hands
+it a :class:`calibrator.cli._console.Console` and prints::
 
     @app.command()
     @run_command
     def measure(*, robot: str = robot_option(external=True), run_args: RunArgs, ...):
         arm = run_args.arm()                                    # exit 2 above the caps
         options = RunOptions(..., **run_args.run_fields())
-        run = stack.enter_context(open_run(robot, tracker, arm, options, output, stack))
-        run.open_journal(confirm=None if run_args.yes else confirm)
-        with StopOnSigint() as interrupt:
-            run.measure(should_stop=lambda: interrupt.requested, on_pose=...)
+        devices = _run.devices(*device_urls(robot, tracker, world_file=world_file))
+        console = Console(quiet=quiet, yes=run_args.yes)
+        summary = calibrator.acquire.measure.run(arm, options, output, devices, console)
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ import functools
 import inspect
 import sys
 from collections.abc import Callable
-from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, get_type_hints, overload
@@ -279,57 +279,56 @@ def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: fl
 
 def is_sim(url: str) -> bool:
     """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
-    from drivers.registry import scheme
+    from drivers.devices import is_sim as sim
 
-    return scheme(url) == "sim"
+    return sim(url)
 
 
 def device_urls(
-    robot_url: str,
-    tracker_url: str,
-    *,
-    world_file: Any = None,
-    noise: bool = True,
-    faults: Path | None = None,
-    replay: Path | None = None,
-    probe_6dof: bool = False,
-    repeatability: bool = False,
+    robot_url: str, tracker_url: str, *, world_file: Any = None, repeatability: bool = False
 ) -> tuple[str, str]:
-    """``--robot`` and ``--tracker`` with the hidden ``--sim-*`` options written into them.
+    """``--robot`` and ``--tracker`` with what the command and the world file say of the cell.
 
     The simulators are configured by their URLs (``sim://?noise=off&probe=6dof``,
-    ``sim://?repeatability=typical``); the options users type stay, and a world
-    file's ``noise: false`` and ``repeatability: true`` arrive the same way.
+    ``sim://?repeatability=typical``): a world file's ``noise: false`` and
+    ``repeatability: true``, and ``repeatability`` (``verify``'s default), are
+    written into them unless the URL says otherwise.
 
     Returns
     -------
     (str, str)
         The robot's and the tracker's URL; unchanged when nothing is to be said.
+    """
+    from drivers.devices import sim_settings
+
+    noise = True
+    if world_file is not None:
+        noise = world_file.noise
+        repeatability = repeatability or world_file.repeatability
+    if is_sim(tracker_url) and not noise and "noise" not in sim_settings(tracker_url):
+        tracker_url = _with_settings(tracker_url, {"noise": "off"})
+    if is_sim(robot_url) and repeatability and "repeatability" not in sim_settings(robot_url):
+        robot_url = _with_settings(robot_url, {"repeatability": "typical"})
+    return robot_url, tracker_url
+
+
+def sim_files(tracker_url: str) -> tuple[list[Path], Path | None]:
+    """The files a simulated tracker's URL names: inputs (faults, replay) and its record.
 
     Raises
     ------
     typer.Exit
-        ``--sim-faults`` or ``--sim-replay`` with a tracker that is no simulator (exit 2).
+        An input file that does not exist (exit 2, before anything opens).
     """
-    if world_file is not None:
-        noise = noise and world_file.noise
-        repeatability = repeatability or world_file.repeatability
-    tracker_says: dict[str, str] = {}
-    if not noise:
-        tracker_says["noise"] = "off"
-    if probe_6dof:
-        tracker_says["probe"] = "6dof"
-    if faults is not None:
-        tracker_says["faults"] = str(faults)
-    if replay is not None:
-        tracker_says["replay"] = str(replay)
-    if is_sim(tracker_url):
-        tracker_url = _with_settings(tracker_url, tracker_says)
-    elif faults is not None or replay is not None:
-        fail(f"--tracker: {tracker_url}: simulator options need --tracker sim")
-    if is_sim(robot_url) and repeatability:
-        robot_url = _with_settings(robot_url, {"repeatability": "typical"})
-    return robot_url, tracker_url
+    from drivers.devices import sim_settings
+
+    given = sim_settings(tracker_url)
+    inputs = [Path(given[name]) for name in ("faults", "replay") if given.get(name)]
+    for path in inputs:
+        if not path.is_file():
+            fail(f"file not found: {path}")
+    record = given.get("record")
+    return inputs, Path(record) if record else None
 
 
 def _with_settings(url: str, settings: dict[str, str]) -> str:
@@ -343,95 +342,20 @@ def _with_settings(url: str, settings: dict[str, str]) -> str:
     return url + ("&" if "?" in url else "?") + urlencode(settings)
 
 
-def open_run(
+def devices(
     robot_url: str,
     tracker_url: str,
-    arm: Any,
-    options: Any,
-    output: Path,
-    stack: ExitStack,
     *,
-    record: Path | None = None,
-    sim_control: str | None = None,
+    world_file: Any = None,
     max_speed: float | None = None,
     external: Any = None,
-    world_file: Any = None,
-    place_tracker: bool = True,
 ) -> Any:
-    """The devices named by URL (the drivers' registries) and the run over them.
+    """``--robot`` and ``--tracker`` (simulator settings in their URLs) as the devices to open."""
+    from drivers.devices import Devices
 
-    Parameters
-    ----------
-    robot_url, tracker_url : str
-        Simulators carry their settings in their URLs (:func:`device_urls`).
-    arm : calibrator.robots.RobotDescription
-    options : calibrator.acquire.run.RunOptions
-    record : Path, optional
-        Log the tracker's raw exchange there (``--sim-record``; line-protocol kinds).
-    sim_control : str, optional
-        ``--sim-control URL``: the simulated robot steers a simulator started by hand.
-    external : calibrator.acquire.external.arm.ExternalOptions, optional
-        Stop detection and association of ``--robot external``.
-    place_tracker : bool
-        Move the simulated tracker to the run's tracker position (``--tracker-at``,
-        the cell file's or the plan file's); False when that position is only an
-        estimate of where the simulated one stands (a calibration's registration).
-    world_file : calibrator.world.World, optional
-        ``--world``: the simulated cell's true arm changed as the file says.
-
-    Returns
-    -------
-    calibrator.acquire.run.MeasureRun
-        Not connected yet; enter it (``with``) so its devices are closed.
-    """
-    from calibrator.acquire.run import MeasureRun, tracker_position
-    from calibrator.errors import CalibrationError
-    from calibrator.simulate import SimWorld
-    from drivers.robot import RobotOptions, open_robot
-    from drivers.tracker import OpenOptions, open_tracker
-
-    world = None
-    if is_sim(robot_url) or is_sim(tracker_url):
-        # The arm's repeatability is the simulated robot's setting (its URL).
-        if world_file is not None:
-            world = world_file.build(arm.name, options.seed)
-        else:
-            world = SimWorld.make(arm.name, options.seed)
-        at = tracker_position(options)
-        if at is not None and place_tracker:
-            # The simulated tracker stands where the user (or the cell file) says.
-            world = world.with_tracker_at(at)
-    try:
-        tracker = open_tracker(
-            tracker_url,
-            OpenOptions(record=record, world=world if is_sim(tracker_url) else None),
-        )
-    except ValueError as exc:
-        raise CalibrationError(f"--tracker: {exc}") from None
-    robot_options = RobotOptions(arm, world, max_speed_rad_s=max_speed, external=external)
-    try:
-        robot = open_robot(robot_url, robot_options)
-    except ValueError as exc:
-        raise CalibrationError(f"--robot: {exc}") from None
-    steer = None
-    if sim_control is not None:
-        steer = _sim_control(sim_control, robot, stack)
-    return MeasureRun(robot, tracker, arm, options, output, world=world, steer=steer)
-
-
-def _sim_control(url: str, robot: Any, stack: ExitStack) -> Any:
-    """``--sim-control URL``: the simulated robot steers a simulator started by hand."""
-    from calibrator.acquire.ports import REPORTS_TRUE_POSE
-    from drivers.tracker.line.simulator.launch import SimulatorControl
-
-    if REPORTS_TRUE_POSE not in robot.capabilities:
-        fail("--sim-control needs --robot sim (the simulated arm says where its probe is)")
-    try:
-        control = SimulatorControl(url)
-    except (OSError, ValueError) as exc:
-        fail(f"--sim-control {url}: {exc}")
-    stack.callback(control.close)
-    return control.set_target
+    return Devices(
+        robot_url, tracker_url, world=world_file, max_speed_rad_s=max_speed, external=external
+    )
 
 
 #: ``--world``: a world file for the simulated cell (docs/check.md).

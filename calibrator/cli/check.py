@@ -1,7 +1,8 @@
 """``calibrator check``: a quick re-check of a calibrated arm (docs/check.md).
 
-Parses and prints only: the poses come from :mod:`calibrator.check.poses`,
-the run is a :class:`calibrator.acquire.run.MeasureRun` (same plan checks,
+Parses, confirms and prints only: the check is the procedure of
+:mod:`calibrator.check.procedure` (its poses from :mod:`calibrator.check.poses`,
+the cell sequence of :mod:`calibrator.acquire.procedure`: same plan checks,
 journal, resume, confirmation and Ctrl-C as ``measure``), the verdict and
 its explanation from :mod:`calibrator.check`.
 """
@@ -18,7 +19,7 @@ from calibrator.cli import _options as opts
 from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
-from calibrator.cli._run import StopOnSigint, confirm, open_run, pose_fields, triple
+from calibrator.cli._run import triple
 
 #: Exit code of a finished check per verdict (a script can alarm on it).
 EXIT_CODES = {"ok": 0, "drifted": 3, "recalibrate": 4}
@@ -81,28 +82,21 @@ def check(
         100.0, "--circle-speed", help="Tool speed along the --circle test, mm/s."
     ),
     quiet: bool = opts.quiet(),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_control: str = typer.Option(None, hidden=True),
 ) -> None:
     """Measure a few poses and compare them with the calibration: ok, drifted or recalibrate.
 
     Writes OUTPUT (JSON) and the measured poses beside it (.parquet). Exit code
     0 ok, 3 drifted, 4 recalibrate, 1 when the run did not finish.
     """
-    import contextlib
-    from dataclasses import replace
-
-    import numpy as np
-
     from calibrator import calibration as calibrations
     from calibrator import cell as cells
     from calibrator import outputs
+    from calibrator.acquire import procedure
     from calibrator.acquire.run import RunOptions
     from calibrator.check import document as documents
-    from calibrator.check import poses as check_poses
-    from calibrator.cli import _model, progress
-    from calibrator.model import frames
+    from calibrator.check import procedure as checks_run
+    from calibrator.cli import _model
+    from calibrator.cli._console import Console
 
     output = Path(output)
     if circle:
@@ -119,7 +113,8 @@ def check(
     data_path = documents.data_path(output)
     if output.suffix.lower() == ".parquet":
         fail(f"-o {output}: give the JSON file; the check's poses go beside it as .parquet")
-    inputs = [p for p in (calibration_path, cell_file, sim_faults, world) if p is not None]
+    sim_inputs, _ = _run.sim_files(tracker)  # ``sim://?faults=F``
+    inputs = [p for p in (calibration_path, cell_file, world) if p is not None] + sim_inputs
     replace_ok = run_args.force or run_args.resume
     outputs.check(output, inputs=inputs, force=replace_ok)
     outputs.check(data_path, inputs=inputs, force=True)
@@ -128,8 +123,6 @@ def check(
     if robot == "external":  # the plan and program written beside OUTPUT: -o's policy
         for companion in _external_files(output):
             outputs.check(companion, inputs=inputs, force=replace_ok)
-    if sim_faults is not None and not Path(sim_faults).is_file():
-        fail(f"file not found: {sim_faults}")
     if robot == "external" and run_args.resume:
         fail("--resume is not for --robot external: run the check again")
     cal = calibrations.load(calibration_path)
@@ -140,97 +133,33 @@ def check(
         from calibrator.cli.history import refuse_unusable
 
         refuse_unusable(history)
-    model = _checkable(cal, calibration_path)
-    tool_mm = tuple(float(v) for v in cal.flange2tool[:3, 3])
-    # Where the calibration found the tracker, unless told otherwise.
-    at = triple(tracker_at, "--tracker-at")
-    tracker_at_mm = at if at is not None else tuple(frames.invert(cal.base2tracker)[:3, 3])
-    given_cell = cells.read_cell(cell_file) if cell_file is not None else cells.Cell()
-    # The simulated tracker moves only to a position the user gave, never to the
-    # calibration's estimate of where it already stands.
-    cell_given = given_cell.tracker_at_mm is not None
-    if at is None and cell_given:
-        tracker_at_mm = given_cell.tracker_at_mm
-    cell = given_cell.with_tracker(tracker_at_mm)
-    chosen = check_poses.choose(arm, poses, cell, tool_mm, seed=seed).plan
-    options = RunOptions(
-        plan=chosen,
-        cell=cell,
+    options = checks_run.Options(
+        cal,
+        calibration_path,
+        poses=poses,
+        tolerance_mm=tolerance,
+        tracker_at_mm=triple(tracker_at, "--tracker-at"),
+        cell=cells.read_cell(cell_file) if cell_file is not None else None,
         seed=seed,
-        readings=readings,
-        tool_mm=tool_mm,  # type: ignore[arg-type]
-        tracker_at_mm=tracker_at_mm,  # type: ignore[arg-type]
-        need_poses=poses,
-        **run_args.run_fields(),
+        run=RunOptions(readings=readings, **run_args.run_fields()),
     )
-    external = _external(robot, output, chosen, arm, quiet)
-    with contextlib.ExitStack() as stack:
-        mrun = stack.enter_context(
-            open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
-                                       faults=sim_faults),
-                     arm, options, data_path, stack, sim_control=sim_control,
-                     max_speed=run_args.max_speed, external=external, world_file=world_file,
-                     place_tracker=at is not None or cell_given)
-        )  # fmt: skip
-        mrun.check_files()
-        mrun.connect(tracker)
-        mrun.make_plan()
-        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
-        estimate = f"estimated cell time: {mrun.estimate()}"
-        shown: list[bool] = []
-
-        def ask(robot_id: str, n: int) -> None:
-            typer.echo(estimate, err=True)
-            shown.append(True)
-            confirm(robot_id, n)
-
-        mrun.open_journal(confirm=None if run_args.yes else ask)
-        if not shown and not quiet:
-            typer.echo(estimate, err=True)
-        reporter = progress.Reporter.for_cli(quiet)
-        with (
-            StopOnSigint() as interrupt,
-            reporter.task("check", len(chosen.q_rad), "poses") as task,
-        ):
-            mrun.measure(
-                should_stop=lambda: interrupt.requested,
-                on_pose=lambda p: task.update(p.done, **pose_fields(p)),
-            )
-        written: dict = {}
-
-        def write(outcome: Any) -> Path | None:
-            from calibrator.acquire import rows
-
-            numbers, q, points, stderr = documents.measured(outcome.records)
-            result = documents.evaluate(model, q, points, stderr, tolerance)
-            conditions = _conditions(outcome.records)
-            info = {
-                "model": arm.name,
-                # When the poses were measured (the history files the check under it).
-                "measured_at": conditions["started"],
-                "robot": mrun.robot_id,
-                "tracker": mrun.tracker_id,
-                "calibration": str(calibration_path),
-                "calibration_sha256": calibrations.digest(calibration_path),
-                "readings": readings,
-                "poses_planned": len(chosen.q_rad),
-                "data": data_path.name,
-                "conditions": conditions,
-            }
-            doc = documents.document(
-                result, numbers, arm.convention.to_controller(q), points, info=info
-            )
-            table = rows.to_table(outcome.records.values(), arm.convention)
-            documents.write(output, doc, table, mrun.meta, inputs)
-            written["doc"] = doc
-            return output
-
-        summary = mrun.finish(write)
+    check_run = checks_run.prepare(arm, options, output, settle_s=run_args.settle, inputs=inputs)
+    external = _external(robot, output, check_run.plan, arm, quiet)
+    devices = _run.devices(
+        *_run.device_urls(robot, tracker, world_file=world_file),
+        world_file=world_file,
+        max_speed=run_args.max_speed,
+        external=external,
+    )
+    console = Console(
+        quiet=quiet, yes=run_args.yes, estimate=lambda run: f"estimated cell time: {run.estimate()}"
+    )
+    summary = procedure.run(check_run, devices, console)
     hint = f"rerun the same command with --resume to continue ({summary.journal})"
-    if summary.stopped or "doc" not in written:
+    doc = check_run.doc
+    if summary.stopped or doc is None:
         typer.echo(f"stopped: {summary.stopped or 'no pose measured'}; {hint}", err=True)
         raise typer.Exit(1)
-    doc = written["doc"]
     if summary.failed:
         typer.echo(
             f"{len(summary.failed)} check pose(s) failed ({summary.failed[:10]}): the verdict "
@@ -239,7 +168,8 @@ def check(
         )
     if history is not None:
         _record(history, doc)
-    _print(doc, output, data_path, np)
+    _print_verdict(doc)
+    typer.echo(f"wrote {output} and {data_path}")
     raise typer.Exit(EXIT_CODES[doc["verdict"]])
 
 
@@ -297,26 +227,14 @@ def _check_recorded(
 
 
 def _checkable(cal: Any, path: Path) -> Any:
-    """The calibration as a check's model (:class:`calibrator.check.model.Calibrated`).
+    """The calibration as a check's model; one line (exit 2) for one a check cannot use."""
+    from calibrator.check.procedure import checkable
+    from calibrator.errors import CalibrationError
 
-    One line (exit 2) for a calibration a check cannot use: identified in the
-    robot base frame (no tracker registration to compare readings with), or
-    without the residual noise its predictions need.
-    """
-    from calibrator.check.model import Calibrated
-
-    if cal.frame != "tracker":
-        fail(
-            f"{path} was identified in the robot base frame: a check compares "
-            "tracker readings with a calibration that registered the tracker (measure's sessions)"
-        )
-    model = Calibrated.of(cal)
-    if not model.sigma_mm > 0:
-        fail(
-            f"{path} records no residual noise (its uncertainty): the check cannot "
-            "predict its error; identify the session again with this version"
-        )
-    return model
+    try:
+        return checkable(cal, path)
+    except CalibrationError as exc:
+        fail(str(exc))
 
 
 #: Exit code of a finished circle test per verdict.
@@ -340,12 +258,12 @@ def _check_circle(
 
     from calibrator import calibration as calibrations
     from calibrator import outputs
-    from calibrator.acquire import verify as pose_run
     from calibrator.check import circle as circles
     from calibrator.cli import _model
     from calibrator.errors import CalibrationError
     from calibrator.model import frames
     from calibrator.simulate import SimWorld
+    from calibrator.verify import pose as pose_run
     from drivers.tracker.base import OpenOptions, open_tracker
     from drivers.tracker.line.simulator.world import SimulatedTracker
 
@@ -456,23 +374,6 @@ def _external(robot, output, plan, arm, quiet) -> Any:
     return _external_options(0.05, 0.5, 15.0, 30.0, quiet)
 
 
-def _conditions(records: dict) -> dict:
-    """The measuring conditions the run recorded: its span, the spread, what the devices said."""
-    import numpy as np
-
-    from calibrator.acquire import rows
-
-    measured = [r for r in records.values() if r["status"] == "measured"]
-    times = sorted(r["timestamp"] for r in measured if "timestamp" in r)
-    spread = [float(np.linalg.norm(r["std_mm"])) for r in measured]
-    return {
-        "started": times[0] if times else None,
-        "ended": times[-1] if times else None,
-        "reading_spread_mm": {"mean": float(np.mean(spread)), "max": float(np.max(spread))},
-        **rows.summarise(measured),
-    }
-
-
 def _open_history(url: str) -> Any:
     """``--history``: the history opened (the history package, imported only when asked)."""
     try:
@@ -487,11 +388,6 @@ def _record(url: str, doc: dict) -> None:
     with _open_history(url) as store:
         number = store.record_check(doc)
     typer.echo(f"recorded check {number} in {url}")
-
-
-def _print(doc: dict, output: Path, data_path: Path, np: Any) -> None:
-    _print_verdict(doc)
-    typer.echo(f"wrote {output} and {data_path}")
 
 
 def _print_verdict(doc: dict) -> None:

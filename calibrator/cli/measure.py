@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import typer
@@ -13,10 +12,6 @@ from calibrator.cli import _options as opts
 from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail as _fail
-from calibrator.cli._run import StopOnSigint as _StopOnSigint
-from calibrator.cli._run import confirm as _confirm
-from calibrator.cli._run import open_run as _open_run
-from calibrator.cli._run import pose_fields as _pose_fields
 from calibrator.cli._run import triple as _triple
 
 
@@ -92,26 +87,20 @@ def measure(
         callback=checks.seconds("stop_timeout", positive=True),
         help="--robot external: no stop for this long ends the program's poses (missing), s.",
     ),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_record: Path = typer.Option(None, hidden=True, help="Record the raw tracker exchange."),
-    sim_replay: Path = typer.Option(None, hidden=True, help="Simulator answers from a recording."),
     timings: bool = typer.Option(False, hidden=True, help="Print where the time went (stderr)."),
-    sim_control: str = typer.Option(
-        None,
-        hidden=True,
-        help="Control URL of a tracker simulator (either kind) the simulated robot steers.",
-    ),
 ) -> None:
     """Measure a session: move, settle, average readings, journal each pose, write Parquet."""
-    import contextlib
-    import time
+    from calibrator.cli._console import Console
 
-    marks = [("start", time.perf_counter())]
-
+    console = Console(
+        quiet=quiet,
+        yes=run_args.yes,
+        pose_lines=True,  # a line per pose when piped: a measure run is slow enough
+        relock=_ask_relock if ask_relock and sys.stdin.isatty() else None,
+    )
     from calibrator import outputs, planning
+    from calibrator.acquire import measure as measuring
     from calibrator.acquire.run import RunOptions
-    from calibrator.cli import progress
 
     output = Path(output)
     if robot == "external" and plan_path is None:
@@ -120,13 +109,12 @@ def measure(
             "--robot external needs --plan PLAN: the plan whose program the controller runs "
             "(calibrator program PLAN -o FILE)"
         )
-    inputs = [p for p in (plan_path, cell_file, sim_faults, sim_replay, world) if p is not None]
+    # A simulated tracker's fault script and recording (``sim://?faults=F&replay=R``).
+    sim_inputs, _ = _run.sim_files(tracker)
+    inputs = [p for p in (plan_path, cell_file, world) if p is not None] + sim_inputs
     outputs.check(output, inputs=inputs, force=True)
     if not (run_args.force or run_args.resume) and output.exists():
         raise outputs.existing(output, resumable=True)  # before any device is opened
-    for given in (sim_faults, sim_replay):
-        if given is not None and not Path(given).is_file():
-            _fail(f"file not found: {given}")
     from calibrator import cell as cells
     from calibrator.cli import _model
 
@@ -158,99 +146,68 @@ def measure(
         tracker_at_mm=tracker_mm,
         **run_args.run_fields(),
     )
+    if warm_up > 0 and robot == "external":
+        _fail("--warm-up is for robots measure drives (the external robot runs its own program)")
+    console.estimate_of = lambda run: _estimate(run, arm, run_args)
+    console.guessed_of = lambda run: _guessed(run, arm)
     external = _external_options(stop_band, settle_window, match_tolerance, stop_timeout, quiet)
-    with contextlib.ExitStack() as stack:
-        run = stack.enter_context(
-            _open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
-                                        faults=sim_faults, replay=sim_replay),
-                      arm, options, output, stack, record=sim_record, sim_control=sim_control,
-                      max_speed=run_args.max_speed, external=external, world_file=world_file)
-        )  # fmt: skip
-        run.check_files()
-        run.connect(tracker)
-        for line in _warmup_warnings(run, warm_up, robot):
-            typer.echo(f"warning: {line}", err=True)
-        marks.append(("connect (simulator start, links)", time.perf_counter()))
-        run.make_plan(on_note=lambda text: typer.echo(f"note: {text}", err=True))
-        marks.append(("plan (make and check)", time.perf_counter()))
-        run.options = options = replace(options, settle_s=run_args.settle_s(run.moves_hardware))
-        # Shown before a confirmation is asked, else once the journal is open
-        # (a refused resume stays one line).
-        estimate = f"estimated cell time: {run.estimate()}"
-        if not run.moves_hardware and run_args.settle is None:
-            # plan estimates the real cell, whose arm rings after a move; the simulated one
-            # does not: both figures, so the two commands' numbers are one estimate.
-            settle = run_args.settle_s(True)
-            real = planning.estimate(
-                run.plan,
-                arm,
-                options.speed_rad_s,
-                options.accel_rad_s2,
-                settle_s=settle,
-                readings=options.readings,
-            )
-            estimate += f"; a real arm settling {settle:g} s a pose (as plan estimates): {real}"
-        shown = []
-        # Collisions checked against capsules guessed along the links (a URDF's meshes
-        # missing): the arm's body says so, or the plan file made with it.
-        origin = run.plan.origin
-        guessed = planning.guessed_geometry(arm) or (origin.guessed_geometry if origin else None)
-
-        def confirm(robot_id: str, n: int) -> None:
-            typer.echo(estimate, err=True)
-            shown.append(True)
-            _confirm(robot_id, n, guessed)
-
-        run.open_journal(confirm=None if run_args.yes else confirm)
-        if not shown and not quiet:
-            typer.echo(estimate, err=True)
-        if not shown and guessed:
-            typer.echo(
-                f"warning: every pose and move checked against guessed geometry: {guessed}",
-                err=True,
-            )
-        # A line per pose when piped: a measure run is slow enough to log each one.
-        reporter = progress.Reporter.for_cli(quiet)
-        reporter.interval_s = 0.0
-        relock = _ask_relock if ask_relock and sys.stdin.isatty() else None
-        with (
-            _StopOnSigint() as interrupt,
-            reporter.task("measure", len(run.plan.q_rad), "poses") as task,
-        ):
-            _warm_up(run, warm_up, quiet, lambda: interrupt.requested)
-            run.measure(
-                should_stop=lambda: interrupt.requested,
-                on_pose=lambda p: task.update(p.done, **_pose_fields(p)),
-                on_beam_lost=relock,
-            )
-        marks.append(("measure loop", time.perf_counter()))
-        summary = run.finish()
-        marks.append(("write session", time.perf_counter()))
-    marks.append(("close (devices, simulator)", time.perf_counter()))
+    devices = _run.devices(
+        *_run.device_urls(robot, tracker, world_file=world_file),
+        world_file=world_file,
+        max_speed=run_args.max_speed,
+        external=external,
+    )
+    summary = measuring.run(
+        arm, options, output, devices, console, settle_s=run_args.settle, warm_up_min=warm_up
+    )
     if timings:
-        for (_, t0), (what, t1) in zip(marks, marks[1:], strict=False):
-            typer.echo(f"timing: {what}: {t1 - t0:.3f} s", err=True)
+        console.print_timings(TIMING_LABELS)
     for line in summary.notes:
         typer.echo(line)
     _report(summary, options, retried=robot != "external")
 
 
-def _warmup_warnings(run, minutes: float, robot: str) -> list[str]:
-    from calibrator.acquire import warmup
+#: ``--timings``: what each step of the procedure was.
+TIMING_LABELS = {
+    "connected": "connect (simulator start, links)",
+    "planned": "plan (make and check)",
+    "measured": "measure loop",
+    "written": "write session",
+    "closed": "close (devices, simulator)",
+}
 
-    if minutes > 0 and robot == "external":
-        _fail("--warm-up is for robots measure drives (the external robot runs its own program)")
-    return [w for w in [warmup.tracker_warning(run.tracker)] if w]
+
+def _estimate(run, arm, run_args: _run.RunArgs) -> str:
+    """The cell-time line: the run's, and a real arm's beside a simulated one's."""
+    from calibrator import planning
+
+    options = run.options
+    estimate = f"estimated cell time: {run.estimate()}"
+    if not run.moves_hardware and run_args.settle is None:
+        # plan estimates the real cell, whose arm rings after a move; the simulated one
+        # does not: both figures, so the two commands' numbers are one estimate.
+        settle = run_args.settle_s(True)
+        real = planning.estimate(
+            run.plan,
+            arm,
+            options.speed_rad_s,
+            options.accel_rad_s2,
+            settle_s=settle,
+            readings=options.readings,
+        )
+        estimate += f"; a real arm settling {settle:g} s a pose (as plan estimates): {real}"
+    return estimate
 
 
-def _warm_up(run, minutes: float, quiet: bool, should_stop) -> None:
-    """``--warm-up``: the plan's moves, forwards and backwards, for about ``minutes``."""
-    from calibrator.acquire import warmup
+def _guessed(run, arm) -> str | None:
+    """What of the arm's collision body is guessed (capsules along the links), or None.
 
-    if minutes > 0:
-        passes = warmup.warm_up_run(run, minutes, should_stop)
-        if not quiet:
-            typer.echo(f"warmed up: {passes} pass(es) of the plan's moves, no readings", err=True)
+    The arm's body says so, or the plan file made with it (a URDF's meshes missing).
+    """
+    from calibrator import planning
+
+    origin = run.plan.origin
+    return planning.guessed_geometry(arm) or (origin.guessed_geometry if origin else None)
 
 
 def _external_options(

@@ -1,8 +1,9 @@
 """``calibrator verify``: the ISO 9283 pose test (AP, RP), before or after calibration.
 
-Parses and prints only: the run is a :class:`calibrator.acquire.run.MeasureRun`
-over the plan of :mod:`calibrator.acquire.verify` (same checks, journal,
-resume, confirmation and Ctrl-C as ``measure``).
+Parses, confirms and prints only: the test is the procedure of
+:mod:`calibrator.verify.procedure` (the cell sequence of
+:mod:`calibrator.acquire.procedure`: same checks, journal, resume,
+confirmation and Ctrl-C as ``measure``).
 """
 
 from __future__ import annotations
@@ -17,13 +18,7 @@ from calibrator.cli import _options as opts
 from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
-from calibrator.cli._run import (
-    StopOnSigint,
-    confirm,
-    open_run,
-    pose_fields,
-    triple,
-)
+from calibrator.cli._run import triple
 
 #: Smallest test cube edge (mm): ISO 9283's five poses spread over the cube (an edge
 #: of 1e-300 mm ran a test of five poses at one point).
@@ -36,7 +31,7 @@ def _cube(text: str | None) -> Any:
         return None
     import numpy as np
 
-    from calibrator.iso9283 import Cube
+    from calibrator.verify.iso9283 import Cube
 
     needs = "X,Y,Z,SIDE in mm (centre and a positive edge)"
     values = opts.floats(text, 4, "--cube", needs)
@@ -105,15 +100,6 @@ def verify(
     seed: int = opts.seed(0, "Seed of the simulated cell."),
     world: Path = typer.Option(None, "--world", help=_run.WORLD_HELP),
     quiet: bool = opts.quiet(),
-    sim_noise: bool = typer.Option(True, hidden=True),
-    sim_repeatability: bool = typer.Option(
-        True, hidden=True, help="Joint positioning error and backlash of the simulated arm."
-    ),
-    sim_faults: Path = typer.Option(None, hidden=True, help="Fault script for the simulator."),
-    sim_probe_6dof: bool = typer.Option(
-        False, hidden=True, help="The simulated tracker's probe reports its orientation."
-    ),
-    sim_control: str = typer.Option(None, hidden=True),
     history: str = typer.Option(
         None,
         "--history",
@@ -141,17 +127,17 @@ def verify(
     Writes OUTPUT (figures, JSON) and OUTPUT with .parquet (every attained pose),
     both in the robot base frame; see docs/verify.md.
     """
-    import contextlib
-    from dataclasses import replace
-
     from calibrator import calibration as calibrations
     from calibrator import outputs
-    from calibrator.acquire import verify as run
-    from calibrator.cli import _model, progress
-    from calibrator.model import frames
+    from calibrator.acquire import procedure
+    from calibrator.acquire.run import RunOptions
+    from calibrator.cli import _model
+    from calibrator.cli._console import Console
+    from calibrator.verify import pose
+    from calibrator.verify import procedure as tests
 
     output = Path(output)
-    data_path = run.data_path(output)
+    data_path = pose.data_path(output)
     if output.suffix.lower() == ".parquet":
         fail(f"-o {output}: give the JSON file; the attained poses go beside it as .parquet")
     if calibration_path is not None and (register_path is not None or base_frame is not None):
@@ -164,18 +150,14 @@ def verify(
 
         speed = verify_path.parse_speed(path_speed)
         verify_path.check_options(path_shape, speed, robot, tracker, world, history)
-    inputs = [
-        p for p in (calibration_path, register_path, sim_faults, cell_file, world) if p is not None
-    ]
+    sim_inputs, _ = _run.sim_files(tracker)  # ``sim://?faults=F``
+    inputs = [p for p in (calibration_path, register_path, cell_file, world) if p is not None]
+    inputs += sim_inputs
     replace_ok = run_args.force or run_args.resume
     outputs.check(output, inputs=inputs, force=replace_ok)
     outputs.check(data_path, inputs=inputs, force=True)
     if not replace_ok and data_path.exists():
         raise outputs.existing(data_path, resumable=True)
-    if sim_probe_6dof and not _run.is_sim(tracker):
-        fail("--sim-probe-6dof is for --tracker sim (a real tracker reports its own probe)")
-    if sim_faults is not None and not Path(sim_faults).is_file():
-        fail(f"file not found: {sim_faults}")
     cal = calibrations.load(calibration_path) if calibration_path is not None else None
     reg_cal = calibrations.load(register_path) if register_path is not None else None
     # The calibration's arm; --model only for one that names none, or without one.
@@ -186,114 +168,58 @@ def verify(
 
         refuse_unusable(history)
     world_file = _run.read_world(world, robot, tracker)
-    given_cube = _cube(cube)
-    tool_mm = triple(tool, "--tool")
     from calibrator import cell as cells
 
-    cell = cells.read_cell(cell_file) if cell_file is not None else None
-    # The test poses face the tracker: given, the cell's, or where the simulated cell puts it.
-    tracker_at_mm = triple(tracker_at, "--tracker-at")
-    if tracker_at_mm is None and cell is not None:
-        tracker_at_mm = cell.tracker_at_mm
-    if tracker_at_mm is None and (_run.is_sim(robot) or _run.is_sim(tracker)):
-        from calibrator.simulate import SimWorld
-
-        tracker_at_mm = tuple(SimWorld.make(arm.name, seed).tracker_at_mm)
-    # The plan first: a cube out of reach is refused before any device is opened.
-    vplan = run.make_plan(
-        arm, frames.transform(translation=tool_mm), cycles, given_cube, cal, tracker_at_mm, cell
+    registration = None  # the calibration's, the simulated cell's survey, or a best fit
+    if reg_cal is not None:
+        registration = pose.from_calibration(reg_cal, register_path)
+    elif surveyed_base is not None:
+        registration = pose.surveyed(surveyed_base, f"--base-frame {base_frame}")
+    options = tests.Options(
+        cycles=cycles,
+        cube=_cube(cube),
+        tool_mm=triple(tool, "--tool"),
+        calibration=cal,
+        calibration_path=calibration_path,
+        registration=registration,
+        cell=cells.read_cell(cell_file) if cell_file is not None else None,
+        tracker_at_mm=triple(tracker_at, "--tracker-at"),
+        seed=seed,
+        run=RunOptions(readings=readings, **run_args.run_fields()),
     )
+    # The simulated arm lands off its targets as a typical arm does, unless its URL
+    # says otherwise (``--robot sim://?repeatability=none``).
+    urls = _run.device_urls(robot, tracker, world_file=world_file, repeatability=True)
+    devices = _run.devices(*urls, world_file=world_file, max_speed=run_args.max_speed)
+    # The plan first: a cube out of reach is refused before any device is opened.
+    test = tests.prepare(arm, options, output, devices, settle_s=run_args.settle, inputs=inputs)
     if path_shape is not None:
         from calibrator.cli import verify_path
 
-        path_registration = None  # the simulated cell's survey
-        if cal is not None:
-            path_registration = run.from_calibration(cal, calibration_path)
-        elif reg_cal is not None:
-            path_registration = run.from_calibration(reg_cal, register_path)
-        elif surveyed_base is not None:
-            path_registration = run.surveyed(surveyed_base, f"--base-frame {base_frame}")
         verify_path.run(
             shape=path_shape,
             speed=verify_path.parse_speed(path_speed),
             arm=arm,
-            vplan=vplan,
-            flange2tool=frames.transform(translation=tool_mm),
+            vplan=test.vplan,
             cycles=cycles,
             seed=seed,
             tracker_url=tracker,
-            tracker_at_mm=tracker_at_mm,
-            calibration=cal,
-            registration=path_registration,
+            test=test.test,
+            registration=test.registration,
             output=output,
             inputs=inputs,
         )
-        if history is not None:
-            from calibrator.cli.history import record
+    else:
+        summary = procedure.run(test, devices, Console(quiet=quiet, yes=run_args.yes))
+        _report(summary, test, run_args.retries, output, data_path)
+    if history is not None:
+        from calibrator.cli.history import record
 
-            record(history, "verification", output)
-        return
-    options = run.run_options(
-        vplan,
-        cell=cell,
-        seed=seed,
-        readings=readings,
-        tool_mm=tool_mm,
-        # The run checks its plan with the tracker the poses were made to face.
-        tracker_at_mm=tracker_at_mm,
-        **run_args.run_fields(),
-    )
-    with contextlib.ExitStack() as stack:
-        mrun = stack.enter_context(
-            open_run(*_run.device_urls(robot, tracker, world_file=world_file, noise=sim_noise,
-                                       faults=sim_faults, probe_6dof=sim_probe_6dof,
-                                       repeatability=sim_repeatability),
-                     arm, options, output, stack, sim_control=sim_control,
-                     max_speed=run_args.max_speed, world_file=world_file)
-        )  # fmt: skip
-        mrun.check_files()
-        # Every option is turned into what the run uses before the first motion:
-        # a registration that cannot be made is refused with nothing moved.
-        if cal is not None:
-            registration = run.from_calibration(cal, calibration_path)
-        elif reg_cal is not None:
-            registration = run.from_calibration(reg_cal, register_path)
-        elif surveyed_base is not None:
-            registration = run.surveyed(surveyed_base, f"--base-frame {base_frame}")
-        elif mrun.world is not None:
-            registration = run.sim_survey(mrun.world)
-        else:
-            registration = None  # a best fit on the attained poses
-        mrun.connect(tracker)
-        mrun.make_plan()
-        mrun.options = replace(mrun.options, settle_s=run_args.settle_s(mrun.moves_hardware))
-        mrun.open_journal(confirm=None if run_args.yes else confirm)
-        reporter = progress.Reporter.for_cli(quiet)
-        with StopOnSigint() as interrupt, reporter.task("verify", len(vplan.plan), "poses") as task:
-            mrun.measure(
-                should_stop=lambda: interrupt.requested,
-                on_pose=lambda p: task.update(p.done, **pose_fields(p)),
-            )
-        info = {
-            "model": arm.name,
-            "robot": mrun.robot_id,
-            "tracker": mrun.tracker_id,
-            "readings": readings,
-            "calibration": str(calibration_path) if calibration_path else None,
-            "tool_mm": [float(v) for v in tool_mm],
-        }
-        written: dict = {}
+        record(history, "verification", output)
 
-        def write(outcome: Any) -> Path | None:
-            # ISO 9283 needs every visit of every cycle: no figures from part of them.
-            if outcome.stopped or outcome.failed:
-                return None
-            written["doc"] = run.write(
-                output, outcome.records, vplan, registration, info=info, inputs=inputs
-            )
-            return output
 
-        summary = mrun.finish(write)
+def _report(summary: Any, test: Any, retries: int, output: Path, data_path: Path) -> None:
+    """The run's last lines: how it stopped (exit 1), else the figures."""
     hint = f"rerun the same command with --resume to continue ({summary.journal})"
     if summary.stopped:
         kept = f"{len(summary.measured)} of {summary.total} visits kept"
@@ -302,22 +228,18 @@ def verify(
     if summary.failed:
         causes = f": {summary.causes_text()}" if summary.causes else ""
         typer.echo(
-            f"{len(summary.failed)} visit(s) failed after {run_args.retries} retries{causes} "
+            f"{len(summary.failed)} visit(s) failed after {retries} retries{causes} "
             f"({summary.failed[:10]}); ISO 9283 needs every cycle: {hint} to retry them",
             err=True,
         )
         raise typer.Exit(1)
-    if registration is None:
+    if test.registration is None:
         typer.echo(
             "note: no --calibration, --register or --base-frame: the tracker is "
             "registered by a best fit on the test poses (AP is a lower bound)",
             err=True,
         )
-    _print_table(written["doc"], output, data_path)
-    if history is not None:
-        from calibrator.cli.history import record
-
-        record(history, "verification", output)
+    _print_table(test.doc, output, data_path)
 
 
 def _base_frame(text: str | None) -> Any:

@@ -1,7 +1,7 @@
 """``calibrator verify --path line|circle``: the ISO 9283 path test on the simulated cell.
 
 Parses nothing of its own (``verify`` does); runs
-:mod:`calibrator.acquire.verify_path` with the simulated tracker streaming
+:mod:`calibrator.verify.path` with the simulated tracker streaming
 the simulated arm's true path, writes the document with its ``path``
 section and prints the figures.
 """
@@ -52,8 +52,8 @@ def check_options(
     shape: str, speed: Speed, robot: str, tracker: str, world: Path | None, history: Any
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
-    from calibrator.acquire.verify_path import SHAPES
     from calibrator.cli import _run
+    from calibrator.verify.path import SHAPES
 
     if shape not in SHAPES:
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
@@ -71,30 +71,34 @@ def run(
     speed: Speed,
     arm: Any,
     vplan: Any,
-    flange2tool: Any,
     cycles: int,
     seed: int,
     tracker_url: str,
-    tracker_at_mm: Any,
-    calibration: Any,
+    test: Any,
     registration: Any,
     output: Path,
     inputs: list[Path],
 ) -> None:
-    """Plan, run and write the path test; print its figures."""
+    """Plan, run and write the path test; print its figures.
+
+    ``test``: the pose test's :class:`calibrator.verify.procedure.Options`
+    (tool, calibration, tracker position), whose cube the path is in.
+    """
     import numpy as np
 
     from calibrator import outputs
-    from calibrator.acquire import verify as pose_run
-    from calibrator.acquire import verify_path
     from calibrator.errors import CalibrationError
+    from calibrator.model import frames
     from calibrator.simulate import SimWorld
+    from calibrator.verify import path as verify_path
+    from calibrator.verify import pose as pose_run
     from drivers.tracker.base import OpenOptions, open_tracker
     from drivers.tracker.line.simulator.world import SimulatedTracker
 
+    flange2tool, calibration = frames.transform(translation=test.tool_mm), test.calibration
     world = SimWorld.make(arm.name, seed)
-    if tracker_at_mm is not None:
-        world = world.with_tracker_at(tracker_at_mm)
+    if test.tracker_at_mm is not None:
+        world = world.with_tracker_at(test.tracker_at_mm)
     rotation = vplan.desired[0][:3, :3]
     plan_args = (arm, flange2tool, shape, vplan.cube, rotation, vplan.q_test[0])
     # The rated speed from the nominal plan: the compensated one differs by microradians.

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from calibrator.simulate import SimWorld
 
 
 @dataclass(frozen=True)
@@ -23,7 +26,7 @@ class RobotOptions:
     """
 
     model: Any
-    world: Any = None
+    world: SimWorld | None = None
     max_speed_rad_s: float | None = None
     max_accel_rad_s2: float | None = None
     external: Any = None

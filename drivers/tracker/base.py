@@ -22,12 +22,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from drivers.registry import Registry
 
 if TYPE_CHECKING:
     from calibrator.acquire.ports import Tracker
+    from calibrator.simulate import SimWorld
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ class OpenOptions:
     """
 
     record: str | Path | None = None
-    world: Any = None
+    world: SimWorld | None = None
 
 
 #: Tracker kinds by URL scheme (:mod:`drivers.registry`): each module opens its

@@ -5,14 +5,15 @@ import shutil
 import pytest
 from cli_process_kit import run_cli
 
-BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
+BASE = ("measure", "--poses", "12", "-o", "s.parquet")
 
 
 @pytest.fixture(scope="session")
 def reference_session(tmp_path_factory):
     """An uninterrupted noise-free 12-pose run: what every faulted run must equal."""
     cwd = tmp_path_factory.mktemp("reference")
-    done = run_cli("measure", "--poses", "12", "--no-sim-noise", "-o", "ref.parquet", cwd=cwd)
+    done = run_cli("measure", "--poses", "12", "--tracker", "sim://?noise=off", "-o", "ref.parquet",
+                   cwd=cwd)  # fmt: skip
     assert done.returncode == 0, done.stderr
     return cwd / "ref.parquet"
 
@@ -21,7 +22,8 @@ def reference_session(tmp_path_factory):
 def _pose_3_failed(tmp_path_factory):
     cwd = tmp_path_factory.mktemp("pose_3_failed")
     (cwd / "faults.txt").write_text("MEAS@31 beam_break count=40\n")
-    done = run_cli(*BASE, "--sim-faults", "faults.txt", "--retries", "2", cwd=cwd)
+    done = run_cli(*BASE, "--tracker", "sim://?noise=off&faults=faults.txt", "--retries", "2",
+                   cwd=cwd)  # fmt: skip
     return cwd, done
 
 

@@ -12,6 +12,7 @@ measures, and a tracker kind registered from a test measures through the CLI.
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -426,21 +427,40 @@ def test_the_simulators_take_their_settings_from_their_urls():
     assert landing_error_mm("sim") < 1e-9
 
 
-def test_the_cli_writes_its_hidden_simulator_options_into_the_urls(tmp_path):
+def test_the_cli_writes_the_world_file_and_verify_default_into_the_urls(tmp_path):
     from calibrator.cli import _run
+    from calibrator.world import parse_world
 
-    faults = tmp_path / "faults file.txt"
-    robot, tracker = _run.device_urls(
-        "sim", "sim", noise=False, faults=faults, probe_6dof=True, repeatability=True
-    )
-    assert robot == "sim://?repeatability=typical"
-    assert tracker.startswith("sim://?noise=off&probe=6dof&faults=")
+    quiet_world = parse_world({"world": 1, "noise": False, "repeatability": True})
+    robot, tracker = _run.device_urls("sim", "sim", world_file=quiet_world)
+    assert (robot, tracker) == ("sim://?repeatability=typical", "sim://?noise=off")
     world = SimWorld.make("ur10e", 1)
-    opened = open_tracker(tracker, OpenOptions(world=world))
-    assert opened._faults == str(faults) and not opened._noise
-    # A typed URL keeps its own settings; nothing said leaves the URLs alone.
-    assert _run.device_urls("sim://?repeatability=none", "sim://?probe=6dof", noise=False) == (
-        "sim://?repeatability=none",
-        "sim://?probe=6dof&noise=off",
+    assert not open_tracker(tracker, OpenOptions(world=world))._noise
+    # A typed URL keeps its own settings (never a setting twice); nothing said leaves it alone.
+    assert _run.device_urls(
+        "sim://?repeatability=none", "sim://?noise=on", world_file=quiet_world
+    ) == ("sim://?repeatability=none", "sim://?noise=on")
+    assert _run.device_urls("sim", "sim://?probe=6dof", repeatability=True) == (
+        "sim://?repeatability=typical",
+        "sim://?probe=6dof",
     )
-    assert _run.device_urls("ur://h", "socket://h:1", noise=False) == ("ur://h", "socket://h:1")
+    assert _run.device_urls("ur://h", "socket://h:1", world_file=quiet_world) == (
+        "ur://h",
+        "socket://h:1",
+    )
+
+
+def test_the_simulated_tracker_url_names_its_files(tmp_path):
+    from calibrator.cli import _run
+    from drivers.devices import recorded
+
+    faults = tmp_path / "faults.txt"
+    faults.write_text("MEAS@1 beam_break\n")
+    url = f"sim://?noise=off&faults={faults}&record={tmp_path / 'rec.jsonl'}"
+    assert _run.sim_files(url) == ([faults], tmp_path / "rec.jsonl")
+    # The record is the devices' to open: the simulator is handed the rest.
+    assert recorded(url) == (f"sim://?noise=off&faults={faults}", tmp_path / "rec.jsonl")
+    assert recorded("sim://?record=r.jsonl") == ("sim://", Path("r.jsonl"))
+    assert recorded("socket://h:1") == ("socket://h:1", None)
+    opened = open_tracker(recorded(url)[0], OpenOptions(world=SimWorld.make("ur10e", 1)))
+    assert opened._faults == str(faults) and not opened._noise

@@ -17,12 +17,15 @@ import pytest
 from cli_process_kit import run_cli
 from measure_kit import assert_same_session, session_rows
 
-BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
+BASE = ("measure", "--poses", "12", "--tracker", "sim://?noise=off", "-o", "s.parquet")
+
+#: The noise-free simulated tracker reading the fault script (the last --tracker wins).
+FAULTED = "sim://?noise=off&faults=faults.txt"
 
 
 def faulted_run(tmp_path, script, *extra):
     (tmp_path / "faults.txt").write_text(script + "\n")
-    return run_cli(*BASE, "--sim-faults", "faults.txt", *extra, cwd=tmp_path)
+    return run_cli(*BASE, "--tracker", FAULTED, *extra, cwd=tmp_path)
 
 
 def journal(tmp_path):

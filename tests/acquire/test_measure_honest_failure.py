@@ -20,7 +20,8 @@ from calibrator.acquire.run import MAX_POSES
 from calibrator.identify.pipeline import MAX_POSES as IDENTIFY_MAX_POSES
 from drivers.tracker.line.simulator import SimulatorProcess
 
-BASE = ("measure", "--poses", "12", "--no-sim-noise", "-o", "s.parquet")
+BASE = ("measure", "--poses", "12", "-o", "s.parquet")
+FAULTED = "sim://?noise=off&faults=faults.txt"  # the simulated tracker's settings
 # The beam broken for every reading (the simulator re-locks when the target moves,
 # so each reading gets its own fault).
 NEVER = "".join(f"MEAS@{n} beam_break\n" for n in range(1, 400))
@@ -35,7 +36,7 @@ def one_line(stderr):
 def test_a_run_with_the_beam_broken_throughout_writes_nothing_and_exits_1(tmp_path):
     (tmp_path / "faults.txt").write_text(NEVER)
     done = run_cli(*BASE, "-q", "--retries", "1", "--retry-pause", "0.01",
-                   "--sim-faults", "faults.txt", cwd=tmp_path)  # fmt: skip
+                   "--tracker", FAULTED, cwd=tmp_path)  # fmt: skip
     assert done.returncode == 1
     assert done.stdout == ""  # no "wrote ..." claim
     line = one_line(done.stderr)
@@ -49,7 +50,7 @@ def test_a_line_protocol_tracker_steered_from_outside_with_the_beam_broken(tmp_p
     """Acceptance S2's shape: a tracker simulator started by hand, found by its device path."""
     (tmp_path / "faults.txt").write_text(NEVER)
     with SimulatorProcess(noise=False, initialised=True, faults=tmp_path / "faults.txt") as sim:
-        done = run_cli(*BASE, "-q", "--tracker", sim.url, "--sim-control", sim.control_url,
+        done = run_cli(*BASE, "-q", "--tracker", sim.url, "--robot", f"sim://?control={sim.control_url}",
                        "--retries", "0", "--retry-pause", "0", cwd=tmp_path)  # fmt: skip
     assert done.returncode == 1 and done.stdout == ""
     line = one_line(done.stderr)
@@ -61,20 +62,28 @@ def test_the_pause_before_each_retry_is_taken(tmp_path):
     (tmp_path / "faults.txt").write_text(NEVER)
     t0 = time.perf_counter()
     done = run_cli(*BASE, "-q", "--retries", "2", "--retry-pause", "0.2",
-                   "--sim-faults", "faults.txt", cwd=tmp_path)  # fmt: skip
+                   "--tracker", FAULTED, cwd=tmp_path)  # fmt: skip
     elapsed = time.perf_counter() - t0
     assert done.returncode == 1
     assert elapsed >= 5 * (0.2 + 0.4)  # five poses, two retries each, the pause doubling
 
 
-def test_sim_control_needs_the_simulated_robot(tmp_path):
-    done = run_cli(*BASE, "--robot", "ur://127.0.0.1", "--sim-control", "socket://127.0.0.1:1",
+def test_a_control_url_is_a_setting_of_the_simulated_robot_only(tmp_path):
+    # Only the simulated arm knows where its probe is, so only its URL takes one.
+    done = run_cli(*BASE, "--robot", "ur://127.0.0.1?control=socket://127.0.0.1:1",
                    cwd=tmp_path)  # fmt: skip
     assert done.returncode == 2
-    assert one_line(done.stderr) == (
-        "calibrator: error: --sim-control needs --robot sim (the simulated arm says where its "
-        "probe is)"
+    assert "ur:// takes no parameters" in one_line(done.stderr)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_unreachable_control_url_is_refused_in_one_line_before_anything_moves(tmp_path):
+    done = run_cli(*BASE, "--robot", "sim://?control=socket://127.0.0.1:1", cwd=tmp_path)
+    assert done.returncode == 2
+    assert one_line(done.stderr).startswith(
+        "calibrator: error: --robot: control=socket://127.0.0.1:1: "
     )
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_plan_larger_than_identify_takes_is_refused_before_anything_moves(tmp_path):

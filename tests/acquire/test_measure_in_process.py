@@ -24,14 +24,26 @@ from measure_kit import session_rows
 
 from calibrator import cell as cells
 from calibrator import planning, robots, session
-from calibrator.cli import measure as measure_cli
+from calibrator.cli import _run
 from calibrator.model import frames
 from calibrator.simulate import SIM_TRACKER_AT_MM, SimWorld
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.tracker import read_log
 
 UR10E = robots.get("ur10e")
-FAST = ("--poses", "10", "--readings", "3", "--no-sim-noise", "-q", "-o", "s.parquet")
+#: The simulated tracker reading exactly (its settings in its URL).
+NO_NOISE = "sim://?noise=off"
+FAST = (
+    "--poses",
+    "10",
+    "--readings",
+    "3",
+    "--tracker",
+    "sim://?noise=off",
+    "-q",
+    "-o",
+    "s.parquet",
+)
 SIM_IDENTITY = "CALIBRATOR:TRACKER-SIM:SIM-0001"  # what the tracker simulator says it is
 
 
@@ -144,7 +156,9 @@ def journal_lines(path):
 def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
     # Readings 1-9 are poses 0-2; the beam breaks on both tries of pose 3 (retries 1).
     (tmp_path / "faults.txt").write_text("MEAS@10 beam_break count=2\n")
-    done = measure(*FAST, "--retries", "1", "--sim-faults", "faults.txt", cwd=tmp_path)
+    done = measure(
+        *FAST, "--retries", "1", "--tracker", NO_NOISE + "&faults=faults.txt", cwd=tmp_path
+    )
     assert done.code == 0, done.stderr
     assert done.stdout == (
         "1 pose(s) failed: beam broken x2 (after 1 retries: poses [3]); wrote s.parquet with "
@@ -180,7 +194,14 @@ def test_failed_pose_keeps_the_journal_and_resume_retries_only_it(tmp_path):
 def test_progress_marks_a_failed_pose(tmp_path):
     (tmp_path / "faults.txt").write_text("MEAS@10 beam_break count=1\n")
     done = measure(
-        *FAST[:-3], "-o", "s.parquet", "--retries", "0", "--sim-faults", "faults.txt", cwd=tmp_path
+        *FAST[:-3],
+        "-o",
+        "s.parquet",
+        "--retries",
+        "0",
+        "--tracker",
+        NO_NOISE + "&faults=faults.txt",
+        cwd=tmp_path,
     )
     assert done.code == 0, done.stderr
     spreads = [re.search(r"spread_um=(\S+)", x).group(1) for x in progress_lines(done.stderr)]
@@ -300,8 +321,8 @@ def write_plans(folder):
         (("--tool", "0,0,1e308"), "--tool: 1e+308 mm is beyond +-2000 mm"),
         (("--readings", "1000000000"), "--readings: 1000000000 readings is more than the limit"),
         (("--settle", "1e9"), "--settle: 1e+09 s is more than the limit of 60 s"),
-        (("--sim-faults", "none.txt"), "file not found: none.txt"),
-        (("--sim-replay", "none.jsonl"), "file not found: none.jsonl"),
+        (("--tracker", "sim://?faults=none.txt"), "file not found: none.txt"),
+        (("--tracker", "sim://?replay=none.jsonl"), "file not found: none.jsonl"),
         (("--resume",), "nothing to resume: s.parquet.journal not found"),
         (("--robot", "ftp://x"), "--robot: unknown robot 'ftp://x'; use sim or ur://HOST"),
         (
@@ -364,7 +385,7 @@ def test_nothing_is_replaced(tmp_path, existing, args, message):
 def test_a_real_robot_needs_a_confirmation_from_a_terminal(monkeypatch, capsys):
     monkeypatch.setattr(sys, "stdin", open(os.devnull))  # not a terminal
     with pytest.raises(typer.Exit) as exc:
-        measure_cli._confirm("ur://10.0.0.5:ur10e", 12)
+        _run.confirm("ur://10.0.0.5:ur10e", 12)
     assert exc.value.exit_code == 2
     assert capsys.readouterr().err == (
         "calibrator: error: the robot ur://10.0.0.5:ur10e would move through 12 poses: "
@@ -387,10 +408,10 @@ def test_the_confirmation_question_defaults_to_no(monkeypatch, capsys, answer, m
 
     monkeypatch.setattr(typer, "confirm", confirm)
     if moves:
-        measure_cli._confirm("ur://h:ur10e", 3)
+        _run.confirm("ur://h:ur10e", 3)
     else:
         with pytest.raises(typer.Exit) as exc:
-            measure_cli._confirm("ur://h:ur10e", 3)
+            _run.confirm("ur://h:ur10e", 3)
         assert exc.value.exit_code == 2
         assert capsys.readouterr().err == "calibrator: error: not confirmed; nothing moved\n"
     assert asked == [("Move the robot ur://h:ur10e through 3 poses?", False)]
@@ -398,7 +419,7 @@ def test_the_confirmation_question_defaults_to_no(monkeypatch, capsys, answer, m
 
 def test_first_ctrl_c_asks_for_a_stop_the_second_interrupts(capsys):
     previous = signal.getsignal(signal.SIGINT)
-    with measure_cli._StopOnSigint() as stop:
+    with _run.StopOnSigint() as stop:
         assert stop.requested is False
         os.kill(os.getpid(), signal.SIGINT)
         assert stop.requested is True
@@ -413,9 +434,8 @@ def test_a_replayed_exchange_gives_the_recorded_session_and_is_recorded_again(tm
     from test_measure_replay import fixture_plan
 
     done = measure(
-        "--plan", fixture_plan(tmp_path), "--readings", "5", "--no-sim-noise", "-q",
-        "-o", "s.parquet",
-        "--sim-replay", fixtures / "exchange.jsonl", "--sim-record", "again.jsonl",
+        "--plan", fixture_plan(tmp_path), "--readings", "5", "-q", "-o", "s.parquet",
+        "--tracker", f"{NO_NOISE}&replay={fixtures / 'exchange.jsonl'}&record=again.jsonl",
         cwd=tmp_path,
     )  # fmt: skip
     assert done.code == 0, done.stderr

@@ -37,11 +37,9 @@ def test_replayed_exchange_gives_the_recorded_session_row_for_row(tmp_path):
         fixture_plan(tmp_path),
         "--readings",
         "5",
-        "--no-sim-noise",  # a live simulator would now differ; the replay cannot
-        "--sim-replay",
-        FIXTURES / "exchange.jsonl",
-        "--sim-record",
-        "again.jsonl",
+        # noise off: a live simulator would now differ; the replay cannot
+        "--tracker",
+        f"sim://?noise=off&replay={FIXTURES / 'exchange.jsonl'}&record=again.jsonl",
         "-o",
         "s.parquet",
         cwd=tmp_path,

@@ -17,7 +17,7 @@ from calibrator import cell, planning, robots
 from calibrator.simulate import SIM_TRACKER_AT_MM
 from drivers.robot.ur.simulator.launcher import FakeUrProcess
 
-UR = ("measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--no-sim-noise")
+UR = ("measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--tracker", "sim://?noise=off")
 UR += ("--speed", "1.0", "--accel", "2.0", "-o", "s.parquet")
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from cli_kit import cli, one_line_error
 
-from calibrator import iso9283_path as ip
 from calibrator.check import circle as circles
+from calibrator.verify import path_figures as ip
 
 R = 100.0
 OFFSET = 0.15  # mm, centre moved along the start direction

@@ -153,12 +153,28 @@ def test_emscon_reports_its_environment_parameters():
 def test_a_recording_with_cond_queries_replays_to_the_same_session(tmp_path):
     from drivers.tracker import read_log
 
-    common = ("measure", "--poses", "30", "--readings", "3", "--no-sim-noise")
-    done = cli(*common, "--sim-record", "rec.jsonl", "-o", "a.parquet", "-q", cwd=tmp_path)
+    common = ("measure", "--poses", "30", "--readings", "3")
+    done = cli(
+        *common,
+        "--tracker",
+        "sim://?noise=off&record=rec.jsonl",
+        "-o",
+        "a.parquet",
+        "-q",
+        cwd=tmp_path,
+    )
     assert done.code == 0, done.stderr
     sent = [e.data for e in read_log(tmp_path / "rec.jsonl") if e.direction == "tx"]
     assert sum(b",COND?*" in line for line in sent) == 31  # the warm-up check, then each pose
-    done = cli(*common, "--sim-replay", "rec.jsonl", "-o", "b.parquet", "-q", cwd=tmp_path)
+    done = cli(
+        *common,
+        "--tracker",
+        "sim://?noise=off&replay=rec.jsonl",
+        "-o",
+        "b.parquet",
+        "-q",
+        cwd=tmp_path,
+    )
     assert done.code == 0, done.stderr
     a, b = (pq.read_table(tmp_path / f"{n}.parquet").to_pydict() for n in "ab")
     for column in ("pose", "q1_rad", "x_mm", "y_mm", "z_mm"):

@@ -18,7 +18,7 @@ pytest.importorskip("rtde_receive")
 def test_measure_keeps_the_joint_temperatures_the_controller_reports(tmp_path):
     with FakeUrProcess(time_scale=50.0, model="ur10e", unlock_delay_s=0.5):
         done = run_cli(
-            "measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--no-sim-noise",
+            "measure", "--robot", "ur://127.0.0.1", "--poses", "12", "--tracker", "sim://?noise=off",
             "--speed", "1.0", "--accel", "2.0", "--settle", "0", "--yes", "-o", "s.parquet",
             cwd=tmp_path,
         )  # fmt: skip

@@ -14,7 +14,14 @@ new top-level name needs one line in :data:`LAYERS`. The contracts:
 - no cycle between modules, and none between top-level names (packages);
 - a module imports only modules of its own layer or of layers below it;
 - ``calibrator`` imports ``drivers`` only from the CLI (the hexagonal core:
-  :mod:`calibrator.acquire.ports` is what devices implement).
+  :mod:`calibrator.acquire.ports` is what devices implement);
+- procedures above methods: a procedure module (:data:`PROCEDURES`: the cell
+  sequence and the ``measure``, ``verify`` and ``check`` procedures built on
+  it) is imported only by the CLI and other procedures, and no method module
+  (:data:`METHODS`: identification, the model, planning, the figures and
+  verdicts of verify and check) reaches one, even through other modules;
+- only the CLI, the drivers and the simulation itself import the simulation
+  (:data:`SIMULATION`): a procedure opens the simulated cell as devices.
 
 Each failure prints what breaks the contract and, for a cycle, its edges.
 ``python tests/static/test_layers.py`` prints the whole graph by layer.
@@ -50,12 +57,11 @@ LAYERS: dict[str, tuple[str, ...]] = {
         "calibrator.filtering",
         "calibrator.history",
         "calibrator.identify",
-        "calibrator.iso9283",
-        "calibrator.iso9283_path",
         "calibrator.planning",
         "calibrator.program",
         "calibrator.report",
         "calibrator.simulate",
+        "calibrator.verify",
         "calibrator.world",
     ),
     # The arm and its documents: kinematics, parameters, descriptions,
@@ -78,6 +84,34 @@ LAYERS: dict[str, tuple[str, ...]] = {
 #: Only these may import ``drivers``.
 DRIVER_USERS = ("calibrator.cli",)
 
+#: The procedure modules: the one cell sequence and the procedures built on it.
+PROCEDURES = (
+    "calibrator.acquire.procedure",
+    "calibrator.acquire.measure",
+    "calibrator.check.procedure",
+    "calibrator.verify.procedure",
+)
+
+#: Who may import a procedure module (besides the procedures themselves).
+PROCEDURE_USERS = ("calibrator.cli",)
+
+#: The method modules (``pkg.*``: every module under ``pkg``; the procedure
+#: modules excepted): what a procedure uses, never what uses a procedure.
+METHODS = (
+    "calibrator.identify.*",
+    "calibrator.model.*",
+    "calibrator.planning.*",
+    "calibrator.robots.*",
+    "calibrator.check.*",
+    "calibrator.verify.*",
+)
+
+#: The simulation: the simulated cell's hidden true arm and its world files.
+SIMULATION = ("calibrator.simulate", "calibrator.world")
+
+#: Who may import the simulation (besides the simulation itself).
+SIMULATION_USERS = ("calibrator.cli", "drivers")
+
 #: Imports that break a contract today, each with the change that removes it:
 #: ``(importer, imported)``, module names, ``pkg.*`` for every module under
 #: ``pkg``. The contracts are checked on the graph without these edges, and
@@ -86,7 +120,9 @@ KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _matches(name: str, pattern: str) -> bool:
-    return name.startswith(pattern[:-1]) if pattern.endswith(".*") else name == pattern
+    if pattern.endswith(".*"):  # the package and every module under it
+        return name == pattern[:-2] or name.startswith(pattern[:-1])
+    return name == pattern
 
 
 def _known(importer: str, imported: str) -> bool:
@@ -279,6 +315,91 @@ def test_only_the_cli_imports_drivers():
         if target.split(".")[0] == "drivers"
     ]
     assert not found, "calibrator imports drivers outside the CLI:\n" + "\n".join(found)
+
+
+def test_every_procedure_and_simulation_module_exists():
+    # A renamed module would leave its contract guarding nothing.
+    found = modules()
+    missing = [name for name in PROCEDURES + SIMULATION if name not in found]
+    assert not missing, "update tests/static/test_layers.py, gone: " + ", ".join(missing)
+
+
+def _is_method(name: str) -> bool:
+    return name not in PROCEDURES and any(_matches(name, m) for m in METHODS)
+
+
+def reaches(edges: dict[str, set[str]], start: str, targets: Iterable[str]) -> list[str] | None:
+    """An import chain from ``start`` to a module of ``targets``, or None (breadth first)."""
+    goal = set(targets)
+    before: dict[str, str] = {start: ""}
+    frontier = [start]
+    while frontier:
+        following = []
+        for name in frontier:
+            for target in sorted(edges.get(name, ())):
+                if target in before:
+                    continue
+                before[target] = name
+                if target in goal:
+                    chain = [target]
+                    while chain[-1] != start:
+                        chain.append(before[chain[-1]])
+                    return chain[::-1]
+                following.append(target)
+        frontier = following
+    return None
+
+
+def test_procedures_are_imported_only_by_the_cli_and_procedures():
+    found = [
+        f"  {name} -> {target}"
+        for name, targets in sorted(checked_graph().items())
+        if name not in PROCEDURES and not name.startswith(PROCEDURE_USERS)
+        for target in sorted(targets)
+        if target in PROCEDURES
+    ]
+    assert not found, "procedure modules imported below the CLI:\n" + "\n".join(found)
+
+
+def test_no_method_reaches_a_procedure():
+    edges = checked_graph()
+    found = []
+    for name in sorted(edges):
+        if _is_method(name):
+            chain = reaches(edges, name, PROCEDURES)
+            if chain is not None:
+                found.append("  " + " -> ".join(chain))
+    assert not found, "methods that reach a procedure:\n" + "\n".join(found)
+
+
+def test_only_the_cli_the_drivers_and_the_simulation_import_the_simulation():
+    found = [
+        f"  {name} -> {target}"
+        for name, targets in sorted(checked_graph().items())
+        if name not in SIMULATION and not name.startswith(SIMULATION_USERS)
+        for target in sorted(targets)
+        if target in SIMULATION
+    ]
+    assert not found, "the simulation imported outside the CLI and drivers:\n" + "\n".join(found)
+
+
+def test_the_new_contracts_catch_what_they_forbid():
+    # Each contract on a made-up graph holding the import it forbids.
+    edges = {
+        "calibrator.planning.poses": {"calibrator.check.explain"},
+        "calibrator.check.explain": {"calibrator.check.procedure"},
+        "calibrator.check.procedure": {"calibrator.acquire.procedure"},
+        "calibrator.acquire.run": {"calibrator.simulate"},
+    }
+    assert reaches(edges, "calibrator.planning.poses", PROCEDURES) == [
+        "calibrator.planning.poses",
+        "calibrator.check.explain",
+        "calibrator.check.procedure",
+    ]
+    assert _is_method("calibrator.check.explain") and not _is_method("calibrator.check.procedure")
+    assert reaches(edges, "calibrator.check.procedure", ["calibrator.simulate"]) is None
+    assert _matches("calibrator.model", "calibrator.model.*")
+    assert not _matches("calibrator.modelling", "calibrator.model.*")
 
 
 def test_the_graph_sees_lazy_relative_and_type_only_imports(tmp_path):

@@ -28,7 +28,7 @@ def test_init_asks_first_then_measure_needs_no_python(simulator, tmp_path):
         status = run_cli("tracker", "status", "--tracker", sim.url)
         assert status.returncode == 0, status.stderr
         assert "initialised=False" in status.stdout
-        measure = ("measure", "--poses", "12", "--sim-control", sim.control_url, "-q")
+        measure = ("measure", "--poses", "12", "--robot", f"sim://?control={sim.control_url}", "-q")
         refused = run_cli(*measure, "--tracker", sim.url, "-o", "a.parquet", cwd=tmp_path)
         assert refused.returncode == 2
         assert f"run `calibrator tracker init --tracker {sim.url}`" in one_line(refused)

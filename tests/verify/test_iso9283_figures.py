@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import iso9283, robots
+from calibrator import robots
 from calibrator.model import frames, kinematics
+from calibrator.verify import iso9283
 
 
 def test_position_figures_of_a_centred_cross_match_hand_values():

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from calibrator import iso9283_path as ip
+from calibrator.verify import path_figures as ip
 
 RATE_HZ = 1000.0
 

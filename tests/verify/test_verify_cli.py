@@ -89,7 +89,7 @@ def test_before_in_the_calibration_frame_via_register(calibrated):
 def test_a_failed_visit_stops_the_certificate_and_resume_completes_it(tmp_path):
     (tmp_path / "faults.txt").write_text("MEAS@31 beam_break count=40\n")
     args = ("verify", "-q", "--cycles", "2", "--retries", "1", "-o", "v.json")
-    done = cli(*args, "--sim-faults", "faults.txt", cwd=tmp_path)
+    done = cli(*args, "--tracker", "sim://?faults=faults.txt", cwd=tmp_path)
     assert done.code == 1 and "--resume" in done.stderr, done.stderr
     assert not (tmp_path / "v.json").exists() and not (tmp_path / "v.parquet").exists()
     records = (tmp_path / "v.json.journal").read_text().splitlines()[1:]
@@ -110,10 +110,9 @@ def test_refuses_bad_options_in_one_line(tmp_path):
     one_line_error(cli("verify", "--calibration", "missing.json", "-o", "w.json", cwd=tmp_path))
     one_line_error(cli("verify", "--base-frame", "1,2,3", "-o", "w.json", cwd=tmp_path))
     one_line_error(cli("verify", "--tool", "0,0,1e308", "-o", "w.json", cwd=tmp_path))
-    bad = cli(
-        "verify", "--tracker", "socket://h:1", "--sim-probe-6dof", "-o", "w.json", cwd=tmp_path
-    )
-    assert "--sim-probe-6dof is for --tracker sim" in one_line_error(bad)
+    # A probe's kind is the simulated tracker's setting: a real tracker reports its own.
+    bad = cli("verify", "--tracker", "socket://h:1?probe=6dof", "-o", "w.json", cwd=tmp_path)
+    assert "unknown parameter 'probe'" in one_line_error(bad)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["v.json"]
 
 
@@ -193,7 +192,17 @@ def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path)
     from calibrator.model import frames
     from calibrator.simulate import SimWorld
 
-    done = cli("verify", "-q", "--cycles", "2", "--sim-probe-6dof", "-o", "v.json", cwd=tmp_path)
+    done = cli(
+        "verify",
+        "-q",
+        "--cycles",
+        "2",
+        "--tracker",
+        "sim://?probe=6dof",
+        "-o",
+        "v.json",
+        cwd=tmp_path,
+    )
     assert done.code == 0, done.stderr
     assert "APa deg" in done.stdout and "RPc deg" in done.stdout
     doc = json.loads((tmp_path / "v.json").read_text())

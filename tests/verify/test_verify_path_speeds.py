@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from cli_kit import cli, one_line_error
 
-from calibrator import iso9283, robots
-from calibrator.acquire import verify as pose_run
-from calibrator.acquire import verify_path
+from calibrator import robots
 from calibrator.model import frames
+from calibrator.verify import iso9283
+from calibrator.verify import path as verify_path
+from calibrator.verify import pose as pose_run
 
 
 def test_the_rated_speed_brings_the_leading_joint_to_its_ceiling():

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from calibrator.acquire import verify as run
 from calibrator.model import frames
+from calibrator.verify import pose as run
 
 TOOL = frames.transform(translation=[0, 0, 100.0])
 

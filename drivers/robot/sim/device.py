@@ -141,6 +141,7 @@ class SimulatedRobot(Robot):
         if repeatability is not None:
             self.set_repeatability(repeatability, rng)
         self._connected = False
+        self._control: Any = None  # a tracker simulator's control port (steer)
         self._protective = False
         self._emergency = False
         self._latched = False
@@ -200,6 +201,33 @@ class SimulatedRobot(Robot):
 
     def close(self) -> None:
         self._connected = False
+        control, self._control = self._control, None
+        if control is not None:
+            control.close()
+
+    def steer(self, control_url: str) -> None:
+        """After each move, tell a tracker simulator started by hand where the probe is.
+
+        ``control_url``: the simulator's control port (``socket://127.0.0.1:PORT``);
+        the probe's true pose goes there as ``SIM,TARGET`` (tracker frame, mm and
+        rad). Closed with the robot.
+
+        Raises
+        ------
+        ValueError
+            The control port cannot be opened.
+        """
+        from calibrator.model import frames
+        from drivers.tracker.line.simulator.launch import SimulatorControl
+
+        try:
+            control = SimulatorControl(control_url)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"control={control_url}: {exc}") from None
+        self._control = control
+        self.listener = lambda pose: control.set_target(
+            pose[:3, 3], frames.matrix_to_rotvec(pose[:3, :3])
+        )
 
     # --------------------------------------------------------------- state
     def actual_joints(self) -> np.ndarray:
@@ -286,11 +314,13 @@ def _check_transform(t: ArrayLike, name: str) -> np.ndarray:
 #: What ``sim://?...`` takes: ``repeatability=typical`` gives the arm a typical
 #: arm's joint positioning error and backlash (:meth:`JointRepeatability.typical`),
 #: ``none`` lands it exactly; left out, the world's own (``SimWorld.repeatability``).
-URL_PARAMS: dict = {"repeatability": ("typical", "none")}
+#: ``control``: the control URL of a tracker simulator started by hand, which the
+#: arm steers (:meth:`SimulatedRobot.steer`).
+URL_PARAMS: dict = {"repeatability": ("typical", "none"), "control": None}
 
 
 def open_url(url: str, options: RobotOptions) -> SimulatedRobot:
-    """The robot registry's handler of ``sim`` and ``sim://?repeatability=typical|none``.
+    """The robot registry's handler of ``sim`` and ``sim://?repeatability=typical|none&control=URL``.
 
     The true arm, base and tool are those of ``options.world`` (required).
 
@@ -319,4 +349,6 @@ def open_url(url: str, options: RobotOptions) -> SimulatedRobot:
         rng=world.repeatability_rng() if repeatability is not None else None,
     )
     robot.device_id = f"sim:{world.model.name}:seed={world.seed}"
+    if "control" in params:
+        robot.steer(params["control"])
     return robot

@@ -1,7 +1,7 @@
 """``calibrator measure --tracker emscon://127.0.0.1:PORT`` with the simulated robot, then identify.
 
 The emScon simulator runs as its own process; the simulated robot steers its
-target through the control port (hidden ``--sim-control``), exactly as it
+target through the control port (``--robot sim://?control=URL``), exactly as it
 steers the embedded line-protocol simulator.
 """
 
@@ -23,7 +23,7 @@ def _cli(*args, cwd):
 def test_measure_over_emscon_records_a_session_identify_fits_to_the_noise_floor(tmp_path):
     with EmsconSimulatorProcess(seed=4, initialised=True) as sim:
         done = _cli(
-            "measure", "--poses", "30", "--tracker", sim.url, "--sim-control", sim.control_url,
+            "measure", "--poses", "30", "--tracker", sim.url, "--robot", f"sim://?control={sim.control_url}",
             "-o", "s.parquet", "--yes", cwd=tmp_path,
         )  # fmt: skip
     assert done.returncode == 0, done.stderr
@@ -46,7 +46,7 @@ def test_measure_over_emscon_records_a_session_identify_fits_to_the_noise_floor(
 def test_measure_refuses_an_uninitialised_emscon_tracker_without_moving_its_head(tmp_path):
     with EmsconSimulatorProcess(seed=4, initialised=False) as sim:
         done = _cli(
-            "measure", "--poses", "12", "--tracker", sim.url, "--sim-control", sim.control_url,
+            "measure", "--poses", "12", "--tracker", sim.url, "--robot", f"sim://?control={sim.control_url}",
             "-o", "s.parquet", "--yes", cwd=tmp_path,
         )  # fmt: skip
     assert done.returncode == 2

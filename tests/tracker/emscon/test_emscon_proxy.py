@@ -100,7 +100,7 @@ def test_one_wild_reading_of_ten_never_moves_a_recorded_pose(tmp_path, proxied_s
     sim, proxy = proxied_sim
     done = run_cli(
         "measure", "--poses", "24", "--tracker", f"emscon://127.0.0.1:{proxy.port}",
-        "--sim-control", sim.control_url, "-o", "s.parquet", "--yes", cwd=tmp_path,
+        "--robot", f"sim://?control={sim.control_url}", "-o", "s.parquet", "--yes", cwd=tmp_path,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert proxy.shifted >= 24  # every pose got its wild reading

@@ -3,7 +3,7 @@
 The simulated robot hands the simulator its path as waypoints over the
 control socket (``SIM,PATH``) while the driver streams over the pty; the
 simulator stamps its readings ``--latency`` late, and the alignment of
-:mod:`calibrator.iso9283_path` recovers that latency from the two streams.
+:mod:`calibrator.verify.path_figures` recovers that latency from the two streams.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from tracker_kit import live_tracker
 
-from calibrator import iso9283_path as ip
+from calibrator.verify import path_figures as ip
 from drivers.tracker.line.simulator import SimulatorProcess
 
 LATENCY_S = 0.020

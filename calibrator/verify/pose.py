@@ -32,13 +32,14 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from calibrator import compensate, iso9283, outputs
+from calibrator import compensate, outputs
 from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
 from calibrator.planning import Plan
 from calibrator.robots import JointConvention
+from calibrator.verify import iso9283
 
 #: Columns of verify.parquet, in order (base frame, mm).
 COLUMNS = ("test_pose", "cycle", "x_mm", "y_mm", "z_mm", "cmd_x_mm", "cmd_y_mm", "cmd_z_mm")
@@ -52,9 +53,9 @@ class VerifyPlan:
 
     Attributes
     ----------
-    cube : calibrator.iso9283.Cube
+    cube : calibrator.verify.iso9283.Cube
     cube_given : bool
-        From ``--cube`` rather than :func:`calibrator.iso9283.largest_cube`.
+        From ``--cube`` rather than :func:`calibrator.verify.iso9283.largest_cube`.
     desired : ndarray, shape (5, 4, 4)
         Test poses P1..P5, tool in the robot base frame, mm.
     q_test : ndarray, shape (5, 6)
@@ -109,7 +110,7 @@ def make_plan(
         so the same poses are tested with and without a calibration.
     cycles : int
         At least 2 (a repeatability needs a spread).
-    cube : calibrator.iso9283.Cube, optional
+    cube : calibrator.verify.iso9283.Cube, optional
         Given cube, its centre in the controller's base frame (KUKA
         ``$ROBROOT``, FANUC's World: what the pendant shows; its edges along
         the model's base axes); default the largest cube of the working space.

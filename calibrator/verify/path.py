@@ -1,6 +1,6 @@
 """The ISO 9283 path test on the simulated cell: a line or a circle in the test cube, streamed.
 
-The pose test (:mod:`calibrator.acquire.verify`) stops at five poses; this
+The pose test (:mod:`calibrator.verify.pose`) stops at five poses; this
 runs a path through the same cube and measures it continuously:
 
 1. the commanded path (:func:`test_path`) lies in the cube's test plane:
@@ -17,7 +17,7 @@ runs a path through the same cube and measures it continuously:
    while the driver streams it (``STREAM``);
 4. each cycle's stream goes into the robot base frame through the
    registration, is aligned in time with the commanded path
-   (:func:`calibrator.iso9283_path.estimate_latency` against the path run at
+   (:func:`calibrator.verify.path_figures.estimate_latency` against the path run at
    constant speed: no robot stream is needed), and the clause 7 figures are
    computed from the ``cycles`` streams.
 
@@ -36,10 +36,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from calibrator import compensate, iso9283
-from calibrator import iso9283_path as ip
+from calibrator import compensate
 from calibrator.errors import CalibrationError
 from calibrator.model import frames, kinematics
+from calibrator.verify import iso9283
+from calibrator.verify import path_figures as ip
 
 #: Rate at which the controller's interpolated joint commands are taken, Hz.
 CONTROL_HZ = 250.0
@@ -263,11 +264,11 @@ def stream_cycle(
         Registration, mm.
     reference : callable, optional
         The alignment's reference (default the commanded path's timing,
-        :func:`calibrator.iso9283_path.commanded_reference`).
+        :func:`calibrator.verify.path_figures.commanded_reference`).
 
     Returns
     -------
-    stream : calibrator.iso9283_path.Stream
+    stream : calibrator.verify.path_figures.Stream
         The attained path from the aligned start of the motion to its end, base frame, mm.
     start : float
         Found start less the one requested, s.

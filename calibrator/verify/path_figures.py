@@ -1,6 +1,6 @@
 """ISO 9283 clause 7: path accuracy, repeatability, corner deviations, path velocity.
 
-The pose test (:mod:`calibrator.iso9283`) looks at where the arm stops; this
+The pose test (:mod:`calibrator.verify.iso9283`) looks at where the arm stops; this
 module looks at how it moves between, from time-stamped streams of attained
 positions (a laser tracker following the reflector while the arm runs a
 commanded path ``n`` times). The figures, with the standard's symbols:

@@ -1,0 +1,153 @@
+"""The robot and tracker of one cell procedure, opened by URL.
+
+:class:`Devices` is the drivers' side of the port
+:class:`calibrator.acquire.ports.Devices`: it opens ``--robot`` and
+``--tracker`` through the registries (:func:`drivers.robot.open_robot`,
+:func:`drivers.tracker.open_tracker`), the simulated cell like any other
+devices, its settings in its URLs (``sim://?noise=off``) and its true arm in
+a world file::
+
+    from drivers.devices import Devices
+
+    Devices()                                      # the simulated cell, seeded by the run
+    Devices("sim://?repeatability=typical", "sim://?noise=off&probe=6dof")
+    Devices("sim://?control=socket://127.0.0.1:PORT", "/dev/pts/4")  # a simulator by hand
+    Devices("ur://10.0.0.5", "emscon://10.0.0.7")  # a real cell
+
+The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
+``faults=PATH``, ``replay=PATH`` and ``record=PATH``; the simulated robot
+``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
+simulator started by hand); the world file (:mod:`calibrator.world`) the true
+arm both move.
+"""
+
+from __future__ import annotations
+
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from calibrator.acquire.ports import Opened
+from calibrator.errors import CalibrationError
+from drivers.registry import scheme
+
+
+def is_sim(url: str) -> bool:
+    """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
+    return scheme(url) == "sim"
+
+
+@dataclass(frozen=True)
+class Devices:
+    """A robot URL and a tracker URL, and how to open them.
+
+    Attributes
+    ----------
+    robot, tracker : str
+        ``sim`` (or ``sim://?settings``), ``ur://HOST``, ``external``; ``sim``,
+        a device path, ``socket://``, ``emscon://`` (``drivers.tracker``).
+    world : calibrator.world.World, optional
+        A world file's true arm for the simulated cell (default: the arm
+        drawn from the run's seed).
+    record : Path, optional
+        Log the tracker's raw exchange there (line-protocol kinds); for the
+        simulated tracker also ``sim://?record=PATH``.
+    max_speed_rad_s : float, optional
+        Lower the arm's speed cap (never raise it).
+    external : calibrator.acquire.external.arm.ExternalOptions, optional
+        Stop detection and association of the ``external`` robot.
+    """
+
+    robot: str = "sim"
+    tracker: str = "sim"
+    world: Any = None
+    record: Path | None = None
+    max_speed_rad_s: float | None = None
+    external: Any = None
+
+    @property
+    def tracker_url(self) -> str:
+        return self.tracker
+
+    @property
+    def simulated(self) -> bool:
+        """Either device is simulated: the run has a simulated world."""
+        return is_sim(self.robot) or is_sim(self.tracker)
+
+    def sim_world(self, arm: Any, seed: int) -> Any:
+        """The simulated cell's truth for ``arm`` and ``seed`` (the world file's, if given)."""
+        from calibrator.simulate import SimWorld
+
+        if self.world is not None:
+            return self.world.build(arm.name, seed)
+        return SimWorld.make(arm.name, seed)
+
+    def tracker_at_mm(self, arm: Any, seed: int) -> tuple[float, float, float] | None:
+        """Where the simulated cell's tracker stands (robot base frame, mm); None on hardware."""
+        if not self.simulated:
+            return None
+        from calibrator.simulate import SimWorld
+
+        x, y, z = (float(v) for v in SimWorld.make(arm.name, seed).tracker_at_mm)
+        return x, y, z
+
+    def open(self, arm: Any, seed: int, place_tracker_at: Any, stack: ExitStack) -> Opened:
+        """Both devices, unconnected (see :meth:`calibrator.acquire.ports.Devices.open`).
+
+        Raises
+        ------
+        CalibrationError
+            A URL no kind opens.
+        """
+        from drivers.robot import RobotOptions, open_robot
+        from drivers.tracker import OpenOptions, open_tracker
+
+        world = None
+        if self.simulated:
+            # The arm's repeatability is the simulated robot's setting (its URL).
+            world = self.sim_world(arm, seed)
+            if place_tracker_at is not None:
+                # The simulated tracker stands where the user (or the cell file) says.
+                world = world.with_tracker_at(place_tracker_at)
+        tracker_url, record = recorded(self.tracker)
+        try:
+            tracker = open_tracker(
+                tracker_url,
+                OpenOptions(
+                    record=record if record is not None else self.record,
+                    world=world if is_sim(self.tracker) else None,
+                ),
+            )
+        except ValueError as exc:
+            raise CalibrationError(f"--tracker: {exc}") from None
+        robot_options = RobotOptions(
+            arm, world, max_speed_rad_s=self.max_speed_rad_s, external=self.external
+        )
+        try:
+            robot = open_robot(self.robot, robot_options)
+        except ValueError as exc:
+            raise CalibrationError(f"--robot: {exc}") from None
+        return Opened(robot, tracker, world)
+
+
+def sim_settings(url: str) -> dict[str, str]:
+    """The settings of a simulated device's URL (``sim://?noise=off`` -> ``{"noise": "off"}``)."""
+    from urllib.parse import parse_qsl, urlsplit
+
+    if not is_sim(url) or "://" not in url:
+        return {}
+    return dict(parse_qsl(urlsplit(url).query, keep_blank_values=True))
+
+
+def recorded(url: str) -> tuple[str, Path | None]:
+    """A simulated tracker's URL without its ``record=PATH``, and that path (else None).
+
+    The rest of the URL is kept as written (the simulator reads its own settings).
+    """
+    path = sim_settings(url).get("record")
+    if path is None:
+        return url, None
+    head, _, query = url.partition("?")
+    kept = [part for part in query.split("&") if part.partition("=")[0] != "record"]
+    return head + ("?" + "&".join(kept) if kept else ""), Path(path)
