@@ -536,7 +536,10 @@ def open_tracker(url: str, **options: Any) -> EmsconTracker:
 def open_url(url: str, options: OpenOptions) -> EmsconTracker:
     """The tracker registry's opener for ``emscon://`` (see :mod:`drivers.tracker.base`)."""
     if options.record is not None or options.world is not None:
-        raise ValueError(f"{url}: recording the simulator's readings (sim://?record=) and simulated-cell settings need a line-protocol tracker")
+        raise ValueError(
+            f"{url}: recording readings (sim://?record=) and simulated-cell settings "
+            "need a line-protocol tracker"
+        )
     return open_tracker(url)
 
 
