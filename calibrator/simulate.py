@@ -56,6 +56,10 @@ class Truth:
 SIM_TRACKER_AT_MM = np.array([2500.0, 400.0, 300.0])
 SIM_TRACKER_ROTVEC = np.array([0.05, -0.1, 2.8])
 
+#: How well the simulated cell's base frame is surveyed: standard deviation of
+#: each translation (mm) and rotation (rad) component, a tracker on base fiducials.
+SIM_SURVEY_MM, SIM_SURVEY_RAD = 0.02, 20e-6
+
 
 @dataclass(frozen=True)
 class SimWorld:
@@ -148,6 +152,24 @@ class SimWorld:
     def repeatability_rng(self) -> np.random.Generator:
         """The generator of the arm's joint errors: its own stream of the world's seed."""
         return np.random.default_rng([self.seed, 9283])
+
+    def surveyed_base2tracker(self) -> np.ndarray:
+        """The base frame as a user would survey it: the truth plus a seeded survey error.
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+            Robot base in the tracker frame, mm: ``base2tracker`` moved by an
+            error of :data:`SIM_SURVEY_MM` (each translation component, mm) and
+            :data:`SIM_SURVEY_RAD` (each rotation component, rad), drawn from
+            the world's seed (a tracker on base fiducials).
+        """
+        rng = np.random.default_rng([self.seed, 9283, 1])
+        error = frames.transform(
+            frames.rotvec_to_matrix(rng.normal(0.0, SIM_SURVEY_RAD, 3)),
+            rng.normal(0.0, SIM_SURVEY_MM, 3),
+        )
+        return np.asarray(self.base2tracker @ error, float)
 
     def tool_pose(self, q_rad: ArrayLike) -> np.ndarray:
         """True probe pose in the tracker frame for joints ``q_rad`` (6,), shape (4, 4), mm."""

@@ -18,7 +18,11 @@ The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
 ``faults=PATH``, ``replay=PATH`` and ``record=PATH``; the simulated robot
 ``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
 simulator started by hand); the world file (:mod:`calibrator.world`) the true
-arm both move.
+arm both move. When the tracker is simulated its target follows the arm's
+true probe after each move (:mod:`drivers.robot.sim.follow`): the simulated
+world stays behind the devices, and a procedure gets of it only plain data
+(:class:`~calibrator.acquire.ports.Opened`: where the tracker stands, the
+base frame as surveyed).
 """
 
 from __future__ import annotations
@@ -28,9 +32,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from calibrator.acquire.ports import Opened
+import numpy as np
+
+from calibrator.acquire.ports import STEER, Opened
 from calibrator.errors import CalibrationError
 from drivers.registry import scheme
+from drivers.robot.sim.follow import steer_tracker
 
 
 def is_sim(url: str) -> bool:
@@ -128,7 +135,20 @@ class Devices:
             robot = open_robot(self.robot, robot_options)
         except ValueError as exc:
             raise CalibrationError(f"--robot: {exc}") from None
-        return Opened(robot, tracker, world)
+        if world is None:
+            return Opened(robot, tracker)
+        if STEER.offered_by(tracker):
+            # The simulated pair: the simulated tracker's target follows the true
+            # probe of whatever arm moves (the simulated arm says where it is; any
+            # other arm's reported joints are put through the world's true arm).
+            robot = steer_tracker(robot, tracker, world.tool_pose)
+        # What a procedure may know of the simulated cell, as plain data.
+        return Opened(
+            robot,
+            tracker,
+            tracker_at_mm=np.array(world.tracker_at_mm, dtype=float),
+            surveyed_base2tracker=world.surveyed_base2tracker(),
+        )
 
 
 def sim_settings(url: str) -> dict[str, str]:

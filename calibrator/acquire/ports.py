@@ -346,22 +346,27 @@ class Robot(Protocol):
 class Opened:
     """The devices a :class:`Devices` opened for one run (not connected yet).
 
+    A simulated cell's tracker already follows its arm (the devices wired
+    that); what a procedure may know of the simulated cell comes as plain
+    data, None on real hardware.
+
     Attributes
     ----------
     robot : calibrator.acquire.ports.Robot or calibrator.acquire.external.arm.ProgramArm
     tracker : calibrator.acquire.ports.Tracker
-    world : calibrator.simulate.SimWorld, optional
-        The simulated cell's truth when either device is simulated (where its
-        tracker stands, its surveyed base); None for real hardware.
-    steer : callable, optional
-        ``steer(point_mm, rotvec_rad)``: tells a simulated tracker where the
-        probe is (tracker frame, mm and rad), when not the tracker itself.
+    tracker_at_mm : numpy.ndarray, shape (3,), optional
+        Where the tracker stands, robot base frame, mm, when the devices know
+        it (the simulated cell); None: only the run's options say.
+    surveyed_base2tracker : numpy.ndarray, shape (4, 4), optional
+        The robot base in the tracker frame, mm, as a survey of the cell gives
+        it (the simulated cell: its truth plus a seeded survey error); None
+        on real hardware (a user surveys it, ``verify --register``).
     """
 
     robot: Any
     tracker: Tracker
-    world: Any = None  # calibrator.simulate.SimWorld: no import of the simulation here
-    steer: Callable[[np.ndarray, np.ndarray], None] | None = None
+    tracker_at_mm: np.ndarray | None = None
+    surveyed_base2tracker: np.ndarray | None = None
 
 
 class Devices(Protocol):

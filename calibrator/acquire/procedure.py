@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from calibrator.acquire import loop
-from calibrator.acquire.ports import Devices
+from calibrator.acquire.ports import Devices, Opened
 from calibrator.acquire.run import MeasureRun, RunOptions, Summary, tracker_position
 
 
@@ -123,8 +123,12 @@ class Procedure:
             return self.settle_s
         return 0.5 if moves_hardware else 0.0
 
-    def opened(self, run: MeasureRun) -> None:
-        """The devices are open (not connected) and the files checked."""
+    def opened(self, run: MeasureRun, devices: Opened) -> None:
+        """The devices are open (not connected) and the files checked.
+
+        ``devices`` holds them and what they know of the cell (a simulated
+        cell's tracker position and surveyed base, as plain data).
+        """
 
     def connected(self, run: MeasureRun, operator: Operator) -> None:
         """Both devices answered."""
@@ -164,12 +168,11 @@ def run(procedure: Procedure, devices: Devices, operator: Operator | None = None
                 procedure.arm,
                 options,
                 procedure.output,
-                world=opened.world,
-                steer=opened.steer,
+                tracker_at_mm=opened.tracker_at_mm,
             )
         )
         mrun.check_files()
-        procedure.opened(mrun)
+        procedure.opened(mrun, opened)
         mrun.connect(devices.tracker_url)
         procedure.connected(mrun, operator)
         operator.step("connected")

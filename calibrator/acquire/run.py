@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from calibrator import outputs
 from calibrator.acquire import journal as journals
@@ -159,13 +160,10 @@ class MeasureRun:
     options : RunOptions
     output : Path
         Session file to write; its journal is beside it.
-    world : calibrator.simulate.SimWorld, optional
-        The simulated world, when either device is simulated.
-    steer : callable, optional
-        ``steer(point_mm, rotvec_rad)`` tells a simulated tracker where the
-        probe is and how it is turned (tracker frame, mm and rad); default:
-        the tracker's own ``set_target`` when it declares
-        :data:`~calibrator.acquire.ports.STEER` and a world is given.
+    tracker_at_mm : array_like, shape (3,), optional
+        Where the devices say the tracker stands (robot base frame, mm: the
+        simulated cell's, :attr:`calibrator.acquire.ports.Opened.tracker_at_mm`),
+        used when the options give no position.
     """
 
     def __init__(
@@ -176,32 +174,24 @@ class MeasureRun:
         options: RunOptions,
         output: Path,
         *,
-        world: Any = None,
-        steer: Callable[[np.ndarray, np.ndarray], None] | None = None,
+        tracker_at_mm: npt.ArrayLike | None = None,
     ) -> None:
         self.robot, self.tracker, self.model = robot, tracker, model
         self.options = options
         self.output = Path(output)
         self.journal_path = journals.journal_path(self.output)
-        self.world = world
-        if steer is None and world is not None and ports.STEER.offered_by(tracker):
-            steer = tracker.set_target
-        self._steer = steer
         self.flange2tool_guess = frames.transform(translation=np.asarray(options.tool_mm, float))
         self.acquisition: Acquisition = acquisition_for(robot, tracker, model.mdh, options.tool_mm)
         # Where the tracker is: --tracker-at, else the cell file's, else the
-        # simulated world's (which open_run places at either of the first two).
-        given = tracker_position(options)
-        self.tracker_at_mm = (
-            np.asarray(given, float)
-            if given is not None
-            else (world.tracker_at_mm.copy() if world is not None else None)
-        )
+        # devices' (a simulated cell's tracker, placed at either of the first two).
+        given: npt.ArrayLike | None = tracker_position(options)
+        if given is None:
+            given = tracker_at_mm
+        self.tracker_at_mm = None if given is None else np.array(given, dtype=float).reshape(3)
         self.plan: Plan | None = None
         self.journal: journals.Journal | None = None
         self.done: dict = {}
         self.outcome: loop.Outcome | None = None
-        self._after_move: Callable[[np.ndarray], None] | None = None
         self._connected: list = []
 
     # ------------------------------------------------------------ steps
@@ -219,7 +209,7 @@ class MeasureRun:
             raise CalibrationError(f"nothing to resume: {jpath} not found")
 
     def connect(self, tracker_url: str = "the tracker") -> None:
-        """Connect the tracker (it must be initialised), then the robot; wire a simulated world.
+        """Connect the tracker (it must be initialised), then the robot.
 
         Raises
         ------
@@ -243,14 +233,6 @@ class MeasureRun:
             self.robot.connect()
         except (ports.PortError, OSError) as exc:
             raise CalibrationError(f"robot {self.robot_id}: {exc}") from None
-        if self._steer is not None:
-            steer = self._steer
-            # The orientation too: a 6-DoF probe reports it (others ignore it).
-            if ports.REPORTS_TRUE_POSE.offered_by(self.robot):
-                self.robot.listener = lambda pose: _steer_to(steer, pose)
-            elif self.world is not None:
-                world = self.world
-                self._after_move = lambda q: _steer_to(steer, world.tool_pose(q))
 
     @property
     def robot_id(self) -> str:
@@ -438,7 +420,7 @@ class MeasureRun:
         assert self.plan is not None and self.journal is not None
         o = self.options
         via_rad = self._with_lead_in(self.plan)
-        hooks = loop.Hooks(self.done, via_rad, self._after_move, should_stop, on_pose, on_beam_lost)
+        hooks = loop.Hooks(self.done, via_rad, None, should_stop, on_pose, on_beam_lost)
         self.outcome = self.acquisition.measure(self.plan.q_rad, self.journal, o, hooks)
         # The journal stays open, and so locked, until finish() has removed it:
         # a --resume started in between must find it in use, not half gone.
@@ -530,8 +512,3 @@ def tracker_position(options: RunOptions) -> tuple[float, float, float] | None:
         return options.tracker_at_mm
     cell = options.cell
     return None if cell is None else cell.tracker_at_mm
-
-
-def _steer_to(steer: Callable[[np.ndarray, np.ndarray], None], pose: np.ndarray) -> None:
-    """Tell a simulated tracker the probe's true pose (4, 4), mm, tracker frame."""
-    steer(pose[:3, 3], frames.matrix_to_rotvec(pose[:3, :3]))

@@ -106,7 +106,7 @@ def run(
     speed_mm_s = speed.value / 100.0 * rated if speed.percent else speed.value
     test = verify_path.plan_path(*plan_args, speed_mm_s, calibration)
     if registration is None:
-        registration = pose_run.sim_survey(world)
+        registration = pose_run.surveyed(world.surveyed_base2tracker(), "simulated cell survey")
     tracker = open_tracker(tracker_url, OpenOptions(world=world))
     if not isinstance(tracker, SimulatedTracker):  # check_options let only `sim` through
         raise CalibrationError(f"--path needs the simulated tracker, not {tracker_url}")

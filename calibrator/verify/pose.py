@@ -286,27 +286,6 @@ def surveyed(base2tracker: npt.ArrayLike, source: str) -> Registration:
     return Registration("surveyed", frames.invert(t), source)
 
 
-#: How well the simulated cell's base frame is surveyed: standard deviation of
-#: each translation (mm) and rotation (rad) component, a tracker on base fiducials.
-SIM_SURVEY_MM, SIM_SURVEY_RAD = 0.02, 20e-6
-
-
-def sim_survey(world: Any) -> Registration:
-    """The simulated world's base frame as a user would survey it: truth plus a seeded error.
-
-    Parameters
-    ----------
-    world : calibrator.simulate.SimWorld
-        Its ``base2tracker`` (4, 4), mm, is the truth; its seed draws the error.
-    """
-    rng = np.random.default_rng([world.seed, 9283, 1])
-    error = frames.transform(
-        frames.rotvec_to_matrix(rng.normal(0.0, SIM_SURVEY_RAD, 3)),
-        rng.normal(0.0, SIM_SURVEY_MM, 3),
-    )
-    return surveyed(world.base2tracker @ error, "simulated cell survey")
-
-
 def fit(points_tracker_mm: npt.ArrayLike, plan: VerifyPlan) -> Registration:
     """Best-fit registration of the barycentres onto the commanded positions.
 

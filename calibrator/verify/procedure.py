@@ -123,10 +123,12 @@ class PoseTest(procedure.Procedure):
             self.registration = pose.from_calibration(options.calibration, options.calibration_path)
         self.doc: dict | None = None
 
-    def opened(self, run: MeasureRun) -> None:
-        if self.registration is None and run.world is not None:
+    def opened(self, run: MeasureRun, devices: ports.Opened) -> None:
+        if self.registration is None and devices.surveyed_base2tracker is not None:
             # The simulated cell's base, as a user would survey it.
-            self.registration = pose.sim_survey(run.world)
+            self.registration = pose.surveyed(
+                devices.surveyed_base2tracker, "simulated cell survey"
+            )
 
     def document(self, run: MeasureRun, outcome: Any) -> Path | None:
         # ISO 9283 needs every visit of every cycle: no figures from part of them.

@@ -12,6 +12,7 @@ measures, and a tracker kind registered from a test measures through the CLI.
 import re
 import subprocess
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +23,7 @@ from scipy.spatial.transform import Rotation
 from calibrator import robots
 from calibrator.acquire import ports
 from calibrator.acquire.ports import ReadingLost, TrackerUnavailable
-from calibrator.acquire.run import MeasureRun, RunOptions
+from calibrator.acquire.run import MeasureRun, RunOptions, tracker_position
 from calibrator.errors import CalibrationError
 from calibrator.model import DEFAULT_TOOL_MM, kinematics
 from calibrator.simulate import (
@@ -30,10 +31,13 @@ from calibrator.simulate import (
     SIM_TRACKER_ROTVEC,
     SimWorld,
 )
+from drivers.devices import Devices
 from drivers.registry import Registry, UnknownKind
 from drivers.robot import RobotOptions, open_robot
+from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot
 from drivers.robot.sim.device import SimulatedRobot
+from drivers.robot.sim.follow import Following, steer_tracker
 from drivers.tracker import TRACKERS, LaserTracker, OpenOptions, open_tracker
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
@@ -91,24 +95,27 @@ def test_the_worlds_tool_pose_is_the_true_arm_seen_from_the_tracker():
 
 
 def sim_run(tmp_path, tracker_url="sim", seed=3, noise=False, **options):
-    world = SimWorld.make("ur10e", seed)
-    robot = open_robot("sim", RobotOptions(UR10E, world))
+    """A run over the simulated cell opened by URL, and the cell's hidden truth (the test's)."""
     if tracker_url == "sim" and not noise:
         tracker_url = "sim://?noise=off"  # the simulator's settings are in its URL
-    tracker = open_tracker(
-        tracker_url, OpenOptions(world=world if tracker_url.startswith("sim") else None)
+    run_options = RunOptions(seed=seed, **options)
+    opened = Devices("sim", tracker_url).open(
+        UR10E, seed, tracker_position(run_options), ExitStack()
     )
     run = MeasureRun(
-        robot, tracker, UR10E, RunOptions(seed=seed, **options), tmp_path / "s.parquet", world=world
+        opened.robot,
+        opened.tracker,
+        UR10E,
+        run_options,
+        tmp_path / "s.parquet",
+        tracker_at_mm=opened.tracker_at_mm,
     )
-    return run, world
+    return run, SimWorld.make("ur10e", seed)
 
 
 def measure_at(run, q):
     """Move the run's arm to ``q`` (rad) and take one reading: the point, mm."""
-    actual = run.robot.move_joints(q, 0.5, 1.0)
-    if run._after_move is not None:
-        run._after_move(actual)
+    run.robot.move_joints(q, 0.5, 1.0)  # the devices steer a simulated tracker themselves
     return run.tracker.measure().point_mm
 
 
@@ -122,7 +129,8 @@ def test_the_simulated_devices_satisfy_the_ports_and_measure_the_hidden_arm(tmp_
         run.connect("sim")
         assert run.robot_id == "sim:ur10e:seed=3"
         assert run.tracker_id.startswith("CALIBRATOR:TRACKER-SIM")
-        assert run._after_move is None  # the robot steers the simulator itself
+        # The simulated arm itself steers the simulator: nothing wraps it.
+        assert run.robot.listener is not None
         np.testing.assert_array_equal(run.tracker_at_mm, SIM_TRACKER_AT_MM)
         for q in (Q, -Q):
             np.testing.assert_allclose(measure_at(run, q), world.tool_pose(q)[:3, 3], atol=1e-4)
@@ -155,18 +163,35 @@ class PlainRobot(SimulatedRobot):
 
 def test_a_robot_without_true_poses_places_the_simulated_target_after_each_move(tmp_path):
     world = SimWorld.make("ur10e", 2)
-    robot = PlainRobot(world.true_mdh, world.base2tracker, world.flange2tool)
+    plain = PlainRobot(world.true_mdh, world.base2tracker, world.flange2tool)
+    plain.device_id = "plain"
     tracker = open_tracker("sim://?noise=off", OpenOptions(world=world))
-    run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet", world=world)
+    robot = steer_tracker(plain, tracker, world.tool_pose)
+    assert isinstance(robot, Following) and robot.robot is plain
+    assert robot.capabilities == plain.capabilities and robot.device_id == "plain"
+    run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet")
     with run:
         run.connect()
-        run._after_move(Q)
-        np.testing.assert_allclose(
-            run.tracker.measure().point_mm, world.tool_pose(Q)[:3, 3], atol=1e-4
-        )
-        after_move = run._after_move
+        np.testing.assert_allclose(measure_at(run, Q), world.tool_pose(Q)[:3, 3], atol=1e-4)
+        np.testing.assert_allclose(measure_at(run, -Q), world.tool_pose(-Q)[:3, 3], atol=1e-4)
     with pytest.raises(TrackerUnavailable, match="^tracker simulator not started"):
-        after_move(Q)  # the simulator has been stopped with the run
+        robot.after_move(Q)  # the simulator has been stopped with the run
+
+
+def test_a_real_arms_driver_is_wrapped_to_steer_the_simulated_tracker_and_keeps_its_caps():
+    # ur:// is only built here (never connected), nor is the simulated tracker started.
+    opened = Devices("ur://10.0.0.5", "sim").open(UR10E, 1, None, ExitStack())
+    robot = opened.robot
+    assert isinstance(robot, Following) and isinstance(robot.robot, GuardedRobot)
+    assert {ports.MOVES_HARDWARE, ports.CHECKS_PLAN} <= robot.capabilities
+    assert ports.CHECKS_PLAN.offered_by(robot) and robot.device_id == "ur://10.0.0.5:ur10e"
+    with pytest.raises(LimitsViolation, match="joint J1: 9 rad outside"):
+        robot.check_plan(np.full((1, 6), 9.0), 0.5, 1.0)  # the inner robot's own check
+    np.testing.assert_array_equal(opened.tracker_at_mm, SIM_TRACKER_AT_MM)
+    # Real devices: no simulated cell behind them, nothing known of it.
+    real = Devices("ur://10.0.0.5", "emscon://10.0.0.7").open(UR10E, 1, None, ExitStack())
+    assert isinstance(real.robot, GuardedRobot)
+    assert real.tracker_at_mm is None and real.surveyed_base2tracker is None
 
 
 @pytest.mark.parametrize("endpoint", ["url", "control_url"], ids=["pty", "socket"])
@@ -276,30 +301,18 @@ def test_a_registry_opens_a_module_handler_a_named_function_or_a_callable():
 
 def test_an_emscon_tracker_with_meteo_measures_the_arm_the_simulated_robot_steers(tmp_path):
     with EmsconSimulatorProcess(noise=False, initialised=True) as sim:
-        from drivers.tracker.line.simulator.launch import SimulatorControl
-
-        control = SimulatorControl(sim.control_url)
         url = sim.url + "?meteo=21.5,1000,40"
         world = SimWorld.make("ur10e", 1)
         tracker = open_tracker(url)
         assert isinstance(tracker, EmsconTracker) and isinstance(tracker, ports.Tracker)
-        run = MeasureRun(
-            open_robot("sim", RobotOptions(UR10E, world)),
-            tracker,
-            UR10E,
-            RunOptions(),
-            tmp_path / "s.parquet",
-            world=world,
-            steer=control.set_target,
-        )
-        try:
-            with run:
-                run.connect(url)
-                assert re.fullmatch(r"emscon:serial=\d+", run.tracker_id)
-                np.testing.assert_allclose(measure_at(run, Q), world.tool_pose(Q)[:3, 3], atol=1e-3)
-                np.testing.assert_allclose(run.tracker.measure().meteo, (21.5, 1000.0, 40.0))
-        finally:
-            control.close()
+        # The simulated arm steers the simulator started by hand through its control port.
+        robot = open_robot(f"sim://?control={sim.control_url}", RobotOptions(UR10E, world))
+        run = MeasureRun(robot, tracker, UR10E, RunOptions(), tmp_path / "s.parquet")
+        with run:
+            run.connect(url)
+            assert re.fullmatch(r"emscon:serial=\d+", run.tracker_id)
+            np.testing.assert_allclose(measure_at(run, Q), world.tool_pose(Q)[:3, 3], atol=1e-3)
+            np.testing.assert_allclose(run.tracker.measure().meteo, (21.5, 1000.0, 40.0))
 
 
 @pytest.mark.parametrize(

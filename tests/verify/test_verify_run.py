@@ -82,20 +82,21 @@ def test_a_missing_visit_gives_no_figures(plan):
 
 
 def test_a_resumed_run_leads_in_from_the_pose_before_the_first_one_left(plan, tmp_path):
+    from contextlib import ExitStack
+
     from calibrator.acquire.run import MeasureRun
-    from calibrator.simulate import SimWorld
-    from drivers.robot import RobotOptions, open_robot
-    from drivers.tracker import OpenOptions, open_tracker
+    from drivers.devices import Devices
 
     arm = robots.get("ur10e")
-    world = SimWorld.make("ur10e", 0)
 
     def session(resume, stop_after):
         moves = []
-        robot = open_robot("sim", RobotOptions(arm, world))
-        tracker = open_tracker("sim://?noise=off", OpenOptions(world=world))
+        opened = Devices("sim", "sim://?noise=off").open(arm, 0, None, ExitStack())
+        robot, tracker = opened.robot, opened.tracker
         options = run.run_options(plan, readings=1, resume=resume)
-        with MeasureRun(robot, tracker, arm, options, tmp_path / "v.json", world=world) as mrun:
+        output = tmp_path / "v.json"
+        at = opened.tracker_at_mm
+        with MeasureRun(robot, tracker, arm, options, output, tracker_at_mm=at) as mrun:
             mrun.connect()
             steer = robot.listener
             robot.listener = lambda pose: (moves.append(robot.actual_joints()), steer(pose))
