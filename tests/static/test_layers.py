@@ -21,7 +21,9 @@ new top-level name needs one line in :data:`LAYERS`. The contracts:
   (:data:`METHODS`: identification, the model, planning, the figures and
   verdicts of verify and check) reaches one, even through other modules;
 - only the CLI, the drivers and the simulation itself import the simulation
-  (:data:`SIMULATION`): a procedure opens the simulated cell as devices.
+  (:data:`SIMULATION`): a procedure opens the simulated cell as devices, and
+  neither the procedures nor the port and run under them (:data:`WORLDLESS`)
+  name a simulated world, even untyped (:data:`WORLD_NAMES`).
 
 Each failure prints what breaks the contract and, for a cycle, its edges.
 ``python tests/static/test_layers.py`` prints the whole graph by layer.
@@ -111,6 +113,16 @@ SIMULATION = ("calibrator.simulate", "calibrator.world")
 
 #: Who may import the simulation (besides the simulation itself).
 SIMULATION_USERS = ("calibrator.cli", "drivers")
+
+#: The port every procedure opens its devices through and the run it drives
+#: them with: like the procedures, they carry no simulated world (no
+#: parameter, field, attribute or name of :data:`WORLD_NAMES`); what a
+#: procedure needs of the simulated cell comes as plain data in
+#: ``calibrator.acquire.ports.Opened``.
+WORLDLESS = PROCEDURES + ("calibrator.acquire.ports", "calibrator.acquire.run")
+
+#: What the simulated world and its wiring were called in a run.
+WORLD_NAMES = frozenset({"world", "steer", "is_sim", "sim_world", "SimWorld"})
 
 #: Imports that break a contract today, each with the change that removes it:
 #: ``(importer, imported)``, module names, ``pkg.*`` for every module under
@@ -383,6 +395,35 @@ def test_only_the_cli_the_drivers_and_the_simulation_import_the_simulation():
     assert not found, "the simulation imported outside the CLI and drivers:\n" + "\n".join(found)
 
 
+def world_names(source: str) -> list[str]:
+    """Where ``source`` names a simulated world: ``line: name`` for each parameter,
+    keyword, attribute or name in :data:`WORLD_NAMES` (docstrings and comments aside)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        name = None
+        if isinstance(node, ast.arg | ast.keyword):
+            name = node.arg
+        elif isinstance(node, ast.Attribute):
+            name = node.attr
+        elif isinstance(node, ast.Name):
+            name = node.id
+        if name in WORLD_NAMES:
+            found.append(f"{node.lineno}: {name}")  # type: ignore[union-attr]
+    return found
+
+
+def test_the_procedures_and_their_port_and_run_name_no_simulated_world():
+    found = modules()
+    named = [
+        f"  {module} line {where}"
+        for module in WORLDLESS
+        for where in world_names(found[module].read_text(encoding="utf-8"))
+    ]
+    assert not named, "a simulated world named where devices are opened by URL:\n" + "\n".join(
+        named
+    )
+
+
 def test_the_new_contracts_catch_what_they_forbid():
     # Each contract on a made-up graph holding the import it forbids.
     edges = {
@@ -398,6 +439,13 @@ def test_the_new_contracts_catch_what_they_forbid():
     ]
     assert _is_method("calibrator.check.explain") and not _is_method("calibrator.check.procedure")
     assert reaches(edges, "calibrator.check.procedure", ["calibrator.simulate"]) is None
+    # The world by any of its names, typed or not; a docstring saying "world" is no use of one.
+    source = (
+        'def run(p, *, world=None):\n    """the world"""\n    m = MeasureRun(p, steer=f)\n'
+        "    return m.world, is_sim(p)\n"
+    )
+    assert world_names(source) == ["1: world", "3: steer", "4: world", "4: is_sim"]
+    assert world_names("def run(p, devices):\n    return devices.tracker_at_mm\n") == []
     assert _matches("calibrator.model", "calibrator.model.*")
     assert not _matches("calibrator.modelling", "calibrator.model.*")
 
