@@ -176,54 +176,67 @@ class Filter:
 
     # -- solving -----------------------------------------------------------------------
     def _solve(self, items: list) -> None:
-        job, lang = self.job, self.lang
-        if any(t.problem is not None for _, t in items):
-            for u, t in items:
-                if t.problem is not None:
-                    self.summary.found[t.layout.kind] += 1
-                    self._mark(u, t, t.problem)
-            items = [(u, t) for u, t in items if t.problem is None]
+        """Solve, correct and splice a block of ``(unit, target)`` pairs, in place."""
+        items = self._drop_unreadable(items)
         if not items:
             return
+        units = [u for u, _ in items]
         targets = [t for _, t in items]
-        # No convention given: the model's own angles (as for an arm without a name).
-        conv = job.convention or convention.IDENTITY
-        n = len(targets)
-        # Numbers decoded per layout (every target of a layout has the same numbers).
-        by_layout: dict = defaultdict(list)
-        for i, t in enumerate(targets):
-            by_layout[id(t.layout)].append(i)
-        groups = []
-        pose_in_frame = np.full((n, 4, 4), np.nan)
-        joints = np.full((n, 6), np.nan)
-        for members in by_layout.values():
-            rows = np.array(members)
-            layout = targets[members[0]].layout
-            vals = np.array([targets[i].tokens for i in members], dtype=float)
-            if layout.kind == "pose":
-                pose_in_frame[rows] = layout.decode(vals)
-            else:
-                joints[rows] = layout.decode(vals)
-            groups.append((layout, rows, vals))
-            self.summary.found[layout.kind] += len(rows)
-        # The program's frames are the controller's: tool 0 is its flange and base 0 its
-        # base (world) frame, placed on the model's flange and MDH frame 0.
-        tool = np.asarray(job.controller_flange) @ _stack([t.tool for t in targets])
-        base = np.asarray(job.controller_base) @ _stack([t.base for t in targets])
-        is_pose = np.zeros(n, dtype=bool)
-        for layout, rows, _ in groups:
-            is_pose[rows] = layout.kind == "pose"
-        result_q = np.full((n, 6), np.nan)  # model joints of the corrected target
+        block = _Block(targets, self.job)
+        for layout, lrows, _ in block.groups:
+            self.summary.found[layout.kind] += len(lrows)
+        known_q, q_nom, reasons = self._nominal(block, targets)
+        joint_rows = np.flatnonzero(~block.is_pose)
+        # Which rows go through the calibrated solver.
+        active = np.zeros(block.n, dtype=bool)
+        active[block.pose_rows] = ~np.isnan(q_nom[block.pose_rows, 0])
+        if self.job.correct_joints:
+            active[joint_rows] = True
+        else:
+            self.summary.kept["joints"] += len(joint_rows)
+        result_q = np.full((block.n, 6), np.nan)  # model joints of the corrected target
+        rows = np.flatnonzero(active)
+        if len(rows):
+            self._compensate(targets, rows, block, q_nom, reasons, result_q)
+        ok = active & np.array([r is None for r in reasons])
+        self._rewrite(units, targets, block, ok, result_q)
+        for i in np.flatnonzero((~ok & active) | (~active & block.is_pose)).tolist():
+            self._mark(units[i], targets[i], reasons[i])
+        last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
+        if len(last):
+            i = last[-1]
+            self.last_q = q_nom[i] if not np.isnan(q_nom[i, 0]) else known_q[i]
+
+    def _drop_unreadable(self, items: list) -> list:
+        """Fail the targets the reader could not read (counted as found); the rest."""
+        if all(t.problem is None for _, t in items):
+            return items
+        for u, t in items:
+            if t.problem is not None:
+                self.summary.found[t.layout.kind] += 1
+                self._mark(u, t, t.problem)
+        return [(u, t) for u, t in items if t.problem is None]
+
+    def _nominal(self, block: _Block, targets: list) -> tuple:
+        """Model joints of the joint targets, nominal solutions of the poses, and why not.
+
+        Returns
+        -------
+        known_q : ndarray, shape (N, 6)
+            Model joints of the joint targets (NaN for poses), rad.
+        q_nom : ndarray, shape (N, 6)
+            Nominal model joints of every target (NaN where none was found), rad.
+        reasons : list of (str or None), length N
+        """
+        conv = self.job.convention or convention.IDENTITY
+        n, pose_rows = block.n, block.pose_rows
         reasons: list = [None] * n
         # Joint targets: known joints (also the arm's position for the poses after them).
         known_q = np.full((n, 6), np.nan)
-        joint_rows = np.flatnonzero(~is_pose)
-        known_q[joint_rows] = convention.to_model(joints[joint_rows], conv)
-        pose_rows = np.flatnonzero(is_pose)
+        joint_rows = np.flatnonzero(~block.is_pose)
+        known_q[joint_rows] = convention.to_model(block.joints[joint_rows], conv)
         q_nom = np.full((n, 6), np.nan)
-        desired = np.full((n, 4, 4), np.nan)
         if len(pose_rows):
-            desired[pose_rows] = base[pose_rows] @ pose_in_frame[pose_rows]
             stated_codes = [targets[i].code for i in pose_rows.tolist()]
             stated = np.array([c is not None for c in stated_codes])
             k = len(self.solver.code_of(np.zeros((1, 6)))[0])
@@ -233,33 +246,32 @@ class Filter:
             start = self._start(known_q, pose_rows[0])
             # A pose right after a joint target comes from those joints: the controller
             # solves it nearest them (a via, or a generated program's approach move).
+            is_pose = block.is_pose
             after_joints = pose_rows[1:][~is_pose[pose_rows[1:] - 1]]
             comes_from = np.full((len(pose_rows), 6), np.nan)
             comes_from[np.searchsorted(pose_rows, after_joints)] = known_q[after_joints - 1]
             q, found = self.solver.solve(
-                desired[pose_rows], tool[pose_rows], codes, stated, start, comes_from
+                block.desired[pose_rows], block.tool[pose_rows], codes, stated, start, comes_from
             )
             q_nom[pose_rows] = q
             for j in np.flatnonzero(~found).tolist():
-                want = lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"
+                want = self.lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"
                 reasons[pose_rows[j]] = (
                     f"no nominal joint solution found in the configuration ({want})"
                 )
         q_nom[joint_rows] = known_q[joint_rows]
-        # Which rows go through the calibrated solver.
-        active = np.zeros(n, dtype=bool)
-        active[pose_rows] = ~np.isnan(q_nom[pose_rows, 0])
-        if job.correct_joints:
-            active[joint_rows] = True
-        else:
-            self.summary.kept["joints"] += len(joint_rows)
-        rows = np.flatnonzero(active)
-        if len(rows):
-            self._compensate(targets, rows, desired, tool, q_nom, is_pose, reasons, result_q)
-        # Encode what changed, by layout, and rewrite the tokens that read differently.
-        ok = active & np.array([r is None for r in reasons])
-        edits: dict = defaultdict(list)
-        for layout, lrows, vals in groups:
+        return known_q, q_nom, reasons
+
+    def _rewrite(self, units: list, targets: list, block: _Block, ok, result_q) -> None:
+        """Encode the corrected targets by layout and splice the tokens that read differently.
+
+        Every changed line is spliced once, left to right (spans index the
+        original line), whatever the number of targets or tokens on it.
+        """
+        job = self.job
+        conv = job.convention or convention.IDENTITY
+        edits: dict = {}  # (id(unit), line index) -> (unit, [(start, end, text)])
+        for layout, lrows, vals in block.groups:
             keep = ok[lrows]
             good = lrows[keep]
             if not len(good):
@@ -267,9 +279,9 @@ class Filter:
             old = vals[keep]
             if layout.kind == "pose":
                 nominal = compensate.tool_poses(
-                    job.calibration.nominal_mdh, result_q[good], tool[good]
+                    job.calibration.nominal_mdh, result_q[good], block.tool[good]
                 )
-                enc = layout.encode(frames.invert(base[good]) @ nominal, old)
+                enc = layout.encode(frames.invert(block.base[good]) @ nominal, old)
             else:
                 enc = layout.encode(convention.to_controller(result_q[good], conv), old)
             tokens = [targets[i].tokens for i in good.tolist()]
@@ -278,38 +290,22 @@ class Filter:
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
                 if toks == new:
                     continue
-                unit = items[i][0]
-                spans = targets[i].spans
-                line = spans[0][0]
-                if len(unit.targets) == 1 and all(sp[0] == line for sp in spans):
-                    # The usual case, one target on its line: spliced here in one pass.
-                    body, ending = _split(unit.lines[line])
-                    parts, at = [], 0
-                    for (_, start_, end_), text in zip(spans, new, strict=True):
-                        parts += [body[at:start_], text]
-                        at = end_
-                    parts.append(body[at:])
-                    unit.lines[line] = "".join(parts) + ending
-                    continue
-                for span, tok, text in zip(spans, toks, new, strict=True):
+                unit = units[i]
+                for (li, start, end), tok, text in zip(targets[i].spans, toks, new, strict=True):
                     if text != tok:
-                        edits[(id(unit), span[0])].append((span[1], span[2], text, unit))
-        for i in np.flatnonzero((~ok & active) | (~active & is_pose)).tolist():
-            self._mark(items[i][0], targets[i], reasons[i])
-        for (_, li), changes in edits.items():
-            unit = changes[0][3]
+                        key = (id(unit), li)
+                        found = edits.get(key)
+                        if found is None:
+                            found = edits[key] = (unit, [])
+                        found[1].append((start, end, text))
+        for (_, li), (unit, changes) in edits.items():
             body, ending = _split(unit.lines[li])
-            # Spliced in one pass, left to right (spans index the original line).
             parts, at = [], 0
-            for start_, end_, text, _ in sorted(changes, key=lambda c: c[0]):
-                parts += [body[at:start_], text]
-                at = end_
+            for start, end, text in sorted(changes):
+                parts += [body[at:start], text]
+                at = end
             parts.append(body[at:])
             unit.lines[li] = "".join(parts) + ending
-        last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
-        if len(last):
-            i = last[-1]
-            self.last_q = q_nom[i] if not np.isnan(q_nom[i, 0]) else known_q[i]
 
     def _mark(self, unit: Unit, target: Target, reason: str) -> None:
         """Count a failure; with ``--keep-failed``, note it at the end of its line."""
@@ -324,15 +320,17 @@ class Filter:
         before = np.flatnonzero(~np.isnan(known_q[:first_pose, 0]))
         return known_q[before[-1]] if len(before) else self.last_q
 
-    def _compensate(self, items, rows, desired, tool, q_nom, is_pose, reasons, result_q):
+    def _compensate(self, items, rows, block, q_nom, reasons, result_q):
+        """The calibrated solutions of ``rows``: into ``result_q`` where good, else a reason."""
         job, cal = self.job, self.job.calibration
-        pose = is_pose[rows]
-        d = desired[rows]
+        pose = block.is_pose[rows]
+        d = block.desired[rows]
         q0 = q_nom[rows]
+        tool = block.tool[rows]
         # Joint rows: desired = the nominal pose of their joints (compensate computes it).
-        d = np.where(pose[:, None, None], d, compensate.tool_poses(cal.nominal_mdh, q0, tool[rows]))
+        d = np.where(pose[:, None, None], d, compensate.tool_poses(cal.nominal_mdh, q0, tool))
         comp = compensate.compensate(
-            cal, d, q0, job.limits, job.payload_kg, tool=tool[rows], nominal_solved=True
+            cal, d, q0, job.limits, job.payload_kg, tool=tool, nominal_solved=True
         )
         sol = comp.solution
         q_cal = comp.q
@@ -406,6 +404,56 @@ class Filter:
             self.summary.max_deg = max(self.summary.max_deg, float(turn_deg[good].max()))
             self.summary.sum_mm += float(move_mm[good].sum())
             self.summary.sum_deg += float(turn_deg[good].sum())
+
+
+class _Block:
+    """A block's targets as arrays: numbers decoded per layout, frames stacked.
+
+    Attributes
+    ----------
+    n : int
+    groups : list of (Layout, ndarray of int, ndarray (M, m))
+        Each layout, its rows and their numbers as read (every target of a
+        layout has the same numbers).
+    is_pose : ndarray of bool, shape (N,)
+    pose_rows : ndarray of int
+    joints : ndarray, shape (N, 6)
+        Controller joints of the joint targets (NaN for poses), rad.
+    tool, base : ndarray, shape (N, 4, 4)
+        Each target's tool on the model's flange and base frame in the
+        model's base frame (the controller's frames placed on the model), mm.
+    desired : ndarray, shape (N, 4, 4)
+        Tool poses of the pose targets in the model's base frame (NaN for joints), mm.
+    """
+
+    def __init__(self, targets: list, job: Job) -> None:
+        n = self.n = len(targets)
+        by_layout: dict = defaultdict(list)
+        for i, t in enumerate(targets):
+            by_layout[id(t.layout)].append(i)
+        self.groups = []
+        pose_in_frame = np.full((n, 4, 4), np.nan)
+        self.joints = np.full((n, 6), np.nan)
+        self.is_pose = np.zeros(n, dtype=bool)
+        for members in by_layout.values():
+            rows = np.array(members)
+            layout = targets[members[0]].layout
+            vals = np.array([targets[i].tokens for i in members], dtype=float)
+            if layout.kind == "pose":
+                pose_in_frame[rows] = layout.decode(vals)
+                self.is_pose[rows] = True
+            else:
+                self.joints[rows] = layout.decode(vals)
+            self.groups.append((layout, rows, vals))
+        # The program's frames are the controller's: tool 0 is its flange and base 0 its
+        # base (world) frame, placed on the model's flange and MDH frame 0.
+        self.tool = np.asarray(job.controller_flange) @ _stack([t.tool for t in targets])
+        self.base = np.asarray(job.controller_base) @ _stack([t.base for t in targets])
+        self.pose_rows = np.flatnonzero(self.is_pose)
+        self.desired = np.full((n, 4, 4), np.nan)
+        rows = self.pose_rows
+        if len(rows):
+            self.desired[rows] = self.base[rows] @ pose_in_frame[rows]
 
 
 def _stack(transforms: list) -> np.ndarray:

@@ -74,7 +74,7 @@ def first_problem(tokens: list) -> str | None:
     """The :func:`problem` of the first token of ``tokens`` (str or ``(str, ...)``) that has one."""
     for token in tokens:
         text = token if isinstance(token, str) else token[0]
-        if _PLAIN.fullmatch(text) is None:  # the usual token needs no further look
+        if PLAIN.fullmatch(text) is None:  # the usual token needs no further look
             why = problem(text)
             if why is not None:
                 return why
@@ -82,7 +82,7 @@ def first_problem(tokens: list) -> str | None:
 
 
 #: A number no float() can make infinite: no exponent, at most 40 digits.
-_PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
+PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
 
 
 def _shown(token: str) -> str:

@@ -42,6 +42,18 @@ _ASSIGN_START = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?
 _UNCLOSED = "its list is not closed on its line"
 _OPENED = re.compile(r"\s*(p?)\s*\[")
 _ASSIGN = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[([^\]]*)\]\s*$")
+#: One field of the plain line below: a number of :data:`numbers.PLAIN`'s grammar (always
+#: finite, so it passes :func:`numbers.problem`), blanks around it.
+_FIELD = r"[ \t]*(" + numbers.PLAIN.pattern + r")[ \t]*"
+#: The usual line of a long program, read with one match: a ``movej``/``movel``/``movep``
+#: of an inline literal of six plain numbers, more arguments that hold no string, comment,
+#: bracket or call, nothing else on the line. It holds no ``set_tcp`` and no variable, so
+#: it reads as the general path would read it; any other line takes the general path.
+_PLAIN_MOVE = re.compile(
+    r"[ \t]*(movej|movel|movep)[ \t]*\([ \t]*(p?)[ \t]*\["
+    + ",".join([_FIELD] * 6)
+    + r"\][ \t]*(?:,[^\[\]()\"'#]*)?\)[ \t]*(?:\r\n|\n|\r)?"
+)
 
 
 def _decode_pose(v):
@@ -115,7 +127,10 @@ class URScript(Language):
         # First pass: the TCP each pose variable is moved to with.
         self.var_tool: dict[str, tuple] = {}
         tool, tool_line = None, 0
+        plain = _PLAIN_MOVE.fullmatch
         for number, line in read_lines(program):
+            if plain(line) is not None:
+                continue  # no TCP, no variable moved to
             code = _code_part(split_ending(line)[0])
             m = _TCP.search(code)
             if m:
@@ -136,7 +151,26 @@ class URScript(Language):
 
     def scan(self, path: Path) -> Iterator[Unit]:
         tool = None
+        plain, name = _PLAIN_MOVE.fullmatch, str(path)
         for number, line in read_lines(path):
+            m = plain(line)
+            if m is not None:
+                groups = range(3, 9)
+                yield Unit(
+                    [line],
+                    [
+                        Target(
+                            file=name,
+                            line=number,
+                            label=m.group(1),
+                            layout=POSE if m.group(2) else JOINTS,
+                            tokens=list(m.group(3, 4, 5, 6, 7, 8)),
+                            spans=[(0, m.start(g), m.end(g)) for g in groups],
+                            tool=tool,
+                        )
+                    ],
+                )
+                continue
             body, _ = split_ending(line)
             code = _code_part(body)
             unit = Unit([line])
