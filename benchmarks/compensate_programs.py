@@ -17,8 +17,9 @@ a targets CSV (the nominal joints and the base-frame pose of each target).
   ``LIN`` aggregates with ``S``/``T``, tool and base from a ``$config.dat``.
 
 Each is compensated in a fresh process, ``--repeats`` times; the median
-wall time and the largest peak resident memory (the child's ``VmHWM``,
-Linux) are printed, with their ratio and the time per target. The two are
+wall time, the median CPU time (the child's own, which a loaded machine
+inflates less) and the largest peak resident memory (the child's ``VmHWM``,
+Linux) are printed, with their ratios and the time per target. The two are
 run in turn, so a change in the machine's load falls on both alike.
 ``--keep DIR`` copies the last outputs there (``o.csv`` and the filtered
 program) to compare two versions of the code byte for byte.
@@ -173,7 +174,7 @@ def _child(kind: str, folder: Path, language: str) -> None:
     out = folder / ("o.csv" if kind == "csv" else "o" + suffix)
     if out.exists():
         out.unlink()
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     if kind == "csv":
         report = compensate.run(cal, folder / "path.csv", out)
         failed = 0 if report.ok else -1
@@ -184,12 +185,12 @@ def _child(kind: str, folder: Path, language: str) -> None:
             limits=robots.get(cal.model).joint_limits_rad, config_dat=dat,
         )  # fmt: skip
         failed = engine.Filter(language, job, folder / ("path" + suffix)).run(out, []).n_failed
-    wall = time.perf_counter() - t
+    wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     # VmHWM: this process's own peak resident memory. (ru_maxrss of a process
     # started by fork and exec starts at its parent's peak on Linux.)
     status = Path("/proc/self/status").read_text()
     peak_kib = int(status.split("VmHWM:")[1].split()[0])
-    print(f"{wall:.3f} {failed} {peak_kib}")
+    print(f"{wall:.3f} {cpu:.3f} {failed} {peak_kib}")
 
 
 def main() -> None:
@@ -210,6 +211,7 @@ def main() -> None:
         (_setup_krl if args.language == "krl" else _setup_urscript)(folder, args.targets)
         print(f"{args.targets} targets written in {time.perf_counter() - t:.1f} s")
         walls: dict = {"csv": [], "program": []}
+        cpus: dict = {"csv": [], "program": []}
         peaks: dict = {"csv": [], "program": []}
         # Alternating, so a change in the machine's load falls on both alike.
         for _ in range(args.repeats):
@@ -219,24 +221,31 @@ def main() -> None:
                      "--language", args.language],
                     capture_output=True, text=True, check=True, env=dict(os.environ),
                 )  # fmt: skip
-                wall, failed, peak = done.stdout.split()
+                wall, cpu, failed, peak = done.stdout.split()
                 walls[kind].append(float(wall))
+                cpus[kind].append(float(cpu))
                 peaks[kind].append(int(peak))  # the child's own peak resident memory (KiB)
                 if int(failed):
                     print(f"{kind}: {failed} failed targets")
         results = {}
         for kind in ("csv", "program"):
-            results[kind] = (statistics.median(walls[kind]), max(peaks[kind]) / 1024)
+            results[kind] = (
+                statistics.median(walls[kind]), statistics.median(cpus[kind]),
+                max(peaks[kind]) / 1024,
+            )  # fmt: skip
+            wall, cpu, peak = results[kind]
             print(
-                f"{kind if kind == 'csv' else args.language}: median {results[kind][0]:.2f} s "
-                f"of {args.repeats} (min {min(walls[kind]):.2f}, "
-                f"{1e6 * results[kind][0] / args.targets:.1f} us a target), "
-                f"peak RSS {results[kind][1]:.0f} MiB"
+                f"{kind if kind == 'csv' else args.language}: median {wall:.2f} s of "
+                f"{args.repeats} (min {min(walls[kind]):.2f}, {1e6 * wall / args.targets:.1f} us "
+                f"a target), CPU {cpu:.2f} s ({1e6 * cpu / args.targets:.1f} us a target), "
+                f"peak RSS {peak:.0f} MiB"
             )
         pairs = [k / c for k, c in zip(walls["program"], walls["csv"], strict=True)]
         print(f"program / CSV per pair: {', '.join(f'{r:.2f}' for r in pairs)}")
-        ratio = results["program"][0] / results["csv"][0]
-        print(f"program / CSV time: {ratio:.2f}x")
+        print(
+            f"program / CSV time: {results['program'][0] / results['csv'][0]:.2f}x "
+            f"(CPU {results['program'][1] / results['csv'][1]:.2f}x)"
+        )
         if args.keep is not None:
             args.keep.mkdir(parents=True, exist_ok=True)
             for out in folder.glob("o.*"):

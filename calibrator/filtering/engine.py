@@ -20,6 +20,7 @@ the calibrated solution, or the correction exceeds ``--max-correction``.
 
 from __future__ import annotations
 
+import itertools
 import json
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -270,7 +271,7 @@ class Filter:
         """
         job = self.job
         conv = job.convention or convention.IDENTITY
-        edits: dict = {}  # (id(unit), line index) -> (unit, [(start, end, text)])
+        edits: dict = {}  # id(unit) -> (unit, [(span, text) of its targets' tokens])
         for layout, lrows, vals in block.groups:
             keep = ok[lrows]
             good = lrows[keep]
@@ -288,24 +289,22 @@ class Filter:
             texts = numbers.write_many(tokens, old, enc, layout.units)
             self.summary.corrected[layout.kind] += len(good)
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
-                if toks == new:
-                    continue
-                unit = units[i]
-                for (li, start, end), tok, text in zip(targets[i].spans, toks, new, strict=True):
-                    if text != tok:
-                        key = (id(unit), li)
-                        found = edits.get(key)
-                        if found is None:
-                            found = edits[key] = (unit, [])
-                        found[1].append((start, end, text))
-        for (_, li), (unit, changes) in edits.items():
-            body, ending = _split(unit.lines[li])
-            parts, at = [], 0
-            for start, end, text in sorted(changes):
-                parts += [body[at:start], text]
-                at = end
-            parts.append(body[at:])
-            unit.lines[li] = "".join(parts) + ending
+                if toks != new:  # a token put back as it was splices to the same text
+                    unit = units[i]
+                    found = edits.get(id(unit))
+                    if found is None:
+                        found = edits[id(unit)] = (unit, [])
+                    found[1].extend(zip(targets[i].spans, new, strict=True))
+        for unit, changes in edits.values():
+            changes.sort()  # by line, then left to right
+            for li, on_line in itertools.groupby(changes, key=_line_of):
+                body, ending = _split(unit.lines[li])
+                parts, at = [], 0
+                for (_, start, end), text in on_line:
+                    parts += [body[at:start], text]
+                    at = end
+                parts.append(body[at:])
+                unit.lines[li] = "".join(parts) + ending
 
     def _mark(self, unit: Unit, target: Target, reason: str) -> None:
         """Count a failure; with ``--keep-failed``, note it at the end of its line."""
@@ -468,6 +467,11 @@ def _stack(transforms: list) -> np.ndarray:
             unique.append(np.eye(4) if t is None else t)
         rows.append(k)
     return np.array(unique)[np.array(rows)]
+
+
+def _line_of(change: tuple) -> int:
+    """The unit line index of a ``((line, start, end), text)`` change."""
+    return change[0][0]
 
 
 def _split(line: str) -> tuple[str, str]:

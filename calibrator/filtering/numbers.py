@@ -163,21 +163,23 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
         places = np.where(more, places + 1, places)
         rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
-    out = [list(row) for row in tokens]
-    rows, cols = np.nonzero(~same | ~plain)
-    values = new[rows, cols].tolist()
-    digits = places[rows, cols].tolist()
-    simple = plain[rows, cols].tolist()
-    # Plain Python from here: numpy scalars are slow to format one by one.
-    for i, j, v, d, easy in zip(rows.tolist(), cols.tolist(), values, digits, simple, strict=True):
-        token = tokens[i][j]
-        if not easy:
-            out[i][j] = write(token, v, units[j])
-            continue
-        text = f"{v:.{d}f}"
-        if text[0] == "-" and float(text) == 0.0:
-            text = text[1:]
-        if token[0] == "+" and text[0] != "-":
-            text = "+" + text
-        out[i][j] = text
-    return out
+    out = np.array(tokens, dtype=object)
+    # Tokens with an exponent: one at a time, by :func:`write` (rare).
+    for i, j in zip(*np.nonzero(~plain), strict=True):
+        out[i, j] = write(tokens[i][j], float(new[i, j]), units[j])
+    # Plain tokens that read differently: printed with their decimals, in one pass
+    # ("%.*f" rounds as f"{v:.{d}f}" does); the few that print as "-0.0..." or were
+    # written with a "+" are then fixed one by one.
+    rows, cols = np.nonzero(~same & plain)
+    values, digits = new[rows, cols], places[rows, cols]
+    texts = list(map("%.*f".__mod__, zip(digits.tolist(), values.tolist(), strict=True)))
+    for k in np.flatnonzero(np.signbit(values) & (np.abs(values) < 10.0**-digits)).tolist():
+        if float(texts[k]) == 0.0:
+            texts[k] = texts[k][1:]  # no "-0.000" from a value that rounds to zero
+    for k in np.flatnonzero(np.strings.startswith(tok[rows, cols], "+")).tolist():
+        if texts[k][0] != "-":
+            texts[k] = "+" + texts[k]
+    changed = np.empty(len(texts), dtype=object)
+    changed[:] = texts
+    out[rows, cols] = changed
+    return out.tolist()

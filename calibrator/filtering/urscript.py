@@ -30,6 +30,7 @@ from calibrator.filtering.base import (
     Target,
     Unit,
     language,
+    read_chunks,
     read_lines,
     split_ending,
 )
@@ -37,6 +38,9 @@ from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
+#: A move of something other than a literal list, or text that may read so (a superset:
+#: no word boundary, and a line break counts as not a literal; fast, with no alternation).
+_MOVE_NOT_LITERAL = re.compile(r"move[jlpc]\s*\((?![ \t]*p?[ \t]*\[)")
 _TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")
 _ASSIGN_START = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[")
 _UNCLOSED = "its list is not closed on its line"
@@ -128,7 +132,7 @@ class URScript(Language):
         self.var_tool: dict[str, tuple] = {}
         tool, tool_line = None, 0
         plain = _PLAIN_MOVE.fullmatch
-        for number, line in read_lines(program):
+        for number, line in self._first_pass_lines(program):
             if plain(line) is not None:
                 continue  # no TCP, no variable moved to
             code = _code_part(split_ending(line)[0])
@@ -149,13 +153,25 @@ class URScript(Language):
                         )
                     self.var_tool[name] = (tool, tool_line)
 
+    @staticmethod
+    def _first_pass_lines(program: Path) -> Iterator[tuple[int, str]]:
+        """The lines that may set a TCP or move to a variable (runs of others skipped whole).
+
+        A run of lines whose text holds no ``set_tcp``, no ``movec`` and no
+        other move than of a literal has nothing the first pass looks for
+        (its code, strings and comments blanked, holds less than its text).
+        """
+        for first, lines in read_chunks(program):
+            text = "".join(lines)
+            if "set_tcp" in text or "movec" in text or _MOVE_NOT_LITERAL.search(text):
+                yield from enumerate(lines, start=first)
+
     def scan(self, path: Path) -> Iterator[Unit]:
         tool = None
         plain, name = _PLAIN_MOVE.fullmatch, str(path)
         for number, line in read_lines(path):
             m = plain(line)
             if m is not None:
-                groups = range(3, 9)
                 yield Unit(
                     [line],
                     [
@@ -165,7 +181,7 @@ class URScript(Language):
                             label=m.group(1),
                             layout=POSE if m.group(2) else JOINTS,
                             tokens=list(m.group(3, 4, 5, 6, 7, 8)),
-                            spans=[(0, m.start(g), m.end(g)) for g in groups],
+                            spans=[(0, a, b) for a, b in m.regs[3:9]],
                             tool=tool,
                         )
                     ],
