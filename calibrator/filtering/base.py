@@ -49,7 +49,7 @@ class Layout:
     encode: Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-@dataclass
+@dataclass(slots=True)
 class Target:
     """One target of a program, where its numbers are and what it means.
 
@@ -92,7 +92,7 @@ class Target:
     problem: str | None = None
 
 
-@dataclass
+@dataclass(slots=True)
 class Unit:
     """Consecutive lines of a program (each with its line ending) and the targets in them."""
 
