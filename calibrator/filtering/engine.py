@@ -21,7 +21,6 @@ the calibrated solution, or the correction exceeds ``--max-correction``.
 from __future__ import annotations
 
 import gc
-import itertools
 import json
 from collections import defaultdict
 from collections.abc import Iterator
@@ -175,8 +174,7 @@ class Filter:
         targets = [(u, t) for u in units for t in u.targets]
         if targets:
             self._solve(targets)
-        for u in units:
-            out.write("".join(u.lines))
+        out.write("".join([line for u in units for line in u.lines]))
 
     # -- solving -----------------------------------------------------------------------
     def _solve(self, items: list) -> None:
@@ -274,7 +272,9 @@ class Filter:
         """
         job = self.job
         conv = job.convention or convention.IDENTITY
-        edits: dict = {}  # id(unit) -> (unit, [(span, text) of its targets' tokens])
+        # Per changed line: (unit, line index, [(span, text), ...]) of its tokens.
+        lines: list = []
+        shared: dict = {}  # (id(unit), line index) -> its entry, where several targets may meet
         for layout, lrows, vals in block.groups:
             keep = ok[lrows]
             good = lrows[keep]
@@ -292,22 +292,23 @@ class Filter:
             texts = numbers.write_many(tokens, old, enc, layout.units)
             self.summary.corrected[layout.kind] += len(good)
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
-                if toks != new:  # a token put back as it was splices to the same text
-                    unit = units[i]
-                    found = edits.get(id(unit))
+                if toks == new:
+                    continue
+                unit = units[i]
+                if len(unit.lines) == 1 and len(unit.targets) == 1:
+                    # The usual unit, one target on one line: its line's changes are all here.
+                    lines.append((unit, 0, list(zip(targets[i].spans, new, strict=True))))
+                    continue
+                # A token put back as it was splices to the same text: all go in.
+                for span, text in zip(targets[i].spans, new, strict=True):
+                    key = (id(unit), span[0])
+                    found = shared.get(key)
                     if found is None:
-                        found = edits[id(unit)] = (unit, [])
-                    found[1].extend(zip(targets[i].spans, new, strict=True))
-        for unit, changes in edits.values():
-            changes.sort()  # by line, then left to right
-            for li, on_line in itertools.groupby(changes, key=_line_of):
-                body, ending = _split(unit.lines[li])
-                parts, at = [], 0
-                for (_, start, end), text in on_line:
-                    parts += [body[at:start], text]
-                    at = end
-                parts.append(body[at:])
-                unit.lines[li] = "".join(parts) + ending
+                        found = shared[key] = (unit, span[0], [])
+                        lines.append(found)
+                    found[2].append((span, text))
+        for unit, li, changes in lines:
+            unit.lines[li] = _splice(unit.lines[li], changes)
 
     def _mark(self, unit: Unit, target: Target, reason: str) -> None:
         """Count a failure; with ``--keep-failed``, note it at the end of its line."""
@@ -491,9 +492,20 @@ def _stack(transforms: list) -> np.ndarray:
     return np.array(unique)[np.array(rows)]
 
 
-def _line_of(change: tuple) -> int:
-    """The unit line index of a ``((line, start, end), text)`` change."""
-    return change[0][0]
+def _splice(line: str, changes: list) -> str:
+    """``line`` with each ``((line index, start, end), text)`` of ``changes`` put in.
+
+    Spans index the original line: spliced in one pass, left to right.
+    """
+    body, ending = _split(line)
+    changes.sort()
+    parts, at = [], 0
+    for (_, start, end), text in changes:
+        parts.append(body[at:start])
+        parts.append(text)
+        at = end
+    parts.append(body[at:])
+    return "".join(parts) + ending
 
 
 def _split(line: str) -> tuple[str, str]:

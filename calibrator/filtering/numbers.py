@@ -149,7 +149,9 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
     list of list of str
         The text for each token (the token itself where it reads the same).
     """
-    tok = np.asarray(tokens, dtype=str)
+    m = len(units)
+    flat = [t for row in tokens for t in row]  # numpy reads a flat list faster than a nested one
+    tok = np.array(flat, dtype=str).reshape(-1, m)
     plain = ~(np.char.count(tok, "e") + np.char.count(tok, "E")).astype(bool)
     dot = np.char.find(tok, ".")
     places = np.where(dot >= 0, np.char.str_len(tok) - dot - 1, 0)
@@ -163,7 +165,9 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
         places = np.where(more, places + 1, places)
         rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
-    out = np.array(tokens, dtype=object)
+    out = np.empty(len(flat), dtype=object)
+    out[:] = flat
+    out = out.reshape(-1, m)
     # Tokens with an exponent: one at a time, by :func:`write` (rare).
     for i, j in zip(*np.nonzero(~plain), strict=True):
         out[i, j] = write(tokens[i][j], float(new[i, j]), units[j])

@@ -52,6 +52,23 @@ def features(flange: np.ndarray) -> np.ndarray:
     )
 
 
+class _FlangePoints:
+    """:func:`features` of a block's flange poses, all computed on the first look-up.
+
+    Most blocks never take a start from the library (their targets start
+    from their neighbours): they never pay for these.
+    """
+
+    def __init__(self, desired: np.ndarray, tool: np.ndarray) -> None:
+        self._desired, self._tool = desired, tool
+        self._points: np.ndarray | None = None
+
+    def __getitem__(self, rows: np.ndarray) -> np.ndarray:
+        if self._points is None:
+            self._points = features(self._desired @ frames.invert(self._tool))
+        return self._points[rows]
+
+
 class Library:
     """Nominal joint samples within the limits (joints 1, 4, 6 within one turn) and their poses."""
 
@@ -208,7 +225,7 @@ class Solver:
         n = len(desired)
         q = np.full((n, 6), np.nan)
         found = np.zeros(n, dtype=bool)
-        lib_points = features(desired @ frames.invert(tool))
+        lib_points = _FlangePoints(desired, tool)
         anchors = np.arange(0, n, STRIDES[0])
         nan_bits = np.full((n, 3), np.nan)
         # Anchors that state their configuration: library starts.

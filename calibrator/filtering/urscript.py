@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,6 @@ from calibrator.filtering.base import (
     Unit,
     language,
     read_chunks,
-    read_lines,
     split_ending,
 )
 from calibrator.filtering.lexing import Lexer
@@ -168,70 +168,72 @@ class URScript(Language):
 
     def scan(self, path: Path) -> Iterator[Unit]:
         tool = None
-        plain, name = _PLAIN_MOVE.fullmatch, str(path)
-        for number, line in read_lines(path):
-            m = plain(line)
-            if m is not None:
-                yield Unit(
-                    [line],
-                    [
-                        Target(
-                            file=name,
-                            line=number,
-                            label=m.group(1),
-                            layout=POSE if m.group(2) else JOINTS,
-                            tokens=list(m.group(3, 4, 5, 6, 7, 8)),
-                            spans=[(0, a, b) for a, b in m.regs[3:9]],
-                            tool=tool,
+        plain, file = _PLAIN_MOVE.fullmatch, str(path)
+        for first, lines in read_chunks(path):
+            for number, line in enumerate(lines, start=first):
+                m = plain(line)
+                if m is None:
+                    unit, tool = self._unit(path, number, line, tool)
+                    yield unit
+                    continue
+                target = Target(
+                    file,
+                    number,
+                    m.group(1),
+                    POSE if m.group(2) else JOINTS,
+                    list(m.group(3, 4, 5, 6, 7, 8)),
+                    [(0, a, b) for a, b in m.regs[3:9]],
+                    tool,
+                )  # fmt: skip
+                yield Unit([line], [target])
+
+    def _unit(self, path: Path, number: int, line: str, tool: Any) -> tuple[Unit, Any]:
+        """One line read by the general path: its unit, and the TCP after it."""
+        body, _ = split_ending(line)
+        code = _code_part(body)
+        unit = Unit([line])
+        m = _TCP.search(code)
+        if m:
+            tool = _tcp(m.group(1), f"{path}:{number}")
+        assign = _ASSIGN.match(code)
+        cut = None if assign else _ASSIGN_START.match(code)
+        if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
+            unit.targets.append(
+                self._target(
+                    path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED
+                )
+            )
+        if assign and assign.group(1) in self.var_tool:
+            name, is_pose = assign.group(1), assign.group(2) == "p"
+            nums = _numbers_in(assign.group(3), assign.start(3))
+            unit.targets.append(
+                self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
+            )
+        for call in _MOVE.finditer(code):
+            args = _arguments(code, call.end())
+            for a, b in args[: 2 if call.group(1) == "movec" else 1]:
+                arg = code[a:b]
+                lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
+                if not lit:
+                    opened = _OPENED.match(arg)
+                    if opened:  # ``movel(p[0.1, 0.2`` cut off: a target that cannot be read
+                        unit.targets.append(
+                            self._target(
+                                path,
+                                number,
+                                call.group(1),
+                                [],
+                                opened.group(1) == "p",
+                                tool,
+                                _UNCLOSED,
+                            )  # fmt: skip
                         )
-                    ],
-                )
-                continue
-            body, _ = split_ending(line)
-            code = _code_part(body)
-            unit = Unit([line])
-            m = _TCP.search(code)
-            if m:
-                tool = _tcp(m.group(1), f"{path}:{number}")
-            assign = _ASSIGN.match(code)
-            cut = None if assign else _ASSIGN_START.match(code)
-            if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
+                    continue
+                nums = _numbers_in(lit.group(2), a + lit.start(2))
                 unit.targets.append(
-                    self._target(
-                        path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED
-                    )
+                    self._target(path, number, call.group(1), nums, lit.group(1) == "p", tool)
                 )
-            if assign and assign.group(1) in self.var_tool:
-                name, is_pose = assign.group(1), assign.group(2) == "p"
-                nums = _numbers_in(assign.group(3), assign.start(3))
-                unit.targets.append(
-                    self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
-                )
-            for call in _MOVE.finditer(code):
-                args = _arguments(code, call.end())
-                for a, b in args[: 2 if call.group(1) == "movec" else 1]:
-                    arg = code[a:b]
-                    lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
-                    if not lit:
-                        opened = _OPENED.match(arg)
-                        if opened:  # ``movel(p[0.1, 0.2`` cut off: a target that cannot be read
-                            unit.targets.append(
-                                self._target(
-                                    path,
-                                    number,
-                                    call.group(1),
-                                    [],
-                                    opened.group(1) == "p",
-                                    tool,
-                                    _UNCLOSED,
-                                )  # fmt: skip
-                            )
-                        continue
-                    nums = _numbers_in(lit.group(2), a + lit.start(2))
-                    unit.targets.append(
-                        self._target(path, number, call.group(1), nums, lit.group(1) == "p", tool)
-                    )
-            yield unit
+        return unit, tool
 
     def _target(self, path, number, label, nums, is_pose, tool, problem=None):
         layout = POSE if is_pose else JOINTS

@@ -73,6 +73,8 @@ def test_plain_lines_read_as_the_general_path_reads_them(tmp_path, monkeypatch):
     nums = "0.5, -0.25, +0.125, .75, 3., 1"
     lines = [
         f"  movel(p[{nums}], a=1.2, v=0.25)\r\n",
+        f"  approach = p[{nums}]\n",  # a variable's own line, then plain lines again
+        "  movel(approach)\n",
         f"movej([{nums}])\n",
         f"\tmovep( p [ {nums} ] ,r=0.001 )\r",
         f"  movel(p[{nums}], a=1.2) # a comment\n",
@@ -107,5 +109,6 @@ def test_plain_lines_read_as_the_general_path_reads_them(tmp_path, monkeypatch):
             tools = (a.tool, b.tool)
             assert replace(a, tool=None) == replace(b, tool=None)
             assert (tools[0] is None and tools[1] is None) or np.array_equal(*tools)
-    assert [t.problem for _, ts in plain[:3] + plain[-1:] for t in ts] == [None] * 4
+    assert [t.problem for _, ts in plain[:5] + plain[-1:] for t in ts] == [None] * 5
+    assert {t.file for _, ts in plain for t in ts} == {str(src)}
     assert plain[-1][1][0].tool[2, 3] == 100.0
