@@ -291,7 +291,9 @@ class Solver:
         rows, src = rows[have], src[have]
         if not len(rows):
             return
-        ref = configuration.arm_bits(self.mdh, q[src]).astype(float)
+        # Many rows start from one source (16 from each of the level above): bits once each.
+        sources, back = np.unique(src, return_inverse=True)
+        ref = configuration.arm_bits(self.mdh, q[sources]).astype(float)[back]
         qa, ok = self._try(desired[rows], tool[rows], q[src], code[rows], stated[rows], ref)
         q[rows[ok]], found[rows[ok]] = qa[ok], True
 

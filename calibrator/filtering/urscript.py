@@ -199,9 +199,7 @@ class URScript(Language):
         cut = None if assign else _ASSIGN_START.match(code)
         if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
             unit.targets.append(
-                self._target(
-                    path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED
-                )
+                self._target(path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED)
             )
         if assign and assign.group(1) in self.var_tool:
             name, is_pose = assign.group(1), assign.group(2) == "p"
