@@ -197,11 +197,12 @@ class Filter:
         else:
             self.summary.kept["joints"] += len(joint_rows)
         result_q = np.full((block.n, 6), np.nan)  # model joints of the corrected target
+        result_pose = np.full((block.n, 4, 4), np.nan)  # and their nominal tool poses
         rows = np.flatnonzero(active)
         if len(rows):
-            self._compensate(targets, rows, block, q_nom, reasons, result_q)
+            self._compensate(targets, rows, block, q_nom, reasons, result_q, result_pose)
         ok = active & np.array([r is None for r in reasons])
-        self._rewrite(units, targets, block, ok, result_q)
+        self._rewrite(units, targets, block, ok, result_q, result_pose)
         for i in np.flatnonzero((~ok & active) | (~active & block.is_pose)).tolist():
             self._mark(units[i], targets[i], reasons[i])
         last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
@@ -264,7 +265,9 @@ class Filter:
         q_nom[joint_rows] = known_q[joint_rows]
         return known_q, q_nom, reasons
 
-    def _rewrite(self, units: list, targets: list, block: _Block, ok, result_q) -> None:
+    def _rewrite(
+        self, units: list, targets: list, block: _Block, ok, result_q, result_pose
+    ) -> None:
         """Encode the corrected targets by layout and splice the tokens that read differently.
 
         Every changed line is spliced once, left to right (spans index the
@@ -282,10 +285,7 @@ class Filter:
                 continue
             old = vals[keep]
             if layout.kind == "pose":
-                nominal = compensate.tool_poses(
-                    job.calibration.nominal_mdh, result_q[good], block.tool[good]
-                )
-                enc = layout.encode(frames.invert(block.base[good]) @ nominal, old)
+                enc = layout.encode(frames.invert(block.base[good]) @ result_pose[good], old)
             else:
                 enc = layout.encode(convention.to_controller(result_q[good], conv), old)
             tokens = [targets[i].tokens for i in good.tolist()]
@@ -323,15 +323,18 @@ class Filter:
         before = np.flatnonzero(~np.isnan(known_q[:first_pose, 0]))
         return known_q[before[-1]] if len(before) else self.last_q
 
-    def _compensate(self, items, rows, block, q_nom, reasons, result_q):
-        """The calibrated solutions of ``rows``: into ``result_q`` where good, else a reason."""
+    def _compensate(self, items, rows, block, q_nom, reasons, result_q, result_pose):
+        """Calibrated solutions of ``rows``: where good, into ``result_q`` (model joints, rad)
+        and ``result_pose`` (their nominal tool poses, the corrected targets, mm); else a reason.
+        """
         job, cal = self.job, self.job.calibration
         pose = block.is_pose[rows]
         d = block.desired[rows]
         q0 = q_nom[rows]
         tool = block.tool[rows]
         # Joint rows: desired = the nominal pose of their joints (compensate computes it).
-        d = np.where(pose[:, None, None], d, compensate.tool_poses(cal.nominal_mdh, q0, tool))
+        if not pose.all():
+            d[~pose] = compensate.tool_poses(cal.nominal_mdh, q0[~pose], tool[~pose])
         comp = compensate.compensate(
             cal, d, q0, job.limits, job.payload_kg, tool=tool, nominal_solved=True
         )
@@ -402,6 +405,7 @@ class Filter:
                 )
         good = ~bad
         result_q[rows[good]] = q_cal[good]
+        result_pose[rows[good]] = comp.corrected[good]
         if good.any():
             self.summary.max_mm = max(self.summary.max_mm, float(move_mm[good].max()))
             self.summary.max_deg = max(self.summary.max_deg, float(turn_deg[good].max()))
@@ -497,15 +501,13 @@ def _splice(line: str, changes: list) -> str:
 
     Spans index the original line: spliced in one pass, left to right.
     """
-    body, ending = _split(line)
     changes.sort()
     parts, at = [], 0
     for (_, start, end), text in changes:
-        parts.append(body[at:start])
-        parts.append(text)
+        parts += (line[at:start], text)
         at = end
-    parts.append(body[at:])
-    return "".join(parts) + ending
+    parts.append(line[at:])  # spans end before the line ending: it stays
+    return "".join(parts)
 
 
 def _split(line: str) -> tuple[str, str]:
