@@ -187,7 +187,7 @@ class Filter:
         block = _Block(targets, self.job)
         for layout, lrows, _ in block.groups:
             self.summary.found[layout.kind] += len(lrows)
-        known_q, q_nom, reasons = self._nominal(block, targets)
+        known_q, q_nom, bits, reasons = self._nominal(block, targets)
         joint_rows = np.flatnonzero(~block.is_pose)
         # Which rows go through the calibrated solver.
         active = np.zeros(block.n, dtype=bool)
@@ -200,7 +200,7 @@ class Filter:
         result_pose = np.full((block.n, 4, 4), np.nan)  # and their nominal tool poses
         rows = np.flatnonzero(active)
         if len(rows):
-            self._compensate(targets, rows, block, q_nom, reasons, result_q, result_pose)
+            self._compensate(targets, rows, block, q_nom, bits, reasons, result_q, result_pose)
         ok = active & np.array([r is None for r in reasons])
         self._rewrite(units, targets, block, ok, result_q, result_pose)
         for i in np.flatnonzero((~ok & active) | (~active & block.is_pose)).tolist():
@@ -229,6 +229,8 @@ class Filter:
             Model joints of the joint targets (NaN for poses), rad.
         q_nom : ndarray, shape (N, 6)
             Nominal model joints of every target (NaN where none was found), rad.
+        bits : ndarray, shape (N, 3)
+            Arm bits of the nominal solutions where the solver took them (NaN elsewhere).
         reasons : list of (str or None), length N
         """
         conv = self.job.convention or convention.IDENTITY
@@ -239,6 +241,7 @@ class Filter:
         joint_rows = np.flatnonzero(~block.is_pose)
         known_q[joint_rows] = convention.to_model(block.joints[joint_rows], conv)
         q_nom = np.full((n, 6), np.nan)
+        bits = np.full((n, 3), np.nan)
         if len(pose_rows):
             stated_codes = [targets[i].code for i in pose_rows.tolist()]
             stated = np.array([c is not None for c in stated_codes])
@@ -253,7 +256,7 @@ class Filter:
             after_joints = pose_rows[1:][~is_pose[pose_rows[1:] - 1]]
             comes_from = np.full((len(pose_rows), 6), np.nan)
             comes_from[np.searchsorted(pose_rows, after_joints)] = known_q[after_joints - 1]
-            q, found = self.solver.solve(
+            q, found, bits[pose_rows] = self.solver.solve(
                 block.desired[pose_rows], block.tool[pose_rows], codes, stated, start, comes_from
             )
             q_nom[pose_rows] = q
@@ -263,7 +266,7 @@ class Filter:
                     f"no nominal joint solution found in the configuration ({want})"
                 )
         q_nom[joint_rows] = known_q[joint_rows]
-        return known_q, q_nom, reasons
+        return known_q, q_nom, bits, reasons
 
     def _rewrite(
         self, units: list, targets: list, block: _Block, ok, result_q, result_pose
@@ -323,7 +326,7 @@ class Filter:
         before = np.flatnonzero(~np.isnan(known_q[:first_pose, 0]))
         return known_q[before[-1]] if len(before) else self.last_q
 
-    def _compensate(self, items, rows, block, q_nom, reasons, result_q, result_pose):
+    def _compensate(self, items, rows, block, q_nom, bits, reasons, result_q, result_pose):
         """Calibrated solutions of ``rows``: where good, into ``result_q`` (model joints, rad)
         and ``result_pose`` (their nominal tool poses, the corrected targets, mm); else a reason.
         """
@@ -346,7 +349,7 @@ class Filter:
         )
         jump = np.degrees(np.abs(q_cal - comp.q_nominal))
         # The configuration to keep: the one the target states, else its nominal solution's.
-        keep = self.solver.code_of(comp.q_nominal)
+        keep = self.solver.code_of(comp.q_nominal, bits[rows])
         for j, i in enumerate(rows.tolist()):
             if pose[j] and items[i].code is not None:
                 keep[j] = items[i].code

@@ -83,6 +83,9 @@ def first_problem(tokens: list) -> str | None:
 
 #: A number no float() can make infinite: no exponent, at most 40 digits.
 PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
+#: :data:`PLAIN`'s grammar with possessive quantifiers, for longer patterns: it matches
+#: the same text and never gives digits back, so a line that does not fit fails sooner.
+PLAIN_POSSESSIVE = r"[+-]?+(?:\d{1,20}+(?:\.\d{0,20}+)?+|\.\d{1,20}+)"
 
 
 def _shown(token: str) -> str:

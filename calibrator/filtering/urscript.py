@@ -47,16 +47,17 @@ _UNCLOSED = "its list is not closed on its line"
 _OPENED = re.compile(r"\s*(p?)\s*\[")
 _ASSIGN = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[([^\]]*)\]\s*$")
 #: One field of the plain line below: a number of :data:`numbers.PLAIN`'s grammar (always
-#: finite, so it passes :func:`numbers.problem`), blanks around it.
-_FIELD = r"[ \t]*(" + numbers.PLAIN.pattern + r")[ \t]*"
+#: finite, so it passes :func:`numbers.problem`), blanks around it. Possessive quantifiers
+#: throughout: no part of the pattern can take what the next part needs, so none gives back.
+_FIELD = r"[ \t]*+(" + numbers.PLAIN_POSSESSIVE + r")[ \t]*+"
 #: The usual line of a long program, read with one match: a ``movej``/``movel``/``movep``
 #: of an inline literal of six plain numbers, more arguments that hold no string, comment,
 #: bracket or call, nothing else on the line. It holds no ``set_tcp`` and no variable, so
 #: it reads as the general path would read it; any other line takes the general path.
 _PLAIN_MOVE = re.compile(
-    r"[ \t]*(movej|movel|movep)[ \t]*\([ \t]*(p?)[ \t]*\["
+    r"[ \t]*+(movej|movel|movep)[ \t]*+\([ \t]*+(p?)[ \t]*+\["
     + ",".join([_FIELD] * 6)
-    + r"\][ \t]*(?:,[^\[\]()\"'#]*)?\)[ \t]*(?:\r\n|\n|\r)?"
+    + r"\][ \t]*+(?:,[^\[\]()\"'#]*+)?\)[ \t]*+(?:\r\n|\n|\r)?"
 )
 
 
