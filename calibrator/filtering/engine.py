@@ -279,7 +279,7 @@ class Filter:
         job = self.job
         conv = job.convention or convention.IDENTITY
         # Per changed line: (unit, line index, [(span, text), ...]) of its tokens.
-        lines: list = []
+        lines: list[tuple] = []
         shared: dict = {}  # (id(unit), line index) -> its entry, where several targets may meet
         for layout, lrows, vals in block.groups:
             keep = ok[lrows]
@@ -307,11 +307,12 @@ class Filter:
                     key = (id(unit), span[0])
                     found = shared.get(key)
                     if found is None:
-                        found = shared[key] = (unit, span[0], [])
+                        changes: list[tuple] = []
+                        found = shared[key] = (unit, span[0], changes)
                         lines.append(found)
                     found[2].append((span, text))
-        for unit, li, changes in lines:
-            unit.lines[li] = _splice(unit.lines[li], changes)
+        for unit, li, on_line in lines:
+            unit.lines[li] = _splice(unit.lines[li], on_line)
 
     def _mark(self, unit: Unit, target: Target, reason: str) -> None:
         """Count a failure; with ``--keep-failed``, note it at the end of its line."""
@@ -505,7 +506,8 @@ def _splice(line: str, changes: list) -> str:
     Spans index the original line: spliced in one pass, left to right.
     """
     changes.sort()
-    parts, at = [], 0
+    parts: list[str] = []
+    at = 0
     for (_, start, end), text in changes:
         parts += (line[at:start], text)
         at = end

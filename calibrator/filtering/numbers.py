@@ -168,9 +168,9 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
         places = np.where(more, places + 1, places)
         rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
-    out = np.empty(len(flat), dtype=object)
-    out[:] = flat
-    out = out.reshape(-1, m)
+    cells = np.empty(len(flat), dtype=object)
+    cells[:] = flat
+    out = cells.reshape(-1, m)
     # Tokens with an exponent: one at a time, by :func:`write` (rare).
     for i, j in zip(*np.nonzero(~plain), strict=True):
         out[i, j] = write(tokens[i][j], float(new[i, j]), units[j])

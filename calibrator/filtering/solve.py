@@ -213,7 +213,7 @@ class Solver:
         stated: np.ndarray,
         start_q: np.ndarray | None,
         comes_from: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Nominal joints of a block of targets.
 
         Parameters
