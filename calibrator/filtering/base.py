@@ -49,7 +49,7 @@ class Layout:
     encode: Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-@dataclass
+@dataclass(slots=True)
 class Target:
     """One target of a program, where its numbers are and what it means.
 
@@ -92,7 +92,7 @@ class Target:
     problem: str | None = None
 
 
-@dataclass
+@dataclass(slots=True)
 class Unit:
     """Consecutive lines of a program (each with its line ending) and the targets in them."""
 
@@ -242,16 +242,33 @@ def read_lines(path: Path) -> Iterator[tuple[int, str]]:
     Windows-1252 comments are written back unchanged, and every keyword the
     readers look for is ASCII.
     """
+    for first, lines in read_chunks(path):
+        yield from enumerate(lines, start=first)
+
+
+def read_chunks(path: Path, size: int = 1 << 20) -> Iterator[tuple[int, list[str]]]:
+    """``(number of the first line, lines)`` of about ``size`` characters at a time.
+
+    As :func:`read_lines`, for a reader that can skip a run of lines it has
+    no use for with one search over their text.
+    """
     try:
         with open(path, encoding="latin-1", newline="") as fh:
-            for number, line in enumerate(fh, start=1):
-                bad = _BINARY.search(line)
-                if bad is not None:
+            first = 1
+            while lines := fh.readlines(size):
+                if _BINARY.search("".join(lines)) is not None:
+                    # The lines before the first binary one are read, as one by one.
+                    k, bad = next(
+                        (k, b) for k, line in enumerate(lines) if (b := _BINARY.search(line))
+                    )
+                    if k:
+                        yield first, lines[:k]
                     raise FilterError(
-                        f"{path}:{number}: binary bytes (control character {bad.group()!r}): "
+                        f"{path}:{first + k}: binary bytes (control character {bad.group()!r}): "
                         "not a program text"
                     )
-                yield number, line
+                yield first, lines
+                first += len(lines)
     except OSError as exc:
         raise FilterError(f"{path}: cannot read ({exc.strerror})") from None
 

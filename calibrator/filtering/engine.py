@@ -20,8 +20,11 @@ the calibrated solution, or the correction exceeds ``--max-correction``.
 
 from __future__ import annotations
 
+import gc
 import json
 from collections import defaultdict
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -153,7 +156,7 @@ class Filter:
         return self.summary
 
     def _stream(self, src: Path, tmp: Path) -> None:
-        with open(tmp, "w", encoding="latin-1", newline="") as out:
+        with open(tmp, "w", encoding="latin-1", newline="") as out, _collector_paused():
             pending: list[Unit] = []
             count = 0
             for unit in self.lang.scan(src):
@@ -171,59 +174,75 @@ class Filter:
         targets = [(u, t) for u in units for t in u.targets]
         if targets:
             self._solve(targets)
-        for u in units:
-            out.write("".join(u.lines))
+        out.write("".join([line for u in units for line in u.lines]))
 
     # -- solving -----------------------------------------------------------------------
     def _solve(self, items: list) -> None:
-        job, lang = self.job, self.lang
-        if any(t.problem is not None for _, t in items):
-            for u, t in items:
-                if t.problem is not None:
-                    self.summary.found[t.layout.kind] += 1
-                    self._mark(u, t, t.problem)
-            items = [(u, t) for u, t in items if t.problem is None]
+        """Solve, correct and splice a block of ``(unit, target)`` pairs, in place."""
+        items = self._drop_unreadable(items)
         if not items:
             return
+        units = [u for u, _ in items]
         targets = [t for _, t in items]
-        # No convention given: the model's own angles (as for an arm without a name).
-        conv = job.convention or convention.IDENTITY
-        n = len(targets)
-        # Numbers decoded per layout (every target of a layout has the same numbers).
-        by_layout: dict = defaultdict(list)
-        for i, t in enumerate(targets):
-            by_layout[id(t.layout)].append(i)
-        groups = []
-        pose_in_frame = np.full((n, 4, 4), np.nan)
-        joints = np.full((n, 6), np.nan)
-        for members in by_layout.values():
-            rows = np.array(members)
-            layout = targets[members[0]].layout
-            vals = np.array([targets[i].tokens for i in members], dtype=float)
-            if layout.kind == "pose":
-                pose_in_frame[rows] = layout.decode(vals)
-            else:
-                joints[rows] = layout.decode(vals)
-            groups.append((layout, rows, vals))
-            self.summary.found[layout.kind] += len(rows)
-        # The program's frames are the controller's: tool 0 is its flange and base 0 its
-        # base (world) frame, placed on the model's flange and MDH frame 0.
-        tool = np.asarray(job.controller_flange) @ _stack([t.tool for t in targets])
-        base = np.asarray(job.controller_base) @ _stack([t.base for t in targets])
-        is_pose = np.zeros(n, dtype=bool)
-        for layout, rows, _ in groups:
-            is_pose[rows] = layout.kind == "pose"
-        result_q = np.full((n, 6), np.nan)  # model joints of the corrected target
+        block = _Block(targets, self.job)
+        for layout, lrows, _ in block.groups:
+            self.summary.found[layout.kind] += len(lrows)
+        known_q, q_nom, bits, reasons = self._nominal(block, targets)
+        joint_rows = np.flatnonzero(~block.is_pose)
+        # Which rows go through the calibrated solver.
+        active = np.zeros(block.n, dtype=bool)
+        active[block.pose_rows] = ~np.isnan(q_nom[block.pose_rows, 0])
+        if self.job.correct_joints:
+            active[joint_rows] = True
+        else:
+            self.summary.kept["joints"] += len(joint_rows)
+        result_q = np.full((block.n, 6), np.nan)  # model joints of the corrected target
+        result_pose = np.full((block.n, 4, 4), np.nan)  # and their nominal tool poses
+        rows = np.flatnonzero(active)
+        if len(rows):
+            self._compensate(targets, rows, block, q_nom, bits, reasons, result_q, result_pose)
+        ok = active & np.array([r is None for r in reasons])
+        self._rewrite(units, targets, block, ok, result_q, result_pose)
+        for i in np.flatnonzero((~ok & active) | (~active & block.is_pose)).tolist():
+            self._mark(units[i], targets[i], reasons[i])
+        last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
+        if len(last):
+            i = last[-1]
+            self.last_q = q_nom[i] if not np.isnan(q_nom[i, 0]) else known_q[i]
+
+    def _drop_unreadable(self, items: list) -> list:
+        """Fail the targets the reader could not read (counted as found); the rest."""
+        if all(t.problem is None for _, t in items):
+            return items
+        for u, t in items:
+            if t.problem is not None:
+                self.summary.found[t.layout.kind] += 1
+                self._mark(u, t, t.problem)
+        return [(u, t) for u, t in items if t.problem is None]
+
+    def _nominal(self, block: _Block, targets: list) -> tuple:
+        """Model joints of the joint targets, nominal solutions of the poses, and why not.
+
+        Returns
+        -------
+        known_q : ndarray, shape (N, 6)
+            Model joints of the joint targets (NaN for poses), rad.
+        q_nom : ndarray, shape (N, 6)
+            Nominal model joints of every target (NaN where none was found), rad.
+        bits : ndarray, shape (N, 3)
+            Arm bits of the nominal solutions where the solver took them (NaN elsewhere).
+        reasons : list of (str or None), length N
+        """
+        conv = self.job.convention or convention.IDENTITY
+        n, pose_rows = block.n, block.pose_rows
         reasons: list = [None] * n
         # Joint targets: known joints (also the arm's position for the poses after them).
         known_q = np.full((n, 6), np.nan)
-        joint_rows = np.flatnonzero(~is_pose)
-        known_q[joint_rows] = convention.to_model(joints[joint_rows], conv)
-        pose_rows = np.flatnonzero(is_pose)
+        joint_rows = np.flatnonzero(~block.is_pose)
+        known_q[joint_rows] = convention.to_model(block.joints[joint_rows], conv)
         q_nom = np.full((n, 6), np.nan)
-        desired = np.full((n, 4, 4), np.nan)
+        bits = np.full((n, 3), np.nan)
         if len(pose_rows):
-            desired[pose_rows] = base[pose_rows] @ pose_in_frame[pose_rows]
             stated_codes = [targets[i].code for i in pose_rows.tolist()]
             stated = np.array([c is not None for c in stated_codes])
             k = len(self.solver.code_of(np.zeros((1, 6)))[0])
@@ -233,43 +252,43 @@ class Filter:
             start = self._start(known_q, pose_rows[0])
             # A pose right after a joint target comes from those joints: the controller
             # solves it nearest them (a via, or a generated program's approach move).
+            is_pose = block.is_pose
             after_joints = pose_rows[1:][~is_pose[pose_rows[1:] - 1]]
             comes_from = np.full((len(pose_rows), 6), np.nan)
             comes_from[np.searchsorted(pose_rows, after_joints)] = known_q[after_joints - 1]
-            q, found = self.solver.solve(
-                desired[pose_rows], tool[pose_rows], codes, stated, start, comes_from
+            q, found, bits[pose_rows] = self.solver.solve(
+                block.desired[pose_rows], block.tool[pose_rows], codes, stated, start, comes_from
             )
             q_nom[pose_rows] = q
             for j in np.flatnonzero(~found).tolist():
-                want = lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"
+                want = self.lang.describe(tuple(codes[j])) if stated[j] else "the previous target's"
                 reasons[pose_rows[j]] = (
                     f"no nominal joint solution found in the configuration ({want})"
                 )
         q_nom[joint_rows] = known_q[joint_rows]
-        # Which rows go through the calibrated solver.
-        active = np.zeros(n, dtype=bool)
-        active[pose_rows] = ~np.isnan(q_nom[pose_rows, 0])
-        if job.correct_joints:
-            active[joint_rows] = True
-        else:
-            self.summary.kept["joints"] += len(joint_rows)
-        rows = np.flatnonzero(active)
-        if len(rows):
-            self._compensate(targets, rows, desired, tool, q_nom, is_pose, reasons, result_q)
-        # Encode what changed, by layout, and rewrite the tokens that read differently.
-        ok = active & np.array([r is None for r in reasons])
-        edits: dict = defaultdict(list)
-        for layout, lrows, vals in groups:
+        return known_q, q_nom, bits, reasons
+
+    def _rewrite(
+        self, units: list, targets: list, block: _Block, ok, result_q, result_pose
+    ) -> None:
+        """Encode the corrected targets by layout and splice the tokens that read differently.
+
+        Every changed line is spliced once, left to right (spans index the
+        original line), whatever the number of targets or tokens on it.
+        """
+        job = self.job
+        conv = job.convention or convention.IDENTITY
+        # Per changed line: (unit, line index, [(span, text), ...]) of its tokens.
+        lines: list[tuple] = []
+        shared: dict = {}  # (id(unit), line index) -> its entry, where several targets may meet
+        for layout, lrows, vals in block.groups:
             keep = ok[lrows]
             good = lrows[keep]
             if not len(good):
                 continue
             old = vals[keep]
             if layout.kind == "pose":
-                nominal = kinematics.tool_poses(
-                    job.calibration.nominal_mdh, result_q[good], tool[good]
-                )
-                enc = layout.encode(frames.invert(base[good]) @ nominal, old)
+                enc = layout.encode(frames.invert(block.base[good]) @ result_pose[good], old)
             else:
                 enc = layout.encode(convention.to_controller(result_q[good], conv), old)
             tokens = [targets[i].tokens for i in good.tolist()]
@@ -278,38 +297,22 @@ class Filter:
             for i, toks, new in zip(good.tolist(), tokens, texts, strict=True):
                 if toks == new:
                     continue
-                unit = items[i][0]
-                spans = targets[i].spans
-                line = spans[0][0]
-                if len(unit.targets) == 1 and all(sp[0] == line for sp in spans):
-                    # The usual case, one target on its line: spliced here in one pass.
-                    body, ending = _split(unit.lines[line])
-                    parts, at = [], 0
-                    for (_, start_, end_), text in zip(spans, new, strict=True):
-                        parts += [body[at:start_], text]
-                        at = end_
-                    parts.append(body[at:])
-                    unit.lines[line] = "".join(parts) + ending
+                unit = units[i]
+                if len(unit.lines) == 1 and len(unit.targets) == 1:
+                    # The usual unit, one target on one line: its line's changes are all here.
+                    lines.append((unit, 0, list(zip(targets[i].spans, new, strict=True))))
                     continue
-                for span, tok, text in zip(spans, toks, new, strict=True):
-                    if text != tok:
-                        edits[(id(unit), span[0])].append((span[1], span[2], text, unit))
-        for i in np.flatnonzero((~ok & active) | (~active & is_pose)).tolist():
-            self._mark(items[i][0], targets[i], reasons[i])
-        for (_, li), changes in edits.items():
-            unit = changes[0][3]
-            body, ending = _split(unit.lines[li])
-            # Spliced in one pass, left to right (spans index the original line).
-            parts, at = [], 0
-            for start_, end_, text, _ in sorted(changes, key=lambda c: c[0]):
-                parts += [body[at:start_], text]
-                at = end_
-            parts.append(body[at:])
-            unit.lines[li] = "".join(parts) + ending
-        last = np.flatnonzero(~np.isnan(result_q[:, 0]) | ~np.isnan(known_q[:, 0]))
-        if len(last):
-            i = last[-1]
-            self.last_q = q_nom[i] if not np.isnan(q_nom[i, 0]) else known_q[i]
+                # A token put back as it was splices to the same text: all go in.
+                for span, text in zip(targets[i].spans, new, strict=True):
+                    key = (id(unit), span[0])
+                    found = shared.get(key)
+                    if found is None:
+                        changes: list[tuple] = []
+                        found = shared[key] = (unit, span[0], changes)
+                        lines.append(found)
+                    found[2].append((span, text))
+        for unit, li, on_line in lines:
+            unit.lines[li] = _splice(unit.lines[li], on_line)
 
     def _mark(self, unit: Unit, target: Target, reason: str) -> None:
         """Count a failure; with ``--keep-failed``, note it at the end of its line."""
@@ -324,15 +327,20 @@ class Filter:
         before = np.flatnonzero(~np.isnan(known_q[:first_pose, 0]))
         return known_q[before[-1]] if len(before) else self.last_q
 
-    def _compensate(self, items, rows, desired, tool, q_nom, is_pose, reasons, result_q):
+    def _compensate(self, items, rows, block, q_nom, bits, reasons, result_q, result_pose):
+        """Calibrated solutions of ``rows``: where good, into ``result_q`` (model joints, rad)
+        and ``result_pose`` (their nominal tool poses, the corrected targets, mm); else a reason.
+        """
         job, cal = self.job, self.job.calibration
-        pose = is_pose[rows]
-        d = desired[rows]
+        pose = block.is_pose[rows]
+        d = block.desired[rows]
         q0 = q_nom[rows]
+        tool = block.tool[rows]
         # Joint rows: desired = the nominal pose of their joints (compensate computes it).
-        d = np.where(pose[:, None, None], d, kinematics.tool_poses(cal.nominal_mdh, q0, tool[rows]))
+        if not pose.all():
+            d[~pose] = kinematics.tool_poses(cal.nominal_mdh, q0[~pose], tool[~pose])
         comp = compensate.compensate(
-            cal, d, q0, job.limits, job.payload_kg, tool=tool[rows], nominal_solved=True
+            cal, d, q0, job.limits, job.payload_kg, tool=tool, nominal_solved=True
         )
         sol = comp.solution
         q_cal = comp.q
@@ -342,7 +350,7 @@ class Filter:
         )
         jump = np.degrees(np.abs(q_cal - comp.q_nominal))
         # The configuration to keep: the one the target states, else its nominal solution's.
-        keep = self.solver.code_of(comp.q_nominal)
+        keep = self.solver.code_of(comp.q_nominal, bits[rows])
         for j, i in enumerate(rows.tolist()):
             if pose[j] and items[i].code is not None:
                 keep[j] = items[i].code
@@ -401,11 +409,81 @@ class Filter:
                 )
         good = ~bad
         result_q[rows[good]] = q_cal[good]
+        result_pose[rows[good]] = comp.corrected[good]
         if good.any():
             self.summary.max_mm = max(self.summary.max_mm, float(move_mm[good].max()))
             self.summary.max_deg = max(self.summary.max_deg, float(turn_deg[good].max()))
             self.summary.sum_mm += float(move_mm[good].sum())
             self.summary.sum_deg += float(turn_deg[good].sum())
+
+
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Python's cycle collector off while a program streams through (as it was, after).
+
+    A block keeps some 60,000 small containers (units, targets, their lists)
+    alive until it is written; the collector's full passes over them and
+    every other object cost 10-14 % of the filter's time (10^5 URScript
+    targets, measured) and find nothing: the filter makes no reference
+    cycles. Reference counting still frees each block once it is written.
+    """
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+class _Block:
+    """A block's targets as arrays: numbers decoded per layout, frames stacked.
+
+    Attributes
+    ----------
+    n : int
+    groups : list of (Layout, ndarray of int, ndarray (M, m))
+        Each layout, its rows and their numbers as read (every target of a
+        layout has the same numbers).
+    is_pose : ndarray of bool, shape (N,)
+    pose_rows : ndarray of int
+    joints : ndarray, shape (N, 6)
+        Controller joints of the joint targets (NaN for poses), rad.
+    tool, base : ndarray, shape (N, 4, 4)
+        Each target's tool on the model's flange and base frame in the
+        model's base frame (the controller's frames placed on the model), mm.
+    desired : ndarray, shape (N, 4, 4)
+        Tool poses of the pose targets in the model's base frame (NaN for joints), mm.
+    """
+
+    def __init__(self, targets: list, job: Job) -> None:
+        n = self.n = len(targets)
+        by_layout: dict = defaultdict(list)
+        for i, t in enumerate(targets):
+            by_layout[id(t.layout)].append(i)
+        self.groups = []
+        pose_in_frame = np.full((n, 4, 4), np.nan)
+        self.joints = np.full((n, 6), np.nan)
+        self.is_pose = np.zeros(n, dtype=bool)
+        for members in by_layout.values():
+            rows = np.array(members)
+            layout = targets[members[0]].layout
+            vals = np.array([targets[i].tokens for i in members], dtype=float)
+            if layout.kind == "pose":
+                pose_in_frame[rows] = layout.decode(vals)
+                self.is_pose[rows] = True
+            else:
+                self.joints[rows] = layout.decode(vals)
+            self.groups.append((layout, rows, vals))
+        # The program's frames are the controller's: tool 0 is its flange and base 0 its
+        # base (world) frame, placed on the model's flange and MDH frame 0.
+        self.tool = np.asarray(job.controller_flange) @ _stack([t.tool for t in targets])
+        self.base = np.asarray(job.controller_base) @ _stack([t.base for t in targets])
+        self.pose_rows = np.flatnonzero(self.is_pose)
+        self.desired = np.full((n, 4, 4), np.nan)
+        rows = self.pose_rows
+        if len(rows):
+            self.desired[rows] = self.base[rows] @ pose_in_frame[rows]
 
 
 def _stack(transforms: list) -> np.ndarray:
@@ -420,6 +498,21 @@ def _stack(transforms: list) -> np.ndarray:
             unique.append(np.eye(4) if t is None else t)
         rows.append(k)
     return np.array(unique)[np.array(rows)]
+
+
+def _splice(line: str, changes: list) -> str:
+    """``line`` with each ``((line index, start, end), text)`` of ``changes`` put in.
+
+    Spans index the original line: spliced in one pass, left to right.
+    """
+    changes.sort()
+    parts: list[str] = []
+    at = 0
+    for (_, start, end), text in changes:
+        parts += (line[at:start], text)
+        at = end
+    parts.append(line[at:])  # spans end before the line ending: it stays
+    return "".join(parts)
 
 
 def _split(line: str) -> tuple[str, str]:

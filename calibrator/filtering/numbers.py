@@ -74,7 +74,7 @@ def first_problem(tokens: list) -> str | None:
     """The :func:`problem` of the first token of ``tokens`` (str or ``(str, ...)``) that has one."""
     for token in tokens:
         text = token if isinstance(token, str) else token[0]
-        if _PLAIN.fullmatch(text) is None:  # the usual token needs no further look
+        if PLAIN.fullmatch(text) is None:  # the usual token needs no further look
             why = problem(text)
             if why is not None:
                 return why
@@ -82,7 +82,10 @@ def first_problem(tokens: list) -> str | None:
 
 
 #: A number no float() can make infinite: no exponent, at most 40 digits.
-_PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
+PLAIN = re.compile(r"[+-]?(?:\d{1,20}(?:\.\d{0,20})?|\.\d{1,20})")
+#: :data:`PLAIN`'s grammar with possessive quantifiers, for longer patterns: it matches
+#: the same text and never gives digits back, so a line that does not fit fails sooner.
+PLAIN_POSSESSIVE = r"[+-]?+(?:\d{1,20}+(?:\.\d{0,20}+)?+|\.\d{1,20}+)"
 
 
 def _shown(token: str) -> str:
@@ -149,7 +152,9 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
     list of list of str
         The text for each token (the token itself where it reads the same).
     """
-    tok = np.asarray(tokens, dtype=str)
+    m = len(units)
+    flat = [t for row in tokens for t in row]  # numpy reads a flat list faster than a nested one
+    tok = np.array(flat, dtype=str).reshape(-1, m)
     plain = ~(np.char.count(tok, "e") + np.char.count(tok, "E")).astype(bool)
     dot = np.char.find(tok, ".")
     places = np.where(dot >= 0, np.char.str_len(tok) - dot - 1, 0)
@@ -163,21 +168,25 @@ def write_many(tokens: list, old: np.ndarray, new: np.ndarray, units: tuple) -> 
         places = np.where(more, places + 1, places)
         rounded = np.round(new * 10.0**places) / 10.0**places
     same = (rounded == old) | ~np.isfinite(new)
-    out = [list(row) for row in tokens]
-    rows, cols = np.nonzero(~same | ~plain)
-    values = new[rows, cols].tolist()
-    digits = places[rows, cols].tolist()
-    simple = plain[rows, cols].tolist()
-    # Plain Python from here: numpy scalars are slow to format one by one.
-    for i, j, v, d, easy in zip(rows.tolist(), cols.tolist(), values, digits, simple, strict=True):
-        token = tokens[i][j]
-        if not easy:
-            out[i][j] = write(token, v, units[j])
-            continue
-        text = f"{v:.{d}f}"
-        if text[0] == "-" and float(text) == 0.0:
-            text = text[1:]
-        if token[0] == "+" and text[0] != "-":
-            text = "+" + text
-        out[i][j] = text
-    return out
+    cells = np.empty(len(flat), dtype=object)
+    cells[:] = flat
+    out = cells.reshape(-1, m)
+    # Tokens with an exponent: one at a time, by :func:`write` (rare).
+    for i, j in zip(*np.nonzero(~plain), strict=True):
+        out[i, j] = write(tokens[i][j], float(new[i, j]), units[j])
+    # Plain tokens that read differently: printed with their decimals, in one pass
+    # ("%.*f" rounds as f"{v:.{d}f}" does); the few that print as "-0.0..." or were
+    # written with a "+" are then fixed one by one.
+    rows, cols = np.nonzero(~same & plain)
+    values, digits = new[rows, cols], places[rows, cols]
+    texts = list(map("%.*f".__mod__, zip(digits.tolist(), values.tolist(), strict=True)))
+    for k in np.flatnonzero(np.signbit(values) & (np.abs(values) < 10.0**-digits)).tolist():
+        if float(texts[k]) == 0.0:
+            texts[k] = texts[k][1:]  # no "-0.000" from a value that rounds to zero
+    for k in np.flatnonzero(np.strings.startswith(tok[rows, cols], "+")).tolist():
+        if texts[k][0] != "-":
+            texts[k] = "+" + texts[k]
+    changed = np.empty(len(texts), dtype=object)
+    changed[:] = texts
+    out[rows, cols] = changed
+    return out.tolist()

@@ -51,6 +51,23 @@ def features(flange: np.ndarray) -> np.ndarray:
     )
 
 
+class _FlangePoints:
+    """:func:`features` of a block's flange poses, all computed on the first look-up.
+
+    Most blocks never take a start from the library (their targets start
+    from their neighbours): they never pay for these.
+    """
+
+    def __init__(self, desired: np.ndarray, tool: np.ndarray) -> None:
+        self._desired, self._tool = desired, tool
+        self._points: np.ndarray | None = None
+
+    def __getitem__(self, rows: np.ndarray) -> np.ndarray:
+        if self._points is None:
+            self._points = features(self._desired @ frames.invert(self._tool))
+        return self._points[rows]
+
+
 class Library:
     """Nominal joint samples within the limits (joints 1, 4, 6 within one turn) and their poses."""
 
@@ -108,10 +125,20 @@ class Solver:
             self._library = _LIBRARIES[key]
         return self._library
 
-    def code_of(self, q_model: np.ndarray) -> np.ndarray:
-        """The configuration data (N, k) of model joints, as the language states it."""
+    def code_of(self, q_model: np.ndarray, bits: np.ndarray | None = None) -> np.ndarray:
+        """The configuration data (N, k) of model joints, as the language states it.
+
+        ``bits`` (N, 3), optional: the joints' arm bits where already known
+        (:meth:`solve`'s), NaN rows taken here.
+        """
         q_deg = np.degrees(convention.to_controller(q_model, self.conv))
-        return self.lang.code(q_deg, configuration.arm_bits(self.mdh, q_model))
+        if bits is None:
+            return self.lang.code(q_deg, configuration.arm_bits(self.mdh, q_model))
+        known = bits.copy()
+        missing = np.isnan(known[:, 0])
+        if missing.any():
+            known[missing] = configuration.arm_bits(self.mdh, q_model[missing])
+        return self.lang.code(q_deg, known.astype(int))
 
     def matches(self, q_model: np.ndarray, code: np.ndarray) -> np.ndarray:
         """Rows whose joints have the configuration ``code`` (N, k).
@@ -156,7 +183,11 @@ class Solver:
         return convention.to_model(np.radians(out), self.conv), done
 
     def _try(self, desired, tool, seeds, code, stated, ref_bits):
-        """Solve from ``seeds``; keep a row only in its configuration. Returns (q, ok)."""
+        """Solve from ``seeds``; keep a row only in its configuration.
+
+        Returns ``(q, ok, bits)``: ``bits`` (N, 3) are the arm bits of the
+        rows checked against ``ref_bits`` (NaN for the others).
+        """
         sol = inverse.solve(self.mdh, desired, seeds, tool)
         # A joint the solver turned by whole turns reaches the same pose: take the
         # angle nearest the start (the arm comes from there, or the start is the library's).
@@ -167,9 +198,11 @@ class Solver:
             q[stated] = fitted
             ok[stated] &= match
         free = ~stated & ~np.isnan(ref_bits[:, 0])
+        bits = np.full((len(q), 3), np.nan)
         if free.any():
-            ok[free] &= np.all(configuration.arm_bits(self.mdh, q[free]) == ref_bits[free], axis=1)
-        return q, ok
+            bits[free] = configuration.arm_bits(self.mdh, q[free])
+            ok[free] &= np.all(bits[free] == ref_bits[free], axis=1)
+        return q, ok, bits
 
     def solve(
         self,
@@ -179,7 +212,7 @@ class Solver:
         stated: np.ndarray,
         start_q: np.ndarray | None,
         comes_from: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Nominal joints of a block of targets.
 
         Parameters
@@ -203,11 +236,15 @@ class Solver:
         q : ndarray, shape (N, 6)
             Model joints (rad); NaN where none was found.
         found : ndarray of bool, shape (N,)
+        bits : ndarray, shape (N, 3)
+            :func:`configuration.arm_bits` of the solutions whose bits were
+            taken while solving (as floats; NaN for the others).
         """
         n = len(desired)
         q = np.full((n, 6), np.nan)
         found = np.zeros(n, dtype=bool)
-        lib_points = features(desired @ frames.invert(tool))
+        bits = np.full((n, 3), np.nan)
+        lib_points = _FlangePoints(desired, tool)
         anchors = np.arange(0, n, STRIDES[0])
         nan_bits = np.full((n, 3), np.nan)
         # Anchors that state their configuration: library starts.
@@ -220,7 +257,7 @@ class Solver:
             if len(seeded):
                 seeds = comes_from[seeded]
                 ref = configuration.arm_bits(self.mdh, seeds).astype(float)
-                qa, ok = self._try(
+                qa, ok, _ = self._try(
                     desired[seeded], tool[seeded], seeds, code[seeded], stated[seeded], ref
                 )
                 q[seeded[ok]], found[seeded[ok]] = qa[ok], True
@@ -232,7 +269,7 @@ class Solver:
                 continue
             sl = slice(a, a + 1)
             if prev is not None:
-                qa, ok = self._try(
+                qa, ok, _ = self._try(
                     desired[sl], tool[sl], prev[None], code[sl], stated[sl], nan_bits[sl]
                 )
                 if ok[0]:
@@ -247,14 +284,14 @@ class Solver:
         for stride in STRIDES[1:] + (1,):
             level = np.setdiff1d(np.arange(0, n, stride), done_levels)
             self._from_neighbours(level, (level // (stride * 16)) * (stride * 16), desired, tool,
-                                  code, stated, q, found)  # fmt: skip
+                                  code, stated, q, found, bits)  # fmt: skip
             done_levels = np.union1d(done_levels, level)
         for _ in range(3):
             rest = np.flatnonzero(~found)
             rest = rest[rest > 0]
             if not len(rest):
                 break
-            self._from_neighbours(rest, rest - 1, desired, tool, code, stated, q, found)
+            self._from_neighbours(rest, rest - 1, desired, tool, code, stated, q, found, bits)
         # Whatever is left: library starts (in the stated configuration, or the
         # solution nearest the joints of the target before).
         left = np.flatnonzero(~found & stated)
@@ -263,19 +300,21 @@ class Solver:
         for i in np.flatnonzero(~found & ~stated):
             before = q[i - 1] if i > 0 and found[i - 1] else (prev if i == 0 else None)
             self._nearest(np.array([i]), desired, tool, before, lib_points, q, found)
-        return q, found
+        return q, found, bits
 
-    def _from_neighbours(self, rows, src, desired, tool, code, stated, q, found):
-        """Solve ``rows`` from the solutions of ``src`` (where found), in place."""
+    def _from_neighbours(self, rows, src, desired, tool, code, stated, q, found, bits):
+        """Solve ``rows`` from the solutions of ``src`` (where found), in place (``bits`` too)."""
         todo = ~found[rows]
         rows, src = rows[todo], src[todo]
         have = found[src]
         rows, src = rows[have], src[have]
         if not len(rows):
             return
-        ref = configuration.arm_bits(self.mdh, q[src]).astype(float)
-        qa, ok = self._try(desired[rows], tool[rows], q[src], code[rows], stated[rows], ref)
-        q[rows[ok]], found[rows[ok]] = qa[ok], True
+        # Many rows start from one source (16 from each of the level above): bits once each.
+        sources, back = np.unique(src, return_inverse=True)
+        ref = configuration.arm_bits(self.mdh, q[sources]).astype(float)[back]
+        qa, ok, got = self._try(desired[rows], tool[rows], q[src], code[rows], stated[rows], ref)
+        q[rows[ok]], found[rows[ok]], bits[rows[ok]] = qa[ok], True, got[ok]
 
     def _nearest(self, rows, desired, tool, ref_q, lib_points, q, found):
         """Of the solutions from library starts, the one nearest ``ref_q`` (any configuration)."""
@@ -306,7 +345,7 @@ class Solver:
             if not todo.any():
                 break
             r = rows[todo]
-            qa, ok = self._try(
+            qa, ok, _ = self._try(
                 desired[r], tool[r], lib.q[picks[todo, j]], code[r], stated[r], ref[todo]
             )
             q[r[ok]], found[r[ok]] = qa[ok], True

@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,18 +31,34 @@ from calibrator.filtering.base import (
     Target,
     Unit,
     language,
-    read_lines,
+    read_chunks,
     split_ending,
 )
 from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
+#: A move of something other than a literal list, or text that may read so (a superset:
+#: no word boundary, and a line break counts as not a literal; fast, with no alternation).
+_MOVE_NOT_LITERAL = re.compile(r"move[jlpc]\s*\((?![ \t]*p?[ \t]*\[)")
 _TCP = re.compile(r"\bset_tcp\s*\(\s*p\s*\[([^\]]*)\]")
 _ASSIGN_START = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[")
 _UNCLOSED = "its list is not closed on its line"
 _OPENED = re.compile(r"\s*(p?)\s*\[")
 _ASSIGN = re.compile(r"^\s*(?:global\s+|local\s+)?([A-Za-z_]\w*)\s*=\s*(p?)\s*\[([^\]]*)\]\s*$")
+#: One field of the plain line below: a number of :data:`numbers.PLAIN`'s grammar (always
+#: finite, so it passes :func:`numbers.problem`), blanks around it. Possessive quantifiers
+#: throughout: no part of the pattern can take what the next part needs, so none gives back.
+_FIELD = r"[ \t]*+(" + numbers.PLAIN_POSSESSIVE + r")[ \t]*+"
+#: The usual line of a long program, read with one match: a ``movej``/``movel``/``movep``
+#: of an inline literal of six plain numbers, more arguments that hold no string, comment,
+#: bracket or call, nothing else on the line. It holds no ``set_tcp`` and no variable, so
+#: it reads as the general path would read it; any other line takes the general path.
+_PLAIN_MOVE = re.compile(
+    r"[ \t]*+(movej|movel|movep)[ \t]*+\([ \t]*+(p?)[ \t]*+\["
+    + ",".join([_FIELD] * 6)
+    + r"\][ \t]*+(?:,[^\[\]()\"'#]*+)?\)[ \t]*+(?:\r\n|\n|\r)?"
+)
 
 
 def _decode_pose(v):
@@ -115,7 +132,10 @@ class URScript(Language):
         # First pass: the TCP each pose variable is moved to with.
         self.var_tool: dict[str, tuple] = {}
         tool, tool_line = None, 0
-        for number, line in read_lines(program):
+        plain = _PLAIN_MOVE.fullmatch
+        for number, line in self._first_pass_lines(program):
+            if plain(line) is not None:
+                continue  # no TCP, no variable moved to
             code = _code_part(split_ending(line)[0])
             m = _TCP.search(code)
             if m:
@@ -134,54 +154,85 @@ class URScript(Language):
                         )
                     self.var_tool[name] = (tool, tool_line)
 
+    @staticmethod
+    def _first_pass_lines(program: Path) -> Iterator[tuple[int, str]]:
+        """The lines that may set a TCP or move to a variable (runs of others skipped whole).
+
+        A run of lines whose text holds no ``set_tcp``, no ``movec`` and no
+        other move than of a literal has nothing the first pass looks for
+        (its code, strings and comments blanked, holds less than its text).
+        """
+        for first, lines in read_chunks(program):
+            text = "".join(lines)
+            if "set_tcp" in text or "movec" in text or _MOVE_NOT_LITERAL.search(text):
+                yield from enumerate(lines, start=first)
+
     def scan(self, path: Path) -> Iterator[Unit]:
         tool = None
-        for number, line in read_lines(path):
-            body, _ = split_ending(line)
-            code = _code_part(body)
-            unit = Unit([line])
-            m = _TCP.search(code)
-            if m:
-                tool = _tcp(m.group(1), f"{path}:{number}")
-            assign = _ASSIGN.match(code)
-            cut = None if assign else _ASSIGN_START.match(code)
-            if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
+        plain, file = _PLAIN_MOVE.fullmatch, str(path)
+        for first, lines in read_chunks(path):
+            for number, line in enumerate(lines, start=first):
+                m = plain(line)
+                if m is None:
+                    unit, tool = self._unit(path, number, line, tool)
+                    yield unit
+                    continue
+                target = Target(
+                    file,
+                    number,
+                    m.group(1),
+                    POSE if m.group(2) else JOINTS,
+                    list(m.group(3, 4, 5, 6, 7, 8)),
+                    [(0, a, b) for a, b in m.regs[3:9]],
+                    tool,
+                )  # fmt: skip
+                yield Unit([line], [target])
+
+    def _unit(self, path: Path, number: int, line: str, tool: Any) -> tuple[Unit, Any]:
+        """One line read by the general path: its unit, and the TCP after it."""
+        body, _ = split_ending(line)
+        code = _code_part(body)
+        unit = Unit([line])
+        m = _TCP.search(code)
+        if m:
+            tool = _tcp(m.group(1), f"{path}:{number}")
+        assign = _ASSIGN.match(code)
+        cut = None if assign else _ASSIGN_START.match(code)
+        if cut and cut.group(1) in self.var_tool:  # ``approach = p[0.1, 0.2`` cut off
+            unit.targets.append(
+                self._target(path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED)
+            )
+        if assign and assign.group(1) in self.var_tool:
+            name, is_pose = assign.group(1), assign.group(2) == "p"
+            nums = _numbers_in(assign.group(3), assign.start(3))
+            unit.targets.append(
+                self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
+            )
+        for call in _MOVE.finditer(code):
+            args = _arguments(code, call.end())
+            for a, b in args[: 2 if call.group(1) == "movec" else 1]:
+                arg = code[a:b]
+                lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
+                if not lit:
+                    opened = _OPENED.match(arg)
+                    if opened:  # ``movel(p[0.1, 0.2`` cut off: a target that cannot be read
+                        unit.targets.append(
+                            self._target(
+                                path,
+                                number,
+                                call.group(1),
+                                [],
+                                opened.group(1) == "p",
+                                tool,
+                                _UNCLOSED,
+                            )  # fmt: skip
+                        )
+                    continue
+                nums = _numbers_in(lit.group(2), a + lit.start(2))
                 unit.targets.append(
-                    self._target(
-                        path, number, cut.group(1), [], cut.group(2) == "p", tool, _UNCLOSED
-                    )
+                    self._target(path, number, call.group(1), nums, lit.group(1) == "p", tool)
                 )
-            if assign and assign.group(1) in self.var_tool:
-                name, is_pose = assign.group(1), assign.group(2) == "p"
-                nums = _numbers_in(assign.group(3), assign.start(3))
-                unit.targets.append(
-                    self._target(path, number, name, nums, is_pose, self.var_tool[name][0])
-                )
-            for call in _MOVE.finditer(code):
-                args = _arguments(code, call.end())
-                for a, b in args[: 2 if call.group(1) == "movec" else 1]:
-                    arg = code[a:b]
-                    lit = re.fullmatch(r"\s*(p?)\s*\[([^\]]*)\]\s*", arg)
-                    if not lit:
-                        opened = _OPENED.match(arg)
-                        if opened:  # ``movel(p[0.1, 0.2`` cut off: a target that cannot be read
-                            unit.targets.append(
-                                self._target(
-                                    path,
-                                    number,
-                                    call.group(1),
-                                    [],
-                                    opened.group(1) == "p",
-                                    tool,
-                                    _UNCLOSED,
-                                )  # fmt: skip
-                            )
-                        continue
-                    nums = _numbers_in(lit.group(2), a + lit.start(2))
-                    unit.targets.append(
-                        self._target(path, number, call.group(1), nums, lit.group(1) == "p", tool)
-                    )
-            yield unit
+        return unit, tool
 
     def _target(self, path, number, label, nums, is_pose, tool, problem=None):
         layout = POSE if is_pose else JOINTS

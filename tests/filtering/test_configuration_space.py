@@ -247,3 +247,16 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     # Unfiltered, the same controller misses by the calibration's error.
     raw = kinematics.chain(cal.mdh, inverse.solve(cal.nominal_mdh, intended, q, tool).q)
     assert np.median(np.linalg.norm((raw @ tool)[:, :3, 3] - intended[:, :3, 3], axis=1)) > 0.2
+
+
+def test_bits_read_the_same_points_as_the_singularity_model():
+    from calibrator.filtering.configuration import _points
+    from calibrator.model import singularities
+
+    rng = np.random.default_rng(7)
+    for name in ("ur10e", "er10l-c10"):
+        mdh = robots.get(name).mdh
+        q = rng.uniform(-np.pi, np.pi, (500, 6))
+        reference = singularities.points(mdh, q)[:5]
+        for ours, theirs in zip(_points(mdh, q), reference, strict=True):
+            assert np.array_equal(ours, theirs)  # the same numbers, bit for bit

@@ -28,3 +28,20 @@ def test_write_many_agrees_with_write():
         for r, n in zip(tokens, new, strict=True)
     ]
     assert many == one
+
+
+def test_the_possessive_plain_grammar_matches_what_the_plain_one_matches():
+    import re
+
+    possessive = re.compile(numbers.PLAIN_POSSESSIVE)
+    digits = ["", "0", "7", "12", "1" * 20, "1" * 21]
+    tokens = [
+        sign + whole + dot + frac
+        for sign in ("", "+", "-", "+-")
+        for whole in digits
+        for dot in ("", ".", "..")
+        for frac in digits
+    ]
+    tokens += ["1e3", ".", "-.", "1.2.3", " 1", "1 "]
+    for token in tokens:
+        assert bool(possessive.fullmatch(token)) == bool(numbers.PLAIN.fullmatch(token)), token

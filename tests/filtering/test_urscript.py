@@ -62,3 +62,52 @@ def test_cli_writes_summary_and_refuses_a_variable_under_two_tcps(tmp_path):
     bad = run_cli("compensate", "cal.json", "two.script", "-o", "two_out.script", cwd=tmp_path)
     assert bad.returncode == 2 and "approach is moved to with the TCP" in bad.stderr
     assert not (tmp_path / "two_out.script").exists()
+
+
+def test_plain_lines_read_as_the_general_path_reads_them(tmp_path, monkeypatch):
+    from dataclasses import replace
+
+    from calibrator.filtering import urscript
+
+    nums = "0.5, -0.25, +0.125, .75, 3., 1"
+    lines = [
+        f"  movel(p[{nums}], a=1.2, v=0.25)\r\n",
+        f"  approach = p[{nums}]\n",  # a variable's own line, then plain lines again
+        "  movel(approach)\n",
+        f"movej([{nums}])\n",
+        f"\tmovep( p [ {nums} ] ,r=0.001 )\r",
+        f"  movel(p[{nums}], a=1.2) # a comment\n",
+        f"  movel(p[{nums}] x)\n",  # not a call of one literal: fails as cut off
+        f"  movel(p[{nums}, 2])\n",  # seven values
+        "  movel(p[0.5, 1e3, 0, 0, 0, 0])\n",  # an exponent: the grammar's own path
+        "  movel(p[0.5, 1.2.3, 0, 0, 0, 0])\n",
+        "  movel(p[0.5, 123456789012345678901, 0, 0, 0, 0])\n",
+        f'  movel(p[{nums}], a="(")\n',
+        f"  xmovel(p[{nums}])\n",
+        f"  movec(p[{nums}], p[{nums}], a=1)\n",
+        f"  movel(p[{nums}], a=f(1))\n",
+        "  set_tcp(p[0, 0, 0.1, 0, 0, 0])\n",
+        f"  movel(p[{nums}])",  # under the new TCP, no line ending (the last line)
+    ]
+    src = tmp_path / "lines.script"
+    src.write_bytes("".join(lines).encode("latin-1"))
+    cal = calibration("ur10e")
+
+    def targets():
+        lang = urscript.URScript(job(cal), src)
+        return [(u.lines, u.targets) for u in lang.scan(src)]
+
+    plain = targets()
+    monkeypatch.setattr(urscript, "_PLAIN_MOVE", re.compile("(?!)"))  # never matches
+    general = targets()
+    assert len(plain) == len(lines)
+    for (lines_a, targets_a), (lines_b, targets_b) in zip(plain, general, strict=True):
+        assert lines_a == lines_b
+        assert len(targets_a) == len(targets_b)
+        for a, b in zip(targets_a, targets_b, strict=True):
+            tools = (a.tool, b.tool)
+            assert replace(a, tool=None) == replace(b, tool=None)
+            assert (tools[0] is None and tools[1] is None) or np.array_equal(*tools)
+    assert [t.problem for _, ts in plain[:5] + plain[-1:] for t in ts] == [None] * 5
+    assert {t.file for _, ts in plain for t in ts} == {str(src)}
+    assert plain[-1][1][0].tool[2, 3] == 100.0
