@@ -43,10 +43,10 @@ HERE = Path(__file__).resolve().parent
 def _setup_krl(folder: Path, n: int) -> None:
     from calibrator import compensate, robots, simulate
     from calibrator.calibration import Calibration
-    from calibrator.filtering import Job, frames_file, rotations
+    from calibrator.filtering import Job, frames_file
     from calibrator.filtering.krl import KRL
     from calibrator.filtering.solve import Solver
-    from calibrator.model import frames, kinematics, parameters
+    from calibrator.model import frames, kinematics, parameters, rotations
 
     model = robots.get("er10l-c10")
     errors = simulate.random_errors(model.mdh, np.random.default_rng(3), mm=0.3, rad=0.0005)
@@ -84,7 +84,7 @@ def _setup_krl(folder: Path, n: int) -> None:
             in_base = kinematics.tool_poses(model.mdh, q[sl], tool)
             pose = frames.invert(base) @ in_base
             abc = rotations.matrix_to_zyx(pose[:, :3, :3], np.zeros((len(pose), 3)))
-            rv = frames.matrix_to_rotvec(in_base[:, :3, :3])
+            rv = rotations.matrix_to_rotvec(in_base[:, :3, :3])
             lines = []
             for p, a, c in zip(pose[:, :3, 3], abc, codes[sl], strict=True):
                 lines.append(
@@ -121,8 +121,7 @@ def _calibration(name: str, tool=None):
 
 def _setup_urscript(folder: Path, n: int) -> None:
     from calibrator import compensate
-    from calibrator.filtering import rotations
-    from calibrator.model import frames
+    from calibrator.model import frames, rotations
 
     tool = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
     model, cal = _calibration("ur10e", tool)
@@ -142,7 +141,7 @@ def _setup_urscript(folder: Path, n: int) -> None:
             0.2 + 0.5 * v,
         ]
     )
-    rv_tool = frames.matrix_to_rotvec(tool[None, :3, :3])[0]
+    rv_tool = rotations.matrix_to_rotvec(tool[None, :3, :3])[0]
     tcp = ", ".join([f"{x / 1000:.5f}" for x in tool[:3, 3]] + [f"{r:.6f}" for r in rv_tool])
     script, table = folder / "path.script", folder / "path.csv"
     with open(script, "w", newline="") as src, open(table, "w") as csv:
@@ -151,7 +150,7 @@ def _setup_urscript(folder: Path, n: int) -> None:
         for s in range(0, n, 100_000):
             sl = slice(s, min(n, s + 100_000))
             pose = compensate.tool_poses(model.mdh, q[sl], tool)  # UR: controller base = model's
-            rv = frames.matrix_to_rotvec(pose[:, :3, :3])
+            rv = rotations.matrix_to_rotvec(pose[:, :3, :3])
             m = pose[:, :3, 3] / 1000.0
             src.write(
                 "".join(

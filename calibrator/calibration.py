@@ -47,7 +47,7 @@ from calibrator.errors import CalibrationError
 from calibrator.fit_records import FitStats, SolverDetails, Uncertainty
 from calibrator.inputs import jsonfile, messages
 from calibrator.inputs.json_fields import Fields
-from calibrator.model import consistency, frames, kinematics, parameters, plausibility
+from calibrator.model import consistency, frames, kinematics, parameters, plausibility, rotations
 from calibrator.model.joint_terms import JointTerms
 from calibrator.model.plausibility import PLAUSIBLE_DELTA
 from calibrator.recorded_options import JointTermOptions, Options
@@ -492,7 +492,7 @@ class Calibration:
         """One record per candidate parameter: nominal, identified, free or fixed.
 
         MDH entries hold the table values; ``base_*`` the translation (mm)
-        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.model.frames.angles_xyz`)
+        and ``Rx Ry Rz`` angles (rad, :func:`calibrator.model.rotations.angles_xyz`)
         of ``base2tracker`` (nominal: of ``base0``); ``tool_x/y/z`` the tool
         point in the flange frame and ``tool_rx/ry/rz`` the angles of its
         rotation (nominal: of ``tool0``).
@@ -775,9 +775,9 @@ def _check_fixed(mdh, nominal, free, where):
 
 
 def _flat_values(mdh, base2tracker, tool):
-    base = np.concatenate([base2tracker[:3, 3], frames.angles_xyz(base2tracker[:3, :3])])
+    base = np.concatenate([base2tracker[:3, 3], rotations.angles_xyz(base2tracker[:3, :3])])
     # Tool rotation as Rx Ry Rz angles of flange2tool, like the base frame's (issue 9).
-    turn = frames.angles_xyz(tool[:3, :3])
+    turn = rotations.angles_xyz(tool[:3, :3])
     return np.concatenate([np.asarray(mdh).ravel(), base, tool[:3, 3], turn])
 
 

@@ -76,7 +76,7 @@ from calibrator import outputs, robots
 from calibrator.errors import CalibrationError, SessionError
 from calibrator.inputs import jsonfile, session_table
 from calibrator.inputs.errors import StrictError
-from calibrator.model import consistency, frames, kinematics, plausibility
+from calibrator.model import consistency, frames, kinematics, plausibility, rotations
 from calibrator.model.measurement import Observations
 
 if TYPE_CHECKING:
@@ -237,7 +237,7 @@ class Session:
         """
         rot = None
         if all(c in self.table.column_names for c in ROTVEC_COLUMNS):
-            rot = frames.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
+            rot = rotations.rotvec_to_matrix(self.array(ROTVEC_COLUMNS))
         q = self.meta.convention.to_model(self.array(JOINT_COLUMNS))
         return Observations(q, self.array(POINT_COLUMNS), rot)
 

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import robots
-from calibrator.model import DEFAULT_TOOL_MM, frames, kinematics, parameters
+from calibrator.model import DEFAULT_TOOL_MM, frames, kinematics, parameters, rotations
 from calibrator.model.noise import TRACKER_NOISE
 from calibrator.robots import ipso_paper
 
@@ -124,7 +124,7 @@ class SimWorld:
         offset *= 1.5 / np.linalg.norm(offset)  # an unknown 1.5 mm error of the tool point
         tool = frames.transform(translation=np.add(DEFAULT_TOOL_MM, offset))
         tracker2base = frames.transform(
-            frames.rotvec_to_matrix(SIM_TRACKER_ROTVEC), SIM_TRACKER_AT_MM
+            rotations.rotvec_to_matrix(SIM_TRACKER_ROTVEC), SIM_TRACKER_AT_MM
         )
         return cls(
             model,
@@ -166,7 +166,7 @@ class SimWorld:
         """
         rng = np.random.default_rng([self.seed, 9283, 1])
         error = frames.transform(
-            frames.rotvec_to_matrix(rng.normal(0.0, SIM_SURVEY_RAD, 3)),
+            rotations.rotvec_to_matrix(rng.normal(0.0, SIM_SURVEY_RAD, 3)),
             rng.normal(0.0, SIM_SURVEY_MM, 3),
         )
         return np.asarray(self.base2tracker @ error, float)
@@ -335,7 +335,7 @@ def simulate(
 
     # The tracker stands about 3 m from the robot, turned arbitrarily.
     base2tracker = frames.transform(
-        frames.rotvec_to_matrix(rng.uniform(-np.pi, np.pi, 3) / 2),
+        rotations.rotvec_to_matrix(rng.uniform(-np.pi, np.pi, 3) / 2),
         rng.uniform(-1, 1, 3) * 1000 + [3000.0, 0, 0],
     )
 
@@ -345,17 +345,17 @@ def simulate(
     sigma = noise_mm * np.sqrt(n_readings / 3.0)  # per axis, per reading
     readings = tracker_readings(pose[:, :3, 3], n_readings, sigma, rng)
     points, spread = readings.mean(axis=1), readings.std(axis=1, ddof=1)
-    rotations = pose[:, :3, :3]
+    turned = pose[:, :3, :3]
     if orientation_noise_rad:
         tilt = rng.normal(0.0, orientation_noise_rad / np.sqrt(3.0), (poses, 3))
-        rotations = frames.rotvec_to_matrix(tilt) @ rotations
+        turned = rotations.rotvec_to_matrix(tilt) @ turned
 
     if frame == "base":
         # The user aligned the tracker to the base: express everything there.
         tracker2base = frames.invert(base2tracker)
         points = points @ tracker2base[:3, :3].T + tracker2base[:3, 3]
         spread = np.abs(spread @ tracker2base[:3, :3].T)
-        rotations = tracker2base[:3, :3] @ rotations
+        turned = tracker2base[:3, :3] @ turned
         recorded_base = np.eye(4)
     elif frame == "tracker":
         recorded_base = base2tracker
@@ -365,7 +365,7 @@ def simulate(
     table = session.to_table(
         robot.convention.to_controller(q_read),  # as the robot reports them
         points,
-        rotvecs=frames.matrix_to_rotvec(rotations) if orientation else None,
+        rotvecs=rotations.matrix_to_rotvec(turned) if orientation else None,
         spread=spread if noise_mm else None,
         n_readings=np.full(poses, n_readings),
         timestamps=None if measured_at is None else _timestamps(measured_at, poses),

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import frames, kinematics, parameters, rotations
 from calibrator.simulate import SimWorld
 
 FORMAT_VERSION = 1
@@ -134,7 +134,7 @@ class World:
             mdh[i // 5, i % 5] += value
         mdh[:, kinematics.THETA] += self.joint_zero_shifts_rad
         moved = frames.transform(
-            frames.rotvec_to_matrix(self.base_rotvec_rad), self.base_translation_mm
+            rotations.rotvec_to_matrix(self.base_rotvec_rad), self.base_translation_mm
         )
         tool = world.flange2tool.copy()
         tool[:3, 3] += self.reflector_shift_mm

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calibrator.acquire.ports import BadReading, ReadingLost, Tracker, TrackerReading
-from calibrator.model import frames
+from calibrator.model import rotations
 
 OUTLIER_Z = 3.5  # Iglewicz & Hoaglin's cut-off for the MAD-based modified z-score
 MAD_TO_SIGMA = 1.4826  # 1 / Phi^-1(3/4): MAD of a Gaussian times this is its sigma
@@ -196,10 +196,10 @@ def average(
         )
     rot_mean = rot_std = None
     if accepted[0].rotvec_rad is not None:
-        rots = frames.rotvec_to_matrix(np.array([r.rotvec_rad for r in accepted]))
+        rots = rotations.rotvec_to_matrix(np.array([r.rotvec_rad for r in accepted]))
         mean_rot = _chordal_mean(rots)
-        rot_mean = frames.matrix_to_rotvec(mean_rot)
-        deviations = frames.matrix_to_rotvec(mean_rot.T @ rots)  # in the mean's frame
+        rot_mean = rotations.matrix_to_rotvec(mean_rot)
+        deviations = rotations.matrix_to_rotvec(mean_rot.T @ rots)  # in the mean's frame
         rot_std = deviations.std(axis=0, ddof=ddof)
     return AveragedReading(
         mean_mm=mean,

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
-from calibrator.model import kinematics, measurement, parameters
+from calibrator.model import kinematics, measurement, parameters, rotations
 from calibrator.model.parameters import MDH_NAMES, ParameterSpace
 
 if TYPE_CHECKING:
@@ -261,12 +261,11 @@ def nonlinear_displacement(mdh: np.ndarray, q: np.ndarray, dp: np.ndarray) -> np
         Rotation vector of ``R_nom^T R`` (rad), then ``R_nom^T (p - p_nom)`` (mm),
         directly comparable with ``J dp``.
     """
-    from calibrator.model import frames
 
     nominal = kinematics.chain(mdh, q)
     real = perturbed_hand(mdh, q, dp)
     to_hand = np.swapaxes(nominal[:, :3, :3], 1, 2)
-    rot = frames.rotation_error(to_hand @ real[..., :3, :3], np.eye(3))
+    rot = rotations.rotation_error(to_hand @ real[..., :3, :3], np.eye(3))
     pos = np.einsum("nij,mnj->mni", to_hand, real[..., :3, 3] - nominal[:, :3, 3])
     return np.concatenate([rot, pos], axis=-1)
 

@@ -19,6 +19,7 @@ from calibrator.cli import _run
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
 from calibrator.cli._run import triple
+from calibrator.model import rotations
 
 #: Smallest test cube edge (mm): ISO 9283's five poses spread over the cube (an edge
 #: of 1e-300 mm ran a test of five poses at one point).
@@ -265,7 +266,7 @@ def _base_frame(text: str | None) -> Any:
             f"--base-frame: rotation vector {values[3:].tolist()} is longer than 2 pi rad "
             "(its length is the angle)"
         )
-    return frames.transform(frames.rotvec_to_matrix(values[3:]), values[:3])
+    return frames.transform(rotations.rotvec_to_matrix(values[3:]), values[:3])
 
 
 def _print_table(doc: dict, output: Path, data_path: Path) -> None:

@@ -35,7 +35,7 @@ from calibrator import compensate, outputs
 from calibrator.filtering import configuration, convention, numbers
 from calibrator.filtering.base import REGISTRY, Job, Target, Unit
 from calibrator.filtering.solve import Solver
-from calibrator.model import frames, kinematics, singularities
+from calibrator.model import frames, kinematics, rotations, singularities
 
 #: Targets solved together.
 BLOCK = 10_000
@@ -346,7 +346,9 @@ class Filter:
         q_cal = comp.q
         move_mm = np.linalg.norm(comp.corrected[:, :3, 3] - d[:, :3, 3], axis=1)
         turn_deg = np.degrees(
-            np.linalg.norm(frames.rotation_error(comp.corrected[:, :3, :3], d[:, :3, :3]), axis=1)
+            np.linalg.norm(
+                rotations.rotation_error(comp.corrected[:, :3, :3], d[:, :3, :3]), axis=1
+            )
         )
         jump = np.degrees(np.abs(q_cal - comp.q_nominal))
         # The configuration to keep: the one the target states, else its nominal solution's.

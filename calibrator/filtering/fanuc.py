@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering import configuration, numbers
 from calibrator.filtering.base import (
     FilterError,
     Language,
@@ -41,7 +41,7 @@ from calibrator.filtering.base import (
     target_tool,
 )
 from calibrator.filtering.lexing import Lexer
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")
 # A value is the whole field after ``=`` (up to blanks or a comma): checked by

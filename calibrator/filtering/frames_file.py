@@ -29,9 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.filtering import rotations
 from calibrator.inputs import textfile, yamlfile
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 #: Largest frames file read (bytes).
 MAX_BYTES = 1_000_000

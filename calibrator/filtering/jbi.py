@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering import configuration, numbers
 from calibrator.filtering.base import (
     FilterError,
     Job,
@@ -46,7 +46,7 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 _POSITION = re.compile(r"^(C\d+)=(.*)$")
 

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering import configuration, numbers
 from calibrator.filtering.base import (
     FilterError,
     Job,
@@ -52,7 +52,7 @@ from calibrator.filtering.base import (
     target_tool,
 )
 from calibrator.filtering.lexing import Lexer
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _COMPONENT = re.compile(r"([A-Za-z$]\w*)\s*(.*)$", re.DOTALL)

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers, rotations
+from calibrator.filtering import configuration, numbers
 from calibrator.filtering.base import (
     FilterError,
     Job,
@@ -46,7 +46,7 @@ from calibrator.filtering.base import (
     target_tool,
 )
 from calibrator.filtering.lexing import Lexer
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 _DECL = re.compile(
     r"^\s*(?:LOCAL\s+|TASK\s+)*(?:CONST|PERS|VAR)\s+(robtarget|jointtarget|tooldata|wobjdata)"

@@ -35,7 +35,7 @@ from calibrator.filtering.base import (
     split_ending,
 )
 from calibrator.filtering.lexing import Lexer
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")
 #: A move of something other than a literal list, or text that may read so (a superset:
@@ -62,11 +62,11 @@ _PLAIN_MOVE = re.compile(
 
 
 def _decode_pose(v):
-    return frames.transform(frames.rotvec_to_matrix(v[:, 3:]), 1000.0 * v[:, :3])
+    return frames.transform(rotations.rotvec_to_matrix(v[:, 3:]), 1000.0 * v[:, :3])
 
 
 def _encode_pose(pose, old):
-    rv = frames.matrix_to_rotvec(pose[:, :3, :3])
+    rv = rotations.matrix_to_rotvec(pose[:, :3, :3])
     # r and r - 2 pi r/|r| are the same rotation: keep the one nearer the program's.
     angle = np.linalg.norm(rv, axis=1, keepdims=True)
     alt = rv - 2.0 * np.pi * rv / np.maximum(angle, 1e-12)

@@ -36,6 +36,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import stats
 
+from calibrator.model import rotations
+
 if TYPE_CHECKING:
     from calibrator.calibration import Calibration
 
@@ -195,9 +197,8 @@ def compare(before: State, after: State) -> Comparison:
     d = np.asarray(after.values, float)[ib] - np.asarray(before.values, float)[ia]
     if "base" in kinds:
         move = np.linalg.solve(before.base2world, after.base2world)  # type: ignore[arg-type]
-        from calibrator.model import frames
 
-        rel = np.concatenate([move[:3, 3], frames.angles_xyz(move[:3, :3])])
+        rel = np.concatenate([move[:3, 3], rotations.angles_xyz(move[:3, :3])])
         for k, name in enumerate(BASE_NAMES):
             d[names.index(name)] = rel[k]
     cov = before.cov[np.ix_(ia, ia)] + after.cov[np.ix_(ib, ib)]
@@ -298,7 +299,7 @@ def arm_block(cal: Calibration) -> dict:
         ``base2tracker`` (4 x 4, mm); ``{}`` when the calibration records no
         standard errors.
     """
-    from calibrator.model import frames, kinematics
+    from calibrator.model import kinematics
 
     unc = cal.fit.uncertainty
     se = unc.get("standard_errors") or {}
@@ -314,7 +315,7 @@ def arm_block(cal: Calibration) -> dict:
             if a != b and na in where and nb in where:
                 cov[a, b] = matrix[where[na], where[nb]] * se[na] * se[nb]
     tool = np.asarray(cal.flange2tool, float)
-    tool_angles = frames.angles_xyz(tool[:3, :3])
+    tool_angles = rotations.angles_xyz(tool[:3, :3])
     mdh = np.asarray(cal.mdh, float)
     values = []
     for n in names:

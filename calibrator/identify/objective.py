@@ -43,8 +43,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from calibrator.model import frames, kinematics
+from calibrator.model import kinematics
 from calibrator.model.parameters import JOINT_TERM_START, N_MDH, TOOL_START
+from calibrator.model.rotations import rotations_xyz
 
 if TYPE_CHECKING:
     from calibrator.model.measurement import Observations
@@ -110,7 +111,7 @@ class SwarmObjective:
             points = (points - base0[:3, 3]) @ base0[:3, :3]
             q1 = np.zeros((len(obs.q), 3))
             q1[:, 2] = obs.q[:, 0]
-            turn_back = np.swapaxes(frames.rotations_xyz(q1), -1, -2)  # Rz(q1)^T per pose
+            turn_back = np.swapaxes(rotations_xyz(q1), -1, -2)  # Rz(q1)^T per pose
             points = np.einsum("nij,nj->ni", turn_back, points)
             if rotations is not None:
                 rotations = turn_back @ (base0[:3, :3].T @ rotations)

@@ -5,21 +5,13 @@ frame to coordinates in the tracker frame (the pose of the base in the
 tracker frame).
 
 Rotations themselves (rotation vectors, XYZ angles, the rotation error) are
-:mod:`calibrator.model.rotations`; the names are imported here too, where
-every caller found them before the two modules were split (callers move to
-``rotations.*``).
+:mod:`calibrator.model.rotations`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-
-from calibrator.model.rotations import angles_xyz as angles_xyz
-from calibrator.model.rotations import matrix_to_rotvec as matrix_to_rotvec
-from calibrator.model.rotations import rotation_error as rotation_error
-from calibrator.model.rotations import rotations_xyz as rotations_xyz
-from calibrator.model.rotations import rotvec_to_matrix as rotvec_to_matrix
 
 
 def check_transform(t: ArrayLike, name: str = "transform") -> np.ndarray:

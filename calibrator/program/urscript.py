@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
+from calibrator.model import rotations
 from calibrator.program.names import program_name, words
 from calibrator.program.registry import writer
 from calibrator.program.spec import PULSE_S, ProgramSpec, number
@@ -60,7 +60,7 @@ def _target(spec: ProgramSpec, kind: str, start, q, move: str) -> str:
     if spec.targets != "cartesian" or kind != "pose":
         return f"  movej({_joints(spec, q)}, {move})"
     pose = spec.flange_pose(q)
-    values = [*(pose[:3, 3] / 1000.0), *frames.matrix_to_rotvec(pose[:3, :3])]
+    values = [*(pose[:3, 3] / 1000.0), *rotations.matrix_to_rotvec(pose[:3, :3])]
     # 1e-9 m and rad: far below any controller's resolution; + 0.0 turns -0.0 into 0.0.
     text = "p[" + ", ".join(f"{round(float(v), 9) + 0.0:.9f}" for v in values) + "]"
     approach = ""

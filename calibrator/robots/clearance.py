@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 #: Sweep step, rad (0.5 deg): the walk stops where it would gain less than half of it.
 STEP_RAD = np.radians(0.5)
@@ -163,7 +163,7 @@ def sweep(
     lever_1 = min(float(np.max(near_profile[kept, 1], initial=0.0)), float(origin[1]) + reach)
 
     def distance_1(angle: float) -> float:
-        to_far = middle_in_far @ frames.transform(frames.rotvec_to_matrix(-angle * middle.axis))
+        to_far = middle_in_far @ frames.transform(rotations.rotvec_to_matrix(-angle * middle.axis))
         return joint_1(lambda points: _profile(_moved(points, to_far), far.axis))
 
     # Joint 2 swept, joint 1 free: far's points in middle's frame against near's revolution.
@@ -171,7 +171,7 @@ def sweep(
     lever_2 = float(np.max(_profile(far.points, far.axis)[:, 1]))
 
     def distance_2(angle: float) -> float:
-        to_middle = far.to_parent @ frames.transform(frames.rotvec_to_matrix(angle * far.axis))
+        to_middle = far.to_parent @ frames.transform(rotations.rotvec_to_matrix(angle * far.axis))
         return joint_2(lambda points: _profile(_moved(points, to_middle), middle.axis))
 
     for joint, distance, lever, limits in (

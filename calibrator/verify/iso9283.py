@@ -201,7 +201,7 @@ def orientation_figures(
     ----------
     attained_rad : array_like, shape (P, n, 3)
         Attained orientation angles ``(a, b, c)`` about x, y, z
-        (:func:`calibrator.model.frames.angles_xyz`), rad.
+        (:func:`calibrator.model.rotations.angles_xyz`), rad.
     commanded_rad : array_like, shape (P, 3)
         Commanded angles, rad.
 

@@ -239,7 +239,7 @@ class Stream:
         Attained positions, base frame, mm.
     abc_rad : ndarray, shape (K, 3), or None
         Attained orientation angles ``(a, b, c)`` about x, y, z, rad
-        (:func:`calibrator.model.frames.angles_xyz`), when the probe gives them.
+        (:func:`calibrator.model.rotations.angles_xyz`), when the probe gives them.
     """
 
     t_s: np.ndarray

@@ -36,7 +36,7 @@ from calibrator import compensate, outputs
 from calibrator.acquire.run import RunOptions
 from calibrator.calibration import Calibration
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 from calibrator.planning import Plan
 from calibrator.robots import JointConvention
 from calibrator.verify import iso9283
@@ -366,11 +366,11 @@ def evaluate(
     cmds = np.stack([table[["cmd_x_mm", "cmd_y_mm", "cmd_z_mm"]].to_numpy()[i[0]] for i in order])
     figures = iso9283.position_figures(clouds, cmds)
     if rotvecs is not None:
-        attained = t2b[:3, :3] @ frames.rotvec_to_matrix(rotvecs)
-        angles = frames.angles_xyz(attained)
+        attained = t2b[:3, :3] @ rotations.rotvec_to_matrix(rotvecs)
+        angles = rotations.angles_xyz(attained)
         for name, k in (("a_rad", 0), ("b_rad", 1), ("c_rad", 2)):
             table[name] = angles[:, k]
-        cmd_angles = frames.angles_xyz(plan.desired[:, :3, :3])
+        cmd_angles = rotations.angles_xyz(plan.desired[:, :3, :3])
         figures.update(
             iso9283.orientation_figures(np.stack([angles[i] for i in order]), cmd_angles)
         )

@@ -15,7 +15,7 @@ from calibrator import calibration, outputs, robots
 from calibrator.calibration import Calibration, FitReport, Provenance
 from calibrator.errors import CalibrationError
 from calibrator.identify import pipeline
-from calibrator.model import frames, parameters
+from calibrator.model import frames, parameters, rotations
 from calibrator.recorded_options import Options
 
 NOMINAL = robots.get("ur5e").mdh
@@ -27,8 +27,8 @@ def good_cal():
     mdh = NOMINAL.copy()
     mdh[1, 0] += 0.25  # a2, free
     mdh[1, 4] = 0.001  # beta2, free
-    base2tracker = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0])
-    flange2tool = frames.transform(frames.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0])
+    base2tracker = frames.transform(rotations.rotations_xyz([0.1, -0.2, 0.3]), [100.0, 0, 5.0])
+    flange2tool = frames.transform(rotations.rotations_xyz([0.0, 0.05, -0.1]), [1.0, 2.0, 90.0])
     base0 = frames.transform(None, [99.0, 0.0, 5.0])
     tool0 = frames.transform(None, [0.0, 0.0, 90.0])
     space = parameters.ParameterSpace(NOMINAL, base0, tool0, tuple(FREE + ["tool_x"]))
@@ -344,7 +344,7 @@ def result(**fields):
     space = parameters.ParameterSpace(
         nominal,
         free=free,
-        base0=frames.transform(frames.rotations_xyz([0.0, 0.0, 0.4]), [1500.0, -20.0, 3.0]),
+        base0=frames.transform(rotations.rotations_xyz([0.0, 0.0, 0.4]), [1500.0, -20.0, 3.0]),
         tool0=frames.transform(None, [0.0, 0.0, 120.0]),
     )
     x = np.linspace(-1e-3, 1e-3, space.size)

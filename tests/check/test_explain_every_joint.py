@@ -20,7 +20,7 @@ from calibrator.calibration import Calibration
 from calibrator.check import explain, verdict
 from calibrator.check.model import Calibrated
 from calibrator.identify import pipeline
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 NOISE_MM = 0.02
 #: Reflector this far off the flange axis (mm): joint 6's zero is seen through it.
@@ -98,7 +98,7 @@ def test_joint_1_and_a_base_turned_about_its_axis_are_told_apart_honestly(calibr
     assert tried[("base",)].explains  # the look-alike is real: hence the sentence's note
     assert "(or the base turned about joint 1's axis)" in best.sentences()[0]
     # The base turned by the same angle about z: the same points, the same answer.
-    turned = frames.transform(frames.rotvec_to_matrix([0.0, 0.0, 4e-4]))
+    turned = frames.transform(rotations.rotvec_to_matrix([0.0, 0.0, 4e-4]))
     _, best_base, _ = _explained(model, q, _measure(truth, q, 21, base=turned))
     assert best_base.causes == ("joint 1 zero",)
     assert abs(best_base.value[0] - best.value[0]) < 3 * best.se[0]
@@ -113,7 +113,7 @@ def test_a_moved_base_is_named_with_its_shift_and_turn(calibrated, turn, shift, 
     """Turned about x or y, or shifted (along z too): no joint explains it, the base does."""
     model, truth = calibrated
     q = _poses()
-    moved = frames.transform(frames.rotvec_to_matrix(turn), shift)
+    moved = frames.transform(rotations.rotvec_to_matrix(turn), shift)
     judged, best, tried = _explained(model, q, _measure(truth, q, 31, base=moved))
     assert judged.verdict == "recalibrate"
     assert best is not None and best.causes == ("base",), best

@@ -18,7 +18,7 @@ import pytest
 from calibrator import robots, session, simulate
 from calibrator.identify import pipeline, uncertainty
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, joint_terms, kinematics, measurement
+from calibrator.model import frames, joint_terms, kinematics, measurement, rotations
 from calibrator.robots import masses as robot_masses
 
 #: Joint compliance of joints 2 and 3 (rad per N m): an error the geometric model lacks.
@@ -36,7 +36,7 @@ def _session(seed, terms, orientation, poses=30, noise_mm=0.05):
     delta[:, kinematics.BETA] = 0.0
     tool = frames.transform(translation=[30.0, -20.0, 100.0])
     guess = frames.transform(translation=tool[:3, 3] + rng.normal(0.0, 1.0, 3))
-    base = frames.transform(frames.rotvec_to_matrix(rng.uniform(-1, 1, 3)), [2500, 300, 200])
+    base = frames.transform(rotations.rotvec_to_matrix(rng.uniform(-1, 1, 3)), [2500, 300, 200])
     q = simulate.sample_joints(np.clip(robot.joint_limits_rad, -np.pi, np.pi), poses, rng)
     q[:10] *= 0.6
     masses = robot_masses.get("ur10e")
@@ -47,8 +47,8 @@ def _session(seed, terms, orientation, poses=30, noise_mm=0.05):
     points = pose[:, :3, 3] + rng.normal(0.0, noise_mm / np.sqrt(3), (poses, 3))
     rotvecs = None
     if orientation:
-        tilt = frames.rotvec_to_matrix(rng.normal(0.0, 2e-5 / np.sqrt(3), (poses, 3)))
-        rotvecs = frames.matrix_to_rotvec(tilt @ pose[:, :3, :3])
+        tilt = rotations.rotvec_to_matrix(rng.normal(0.0, 2e-5 / np.sqrt(3), (poses, 3)))
+        rotvecs = rotations.matrix_to_rotvec(tilt @ pose[:, :3, :3])
     meta = session.SessionMeta(
         frame="tracker", nominal_mdh=robot.mdh, model=robot.name, flange2tool=guess,
         tool_known=False,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from cli_kit import cli, one_line_error
 
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 from calibrator.simulate import SimWorld
 from calibrator.world import WorldError, parse_world, read_world
 
@@ -38,7 +38,7 @@ def test_a_world_file_changes_the_seeds_arm_as_written(tmp_path):
     np.testing.assert_allclose(change, expected, atol=1e-12)
     moved = frames.invert(seed4.base2tracker) @ built.base2tracker
     np.testing.assert_allclose(moved[:3, 3], [1, 2, 3], atol=1e-9)
-    np.testing.assert_allclose(frames.matrix_to_rotvec(moved[:3, :3]), [0, 0, 0.001], atol=1e-12)
+    np.testing.assert_allclose(rotations.matrix_to_rotvec(moved[:3, :3]), [0, 0, 0.001], atol=1e-12)
     np.testing.assert_allclose(built.flange2tool[:3, 3] - seed4.flange2tool[:3, 3], [0, 0.5, 0])
     # The arm is the file's seed; the tracker's noise is the run's.
     assert built.seed == 4 and built.noise_seed == 9

@@ -15,7 +15,7 @@ from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import planning, robots
 from calibrator.filtering import configuration
-from calibrator.model import frames, kinematics
+from calibrator.model import kinematics, rotations
 
 _POSE = re.compile(r"^  movej\(p\[([^\]]*)\], a=")
 _JOINTS = re.compile(r"^  movej\(\[([^\]]*)\], a=")
@@ -41,7 +41,7 @@ def test_pose_moves_state_the_nominal_flange_pose(tmp_path, checked_plan):
     want = kinematics.chain(robots.get("ur10e").mdh, checked_plan.q_rad)
     got = np.array(poses)
     np.testing.assert_allclose(got[:, :3] * 1000.0, want[:, :3, 3], rtol=0, atol=1e-5)
-    turned = frames.rotvec_to_matrix(got[:, 3:])
+    turned = rotations.rotvec_to_matrix(got[:, 3:])
     np.testing.assert_allclose(turned, want[:, :3, :3], rtol=0, atol=1e-8)
     assert sum(line.startswith("  movej(home, ") for line in lines) == 2
 

@@ -29,7 +29,7 @@ from calibrator import calibration, planning, robots, session
 from calibrator.identify import pipeline
 from calibrator.identify.problem import Problem
 from calibrator.identify.refine import refine
-from calibrator.model import frames, kinematics, parameters
+from calibrator.model import frames, kinematics, parameters, rotations
 from calibrator.robots.urdf import read_chain
 
 DATA = Path(robots.__file__).with_name("data")
@@ -115,7 +115,7 @@ def test_a_session_in_controller_angles_identifies_as_least_squares_from_the_tru
     rng = np.random.default_rng(11)
     true = TrueArm(arm, tmp_path, seed=ARMS.index(arm) + 1)
     tool_tip = frames.transform(translation=[12.0, -7.0, 135.0])  # the real reflector
-    base2tracker = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 2.5]), [3100, -800, 400])
+    base2tracker = frames.transform(rotations.rotvec_to_matrix([0.1, -0.2, 2.5]), [3100, -800, 400])
     q = true.sample(60, rng)
     points = (base2tracker @ true.tip_poses(q) @ tool_tip)[:, :3, 3]
     points += rng.normal(0.0, 0.01, points.shape)

@@ -36,7 +36,7 @@ from external_cell_kit import TIME_SCALE, TOOL_MM, Watching, first_poses, tracke
 from truth_kit import against_least_squares_from_truth
 
 from calibrator import planning, robots
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 SKIPPED = 9
 PERIOD_S = 0.02  # one SIM,TARGET every 20 ms (wall clock), as a controller's position stream
@@ -56,7 +56,7 @@ def _hidden_arm(seed: int = 11):
     mdh[1:3, 4] += rng.uniform(-1e-3, 1e-3, 2)  # beta of the parallel joints 2 and 3
     tool = frames.transform(translation=np.add(TOOL_MM, rng.uniform(-1.0, 1.0, 3)))
     tracker2base = frames.transform(
-        frames.rotvec_to_matrix(np.array([0.03, -0.08, 2.9])), np.array([2480.0, 420.0, 310.0])
+        rotations.rotvec_to_matrix(np.array([0.03, -0.08, 2.9])), np.array([2480.0, 420.0, 310.0])
     )
     return mdh, tool, frames.invert(tracker2base)
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from calibrator import robots, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import Job, configuration, frames_file, rotations
-from calibrator.model import frames, inverse, kinematics, parameters
+from calibrator.filtering import Job, configuration, frames_file
+from calibrator.model import frames, inverse, kinematics, parameters, rotations
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
 TOOL2 = frames.transform(rotations.zyx_to_matrix([[90.0, 0.0, 0.0]])[0], [0.0, 40.0, 120.0])

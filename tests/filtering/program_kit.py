@@ -9,24 +9,23 @@ nominal arm, as a controller would have recorded them.
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, poses
 
-from calibrator.filtering import rotations
 from calibrator.filtering.fanuc import FanucLS
 from calibrator.filtering.jbi import JBI
 from calibrator.filtering.krl import KRL
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.solve import Solver
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 CRLF = "\r\n"
 #: Yaskawa pulses per degree of the JBI test arm.
 PPD = [1341.4, 1341.4, 1145.8, 850.2, 850.2, 544.1]
 #: The URScript programs' TCP (set_tcp), mm.
-TCP = frames.transform(frames.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
+TCP = frames.transform(rotations.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
 
 
 def _p(pose):
     """A (4, 4) pose as URScript's p[x, y, z, rx, ry, rz] (m, rotation vector)."""
-    rv = frames.matrix_to_rotvec(pose[:3, :3])
+    rv = rotations.matrix_to_rotvec(pose[:3, :3])
     x, y, z = pose[:3, 3] / 1000.0
     return f"p[{x:.6f}, {y:.6f}, {z:.6f}, {rv[0]:.5f}, {rv[1]:.5f}, {rv[2]:.5f}]"
 

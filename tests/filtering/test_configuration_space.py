@@ -31,7 +31,7 @@ from calibrator.filtering.jbi import JBI
 from calibrator.filtering.krl import KRL
 from calibrator.filtering.rapid import RAPID
 from calibrator.filtering.urscript import URScript
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 #: Hypothesis runs: few examples, no deadline, the same examples every run.
 SETTINGS = settings(max_examples=80, deadline=None, derandomize=True)
@@ -241,7 +241,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     np.testing.assert_array_equal(kit.CODES[cls](ctrl, bits), codes)
     reached = kinematics.chain(cal.mdh, nominal.q) @ tool
     miss = np.linalg.norm(reached[:, :3, 3] - intended[:, :3, 3], axis=1)
-    turn = np.linalg.norm(frames.rotation_error(reached[:, :3, :3], intended[:, :3, :3]), axis=1)
+    turn = np.linalg.norm(rotations.rotation_error(reached[:, :3, :3], intended[:, :3, :3]), axis=1)
     assert miss.max() < LANDS_MM, (miss.max(), int(miss.argmax()))
     assert turn.max() < 2e-5
     # Unfiltered, the same controller misses by the calibration's error.

@@ -11,9 +11,9 @@ from program_kit import rapid_pose, robtarget
 
 from calibrator import session, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import engine, rotations
+from calibrator.filtering import engine
 from calibrator.identify import pipeline
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 
 @pytest.fixture(scope="module")
@@ -82,5 +82,5 @@ def test_filtered_program_lands_on_the_true_arm(identified, tmp_path):
     raw = np.linalg.norm(unfiltered[:, :3, 3] - intended[:, :3, 3], axis=1)
     assert err.max() < 0.02, err.max()
     assert raw.min() > 0.5  # the arm's full error without the filter
-    turn = frames.rotation_error(filtered[:, :3, :3], intended[:, :3, :3])
+    turn = rotations.rotation_error(filtered[:, :3, :3], intended[:, :3, :3])
     assert np.degrees(np.linalg.norm(turn, axis=1)).max() < 0.01

@@ -6,8 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import write_fanuc_ls
 
-from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, inverse, kinematics
+from calibrator.filtering import engine, frames_file
+from calibrator.model import frames, inverse, kinematics, rotations
 
 
 def _frames_yaml(tmp_path):

@@ -6,8 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import PPD, write_jbi_job
 
-from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, inverse, kinematics
+from calibrator.filtering import engine, frames_file
+from calibrator.model import frames, inverse, kinematics, rotations
 
 
 def _frames(tmp_path):

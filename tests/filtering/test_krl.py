@@ -6,8 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
 from program_kit import krl_frame, krl_status_turn, write_krl_program
 
-from calibrator.filtering import engine, frames_file, rotations
-from calibrator.model import frames, inverse, kinematics
+from calibrator.filtering import engine, frames_file
+from calibrator.model import frames, inverse, kinematics, rotations
 
 
 def test_identity_calibration_is_byte_for_byte(tmp_path):

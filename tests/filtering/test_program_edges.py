@@ -18,7 +18,7 @@ from vendor_kit import BOXES
 
 from calibrator import robots
 from calibrator.filtering import configuration, engine, frames_file
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 LANDS_MM = 0.02
 
@@ -148,11 +148,11 @@ def test_pulse_positions_with_non_zero_zeros_are_read_and_written_through_them(t
 
 # -- URScript movec --------------------------------------------------------------------------
 
-TCP = frames.transform(frames.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
+TCP = frames.transform(rotations.rotvec_to_matrix([0.0, 0.3, 0.0]), [0.0, 15.0, 160.0])
 
 
 def _p(pose):
-    rv = frames.matrix_to_rotvec(pose[:3, :3])
+    rv = rotations.matrix_to_rotvec(pose[:3, :3])
     x, y, z = pose[:3, 3] / 1000.0
     return f"p[{x:.6f}, {y:.6f}, {z:.6f}, {rv[0]:.6f}, {rv[1]:.6f}, {rv[2]:.6f}]"
 
@@ -161,7 +161,7 @@ def _read_p(text):
     v = np.array(
         [[float(x) for x in m.split(",")] for m in re.findall(r"p\[([^\]]*)\]", text)], float
     )
-    return frames.transform(frames.rotvec_to_matrix(v[:, 3:]), 1000.0 * v[:, :3])
+    return frames.transform(rotations.rotvec_to_matrix(v[:, 3:]), 1000.0 * v[:, :3])
 
 
 def test_movec_corrects_its_via_point_and_its_end_point(tmp_path):

@@ -6,8 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
 from program_kit import write_rapid_module
 
-from calibrator.filtering import engine, rotations
-from calibrator.model import inverse, kinematics
+from calibrator.filtering import engine
+from calibrator.model import inverse, kinematics, rotations
 
 
 def _read(text):

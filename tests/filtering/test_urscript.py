@@ -9,7 +9,7 @@ from filter_kit import calibration, job, path_joints
 from program_kit import TCP, write_urscript
 
 from calibrator.filtering import engine
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 
 def test_identity_round_trip_is_byte_for_byte(tmp_path):
@@ -35,7 +35,7 @@ def test_filtered_poses_land_and_nothing_else_changes(tmp_path):
     pat = r"p\[([^\]]*)\]"
     found = [re.search(pat, after[i].decode()).group(1) for i in [4] + list(range(6, 14))]
     v = np.array([[float(x) for x in f.split(",")] for f in found])
-    sent = frames.transform(frames.rotvec_to_matrix(v[:, 3:]), 1000 * v[:, :3])
+    sent = frames.transform(rotations.rotvec_to_matrix(v[:, 3:]), 1000 * v[:, :3])
     nominal = inverse.solve(cal.nominal_mdh, sent, q[1:], TCP)
     true_pose = kinematics.chain(cal.mdh, nominal.q) @ TCP
     intended = kinematics.tool_poses(cal.nominal_mdh, q[1:], TCP)

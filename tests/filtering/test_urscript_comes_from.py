@@ -13,13 +13,13 @@ import numpy as np
 from filter_kit import calibration, job, landed, work_joints
 
 from calibrator.filtering import configuration, engine
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 FLANGE = np.eye(4)
 
 
 def _p(pose):
-    rv = frames.matrix_to_rotvec(pose[:3, :3])
+    rv = rotations.matrix_to_rotvec(pose[:3, :3])
     x, y, z = pose[:3, 3] / 1000.0
     return f"p[{x:.9f}, {y:.9f}, {z:.9f}, {rv[0]:.9f}, {rv[1]:.9f}, {rv[2]:.9f}]"
 
@@ -58,7 +58,7 @@ def test_a_pose_after_a_joint_target_takes_that_targets_configuration(tmp_path):
         for m in re.finditer(r"p\[([^\]]*)\]", out.read_text())
     ]
     for pose, q_from, want in zip(written, (q_a, q_b), intended, strict=True):
-        sent = frames.transform(frames.rotvec_to_matrix(pose[3:]), np.array(pose[:3]) * 1000.0)
+        sent = frames.transform(rotations.rotvec_to_matrix(pose[3:]), np.array(pose[:3]) * 1000.0)
         # The nominal controller solves it from the joints the arm comes from.
         got, q = landed(cal.mdh, cal.nominal_mdh, sent[None], FLANGE, q_from[None])
         assert (configuration.arm_bits(cal.nominal_mdh, q) == configuration.arm_bits(

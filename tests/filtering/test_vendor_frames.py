@@ -27,10 +27,10 @@ from vendor_kit import OBJECT, TOOL, USER, joints, landed, model_frames, pendant
 
 from calibrator import robots, session, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import REGISTRY, engine, frames_file, rotations
+from calibrator.filtering import REGISTRY, engine, frames_file
 from calibrator.filtering.solve import Solver
 from calibrator.identify import pipeline
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 
 #: Largest distance of a filtered target from its taught pose on the true arm, mm.
 LANDS_MM = 0.02
@@ -184,7 +184,7 @@ def test_a_program_in_the_vendors_frames_lands_on_the_taught_pose(tmp_path, name
     assert len(sent) == n
     reached = landed(cal, base2frame0, flange2tool0, sent, users, tools, q)
     miss = np.linalg.norm(reached[:, :3, 3] - intended[:, :3, 3], axis=1)
-    turn = np.linalg.norm(frames.rotation_error(reached[:, :3, :3], intended[:, :3, :3]), axis=1)
+    turn = np.linalg.norm(rotations.rotation_error(reached[:, :3, :3], intended[:, :3, :3]), axis=1)
     assert miss.max() < LANDS_MM, miss
     assert turn.max() < 2e-5, turn
     # Unfiltered, the same controller puts the true arm a calibration's error away.

@@ -18,8 +18,7 @@ import numpy as np
 import yourdfpy
 
 from calibrator import robots
-from calibrator.filtering import rotations
-from calibrator.model import frames, inverse, kinematics
+from calibrator.model import frames, inverse, kinematics, rotations
 
 DATA = Path(robots.__file__).with_name("data")
 #: The chain's tip link of each shipped description (typed here, not read from it).

@@ -9,7 +9,7 @@ truth, an outlier pose, the same poses under many noise draws.
 import numpy as np
 
 from calibrator import robots, session
-from calibrator.model import frames, kinematics
+from calibrator.model import kinematics, rotations
 from calibrator.simulate import random_errors, sample_joints
 
 
@@ -57,9 +57,9 @@ def loaded(
     points = pose[:, :3, 3] + rng.normal(0.0, noise_mm, (len(q), 3))
     rot = pose[:, :3, :3]
     if noise_rad:
-        rot = frames.rotvec_to_matrix(rng.normal(0.0, noise_rad, (len(q), 3))) @ rot
+        rot = rotations.rotvec_to_matrix(rng.normal(0.0, noise_rad, (len(q), 3))) @ rot
     table = session.to_table(
-        q, points, rotvecs=frames.matrix_to_rotvec(rot) if orientation else None
+        q, points, rotvecs=rotations.matrix_to_rotvec(rot) if orientation else None
     )
     meta = session.SessionMeta(
         frame=frame,

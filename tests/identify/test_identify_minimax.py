@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from calibrator import robots
 from calibrator.identify import minimax
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, kinematics, measurement, parameters
+from calibrator.model import kinematics, measurement, parameters, rotations
 
 K = 1.0e4
 TRANSLATION = ("base_tx", "base_ty", "base_tz")
@@ -42,13 +42,13 @@ def test_pose_errors_are_squared_distance_plus_k_squared_turn():
     obs = measurement.Observations(
         q,
         pose[:, :3, 3] + rng.normal(0, 0.1, (4, 3)),
-        frames.rotvec_to_matrix(rng.normal(0, 1e-3, (4, 3))) @ pose[:, :3, :3],
+        rotations.rotvec_to_matrix(rng.normal(0, 1e-3, (4, 3))) @ pose[:, :3, :3],
     )
     mdh = robot.mdh.copy()
     mdh[1, kinematics.A] += 0.3
     mdh[2, kinematics.THETA] += 0.002
     tool = np.eye(4)
-    tool[:3, :3] = frames.rotations_xyz([-0.004, 0, 0])
+    tool[:3, :3] = rotations.rotations_xyz([-0.004, 0, 0])
     model = kinematics.forward(mdh, q, tool)
     dp = np.sum((model[:, :3, 3] - obs.points) ** 2, axis=1)
     turn = Rotation.from_matrix(model[:, :3, :3] @ np.swapaxes(obs.rotations, 1, 2)).as_rotvec()
@@ -69,7 +69,7 @@ def test_pose_error_gradient_matches_finite_differences(k):
     obs = measurement.Observations(
         q,
         pose[:, :3, 3] + rng.normal(0, 0.5, (5, 3)),
-        frames.rotvec_to_matrix(rng.normal(0, 3e-3, (5, 3))) @ pose[:, :3, :3],
+        rotations.rotvec_to_matrix(rng.normal(0, 3e-3, (5, 3))) @ pose[:, :3, :3],
     )
     x = rng.normal(0, 1e-3, 5)
     e, grad = minimax._pose_error_jacobian(Problem.of(space, obs, k), x)
@@ -200,7 +200,7 @@ def test_minimax_with_orientation_lowers_the_worst_pose_below_least_squares():
     obs = measurement.Observations(
         q,
         pose[:, :3, 3] + rng.normal(0, 0.05, (12, 3)),
-        frames.rotvec_to_matrix(rng.normal(0, 2e-4, (12, 3))) @ pose[:, :3, :3],
+        rotations.rotvec_to_matrix(rng.normal(0, 2e-4, (12, 3))) @ pose[:, :3, :3],
     )
     start = refine.refine(Problem.of(space, obs, K), np.zeros(4)).x
 

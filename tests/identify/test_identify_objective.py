@@ -11,12 +11,12 @@ import pytest
 
 from calibrator import robots
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, kinematics, measurement, parameters
+from calibrator.model import frames, kinematics, measurement, parameters, rotations
 
 K = 1.0e4
 ROBOT = robots.get("er10l-c10")
-BASE0 = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
-TOOL0 = frames.transform(frames.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
+BASE0 = frames.transform(rotations.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
+TOOL0 = frames.transform(rotations.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
 
 
 def observations(seed, n=6):
@@ -24,7 +24,7 @@ def observations(seed, n=6):
     q = rng.uniform(-2, 2, (n, 6))
     pose = kinematics.forward(ROBOT.mdh, q, TOOL0, BASE0)
     points = pose[:, :3, 3] + rng.normal(0, 0.5, (n, 3))
-    rot = frames.rotvec_to_matrix(rng.normal(0, 5e-3, (n, 3))) @ pose[:, :3, :3]
+    rot = rotations.rotvec_to_matrix(rng.normal(0, 5e-3, (n, 3))) @ pose[:, :3, :3]
     return measurement.Observations(q, points, rot)
 
 

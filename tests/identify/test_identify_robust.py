@@ -18,7 +18,7 @@ from scipy.optimize import least_squares
 from calibrator import robots
 from calibrator.identify import refine, robust
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, measurement, parameters
+from calibrator.model import measurement, parameters, rotations
 
 K = 1.0e4
 NAMES = ("a2", "alpha2", "d4", "theta5", "base_tx", "base_ty", "base_rz")
@@ -38,7 +38,7 @@ def problem(orientation, n=24, seed=3):
     if orientation:
         turn = rng.normal(0, 1e-3, (n, 3))  # weighted: 0.1, twice the position noise
         turn[11] += [2e-2, 0.0, 0.0]
-        rot = frames.rotvec_to_matrix(turn) @ pose[:, :3, :3]
+        rot = rotations.rotvec_to_matrix(turn) @ pose[:, :3, :3]
     return space, x, measurement.Observations(q, points, rot)
 
 

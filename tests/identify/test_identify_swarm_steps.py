@@ -13,7 +13,7 @@ from calibrator import robots
 from calibrator.halton import halton
 from calibrator.identify import pso
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, kinematics, measurement, parameters
+from calibrator.model import frames, kinematics, measurement, parameters, rotations
 
 
 def plain_ipso(objective, lower, upper, particles, generations, seed, c1=2.05, c2=2.05):
@@ -73,8 +73,8 @@ def test_a_generator_passed_in_is_left_where_the_plain_loop_leaves_it():
 
 
 ROBOT = robots.get("er10l-c10")
-TOOL0 = frames.transform(frames.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
-BASE0 = frames.transform(frames.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
+TOOL0 = frames.transform(rotations.rotations_xyz([0.0, 0.3, 0.0]), [10.0, 0.0, 80.0])
+BASE0 = frames.transform(rotations.rotations_xyz([0.1, -0.2, 0.3]), [500.0, -200.0, 100.0])
 
 
 def by_hand(space, swarm, obs, k):
@@ -102,7 +102,7 @@ def test_swarm_objective_keeps_no_state_between_calls_or_swarm_sizes(base0, fram
     obs = measurement.Observations(
         q,
         pose[:, :3, 3] + rng.normal(0, 0.1, (9, 3)),
-        frames.rotvec_to_matrix(rng.normal(0, 1e-3, (9, 3))) @ pose[:, :3, :3],
+        rotations.rotvec_to_matrix(rng.normal(0, 1e-3, (9, 3))) @ pose[:, :3, :3],
     )
     space = parameters.ParameterSpace(ROBOT.mdh, base0, TOOL0, parameters.MDH_NAMES + frames_free)
     objective = Problem.of(space, obs, 1.0e4).swarm_objective()

@@ -12,7 +12,7 @@ from calibrator import session
 from calibrator.errors import IdentifiabilityError
 from calibrator.identify import pipeline
 from calibrator.identify.problem import Problem
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 from calibrator.simulate import simulate
 
 DEG = np.pi / 180
@@ -33,7 +33,7 @@ def test_probe_turned_half_a_degree_about_each_flange_axis_identifies_to_the_flo
     q = arms.joints(robot, 30, seed=2)
     turn = np.zeros(3)
     turn[axis] = 0.5 * DEG
-    tool = frames.transform(frames.rotvec_to_matrix(turn), [10.0, -5.0, 120.0])
+    tool = frames.transform(rotations.rotvec_to_matrix(turn), [10.0, -5.0, 120.0])
     data = arms.loaded(robot, q, arms.measure(true, q, tool))  # identity guess, tool free
     result = pipeline.identify(data, pipeline.Options(method="lm"))
     assert {"tool_rx", "tool_ry", "tool_rz"} <= set(result.space.free)
@@ -47,7 +47,7 @@ def test_probe_turned_half_a_degree_about_each_flange_axis_identifies_to_the_flo
 def test_probe_mounted_at_rz90_rx90_with_an_identity_guess():
     robot, true = arms.truth_arm("er10l-c10", seed=4)
     q = arms.joints(robot, 30, seed=5)
-    mount = frames.rotations_xyz([0, 0, np.pi / 2]) @ frames.rotations_xyz([np.pi / 2, 0, 0])
+    mount = rotations.rotations_xyz([0, 0, np.pi / 2]) @ rotations.rotations_xyz([np.pi / 2, 0, 0])
     tool = frames.transform(mount, [0.0, 30.0, 90.0])
     data = arms.loaded(robot, q, arms.measure(true, q, tool), noise_mm=0.0)
     result = pipeline.identify(data, pipeline.Options())  # default: hybrid, lsq
@@ -58,7 +58,7 @@ def test_probe_mounted_at_rz90_rx90_with_an_identity_guess():
     assert deltas[:, [1, 2, 4]].max() < 0.02  # rad: no +90 deg "deltas"
     # The mount is found: the identified tool rotation is within a degree of it
     # (joint 6's small errors are part of it).
-    turn = frames.matrix_to_rotvec(mount.T @ result.flange2tool[:3, :3])
+    turn = rotations.matrix_to_rotvec(mount.T @ result.flange2tool[:3, :3])
     assert np.linalg.norm(turn) < 1 * DEG
 
 
@@ -286,11 +286,13 @@ def test_swarm_objective_with_the_full_tool_frame_matches_the_residuals(frame):
 
     robot, true = arms.truth_arm("ur10e", seed=3)
     q = arms.joints(robot, 12, seed=4)
-    mount = frames.rotations_xyz([np.pi / 2, 0.3, np.pi / 2])
+    mount = rotations.rotations_xyz([np.pi / 2, 0.3, np.pi / 2])
     tool = frames.transform(mount, [5.0, 1.0, 90.0])
     base = np.eye(4)
     if frame == "tracker":
-        base = frames.transform(frames.rotvec_to_matrix([0.4, -1.0, 2.0]), [3000.0, 200.0, -50.0])
+        base = frames.transform(
+            rotations.rotvec_to_matrix([0.4, -1.0, 2.0]), [3000.0, 200.0, -50.0]
+        )
     data = arms.loaded(robot, q, arms.measure(true, q, tool, base), noise_mm=0.05, noise_rad=1e-4)
     obs = data.observations
     names, _ = parameters.structural_candidates(robot.mdh, frame, False, True)

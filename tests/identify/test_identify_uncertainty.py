@@ -12,7 +12,7 @@ import pytest
 from calibrator import robots
 from calibrator.identify import uncertainty
 from calibrator.identify.problem import Problem
-from calibrator.model import frames, measurement, parameters
+from calibrator.model import measurement, parameters, rotations
 
 K = 1.0e4
 NAMES = ("a2", "alpha2", "a3", "d3", "theta4", "d4", "base_tx", "base_tz", "base_rz")
@@ -26,7 +26,7 @@ def problem(orientation, n=10, seed=4, span=0.3):
     x = rng.normal(0, 0.01, len(NAMES))
     pose = measurement.predict(space, x, q)
     points = pose[:, :3, 3] + rng.normal(0, 0.05, (n, 3))
-    turn = frames.rotvec_to_matrix(rng.normal(0, 1e-4, (n, 3)))
+    turn = rotations.rotvec_to_matrix(rng.normal(0, 1e-4, (n, 3)))
     rot = turn @ pose[:, :3, :3] if orientation else None
     return space, x, measurement.Observations(q, points, rot)
 

@@ -4,7 +4,7 @@ import numpy as np
 
 from calibrator import robots, session, simulate
 from calibrator.identify import pipeline
-from calibrator.model import frames, joint_terms, kinematics
+from calibrator.model import frames, joint_terms, kinematics, rotations
 from calibrator.robots import masses as robot_masses
 
 
@@ -51,8 +51,8 @@ def sessions(
         pose = kinematics.forward(true_mdh, q_true, tool)
         points = pose[:, :3, 3] + rng.normal(0.0, noise_mm / np.sqrt(3), (poses, 3))
         tilt = rng.normal(0.0, orientation_noise_rad / np.sqrt(3), (poses, 3))
-        rot = frames.rotvec_to_matrix(tilt) @ pose[:, :3, :3]
-        table = session.to_table(q, points, rotvecs=frames.matrix_to_rotvec(rot))
+        rot = rotations.rotvec_to_matrix(tilt) @ pose[:, :3, :3]
+        table = session.to_table(q, points, rotvecs=rotations.matrix_to_rotvec(rot))
         meta = session.SessionMeta(
             frame="base", nominal_mdh=robot.mdh, model=robot.name, flange2tool=tool,
             tool_known=True, extra={"payload_kg": payload},

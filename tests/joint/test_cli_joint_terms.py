@@ -9,7 +9,7 @@ from cli_kit import cli, listing, one_line_error
 from joint_kit import sessions
 
 from calibrator import session
-from calibrator.model import frames, joint_terms, kinematics
+from calibrator.model import joint_terms, kinematics, rotations
 from calibrator.robots import masses as robot_masses
 
 WRIST = joint_terms.JointTerms(
@@ -36,7 +36,7 @@ def _targets(folder, truth, n=15, seed=9):
     q = rng.uniform(-2.5, 2.5, (n, 6))
     q[:, 2] = rng.uniform(-2.5, -0.5, n)  # elbow bent: far from singular poses
     pose = kinematics.forward(truth["mdh"], q, truth["tool"])
-    rotvec = frames.matrix_to_rotvec(pose[:, :3, :3])
+    rotvec = rotations.matrix_to_rotvec(pose[:, :3, :3])
     table = {f"q{j + 1}_rad": q[:, j] for j in range(6)}
     table.update(zip(("x_mm", "y_mm", "z_mm"), pose[:, :3, 3].T, strict=True))
     table.update(zip(("rx_rad", "ry_rad", "rz_rad"), rotvec.T, strict=True))

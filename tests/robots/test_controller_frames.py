@@ -19,8 +19,7 @@ import pytest
 import yourdfpy
 
 from calibrator import robots
-from calibrator.filtering import rotations
-from calibrator.model import kinematics
+from calibrator.model import kinematics, rotations
 from calibrator.robots import DescriptionError
 
 DATA = Path(robots.__file__).with_name("data")

@@ -9,7 +9,7 @@ import pytest
 
 from calibrator import robots, session
 from calibrator.errors import SessionError
-from calibrator.model import frames
+from calibrator.model import rotations
 from calibrator.simulate import simulate
 
 
@@ -50,7 +50,7 @@ def test_round_trip_keeps_rows_and_metadata(tmp_path):
     assert loaded.meta.extra["simulated"]["seed"] == 1
     obs = loaded.observations
     np.testing.assert_allclose(
-        obs.rotations, frames.rotvec_to_matrix(loaded.array(session.ROTVEC_COLUMNS))
+        obs.rotations, rotations.rotvec_to_matrix(loaded.array(session.ROTVEC_COLUMNS))
     )
     assert not list(tmp_path.glob(".*tmp"))  # the atomic write left nothing behind
 

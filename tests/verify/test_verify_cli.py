@@ -8,6 +8,8 @@ import pytest
 from cli_kit import cli, one_line_error
 from verify_kit import check_outputs
 
+from calibrator.model import rotations
+
 SEED = "3"
 
 
@@ -189,7 +191,6 @@ def test_a_calibration_of_another_arm_or_two_registrations_are_refused(calibrate
 
 
 def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path):
-    from calibrator.model import frames
     from calibrator.simulate import SimWorld
 
     done = cli(
@@ -212,8 +213,8 @@ def test_a_six_dof_probe_gives_the_orientation_figures_of_the_true_arm(tmp_path)
     world = SimWorld.make("ur10e", 0)
     q = np.array([p["q_rad"] for p in doc["test_poses"]])
     attained = np.stack([world.tool_pose(qk)[:3, :3] for qk in q])
-    true_angles = frames.angles_xyz(world.base2tracker[:3, :3].T @ attained)
-    commanded = frames.angles_xyz(np.array([p["rotation"] for p in doc["test_poses"]]))
+    true_angles = rotations.angles_xyz(world.base2tracker[:3, :3].T @ attained)
+    commanded = rotations.angles_xyz(np.array([p["rotation"] for p in doc["test_poses"]]))
     for p, truth, cmd in zip(doc["poses"], true_angles, commanded, strict=True):
         rows = table[table["test_pose"] == p["test_pose"]]
         # The poses face the tracker, so b is far from 0: a and c take the

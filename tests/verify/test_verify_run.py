@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 from calibrator.verify import pose as run
 
 TOOL = frames.transform(translation=[0, 0, 100.0])
@@ -38,7 +38,7 @@ def test_plan_rows_follow_p5_to_p1_and_the_run_leads_in_from_p1(plan):
 
 
 def test_fit_recovers_a_known_tracker_placement(plan):
-    base2tracker = frames.transform(frames.rotvec_to_matrix([0.1, -0.2, 2.5]), [2000, 300, -50])
+    base2tracker = frames.transform(rotations.rotvec_to_matrix([0.1, -0.2, 2.5]), [2000, 300, -50])
     commanded = plan.desired[plan.test_pose - 1, :3, 3]
     rng = np.random.default_rng(0)
     attained = commanded + rng.normal(0, 0.01, commanded.shape)
@@ -57,8 +57,8 @@ def test_orientation_figures_in_the_base_frame_of_a_six_dof_probe(plan):
     # Every attained pose turned 0.01 deg about base x from the command, +-0.002 deg in turns.
     turn = np.deg2rad(0.01 + 0.002 * np.where(plan.cycle % 2 == 0, 1.0, -1.0))
     turn[plan.cycle == 3] = np.deg2rad(0.01)
-    r = frames.rotations_xyz(np.stack([turn, 0 * turn, 0 * turn], axis=1)) @ commanded[:, :3, :3]
-    rotvecs = frames.matrix_to_rotvec(r)
+    r = rotations.rotations_xyz(np.stack([turn, 0 * turn, 0 * turn], axis=1)) @ commanded[:, :3, :3]
+    rotvecs = rotations.matrix_to_rotvec(r)
     pts, rv = run.points(records(commanded[:, :3, 3], rotvecs), plan)
     reg = run.surveyed(np.eye(4), "test")
     poses, table = run.evaluate(pts, rv, plan, reg)

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.model import frames
+from calibrator.model.rotations import rotvec_to_matrix
 
 #: How far the reflector may be from the ``--tool`` guess, mm. A reflector on a
 #: flange adapter is placed by drawing to a few millimetres; 30 mm covers a
@@ -143,7 +144,7 @@ def _fit(flange, measured, tool, fit_tool: bool):
         jac = _jacobian(flange, local, rot, fit_tool=True).reshape(-1, 9)
         # normal equations: 9 unknowns, well conditioned once the tool is seen (4+ stops)
         step = np.linalg.lstsq(jac.T @ jac, -jac.T @ residual.reshape(-1), rcond=None)[0]
-        rot = frames.rotvec_to_matrix(step[:3]) @ rot
+        rot = rotvec_to_matrix(step[:3]) @ rot
         shift = shift + step[3:6]
         tool = tool + step[6:]
         # a turn of 1e-9 rad moves a point 3 m away by 3e-6 mm

@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from calibrator import robots
 from calibrator.acquire import ports
+from calibrator.model import rotations
 from calibrator.model.kinematics import check_mdh, forward
 from calibrator.simulate import random_errors
 from drivers.robot.errors import EmergencyStop, NotReady, ProtectiveStop
@@ -217,7 +218,6 @@ class SimulatedRobot(Robot):
         ValueError
             The control port cannot be opened.
         """
-        from calibrator.model import frames
         from drivers.tracker.line.simulator.launch import SimulatorControl
 
         try:
@@ -226,7 +226,7 @@ class SimulatedRobot(Robot):
             raise ValueError(f"control={control_url}: {exc}") from None
         self._control = control
         self.listener = lambda pose: control.set_target(
-            pose[:3, 3], frames.matrix_to_rotvec(pose[:3, :3])
+            pose[:3, 3], rotations.matrix_to_rotvec(pose[:3, :3])
         )
 
     # --------------------------------------------------------------- state

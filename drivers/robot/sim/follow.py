@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
-from calibrator.model import frames
+from calibrator.model import rotations
 from drivers.robot.interface import Robot
 
 
@@ -49,7 +49,7 @@ def steer_tracker(robot: Any, tracker: ports.Steerable, tool_pose: Callable[[Any
 
     def steer(pose: np.ndarray) -> None:
         # The orientation too: a 6-DoF probe reports it (a plain reflector ignores it).
-        tracker.set_target(pose[:3, 3], frames.matrix_to_rotvec(pose[:3, :3]))
+        tracker.set_target(pose[:3, 3], rotations.matrix_to_rotvec(pose[:3, :3]))
 
     if ports.REPORTS_TRUE_POSE.offered_by(robot):
         robot.listener = steer

@@ -10,7 +10,7 @@ from robot_kit import wait_until
 from timeout_kit import readline
 
 from calibrator import robots
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 from drivers.robot.ur.simulator.controller import (
     HOME_Q,
     MODE_IDLE,
@@ -36,7 +36,7 @@ def test_tcp_pose_is_right_through_a_tool_down_sweep():
     for q in sweep:
         truth = kinematics.forward(mdh, q[None])[0]
         pose = tcp_pose(q, mdh)
-        np.testing.assert_allclose(frames.rotvec_to_matrix(pose[3:]), truth[:3, :3], atol=1e-9)
+        np.testing.assert_allclose(rotations.rotvec_to_matrix(pose[3:]), truth[:3, :3], atol=1e-9)
         np.testing.assert_allclose(pose[:3] * 1000.0, truth[:3, 3], atol=1e-9)
         assert np.linalg.norm(pose[3:]) <= np.pi + 1e-12
 
@@ -52,7 +52,7 @@ def test_tcp_pose_over_rtde_with_set_tcp_and_a_tool_down_pose(ur_robot, fake_ur)
         flange = kinematics.forward(mdh, reached[None])[0]
         wait_until(lambda: np.allclose(receive.getActualQ(), reached, atol=1e-9), what="stream")
         pose = np.array(receive.getActualTCPPose())
-        np.testing.assert_allclose(frames.rotvec_to_matrix(pose[3:]), flange[:3, :3], atol=1e-6)
+        np.testing.assert_allclose(rotations.rotvec_to_matrix(pose[3:]), flange[:3, :3], atol=1e-6)
         np.testing.assert_allclose(pose[:3] * 1000, flange[:3, 3], atol=1e-3)
         # setTcp: the reported pose is the TCP's, 100 mm along the flange z axis.
         assert ur_robot._control.setTcp([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])

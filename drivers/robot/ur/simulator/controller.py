@@ -9,7 +9,7 @@ than the wall clock so tests stay short.
 
 The arm is a named model from :mod:`calibrator.robots` (UR5e by default);
 ``actual_TCP_pose`` is its nominal forward kinematics with the TCP set by
-``setTcp``, the rotation as :func:`calibrator.model.frames.matrix_to_rotvec` gives it
+``setTcp``, the rotation as :func:`calibrator.model.rotations.matrix_to_rotvec` gives it
 (the one conversion of the project, exact near pi).
 
 Power and brakes follow a real controller: an e-stop powers the arm off;
@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import robots
-from calibrator.model import frames, kinematics
+from calibrator.model import frames, kinematics, rotations
 
 # runtime_state values (UR RTDE guide)
 RUNTIME_STOPPED = 1
@@ -107,7 +107,7 @@ def tcp_pose(
     """
     mdh = robots.get("ur5e").mdh if mdh is None else mdh
     pose = kinematics.forward(mdh, np.asarray(q, float)[None], flange2tcp)[0]
-    return np.concatenate([pose[:3, 3] / 1000.0, frames.matrix_to_rotvec(pose[:3, :3])])
+    return np.concatenate([pose[:3, 3] / 1000.0, rotations.matrix_to_rotvec(pose[:3, :3])])
 
 
 class _JointMove:
@@ -523,7 +523,9 @@ class FakeController:
             self.stop_program()
         elif cmd == CMD_SET_TCP:
             pose = np.array([self._in_double(i) for i in range(6)])  # m, rotation vector
-            self.flange2tcp = frames.transform(frames.rotvec_to_matrix(pose[3:]), pose[:3] * 1000)
+            self.flange2tcp = frames.transform(
+                rotations.rotvec_to_matrix(pose[3:]), pose[:3] * 1000
+            )
             self._out_int(0, DONE)
         else:
             # Not emulated (moveL, movePath, IK, ...): stop the program, as a script
