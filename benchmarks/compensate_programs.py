@@ -43,9 +43,10 @@ HERE = Path(__file__).resolve().parent
 def _setup_krl(folder: Path, n: int) -> None:
     from calibrator import compensate, robots, simulate
     from calibrator.calibration import Calibration
-    from calibrator.filtering import Job, frames_file
-    from calibrator.filtering.krl import KRL
-    from calibrator.filtering.solve import Solver
+    from calibrator.compensate.solve import Solver
+    from calibrator.languages import frames_file
+    from calibrator.languages.krl.reader import KRL
+    from calibrator.languages.reading import Job
     from calibrator.model import frames, kinematics, parameters, rotations
 
     model = robots.get("er10l-c10")
@@ -166,7 +167,9 @@ def _setup_urscript(folder: Path, n: int) -> None:
 
 def _child(kind: str, folder: Path, language: str) -> None:
     from calibrator import calibration, compensate, robots
-    from calibrator.filtering import Job, engine, frames_file
+    from calibrator.compensate import programs
+    from calibrator.languages import frames_file
+    from calibrator.languages.reading import Job
 
     cal = calibration.load(folder / "cal.json")
     suffix = ".src" if language == "krl" else ".script"
@@ -183,7 +186,7 @@ def _child(kind: str, folder: Path, language: str) -> None:
             calibration=cal, frames=frames_file.FrameTable(),
             limits=robots.get(cal.model).joint_limits_rad, config_dat=dat,
         )  # fmt: skip
-        failed = engine.Filter(language, job, folder / ("path" + suffix)).run(out, []).n_failed
+        failed = programs.Filter(language, job, folder / ("path" + suffix)).run(out, []).n_failed
     wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     # VmHWM: this process's own peak resident memory. (ru_maxrss of a process
     # started by fork and exec starts at its parent's peak on Linux.)

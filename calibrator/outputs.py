@@ -432,7 +432,8 @@ def choose_format(
     ----------
     registry : mapping
         Format name -> a format whose ``suffixes`` are the file name endings that
-        select it (:data:`calibrator.export.REGISTRY`, :data:`calibrator.program.REGISTRY`);
+        select it (:data:`calibrator.export.REGISTRY`,
+        :data:`calibrator.languages.writing.REGISTRY`);
         the longest matching ending wins (``.urcal.conf`` before ``.conf``).
     fmt : str, optional
         The format asked for (``--format``).

@@ -344,8 +344,8 @@ def _external(robot, output, plan, arm, quiet) -> Any:
     if robot != "external":
         return None
     from calibrator import outputs, planning
-    from calibrator import program as programs
     from calibrator.cli.measure import _external_options
+    from calibrator.languages import writing as programs
 
     plan_file, program_file = _external_files(output)
     spec = programs.ProgramSpec(

@@ -10,8 +10,8 @@ from calibrator.cli._app import app
 from calibrator.recorded_options import RULES
 
 #: ``--format``'s choices as its help shows them: the languages of
-#: :data:`calibrator.filtering.FORMATS` (a test keeps the two equal; the
-#: filtering package is not imported to draw the help).
+#: :data:`calibrator.languages.reading.FORMATS` (a test keeps the two equal; the
+#: languages are not imported to draw the help).
 FORMAT_CHOICES = "urscript|krl|rapid|fanuc|jbi"
 
 
@@ -117,17 +117,18 @@ def compensate(
 
 def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm, max_deg,
             keep_failed, summary_path, payload_kg, force):  # fmt: skip
-    from calibrator import filtering, outputs, robots
-    from calibrator.filtering import engine, frames_file
+    from calibrator import robots
+    from calibrator.compensate import programs
+    from calibrator.languages import frames_file, reading
 
-    language = filtering.choose(fmt, program)
-    filtering.choose(language, output)  # the output must carry the same extension
+    language = reading.choose(fmt, program)
+    reading.choose(language, output)  # the output must carry the same extension
     if not program.is_file():
         opts.fail(f"{program}: no such file")
     if config_dat is not None and not config_dat.is_file():
         opts.fail(f"{config_dat}: no such file")
     limits = robots.get(cal.model).joint_limits_rad if cal.model else None
-    job = filtering.Job(
+    job = reading.Job(
         calibration=cal,
         frames=frames_file.read(frames_path),
         limits=limits,
@@ -138,14 +139,9 @@ def _filter(cal, program, output, fmt, frames_path, config_dat, correct, max_mm,
         payload_kg=payload_kg,
         config_dat=config_dat,
     )
-    inputs = [program, frames_path, config_dat]
-    run = engine.Filter(language, job, program)
-    # Every file the filter writes (KRL: OUT.dat beside -o OUT.src) under -o's policy.
-    for _, written in run.lang.files(output):
-        outputs.check(written, inputs + [summary_path], force=force)
-    summary = run.run(output, inputs + [summary_path])
-    if summary_path is not None:
-        engine.write_summary(summary_path, summary, inputs + [output])
+    summary = programs.run(
+        language, job, program, output, [frames_path, config_dat], summary_path, force
+    )
     failed = summary.n_failed > 0
     for line in summary.lines():
         typer.echo(line, err=failed)

@@ -12,8 +12,8 @@ from calibrator.cli import _model, _run
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
-from calibrator.program import REGISTRY
-from calibrator.program.spec import MAX_DWELL_S, MIN_ACCEL_RAD_S2, MIN_SPEED_RAD_S, PULSE_S
+from calibrator.languages.spec import MAX_DWELL_S, MIN_ACCEL_RAD_S2, MIN_SPEED_RAD_S, PULSE_S
+from calibrator.languages.writing import REGISTRY
 
 #: The ``--format`` choices, generated from the writer registry.
 # mypy cannot type a functional Enum whose members come from a registry at run time.
@@ -93,7 +93,7 @@ def program(
 
     from calibrator import cell as cells
     from calibrator import outputs, planning, robots
-    from calibrator import program as programs
+    from calibrator.languages import writing as programs
 
     chosen = programs.choose(None if fmt is None else fmt.value, output)
     if targets == Targets.cartesian and chosen not in CARTESIAN:

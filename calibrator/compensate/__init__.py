@@ -5,11 +5,14 @@
   (:func:`compensate`, :func:`correction_sizes`);
 - :mod:`~calibrator.compensate.targets`: a targets CSV read, compensated and
   written block by block (:func:`run`, :func:`iter_targets`,
-  :func:`read_targets`).
+  :func:`read_targets`);
+- :mod:`~calibrator.compensate.programs`: a robot program read, compensated
+  and spliced block by block through its language's reader
+  (:func:`~calibrator.compensate.programs.run`; the nominal solve is
+  :mod:`~calibrator.compensate.solve`). Not imported here: a targets CSV
+  needs no language.
 
-Robot programs are compensated by :mod:`calibrator.filtering`, which calls
-:func:`compensate` on each block of a program's targets. The inverse
-kinematics itself is :mod:`calibrator.model.inverse`.
+The inverse kinematics itself is :mod:`calibrator.model.inverse`.
 """
 
 from calibrator.compensate.core import (

@@ -14,7 +14,7 @@ from export_kit import calibrated
 from plan_kit import CHECKED_PLAN_TRACKER_MM
 
 from calibrator import planning, robots
-from calibrator.filtering import configuration
+from calibrator.languages import configuration
 from calibrator.model import kinematics, rotations
 
 _POSE = re.compile(r"^  movej\(p\[([^\]]*)\], a=")

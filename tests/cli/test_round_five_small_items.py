@@ -37,7 +37,7 @@ def test_a_deflection_plot_not_named_png_is_refused_before_the_work(tmp_path):
 
 def test_options_with_fixed_choices_show_them_in_their_help(tmp_path):
     from calibrator.cli.compensate import FORMAT_CHOICES
-    from calibrator.filtering import FORMATS
+    from calibrator.languages.reading import FORMATS
 
     assert FORMAT_CHOICES.split("|") == list(FORMATS)
     shown = cli("compensate", "-h", cwd=tmp_path).stdout

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from calibrator.program.spec import move_duration_s
+from calibrator.languages.spec import move_duration_s
 from drivers.robot.external_sim.motion import JointMove, trapezoid_duration
 from drivers.robot.external_sim.player import Hold, Player, PlayerOptions
 

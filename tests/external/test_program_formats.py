@@ -10,8 +10,8 @@ from cli_kit import cli, one_line_error
 from grammar_kit import PARSERS, GrammarError, parse_krl, parse_rapid, parse_urscript
 
 from calibrator import planning, robots
-from calibrator import program as programs
-from calibrator.program.spec import move_duration_s
+from calibrator.languages import writing as programs
+from calibrator.languages.spec import move_duration_s
 
 ARM = robots.get("ur10e")
 

@@ -14,7 +14,7 @@ from cli_kit import cli, listing, one_line_error
 from grammar_kit import PARSERS
 
 from calibrator import planning, robots
-from calibrator import program as programs
+from calibrator.languages import writing as programs
 
 ARM = robots.get("ur10e")
 

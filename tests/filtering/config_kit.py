@@ -14,11 +14,11 @@ from filter_kit import frame_yaml
 from program_kit import krl_frame, rapid_pose
 
 from calibrator import robots
-from calibrator.filtering import configuration, frames_file
-from calibrator.filtering.fanuc import FanucLS
-from calibrator.filtering.jbi import JBI
-from calibrator.filtering.krl import KRL
-from calibrator.filtering.rapid import RAPID
+from calibrator.languages import configuration, frames_file
+from calibrator.languages.fanuc.reader import FanucLS
+from calibrator.languages.jbi.reader import JBI
+from calibrator.languages.krl.reader import KRL
+from calibrator.languages.rapid.reader import RAPID
 from calibrator.model import frames, rotations, singularities
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[10.0, 25.0, -5.0]])[0], [12.5, -4.0, 180.0])

@@ -12,7 +12,8 @@ import numpy as np
 
 from calibrator import robots, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import Job, configuration, frames_file
+from calibrator.languages import configuration, frames_file
+from calibrator.languages.reading import Job
 from calibrator.model import frames, inverse, kinematics, parameters, rotations
 
 TOOL = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])

@@ -9,11 +9,11 @@ nominal arm, as a controller would have recorded them.
 import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, poses
 
-from calibrator.filtering.fanuc import FanucLS
-from calibrator.filtering.jbi import JBI
-from calibrator.filtering.krl import KRL
-from calibrator.filtering.rapid import RAPID
-from calibrator.filtering.solve import Solver
+from calibrator.compensate.solve import Solver
+from calibrator.languages.fanuc.reader import FanucLS
+from calibrator.languages.jbi.reader import JBI
+from calibrator.languages.krl.reader import KRL
+from calibrator.languages.rapid.reader import RAPID
 from calibrator.model import frames, kinematics, rotations
 
 CRLF = "\r\n"

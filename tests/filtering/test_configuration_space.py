@@ -25,12 +25,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calibrator import robots
-from calibrator.filtering import configuration, engine
-from calibrator.filtering.fanuc import FanucLS
-from calibrator.filtering.jbi import JBI
-from calibrator.filtering.krl import KRL
-from calibrator.filtering.rapid import RAPID
-from calibrator.filtering.urscript import URScript
+from calibrator.compensate import programs
+from calibrator.languages import configuration
+from calibrator.languages.fanuc.reader import FanucLS
+from calibrator.languages.jbi.reader import JBI
+from calibrator.languages.krl.reader import KRL
+from calibrator.languages.rapid.reader import RAPID
+from calibrator.languages.urscript.reader import URScript
 from calibrator.model import frames, inverse, kinematics, rotations
 
 #: Hypothesis runs: few examples, no deadline, the same examples every run.
@@ -228,7 +229,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
     src, extra = write(tmp_path, taught, codes)
     out = tmp_path / f"out{src.suffix}"
     options = {k: v for k, v in extra.items() if k != "frames"}
-    summary = engine.Filter(name, job(cal, extra.get("frames"), **options), src).run(out, [src])
+    summary = programs.Filter(name, job(cal, extra.get("frames"), **options), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures[:5]
     assert summary.corrected["pose"] == len(q)
     intended = cb @ user @ read(src.read_text())
@@ -250,7 +251,7 @@ def test_a_target_in_every_configuration_lands_on_the_true_arm(tmp_path, name):
 
 
 def test_bits_read_the_same_points_as_the_singularity_model():
-    from calibrator.filtering.configuration import _points
+    from calibrator.languages.configuration import _points
     from calibrator.model import singularities
 
     rng = np.random.default_rng(7)

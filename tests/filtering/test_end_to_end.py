@@ -11,7 +11,7 @@ from program_kit import rapid_pose, robtarget
 
 from calibrator import session, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import engine
+from calibrator.compensate import programs
 from calibrator.identify import pipeline
 from calibrator.model import frames, inverse, kinematics, rotations
 
@@ -65,7 +65,7 @@ def test_filtered_program_lands_on_the_true_arm(identified, tmp_path):
     out = tmp_path / "cell_filtered.mod"
     # The simulated arm's errors (about 0.5 deg per angle) are ten times a real
     # arm's: corrections reach 30 mm, past the default bound meant for real arms.
-    summary = engine.Filter("rapid", job(cal, max_mm=60.0, max_deg=3.0), src).run(out, [src])
+    summary = programs.Filter("rapid", job(cal, max_mm=60.0, max_deg=3.0), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     intended = _targets(src.read_text())
 

@@ -6,7 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import write_fanuc_ls
 
-from calibrator.filtering import engine, frames_file
+from calibrator.compensate import programs
+from calibrator.languages import frames_file
 from calibrator.model import frames, inverse, kinematics, rotations
 
 
@@ -30,7 +31,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
     src = write_fanuc_ls(tmp_path / "weld.ls", cal, work_joints(6))
     out = tmp_path / "out.ls"
-    summary = engine.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(out, [src])
+    summary = programs.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 6 and summary.kept["joints"] == 1
     assert out.read_bytes() == src.read_bytes()
@@ -41,7 +42,7 @@ def test_positions_land_and_the_second_group_is_kept(tmp_path):
     q = work_joints(6)
     src = write_fanuc_ls(tmp_path / "weld.ls", cal, q)
     out = tmp_path / "out.ls"
-    summary = engine.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(out, [src])
+    summary = programs.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     text = out.read_bytes().decode()
     before = src.read_bytes().decode()
@@ -59,7 +60,7 @@ def test_configuration_change_is_named_with_its_line(tmp_path):
     q = work_joints(6)
     q[2, 5] = np.radians(-179.995)  # joint 6 at the turn boundary: the calibrated arm crosses it
     src = write_fanuc_ls(tmp_path / "weld.ls", cal, q)
-    summary = engine.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(
+    summary = programs.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(
         tmp_path / "o.ls", [src]
     )
     (fail,) = summary.failures
@@ -73,7 +74,7 @@ def test_unreachable_position_is_named_with_its_line(tmp_path):
     q = work_joints(6)
     q[4, 1], q[4, 2] = 0.3, np.radians(-82.5) + 0.005  # the arm stretched out
     src = write_fanuc_ls(tmp_path / "weld.ls", cal, q)
-    summary = engine.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(
+    summary = programs.Filter("fanuc", job(cal, _frames_yaml(tmp_path)), src).run(
         tmp_path / "o.ls", [src]
     )
     (fail,) = summary.failures

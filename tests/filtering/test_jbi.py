@@ -6,7 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import PPD, write_jbi_job
 
-from calibrator.filtering import engine, frames_file
+from calibrator.compensate import programs
+from calibrator.languages import frames_file
 from calibrator.model import frames, inverse, kinematics, rotations
 
 
@@ -29,7 +30,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
     src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, work_joints(6))
     out = tmp_path / "OUT.JBI"
-    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
+    summary = programs.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 6 and summary.kept["joints"] == 1
     assert out.read_bytes() == src.read_bytes()
@@ -40,7 +41,7 @@ def test_rectan_positions_land_in_the_user_frame(tmp_path):
     q = work_joints(6)
     src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
     out = tmp_path / "OUT.JBI"
-    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
+    summary = programs.Filter("jbi", job(cal, _frames(tmp_path)), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     text, before = out.read_bytes().decode(), src.read_bytes().decode()
     changed = [a for a, b in zip(before.split("\r\n"), text.split("\r\n"), strict=True) if a != b]
@@ -55,7 +56,7 @@ def test_pulse_positions_are_corrected_when_asked(tmp_path):
     cal = calibration()
     src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, work_joints(2))
     out = tmp_path / "OUT.JBI"
-    summary = engine.Filter("jbi", job(cal, _frames(tmp_path), correct_joints=True), src).run(
+    summary = programs.Filter("jbi", job(cal, _frames(tmp_path), correct_joints=True), src).run(
         out, [src]
     )
     assert summary.n_failed == 0 and summary.corrected["joints"] == 1
@@ -66,7 +67,7 @@ def test_pulse_positions_are_corrected_when_asked(tmp_path):
     # One pulse is a few thousandths of a degree: within 0.05 mm at this reach.
     assert np.linalg.norm(reached[0, :3, 3] - wanted[0, :3, 3]) < 0.05
     missing = frames_file.FrameTable(tools=_frames(tmp_path).tools, bases=_frames(tmp_path).bases)
-    summary = engine.Filter("jbi", job(cal, missing, correct_joints=True), src).run(out, [src])
+    summary = programs.Filter("jbi", job(cal, missing, correct_joints=True), src).run(out, [src])
     assert summary.failures[0]["reason"] == "pulse positions need pulses_per_degree in --frames"
 
 
@@ -77,7 +78,9 @@ def test_configuration_change_is_named_with_its_line(tmp_path):
     q = work_joints(6, model="ur10e")
     q[1, 5] = np.radians(-179.95)  # joint 6 at its half-turn flag: the calibrated arm crosses it
     src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
-    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
+    summary = programs.Filter("jbi", job(cal, _frames(tmp_path)), src).run(
+        tmp_path / "O.JBI", [src]
+    )
     (fail,) = summary.failures
     assert fail["target"] == "C00002"
     assert fail["reason"].startswith("the configuration would change from RCONF 0,0,1,0,0,0 to ")
@@ -90,7 +93,9 @@ def test_unreachable_position_is_named_with_its_line(tmp_path):
     q = work_joints(6)
     q[3, 1], q[3, 2] = 0.3, np.radians(-82.5) + 0.005  # the arm stretched out
     src = write_jbi_job(tmp_path / "NAHT1.JBI", cal, q)
-    summary = engine.Filter("jbi", job(cal, _frames(tmp_path)), src).run(tmp_path / "O.JBI", [src])
+    summary = programs.Filter("jbi", job(cal, _frames(tmp_path)), src).run(
+        tmp_path / "O.JBI", [src]
+    )
     (fail,) = summary.failures
     assert fail["target"] == "C00004" and "cannot reach" in fail["reason"]
     assert src.read_bytes().decode().split("\r\n")[fail["line"] - 1].startswith("C00004=")

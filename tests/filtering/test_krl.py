@@ -6,7 +6,8 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, frame_yaml, job, poses, work_joints
 from program_kit import krl_frame, krl_status_turn, write_krl_program
 
-from calibrator.filtering import engine, frames_file
+from calibrator.compensate import programs
+from calibrator.languages import frames_file
 from calibrator.model import frames, inverse, kinematics, rotations
 
 
@@ -15,7 +16,7 @@ def test_identity_calibration_is_byte_for_byte(tmp_path):
     src, config = write_krl_program(tmp_path, cal, work_joints(12))
     out = tmp_path / "out" / "weld.src"
     out.parent.mkdir()
-    summary = engine.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
+    summary = programs.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 12
     assert out.read_bytes() == src.read_bytes()
@@ -34,7 +35,7 @@ def test_corrected_targets_land_on_the_intended_pose(tmp_path):
     q = work_joints(12)
     src, config = write_krl_program(tmp_path, cal, q)
     out = tmp_path / "o.src"
-    summary = engine.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
+    summary = programs.Filter("krl", job(cal, config_dat=config), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     before = src.read_bytes().decode("cp1252").splitlines(keepends=True)
     after = out.read_bytes().decode("cp1252").splitlines(keepends=True)
@@ -76,7 +77,7 @@ def test_unreachable_target_is_named_with_its_line(tmp_path):
     q = np.array([0.2, 0.3, np.radians(-82.5) + 0.005, 0.3, 0.8, 0.1])  # arm stretched out
     src, table = _one_target(tmp_path, cal, q)
     out = tmp_path / "o.src"
-    summary = engine.Filter("krl", job(cal, table), src).run(out, [src])
+    summary = programs.Filter("krl", job(cal, table), src).run(out, [src])
     assert not out.exists()
     (fail,) = summary.failures
     assert fail["line"] == 5 and "cannot reach" in fail["reason"]
@@ -88,7 +89,7 @@ def test_configuration_that_cannot_be_kept_is_named(tmp_path):
     # Axis 1 a hair above zero: the calibrated arm needs it below (turn bit T of A1).
     q = np.array([np.radians(0.01), 0.3, -0.2, 0.3, 0.8, 0.1])
     src, table = _one_target(tmp_path, cal, q)
-    summary = engine.Filter("krl", job(cal, table), src).run(tmp_path / "o.src", [src])
+    summary = programs.Filter("krl", job(cal, table), src).run(tmp_path / "o.src", [src])
     (fail,) = summary.failures
     assert fail["line"] == 5
     assert "configuration would change from S 2 T 4 to S 2 T 5" in fail["reason"], fail
@@ -98,7 +99,7 @@ def test_wrist_swing_near_singularity_is_refused(tmp_path):
     cal = calibration()
     q = np.array([0.2, 0.3, -0.2, 0.3, np.radians(0.02), 0.1])
     src, table = _one_target(tmp_path, cal, q)
-    summary = engine.Filter("krl", job(cal, table), src).run(tmp_path / "o.src", [src])
+    summary = programs.Filter("krl", job(cal, table), src).run(tmp_path / "o.src", [src])
     (fail,) = summary.failures
     assert "would turn" in fail["reason"] and "wrist singularity" in fail["reason"]
 
@@ -108,7 +109,7 @@ def test_keep_failed_writes_and_marks(tmp_path):
     q = np.array([0.2, 0.3, np.radians(-82.5) + 0.005, 0.3, 0.8, 0.1])
     src, table = _one_target(tmp_path, cal, q)
     out = tmp_path / "o.src"
-    engine.Filter("krl", job(cal, table, keep_failed=True), src).run(out, [src])
+    programs.Filter("krl", job(cal, table, keep_failed=True), src).run(out, [src])
     lines = out.read_text().splitlines()
     assert lines[4].startswith(src.read_text().splitlines()[4] + " ; not corrected: ")
     assert out.read_text().splitlines()[:4] == src.read_text().splitlines()[:4]
@@ -117,7 +118,7 @@ def test_keep_failed_writes_and_marks(tmp_path):
 def test_undefined_tool_fails_its_targets(tmp_path):
     cal = calibration()
     src, _ = _one_target(tmp_path, cal, work_joints(1)[0])
-    summary = engine.Filter("krl", job(cal), src).run(tmp_path / "o.src", [src])
+    summary = programs.Filter("krl", job(cal), src).run(tmp_path / "o.src", [src])
     (fail,) = summary.failures
     assert "TOOL_DATA[1] is defined neither" in fail["reason"]
 
@@ -125,7 +126,9 @@ def test_undefined_tool_fails_its_targets(tmp_path):
 def test_max_correction_refuses_a_large_one(tmp_path):
     cal = calibration()
     src, table = _one_target(tmp_path, cal, work_joints(1)[0])
-    summary = engine.Filter("krl", job(cal, table, max_mm=0.01), src).run(tmp_path / "o.src", [src])
+    summary = programs.Filter("krl", job(cal, table, max_mm=0.01), src).run(
+        tmp_path / "o.src", [src]
+    )
     (fail,) = summary.failures
     assert "exceeds --max-correction 0.01,0.5" in fail["reason"]
 
@@ -133,10 +136,10 @@ def test_max_correction_refuses_a_large_one(tmp_path):
 def test_joint_targets_are_kept_or_corrected(tmp_path):
     cal = calibration()
     src, config = write_krl_program(tmp_path, cal, work_joints(4))
-    kept = engine.Filter("krl", job(cal, config_dat=config), src).run(tmp_path / "k.src", [src])
+    kept = programs.Filter("krl", job(cal, config_dat=config), src).run(tmp_path / "k.src", [src])
     assert kept.kept["joints"] == 2 and kept.corrected["joints"] == 0  # HOMEPOS and the inline PTP
     out = tmp_path / "c.src"
-    fixed = engine.Filter("krl", job(cal, config_dat=config, correct_joints=True), src).run(
+    fixed = programs.Filter("krl", job(cal, config_dat=config, correct_joints=True), src).run(
         out, [src]
     )
     assert fixed.n_failed == 0 and fixed.corrected["joints"] == 2

@@ -21,7 +21,9 @@ from program_kit import (
     write_urscript,
 )
 
-from calibrator.filtering import FilterError, engine, frames_file
+from calibrator.compensate import programs
+from calibrator.languages import frames_file
+from calibrator.languages.reading import FilterError
 
 FRAMES = frames_file.FrameTable(
     tools={"1": TOOL, "2": TOOL2},
@@ -74,7 +76,7 @@ def _break(src, lang, replacement):
 
 def _filter(lang, cal, src, tmp_path, **kw):
     out = tmp_path / ("o" + src.suffix)
-    summary = engine.Filter(lang, job(cal, FRAMES, **kw), src).run(out, [src])
+    summary = programs.Filter(lang, job(cal, FRAMES, **kw), src).run(out, [src])
     return summary, out
 
 

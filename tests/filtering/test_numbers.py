@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from calibrator.filtering import numbers
+from calibrator.languages import numbers
 
 
 def test_one_more_decimal_only_where_rounding_would_lose_the_correction():

@@ -17,7 +17,8 @@ from filter_kit import calibration, job
 from vendor_kit import BOXES
 
 from calibrator import robots
-from calibrator.filtering import configuration, engine, frames_file
+from calibrator.compensate import programs
+from calibrator.languages import configuration, frames_file
 from calibrator.model import frames, inverse, kinematics, rotations
 
 LANDS_MM = 0.02
@@ -67,7 +68,7 @@ def test_a_target_on_a_boundary_round_trips_in_its_stated_code(tmp_path, name):
     cal = calibration(model=EDGES[name][0], mm=0, rad=0)
     src, the_job, q, codes, *_ = _edge_program(tmp_path, name, cal)
     out = tmp_path / f"out{src.suffix}"
-    summary = engine.Filter(name, the_job, src).run(out, [src])
+    summary = programs.Filter(name, the_job, src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == len(q)
     assert out.read_bytes() == src.read_bytes()
@@ -81,7 +82,7 @@ def test_a_calibrated_target_on_a_boundary_lands_or_names_the_code_it_would_leav
     src, the_job, q, codes, user, tool, read = _edge_program(tmp_path, name, cal)
     the_job.keep_failed = True
     out = tmp_path / f"out{src.suffix}"
-    summary = engine.Filter(name, the_job, src).run(out, [src])
+    summary = programs.Filter(name, the_job, src).run(out, [src])
     assert summary.corrected["pose"] + summary.n_failed == len(q)
     for failure in summary.failures:
         assert failure["reason"].startswith("the configuration would change from "), failure
@@ -129,11 +130,11 @@ def test_pulse_positions_with_non_zero_zeros_are_read_and_written_through_them(t
     cal0 = calibration(model=model, mm=0, rad=0)
     src, table, pulses = _pulse_job(tmp_path, q_ctrl)
     out = tmp_path / "OUT.JBI"
-    kept = engine.Filter("jbi", job(cal0, table, correct_joints=True), src).run(out, [src])
+    kept = programs.Filter("jbi", job(cal0, table, correct_joints=True), src).run(out, [src])
     assert kept.n_failed == 0 and kept.corrected["joints"] == 6
     assert out.read_bytes() == src.read_bytes()
     cal = calibration(model=model, seed=6, mm=0.3, rad=0.0005)
-    summary = engine.Filter("jbi", job(cal, table, correct_joints=True), src).run(out, [src])
+    summary = programs.Filter("jbi", job(cal, table, correct_joints=True), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     rows = re.findall(r"^C\d{5}=(.*)$", out.read_text(), re.M)
     written = np.array([r.split(",") for r in rows], dtype=float)
@@ -186,7 +187,7 @@ def test_movec_corrects_its_via_point_and_its_end_point(tmp_path):
     src = tmp_path / "arc.script"
     src.write_bytes("\r\n".join(lines).encode())
     out = tmp_path / "out.script"
-    summary = engine.Filter("urscript", job(cal), src).run(out, [src])
+    summary = programs.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     # Pose literals: 2 + 2 assigned + 1 + 1 (the last movec's end is `to` again).
     assert summary.corrected["pose"] == 6
@@ -219,7 +220,7 @@ def test_a_crlf_krl_program_with_keep_failed_marks_failures_before_the_line_endi
     src.write_bytes("\r\n".join(lines).encode())
     out = tmp_path / "out.src"
     the_job = job(cal, config_dat=extra["config_dat"], keep_failed=True)
-    summary = engine.Filter("krl", the_job, src).run(out, [src])
+    summary = programs.Filter("krl", the_job, src).run(out, [src])
     assert summary.n_failed == 1 and summary.corrected["pose"] == 5
     (failure,) = summary.failures
     assert failure["line"] == 8
@@ -248,7 +249,7 @@ def test_a_crlf_rapid_statement_over_two_lines_is_marked_on_its_last(tmp_path):
     src = tmp_path / "m.mod"
     src.write_bytes("\r\n".join(lines).encode())
     out = tmp_path / "out.mod"
-    summary = engine.Filter("rapid", job(cal, keep_failed=True), src).run(out, [src])
+    summary = programs.Filter("rapid", job(cal, keep_failed=True), src).run(out, [src])
     (failure,) = summary.failures
     assert "wobjdata wnowhere is defined neither" in failure["reason"]
     written = out.read_bytes().decode().split("\r\n")
@@ -269,13 +270,13 @@ def test_a_correction_beyond_the_rotation_limit_alone_fails(tmp_path):
     cb, cf = arm.model_base2controller_base, arm.model_flange2controller_flange
     taught = frames.invert(cb @ kit.USER) @ kinematics.tool_poses(cal.nominal_mdh, q, cf @ kit.TOOL)
     src, extra = kit.krl(tmp_path, taught, codes)
-    loose = engine.Filter(
+    loose = programs.Filter(
         "krl", job(cal, config_dat=extra["config_dat"], max_mm=50.0, max_deg=5.0), src
     ).run(tmp_path / "a.src", [src])
     assert loose.n_failed == 0
     # Limits between the largest correction's mm and deg: only the rotation exceeds.
     max_deg = loose.max_deg * 0.5
-    tight = engine.Filter(
+    tight = programs.Filter(
         "krl", job(cal, config_dat=extra["config_dat"], max_mm=50.0, max_deg=max_deg), src
     ).run(tmp_path / "b.src", [src])
     assert 0 < tight.n_failed < len(q)
@@ -286,7 +287,7 @@ def test_a_correction_beyond_the_rotation_limit_alone_fails(tmp_path):
         assert mm < 50.0 and deg > max_deg, failure
         assert f"--max-correction 50,{max_deg:g}" in failure["reason"]
     # And the same by the translation only.
-    short = engine.Filter(
+    short = programs.Filter(
         "krl",
         job(cal, config_dat=extra["config_dat"], max_mm=loose.max_mm * 0.5, max_deg=5.0),
         src,

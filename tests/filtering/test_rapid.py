@@ -6,7 +6,7 @@ import numpy as np
 from filter_kit import BASE, TOOL, TOOL2, calibration, job, work_joints
 from program_kit import write_rapid_module
 
-from calibrator.filtering import engine
+from calibrator.compensate import programs
 from calibrator.model import inverse, kinematics, rotations
 
 
@@ -23,7 +23,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration(mm=0, rad=0)
     src = write_rapid_module(tmp_path / "Zelle3.mod", cal, work_joints(8))
     out = tmp_path / "out.mod"
-    summary = engine.Filter("rapid", job(cal), src).run(out, [src])
+    summary = programs.Filter("rapid", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 8 and summary.kept["joints"] == 1
     assert out.read_bytes() == src.read_bytes()
@@ -34,7 +34,7 @@ def test_filtered_targets_land_in_their_work_object(tmp_path):
     q = work_joints(8)
     src = write_rapid_module(tmp_path / "Zelle3.mod", cal, q)
     out = tmp_path / "out.mod"
-    summary = engine.Filter("rapid", job(cal), src).run(out, [src])
+    summary = programs.Filter("rapid", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     before, after = src.read_bytes().split(b"\r\n"), out.read_bytes().split(b"\r\n")
     changed = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a != b]
@@ -67,7 +67,7 @@ def test_configuration_change_and_unreachable_are_named(tmp_path):
     q[2, 1] = 0.3
     src = write_rapid_module(tmp_path / "Zelle3.mod", cal, q)
     out = tmp_path / "out.mod"
-    summary = engine.Filter("rapid", job(cal), src).run(out, [src])
+    summary = programs.Filter("rapid", job(cal), src).run(out, [src])
     reasons = {f["line"]: f["reason"] for f in summary.failures}
     assert set(reasons) == {8, 9}, reasons
     assert reasons[8].startswith("the configuration would change from [0,")

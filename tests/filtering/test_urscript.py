@@ -8,7 +8,7 @@ from cli_process_kit import run_cli
 from filter_kit import calibration, job, path_joints
 from program_kit import TCP, write_urscript
 
-from calibrator.filtering import engine
+from calibrator.compensate import programs
 from calibrator.model import frames, inverse, kinematics, rotations
 
 
@@ -16,7 +16,7 @@ def test_identity_round_trip_is_byte_for_byte(tmp_path):
     cal = calibration("ur10e", mm=0, rad=0)
     src = write_urscript(tmp_path / "prog.script", cal, path_joints(10, model="ur10e"))
     out = tmp_path / "out.script"
-    summary = engine.Filter("urscript", job(cal), src).run(out, [src])
+    summary = programs.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 9 and summary.kept["joints"] == 1
     assert out.read_bytes() == src.read_bytes()
@@ -27,7 +27,7 @@ def test_filtered_poses_land_and_nothing_else_changes(tmp_path):
     q = path_joints(10, model="ur10e")
     src = write_urscript(tmp_path / "prog.script", cal, q)
     out = tmp_path / "out.script"
-    summary = engine.Filter("urscript", job(cal), src).run(out, [src])
+    summary = programs.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     before, after = src.read_bytes().split(b"\r\n"), out.read_bytes().split(b"\r\n")
     same = [i for i, (a, b) in enumerate(zip(before, after, strict=False)) if a == b]
@@ -67,7 +67,7 @@ def test_cli_writes_summary_and_refuses_a_variable_under_two_tcps(tmp_path):
 def test_plain_lines_read_as_the_general_path_reads_them(tmp_path, monkeypatch):
     from dataclasses import replace
 
-    from calibrator.filtering import urscript
+    from calibrator.languages.urscript import reader as urscript
 
     nums = "0.5, -0.25, +0.125, .75, 3., 1"
     lines = [

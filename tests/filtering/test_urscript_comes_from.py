@@ -12,7 +12,8 @@ import re
 import numpy as np
 from filter_kit import calibration, job, landed, work_joints
 
-from calibrator.filtering import configuration, engine
+from calibrator.compensate import programs
+from calibrator.languages import configuration
 from calibrator.model import frames, kinematics, rotations
 
 FLANGE = np.eye(4)
@@ -50,7 +51,7 @@ def test_a_pose_after_a_joint_target_takes_that_targets_configuration(tmp_path):
         "end\n"
     )
     out = tmp_path / "out.script"
-    summary = engine.Filter("urscript", job(cal), src).run(out, [src])
+    summary = programs.Filter("urscript", job(cal), src).run(out, [src])
     assert summary.n_failed == 0, summary.failures
     assert summary.corrected["pose"] == 2
     written = [

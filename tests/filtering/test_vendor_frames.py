@@ -27,9 +27,11 @@ from vendor_kit import OBJECT, TOOL, USER, joints, landed, model_frames, pendant
 
 from calibrator import robots, session, simulate
 from calibrator.calibration import Calibration
-from calibrator.filtering import REGISTRY, engine, frames_file
-from calibrator.filtering.solve import Solver
+from calibrator.compensate import programs
+from calibrator.compensate.solve import Solver
 from calibrator.identify import pipeline
+from calibrator.languages import frames_file
+from calibrator.languages.reading import REGISTRY
 from calibrator.model import frames, rotations
 
 #: Largest distance of a filtered target from its taught pose on the true arm, mm.
@@ -174,7 +176,7 @@ def test_a_program_in_the_vendors_frames_lands_on_the_taught_pose(tmp_path, name
     src, extra = write(tmp_path, cal, taught, codes, own)
     out = tmp_path / f"out{src.suffix}"
     config_dat = extra.get("config_dat")
-    filtered = engine.Filter(lang, job(cal, extra.get("frames"), config_dat=config_dat), src).run(
+    filtered = programs.Filter(lang, job(cal, extra.get("frames"), config_dat=config_dat), src).run(
         out, [src]
     )
     assert filtered.n_failed == 0, filtered.failures
@@ -215,7 +217,7 @@ def test_an_identified_fanuc_corrects_a_world_program_where_the_arm_works(tmp_pa
     src, _ = _fanuc(tmp_path, cal, pendant_poses("fanuc-m20ia", q), _codes(cal, "fanuc", q), 99)
     out = tmp_path / "out.ls"
     # The simulated arm's errors are several times a real arm's: corrections of tens of mm.
-    filtered = engine.Filter("fanuc", job(cal, max_mm=80.0, max_deg=5.0), src).run(out, [src])
+    filtered = programs.Filter("fanuc", job(cal, max_mm=80.0, max_deg=5.0), src).run(out, [src])
     assert filtered.n_failed == 0, filtered.failures
     intended = _read_xyzwpr(src.read_text())
     truth_cal = Calibration(nominal_mdh=cal.nominal_mdh, mdh=truth.mdh, model="fanuc-m20ia")

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from calibrator.program.spec import trapezoid_duration_s
+from calibrator.languages.spec import trapezoid_duration_s
 
 
 def trapezoid_duration(distance: float, speed: float, accel: float) -> float:

@@ -1,6 +1,6 @@
 """Play a plan as a controller runs the exported program, on a hidden true arm.
 
-The program (see :mod:`calibrator.program`) goes to a safe start pose, makes
+The program (see :mod:`calibrator.languages.writing`) goes to a safe start pose, makes
 one joint move per plan pose with a dwell at each (after the pose's via moves,
 passed through without dwell), and ends at the safe pose.
 :class:`Player` reproduces that in real time (or, with

@@ -1,10 +1,11 @@
-"""The plan as a robot program, one writer per controller language.
+"""The plan as a robot program: choose a format, name the program, render it.
 
 A format is one function registered with :func:`writer`: it takes a
 :class:`ProgramSpec` and returns the program's text. The CLI's ``--format``
 choices and the file-extension lookup come from :data:`REGISTRY`
-(:mod:`calibrator.program.registry`, with the decorator); importing this
-package imports every writer module, which registers its functions.
+(:mod:`calibrator.languages.registry`, with the decorator); importing
+:mod:`calibrator.languages` imports every writer module, which registers its
+functions.
 
 Every program does the same thing: a joint move to the safe home pose, then
 for each plan pose in order a joint move (exact stop) and a dwell long enough
@@ -20,9 +21,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
-from calibrator.program.registry import REGISTRY, Format, writer
-from calibrator.program.spec import ProgramSpec, move_duration_s
-from calibrator.program.statements import between_homes, title
+from calibrator.languages.registry import REGISTRY, Format, writer
+from calibrator.languages.spec import ProgramSpec, move_duration_s
+from calibrator.languages.statements import between_homes, title
 
 __all__ = [
     "REGISTRY",
@@ -45,7 +46,7 @@ def name_for(fmt: str, output: str | os.PathLike) -> str:
     Raises
     ------
     CalibrationError
-        The language cannot name a program so (see :mod:`calibrator.program.names`).
+        The language cannot name a program so (see :mod:`calibrator.languages.names`).
     """
     outputs.known_format(REGISTRY, fmt)
     stem = os.path.basename(os.fspath(output)).split(".")[0]
@@ -73,11 +74,3 @@ def render(spec: ProgramSpec, fmt: str) -> str:
 def degrees(q_rad: ArrayLike) -> np.ndarray:
     """Joint angles in degrees (the unit of KRL, RAPID and Fanuc LS)."""
     return np.degrees(np.asarray(q_rad, dtype=float))
-
-
-# Importing the writer modules registers them (order = order of --format choices).
-from calibrator.program import urscript as _urscript  # noqa: E402,F401  isort: skip
-from calibrator.program import krl as _krl  # noqa: E402,F401  isort: skip
-from calibrator.program import rapid as _rapid  # noqa: E402,F401  isort: skip
-from calibrator.program import fanuc as _fanuc  # noqa: E402,F401  isort: skip
-from calibrator.program import table as _table  # noqa: E402,F401  isort: skip

@@ -2,7 +2,7 @@
 
 Also the helpers that read a program's lines. A language module subclasses
 :class:`Language` and registers it with :func:`language`;
-:mod:`calibrator.filtering` imports every language module, so the table is
+:mod:`calibrator.languages` imports every language module, so the table is
 full once the package is imported.
 """
 
@@ -34,7 +34,7 @@ class Layout:
     kind : str
         ``"pose"`` or ``"joints"``.
     units : tuple of str
-        Unit of each number (keys of :data:`calibrator.filtering.numbers.RESOLUTION`).
+        Unit of each number (keys of :data:`calibrator.languages.numbers.RESOLUTION`).
     decode : callable
         ``decode(values (N, m)) -> (N, 4, 4)`` pose in the target's frame (mm)
         or ``(N, 6)`` controller joints (rad).
@@ -107,7 +107,7 @@ class Job:
     Attributes
     ----------
     calibration : calibrator.calibration.Calibration
-    frames : calibrator.filtering.frames_file.FrameTable
+    frames : calibrator.languages.frames_file.FrameTable
     limits : ndarray, shape (6, 2), or None
         Joint limits of the model (rad).
     correct_joints : bool

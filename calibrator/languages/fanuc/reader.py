@@ -11,7 +11,7 @@ Read from Fanuc's TP programming references (the ``.ls`` listing):
 - ``CONFIG``: wrist ``N``/``F`` (flip: joint 5 negative), elbow ``U``/``D``,
   arm ``T``/``B`` (wrist centre in front of / behind axis 1), then the turn
   numbers of joints 1, 4 and 6 (0 on (-180, 180] deg, 1 on (180, 540], ...),
-  as :mod:`calibrator.filtering.configuration` reads them.
+  as :mod:`calibrator.languages.configuration` reads them.
 - User frame 0 is the world (robot base) frame and tool 0 the faceplate;
   other ``UF``/``UT`` numbers come from ``--frames`` (``bases``/``tools``
   named by their number).
@@ -28,8 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers
-from calibrator.filtering.base import (
+from calibrator.languages import configuration, numbers
+from calibrator.languages.lexing import Lexer
+from calibrator.languages.reading import (
     FilterError,
     Language,
     Layout,
@@ -40,7 +41,6 @@ from calibrator.filtering.base import (
     read_lines,
     target_tool,
 )
-from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames, rotations
 
 _START = re.compile(r"^\s*P\[(\d+)(?::\"[^\"]*\")?\]\s*\{")

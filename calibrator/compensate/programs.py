@@ -1,7 +1,7 @@
 """Streaming a program through its language, block by block, and the filter summary.
 
 Targets are gathered until a block of :data:`BLOCK` is full; the block is
-solved with one vectorised call per step (:mod:`calibrator.filtering.solve`,
+solved with one vectorised call per step (:mod:`calibrator.compensate.solve`,
 :func:`calibrator.compensate.compensate`), its lines written out and
 dropped. Memory is bounded by the block, whatever the program's length.
 
@@ -31,10 +31,11 @@ from typing import IO
 
 import numpy as np
 
-from calibrator import compensate, outputs
-from calibrator.filtering import configuration, convention, numbers
-from calibrator.filtering.base import REGISTRY, Job, Target, Unit
-from calibrator.filtering.solve import Solver
+from calibrator import outputs
+from calibrator.compensate import core as compensate
+from calibrator.compensate.solve import Solver
+from calibrator.languages import configuration, convention, numbers
+from calibrator.languages.reading import REGISTRY, Job, Target, Unit
 from calibrator.model import frames, kinematics, rotations, singularities
 
 #: Targets solved together.
@@ -113,6 +114,48 @@ class Summary:
         if self.n_failed > 20:
             out.append(f"... and {self.n_failed - 20} more (see --summary)")
         return out
+
+
+def run(
+    fmt: str,
+    job: Job,
+    program: Path,
+    output: Path,
+    inputs: list,
+    summary_path: Path | None = None,
+    force: bool = False,
+) -> Summary:
+    """Compensate the program ``program`` in language ``fmt`` into ``output``; its summary.
+
+    Every file the filter writes (KRL: ``OUT.dat`` beside ``OUT.src``) is
+    checked first under the output policy (:func:`calibrator.outputs.check`:
+    none may be an input, an existing file only with ``force``); the outputs
+    are written only if no target failed or ``job.keep_failed``. With
+    ``summary_path`` the summary is also written there as JSON.
+
+    Parameters
+    ----------
+    fmt : str
+        A reader's name (:data:`calibrator.languages.reading.REGISTRY`).
+    job : Job
+        The calibration, frames, limits and options.
+    program, output : Path
+    inputs : list of Path or None
+        The other files read (frames, ``--config-dat``): no output may replace one.
+
+    Raises
+    ------
+    CalibrationError
+        An output path refused, or a program the reader cannot read.
+    """
+    inputs = [program] + list(inputs)
+    filt = Filter(fmt, job, program)
+    for _, written in filt.lang.files(output):
+        outputs.check(written, inputs + [summary_path], force=force)
+    summary = filt.run(output, inputs + [summary_path])
+    if summary_path is not None:
+        write_summary(summary_path, summary, inputs + [output])
+    return summary
 
 
 class Filter:

@@ -18,7 +18,7 @@ Read from Yaskawa's job file format (DX/YRC controllers' ``.JBI``):
 - ``RCONF`` is read as ``flip, lower arm (elbow down), back, R >= 180, T >= 180, S >= 180``
   (the last two flags are kept as they are): joint 5 negative is flip, and
   the R, T, S flags are joints 4, 6 and 1 beyond half a turn
-  (:mod:`calibrator.filtering.configuration`).
+  (:mod:`calibrator.languages.configuration`).
 
 Positions have no comments: ``--keep-failed`` leaves failed positions
 unchanged without a mark.
@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers
-from calibrator.filtering.base import (
+from calibrator.languages import configuration, numbers
+from calibrator.languages.reading import (
     FilterError,
     Job,
     Language,

@@ -11,8 +11,8 @@ from __future__ import annotations
 import csv
 import io
 
-from calibrator.program.registry import writer
-from calibrator.program.spec import ProgramSpec
+from calibrator.languages.registry import writer
+from calibrator.languages.spec import ProgramSpec
 
 COLUMNS = (
     "step",

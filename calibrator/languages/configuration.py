@@ -23,7 +23,7 @@ wrist (``noflip`` 0 / ``flip`` 1)
 
 The turn information (KUKA's T, RAPID's cf1/cf4/cf6, Fanuc's turn numbers,
 Yaskawa's R/T/S >= 180 deg bits) is read by each language from the
-controller's joint values (:mod:`calibrator.filtering.convention`); the
+controller's joint values (:mod:`calibrator.languages.convention`); the
 helpers here compute the common pieces. Every function is vectorised over
 poses.
 

@@ -22,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers
-from calibrator.filtering.base import (
+from calibrator.languages import configuration, numbers
+from calibrator.languages.lexing import Lexer
+from calibrator.languages.reading import (
     FilterError,
     Job,
     Language,
@@ -34,7 +35,6 @@ from calibrator.filtering.base import (
     read_chunks,
     split_ending,
 )
-from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames, rotations
 
 _MOVE = re.compile(r"\b(movej|movel|movep|movec)\s*\(")

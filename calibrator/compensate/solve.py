@@ -26,8 +26,8 @@ import itertools
 
 import numpy as np
 
-from calibrator.filtering import configuration, convention
-from calibrator.filtering.base import Job, Language
+from calibrator.languages import configuration, convention
+from calibrator.languages.reading import Job, Language
 from calibrator.model import frames, inverse, kinematics
 
 #: Every STRIDES[0]-th target of a block is solved first (from the library or

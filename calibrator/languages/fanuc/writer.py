@@ -16,10 +16,10 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.program.names import program_name
-from calibrator.program.registry import writer
-from calibrator.program.spec import PULSE_S, ProgramSpec
-from calibrator.program.statements import between_homes
+from calibrator.languages.names import program_name
+from calibrator.languages.registry import writer
+from calibrator.languages.spec import PULSE_S, ProgramSpec
+from calibrator.languages.statements import between_homes
 
 #: Longest program name on an R-30iB.
 MAX_NAME = 36

@@ -12,7 +12,7 @@ A YAML mapping (every length in mm, every angle in deg)::
 
 Tools are given on the controller's flange (tool 0) and bases in its base
 or world frame (base 0), as the pendant shows them; the engine places both
-on the model (:attr:`calibrator.filtering.base.Job.controller_base`).
+on the model (:attr:`calibrator.languages.reading.Job.controller_base`).
 ``abc_deg`` is ``Rz(a) Ry(b) Rx(c)`` (KUKA's A, B, C; Fanuc's W, P, R and
 Yaskawa's Rx, Ry, Rz are written there as ``[r, p, w]``), ``quaternion`` is
 ``[w, x, y, z]`` (ABB's order). Names match without regard to case (KRL and

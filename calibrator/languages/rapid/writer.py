@@ -18,10 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
-from calibrator.program.names import program_name, taken, words
-from calibrator.program.registry import writer
-from calibrator.program.spec import PULSE_S, ProgramSpec, move_duration_s
-from calibrator.program.statements import between_homes, title
+from calibrator.languages.names import program_name, taken, words
+from calibrator.languages.registry import writer
+from calibrator.languages.spec import PULSE_S, ProgramSpec, move_duration_s
+from calibrator.languages.statements import between_homes, title
 
 #: Name of the digital output pulsed at each arrival.
 SIGNAL = "do_calibrator"

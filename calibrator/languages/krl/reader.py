@@ -19,7 +19,7 @@ Read from KUKA's KSS expert programming manual:
   controller base; ``$WORLD`` is taken to be ``$ROBROOT``).
 - Status ``S`` (bit 0: wrist centre behind axis 1, "overhead area"; bit 1:
   elbow up; bit 2: ``A5`` negative) and turn ``T`` (bit i: axis i+1 negative),
-  as :mod:`calibrator.filtering.configuration` reads them. Only those bits are
+  as :mod:`calibrator.languages.configuration` reads them. Only those bits are
   compared; a target without ``S``/``T`` (or a ``FRAME``) takes the
   configuration of the target before it.
 
@@ -37,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers
-from calibrator.filtering.base import (
+from calibrator.languages import configuration, numbers
+from calibrator.languages.lexing import Lexer
+from calibrator.languages.reading import (
     FilterError,
     Job,
     Language,
@@ -51,7 +52,6 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
-from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames, rotations
 
 _NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from calibrator.inputs import messages
-from calibrator.program.spec import PULSE_S, ProgramSpec
+from calibrator.languages.spec import PULSE_S, ProgramSpec
 
 __all__ = ["between_homes", "title"]
 

@@ -1,7 +1,7 @@
 """The table of program formats and the decorator that fills it.
 
 Each writer module registers its function with :func:`writer`; the package
-(:mod:`calibrator.program`) imports every writer module, so the table is
+(:mod:`calibrator.languages`) imports every writer module, so the table is
 full once the package is imported.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from calibrator.program.spec import ProgramSpec
+from calibrator.languages.spec import ProgramSpec
 
 __all__ = ["REGISTRY", "Format", "writer"]
 
@@ -20,7 +20,7 @@ class Format:
     """A registered program format: name, file suffixes, one-line help, writer, naming rule.
 
     ``program_name(stem)`` turns the file name before its first dot into the
-    program's name by the language's rules (:mod:`calibrator.program.names`),
+    program's name by the language's rules (:mod:`calibrator.languages.names`),
     or raises :class:`~calibrator.errors.CalibrationError`.
     """
 

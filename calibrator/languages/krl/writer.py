@@ -14,10 +14,10 @@ frames ``calibrator compensate --joint-targets correct`` then corrects in.
 from __future__ import annotations
 
 from calibrator.errors import CalibrationError
-from calibrator.program.names import program_name, words
-from calibrator.program.registry import writer
-from calibrator.program.spec import PULSE_S, ProgramSpec
-from calibrator.program.statements import between_homes, title
+from calibrator.languages.names import program_name, words
+from calibrator.languages.registry import writer
+from calibrator.languages.spec import PULSE_S, ProgramSpec
+from calibrator.languages.statements import between_homes, title
 
 #: KRL keywords, data types and the names this program uses (KRL is case-insensitive).
 RESERVED = words(

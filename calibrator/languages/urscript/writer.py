@@ -17,11 +17,11 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.languages.names import program_name, words
+from calibrator.languages.registry import writer
+from calibrator.languages.spec import PULSE_S, ProgramSpec, number
+from calibrator.languages.statements import between_homes, title
 from calibrator.model import rotations
-from calibrator.program.names import program_name, words
-from calibrator.program.registry import writer
-from calibrator.program.spec import PULSE_S, ProgramSpec, number
-from calibrator.program.statements import between_homes, title
 
 #: URScript's keywords and the names this program uses (case-sensitive).
 RESERVED = words(
@@ -72,7 +72,7 @@ def _target(spec: ProgramSpec, kind: str, start, q, move: str) -> str:
 def _needs_approach(spec: ProgramSpec, start, q) -> bool:
     """Whether the solution nearest ``start`` (rad) may not be ``q``: another configuration,
     or a joint turned a half turn or more (the nearest solution is a whole turn off)."""
-    from calibrator.filtering import configuration
+    from calibrator.languages import configuration
 
     assert spec.mdh is not None
     bits = configuration.arm_bits(spec.mdh, np.array([start, q], dtype=float))

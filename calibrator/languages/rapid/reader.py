@@ -19,7 +19,7 @@ Read from ABB's RAPID reference (instructions and data types):
   mechanical unit cannot be corrected here: such targets fail.
 - ``confdata``: cf1, cf4, cf6 are the quadrants of axes 1, 4, 6 (``floor(q / 90 deg)``)
   and cfx is ``4 * back + 2 * elbow down + flip``
-  (:mod:`calibrator.filtering.configuration`).
+  (:mod:`calibrator.languages.configuration`).
 
 A statement may span lines (it ends at ``;``); ``!`` starts a comment.
 """
@@ -32,8 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calibrator.filtering import configuration, numbers
-from calibrator.filtering.base import (
+from calibrator.languages import configuration, numbers
+from calibrator.languages.lexing import Lexer
+from calibrator.languages.reading import (
     FilterError,
     Job,
     Language,
@@ -45,7 +46,6 @@ from calibrator.filtering.base import (
     split_ending,
     target_tool,
 )
-from calibrator.filtering.lexing import Lexer
 from calibrator.model import frames, rotations
 
 _DECL = re.compile(
