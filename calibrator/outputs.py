@@ -433,7 +433,7 @@ def choose_format(
     registry : mapping
         Format name -> a format whose ``suffixes`` are the file name endings that
         select it (:data:`calibrator.export.REGISTRY`,
-        :data:`calibrator.languages.writing.REGISTRY`);
+        :func:`calibrator.languages.registry.writers`);
         the longest matching ending wins (``.urcal.conf`` before ``.conf``).
     fmt : str, optional
         The format asked for (``--format``).

@@ -10,7 +10,7 @@ from calibrator.cli._app import app
 from calibrator.recorded_options import RULES
 
 #: ``--format``'s choices as its help shows them: the languages of
-#: :data:`calibrator.languages.reading.FORMATS` (a test keeps the two equal; the
+#: :func:`calibrator.languages.registry.readers` (a test keeps the two equal; the
 #: languages are not imported to draw the help).
 FORMAT_CHOICES = "urscript|krl|rapid|fanuc|jbi"
 

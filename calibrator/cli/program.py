@@ -12,14 +12,14 @@ from calibrator.cli import _model, _run
 from calibrator.cli import _options as opts
 from calibrator.cli._app import app
 from calibrator.cli._options import fail
+from calibrator.languages.registry import writers
 from calibrator.languages.spec import MAX_DWELL_S, MIN_ACCEL_RAD_S2, MIN_SPEED_RAD_S, PULSE_S
-from calibrator.languages.writing import REGISTRY
 
-#: The ``--format`` choices, generated from the writer registry.
+#: The ``--format`` choices, generated from the languages' writers.
 # mypy cannot type a functional Enum whose members come from a registry at run time.
-ProgramFormat = StrEnum("ProgramFormat", {name: name for name in REGISTRY})  # type: ignore[misc]
+ProgramFormat = StrEnum("ProgramFormat", {name: name for name in writers()})  # type: ignore[misc]
 _FORMAT_HELP = "Program language [default: from the output's extension]. " + "; ".join(
-    f"{f.name}: {f.help}" for f in REGISTRY.values()
+    f"{f.name}: {f.help}" for f in writers().values()
 )
 
 

@@ -34,8 +34,8 @@ import numpy as np
 from calibrator import outputs
 from calibrator.compensate import core as compensate
 from calibrator.compensate.solve import Solver
-from calibrator.languages import configuration, convention, numbers
-from calibrator.languages.reading import REGISTRY, Job, Target, Unit
+from calibrator.languages import configuration, convention, numbers, registry
+from calibrator.languages.reading import Job, Target, Unit
 from calibrator.model import frames, kinematics, rotations, singularities
 
 #: Targets solved together.
@@ -136,7 +136,7 @@ def run(
     Parameters
     ----------
     fmt : str
-        A reader's name (:data:`calibrator.languages.reading.REGISTRY`).
+        A reader's name (:func:`calibrator.languages.registry.readers`).
     job : Job
         The calibration, frames, limits and options.
     program, output : Path
@@ -170,7 +170,7 @@ class Filter:
                 flange if job.controller_flange is None else job.controller_flange
             )
         self.job = job
-        self.lang = REGISTRY[fmt](job, program)
+        self.lang = registry.readers()[fmt].cls(job, program)
         self.solver = Solver(self.lang, job)
         self.summary = Summary(language=fmt)
         self.last_q: np.ndarray | None = None  # model joints the arm comes from

@@ -17,7 +17,8 @@
   :mod:`~calibrator.languages.convention` and
   :mod:`~calibrator.languages.frames_file`.
 
-Importing this package imports every language, so both tables are full.
+Importing this package imports every language, so the one table of languages
+(:data:`calibrator.languages.registry.LANGUAGES`) is full.
 
 Why read programs: controllers that cannot load a calibrated kinematic model still reach the
 calibrated accuracy when every target of their programs is replaced by the

@@ -19,6 +19,7 @@ import numpy as np
 
 from calibrator import outputs
 from calibrator.errors import CalibrationError
+from calibrator.languages import registry
 
 
 class FilterError(CalibrationError):
@@ -174,30 +175,16 @@ class Language:
         return str(tuple(code))
 
 
-#: name -> language class, in registration order.
-REGISTRY: dict[str, type[Language]] = {}
-
-
-@dataclass(frozen=True)
-class Format:
-    """Name, suffixes and help of a registered language (the shape outputs.choose_format reads)."""
-
-    name: str
-    suffixes: tuple
-    help: str
-    reader: type
-
-
-FORMATS: dict[str, Format] = {}
-
-
 def language(name: str, suffixes: tuple, help: str) -> Callable:
-    """Register a :class:`Language` subclass as ``name`` (programs ending in ``suffixes``)."""
+    """Register a :class:`Language` subclass as ``name`` (programs ending in ``suffixes``).
+
+    It becomes the reader of the language's entry in
+    :data:`calibrator.languages.registry.LANGUAGES`.
+    """
 
     def register(cls: type[Language]) -> type[Language]:
         cls.name = name
-        REGISTRY[name] = cls
-        FORMATS[name] = Format(name, tuple(suffixes), help, cls)
+        registry.reader(name, suffixes, help, cls)
         return cls
 
     return register
@@ -205,7 +192,7 @@ def language(name: str, suffixes: tuple, help: str) -> Callable:
 
 def choose(fmt: str | None, program: str | os.PathLike) -> str:
     """The language of ``program``: ``fmt`` if given (it must fit the extension), else by suffix."""
-    return outputs.choose_format(FORMATS, fmt, program)
+    return outputs.choose_format(registry.readers(), fmt, program)
 
 
 def numbered_frame(job: Job, kind: str, number: int) -> Any:

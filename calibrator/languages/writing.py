@@ -2,8 +2,8 @@
 
 A format is one function registered with :func:`writer`: it takes a
 :class:`ProgramSpec` and returns the program's text. The CLI's ``--format``
-choices and the file-extension lookup come from :data:`REGISTRY`
-(:mod:`calibrator.languages.registry`, with the decorator); importing
+choices and the file-extension lookup come from :func:`writers` (the
+writing side of :data:`calibrator.languages.registry.LANGUAGES`); importing
 :mod:`calibrator.languages` imports every writer module, which registers its
 functions.
 
@@ -21,14 +21,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
-from calibrator.languages.registry import REGISTRY, Format, writer
+from calibrator.languages.registry import Writer, writer, writers
 from calibrator.languages.spec import ProgramSpec, move_duration_s
 from calibrator.languages.statements import between_homes, title
 
 __all__ = [
-    "REGISTRY",
-    "Format",
     "ProgramSpec",
+    "Writer",
     "between_homes",
     "choose",
     "degrees",
@@ -37,6 +36,7 @@ __all__ = [
     "render",
     "title",
     "writer",
+    "writers",
 ]
 
 
@@ -48,9 +48,10 @@ def name_for(fmt: str, output: str | os.PathLike) -> str:
     CalibrationError
         The language cannot name a program so (see :mod:`calibrator.languages.names`).
     """
-    outputs.known_format(REGISTRY, fmt)
+    table = writers()
+    outputs.known_format(table, fmt)
     stem = os.path.basename(os.fspath(output)).split(".")[0]
-    naming = REGISTRY[fmt].program_name
+    naming = table[fmt].program_name
     return "calibrator_measure" if naming is None else naming(stem)
 
 
@@ -62,13 +63,14 @@ def choose(fmt: str | None, output: str | os.PathLike) -> str:
     CalibrationError
         Unknown format, an extension no format has, or a mismatch.
     """
-    return outputs.choose_format(REGISTRY, fmt, output)
+    return outputs.choose_format(writers(), fmt, output)
 
 
 def render(spec: ProgramSpec, fmt: str) -> str:
     """The program text of ``spec`` in format ``fmt``."""
-    outputs.known_format(REGISTRY, fmt)
-    return REGISTRY[fmt].write(spec)
+    table = writers()
+    outputs.known_format(table, fmt)
+    return table[fmt].write(spec)
 
 
 def degrees(q_rad: ArrayLike) -> np.ndarray:

@@ -37,9 +37,9 @@ def test_a_deflection_plot_not_named_png_is_refused_before_the_work(tmp_path):
 
 def test_options_with_fixed_choices_show_them_in_their_help(tmp_path):
     from calibrator.cli.compensate import FORMAT_CHOICES
-    from calibrator.languages.reading import FORMATS
+    from calibrator.languages.registry import readers
 
-    assert FORMAT_CHOICES.split("|") == list(FORMATS)
+    assert FORMAT_CHOICES.split("|") == list(readers())
     shown = cli("compensate", "-h", cwd=tmp_path).stdout
     assert "--format urscript|krl|rapid|fanuc|jbi" in shown
     assert "--joint-targets keep|correct" in shown

@@ -31,7 +31,7 @@ from calibrator.compensate import programs
 from calibrator.compensate.solve import Solver
 from calibrator.identify import pipeline
 from calibrator.languages import frames_file
-from calibrator.languages.reading import REGISTRY
+from calibrator.languages.registry import readers
 from calibrator.model import frames, rotations
 
 #: Largest distance of a filtered target from its taught pose on the true arm, mm.
@@ -41,7 +41,8 @@ N = 8  # targets in the box, then five special ones (flip, quadrants, turns)
 
 def _codes(cal, lang, q_ctrl):
     arm = robots.get(cal.model)
-    solver = Solver(REGISTRY[lang].__new__(REGISTRY[lang]), job(cal, convention=arm.convention))
+    cls = readers()[lang].cls
+    solver = Solver(cls.__new__(cls), job(cal, convention=arm.convention))
     return solver.code_of(arm.convention.to_model(q_ctrl))
 
 

@@ -44,7 +44,7 @@ def _position(spec: ProgramSpec, index: int, q_rad, comment: str) -> list[str]:
     ]
 
 
-@writer("fanuc-ls", (".ls",), "Fanuc LS for R-30iB / R-30iB Plus (MakeTP); deg", _name)
+@writer("fanuc-ls", (".ls",), "Fanuc LS for R-30iB / R-30iB Plus (MakeTP); deg", _name, "fanuc")
 def write(spec: ProgramSpec) -> str:
     if spec.pulse_output is not None and spec.pulse_output < 1:
         raise CalibrationError("Fanuc DO outputs are numbered from 1, not 0")
