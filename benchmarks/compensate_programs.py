@@ -122,7 +122,7 @@ def _calibration(name: str, tool=None):
 
 def _setup_urscript(folder: Path, n: int) -> None:
     from calibrator import compensate
-    from calibrator.model import frames, rotations
+    from calibrator.model import frames, kinematics, rotations
 
     tool = frames.transform(rotations.zyx_to_matrix([[0.0, 30.0, 0.0]])[0], [12.5, -4.0, 180.0])
     model, cal = _calibration("ur10e", tool)
@@ -150,7 +150,7 @@ def _setup_urscript(folder: Path, n: int) -> None:
         csv.write(",".join(compensate.JOINT_COLUMNS + compensate.POSE_COLUMNS) + "\n")
         for s in range(0, n, 100_000):
             sl = slice(s, min(n, s + 100_000))
-            pose = compensate.tool_poses(model.mdh, q[sl], tool)  # UR: controller base = model's
+            pose = kinematics.tool_poses(model.mdh, q[sl], tool)  # UR: controller base = model's
             rv = rotations.matrix_to_rotvec(pose[:, :3, :3])
             m = pose[:, :3, 3] / 1000.0
             src.write(
