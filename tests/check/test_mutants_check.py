@@ -107,3 +107,23 @@ def test_a_recorded_check_of_two_poses_states_the_controllers_joints(tmp_path):
         error = np.subtract(pose["measured_mm"], pose["predicted_mm"])
         np.testing.assert_allclose(pose["error_mm"], error, atol=1e-9)
         assert pose["distance_mm"] == pytest.approx(np.linalg.norm(error))
+
+
+def test_a_compliant_calibration_predicts_through_its_deflected_joints():
+    """Compliance of joints 2 and 3 under a 5 kg payload: the check's model bends as identify's."""
+    from calibrator.check.model import Calibrated
+    from calibrator.model import joint_terms, parameters
+    from calibrator.robots import masses
+
+    arm = robots.get("ur10e")
+    terms = joint_terms.JointTerms(
+        np.zeros(6), np.zeros(6), np.zeros(6), np.array([0.0, 2e-6, 3e-6, 0.0, 0.0, 0.0]),
+        payload_kg=5.0, payload_com_mm=np.array([0.0, 0.0, 100.0]), mass_model="ur10e",
+    )  # fmt: skip
+    space = parameters.ParameterSpace(arm.mdh)
+    model = Calibrated(space, np.zeros((space.size, space.size)), 0.01, terms)
+    q = np.random.default_rng(44).uniform(-1.5, 1.5, (5, 6))
+    tau = joint_terms.gravity_torques(arm.mdh, q, masses.get("ur10e"), 5.0, [0.0, 0.0, 100.0])
+    expected = joint_terms.effective(q, terms.vector(), tau)
+    np.testing.assert_allclose(model.angles(q), expected, rtol=0, atol=1e-15)
+    assert np.abs(expected - q)[:, 1:3].max() > 1e-5  # the joints do bend
