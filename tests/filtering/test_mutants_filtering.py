@@ -1,0 +1,40 @@
+"""Program-filter cases the filtering tests did not reach (found by mutmut, issue 44).
+
+A corrected value that one more decimal carries is written with exactly one
+more; a URScript list cut off at the end of its line (a pose variable's
+assignment, a move's literal) fails naming its file, line and why.
+"""
+
+from __future__ import annotations
+
+from filter_kit import calibration, job
+
+from calibrator.filtering import engine, numbers
+
+
+def test_one_more_decimal_is_one_more_not_two():
+    assert numbers.write("1.0", 1.04, "mm") == "1.04"
+    assert numbers.write("45.0", 45.023, "deg") == "45.023"
+
+
+def test_a_list_cut_off_at_its_line_end_fails_naming_the_file_and_why(tmp_path):
+    lines = [
+        "def cut():",
+        "  set_tcp(p[0.0, 0.0, 0.1, 0.0, 0.0, 0.0])",
+        "  home = p[0.5, 0.1, 0.4, 0.0, 3.1, 0.0]",
+        "  movel(home, a=1.2, v=0.25)",
+        "  home = p[0.5, 0.2",
+        "  movel(p[0.4, 0.1",
+        "end",
+        "",
+    ]
+    src = tmp_path / "cut.script"
+    src.write_text("\n".join(lines))
+    summary = engine.Filter("urscript", job(calibration("ur10e", seed=2)), src).run(
+        tmp_path / "out.script", [src]
+    )
+    unclosed = "its list is not closed on its line"
+    assert summary.failures == [
+        {"file": str(src), "line": 5, "target": "home", "reason": unclosed},
+        {"file": str(src), "line": 6, "target": "movel", "reason": unclosed},
+    ]
