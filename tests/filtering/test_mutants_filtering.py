@@ -2,7 +2,9 @@
 
 A corrected value that one more decimal carries is written with exactly one
 more; a URScript list cut off at the end of its line (a pose variable's
-assignment, a move's literal) fails naming its file, line and why.
+assignment, a move's literal) fails naming its file, line and why; a
+comment holding a second comment mark and a move stays a comment, and a line
+with strings keeps its length.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 from filter_kit import calibration, job
 
 from calibrator.filtering import engine, numbers
+from calibrator.filtering.lexing import Lexer
 
 
 def test_one_more_decimal_is_one_more_not_two():
@@ -38,3 +41,18 @@ def test_a_list_cut_off_at_its_line_end_fails_naming_the_file_and_why(tmp_path):
         {"file": str(src), "line": 5, "target": "home", "reason": unclosed},
         {"file": str(src), "line": 6, "target": "movel", "reason": unclosed},
     ]
+
+
+URSCRIPT = Lexer(quotes="\"'", comment="#")
+
+
+def test_a_comment_mark_inside_a_comment_does_not_reopen_code():
+    line = "x = 1  # see # movel(p[1, 2, 3, 4, 5, 6])"
+    assert URSCRIPT.code(line) == "x = 1  " + " " * (len(line) - 7)
+
+
+def test_strings_are_blanked_in_place():
+    line = 'textmsg("movel(p[1])") movel(p[0.1, 0.2])'
+    code = URSCRIPT.code(line)
+    assert code == 'textmsg("' + " " * len("movel(p[1])") + '") movel(p[0.1, 0.2])'
+    assert len(code) == len(line)
