@@ -36,3 +36,46 @@ def test_an_unknown_key_is_refused_naming_the_known_ones(tmp_path):
         robots.get(str(path))
     said = str(refused.value)
     assert "colour" in said and f"unknown key (known: {', '.join(sorted(files._KEYS))})" in said
+
+
+def test_given_joint_accelerations_are_kept_as_read_only_floats():
+    import dataclasses
+
+    arm = dataclasses.replace(robots.get("ur10e"), max_joint_accel_rad_s2=[3, 3, 3, 4, 4, 4])
+    accel = arm.max_joint_accel_rad_s2
+    assert isinstance(accel, np.ndarray) and accel.dtype == float
+    np.testing.assert_array_equal(accel, [3.0, 3.0, 3.0, 4.0, 4.0, 4.0])
+    assert not accel.flags.writeable
+
+
+def _urdf(tmp_path, text):
+    path = tmp_path / "arm.urdf"
+    path.write_text(text)
+    return path
+
+
+def test_a_urdf_without_a_known_base_link_is_refused_naming_the_option(tmp_path):
+    from robot_files_kit import KUKA
+
+    from calibrator.robots import urdf
+
+    path = _urdf(tmp_path, KUKA.replace('"base_link"', '"root_body"'))
+    with pytest.raises(DescriptionError) as refused:
+        urdf.read_chain(path)
+    said = str(refused.value)
+    assert said.startswith(str(path)) and "name it with --base-link" in said
+
+
+def test_a_prismatic_joint_is_named_as_a_linear_axis(tmp_path):
+    from robot_files_kit import KUKA
+
+    from calibrator.robots import urdf
+
+    text = KUKA.replace(
+        '<joint name="joint_a1" type="revolute">', '<joint name="joint_a1" type="prismatic">'
+    )
+    assert text != KUKA
+    with pytest.raises(
+        DescriptionError, match=r"joint 'joint_a1' is prismatic \(a linear axis or track\)"
+    ):
+        urdf.read_chain(_urdf(tmp_path, text))
