@@ -1,7 +1,8 @@
 """History cases the history tests did not reach (found by mutmut, issue 44).
 
 The timeline's CSV and text table cell by cell: times in ISO 8601, absent
-figures empty, one line per record.
+figures empty, one line per record; a check's explanation from its
+document's sentences, else from its items.
 """
 
 from __future__ import annotations
@@ -35,3 +36,15 @@ def test_the_text_table_is_a_header_and_one_line_per_record():
     assert lines[1].startswith("2026-01-02 03:04:05  session")
     assert lines[2].startswith("2026-02-01 00:00:00  check") and lines[2].endswith("  ok")
     assert "0.0312" in lines[2]
+
+
+def test_a_checks_explanation_is_its_documents_sentences_else_its_items_text():
+    from calibrator.history import alarms
+
+    check = {
+        "document": {"explanation_text": ["joint 4 zero moved +1.0 mrad", "nothing else"]},
+        "explanation": [{"cause": "joint 4 zero", "text": "an older summary"}],
+    }
+    assert alarms.explanations(check) == ["joint 4 zero moved +1.0 mrad", "nothing else"]
+    older = {"document": {}, "explanation": [{"text": "an older summary"}, {"message": "m"}]}
+    assert alarms.explanations(older) == ["an older summary", "m"]
