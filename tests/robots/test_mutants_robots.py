@@ -79,3 +79,22 @@ def test_a_prismatic_joint_is_named_as_a_linear_axis(tmp_path):
         DescriptionError, match=r"joint 'joint_a1' is prismatic \(a linear axis or track\)"
     ):
         urdf.read_chain(_urdf(tmp_path, text))
+
+
+def test_a_named_base_link_that_is_not_there_is_refused_listing_the_links(tmp_path):
+    from robot_files_kit import KUKA
+
+    from calibrator.robots import urdf
+
+    path = _urdf(tmp_path, KUKA)
+    with pytest.raises(DescriptionError) as refused:
+        urdf.read_chain(path, "nope")
+    said = str(refused.value)
+    assert "no base link 'nope' (links: " in said and "base_link" in said and "link_6" in said
+
+
+def test_a_descriptions_configurations_are_read_only():
+    arm = robots.get("ur10e")
+    assert arm.configurations
+    with pytest.raises(TypeError):
+        arm.configurations["mine"] = (0.0,) * 6  # type: ignore[index]
