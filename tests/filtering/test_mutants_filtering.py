@@ -4,14 +4,16 @@ A corrected value that one more decimal carries is written with exactly one
 more; a URScript list cut off at the end of its line (a pose variable's
 assignment, a move's literal) fails naming its file, line and why; a
 comment holding a second comment mark and a move stays a comment, and a line
-with strings keeps its length.
+with strings keeps its length; a Fanuc position without its UT number fails
+saying so.
 """
 
 from __future__ import annotations
 
-from filter_kit import calibration, job
+from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
+from program_kit import write_fanuc_ls
 
-from calibrator.filtering import engine, numbers
+from calibrator.filtering import engine, frames_file, numbers
 from calibrator.filtering.lexing import Lexer
 
 
@@ -56,3 +58,18 @@ def test_strings_are_blanked_in_place():
     code = URSCRIPT.code(line)
     assert code == 'textmsg("' + " " * len("movel(p[1])") + '") movel(p[0.1, 0.2])'
     assert len(code) == len(line)
+
+
+def test_a_fanuc_position_without_its_ut_number_fails_saying_so(tmp_path):
+    cal = calibration()
+    src = write_fanuc_ls(tmp_path / "weld.ls", cal, work_joints(3))
+    text = src.read_bytes().decode()
+    first = text.index("\tUF : 1, UT : 1,\t\tCONFIG")
+    src.write_bytes((text[:first] + text[first:].replace("UT : 1,", "", 1)).encode())
+    table = tmp_path / "frames.yaml"
+    table.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '1': {frame_yaml(BASE)}\n")
+    summary = engine.Filter("fanuc", job(cal, frames_file.read(table)), src).run(
+        tmp_path / "o.ls", [src]
+    )
+    (fail,) = summary.failures
+    assert fail["target"] == "P[2]" and "no UT number" in fail["reason"], fail
