@@ -13,8 +13,9 @@ from __future__ import annotations
 from filter_kit import BASE, TOOL, calibration, frame_yaml, job, work_joints
 from program_kit import write_fanuc_ls
 
-from calibrator.filtering import engine, frames_file, numbers
-from calibrator.filtering.lexing import Lexer
+from calibrator.compensate import programs
+from calibrator.languages import frames_file, numbers
+from calibrator.languages.lexing import Lexer
 
 
 def test_one_more_decimal_is_one_more_not_two():
@@ -35,7 +36,7 @@ def test_a_list_cut_off_at_its_line_end_fails_naming_the_file_and_why(tmp_path):
     ]
     src = tmp_path / "cut.script"
     src.write_text("\n".join(lines))
-    summary = engine.Filter("urscript", job(calibration("ur10e", seed=2)), src).run(
+    summary = programs.Filter("urscript", job(calibration("ur10e", seed=2)), src).run(
         tmp_path / "out.script", [src]
     )
     unclosed = "its list is not closed on its line"
@@ -68,7 +69,7 @@ def test_a_fanuc_position_without_its_ut_number_fails_saying_so(tmp_path):
     src.write_bytes((text[:first] + text[first:].replace("UT : 1,", "", 1)).encode())
     table = tmp_path / "frames.yaml"
     table.write_text(f"tools:\n  '1': {frame_yaml(TOOL)}\nbases:\n  '1': {frame_yaml(BASE)}\n")
-    summary = engine.Filter("fanuc", job(cal, frames_file.read(table)), src).run(
+    summary = programs.Filter("fanuc", job(cal, frames_file.read(table)), src).run(
         tmp_path / "o.ls", [src]
     )
     (fail,) = summary.failures
