@@ -15,9 +15,9 @@ import pyarrow.parquet as pq
 import pytest
 from cli_kit import cli
 
-from calibrator import iso9283_path as ip
 from calibrator import robots
 from calibrator.check import circle as circles
+from calibrator.verify import path_figures as ip
 
 
 def test_a_bin_holding_one_reading_is_that_reading():
