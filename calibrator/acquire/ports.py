@@ -184,6 +184,32 @@ class ReportsTruePose(Protocol):
 
 
 @runtime_checkable
+class FollowsPath(Protocol):
+    """A robot that runs a timed joint path while the tracker streams it.
+
+    ``follow_path(t_s, q_rad, delay_s)``: hold at ``q_rad[0]`` for ``delay_s``
+    (s), then pass through the joint commands ``q_rad`` (N, 6), rad, at the
+    times ``t_s`` (N,), s from the start of the motion; returns that start on
+    the clock of the tracker that streams it, microseconds (the path test
+    aligns the stream with it). The simulated robot runs it on the simulated
+    tracker's target (:mod:`drivers.robot.sim.follow`).
+    """
+
+    def follow_path(self, t_s: np.ndarray, q_rad: np.ndarray, delay_s: float = 0.0) -> int: ...
+
+
+@runtime_checkable
+class RunsPath(Protocol):
+    """A simulated tracker whose target runs a timed path (what a following arm steers).
+
+    ``run_path(t_s, point_mm, delay_s)``: points (N, 3), mm, tracker frame, at
+    ``t_s`` (N,), s, after ``delay_s``; returns the start on its clock, us.
+    """
+
+    def run_path(self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0) -> int: ...
+
+
+@runtime_checkable
 class ReportsTemperatures(Protocol):
     """A robot that reports its joints' temperatures, shape (6,), degC."""
 
@@ -196,6 +222,8 @@ INITIALISE: Capability[Initialisable] = Capability("initialise", Initialisable)
 SEARCH: Capability[FindsReflector] = Capability("search", FindsReflector)
 #: A simulated tracker told where its reflector really is (``set_target``).
 STEER: Capability[Steerable] = Capability("steer", Steerable)
+#: The robot runs a timed joint path the tracker streams (``follow_path``).
+FOLLOW_PATH: Capability[FollowsPath] = Capability("follow_path", FollowsPath)
 #: The tracker reports its surroundings (``conditions()``).
 REPORTS_CONDITIONS: Capability[ReportsConditions] = Capability(
     "reports_conditions", ReportsConditions

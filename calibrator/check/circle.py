@@ -225,8 +225,8 @@ def figures(runs: list[Run]) -> dict:
 
 
 def run(
+    robot: Any,
     tracker: Any,
-    world: Any,
     model: Any,
     flange2tool: npt.ArrayLike,
     vplan: Any,
@@ -234,14 +234,14 @@ def run(
     calibration: Any,
     tracker2base: npt.ArrayLike,
 ) -> dict:
-    """Run the circle both ways on the simulated cell and compute its figures.
+    """Run the circle both ways and compute its figures.
 
     Parameters
     ----------
+    robot : calibrator.acquire.ports.FollowsPath
+        The connected arm that runs the joint path.
     tracker : calibrator.verify.path.PathTracker
-        Connected simulated tracker.
-    world : calibrator.simulate.SimWorld
-        Its true arm follows the commands.
+        The connected tracker that streams it.
     model : calibrator.robots.RobotDescription
     flange2tool : array_like, shape (4, 4)
         Nominal TCP, mm.
@@ -269,7 +269,7 @@ def run(
         test = verify_path.plan_along(
             model, flange2tool, "circle", path, rotation, vplan.q_test[0], speed_mm_s, calibration
         )
-        stream, _, _ = verify_path.stream_cycle(tracker, world, test, tracker2base)
+        stream, _, _ = verify_path.stream_cycle(robot, tracker, test, tracker2base)
         runs.append(Run(direction, path, test.t_s, test.q, stream))
     return {
         "shape": "circle",

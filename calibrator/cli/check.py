@@ -254,18 +254,11 @@ def _check_circle(
     speed_mm_s: float,
 ) -> None:
     """``check --circle``: the circle both ways with compensated commands, its verdict."""
-    import json
-
     from calibrator import calibration as calibrations
     from calibrator import outputs
-    from calibrator.check import circle as circles
+    from calibrator.check import circle_procedure as circle_test
     from calibrator.cli import _model
     from calibrator.errors import CalibrationError
-    from calibrator.model import frames
-    from calibrator.simulate import SimWorld
-    from calibrator.verify import pose as pose_run
-    from drivers.tracker.base import OpenOptions, open_tracker
-    from drivers.tracker.line.simulator.world import SimulatedTracker
 
     if not (_run.is_sim(robot) and _run.is_sim(tracker)):
         fail("--circle runs on the simulated cell only (--robot sim --tracker sim) for now")
@@ -280,40 +273,16 @@ def _check_circle(
     cal = calibrations.load(calibration_path)
     arm = run_args.arm(_model.From(cal.model, calibration_path))
     world_file = _run.read_world(world, robot, tracker)
+    options = circle_test.Options(
+        cal, calibration_path, speed_mm_s, triple(tracker_at, "--tracker-at"), seed
+    )
+    devices = _run.devices(
+        *_run.device_urls(robot, tracker, world_file=world_file), world_file=world_file
+    )
     try:
-        sim = world_file.build(arm.name, seed) if world_file else SimWorld.make(arm.name, seed)
+        section = circle_test.run(arm, options, output, devices, inputs=inputs).document["circle"]
     except CalibrationError as exc:
         fail(str(exc))
-    at = triple(tracker_at, "--tracker-at")
-    if at is not None:
-        sim = sim.with_tracker_at(at)
-    # The circle's plane and orientation are verify's (its cube, facing the tracker), the
-    # tool the calibration's: the same circle every day.
-    flange2tool = frames.transform(translation=cal.flange2tool[:3, 3])
-    vplan = pose_run.make_plan(arm, flange2tool, 2, None, cal, tuple(sim.tracker_at_mm), None)
-    registration = pose_run.from_calibration(cal, calibration_path)
-    device = open_tracker(tracker, OpenOptions(world=sim))
-    if not isinstance(device, SimulatedTracker):
-        raise CalibrationError(f"--circle needs the simulated tracker, not {tracker}")
-    try:
-        device.connect()
-        section = circles.run(
-            device, sim, arm, flange2tool, vplan, speed_mm_s, cal, registration.tracker2base
-        )
-    finally:
-        device.close()
-    doc = {
-        "format": "calibrator-check-circle",
-        "version": 1,
-        "test": "circle",
-        "model": arm.name,
-        "calibration": str(calibration_path),
-        "calibration_sha256": calibrations.digest(calibration_path),
-        "circle": section,
-        "verdict": section["verdict"],
-    }
-    with outputs.Outputs(inputs=inputs) as batch:
-        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
     lim = section["limits_mm"]
     typer.echo(
         f"circle r = {section['commanded']['radius_mm']:.1f} mm at {speed_mm_s:g} mm/s, "

@@ -193,7 +193,6 @@ def verify(
     urls = _run.device_urls(robot, tracker, world_file=world_file, repeatability=True)
     devices = _run.devices(*urls, world_file=world_file, max_speed=run_args.max_speed)
     # The plan first: a cube out of reach is refused before any device is opened.
-    test = tests.prepare(arm, options, output, devices, settle_s=run_args.settle, inputs=inputs)
     if path_shape is not None:
         from calibrator.cli import verify_path
 
@@ -201,16 +200,14 @@ def verify(
             shape=path_shape,
             speed=verify_path.parse_speed(path_speed),
             arm=arm,
-            vplan=test.vplan,
             cycles=cycles,
-            seed=seed,
-            tracker_url=tracker,
-            test=test.test,
-            registration=test.registration,
+            options=options,
+            devices=devices,
             output=output,
             inputs=inputs,
         )
     else:
+        test = tests.prepare(arm, options, output, devices, settle_s=run_args.settle, inputs=inputs)
         summary = procedure.run(test, devices, Console(quiet=quiet, yes=run_args.yes))
         _report(summary, test, run_args.retries, output, data_path)
     if history is not None:

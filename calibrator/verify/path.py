@@ -1,4 +1,4 @@
-"""The ISO 9283 path test on the simulated cell: a line or a circle in the test cube, streamed.
+"""The ISO 9283 path test: a line, a circle or a rectangle in the test cube, streamed.
 
 The pose test (:mod:`calibrator.verify.pose`) stops at five poses; this
 runs a path through the same cube and measures it continuously:
@@ -12,9 +12,10 @@ runs a path through the same cube and measures it continuously:
    :data:`CONTROL_HZ` at the commanded speed, and at every corner (nominal inverse kinematics,
    or compensated with a calibration: what the controller would
    interpolate);
-3. the true arm of the simulated world turns them into the probe's true path
-   in the tracker frame, which the tracker simulator follows (``SIM,PATH``)
-   while the driver streams it (``STREAM``);
+3. the robot runs them (:data:`calibrator.acquire.ports.FOLLOW_PATH`: the
+   simulated arm turns them into its probe's true path in the tracker frame,
+   which the tracker simulator follows, ``SIM,PATH``) while the tracker
+   streams it (``STREAM``);
 4. each cycle's stream goes into the robot base frame through the
    registration, is aligned in time with the commanded path
    (:func:`calibrator.verify.path_figures.estimate_latency` against the path run at
@@ -30,15 +31,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
 from calibrator import compensate
+from calibrator.acquire import ports
 from calibrator.errors import CalibrationError
-from calibrator.model import frames, kinematics
+from calibrator.model import frames
 from calibrator.verify import iso9283
 from calibrator.verify import path_figures as ip
 
@@ -67,12 +69,9 @@ STREAM_COLUMNS = ("cycle", "n", "t_s", "x_mm", "y_mm", "z_mm")
 CORNER_MARGIN_MM = 5.0
 
 
+@runtime_checkable
 class PathTracker(Protocol):
-    """What the path test needs of its tracker: a path to follow and a stream to read."""
-
-    def run_path(
-        self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0
-    ) -> int: ...  # the start on the tracker's clock, us
+    """What the path test needs of its tracker: a stream to read."""
 
     def stream(
         self, rate_hz: int, count: int | None = None, *, stall_timeout_s: float | None = None
@@ -192,20 +191,20 @@ def plan_along(
 
 
 def run(
+    robot: ports.FollowsPath,
     tracker: PathTracker,
-    world: Any,
     test: PathTest,
     cycles: int,
     tracker2base: npt.ArrayLike,
 ) -> tuple[dict, pd.DataFrame]:
-    """Run ``cycles`` cycles of the path on the simulated cell and compute the figures.
+    """Run ``cycles`` cycles of the path and compute the figures.
 
     Parameters
     ----------
+    robot : calibrator.acquire.ports.FollowsPath
+        The connected arm that runs the joint path.
     tracker : PathTracker
-        The connected simulated tracker.
-    world : calibrator.simulate.SimWorld
-        Its true arm follows the commands; ``base2tracker`` places it.
+        The connected tracker that streams it.
     test : PathTest
     cycles : int
         At least 2 (RT and RV need a spread).
@@ -226,7 +225,7 @@ def run(
     streams, starts, ticks = [], [], []
     reference = ip.commanded_reference(test.path, test.speed_mm_s)
     for _ in range(cycles):
-        one, start, tick = stream_cycle(tracker, world, test, t2b, reference)
+        one, start, tick = stream_cycle(robot, tracker, test, t2b, reference)
         streams.append(one)
         starts.append(start)
         ticks.append(tick)
@@ -246,19 +245,19 @@ def run(
 
 
 def stream_cycle(
+    robot: ports.FollowsPath,
     tracker: PathTracker,
-    world: Any,
     test: PathTest,
     tracker2base: npt.ArrayLike,
     reference: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[ip.Stream, float, np.ndarray]:
-    """One run of the path on the simulated cell, streamed and aligned to the command.
+    """One run of the path, streamed and aligned to the command.
 
     Parameters
     ----------
+    robot : calibrator.acquire.ports.FollowsPath
+        Runs ``test.q`` at ``test.t_s``.
     tracker : PathTracker
-    world : calibrator.simulate.SimWorld
-        Its true arm follows ``test.q``.
     test : PathTest
     tracker2base : array_like, shape (4, 4)
         Registration, mm.
@@ -278,11 +277,9 @@ def stream_cycle(
     t2b = np.asarray(tracker2base, dtype=float)
     if reference is None:
         reference = ip.commanded_reference(test.path, test.speed_mm_s)
-    true = kinematics.forward(world.true_mdh, test.q, world.flange2tool, world.base2tracker)
-    points_tracker = true[:, :3, 3]
     duration = float(test.t_s[-1])
     count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
-    told_us = tracker.run_path(test.t_s, points_tracker, delay_s=HOLD_S)
+    told_us = robot.follow_path(test.t_s, test.q, delay_s=HOLD_S)
     # A stream silent for STALL_S is broken; a shorter gap is a busy host (the simulated
     # tracker shares the computer with the run: on a loaded CI machine it fell 0.5 s
     # behind), and its ticks are counted as they come.

@@ -16,14 +16,15 @@ new top-level name needs one line in :data:`LAYERS`. The contracts:
 - ``calibrator`` imports ``drivers`` only from the CLI (the hexagonal core:
   :mod:`calibrator.acquire.ports` is what devices implement);
 - procedures above methods: a procedure module (:data:`PROCEDURES`: the cell
-  sequence and the ``measure``, ``verify`` and ``check`` procedures built on
-  it) is imported only by the CLI and other procedures, and no method module
+  sequence, the ``measure``, ``verify`` and ``check`` procedures built on it,
+  the path and circle tests) is imported only by the CLI and other
+  procedures, and no method module
   (:data:`METHODS`: identification, the model, planning, the figures and
   verdicts of verify and check) reaches one, even through other modules;
 - only the CLI, the drivers and the simulation itself import the simulation
   (:data:`SIMULATION`): a procedure opens the simulated cell as devices, and
-  neither the procedures nor the port and run under them (:data:`WORLDLESS`)
-  name a simulated world, even untyped (:data:`WORLD_NAMES`).
+  neither the procedures nor the port and run under them nor the path tests'
+  methods (:data:`WORLDLESS`) name a simulated world, even untyped (:data:`WORLD_NAMES`).
 
 Each failure prints what breaks the contract and, for a cycle, its edges.
 ``python tests/static/test_layers.py`` prints the whole graph by layer.
@@ -90,7 +91,9 @@ PROCEDURES = (
     "calibrator.acquire.procedure",
     "calibrator.acquire.measure",
     "calibrator.check.procedure",
+    "calibrator.check.circle_procedure",
     "calibrator.verify.procedure",
+    "calibrator.verify.path_procedure",
 )
 
 #: Who may import a procedure module (besides the procedures themselves).
@@ -113,12 +116,16 @@ SIMULATION = ("calibrator.simulate", "calibrator.world")
 #: Who may import the simulation (besides the simulation itself).
 SIMULATION_USERS = ("calibrator.cli", "drivers")
 
+#: The path tests' methods: the robot runs the path (``FOLLOW_PATH``) and the
+#: tracker streams it, so the true path comes from the devices, not a world.
+PATH_METHODS = ("calibrator.verify.path", "calibrator.check.circle")
+
 #: The port every procedure opens its devices through and the run it drives
 #: them with: like the procedures, they carry no simulated world (no
 #: parameter, field, attribute or name of :data:`WORLD_NAMES`); what a
 #: procedure needs of the simulated cell comes as plain data in
 #: ``calibrator.acquire.ports.Opened``.
-WORLDLESS = PROCEDURES + ("calibrator.acquire.ports", "calibrator.acquire.run")
+WORLDLESS = PROCEDURES + ("calibrator.acquire.ports", "calibrator.acquire.run") + PATH_METHODS
 
 #: What the simulated world and its wiring were called in a run.
 WORLD_NAMES = frozenset({"world", "steer", "is_sim", "sim_world", "SimWorld"})

@@ -146,6 +146,8 @@ class SimulatedRobot(Robot):
         self._protective = False
         self._emergency = False
         self._latched = False
+        # The simulated tracker's ``run_path`` once the devices pair them (follow_path).
+        self._run_path: Callable[..., int] | None = None
 
     @classmethod
     def from_model(
@@ -267,6 +269,45 @@ class SimulatedRobot(Robot):
         if self.listener is not None:
             self.listener(self.true_tool_pose())
         return self.actual_joints()
+
+    def runs_path_on(self, run_path: Callable[..., int]) -> None:
+        """Offer :data:`~calibrator.acquire.ports.FOLLOW_PATH` on a tracker simulator's path.
+
+        ``run_path(t_s, point_mm, delay_s=...)``: the simulated tracker's
+        (:class:`~calibrator.acquire.ports.RunsPath`), which moves its target
+        through the probe's true points and returns the start on its clock, us.
+        """
+        self._run_path = run_path
+        self.capabilities = self.capabilities | {ports.FOLLOW_PATH}
+
+    def follow_path(self, t_s: ArrayLike, q_rad: ArrayLike, delay_s: float = 0.0) -> int:
+        """Run the joint path: the true arm's probe at each command goes to the tracker.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (N,)
+            Command times from the start of the motion, s.
+        q_rad : array_like, shape (N, 6)
+            Joint commands, rad. The arm follows them exactly (kinematic: no
+            servo lag, no repeatability scatter on a path).
+        delay_s : float
+            Hold at the first command this long first, s.
+
+        Returns
+        -------
+        int
+            The start of the motion on the tracker's clock, microseconds.
+
+        Raises
+        ------
+        ValueError
+            No tracker simulator to run the path on (:meth:`runs_path_on`).
+        """
+        if self._run_path is None:
+            raise ValueError("the simulated arm follows a path only with the simulated tracker")
+        q = np.asarray(q_rad, dtype=float)
+        true = forward(self._mdh, q, self._flange2tool, self._base2tracker)
+        return self._run_path(np.asarray(t_s, dtype=float), true[:, :3, 3], delay_s=delay_s)
 
     def stop(self) -> None:
         self._check_connected()  # moves are instantaneous: nothing is ever in motion

@@ -7,6 +7,8 @@ devices, so a procedure never sees the simulated world:
 - the simulated arm (:class:`~drivers.robot.sim.device.SimulatedRobot`) knows
   its true probe pose and hands it to the tracker after each move (its
   ``listener``);
+- the simulated arm also runs a timed joint path (``follow_path``, the path
+  tests) as the tracker simulator's target path, the true probe's points;
 - any other arm (the fake UR of ``ur://127.0.0.1``, which moves the nominal
   arm only) is wrapped in :class:`Following`: after each move the world's
   true arm at the joints the arm reports gives the probe's pose.
@@ -26,6 +28,7 @@ from numpy.typing import ArrayLike
 from calibrator.acquire import ports
 from calibrator.model import rotations
 from drivers.robot.interface import Robot
+from drivers.robot.sim.device import SimulatedRobot
 
 
 def steer_tracker(robot: Any, tracker: ports.Steerable, tool_pose: Callable[[Any], Any]) -> Any:
@@ -53,6 +56,10 @@ def steer_tracker(robot: Any, tracker: ports.Steerable, tool_pose: Callable[[Any
 
     if ports.REPORTS_TRUE_POSE.offered_by(robot):
         robot.listener = steer
+        if isinstance(robot, SimulatedRobot) and isinstance(tracker, ports.RunsPath):
+            # A timed path too (the path tests): the tracker's target runs the true
+            # probe's points while it streams them.
+            robot.runs_path_on(tracker.run_path)
         return robot
     return Following(robot, lambda q: steer(np.asarray(tool_pose(q), float)))
 

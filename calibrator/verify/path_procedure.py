@@ -1,0 +1,189 @@
+"""The ISO 9283 path test as a procedure: its options, its run, its document.
+
+The path lies in the pose test's cube (:func:`calibrator.verify.procedure.prepare`
+plans it, so the same cube, tool, calibration and tracker position); the
+robot runs its joint commands (:data:`calibrator.acquire.ports.FOLLOW_PATH`)
+while the tracker streams it (:mod:`calibrator.verify.path`); the document is
+verify.json with its ``path`` section and the streams beside it as .parquet,
+both or neither. From Python::
+
+    from calibrator import robots
+    from calibrator.verify import path_procedure as path_test
+    from drivers.devices import Devices
+
+    options = path_test.Options("circle", path_test.Speed(50.0, percent=True), cycles=3)
+    result = path_test.run(robots.get("ur10e"), options, "circle.json", Devices())
+    result.document["path"]["AT_P_mm"]
+
+Devices whose robot cannot run a timed path (a real arm today) are refused
+before anything moves.
+"""
+
+from __future__ import annotations
+
+import json
+from contextlib import ExitStack
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from calibrator import outputs
+from calibrator.acquire import ports
+from calibrator.errors import CalibrationError
+from calibrator.model import frames
+from calibrator.verify import path as verify_path
+from calibrator.verify import pose
+from calibrator.verify import procedure as pose_test
+
+#: Default path speed, mm/s (a tenth of a small arm's rated tool speed: ISO's 10 % case).
+DEFAULT_SPEED_MM_S = 100.0
+
+
+@dataclass(frozen=True)
+class Speed:
+    """The path speed: mm/s, or a percentage of the path's rated speed."""
+
+    value: float
+    percent: bool = False
+
+    def __str__(self) -> str:
+        return f"{self.value:g} %" if self.percent else f"{self.value:g} mm/s"
+
+
+@dataclass(frozen=True)
+class Options:
+    """What one path test does.
+
+    Attributes
+    ----------
+    shape : {'line', 'circle', 'rectangle'}
+        The path (:func:`calibrator.verify.path.test_path`).
+    speed : Speed
+        Tool speed along it.
+    cycles : int
+        Runs of the path (at least 2).
+    test : calibrator.verify.procedure.Options
+        The pose test's options whose cube, tool, calibration, registration,
+        tracker position and seed the path takes (its ``cycles`` are this
+        test's).
+    """
+
+    shape: str
+    speed: Speed = field(default_factory=lambda: Speed(DEFAULT_SPEED_MM_S))
+    cycles: int = 10
+    test: pose_test.Options = field(default_factory=pose_test.Options)
+
+
+@dataclass
+class Result:
+    """A path test's outcome, as written.
+
+    Attributes
+    ----------
+    document : dict
+        verify.json (its ``path`` section holds the figures).
+    streams : pandas.DataFrame
+        The aligned streams (:data:`calibrator.verify.path.STREAM_COLUMNS`), as
+        written beside it.
+    data : Path
+        Where the streams went.
+    speed_mm_s, rated_mm_s : float
+        The commanded path speed and the path's rated speed, mm/s.
+    compensated : bool
+        The commands were compensated by the calibration.
+    registration : calibrator.verify.pose.Registration
+    """
+
+    document: dict
+    streams: pd.DataFrame
+    data: Path
+    speed_mm_s: float
+    rated_mm_s: float
+    compensated: bool
+    registration: pose.Registration
+
+
+def run(
+    arm: Any,
+    options: Options,
+    output: str | Path,
+    devices: ports.Devices,
+    *,
+    inputs: list[Path] | None = None,
+) -> Result:
+    """Plan, run and write the path test: ``output`` (JSON) and its .parquet beside it.
+
+    ``inputs``: files the outputs must not overwrite.
+
+    Raises
+    ------
+    CalibrationError
+        A path out of reach, a robot that cannot run a path, a broken stream,
+        a non-finite figure (then nothing is written).
+    """
+    output = Path(output)
+    # The pose test's plan: the cube and the first test pose (orientation, start).
+    prepared = pose_test.prepare(
+        arm, replace(options.test, cycles=options.cycles), output, devices, inputs=inputs
+    )
+    vplan, test = prepared.vplan, prepared.test
+    flange2tool, calibration = frames.transform(translation=test.tool_mm), test.calibration
+    rotation = vplan.desired[0][:3, :3]
+    plan_args = (arm, flange2tool, options.shape, vplan.cube, rotation, vplan.q_test[0])
+    # The rated speed from the nominal plan: the compensated one differs by microradians.
+    rated = verify_path.rated_speed_mm_s(arm, verify_path.plan_path(*plan_args, DEFAULT_SPEED_MM_S))
+    speed = options.speed
+    speed_mm_s = speed.value / 100.0 * rated if speed.percent else speed.value
+    path = verify_path.plan_path(*plan_args, speed_mm_s, calibration)
+    with ExitStack() as stack:
+        opened = devices.open(arm, test.seed, test.tracker_at_mm, stack)
+        robot, tracker = opened.robot, opened.tracker
+        # Closed whatever happens next, the robot first (as they were opened, reversed).
+        stack.callback(tracker.close)
+        stack.callback(robot.close)
+        registration = prepared.registration
+        if registration is None and opened.surveyed_base2tracker is not None:
+            registration = pose.surveyed(opened.surveyed_base2tracker, "simulated cell survey")
+        if not (
+            ports.FOLLOW_PATH.offered_by(robot) and isinstance(tracker, verify_path.PathTracker)
+        ):
+            raise CalibrationError(
+                "--path runs on the simulated cell only (--robot sim --tracker sim) for now"
+            )
+        if registration is None:
+            raise CalibrationError("--path needs a registration: --calibration or --register")
+        tracker.connect()
+        opened.robot.connect()
+        section, table = verify_path.run(
+            robot, tracker, path, options.cycles, registration.tracker2base
+        )
+        robot_id = str(getattr(robot, "device_id", "") or type(robot).__name__)
+        tracker_id = str(tracker.device_id or type(tracker).__name__)
+    section["rated_speed_mm_s"] = rated
+    section["speed_pct"] = 100.0 * speed_mm_s / rated
+    doc = {
+        "format": pose.FORMAT,
+        "version": pose.VERSION,
+        "test": "path",
+        "model": arm.name,
+        # Who and when, as a pose test records them (the history files the test under them).
+        "robot": robot_id,
+        "tracker": tracker_id,
+        "time": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "cube": vplan.cube.to_json(),
+        "registration": registration.to_json(),
+        "path": section,
+    }
+    figures = [section[k] for k in ("AT_P_mm", "RT_P_mm", "AV_pct", "RV_pct", "FV_mm_s")]
+    if not np.all(np.isfinite(figures)):
+        raise CalibrationError("the path test gave a non-finite figure: no document from it")
+    data = pose.data_path(output)
+    doc["data"] = data.name
+    with outputs.Outputs(inputs=inputs or []) as batch:  # both files or neither
+        batch.text(output, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        batch.file(data, lambda tmp: table.to_parquet(tmp, index=False))
+    return Result(doc, table, data, speed_mm_s, rated, path.compensated, registration)
