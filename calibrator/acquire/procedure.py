@@ -18,6 +18,7 @@ Python::
 
     from calibrator import robots
     from calibrator.acquire import measure
+    from calibrator.acquire.run import RunOptions
     from drivers.devices import Devices
 
     summary = measure.run(robots.get("ur10e"), RunOptions(poses=30), "s.parquet", Devices())
