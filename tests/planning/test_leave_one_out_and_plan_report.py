@@ -1,4 +1,4 @@
-"""Design and planner cases the planning tests did not reach (found by mutmut, issue 44).
+"""Design and planner cases the planning tests did not reach. Found by mutation testing (issue 44).
 
 What leaving a pose out costs the D-optimality criterion, against leaving it
 out; and a made plan's report: its origin names the description it was

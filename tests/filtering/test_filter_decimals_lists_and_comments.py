@@ -1,4 +1,4 @@
-"""Program-filter cases the filtering tests did not reach (found by mutmut, issue 44).
+"""Program-filter cases the filtering tests did not reach. Found by mutation testing (issue 44).
 
 A corrected value that one more decimal carries is written with exactly one
 more; a URScript list cut off at the end of its line (a pose variable's

@@ -1,4 +1,4 @@
-"""History cases the history tests did not reach (found by mutmut, issue 44).
+"""History cases the history tests did not reach. Found by mutation testing (issue 44).
 
 The timeline's CSV and text table cell by cell: times in ISO 8601, absent
 figures empty, one line per record; a check's explanation from its

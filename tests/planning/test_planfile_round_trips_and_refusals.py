@@ -1,4 +1,4 @@
-"""Plan-file cases the planning tests did not reach (found by mutmut, issue 44).
+"""Plan-file cases the planning tests did not reach. Found by mutation testing (issue 44).
 
 A plan made for an arm whose controller turns joints the other way (KUKA's 1
 and 6), with a tracker and a tool of three different coordinates, round-trips

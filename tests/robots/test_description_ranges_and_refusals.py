@@ -1,4 +1,4 @@
-"""Robot-description cases the robots tests did not reach (found by mutmut, issue 44).
+"""Robot-description cases the robots tests did not reach. Found by mutation testing (issue 44).
 
 The shipped UR arms' joint ranges (the elbow half the others'), a
 description's canonical content keeping its collision body, and a

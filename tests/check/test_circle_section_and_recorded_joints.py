@@ -1,4 +1,4 @@
-"""Cases the check's other tests did not reach (found by mutmut, issue 44).
+"""Cases the check's other tests did not reach. Found by mutation testing (issue 44).
 
 The circle test's own figures on a measured arm, its helpers at their edges
 (a bin holding one reading, a held joint whose read-back jitters), and a
