@@ -40,7 +40,6 @@ from calibrator.errors import CalibrationError
 from drivers.registry import scheme
 from drivers.robot.sim.follow import steer_tracker
 
-
 #: The simulated devices' kinds: ``sim`` (robot; tracker in the line protocol) and
 #: ``emscon+sim`` (the tracker behind an emScon server).
 SIM_KINDS = frozenset({"sim", "emscon+sim"})

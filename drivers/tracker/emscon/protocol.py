@@ -560,8 +560,15 @@ def encode_probe_continuous_result(
     )
     body = b"".join(
         _PROBE_MEAS_VALUE.pack(
-            st, 0, rotation_status, t_us // 1_000_000, t_us % 1_000_000,
-            *xyz, *(0.0,) * 7, *quaternion, *(0.0,) * 10,
+            st,
+            0,
+            rotation_status,
+            t_us // 1_000_000,
+            t_us % 1_000_000,
+            *xyz,
+            *(0.0,) * 7,
+            *quaternion,
+            *(0.0,) * 10,
         )  # fmt: skip
         for st, t_us, xyz, quaternion in records
     )

@@ -148,6 +148,7 @@ class EmsconReadingStream(SampleStream):
         self.lost = self.stale = self.bad = self.broken = 0
         self.ended = False
         self._last_n = 0
+        self._points = 0  # readings handed over
         self._last_t: int | None = None
         self._base: tuple[int, int] | None = None  # (n before the first record, its stamp)
         self._beam_off = False  # from a break's mark until ES_SSC_MeasStatus_Ready
@@ -184,8 +185,13 @@ class EmsconReadingStream(SampleStream):
                 raise
             self._take(packet)
         sample = self._pending.popleft()
-        if self.count is not None and sample.n >= self.count:
-            self.ended = True  # the server stops by itself after lNumberOfPoints
+        if sample.reading is not None:
+            self._points += 1
+        # The server stops by itself after lNumberOfPoints: in time mode that many ticks
+        # (with or without a point), in distance mode that many points sent.
+        done = sample.n if self.separation_ms is not None else self._points
+        if self.count is not None and done >= self.count:
+            self.ended = True
             self._pending.clear()
         return sample
 

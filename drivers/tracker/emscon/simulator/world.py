@@ -17,6 +17,8 @@ path tests stream), through the control port's ``SIM,TARGET`` and
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from calibrator.acquire import ports
@@ -68,7 +70,7 @@ class SimulatedEmsconTracker(EmsconTracker):
     ) -> None:
         # The port is known once started; standard air sent, as the line simulator's opener.
         super().__init__("127.0.0.1", 0, environment=Environment())
-        self._settings = {
+        self._settings: dict[str, Any] = {
             "seed": seed,
             "noise": noise,
             "faults": faults,
