@@ -102,9 +102,18 @@ class SimulatedEmsconTracker(EmsconTracker):
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"emScon simulator: {exc}") from exc
 
-    def run_path(self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0) -> int:
+    def run_path(
+        self,
+        t_s: np.ndarray,
+        point_mm: np.ndarray,
+        delay_s: float = 0.0,
+        *,
+        rotvec_rad: np.ndarray | None = None,
+    ) -> int:
         """Move the target along the arm's true path: waypoints at ``t_s`` (s from the
-        start), shape (N, 3), mm, tracker frame, starting ``delay_s`` from now.
+        start), shape (N, 3), mm, tracker frame, starting ``delay_s`` from now; and the
+        probe's orientations, shape (N, 3), rad, if given (a 6-DoF stream carries them;
+        without them the probe keeps the orientation it was last given).
 
         Returns
         -------
@@ -118,7 +127,7 @@ class SimulatedEmsconTracker(EmsconTracker):
             The simulator process is not started or gone.
         """
         try:
-            return self._running().run_path(t_s, point_mm, delay_s=delay_s)
+            return self._running().run_path(t_s, point_mm, rotvec_rad, delay_s=delay_s)
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"emScon simulator: {exc}") from exc
 
