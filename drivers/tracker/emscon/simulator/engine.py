@@ -37,7 +37,13 @@ acknowledged, then the server (:mod:`~drivers.tracker.emscon.simulator.server`)
 asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
 ``lTimeSeparation`` until ``StopMeasurement``; points show a moving target
 (:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
-stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
+stamp, and the fault scripts' ``SAMPLE`` triggers count ticks. Continuous
+distance mode (``ES_MM_ContinuousDistance``) ticks every
+:data:`DISTANCE_TICK_S` and sends a point when the target is
+``dSpatialDistance`` from the last one sent. With ``probe=True`` the 6-DoF
+modes (``ES_MM_6DContinuousTime`` / ``...Distance``) send
+``ProbeContinuousResult`` packets carrying the probe's orientation, and
+``GetMeasurementStatusInfo`` reports the probe (``ES_MSI_MeasurementProbeFound``).
 
 Warm-up and air: until the instrument is warmed up, ``GetSystemStatus``
 reports its laser heating up (``ES_LPS_LaserHeatingUp``), then ready. Given
