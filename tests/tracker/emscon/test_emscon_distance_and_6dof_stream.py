@@ -177,7 +177,7 @@ def test_distance_mode_sends_a_point_per_distance_moved_at_the_targets_place(ref
     # ... so the stamps follow the speed: 2.044 mm at 113.6 mm/s is 18 ms.
     np.testing.assert_array_equal(np.diff(rec.t_us), 18_000)
     assert rec.rotvec_rad is None  # a reflector: no orientation, and the record says so
-    assert 0.4 < elapsed < 2.5  # 24 steps of 18 ms
+    assert 0.4 < elapsed < 5.0  # 24 steps of 18 ms (0.43 s), on a loaded machine
     assert sim.meas_mode == pk.MM_STATIONARY  # leaving the block stopped it
 
 
