@@ -79,9 +79,11 @@ class EmsconStreamSample:
     Attributes
     ----------
     n : int
-        Tick number from 1, from the record's stamp.
+        Tick number from 1: from the record's stamp in time mode, in the order
+        of arrival in distance mode.
     device_time_us : int
-        Server clock at the tick, us (for a beam-break mark: the tick's due time).
+        Server clock at the tick, us (for a beam-break mark: the tick's due time
+        in time mode; 1 us after the last point in distance mode).
     reading : EmsconReading or None
         The point, or None when the beam was broken at this tick.
     code : int
@@ -118,8 +120,9 @@ class EmsconReadingStream(SampleStream):
         ``lNumberOfPoints`` (None: until stopped).
     lost, stale, bad, broken : int
         Ticks missing from the stamps; records dropped because their stamp did
-        not move forward; records dropped for impossible values; ticks without
-        a reading while the beam was broken.
+        not move forward; records dropped for impossible values (a non-unit
+        quaternion among them); ticks without a reading while the beam was
+        broken. ``lost`` and ``broken`` need a clock: in distance mode they stay 0.
     ended : bool
         The stream is over (its count reached, stopped, or failed).
     """
