@@ -15,7 +15,8 @@ a world file::
     Devices("ur://10.0.0.5", "emscon://10.0.0.7")  # a real cell
 
 The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
-``faults=PATH``, ``replay=PATH`` and ``record=PATH``; the simulated robot
+``faults=PATH``, ``replay=PATH`` and ``record=PATH`` (``emscon+sim``, the
+same simulated tracker behind a Leica emScon server, the first three); the simulated robot
 ``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
 simulator started by hand); the world file (:mod:`calibrator.world`) the true
 arm both move. When the tracker is simulated its target follows the arm's
@@ -39,10 +40,15 @@ from calibrator.errors import CalibrationError
 from drivers.registry import scheme
 from drivers.robot.sim.follow import steer_tracker
 
+#: The simulated devices' kinds: ``sim`` (robot; tracker in the line protocol) and
+#: ``emscon+sim`` (the tracker behind an emScon server).
+SIM_KINDS = frozenset({"sim", "emscon+sim"})
+
 
 def is_sim(url: str) -> bool:
-    """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
-    return scheme(url) == "sim"
+    """``url`` names a simulated device: ``sim`` or ``emscon+sim``, bare or with its
+    settings (``sim://?...``)."""
+    return scheme(url) in SIM_KINDS
 
 
 @dataclass(frozen=True)

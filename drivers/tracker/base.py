@@ -61,7 +61,9 @@ class OpenOptions:
 #: Tracker kinds by URL scheme (:mod:`drivers.registry`): each module opens its
 #: URLs with ``open_url(url, options)``. pyserial's URL schemes and bare device
 #: paths go to the line-protocol driver.
-TRACKERS: Registry[Tracker, OpenOptions] = Registry("tracker", bare=("sim",), bare_default="serial")
+TRACKERS: Registry[Tracker, OpenOptions] = Registry(
+    "tracker", bare=("sim", "emscon+sim"), bare_default="serial"
+)
 _LINE = "drivers.tracker.line.device"
 TRACKERS.register("sim", "drivers.tracker.line.simulator.world")
 TRACKERS.register("serial", _LINE, usage="a device path")
@@ -69,6 +71,8 @@ TRACKERS.register("socket", _LINE, usage="socket://HOST:PORT")
 TRACKERS.register("rfc2217", _LINE, usage="rfc2217://HOST:PORT")
 TRACKERS.register("loop", _LINE)
 TRACKERS.register("emscon", "drivers.tracker.emscon.device", usage="emscon://HOST[:PORT]")
+# The simulated cell with a Leica tracker: the emScon simulator behind the emScon driver.
+TRACKERS.register("emscon+sim", "drivers.tracker.emscon.simulator.world")
 
 
 def register_tracker(

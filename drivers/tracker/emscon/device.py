@@ -57,6 +57,10 @@ from drivers.tracker.emscon.stream import STALL_TICKS, EmsconReadingStream
 
 DEFAULT_PORT = 700  # emScon's default TCP port
 MAX_COORDINATE_MM = 1e6  # 1 km: beyond any tracker's range, so a corrupt value
+#: Largest ``dSpatialDistance`` the driver sends, mm (10 m between points).
+MAX_SPATIAL_MM = 10_000.0
+#: Default silence before a distance-mode stream counts as stalled, s.
+DISTANCE_STALL_S = 5.0
 MAX_STALLS = 3  # packets cut short in a row (each on a fresh connection): the server is sick
 #: What the adapter declares to the acquisition ports: it can initialise the
 #: tracker (on request only), search for a lost reflector (FindReflector) and
@@ -308,12 +312,22 @@ class EmsconTracker:
     # ------------------------------------------------------------ continuous measurement
 
     def stream(
-        self, rate_hz: float, count: int | None = None, stall_timeout_s: float | None = None
+        self,
+        rate_hz: float | None = None,
+        count: int | None = None,
+        stall_timeout_s: float | None = None,
+        *,
+        distance_mm: float | None = None,
+        six_dof: bool | None = None,
     ) -> EmsconReadingStream:
-        """Start continuous time mode: one time-stamped point every ``1 / rate_hz`` s.
+        """Start a continuous measurement: a point every ``1 / rate_hz`` s (time mode) or
+        each time the target has moved ``distance_mm`` (distance mode).
 
-        Sends ``SetMeasurementMode(ES_MM_ContinuousTime)``,
-        ``SetContinuousTimeModeParams(lTimeSeparation, lNumberOfPoints)`` and
+        Sends ``SetMeasurementMode`` (``ES_MM_ContinuousTime`` or
+        ``ES_MM_ContinuousDistance``, or their 6-DoF twins ``ES_MM_6DContinuousTime``
+        / ``ES_MM_6DContinuousDistance`` for a probe), the mode's parameters
+        (``SetContinuousTimeModeParams(lTimeSeparation, lNumberOfPoints)`` or
+        ``SetContinuousDistanceModeParams(dSpatialDistance, lNumberOfPoints)``) and
         ``StartMeasurement`` (acknowledged, then results follow). Use the
         returned stream as a context manager: leaving it sends
         ``StopMeasurement`` and sets stationary mode again, so :meth:`measure`
@@ -321,40 +335,77 @@ class EmsconTracker:
 
         Parameters
         ----------
-        rate_hz : float
-            Requested rate, 1..1000 Hz; the separation sent is the nearest whole ms.
+        rate_hz : float, optional
+            Time mode: requested rate, 1..1000 Hz; the separation sent is the
+            nearest whole ms.
         count : int, optional
             Number of points (``lNumberOfPoints``); None streams until stopped.
         stall_timeout_s : float, optional
-            Silence after which the stream is stalled, s (default 20 ticks, at least 0.5 s).
+            Silence after which the stream is stalled, s. Default in time mode 20
+            ticks, at least 0.5 s; in distance mode 5 s (a target held still
+            sends nothing either: give the longest rest the caller allows).
+        distance_mm : float, optional
+            Distance mode: the distance the target moves between points, mm
+            (0.001..10000); give it instead of ``rate_hz``.
+        six_dof : bool, optional
+            Stream a 6-DoF probe's orientation too (the 6-DoF mode: each
+            reading's ``rotvec_rad``); False streams positions only (a
+            reflector's ``rotvec_rad`` is None: absent). None asks the server
+            (``GetMeasurementStatusInfo``): 6-DoF when it reports a measurement
+            probe (``ES_MSI_MeasurementProbeFound``).
 
         Raises
         ------
         ValueError
-            Rate or count out of range.
+            Neither or both of rate and distance, or either, or count, out of range.
         NotInitialised, BeamBroken, EmsconRefused, TrackerTimeout, ...
             The server refused or did not answer a command (stationary mode is
             set back first when it can be).
         """
-        if not 1.0 <= float(rate_hz) <= 1000.0:
+        if (rate_hz is None) == (distance_mm is None):
+            raise ValueError("give a stream rate_hz (time mode) or distance_mm, not both")
+        if rate_hz is not None and not 1.0 <= float(rate_hz) <= 1000.0:
             raise ValueError(f"stream rate {rate_hz} Hz outside 1..1000")
+        if distance_mm is not None and not 0.001 <= float(distance_mm) <= MAX_SPATIAL_MM:
+            raise ValueError(f"stream distance {distance_mm} mm outside 0.001..{MAX_SPATIAL_MM:g}")
         if count is not None and not 1 <= int(count) <= 2**31 - 1:
             raise ValueError(f"stream count {count} must be a positive 32-bit integer")
-        separation_ms = max(1, round(1000.0 / float(rate_hz)))
-        if stall_timeout_s is None:
-            stall_timeout_s = max(STALL_TICKS * separation_ms / 1000.0, 0.5)
         t = self.timeout_s
-        continuous = pk.uint_param(pk.MM_CONTINUOUS_TIME)
-        self._once(pk.Command.SET_MEASUREMENT_MODE, continuous, timeout_s=t)
+        if six_dof is None:
+            info = self._once(pk.Command.GET_MEASUREMENT_STATUS_INFO, timeout_s=t)
+            flags = pk.parse_uint(info.body[4:8])  # lastResultStatus, lMeasurementStatusInfo
+            six_dof = bool(flags & pk.MSI_MEASUREMENT_PROBE_FOUND)
+        points = 0 if count is None else int(count)
+        separation_ms: int | None = None
+        if rate_hz is not None:
+            separation_ms = max(1, round(1000.0 / float(rate_hz)))
+            command = pk.Command.SET_CONTINUOUS_TIME_MODE_PARAMS
+            params = pk.continuous_time_params(separation_ms, points)
+            default_stall_s = max(STALL_TICKS * separation_ms / 1000.0, 0.5)
+        else:
+            command = pk.Command.SET_CONTINUOUS_DISTANCE_MODE_PARAMS
+            params = pk.continuous_distance_params(float(distance_mm), points)  # type: ignore[arg-type]
+            default_stall_s = DISTANCE_STALL_S
+        if stall_timeout_s is None:
+            stall_timeout_s = default_stall_s
+        mode = pk.CONTINUOUS_MODES[(distance_mm is not None, six_dof)]
+        self._once(pk.Command.SET_MEASUREMENT_MODE, pk.uint_param(mode), timeout_s=t)
         try:
-            params = pk.continuous_time_params(separation_ms, 0 if count is None else int(count))
-            self._once(pk.Command.SET_CONTINUOUS_TIME_MODE_PARAMS, params, timeout_s=t)
+            self._once(command, params, timeout_s=t)
             self._once(pk.Command.START_MEASUREMENT, timeout_s=t)
         except DriverError:
             self._stationary_again()
             raise
         self._streams += 1
-        return EmsconReadingStream(self, self._streams, separation_ms, count, stall_timeout_s)
+        return EmsconReadingStream(
+            self,
+            self._streams,
+            separation_ms,
+            count,
+            stall_timeout_s,
+            distance_mm=None if distance_mm is None else float(distance_mm),
+            six_dof=six_dof,
+        )
 
     def stop_stream(self) -> None:
         """``StopMeasurement`` and stationary mode again (what a stream's ``stop`` sends)."""
@@ -382,13 +433,25 @@ class EmsconTracker:
         reading is flagged not accurate in try mode or when the record's
         ``ES_MeasurementStatus`` is not ``ES_MS_AllOK`` (speed warning, prism
         error, ...): the header says such points "should be treated with care".
+        A 6-DoF probe's record (``ProbeMeasValueT``) gives ``rotvec_rad`` from
+        its quaternion (a quaternion that is not of unit length is impossible)
+        and is flagged not accurate unless its ``lRotationStatus`` says "6-DoF
+        valid, no error"; a reflector's reading has ``rotvec_rad`` None.
         """
         point, meteo = np.array(record.values), np.array(packet.meteo)
         if not (np.all(np.abs(point) <= MAX_COORDINATE_MM) and np.all(np.isfinite(meteo))):
             return None
         accurate = not packet.try_mode and record.status == pk.MeasurementStatus.ALL_OK
+        rotvec: np.ndarray | None = None
+        if record.quaternion is not None:  # a 6-DoF probe's ProbeMeasValueT
+            q = np.array(record.quaternion)
+            if not (np.all(np.isfinite(q)) and abs(float(np.linalg.norm(q)) - 1.0) < 1e-3):
+                return None  # not a rotation: as impossible as a NaN coordinate
+            rotvec = rotations.quaternion_to_rotvec(q)[0]
+            # lRotationStatus bit 0: 6-DoF values valid; bit 1: 6-DoF error.
+            accurate = accurate and (record.rotation_status & 0b11) == 0b01
         std = np.full(4, np.nan)
-        return EmsconReading(point, None, bool(accurate), t_us, std, tuple(meteo.tolist()))
+        return EmsconReading(point, rotvec, bool(accurate), t_us, std, tuple(meteo.tolist()))
 
     # ------------------------------------------------------------ machinery
 

@@ -158,6 +158,16 @@ CS_RHR = 0  # ES_CoordinateSystemType: right-handed Cartesian
 MM_STATIONARY = 0  # ES_MeasMode
 MM_CONTINUOUS_TIME = 1  # ES_MM_ContinuousTime: one point every lTimeSeparation ms
 MM_CONTINUOUS_DISTANCE = 2  # ES_MM_ContinuousDistance: one point every dSpatialDistance
+MM_6D_CONTINUOUS_TIME = 7  # ES_MM_6DContinuousTime: a probe's pose every lTimeSeparation ms
+MM_6D_CONTINUOUS_DISTANCE = 8  # ES_MM_6DContinuousDistance: a probe's pose every dSpatialDistance
+#: The continuous modes, by (distance?, 6-DoF?).
+CONTINUOUS_MODES = {
+    (False, False): MM_CONTINUOUS_TIME,
+    (True, False): MM_CONTINUOUS_DISTANCE,
+    (False, True): MM_6D_CONTINUOUS_TIME,
+    (True, True): MM_6D_CONTINUOUS_DISTANCE,
+}
+MSI_MEASUREMENT_PROBE_FOUND = 128  # ES_MeasurementStatusInfo: a 6-DoF probe is connected
 RT_SPHERE = 0  # ES_RegionType (only sent with bUseRegion false: no region)
 LENGTH_UNIT_MM = {0: 1000.0, 1: 1.0, 2: 0.001, 3: 304.8, 4: 914.4, 5: 25.4}  # mm per unit
 
@@ -185,6 +195,14 @@ _CONT_DIST = struct.Struct("<diiI")
 # (ES_MeasurementStatus), lTime1, lTime2, dVal1..3.
 _MULTI_HEAD = struct.Struct("<iIi3d")
 _MEAS_VALUE = struct.Struct("<Iii3d")
+# ProbeContinuousResultT after ReturnDataT: lNumberOfResults, measMode, bIsTryMode,
+# iInternalProbeId, iFieldNumber, tipStatus, iInternalTipAdapterId,
+# iTipAdapterInterface, then temperature, pressure, humidity; then ProbeMeasValueT
+# records: status, triggerStatus, lRotationStatus, lTime1, lTime2, then 24 doubles:
+# position (3), its std (3 + total), covariances (3), quaternion (4), rotation
+# angles (3), their std (3 + total), covariances (3).
+_PROBE_MULTI_HEAD = struct.Struct("<iIiiiIii3d")
+_PROBE_MEAS_VALUE = struct.Struct("<IIiii24d")
 _CMD_REPLY = struct.Struct("<II")
 
 # Full sizes in bytes, from the layouts (header included).
@@ -367,13 +385,22 @@ class MeasValue:
         define their meaning; this package reads them as seconds and
         microseconds of the server's clock (see docs/leica-emscon.md).
     values : tuple of float
-        ``dVal1..3``: X, Y, Z in the length unit set.
+        ``dVal1..3``: X, Y, Z in the length unit set (a ``ProbeMeasValueT``'s
+        ``dPosition1..3``: the probe tip).
+    quaternion : tuple of 4 float or None
+        A ``ProbeMeasValueT``'s ``dQuaternion0..3`` (scalar first, the probe's
+        orientation in the server's frame); None in a ``MeasValueT`` (a reflector).
+    rotation_status : int
+        A ``ProbeMeasValueT``'s ``lRotationStatus`` (bit 0: 6-DoF valid, bit 1:
+        6-DoF error); 0 in a ``MeasValueT``.
     """
 
     status: int
     time1: int
     time2: int
     values: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float] | None = None
+    rotation_status: int = 0
 
     @property
     def time_us(self) -> int:
@@ -383,7 +410,8 @@ class MeasValue:
 
 @dataclass(frozen=True)
 class MultiMeasResult:
-    """``ES_DT_MultiMeasResult``: a packet of continuous-mode points.
+    """``ES_DT_MultiMeasResult`` (or ``ES_DT_ContinuousProbeMeasResult``, a 6-DoF probe's
+    ``ProbeContinuousResultT``, whose records carry a quaternion): continuous-mode points.
 
     Attributes
     ----------
@@ -416,7 +444,7 @@ class StatusChangeEvent:
 @dataclass(frozen=True)
 class OtherPacket:
     """A well-sized packet of a type the adapter does not use (nivel, reflector position,
-    6-DoF and extended continuous results): skipped by its size."""
+    extended continuous results, type 10): skipped by its size."""
 
     type: int
 
@@ -512,6 +540,39 @@ def encode_multi_meas_result(
         _MEAS_VALUE.pack(st, t_us // 1_000_000, t_us % 1_000_000, *xyz) for st, t_us, xyz in records
     )
     return _with_header(DataType.MULTI_MEAS_RESULT, head + body)
+
+
+def encode_probe_continuous_result(
+    records: Sequence[tuple[int, int, Sequence[float], Sequence[float]]],
+    meteo: Sequence[float],
+    *,
+    meas_mode: int = MM_6D_CONTINUOUS_TIME,
+    status: int = 0,
+    try_mode: bool = False,
+    rotation_status: int = 1,
+) -> bytes:
+    """A ``ProbeContinuousResultT`` (``ES_DT_ContinuousProbeMeasResult``): ``records`` are
+    ``(ES_MeasurementStatus, time_us, (x, y, z), (q0, q1, q2, q3))``, quaternion scalar
+    first; standard deviations, covariances and rotation angles zero, probe and tip ids
+    zero, ``lRotationStatus`` as given (1: "6-DoF valid, no error")."""
+    head = _CMD.pack(status) + _PROBE_MULTI_HEAD.pack(
+        len(records), meas_mode, int(try_mode), 0, 0, 0, 0, 0, *meteo
+    )
+    body = b"".join(
+        _PROBE_MEAS_VALUE.pack(
+            st,
+            0,
+            rotation_status,
+            t_us // 1_000_000,
+            t_us % 1_000_000,
+            *xyz,
+            *(0.0,) * 7,
+            *quaternion,
+            *(0.0,) * 10,
+        )  # fmt: skip
+        for st, t_us, xyz, quaternion in records
+    )
+    return _with_header(DataType.CONTINUOUS_PROBE_MEAS_RESULT, head + body)
 
 
 def continuous_time_params(time_separation_ms: int, number_of_points: int = 0) -> bytes:
@@ -691,7 +752,9 @@ def decode_server_packet(data: bytes) -> Packet:
             raise PacketSizeError(msg)
         if dtype is DataType.MULTI_MEAS_RESULT:
             return _decode_multi(data, count)
-        return OtherPacket(type_)  # 6-DoF and extended continuous results: not requested
+        if dtype is DataType.CONTINUOUS_PROBE_MEAS_RESULT:
+            return _decode_probe_multi(data, count)
+        return OtherPacket(type_)  # extended continuous results (type 10): not requested
     if size != FIXED_SIZES[dtype]:
         raise PacketSizeError(
             f"{dtype.name} packet has lPacketSize {size}, expected {FIXED_SIZES[dtype]}"
@@ -726,6 +789,23 @@ def _decode_multi(data: bytes, count: int) -> MultiMeasResult:
     for i in range(count):
         st, t1, t2, *xyz = _MEAS_VALUE.unpack_from(data, offset + i * _MEAS_VALUE.size)
         records.append(MeasValue(st, t1, t2, (xyz[0], xyz[1], xyz[2])))
+    return MultiMeasResult(
+        status, mode, bool(try_mode), (meteo[0], meteo[1], meteo[2]), tuple(records)
+    )
+
+
+def _decode_probe_multi(data: bytes, count: int) -> MultiMeasResult:
+    (status,) = _CMD.unpack_from(data, HEADER.size)
+    head = _PROBE_MULTI_HEAD.unpack_from(data, SIZE_COMMAND)
+    mode, try_mode, meteo = head[1], head[2], head[8:11]
+    offset = SIZE_COMMAND + _PROBE_MULTI_HEAD.size
+    records = []
+    for i in range(count):
+        f = _PROBE_MEAS_VALUE.unpack_from(data, offset + i * _PROBE_MEAS_VALUE.size)
+        st, _trigger, rot_status, t1, t2 = f[:5]
+        d = f[5:]
+        quaternion = (d[10], d[11], d[12], d[13])
+        records.append(MeasValue(st, t1, t2, (d[0], d[1], d[2]), quaternion, rot_status))
     return MultiMeasResult(
         status, mode, bool(try_mode), (meteo[0], meteo[1], meteo[2]), tuple(records)
     )

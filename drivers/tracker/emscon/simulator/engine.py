@@ -37,7 +37,13 @@ acknowledged, then the server (:mod:`~drivers.tracker.emscon.simulator.server`)
 asks :meth:`EmsconSimulator.stream_tick` for one ``MultiMeasResult`` every
 ``lTimeSeparation`` until ``StopMeasurement``; points show a moving target
 (:meth:`EmsconSimulator.set_motion` or ``SIM,PATH``) ``latency_s`` before their
-stamp, and the fault scripts' ``SAMPLE`` triggers count ticks.
+stamp, and the fault scripts' ``SAMPLE`` triggers count ticks. Continuous
+distance mode (``ES_MM_ContinuousDistance``) ticks every
+:data:`DISTANCE_TICK_S` and sends a point when the target is
+``dSpatialDistance`` from the last one sent. With ``probe=True`` the 6-DoF
+modes (``ES_MM_6DContinuousTime`` / ``...Distance``) send
+``ProbeContinuousResult`` packets carrying the probe's orientation, and
+``GetMeasurementStatusInfo`` reports the probe (``ES_MSI_MeasurementProbeFound``).
 
 Warm-up and air: until the instrument is warmed up, ``GetSystemStatus``
 reports its laser heating up (``ES_LPS_LaserHeatingUp``), then ready. Given
@@ -110,6 +116,8 @@ FAULT_NAMES: dict[int, str] = {
     Command.GET_MEASUREMENT_STATUS_INFO: "MSI?",
     Command.SET_CONTINUOUS_TIME_MODE_PARAMS: "CONTTIME",
     Command.GET_CONTINUOUS_TIME_MODE_PARAMS: "CONTTIME?",
+    Command.SET_CONTINUOUS_DISTANCE_MODE_PARAMS: "CONTDIST",
+    Command.GET_CONTINUOUS_DISTANCE_MODE_PARAMS: "CONTDIST?",
 }
 
 # Line-protocol error codes (fault scripts) as emScon result statuses.
@@ -129,6 +137,16 @@ STATUS_FOR_CODE = {
 
 #: Longest ``lTimeSeparation`` the simulator takes, ms (a minute between points).
 MAX_SEPARATION_MS = 60_000
+#: Longest ``dSpatialDistance`` the simulator takes, mm (10 m between points).
+MAX_SPATIAL_MM = 10_000.0
+#: In distance mode the simulated tracker measures this often on its clock, s, and
+#: sends a point when it has moved ``dSpatialDistance`` from the last one sent (an
+#: AT9xx measures internally at 1 kHz and more).
+DISTANCE_TICK_S = 0.001
+#: The continuous modes simulated; the 6-DoF ones with ``probe=True`` only.
+TIME_MODES = frozenset({pk.MM_CONTINUOUS_TIME, pk.MM_6D_CONTINUOUS_TIME})
+DISTANCE_MODES = frozenset({pk.MM_CONTINUOUS_DISTANCE, pk.MM_6D_CONTINUOUS_DISTANCE})
+SIX_DOF_MODES = frozenset({pk.MM_6D_CONTINUOUS_TIME, pk.MM_6D_CONTINUOUS_DISTANCE})
 
 
 #: What the engine hands its server: packets, hang-ups and stream control.
@@ -192,6 +210,10 @@ class EmsconSimulator(FrontEnd):
         self.aim_mm: np.ndarray | None = None  # where GoPosition pointed the beam
         self.measurements = 0  # results sent (diagnostics)
         self.continuous_time = (100, 0)  # lTimeSeparation (ms), lNumberOfPoints (0: until stopped)
+        self.continuous_distance = (1.0, 0)  # dSpatialDistance (mm), lNumberOfPoints
+        # Distance mode's running state: the last point sent (mm) and how many were sent.
+        self._last_sent_mm: np.ndarray | None = None
+        self._sent = 0
         self.stream_records = 0  # continuous points sent (diagnostics)
 
     @property
@@ -254,12 +276,16 @@ class EmsconSimulator(FrontEnd):
             if command == Command.STOP_MEASUREMENT:
                 outputs.insert(0, StreamStop())  # no result after the OK reply
             elif command == Command.START_MEASUREMENT and self._starts_stream(answer, forced):
-                separation_ms, points = self.continuous_time
-                outputs.append(StreamStart(separation_ms / 1000.0, points or None))
+                if self.meas_mode in TIME_MODES:
+                    separation_ms, points = self.continuous_time
+                    outputs.append(StreamStart(separation_ms / 1000.0, points or None))
+                else:  # distance mode: checked every DISTANCE_TICK_S, points counted here
+                    self._last_sent_mm, self._sent = None, 0
+                    outputs.append(StreamStart(DISTANCE_TICK_S))
             return outputs
 
     def _starts_stream(self, answer: list[bytes], forced: int | None) -> bool:
-        continuous = self.meas_mode == pk.MM_CONTINUOUS_TIME
+        continuous = self.meas_mode in TIME_MODES | DISTANCE_MODES
         return continuous and forced is None and len(answer) == 1 and _ok(answer[0])
 
     def _deliver(self, pre, answer, faults, command) -> list[Output]:
@@ -320,6 +346,7 @@ class EmsconSimulator(FrontEnd):
     def _measurement_status_info(self, command, params):
         flags = _MSI_BASE | (_MSI_REFLECTOR if self.instrument.locked_on else 0)
         flags |= _MSI_INITIALISED if self.initialised else 0
+        flags |= pk.MSI_MEASUREMENT_PROBE_FOUND if self.probe else 0
         body = pk.uint_param(0) + pk.uint_param(flags)
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
@@ -350,7 +377,9 @@ class EmsconSimulator(FrontEnd):
 
     def _set_mode(self, command, params):
         mode = pk.parse_uint(params)
-        if mode not in (pk.MM_STATIONARY, pk.MM_CONTINUOUS_TIME):  # the modes simulated
+        simulated = {pk.MM_STATIONARY} | TIME_MODES | DISTANCE_MODES
+        # A 6-DoF mode without a probe: refused (our choice of status; the header says none).
+        if mode not in simulated or (mode in SIX_DOF_MODES and not self.probe):
             return [pk.encode_reply(command, ResultStatus.NOT_IMPLEMENTED)]
         self.meas_mode = mode
         return self._ok(command, params)
@@ -364,6 +393,19 @@ class EmsconSimulator(FrontEnd):
 
     def _get_continuous_time(self, command, params):
         body = pk.continuous_time_params(*self.continuous_time)
+        return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
+
+    def _set_continuous_distance(self, command, params):
+        distance, points = pk.parse_continuous_distance(params)
+        distance_mm = distance * pk.LENGTH_UNIT_MM[self.units[0]]  # in the length unit set
+        if not (np.isfinite(distance_mm) and 0.0 < distance_mm <= MAX_SPATIAL_MM) or points < 0:
+            return [pk.encode_reply(command, ResultStatus.WRONG_PARAMETER)]
+        self.continuous_distance = (float(distance_mm), points)
+        return self._ok(command, params)
+
+    def _get_continuous_distance(self, command, params):
+        distance_mm, points = self.continuous_distance
+        body = pk.continuous_distance_params(distance_mm / pk.LENGTH_UNIT_MM[self.units[0]], points)
         return [pk.encode_reply(command, ResultStatus.ALL_OK, body)]
 
     def _set_stationary(self, command, params):
@@ -424,7 +466,7 @@ class EmsconSimulator(FrontEnd):
             if inst.take_broken_reading()[1]:  # the tracker re-locks on its own afterwards
                 ready = pk.encode_status_change(StatusChange.MEAS_STATUS_READY)
                 return [pk.encode_reply(command, refuse), ready]
-        elif self.meas_mode == pk.MM_CONTINUOUS_TIME:
+        elif self.meas_mode in TIME_MODES | DISTANCE_MODES:
             # Continuous mode is acknowledged, then results follow (StreamStart, above).
             return [pk.encode_reply(command, ResultStatus.ALL_OK)]
         elif not MIN_RANGE_MM <= inst.range_mm <= MAX_RANGE_MM:
@@ -465,14 +507,19 @@ class EmsconSimulator(FrontEnd):
 
         The point is taken and stamped at its due time on the tracker's clock
         (a server running late sends it late, never with a later position), at
-        the target's position ``latency_s`` before the stamp. The fault
-        script's ``SAMPLE`` triggers count ticks: ``beam_break count=k`` sends
-        ``ES_SSC_MeasStatus_NotReady`` and ``ES_DT_Error``
-        (``ES_RS_MeasurementStatusNotReady``) once, then nothing for ``k``
-        ticks, then ``ES_SSC_MeasStatus_Ready``; ``stall delay=s`` silences
-        the stream for ``s`` (the ticks due meanwhile are lost); ``drop``
-        loses this tick; ``hangup`` closes the connection; ``inaccurate``
-        flags points ``ES_MS_SpeedWarning``.
+        the target's position ``latency_s`` before the stamp. In time mode
+        every tick sends a point; in distance mode the ticks are the tracker's
+        own checks (every :data:`DISTANCE_TICK_S`) and a point is sent only
+        when the measured position is ``dSpatialDistance`` or more from the
+        last one sent (the first at once), until ``lNumberOfPoints``. In a
+        6-DoF mode the record is a ``ProbeMeasValueT`` with the probe's
+        orientation. The fault script's ``SAMPLE`` triggers count ticks:
+        ``beam_break count=k`` sends ``ES_SSC_MeasStatus_NotReady`` and
+        ``ES_DT_Error`` (``ES_RS_MeasurementStatusNotReady``) once, then
+        nothing for ``k`` ticks, then ``ES_SSC_MeasStatus_Ready``; ``stall
+        delay=s`` silences the stream for ``s`` (the ticks due meanwhile are
+        lost); ``drop`` loses this tick; ``hangup`` closes the connection;
+        ``inaccurate`` flags points ``ES_MS_SpeedWarning``.
         """
         with self._lock:
             t_us = max(int(round(stamp_s * 1e6)), 0)
@@ -499,17 +546,36 @@ class EmsconSimulator(FrontEnd):
                 if restored:  # re-locked after this tick
                     out.append(Send(pk.encode_status_change(StatusChange.MEAS_STATUS_READY)))
                 return out
-            point, _, scale = inst.pose_at(t_us / 1e6)
+            point, rotvec, scale = inst.pose_at(t_us / 1e6)
             if not inst.in_range(point):
                 return out  # out of range: no point at this tick
             point = inst.sample_point(point, scale)
+            distance_mode = self.meas_mode in DISTANCE_MODES
+            if distance_mode and self._last_sent_mm is not None:
+                moved = float(np.linalg.norm(point - self._last_sent_mm))
+                if moved < self.continuous_distance[0]:
+                    return out  # not far enough from the last point sent
             status = pk.MeasurementStatus.ALL_OK
             if inst.take_inaccurate():
                 status = pk.MeasurementStatus.SPEED_WARNING
             per_unit = pk.LENGTH_UNIT_MM[self.units[0]]
-            record = (int(status), t_us, tuple(point / per_unit))
-            out.append(Send(pk.encode_multi_meas_result([record], self.env)))
+            xyz = tuple(point / per_unit)
+            if self.meas_mode in SIX_DOF_MODES:
+                w, x, y, z = rotations.rotvec_to_quaternion(inst.sample_rotvec(rotvec))[0]
+                quaternion = (float(w), float(x), float(y), float(z))
+                packet = pk.encode_probe_continuous_result(
+                    [(int(status), t_us, xyz, quaternion)], self.env, meas_mode=self.meas_mode
+                )
+            else:
+                packet = pk.encode_multi_meas_result(
+                    [(int(status), t_us, xyz)], self.env, meas_mode=self.meas_mode
+                )
+            out.append(Send(packet))
             self.stream_records += 1
+            if distance_mode:
+                self._last_sent_mm, self._sent = point, self._sent + 1
+                if self._sent == self.continuous_distance[1]:
+                    out.append(StreamStop())  # lNumberOfPoints sent: the measurement is over
             return out
 
 
@@ -532,6 +598,8 @@ _HANDLERS = {
     Command.START_MEASUREMENT: EmsconSimulator._start_measurement,
     Command.SET_CONTINUOUS_TIME_MODE_PARAMS: EmsconSimulator._set_continuous_time,
     Command.GET_CONTINUOUS_TIME_MODE_PARAMS: EmsconSimulator._get_continuous_time,
+    Command.SET_CONTINUOUS_DISTANCE_MODE_PARAMS: EmsconSimulator._set_continuous_distance,
+    Command.GET_CONTINUOUS_DISTANCE_MODE_PARAMS: EmsconSimulator._get_continuous_distance,
     Command.STOP_MEASUREMENT: EmsconSimulator._ok,
     Command.FIND_REFLECTOR: EmsconSimulator._find_reflector,
     Command.GO_POSITION: EmsconSimulator._go_position,
