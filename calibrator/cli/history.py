@@ -224,7 +224,7 @@ def import_(
     history: str = _history_option(),
     robot: str = typer.Option(None, help="The robot of files that name none."),
 ) -> None:
-    """Add the sessions (.parquet), calibrations, verify and check files (.json) under DIR.
+    """Add the sessions (.parquet), calibrations, verify, check and circle files (.json) under DIR.
 
     Sessions first, so calibrations find their robot; a file already in the
     history is not added again; files that are none of these are skipped.
@@ -237,8 +237,8 @@ def import_(
         counts = importing.import_folder(store, folder, robot, on_skip=_skipped)
         typer.echo(
             f"{counts['session']} sessions, {counts['calibration']} calibrations, "
-            f"{counts['verification']} verifications, {counts['check']} checks "
-            f"in the history {store.where}"
+            f"{counts['verification']} verifications, {counts['check']} checks, "
+            f"{counts['circle']} circle checks in the history {store.where}"
         )
 
 
