@@ -90,7 +90,7 @@ def run(
     if section.get("ATa_deg") is not None:  # a 6-DoF probe's orientation figures
         typer.echo(
             "orientation, deg: "
-            + "   ".join(f"{k[:3]}_{k[3]} {section[k]:.4f}" for k in ORIENTATION_FIGURES)
+            + "   ".join(f"{k[:2]}_{k[2]} {section[k]:.4f}" for k in ORIENTATION_FIGURES)
         )
     if "CR_mm" in section:
         corners = "  ".join(
