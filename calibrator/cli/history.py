@@ -104,7 +104,9 @@ def show(
             return
         data = timeline.load(store, robot)
     limits = alarms.Limits(held_out_mm=held_out_limit, ap_mm=ap_limit, rp_mm=rp_limit)
-    found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+    found = alarms.alarms(
+        data.calibrations, data.verifications, data.checks, limits, data.circle_checks
+    )
     notes = alarms.not_compared(data.calibrations)
     rows = timeline.table(data)
     typer.echo(timeline.format_table(rows))
@@ -159,7 +161,9 @@ def alarms_(
         names = [robot] if robot is not None else [r["name"] for r in store.robots()]
         for name in names:
             data = timeline.load(store, name)
-            found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+            found = alarms.alarms(
+                data.calibrations, data.verifications, data.checks, limits, data.circle_checks
+            )
             rows += alarms.as_rows(found, name)
             notes += [f"{name}: {n}" for n in alarms.not_compared(data.calibrations)]
     texts = {

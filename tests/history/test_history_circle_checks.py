@@ -155,6 +155,33 @@ def test_a_history_at_0004_gains_the_circle_table_on_opening(circled, tmp_path):
         assert len(h.circle_checks(ROBOT)) == 1
 
 
+def test_a_circle_flagged_after_a_joint_zero_crash_is_an_alarm(circled):
+    # Seed 3's arm with joint 2's zero turned 0.4 mrad (a knock), checked against the
+    # calibration of the arm as it was.
+    (circled / "crashed.yaml").write_text(
+        "world: 1\nmodel: ur10e\nseed: 3\njoint_zero_shifts_rad: [0, 4.0e-4, 0, 0, 0, 0]\n"
+    )
+    done = cli(
+        "check", "--circle", "--model", "ur10e", "--world", "crashed.yaml", "--calibration",
+        "cal.json", "--circle-speed", "400", "-o", "crashed.json", "--history", "crash.db",
+        cwd=circled,
+    )  # fmt: skip
+    assert done.code == 3, (done.stdout, done.stderr)
+    assert "recorded circle check 1 in crash.db" in done.stdout
+    circle = json.loads((circled / "crashed.json").read_text())
+    robot = circle["robot"]
+    done = cli("history", "alarms", robot, "--history", "crash.db", "--json", "-", cwd=circled)
+    assert done.code == 0, done.stderr
+    (alarm,) = json.loads(done.stdout)["alarms"]
+    assert alarm["kind"] == "circle" and alarm["subject"] == "flagged"
+    assert alarm["records"] == "circle check 1"
+    roundness = circle["circle"]["out_of_roundness_mm"]
+    assert f"out-of-roundness {roundness:.3f} mm beyond its limit 0.1 mm" in alarm["message"]
+    assert alarm["figure"] == roundness and alarm["threshold"] == 0.1
+    shown = cli("history", robot, "--history", "crash.db", cwd=circled)
+    assert "ALARM" in shown.stdout and "circle: flagged" in shown.stdout
+
+
 def test_the_record_reads_the_documents_fields():
     doc = {
         "format": "calibrator-check-circle",
