@@ -202,11 +202,19 @@ class FollowsPath(Protocol):
 class RunsPath(Protocol):
     """A simulated tracker whose target runs a timed path (what a following arm steers).
 
-    ``run_path(t_s, point_mm, delay_s)``: points (N, 3), mm, tracker frame, at
-    ``t_s`` (N,), s, after ``delay_s``; returns the start on its clock, us.
+    ``run_path(t_s, point_mm, delay_s, rotvec_rad)``: points (N, 3), mm, tracker
+    frame, at ``t_s`` (N,), s, after ``delay_s``, the probe turned through
+    ``rotvec_rad`` (N, 3), rad (probe to tracker frame; None: not turned);
+    returns the start on its clock, us.
     """
 
-    def run_path(self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0) -> int: ...
+    def run_path(
+        self,
+        t_s: np.ndarray,
+        point_mm: np.ndarray,
+        delay_s: float = 0.0,
+        rotvec_rad: np.ndarray | None = None,
+    ) -> int: ...
 
 
 @runtime_checkable

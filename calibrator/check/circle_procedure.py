@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 from contextlib import ExitStack
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -128,11 +129,17 @@ def run(
             cal,
             registration.tracker2base,
         )
+        robot_id = str(getattr(robot, "device_id", "") or type(robot).__name__)
+        tracker_id = str(getattr(tracker, "device_id", "") or type(tracker).__name__)
     doc = {
         "format": FORMAT,
         "version": VERSION,
         "test": "circle",
         "model": arm.name,
+        # Who and when, as a check records them (the history files the test under them).
+        "robot": robot_id,
+        "tracker": tracker_id,
+        "time": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "calibration": str(options.calibration_path),
         "calibration_sha256": calibrations.digest(options.calibration_path),
         "circle": section,

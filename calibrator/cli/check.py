@@ -262,8 +262,6 @@ def _check_circle(
 
     if not (_run.is_sim(robot) and _run.is_sim(tracker)):
         fail("--circle runs on the simulated cell only (--robot sim --tracker sim) for now")
-    if history is not None:
-        fail("--circle results are not recorded in a history yet: leave out --history")
     if not (0.0 < speed_mm_s <= 5000.0):
         fail(f"--circle-speed must be in (0, 5000] mm/s, got {speed_mm_s:g}")
     if output.suffix.lower() == ".parquet":
@@ -273,6 +271,10 @@ def _check_circle(
     cal = calibrations.load(calibration_path)
     arm = run_args.arm(_model.From(cal.model, calibration_path))
     world_file = _run.read_world(world, robot, tracker)
+    if history is not None:  # one it cannot record into is refused before anything moves
+        from calibrator.cli.history import refuse_unusable
+
+        refuse_unusable(history)
     options = circle_test.Options(
         cal, calibration_path, speed_mm_s, triple(tracker_at, "--tracker-at"), seed
     )
@@ -280,9 +282,10 @@ def _check_circle(
         *_run.device_urls(robot, tracker, world_file=world_file), world_file=world_file
     )
     try:
-        section = circle_test.run(arm, options, output, devices, inputs=inputs).document["circle"]
+        doc = circle_test.run(arm, options, output, devices, inputs=inputs).document
     except CalibrationError as exc:
         fail(str(exc))
+    section = doc["circle"]
     lim = section["limits_mm"]
     typer.echo(
         f"circle r = {section['commanded']['radius_mm']:.1f} mm at {speed_mm_s:g} mm/s, "
@@ -300,7 +303,24 @@ def _check_circle(
     )
     typer.echo(f"verdict: {section['verdict']}")
     typer.echo(f"wrote {output}")
+    if history is not None:
+        _record_circle(history, doc, output)
     raise typer.Exit(CIRCLE_EXIT_CODES[section["verdict"]])
+
+
+def _record_circle(url: str, doc: dict, output: Path) -> None:
+    """Record the circle test in the history at ``url`` (its file is written already)."""
+    from calibrator.history import HistoryError
+
+    try:
+        with _open_history(url) as store:
+            number = store.record_circle_check(doc)
+    except HistoryError as exc:
+        fail(
+            f"wrote {output} but did not record it ({exc}); record it with: "
+            "calibrator history import"
+        )
+    typer.echo(f"recorded circle check {number} in {url}")
 
 
 def _external_files(output: Path) -> tuple[Path, Path]:

@@ -104,7 +104,9 @@ def show(
             return
         data = timeline.load(store, robot)
     limits = alarms.Limits(held_out_mm=held_out_limit, ap_mm=ap_limit, rp_mm=rp_limit)
-    found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+    found = alarms.alarms(
+        data.calibrations, data.verifications, data.checks, limits, data.circle_checks
+    )
     notes = alarms.not_compared(data.calibrations)
     rows = timeline.table(data)
     typer.echo(timeline.format_table(rows))
@@ -159,7 +161,9 @@ def alarms_(
         names = [robot] if robot is not None else [r["name"] for r in store.robots()]
         for name in names:
             data = timeline.load(store, name)
-            found = alarms.alarms(data.calibrations, data.verifications, data.checks, limits)
+            found = alarms.alarms(
+                data.calibrations, data.verifications, data.checks, limits, data.circle_checks
+            )
             rows += alarms.as_rows(found, name)
             notes += [f"{name}: {n}" for n in alarms.not_compared(data.calibrations)]
     texts = {
@@ -224,7 +228,7 @@ def import_(
     history: str = _history_option(),
     robot: str = typer.Option(None, help="The robot of files that name none."),
 ) -> None:
-    """Add the sessions (.parquet), calibrations, verify and check files (.json) under DIR.
+    """Add the sessions (.parquet), calibrations, verify, check and circle files (.json) under DIR.
 
     Sessions first, so calibrations find their robot; a file already in the
     history is not added again; files that are none of these are skipped.
@@ -237,8 +241,8 @@ def import_(
         counts = importing.import_folder(store, folder, robot, on_skip=_skipped)
         typer.echo(
             f"{counts['session']} sessions, {counts['calibration']} calibrations, "
-            f"{counts['verification']} verifications, {counts['check']} checks "
-            f"in the history {store.where}"
+            f"{counts['verification']} verifications, {counts['check']} checks, "
+            f"{counts['circle']} circle checks in the history {store.where}"
         )
 
 

@@ -69,6 +69,7 @@ def run(
     (cube, tool, calibration, registration, tracker position, seed).
     """
     from calibrator.verify import path_procedure as path_test
+    from calibrator.verify.path import ORIENTATION_FIGURES
 
     result = path_test.run(
         arm, path_test.Options(shape, speed, cycles, options), output, devices, inputs=inputs
@@ -86,6 +87,11 @@ def run(
         f"AV {section['AV_pct']:+.3f} %   RV {section['RV_pct']:.3f} %   "
         f"FV {section['FV_mm_s']:.3f} mm/s"
     )
+    if section.get("ATa_deg") is not None:  # a 6-DoF probe's orientation figures
+        typer.echo(
+            "orientation, deg: "
+            + "   ".join(f"{k[:2]}_{k[2]} {section[k]:.4f}" for k in ORIENTATION_FIGURES)
+        )
     if "CR_mm" in section:
         corners = "  ".join(
             f"C{k + 1} CR {cr:.4f} CO {co:.4f}"

@@ -35,7 +35,7 @@ class Alarm:
     ----------
     time : datetime
         When the record that raised it was measured (naive UTC).
-    kind : {'moved', 'limit', 'trend', 'check'}
+    kind : {'moved', 'limit', 'trend', 'check', 'circle'}
     subject : str
         A parameter name, or a series (``held-out error``, ``AP``, ``RP``),
         or a check's verdict.
@@ -48,7 +48,8 @@ class Alarm:
         ``moved``: the pair's chi-square and its quantile at the alarm
         probability; ``limit``: the value and the limit (mm); ``trend``: the
         value the trend line reaches at the horizon and the limit (mm);
-        ``check``: the check's p-value and the alarm probability (below).
+        ``check``: the check's p-value and the alarm probability (below);
+        ``circle``: the circle check's worst figure against its limit (mm).
     unit : str
     change, standard_error : float or None
         ``moved``: the parameter's change and its standard error (``change_unit``).
@@ -289,6 +290,51 @@ def check_verdicts(checks: Sequence[dict]) -> list[Alarm]:
     return alarms
 
 
+#: A circle check's figures with limits, as its alarm names them.
+_CIRCLE_NAMES = {
+    "radius_error_mm": "radius error",
+    "out_of_roundness_mm": "out-of-roundness",
+    "reversal_mm": "largest reversal mark",
+}
+
+
+def circle_verdicts(circles: Sequence[dict]) -> list[Alarm]:
+    """Circle checks (``check --circle``) flagged: each figure beyond its limit, in mm.
+
+    The alarm's figure and threshold are those of the figure furthest
+    beyond its limit (as a share of the limit).
+    """
+    alarms = []
+    for c in circles:
+        if c["verdict"] == "ok":
+            continue
+        limits = ((c.get("document") or {}).get("circle") or {}).get("limits_mm") or {}
+        beyond = [
+            (abs(c[key]) / limits[key], key)
+            for key in _CIRCLE_NAMES
+            if isinstance(limits.get(key), int | float) and limits[key] > 0
+            and abs(c[key]) > limits[key]
+        ]  # fmt: skip
+        parts = [
+            f"{_CIRCLE_NAMES[key]} {c[key]:.3f} mm beyond its limit {limits[key]:g} mm"
+            for _, key in sorted(beyond, reverse=True)
+        ]
+        worst = max(beyond)[1] if beyond else None
+        alarms.append(
+            Alarm(
+                c["time"],
+                "circle",
+                c["verdict"],
+                f"{c['verdict']}: " + ("; ".join(parts) or "no figure recorded beyond its limit"),
+                records=(_name(c, "circle check"),),
+                figure=None if worst is None else float(abs(c[worst])),
+                threshold=None if worst is None else float(limits[worst]),
+                unit="mm",
+            )
+        )
+    return alarms
+
+
 def explanations(check: dict) -> list[str]:
     """A check's explanation as sentences.
 
@@ -314,6 +360,7 @@ def alarms(
     verifications: Sequence[dict] = (),
     checks: Sequence[dict] = (),
     limits: Limits | None = None,
+    circles: Sequence[dict] = (),
 ) -> list[Alarm]:
     """Every alarm of a robot's history, oldest first.
 
@@ -322,6 +369,8 @@ def alarms(
     calibrations, verifications, checks : sequence of dict
         Rows as :class:`calibrator.history.History` reads them, oldest first.
     limits : Limits, optional
+    circles : sequence of dict
+        Circle checks (``History.circle_checks``), oldest first.
     """
     limits = limits or Limits()
     found = moved(calibrations)
@@ -343,6 +392,7 @@ def alarms(
         )  # fmt: skip
     # A check judges its own error (its verdict): its figures raise no second alarm.
     found += check_verdicts(checks)
+    found += circle_verdicts(circles)
     return sorted(found, key=lambda a: (a.time, a.kind, a.subject))
 
 

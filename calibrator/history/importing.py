@@ -1,4 +1,4 @@
-"""``history import DIR``: the sessions, calibrations and verify files under a folder."""
+"""``history import DIR``: the sessions, calibrations, verify, check and circle files in DIR."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
 
 def kind_of(path: Path) -> str | None:
-    """``session``, ``calibration``, ``verification``, ``check`` or ``None`` (none of these)."""
+    """``session``, ``calibration``, ``verification``, ``check``, ``circle`` or ``None``."""
     suffix = path.suffix.lower()
     if suffix == ".parquet":
         # verify and check write their poses beside their JSON: those are not sessions.
@@ -32,6 +32,7 @@ _KINDS = {
     "calibrator.calibration": "calibration",
     "calibrator.verify": "verification",
     "calibrator.check": "check",
+    "calibrator-check-circle": "circle",
 }
 
 
@@ -47,7 +48,7 @@ def _format(path: Path) -> str | None:
 
 
 def _document(path: Path) -> dict:
-    """A check file's document (checked by ``record_check``)."""
+    """A check or circle file's document (checked by ``record_check``, ``record_circle_check``)."""
     from calibrator.inputs import jsonfile
 
     try:
@@ -63,7 +64,7 @@ def import_folder(
     robot: str | None = None,
     on_skip: Callable[[Path, str], None] = lambda path, why: None,
 ) -> dict[str, int]:
-    """Record every session, calibration, verify and check file under ``folder``.
+    """Record every session, calibration, verify, check and circle file under ``folder``.
 
     Sessions go first so calibrations find their robot. Each file is its own
     transaction: a file refused (``on_skip(path, reason)``) leaves the others
@@ -72,14 +73,15 @@ def import_folder(
     Returns
     -------
     dict
-        ``{"session": n, "calibration": n, "verification": n, "check": n}`` recorded
-        or already there.
+        ``{"session": n, "calibration": n, "verification": n, "check": n, "circle": n}``
+        recorded or already there.
     """
     found: dict[str, list[Path]] = {
         "session": [],
         "calibration": [],
         "verification": [],
         "check": [],
+        "circle": [],
     }
     for path in sorted(p for p in folder.rglob("*") if p.is_file()):
         try:
@@ -94,6 +96,7 @@ def import_folder(
         "calibration": store.record_calibration,
         "verification": store.record_verification,
         "check": lambda path, robot: store.record_check(_document(path)),
+        "circle": lambda path, robot: store.record_circle_check(_document(path)),
     }
     counts = dict.fromkeys(found, 0)
     for kind, paths in found.items():

@@ -61,6 +61,8 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits, notes: Sequenc
         ("calibrations", len(data.calibrations)),
         ("ISO 9283 tests", len(data.verifications)),
         ("checks", len(data.checks)),
+        ("ISO 9283 path tests", len(data.path_verifications)),
+        ("circle checks", len(data.circle_checks)),
     ]
     for t in data.trackers:
         cert = t["certificate_date"]
@@ -113,6 +115,10 @@ def html(data: Timeline, alarms: Sequence[Alarm], limits: Limits, notes: Sequenc
         parts.append("</section>")
     parts.append('<section id="checks"><h2>Checks</h2>')
     parts.append(_checks_table(data.checks))
+    parts.append('</section><section id="circle-checks"><h2>Circle checks</h2>')
+    parts.append(_circles_table(data.circle_checks))
+    parts.append('</section><section id="path-tests"><h2>ISO 9283 path tests</h2>')
+    parts.append(_paths_table(data.path_verifications))
     parts.append('</section><section id="records"><h2>Records</h2>')
     parts.append(_records_table(data))
     parts.append("</section></body></html>")
@@ -132,6 +138,61 @@ def _checks_table(checks: list) -> str:
             f"<tr><td>{c['time']:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(c['verdict'])}</td>"
             f"<td>{c['measured_mm']:.4f}</td><td>{c['predicted_mm']:.4f}</td>"
             f'<td class="text">{_ESC(why)}</td></tr>'
+        )
+    rows.append("</table>")
+    return "\n".join(rows)
+
+
+def _mm(value: Any, sign: str = "") -> str:
+    """A figure's cell: 4 decimals, blank when absent (a reflector's orientation)."""
+    return "<td></td>" if value is None else f"<td>{value:{sign}.4f}</td>"
+
+
+def _circles_table(circles: list) -> str:
+    """``check --circle`` runs: verdict, radius error, out-of-roundness, marks, offset (mm)."""
+    if not circles:
+        return '<p class="note">none</p>'
+    rows = [
+        "<table><tr><th>time (UTC)</th><th>verdict</th><th>radius mm</th><th>speed mm/s</th>"
+        "<th>radius error mm</th><th>out-of-roundness mm</th><th>largest reversal mark mm</th>"
+        "<th>centre offset mm</th><th>direction gap mm</th><th>beyond its limit</th></tr>"
+    ]
+    for c in circles:
+        beyond = ", ".join(str(k) for k in (c["document"].get("circle") or {}).get("exceeded", []))
+        rows.append(
+            f"<tr><td>{c['time']:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(c['verdict'])}</td>"
+            f"<td>{c['radius_mm']:.1f}</td><td>{c['speed_mm_s']:.1f}</td>"
+            + _mm(c["radius_error_mm"], "+")
+            + _mm(c["out_of_roundness_mm"])
+            + _mm(c["reversal_mm"])
+            + _mm(c["centre_offset_mm"])
+            + _mm(c["direction_gap_mm"])
+            + f'<td class="text">{_ESC(beyond)}</td></tr>'
+        )
+    rows.append("</table>")
+    return "\n".join(rows)
+
+
+def _paths_table(paths: list) -> str:
+    """``verify --path`` runs: AT_P, RT_P (mm), AV, RV (%), FV (mm/s), AT_a..RT_c (deg)."""
+    if not paths:
+        return '<p class="note">none</p>'
+    angles = ("ata_deg", "atb_deg", "atc_deg", "rta_deg", "rtb_deg", "rtc_deg")
+    rows = [
+        "<table><tr><th>time (UTC)</th><th>path</th><th>commands</th><th>speed mm/s</th>"
+        "<th>AT_P mm</th><th>RT_P mm</th><th>AV %</th><th>RV %</th><th>FV mm/s</th>"
+        + "".join(f"<th>{k[:2].upper()}_{k[2]} deg</th>" for k in angles)
+        + "</tr>"
+    ]
+    for p in paths:
+        state = "compensated" if p["compensated"] else "nominal"
+        rows.append(
+            f"<tr><td>{p['measured_at']:%Y-%m-%d %H:%M:%S}</td><td>{_ESC(p['shape'])}</td>"
+            f"<td>{state}</td><td>{p['speed_mm_s']:.1f}</td>"
+            + "".join(_mm(p[k]) for k in ("at_p_mm", "rt_p_mm"))
+            + _mm(p["av_pct"], "+")
+            + "".join(_mm(p[k]) for k in ("rv_pct", "fv_mm_s", *angles))
+            + "</tr>"
         )
     rows.append("</table>")
     return "\n".join(rows)

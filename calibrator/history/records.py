@@ -228,13 +228,33 @@ PATH_FIGURES = {
 }
 
 
+#: A path test's orientation figures (a 6-DoF probe's; None from a reflector): key -> column.
+PATH_ORIENTATION = {
+    "ATa_deg": "ata_deg",
+    "ATb_deg": "atb_deg",
+    "ATc_deg": "atc_deg",
+    "RTa_deg": "rta_deg",
+    "RTb_deg": "rtb_deg",
+    "RTc_deg": "rtc_deg",
+}
+
+
+def _optional_number(doc: dict, key: str, where: str) -> float | None:
+    """A figure a document may leave out or give as null (None), else a finite number."""
+    return None if doc.get(key) is None else _number(doc, key, where)
+
+
 def is_path_record(record: Record) -> bool:
     """Whether a :func:`verification` record is a path test's (table ``path_verifications``)."""
     return "at_p_mm" in record.row
 
 
 def path_verification(path: Path, data: bytes, doc: dict) -> Record:
-    """The record of ``verify --path``'s JSON: its shape, speed and clause 7 figures."""
+    """The record of ``verify --path``'s JSON: its shape, speed and clause 7 figures.
+
+    The orientation figures (:data:`PATH_ORIENTATION`, deg) are None when the
+    document has none (a reflector's test, or one written before they were).
+    """
     where = str(path)
     section = doc.get("path")
     if not isinstance(section, dict):
@@ -242,7 +262,15 @@ def path_verification(path: Path, data: bytes, doc: dict) -> Record:
     shape = section.get("shape")
     if not isinstance(shape, str) or not shape:
         raise HistoryError(f"{where}: path.shape must name the path")
-    figures = {col: _number(section, key, f"{where}: path") for key, col in PATH_FIGURES.items()}
+    figures: dict[str, float | None] = {
+        col: _number(section, key, f"{where}: path") for key, col in PATH_FIGURES.items()
+    }
+    figures.update(
+        {
+            col: _optional_number(section, key, f"{where}: path")
+            for key, col in PATH_ORIENTATION.items()
+        }
+    )
     return _verify_record(
         path,
         data,
@@ -440,3 +468,78 @@ def check(doc: object, where: str = "check") -> Record:
     }
     tracker = doc.get("tracker")
     return Record(row, robot=robot.strip(), tracker=tracker if isinstance(tracker, str) else None)
+
+
+#: ``calibrator check --circle``'s document format (:mod:`calibrator.check.circle_procedure`).
+CIRCLE_FORMAT = "calibrator-check-circle"
+#: The circle test's verdicts.
+CIRCLE_VERDICTS = ("ok", "flagged")
+#: Figures of a circle test's ``circle`` section: key -> the row's column (mm, mm/s).
+CIRCLE_FIGURES = {
+    "speed_mm_s": "speed_mm_s",
+    "radius_error_mm": "radius_error_mm",
+    "out_of_roundness_mm": "out_of_roundness_mm",
+    "reversal_mm": "reversal_mm",
+    "centre_offset_norm_mm": "centre_offset_mm",
+}
+
+
+def circle_check(doc: object, where: str = "circle check") -> Record:
+    """The record of a ``calibrator check --circle`` document.
+
+    The row holds when it ran, the calibration it compensated with, the
+    commanded radius and speed, the radius error, out-of-roundness, largest
+    reversal mark, centre offset and direction gap (mm), the verdict, and the
+    document itself. Its identity is the digest of the canonical JSON, so the
+    same test recorded twice is one record.
+
+    Raises
+    ------
+    HistoryError
+        Not a circle test's document, or a field missing or malformed (named).
+    """
+    if not isinstance(doc, dict) or doc.get("format") != CIRCLE_FORMAT:
+        raise HistoryError(f"{where} is not a calibrator check --circle file")
+    robot = doc.get("robot")
+    if not isinstance(robot, str) or not robot.strip():
+        raise HistoryError(f"{where}: 'robot' must be the robot's name (text)")
+    digest = doc.get("calibration_sha256")
+    if not isinstance(digest, str) or not _HEX64.match(digest):
+        need = CHECK_FIELDS["calibration_sha256"]
+        raise HistoryError(f"{where}: 'calibration_sha256' must be {need}")
+    section = doc.get("circle")
+    if not isinstance(section, dict):
+        raise HistoryError(f"{where}: a circle test needs its 'circle' section")
+    verdict = section.get("verdict")
+    if verdict not in CIRCLE_VERDICTS or doc.get("verdict") != verdict:
+        raise HistoryError(
+            f"{where}: 'verdict' must be one of {', '.join(CIRCLE_VERDICTS)} (the same as "
+            f"circle.verdict), got {doc.get('verdict')!r:.40}"
+        )
+    inside = f"{where}: circle"
+    figures = {col: _number(section, key, inside) for key, col in CIRCLE_FIGURES.items()}
+    commanded = section.get("commanded")
+    commanded = commanded if isinstance(commanded, dict) else {}
+    radius = _number(commanded, "radius_mm", f"{inside}.commanded")
+    try:
+        sha = document_sha256(doc)
+    except (TypeError, ValueError) as exc:
+        raise HistoryError(f"{where}: not plain JSON ({exc})") from None
+    row = {
+        "sha256": sha,
+        "time": utc(doc.get("time"), f"{where}: 'time'"),
+        "calibration_sha256": digest,
+        "compensated": bool(section.get("compensated")),
+        "radius_mm": radius,
+        **figures,
+        "direction_gap_mm": _optional_number(section, "direction_gap_mm", inside),
+        "verdict": verdict,
+        "document": json.loads(json.dumps(doc)),
+    }
+    tracker, model = doc.get("tracker"), doc.get("model")
+    return Record(
+        row,
+        robot=robot.strip(),
+        tracker=tracker if isinstance(tracker, str) and tracker else None,
+        model=model if isinstance(model, str) else None,
+    )

@@ -1,7 +1,8 @@
 """The history's tables (SQLAlchemy Core), as of the newest migration.
 
 One row a record: robots and trackers (who), sessions, calibrations,
-verifications and checks (what happened, when). Times are naive UTC
+verifications (pose and path tests), checks and circle checks (what
+happened, when). Times are naive UTC
 datetimes; documents and per-pose values are JSON. The migrations in
 :mod:`calibrator.history.migrations` build exactly these tables; a test
 compares the two.
@@ -127,6 +128,35 @@ path_verifications = Table(
     Column("av_pct", Float, nullable=False),
     Column("rv_pct", Float, nullable=False),
     Column("fv_mm_s", Float, nullable=False),
+    Column("document", JSON, nullable=False),
+    # Added by migration 0005: the orientation figures (deg), NULL from a reflector.
+    Column("ata_deg", Float),
+    Column("atb_deg", Float),
+    Column("atc_deg", Float),
+    Column("rta_deg", Float),
+    Column("rtb_deg", Float),
+    Column("rtc_deg", Float),
+)
+
+#: A quick circle test (``calibrator check --circle``'s JSON; added by migration 0005).
+circle_checks = Table(
+    "circle_checks",
+    metadata,
+    Column("id", Integer, primary_key=True),
+    Column("robot_id", ForeignKey("robots.id"), nullable=False),
+    Column("tracker_id", ForeignKey("trackers.id")),
+    Column("sha256", String(64), nullable=False, unique=True),
+    Column("time", DateTime, nullable=False),
+    Column("calibration_sha256", String(64), nullable=False),
+    Column("compensated", Boolean, nullable=False),
+    Column("speed_mm_s", Float, nullable=False),
+    Column("radius_mm", Float, nullable=False),
+    Column("radius_error_mm", Float, nullable=False),
+    Column("out_of_roundness_mm", Float, nullable=False),
+    Column("reversal_mm", Float, nullable=False),
+    Column("centre_offset_mm", Float, nullable=False),
+    Column("direction_gap_mm", Float),
+    Column("verdict", String(20), nullable=False),
     Column("document", JSON, nullable=False),
 )
 

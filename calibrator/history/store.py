@@ -513,6 +513,13 @@ class History:
         with self._begin() as conn:
             return self._insert(conn, schema.checks, record, record.robot)
 
+    def record_circle_check(self, doc: dict) -> int:
+        """Record a ``calibrator check --circle`` document (:func:`records.circle_check`);
+        return its id (the existing one if recorded)."""
+        record = records.circle_check(doc)
+        with self._begin() as conn:
+            return self._insert(conn, schema.circle_checks, record, record.robot)
+
     def describe_robot(
         self,
         name: str,
@@ -662,6 +669,10 @@ class History:
     def checks(self, robot: str) -> list[dict]:
         """A robot's checks, oldest first (every column)."""
         return self._rows(schema.checks, robot, "time")
+
+    def circle_checks(self, robot: str) -> list[dict]:
+        """A robot's quick circle tests (``check --circle``), oldest first (and ``tracker``)."""
+        return self._rows(schema.circle_checks, robot, "time")
 
     def _rows(self, table: Any, robot: str, order: Any, more: list | None = None) -> list[dict]:
         from sqlalchemy import select

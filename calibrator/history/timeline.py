@@ -21,6 +21,11 @@ COLUMNS = (
     "predicted_mm",
     "ap_mm",
     "rp_mm",
+    "at_p_mm",
+    "rt_p_mm",
+    "radius_error_mm",
+    "out_of_roundness_mm",
+    "reversal_mm",
     "verdict",
     "file",
 )
@@ -36,6 +41,8 @@ class Timeline:
     verifications: list = field(default_factory=list)
     checks: list = field(default_factory=list)
     trackers: list = field(default_factory=list)
+    path_verifications: list = field(default_factory=list)
+    circle_checks: list = field(default_factory=list)
 
 
 def load(store: History, robot: str) -> Timeline:
@@ -44,7 +51,9 @@ def load(store: History, robot: str) -> Timeline:
     about = next(r for r in store.robots() if r["name"] == robot)
     sessions = store.sessions(robot)
     verifications = store.verifications(robot)
-    used = {s["tracker"] for s in sessions} | {v["tracker"] for v in verifications}
+    paths = store.path_verifications(robot)
+    circles = store.circle_checks(robot)
+    used = {r["tracker"] for r in [*sessions, *verifications, *paths, *circles]}
     return Timeline(
         robot=about,
         calibrations=calibrations,
@@ -52,6 +61,8 @@ def load(store: History, robot: str) -> Timeline:
         verifications=verifications,
         checks=store.checks(robot),
         trackers=[t for t in store.trackers() if t["name"] in used],
+        path_verifications=paths,
+        circle_checks=circles,
     )
 
 
@@ -89,6 +100,30 @@ def table(data: Timeline) -> list[dict]:
                 verdict=c["verdict"],
             )
         )
+    for p in data.path_verifications:
+        kind = f"path {p['shape']} " + ("compensated" if p["compensated"] else "nominal")
+        rows.append(
+            _row(
+                p["measured_at"],
+                kind,
+                p["id"],
+                at_p_mm=p["at_p_mm"],
+                rt_p_mm=p["rt_p_mm"],
+                file=p["file"],
+            )
+        )
+    for c in data.circle_checks:
+        rows.append(
+            _row(
+                c["time"],
+                "circle check",
+                c["id"],
+                radius_error_mm=c["radius_error_mm"],
+                out_of_roundness_mm=c["out_of_roundness_mm"],
+                reversal_mm=c["reversal_mm"],
+                verdict=c["verdict"],
+            )
+        )
     # At one time a session comes before what was made of it.
     rank = {"session": 0, "calibration": 1}
     return sorted(rows, key=lambda r: (r["time"], rank.get(r["record"], 2), r["record"], r["id"]))
@@ -110,17 +145,33 @@ def _cell(value: object, width: int = 0) -> str:
     return str(value)
 
 
+#: Figures a path test or circle check shows after its verdict in the text table: label, key.
+_MORE = (
+    ("AT_P", "at_p_mm"),
+    ("RT_P", "rt_p_mm"),
+    ("radius error", "radius_error_mm"),
+    ("out-of-roundness", "out_of_roundness_mm"),
+    ("reversal", "reversal_mm"),
+)
+
+
 def format_table(rows: list[dict]) -> str:
-    """The table as text (mm, UTC times): a calibration's held-out error, a check's measured."""
+    """The table as text (mm, UTC times): a calibration's held-out error, a check's measured.
+
+    A path test's AT_P and RT_P and a circle check's radius error,
+    out-of-roundness and largest reversal mark follow the verdict column.
+    """
     head = f"{'time (UTC)':19s}  {'record':20s} {'id':>5s} {'held-out':>9s} {'measured':>9s} "
     head += f"{'predicted':>9s} {'AP':>8s} {'RP':>8s}  verdict"
     lines = [head + "   (mm)"]
     for r in rows:
-        lines.append(
+        more = "  ".join(f"{label} {_cell(r[key])}" for label, key in _MORE if r[key] is not None)
+        line = (
             f"{_cell(r['time']):19s}  {r['record']:20s} {r['id']:5d} {_cell(r['held_out_mm']):>9s} "
             f"{_cell(r['measured_mm']):>9s} {_cell(r['predicted_mm']):>9s} "
-            f"{_cell(r['ap_mm']):>8s} {_cell(r['rp_mm']):>8s}  {r['verdict'] or ''}"
+            f"{_cell(r['ap_mm']):>8s} {_cell(r['rp_mm']):>8s}  {r['verdict'] or '':8s}  {more}"
         )
+        lines.append(line.rstrip())
     return "\n".join(lines)
 
 

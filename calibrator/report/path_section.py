@@ -4,7 +4,9 @@
 with path tests among the files adds this section beside the pose test's: a
 table of each run's clause 7 figures (AT_P, RT_P, AV, RV, FV, and the worst
 corner's CR and CO for a rectangle), with its shape, speed (and share of the
-rated speed), cycles and commands, and ``verify_path.png``: each run's path
+rated speed), cycles and commands, the orientation figures AT_a..RT_c
+(degrees) when a run's probe gave its orientation (a 6-DoF probe; blank for a
+reflector's run), and ``verify_path.png``: each run's path
 accuracy ``AT_i`` at the calculated points along the path (mm over the arc
 length, mm), where a calibration's gain or a fault's place along the path shows.
 """
@@ -24,6 +26,8 @@ PATH_PNG = "verify_path.png"
 #: The figures every path test has, in the table's order, with their units.
 FIGURES = (("AT_P_mm", "AT_P mm"), ("RT_P_mm", "RT_P mm"), ("AV_pct", "AV %"),
            ("RV_pct", "RV %"), ("FV_mm_s", "FV mm/s"))  # fmt: skip
+#: The orientation figures a 6-DoF probe adds (degrees); a reflector's run leaves them blank.
+ORIENTATION = tuple((f"{k}{x}_deg", f"{k}_{x} deg") for k in ("AT", "RT") for x in "abc")
 _COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd")
 
 
@@ -63,6 +67,9 @@ def section_html(runs: list, images: dict) -> str:
     head = "".join(f"<th>{esc(name)}</th>" for _, name in FIGURES)
     if corners:
         head += "<th>CR max mm</th><th>CO max mm</th>"
+    oriented = any(run.doc["path"].get("ATa_deg") is not None for run in runs)
+    if oriented:
+        head += "".join(f"<th>{esc(name)}</th>" for _, name in ORIENTATION)
     parts.append(
         '<div class="wide"><table><tr><th>run</th><th>shape</th><th>speed mm/s</th>'
         f"<th>% of rated</th><th>cycles</th>{head}</tr>"
@@ -74,6 +81,8 @@ def section_html(runs: list, images: dict) -> str:
         if corners:
             cr, co = path.get("CR_mm"), path.get("CO_mm")
             cells += f"<td>{max(cr):.4f}</td><td>{max(co):.4f}</td>" if cr else "<td></td><td></td>"
+        if oriented:
+            cells += "".join(_degrees(path.get(key)) for key, _ in ORIENTATION)
         parts.append(
             f"<tr><td>{i + 1}: {esc(_label(run))}</td><td>{esc(str(path.get('shape')))}</td>"
             f"<td>{float(path.get('speed_mm_s', np.nan)):.1f}</td>"
@@ -88,6 +97,13 @@ def section_html(runs: list, images: dict) -> str:
         parts.append(f'<img src="data:image/png;base64,{data}" alt="path accuracy along the path">')
     parts.append("</section>")
     return "\n".join(parts)
+
+
+def _degrees(value: object) -> str:
+    """A table cell of an orientation figure (deg); blank when the run has none."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return f"<td>{value:.4f}</td>"
+    return "<td></td>"
 
 
 def path_figure(runs: list) -> Any:

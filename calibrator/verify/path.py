@@ -20,7 +20,9 @@ runs a path through the same cube and measures it continuously:
    registration, is aligned in time with the commanded path
    (:func:`calibrator.verify.path_figures.estimate_latency` against the path run at
    constant speed: no robot stream is needed), and the clause 7 figures are
-   computed from the ``cycles`` streams.
+   computed from the ``cycles`` streams: position always, orientation
+   (``ATa``..``RTc``) when the tracker's probe streams its orientation (a
+   6-DoF probe); a reflector's orientation figures are None.
 
 The simulated arm is kinematic (it follows its commands exactly, no
 servo lag), so corners show no overshoot; its path error is the geometric
@@ -40,7 +42,7 @@ import pandas as pd
 from calibrator import compensate
 from calibrator.acquire import ports
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
+from calibrator.model import frames, rotations
 from calibrator.verify import iso9283
 from calibrator.verify import path_figures as ip
 
@@ -64,6 +66,12 @@ SPEED_STEP = 10
 SHAPES = ("line", "circle", "rectangle")
 #: Columns of the recorded streams (verify.parquet beside a path test's verify.json).
 STREAM_COLUMNS = ("cycle", "n", "t_s", "x_mm", "y_mm", "z_mm")
+#: Columns the streams gain from a 6-DoF probe: the attained orientation's angles
+#: (:func:`calibrator.model.rotations.angles_xyz`, base frame, rad), as verify's pose table.
+ORIENTATION_COLUMNS = ("a_rad", "b_rad", "c_rad")
+#: The clause 7 orientation figures, keys of the ``path`` section (degrees; None from a
+#: reflector, which gives positions only).
+ORIENTATION_FIGURES = ("ATa_deg", "ATb_deg", "ATc_deg", "RTa_deg", "RTb_deg", "RTc_deg")
 #: Keep the calculated points this far from a rectangle's corners, mm (7.2 at the corners
 #: is 7.5's business).
 CORNER_MARGIN_MM = 5.0
@@ -217,7 +225,8 @@ def run(
         The ``path`` section of verify.json (see :func:`figures`).
     streams : pandas.DataFrame
         The aligned streams, :data:`STREAM_COLUMNS`: cycle (from 1), tick
-        number, time from the aligned start (s), position (base frame, mm).
+        number, time from the aligned start (s), position (base frame, mm);
+        and :data:`ORIENTATION_COLUMNS` when the probe gives its orientation.
     """
     if cycles < 2:
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
@@ -229,18 +238,26 @@ def run(
         streams.append(one)
         starts.append(start)
         ticks.append(tick)
-    table = pd.DataFrame(
-        {
-            "cycle": np.repeat(np.arange(1, cycles + 1), [len(st.t_s) for st in streams]),
-            "n": np.concatenate(ticks),
-            "t_s": np.concatenate([st.t_s for st in streams]),
-            **{
-                f"{axis}_mm": np.concatenate([st.p_mm[:, k] for st in streams])
-                for k, axis in enumerate("xyz")
-            },
+    columns = {
+        "cycle": np.repeat(np.arange(1, cycles + 1), [len(st.t_s) for st in streams]),
+        "n": np.concatenate(ticks),
+        "t_s": np.concatenate([st.t_s for st in streams]),
+        **{
+            f"{axis}_mm": np.concatenate([st.p_mm[:, k] for st in streams])
+            for k, axis in enumerate("xyz")
         },
-        columns=list(STREAM_COLUMNS),
-    )
+    }
+    angles = [st.abc_rad for st in streams if st.abc_rad is not None]
+    oriented = len(angles) == len(streams)
+    if oriented:
+        columns.update(
+            {
+                name: np.concatenate([a[:, k] for a in angles])
+                for k, name in enumerate(ORIENTATION_COLUMNS)
+            }
+        )
+    names = list(STREAM_COLUMNS) + (list(ORIENTATION_COLUMNS) if oriented else [])
+    table = pd.DataFrame(columns, columns=names)
     return figures(test, streams, starts, cycles), table
 
 
@@ -268,7 +285,8 @@ def stream_cycle(
     Returns
     -------
     stream : calibrator.verify.path_figures.Stream
-        The attained path from the aligned start of the motion to its end, base frame, mm.
+        The attained path from the aligned start of the motion to its end, base frame,
+        mm; with its orientations (angles, base frame, rad) when the probe gives them.
     start : float
         Found start less the one requested, s.
     ticks : ndarray, shape (K,)
@@ -286,6 +304,8 @@ def stream_cycle(
     with tracker.stream(STREAM_HZ, count=count, stall_timeout_s=STALL_S) as stream:
         rec = stream.collect(count)
     ok = rec.code == 0
+    if rec.rotvec_rad is not None:  # a 6-DoF tick without its orientation is no tick
+        ok &= np.all(np.isfinite(rec.rotvec_rad), axis=1)
     if ok.sum() < 0.9 * count:
         raise CalibrationError(
             f"the tracker streamed {int(ok.sum())} of {count} readings of the path"
@@ -296,7 +316,13 @@ def stream_cycle(
     p = rec.point_mm[ok] @ t2b[:3, :3].T + t2b[:3, 3]
     start = ip.estimate_latency(t, p, reference, max_latency_s=HOLD_S)
     inside = (t >= start) & (t <= start + duration)
-    return ip.Stream(t[inside] - start, p[inside]), float(start), rec.n[ok][inside]
+    abc = None
+    if rec.rotvec_rad is not None:
+        # Probe to tracker, then into the base frame, read as verify's pose test reads it.
+        attained = t2b[:3, :3] @ rotations.rotvec_to_matrix(rec.rotvec_rad[ok][inside])
+        abc = rotations.angles_xyz(attained)
+    stream = ip.Stream(t[inside] - start, p[inside], abc)
+    return stream, float(start), rec.n[ok][inside]
 
 
 #: How long the tracker's stream may stay silent before the run calls it broken, s.
@@ -338,7 +364,11 @@ def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
     """The ``path`` section: commanded path, the clause 7 figures, per-point accuracy."""
     corners = isinstance(test.path, ip.Polyline) and len(test.path.corner_s_mm) > 0
     margin = CORNER_MARGIN_MM if corners else 0.0
-    pf = ip.path_figures(test.path, streams, m=POINTS, margin_mm=margin)
+    # The commanded orientation is constant along the path (the pose test's P1).
+    commanded_abc = rotations.angles_xyz(test.rotation)
+    pf = ip.path_figures(
+        test.path, streams, m=POINTS, margin_mm=margin, commanded_abc_rad=commanded_abc
+    )
     # The speed on a straight stretch away from the start, the stop and any corner:
     # the first segment of a rectangle (a chord across a corner is shorter than the path).
     first = test.path.corner_s_mm[0] if corners else test.path.length_mm
@@ -366,7 +396,11 @@ def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
     return {
         "shape": test.shape,
         "frame": "robot base (the model's)",
-        "commanded": {**commanded, "length_mm": test.path.length_mm},
+        "commanded": {
+            **commanded,
+            "length_mm": test.path.length_mm,
+            "abc_deg": np.rad2deg(commanded_abc).tolist(),  # the tool's, all along
+        },
         "speed_mm_s": test.speed_mm_s,
         "cycles": cycles,
         "compensated": test.compensated,
@@ -383,5 +417,12 @@ def figures(test: PathTest, streams: list, starts: list, cycles: int) -> dict:
             "RT_mm": pf["RT_i_mm"].tolist(),
         },
         "start_s": [float(s) for s in starts],  # found start less the one requested
+        # Clause 7's orientation figures need a 6-DoF probe; a reflector's are None.
+        "orientation": (
+            "measured (6-DoF probe)"
+            if "ATa_deg" in pf
+            else "not measured: the probe gives positions only (ATa..RTc need a 6-DoF probe)"
+        ),
+        **{name: pf.get(name) for name in ORIENTATION_FIGURES},
         **extra,
     }

@@ -112,7 +112,6 @@ def test_the_circle_test_flags_a_joint_zero_crash_and_passes_the_sound_arm(calib
     "args, message",
     [
         (("--tracker", "socket://127.0.0.1:9"), "--circle runs on the simulated cell only"),
-        (("--history", "h.db"), "not recorded in a history"),
         (("--circle-speed", "0"), "--circle-speed must be in"),
         (("--session", "s.parquet"), "leave out --session"),
     ],

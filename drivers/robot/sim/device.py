@@ -273,9 +273,9 @@ class SimulatedRobot(Robot):
     def runs_path_on(self, run_path: Callable[..., int]) -> None:
         """Offer :data:`~calibrator.acquire.ports.FOLLOW_PATH` on a tracker simulator's path.
 
-        ``run_path(t_s, point_mm, delay_s=...)``: the simulated tracker's
-        (:class:`~calibrator.acquire.ports.RunsPath`), which moves its target
-        through the probe's true points and returns the start on its clock, us.
+        ``run_path(t_s, point_mm, delay_s=..., rotvec_rad=...)``: the simulated
+        tracker's (:class:`~calibrator.acquire.ports.RunsPath`), which moves its
+        target through the probe's true poses and returns the start on its clock, us.
         """
         self._run_path = run_path
         self.capabilities = self.capabilities | {ports.FOLLOW_PATH}
@@ -307,7 +307,12 @@ class SimulatedRobot(Robot):
             raise ValueError("the simulated arm follows a path only with the simulated tracker")
         q = np.asarray(q_rad, dtype=float)
         true = forward(self._mdh, q, self._flange2tool, self._base2tracker)
-        return self._run_path(np.asarray(t_s, dtype=float), true[:, :3, 3], delay_s=delay_s)
+        # The probe's orientations too (a 6-DoF probe streams them), as a continuous
+        # sequence: the simulator interpolates them linearly between waypoints.
+        rotvec = continuous_rotvecs(rotations.matrix_to_rotvec(true[:, :3, :3]))
+        return self._run_path(
+            np.asarray(t_s, dtype=float), true[:, :3, 3], delay_s=delay_s, rotvec_rad=rotvec
+        )
 
     def stop(self) -> None:
         self._check_connected()  # moves are instantaneous: nothing is ever in motion
@@ -393,3 +398,22 @@ def open_url(url: str, options: RobotOptions) -> SimulatedRobot:
     if "control" in params:
         robot.steer(params["control"])
     return robot
+
+
+def continuous_rotvecs(rotvec_rad: np.ndarray) -> np.ndarray:
+    """Rotation vectors (N, 3), rad, with no jump between neighbours: the same rotations.
+
+    :func:`calibrator.model.rotations.matrix_to_rotvec` keeps angles in
+    [0, pi], so an orientation turning through pi flips its vector to the
+    other side (``r`` and ``r (1 - 2 pi / |r|)`` are one rotation); a linear
+    interpolation across that flip would pass through unrelated rotations.
+    Each vector that lies farther from its predecessor than its other form
+    does is flipped, and every later one with it (the parity of the flips).
+    """
+    r = np.asarray(rotvec_rad, dtype=float)
+    angle = np.linalg.norm(r, axis=1, keepdims=True)
+    other = r * (1.0 - 2.0 * np.pi / np.where(angle > 0, angle, 1.0))
+    other = np.where(angle > 0, other, r)
+    jump = np.linalg.norm(r[1:] - r[:-1], axis=1) > np.linalg.norm(other[1:] - r[:-1], axis=1)
+    odd = np.concatenate([[False], np.cumsum(jump) % 2 == 1])
+    return np.where(odd[:, None], other, r)

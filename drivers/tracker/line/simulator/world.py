@@ -101,9 +101,17 @@ class SimulatedTracker(LaserTracker):
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"tracker simulator: {exc}") from exc
 
-    def run_path(self, t_s: np.ndarray, point_mm: np.ndarray, delay_s: float = 0.0) -> int:
+    def run_path(
+        self,
+        t_s: np.ndarray,
+        point_mm: np.ndarray,
+        delay_s: float = 0.0,
+        rotvec_rad: np.ndarray | None = None,
+    ) -> int:
         """Move the reflector along the arm's true path: waypoints at ``t_s`` (s from the
-        start), shape (N, 3), mm, tracker frame, starting ``delay_s`` from now.
+        start), shape (N, 3), mm, tracker frame, starting ``delay_s`` from now; with
+        ``rotvec_rad`` (N, 3), rad, the probe turns through those orientations (probe to
+        tracker frame; a 6-DoF probe streams them).
 
         Returns
         -------
@@ -118,7 +126,7 @@ class SimulatedTracker(LaserTracker):
         if self._process is None:
             raise TrackerGone("tracker simulator not started: call connect() first")
         try:
-            return self._process.run_path(t_s, point_mm, delay_s=delay_s)
+            return self._process.run_path(t_s, point_mm, rotvec_rad, delay_s=delay_s)
         except (DriverError, OSError) as exc:
             raise TrackerGone(f"tracker simulator: {exc}") from exc
 
