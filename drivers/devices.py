@@ -38,6 +38,7 @@ from calibrator.acquire.ports import STEER, Opened
 from calibrator.errors import CalibrationError
 from drivers.registry import scheme
 from drivers.robot.sim.follow import steer_tracker
+from drivers.robot.ur.sim_cell import follow_paths
 
 
 def is_sim(url: str) -> bool:
@@ -142,6 +143,8 @@ class Devices:
             # probe of whatever arm moves (the simulated arm says where it is; any
             # other arm's reported joints are put through the world's true arm).
             robot = steer_tracker(robot, tracker, world.tool_pose)
+            # and the fake UR's timed paths too (the path test: drivers.robot.ur.sim_cell)
+            robot = follow_paths(robot, tracker, world.tool_pose)
         # What a procedure may know of the simulated cell, as plain data.
         return Opened(
             robot,

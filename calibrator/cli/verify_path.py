@@ -8,6 +8,7 @@ and prints the figures.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -46,8 +47,8 @@ def check_options(
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not speed.percent and not (0.0 < speed.value <= 5000.0):
         fail(f"--path-speed must be in (0, 5000] mm/s, got {speed.value:g}")
-    if not (_run.is_sim(robot) and _run.is_sim(tracker)):
-        fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
+    if not (_run.is_sim(robot) or robot.startswith("ur://")):
+        fail("--path runs with the simulated arm or a UR (--robot sim or ur://HOST) for now")
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
 
@@ -62,6 +63,7 @@ def run(
     devices: Any,
     output: Path,
     inputs: list[Path],
+    yes: bool = False,
 ) -> None:
     """Run the path test procedure (:mod:`calibrator.verify.path_procedure`); print its figures.
 
@@ -70,8 +72,20 @@ def run(
     """
     from calibrator.verify import path_procedure as path_test
 
+    def confirm(robot_id: str) -> None:
+        what = f"the robot {robot_id} would run the {shape} {cycles} times at {speed}"
+        if not sys.stdin.isatty():
+            fail(f"{what}: pass --yes to confirm")
+        if not typer.confirm(f"{what[0].upper()}{what[1:]}: go?", default=False):
+            fail("not confirmed; nothing moved")
+
     result = path_test.run(
-        arm, path_test.Options(shape, speed, cycles, options), output, devices, inputs=inputs
+        arm,
+        path_test.Options(shape, speed, cycles, options),
+        output,
+        devices,
+        inputs=inputs,
+        confirm=None if yes else confirm,
     )
     section, speed_mm_s, rated = result.document["path"], result.speed_mm_s, result.rated_mm_s
     state = "compensated" if result.compensated else "nominal"

@@ -1,0 +1,103 @@
+"""The fake UR in the simulated cell: the simulated tracker sees the paths it runs.
+
+``measure --robot ur://127.0.0.1 --tracker sim`` pairs the fake controller
+with the simulated world through :class:`~drivers.robot.sim.follow.Following`:
+after each move the world's true arm at the joints the controller reports
+places the tracker's target. A path test needs the target to *move* while the
+tracker streams: :class:`PathFollowing` gives the tracker simulator the true
+arm's probe along the path's joint commands as a timed path (``SIM,PATH``)
+that starts when the UR starts the motion, through the host's clock:
+
+1. the arm moves to the path's first command (a move the tracker follows);
+2. the tracker simulator gets the true probe's points and starts them
+   ``delay_s`` after it received ``GO`` (its reply carries that start on its
+   clock);
+3. the UR starts its motion ``delay_s`` after that reply reached the host.
+
+The tracker thus sees the true arm along the commanded joints on the
+commanded timing, plus its own latency (``sim://?latency=S``); the fake
+arm's actual joints (what the UR's joint stream reports) follow the servoJ
+commands a few milliseconds late, which the path test reports as the arm's
+start (``start_s``). Poses: tool in the tracker frame, (4, 4), mm.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from calibrator.acquire import ports
+from drivers.robot.sim.follow import Following
+from drivers.robot.ur.device import LEAD_IN_ACCEL_RAD_S2, LEAD_IN_SPEED_RAD_S
+
+
+def follow_paths(robot: Any, tracker: Any, tool_pose: Callable[[Any], Any]) -> Any:
+    """``robot`` made to run its paths on ``tracker``'s target, when both can.
+
+    Parameters
+    ----------
+    robot : Any
+        The robot the devices opened, already following moves
+        (:func:`drivers.robot.sim.follow.steer_tracker`).
+    tracker : Any
+        The simulated tracker (:class:`~calibrator.acquire.ports.RunsPath`).
+    tool_pose : callable
+        ``tool_pose(q_rad)``: the world's true probe pose (4, 4), mm, tracker
+        frame, for joints (6,), rad.
+
+    Returns
+    -------
+    ``robot`` itself, or wrapped in :class:`PathFollowing` (a robot other
+    than the simulated arm that runs timed paths, the fake UR).
+    """
+    if (
+        isinstance(robot, Following)
+        and ports.FOLLOW_PATH.offered_by(robot.robot)
+        and isinstance(tracker, ports.RunsPath)
+    ):
+        return PathFollowing(robot, tracker, tool_pose)
+    return robot
+
+
+class PathFollowing(Following):
+    """A :class:`Following` robot whose timed paths the simulated tracker's target runs.
+
+    Parameters
+    ----------
+    robot : drivers.robot.sim.follow.Following
+        The robot whose moves the tracker already follows.
+    tracker : calibrator.acquire.ports.RunsPath
+    tool_pose : callable
+        As :func:`follow_paths`.
+    """
+
+    def __init__(
+        self, robot: Following, tracker: ports.RunsPath, tool_pose: Callable[[Any], Any]
+    ) -> None:
+        super().__init__(robot, lambda q: None)  # the inner one steers after moves
+        self.tracker = tracker
+        self.tool_pose = tool_pose
+
+    def follow_path(self, t_s: ArrayLike, q_rad: ArrayLike, delay_s: float = 0.0) -> int:
+        """Run the path on the robot and the true probe's path on the tracker, together.
+
+        Returns
+        -------
+        int
+            The start of the motion on the tracker's clock, microseconds.
+        """
+        t = np.asarray(t_s, dtype=float)
+        q = np.asarray(q_rad, dtype=float)
+        if q.ndim != 2 or len(q) != len(t) or len(t) < 2:
+            raise ValueError(f"a path is t_s (N >= 2,) and q_rad (N, 6), got {t.shape}, {q.shape}")
+        self.robot.move_joints(q[0], LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
+        points = np.array([np.asarray(self.tool_pose(qi), float)[:3, 3] for qi in q])
+        start_us = self.tracker.run_path(t, points, delay_s=delay_s)
+        # The tracker starts delay_s after GO reached it; its reply is here now.
+        start_host = time.monotonic() + delay_s
+        self.robot.follow_path(t, q, delay_s=max(start_host - time.monotonic(), 0.0))
+        return start_us
