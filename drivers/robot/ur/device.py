@@ -262,7 +262,14 @@ class UrRtdeRobot(Robot):
         self._wait_move(deadline + self.timeout_margin_s)
         return self._verify_reached(target)
 
-    def follow_path(self, t_s: ArrayLike, q_rad: ArrayLike, delay_s: float = 0.0) -> int:
+    def follow_path(
+        self,
+        t_s: ArrayLike,
+        q_rad: ArrayLike,
+        delay_s: float = 0.0,
+        *,
+        start_host_s: float | None = None,
+    ) -> int:
         """Start running a timed joint path; returns when it starts (host clock, us).
 
         Moves the arm to ``q_rad[0]`` first (moveJ, when it is not there), then
@@ -279,6 +286,10 @@ class UrRtdeRobot(Robot):
             Joint commands at ``t_s``, rad (linear in between).
         delay_s : float
             Hold before and after the motion, s (0 to 10).
+        start_host_s : float, optional
+            Start the motion then instead (host monotonic time, s, within 10 s
+            from now): a simulated tracker started at a known moment is joined
+            exactly (:mod:`drivers.robot.ur.sim_cell`).
 
         Returns
         -------
@@ -310,7 +321,10 @@ class UrRtdeRobot(Robot):
             self.move_joints(q[0], LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
         self._check_link()
         self._raise_for_safety()
-        start = time.monotonic() + float(delay_s)
+        now = time.monotonic()
+        start = now + float(delay_s) if start_host_s is None else float(start_host_s)
+        if not now <= start <= now + 10.0:
+            raise ValueError(f"the path's start is {start - now:.3f} s from now, not in 0..10 s")
         self._path = _PathRun(self, t, q, start, float(delay_s))
         self._path.start()
         return int(round(start * 1e6))
@@ -575,7 +589,7 @@ class _PathRun(threading.Thread):
     def run(self) -> None:
         robot, receive, control = self.robot, self.robot._receive, self.robot._control
         last_stamp = None
-        servoing = stopped = False
+        servoing = stopped = ended = False
         next_at = time.monotonic()
         try:
             while not self.abort:
@@ -590,9 +604,11 @@ class _PathRun(threading.Thread):
                 if seen >= self.end_host_s:
                     break
                 rel = seen - self.start_host_s
-                if 0.0 <= rel <= self.t[-1] + 2 * SERVO_PERIOD_S:
-                    # The path where it is now: a late cycle sends a later point, never a stale one.
+                if 0.0 <= rel and (rel <= self.t[-1] + 2 * SERVO_PERIOD_S or not ended):
+                    # The path where it is now: a late cycle sends a later point, never a stale
+                    # one; and its end before servoing stops, however late the loop ran.
                     target = [float(np.interp(rel, self.t, col)) for col in self.q.T]
+                    ended = rel >= self.t[-1]
                     with robot._cmd_lock:
                         sent = control.servoJ(
                             target, 0.0, 0.0, SERVO_PERIOD_S, SERVO_LOOKAHEAD_S, SERVO_GAIN
@@ -631,7 +647,14 @@ class _PathRun(threading.Thread):
 class GuardedUr(GuardedRobot):
     """:class:`GuardedRobot` over a UR, its timed paths checked against the limits too."""
 
-    def follow_path(self, t_s: ArrayLike, q_rad: ArrayLike, delay_s: float = 0.0) -> int:
+    def follow_path(
+        self,
+        t_s: ArrayLike,
+        q_rad: ArrayLike,
+        delay_s: float = 0.0,
+        *,
+        start_host_s: float | None = None,
+    ) -> int:
         """:meth:`UrRtdeRobot.follow_path`, once every command is within the joint limits
         and no joint turns faster than the caps between two commands.
 
@@ -654,7 +677,9 @@ class GuardedUr(GuardedRobot):
                     f"path command {row + 1} turns joint J{joint + 1} at "
                     f"{speed[row, joint]:.4g} rad/s, above its cap {cap[joint]:.4g} rad/s"
                 )
-        return self.robot.follow_path(t, q, delay_s)  # type: ignore[attr-defined]
+        return self.robot.follow_path(  # type: ignore[attr-defined]
+            t, q, delay_s, start_host_s=start_host_s
+        )
 
     def joint_stream(self) -> JointStream:
         """The inner UR's :meth:`UrRtdeRobot.joint_stream`."""

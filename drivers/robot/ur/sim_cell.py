@@ -9,10 +9,14 @@ arm's probe along the path's joint commands as a timed path (``SIM,PATH``)
 that starts when the UR starts the motion, through the host's clock:
 
 1. the arm moves to the path's first command (a move the tracker follows);
-2. the tracker simulator gets the true probe's points and starts them
+2. a short stream of the tracker (:data:`CLOCK_TICKS` ticks) maps its clock
+   onto the host's: the smallest gap between a tick's arrival and its stamp,
+   as the path test maps its stream (:func:`tracker_clock_offset`);
+3. the tracker simulator gets the true probe's points and starts them
    ``delay_s`` after it received ``GO`` (its reply carries that start on its
    clock);
-3. the UR starts its motion ``delay_s`` after that reply reached the host.
+4. the UR starts its motion at that start on the host's clock (a reply
+   read late on a loaded host does not delay it).
 
 The tracker thus sees the true arm along the commanded joints on the
 commanded timing, plus its own latency (``sim://?latency=S``); the fake
@@ -33,6 +37,26 @@ from numpy.typing import ArrayLike
 from calibrator.acquire import ports
 from drivers.robot.sim.follow import Following
 from drivers.robot.ur.device import LEAD_IN_ACCEL_RAD_S2, LEAD_IN_SPEED_RAD_S
+
+#: Ticks (at :data:`CLOCK_HZ`) of the stream that maps the tracker's clock onto the host's.
+CLOCK_TICKS = 100
+CLOCK_HZ = 500
+
+
+def tracker_clock_offset(tracker: Any, ticks: int = CLOCK_TICKS) -> float:
+    """Host monotonic time less the tracker's clock, s: the smallest gap seen over a stream.
+
+    A tick is sent once its stamp is due, so each arrival is its stamp plus
+    the offset plus a delay; the smallest of ``ticks`` is the offset within
+    the link's least delay.
+    """
+    gaps = []
+    with tracker.stream(CLOCK_HZ, count=ticks, stall_timeout_s=5.0) as stream:
+        for sample in stream:
+            gaps.append(time.monotonic() - sample.device_time_us / 1e6)
+    if not gaps:
+        raise ValueError("the tracker streamed no tick to map its clock by")
+    return min(gaps)
 
 
 def follow_paths(robot: Any, tracker: Any, tool_pose: Callable[[Any], Any]) -> Any:
@@ -96,8 +120,7 @@ class PathFollowing(Following):
             raise ValueError(f"a path is t_s (N >= 2,) and q_rad (N, 6), got {t.shape}, {q.shape}")
         self.robot.move_joints(q[0], LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
         points = np.array([np.asarray(self.tool_pose(qi), float)[:3, 3] for qi in q])
+        offset = tracker_clock_offset(self.tracker)
         start_us = self.tracker.run_path(t, points, delay_s=delay_s)
-        # The tracker starts delay_s after GO reached it; its reply is here now.
-        start_host = time.monotonic() + delay_s
-        self.robot.follow_path(t, q, delay_s=max(start_host - time.monotonic(), 0.0))
+        self.robot.follow_path(t, q, delay_s=delay_s, start_host_s=start_us / 1e6 + offset)
         return start_us
