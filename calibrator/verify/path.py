@@ -40,6 +40,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from scipy.optimize import minimize_scalar
 
 from calibrator import compensate
 from calibrator.acquire import ports
@@ -100,8 +101,10 @@ ALIGN_ROBOT = "robot stream"
 ALIGN_TRACKER = "tracker only"
 #: Largest latency of the tracker behind the robot's stream looked for, either sign, s.
 MAX_LATENCY_S = 0.25
-#: Rounds of the latency fit that take the mean offset out (model error along the path).
-OFFSET_ROUNDS = 3
+#: How far from the plain latency the one with the mean offset out is looked for, s
+#: (a model error of 2 mm along the path at 40 mm/s), and the grid step there, s.
+OFFSET_WINDOW_S = 0.05
+OFFSET_GRID_S = 0.0005
 
 
 @dataclass(frozen=True)
@@ -410,14 +413,17 @@ def stream_cycle_robot(
 
 
 def robot_latency(t_s: np.ndarray, p_mm: np.ndarray, reference: ip.Reference) -> float:
-    """The tracker's latency behind the robot's path, its mean offset taken out.
+    """The tracker's latency behind the robot's path, with their mean offset taken out.
 
     The robot's path is its model's (nominal or calibrated), the tracker's
     the true arm's: a model error along the path would pass for a time shift
-    (0.5 mm at 100 mm/s is 5 ms). The fit alternates the latency
-    (:func:`calibrator.verify.path_figures.estimate_latency`) with the mean
-    offset between the two paths, :data:`OFFSET_ROUNDS` times; the holds before
-    and after the motion, and its ends, fix the time shift apart from an offset.
+    (0.5 mm at 100 mm/s is 5 ms). So the latency minimises the spread of the
+    differences about their mean, ``sum_k |d_k - dbar|^2`` with
+    ``d_k = p_k - reference(t_k - tau)``: the holds before and after the
+    motion and its start and stop fix the time, any constant offset is left
+    out. It is looked for within :data:`OFFSET_WINDOW_S` of the plain least
+    squares latency (:func:`calibrator.verify.path_figures.estimate_latency`),
+    on a grid of :data:`OFFSET_GRID_S`, then refined.
 
     Parameters
     ----------
@@ -433,12 +439,17 @@ def robot_latency(t_s: np.ndarray, p_mm: np.ndarray, reference: ip.Reference) ->
     float
         Latency, s: a reading stamped ``t`` shows the arm as it was at ``t - latency``.
     """
-    offset = np.zeros(3)
-    latency = 0.0
-    for _ in range(OFFSET_ROUNDS):
-        latency = ip.estimate_latency(t_s, p_mm - offset, reference, MAX_LATENCY_S)
-        offset = np.mean(p_mm - reference(t_s - latency), axis=0)
-    return float(latency)
+    plain = ip.estimate_latency(t_s, p_mm, reference, MAX_LATENCY_S)
+
+    def spread(tau: float) -> float:
+        d = p_mm - reference(t_s - tau)
+        return float(((d - d.mean(axis=0)) ** 2).sum())
+
+    grid = plain + np.arange(-OFFSET_WINDOW_S, OFFSET_WINDOW_S + 1e-12, OFFSET_GRID_S)
+    best = int(np.argmin([spread(tau) for tau in grid]))
+    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+    found = minimize_scalar(spread, bounds=(lo, hi), method="bounded", options={"xatol": 1e-7})
+    return float(found.x)
 
 
 def timed_samples(
