@@ -224,6 +224,8 @@ class FakeController:
         self._servo_target: np.ndarray | None = None
         # controller time of the last cycle, s: the RTDE timestamp of the joints it reports
         self._cycle_s: float | None = None
+        self.cycles = 0  # cycles run; the RTDE stream sends after each (wait_cycle)
+        self._cycle_done = threading.Condition(self.lock)
         self._move_is_sync = False  # a sync movej holds the script until it ends
         self._busy = False
         self._executing_cmd = False
@@ -480,6 +482,18 @@ class FakeController:
                 self.qd = (self._servo_target - self.q) / max(dt_wall, 1e-9)
                 self.q = self._servo_target.copy()
             self._cycle_s = time.monotonic() - self._t0
+            self.cycles += 1
+            self._cycle_done.notify_all()
+
+    def wait_cycle(self, seen: int, timeout_s: float) -> int:
+        """Wait until a cycle after the ``seen``-th has run (at most ``timeout_s``); the count.
+
+        The RTDE stream sends its packages on the controller's cycles, as a
+        controller does: each carries the joints and the timestamp of one cycle.
+        """
+        with self.lock:
+            self._cycle_done.wait_for(lambda: self.cycles > seen, timeout_s)
+            return self.cycles
 
     def _advance(self, dt):
         if self._move is None:
