@@ -28,7 +28,7 @@ from drivers.robot.ur.simulator.launcher import FakeUrProcess
 TIMEOUT_S = 240.0
 #: How close the tracker's latency is recovered, s. What limits it: the robot's stream
 #: is sampled every 4 to 8 ms of a loaded host, and the fake arm steps to each servoJ
-#: set-point, which the alignment's start and end see (measured: 0.8 to 2.6 ms off).
+#: set-point, which the alignment's start and end see (measured: 0.1 to 1.7 ms short).
 LATENCY_TOLERANCE_S = 0.004
 
 
