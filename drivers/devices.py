@@ -15,11 +15,13 @@ a world file::
     Devices("ur://10.0.0.5", "emscon://10.0.0.7")  # a real cell
 
 The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
-``faults=PATH``, ``replay=PATH`` and ``record=PATH``; the simulated robot
+``faults=PATH``, ``replay=PATH``, ``record=PATH`` and ``latency=S`` (its
+stamps S seconds late for a moving target); the simulated robot
 ``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
 simulator started by hand); the world file (:mod:`calibrator.world`) the true
 arm both move. When the tracker is simulated its target follows the arm's
-true probe after each move (:mod:`drivers.robot.sim.follow`): the simulated
+true probe after each move (:mod:`drivers.robot.sim.follow`), and along the
+timed paths a UR runs (:mod:`drivers.robot.ur.sim_cell`): the simulated
 world stays behind the devices, and a procedure gets of it only plain data
 (:class:`~calibrator.acquire.ports.Opened`: where the tracker stands, the
 base frame as surveyed).

@@ -86,3 +86,15 @@ def test_verify_path_on_the_fake_ur_end_to_end(fake, tmp_path):
     table = pd.read_parquet(tmp_path / "r.parquet")
     assert set(table["cycle"]) == {1, 2} and table["t_s"].min() >= 0.0
     assert table["t_s"].max() <= section["commanded"]["length_mm"] / section["speed_mm_s"]
+
+
+@pytest.mark.parametrize("latency", ["2", "-0.1", "soon"])
+def test_a_simulated_tracker_latency_outside_0_to_1_s_is_refused_in_one_line(tmp_path, latency):
+    done = run_cli(
+        "verify", "--path", "line", "--tracker", f"sim://?latency={latency}", "-o", "v.json",
+        cwd=tmp_path, timeout=TIMEOUT_S,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"latency='{latency}'" in lines[0], done.stderr
+    assert not list(tmp_path.iterdir())
