@@ -79,14 +79,24 @@ def run(
         if not typer.confirm(f"{what[0].upper()}{what[1:]}: go?", default=False):
             fail("not confirmed; nothing moved")
 
-    result = path_test.run(
-        arm,
-        path_test.Options(shape, speed, cycles, options),
-        output,
-        devices,
-        inputs=inputs,
-        confirm=None if yes else confirm,
-    )
+    from calibrator.acquire.ports import RobotHalted
+
+    try:
+        result = path_test.run(
+            arm,
+            path_test.Options(shape, speed, cycles, options),
+            output,
+            devices,
+            inputs=inputs,
+            confirm=None if yes else confirm,
+        )
+    except RobotHalted as exc:  # a stop mid-path (a UR): as the pose test's, exit 1
+        typer.echo(
+            f"stopped: the robot halted during the path test ({exc}); nothing written: "
+            "clear the stop and run it again (a path test is not resumed)",
+            err=True,
+        )
+        raise typer.Exit(1) from None
     section, speed_mm_s, rated = result.document["path"], result.speed_mm_s, result.rated_mm_s
     state = "compensated" if result.compensated else "nominal"
     typer.echo(

@@ -98,3 +98,24 @@ def test_a_simulated_tracker_latency_outside_0_to_1_s_is_refused_in_one_line(tmp
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and f"latency='{latency}'" in lines[0], done.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_an_emergency_stop_during_a_path_test_ends_it_with_exit_1_and_nothing_written(
+    fake, tmp_path
+):
+    # Move 1 leads the arm to the path's start for cycle 1, move 2 for cycle 2: stopped there.
+    assert fake.command("fake estop at movej 2") == "fake: estop at movej 2"
+    args = ("verify", "--robot", "ur://127.0.0.1", "--seed", "3", "--path", "line")
+    try:
+        done = run_cli(
+            *args, "--cycles", "2", "--yes", "-o", "v.json", cwd=tmp_path, timeout=TIMEOUT_S
+        )
+    finally:
+        fake.command("fake estop at movej 0")
+        fake.command("fake release estop")
+        fake.command("power on")
+        fake.command("brake release")
+    assert done.returncode == 1, done.stderr
+    ours = [line for line in done.stderr.splitlines() if "stopped:" in line]
+    assert len(ours) == 1 and "emergency stop" in ours[0], done.stderr
+    assert not list(tmp_path.iterdir())
