@@ -70,6 +70,21 @@ LEAD_IN_SPEED_RAD_S = 0.5
 LEAD_IN_ACCEL_RAD_S2 = 1.0
 
 
+def lead_in_motion(limits: Any = None) -> tuple[float, float]:
+    """Speed (rad/s) and acceleration (rad/s^2) of the moveJ to a path's start.
+
+    :data:`LEAD_IN_SPEED_RAD_S` and :data:`LEAD_IN_ACCEL_RAD_S2`, lowered to
+    the caps of ``limits`` (:class:`drivers.robot.safety.MotionLimits`) when
+    given: a user's ``--max-speed`` holds for it too.
+    """
+    if limits is None:
+        return LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2
+    speed = min(LEAD_IN_SPEED_RAD_S, float(limits.max_speed_rad_s))
+    if limits.max_joint_speed_rad_s is not None:
+        speed = min(speed, float(np.min(limits.max_joint_speed_rad_s)))
+    return speed, min(LEAD_IN_ACCEL_RAD_S2, float(limits.max_accel_rad_s2))
+
+
 @dataclass(frozen=True)
 class JointStream:
     """The controller's actual joints recorded while a path ran (RTDE receive).
@@ -269,6 +284,7 @@ class UrRtdeRobot(Robot):
         delay_s: float = 0.0,
         *,
         start_host_s: float | None = None,
+        lead_in: tuple[float, float] | None = None,
     ) -> int:
         """Start running a timed joint path; returns when it starts (host clock, us).
 
@@ -290,6 +306,9 @@ class UrRtdeRobot(Robot):
             Start the motion then instead (host monotonic time, s, within 10 s
             from now): a simulated tracker started at a known moment is joined
             exactly (:mod:`drivers.robot.ur.sim_cell`).
+        lead_in : (float, float), optional
+            Speed (rad/s) and acceleration (rad/s^2) of the moveJ to the start
+            (default :func:`lead_in_motion`).
 
         Returns
         -------
@@ -318,7 +337,7 @@ class UrRtdeRobot(Robot):
         if self._path is not None and self._path.is_alive():
             raise NotReady("a path is still running: call joint_stream() for its end first")
         if np.max(np.abs(self.actual_joints() - q[0])) > self.tolerance_rad:
-            self.move_joints(q[0], LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
+            self.move_joints(q[0], *(lead_in or lead_in_motion()))
         self._check_link()
         self._raise_for_safety()
         now = time.monotonic()
@@ -664,7 +683,8 @@ class GuardedUr(GuardedRobot):
             A command out of limits, or a joint speed above a cap.
         """
         t = np.asarray(t_s, dtype=float)
-        q = check_plan(q_rad, self.limits, LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
+        lead_in = lead_in_motion(self.limits)
+        q = check_plan(q_rad, self.limits, *lead_in)
         if len(t) == len(q) and len(t) > 1 and np.all(np.diff(t) > 0):
             speed = np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
             cap = np.full(6, self.limits.max_speed_rad_s)
@@ -678,7 +698,7 @@ class GuardedUr(GuardedRobot):
                     f"{speed[row, joint]:.4g} rad/s, above its cap {cap[joint]:.4g} rad/s"
                 )
         return self.robot.follow_path(  # type: ignore[attr-defined]
-            t, q, delay_s, start_host_s=start_host_s
+            t, q, delay_s, start_host_s=start_host_s, lead_in=lead_in
         )
 
     def joint_stream(self) -> JointStream:

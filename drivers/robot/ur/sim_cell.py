@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from drivers.robot.sim.follow import Following
-from drivers.robot.ur.device import LEAD_IN_ACCEL_RAD_S2, LEAD_IN_SPEED_RAD_S
+from drivers.robot.ur.device import lead_in_motion
 
 #: Ticks (at :data:`CLOCK_HZ`) of the stream that maps the tracker's clock onto the host's.
 CLOCK_TICKS = 100
@@ -118,7 +118,8 @@ class PathFollowing(Following):
         q = np.asarray(q_rad, dtype=float)
         if q.ndim != 2 or len(q) != len(t) or len(t) < 2:
             raise ValueError(f"a path is t_s (N >= 2,) and q_rad (N, 6), got {t.shape}, {q.shape}")
-        self.robot.move_joints(q[0], LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2)
+        # Within the caps of the guard the UR is opened behind (a user's --max-speed).
+        self.robot.move_joints(q[0], *lead_in_motion(getattr(self.robot, "limits", None)))
         points = np.array([np.asarray(self.tool_pose(qi), float)[:3, 3] for qi in q])
         offset = tracker_clock_offset(self.tracker)
         start_us = self.tracker.run_path(t, points, delay_s=delay_s)

@@ -96,3 +96,17 @@ def test_a_path_over_the_speed_caps_is_refused_before_anything_moves(fake_ur):
         assert fake_ur.command("fake moving") == "fake: moving false"
     finally:
         robot.close()
+
+
+def test_the_move_to_a_paths_start_keeps_to_a_lowered_speed_cap(fake_ur):
+    # --max-speed 0.3: the moveJ to the path's start (0.5 rad/s by default) is lowered to it.
+    robot = open_url("ur://127.0.0.1", RobotOptions(robots.get("ur5e"), max_speed_rad_s=0.3))
+    robot.connect()
+    try:
+        start = robot.actual_joints() + 0.05  # away from the arm: a lead-in is needed
+        q = start + np.outer(T / T[-1], STEP)  # at most 0.17 rad/s along the path
+        robot.follow_path(T, q, delay_s=0.2)
+        stream = within(robot.joint_stream, 30.0, "the path's end")
+    finally:
+        robot.close()
+    np.testing.assert_allclose(stream.q_rad[-1], q[-1], atol=1e-9)
