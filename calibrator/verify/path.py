@@ -32,6 +32,7 @@ error a calibration removes. Units: mm, s, rad.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -389,8 +390,15 @@ def stream_cycle_robot(
     duration = float(test.t_s[-1])
     count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
     robot.follow_path(test.t_s, test.q, delay_s=HOLD_S)
-    with tracker.stream(STREAM_HZ, count=count, stall_timeout_s=STALL_S) as stream:
-        n, t_us, p_tracker, code, seen = timed_samples(stream, count)
+    try:
+        with tracker.stream(STREAM_HZ, count=count, stall_timeout_s=STALL_S) as stream:
+            n, t_us, p_tracker, code, seen = timed_samples(stream, count)
+    except BaseException:
+        # The arm is on its way: a stream that failed (or Ctrl-C) stops it; what
+        # the caller hears about is the failure, not a stop that failed too.
+        with contextlib.suppress(Exception):
+            robot.stop()
+        raise
     record = robot.joint_stream()
     ok = code == 0
     if ok.sum() < 0.9 * count:

@@ -374,7 +374,15 @@ class UrRtdeRobot(Robot):
         return run.record()
 
     def stop(self, decel_rad_s2: float = 2.0) -> None:
-        """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2)."""
+        """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2).
+
+        A path running (:meth:`follow_path`) is ended first: its thread would
+        otherwise send the next set-point after the stop.
+        """
+        run = self._path
+        if run is not None and run.is_alive() and run is not threading.current_thread():
+            run.abort = True
+            run.join(self.command_timeout_s)
         self._check_link()
         self._command(self._control.stopJ, float(decel_rad_s2))
 

@@ -5,6 +5,8 @@ machine-wide lock: the ``fake_ur`` fixture); the fake's own servoJ loop is
 tested in-process.
 """
 
+import time
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
@@ -110,3 +112,23 @@ def test_the_move_to_a_paths_start_keeps_to_a_lowered_speed_cap(fake_ur):
     finally:
         robot.close()
     np.testing.assert_allclose(stream.q_rad[-1], q[-1], atol=1e-9)
+
+
+def test_stop_ends_a_running_path_where_the_arm_is(fake_ur):
+    robot = UrRtdeRobot("127.0.0.1")
+    robot.connect()
+    try:
+        q = robot.actual_joints() + np.outer(T / T[-1], STEP)
+        robot.follow_path(T, q, delay_s=0.1)
+        time.sleep(0.6)  # mid-path
+        robot.stop()
+        stopped = robot.actual_joints()
+        time.sleep(0.2)  # no set-point after the stop moves it on
+        np.testing.assert_allclose(robot.actual_joints(), stopped, atol=1e-12)
+        stream = within(robot.joint_stream, 30.0, "the path's end")
+    finally:
+        robot.close()
+    u = (stopped - q[0]) @ STEP / (STEP @ STEP)
+    assert 0.05 < u < 0.95  # stopped along the path, short of its end
+    assert fake_ur.command("fake moving") == "fake: moving false"
+    assert len(stream.t_s) > 10
