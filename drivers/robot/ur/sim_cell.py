@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 
 from calibrator.acquire import ports
 from drivers.robot.sim.follow import Following
-from drivers.robot.ur.device import lead_in_motion
+from drivers.robot.ur.device import GuardedUr, UrRtdeRobot, lead_in_motion
 
 #: Ticks (at :data:`CLOCK_HZ`) of the stream that maps the tracker's clock onto the host's.
 CLOCK_TICKS = 100
@@ -75,11 +75,12 @@ def follow_paths(robot: Any, tracker: Any, tool_pose: Callable[[Any], Any]) -> A
 
     Returns
     -------
-    ``robot`` itself, or wrapped in :class:`PathFollowing` (a robot other
-    than the simulated arm that runs timed paths, the fake UR).
+    ``robot`` itself, or wrapped in :class:`PathFollowing` (a UR: the fake
+    controller's; its paths start at a moment of the host's clock).
     """
     if (
         isinstance(robot, Following)
+        and isinstance(robot.robot, (GuardedUr, UrRtdeRobot))  # the start is the host's
         and ports.FOLLOW_PATH.offered_by(robot.robot)
         and isinstance(tracker, ports.RunsPath)
     ):

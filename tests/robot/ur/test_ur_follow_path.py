@@ -132,3 +132,17 @@ def test_stop_ends_a_running_path_where_the_arm_is(fake_ur):
     assert 0.05 < u < 0.95  # stopped along the path, short of its end
     assert fake_ur.command("fake moving") == "fake: moving false"
     assert len(stream.t_s) > 10
+
+
+def test_the_simulated_cell_pairs_the_urs_paths_with_the_tracker_and_only_the_urs():
+    from calibrator.verify.path import StreamsJoints
+    from drivers.devices import Devices
+    from drivers.robot.ur.sim_cell import PathFollowing
+
+    arm = robots.get("ur10e")
+    ur = Devices("ur://127.0.0.1", "sim").open(arm, 3, None, None).robot  # nothing connects
+    assert isinstance(ur, PathFollowing) and isinstance(ur, StreamsJoints)
+    assert ports.FOLLOW_PATH.offered_by(ur) and ports.MOVES_HARDWARE in ur.capabilities
+    sim = Devices("sim", "sim").open(arm, 3, None, None).robot
+    assert not isinstance(sim, PathFollowing) and not isinstance(sim, StreamsJoints)
+    assert ports.FOLLOW_PATH.offered_by(sim)  # its own path, tracker-only alignment
