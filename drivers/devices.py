@@ -15,12 +15,14 @@ a world file::
     Devices("ur://10.0.0.5", "emscon://10.0.0.7")  # a real cell
 
 The simulated tracker takes ``noise=on|off``, ``probe=3dof|6dof``,
-``faults=PATH``, ``replay=PATH`` and ``record=PATH`` (``emscon+sim``, the
-same simulated tracker behind a Leica emScon server, the first three); the simulated robot
+``faults=PATH``, ``replay=PATH``, ``record=PATH`` and ``latency=S`` (its
+stamps S seconds late for a moving target; ``emscon+sim``, the same simulated
+tracker behind a Leica emScon server, takes the first three); the simulated robot
 ``repeatability=typical|none`` and ``control=URL`` (it steers a tracker
 simulator started by hand); the world file (:mod:`calibrator.world`) the true
 arm both move. When the tracker is simulated its target follows the arm's
-true probe after each move (:mod:`drivers.robot.sim.follow`): the simulated
+true probe after each move (:mod:`drivers.robot.sim.follow`), and along the
+timed paths a UR runs (:mod:`drivers.robot.ur.sim_cell`): the simulated
 world stays behind the devices, and a procedure gets of it only plain data
 (:class:`~calibrator.acquire.ports.Opened`: where the tracker stands, the
 base frame as surveyed).
@@ -39,6 +41,7 @@ from calibrator.acquire.ports import STEER, Opened
 from calibrator.errors import CalibrationError
 from drivers.registry import scheme
 from drivers.robot.sim.follow import steer_tracker
+from drivers.robot.ur.sim_cell import follow_paths
 
 #: The simulated devices' kinds: ``sim`` (robot; tracker in the line protocol) and
 #: ``emscon+sim`` (the tracker behind an emScon server).
@@ -148,6 +151,8 @@ class Devices:
             # probe of whatever arm moves (the simulated arm says where it is; any
             # other arm's reported joints are put through the world's true arm).
             robot = steer_tracker(robot, tracker, world.tool_pose)
+            # and the fake UR's timed paths too (the path test: drivers.robot.ur.sim_cell)
+            robot = follow_paths(robot, tracker, world.tool_pose)
         # What a procedure may know of the simulated cell, as plain data.
         return Opened(
             robot,

@@ -205,6 +205,7 @@ def verify(
             devices=devices,
             output=output,
             inputs=inputs,
+            yes=run_args.yes,
         )
     else:
         test = tests.prepare(arm, options, output, devices, settle_s=run_args.settle, inputs=inputs)

@@ -8,6 +8,7 @@ and prints the figures.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -46,8 +47,8 @@ def check_options(
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not speed.percent and not (0.0 < speed.value <= 5000.0):
         fail(f"--path-speed must be in (0, 5000] mm/s, got {speed.value:g}")
-    if not (_run.is_sim(robot) and _run.is_sim(tracker)):
-        fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
+    if not (_run.is_sim(robot) or robot.startswith("ur://")):
+        fail("--path runs with the simulated arm or a UR (--robot sim or ur://HOST) for now")
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
 
@@ -62,6 +63,7 @@ def run(
     devices: Any,
     output: Path,
     inputs: list[Path],
+    yes: bool = False,
 ) -> None:
     """Run the path test procedure (:mod:`calibrator.verify.path_procedure`); print its figures.
 
@@ -71,9 +73,31 @@ def run(
     from calibrator.verify import path_procedure as path_test
     from calibrator.verify.path import ORIENTATION_FIGURES
 
-    result = path_test.run(
-        arm, path_test.Options(shape, speed, cycles, options), output, devices, inputs=inputs
-    )
+    def confirm(robot_id: str) -> None:
+        what = f"the robot {robot_id} would run the {shape} {cycles} times at {speed}"
+        if not sys.stdin.isatty():
+            fail(f"{what}: pass --yes to confirm")
+        if not typer.confirm(f"{what[0].upper()}{what[1:]}: go?", default=False):
+            fail("not confirmed; nothing moved")
+
+    from calibrator.acquire.ports import RobotHalted
+
+    try:
+        result = path_test.run(
+            arm,
+            path_test.Options(shape, speed, cycles, options),
+            output,
+            devices,
+            inputs=inputs,
+            confirm=None if yes else confirm,
+        )
+    except RobotHalted as exc:  # a stop mid-path (a UR): as the pose test's, exit 1
+        typer.echo(
+            f"stopped: the robot halted during the path test ({exc}); nothing written: "
+            "clear the stop and run it again (a path test is not resumed)",
+            err=True,
+        )
+        raise typer.Exit(1) from None
     section, speed_mm_s, rated = result.document["path"], result.speed_mm_s, result.rated_mm_s
     state = "compensated" if result.compensated else "nominal"
     typer.echo(

@@ -17,12 +17,15 @@ runs a path through the same cube and measures it continuously:
    which the tracker simulator follows, ``SIM,PATH``) while the tracker
    streams it (``STREAM``);
 4. each cycle's stream goes into the robot base frame through the
-   registration, is aligned in time with the commanded path
-   (:func:`calibrator.verify.path_figures.estimate_latency` against the path run at
-   constant speed: no robot stream is needed), and the clause 7 figures are
-   computed from the ``cycles`` streams: position always, orientation
-   (``ATa``..``RTc``) when the tracker's probe streams its orientation (a
-   6-DoF probe); a reflector's orientation figures are None.
+   registration, is aligned in time (:func:`calibrator.verify.path_figures.estimate_latency`)
+   and the clause 7 figures are computed from the ``cycles`` streams: position
+   always, orientation (``ATa``..``RTc``) when the tracker's probe streams its
+   orientation (a 6-DoF probe); a reflector's orientation figures are None. A
+   robot that records its actual joints while it runs the path
+   (:class:`StreamsJoints`: a UR over RTDE) is aligned robot stream to tracker
+   stream (:func:`stream_cycle_robot`: the tracker's latency behind the arm);
+   any other is aligned tracker-only, against the path run at constant speed
+   (:func:`stream_cycle`).
 
 The simulated arm is kinematic (it follows its commands exactly, no
 servo lag), so corners show no overshoot; its path error is the geometric
@@ -31,6 +34,8 @@ error a calibration removes. Units: mm, s, rad.
 
 from __future__ import annotations
 
+import contextlib
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
@@ -38,6 +43,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from scipy.optimize import minimize_scalar
 
 from calibrator import compensate
 from calibrator.acquire import ports
@@ -84,6 +90,30 @@ class PathTracker(Protocol):
     def stream(
         self, rate_hz: int, count: int | None = None, *, stall_timeout_s: float | None = None
     ) -> Any: ...
+
+
+@runtime_checkable
+class StreamsJoints(Protocol):
+    """A robot that records its actual joints while it runs a path (a UR over RTDE).
+
+    ``joint_stream()``, after ``follow_path``, waits for the path's end and
+    returns its record: ``t_s`` (R,) controller timestamps, s; ``q_rad`` (R, 6),
+    rad; ``host_offset_s`` (host monotonic time = ``t_s + host_offset_s``) and
+    ``start_host_s`` (the commanded start, host monotonic time, s).
+    """
+
+    def joint_stream(self) -> Any: ...
+
+
+#: ``alignment`` of a path section: robot stream to tracker stream, or tracker-only.
+ALIGN_ROBOT = "robot stream"
+ALIGN_TRACKER = "tracker only"
+#: Largest latency of the tracker behind the robot's stream looked for, either sign, s.
+MAX_LATENCY_S = 0.25
+#: How far from the plain latency the one with the mean offset out is looked for, s
+#: (a model error of 2 mm along the path at 40 mm/s), and the grid step there, s.
+OFFSET_WINDOW_S = 0.05
+OFFSET_GRID_S = 0.0005
 
 
 @dataclass(frozen=True)
@@ -204,6 +234,7 @@ def run(
     test: PathTest,
     cycles: int,
     tracker2base: npt.ArrayLike,
+    tool_points: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[dict, pd.DataFrame]:
     """Run ``cycles`` cycles of the path and compute the figures.
 
@@ -218,11 +249,17 @@ def run(
         At least 2 (RT and RV need a spread).
     tracker2base : array_like, shape (4, 4)
         Registration of the tracker frame in the robot base frame, mm.
+    tool_points : callable, optional
+        ``tool_points(q)``: the model's (nominal or calibrated) tool positions,
+        (R, 3) base frame, mm, at joints (R, 6), rad. With it, a robot that
+        streams its joints (:class:`StreamsJoints`) is aligned robot stream to
+        tracker stream; otherwise (or without it) tracker-only.
 
     Returns
     -------
     section : dict
-        The ``path`` section of verify.json (see :func:`figures`).
+        The ``path`` section of verify.json (see :func:`figures`), with
+        ``alignment`` and, for a robot stream, ``latency_s`` per cycle.
     streams : pandas.DataFrame
         The aligned streams, :data:`STREAM_COLUMNS`: cycle (from 1), tick
         number, time from the aligned start (s), position (base frame, mm);
@@ -231,10 +268,16 @@ def run(
     if cycles < 2:
         raise CalibrationError(f"--cycles must be at least 2, got {cycles}")
     t2b = np.asarray(tracker2base, dtype=float)
-    streams, starts, ticks = [], [], []
+    streams, starts, ticks, latencies = [], [], [], []
     reference = ip.commanded_reference(test.path, test.speed_mm_s)
+    by_robot = tool_points is not None and isinstance(robot, StreamsJoints)
     for _ in range(cycles):
-        one, start, tick = stream_cycle(robot, tracker, test, t2b, reference)
+        if by_robot:
+            assert tool_points is not None and isinstance(robot, StreamsJoints)
+            one, start, tick, latency = stream_cycle_robot(robot, tracker, test, t2b, tool_points)
+            latencies.append(latency)
+        else:
+            one, start, tick = stream_cycle(robot, tracker, test, t2b, reference)
         streams.append(one)
         starts.append(start)
         ticks.append(tick)
@@ -258,7 +301,11 @@ def run(
         )
     names = list(STREAM_COLUMNS) + (list(ORIENTATION_COLUMNS) if oriented else [])
     table = pd.DataFrame(columns, columns=names)
-    return figures(test, streams, starts, cycles), table
+    section = figures(test, streams, starts, cycles)
+    section["alignment"] = ALIGN_ROBOT if by_robot else ALIGN_TRACKER
+    if by_robot:
+        section["latency_s"] = [float(v) for v in latencies]
+    return section, table
 
 
 def stream_cycle(
@@ -318,11 +365,170 @@ def stream_cycle(
     inside = (t >= start) & (t <= start + duration)
     abc = None
     if rec.rotvec_rad is not None:
-        # Probe to tracker, then into the base frame, read as verify's pose test reads it.
-        attained = t2b[:3, :3] @ rotations.rotvec_to_matrix(rec.rotvec_rad[ok][inside])
-        abc = rotations.angles_xyz(attained)
+        abc = _base_angles(t2b, rec.rotvec_rad[ok][inside])
     stream = ip.Stream(t[inside] - start, p[inside], abc)
     return stream, float(start), rec.n[ok][inside]
+
+
+def _base_angles(tracker2base: np.ndarray, rotvec_rad: np.ndarray) -> np.ndarray:
+    """Probe orientations (probe to tracker, rotation vectors (K, 3), rad) as the
+    base-frame angles a, b, c (K, 3), rad, read as verify's pose test reads them."""
+    return rotations.angles_xyz(tracker2base[:3, :3] @ rotations.rotvec_to_matrix(rotvec_rad))
+
+
+def stream_cycle_robot(
+    robot: Any,
+    tracker: PathTracker,
+    test: PathTest,
+    tracker2base: npt.ArrayLike,
+    tool_points: Callable[[np.ndarray], np.ndarray],
+) -> tuple[ip.Stream, float, np.ndarray, float]:
+    """One run of the path, aligned robot stream to tracker stream.
+
+    Both streams go onto the host's monotonic clock, each by the smallest gap
+    seen between a sample's arrival and its own stamp (the robot's
+    ``host_offset_s``; the tracker's from the arrival of its ticks), from the
+    commanded start. The robot's actual joints through the model
+    (``tool_points``) give its timed tool path: the arm's own start is where
+    that path best fits the command run at constant speed, and the tracker's
+    latency is where the tracker's points best fit that path
+    (:func:`robot_latency`).
+
+    Parameters
+    ----------
+    robot : FollowsPath and StreamsJoints
+    tracker : PathTracker
+    test : PathTest
+    tracker2base : array_like, shape (4, 4)
+        Registration, mm.
+    tool_points : callable
+        Joints (R, 6), rad -> tool positions (R, 3), base frame, mm.
+
+    Returns
+    -------
+    stream : calibrator.verify.path_figures.Stream
+        The attained path from the arm's start of the motion to its end (the
+        robot's time), base frame, mm.
+    start : float
+        The arm's start less the commanded one, s (its lag behind the command).
+    ticks : ndarray, shape (K,)
+        The tracker's reading numbers of the stream's samples.
+    latency : float
+        The tracker's stamps behind the arm's, s.
+    """
+    t2b = np.asarray(tracker2base, dtype=float)
+    duration = float(test.t_s[-1])
+    count = int(np.ceil((duration + 2 * HOLD_S) * STREAM_HZ))
+    robot.follow_path(test.t_s, test.q, delay_s=HOLD_S)
+    try:
+        with tracker.stream(STREAM_HZ, count=count, stall_timeout_s=STALL_S) as stream:
+            n, t_us, p_tracker, code, seen, rotvec = timed_samples(stream, count)
+    except BaseException:
+        # The arm is on its way: a stream that failed (or Ctrl-C) stops it; what
+        # the caller hears about is the failure, not a stop that failed too.
+        with contextlib.suppress(Exception):
+            robot.stop()
+        raise
+    record = robot.joint_stream()
+    ok = code == 0
+    if ok.sum() < 0.9 * count:
+        raise CalibrationError(
+            f"the tracker streamed {int(ok.sum())} of {count} readings of the path"
+        )
+    if len(record.t_s) < 2:
+        raise CalibrationError("the robot streamed no joints while it ran the path")
+    start_host = float(record.start_host_s)
+    t_k = t_us[ok] / 1e6 + float(np.min(seen - t_us / 1e6)) - start_host
+    p_k = p_tracker[ok] @ t2b[:3, :3].T + t2b[:3, 3]
+    t_r = np.asarray(record.t_s, float) + float(record.host_offset_s) - start_host
+    p_r = tool_points(np.asarray(record.q_rad, float))
+    command = ip.commanded_reference(test.path, test.speed_mm_s)
+    start = ip.estimate_latency(t_r, p_r, command, max_latency_s=HOLD_S)
+    latency = robot_latency(t_k, p_k, ip.stream_reference(t_r, p_r))
+    t = t_k - latency - start
+    inside = (t >= 0.0) & (t <= duration)
+    abc = None
+    if rotvec is not None:
+        abc = _base_angles(t2b, rotvec[ok][inside])
+    return ip.Stream(t[inside], p_k[inside], abc), float(start), n[ok][inside], float(latency)
+
+
+def robot_latency(t_s: np.ndarray, p_mm: np.ndarray, reference: ip.Reference) -> float:
+    """The tracker's latency behind the robot's path, with their mean offset taken out.
+
+    The robot's path is its model's (nominal or calibrated), the tracker's
+    the true arm's: a model error along the path would pass for a time shift
+    (0.5 mm at 100 mm/s is 5 ms). So the latency minimises the spread of the
+    differences about their mean, ``sum_k |d_k - dbar|^2`` with
+    ``d_k = p_k - reference(t_k - tau)``: the holds before and after the
+    motion and its start and stop fix the time, any constant offset is left
+    out. It is looked for within :data:`OFFSET_WINDOW_S` of the plain least
+    squares latency (:func:`calibrator.verify.path_figures.estimate_latency`),
+    on a grid of :data:`OFFSET_GRID_S`, then refined.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (K,)
+        Tracker stamps on the robot stream's time axis, s.
+    p_mm : ndarray, shape (K, 3)
+        Tracker points, base frame, mm.
+    reference : callable
+        The robot's path at any time (:func:`calibrator.verify.path_figures.stream_reference`).
+
+    Returns
+    -------
+    float
+        Latency, s: a reading stamped ``t`` shows the arm as it was at ``t - latency``.
+    """
+    plain = ip.estimate_latency(t_s, p_mm, reference, MAX_LATENCY_S)
+
+    def spread(tau: float) -> float:
+        d = p_mm - reference(t_s - tau)
+        return float(((d - d.mean(axis=0)) ** 2).sum())
+
+    grid = plain + np.arange(-OFFSET_WINDOW_S, OFFSET_WINDOW_S + 1e-12, OFFSET_GRID_S)
+    best = int(np.argmin([spread(tau) for tau in grid]))
+    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+    found = minimize_scalar(spread, bounds=(lo, hi), method="bounded", options={"xatol": 1e-7})
+    return float(found.x)
+
+
+def timed_samples(
+    stream: Any, count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Up to ``count`` ticks of a tracker stream, with when each reached this host.
+
+    Returns
+    -------
+    n, t_us, point_mm, code, seen : ndarray
+        Tick numbers (K,); tracker stamps (K,), us; points (K, 3), tracker
+        frame, mm, NaN without a reading; codes (K,), 0 with a reading; host
+        monotonic time each tick was handed over (K,), s.
+    rotvec_rad : ndarray, shape (K, 3), or None
+        The probe's orientations (probe to tracker frame), NaN without a
+        reading; None when no reading carries one (a reflector).
+    """
+    n, t_us, code, seen, points, turns = [], [], [], [], [], []
+    for sample in stream:
+        seen.append(time.monotonic())
+        n.append(sample.n)
+        t_us.append(sample.device_time_us)
+        code.append(sample.code)
+        reading = sample.reading
+        points.append(reading.point_mm if reading is not None else np.full(3, np.nan))
+        turn = getattr(reading, "rotvec_rad", None)
+        turns.append(turn if turn is not None else np.full(3, np.nan))
+        if len(n) >= count:
+            break
+    rotvec = np.array(turns, dtype=float).reshape(-1, 3)
+    return (
+        np.array(n, dtype=np.int64),
+        np.array(t_us, dtype=np.int64),
+        np.array(points, dtype=float).reshape(-1, 3),
+        np.array(code, dtype=np.int64),
+        np.array(seen, dtype=float),
+        rotvec if np.isfinite(rotvec).any() else None,
+    )
 
 
 #: How long the tracker's stream may stay silent before the run calls it broken, s.

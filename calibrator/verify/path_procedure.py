@@ -15,13 +15,15 @@ both or neither. From Python::
     result = path_test.run(robots.get("ur10e"), options, "circle.json", Devices())
     result.document["path"]["AT_P_mm"]
 
-Devices whose robot cannot run a timed path (a real arm today) are refused
-before anything moves.
+Devices whose robot cannot run a timed path are refused before anything
+moves. A UR (``ur://HOST``) runs it and streams its actual joints, and its
+stream is aligned with the tracker's (``alignment``: ``robot stream``).
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -34,7 +36,7 @@ import pandas as pd
 from calibrator import outputs
 from calibrator.acquire import ports
 from calibrator.errors import CalibrationError
-from calibrator.model import frames
+from calibrator.model import frames, joint_terms, kinematics
 from calibrator.verify import path as verify_path
 from calibrator.verify import pose
 from calibrator.verify import procedure as pose_test
@@ -107,6 +109,43 @@ class Result:
     registration: pose.Registration
 
 
+def model_points(
+    arm: Any, flange2tool: np.ndarray, calibration: Any = None
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The model's tool positions at joints read back: the robot stream's tool path.
+
+    Parameters
+    ----------
+    arm : calibrator.robots.RobotDescription
+    flange2tool : ndarray, shape (4, 4)
+        The tool, mm.
+    calibration : calibrator.calibration.Calibration, optional
+        Its model (and joint terms) instead of the nominal one.
+
+    Returns
+    -------
+    callable
+        Joints (R, 6), rad -> tool positions (R, 3), base frame, mm.
+    """
+    if calibration is None:
+        return lambda q: kinematics.tool_poses(arm.mdh, q, flange2tool)[:, :3, 3]
+    terms = calibration.joint_terms
+    torque = None
+    if terms.used:
+        from calibrator.robots import masses
+
+        torque = joint_terms.torque_function(
+            terms, calibration.nominal_mdh, masses.for_terms(terms)
+        )
+
+    def points(q: np.ndarray) -> np.ndarray:
+        if terms.used:  # the angles the joints really turn, from those read back
+            q = joint_terms.effective(q, terms.vector(), None if torque is None else torque(q))
+        return kinematics.tool_poses(calibration.mdh, q, flange2tool)[:, :3, 3]
+
+    return points
+
+
 def run(
     arm: Any,
     options: Options,
@@ -114,10 +153,13 @@ def run(
     devices: ports.Devices,
     *,
     inputs: list[Path] | None = None,
+    confirm: Callable[[str], None] | None = None,
 ) -> Result:
     """Plan, run and write the path test: ``output`` (JSON) and its .parquet beside it.
 
-    ``inputs``: files the outputs must not overwrite.
+    ``inputs``: files the outputs must not overwrite. ``confirm(robot_id)`` is
+    asked before a real arm (:data:`calibrator.acquire.ports.MOVES_HARDWARE`)
+    moves, and raises to refuse; None moves it without asking.
 
     Raises
     ------
@@ -152,14 +194,22 @@ def run(
             ports.FOLLOW_PATH.offered_by(robot) and isinstance(tracker, verify_path.PathTracker)
         ):
             raise CalibrationError(
-                "--path runs on the simulated cell only (--robot sim --tracker sim) for now"
+                "--path needs a robot that runs a timed path (sim, ur://HOST) and a "
+                "tracker that streams"
             )
         if registration is None:
             raise CalibrationError("--path needs a registration: --calibration or --register")
+        if confirm is not None and ports.MOVES_HARDWARE in getattr(robot, "capabilities", ()):
+            confirm(str(getattr(robot, "device_id", "") or type(robot).__name__))
         tracker.connect()
         opened.robot.connect()
         section, table = verify_path.run(
-            robot, tracker, path, options.cycles, registration.tracker2base
+            robot,
+            tracker,
+            path,
+            options.cycles,
+            registration.tracker2base,
+            tool_points=model_points(arm, flange2tool, calibration),
         )
         robot_id = str(getattr(robot, "device_id", "") or type(robot).__name__)
         tracker_id = str(tracker.device_id or type(tracker).__name__)

@@ -62,6 +62,6 @@ def test_devices_whose_robot_cannot_follow_a_path_are_refused_before_anything_co
     arm = robots.get("ur10e")
     devices = Devices("sim", "socket://127.0.0.1:9")  # nothing listens: a connect would fail
     options = path_test.Options("line", cycles=2, test=pose_test.Options(seed=3))
-    with pytest.raises(CalibrationError, match="simulated cell only"):
+    with pytest.raises(CalibrationError, match="needs a robot that runs a timed path"):
         in_time(path_test.run, arm, options, tmp_path / "v.json", devices)
     assert not (tmp_path / "v.json").exists() and not (tmp_path / "v.parquet").exists()

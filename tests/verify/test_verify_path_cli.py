@@ -69,7 +69,7 @@ def test_the_circle_test_runs_in_the_same_plane(tmp_path):
     [
         (("--path", "square"), "--path must be one of line, circle, rectangle"),
         (("--path", "line", "--path-speed", "0"), "--path-speed must be in"),
-        (("--path", "line", "--tracker", "socket://127.0.0.1:9"), "simulated cell only"),
+        (("--path", "line", "--tracker", "socket://127.0.0.1:9"), "runs a timed path"),
         (("--path", "line", "--path-speed", "fast"), "--path-speed must be mm/s or a percentage"),
     ],
 )

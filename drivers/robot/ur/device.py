@@ -17,10 +17,23 @@ protective or emergency stop appeared, and that the move's own deadline holds.
 The move is over when the control script reports its async operation finished;
 then ``isSteady`` must be true and ``getActualQ`` must be within tolerance of
 the target, else :class:`~drivers.robot.errors.MotionFailed`.
+
+How a timed path is run (and recorded)
+--------------------------------------
+A path test needs the tool to pass its points at given times, which a
+``movej`` cannot promise (its speed is a joint speed, its blends cut the
+path). :meth:`UrRtdeRobot.follow_path` does what a UR does for a timed joint
+trajectory: it streams ``servoJ`` set-points every :data:`SERVO_PERIOD_S`,
+each the path at the host's time now (a late loop sends a later point, never
+a stale one), and meanwhile records the controller's ``actual_q`` with its
+``timestamp`` (RTDE receive) and the host's monotonic time each sample was
+seen. :meth:`UrRtdeRobot.joint_stream` hands the record over once the run
+ends: the robot's side of the path test's time alignment.
 """
 
 import threading
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,12 +44,14 @@ from drivers.robot.errors import (
     ConnectionLost,
     DriverTimeout,
     EmergencyStop,
+    LimitsViolation,
     MotionFailed,
     NotReady,
     ProtectiveStop,
 )
 from drivers.robot.interface import Robot, SafetyState, check_move_args
 from drivers.robot.options import RobotOptions
+from drivers.robot.safety import GuardedRobot, check_plan
 
 #: ``robot_mode`` of an arm that is powered on with its brakes released (UR RTDE guide).
 ROBOT_MODE_RUNNING = 7
@@ -45,6 +60,53 @@ SAFETY_MODES_RUNNING = frozenset({"NORMAL", "REDUCED", "RECOVERY"})
 #: Longest wait, after a safety stop, for the control interface to show that the stop
 #: ended its script (s); it takes milliseconds unless the host is loaded.
 SCRIPT_END_WAIT_S = 2.0
+#: servoJ period while a path runs, s (250 Hz, the path test's command rate; servoj's ``t``).
+SERVO_PERIOD_S = 0.004
+#: servoj's lookahead time (s, UR range 0.03-0.2) and gain (UR range 100-2000).
+SERVO_LOOKAHEAD_S = 0.1
+SERVO_GAIN = 300.0
+#: Leading-joint speed (rad/s) and acceleration (rad/s^2) of the moveJ to a path's start.
+LEAD_IN_SPEED_RAD_S = 0.5
+LEAD_IN_ACCEL_RAD_S2 = 1.0
+
+
+def lead_in_motion(limits: Any = None) -> tuple[float, float]:
+    """Speed (rad/s) and acceleration (rad/s^2) of the moveJ to a path's start.
+
+    :data:`LEAD_IN_SPEED_RAD_S` and :data:`LEAD_IN_ACCEL_RAD_S2`, lowered to
+    the caps of ``limits`` (:class:`drivers.robot.safety.MotionLimits`) when
+    given: a user's ``--max-speed`` holds for it too.
+    """
+    if limits is None:
+        return LEAD_IN_SPEED_RAD_S, LEAD_IN_ACCEL_RAD_S2
+    speed = min(LEAD_IN_SPEED_RAD_S, float(limits.max_speed_rad_s))
+    if limits.max_joint_speed_rad_s is not None:
+        speed = min(speed, float(np.min(limits.max_joint_speed_rad_s)))
+    return speed, min(LEAD_IN_ACCEL_RAD_S2, float(limits.max_accel_rad_s2))
+
+
+@dataclass(frozen=True)
+class JointStream:
+    """The controller's actual joints recorded while a path ran (RTDE receive).
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (R,)
+        Controller timestamps of the samples, s (its clock, increasing).
+    q_rad : ndarray, shape (R, 6)
+        ``actual_q`` at those timestamps, rad.
+    host_offset_s : float
+        Host monotonic time = ``t_s + host_offset_s``: the smallest gap seen
+        between a sample's arrival on the host and its timestamp (the link's
+        least delay, sub-millisecond on a direct cable).
+    start_host_s : float
+        When the commanded path started, host monotonic time, s.
+    """
+
+    t_s: np.ndarray
+    q_rad: np.ndarray
+    host_offset_s: float
+    start_host_s: float
 
 
 def expected_move_time(
@@ -87,7 +149,7 @@ class UrRtdeRobot(Robot):
         command without an answer by then means the link is lost.
     """
 
-    capabilities = frozenset({ports.MOVES_HARDWARE, ports.REPORTS_TEMPERATURES})
+    capabilities = frozenset({ports.MOVES_HARDWARE, ports.REPORTS_TEMPERATURES, ports.FOLLOW_PATH})
 
     #: Seconds a started move may take to show up as running (see :meth:`_wait_move`).
     start_grace_s = 0.1
@@ -123,6 +185,7 @@ class UrRtdeRobot(Robot):
         self._stop_latch = False
         self._last_stamp: tuple[float, float] | None = None
         self._lost: str | None = None  # why the link was declared lost; no client call after that
+        self._path: _PathRun | None = None  # the path running or last run (follow_path)
 
     # ------------------------------------------------------------ lifecycle
     def connect(self) -> None:
@@ -214,8 +277,112 @@ class UrRtdeRobot(Robot):
         self._wait_move(deadline + self.timeout_margin_s)
         return self._verify_reached(target)
 
+    def follow_path(
+        self,
+        t_s: ArrayLike,
+        q_rad: ArrayLike,
+        delay_s: float = 0.0,
+        *,
+        start_host_s: float | None = None,
+        lead_in: tuple[float, float] | None = None,
+    ) -> int:
+        """Start running a timed joint path; returns when it starts (host clock, us).
+
+        Moves the arm to ``q_rad[0]`` first (moveJ, when it is not there), then
+        returns while a thread holds it there for ``delay_s``, streams the path
+        by servoJ (:data:`SERVO_PERIOD_S`), holds the end for ``delay_s`` more,
+        and records the actual joints throughout. :meth:`joint_stream` waits
+        for the end and gives the record.
+
+        Parameters
+        ----------
+        t_s : array_like, shape (N,)
+            Command times from the start of the motion, s, increasing from 0.
+        q_rad : array_like, shape (N, 6)
+            Joint commands at ``t_s``, rad (linear in between).
+        delay_s : float
+            Hold before and after the motion, s (0 to 10).
+        start_host_s : float, optional
+            Start the motion then instead (host monotonic time, s, within 10 s
+            from now): a simulated tracker started at a known moment is joined
+            exactly (:mod:`drivers.robot.ur.sim_cell`).
+        lead_in : (float, float), optional
+            Speed (rad/s) and acceleration (rad/s^2) of the moveJ to the start
+            (default :func:`lead_in_motion`).
+
+        Returns
+        -------
+        int
+            The motion's start on the host's monotonic clock, microseconds (a
+            UR knows no tracker's clock: the path test aligns the streams
+            through the host's clock, :class:`JointStream`).
+
+        Raises
+        ------
+        ValueError
+            Times not increasing from 0, shapes, a delay outside 0..10 s.
+        NotReady, ProtectiveStop, EmergencyStop, ConnectionLost
+            As :meth:`move_joints`; ``NotReady`` too while a path still runs.
+        """
+        t = np.asarray(t_s, dtype=float)
+        q = np.asarray(q_rad, dtype=float)
+        if t.ndim != 1 or len(t) < 2 or q.shape != (len(t), 6):
+            raise ValueError(f"a path is t_s (N >= 2,) and q_rad (N, 6), got {t.shape}, {q.shape}")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))):
+            raise ValueError("a path's times and joints must be finite")
+        if t[0] != 0.0 or np.any(np.diff(t) <= 0):
+            raise ValueError("a path's times must start at 0 and increase")
+        if not 0.0 <= delay_s <= 10.0:
+            raise ValueError(f"delay_s must be in 0..10 s, got {delay_s}")
+        if self._path is not None and self._path.is_alive():
+            raise NotReady("a path is still running: call joint_stream() for its end first")
+        if np.max(np.abs(self.actual_joints() - q[0])) > self.tolerance_rad:
+            self.move_joints(q[0], *(lead_in or lead_in_motion()))
+        self._check_link()
+        self._raise_for_safety()
+        now = time.monotonic()
+        start = now + float(delay_s) if start_host_s is None else float(start_host_s)
+        if not now <= start <= now + 10.0:
+            raise ValueError(f"the path's start is {start - now:.3f} s from now, not in 0..10 s")
+        self._path = _PathRun(self, t, q, start, float(delay_s))
+        self._path.start()
+        return int(round(start * 1e6))
+
+    def joint_stream(self) -> JointStream:
+        """Wait for the path :meth:`follow_path` started to end; its recorded joints.
+
+        Raises
+        ------
+        NotReady
+            No path was started.
+        DriverTimeout
+            The run did not end by its deadline (the arm is stopped).
+        ProtectiveStop, EmergencyStop, ConnectionLost
+            The run ended on a stop or a lost link (the record is not given).
+        """
+        run = self._path
+        if run is None:
+            raise NotReady("no path was run: call follow_path() first")
+        run.join(max(run.end_host_s - time.monotonic(), 0.0) + self.timeout_margin_s)
+        if run.is_alive():
+            run.abort = True
+            run.join(self.command_timeout_s)
+            self.stop()
+            raise DriverTimeout("the path did not end by its deadline; stopped")
+        if run.error is not None:
+            raise run.error
+        return run.record()
+
     def stop(self, decel_rad_s2: float = 2.0) -> None:
-        """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2)."""
+        """Stop any motion now with deceleration ``decel_rad_s2`` (rad/s^2).
+
+        A path running (:meth:`follow_path`) is ended first: its thread would
+        otherwise send the next set-point after the stop.
+        """
+        run = self._path
+        if run is not None and run.is_alive() and run is not threading.current_thread():
+            run.abort = True
+            run.join(self.command_timeout_s)
         self._check_link()
         self._command(self._control.stopJ, float(decel_rad_s2))
 
@@ -431,16 +598,132 @@ class UrRtdeRobot(Robot):
             time.sleep(self.poll_s)
 
 
+class _PathRun(threading.Thread):
+    """The thread of one :meth:`UrRtdeRobot.follow_path`: servoJ out, actual joints in."""
+
+    def __init__(
+        self, robot: UrRtdeRobot, t: np.ndarray, q: np.ndarray, start: float, hold_s: float
+    ) -> None:
+        super().__init__(daemon=True, name="ur-rtde path")
+        self.robot, self.t, self.q = robot, t, q
+        self.start_host_s = start
+        self.end_host_s = start + float(t[-1]) + hold_s
+        self.abort = False
+        self.error: BaseException | None = None
+        # (host time seen, controller timestamp, actual q) per new RTDE sample
+        self.samples: list[tuple[float, float, list[float]]] = []
+
+    def run(self) -> None:
+        robot, receive, control = self.robot, self.robot._receive, self.robot._control
+        last_stamp = None
+        servoing = stopped = ended = False
+        next_at = time.monotonic()
+        try:
+            while not self.abort:
+                stamp = receive.getTimestamp()
+                q = receive.getActualQ()
+                seen = time.monotonic()
+                if stamp != last_stamp:
+                    self.samples.append((seen, stamp, q))
+                    last_stamp = stamp
+                if receive.isEmergencyStopped() or receive.isProtectiveStopped():
+                    robot._raise_for_safety()
+                if seen >= self.end_host_s:
+                    break
+                rel = seen - self.start_host_s
+                if 0.0 <= rel and (rel <= self.t[-1] + 2 * SERVO_PERIOD_S or not ended):
+                    # The path where it is now: a late cycle sends a later point, never a stale
+                    # one; and its end before servoing stops, however late the loop ran.
+                    target = [float(np.interp(rel, self.t, col)) for col in self.q.T]
+                    ended = rel >= self.t[-1]
+                    with robot._cmd_lock:
+                        sent = control.servoJ(
+                            target, 0.0, 0.0, SERVO_PERIOD_S, SERVO_LOOKAHEAD_S, SERVO_GAIN
+                        )
+                    if not sent:
+                        robot._raise_for_reported_stop()
+                        raise MotionFailed("the controller refused servoJ along the path")
+                    servoing = True
+                elif servoing and not stopped:
+                    with robot._cmd_lock:
+                        control.servoStop(10.0)
+                    stopped = True
+                next_at = max(next_at + SERVO_PERIOD_S, time.monotonic())
+                time.sleep(max(next_at - time.monotonic(), 0.0))
+            if servoing and not stopped:
+                with robot._cmd_lock:
+                    control.servoStop(10.0)
+        except RuntimeError as exc:  # the client's own failure: the link is gone
+            robot._lost = str(exc)
+            self.error = ConnectionLost(f"UR controller at {robot.host}: {exc}")
+        except Exception as exc:  # handed to joint_stream()'s caller
+            self.error = exc
+
+    def record(self) -> JointStream:
+        seen = np.array([s[0] for s in self.samples])
+        stamps = np.array([s[1] for s in self.samples])
+        keep = np.concatenate([[True], np.diff(stamps) > 0]) if len(stamps) else stamps > 0
+        return JointStream(
+            t_s=stamps[keep],
+            q_rad=np.array([s[2] for s in self.samples], dtype=float).reshape(-1, 6)[keep],
+            host_offset_s=float(np.min(seen - stamps)) if len(seen) else float("nan"),
+            start_host_s=self.start_host_s,
+        )
+
+
+class GuardedUr(GuardedRobot):
+    """:class:`GuardedRobot` over a UR, its timed paths checked against the limits too."""
+
+    def follow_path(
+        self,
+        t_s: ArrayLike,
+        q_rad: ArrayLike,
+        delay_s: float = 0.0,
+        *,
+        start_host_s: float | None = None,
+    ) -> int:
+        """:meth:`UrRtdeRobot.follow_path`, once every command is within the joint limits
+        and no joint turns faster than the caps between two commands.
+
+        Raises
+        ------
+        LimitsViolation
+            A command out of limits, or a joint speed above a cap.
+        """
+        t = np.asarray(t_s, dtype=float)
+        lead_in = lead_in_motion(self.limits)
+        q = check_plan(q_rad, self.limits, *lead_in)
+        if len(t) == len(q) and len(t) > 1 and np.all(np.diff(t) > 0):
+            speed = np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
+            cap = np.full(6, self.limits.max_speed_rad_s)
+            if self.limits.max_joint_speed_rad_s is not None:
+                cap = np.minimum(cap, self.limits.max_joint_speed_rad_s)
+            over = speed > cap
+            if over.any():
+                row, joint = np.argwhere(over)[0]
+                raise LimitsViolation(
+                    f"path command {row + 1} turns joint J{joint + 1} at "
+                    f"{speed[row, joint]:.4g} rad/s, above its cap {cap[joint]:.4g} rad/s"
+                )
+        return self.robot.follow_path(  # type: ignore[attr-defined]
+            t, q, delay_s, start_host_s=start_host_s, lead_in=lead_in
+        )
+
+    def joint_stream(self) -> JointStream:
+        """The inner UR's :meth:`UrRtdeRobot.joint_stream`."""
+        return self.robot.joint_stream()  # type: ignore[attr-defined]
+
+
 def open_url(url: str, options: RobotOptions) -> Robot:
     """The robot registry's handler of ``ur://HOST``: the adapter behind the model's limits."""
     from drivers import urls
-    from drivers.robot.safety import GuardedRobot, MotionLimits
+    from drivers.robot.safety import MotionLimits
 
     # The controller's ports are fixed (RTDE 30004, dashboard 29999): a host only.
     host = urls.parse(url, "ur", port="none").host
     limits = MotionLimits.from_model(
         options.model, options.max_speed_rad_s, options.max_accel_rad_s2
     )
-    robot = GuardedRobot(UrRtdeRobot(host), limits)
+    robot = GuardedUr(UrRtdeRobot(host), limits)
     robot.device_id = f"ur://{host}:{options.model.name}"
     return robot

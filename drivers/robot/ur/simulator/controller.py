@@ -54,6 +54,8 @@ STATUS_PROGRAM_RUNNING = 1 << 1
 # control script commands (RTDE::RobotCommand::Type in ur-rtde)
 CMD_NO_CMD = 0
 CMD_MOVEJ = 1
+CMD_SERVOJ = 11
+CMD_SERVO_STOP = 16
 CMD_SET_TCP = 29
 CMD_PROTECTIVE_STOP = 31
 CMD_STOPL = 33
@@ -218,6 +220,12 @@ class FakeController:
         self.qd = np.zeros(6)
         self.target_q = self.q.copy()
         self._move: _JointMove | None = None
+        # servoJ's latest target while servoing (rad), else None (see _advance)
+        self._servo_target: np.ndarray | None = None
+        # controller time of the last cycle, s: the RTDE timestamp of the joints it reports
+        self._cycle_s: float | None = None
+        self.cycles = 0  # cycles run; the RTDE stream sends after each (wait_cycle)
+        self._cycle_done = threading.Condition(self.lock)
         self._move_is_sync = False  # a sync movej holds the script until it ends
         self._busy = False
         self._executing_cmd = False
@@ -313,8 +321,10 @@ class FakeController:
             runtime = self._runtime.streamed()
             playing = runtime == RUNTIME_PLAYING
             streamed = self.streamed_safety_bits()
+            # The joints are those of the last cycle: its time stamps them, as on a controller.
+            stamp = self._cycle_s if self.frozen_timestamp is None else None
             values = {
-                "timestamp": self.timestamp(),
+                "timestamp": self.timestamp() if stamp is None else stamp,
                 "actual_q": tuple(self.q),
                 "target_q": tuple(self.target_q),
                 "actual_qd": tuple(self.qd),
@@ -342,7 +352,7 @@ class FakeController:
 
     @property
     def moving(self) -> bool:
-        return self._move is not None
+        return self._move is not None or self._servo_target is not None
 
     def write_inputs(self, values: Mapping[str, float]) -> None:
         """Store input registers the client sent (``{"input_int_register_3": 7, ...}``).
@@ -465,6 +475,25 @@ class FakeController:
             self._advance(dt_wall * self.time_scale)
             if self.runtime_state == RUNTIME_PLAYING:
                 self._script_cycle()
+            if self._servo_target is not None:
+                # A stiff servo: the joints reach servoJ's latest target within the cycle
+                # it was read in (a real arm's servoj, with its lookahead, lags more: the
+                # robot stream reports what the arm did, whatever its lag).
+                self.qd = (self._servo_target - self.q) / max(dt_wall, 1e-9)
+                self.q = self._servo_target.copy()
+            self._cycle_s = time.monotonic() - self._t0
+            self.cycles += 1
+            self._cycle_done.notify_all()
+
+    def wait_cycle(self, seen: int, timeout_s: float) -> int:
+        """Wait until a cycle after the ``seen``-th has run (at most ``timeout_s``); the count.
+
+        The RTDE stream sends its packages on the controller's cycles, as a
+        controller does: each carries the joints and the timestamp of one cycle.
+        """
+        with self.lock:
+            self._cycle_done.wait_for(lambda: self.cycles > seen, timeout_s)
+            return self.cycles
 
     def _advance(self, dt):
         if self._move is None:
@@ -484,6 +513,8 @@ class FakeController:
             return  # the script is inside a blocking movej
         cmd = int(self.in_int[self.reg_offset])
         if cmd in REALTIME_CMDS:
+            if cmd == CMD_SERVOJ:  # processed every cycle the register holds it, as the script
+                self._servo()
             self._out_int(0, READY)
         elif cmd == CMD_NO_CMD:
             self._executing_cmd = False
@@ -510,6 +541,9 @@ class FakeController:
                 self._out_int(0, DONE)
             else:
                 self._busy = True
+        elif cmd == CMD_SERVO_STOP:
+            self._halt()
+            self._out_int(0, DONE)
         elif cmd in (CMD_STOPJ, CMD_STOPL):
             # the fake freezes at once: a deceleration ramp adds nothing the tests need
             self._halt()
@@ -533,7 +567,15 @@ class FakeController:
             self.log.append(f"unsupported command {cmd}: program stopped")
             self.stop_program()
 
+    def _servo(self):
+        """servoJ (ur-rtde: q in input doubles 0-5, then speed, accel, time, lookahead, gain)."""
+        if self._move is not None:  # servoing takes over from a running movej
+            self._halt()
+        self._servo_target = np.array([self._in_double(i) for i in range(6)])
+        self.target_q = self._servo_target.copy()
+
     def _halt(self):
+        self._servo_target = None
         if self._move is not None:
             self._move = None
             self._write_async_progress(-1)

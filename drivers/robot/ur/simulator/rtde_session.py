@@ -112,21 +112,24 @@ class RtdeSession:
         self.controller.write_inputs(fields)
 
     def _stream(self):
-        """Stream ``U`` packages at the negotiated rate until the connection ends."""
-        next_at = None
+        """Stream ``U`` packages at the negotiated rate until the connection ends.
+
+        A package goes out after every k-th controller cycle (k = the
+        controller's rate over the negotiated one: 1 at 500 Hz), so each one
+        carries the joints and timestamp of a new cycle, as on a controller.
+        """
+        seen = self.controller.cycles
         while not (self.server_stopped.is_set() or self.closed):
             if not self.streaming.wait(0.05):
-                next_at = None
                 continue
             if self.controller.stalled:
                 time.sleep(0.01)
                 continue
-            period = 1.0 / self.frequency
-            now = time.monotonic()
-            next_at = now if next_at is None else next_at
-            if next_at > now:
-                time.sleep(next_at - now)
-            next_at = max(next_at + period, time.monotonic() - period)
+            every = max(round(1.0 / (self.frequency * self.controller.period_s)), 1)
+            cycles = self.controller.wait_cycle(seen + every - 1, 0.05)
+            if cycles < seen + every:
+                continue  # no cycle came (a stalled clock): look at the flags again
+            seen = cycles
             try:
                 self.send(wire.DATA_PACKAGE, b"\x01" + self._pack_outputs())
             except OSError:

@@ -40,6 +40,9 @@ class SimulatedTracker(LaserTracker):
         The air the tracker's station measures (degC, hPa, %RH).
     on_s : float, optional
         The tracker's time since power-on at start, s.
+    latency_s : float
+        How late its stamps are for a moving target, s (a reading stamped
+        ``t`` shows the target where it was at ``t - latency_s``).
     """
 
     capabilities = frozenset({ports.INITIALISE, ports.STEER, ports.REPORTS_CONDITIONS})
@@ -55,6 +58,7 @@ class SimulatedTracker(LaserTracker):
         probe_6dof: bool = False,
         air: tuple | None = None,
         on_s: float | None = None,
+        latency_s: float = 0.0,
     ) -> None:
         # The pty path is known once started; standard air, as the line opener sends.
         super().__init__("sim://", record=record, environment=Environment())
@@ -64,6 +68,7 @@ class SimulatedTracker(LaserTracker):
         self._replay = replay
         self._probe_6dof = probe_6dof
         self._air, self._on_s = air, on_s
+        self._latency_s = float(latency_s)
         if replay is not None:  # conditions are no reading: a replay does not ask for them
             self.capabilities = self.capabilities - {ports.REPORTS_CONDITIONS}
         self._process: SimulatorProcess | None = None
@@ -80,6 +85,7 @@ class SimulatedTracker(LaserTracker):
                 replay=self._replay,
                 air=self._air,
                 on_s=self._on_s,
+                latency_s=self._latency_s,
             )
             self._url = self._process.url
         return super().connect(environment, mode)
@@ -145,6 +151,7 @@ URL_PARAMS: dict = {
     "probe": ("3dof", "6dof"),  # 6dof: the probe reports its orientation too
     "faults": None,  # a fault script (drivers.tracker.instrument.faults)
     "replay": None,  # a recorded exchange to answer from
+    "latency": None,  # s, 0 to 1: how late the stamps are for a moving target
 }
 
 
@@ -165,6 +172,7 @@ def open_url(url: str, options: OpenOptions) -> SimulatedTracker:
         No world, or a malformed URL (an unknown parameter, a value it does not take).
     """
     params = urls.settings(url, "sim", URL_PARAMS)
+    latency_s = _latency(params.get("latency", "0"))
     if options.world is None:
         raise ValueError("--tracker sim needs the simulated world (measure builds it)")
     return SimulatedTracker(
@@ -176,4 +184,16 @@ def open_url(url: str, options: OpenOptions) -> SimulatedTracker:
         probe_6dof=params.get("probe") == "6dof",
         air=options.world.air,
         on_s=options.world.tracker_on_s,
+        latency_s=latency_s,
     )
+
+
+def _latency(text: str) -> float:
+    """``latency=S`` read: seconds in 0..1; ValueError naming it otherwise."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 <= value <= 1.0:  # NaN fails too
+        raise ValueError(f"sim tracker latency={text!r}: seconds from 0 to 1")
+    return value
