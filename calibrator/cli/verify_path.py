@@ -36,7 +36,13 @@ def parse_speed(text: str) -> Speed:
 
 
 def check_options(
-    shape: str, speed: Speed, robot: str, tracker: str, world: Path | None, history: Any
+    shape: str,
+    speed: Speed,
+    robot: str,
+    tracker: str,
+    world: Path | None,
+    history: Any,
+    calibration: Path | None = None,
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
     from calibrator.cli import _run
@@ -46,10 +52,30 @@ def check_options(
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not speed.percent and not (0.0 < speed.value <= 5000.0):
         fail(f"--path-speed must be in (0, 5000] mm/s, got {speed.value:g}")
-    if not (_run.is_sim(robot) and _run.is_sim(tracker)):
-        fail("--path runs on the simulated cell only (--robot sim --tracker sim) for now")
+    if robot == "external":
+        if _run.is_sim(tracker):
+            fail(
+                "--robot external --path watches a tracker the arm's program moves: give "
+                "--tracker URL (a real tracker, or a tracker simulator the external-robot "
+                "simulator steers; docs/verify.md)"
+            )
+    elif not (_run.is_sim(robot) and _run.is_sim(tracker)):
+        fail(
+            "--path runs on the simulated cell (--robot sim --tracker sim) or with an arm "
+            "running `calibrator program --path` (--robot external)"
+        )
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
+    if robot == "external" and calibration is not None:
+        fail(
+            "--robot external --path runs the nominal path program: register with "
+            "--register CALIBRATION or --base-frame (compensated path programs are not written yet)"
+        )
+    if robot == "external" and speed.percent:
+        fail(
+            "--robot external --path: give the mm/s `calibrator program --path` printed "
+            "(the program states it), not a percentage"
+        )
 
 
 def run(
@@ -70,8 +96,13 @@ def run(
     """
     from calibrator.verify import path_procedure as path_test
 
+    say = lambda text: typer.echo(text, err=True)  # noqa: E731  the operator's cue
     result = path_test.run(
-        arm, path_test.Options(shape, speed, cycles, options), output, devices, inputs=inputs
+        arm,
+        path_test.Options(shape, speed, cycles, options, say=say),
+        output,
+        devices,
+        inputs=inputs,
     )
     section, speed_mm_s, rated = result.document["path"], result.speed_mm_s, result.rated_mm_s
     state = "compensated" if result.compensated else "nominal"

@@ -22,6 +22,7 @@ before anything moves.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -33,10 +34,11 @@ import pandas as pd
 
 from calibrator import outputs
 from calibrator.acquire import ports
+from calibrator.acquire.external.arm import ProgramArm
 from calibrator.errors import CalibrationError
 from calibrator.model import frames
 from calibrator.verify import path as verify_path
-from calibrator.verify import pose
+from calibrator.verify import path_external, pose
 from calibrator.verify import procedure as pose_test
 
 #: Default path speed, mm/s (a tenth of a small arm's rated tool speed: ISO's 10 % case).
@@ -70,12 +72,15 @@ class Options:
         The pose test's options whose cube, tool, calibration, registration,
         tracker position and seed the path takes (its ``cycles`` are this
         test's).
+    say : callable, optional
+        With an arm running its own program: told when to start it.
     """
 
     shape: str
     speed: Speed = field(default_factory=lambda: Speed(DEFAULT_SPEED_MM_S))
     cycles: int = 10
     test: pose_test.Options = field(default_factory=pose_test.Options)
+    say: Callable[[str], None] | None = None
 
 
 @dataclass
@@ -148,19 +153,30 @@ def run(
         registration = prepared.registration
         if registration is None and opened.surveyed_base2tracker is not None:
             registration = pose.surveyed(opened.surveyed_base2tracker, "simulated cell survey")
+        # An arm running its own program (--robot external): tracker-only, from the program.
+        external = isinstance(robot, ProgramArm)
         if not (
-            ports.FOLLOW_PATH.offered_by(robot) and isinstance(tracker, verify_path.PathTracker)
+            (external or ports.FOLLOW_PATH.offered_by(robot))
+            and isinstance(tracker, verify_path.PathTracker)
         ):
             raise CalibrationError(
-                "--path runs on the simulated cell only (--robot sim --tracker sim) for now"
+                "--path runs on the simulated cell (--robot sim --tracker sim) or with an arm "
+                "running `calibrator program --path` (--robot external)"
             )
         if registration is None:
-            raise CalibrationError("--path needs a registration: --calibration or --register")
+            raise CalibrationError(
+                "--path needs a registration: --calibration, --register or --base-frame"
+            )
         tracker.connect()
         opened.robot.connect()
-        section, table = verify_path.run(
-            robot, tracker, path, options.cycles, registration.tracker2base
-        )
+        if external:
+            section, table = path_external.run(
+                tracker, path, options.cycles, registration.tracker2base, say=options.say
+            )
+        else:
+            section, table = verify_path.run(
+                robot, tracker, path, options.cycles, registration.tracker2base
+            )
         robot_id = str(getattr(robot, "device_id", "") or type(robot).__name__)
         tracker_id = str(tracker.device_id or type(tracker).__name__)
     section["rated_speed_mm_s"] = rated

@@ -1,0 +1,374 @@
+"""A controller running a path program: straight and circular moves at their stated speeds.
+
+Reads a program ``calibrator program --path`` writes (KRL ``.src``, RAPID
+``.mod``, URScript ``.script``) as a controller does: the joint move to the
+start, the holds, and the linear and circular moves (through the via point to
+the end point) at the stated path speed, with a trapezoidal speed profile
+over each run of blended moves (stopping only at an exact-stop end). The
+targets are the flange in the controller's base frame; the controller
+solves them with its **nominal** model (:mod:`calibrator.model.inverse`)
+and the hidden true arm runs those joints, so its true path strays from the
+programmed one as a real uncalibrated arm's does.
+
+Units: mm, s, rad (the programs' m/s, deg and quaternions are converted here).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from calibrator.model import frames, inverse, rotations
+from drivers.robot.external_sim.motion import trapezoid_duration, trapezoid_fraction
+
+#: Path acceleration of a language that states none (RAPID's ``AccSet 100, 100``), mm/s^2.
+DEFAULT_ACCEL_MM_S2 = 2000.0
+#: Rate at which the controller's interpolation is sampled for the target's waypoints, Hz.
+SAMPLE_HZ = 100.0
+
+
+class ProgramError(ValueError):
+    """A path program this controller cannot run (one line naming the file and line)."""
+
+
+@dataclass(frozen=True)
+class Move:
+    """A linear (``via`` None) or circular move to ``end`` (flange, controller base, (4, 4))."""
+
+    end: np.ndarray
+    speed_mm_s: float
+    accel_mm_s2: float
+    blend: bool
+    via: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Hold:
+    seconds: float
+
+
+@dataclass(frozen=True)
+class PathProgram:
+    """What the controller runs: the start joints (its own angles, rad), then holds and moves."""
+
+    start_rad: np.ndarray
+    steps: tuple
+
+
+# ---------------------------------------------------------------- reading
+
+_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+
+
+def _numbers(text: str) -> list[float]:
+    return [float(v) for v in re.findall(_NUM, text)]
+
+
+def read(path: str | Path) -> PathProgram:
+    """The path program in ``path`` (by its extension: ``.src``, ``.mod``, ``.script``).
+
+    Raises
+    ------
+    ProgramError
+        An unknown extension, or a statement a path program does not hold.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProgramError(f"{path}: cannot read it ({exc})") from None
+    suffix = path.suffix.lower()
+    readers = {".src": _krl, ".mod": _rapid, ".script": _urscript, ".urscript": _urscript}
+    if suffix not in readers:
+        raise ProgramError(f"{path}: a path program is .src, .mod or .script, not {suffix!r}")
+    return readers[suffix](text, str(path))
+
+
+def _krl_frame(text: str) -> np.ndarray:
+    values = dict(re.findall(rf"\b([XYZABC])\s+({_NUM})", text))
+    if set(values) != set("XYZABC"):
+        raise ValueError(f"a frame needs X, Y, Z, A, B, C: {text}")
+    abc = [float(values[k]) for k in "ABC"]
+    xyz = [float(values[k]) for k in "XYZ"]
+    return frames.transform(rotations.zyx_to_matrix([abc])[0], xyz)
+
+
+def _krl(text: str, name: str) -> PathProgram:
+    start_axes: list[float] | None = None
+    start = None
+    speed = accel = None
+    steps: list[Any] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split(";", 1)[0].strip()
+        upper = line.upper()
+        try:
+            if not line or upper.startswith(("DEF ", "END", "DECL ", "$VEL_AXIS", "$ACC_AXIS")):
+                continue
+            if upper.startswith("START_POS"):
+                values = dict(re.findall(rf"\bA(\d)\s+({_NUM})", line))
+                start_axes = [float(values[str(i)]) for i in range(1, 7)]
+            elif upper.startswith(("$TOOL", "$BASE")):
+                if "$NULLFRAME" not in upper:
+                    raise ValueError("this controller runs the flange in $ROBROOT only")
+            elif upper.startswith("$VEL.CP"):
+                speed = 1000.0 * _numbers(line.split("=", 1)[1])[0]
+            elif upper.startswith("$ACC.CP"):
+                accel = 1000.0 * _numbers(line.split("=", 1)[1])[0]
+            elif upper.startswith(("$ORI_TYPE", "$CIRC_TYPE", "$APO.CDIS")):
+                continue
+            elif upper.startswith("PTP "):
+                if start_axes is None or start is not None:
+                    raise ValueError("one PTP START_POS, after its value")
+                start = np.radians(start_axes)
+            elif upper.startswith("WAIT SEC"):
+                steps.append(Hold(_numbers(line[8:])[0]))
+            elif upper.startswith(("LIN ", "CIRC ")):
+                if speed is None or start is None:
+                    raise ValueError("a path move before $VEL.CP or the PTP to the start")
+                blend = upper.endswith("C_DIS")
+                aggregates = re.findall(r"\{[^}]*\}", line)
+                if len(aggregates) != (1 if upper.startswith("LIN") else 2):
+                    raise ValueError("LIN takes one frame, CIRC two")
+                poses = [_krl_frame(a) for a in aggregates]
+                via = poses[0] if len(poses) == 2 else None
+                steps.append(Move(poses[-1], speed, accel or DEFAULT_ACCEL_MM_S2, blend, via))
+            else:
+                raise ValueError(f"not a path program's statement: {line!r}")
+        except (ValueError, IndexError, KeyError) as exc:
+            raise ProgramError(f"{name}:{number}: {exc}") from None
+    if start is None:
+        raise ProgramError(f"{name}: no PTP to the path's start")
+    return PathProgram(start, tuple(steps))
+
+
+def _rapid_pose(text: str) -> np.ndarray:
+    values = _numbers(text)
+    pos, quat = values[:3], values[3:7]
+    return frames.transform(rotations.quaternion_to_matrix([quat])[0], pos)
+
+
+def _rapid(text: str, name: str) -> PathProgram:
+    start = None
+    speeds: dict[str, float] = {}
+    joints: dict[str, list[float]] = {}
+    steps: list[Any] = []
+    # Statements end at ';' and may span lines; '!' starts a comment.
+    body = "\n".join(line.split("!", 1)[0] for line in text.splitlines())
+    for statement in body.split(";"):
+        line = " ".join(statement.split())
+        upper = line.upper()
+        # MODULE, PROC and their ends take no ';': they lead the statement that follows.
+        line = re.sub(
+            r"^(?:(?:MODULE \w+|PROC \w+\(\)|ENDPROC|ENDMODULE)\s*)+", "", line, flags=re.I
+        )
+        upper = line.upper()
+        try:
+            if not line or upper.startswith("CONFL"):
+                continue
+            m = re.match(r"CONST (jointtarget|speeddata) (\w+) := (.*)", line, re.I)
+            if m:
+                values = _numbers(m.group(3))
+                if m.group(1).lower() == "jointtarget":
+                    joints[m.group(2).lower()] = values[:6]
+                else:
+                    speeds[m.group(2).lower()] = values[0]
+                continue
+            if upper.startswith("MOVEABSJ "):
+                target = line.split()[1].rstrip(",").lower()
+                if start is not None or target not in joints:
+                    raise ValueError("one MoveAbsJ to a declared jointtarget")
+                start = np.radians(joints[target])
+            elif upper.startswith("WAITTIME"):
+                steps.append(Hold(_numbers(line.split(",", 1)[1])[0]))
+            elif upper.startswith(("MOVEL ", "MOVEC ")):
+                circular = upper.startswith("MOVEC")
+                literals = re.findall(r"\[\[[^;]*?\]\]", line)
+                if len(literals) != (2 if circular else 1):
+                    raise ValueError("MoveL takes one robtarget, MoveC two")
+                tail = line[line.rfind("]]") + 2 :].strip(" ,").split(",")
+                speed_name, zone, tool = (t.strip().lower() for t in tail[:3])
+                if tool != "tool0" or speed_name not in speeds:
+                    raise ValueError("a move with tool0 at a declared speeddata")
+                poses = [_rapid_pose(lit) for lit in literals]
+                via = poses[0] if circular else None
+                blend = zone != "fine"
+                steps.append(Move(poses[-1], speeds[speed_name], DEFAULT_ACCEL_MM_S2, blend, via))
+            else:
+                raise ValueError(f"not a path program's statement: {line!r}")
+        except (ValueError, IndexError) as exc:
+            raise ProgramError(f"{name}: {exc}") from None
+    if start is None:
+        raise ProgramError(f"{name}: no MoveAbsJ to the path's start")
+    return PathProgram(start, tuple(steps))
+
+
+def _urscript_pose(text: str) -> np.ndarray:
+    x, y, z, rx, ry, rz = _numbers(text)
+    return frames.transform(rotations.rotvec_to_matrix([rx, ry, rz]), [1e3 * x, 1e3 * y, 1e3 * z])
+
+
+def _urscript(text: str, name: str) -> PathProgram:
+    start = None
+    steps: list[Any] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        try:
+            if not line or line.startswith(("def ", "end", "set_tcp(p[0, 0, 0, 0, 0, 0])")):
+                continue
+            if re.fullmatch(r"\w+\(\)", line):
+                continue  # the call of the program's def
+            if line.startswith("start = ["):
+                start = np.array(_numbers(line[line.index("[") :])[:6])
+            elif line.startswith("movej(start"):
+                if start is None:
+                    raise ValueError("movej before the start's value")
+            elif line.startswith("sleep("):
+                steps.append(Hold(_numbers(line)[0]))
+            elif line.startswith(("movel(", "movec(")):
+                poses = [_urscript_pose(p) for p in re.findall(r"p\[([^\]]*)\]", line)]
+                args = dict(re.findall(rf"\b(a|v|r)=({_NUM})", line))
+                blend = float(args.get("r", 0.0)) > 0.0
+                via = poses[0] if line.startswith("movec") else None
+                speed, accel = 1e3 * float(args["v"]), 1e3 * float(args["a"])
+                steps.append(Move(poses[-1], speed, accel, blend, via))
+            else:
+                raise ValueError(f"not a path program's statement: {line!r}")
+        except (ValueError, IndexError, KeyError) as exc:
+            raise ProgramError(f"{name}:{number}: {exc}") from None
+    if start is None:
+        raise ProgramError(f"{name}: no movej to the path's start")
+    return PathProgram(start, tuple(steps))
+
+
+# ---------------------------------------------------------------- interpolating
+
+
+def _arc(p0: np.ndarray, via: np.ndarray, p1: np.ndarray):
+    """Centre (3,), radius, in-plane basis u, w (3,) each and swept angle of the arc p0-via-p1."""
+    a, b = via - p0, p1 - p0
+    n = np.cross(a, b)
+    nn = float(n @ n)
+    if nn < 1e-12:
+        raise ProgramError("a circular move's points are on a line")
+    centre = p0 + (np.cross(n, a) * (b @ b) + np.cross(b, n) * (a @ a)) / (2.0 * nn)
+    radius = float(np.linalg.norm(p0 - centre))
+    u = (p0 - centre) / radius
+    w = np.cross(n / np.sqrt(nn), u)
+
+    def angle(p: np.ndarray) -> float:
+        d = p - centre
+        return float(np.arctan2(d @ w, d @ u)) % (2.0 * np.pi)
+
+    return centre, radius, u, w, angle(p1)
+
+
+def _pieces(here: np.ndarray, moves: list[Move]):
+    """Each move's geometry as ``(length, point(s))`` (s mm from its start), from ``here``."""
+    out = []
+    for move in moves:
+        end = move.end[:3, 3]
+        if move.via is None:
+            d = end - here
+            length = float(np.linalg.norm(d))
+            start = here.copy()
+            out.append(
+                (length, lambda s, a=start, d=d, n=length: a + np.outer(s / max(n, 1e-12), d))
+            )
+        else:
+            centre, radius, u, w, sweep = _arc(here, move.via[:3, 3], end)
+            length = radius * sweep
+
+            def point(s, c=centre, r=radius, u=u, w=w):
+                th = (s / r)[:, None]
+                return c + r * (np.cos(th) * u + np.sin(th) * w)
+
+            out.append((length, point))
+        here = end
+    return out
+
+
+def flange_path(program: PathProgram, start_pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The controller's flange positions over time: ``t`` (T,) s from the start, (T, 3) mm.
+
+    ``start_pose`` (4, 4) is the flange at the start joints (controller base).
+    A run of blended moves is one motion with a trapezoidal speed profile at
+    the first move's speed and acceleration; a hold keeps the last position.
+    """
+    times, points = [0.0], [start_pose[:3, 3]]
+    t, here = 0.0, start_pose[:3, 3]
+    run: list[Move] = []
+    for step in (*program.steps, None):
+        if isinstance(step, Move):
+            run.append(step)
+            if step.blend:
+                continue
+        if run:
+            pieces = _pieces(here, run)
+            total = sum(length for length, _ in pieces)
+            speed, accel = run[0].speed_mm_s, run[0].accel_mm_s2
+            duration = trapezoid_duration(total, speed, accel)
+            tt = np.linspace(0.0, duration, max(int(np.ceil(duration * SAMPLE_HZ)), 1) + 1)[1:]
+            s = trapezoid_fraction(tt, duration, speed, accel, total) * total
+            starts = np.concatenate([[0.0], np.cumsum([length for length, _ in pieces])])
+            k = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(pieces) - 1)
+            p = np.empty((len(s), 3))
+            for i, (_, point) in enumerate(pieces):
+                mask = k == i
+                p[mask] = point(s[mask] - starts[i])
+            times += list(t + tt)
+            points += list(p)
+            t += duration
+            here = run[-1].end[:3, 3]
+            run = []
+        if isinstance(step, Hold):
+            t += step.seconds
+            times.append(t)
+            points.append(here)
+    return np.array(times), np.array(points)
+
+
+def true_path(
+    program: PathProgram,
+    arm: Any,
+    true_mdh: np.ndarray,
+    flange2tool: np.ndarray,
+    base2tracker: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The true reflector over time, tracker frame: ``t`` (T,) s and points (T, 3) mm.
+
+    The controller of ``arm`` (its nominal model, joint convention and frames)
+    solves each interpolated flange pose; the true arm (``true_mdh``, the
+    true reflector ``flange2tool``, base placement ``base2tracker``) runs the joints.
+
+    Raises
+    ------
+    ProgramError
+        A target the nominal model cannot reach.
+    """
+    from calibrator.model import kinematics
+
+    q_start = arm.convention.to_model(np.asarray(program.start_rad).reshape(1, 6))[0]
+    base, flange = arm.model_base2controller_base, arm.model_flange2controller_flange
+    start_pose = frames.invert(base) @ kinematics.chain(arm.mdh, q_start[None])[0] @ flange
+    t, p = flange_path(program, start_pose)
+    rotation = start_pose[:3, :3]  # constant orientation ($ORI_TYPE #CONSTANT, as written)
+    ctrl = np.broadcast_to(np.eye(4), (len(t), 4, 4)).copy()
+    ctrl[:, :3, :3], ctrl[:, :3, 3] = rotation, p
+    model_poses = base @ ctrl @ frames.invert(flange)
+    q = np.empty((len(t), 6))
+    seed = q_start
+    for lo in range(0, len(t), 200):  # seeded by the chunk before: the path's own solution
+        chunk = model_poses[lo : lo + 200]
+        sol = inverse.solve(
+            arm.mdh, chunk, np.tile(seed, (len(chunk), 1)), None, arm.joint_limits_rad
+        )
+        if not np.all(sol.ok):
+            raise ProgramError("the program leaves the nominal arm's reach")
+        q[lo : lo + 200] = sol.q
+        seed = sol.q[-1]
+    points = kinematics.forward(true_mdh, q, flange2tool, base2tracker)[:, :3, 3]
+    return t, points
