@@ -61,8 +61,8 @@ def check_options(
             )
     elif not (_run.is_sim(robot) and _run.is_sim(tracker)):
         fail(
-            "--path runs on the simulated cell (--robot sim --tracker sim) or with an arm "
-            "running `calibrator program --path` (--robot external)"
+            "--path runs on the simulated cell only (--robot sim --tracker sim), or on an arm "
+            "running `calibrator program --path` (--robot external --tracker URL)"
         )
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")

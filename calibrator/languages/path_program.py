@@ -117,6 +117,10 @@ class PathSpec:
                 raise CalibrationError("a circular move, and only it, has a via point")
         if not self.moves:
             raise CalibrationError("a path program needs at least one move")
+        if self.joints.mdh is None:
+            raise CalibrationError(
+                "a path program needs the nominal MDH table (its configurations)"
+            )
         if not MIN_SPEED_MM_S <= self.speed_mm_s <= MAX_SPEED_MM_S:
             raise CalibrationError(
                 f"path speed {self.speed_mm_s:g} mm/s is not in "
@@ -134,6 +138,12 @@ class PathSpec:
     @property
     def name(self) -> str:
         return self.joints.name
+
+    @property
+    def mdh(self) -> np.ndarray:
+        """The nominal MDH table (6, 5) whose configurations the targets state."""
+        assert self.joints.mdh is not None  # checked on construction
+        return np.asarray(self.joints.mdh, dtype=float)
 
     def steps(self) -> list[tuple[str, PathMove | None]]:
         """The program after its joint move to the start: ``("move", m)`` and ``("hold", None)``,

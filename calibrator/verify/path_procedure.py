@@ -160,8 +160,8 @@ def run(
             and isinstance(tracker, verify_path.PathTracker)
         ):
             raise CalibrationError(
-                "--path runs on the simulated cell (--robot sim --tracker sim) or with an arm "
-                "running `calibrator program --path` (--robot external)"
+                "--path runs on the simulated cell only (--robot sim --tracker sim), or on an "
+                "arm running `calibrator program --path` (--robot external --tracker URL)"
             )
         if registration is None:
             raise CalibrationError(

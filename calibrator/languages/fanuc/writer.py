@@ -103,7 +103,7 @@ def _config(spec: PathSpec, k: int) -> str:
     convention = spec.joints.convention
     q = spec.q_rad[k]
     ctrl = np.degrees(convention.to_controller(q) if convention is not None else q)
-    back, down, flip = configuration.arm_bits(spec.joints.mdh, q[None])[0]
+    back, down, flip = configuration.arm_bits(spec.mdh, q[None])[0]
     t1, t4, t6 = (int(configuration.turn(ctrl[j])) for j in (0, 3, 5))
     return f"'{'NF'[flip]} {'UD'[down]} {'TB'[back]}, {t1}, {t4}, {t6}'"
 

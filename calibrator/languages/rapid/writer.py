@@ -132,7 +132,7 @@ def _robtarget(spec: PathSpec, k: int) -> str:
         else spec.q_rad[k]
     )
     quadrants = configuration.quadrant(ctrl[[0, 3, 5]])
-    bits = configuration.arm_bits(spec.joints.mdh, spec.q_rad[k][None])[0]
+    bits = configuration.arm_bits(spec.mdh, spec.q_rad[k][None])[0]
     cfx = 4 * bits[0] + 2 * bits[1] + bits[2]
     conf = ",".join(str(int(v)) for v in (*quadrants, cfx))
     return f"[[{pos}],[{orient}],[{conf}],[9E9,9E9,9E9,9E9,9E9,9E9]]"
