@@ -24,6 +24,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from cli_process_kit import child_env, run_cli, start_cli
 from timeout_kit import readline
@@ -176,6 +177,26 @@ def test_krl_circle_played_by_the_player_gives_the_hidden_arms_path_figures(tmp_
     assert "AT_P" in out
     print(
         f"\ncircle: AT_P {section['AT_P_mm']:.4f} mm (truth {expected:.4f}), "
+        f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %, "
+        f"FV {section['FV_mm_s']:.3f}, starts {section['start_s']}"
+    )
+
+
+@pytest.mark.timeout(600)
+def test_rapid_line_with_its_way_back_gives_the_line_figures_of_its_runs_only(tmp_path):
+    doc, truth, _ = _run(tmp_path, "line", "line.mod")
+    section = doc["path"]
+    assert section["shape"] == "line" and section["cycles"] == CYCLES
+    expected = expected_at_p(truth, "line")
+    assert expected > 0.1
+    # The way back P4 -> P2 is not a cycle: taken as one it would spoil AT_P and AV.
+    assert section["AT_P_mm"] == pytest.approx(expected, abs=0.03)
+    assert section["RT_P_mm"] < 0.1
+    assert abs(section["AV_pct"]) < 1.0
+    streams = pd.read_parquet(tmp_path / "path.parquet")
+    assert sorted(streams["cycle"].unique()) == list(range(1, CYCLES + 1))
+    print(
+        f"\nline: AT_P {section['AT_P_mm']:.4f} mm (truth {expected:.4f}), "
         f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %, "
         f"FV {section['FV_mm_s']:.3f}, starts {section['start_s']}"
     )
