@@ -55,7 +55,7 @@ def program(
         2.0,
         callback=checks.finite(PULSE_S, MAX_DWELL_S, inclusive=False),
         help="Wait at each pose, s: more than the settle window plus the readings' time "
-        f"(at most {MAX_DWELL_S:g}).",
+        f"(at most {MAX_DWELL_S:g}); with --path the hold at the path's ends (at least 0.5).",
     ),
     pulse: int = typer.Option(
         None,
@@ -265,11 +265,17 @@ def _write_path(
     from calibrator.errors import CalibrationError
     from calibrator.languages import writing as programs
     from calibrator.verify.path import SHAPES
+    from calibrator.verify.path_external import MIN_HOLD_S
 
     if shape not in SHAPES:
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
     if chosen not in ("urscript", "krl", "rapid", "fanuc-ls"):
         fail(f"--path is written in urscript, krl, rapid and fanuc-ls, not {chosen}")
+    if dwell < MIN_HOLD_S:
+        fail(
+            f"--dwell {dwell:g} s: a path program holds at least {MIN_HOLD_S:g} s at the path's "
+            "ends (verify --path tells the cycles apart by those rests)"
+        )
     request_speed = verify_path.parse_speed(path_speed)
     if not request_speed.percent and not (1.0 <= request_speed.value <= 5000.0):
         fail(f"--path-speed must be in [1, 5000] mm/s, got {request_speed.value:g}")

@@ -15,8 +15,10 @@ both or neither. From Python::
     result = path_test.run(robots.get("ur10e"), options, "circle.json", Devices())
     result.document["path"]["AT_P_mm"]
 
-Devices whose robot cannot run a timed path (a real arm today) are refused
-before anything moves.
+An arm running its own path program (``--robot external``: the program
+``calibrator program --path`` writes) is measured tracker-only
+(:mod:`calibrator.verify.path_external`). Devices whose robot can do neither
+(a real UR today) are refused before anything moves.
 """
 
 from __future__ import annotations
