@@ -215,13 +215,8 @@ def test_the_line_and_the_rectangle_stop_exactly_at_their_vertices(tmp_path, sha
             "--path writes the ISO 9283 path, not a plan",
         ),
         (("--path", "line", "-o", "p.src", "--cube", "5000,0,0,300"), "cube"),
-        (
-            (
-                "-o",
-                "p.src",
-            ),
-            "give a PLAN",
-        ),
+        (("-o", "p.src"), "give a PLAN"),
+        (("--path", "line", "-o", "p.src", "--dwell", "0.3"), "holds at least 0.5 s"),
     ],
 )
 def test_bad_path_options_are_refused_in_one_line_and_nothing_is_written(tmp_path, args, message):
