@@ -17,14 +17,12 @@ import re
 import numpy as np
 import pytest
 from cli_kit import cli, one_line_error
+from path_kit import TOOL, commanded, reflector
 
 from calibrator import robots
 from calibrator.model import frames, kinematics, rotations
-from calibrator.verify import path as verify_path
-from calibrator.verify import pose
 
 NUM = r"[-+]?\d+(?:\.\d+)?"
-TOOL = (0.0, 0.0, 100.0)
 
 ARMS = [
     ("ur10e", "p.script", "urscript"),
@@ -81,24 +79,6 @@ def start_joints(fmt: str, text: str) -> np.ndarray:
         return np.array(_floats(re.search(r"start = \[([^\]]*)\]", text).group(1)))
     block = re.search(r"P\[1:\"START\"\]\{(.*?)\};", text, re.S).group(1)
     return np.radians([float(v) for v in re.findall(rf"J\d= ({NUM}) deg", block)])
-
-
-def commanded(arm, shape: str):
-    """Verify's commanded path and tool rotation for this arm (default cube, no tracker)."""
-    tool = frames.transform(translation=TOOL)
-    vplan = pose.make_plan(arm, tool, 2)
-    rotation = vplan.desired[0][:3, :3]
-    return verify_path.test_path(shape, vplan.cube, rotation), rotation
-
-
-def reflector(arm, flange_in_controller: np.ndarray) -> np.ndarray:
-    """The reflector of the controller's flange poses (K, 4, 4), the model's base frame, (K, 3)."""
-    model = (
-        arm.model_base2controller_base
-        @ flange_in_controller
-        @ frames.invert(arm.model_flange2controller_flange)
-    )
-    return (model @ frames.transform(translation=TOOL))[:, :3, 3]
 
 
 @pytest.fixture(scope="module", params=ARMS, ids=[a[2] for a in ARMS])

@@ -1,7 +1,7 @@
 """A controller running a path program: straight and circular moves at their stated speeds.
 
 Reads a program ``calibrator program --path`` writes (KRL ``.src``, RAPID
-``.mod``, URScript ``.script``) as a controller does: the joint move to the
+``.mod``, URScript ``.script``, Fanuc LS ``.ls``) as a controller does: the joint move to the
 start, the holds, and the linear and circular moves (through the via point to
 the end point) at the stated path speed, with a trapezoidal speed profile
 over each run of blended moves (stopping only at an exact-stop end). The
@@ -25,7 +25,8 @@ import numpy as np
 from calibrator.model import frames, inverse, rotations
 from drivers.robot.external_sim.motion import trapezoid_duration, trapezoid_fraction
 
-#: Path acceleration of a language that states none (RAPID's ``AccSet 100, 100``), mm/s^2.
+#: Path acceleration of a language that states none (RAPID's ``AccSet 100, 100``, Fanuc's
+#: ``ACC100``), mm/s^2.
 DEFAULT_ACCEL_MM_S2 = 2000.0
 #: Rate at which the controller's interpolation is sampled for the target's waypoints, Hz.
 SAMPLE_HZ = 100.0
@@ -69,7 +70,7 @@ def _numbers(text: str) -> list[float]:
 
 
 def read(path: str | Path) -> PathProgram:
-    """The path program in ``path`` (by its extension: ``.src``, ``.mod``, ``.script``).
+    """The path program in ``path`` (by its extension: ``.src``, ``.mod``, ``.script``, ``.ls``).
 
     Raises
     ------
@@ -82,9 +83,15 @@ def read(path: str | Path) -> PathProgram:
     except (OSError, UnicodeDecodeError) as exc:
         raise ProgramError(f"{path}: cannot read it ({exc})") from None
     suffix = path.suffix.lower()
-    readers = {".src": _krl, ".mod": _rapid, ".script": _urscript, ".urscript": _urscript}
+    readers = {
+        ".src": _krl,
+        ".mod": _rapid,
+        ".script": _urscript,
+        ".urscript": _urscript,
+        ".ls": _fanuc,
+    }
     if suffix not in readers:
-        raise ProgramError(f"{path}: a path program is .src, .mod or .script, not {suffix!r}")
+        raise ProgramError(f"{path}: a path program is .src, .mod, .script or .ls, not {suffix!r}")
     return readers[suffix](text, str(path))
 
 
@@ -242,6 +249,58 @@ def _urscript(text: str, name: str) -> PathProgram:
     if start is None:
         raise ProgramError(f"{name}: no movej to the path's start")
     return PathProgram(start, tuple(steps))
+
+
+def _fanuc(text: str, name: str) -> PathProgram:
+    if "/MN" not in text or "/POS" not in text:
+        raise ProgramError(f"{name}: a Fanuc LS program has /MN and /POS sections")
+    main, rest = text.split("/MN", 1)[1].split("/POS", 1)
+    positions: dict[int, Any] = {}
+    for number, body in re.findall(r"P\[(\d+)(?::\"[^\"]*\")?\]\{(.*?)\};", rest, re.S):
+        if "UF : 0, UT : 0" not in body:
+            raise ProgramError(f"{name}: P[{number}]: this controller runs UF 0 and UT 0 only")
+        joints = re.findall(rf"J\d= ({_NUM}) deg", body)
+        if joints:
+            positions[int(number)] = np.radians([float(v) for v in joints])
+        else:
+            v = {k: float(x) for k, x in re.findall(rf"\b([XYZWPR]) = ({_NUM})", body)}
+            rot = rotations.zyx_to_matrix([[v["R"], v["P"], v["W"]]])[0]
+            positions[int(number)] = frames.transform(rot, [v["X"], v["Y"], v["Z"]])
+    # A statement is a numbered line and its ':' continuation lines.
+    statements: list[str] = []
+    for raw in main.splitlines():
+        line = raw.strip()
+        if re.match(r"\d+:", line):
+            statements.append(line.split(":", 1)[1])
+        elif line.startswith(":") and statements:
+            statements[-1] += " " + line[1:]
+    start = None
+    steps: list[Any] = []
+    for k, statement in enumerate(statements, start=1):
+        line = " ".join(statement.rstrip("; ").split())
+        try:
+            refs = [int(n) for n in re.findall(r"P\[(\d+)", line)]
+            if line.startswith(("UFRAME_NUM=0", "UTOOL_NUM=0")):
+                continue
+            if line.startswith("J "):
+                if start is not None:
+                    raise ValueError("one J move, to the start")
+                start = positions[refs[0]]
+            elif line.startswith("WAIT"):
+                steps.append(Hold(_numbers(line)[0]))
+            elif line.startswith(("L ", "C ")):
+                speed = float(re.search(rf"({_NUM})mm/sec", line).group(1))  # type: ignore[union-attr]
+                poses = [positions[n] for n in refs]
+                via = poses[0] if line.startswith("C") else None
+                blend = "CNT" in line
+                steps.append(Move(poses[-1], speed, DEFAULT_ACCEL_MM_S2, blend, via))
+            else:
+                raise ValueError(f"not a path program's statement: {line!r}")
+        except (ValueError, IndexError, KeyError, AttributeError) as exc:
+            raise ProgramError(f"{name}: /MN line {k}: {exc}") from None
+    if start is None:
+        raise ProgramError(f"{name}: no J move to the path's start")
+    return PathProgram(np.asarray(start), tuple(steps))
 
 
 # ---------------------------------------------------------------- interpolating
