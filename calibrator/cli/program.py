@@ -110,6 +110,12 @@ def program(
         help="--path: test cube X,Y,Z,SIDE, mm, in the controller's base frame "
         "[default: the largest that fits, as verify's].",
     ),
+    calibration_path: Path = typer.Option(
+        None,
+        "--calibration",
+        help="--path: compensate the path's targets with this calibration (the path "
+        "`verify --path --calibration` commands; written as short blended moves).",
+    ),
 ) -> None:
     """Write the plan as a robot program: home, a joint move and a dwell per pose, home.
 
@@ -141,8 +147,11 @@ def program(
             cell_file,
             tracker_at,
             tool,
+            calibration_path,
         )
         return
+    if calibration_path is not None:
+        fail("--calibration is for --path (correct a plan's program with calibrator compensate)")
     if plan_path is None:
         fail("give a PLAN (a plan CSV), or --path line|circle|rectangle")
     if targets == Targets.cartesian and chosen not in CARTESIAN:
@@ -256,6 +265,7 @@ def _write_path(
     cell_file: Path | None,
     tracker_at: str | None,
     tool: str | None,
+    calibration_path: Path | None,
 ) -> None:
     """``program --path``: the path test as a program (:mod:`calibrator.cli.program_path`)."""
     from calibrator import cell as cells
@@ -280,9 +290,16 @@ def _write_path(
     if not request_speed.percent and not (1.0 <= request_speed.value <= 5000.0):
         fail(f"--path-speed must be in [1, 5000] mm/s, got {request_speed.value:g}")
     name = programs.name_for(chosen, output)
-    inputs = [p for p in (cell_file,) if p is not None]
+    inputs = [p for p in (cell_file, calibration_path) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
-    arm = robots.get(_model.resolve(model))
+    cal = None
+    if calibration_path is not None:
+        from calibrator import calibration as calibrations
+
+        cal = calibrations.load(calibration_path)
+    # The calibration's arm; --model only for one that names none, or without one.
+    recorded = [] if cal is None else [_model.From(cal.model, calibration_path)]
+    arm = robots.get(_model.resolve(model, *recorded))
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel
     if speed > arm.move_speed_cap_rad_s:
@@ -302,6 +319,7 @@ def _write_path(
         tool_mm=_run.triple(tool, "--tool"),
         tracker_at_mm=tracker_mm,
         cell=cell,
+        calibration=cal,
     )
     try:
         spec, mm_s, rated = program_path.path_spec(
@@ -316,9 +334,12 @@ def _write_path(
     except CalibrationError as exc:
         fail(str(exc))
     outputs.write_text(output, text, inputs=inputs)
+    state = "compensated" if cal is not None else "nominal"
+    register = f"--calibration {calibration_path}" if cal is not None else "--register CAL"
     typer.echo(
-        f"wrote {output} ({chosen}): ISO 9283 {shape} path, {cycles} cycles at {mm_s:g} mm/s "
+        f"wrote {output} ({chosen}): ISO 9283 {shape} path ({state}), {cycles} cycles at "
+        f"{mm_s:g} mm/s "
         f"({100.0 * mm_s / rated:.0f} % of its rated {rated:.0f} mm/s), {dwell:g} s holds; "
         f"measure it with verify --path {shape} --path-speed {mm_s:g} --cycles {cycles} "
-        "--robot external"
+        f"--robot external {register}"
     )

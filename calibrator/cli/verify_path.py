@@ -66,11 +66,6 @@ def check_options(
         )
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
-    if robot == "external" and calibration is not None:
-        fail(
-            "--robot external --path runs the nominal path program: register with "
-            "--register CALIBRATION or --base-frame (compensated path programs are not written yet)"
-        )
     if robot == "external" and speed.percent:
         fail(
             "--robot external --path: give the mm/s `calibrator program --path` printed "

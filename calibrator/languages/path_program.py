@@ -22,11 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from calibrator.errors import CalibrationError
 from calibrator.languages.spec import ProgramSpec
-from calibrator.model import frames
 
 #: The move kinds of a path program.
 KINDS = ("line", "circle")
@@ -91,6 +89,10 @@ class PathSpec:
         Wait at the start and after each cycle, s: the stream sees the arm still.
     cycles : int
         Runs of the path.
+    compensated : bool
+        The targets are corrected by a calibration: their orientations differ
+        slightly, and a move turns the tool from its start's to its end's
+        (KRL ``$ORI_TYPE = #VAR``); without, every target has the start's.
     """
 
     joints: ProgramSpec
@@ -103,6 +105,7 @@ class PathSpec:
     accel_mm_s2: float = PATH_ACCEL_MM_S2
     hold_s: float = 2.0
     cycles: int = 10
+    compensated: bool = False
 
     def __post_init__(self) -> None:
         poses = np.asarray(self.poses, dtype=float)
@@ -164,35 +167,14 @@ class PathSpec:
         return self.poses[k, :3, :3]
 
 
-def flange_targets(
-    tool_poses: ArrayLike,
-    flange2tool: ArrayLike,
-    model_base2controller_base: ArrayLike,
-    model_flange2controller_flange: ArrayLike,
-) -> np.ndarray:
-    """The controller's flange poses (K, 4, 4) in its base frame for tool poses in the model's.
+def arcs(n: int) -> tuple[PathMove, ...]:
+    """A full circle as ``n`` circular moves over targets 1 .. 2n - 1 and back to 0, blended.
 
-    Parameters
-    ----------
-    tool_poses : array_like, shape (K, 4, 4)
-        The tool (reflector) poses of the path, the model's base frame, mm.
-    flange2tool : array_like, shape (4, 4)
-        The tool on the model's flange, mm.
-    model_base2controller_base, model_flange2controller_flange : array_like, shape (4, 4)
-        The controller's frames on the model's
-        (:func:`calibrator.languages.convention.controller_frames`).
-
-    Returns
-    -------
-    ndarray, shape (K, 4, 4)
-        ``inv(base) @ tool @ inv(flange2tool) @ flange``, mm.
+    Target ``2k + 1`` is arc ``k``'s via point, ``2k + 2`` its end (the last's is 0).
     """
-    tool = np.asarray(tool_poses, dtype=float)
-    base_inv = frames.invert(np.asarray(model_base2controller_base, dtype=float))
-    tail = frames.invert(np.asarray(flange2tool, dtype=float)) @ np.asarray(
-        model_flange2controller_flange, dtype=float
+    return tuple(
+        PathMove("circle", (2 * k + 2) % (2 * n), via=2 * k + 1, blend=k < n - 1) for k in range(n)
     )
-    return base_inv @ tool @ tail
 
 
 def circle_moves(first: int) -> tuple[PathMove, PathMove]:

@@ -40,9 +40,7 @@ def test_the_players_flange_path_runs_on_the_commanded_circle_at_the_stated_spee
     q = arm.convention.to_model(program.start_rad[None])
     base, flange = arm.model_base2controller_base, arm.model_flange2controller_flange
     start = frames.invert(base) @ kinematics.chain(arm.mdh, q)[0] @ flange
-    t, p = path_program.flange_path(program, start)
-    poses = np.broadcast_to(start, (len(t), 4, 4)).copy()
-    poses[:, :3, 3] = p
+    t, poses = path_program.flange_path(program, start)
     at = reflector(arm, poses)
     path, _ = commanded(arm, "circle")
     rel = at - path.centre_mm

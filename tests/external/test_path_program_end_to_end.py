@@ -100,11 +100,14 @@ def expected_at_p(truth: dict, shape: str) -> float:
     return float(np.linalg.norm(across, axis=1).max())
 
 
-def _run(tmp_path: Path, shape: str, program: str) -> tuple[dict, dict, str]:
+def _run(
+    tmp_path: Path, shape: str, program: str, calibration: str | None = None
+) -> tuple[dict, dict, str]:
     """Program, player and verify for ``shape`` as ``program``: verify.json, truth, stdout."""
     done = run_cli(
         "program", "--path", shape, "-o", program, "--path-speed", str(SPEED),
-        "--cycles", str(CYCLES), "--dwell", "1", cwd=tmp_path,
+        "--cycles", str(CYCLES), "--dwell", "1",
+        *(["--calibration", calibration] if calibration else []), cwd=tmp_path,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert f"--path-speed {SPEED} --cycles {CYCLES}" in done.stdout
@@ -125,8 +128,10 @@ def _run(tmp_path: Path, shape: str, program: str) -> tuple[dict, dict, str]:
             truth = json.loads((tmp_path / "truth.json").read_text())
             verify = start_cli(
                 "verify", "--path", shape, "--path-speed", str(SPEED), "--cycles",
-                str(CYCLES), "--robot", "external", "--tracker", url, "--base-frame",
-                _base_frame(truth), "-o", "path.json", cwd=tmp_path,
+                str(CYCLES), "--robot", "external", "--tracker", url,
+                *(["--calibration", calibration] if calibration else
+                  ["--base-frame", _base_frame(truth)]),
+                "-o", "path.json", cwd=tmp_path,
             )  # fmt: skip
             err: list[str] = []
             cue = threading.Event()
@@ -199,4 +204,27 @@ def test_rapid_line_with_its_way_back_gives_the_line_figures_of_its_runs_only(tm
         f"\nline: AT_P {section['AT_P_mm']:.4f} mm (truth {expected:.4f}), "
         f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %, "
         f"FV {section['FV_mm_s']:.3f}, starts {section['start_s']}"
+    )
+
+
+@pytest.mark.timeout(900)
+def test_a_compensated_circle_program_cuts_the_hidden_arms_path_error(tmp_path):
+    # A calibration of the hidden arm: the simulated cell of the same seed is the player's arm.
+    for args in (
+        ("measure", "-q", "--seed", "3", "--poses", "60", "-o", "s.parquet"),
+        ("identify", "s.parquet", "-o", "cal.json"),
+    ):
+        done = run_cli(*args, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    doc, truth, out = _run(tmp_path, "circle", "circle.src", calibration="cal.json")
+    section = doc["path"]
+    assert section["compensated"] is True and "compensated commands" in out
+    before = expected_at_p(truth, "circle")
+    # From 1.5 mm (the nominal program, above) to a few hundredths: the correction's own
+    # residual, the arcs' interpolation of it and the tracker's noise.
+    assert section["AT_P_mm"] < 0.05 < before
+    assert section["RT_P_mm"] < 0.1 and abs(section["AV_pct"]) < 1.0
+    print(
+        f"\ncompensated circle: AT_P {section['AT_P_mm']:.4f} mm (nominal {before:.4f}), "
+        f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %"
     )

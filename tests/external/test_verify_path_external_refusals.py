@@ -24,7 +24,6 @@ TRACKER = ("--tracker", "socket://127.0.0.1:9")  # nothing listens: nothing may 
         ((), "--robot external runs the path test only"),
         (("--path", "line"), "--robot external --path watches a tracker the arm's program moves"),
         (("--path", "line", *TRACKER, "--path-speed", "50%"), "give the mm/s"),
-        (("--path", "line", *TRACKER, "--calibration", "c.json"), "runs the nominal path program"),
         (("--path", "line", *TRACKER), "--path needs a registration"),
     ],
 )

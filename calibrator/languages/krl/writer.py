@@ -103,7 +103,8 @@ def write_path(spec: PathSpec) -> str:
 
     ``$VEL.CP`` is the path speed in m/s and ``$ACC.CP`` its acceleration in
     m/s^2; ``$ORI_TYPE = #CONSTANT`` keeps the orientation of the start (the
-    same at every target), ``$CIRC_TYPE = #BASE`` guides it in the base.
+    same at every target; ``#VAR`` for compensated targets, whose orientations
+    differ by the correction), ``$CIRC_TYPE = #BASE`` guides it in the base.
     ``CIRC aux, end`` moves through the auxiliary point to the end point; a
     blended move ends ``C_DIS`` (``$APO.CDIS`` mm), the others stop exactly.
     """
@@ -127,7 +128,8 @@ def write_path(spec: PathSpec) -> str:
         "$BASE = $NULLFRAME",
         f"$VEL.CP = {number(spec.speed_mm_s / 1000.0)}",
         f"$ACC.CP = {number(spec.accel_mm_s2 / 1000.0)}",
-        "$ORI_TYPE = #CONSTANT",
+        # Compensated targets differ in orientation by the correction: turned to along each move.
+        f"$ORI_TYPE = {'#VAR' if spec.compensated else '#CONSTANT'}",
         "$CIRC_TYPE = #BASE",
         f"$APO.CDIS = {BLEND_MM:g}",
         "PTP START_POS",

@@ -325,40 +325,56 @@ def _arc(p0: np.ndarray, via: np.ndarray, p1: np.ndarray):
     return centre, radius, u, w, angle(p1)
 
 
+def _turn(r0: np.ndarray, r1: np.ndarray, fraction: np.ndarray) -> np.ndarray:
+    """Rotations (K, 3, 3) turned from ``r0`` to ``r1`` by ``fraction`` (K,) of the way (slerp)."""
+    axis = rotations.matrix_to_rotvec(r0.T @ r1)
+    return r0 @ rotations.rotvec_to_matrix(np.outer(fraction, axis))
+
+
 def _pieces(here: np.ndarray, moves: list[Move]):
-    """Each move's geometry as ``(length, point(s))`` (s mm from its start), from ``here``."""
+    """Each move's geometry as ``(length, pose(s))`` (s mm from its start, poses (K, 4, 4)).
+
+    The orientation turns from the move's start's to its end's along it
+    (KRL ``$ORI_TYPE = #VAR``; the same at every target of a nominal program).
+    """
     out = []
     for move in moves:
-        end = move.end[:3, 3]
+        end, r0, r1 = move.end[:3, 3], here[:3, :3], move.end[:3, :3]
         if move.via is None:
-            d = end - here
+            a = here[:3, 3].copy()
+            d = end - a
             length = float(np.linalg.norm(d))
-            start = here.copy()
-            out.append(
-                (length, lambda s, a=start, d=d, n=length: a + np.outer(s / max(n, 1e-12), d))
-            )
+
+            def point(s, a=a, d=d, n=length):
+                return a + np.outer(s / max(n, 1e-12), d)
         else:
-            centre, radius, u, w, sweep = _arc(here, move.via[:3, 3], end)
+            centre, radius, u, w, sweep = _arc(here[:3, 3], move.via[:3, 3], end)
             length = radius * sweep
 
             def point(s, c=centre, r=radius, u=u, w=w):
                 th = (s / r)[:, None]
                 return c + r * (np.cos(th) * u + np.sin(th) * w)
 
-            out.append((length, point))
-        here = end
+        def pose(s, point=point, r0=r0, r1=r1, n=length):
+            out = np.broadcast_to(np.eye(4), (len(s), 4, 4)).copy()
+            out[:, :3, :3] = _turn(r0, r1, s / max(n, 1e-12))
+            out[:, :3, 3] = point(s)
+            return out
+
+        out.append((length, pose))
+        here = move.end
     return out
 
 
 def flange_path(program: PathProgram, start_pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The controller's flange positions over time: ``t`` (T,) s from the start, (T, 3) mm.
+    """The controller's flange over time: ``t`` (T,) s from the start, poses (T, 4, 4), mm.
 
     ``start_pose`` (4, 4) is the flange at the start joints (controller base).
     A run of blended moves is one motion with a trapezoidal speed profile at
-    the first move's speed and acceleration; a hold keeps the last position.
+    the first move's speed and acceleration; a hold keeps the last pose.
     """
-    times, points = [0.0], [start_pose[:3, 3]]
-    t, here = 0.0, start_pose[:3, 3]
+    times, poses = [0.0], [np.asarray(start_pose, dtype=float)]
+    t, here = 0.0, poses[0]
     run: list[Move] = []
     for step in (*program.steps, None):
         if isinstance(step, Move):
@@ -374,20 +390,20 @@ def flange_path(program: PathProgram, start_pose: np.ndarray) -> tuple[np.ndarra
             s = trapezoid_fraction(tt, duration, speed, accel, total) * total
             starts = np.concatenate([[0.0], np.cumsum([length for length, _ in pieces])])
             k = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(pieces) - 1)
-            p = np.empty((len(s), 3))
-            for i, (_, point) in enumerate(pieces):
+            p = np.empty((len(s), 4, 4))
+            for i, (_, pose) in enumerate(pieces):
                 mask = k == i
-                p[mask] = point(s[mask] - starts[i])
+                p[mask] = pose(s[mask] - starts[i])
             times += list(t + tt)
-            points += list(p)
+            poses += list(p)
             t += duration
-            here = run[-1].end[:3, 3]
+            here = run[-1].end
             run = []
         if isinstance(step, Hold):
             t += step.seconds
             times.append(t)
-            points.append(here)
-    return np.array(times), np.array(points)
+            poses.append(here)
+    return np.array(times), np.array(poses)
 
 
 def true_path(
@@ -413,10 +429,7 @@ def true_path(
     q_start = arm.convention.to_model(np.asarray(program.start_rad).reshape(1, 6))[0]
     base, flange = arm.model_base2controller_base, arm.model_flange2controller_flange
     start_pose = frames.invert(base) @ kinematics.chain(arm.mdh, q_start[None])[0] @ flange
-    t, p = flange_path(program, start_pose)
-    rotation = start_pose[:3, :3]  # constant orientation ($ORI_TYPE #CONSTANT, as written)
-    ctrl = np.broadcast_to(np.eye(4), (len(t), 4, 4)).copy()
-    ctrl[:, :3, :3], ctrl[:, :3, 3] = rotation, p
+    t, ctrl = flange_path(program, start_pose)
     model_poses = base @ ctrl @ frames.invert(flange)
     q = np.empty((len(t), 6))
     seed = q_start
