@@ -96,14 +96,16 @@ def program(
         "(docs/verify.md).",
     ),
     path_speed: str = typer.Option(
-        "100",
+        None,
         "--path-speed",
         metavar="MM_S|PCT%",
         help="--path: tool speed along the path, mm/s, or a percentage of its rated speed "
-        "(written as whole mm/s; give verify the mm/s the command prints).",
+        "(written as whole mm/s; give verify the mm/s the command prints) [default: 100].",
     ),
     cycles: int = typer.Option(
-        30, callback=checks.count("cycles", 1), help="--path: runs of the path (as verify's)."
+        None,
+        callback=checks.count("cycles", 1),
+        help="--path: runs of the path [default: 30, as verify's].",
     ),
     cube: str = typer.Option(
         None,
@@ -134,8 +136,8 @@ def program(
         _refuse_with_path(plan_path, pulse, home, targets)
         _write_path(
             path_shape,
-            path_speed,
-            cycles,
+            "100" if path_speed is None else path_speed,
+            30 if cycles is None else cycles,
             cube,
             chosen,
             output,
@@ -150,8 +152,12 @@ def program(
             calibration_path,
         )
         return
-    if calibration_path is not None:
-        fail("--calibration is for --path (correct a plan's program with calibrator compensate)")
+    given = {"--path-speed": path_speed, "--cycles": cycles, "--cube": cube}
+    given["--calibration"] = calibration_path
+    for flag, value in given.items():
+        if value is not None:
+            why = " (correct a plan's program with calibrator compensate)"
+            fail(f"{flag} is for --path" + (why if flag == "--calibration" else ""))
     if plan_path is None:
         fail("give a PLAN (a plan CSV), or --path line|circle|rectangle")
     if targets == Targets.cartesian and chosen not in CARTESIAN:

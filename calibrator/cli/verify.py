@@ -150,9 +150,7 @@ def verify(
         from calibrator.cli import verify_path
 
         speed = verify_path.parse_speed(path_speed)
-        verify_path.check_options(
-            path_shape, speed, robot, tracker, world, history, calibration_path
-        )
+        verify_path.check_options(path_shape, speed, robot, tracker, world, history)
     elif robot == "external":
         fail(
             "--robot external runs the path test only (--path; the pose test needs --robot sim or ur://)"

@@ -42,7 +42,6 @@ def check_options(
     tracker: str,
     world: Path | None,
     history: Any,
-    calibration: Path | None = None,
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
     from calibrator.cli import _run

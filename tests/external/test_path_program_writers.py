@@ -196,6 +196,8 @@ def test_the_line_and_the_rectangle_stop_exactly_at_their_vertices(tmp_path, sha
         ),
         (("--path", "line", "-o", "p.src", "--cube", "5000,0,0,300"), "cube"),
         (("-o", "p.src"), "give a PLAN"),
+        (("plan.csv", "-o", "p.src", "--cycles", "3"), "--cycles is for --path"),
+        (("plan.csv", "-o", "p.src", "--calibration", "c.json"), "--calibration is for --path"),
         (("--path", "line", "-o", "p.src", "--dwell", "0.3"), "holds at least 0.5 s"),
     ],
 )
