@@ -1,4 +1,7 @@
-"""``calibrator program``: the plan as a robot program for any controller (``--robot external``)."""
+"""``calibrator program``: the plan as a robot program for any controller (``--robot external``).
+
+With ``--path`` it writes the ISO 9283 path test instead (:mod:`calibrator.cli.program_path`).
+"""
 
 from __future__ import annotations
 
@@ -124,6 +127,8 @@ def program(
     Via rows of the plan become joint moves without dwell or pulse before their pose.
     The program is the only gate for an arm the controller runs on its own, so it
     runs the whole-plan check of ``measure`` first and writes nothing it refuses.
+    With --path (no PLAN) it writes the ISO 9283 path test instead, for
+    ``verify --path --robot external`` (docs/verify.md).
     """
     import numpy as np
 
