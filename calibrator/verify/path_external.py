@@ -16,8 +16,11 @@ until it has seen the cycles:
    half and three times the commanded path's duration at the stated speed;
 3. each cycle is **aligned** with the commanded path run at the stated
    speed (:func:`calibrator.verify.path_figures.estimate_latency` on the
-   cycle and the holds around it, no robot stream): its start is the
-   latency found; the stream is kept from that start to the motion's end.
+   cycle and the holds around it, no robot stream): its times count from
+   the start found; the stream is kept from the motion's first moving
+   sample to its last (a program stopping at corners runs longer than the
+   path at constant speed: a fitted start can fall after the path's first
+   calculated points).
 
 The figures are then those of the simulated cell's path test
 (:func:`calibrator.verify.path.figures`). Units: mm, s.
@@ -144,7 +147,7 @@ def align(
     Returns
     -------
     stream : calibrator.verify.path_figures.Stream
-        From the aligned start to the motion's end, base frame, mm.
+        The motion, base frame, mm, its times from the aligned start (s).
     start : float
         The aligned start less the motion's first moving sample, s.
     keep : ndarray of int
@@ -155,7 +158,9 @@ def align(
     rel = t_s[window] - t0
     reference = ip.commanded_reference(test.path, test.speed_mm_s)
     start = ip.estimate_latency(rel, p_mm[window], reference, max_latency_s=verify_path.HOLD_S)
-    keep = np.flatnonzero((t_s >= t0 + start) & (t_s <= t_s[motion.last]))
+    # The whole motion is kept: a program that stops at corners runs longer than the path
+    # at constant speed, and a start fitted to it can fall after the first calculated points.
+    keep = np.flatnonzero((t_s >= t0) & (t_s <= t_s[motion.last]))
     return ip.Stream(t_s[keep] - t0 - start, p_mm[keep]), float(start), keep
 
 

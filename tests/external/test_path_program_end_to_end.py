@@ -228,3 +228,22 @@ def test_a_compensated_circle_program_cuts_the_hidden_arms_path_error(tmp_path):
         f"\ncompensated circle: AT_P {section['AT_P_mm']:.4f} mm (nominal {before:.4f}), "
         f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %"
     )
+
+
+@pytest.mark.timeout(600)
+def test_urscript_rectangle_with_exact_stops_at_its_corners_is_one_cycle_each_run(tmp_path):
+    doc, truth, out = _run(tmp_path, "rectangle", "rect.script")
+    section = doc["path"]
+    assert section["shape"] == "rectangle" and section["cycles"] == CYCLES
+    # The stops at the corners join the sides into one cycle: the runs are the cycles.
+    streams = pd.read_parquet(tmp_path / "path.parquet")
+    assert sorted(streams["cycle"].unique()) == list(range(1, CYCLES + 1))
+    expected = expected_at_p(truth, "rectangle")
+    assert section["AT_P_mm"] == pytest.approx(expected, abs=0.03)
+    assert len(section["CR_mm"]) == len(section["CO_mm"]) == 3
+    assert "corners, mm" in out
+    print(
+        f"\nrectangle: AT_P {section['AT_P_mm']:.4f} mm (truth {expected:.4f}), "
+        f"RT_P {section['RT_P_mm']:.4f}, AV {section['AV_pct']:+.3f} %, "
+        f"CR {section['CR_mm']}, CO {section['CO_mm']}"
+    )

@@ -83,7 +83,7 @@ def test_each_cycle_is_aligned_with_the_commanded_line_at_the_stated_speed(delay
         aligned = t[motion.first] + start
         assert aligned == pytest.approx(true_start + 0.5 * SPEED / ACCEL, abs=0.005)
         # The kept stream runs the whole line, start to stop.
-        assert np.linalg.norm(one.p_mm[0] - P2) < 5.0 and np.linalg.norm(one.p_mm[-1] - P4) < 0.1
+        assert np.linalg.norm(one.p_mm[0] - P2) < 0.1 and np.linalg.norm(one.p_mm[-1] - P4) < 0.1
 
 
 def test_a_motion_already_under_way_when_the_stream_starts_is_not_a_cycle():
