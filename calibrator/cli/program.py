@@ -304,12 +304,13 @@ def _write_path(
     inputs = [p for p in (cell_file, calibration_path) if p is not None]
     outputs.check(output, inputs=inputs, force=force)
     cal = None
+    recorded = []
     if calibration_path is not None:
         from calibrator import calibration as calibrations
 
         cal = calibrations.load(calibration_path)
-    # The calibration's arm; --model only for one that names none, or without one.
-    recorded = [] if cal is None else [_model.From(cal.model, calibration_path)]
+        # The calibration's arm; --model only for one that names none.
+        recorded.append(_model.From(cal.model, calibration_path))
     arm = robots.get(_model.resolve(model, *recorded))
     speed = arm.move_speed_cap_rad_s if speed is None else speed
     accel = arm.move_accel_cap_rad_s2 if accel is None else accel

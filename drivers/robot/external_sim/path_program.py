@@ -16,7 +16,9 @@ Units: mm, s, rad (the programs' m/s, deg and quaternions are converted here).
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -325,6 +327,17 @@ def _arc(p0: np.ndarray, via: np.ndarray, p1: np.ndarray):
     return centre, radius, u, w, angle(p1)
 
 
+def _along_line(s: np.ndarray, a: np.ndarray, d: np.ndarray, n: float) -> np.ndarray:
+    """Points (K, 3) ``s`` mm along the segment from ``a`` by ``d`` (length ``n``)."""
+    return a + np.outer(s / max(n, 1e-12), d)
+
+
+def _along_arc(s: np.ndarray, c: np.ndarray, r: float, u: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Points (K, 3) ``s`` mm along the arc about ``c`` of radius ``r`` from ``c + r u``."""
+    th = (s / r)[:, None]
+    return c + r * (np.cos(th) * u + np.sin(th) * w)
+
+
 def _turn(r0: np.ndarray, r1: np.ndarray, fraction: np.ndarray) -> np.ndarray:
     """Rotations (K, 3, 3) turned from ``r0`` to ``r1`` by ``fraction`` (K,) of the way (slerp)."""
     axis = rotations.matrix_to_rotvec(r0.T @ r1)
@@ -340,20 +353,15 @@ def _pieces(here: np.ndarray, moves: list[Move]):
     out = []
     for move in moves:
         end, r0, r1 = move.end[:3, 3], here[:3, :3], move.end[:3, :3]
+        point: Callable[[np.ndarray], np.ndarray]
         if move.via is None:
             a = here[:3, 3].copy()
-            d = end - a
-            length = float(np.linalg.norm(d))
-
-            def point(s, a=a, d=d, n=length):
-                return a + np.outer(s / max(n, 1e-12), d)
+            length = float(np.linalg.norm(end - a))
+            point = partial(_along_line, a=a, d=end - a, n=length)
         else:
             centre, radius, u, w, sweep = _arc(here[:3, 3], move.via[:3, 3], end)
             length = radius * sweep
-
-            def point(s, c=centre, r=radius, u=u, w=w):
-                th = (s / r)[:, None]
-                return c + r * (np.cos(th) * u + np.sin(th) * w)
+            point = partial(_along_arc, c=centre, r=radius, u=u, w=w)
 
         def pose(s, point=point, r0=r0, r1=r1, n=length):
             out = np.broadcast_to(np.eye(4), (len(s), 4, 4)).copy()
