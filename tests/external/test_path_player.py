@@ -54,3 +54,24 @@ def test_the_players_flange_path_runs_on_the_commanded_circle_at_the_stated_spee
     ramp = SPEED / path_program.DEFAULT_ACCEL_MM_S2  # every language here states 2 m/s^2
     assert moving == pytest.approx(2 * (path.length_mm / SPEED + ramp), abs=0.02)
     assert t[-1] == pytest.approx(moving + 3.0, abs=0.02)
+
+
+def test_the_player_refuses_what_a_path_program_does_not_have_in_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    from cli_process_kit import child_env
+
+    (tmp_path / "p.src").write_text("DEF P()\nEND\n")
+    for args, message in (
+        (["--skip", "3"], "--skip and --pause are for --plan"),
+        ([], "no PTP to the path's start"),
+    ):
+        done = subprocess.run(
+            [sys.executable, "-m", "drivers.robot.external_sim", "--program", "p.src",
+             "--control", "socket://127.0.0.1:9", *args],
+            cwd=tmp_path, capture_output=True, text=True, env=child_env(None), timeout=120,
+        )  # fmt: skip
+        assert done.returncode == 2, done.stderr
+        lines = done.stderr.strip().splitlines()
+        assert len(lines) == 1 and message in lines[0]

@@ -120,6 +120,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.program:
+        if args.skip or args.pauses:
+            # A path program's moves are the program's: nothing here skips or pauses them.
+            print("external_sim: error: --skip and --pause are for --plan", file=sys.stderr)
+            return 2
         return _play_program(args)
     from calibrator.errors import CalibrationError
     from calibrator.planning import read_plan
