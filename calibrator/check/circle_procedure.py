@@ -111,7 +111,8 @@ def run(
             or opened.tracker_at_mm is None
         ):
             raise CalibrationError(
-                "--circle runs on the simulated cell only (--robot sim --tracker sim) for now"
+                "--circle runs on the simulated cell only "
+                "(--robot sim, --tracker sim or emscon+sim) for now"
             )
         # The circle's plane and orientation are verify's (its cube, facing the tracker),
         # the tool the calibration's: the same circle every day.

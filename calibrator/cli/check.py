@@ -261,7 +261,10 @@ def _check_circle(
     from calibrator.errors import CalibrationError
 
     if not (_run.is_sim(robot) and _run.is_sim(tracker)):
-        fail("--circle runs on the simulated cell only (--robot sim --tracker sim) for now")
+        fail(
+            "--circle runs on the simulated cell only "
+            "(--robot sim, --tracker sim or emscon+sim) for now"
+        )
     if not (0.0 < speed_mm_s <= 5000.0):
         fail(f"--circle-speed must be in (0, 5000] mm/s, got {speed_mm_s:g}")
     if output.suffix.lower() == ".parquet":

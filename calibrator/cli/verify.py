@@ -55,7 +55,7 @@ def _cube(text: str | None) -> Any:
 @_run.run_command
 def verify(
     *,
-    robot: str = _run.robot_option(external=False),
+    robot: str = _run.robot_option(external=True),
     tracker: str = _run.tracker_option(),
     calibration_path: Path = typer.Option(
         None,
@@ -151,6 +151,10 @@ def verify(
 
         speed = verify_path.parse_speed(path_speed)
         verify_path.check_options(path_shape, speed, robot, tracker, world, history)
+    elif robot == "external":
+        fail(
+            "--robot external runs the path test only (--path; the pose test needs --robot sim or ur://)"
+        )
     sim_inputs, _ = _run.sim_files(tracker)  # ``sim://?faults=F``
     inputs = [p for p in (calibration_path, register_path, cell_file, world) if p is not None]
     inputs += sim_inputs

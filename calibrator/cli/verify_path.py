@@ -37,7 +37,12 @@ def parse_speed(text: str) -> Speed:
 
 
 def check_options(
-    shape: str, speed: Speed, robot: str, tracker: str, world: Path | None, history: Any
+    shape: str,
+    speed: Speed,
+    robot: str,
+    tracker: str,
+    world: Path | None,
+    history: Any,
 ) -> None:
     """Refuse, in one line each, what the path test cannot do (before anything opens)."""
     from calibrator.cli import _run
@@ -47,10 +52,25 @@ def check_options(
         fail(f"--path must be one of {', '.join(SHAPES)}, got {shape!r}")
     if not speed.percent and not (0.0 < speed.value <= 5000.0):
         fail(f"--path-speed must be in (0, 5000] mm/s, got {speed.value:g}")
-    if not (_run.is_sim(robot) or robot.startswith("ur://")):
-        fail("--path runs with the simulated arm or a UR (--robot sim or ur://HOST) for now")
+    if robot == "external":
+        if _run.is_sim(tracker):
+            fail(
+                "--robot external --path watches a tracker the arm's program moves: give "
+                "--tracker URL (a real tracker, or a tracker simulator the external-robot "
+                "simulator steers; docs/verify.md)"
+            )
+    elif not (_run.is_sim(robot) or robot.startswith("ur://")):
+        fail(
+            "--path runs with the simulated arm or a UR (--robot sim or ur://HOST), or on an "
+            "arm running `calibrator program --path` (--robot external --tracker URL)"
+        )
     if world is not None:
         fail("--path takes the simulated cell of --seed, not --world, for now")
+    if robot == "external" and speed.percent:
+        fail(
+            "--robot external --path: give the mm/s `calibrator program --path` printed "
+            "(the program states it), not a percentage"
+        )
 
 
 def run(
@@ -82,10 +102,12 @@ def run(
 
     from calibrator.acquire.ports import RobotHalted
 
+    say = lambda text: typer.echo(text, err=True)  # noqa: E731  the operator's cue
+
     try:
         result = path_test.run(
             arm,
-            path_test.Options(shape, speed, cycles, options),
+            path_test.Options(shape, speed, cycles, options, say=say),
             output,
             devices,
             inputs=inputs,

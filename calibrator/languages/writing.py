@@ -21,11 +21,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from calibrator import outputs
+from calibrator.errors import CalibrationError
+from calibrator.languages.path_program import PathSpec
 from calibrator.languages.registry import Writer, writer, writers
 from calibrator.languages.spec import ProgramSpec, move_duration_s
 from calibrator.languages.statements import between_homes, title
 
 __all__ = [
+    "PathSpec",
     "ProgramSpec",
     "Writer",
     "between_homes",
@@ -34,6 +37,7 @@ __all__ = [
     "move_duration_s",
     "name_for",
     "render",
+    "render_path",
     "title",
     "writer",
     "writers",
@@ -76,3 +80,33 @@ def render(spec: ProgramSpec, fmt: str) -> str:
 def degrees(q_rad: ArrayLike) -> np.ndarray:
     """Joint angles in degrees (the unit of KRL, RAPID and Fanuc LS)."""
     return np.degrees(np.asarray(q_rad, dtype=float))
+
+
+def _path_writers() -> dict:
+    """The path program writer of each format (:mod:`calibrator.languages.path_program`)."""
+    from calibrator.languages.fanuc import writer as fanuc
+    from calibrator.languages.krl import writer as krl
+    from calibrator.languages.rapid import writer as rapid
+    from calibrator.languages.urscript import writer as urscript
+
+    return {
+        "urscript": urscript.write_path,
+        "krl": krl.write_path,
+        "rapid": rapid.write_path,
+        "fanuc-ls": fanuc.write_path,
+    }
+
+
+def render_path(spec: PathSpec, fmt: str) -> str:
+    """The path program text of ``spec`` in format ``fmt`` (every format :func:`writers` lists).
+
+    Raises
+    ------
+    CalibrationError
+        A format that writes no path program, or a spec the language cannot state.
+    """
+    outputs.known_format(writers(), fmt)
+    table = _path_writers()
+    if fmt not in table:
+        raise CalibrationError(f"{fmt} writes no path programs (only {', '.join(table)})")
+    return table[fmt](spec)

@@ -17,7 +17,10 @@ both or neither. From Python::
 
 Devices whose robot cannot run a timed path are refused before anything
 moves. A UR (``ur://HOST``) runs it and streams its actual joints, and its
-stream is aligned with the tracker's (``alignment``: ``robot stream``).
+stream is aligned with the tracker's (``alignment``: ``robot stream``). An
+arm running its own path program (``--robot external``: the program
+``calibrator program --path`` writes) is measured tracker-only
+(:mod:`calibrator.verify.path_external`).
 """
 
 from __future__ import annotations
@@ -35,10 +38,11 @@ import pandas as pd
 
 from calibrator import outputs
 from calibrator.acquire import ports
+from calibrator.acquire.external.arm import ProgramArm
 from calibrator.errors import CalibrationError
 from calibrator.model import frames, joint_terms, kinematics
 from calibrator.verify import path as verify_path
-from calibrator.verify import pose
+from calibrator.verify import path_external, pose
 from calibrator.verify import procedure as pose_test
 
 #: Default path speed, mm/s (a tenth of a small arm's rated tool speed: ISO's 10 % case).
@@ -72,12 +76,15 @@ class Options:
         The pose test's options whose cube, tool, calibration, registration,
         tracker position and seed the path takes (its ``cycles`` are this
         test's).
+    say : callable, optional
+        With an arm running its own program: told when to start it.
     """
 
     shape: str
     speed: Speed = field(default_factory=lambda: Speed(DEFAULT_SPEED_MM_S))
     cycles: int = 10
     test: pose_test.Options = field(default_factory=pose_test.Options)
+    say: Callable[[str], None] | None = None
 
 
 @dataclass
@@ -190,27 +197,37 @@ def run(
         registration = prepared.registration
         if registration is None and opened.surveyed_base2tracker is not None:
             registration = pose.surveyed(opened.surveyed_base2tracker, "simulated cell survey")
+        # An arm running its own program (--robot external): tracker-only, from the program.
+        external = isinstance(robot, ProgramArm)
         if not (
-            ports.FOLLOW_PATH.offered_by(robot) and isinstance(tracker, verify_path.PathTracker)
+            (external or ports.FOLLOW_PATH.offered_by(robot))
+            and isinstance(tracker, verify_path.PathTracker)
         ):
             raise CalibrationError(
-                "--path needs a robot that runs a timed path (sim, ur://HOST) and a "
-                "tracker that streams"
+                "--path needs a robot that runs a timed path (sim, ur://HOST) or runs "
+                "`calibrator program --path` (--robot external), and a tracker that streams"
             )
         if registration is None:
-            raise CalibrationError("--path needs a registration: --calibration or --register")
+            raise CalibrationError(
+                "--path needs a registration: --calibration, --register or --base-frame"
+            )
         if confirm is not None and ports.MOVES_HARDWARE in getattr(robot, "capabilities", ()):
             confirm(str(getattr(robot, "device_id", "") or type(robot).__name__))
         tracker.connect()
         opened.robot.connect()
-        section, table = verify_path.run(
-            robot,
-            tracker,
-            path,
-            options.cycles,
-            registration.tracker2base,
-            tool_points=model_points(arm, flange2tool, calibration),
-        )
+        if external:
+            section, table = path_external.run(
+                tracker, path, options.cycles, registration.tracker2base, say=options.say
+            )
+        else:
+            section, table = verify_path.run(
+                robot,
+                tracker,
+                path,
+                options.cycles,
+                registration.tracker2base,
+                tool_points=model_points(arm, flange2tool, calibration),
+            )
         robot_id = str(getattr(robot, "device_id", "") or type(robot).__name__)
         tracker_id = str(tracker.device_id or type(tracker).__name__)
     section["rated_speed_mm_s"] = rated

@@ -16,10 +16,13 @@ from __future__ import annotations
 import numpy as np
 
 from calibrator.errors import CalibrationError
+from calibrator.languages import configuration
 from calibrator.languages.names import program_name
+from calibrator.languages.path_program import PathSpec
 from calibrator.languages.registry import writer
 from calibrator.languages.spec import PULSE_S, ProgramSpec
 from calibrator.languages.statements import between_homes
+from calibrator.model import rotations
 
 #: Longest program name on an R-30iB.
 MAX_NAME = 36
@@ -86,5 +89,87 @@ def write(spec: ProgramSpec) -> str:
     lines += _position(spec, home, spec.home_rad, "HOME")
     for index, pose, q in vias:
         lines += _position(spec, index, q, f"via before pose {pose}")
+    lines += ["/END", ""]
+    return "\n".join(lines)
+
+
+#: Termination of a blended move (a circle's two arcs meet tangentially): no stop, no rounding
+#: of a tangential junction.
+BLEND = "CNT100"
+
+
+def _config(spec: PathSpec, k: int) -> str:
+    """``'N U T, t1, t4, t6'``: flip, elbow, arm, turn numbers of J1, J4, J6 (controller's)."""
+    convention = spec.joints.convention
+    q = spec.q_rad[k]
+    ctrl = np.degrees(convention.to_controller(q) if convention is not None else q)
+    back, down, flip = configuration.arm_bits(spec.mdh, q[None])[0]
+    t1, t4, t6 = (int(configuration.turn(ctrl[j])) for j in (0, 3, 5))
+    return f"'{'NF'[flip]} {'UD'[down]} {'TB'[back]}, {t1}, {t4}, {t6}'"
+
+
+def _cartesian(spec: PathSpec, index: int, k: int, comment: str) -> list[str]:
+    x, y, z = (f"{round(float(v), 3) + 0.0:.3f}" for v in spec.position(k))
+    # W, P, R: about the fixed X, Y, Z axes, Rz(R) Ry(P) Rx(W), deg.
+    r, p, w = rotations.matrix_to_zyx(spec.rotation(k)[None], np.zeros(3))[0]
+    w, p, r = (f"{round(float(v), 3) + 0.0:.3f}" for v in (w, p, r))
+    return [
+        f'P[{index}:"{comment}"]{{',
+        "   GP1:",
+        f"\tUF : 0, UT : 0,\t\tCONFIG : {_config(spec, k)},",
+        f"\tX = {x} mm,\tY = {y} mm,\tZ = {z} mm,",
+        f"\tW = {w} deg,\tP = {p} deg,\tR = {r} deg",
+        "};",
+    ]
+
+
+def write_path(spec: PathSpec) -> str:
+    """The path program in Fanuc LS: ``J`` to the start, ``L`` and ``C`` at mm/sec.
+
+    Positions are the faceplate (``UT : 0``) in the world frame (``UF : 0``):
+    ``P[1]`` the start in joints, ``P[2..]`` the path's targets as Cartesian
+    positions (mm, W P R in deg) with their configuration. A circular move
+    is ``C P[via]`` with its end ``P[end]`` on the continuation line; path
+    speeds are whole mm/sec (the written speed is the stated one rounded
+    down, never faster); ``FINE`` stops exactly, ``CNT100`` blends.
+
+    Raises
+    ------
+    CalibrationError
+        A speed below 1 mm/sec.
+    """
+    joints = spec.joints
+    name = spec.name.upper()
+    pct = int(joints.speed_percent(1.0, "Fanuc LS").min())
+    speed = int(np.floor(spec.speed_mm_s + 1e-9))
+    if speed < 1:
+        raise CalibrationError("Fanuc LS states path speeds in whole mm/sec: at least 1")
+    # P[1] the start (joints), P[2 + k] target k (P[2] the start again, as a position).
+    body: list[str] = ["UFRAME_NUM=0", "UTOOL_NUM=0", f"J P[1:START] {pct}% FINE"]
+    for _step, move in spec.steps():
+        if move is None:
+            body.append(f"WAIT {spec.hold_s:.2f}(sec)")
+            continue
+        term = BLEND if move.blend else "FINE"
+        if move.kind == "line":
+            body.append(f"L P[{move.end + 2}] {speed}mm/sec {term}")
+        else:
+            assert move.via is not None
+            body.append(f"C P[{move.via + 2}] \n    :  P[{move.end + 2}] {speed}mm/sec {term}")
+    lines = [
+        f"/PROG  {name}",
+        "/ATTR",
+        "OWNER\t\t= MNEDITOR;",
+        f'COMMENT\t\t= "ISO 9283 {spec.shape} path";',
+        f"LINE_COUNT\t= {len(body)};",
+        "PROTECT\t\t= READ_WRITE;",
+        "DEFAULT_GROUP\t= 1,*,*,*,*;",
+        "/MN",
+    ]
+    lines += [f"{n:4d}:  {stmt} ;" for n, stmt in enumerate(body, start=1)]
+    lines.append("/POS")
+    lines += _position(joints, 1, joints.home_rad, "START")
+    for k in range(len(spec.poses)):
+        lines += _cartesian(spec, k + 2, k, f"path {k}")
     lines += ["/END", ""]
     return "\n".join(lines)

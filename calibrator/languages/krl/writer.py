@@ -13,11 +13,15 @@ frames ``calibrator compensate --joint-targets correct`` then corrects in.
 
 from __future__ import annotations
 
+import numpy as np
+
 from calibrator.errors import CalibrationError
 from calibrator.languages.names import program_name, words
+from calibrator.languages.path_program import PathSpec
 from calibrator.languages.registry import writer
-from calibrator.languages.spec import PULSE_S, ProgramSpec
+from calibrator.languages.spec import PULSE_S, ProgramSpec, number
 from calibrator.languages.statements import between_homes, title
+from calibrator.model import rotations
 
 #: KRL keywords, data types and the names this program uses (KRL is case-insensitive).
 RESERVED = words(
@@ -27,7 +31,7 @@ RESERVED = words(
     "EXOR EXT EXTFCT FALSE FOR FRAME GLOBAL GOTO HALT IF IMPORT INT INTERRUPT IS LIN "
     "LIN_REL LOOP MAXIMUM MINIMUM NOT OR POS PRIO PTP PTP_REL PUBLIC PULSE REAL REPEAT "
     "RESUME RETURN SCIRC SEC SIGNAL SLIN SPL SPLINE SPTP STEP STRUC SWITCH THEN TO TRIGGER "
-    "TRUE UNTIL WAIT WHEN WHILE HOME_POS"
+    "TRUE UNTIL WAIT WHEN WHILE HOME_POS START_POS"
 )
 #: Longest KRL name.
 MAX_NAME = 24
@@ -78,4 +82,67 @@ def write(spec: ProgramSpec) -> str:
         comment=lambda text: f"; {text}",
     )
     lines += ["PTP HOME_POS", "END", ""]
+    return "\n".join(lines)
+
+
+#: Approximation distance of a blended move (a circle's two arcs meet tangentially), mm.
+BLEND_MM = 1.0
+
+
+def _frame(spec: PathSpec, k: int) -> str:
+    """Target ``k`` as a KRL ``FRAME`` aggregate: mm and ZYX angles A, B, C in deg."""
+    x, y, z = spec.position(k)
+    a, b, c = rotations.matrix_to_zyx(spec.rotation(k)[None], np.zeros(3))[0]
+    values = zip("XYZABC", (x, y, z, a, b, c), strict=True)
+    # 1e-6 mm and deg: far below any controller's resolution; + 0.0 turns -0.0 into 0.0.
+    return "{" + ", ".join(f"{n} {round(float(v), 6) + 0.0:.6f}" for n, v in values) + "}"
+
+
+def write_path(spec: PathSpec) -> str:
+    """The path program in KRL: ``PTP`` to the start, ``LIN`` and ``CIRC`` at ``$VEL.CP``.
+
+    ``$VEL.CP`` is the path speed in m/s and ``$ACC.CP`` its acceleration in
+    m/s^2; ``$ORI_TYPE = #CONSTANT`` keeps the orientation of the start (the
+    same at every target; ``#VAR`` for compensated targets, whose orientations
+    differ by the correction), ``$CIRC_TYPE = #BASE`` guides it in the base.
+    ``CIRC aux, end`` moves through the auxiliary point to the end point; a
+    blended move ends ``C_DIS`` (``$APO.CDIS`` mm), the others stop exactly.
+    """
+    name = spec.name.upper()
+    joints = spec.joints
+    lines = [
+        f"DEF {name}()",
+        f"; ISO 9283 {spec.shape} path, {spec.cycles} cycles at {spec.speed_mm_s:g} mm/s"
+        + (f" for {joints.model}" if joints.model else ""),
+        "; joints in deg; targets: the flange ($TOOL = $NULLFRAME) in $ROBROOT "
+        "($BASE = $NULLFRAME), mm, and A, B, C (about Z, Y, X) in deg",
+        "DECL E6AXIS START_POS",
+        f"START_POS = {_axis(joints, joints.home_rad)}",
+    ]
+    for axis, pct in enumerate(joints.speed_percent(0.1, "KRL"), start=1):
+        lines.append(f"$VEL_AXIS[{axis}] = {pct:.1f}")
+    for axis in range(1, 7):
+        lines.append(f"$ACC_AXIS[{axis}] = {ACC_PERCENT}")
+    lines += [
+        "$TOOL = $NULLFRAME",
+        "$BASE = $NULLFRAME",
+        f"$VEL.CP = {number(spec.speed_mm_s / 1000.0)}",
+        f"$ACC.CP = {number(spec.accel_mm_s2 / 1000.0)}",
+        # Compensated targets differ in orientation by the correction: turned to along each move.
+        f"$ORI_TYPE = {'#VAR' if spec.compensated else '#CONSTANT'}",
+        "$CIRC_TYPE = #BASE",
+        f"$APO.CDIS = {BLEND_MM:g}",
+        "PTP START_POS",
+    ]
+    for _step, move in spec.steps():
+        if move is None:
+            lines.append(f"WAIT SEC {spec.hold_s:.3f}")
+            continue
+        blend = " C_DIS" if move.blend else ""
+        if move.kind == "line":
+            lines.append(f"LIN {_frame(spec, move.end)}{blend}")
+        else:
+            assert move.via is not None
+            lines.append(f"CIRC {_frame(spec, move.via)}, {_frame(spec, move.end)}{blend}")
+    lines += ["END", ""]
     return "\n".join(lines)

@@ -18,6 +18,7 @@ import numpy as np
 
 from calibrator.errors import CalibrationError
 from calibrator.languages.names import program_name, words
+from calibrator.languages.path_program import PathSpec
 from calibrator.languages.registry import writer
 from calibrator.languages.spec import PULSE_S, ProgramSpec, number
 from calibrator.languages.statements import between_homes, title
@@ -27,7 +28,7 @@ from calibrator.model import rotations
 RESERVED = words(
     "def end if elif else while for in return break continue thread run join kill global "
     "local and or not xor True False pass sec halt enter_critical exit_critical "
-    "movej sleep set_standard_digital_out home",
+    "movej sleep set_standard_digital_out home movel movec set_tcp start",
     upper=False,
 )
 
@@ -116,4 +117,51 @@ def write(spec: ProgramSpec) -> str:
         pulse_blocks=True,  # sleep() waits the pulse out
     )
     lines += [f"  movej(home, {move})", "end", f"{spec.name}()", ""]
+    return "\n".join(lines)
+
+
+#: Blend radius of a blended move (a circle's two arcs meet tangentially), m.
+BLEND_M = 0.001
+
+
+def _pose(spec: PathSpec, k: int) -> str:
+    """Target ``k`` as ``p[x, y, z, rx, ry, rz]``: m and a rotation vector in rad."""
+    values = [*(spec.position(k) / 1000.0), *rotations.matrix_to_rotvec(spec.rotation(k))]
+    return "p[" + ", ".join(f"{round(float(v), 9) + 0.0:.9f}" for v in values) + "]"
+
+
+def write_path(spec: PathSpec) -> str:
+    """The path program in URScript: ``movej`` to the start, ``movel`` and ``movec``.
+
+    ``v`` is the tool speed in m/s and ``a`` its acceleration in m/s^2;
+    ``movec(via, to, ...)`` moves through the via pose to the end pose
+    (``mode=0``: the orientation of the end pose, the same at every target).
+    ``set_tcp`` of the zero pose makes the targets the flange's, in the base
+    frame. A blended move has ``r`` (m), the others stop at their end.
+    """
+    joints = spec.joints
+    approach = f"a={number(joints.accel_rad_s2)}, v={number(joints.speed_rad_s)}"
+    path = f"a={number(spec.accel_mm_s2 / 1000.0)}, v={number(spec.speed_mm_s / 1000.0)}"
+    lines = [
+        f"# {spec.name}: ISO 9283 {spec.shape} path, {spec.cycles} cycles at "
+        f"{spec.speed_mm_s:g} mm/s" + (f" for {joints.model}" if joints.model else ""),
+        "# joints in rad; targets: the flange p[x, y, z, rx, ry, rz] in the base frame, m and rad;",
+        "# path speed and acceleration in m/s and m/s^2",
+        f"def {spec.name}():",
+        "  set_tcp(p[0, 0, 0, 0, 0, 0])",
+        f"  start = {_joints(joints, joints.home_rad)}",
+        f"  movej(start, {approach})",
+    ]
+    for _step, move in spec.steps():
+        if move is None:
+            lines.append(f"  sleep({spec.hold_s:.3f})")
+            continue
+        blend = f", r={BLEND_M:g}" if move.blend else ""
+        if move.kind == "line":
+            lines.append(f"  movel({_pose(spec, move.end)}, {path}{blend})")
+        else:
+            assert move.via is not None
+            via, end = _pose(spec, move.via), _pose(spec, move.end)
+            lines.append(f"  movec({via}, {end}, {path}{blend}, mode=0)")
+    lines += ["end", f"{spec.name}()", ""]
     return "\n".join(lines)

@@ -5,6 +5,12 @@ Example (with a tracker simulator listening on TCP port 5001)::
     python -m drivers.robot.external_sim --plan plan.csv \\
         --control socket://127.0.0.1:5001 --model ur10e --seed 3 --skip 7
 
+``--program circle.src`` plays a path program of ``calibrator program --path``
+instead (KRL, RAPID or URScript; :mod:`drivers.robot.external_sim.path_program`):
+its linear and circular moves at their stated speeds, solved by the
+controller's nominal model and run by the hidden true arm, handed to the
+tracker simulator as a timed path (``SIM,PATH``) it follows on its own clock.
+
 ``--wait-start`` loads the program and waits for a line on stdin before
 it starts it, as an operator presses start (a test starts it the moment the
 run watches). ``--time-scale 4`` plays the program four times faster than real time (moves,
@@ -64,8 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m drivers.robot.external_sim", description=__doc__
     )
-    parser.add_argument(
-        "--plan", required=True, help="plan CSV (q1_rad..q6_rad; via rows are moved through)"
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--plan", help="plan CSV (q1_rad..q6_rad; via rows are moved through)")
+    source.add_argument(
+        "--program", help="path program of `calibrator program --path` (.src, .mod, .script)"
     )
     parser.add_argument("--control", required=True, help="tracker simulator control URL")
     parser.add_argument("--model", default="ur10e")
@@ -111,6 +119,12 @@ def main(argv: list[str] | None = None) -> int:
         "presses start on a loaded program)",
     )
     args = parser.parse_args(argv)
+    if args.program:
+        if args.skip or args.pauses:
+            # A path program's moves are the program's: nothing here skips or pauses them.
+            print("external_sim: error: --skip and --pause are for --plan", file=sys.stderr)
+            return 2
+        return _play_program(args)
     from calibrator.errors import CalibrationError
     from calibrator.planning import read_plan
 
@@ -144,6 +158,62 @@ def main(argv: list[str] | None = None) -> int:
             print("ready", flush=True)
             sys.stdin.readline()
         player.play(control.set_target)
+    except OSError as exc:
+        print(f"external_sim: control link failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        control.close()
+    return 0
+
+
+def _play_program(args: argparse.Namespace) -> int:
+    """``--program``: play a path program on the hidden true arm (exit codes as :func:`main`)."""
+    import time
+
+    import numpy as np
+
+    from calibrator.errors import CalibrationError
+    from drivers.robot.external_sim import path_program
+
+    try:
+        from calibrator import robots
+
+        arm = robots.get(args.model)
+        program = path_program.read(args.program)
+        world = None
+        if args.world:
+            from calibrator.world import read_world
+
+            world = read_world(args.world)
+        start = arm.convention.to_model(np.asarray(program.start_rad).reshape(1, 6))
+        hidden = Player.for_model(
+            start, args.model, args.seed, _options(args), world=world, tool_mm=args.tool
+        )
+        t, points = path_program.true_path(
+            program, arm, hidden.true_mdh, hidden.flange2tool, hidden.base2tracker
+        )
+    except (CalibrationError, ValueError) as exc:
+        print(f"external_sim: error: {exc}", file=sys.stderr)
+        return 2
+    if args.truth:
+        hidden.write_truth(args.truth)
+    from drivers.tracker.line.simulator.launch import SimulatorControl
+
+    try:
+        control = SimulatorControl(args.control)
+    except (OSError, ValueError) as exc:
+        print(f"external_sim: error: --control {args.control}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        control.set_target(points[0])  # the arm stands at the path's start
+        if args.wait_start:
+            print("ready", flush=True)
+            sys.stdin.readline()
+        control.run_path(t, points, delay_s=args.start_delay_s)
+        # The tracker's clock runs the path; the controller's program ends with it.
+        time.sleep((args.start_delay_s + float(t[-1])) / args.time_scale)
     except OSError as exc:
         print(f"external_sim: control link failed: {exc}", file=sys.stderr)
         return 1
