@@ -29,7 +29,7 @@ from pathlib import Path
 
 
 def source_files(paths: list[Path]) -> list[Path]:
-    """The ``.py`` files of ``paths`` (folders searched recursively, files as given), sorted, each once."""
+    """The ``.py`` files of ``paths`` (folders recursively, files as given), sorted, each once."""
     files: set[Path] = set()
     for path in paths:
         if path.is_dir():
@@ -60,7 +60,7 @@ def mutant_names(*paths: Path) -> list[str]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "paths", type=Path, nargs="+", help="package folders and/or .py files, e.g. calibrator/check"
+        "paths", type=Path, nargs="+", help="package folders or .py files, e.g. calibrator/check"
     )
     parser.add_argument("n", type=int, help="sample size")
     parser.add_argument("--seed", type=int, default=44)
