@@ -182,7 +182,8 @@ def test_jbi_positions_land_in_the_user_frame_and_tool_of_their_headers(tmp_path
     out = ["/JOB", "//NAME MOVES", "//POS", f"///NPOS {n},0,0,0,0,0"]
     for i, ((lines, _), p, c) in enumerate(zip(JBI_STEPS, taught, codes, strict=True)):
         a, b, w = kit.zyx(p)
-        out += [*lines, "///RCONF " + ",".join(map(str, c)) + ",0,0"]
+        # Eight flags as DX controllers write them; the third with the six that are read.
+        out += [*lines, "///RCONF " + ",".join(map(str, c)) + ("" if i == 2 else ",0,0")]
         out.append(f"C{i:05d}={p[0, 3]:.3f},{p[1, 3]:.3f},{p[2, 3]:.3f},{w:.4f},{b:.4f},{a:.4f}")
     out += ["//INST", "///GROUP1 RB1", "NOP"]
     out += [f"MOVL C{i:05d} V=100.0" for i in range(n)] + ["END", ""]
