@@ -148,3 +148,14 @@ def test_rapid_times_each_move_so_its_leading_joint_keeps_to_the_caps():
     want = np.array([_trapezoid_s(v) for v in lead])
     assert len(times) == len(want)
     assert np.all(times >= want - 1e-9) and np.all(times <= want + 0.01 + 1e-9), (times, want)
+
+
+def test_a_cartesian_coordinate_that_rounds_to_zero_is_written_without_a_sign():
+    """The UR10e's flange at ``[0, -pi/2, 0, -pi/2, 0, 0]`` has x = -9e-17 m: ``0.000000000``."""
+    upright = np.array([[0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0]])
+    spec = _spec(
+        plan_rad=upright, via_rad=(), targets="cartesian", mdh=calibration("ur10e").nominal_mdh
+    )
+    text = writing.render(spec, "urscript")
+    assert "movej(p[0.000000000, -0.290700000, 1.484800000, " in text
+    assert "-0.000000000" not in text
