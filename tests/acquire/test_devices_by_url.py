@@ -38,6 +38,7 @@ from drivers.robot.errors import LimitsViolation
 from drivers.robot.safety import GuardedRobot
 from drivers.robot.sim.device import SimulatedRobot
 from drivers.robot.sim.follow import Following, steer_tracker
+from drivers.robot.ur.sim_cell import PathFollowing
 from drivers.tracker import TRACKERS, LaserTracker, OpenOptions, open_tracker
 from drivers.tracker.emscon import EmsconTracker
 from drivers.tracker.emscon.simulator import EmsconSimulatorProcess
@@ -182,8 +183,11 @@ def test_a_real_arms_driver_is_wrapped_to_steer_the_simulated_tracker_and_keeps_
     # ur:// is only built here (never connected), nor is the simulated tracker started.
     opened = Devices("ur://10.0.0.5", "sim").open(UR10E, 1, None, ExitStack())
     robot = opened.robot
-    assert isinstance(robot, Following) and isinstance(robot.robot, GuardedRobot)
-    assert {ports.MOVES_HARDWARE, ports.CHECKS_PLAN} <= robot.capabilities
+    # The UR's moves steer the tracker (Following); its timed paths run on the
+    # tracker's target too (PathFollowing, the path test's FOLLOW_PATH).
+    assert isinstance(robot, PathFollowing) and isinstance(robot.robot, Following)
+    assert isinstance(robot.robot.robot, GuardedRobot)
+    assert {ports.MOVES_HARDWARE, ports.CHECKS_PLAN, ports.FOLLOW_PATH} <= robot.capabilities
     assert ports.CHECKS_PLAN.offered_by(robot) and robot.device_id == "ur://10.0.0.5:ur10e"
     with pytest.raises(LimitsViolation, match="joint J1: 9 rad outside"):
         robot.check_plan(np.full((1, 6), 9.0), 0.5, 1.0)  # the inner robot's own check
