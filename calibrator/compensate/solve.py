@@ -40,6 +40,8 @@ LIBRARY_SIZE = 20_000
 BOUNDARY_DEG = 0.01
 #: Library starts tried per target.
 TRIES = 6
+#: The arm's eight configurations (shoulder, elbow, wrist bits of :func:`configuration.arm_bits`).
+_BITS = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)])
 _LIBRARIES: dict = {}
 _SHIFTS = np.array(list(itertools.product([0.0, 360.0, -360.0], repeat=3)))
 
@@ -319,11 +321,20 @@ class Solver:
     def _nearest(self, rows, desired, tool, ref_q, lib_points, q, found):
         """Of the solutions from library starts, the one nearest ``ref_q`` (any configuration)."""
         lib = self.library
-        picks = lib.nearest(lib_points[rows], None, TRIES)
-        r = np.repeat(rows, TRIES)
+        if ref_q is None:
+            picks = lib.nearest(lib_points[rows], None, TRIES)
+        else:
+            # The controller takes the solution nearest the joints it comes from,
+            # whichever configuration that is: start in each of the eight, or the
+            # nearest starts (all of one configuration, often) can miss it.
+            picks = np.hstack(
+                [lib.nearest(lib_points[rows], np.tile(b, (len(rows), 1)), TRIES) for b in _BITS]
+            )
+        k = picks.shape[1]
+        r = np.repeat(rows, k)
         sol = inverse.solve(self.mdh, desired[r], lib.q[picks.ravel()], tool[r])
         for j, row in enumerate(rows):
-            cand = sol.q[j * TRIES : (j + 1) * TRIES][sol.converged[j * TRIES : (j + 1) * TRIES]]
+            cand = sol.q[j * k : (j + 1) * k][sol.converged[j * k : (j + 1) * k]]
             if not len(cand):
                 continue
             if ref_q is not None:
