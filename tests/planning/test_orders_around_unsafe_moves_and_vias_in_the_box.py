@@ -192,3 +192,19 @@ def test_the_ways_up_hold_each_joint_at_its_own_box_when_upright_is_outside_it(c
     via = ordering._upright_vias(chk, q[0], q[1], box)
     assert via is not None
     assert np.all((via >= box[:, 0] - 1e-12) & (via <= box[:, 1] + 1e-12))
+
+
+def test_a_shoulder_that_cannot_quite_stand_upright_is_held_at_its_own_upper_end():
+    # Joint 2 up to -88 deg: upright (-90 deg) lies within the limits, 2 deg inside the
+    # margin; joint 3's box (to 175 deg) must not be the one that holds it.
+    limits = np.array(UR10E.joint_limits_rad)
+    limits[1] = np.radians([-180.0, -88.0])
+    upright = dict(UR10E.configurations)["upright"]
+    arm = dataclasses.replace(
+        UR10E, joint_limits_rad=limits, configurations={"home": upright, "upright": upright}
+    )
+    box = joint_box(limits, MARGIN)
+    chk = cells.checker(cells.arm_geometry(arm.name, arm.mdh, TOOL_MM), cells.Cell())
+    q = np.array([[0.3, np.radians(-120.0), 0.5, -1.0, 0.4, 0.2]])
+    for way in ordering._rise_paths(chk, q, box):
+        np.testing.assert_allclose(way[0, -1, 1:3], np.radians([-93.0, 0.0]), atol=1e-12)
