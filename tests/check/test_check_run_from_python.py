@@ -120,3 +120,25 @@ def test_a_tracker_the_cell_places_is_moved_there_and_a_given_position_wins(cali
         facing = check_poses.choose(arm, 5, cells.Cell().with_tracker(at), tool, seed=3).plan
         shown = np.array([p["q_rad"] for p in doc["poses"]])
         np.testing.assert_allclose(arm.convention.to_controller(facing.q_rad), shown, atol=1e-9)
+
+
+def test_a_measured_check_shows_the_controllers_joints_as_its_poses_file(tmp_path):
+    """KUKA's controller turns joints 1 and 6 the other way: check.json shows its angles."""
+    model = "kuka-kr6-r900"
+    done = cli("simulate", "--model", model, "--frame", "tracker", "--poses", "24",
+               "--seed", "3", "-o", "s.parquet", cwd=tmp_path)  # fmt: skip
+    assert done.code == 0, done.stderr
+    assert cli("identify", "s.parquet", "-o", "cal.json", "-q", cwd=tmp_path).code == 0
+    cal = calibration.load(tmp_path / "cal.json")
+    out = tmp_path / "check.json"
+    arm = robots.get(model)
+    doc = check.run(arm, check.Options(cal, tmp_path / "cal.json", poses=5, seed=3), out,
+                    Devices()).document  # fmt: skip
+    table = pq.read_table(out.with_suffix(".parquet")).to_pandas()
+    q_controller = table[[f"q{i}_rad" for i in range(1, 7)]].to_numpy()
+    shown = np.array([p["q_rad"] for p in doc["poses"]])
+    np.testing.assert_allclose(shown, q_controller, atol=1e-12)
+    # Not the model's angles: joints 1 and 6 turn the other way.
+    q_model = arm.convention.to_model(q_controller)
+    np.testing.assert_allclose(q_model[:, [0, 5]], -q_controller[:, [0, 5]])
+    assert np.abs(q_controller[:, [0, 5]]).min() > 1e-3
