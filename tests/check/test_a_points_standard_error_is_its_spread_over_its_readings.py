@@ -1,9 +1,11 @@
-"""The check's measured points and their standard errors (calibrator/check/document.py).
+"""The check's measured points, their standard errors and the run's measuring conditions.
 
 An averaged point's standard error is its readings' spread over the root of
 their number: a pose read once keeps its spread, read four times half of it;
 a record that does not say how many readings it took counts as one. Only
-the measured poses count, in pose order.
+the measured poses count, in pose order. The conditions
+(calibrator/check/procedure.py) span the first to the last time stamp of the
+measured poses, none when no pose has one, with the readings' spread.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calibrator.check import document
+from calibrator.check import document, procedure
 from calibrator.errors import CalibrationError
 
 
@@ -46,3 +48,24 @@ def test_a_points_standard_error_is_its_spread_over_the_root_of_its_readings():
 def test_a_check_of_one_measured_pose_is_refused():
     with pytest.raises(CalibrationError, match="1 check pose"):
         document.measured({"a": _record(1, n=3), "b": _record(2, status="failed")})
+
+
+def test_the_measuring_conditions_span_the_stamped_readings_and_their_spread():
+    records = {
+        "a": {**_record(1, n=4), "timestamp": "2026-12-06T10:00:05+00:00"},
+        "b": {**_record(2, n=4), "timestamp": "2026-12-06T10:00:01+00:00"},
+        "c": {**_record(3, n=4), "std_mm": [0.3, 0.4, 0.0]},  # no time stamp
+        "d": {**_record(4, status="failed"), "timestamp": "2026-12-06T09:00:00+00:00"},
+    }
+    conditions = procedure.measuring_conditions(records)
+    assert conditions["started"] == "2026-12-06T10:00:01+00:00"
+    assert conditions["ended"] == "2026-12-06T10:00:05+00:00"
+    one = float(np.linalg.norm([0.02, 0.04, 0.06]))
+    assert conditions["reading_spread_mm"] == pytest.approx(
+        {"mean": (2 * one + 0.5) / 3, "max": 0.5}
+    )
+    # A journal without time stamps (an older version's) has no span, and says so.
+    bare = {k: v for k, v in records.items() if k in ("c", "d")}
+    bare["e"] = _record(5, n=2)
+    conditions = procedure.measuring_conditions(bare)
+    assert conditions["started"] is None and conditions["ended"] is None
