@@ -5,7 +5,9 @@ their number: a pose read once keeps its spread, read four times half of it;
 a record that does not say how many readings it took counts as one. Only
 the measured poses count, in pose order. The conditions
 (calibrator/check/procedure.py) span the first to the last time stamp of the
-measured poses, none when no pose has one, with the readings' spread.
+measured poses, none when no pose has one, with the readings' spread. A
+noise the calibration estimated from few rows is judged by the F
+distribution, an exact one by chi-square (calibrator/check/verdict.py).
 """
 
 from __future__ import annotations
@@ -69,3 +71,29 @@ def test_the_measuring_conditions_span_the_stamped_readings_and_their_spread():
     bare["e"] = _record(5, n=2)
     conditions = procedure.measuring_conditions(bare)
     assert conditions["started"] is None and conditions["ended"] is None
+
+
+def test_a_noise_estimated_from_few_rows_is_judged_by_the_f_distribution():
+    """A calibration's noise from 12 residual degrees of freedom: the check's p-value is F's."""
+    from scipy import stats
+
+    from calibrator import robots
+    from calibrator.check.model import Calibrated
+    from calibrator.model import joint_terms, parameters
+
+    arm = robots.get("ur10e")
+    # One free parameter, known exactly (zero covariance): the noise alone is judged.
+    space = parameters.ParameterSpace(arm.mdh, np.eye(4), np.eye(4), ("theta2",))
+    terms = joint_terms.JointTerms(np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6))
+    zero = np.zeros((space.size, space.size))
+    q = np.random.default_rng(5).uniform(-1.5, 1.5, (6, 6))
+    few, exact = Calibrated(space, zero, 0.05, terms, 12), Calibrated(space, zero, 0.05, terms)
+    errors = np.random.default_rng(6).normal(0.0, 0.08, (6, 3))
+    points = few.points(q) + errors
+    judged = document.evaluate(few, q, points, None)["verdict"]
+    statistic = float((errors**2).sum() / 0.05**2)
+    assert judged.p_value == pytest.approx(stats.f.sf(statistic / 18, 18, 12), rel=1e-9)
+    # The same errors judged against an exactly known noise: chi-square's, far smaller.
+    assert document.evaluate(exact, q, points, None)["verdict"].p_value == pytest.approx(
+        stats.chi2.sf(statistic, 18), rel=1e-9
+    )
