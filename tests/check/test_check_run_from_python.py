@@ -60,6 +60,8 @@ def test_a_check_run_from_python_writes_its_document_and_tells_its_operator(cali
     )
     assert result.document is not None
     assert result.document["verdict"] == "ok"
+    # Its format and version, as docs/check.md states them.
+    assert (result.document["format"], result.document["version"]) == ("calibrator.check", 1)
     # The document returned is the one written, beside its poses.
     assert json.loads(out.read_text()) == json.loads(json.dumps(result.document))
     assert out.with_suffix(".parquet").exists()
