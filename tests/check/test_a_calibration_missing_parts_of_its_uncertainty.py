@@ -2,7 +2,7 @@
 
 An older or hand-written calibration may record standard errors without
 their correlations (the parameters' covariance is then unknown: zeros, no
-crash), or a residual section without the position noise (no noise: the
+crash), or a residual section whose position noise is unknown (no noise: the
 check cannot predict its error and refuses the file, as one with no
 uncertainty at all).
 """
@@ -47,7 +47,9 @@ def test_standard_errors_without_correlations_give_no_covariance(document):
 
 
 def test_a_residual_without_its_position_noise_is_refused(tmp_path, document):
-    cal = _edited(document, residual_sigma={})
+    residual = dict(document["uncertainty"]["residual_sigma"])
+    residual["position_mm"] = None  # recorded as unknown (JSON null)
+    cal = _edited(document, residual_sigma=residual)
     assert Calibrated.of(cal).sigma_mm == 0.0
     with pytest.raises(CalibrationError, match="records no residual noise"):
         procedure.checkable(cal, tmp_path / "cal.json")
