@@ -68,6 +68,7 @@ def test_the_circle_section_says_what_was_run(measured_arm):
     doc = json.loads((measured_arm / "circle.json").read_text())
     section = doc["circle"]
     assert section["shape"] == "circle" and section["verdict"] == "ok"
+    assert section["frame"] == "robot base (the model's)"
     assert section["speed_mm_s"] == 80.0 and section["compensated"] is True
     assert section["directions"] == ["clockwise", "counter-clockwise"]
     commanded = section["commanded"]
