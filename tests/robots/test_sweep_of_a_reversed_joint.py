@@ -1,4 +1,4 @@
-"""A sweep that narrows a reversed joint with asymmetric limits: the URDF's sides, then the model's.
+"""A sweep narrowing a reversed joint with asymmetric limits: the URDF's sides, then the model's.
 
 KUKA's A6 turns about -x in its URDF: the model angle is minus the URDF's,
 so the sweep (in URDF angles) must be given the URDF's limits and its
@@ -7,7 +7,8 @@ symmetric or not reversed, where a limit or interval taken the wrong way
 round gives the same numbers. Here a one-sided wrist (one prong past
 axis 5) and a flange with a lug: turned half a turn about axis 6 the lug
 reaches the prong, so joint 6 is narrowed on the side of the URDF's
-upper limit only; its limits (-2, 3) rad are asymmetric, so the walk stops
+upper limit only (the lug is tilted, so turning the other way would not
+narrow it); its limits (-2, 3) rad are asymmetric, so the walk stops
 short of the URDF's upper limit (3) and reaches its lower one (-2).
 """
 
@@ -42,11 +43,22 @@ def _meshes():
     meshes["link_6"] = trimesh.util.concatenate(
         [
             box((-0.01, -0.03, -0.03), (0.0, 0.03, 0.03)),
-            # At zero the lug points away from the prong (-y); half a turn brings it to 5 mm.
-            box((-0.01, -0.065, -0.005), (0.0, 0.0, 0.005)),
+            _lug(),
         ]
     )
     return meshes
+
+
+def _lug():
+    """A 65 mm lug on the flange (link_6 frame, m), at zero along -y tilted 20 deg to +z.
+
+    Joint 6 turned by 160 deg (URDF, about -x) points it at the prong (5 mm
+    off), by -160 deg not: the sweep's sense of turning matters, not only
+    which side of its interval is which.
+    """
+    lug = box((-0.01, -0.065, -0.005), (0.0, 0.0, 0.005))
+    lug.apply_transform(trimesh.transformations.rotation_matrix(np.radians(-20.0), (1, 0, 0)))
+    return lug
 
 
 @pytest.fixture(scope="module")
@@ -82,9 +94,9 @@ def test_joint_6_is_narrowed_on_its_urdf_upper_side_and_keeps_its_lower_limit(ar
     lo, hi = described.joint_limits_rad[5]
     # The model's upper end is the URDF's lower limit, not narrowed: nothing is there.
     assert hi == pytest.approx(-A6[0], abs=1e-12)
-    # The model's lower end is the URDF's upper side, narrowed short of the limit (3 rad):
-    # the lug within 15 deg or so of half a turn (it reaches 5 mm of the prong at 180 deg).
-    assert np.radians(-165.0) < lo < np.radians(-140.0), np.degrees(lo)
+    # The model's lower end is the URDF's upper side, narrowed short of the limit (3 rad,
+    # 172 deg): the lug comes within 5 mm of the prong at 160 deg, within 10 from 137 or so.
+    assert np.radians(-140.0) < lo < np.radians(-125.0), np.degrees(lo)
     # Joint 5, which the prong would stop with joint 6 free, is not narrowed.
     np.testing.assert_allclose(described.joint_limits_rad[4], np.radians([-120.0, 120.0]))
     (note,) = [n for n in described.limit_notes if n.startswith("joint 6 ")]
