@@ -35,9 +35,10 @@ def _meshes():
         [
             box((-0.05, -0.05, -0.05), (0.22, 0.05, 0.05)),
             box((0.17, 0.05, -0.05), (0.22, 0.09, 0.05)),
-            # The prong reaches past the flange's plane (link_4 x = 0.5): with joint 6
-            # at any angle the lug's circle passes it, so joint 5 cannot be the one narrowed.
-            box((0.17, 0.07, -0.05), (0.52, 0.09, 0.05)),
+            # The prong ends 20 mm short of the flange's plane (link_4 x = 0.5): with
+            # joint 6 at any angle the lug's circle lets joint 5 turn +-23 deg, a smaller
+            # share of its range than joint 6 keeps (86 %): joint 6 is the one narrowed.
+            box((0.17, 0.07, -0.05), (0.47, 0.09, 0.05)),
         ]
     )
     meshes["link_6"] = trimesh.util.concatenate(
@@ -97,7 +98,7 @@ def test_joint_6_is_narrowed_on_its_urdf_upper_side_and_keeps_its_lower_limit(ar
     # The model's lower end is the URDF's upper side, narrowed short of the limit (3 rad,
     # 172 deg): the lug comes within 5 mm of the prong at 160 deg, within 10 from 137 or so.
     assert np.radians(-140.0) < lo < np.radians(-125.0), np.degrees(lo)
-    # Joint 5, which the prong would stop with joint 6 free, is not narrowed.
+    # Joint 5, which the prong stops at +-23 deg with joint 6 free, is not narrowed.
     np.testing.assert_allclose(described.joint_limits_rad[4], np.radians([-120.0, 120.0]))
     (note,) = [n for n in described.limit_notes if n.startswith("joint 6 ")]
     assert note.startswith(
