@@ -100,7 +100,12 @@ def test_joint_6_is_narrowed_on_its_urdf_upper_side_and_keeps_its_lower_limit(ar
     assert np.radians(-140.0) < lo < np.radians(-125.0), np.degrees(lo)
     # Joint 5, which the prong stops at +-23 deg with joint 6 free, is not narrowed.
     np.testing.assert_allclose(described.joint_limits_rad[4], np.radians([-120.0, 120.0]))
-    (note,) = [n for n in described.limit_notes if n.startswith("joint 6 ")]
+    # One note per joined pair of links two apart, none for neighbours (they always touch).
+    pair_2_4, note = described.limit_notes
+    assert pair_2_4 == (
+        "links link_2 and link_4 come within 10 mm of each other at zero (joints 3 and 4 at "
+        "any angle): not narrowed, their clearance is not checked"
+    )
     assert note.startswith(
         f"joint 6 limited to [{np.degrees(lo):.1f}, {np.degrees(hi):.1f}] deg "
         f"from [{np.degrees(-A6[1]):.1f}, {np.degrees(-A6[0]):.1f}]: beyond it the meshes of "
