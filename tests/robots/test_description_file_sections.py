@@ -98,3 +98,34 @@ def test_a_link_drawn_along_its_joints_stops_its_radius_short_of_the_flange(tmp_
     out = (flange - wrist) / np.linalg.norm(flange - wrist)
     reach = max((e - wrist) @ out for e in ends) + link_6.radius_mm
     assert reach == pytest.approx(np.linalg.norm(flange - wrist))
+
+
+def test_a_urdf_without_rep199_links_has_no_controller_frames_and_says_none(tmp_path):
+    text = KUKA.replace('<link name="base"/>', "").replace('<link name="tool0"/>', "")
+    for joint in ("flange-tool0", "base_link-base"):
+        start = text.index(f'<joint name="{joint}"')
+        text = text[:start] + text[text.index("</joint>", start) + len("</joint>") :]
+    (tmp_path / "arm.urdf").write_text(text)
+    arm = robots.get(str(tmp_path / "arm.urdf"))
+    assert (arm.controller_base_source, arm.controller_flange_source) == ("", "")
+    assert not arm.has_controller_frames
+    with_links = robots.get(str(DATA / "kuka-kr6-r900.urdf"))
+    assert (
+        with_links.controller_base_source
+        == "kuka-kr6-r900.urdf: link 'base' (REP-199's controller base frame)"
+    )
+    assert (
+        with_links.controller_flange_source
+        == "kuka-kr6-r900.urdf: link 'tool0' (REP-199's all-zero tool)"
+    )
+
+
+def test_a_massless_link_is_a_mass_of_zero_not_refused(tmp_path):
+    text = KUKA.replace(
+        '<link name="link_3"/>', '<link name="link_3"><inertial><mass value="0"/></inertial></link>'
+    ).replace(
+        '<link name="link_2"/>', '<link name="link_2"><inertial><mass value="2"/></inertial></link>'
+    )
+    (tmp_path / "arm.urdf").write_text(text)
+    arm = robots.get(str(tmp_path / "arm.urdf"))
+    np.testing.assert_array_equal(arm.mass_kg, [0.0, 2.0, 0.0, 0.0, 0.0, 0.0])
