@@ -124,3 +124,27 @@ def test_at_the_narrowed_end_the_meshes_keep_the_margin_and_past_it_they_do_not(
     assert past_end < urdf.FIT_MARGIN_MM
     # At the URDF's lower limit, the model's upper end, the lug is far from the prong.
     assert at_lower > urdf.FIT_MARGIN_MM + 20.0
+
+
+def test_a_lug_at_the_prong_at_zero_leaves_joint_5_too_little_and_is_said_not_narrowed(tmp_path):
+    """Turned half a turn, the lug sits 5 mm from the prong at zero: joint 6 has no interval,
+    joint 5 keeps +-23 deg of +-120 (under half): neither is narrowed, and the note says so."""
+    meshes = _meshes()
+    lug = _lug()
+    lug.apply_transform(trimesh.transformations.rotation_matrix(np.pi, (1, 0, 0)))
+    meshes["link_6"] = trimesh.util.concatenate(
+        [box((-0.01, -0.03, -0.03), (0.0, 0.03, 0.03)), lug]
+    )
+    path = arm_with_meshes(tmp_path, meshes)
+    path.write_text(path.read_text().replace(SHIPPED_A6, f'lower="{A6[0]}" upper="{A6[1]}"'))
+    described = urdf.describe(path)
+    np.testing.assert_allclose(described.joint_limits_rad[4], np.radians([-120.0, 120.0]))
+    np.testing.assert_allclose(described.joint_limits_rad[5], [-A6[1], -A6[0]])
+    note = described.limit_notes[1]
+    assert note.startswith(
+        "links link_4 and link_6: with joint 6 at any angle their meshes keep 10 mm only for "
+        "joint 5 in [-2"
+    ), note
+    assert note.endswith(
+        "deg, under 50% of its range: not narrowed, their clearance is not checked"
+    )
