@@ -129,3 +129,13 @@ def test_a_massless_link_is_a_mass_of_zero_not_refused(tmp_path):
     (tmp_path / "arm.urdf").write_text(text)
     arm = robots.get(str(tmp_path / "arm.urdf"))
     np.testing.assert_array_equal(arm.mass_kg, [0.0, 2.0, 0.0, 0.0, 0.0, 0.0])
+
+
+def test_a_urdf_without_a_known_tip_link_is_refused_naming_both_and_the_option(tmp_path):
+    text = KUKA.replace('"tool0"', '"tcp"').replace('"flange"', '"plate"')
+    (tmp_path / "arm.urdf").write_text(text)
+    with pytest.raises(DescriptionError) as refused:
+        robots.get(str(tmp_path / "arm.urdf"))
+    assert str(refused.value) == (
+        f"{tmp_path / 'arm.urdf'}: no tip link (tool0 or flange); name it with --tip-link"
+    )
