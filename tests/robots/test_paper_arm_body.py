@@ -14,11 +14,15 @@ import pytest
 
 from calibrator import robots
 from calibrator.model import distance, kinematics
+from calibrator.robots import ipso_paper
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def arm():
-    return robots.get("er10l-c10")
+    """The arm as its module builds it (``robots.get`` builds it once per process)."""
+    built = ipso_paper.DESCRIPTIONS[ipso_paper.NAME]()
+    assert built.digest == robots.get("er10l-c10").digest
+    return built
 
 
 def _skeleton(mdh, link):
