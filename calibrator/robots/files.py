@@ -446,13 +446,17 @@ def _body(section: _Doc, base: RobotDescription) -> Body:
             )
     elif section.get("link_radius_mm") is not None:
         # The URDF reader drew the capsules along the links with these radii.
-        if base.body is None or base.body.margin_mm != margin:
+        if base.body is None:
             raise section.fail("link_radius_mm", "needs kinematics from a URDF: give capsules")
         capsules = list(base.body.capsules)
+        # ... with its margin (the file's margin_mm, else the fit's default: _load), not 0:
+        # a file without margin_mm was refused as if its kinematics were no URDF's.
+        margin = base.body.margin_mm
     else:
         if base.body is None:
             raise section.fail("capsules", "missing: give capsules or link_radius_mm")
         capsules = list(base.body.capsules)
+        margin = base.body.margin_mm  # what they hold: not 0 where the file gives none
     old = base.body
     shift = float(base.base_offset[2, 3])
 

@@ -51,6 +51,20 @@ def on_a_track(text):
     return text.replace("</robot>", track)
 
 
+def seven_axes(text):
+    """The URDF ``text`` with a 7th revolute joint between link_6 and tool0."""
+    extra = """  <link name="link_7"/>
+  <joint name="joint_a7" type="revolute">
+    <origin xyz="0.05 0 0" rpy="0 0 0"/><parent link="link_6"/><child link="link_7"/>
+    <axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="0" velocity="1"/>
+  </joint>
+  <joint name="link_7-tool0" type="fixed"><parent link="link_7"/><child link="tool0"/></joint>
+</robot>"""
+    start = text.index('<joint name="flange-tool0"')
+    end = text.index("</joint>", start) + len("</joint>")
+    return (text[:start] + text[end:]).replace("</robot>", extra)
+
+
 def joint_1_on_the_plane(text):
     """The shipped ABB IRB 4600 URDF with joint 1's origin on the mounting plane.
 

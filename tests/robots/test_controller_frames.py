@@ -10,8 +10,6 @@ the tip (FANUC's hangs beside the chain), or from a description file's
 ``frames:`` section.
 """
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -165,8 +163,10 @@ def test_a_description_file_names_the_frames_by_link_or_numbers(tmp_path):
 @pytest.mark.parametrize(
     "frames, says",
     [
-        ("  base: {link: link_3, source: s}\n", "base: link: 'link_3' is not a link fixed"),
-        ("  flange: {link: base, source: s}\n", "flange: link: 'base' is not a link fixed"),
+        ("  base: {link: link_3, source: s}\n",
+         "base: link: 'link_3' is not a link fixed to the chain's base ('base_link')"),
+        ("  flange: {link: base, source: s}\n",
+         "flange: link: 'base' is not a link fixed to the chain's flange ('flange')"),
         ("  base: {matrix_mm: [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]], source: s}\n",
          "matrix_mm: matrix_mm rotation part is not a proper rotation"),
         ("  base: {link: base}\n", "base: source: must be a non-empty text"),
@@ -180,9 +180,3 @@ def test_a_bad_frames_section_is_refused_in_one_line(tmp_path, frames, says):
     with pytest.raises(DescriptionError, match=r"arm\.yaml: frames") as refused:
         robots.get(path)
     assert says in str(refused.value) and "\n" not in str(refused.value)
-    done = subprocess.run(
-        [sys.executable, "-m", "calibrator", "plan", "--model", path, "-o", "p.csv"],
-        cwd=tmp_path, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert done.returncode == 2 and says in done.stderr
-    assert "Traceback" not in done.stderr and not (tmp_path / "p.csv").exists()

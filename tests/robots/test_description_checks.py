@@ -124,6 +124,18 @@ def test_urdf_shapes_of_no_or_negative_size_are_refused(tmp_path, edit, message)
         robots.get(str(tmp_path / "arm.urdf"))
 
 
+def test_a_shape_thinner_than_a_millimetre_is_a_shape(tmp_path):
+    """A cover plate 0.5 mm thick is positive (metres in the file), not refused as no size."""
+    text = with_geometry(KUKA).replace(
+        '<box size="0.5 0.12 0.1"/>', '<box size="0.5 0.12 0.0005"/>'
+    )
+    (tmp_path / "arm.urdf").write_text(text)
+    arm = robots.get(str(tmp_path / "arm.urdf"))
+    (capsule,) = [c for c in arm.body.capsules if c.name == "link_2"]
+    # Half the plate's 120 mm width and 0.5 mm thickness across, plus the 10 mm margin.
+    assert capsule.radius_mm == pytest.approx(np.hypot(60.0, 0.25) + 10.0, abs=1e-6)
+
+
 def _in_millimetres(text):
     """The KUKA URDF with its joint origins in millimetres."""
     import re

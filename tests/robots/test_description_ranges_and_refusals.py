@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from calibrator import robots
-from calibrator.robots import DescriptionError, files
+from calibrator.robots import DescriptionError, files, ur
 
 
 @pytest.mark.parametrize("name", ["ur5e", "ur10e", "ur10"])
@@ -19,6 +19,9 @@ def test_a_ur_turns_every_joint_two_turns_but_the_elbow_one(name):
     turn = np.array([-2.0, 2.0]) * np.pi
     expected = np.array([turn, turn, turn / 2, turn, turn, turn])
     np.testing.assert_array_equal(robots.get(name).joint_limits_rad, expected)
+    # As the module builds it (robots.get builds each arm once per process and
+    # hands out copies): the same ranges.
+    np.testing.assert_array_equal(ur.DESCRIPTIONS[name]().joint_limits_rad, expected)
 
 
 def test_the_canonical_content_keeps_the_collision_body():
