@@ -277,6 +277,13 @@ def check_motion_caps(model_name: str, speed: float, accel: float, max_speed: fl
     return arm
 
 
+def kind(url: str) -> str:
+    """The device kind ``url`` names: its scheme (``ur`` for ``ur://HOST``) or its bare word."""
+    from drivers.registry import scheme
+
+    return scheme(url)
+
+
 def is_sim(url: str) -> bool:
     """``url`` names the simulated device: ``sim``, or ``sim://?...`` with its settings."""
     from drivers.devices import is_sim as sim

@@ -17,6 +17,9 @@ import typer
 from calibrator.cli._options import fail
 from calibrator.verify.path_procedure import Speed
 
+#: Robot kinds (``--robot`` URL schemes) whose drivers run a timed path themselves.
+PATH_ROBOT_KINDS = frozenset({"sim", "ur"})
+
 __all__ = ["Speed", "check_options", "parse_speed", "run"]
 
 
@@ -59,7 +62,7 @@ def check_options(
                 "--tracker URL (a real tracker, or a tracker simulator the external-robot "
                 "simulator steers; docs/verify.md)"
             )
-    elif not (_run.is_sim(robot) or robot.startswith("ur://")):
+    elif not (_run.is_sim(robot) or _run.kind(robot) in PATH_ROBOT_KINDS):
         fail(
             "--path runs with the simulated arm or a UR (--robot sim or ur://HOST), or on an "
             "arm running `calibrator program --path` (--robot external --tracker URL)"
