@@ -120,9 +120,17 @@ def test_the_held_out_plot_marks_the_checks_not_ok_and_draws_the_limit():
     ]
     held = lines["held-out (calibration)"]
     assert [d.date() for d in _x_dates(held)] == [_day(0).date(), _day(30).date()]
+    # A calibration whose session time is unknown is drawn when it was made.
+    older = _timeline(calibrations=[{**data.calibrations[0], "time": None}], checks=[])
+    (ax_older,) = _figure(page._held_out, older, Limits()).axes
+    assert _close(_x_dates(ax_older.get_lines()[0])[0], _day(1))
     assert list(held.get_ydata()) == [0.05, 0.06]
-    # Only the calibration with a prediction has a point on the predicted line.
-    assert list(lines["predicted (calibration)"].get_ydata()) == [0.04]
+    # Only the calibration with a prediction has a point on the predicted line,
+    # drawn dashed with crosses (the held-out error: solid with circles).
+    predicted = lines["predicted (calibration)"]
+    assert list(predicted.get_ydata()) == [0.04]
+    assert (predicted.get_marker(), predicted.get_linestyle()) == ("x", "--")
+    assert (held.get_marker(), held.get_linestyle()) == ("o", "-")
     assert list(lines["measured (check)"].get_ydata()) == [0.05, 0.3]
     bad = lines["check not ok"]
     assert list(bad.get_ydata()) == [0.3] and _close(_x_dates(bad)[0], _day(50))
@@ -162,6 +170,7 @@ def test_the_parameter_plots_show_each_delta_with_a_band_of_three_standard_error
     # The error bars' line: the values in display units, at the calibrations' times.
     line = theta2.get_lines()[0]  # then the caps
     assert np.allclose(line.get_ydata(), [0.1, 0.3])
+    assert (line.get_marker(), line.get_markersize()) == ("o", 3)
     assert [d.date() for d in _x_dates(line)] == [_day(0).date(), _day(30).date()]
     # The band: value +- 3 standard errors, over the same times.
     (band,) = theta2.collections[:1]
@@ -293,6 +302,10 @@ def test_each_plot_section_has_its_heading_and_its_note():
     ]
     assert "angles in mrad, lengths in mm" in _section(text, "parameters")
     assert "units in the names" in _section(text, "conditions")
+    # Nothing stray between the sections.
+    bare_text = re.sub(r'src="data:image/png;base64,[^"]*"', "", text)
+    assert set(re.findall(r"</section>(.*?)<section", bare_text, re.S)) <= {"", "\n"}
+    assert bare_text.endswith("</section></body></html>\n")
     # Without parameters or conditions: the notes saying so, not the plots' captions.
     bare = page.html(_timeline(calibrations=[]), [], Limits())
     assert "no identified parameters" in _section(bare, "parameters")
