@@ -308,9 +308,9 @@ def test_each_plot_section_has_its_heading_and_its_note():
     assert bare_text.endswith("</section></body></html>\n")
     # Without parameters or conditions: the notes saying so, not the plots' captions.
     bare = page.html(_timeline(calibrations=[]), [], Limits())
-    assert "no identified parameters" in _section(bare, "parameters")
+    assert '<p class="note">no identified parameters</p>' in _section(bare, "parameters")
     assert "angles in mrad" not in bare and "units in the names" not in bare
-    assert "no conditions recorded" in _section(bare, "conditions")
+    assert '<p class="note">no conditions recorded</p>' in _section(bare, "conditions")
 
 
 def test_the_alarms_section_lists_each_alarm_in_a_row():

@@ -143,6 +143,10 @@ def test_a_calibration_record_holds_its_errors_and_its_session(measured):
     assert record.row["fit_rms_mm"] == stats["fit"]["after"]["position_mm"]["mean"]
     predicted = doc["uncertainty"]["predicted_validation_mm"]["error_mean"]
     assert record.row["predicted_mm"] == predicted
+    statistics = record.row["statistics"]
+    assert statistics["predicted_validation_mm"] == doc["uncertainty"]["predicted_validation_mm"]
+    assert statistics["residual_sigma"] == doc["uncertainty"]["residual_sigma"]
+    assert statistics["stats"] == stats and statistics["warnings"] == doc["warnings"]
     assert (
         (record.model, record.session)
         == (doc["model"], doc["session"])

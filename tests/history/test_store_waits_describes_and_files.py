@@ -212,3 +212,15 @@ def test_records_of_a_robot_are_read_in_time_order_whatever_the_order_recorded(t
         times = [c["time"] for c in h.checks("arm-1")]
     assert times == sorted(times) and len(times) == 3
     assert records.utc(check_doc(day=1)["time"], "t") == times[0]
+
+
+def test_a_damaged_history_is_refused_with_the_drivers_words_in_one_line(tmp_path):
+    """A history someone removed a table from: the driver's error, without its SQL."""
+    path = tmp_path / "h.sqlite"
+    with open_history(path) as h:
+        h.record_check(check_doc(day=0))
+    with sqlite3.connect(path) as conn:
+        conn.execute("DROP TABLE checks")
+    with open_history(path) as h, pytest.raises(HistoryError) as caught:
+        h.record_check(check_doc(day=1))
+    assert str(caught.value) == f"history {path}: no such table: checks"
