@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import replace
-from datetime import datetime
+from datetime import UTC, datetime
 
 import numpy as np
 import pyarrow as pa
@@ -191,7 +191,7 @@ def test_a_simulated_session_is_named_after_its_model_and_seed(measured):
     assert record.robot == "sim:er10l-c10:seed=3" and record.tracker is None
     assert record.row["setup"] == {} and record.row["conditions"] == {}
     mtime = os.stat(measured / "s0.parquet").st_mtime
-    assert record.row["measured_at"] == datetime.utcfromtimestamp(int(mtime))
+    assert record.row["measured_at"] == datetime.fromtimestamp(int(mtime), UTC).replace(tzinfo=None)
 
 
 def test_a_sessions_conditions_are_its_columns_summed_up(measured, tmp_path):
