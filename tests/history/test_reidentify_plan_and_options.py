@@ -70,3 +70,25 @@ def test_jobs_run_here_are_yielded_in_order_with_identifys_outcome():
     done = list(reidentify.run(jobs, identify, options=("--method", "lm")))
     assert done == [(jobs[0], 0, ""), (jobs[1], 2, "s1.parquet: no poses"), (jobs[2], 0, "")]
     assert calls[1] == ("s1.parquet", "c1.json", ("--method", "lm"))
+
+
+def _echo(session, output, options):
+    """An identify that says what it was given (run in a Dask worker)."""
+    return 0, f"{session} -> {output} {options}"
+
+
+def test_jobs_sent_to_a_running_scheduler_run_on_its_cluster():
+    from calibrator.analysis import engine
+
+    jobs = [reidentify.Job("r", f"s{i}.parquet", f"c{i}.json") for i in range(2)]
+    cluster = engine.local_cluster(1)
+    try:
+        done = list(reidentify.run(jobs, _echo, ("-q",), scheduler=cluster.scheduler_address))
+        ran_here = set(cluster.scheduler.task_prefixes)
+    finally:
+        cluster.close()
+    assert done == [
+        (jobs[0], 0, "s0.parquet -> c0.json ('-q',)"),
+        (jobs[1], 0, "s1.parquet -> c1.json ('-q',)"),
+    ]
+    assert any("echo" in prefix for prefix in ran_here), ran_here
