@@ -225,3 +225,22 @@ def test_a_damaged_history_is_refused_with_the_drivers_words_in_one_line(tmp_pat
     with open_history(path) as h, pytest.raises(HistoryError) as caught:
         h.record_check(check_doc(day=1))
     assert str(caught.value) == f"history {path}: no such table: checks"
+
+
+def test_calibrations_of_one_session_are_listed_in_the_order_recorded(measured, tmp_path):
+    """Two calibrations of one session share its time: the one recorded first comes first,
+    whichever was made earlier (here the second was made a day before the first)."""
+    import json
+    import shutil
+
+    shutil.copy(measured / "s0.parquet", tmp_path / "s0.parquet")
+    doc = json.loads((measured / "cal0.json").read_text())
+    made = (("late.json", "2026-05-02T00:00:00Z"), ("early.json", "2026-05-01T00:00:00Z"))
+    for name, created in made:
+        (tmp_path / name).write_text(json.dumps(doc | {"created": created}))
+    with open_history(tmp_path / "h.sqlite") as h:
+        first = h.record_calibration(tmp_path / "late.json")
+        second = h.record_calibration(tmp_path / "early.json")
+        rows = h.calibrations("sim:er10l-c10:seed=3")
+    assert [r["id"] for r in rows] == [first, second]
+    assert rows[0]["time"] == rows[1]["time"]
