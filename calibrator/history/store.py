@@ -178,6 +178,8 @@ def _sqlite_engine(parsed: Any, create: bool, timeout: float) -> Any:
         connection.exec_driver_sql("BEGIN" if read_only else "BEGIN IMMEDIATE")
 
     engine.history_timeout_s = timeout  # type: ignore[attr-defined]
+    # How messages name it: a read-only engine's URL holds no file (its creator opens it).
+    engine.history_where = str(path)  # type: ignore[attr-defined]
     return engine
 
 
@@ -760,7 +762,7 @@ def open_history(target: str | os.PathLike | None = None, create: bool = True) -
     url = resolve(target, create)
     engine = _engine(url, create)
     where = (
-        str(engine.url.database)
+        engine.history_where
         if engine.url.get_backend_name() == "sqlite"
         else (engine.url.render_as_string(hide_password=True))
     )
