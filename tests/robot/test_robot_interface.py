@@ -1,7 +1,10 @@
 """One behavioural suite for the robot interface, run on every implementation.
 
 ``harness`` (tests/robot/conftest.py) yields the simulated robot and the
-ur-rtde adapter talking to the fake controller in its own process.
+ur-rtde adapter talking to the fake controller in its own process (the
+``fake_ur`` fixture): the suite's scheduler (tests/conftest.py) runs this
+module with the other fake-UR modules, one after another on one worker,
+instead of leaving the other worker waiting for the fake's ports.
 """
 
 import numpy as np
