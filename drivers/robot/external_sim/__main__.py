@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from dataclasses import fields
+from typing import Any
 
 from drivers.robot.external_sim.player import Player, PlayerOptions
 
@@ -146,26 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.truth:
         player.write_truth(args.truth)
-    from drivers.tracker.line.simulator.launch import SimulatorControl
-
-    try:
-        control = SimulatorControl(args.control)
-    except (OSError, ValueError) as exc:
-        print(f"external_sim: error: --control {args.control}: {exc}", file=sys.stderr)
-        return 2
-    try:
-        if args.wait_start:
-            print("ready", flush=True)
-            sys.stdin.readline()
-        player.play(control.set_target)
-    except OSError as exc:
-        print(f"external_sim: control link failed: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        return 130
-    finally:
-        control.close()
-    return 0
+    return _on_control(args, lambda control: player.play(control.set_target))
 
 
 def _play_program(args: argparse.Namespace) -> int:
@@ -199,6 +182,26 @@ def _play_program(args: argparse.Namespace) -> int:
         return 2
     if args.truth:
         hidden.write_truth(args.truth)
+
+    def run(control: Any) -> None:
+        control.run_path(t, points, delay_s=args.start_delay_s)
+        # The tracker's clock runs the path; the controller's program ends with it.
+        time.sleep((args.start_delay_s + float(t[-1])) / args.time_scale)
+
+    # The arm stands at the path's start before the program is started.
+    return _on_control(args, run, before=lambda control: control.set_target(points[0]))
+
+
+def _on_control(
+    args: argparse.Namespace,
+    play: Callable[[Any], None],
+    before: Callable[[Any], None] | None = None,
+) -> int:
+    """Open the tracker simulator's control port, wait for the start, ``play`` on it.
+
+    Returns the exit code (as :func:`main`): 2 for a control URL that cannot be
+    opened, 1 for a link that fails while playing, 130 for Ctrl-C.
+    """
     from drivers.tracker.line.simulator.launch import SimulatorControl
 
     try:
@@ -207,13 +210,12 @@ def _play_program(args: argparse.Namespace) -> int:
         print(f"external_sim: error: --control {args.control}: {exc}", file=sys.stderr)
         return 2
     try:
-        control.set_target(points[0])  # the arm stands at the path's start
+        if before is not None:
+            before(control)
         if args.wait_start:
             print("ready", flush=True)
             sys.stdin.readline()
-        control.run_path(t, points, delay_s=args.start_delay_s)
-        # The tracker's clock runs the path; the controller's program ends with it.
-        time.sleep((args.start_delay_s + float(t[-1])) / args.time_scale)
+        play(control)
     except OSError as exc:
         print(f"external_sim: control link failed: {exc}", file=sys.stderr)
         return 1
